@@ -1,0 +1,1 @@
+"""Numerical identification pipeline (paper Sects. 3-4). Never imports rclpy."""

@@ -1,0 +1,1 @@
+"""rclpy nodes: thin wrappers over the numerical core."""

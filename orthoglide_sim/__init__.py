@@ -1,0 +1,1 @@
+"""Orthoglide simulator: plant dynamics from an independent formulation, controllers, trajectories."""
