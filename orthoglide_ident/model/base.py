@@ -1,0 +1,209 @@
+"""Symmetric base parameters by QR factorisation (paper Sect. 3.1, eqs. 21-23).
+
+The standard observation matrix is built on random regular states and its columns ordered as
+eq. (23): platform first, then each leg parameter with the columns of the three legs side by side.
+A column whose |R_kk| falls below eps * max|R_jj| (eq. 22) depends on the columns before it and is
+regrouped into them: W_D = W_B beta, so W_st chi_st = W_B (chi_B + beta chi_D) and every base
+parameter carries the expression chi_b = chi_B + sum beta chi_D it stands for.
+"""
+from __future__ import annotations
+
+import functools
+import json
+import re
+from dataclasses import dataclass
+
+import numpy as np
+
+from orthoglide_ident.model.geometry import A, JOINT_NAMES
+from orthoglide_ident.model.idim import CHUNK, observation_columns  # noqa: F401  (CHUNK re-exported)
+from orthoglide_ident.model.kinematics import igm
+from orthoglide_ident.model.parameters import (
+    N_LEGS,
+    N_ST,
+    N_ST_LEG,
+    PLATFORM_COLUMNS,
+    STANDARD_NAMES,
+    leg_column,
+)
+
+QR_EPS = 1e-8  # exact model data: dependent columns sit at ~1e-13 relative
+COEF_TOL = 1e-7  # coefficients below this (relative to 1) are numerical noise
+
+
+def eq23_order() -> list[int]:
+    """Standard-parameter columns in the order of eq. (23): W_p, then W_chi_k for legs 1..n."""
+    return list(PLATFORM_COLUMNS) + [
+        leg_column(leg, k) for k in range(N_ST_LEG) for leg in range(1, N_LEGS + 1)
+    ]
+
+
+def random_states(n: int, seed: int = 0, half_width: float = 0.1):
+    """n regular states: platform uniform in a cube around the isotropic point, random qd, qdd."""
+    rng = np.random.default_rng(seed)
+    q = igm(np.array([0.0, 0.0, A]) + rng.uniform(-half_width, half_width, (n, 3)))
+    return q, rng.normal(0.0, 1.0, (n, 3)), rng.normal(0.0, 10.0, (n, 3))
+
+
+def _leg_of(name: str) -> int | None:
+    m = re.fullmatch(r"[a-z]+_(\d)(\d)", name)
+    return int(m.group(2)) if m else None
+
+
+def _generic(name: str) -> str:
+    """'mx_31' -> 'mx_3i' (platform and payload names unchanged)."""
+    m = re.fullmatch(r"([a-z]+)_(\d)(\d)", name)
+    return f"{m.group(1)}_{m.group(2)}i" if m else name
+
+
+def _fmt_coef(c: float) -> str:
+    return f"{c:.5g}"
+
+
+@dataclass(frozen=True)
+class BaseParameter:
+    """One base parameter: the standard parameter kept and the regrouping it stands for."""
+
+    name: str  # paper style, 'm_11R' when regrouped
+    standard: str  # kept standard parameter, e.g. 'm_11'
+    terms: tuple[tuple[str, float], ...]  # (standard name, coefficient), the kept one first with 1.0
+    legs: tuple[int, ...]  # legs whose base parameter of this kind has the same form
+
+    @property
+    def expression(self) -> str:
+        out = self.standard
+        for name, c in self.terms[1:]:
+            sign = "-" if c < 0 else "+"
+            mag = abs(c)
+            out += f" {sign} {name}" if abs(mag - 1.0) < 1e-9 else f" {sign} {_fmt_coef(mag)} {name}"
+        return out
+
+
+class BaseModel:
+    """The base-parameter IDIM: W (3 N, n_b) with tau = W chi_b, chi_b = K chi_st (eq. 21)."""
+
+    def __init__(self, n_states: int = 600, seed: int = 0):
+        order = eq23_order()
+        q, qd, qdd = random_states(n_states, seed)
+        W_r = observation_columns(q, qd, qdd, order).reshape(-1, N_ST)
+        R = np.linalg.qr(W_r, mode="r")  # eq. (22)
+        d = np.abs(np.diag(R))
+        keep = d > QR_EPS * d.max()
+        kept = [order[j] for j in np.flatnonzero(keep)]
+        dropped = [order[j] for j in np.flatnonzero(~keep)]
+        W_B = W_r[:, keep]
+        W_D = W_r[:, ~keep]
+        beta = np.linalg.lstsq(W_B, W_D, rcond=None)[0]  # W_D = W_B beta
+        beta[np.abs(beta) < COEF_TOL] = 0.0
+        self.columns: list[int] = kept
+        self.K = np.zeros((len(kept), N_ST))
+        self.K[np.arange(len(kept)), kept] = 1.0
+        self.K[:, dropped] = beta
+        terms = []
+        for b, col in enumerate(kept):
+            t = [(STANDARD_NAMES[col], 1.0)]
+            t += [(STANDARD_NAMES[c], float(beta[b, n])) for n, c in enumerate(dropped) if beta[b, n] != 0.0]
+            terms.append(tuple(t))
+        self.parameters = [
+            BaseParameter(
+                name=STANDARD_NAMES[col] + ("R" if len(t) > 1 else ""),
+                standard=STANDARD_NAMES[col],
+                terms=t,
+                legs=self._shared_legs(col, t, kept, terms),
+            )
+            for col, t in zip(kept, terms)
+        ]
+        self.rank_gap = float(d[keep].min() / max(d[~keep].max(), 1e-300)) if (~keep).any() else np.inf
+
+    @staticmethod
+    def _shared_legs(col, t, kept, terms) -> tuple[int, ...]:
+        leg = _leg_of(STANDARD_NAMES[col])
+        if leg is None:
+            return ()
+
+        def form(tt):
+            return tuple(sorted((_generic(n), round(c, 6)) for n, c in tt))
+
+        mine = form(t)
+        generic = _generic(STANDARD_NAMES[col])
+        return tuple(
+            _leg_of(STANDARD_NAMES[c])
+            for c, tt in zip(kept, terms)
+            if _generic(STANDARD_NAMES[c]) == generic and form(tt) == mine
+        )
+
+    # --- what identification uses -------------------------------------------------------------
+    @property
+    def names(self) -> list[str]:
+        return [p.name for p in self.parameters]
+
+    @property
+    def expressions(self) -> list[str]:
+        return [p.expression for p in self.parameters]
+
+    @property
+    def legs(self) -> list[tuple[int, ...]]:
+        return [p.legs for p in self.parameters]
+
+    @property
+    def n_b(self) -> int:
+        return len(self.columns)
+
+    def observation(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(W (3 N, n_b), W_kl (3 N,)) in one pass: base columns and the payload-mass column m_7."""
+        X = observation_columns(q, qd, qdd, self.columns, with_payload_mass=True)
+        n = X.shape[1]
+        X = X.reshape(3 * n, -1)
+        return X[:, :-1], X[:, -1]
+
+    def regressor(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> np.ndarray:
+        """W (3 N, n_b), rows stacked joint by joint (eq. 20)."""
+        return observation_columns(q, qd, qdd, self.columns).reshape(-1, self.n_b)
+
+    def payload_mass_column(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> np.ndarray:
+        """W_kl (3 N,): efforts per kg of payload (eq. 29); the other 9 payload parameters have no effect."""
+        return observation_columns(q, qd, qdd, [], with_payload_mass=True).reshape(-1)
+
+    def base_values(self, chi_st: np.ndarray) -> np.ndarray:
+        """chi_b = K chi_st for a standard parameter vector in STANDARD_NAMES order."""
+        return self.K @ np.asarray(chi_st, dtype=float)
+
+    # --- what people read --------------------------------------------------------------------
+    def table(self) -> str:
+        w = max(len(n) for n in self.names)
+        lines = [
+            f"{self.n_b} base parameters of the Orthoglide IDIM (of {N_ST} standard; eq. 23 column order, "
+            f"QR threshold {QR_EPS:g})",
+            f"{'#':>3}  {'name':<{w}}  {'legs':<7}  expression",
+        ]
+        for k, p in enumerate(self.parameters, 1):
+            legs = ",".join(map(str, p.legs)) if p.legs else "-"
+            lines.append(f"{k:>3}  {p.name:<{w}}  {legs:<7}  {p.expression}")
+        lines.append(f"Joints: {', '.join(JOINT_NAMES)}. Regrouping coefficients: 1/d4 = 3.2258, 1/g = 0.10197.")
+        return "\n".join(lines)
+
+    def to_json(self) -> dict:
+        return {
+            "n_standard": N_ST,
+            "n_base": self.n_b,
+            "column_order": "eq. (23): platform, then each leg parameter for legs 1..3",
+            "parameters": [
+                {
+                    "name": p.name,
+                    "standard": p.standard,
+                    "expression": p.expression,
+                    "terms": [{"name": n, "coefficient": c} for n, c in p.terms],
+                    "legs": list(p.legs),
+                }
+                for p in self.parameters
+            ],
+        }
+
+    def dumps(self) -> str:
+        return json.dumps(self.to_json(), indent=2)
+
+
+@functools.lru_cache(maxsize=1)
+def base_model() -> BaseModel:
+    """The Orthoglide base model (computed once per process, ~0.2 s)."""
+    return BaseModel()

@@ -1,0 +1,213 @@
+"""Inverse dynamic identification model of the Orthoglide, standard parameters (eqs. 1-2, 15, 18).
+
+Step 1 (Sect. 2.2): the virtual tree, 3 legs x 5 joints, by Newton-Euler in MDH frames. For each
+body k of a leg the wrench at its frame origin, in its frame, is linear in its 10 inertial
+parameters (Khalil & Dombre):
+
+    F_k = m v'_k + (w'_k x + w_k x w_k x) MS_k
+    N_k = I_k w'_k + w_k x (I_k w_k) + MS_k x v'_k          (v'_k includes -g)
+
+and tree joint j carries the projection of the wrenches of the bodies it supports:
+tau_t,j = a . N_k + (a x r) . F_k (revolute) or a . F_k (prismatic), with a the joint axis and r the
+vector O_j -> O_k, both in frame k. Joint friction and drive inertia act on the joint itself.
+
+Step 2 (Sect. 2.3): the loops are closed with tau = J_t^T tau_t + J_p^T D^T tau_p, eq. (15),
+evaluated body by body as (S_k J_t)^T Phi_k, S_k stacking the joint projections above. The platform
+(body 6) and the payload (body 7) only translate, so with D = [I3; 0] only their masses act:
+tau_p = m (P'' - g).
+
+For speed over 10^5 samples every vector is stored component-first, (3, N), and each body
+contributes only the columns asked for. Rows of the returned matrices are stacked joint by joint
+(eq. 20): (3 N, n).
+"""
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+from orthoglide_ident.model.geometry import D4, GRAVITY, GRAVITY_LEG
+from orthoglide_ident.model.kinematics import TreeState, tree_state
+from orthoglide_ident.model.parameters import LEG_PARAMETERS, N_LEGS, N_ST, N_ST_LEG
+
+_ALPHA = {2: -np.pi / 2, 3: -np.pi / 2, 4: 0.0, 5: np.pi / 2}  # MDH alpha of frames 2..5 (Table 2)
+_INERTIA = ("xx", "xy", "xz", "yy", "yz", "zz")
+_MS = ("mx", "my", "mz")
+
+
+def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+
+
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    return np.stack([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
+
+
+def _in_frame(R: tuple[np.ndarray, np.ndarray, np.ndarray], v: np.ndarray) -> np.ndarray:
+    """Coordinates in frame R = (x, y, z axes, each (3, N)) of the leg-frame vector v (3, N)."""
+    return np.stack([_dot(R[0], v), _dot(R[1], v), _dot(R[2], v)])
+
+
+def _child_frame(R, alpha: float, theta: np.ndarray):
+    """Axes of frame k from those of frame k-1: R_k = R_k-1 Rot(x, alpha) Rot(z, theta)."""
+    x, y, z = R
+    if alpha < 0:  # -pi/2
+        y, z = -z, y
+    elif alpha > 0:  # +pi/2
+        y, z = z, -y
+    c, s = np.cos(theta), np.sin(theta)
+    return (c * x + s * y, -s * x + c * y, z)
+
+
+def _inertia_column(w: np.ndarray, kind: str) -> np.ndarray:
+    """Column of L(w) with I w = L(w) [xx xy xz yy yz zz]."""
+    z = np.zeros_like(w[0])
+    return {
+        "xx": (w[0], z, z),
+        "xy": (w[1], w[0], z),
+        "xz": (w[2], z, w[0]),
+        "yy": (z, w[1], z),
+        "yz": (z, w[2], w[1]),
+        "zz": (z, z, w[2]),
+    }[kind]
+
+
+def _wrench(kind: str, w: np.ndarray, wd: np.ndarray, vd: np.ndarray):
+    """(F, N) at the frame origin for a unit value of inertial parameter ``kind`` (None = zero)."""
+    if kind in _INERTIA:
+        Lwd, Lw = np.stack(_inertia_column(wd, kind)), np.stack(_inertia_column(w, kind))
+        return None, Lwd + _cross(w, Lw)
+    if kind in _MS:
+        e = np.zeros(3)
+        e[_MS.index(kind)] = 1.0
+        e = e[:, None]
+        return _cross(wd, e) + _cross(w, _cross(w, e)), _cross(e, vd)
+    return vd, None  # mass
+
+
+def leg_columns(state: TreeState, leg: int, wanted: Sequence[int]) -> dict[int, np.ndarray]:
+    """Actuated-effort columns (3 joints, N) of leg ``leg`` for the leg parameters ``wanted`` (0..65)."""
+    i = leg - 1
+    qt, qdt, qddt = state.qt[:, i].T, state.qdt[:, i].T, state.qddt[:, i].T  # (5, N)
+    J_t = np.transpose(state.J_t[:, i], (1, 2, 0))  # (5 tree joints, 3 actuators, N)
+    N = qt.shape[1]
+    wanted = set(wanted)
+    ez = np.broadcast_to(np.array([0.0, 0.0, 1.0])[:, None], (3, N))
+    zero = np.zeros((3, N))
+
+    # Forward recursion in leg coordinates (body 1, the foot, only translates along z).
+    R = [(np.broadcast_to(np.array([1.0, 0, 0])[:, None], (3, N)), np.broadcast_to(np.array([0, 1.0, 0])[:, None], (3, N)), ez)]
+    w, wd, acc = [zero], [zero], [ez * qddt[0]]
+    r_bar = None  # O_4 - O_1 = d4 x_3
+    for k in range(2, 6):
+        Rk = _child_frame(R[-1], _ALPHA[k], qt[k - 1])
+        zk = Rk[2]
+        if k == 4:
+            r_bar = D4 * R[-1][0]
+            acc.append(acc[-1] + _cross(wd[-1], r_bar) + _cross(w[-1], _cross(w[-1], r_bar)))
+        else:
+            acc.append(acc[-1])
+        w.append(w[-1] + zk * qdt[k - 1])
+        wd.append(wd[-1] + zk * qddt[k - 1] + _cross(w[-2], zk * qdt[k - 1]))
+        R.append(Rk)
+
+    g = GRAVITY_LEG[i][:, None]
+    out: dict[int, np.ndarray] = {}
+    col0 = 0
+    for k in range(1, 6):
+        kinds = [kind for kind, body in LEG_PARAMETERS if body == k]
+        cols = {c: kind for c, kind in enumerate(kinds, start=col0) if c in wanted}
+        col0 += len(kinds)
+        inertial = {c: kind for c, kind in cols.items() if kind in _INERTIA + _MS + ("m",)}
+        if inertial:
+            Rk = R[k - 1]
+            wk, wdk, vdk = _in_frame(Rk, w[k - 1]), _in_frame(Rk, wd[k - 1]), _in_frame(Rk, acc[k - 1] - g)
+            # Body Jacobian G_k = S_k J_t: (F part, N part) per actuator c, each (3, N).
+            GF = [np.zeros((3, N)) for _ in range(3)]
+            GN = [np.zeros((3, N)) for _ in range(3)]
+            for j in range(1, k + 1):
+                if j == 1:
+                    sF, sN = _in_frame(Rk, ez), None
+                else:
+                    axis = _in_frame(Rk, R[j - 1][2])
+                    sF = _cross(axis, _in_frame(Rk, r_bar)) if (k >= 4 and j <= 3) else None
+                    sN = axis
+                for c in range(3):
+                    if sF is not None:
+                        GF[c] += sF * J_t[j - 1, c]
+                    if sN is not None:
+                        GN[c] += sN * J_t[j - 1, c]
+            for col, kind in inertial.items():
+                F, Nm = _wrench(kind, wk, wdk, vdk)
+                out[col] = np.stack(
+                    [
+                        (_dot(GF[c], F) if F is not None else 0.0) + (_dot(GN[c], Nm) if Nm is not None else 0.0)
+                        for c in range(3)
+                    ]
+                )
+        for col, kind in cols.items():
+            if col in inertial:
+                continue
+            # Drive inertia and friction of tree joint k, mapped by row k of J_t (eq. 15).
+            x = {"ia": qddt[0], "fv": qdt[k - 1], "fs": np.sign(qdt[k - 1]), "tauoff": np.ones(N)}[kind]
+            out[col] = J_t[k - 1] * x
+    return out
+
+
+def platform_column(state: TreeState) -> np.ndarray:
+    """(3, N): actuated efforts per unit mass of a body translating with the platform.
+
+    tau = J_p^T D^T tau_p with tau_p = m (P'' - g): the column of m_6 and of the payload mass m_7.
+    """
+    return np.einsum("nab,na->bn", state.J_p, state.Pdd - GRAVITY)
+
+
+def regressor_columns(state: TreeState, columns: Sequence[int]) -> np.ndarray:
+    """Selected standard-parameter columns, (3, N, len(columns)): joint, sample, column."""
+    N = state.P.shape[0]
+    out = np.zeros((3, N, len(columns)))
+    where = {c: n for n, c in enumerate(columns)}
+    for leg in range(1, N_LEGS + 1):
+        base = (leg - 1) * N_ST_LEG
+        wanted = [c - base for c in columns if base <= c < base + N_ST_LEG]
+        for k_leg, val in leg_columns(state, leg, wanted).items():
+            out[:, :, where[base + k_leg]] = val
+    if N_ST - 1 in where:  # m_6; the other 9 platform columns are identically zero
+        out[:, :, where[N_ST - 1]] = platform_column(state)
+    return out
+
+
+CHUNK = 2048  # samples per pass: keeps every (3, chunk) temporary in cache, ~5x faster than one pass
+
+
+def observation_columns(
+    q: np.ndarray, qd: np.ndarray, qdd: np.ndarray, columns: Sequence[int], with_payload_mass: bool = False
+) -> np.ndarray:
+    """Selected standard columns (and the payload-mass column last, if asked) for samples (N, 3).
+
+    Returns (3, N, n): joint, sample, column; ``.reshape(3 * N, n)`` stacks rows joint by joint.
+    """
+    q, qd, qdd = (np.asarray(x, dtype=float).reshape(-1, 3) for x in (q, qd, qdd))
+    N = q.shape[0]
+    columns = list(columns)
+    out = np.empty((3, N, len(columns) + int(with_payload_mass)))
+    for s in range(0, N, CHUNK):
+        e = min(N, s + CHUNK)
+        state = tree_state(q[s:e], qd[s:e], qdd[s:e])
+        out[:, s:e, : len(columns)] = regressor_columns(state, columns)
+        if with_payload_mass:
+            out[:, s:e, -1] = platform_column(state)
+    return out
+
+
+def standard_regressor(q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """W_st (3 N, 208) and W_l (3 N, 10) for samples (N, 3), rows stacked joint by joint (eq. 20).
+
+    tau (3 N,) = W_st chi_st + W_l chi_payload with chi in parameters.STANDARD_NAMES / PAYLOAD_NAMES
+    order; friction uses sign(qd) (Sect. 2.2).
+    """
+    X = observation_columns(q, qd, qdd, range(N_ST), with_payload_mass=True)
+    W = X[:, :, :N_ST].reshape(-1, N_ST)
+    W_l = np.zeros((W.shape[0], 10))
+    W_l[:, 9] = X[:, :, N_ST].reshape(-1)  # m_7; the other 9 payload columns are identically zero
+    return W, W_l
