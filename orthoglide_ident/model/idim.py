@@ -27,7 +27,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from orthoglide_ident.model.geometry import D4, GRAVITY, GRAVITY_LEG
-from orthoglide_ident.model.kinematics import TreeState, tree_state
+from orthoglide_ident.model.kinematics import TreeState, as_samples, tree_state
 from orthoglide_ident.model.parameters import LEG_PARAMETERS, N_LEGS, N_ST, N_ST_LEG
 
 _ALPHA = {2: -np.pi / 2, 3: -np.pi / 2, 4: 0.0, 5: np.pi / 2}  # MDH alpha of frames 2..5 (Table 2)
@@ -187,7 +187,7 @@ def observation_columns(
 
     Returns (3, N, n): joint, sample, column; ``.reshape(3 * N, n)`` stacks rows joint by joint.
     """
-    q, qd, qdd = (np.asarray(x, dtype=float).reshape(-1, 3) for x in (q, qd, qdd))
+    q, qd, qdd = (as_samples(x, name) for x, name in ((q, "q"), (qd, "qd"), (qdd, "qdd")))
     N = q.shape[0]
     columns = list(columns)
     out = np.empty((3, N, len(columns) + int(with_payload_mass)))

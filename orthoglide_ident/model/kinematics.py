@@ -31,7 +31,7 @@ from orthoglide_ident.model.geometry import (
 _Z = np.array([0.0, 0.0, 1.0])
 
 
-def _as_samples(x: np.ndarray, name: str) -> np.ndarray:
+def as_samples(x: np.ndarray, name: str) -> np.ndarray:
     x = np.asarray(x, dtype=float)
     if x.ndim == 1:
         x = x[None, :]
@@ -69,7 +69,7 @@ def fgm(q: np.ndarray) -> np.ndarray:
     line; the real robot's assembly mode is the intersection on the side of the plane (c_1, c_2, c_3)
     that holds P = (0, 0, a) at q = 0.
     """
-    q = _as_samples(q, "q")
+    q = as_samples(q, "q")
     c = np.einsum("iab,nib->nia", R_LEG, foot_points(q)) + D6 * E_AXIS  # base coords (N, 3, 3)
     n = np.cross(c[:, 1] - c[:, 0], c[:, 2] - c[:, 0])
     n /= np.linalg.norm(n, axis=1, keepdims=True)
@@ -100,7 +100,7 @@ def fgm(q: np.ndarray) -> np.ndarray:
 
 def igm(P: np.ndarray) -> np.ndarray:
     """Inverse geometric model: q (N, 3) from the platform point P (N, 3), real assembly mode."""
-    P = _as_samples(P, "P")
+    P = as_samples(P, "P")
     Pl = to_leg(P) - FOOT_OFFSET
     r2 = D4**2 - Pl[:, :, 0] ** 2 - Pl[:, :, 1] ** 2
     if np.any(r2 < 0):
@@ -166,7 +166,7 @@ def _bar_derivatives(q2: np.ndarray, q3: np.ndarray):
 
 def tree_state(q: np.ndarray, qd: np.ndarray, qdd: np.ndarray, check: bool = True) -> TreeState:
     """All platform and tree coordinates, velocities, accelerations and Jacobians from (q, qd, qdd)."""
-    q, qd, qdd = (_as_samples(x, name) for x, name in ((q, "q"), (qd, "qd"), (qdd, "qdd")))
+    q, qd, qdd = (as_samples(x, name) for x, name in ((q, "q"), (qd, "qd"), (qdd, "qdd")))
     N = q.shape[0]
     P = fgm(q)
     u = bar_vectors(q, P)  # leg coordinates
