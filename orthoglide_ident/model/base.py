@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from orthoglide_ident.model.geometry import A, JOINT_NAMES
-from orthoglide_ident.model.idim import CHUNK, observation_columns  # noqa: F401  (CHUNK re-exported)
+from orthoglide_ident.model.idim import observation_columns
 from orthoglide_ident.model.kinematics import igm
 from orthoglide_ident.model.parameters import (
     N_LEGS,
@@ -85,7 +85,7 @@ class BaseModel:
     def __init__(self, n_states: int = 600, seed: int = 0):
         order = eq23_order()
         q, qd, qdd = random_states(n_states, seed)
-        W_r = observation_columns(q, qd, qdd, order).reshape(-1, N_ST)
+        W_r = observation_columns(q, qd, qdd, order)
         R = np.linalg.qr(W_r, mode="r")  # eq. (22)
         d = np.abs(np.diag(R))
         keep = d > QR_EPS * d.max()
@@ -152,17 +152,15 @@ class BaseModel:
     def observation(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(W (3 N, n_b), W_kl (3 N,)) in one pass: base columns and the payload-mass column m_7."""
         X = observation_columns(q, qd, qdd, self.columns, with_payload_mass=True)
-        n = X.shape[1]
-        X = X.reshape(3 * n, -1)
         return X[:, :-1], X[:, -1]
 
     def regressor(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> np.ndarray:
         """W (3 N, n_b), rows stacked joint by joint (eq. 20)."""
-        return observation_columns(q, qd, qdd, self.columns).reshape(-1, self.n_b)
+        return observation_columns(q, qd, qdd, self.columns)
 
     def payload_mass_column(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> np.ndarray:
         """W_kl (3 N,): efforts per kg of payload (eq. 29); the other 9 payload parameters have no effect."""
-        return observation_columns(q, qd, qdd, [], with_payload_mass=True).reshape(-1)
+        return observation_columns(q, qd, qdd, [], with_payload_mass=True)[:, 0]
 
     def base_values(self, chi_st: np.ndarray) -> np.ndarray:
         """chi_b = K chi_st for a standard parameter vector in STANDARD_NAMES order."""

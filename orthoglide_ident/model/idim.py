@@ -159,25 +159,26 @@ def platform_column(state: TreeState) -> np.ndarray:
 
     tau = J_p^T D^T tau_p with tau_p = m (P'' - g): the column of m_6 and of the payload mass m_7.
     """
-    return np.einsum("nab,na->bn", state.J_p, state.Pdd - GRAVITY)
+    f = state.Pdd - GRAVITY
+    return (state.J_p * f[:, :, None]).sum(1).T
 
 
 def regressor_columns(state: TreeState, columns: Sequence[int]) -> np.ndarray:
-    """Selected standard-parameter columns, (3, N, len(columns)): joint, sample, column."""
+    """Selected standard-parameter columns, (len(columns), 3, N): column, joint, sample."""
     N = state.P.shape[0]
-    out = np.zeros((3, N, len(columns)))
+    out = np.zeros((len(columns), 3, N))
     where = {c: n for n, c in enumerate(columns)}
     for leg in range(1, N_LEGS + 1):
         base = (leg - 1) * N_ST_LEG
         wanted = [c - base for c in columns if base <= c < base + N_ST_LEG]
         for k_leg, val in leg_columns(state, leg, wanted).items():
-            out[:, :, where[base + k_leg]] = val
+            out[where[base + k_leg]] = val
     if N_ST - 1 in where:  # m_6; the other 9 platform columns are identically zero
-        out[:, :, where[N_ST - 1]] = platform_column(state)
+        out[where[N_ST - 1]] = platform_column(state)
     return out
 
 
-CHUNK = 2048  # samples per pass: keeps every (3, chunk) temporary in cache, ~5x faster than one pass
+CHUNK = 4096  # samples per pass: keeps the (3, chunk) temporaries in cache
 
 
 def observation_columns(
@@ -185,19 +186,21 @@ def observation_columns(
 ) -> np.ndarray:
     """Selected standard columns (and the payload-mass column last, if asked) for samples (N, 3).
 
-    Returns (3, N, n): joint, sample, column; ``.reshape(3 * N, n)`` stacks rows joint by joint.
+    Returns W (3 N, n), rows stacked joint by joint (eq. 20). It is column-major (a transposed
+    view), so that each column, filtered on its own by the parallel decimation, is contiguous.
     """
     q, qd, qdd = (as_samples(x, name) for x, name in ((q, "q"), (qd, "qd"), (qdd, "qdd")))
     N = q.shape[0]
     columns = list(columns)
-    out = np.empty((3, N, len(columns) + int(with_payload_mass)))
+    n = len(columns) + int(with_payload_mass)
+    out = np.zeros((n, 3, N))
     for s in range(0, N, CHUNK):
         e = min(N, s + CHUNK)
         state = tree_state(q[s:e], qd[s:e], qdd[s:e])
-        out[:, s:e, : len(columns)] = regressor_columns(state, columns)
+        out[: len(columns), :, s:e] = regressor_columns(state, columns)
         if with_payload_mass:
-            out[:, s:e, -1] = platform_column(state)
-    return out
+            out[-1, :, s:e] = platform_column(state)
+    return out.reshape(n, 3 * N).T
 
 
 def standard_regressor(q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -207,7 +210,7 @@ def standard_regressor(q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> tuple[
     order; friction uses sign(qd) (Sect. 2.2).
     """
     X = observation_columns(q, qd, qdd, range(N_ST), with_payload_mass=True)
-    W = X[:, :, :N_ST].reshape(-1, N_ST)
+    W = X[:, :N_ST]
     W_l = np.zeros((W.shape[0], 10))
-    W_l[:, 9] = X[:, :, N_ST].reshape(-1)  # m_7; the other 9 payload columns are identically zero
+    W_l[:, 9] = X[:, N_ST]  # m_7; the other 9 payload columns are identically zero
     return W, W_l

@@ -43,9 +43,42 @@ def as_samples(x: np.ndarray, name: str) -> np.ndarray:
     return x
 
 
+# R_LEG are cyclic permutations: leg coordinates of a base vector v are v[_TO_LEG[i]].
+_TO_LEG = np.array([[0, 1, 2], [1, 2, 0], [2, 0, 1]])
+_TO_BASE = np.argsort(_TO_LEG, axis=1)
+assert np.allclose(R_LEG[np.arange(3)[:, None], _TO_LEG, np.arange(3)[None, :]], 1.0)
+
+
 def to_leg(v: np.ndarray) -> np.ndarray:
-    """Base-frame vectors (N, 3) -> leg-frame coordinates (N, 3 legs, 3)."""
-    return np.einsum("iab,na->nib", R_LEG, v)
+    """Base-frame vectors (N, 3) -> leg-frame coordinates (N, 3 legs, 3): R_LEG[i]^T v."""
+    return v[:, _TO_LEG]
+
+
+def to_base(u: np.ndarray) -> np.ndarray:
+    """Leg-frame vectors (N, 3 legs, 3) -> base coordinates (N, 3 legs, 3): R_LEG[i] u_i."""
+    return np.take_along_axis(u, np.broadcast_to(_TO_BASE, u.shape), axis=2)
+
+
+def inv3(M: np.ndarray) -> np.ndarray:
+    """Inverse of stacked 3x3 matrices (..., 3, 3) by cofactors (much faster than batched LAPACK)."""
+    a, b, c = M[..., 0, 0], M[..., 0, 1], M[..., 0, 2]
+    d, e, f = M[..., 1, 0], M[..., 1, 1], M[..., 1, 2]
+    g, h, i = M[..., 2, 0], M[..., 2, 1], M[..., 2, 2]
+    out = np.empty_like(M)
+    out[..., 0, 0], out[..., 0, 1], out[..., 0, 2] = e * i - f * h, c * h - b * i, b * f - c * e
+    out[..., 1, 0], out[..., 1, 1], out[..., 1, 2] = f * g - d * i, a * i - c * g, c * d - a * f
+    out[..., 2, 0], out[..., 2, 1], out[..., 2, 2] = d * h - e * g, b * g - a * h, a * e - b * d
+    det = a * out[..., 0, 0] + b * out[..., 1, 0] + c * out[..., 2, 0]
+    return out / det[..., None, None]
+
+
+def matvec(M: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """Stacked M v; explicit sums beat a reduction over a length-3 axis several times over."""
+    return M[..., 0] * v[..., None, 0] + M[..., 1] * v[..., None, 1] + M[..., 2] * v[..., None, 2]
+
+
+def matmat(M: np.ndarray, B: np.ndarray) -> np.ndarray:
+    return M[..., :, 0, None] * B[..., None, 0, :] + M[..., :, 1, None] * B[..., None, 1, :] + M[..., :, 2, None] * B[..., None, 2, :]
 
 
 def foot_points(q: np.ndarray) -> np.ndarray:
@@ -70,16 +103,16 @@ def fgm(q: np.ndarray) -> np.ndarray:
     that holds P = (0, 0, a) at q = 0.
     """
     q = as_samples(q, "q")
-    c = np.einsum("iab,nib->nia", R_LEG, foot_points(q)) + D6 * E_AXIS  # base coords (N, 3, 3)
+    c = to_base(foot_points(q)) + D6 * E_AXIS  # base coords (N, 3, 3)
     n = np.cross(c[:, 1] - c[:, 0], c[:, 2] - c[:, 0])
-    n /= np.linalg.norm(n, axis=1, keepdims=True)
+    n /= np.sqrt(n[:, 0] ** 2 + n[:, 1] ** 2 + n[:, 2] ** 2)[:, None]
     # Linear part: 2 (c_i - c_1) . P = |c_i|² - |c_1|², i = 2, 3, plus n . P = n . c_1 (a point of the line).
     L = np.stack([2 * (c[:, 1] - c[:, 0]), 2 * (c[:, 2] - c[:, 0]), n], axis=1)
-    sq = np.einsum("nia,nia->ni", c, c)
-    h = np.stack([sq[:, 1] - sq[:, 0], sq[:, 2] - sq[:, 0], np.einsum("na,na->n", n, c[:, 0])], axis=1)
-    P0 = np.linalg.solve(L, h[..., None])[..., 0]
+    sq = (c * c).sum(-1)
+    h = np.stack([sq[:, 1] - sq[:, 0], sq[:, 2] - sq[:, 0], (n * c[:, 0]).sum(-1)], axis=1)
+    P0 = matvec(inv3(L), h)
     # |P0 + t n - c_1|² = d4², with (P0 - c_1) . n = 0 by construction.
-    r2 = D4**2 - np.einsum("na,na->n", P0 - c[:, 0], P0 - c[:, 0])
+    r2 = D4**2 - ((P0 - c[:, 0]) ** 2).sum(-1)
     if np.any(r2 < 0):
         k = int(np.flatnonzero(r2 < 0)[0])
         raise WorkspaceError(
@@ -170,20 +203,21 @@ def tree_state(q: np.ndarray, qd: np.ndarray, qdd: np.ndarray, check: bool = Tru
     N = q.shape[0]
     P = fgm(q)
     u = bar_vectors(q, P)  # leg coordinates
-    ub = np.einsum("iab,nib->nia", R_LEG, u)  # base coordinates, rows of A_p / 2
+    ub = to_base(u)  # base coordinates, rows of A_p / 2
     if check:
         check_regular(q, u, ub)
 
     # eq. (9) with f_p of eq. (41): A_p = 2 [u_i^T], B_p = diag(-2 u_i . e_i).
     A_p = 2.0 * ub
     B_p = -2.0 * u[:, :, 2]  # diagonal
-    J_p = -np.linalg.solve(A_p, B_p[:, :, None] * np.eye(3))  # eq. (5): v = -A_p^-1 B_p qd
-    Pd = np.einsum("nab,nb->na", J_p, qd)
+    A_p_inv = inv3(A_p)
+    J_p = -A_p_inv * B_p[:, None, :]  # eq. (5): v = -A_p^-1 B_p qd
+    Pd = matvec(J_p, qd)
     # eq. (6): A_p vd = -(A_p' v + B_p qdd + B_p' qd), with A_p' = 2 [ud_i^T], ud_i = v - e_i qd_i.
     ud = Pd[:, None, :] - E_AXIS[None] * qd[:, :, None]  # base coords (N, 3, 3)
-    Ad_v = 2.0 * np.einsum("nia,na->ni", ud, Pd)
-    Bd_qd = -2.0 * np.einsum("nia,ia->ni", ud, E_AXIS) * qd
-    Pdd = -np.linalg.solve(A_p, (Ad_v + B_p * qdd + Bd_qd)[..., None])[..., 0]
+    Ad_v = 2.0 * (ud * Pd[:, None, :]).sum(-1)
+    Bd_qd = -2.0 * (ud * E_AXIS).sum(-1) * qd
+    Pdd = -matvec(A_p_inv, Ad_v + B_p * qdd + Bd_qd)
 
     # Passive pivots from the bar direction: u/d4 = (c2 c3, -s3, -s2 c3), real mode has c3 > 0.
     s = u / D4
@@ -192,14 +226,15 @@ def tree_state(q: np.ndarray, qd: np.ndarray, qdd: np.ndarray, check: bool = Tru
     du2, du3, d22, d23, d33 = _bar_derivatives(q2, q3)
     # eq. (7) for leg i, position rows: [z, du/dq2, du/dq3] (qd1, qd2, qd3) = R_i^T v   (J_k, J_tk)
     Jk = np.stack([np.broadcast_to(_Z, du2.shape), du2, du3], axis=-1)  # (N, 3, 3 rows, 3 cols)
-    Jtk_Jp = np.einsum("iba,nbc->niac", R_LEG, J_p)  # R_i^T J_p: (N, 3 legs, 3, 3)
-    J123 = np.linalg.solve(Jk, Jtk_Jp)  # d(q1, q2, q3)/dq
-    qd123 = np.einsum("nirc,nc->nir", J123, qd)
+    Jtk_Jp = J_p[:, _TO_LEG, :]  # R_i^T J_p: (N, 3 legs, 3, 3)
+    Jk_inv = inv3(Jk)
+    J123 = matmat(Jk_inv, Jtk_Jp)  # d(q1, q2, q3)/dq
+    qd123 = matvec(J123, qd[:, None, :])
     # eq. (8): J_k qdd_t = J_tk vd - (dJ_k/dt) qd_t  (J_tk is constant here)
     Pdd_leg = to_leg(Pdd)
     qd2, qd3 = qd123[:, :, 1:2], qd123[:, :, 2:3]
     bias = d22 * qd2**2 + 2 * d23 * qd2 * qd3 + d33 * qd3**2
-    qdd123 = np.linalg.solve(Jk, (Pdd_leg - bias)[..., None])[..., 0]
+    qdd123 = matvec(Jk_inv, Pdd_leg - bias)
 
     # Orientation closure f_2i: q4 = -q3, q5 = -q2 (and their derivatives).
     def five(x1, x2, x3):
