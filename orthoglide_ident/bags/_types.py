@@ -1,0 +1,135 @@
+"""Message types known to the bag code: definitions, RIHS01 hashes, rosbag2 QoS records.
+
+The custom ``orthoglide_msgs`` definitions are embedded (DESIGN §4, fields exactly) so that an
+installed copy works without the source tree; other packages' .msg files are looked up under the
+ament prefixes when a recorder meets an unknown type.
+"""
+
+from __future__ import annotations
+
+import functools
+import os
+import sys
+import threading
+from pathlib import Path
+from typing import Any
+
+from orthoglide_ident.errors import BagError
+
+JOINT_STATES_TOPIC = "/orthoglide/joint_states"
+CURRENT_REFERENCE_TOPIC = "/orthoglide/current_reference"
+JOINT_STATE_TYPE = "sensor_msgs/msg/JointState"
+CURRENT_REFERENCE_TYPE = "orthoglide_msgs/msg/CurrentReference"
+
+EMBEDDED_MSGS: dict[str, str] = {
+    CURRENT_REFERENCE_TYPE: "std_msgs/Header header\nstring[] name\nfloat64[] current\n",
+    "orthoglide_msgs/msg/IdentifiedParameters": (
+        "std_msgs/Header header\nstring method\nstring[] joint_names\nfloat64[] drive_gains\n"
+        "float64[] drive_gains_rel_std\nstring[] names\nfloat64[] values\nfloat64[] rel_std\n"
+        "float64 payload_mass\nfloat64 residual_rms\nfloat64 condition_number\n"
+        "string[] source_bags\n"
+    ),
+}
+
+_lock = threading.Lock()
+
+
+@functools.cache
+def typestore() -> Any:
+    """rosbags Jazzy typestore with the embedded orthoglide_msgs types registered."""
+    from rosbags.typesys import Stores, get_types_from_msg, get_typestore
+
+    store = get_typestore(Stores.ROS2_JAZZY)
+    types: dict[str, Any] = {}
+    for name, text in EMBEDDED_MSGS.items():
+        types.update(get_types_from_msg(text, name))
+    store.register(types)
+    return store
+
+
+def _find_msg_file(msgtype: str) -> Path | None:
+    pkg, kind, name = msgtype.split("/")
+    roots = [p for p in os.environ.get("AMENT_PREFIX_PATH", "").split(os.pathsep) if p]
+    roots.append(sys.prefix)
+    roots.append(str(Path(__file__).resolve().parents[2] / "msg_defs"))
+    for root in roots:
+        for cand in (
+            Path(root) / "share" / pkg / kind / f"{name}.msg",
+            Path(root) / pkg / kind / f"{name}.msg",
+        ):
+            if cand.is_file():
+                return cand
+    return None
+
+
+def ensure_type(msgtype: str) -> None:
+    """Make ``msgtype`` (``pkg/msg/Name``) known to the typestore, from its .msg file if needed."""
+    store = typestore()
+    if msgtype in store.types:
+        return
+    from rosbags.typesys import get_types_from_msg
+
+    with _lock:
+        pending = [msgtype]
+        seen: set[str] = set()
+        while pending:
+            name = pending.pop()
+            if name in store.types or name in seen:
+                continue
+            seen.add(name)
+            path = _find_msg_file(name) if name.count("/") == 2 else None
+            if path is None:
+                raise BagError(
+                    f"message type {name} is unknown: its .msg file was not found under "
+                    "AMENT_PREFIX_PATH; install its interface package"
+                )
+            try:
+                store.register(get_types_from_msg(path.read_text(), name))
+            except Exception as exc:  # rosbags raises several types for missing dependencies
+                text = str(exc)
+                dep = next((w.strip("'\".,") for w in text.split() if w.count("/") == 2), None)
+                if dep and dep not in seen:
+                    pending.extend([name, dep])
+                    seen.discard(name)
+                    continue
+                raise BagError(f"cannot load message type {name} from {path}: {exc}") from None
+
+
+def msgdef_and_hash(msgtype: str) -> tuple[str, str]:
+    """Full ros2msg definition text (with dependencies, as rosbag2 stores it) and RIHS01 hash."""
+    ensure_type(msgtype)
+    store = typestore()
+    msgdef, _ = store.generate_msgdef(msgtype, ros_version=2)
+    return msgdef, store.hash_rihs01(msgtype)
+
+
+_INFINITE = {"sec": 9223372036, "nsec": 854775807}
+
+
+def qos_profile(
+    reliability: str = "reliable",
+    durability: str = "volatile",
+    history: str = "unknown",
+    depth: int = 0,
+    deadline: dict[str, int] | None = None,
+    lifespan: dict[str, int] | None = None,
+    liveliness: str = "automatic",
+    lease: dict[str, int] | None = None,
+) -> dict[str, Any]:
+    """One offered QoS profile in the rosbag2 v9 metadata layout."""
+    return {
+        "history": history,
+        "depth": int(depth),
+        "reliability": reliability,
+        "durability": durability,
+        "deadline": dict(deadline or _INFINITE),
+        "lifespan": dict(lifespan or _INFINITE),
+        "liveliness": liveliness,
+        "liveliness_lease_duration": dict(lease or _INFINITE),
+        "avoid_ros_namespace_conventions": False,
+    }
+
+
+def default_qos() -> list[dict[str, Any]]:
+    """What rosbag2 records for a default reliable publisher found by discovery."""
+    return [qos_profile()]

@@ -1,0 +1,141 @@
+"""``orthoglide-ident info BAG``: what a bag holds, whether it was closed, missing ticks."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ._tags import BagTags
+from .reader import DECODED, FileStatus, _scan_bag
+
+
+@dataclass
+class Gaps:
+    """Missing ticks in a topic's header stamps, against its median period."""
+
+    period_s: float
+    missing: int
+    where: list[tuple[float, int]] = field(
+        default_factory=list
+    )  # (s after first stamp, ticks missing)
+
+
+def find_gaps(stamps_ns: np.ndarray, period_ns: float | None = None, limit: int = 10) -> Gaps:
+    """Count missing ticks: a step of k periods (k ≥ 2, rounded) means k - 1 ticks are missing."""
+    if len(stamps_ns) < 2:
+        return Gaps(0.0, 0)
+    d = np.diff(stamps_ns)
+    period = float(period_ns or np.median(d))
+    if period <= 0:
+        return Gaps(0.0, 0)
+    k = np.rint(d / period).astype(np.int64) - 1
+    at = np.flatnonzero(k > 0)
+    where = [(float((stamps_ns[i] - stamps_ns[0]) / 1e9), int(k[i])) for i in at[:limit]]
+    return Gaps(period / 1e9, int(k[at].sum()), where)
+
+
+@dataclass
+class TopicInfo:
+    topic: str
+    msgtype: str
+    count: int
+    rate_hz: float
+    gaps: Gaps | None = None
+
+
+@dataclass
+class BagInfo:
+    path: Path
+    files: list[FileStatus]
+    topics: list[TopicInfo]
+    start_ns: int
+    duration_s: float
+    tags: BagTags | None
+    tag_problem: str
+    warnings: list[str]
+
+    @property
+    def closed(self) -> bool:
+        return all(f.closed for f in self.files)
+
+    def to_text(self) -> str:
+        """Human-readable summary, as printed by ``orthoglide-ident info``."""
+        lines = [f"bag:       {self.path}"]
+        if self.tags is not None:
+            lines.append(f"tag:       {self.tags.condition}, payload {self.tags.payload_mass:g} kg")
+        else:
+            lines.append(f"tag:       NONE: {self.tag_problem}")
+        lines.append(f"duration:  {self.duration_s:.3f} s   start: {self.start_ns / 1e9:.9f} s")
+        lines.append("files:")
+        for f in self.files:
+            state = "closed" if f.closed else f"NOT CLOSED ({f.lost})"
+            lines.append(
+                f"  {f.path.name:<28} {f.size / 1e6:9.2f} MB  {f.chunks:5d} chunks "
+                f"{f.messages:9d} msgs  {state}"
+            )
+        lines.append("topics:")
+        for t in self.topics:
+            lines.append(f"  {t.topic:<36} {t.msgtype:<38} {t.count:9d} msgs {t.rate_hz:9.1f} Hz")
+            if t.gaps is not None:
+                g = t.gaps
+                if g.missing:
+                    where = ", ".join(f"{n} at {s:.3f} s" for s, n in g.where)
+                    more = " …" if len(g.where) < g.missing and len(g.where) >= 10 else ""
+                    lines.append(
+                        f"    {g.missing} missing ticks (period {g.period_s * 1e3:.3f} ms): "
+                        f"{where}{more}"
+                    )
+                else:
+                    lines.append(f"    no missing ticks (period {g.period_s * 1e3:.3f} ms)")
+        lines += [f"warning: {w}" for w in self.warnings]
+        return "\n".join(lines)
+
+
+def bag_info(path: str | Path) -> BagInfo:
+    """Summarise a bag directory or lone .mcap file (BagError if it is unreadable)."""
+    scan = _scan_bag(path, decode=True)
+    topics = []
+    starts, ends = [], []
+    for s in scan.topics.values():
+        if s.topic in DECODED and s.stamps and len(s.stamps[0]):
+            starts.append(int(s.stamps[0][0]))
+            ends.append(int(s.stamps[0][-1]))
+        elif s.count:
+            starts.append(s.log_start)
+            ends.append(s.log_end)
+        stamped = s.topic in DECODED and bool(s.stamps) and len(s.stamps[0]) > 1
+        if stamped:  # header stamps (controller ticks); receive times are bursty
+            span = (int(s.stamps[0][-1]) - int(s.stamps[0][0])) / 1e9
+            rate = (len(s.stamps[0]) - 1) / span if span > 0 else 0.0
+        else:
+            span = (s.log_end - s.log_start) / 1e9 if s.count > 1 else 0.0
+            rate = (s.count - 1) / span if span > 0 else 0.0
+        gaps = find_gaps(s.stamps[0]) if stamped else None
+        topics.append(TopicInfo(s.topic, s.msgtype, s.count, rate, gaps))
+    start = min(starts, default=0)
+    duration = (max(ends, default=0) - start) / 1e9 if starts else 0.0
+    return BagInfo(
+        scan.path, scan.files, topics, start, duration, scan.tags, scan.tag_problem, scan.warnings
+    )
+
+
+class TickCounter:
+    """Streaming count of missing ticks from header stamps (the recorder's live loss count)."""
+
+    def __init__(self, rate_hz: float) -> None:
+        self.period_ns = 1e9 / rate_hz if rate_hz > 0 else 0.0
+        self.last: int | None = None
+        self.missing = 0
+        self.backwards = 0
+
+    def add(self, stamp_ns: int) -> None:
+        last, self.last = self.last, stamp_ns
+        if last is None or not self.period_ns:
+            return
+        d = stamp_ns - last
+        if d <= 0:
+            self.backwards += 1
+        elif d > 1.5 * self.period_ns:
+            self.missing += round(d / self.period_ns) - 1

@@ -1,0 +1,300 @@
+"""Recorder node, across processes: services and misuse, recording that loses nothing, split,
+SIGINT/SIGTERM close the bag, SIGKILL leaves a readable bag, a write error keeps what was written.
+"""
+
+from __future__ import annotations
+
+import errno
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from orthoglide_ident import bags
+from orthoglide_ident.bags import Recording
+
+ROOT = Path(__file__).resolve().parents[1]
+PUBLISHER = ROOT / "bench" / "recorder_publisher.py"
+
+
+# -- a write error, without ROS ------------------------------------------------------------------
+class _Log:
+    def __init__(self) -> None:
+        self.errors: list[str] = []
+
+    def error(self, m: str) -> None:
+        self.errors.append(m)
+
+    warning = info = error
+
+
+def test_disk_full_ends_recording_and_keeps_data(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    writer = bags.BagWriter(
+        tmp_path / "full", bags.BagTags("unloaded", 0.0), chunk_duration_s=0.1
+    ).open()
+    log = _Log()
+    rec = Recording(writer, {bags.JOINT_STATES_TOPIC}, 1000.0, log)
+    rec.add_topic(bags.JOINT_STATES_TOPIC, bags.JOINT_STATE_TYPE, bags.default_qos())
+    stamps = 10**18 + np.arange(2000, dtype=np.int64) * 1_000_000
+    msgs = bags.encode_messages(
+        bags.JOINT_STATE_TYPE, ("q11", "q12", "q13"), stamps, np.zeros((2000, 3))
+    )
+    for i in range(1000):
+        rec.queue.append(
+            (bags.JOINT_STATES_TOPIC, msgs[i].tobytes(), int(stamps[i]), int(stamps[i]))
+        )
+    time.sleep(0.3)
+    f = writer._file
+    assert f is not None
+
+    def full(data: bytes) -> None:
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    monkeypatch.setattr(f, "_out", full)
+    for i in range(1000, 2000):
+        rec.queue.append(
+            (bags.JOINT_STATES_TOPIC, msgs[i].tobytes(), int(stamps[i]), int(stamps[i]))
+        )
+    message = rec.stop()
+    assert "write error" in message and "No space left" in message and "kept" in message
+    assert log.errors and not rec.alive
+    info = bags.bag_info(tmp_path / "full")
+    assert not info.closed
+    js = info.topics[0]
+    assert 900 <= js.count <= 1000 and js.gaps is not None and js.gaps.missing == 0
+
+
+# -- across processes ----------------------------------------------------------------------------
+rclpy = pytest.importorskip("rclpy")
+pytest.importorskip("orthoglide_msgs.srv")
+
+
+@pytest.fixture(scope="module")
+def client():
+    from rcl_interfaces.srv import SetParameters
+    from std_srvs.srv import Trigger
+
+    from orthoglide_msgs.srv import StartRecording
+
+    rclpy.init()
+    node = rclpy.create_node("recorder_test_client")
+
+    class Client:
+        start_cli = node.create_client(StartRecording, "/orthoglide/recorder/start")
+        stop_cli = node.create_client(Trigger, "/orthoglide/recorder/stop")
+        param_cli = node.create_client(SetParameters, "/recorder/set_parameters")
+
+        def _call(self, cli, req):
+            for _ in range(3):  # a request sent before the server is matched gets no answer: retry
+                fut = cli.call_async(req)
+                rclpy.spin_until_future_complete(node, fut, timeout_sec=5.0)
+                if fut.done():
+                    return fut.result()
+                cli.remove_pending_request(fut)
+            raise AssertionError("recorder service did not answer")
+
+        def start(self, condition: str, mass: float, name: str = ""):
+            return self._call(
+                self.start_cli,
+                StartRecording.Request(condition=condition, payload_mass=mass, name=name),
+            )
+
+        def stop(self):
+            return self._call(self.stop_cli, Trigger.Request())
+
+        def set_output_dir(self, path: str) -> None:
+            from rcl_interfaces.msg import Parameter, ParameterType, ParameterValue
+
+            value = ParameterValue(type=ParameterType.PARAMETER_STRING, string_value=path)
+            res = self._call(
+                self.param_cli,
+                SetParameters.Request(parameters=[Parameter(name="output_dir", value=value)]),
+            )
+            assert res.results[0].successful
+
+        def wait_ready(self) -> None:
+            assert self.start_cli.wait_for_service(
+                timeout_sec=20
+            ) and self.stop_cli.wait_for_service(timeout_sec=20)
+            time.sleep(0.5)
+
+    yield Client()
+    node.destroy_node()
+    rclpy.shutdown()
+
+
+@pytest.fixture
+def spawn_recorder(ros_env, tmp_path: Path):
+    procs: list[subprocess.Popen] = []
+
+    def spawn(*params: str) -> subprocess.Popen:
+        args = [
+            sys.executable,
+            "-m",
+            "orthoglide_ident.nodes.recorder",
+            "--ros-args",
+            "-p",
+            f"output_dir:={tmp_path / 'bags'}",
+        ]
+        for p in params:
+            args += ["-p", p]
+        log = (tmp_path / f"recorder{len(procs)}.log").open("w")
+        proc = subprocess.Popen(
+            args, env=ros_env, stdout=log, stderr=subprocess.STDOUT, cwd=tmp_path
+        )
+        procs.append(proc)
+        deadline = time.monotonic() + 30
+        while "recorder ready" not in (tmp_path / f"recorder{len(procs) - 1}.log").read_text():
+            assert proc.poll() is None and time.monotonic() < deadline, "recorder did not start"
+            time.sleep(0.1)
+        return proc
+
+    yield spawn
+    for proc in procs:
+        if proc.poll() is None:
+            proc.terminate()
+            try:
+                proc.wait(10)
+            except subprocess.TimeoutExpired:
+                proc.kill()
+                proc.wait()
+
+
+def _publish(ros_env, seconds: float, rate: float = 1000.0) -> subprocess.Popen:
+    return subprocess.Popen(
+        [sys.executable, str(PUBLISHER), "--rate", str(rate), "--duration", str(seconds)],
+        env=ros_env,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+
+
+def _sent(pub: subprocess.Popen) -> int:
+    out, err = pub.communicate(timeout=60)
+    assert pub.returncode == 0, err
+    return int(out.split("sent ")[1].split()[0])
+
+
+def test_misuse_record_split_and_read_back(client, spawn_recorder, ros_env, tmp_path: Path) -> None:
+    spawn_recorder("split_duration:=1.0", "chunk_duration:=0.25")
+    client.wait_ready()
+    # every misuse gets success false and a reason
+    res = client.stop()
+    assert not res.success and "not recording" in res.message
+    for cond, mass, reason in [
+        ("heavy", 1.0, "unknown condition"),
+        ("loaded", 0.0, "positive payload_mass"),
+        ("loaded", -1.0, "positive payload_mass"),
+        ("unloaded", 0.5, "takes no payload_mass"),
+    ]:
+        res = client.start(cond, mass)
+        assert not res.success and reason in res.message, res.message
+    res = client.start("unloaded", 0.0, "../escape")
+    assert not res.success and "bad bag name" in res.message
+    blocker = tmp_path / "a_file"
+    blocker.write_text("")
+    client.set_output_dir(str(blocker / "sub"))
+    res = client.start("unloaded", 0.0)
+    assert not res.success and "not writable" in res.message
+    client.set_output_dir(str(tmp_path / "bags"))
+
+    res = client.start("loaded", 1.136, "run1")
+    assert res.success, res.message
+    bag = Path(res.bag_path)
+    again = client.start("loaded", 1.136, "run2")
+    assert not again.success and "already recording" in again.message
+    pub = _publish(ros_env, 3.0)
+    n = _sent(pub)
+    time.sleep(0.3)
+    res = client.stop()
+    assert (
+        res.success
+        and f"wrote {n} /orthoglide/joint_states, {n} /orthoglide/current_reference" in res.message
+    )
+    assert "0 missing on /orthoglide/joint_states" in res.message
+    res = client.start("loaded", 1.136, "run1")
+    assert not res.success and "exists" in res.message
+
+    # split at 1 s without losing a message: our reader, rosbags and the mcap library agree
+    files = sorted(bag.glob("*.mcap"))
+    assert len(files) >= 3
+    data = bags.read_bag(bag)
+    assert data.tags == bags.BagTags("loaded", 1.136) and data.warnings == []
+    assert len(data.joint_states.stamps_ns) == n == len(data.current_reference.stamps_ns)
+    assert bags.find_gaps(data.joint_states.stamps_ns).missing == 0
+    np.testing.assert_array_equal(data.joint_states.stamps_ns, data.current_reference.stamps_ns)
+
+    from mcap.reader import make_reader
+    from mcap.stream_reader import StreamReader
+
+    total = 0
+    for f in files:
+        with f.open("rb") as fh:
+            reader = make_reader(fh, validate_crcs=True)
+            meta = {m.name: m.metadata for m in reader.iter_metadata()}
+            assert meta["orthoglide"] == {
+                "orthoglide.condition": "loaded",
+                "orthoglide.payload_mass": "1.136",
+            }
+            total += sum(1 for _ in reader.iter_messages())
+            channels = reader.get_summary().channels.values()
+            assert all(
+                "reliability: reliable" in c.metadata["offered_qos_profiles"] for c in channels
+            )
+        with f.open("rb") as fh:
+            list(StreamReader(fh, validate_crcs=True).records)
+    assert total == 2 * n
+    from rosbags.highlevel import AnyReader
+    from rosbags.rosbag2 import Reader
+
+    with AnyReader([bag]) as reader:
+        assert sum(1 for _ in reader.messages()) == 2 * n
+    with Reader(bag) as reader:
+        assert reader.storage.metadata.custom["orthoglide.payload_mass"] == "1.136"
+
+
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
+def test_signal_closes_bag(client, spawn_recorder, ros_env, sig: signal.Signals) -> None:
+    proc = spawn_recorder()
+    client.wait_ready()
+    res = client.start("unloaded", 0.0, f"sig{int(sig)}")
+    assert res.success, res.message
+    n = _sent(_publish(ros_env, 1.0))
+    time.sleep(0.3)
+    proc.send_signal(sig)
+    assert proc.wait(15) == 0
+    info = bags.bag_info(res.bag_path)
+    assert info.closed and info.tags == bags.BagTags("unloaded", 0.0)
+    assert {t.topic: t.count for t in info.topics}[bags.JOINT_STATES_TOPIC] == n
+
+
+def test_sigkill_leaves_readable_bag(client, spawn_recorder, ros_env) -> None:
+    proc = spawn_recorder()
+    client.wait_ready()
+    res = client.start("loaded", 2.5, "killed")
+    assert res.success, res.message
+    pub = _publish(ros_env, 4.0)
+    assert pub.stdout is not None and pub.stdout.readline().startswith("publishing")
+    time.sleep(2.0)
+    proc.kill()
+    proc.wait(10)
+    pub.communicate(timeout=30)
+    data = bags.read_bag(res.bag_path)
+    assert data.tags == bags.BagTags("loaded", 2.5)
+    assert (
+        len(data.warnings) == 1
+        and "killed_0.mcap" in data.warnings[0]
+        and "not closed" in data.warnings[0]
+    )
+    n = len(data.joint_states.stamps_ns)
+    assert n >= 1000  # ~2 s recorded, at most one 0.5 s chunk lost
+    assert bags.find_gaps(data.joint_states.stamps_ns).missing == 0
+    info = bags.bag_info(res.bag_path)
+    assert not info.closed and "NOT CLOSED" in info.to_text()
