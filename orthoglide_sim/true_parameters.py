@@ -1,0 +1,264 @@
+"""The simulated Orthoglide's true parameters: every standard parameter of every body, drive gains,
+payloads and the plant's unmodelled effects. One readable table, overridable from YAML.
+
+Inertial parameters are not typed in directly: each body is described as a rigid body (mass, centre
+of mass in its MDH frame, principal moments about the centre of mass, small tilt of the principal
+axes), and its 10 standard inertial parameters (inertia at the frame origin, first moments, mass)
+are derived from that. This keeps every body physically consistent (positive mass, positive-definite
+inertia satisfying the triangle inequalities) while every parameter is non-zero.
+
+Units: kg, m, kg·m²; prismatic joints N, N·s/m, kg (ia); revolute joints N·m, N·m·s/rad.
+Names follow docs/conventions.md: ``<p>_<j><i>`` for body j of leg i, ``<p>_6`` platform,
+``<p>_7`` payload.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Any, Mapping
+
+import numpy as np
+
+from orthoglide_ident.errors import ConfigError
+
+INERTIAL = ("xx", "xy", "xz", "yy", "yz", "zz", "mx", "my", "mz", "m")
+G_TAU_MANUFACTURER = 637.0 * math.pi  # N/A, Sect. 5.2
+
+# --------------------------------------------------------------------------------------------
+# The table.  Rigid bodies: (mass kg, centre of mass in the body's MDH frame m,
+# principal moments about the centre of mass kg·m², tilt of the principal axes rad (x-y-z Euler)).
+# Leg i body j frames: 1 foot (z along the actuator), 2 pivot yoke at the foot, 3 equivalent bar
+# (x along the bar, length d4 = 0.31 m), 4 and 5 pivot blocks at the platform end (origin C_i).
+# The legs were built alike but not identical: each leg has its own row.
+# --------------------------------------------------------------------------------------------
+LEG_BODIES: dict[int, dict[int, tuple[float, tuple, tuple, tuple]]] = {
+    # leg 1
+    1: {
+        1: (3.60, (0.012, 0.021, -0.048), (0.0112, 0.0095, 0.0068), (0.05, -0.03, 0.08)),
+        2: (0.26, (0.006, -0.011, 0.018), (2.1e-4, 1.7e-4, 1.2e-4), (0.10, 0.04, -0.06)),
+        3: (0.31, (0.1550, 0.0035, 0.0042), (2.9e-4, 2.55e-3, 2.60e-3), (0.02, -0.01, 0.03)),
+        4: (0.055, (0.004, 0.003, 0.009), (1.9e-5, 1.6e-5, 1.1e-5), (0.07, 0.05, -0.04)),
+        5: (0.062, (0.005, -0.004, 0.007), (2.2e-5, 1.8e-5, 1.3e-5), (-0.06, 0.03, 0.05)),
+    },
+    # leg 2
+    2: {
+        1: (3.52, (0.010, 0.019, -0.051), (0.0109, 0.0097, 0.0066), (0.04, -0.02, 0.07)),
+        2: (0.25, (0.007, -0.010, 0.017), (2.0e-4, 1.8e-4, 1.1e-4), (0.09, 0.05, -0.05)),
+        3: (0.30, (0.1545, 0.0031, 0.0047), (2.8e-4, 2.50e-3, 2.56e-3), (0.03, -0.02, 0.02)),
+        4: (0.052, (0.005, 0.002, 0.008), (1.8e-5, 1.5e-5, 1.2e-5), (0.06, 0.04, -0.05)),
+        5: (0.060, (0.004, -0.005, 0.006), (2.1e-5, 1.9e-5, 1.2e-5), (-0.05, 0.02, 0.06)),
+    },
+    # leg 3 (vertical actuator: a slightly heavier carriage with a brake)
+    3: {
+        1: (3.85, (0.011, 0.023, -0.046), (0.0118, 0.0101, 0.0071), (0.06, -0.04, 0.09)),
+        2: (0.27, (0.005, -0.012, 0.019), (2.2e-4, 1.6e-4, 1.3e-4), (0.11, 0.03, -0.07)),
+        3: (0.32, (0.1556, 0.0038, 0.0039), (3.0e-4, 2.61e-3, 2.66e-3), (0.01, -0.02, 0.04)),
+        4: (0.057, (0.003, 0.004, 0.010), (2.0e-5, 1.7e-5, 1.0e-5), (0.08, 0.06, -0.03)),
+        5: (0.064, (0.006, -0.003, 0.008), (2.3e-5, 1.7e-5, 1.4e-5), (-0.07, 0.04, 0.04)),
+    },
+}
+PLATFORM_BODY = (0.42, (0.003, 0.011, -0.006), (4.1e-4, 3.6e-4, 5.2e-4), (0.05, -0.08, 0.12))
+
+# Drive chain and joint friction, per leg: ia (kg, rotor + screw inertia seen at the foot),
+# then (fv, fs, tauoff) for joints 1 (prismatic: N·s/m, N, N) and 2..5 (pivots: N·m·s/rad, N·m, N·m).
+ACTUATOR_INERTIA = {1: 4.85, 2: 4.62, 3: 5.05}
+JOINT_FRICTION: dict[int, dict[int, tuple[float, float, float]]] = {
+    1: {1: (85.7, 35.2, 1.30), 2: (0.120, 0.210, 0.021), 3: (0.095, 0.180, -0.017),
+        4: (0.105, 0.165, 0.012), 5: (0.140, 0.240, -0.019)},
+    2: {1: (86.7, 41.7, -0.90), 2: (0.110, 0.230, -0.015), 3: (0.090, 0.170, 0.014),
+        4: (0.115, 0.175, -0.011), 5: (0.130, 0.220, 0.016)},
+    3: {1: (84.0, 24.1, 2.60), 2: (0.125, 0.200, 0.018), 3: (0.100, 0.190, -0.013),
+        4: (0.098, 0.160, 0.010), 5: (0.135, 0.250, -0.021)},
+}
+
+# True drive gains (N/A), unlike the manufacturer's 637 pi ~ 2001 (the paper found these).
+G_TAU = (2170.0, 2100.0, 2070.0)
+
+# Payloads (body 7, frame parallel to the base at P): weighed masses of Sect. 5.2, as steel
+# cylinders (mass, centre of mass, principal moments, tilt).  A custom mass scales the 1.983 kg
+# cylinder's shape (same centre of mass, inertia proportional to mass).
+PAYLOADS: dict[str, tuple[float, tuple, tuple, tuple]] = {
+    "1.983": (1.983, (0.004, 0.032, -0.007), (1.30e-3, 1.05e-3, 1.30e-3), (0.03, 0.02, -0.04)),
+    "1.136": (1.136, (-0.006, 0.027, 0.005), (6.2e-4, 4.9e-4, 6.2e-4), (-0.02, 0.05, 0.03)),
+}
+
+# The plant's Coulomb friction turns smoothly through zero: fs * tanh(qdot / v_s).
+COULOMB_VELOCITY = {"prismatic": 1.0e-3, "revolute": 5.0e-3}  # m/s, rad/s
+
+# Unmodelled effects (off by default): ball-screw force ripple amplitude (N) and lead (m).
+SCREW_RIPPLE = {"enabled": False, "amplitude": 2.0, "lead": 0.02}
+
+
+def inertial_from_rigid_body(mass: float, com, principal, tilt) -> np.ndarray:
+    """10 standard inertial parameters (xx..zz at the frame origin, mx, my, mz, m) of a rigid body."""
+    c = np.asarray(com, dtype=float)
+    rx, ry, rz = tilt
+    Rx = np.array([[1, 0, 0], [0, math.cos(rx), -math.sin(rx)], [0, math.sin(rx), math.cos(rx)]])
+    Ry = np.array([[math.cos(ry), 0, math.sin(ry)], [0, 1, 0], [-math.sin(ry), 0, math.cos(ry)]])
+    Rz = np.array([[math.cos(rz), -math.sin(rz), 0], [math.sin(rz), math.cos(rz), 0], [0, 0, 1]])
+    R = Rx @ Ry @ Rz
+    I_G = R @ np.diag(principal) @ R.T
+    I_O = I_G + mass * (c @ c * np.eye(3) - np.outer(c, c))  # Huygens-Steiner
+    return np.array([I_O[0, 0], I_O[0, 1], I_O[0, 2], I_O[1, 1], I_O[1, 2], I_O[2, 2],
+                     *(mass * c), mass])
+
+
+def _body_kinds(body: int) -> tuple[str, ...]:
+    return INERTIAL + (("ia", "fv", "fs", "tauoff") if body == 1 else ("fv", "fs", "tauoff"))
+
+
+STANDARD_NAMES: tuple[str, ...] = tuple(
+    f"{kind}_{body}{leg}" for leg in (1, 2, 3) for body in range(1, 6) for kind in _body_kinds(body)
+) + tuple(f"{kind}_6" for kind in INERTIAL)
+PAYLOAD_NAMES: tuple[str, ...] = tuple(f"{kind}_7" for kind in INERTIAL)
+assert len(STANDARD_NAMES) == 208
+
+
+def _table_values() -> dict[str, float]:
+    values: dict[str, float] = {}
+    for leg in (1, 2, 3):
+        for body in range(1, 6):
+            inertial = inertial_from_rigid_body(*LEG_BODIES[leg][body])
+            for kind, v in zip(INERTIAL, inertial):
+                values[f"{kind}_{body}{leg}"] = float(v)
+            if body == 1:
+                values[f"ia_1{leg}"] = ACTUATOR_INERTIA[leg]
+            fv, fs, tauoff = JOINT_FRICTION[leg][body]
+            values[f"fv_{body}{leg}"] = fv
+            values[f"fs_{body}{leg}"] = fs
+            values[f"tauoff_{body}{leg}"] = tauoff
+    for kind, v in zip(INERTIAL, inertial_from_rigid_body(*PLATFORM_BODY)):
+        values[f"{kind}_6"] = float(v)
+    return values
+
+
+@dataclass(frozen=True)
+class TrueParameters:
+    """Everything the plant needs that the identification is meant to find (and a bit more)."""
+
+    values: dict[str, float]  # the 208 standard robot parameters by name
+    g_tau: tuple[float, float, float] = G_TAU
+    payloads: dict[str, np.ndarray] = field(default_factory=dict)  # name -> (10,) inertial
+    coulomb_velocity: dict[str, float] = field(default_factory=lambda: dict(COULOMB_VELOCITY))
+    screw_ripple: dict[str, Any] = field(default_factory=lambda: dict(SCREW_RIPPLE))
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        return STANDARD_NAMES
+
+    def standard_vector(self) -> np.ndarray:
+        """The 208 robot standard parameters in canonical order (docs/conventions.md)."""
+        return np.array([self.values[n] for n in STANDARD_NAMES])
+
+    def payload_vector(self, payload: str | float | None) -> np.ndarray:
+        """(10,) inertial parameters xx_7..m_7 of a payload: "none", "1.983", "1.136" or a mass in kg."""
+        if payload is None or payload == "none" or payload == 0 or payload == "0":
+            return np.zeros(10)
+        key = str(payload)
+        if key in self.payloads:
+            return self.payloads[key].copy()
+        try:
+            mass = float(payload)
+        except (TypeError, ValueError):
+            raise ConfigError(f"unknown payload {payload!r}: use none, 1.983, 1.136 or a mass in kg")
+        if not (0.0 < mass < 20.0):
+            raise ConfigError(f"payload mass {mass} kg out of range (0, 20) kg")
+        base = self.payloads.get("1.983", np.array(inertial_from_rigid_body(*PAYLOADS["1.983"])))
+        return base * (mass / base[9])
+
+    @property
+    def m_7(self) -> dict[str, float]:
+        return {k: float(v[9]) for k, v in self.payloads.items()}
+
+
+def default_parameters() -> TrueParameters:
+    payloads = {k: inertial_from_rigid_body(*v) for k, v in PAYLOADS.items()}
+    return TrueParameters(values=_table_values(), payloads=payloads)
+
+
+_TOP_KEYS = {"g_tau", "parameters", "payloads", "coulomb_velocity", "screw_ripple"}
+
+
+def _number(value: Any, where: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise ConfigError(f"{where}: expected a number, got {value!r}")
+    if not math.isfinite(value):
+        raise ConfigError(f"{where}: expected a finite number, got {value!r}")
+    return float(value)
+
+
+def apply_overrides(params: TrueParameters, data: Mapping[str, Any], source: str = "overrides") -> TrueParameters:
+    """Return ``params`` with the entries of ``data`` (same layout as config/plant.yaml) applied."""
+    if not isinstance(data, Mapping):
+        raise ConfigError(f"{source}: top level must be a mapping with keys {sorted(_TOP_KEYS)}")
+    unknown = set(data) - _TOP_KEYS
+    if unknown:
+        raise ConfigError(f"{source}: unknown key(s) {sorted(unknown)}; allowed: {sorted(_TOP_KEYS)}")
+    values = dict(params.values)
+    g_tau = params.g_tau
+    payloads = {k: v.copy() for k, v in params.payloads.items()}
+    coulomb = dict(params.coulomb_velocity)
+    ripple = dict(params.screw_ripple)
+    if "g_tau" in data:
+        g = data["g_tau"]
+        if not isinstance(g, (list, tuple)) or len(g) != 3:
+            raise ConfigError(f"{source}: g_tau must be a list of 3 drive gains in N/A, got {g!r}")
+        g_tau = tuple(_number(v, f"{source}: g_tau[{k}]") for k, v in enumerate(g))
+        if min(g_tau) <= 0:
+            raise ConfigError(f"{source}: g_tau must be positive, got {g_tau}")
+    for name, v in (data.get("parameters") or {}).items():
+        if name not in values:
+            raise ConfigError(f"{source}: unknown standard parameter {name!r} (e.g. xx_11, ia_12, m_6)")
+        values[name] = _number(v, f"{source}: parameters.{name}")
+    for pname, pdata in (data.get("payloads") or {}).items():
+        pname = str(pname)
+        if not isinstance(pdata, Mapping):
+            raise ConfigError(f"{source}: payloads.{pname} must map xx_7..m_7 to numbers")
+        vec = payloads.get(pname, np.zeros(10)).copy()
+        for name, v in pdata.items():
+            if name not in PAYLOAD_NAMES:
+                raise ConfigError(f"{source}: payloads.{pname}: unknown parameter {name!r} (xx_7..m_7)")
+            vec[PAYLOAD_NAMES.index(name)] = _number(v, f"{source}: payloads.{pname}.{name}")
+        if vec[9] <= 0:
+            raise ConfigError(f"{source}: payloads.{pname}: m_7 must be positive")
+        payloads[pname] = vec
+    for name, v in (data.get("coulomb_velocity") or {}).items():
+        if name not in coulomb:
+            raise ConfigError(f"{source}: coulomb_velocity: unknown key {name!r} (prismatic, revolute)")
+        coulomb[name] = _number(v, f"{source}: coulomb_velocity.{name}")
+        if coulomb[name] <= 0:
+            raise ConfigError(f"{source}: coulomb_velocity.{name} must be positive")
+    for name, v in (data.get("screw_ripple") or {}).items():
+        if name not in ripple:
+            raise ConfigError(f"{source}: screw_ripple: unknown key {name!r} (enabled, amplitude, lead)")
+        ripple[name] = bool(v) if name == "enabled" else _number(v, f"{source}: screw_ripple.{name}")
+    return replace(params, values=values, g_tau=g_tau, payloads=payloads,
+                   coulomb_velocity=coulomb, screw_ripple=ripple)
+
+
+def load_parameters(yaml_path: str | Path | None = None) -> TrueParameters:
+    """Default table, with any subset overridden from a YAML file (layout of config/plant.yaml).
+
+    Raises ConfigError with a one-line reason on a missing/unparsable file, unknown keys or
+    non-numeric values.
+    """
+    params = default_parameters()
+    if yaml_path is None:
+        return params
+    import yaml
+
+    path = Path(yaml_path)
+    try:
+        text = path.read_text()
+    except OSError as exc:
+        raise ConfigError(f"cannot read plant parameters {path}: {exc.strerror}") from None
+    try:
+        data = yaml.safe_load(text)
+    except yaml.YAMLError as exc:
+        raise ConfigError(f"{path}: not valid YAML ({str(exc).splitlines()[0]})") from None
+    if data is None:
+        return params
+    if isinstance(data, Mapping) and set(data) == {"plant"}:
+        data = data["plant"]
+    return apply_overrides(params, data, source=str(path))
