@@ -27,7 +27,7 @@ STAMP_DEPS := $(VENV)/.stamp-deps
 STAMP_MSGS := $(VENV)/.stamp-msgs
 STAMP_PROJECT := $(VENV)/.stamp-project
 
-.PHONY: help setup setup-stamps test test-slow demo bench lock clean distclean
+.PHONY: help setup setup-stamps test test-slow demo bench bags lock clean distclean
 
 help:
 	@echo "make setup      create $(VENV) (Python 3.11) with ROS 2 Jazzy wheels, build orthoglide_msgs, install the project"
@@ -35,6 +35,7 @@ help:
 	@echo "make test-slow  setup if needed, then the slow tests (pytest -m slow)"
 	@echo "make demo       setup if needed, then the end-to-end demo"
 	@echo "make bench      setup if needed, then every bench/*.py"
+	@echo "make bags       regenerate the sample bags (DURATION=10 s, OUT=bags); e.g. make bags DURATION=60 OUT=records"
 	@echo "make lock       rewrite constraints.txt from the current venv"
 	@echo "make clean      remove build artefacts and caches (keeps $(VENV)); distclean also removes $(VENV)"
 
@@ -67,6 +68,11 @@ $(STAMP_PROJECT): $(STAMP_DEPS) $(PROJECT_SOURCES)
 	$(PIP) install --quiet --no-build-isolation --no-deps -e .
 	$(PY) -m orthoglide_ident._install_ament > /dev/null
 	@touch $@
+
+DURATION ?= 10
+OUT ?= bags
+bags: setup
+	$(PY) -m orthoglide_sim.make_bags --duration $(DURATION) --out $(OUT)
 
 test: setup
 	$(PY) -m pytest -m "not slow" $(PYTEST_ARGS)
