@@ -28,7 +28,8 @@ JOINTS = ["q11", "q12", "q13"]
 
 
 def _usage() -> str:
-    lines = [__doc__.strip(), "", "ROS parameters (--ros-args -p name:=value):"]
+    lines = ["usage: ros2 run orthoglide_ident driver [--ros-args -p NAME:=VALUE ...]", "", __doc__.strip(), "",
+             "ROS parameters (--ros-args -p name:=value):"]
     lines += [f"  {k:<12} default {v[0]!r:<12} {v[1]}" for k, v in PARAMETERS.items()]
     return "\n".join(lines)
 
