@@ -1,0 +1,114 @@
+"""Speed and memory of `orthoglide-ident identify` next to rosbags merely reading the same bags.
+
+    PYTHONPATH=. .venv/bin/python bench/identify_speed.py [--seconds 60] [--keep DIR]
+
+Writes an unloaded and a loaded bag of --seconds each at 1 kHz (simulator if available, else
+model data, see identify_data.py), then in the same run:
+  1. rosbags: AnyReader + deserialize_cdr of every message of both bags (read only);
+  2. `orthoglide-ident identify` as a subprocess, end to end (start-up, reading, filtering, W,
+     decimation, TLS, printing), wall time and peak RSS;
+  3. the pipeline's own per-step timings (from --json).
+Prints a table and the ratio identify / rosbags-read (the bar: below 1).
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from identify_data import record  # noqa: E402
+
+from orthoglide_ident import bags  # noqa: E402
+
+
+def rosbags_read(paths: list[Path]) -> tuple[float, int]:
+    from rosbags.highlevel import AnyReader
+
+    t0 = time.perf_counter()
+    n = 0
+    with AnyReader(paths) as reader:
+        for conn, _, raw in reader.messages():
+            reader.deserialize(raw, conn.msgtype)  # deserialize_cdr + message class
+            n += 1
+    return time.perf_counter() - t0, n
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawTextHelpFormatter)
+    ap.add_argument("--seconds", type=float, default=60.0, help="length of each bag (s)")
+    ap.add_argument("--keep", help="write the bags here and keep them (default: a temp dir); "
+                    "bags already there are reused")
+    ap.add_argument("--bags", nargs=2, help="use these two bags (unloaded, loaded) instead")
+    args = ap.parse_args()
+
+    tmp = tempfile.TemporaryDirectory()
+    d = Path(args.keep or tmp.name)
+    d.mkdir(parents=True, exist_ok=True)
+    if args.bags:
+        paths = [Path(p) for p in args.bags]
+        source = "given bags"
+    else:
+        t0 = time.perf_counter()
+        paths = []
+        source = "bags kept from an earlier run"
+        for name, m, seed in (("unloaded", 0.0, 1), ("loaded", 1.983, 2)):
+            if (d / name).exists():  # --keep DIR from an earlier run: reuse
+                paths.append(d / name)
+                continue
+            rec, truth = record(args.seconds, m, seed)
+            paths.append(bags.write_bag(d / name, rec.stamps_q_ns, rec.q, rec.v_tau,
+                                        rec.condition, m))
+            source = truth["source"]
+        print(f"wrote 2 x {args.seconds:g} s bags ({source}) in {time.perf_counter() - t0:.1f} s",
+              file=sys.stderr)
+
+    t_rosbags, n_msgs = rosbags_read(paths)
+
+    js = d / "result.json"
+    env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    # The CLI reports its own peak RSS (VmHWM, reset at exec): RUSAGE_CHILDREN would count the
+    # forked copy of this (large, bag-writing) process before exec.
+    code = ("import sys\nfrom orthoglide_ident.cli import main\nrc = main(sys.argv[1:])\n"
+            "hwm = [l for l in open('/proc/self/status') if l.startswith('VmHWM')][0]\n"
+            "sys.stderr.write('PEAK ' + hwm.split()[1] + '\\n')\nsys.exit(rc)")
+    cmd = [sys.executable, "-c", code, "identify", *map(str, paths), "--json", str(js), "-q"]
+    t0 = time.perf_counter()
+    proc = subprocess.run(cmd, env=env, capture_output=True, text=True)
+    t_cli = time.perf_counter() - t0
+    peak = [ln for ln in proc.stderr.splitlines() if ln.startswith("PEAK ")]
+    rss_mb = int(peak[-1].split()[1]) / 1024 if peak else float("nan")
+    if proc.returncode != 0:
+        print(proc.stderr, file=sys.stderr)
+        print(f"identify failed with exit code {proc.returncode}")
+        return 1
+    doc = json.loads(js.read_text())
+    steps = doc["diagnostics"]["timings_s"]
+
+    print(f"\nidentify speed — 2 x {args.seconds:g} s at 1 kHz ({n_msgs} messages; {source})")
+    print(f"{'step':<34}{'time (s)':>10}")
+    print(f"{'rosbags AnyReader+deserialize_cdr':<34}{t_rosbags:>10.2f}")
+    print(f"{'orthoglide-ident identify (total)':<34}{t_cli:>10.2f}")
+    for k in ("model", "read", "segments", "filtering", "regressor+decimation", "solve",
+              "essential"):
+        if k in steps:
+            print(f"{'  ' + k:<34}{steps[k]:>10.2f}")
+    startup = t_cli - steps.get("total", 0.0)
+    print(f"{'  start-up (imports) and output':<34}{startup:>10.2f}")
+    print(f"ratio identify / rosbags read: {t_cli / t_rosbags:.2f}  (bar: < 1)")
+    print(f"peak RSS of identify: {rss_mb:.0f} MiB  (bar: < 1024 MiB)")
+    g = [x["value"] for x in doc["drive_gains"]]
+    print("gains (N/A): " + ", ".join(f"{v:.1f}" for v in g))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

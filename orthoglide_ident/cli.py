@@ -1,0 +1,234 @@
+"""``orthoglide-ident``: offline identification, bag info, base model and reports (DESIGN §4).
+
+    orthoglide-ident identify BAG... [--payload-mass KG] [--method tls|wls]
+                     [--gains G1,G2,G3|FILE.json] [--essential] [--json FILE]
+                     [--r-sigma R] [--config YAML] [--validate BAG...]
+    orthoglide-ident info BAG...
+    orthoglide-ident model --base-parameters [--json FILE]
+    orthoglide-ident report BAG... --out DIR [identify options]
+
+Exit codes: 0 success; 2 bad input (a one-line reason on stderr, never a traceback);
+1 internal error (a bug: set ORTHOGLIDE_DEBUG=1 for the traceback); 130 interrupted.
+Progress of long steps goes to stderr; results go to stdout.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import logging
+import math
+import os
+import sys
+import traceback
+from pathlib import Path
+from typing import Sequence
+
+from orthoglide_ident.errors import ConfigError, OrthoglideError
+
+PROG = "orthoglide-ident"
+EXIT_OK, EXIT_BUG, EXIT_BAD_INPUT, EXIT_INTERRUPTED = 0, 1, 2, 130
+
+
+def parse_gains(text: str) -> list[float]:
+    """Three drive gains in N/A from ``G1,G2,G3`` or a JSON file (an ``identify --json`` result,
+    a list of three numbers, or a mapping joint name -> gain)."""
+    p = Path(text)
+    if "," not in text or p.exists():
+        try:
+            doc = json.loads(p.read_text())
+        except OSError as exc:
+            raise ConfigError(f"--gains {text}: neither G1,G2,G3 nor a readable JSON file "
+                              f"({exc.strerror or exc})") from None
+        except json.JSONDecodeError as exc:
+            raise ConfigError(f"--gains {text}: not valid JSON ({exc.msg} at line "
+                              f"{exc.lineno})") from None
+        if isinstance(doc, dict) and "drive_gains" in doc:
+            doc = doc["drive_gains"]
+        if isinstance(doc, dict):
+            try:
+                doc = [doc[j] for j in ("q11", "q12", "q13")]
+            except KeyError as exc:
+                raise ConfigError(f"--gains {text}: no gain for joint {exc.args[0]}") from None
+        if isinstance(doc, list):
+            vals = [d.get("value") if isinstance(d, dict) else d for d in doc]
+        else:
+            raise ConfigError(f"--gains {text}: expected drive_gains, a list or a joint mapping")
+    else:
+        vals = text.split(",")
+    try:
+        gains = [float(v) for v in vals]
+    except (TypeError, ValueError):
+        raise ConfigError(f"--gains {text}: drive gains must be numbers in N/A") from None
+    if len(gains) != 3 or not all(math.isfinite(g) and g > 0 for g in gains):
+        raise ConfigError(f"--gains {text}: give three positive drive gains in N/A (q11,q12,q13)")
+    return gains
+
+
+def _add_identify_options(p: argparse.ArgumentParser) -> None:
+    p.add_argument("bags", nargs="+", metavar="BAG",
+                   help="rosbag2 directories or lone .mcap files, tagged loaded|unloaded")
+    p.add_argument("--payload-mass", type=float, metavar="KG",
+                   help="weighed payload mass of the loaded bags in kg (checked against their tags;"
+                        " needed when a loaded bag carries no mass)")
+    p.add_argument("--method", choices=("tls", "wls"), default=None,
+                   help="tls: drive gains and base parameters at once, scaled by the payload mass "
+                        "(default); wls: gains given (--gains, default the manufacturer's "
+                        "637π ≈ 2001.2 N/A), payload mass of the loaded bags estimated")
+    p.add_argument("--gains", metavar="G1,G2,G3|FILE.json",
+                   help="drive gains in N/A for --method wls: three numbers or a JSON file "
+                        "(e.g. the --json output of a TLS identification)")
+    p.add_argument("--essential", action="store_true",
+                   help="also reduce to essential parameters (paper Sect. 5.2) and show base and "
+                        "essential results side by side")
+    p.add_argument("--r-sigma", type=float, metavar="R",
+                   help="stop ratio max %%σ / min %%σ of the essential reduction (default 10)")
+    p.add_argument("--config", metavar="YAML",
+                   help="options file (config/identification.yaml format: filter cut-off in Hz, "
+                        "decimation, velocity dead band in m/s, excitation limits...)")
+    p.add_argument("--validate", nargs="+", default=[], metavar="BAG",
+                   help="bags not used for identification, to cross-validate the model on")
+    p.add_argument("--json", metavar="FILE", help="write the result as JSON (DESIGN §4) to FILE")
+    p.add_argument("-q", "--quiet", action="store_true", help="no progress on stderr")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog=PROG,
+        description="Orthoglide identification of drive gains and dynamic parameters "
+                    "(IDIM-TLS, Briot & Gautier 2013) from tagged rosbag2/MCAP bags. "
+                    "Units: m, A, N, kg, N/A.")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
+    p = sub.add_parser("identify", help="identify gains and base parameters from bags",
+                       description="Identify drive gains (N/A) and base dynamic parameters from "
+                                   "unloaded and loaded bags; prints a table, --json writes JSON.")
+    _add_identify_options(p)
+    p = sub.add_parser("info", help="print what a bag holds (topics, counts, gaps, tag)",
+                       description="Print topics, message counts, rate, gaps and the "
+                                   "loaded/unloaded tag of each bag.")
+    p.add_argument("bags", nargs="+", metavar="BAG")
+    p = sub.add_parser("model", help="print the base parameters of the Orthoglide model",
+                       description="Print the base parameters (name, legs, regrouping expression "
+                                   "of standard parameters).")
+    p.add_argument("--base-parameters", action="store_true",
+                   help="the base-parameter table (the default and only listing)")
+    p.add_argument("--json", metavar="FILE", help="also write the base model as JSON to FILE")
+    p = sub.add_parser("report", help="identify and write plots and a Markdown summary",
+                       description="Identify as `identify` does, then write torques.png "
+                                   "(measured vs model forces, paper Fig. 5), parameters.png "
+                                   "(%%σ), summary.md and result.json into --out.")
+    _add_identify_options(p)
+    p.add_argument("--out", required=True, metavar="DIR", help="output directory (created)")
+    return parser
+
+
+def _setup_logging(quiet: bool) -> None:
+    log = logging.getLogger("orthoglide_ident")
+    log.handlers[:] = []
+    h = logging.StreamHandler(sys.stderr)
+    h.setFormatter(logging.Formatter(f"{PROG}: %(message)s"))
+    log.addHandler(h)
+    log.setLevel(logging.WARNING if quiet else logging.INFO)
+    log.propagate = False
+
+
+def _run_identify(args: argparse.Namespace):
+    from orthoglide_ident.identify.options import IdentifyOptions
+    from orthoglide_ident.identify.pipeline import identify
+
+    opts = IdentifyOptions.from_yaml(args.config) if args.config else IdentifyOptions()
+    if args.r_sigma is not None:
+        if not args.r_sigma > 1:
+            raise ConfigError(f"--r-sigma must be > 1 (the paper uses 10), not {args.r_sigma}")
+        opts = opts.replace(r_sigma=args.r_sigma)
+    method = args.method or "tls"
+    gains = parse_gains(args.gains) if args.gains else None
+    if gains is not None and method == "tls":
+        raise ConfigError("--gains is for --method wls: IDIM-TLS identifies the gains")
+    if method == "wls" and gains is None:
+        logging.getLogger("orthoglide_ident").info(
+            "no --gains: using the manufacturer's 637π ≈ 2001.2 N/A for every joint")
+    if args.payload_mass is not None and not (math.isfinite(args.payload_mass)
+                                              and args.payload_mass > 0):
+        raise ConfigError(f"--payload-mass must be a positive mass in kg, not {args.payload_mass}")
+    return identify(args.bags, payload_mass=args.payload_mass, method=method, gains=gains,
+                    essential=args.essential, options=opts, validation_bags=args.validate)
+
+
+def _write_json(path: str, doc: dict) -> None:
+    try:
+        Path(path).write_text(json.dumps(doc, indent=2) + "\n")
+    except OSError as exc:
+        raise ConfigError(f"cannot write {path}: {exc.strerror or exc}") from None
+
+
+def _main(args: argparse.Namespace) -> int:
+    if args.command in ("identify", "report"):
+        _setup_logging(args.quiet)
+        res = _run_identify(args)
+        if args.command == "report":
+            from orthoglide_ident.report import write_report
+
+            try:
+                paths = write_report(res, args.out)
+            except OSError as exc:
+                raise ConfigError(f"cannot write the report into {args.out}: "
+                                  f"{exc.strerror or exc}") from None
+            print(res.to_text())
+            print("\nwrote " + ", ".join(str(p) for p in paths))
+        else:
+            print(res.to_text())
+        if args.json:
+            _write_json(args.json, res.to_json())
+        return EXIT_OK
+    if args.command == "info":
+        from orthoglide_ident import bags
+
+        texts = [bags.bag_info(p).to_text() for p in args.bags]
+        print("\n\n".join(texts))
+        return EXIT_OK
+    if args.command == "model":
+        _setup_logging(True)
+        from orthoglide_ident.model.base import base_model
+
+        bm = base_model()
+        print(bm.table())
+        if args.json:
+            _write_json(args.json, bm.to_json())
+        return EXIT_OK
+    raise ConfigError(f"unknown command {args.command}")
+
+
+def _single_threaded_blas() -> None:
+    """One BLAS thread unless the user says otherwise (before numpy is imported).
+
+    The identification's matrices are narrow (≈ 65 columns): threads gain nothing, and on a
+    shared machine OpenBLAS's spinning threads made the TLS step 5-40x slower (measured).
+    """
+    for var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+        os.environ.setdefault(var, "1")
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point of the ``orthoglide-ident`` console script; returns the exit code."""
+    _single_threaded_blas()
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        return _main(args)
+    except OrthoglideError as exc:
+        msg = " ".join(str(exc).split()) or type(exc).__name__
+        print(f"{PROG}: error: {msg}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    except KeyboardInterrupt:
+        print(f"{PROG}: interrupted", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    except Exception as exc:  # a bug: say so in one line, traceback on request
+        if os.environ.get("ORTHOGLIDE_DEBUG"):
+            traceback.print_exc()
+        print(f"{PROG}: internal error ({type(exc).__name__}: {exc}); set ORTHOGLIDE_DEBUG=1 "
+              "for the traceback and report it", file=sys.stderr)
+        return EXIT_BUG
+
+
+if __name__ == "__main__":
+    sys.exit(main())

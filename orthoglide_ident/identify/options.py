@@ -1,0 +1,131 @@
+"""Options of the identification pipeline, loadable from config/identification.yaml.
+
+The YAML keys are the option names below (the CLI's ``--r-sigma`` is ``r_sigma``). A file may be a
+plain mapping or a ROS 2 parameter file (``<node or /**>: ros__parameters: {...}``).
+"""
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass, fields
+from pathlib import Path
+from typing import Any, Mapping
+
+from orthoglide_ident.errors import ConfigError
+from orthoglide_ident.identify.tls import ExcitationLimits
+
+
+@dataclass
+class IdentifyOptions:
+    """Tuning of the pipeline; units in the names (Hz, s, m/s, kg, N/A)."""
+
+    # Butterworth low-pass of q before differentiation, Hz: well above the decimation cut-off
+    # 0.8 f_m / (2 n_d) = 40 Hz so that W keeps the whole band Y keeps
+    filter_cutoff_hz: float = 100.0
+    filter_order: int = 4
+    zoh_shift: bool = True  # evaluate the model at t_k + T/2 (zero-order hold of v_tau)
+    edge_trim_s: float = 0.25  # dropped at both ends of each segment (filter transients)
+    decimation: int = 10  # n_d of the parallel decimation (eqs. 19-20)
+    decimation_filter: str = "fir"  # zero-phase "fir" (fast, exact in chunks) or "cheby1" (MATLAB)
+    chunk_samples: int = 16384  # W is built and decimated in chunks of this many samples
+    # Velocity reversals (reversals.py): samples of joint j with |q̂̇_j| below the dead band are
+    # bridged by a straight line of the joint-j equation; longer runs are left out. 0: off.
+    velocity_deadband_mps: float = 0.02
+    reversal_max_bridge_s: float = 0.02
+    reversal_margin_s: float = 0.008  # bridges widened by this on both sides (filter smear)
+    nonfinite: str = "error"  # NaN/inf in the data: "error" or "drop" (treated as gaps)
+    weighting: bool = True  # per-joint row weighting (Sect. 4.2 / eq. 28)
+    # "all": the paper's TLS (every column of W_tot noisy); "currents": mixed LS-TLS, W and W_kl
+    # exact, only the current references noisy (the sim's and the robot's case): same answer when
+    # the trajectories excite well, and no near-null regressor direction mistaken for the gains
+    # when they excite less
+    tls_noisy_columns: str = "all"  # the paper's TLS (eqs. 35-36); "currents": mixed LS-TLS
+    r_sigma: float = 10.0  # essential parameters stop at max %σ / min %σ < r_sigma
+    payload_mass_std_kg: float = 0.001  # std of the weighed payload mass (reported for m_7)
+    payload_tolerance_kg: float = 0.0005  # bag tag vs --payload-mass disagreement allowed
+    check_excitation: bool = True
+    max_condition: float = 1.0e7  # error above; a warning above warn_condition
+    warn_condition: float = 1.0e5
+    max_singular_ratio: float = 0.5
+    max_gain_rel_std: float = 0.05
+    gain_min: float = 200.0
+    gain_max: float = 20000.0
+
+    def limits(self) -> ExcitationLimits:
+        return ExcitationLimits(self.max_condition, self.max_singular_ratio,
+                                self.max_gain_rel_std, (self.gain_min, self.gain_max))
+
+    def min_segment_samples(self, period_s: float = 1e-3) -> int:
+        """Shortest segment worth keeping: both trims plus a few decimated samples."""
+        trim = int(round(self.edge_trim_s / period_s))
+        return 2 * trim + 16 * self.decimation + 32
+
+    def replace(self, **changes: Any) -> "IdentifyOptions":
+        return dataclasses.replace(self, **{k: v for k, v in changes.items() if v is not None})
+
+    @classmethod
+    def from_mapping(cls, data: Mapping[str, Any], source: str = "options") -> "IdentifyOptions":
+        """Options from a mapping; unknown keys and wrong types raise :class:`ConfigError`."""
+        known = {f.name: f for f in fields(cls)}
+        base = cls()
+        out: dict[str, Any] = {}
+        for key, value in data.items():
+            k = str(key).replace("-", "_")
+            if k not in known:
+                if k in ("method", "essential", "payload_mass", "gains", "bags"):
+                    continue  # request keys shared with the node's parameters
+                raise ConfigError(f"{source}: unknown option {key!r}; known: {', '.join(known)}")
+            default = getattr(base, k)
+            try:
+                if isinstance(default, bool):
+                    if not isinstance(value, bool):
+                        raise TypeError
+                    out[k] = value
+                elif isinstance(default, int):
+                    out[k] = int(value)
+                elif isinstance(default, float):
+                    out[k] = float(value)
+                else:
+                    out[k] = str(value)
+            except (TypeError, ValueError):
+                raise ConfigError(f"{source}: option {key} = {value!r} should be "
+                                  f"{type(default).__name__}") from None
+        opts = cls(**out)
+        opts.validate(source)
+        return opts
+
+    def validate(self, source: str = "options") -> None:
+        if self.nonfinite not in ("error", "drop"):
+            raise ConfigError(f"{source}: nonfinite must be 'error' or 'drop'")
+        if self.tls_noisy_columns not in ("all", "currents"):
+            raise ConfigError(f"{source}: tls_noisy_columns must be 'all' or 'currents'")
+        if self.decimation_filter not in ("fir", "cheby1"):
+            raise ConfigError(f"{source}: decimation_filter must be 'fir' or 'cheby1'")
+        if self.decimation < 1 or self.filter_order < 1 or self.chunk_samples < 64:
+            raise ConfigError(f"{source}: decimation, filter_order >= 1 and chunk_samples >= 64")
+        if self.r_sigma <= 1:
+            raise ConfigError(f"{source}: r_sigma must be > 1 (the paper uses 10)")
+        if self.filter_cutoff_hz <= 0:
+            raise ConfigError(f"{source}: filter_cutoff_hz must be > 0")
+
+    @classmethod
+    def from_yaml(cls, path: str | Path) -> "IdentifyOptions":
+        """Options from a YAML file: a plain mapping or a ROS 2 parameter file."""
+        import yaml
+
+        p = Path(path)
+        try:
+            data = yaml.safe_load(p.read_text())
+        except OSError as exc:
+            raise ConfigError(f"cannot read config {p}: {exc.strerror or exc}") from None
+        except yaml.YAMLError as exc:
+            raise ConfigError(f"config {p} is not valid YAML: {str(exc).splitlines()[0]}") from None
+        if data is None:
+            return cls()
+        if not isinstance(data, dict):
+            raise ConfigError(f"config {p} must hold a mapping of options")
+        # ROS 2 parameter file: {node: {ros__parameters: {...}}}
+        for v in data.values():
+            if isinstance(v, dict) and "ros__parameters" in v:
+                data = v["ros__parameters"] or {}
+                break
+        return cls.from_mapping(data, str(p))

@@ -1,0 +1,211 @@
+"""Pair joint positions with current references by stamp and split the record at gaps (DESIGN §6.1).
+
+The controller publishes q (``/orthoglide/joint_states``) and v_tau
+(``/orthoglide/current_reference``)
+with the same header stamp for the same tick. Samples are paired by exact stamp; a missing tick on
+either topic is a gap. Derivative filtering and decimation never run across a gap, so the record is
+split into continuous segments and segments too short for the filters are dropped. Everything that
+was dropped is counted in a :class:`SegmentReport` for the log.
+
+Non-finite samples (NaN, inf) raise :class:`DataError` by default; with ``nonfinite="drop"`` the
+ticks holding them are removed and become gaps like any other missing tick.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Sequence
+
+import numpy as np
+
+from orthoglide_ident.errors import DataError
+
+JOINT_NAMES: tuple[str, ...] = ("q11", "q12", "q13")
+
+
+@dataclass
+class Segment:
+    """A run of consecutive controller ticks with no sample missing.
+
+    ``stamps_ns: (n,)`` int64, ``q: (n, 3)`` in m, ``v_tau: (n, 3)`` in A, columns q11, q12, q13.
+    """
+
+    stamps_ns: np.ndarray
+    q: np.ndarray
+    v_tau: np.ndarray
+
+    def __len__(self) -> int:
+        return int(self.stamps_ns.shape[0])
+
+
+@dataclass
+class SegmentReport:
+    """What pairing and segmenting kept and dropped (counts of samples, i.e. controller ticks)."""
+
+    period_s: float = 0.0
+    n_joint_states: int = 0
+    n_current_reference: int = 0
+    n_paired: int = 0
+    n_unpaired_joint_states: int = 0
+    n_unpaired_current_reference: int = 0
+    n_duplicate_stamps: int = 0
+    n_nonfinite_dropped: int = 0
+    n_missing_ticks: int = 0
+    n_gaps: int = 0
+    n_segments: int = 0
+    n_short_segments_dropped: int = 0
+    n_samples_in_short_segments: int = 0
+    n_used: int = 0
+    n_reversal_bridged: int = 0  # joint samples bridged at velocity reversals (reversals.py)
+    n_reversal_unbridged: int = 0  # joint samples in runs too long to bridge (rows left out)
+    reordered: list[str] = field(default_factory=list)
+
+    def summary(self) -> str:
+        """One line for the log."""
+        return (
+            f"{self.n_paired} paired samples at {1.0 / self.period_s:.0f} Hz, "
+            f"{self.n_missing_ticks} missing ticks in {self.n_gaps} gaps, "
+            f"{self.n_unpaired_joint_states + self.n_unpaired_current_reference} unpaired, "
+            f"{self.n_nonfinite_dropped} non-finite dropped, {self.n_segments} segments used "
+            f"({self.n_short_segments_dropped} too short dropped, "
+            f"{self.n_samples_in_short_segments} samples), {self.n_used} samples used"
+        )
+
+
+def _column_order(names: Sequence[str], topic: str, expected: Sequence[str]) -> np.ndarray | None:
+    """Column permutation putting ``names`` in the order ``expected``; None when in order."""
+    names = [str(n) for n in names]
+    if list(names) == list(expected):
+        return None
+    if sorted(names) == sorted(expected) and len(set(names)) == len(names):
+        return np.array([names.index(n) for n in expected])
+    raise DataError(
+        f"{topic} joint names {names} do not match the Orthoglide's actuated joints "
+        f"{list(expected)}; record the topics published by the Orthoglide controller"
+    )
+
+
+def _unique_sorted(stamps: np.ndarray) -> tuple[np.ndarray, int]:
+    """Indices of the first sample of each distinct stamp (in stamp order), duplicate count."""
+    order = np.argsort(stamps, kind="stable")
+    s = stamps[order]
+    keep = np.ones(s.shape[0], dtype=bool)
+    keep[1:] = s[1:] != s[:-1]
+    return order[keep], int(s.shape[0] - np.count_nonzero(keep))
+
+
+def split_record(
+    stamps_q_ns: np.ndarray,
+    names_q: Sequence[str],
+    q: np.ndarray,
+    stamps_v_ns: np.ndarray,
+    names_v: Sequence[str],
+    v_tau: np.ndarray,
+    min_samples: int,
+    nonfinite: str = "error",
+    source: str = "record",
+    joint_names: Sequence[str] = JOINT_NAMES,
+) -> tuple[list[Segment], SegmentReport]:
+    """Pair q and v_tau by exact stamp, find missing ticks and split into continuous segments.
+
+    ``q: (N_q, 3)`` m and ``v_tau: (N_v, 3)`` A with their int64 stamps in ns. The tick period is
+    the
+    median difference of the paired stamps; a stamp difference outside (0.5, 1.5) periods is a gap.
+    Segments shorter than ``min_samples`` are dropped (counted in the report).
+    Raises :class:`DataError` on mismatched joint names, non-finite data (``nonfinite="error"``),
+    or when fewer than two samples pair up.
+    """
+    if nonfinite not in ("error", "drop"):
+        raise DataError(f"nonfinite must be 'error' or 'drop', not {nonfinite!r}")
+    rep = SegmentReport()
+    stamps_q_ns = np.asarray(stamps_q_ns, dtype=np.int64)
+    stamps_v_ns = np.asarray(stamps_v_ns, dtype=np.int64)
+    q = np.asarray(q, dtype=float)
+    v_tau = np.asarray(v_tau, dtype=float)
+    rep.n_joint_states = int(stamps_q_ns.shape[0])
+    rep.n_current_reference = int(stamps_v_ns.shape[0])
+    for arr, st, topic in ((q, stamps_q_ns, "joint_states"),
+                           (v_tau, stamps_v_ns, "current_reference")):
+        if arr.ndim != 2 or arr.shape[0] != st.shape[0] or arr.shape[1] != len(joint_names):
+            raise DataError(
+                f"{source}: {topic} holds an array of shape {arr.shape} for {st.shape[0]} stamps; "
+                f"expected ({st.shape[0]}, {len(joint_names)})"
+            )
+    perm = _column_order(names_q, f"{source}: joint_states", joint_names)
+    if perm is not None:
+        q = q[:, perm]
+        rep.reordered.append("joint_states")
+    perm = _column_order(names_v, f"{source}: current_reference", joint_names)
+    if perm is not None:
+        v_tau = v_tau[:, perm]
+        rep.reordered.append("current_reference")
+
+    iq, dq = _unique_sorted(stamps_q_ns)
+    iv, dv = _unique_sorted(stamps_v_ns)
+    rep.n_duplicate_stamps = dq + dv
+    common, jq, jv = np.intersect1d(stamps_q_ns[iq], stamps_v_ns[iv], assume_unique=True,
+                                    return_indices=True)
+    stamps = common
+    qp = q[iq[jq]]
+    vp = v_tau[iv[jv]]
+    rep.n_paired = int(stamps.shape[0])
+    rep.n_unpaired_joint_states = int(iq.shape[0] - stamps.shape[0])
+    rep.n_unpaired_current_reference = int(iv.shape[0] - stamps.shape[0])
+    if rep.n_paired < 2:
+        raise DataError(
+            f"{source}: only {rep.n_paired} joint_states/current_reference samples share a header "
+            "stamp; both topics must carry the controller tick as stamp"
+        )
+
+    finite = np.isfinite(qp).all(axis=1) & np.isfinite(vp).all(axis=1)
+    n_bad = int(finite.shape[0] - np.count_nonzero(finite))
+    if n_bad:
+        if nonfinite == "error":
+            first = (stamps[~finite][0] - stamps[0]) * 1e-9
+            raise DataError(
+                f"{source}: {n_bad} samples hold NaN or inf (first at t = {first:.3f} s into the "
+                "record); fix the recording or set nonfinite: drop to treat them as gaps"
+            )
+        rep.n_nonfinite_dropped = n_bad
+
+    dt = np.diff(stamps)
+    period_ns = float(np.median(dt))
+    if period_ns <= 0:
+        raise DataError(f"{source}: cannot infer the sampling period from the stamps")
+    rep.period_s = period_ns * 1e-9
+    # A tick counts as missing when its stamp is absent; a break is any non-nominal step
+    # or a removed non-finite tick.
+    ratio = dt / period_ns
+    brk = (ratio < 0.5) | (ratio > 1.5)
+    rep.n_missing_ticks = int(np.sum(np.maximum(np.rint(ratio[brk]) - 1, 0)))
+    if n_bad:
+        # drop non-finite ticks: they split the record where they sit
+        brk = brk | ~finite[:-1] | ~finite[1:]
+        rep.n_missing_ticks += n_bad
+    rep.n_gaps = int(np.count_nonzero(brk))
+
+    starts = np.concatenate(([0], np.flatnonzero(brk) + 1))
+    ends = np.concatenate((np.flatnonzero(brk) + 1, [stamps.shape[0]]))
+    segments: list[Segment] = []
+    for a, b in zip(starts, ends):
+        if n_bad:
+            # a segment boundary sits on each side of a bad tick; skip bad ticks themselves
+            while a < b and not finite[a]:
+                a += 1
+            if a < b and not finite[b - 1]:
+                b -= 1
+        n = b - a
+        if n <= 0:
+            continue
+        if n < min_samples:
+            rep.n_short_segments_dropped += 1
+            rep.n_samples_in_short_segments += int(n)
+            continue
+        segments.append(Segment(stamps[a:b].copy(), qp[a:b].copy(), vp[a:b].copy()))
+    rep.n_segments = len(segments)
+    rep.n_used = int(sum(len(s) for s in segments))
+    if not segments:
+        raise DataError(
+            f"{source}: no continuous run of at least {min_samples} samples "
+            f"({min_samples * rep.period_s:.2f} s) without a gap; {rep.summary()}"
+        )
+    return segments, rep

@@ -1,0 +1,148 @@
+"""IDIM-LS / IDIM-WLS with given drive gains (paper eqs. 24-28 and Sect. 3.3).
+
+Y = g_τ·v_τ (N) is computed with the given gains. The payload mass of loaded records is
+**unknown** here: each distinct tagged payload gets its own column W_kl (eq. 29 with m_7 in
+χ_ul), which is how the paper re-identifies its 1.136 kg payload to validate the gains. Rows of
+joint j are weighted by 1/σ_j from an ordinary LS pass (eq. 28); σ of the estimates by eqs. 26-27.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from orthoglide_ident.errors import ExcitationError, IdentificationError
+from orthoglide_ident.identify.observations import Observations
+
+
+@dataclass
+class WLSSolution:
+    """``chi (n,)`` active base parameters, ``payload_masses (k,)`` kg, one per payload group."""
+
+    active: np.ndarray
+    chi: np.ndarray
+    payload_masses: np.ndarray
+    payload_groups: list[float]  # tagged mass of each group, kg
+    cov: np.ndarray  # over [chi, payload_masses], eq. (27)
+    std: np.ndarray
+    rel_std: np.ndarray
+    joint_sigma: np.ndarray
+    residual_rms: np.ndarray  # (3,) N
+    condition_number: float
+    n_rows: int
+    n_cols: int
+
+    def chi_full(self) -> np.ndarray:
+        out = np.zeros(self.active.shape[0])
+        out[self.active] = self.chi
+        return out
+
+
+def payload_groups(blocks: list[Observations]) -> list[float]:
+    """Distinct tagged payload masses of the loaded records (one unknown m_7 per group)."""
+    groups: list[float] = []
+    for b in blocks:
+        if b.loaded and not any(abs(b.payload_mass - m) < 1e-9 for m in groups):
+            groups.append(b.payload_mass)
+    return groups
+
+
+def _joint_r(blocks: list[Observations], j: int, g_j: float, groups: list[float],
+             estimate_payload: bool, cols: np.ndarray) -> tuple[np.ndarray, int]:
+    """R of [A_j | Y_j] for joint j's rows (eq. 28), record by record; and the row count."""
+    n_b = blocks[0].W.shape[2]
+    Rs, rows = [], 0
+    for b in blocks:
+        keep = slice(None) if b.keep is None else b.keep[j]
+        Wj = b.W[j][keep]
+        M = np.zeros((Wj.shape[0], n_b + len(groups) + 1))
+        M[:, :n_b] = Wj
+        M[:, -1] = g_j * b.v_tau[j][keep]
+        if b.loaded:
+            if estimate_payload:
+                k = next(i for i, m in enumerate(groups) if abs(b.payload_mass - m) < 1e-9)
+                M[:, n_b + k] = b.w_m[j][keep]
+            else:
+                M[:, -1] -= b.w_m[j][keep] * b.payload_mass
+        M = M[:, np.concatenate([cols, [M.shape[1] - 1]])]
+        rows += M.shape[0]
+        Rs.append(np.linalg.qr(M, mode="r"))
+    return (Rs[0] if len(Rs) == 1 else np.linalg.qr(np.vstack(Rs), mode="r")), rows
+
+
+def _solve_r(R: np.ndarray, c: int) -> tuple[np.ndarray, np.ndarray]:
+    """LS solution (eq. 24) from the R factor of [A | Y]; raises on rank deficiency."""
+    R11 = R[:c, :c]
+    d = np.abs(np.diag(R11))
+    if d.size == 0 or d.min() <= 1e-13 * d.max():
+        raise ExcitationError(
+            "the observation matrix is rank deficient: some base parameter (or the payload mass) "
+            "has no effect on the recorded forces; record more exciting trajectories, with an "
+            "unloaded bag next to the loaded ones"
+        )
+    return np.linalg.solve(R11, R[:c, c]), R11
+
+
+def idim_wls(blocks: list[Observations], g_tau: np.ndarray, active: np.ndarray | None = None,
+             estimate_payload: bool = True, weighting: bool = True) -> WLSSolution:
+    """IDIM-WLS (eqs. 24-28) with the given drive gains ``g_tau (3,)`` N/A.
+
+    Works on one R factor of [A_j | Y_j] per joint: weighting scales them, residual norms per
+    joint are ‖R_j [x; -1]‖, and no (r × c) matrix of all records is ever formed.
+    """
+    g_tau = np.asarray(g_tau, dtype=float)
+    n_b = blocks[0].W.shape[2]
+    n_j = blocks[0].W.shape[0]
+    if active is None:
+        active = np.ones(n_b, dtype=bool)
+    active = np.asarray(active, dtype=bool)
+    if estimate_payload and any(b.loaded for b in blocks) and all(b.loaded for b in blocks):
+        raise IdentificationError(
+            "estimating the payload mass needs an unloaded bag too: with the payload always on, "
+            "its mass cannot be told apart from the platform mass m_6R"
+        )
+    groups = payload_groups(blocks) if estimate_payload else []
+    cols = np.concatenate([np.flatnonzero(active), n_b + np.arange(len(groups))])
+    c = cols.shape[0]
+    Rj, nrows = [], []
+    for j in range(n_j):
+        R, rows = _joint_r(blocks, j, g_tau[j], groups, estimate_payload, cols)
+        Rj.append(R)
+        nrows.append(rows)
+    r = int(sum(nrows))
+    if r <= c:
+        raise IdentificationError(f"only {r} equations for {c} unknowns: record longer")
+
+    def joint_ss(x: np.ndarray) -> np.ndarray:
+        xe = np.concatenate([x, [-1.0]])
+        return np.array([float(np.sum((R @ xe) ** 2)) for R in Rj])  # ‖Y_j - A_j x‖²
+
+    R0 = np.linalg.qr(np.vstack(Rj), mode="r")
+    x, _ = _solve_r(R0, c)  # ordinary LS (eq. 24)
+    sig = np.ones(n_j)
+    if weighting:
+        ss = joint_ss(x)
+        for j in range(n_j):
+            sig[j] = np.sqrt(ss[j] / max(nrows[j] - c * nrows[j] / r, 1.0))  # eq. (28)
+        sig[sig <= 0] = 1.0
+        Rw = np.linalg.qr(np.vstack([R / s for R, s in zip(Rj, sig)]), mode="r")
+    else:
+        Rw = R0
+    x, R11 = _solve_r(Rw, c)
+    ss = joint_ss(x)
+    sigma_rho2 = float(np.sum(ss / sig**2)) / (r - c)  # eq. (26), weighted rows
+    Rinv = np.linalg.inv(R11)
+    cov = sigma_rho2 * (Rinv @ Rinv.T)  # eq. (27)
+    std = np.sqrt(np.diag(cov))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        rel = np.where(x != 0, std / np.abs(x), np.inf)
+    rms = np.sqrt(ss / np.maximum(np.array(nrows), 1))
+    n = int(active.sum())
+    Aw = R0[:c, :n]  # same column norms and singular values as the stacked W
+    norms = np.linalg.norm(Aw, axis=0)
+    sv = np.linalg.svd(Aw / np.where(norms > 0, norms, 1.0), compute_uv=False)
+    return WLSSolution(
+        active=active.copy(), chi=x[:n], payload_masses=x[n:], payload_groups=groups, cov=cov,
+        std=std, rel_std=rel, joint_sigma=sig, residual_rms=rms,
+        condition_number=float(sv[0] / sv[-1]) if sv[-1] > 0 else np.inf, n_rows=r, n_cols=c,
+    )
