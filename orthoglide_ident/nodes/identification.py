@@ -53,6 +53,10 @@ def main(argv: list[str] | None = None) -> int:
         print(HELP)
         return 0
 
+    # One BLAS thread: the solves are small, and threads only contend on a loaded machine.
+    import os
+
+    os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
     import rclpy
     from rclpy.callback_groups import ReentrantCallbackGroup
     from rclpy.executors import ExternalShutdownException, MultiThreadedExecutor

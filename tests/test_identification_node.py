@@ -1,0 +1,109 @@
+"""The identification node over real ROS 2: service answers, latched result, bad input, busy."""
+from __future__ import annotations
+
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+BAGS = ROOT / "bags"
+
+NODE = "from orthoglide_ident.nodes.identification import main; import sys; sys.exit(main())"
+
+
+@pytest.fixture
+def node(spawn_python):
+    proc = spawn_python(NODE, "--ros-args", "-p", f"bag_dir:={BAGS}")
+    yield proc
+    assert proc.poll() is None, "the node died: " + (proc.communicate()[1] if proc.poll() is not None else "")
+
+
+@pytest.fixture
+def client():
+    import rclpy
+    from rclpy.node import Node
+
+    from orthoglide_msgs.srv import Identify
+
+    rclpy.init()
+    n = Node("test_identify_client")
+    cli = n.create_client(Identify, "/orthoglide/identify")
+    assert cli.wait_for_service(timeout_sec=60), "service /orthoglide/identify did not appear"
+    yield n, cli
+    n.destroy_node()
+    rclpy.shutdown()
+
+
+def call(n, cli, timeout=120.0, **fields):
+    import rclpy
+
+    from orthoglide_msgs.srv import Identify
+
+    req = Identify.Request()
+    for k, v in fields.items():
+        setattr(req, k, v)
+    fut = cli.call_async(req)
+    rclpy.spin_until_future_complete(n, fut, timeout_sec=timeout)
+    assert fut.done(), "no answer"
+    return fut.result()
+
+
+def test_identify_service_answers_and_latches_the_result(node, client):
+    import rclpy
+    from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+
+    from orthoglide_msgs.msg import IdentifiedParameters
+
+    n, cli = client
+    res = call(n, cli)  # no bags named: every bag under bag_dir (the sample pair)
+    assert res.success, res.message
+    gains = list(res.parameters.drive_gains)
+    # the sample bags' plant has g_tau = 2170, 2100, 2070 N/A; 10 s records: within 1 %
+    for g, true in zip(gains, (2170.0, 2100.0, 2070.0)):
+        assert abs(g / true - 1) < 0.01, gains
+    assert res.parameters.method == "tls" and len(res.parameters.names) == 61
+    assert abs(res.parameters.payload_mass - 1.983) < 1e-9
+
+    # a late subscriber still gets the result (transient local, depth 1)
+    got = []
+    qos = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL, reliability=ReliabilityPolicy.RELIABLE)
+    n.create_subscription(IdentifiedParameters, "/orthoglide/identified_parameters", got.append, qos)
+    t0 = time.time()
+    while not got and time.time() - t0 < 20:
+        rclpy.spin_once(n, timeout_sec=0.2)
+    assert got and list(got[0].drive_gains) == gains
+
+    # bad input: a one-line reason and success false, and the node keeps serving
+    bad = call(n, cli, bags=[str(BAGS / "unloaded")])
+    assert not bad.success and "loaded" in bad.message and "\n" not in bad.message
+    missing = call(n, cli, bags=["/nonexistent/bag"])
+    assert not missing.success and "\n" not in missing.message and missing.message
+    wrong_mass = call(n, cli, bags=[str(BAGS / "unloaded"), str(BAGS / "loaded")], payload_mass=1.136)
+    assert not wrong_mass.success and "1.136" in wrong_mass.message
+
+
+def test_a_call_while_busy_is_refused_at_once(node, client):
+    n, cli = client
+    from orthoglide_msgs.srv import Identify
+
+    import rclpy
+
+    futures = []
+    for _ in range(2):
+        req = Identify.Request()
+        futures.append(cli.call_async(req))
+    t0 = time.time()
+    while not all(f.done() for f in futures) and time.time() - t0 < 120:
+        rclpy.spin_once(n, timeout_sec=0.1)
+    answers = [f.result() for f in futures]
+    assert sorted(a.success for a in answers) == [False, True], [a.message for a in answers]
+    assert any(a.message.startswith("busy") for a in answers)
+
+
+def test_help_needs_no_ros():
+    out = subprocess.run([sys.executable, "-c", NODE, "--help"], capture_output=True, text=True, timeout=30)
+    assert out.returncode == 0 and out.stdout.startswith("usage:") and "/orthoglide/identify" in out.stdout
