@@ -81,27 +81,14 @@ test: setup
 test-slow: setup
 	$(PY) -m pytest -m slow $(PYTEST_ARGS) || { rc=$$?; [ $$rc -eq 5 ] && echo "test-slow: no slow tests"; exit $$((rc == 5 ? 0 : rc)); }
 
-demo: setup
-	@if [ -f orthoglide_ident/demo.py ]; then \
-		$(PY) -m orthoglide_ident.demo; \
-	else \
-		echo "demo: the end-to-end job (orthoglide_ident/demo.py) is not written yet."; \
-		echo "demo: what exists now:"; \
-		for m in orthoglide_ident/model orthoglide_ident/identify orthoglide_ident/bags \
-			orthoglide_ident/control orthoglide_ident/cli orthoglide_ident/nodes/recorder \
-			orthoglide_ident/nodes/identification orthoglide_ident/nodes/ctc \
-			orthoglide_sim/plant orthoglide_sim/driver_node; do \
-			if [ -f $$m.py ] || ls $$m/*.py 2>/dev/null | grep -qv __init__.py; then \
-				echo "  present      $$m"; else echo "  not there    $$m"; fi; \
-		done; \
-		echo "demo: running the interface check instead (tests/test_interfaces.py):"; \
-		$(PY) -m pytest -q tests/test_interfaces.py; \
-	fi
-
+# Each prints a small table; helpers (identify_data.py, recorder_publisher.py) are not benchmarks.
+BENCHES := model_regressor sim_realtime sim_driver_ontime read_speed identify_speed identify_accuracy \
+	recorder_soak ctc_tracking
 bench: setup
-	@shopt -s nullglob; files=(bench/*.py); \
-	if [ $${#files[@]} -eq 0 ]; then echo "bench: no benchmarks in bench/ yet"; fi; \
-	for f in "$${files[@]}"; do echo "== $$f"; $(PY) "$$f"; done
+	@for b in $(BENCHES); do if [ -f bench/$$b.py ]; then echo "== bench/$$b.py"; $(PY) bench/$$b.py; fi; done
+
+demo: setup
+	$(PY) -m orthoglide_ident.demo
 
 lock: $(STAMP_DEPS)
 	{ echo '# Every distribution of the venv, exact versions: `pip install -c constraints.txt`.'; \
