@@ -78,25 +78,33 @@ def _wrench(kind: str, w: np.ndarray, wd: np.ndarray, vd: np.ndarray):
         Lwd, Lw = np.stack(_inertia_column(wd, kind)), np.stack(_inertia_column(w, kind))
         return None, Lwd + _cross(w, Lw)
     if kind in _MS:
-        e = np.zeros(3)
+        e = np.zeros((3,) + (1,) * (w.ndim - 1))
         e[_MS.index(kind)] = 1.0
-        e = e[:, None]
         return _cross(wd, e) + _cross(w, _cross(w, e)), _cross(e, vd)
     return vd, None  # mass
 
 
-def leg_columns(state: TreeState, leg: int, wanted: Sequence[int]) -> dict[int, np.ndarray]:
-    """Actuated-effort columns (3 joints, N) of leg ``leg`` for the leg parameters ``wanted`` (0..65)."""
-    i = leg - 1
-    qt, qdt, qddt = state.qt[:, i].T, state.qdt[:, i].T, state.qddt[:, i].T  # (5, N)
-    J_t = np.transpose(state.J_t[:, i], (1, 2, 0))  # (5 tree joints, 3 actuators, N)
-    N = qt.shape[1]
+def leg_columns(state: TreeState, wanted: Sequence[int]) -> dict[int, np.ndarray]:
+    """Actuated-effort columns (3 actuators, 3 legs, N) of the leg parameters ``wanted`` (0..65).
+
+    The three legs obey the same equations in their own frames (docs/conventions.md), so they are
+    computed side by side along a leg axis: a third of the array operations of a leg-by-leg loop.
+    """
+    qt, qdt, qddt = (np.transpose(x, (2, 1, 0)) for x in (state.qt, state.qdt, state.qddt))  # (5, 3 legs, N)
+    J_t = np.transpose(state.J_t, (2, 3, 1, 0))  # (5 tree joints, 3 actuators, 3 legs, N)
+    shape = qt.shape[1:]
     wanted = set(wanted)
-    ez = np.broadcast_to(np.array([0.0, 0.0, 1.0])[:, None], (3, N))
-    zero = np.zeros((3, N))
+
+    def axis(k: int) -> np.ndarray:
+        e = np.zeros((3, 1, 1))
+        e[k] = 1.0
+        return np.broadcast_to(e, (3,) + shape)
+
+    ez = axis(2)
+    zero = np.zeros((3,) + shape)
 
     # Forward recursion in leg coordinates (body 1, the foot, only translates along z).
-    R = [(np.broadcast_to(np.array([1.0, 0, 0])[:, None], (3, N)), np.broadcast_to(np.array([0, 1.0, 0])[:, None], (3, N)), ez)]
+    R = [(axis(0), axis(1), ez)]
     w, wd, acc = [zero], [zero], [ez * qddt[0]]
     r_bar = None  # O_4 - O_1 = d4 x_3
     for k in range(2, 6):
@@ -111,7 +119,7 @@ def leg_columns(state: TreeState, leg: int, wanted: Sequence[int]) -> dict[int, 
         wd.append(wd[-1] + zk * qddt[k - 1] + _cross(w[-2], zk * qdt[k - 1]))
         R.append(Rk)
 
-    g = GRAVITY_LEG[i][:, None]
+    g = GRAVITY_LEG.T[:, :, None]  # (3 components, 3 legs, 1)
     out: dict[int, np.ndarray] = {}
     col0 = 0
     for k in range(1, 6):
@@ -122,16 +130,16 @@ def leg_columns(state: TreeState, leg: int, wanted: Sequence[int]) -> dict[int, 
         if inertial:
             Rk = R[k - 1]
             wk, wdk, vdk = _in_frame(Rk, w[k - 1]), _in_frame(Rk, wd[k - 1]), _in_frame(Rk, acc[k - 1] - g)
-            # Body Jacobian G_k = S_k J_t: (F part, N part) per actuator c, each (3, N).
-            GF = [np.zeros((3, N)) for _ in range(3)]
-            GN = [np.zeros((3, N)) for _ in range(3)]
+            # Body Jacobian G_k = S_k J_t: (F part, N part) per actuator c, each (3, 3 legs, N).
+            GF = [np.zeros((3,) + shape) for _ in range(3)]
+            GN = [np.zeros((3,) + shape) for _ in range(3)]
             for j in range(1, k + 1):
                 if j == 1:
                     sF, sN = _in_frame(Rk, ez), None
                 else:
-                    axis = _in_frame(Rk, R[j - 1][2])
-                    sF = _cross(axis, _in_frame(Rk, r_bar)) if (k >= 4 and j <= 3) else None
-                    sN = axis
+                    axis_j = _in_frame(Rk, R[j - 1][2])
+                    sF = _cross(axis_j, _in_frame(Rk, r_bar)) if (k >= 4 and j <= 3) else None
+                    sN = axis_j
                 for c in range(3):
                     if sF is not None:
                         GF[c] += sF * J_t[j - 1, c]
@@ -149,7 +157,7 @@ def leg_columns(state: TreeState, leg: int, wanted: Sequence[int]) -> dict[int, 
             if col in inertial:
                 continue
             # Drive inertia and friction of tree joint k, mapped by row k of J_t (eq. 15).
-            x = {"ia": qddt[0], "fv": qdt[k - 1], "fs": np.sign(qdt[k - 1]), "tauoff": np.ones(N)}[kind]
+            x = {"ia": qddt[0], "fv": qdt[k - 1], "fs": np.sign(qdt[k - 1]), "tauoff": np.ones(shape)}[kind]
             out[col] = J_t[k - 1] * x
     return out
 
@@ -168,17 +176,18 @@ def regressor_columns(state: TreeState, columns: Sequence[int]) -> np.ndarray:
     N = state.P.shape[0]
     out = np.zeros((len(columns), 3, N))
     where = {c: n for n, c in enumerate(columns)}
-    for leg in range(1, N_LEGS + 1):
-        base = (leg - 1) * N_ST_LEG
-        wanted = [c - base for c in columns if base <= c < base + N_ST_LEG]
-        for k_leg, val in leg_columns(state, leg, wanted).items():
-            out[where[base + k_leg]] = val
+    wanted = {c % N_ST_LEG for c in columns if c < N_LEGS * N_ST_LEG}
+    for k_leg, val in leg_columns(state, wanted).items():
+        for leg in range(1, N_LEGS + 1):
+            c = (leg - 1) * N_ST_LEG + k_leg
+            if c in where:
+                out[where[c]] = val[:, leg - 1]
     if N_ST - 1 in where:  # m_6; the other 9 platform columns are identically zero
         out[where[N_ST - 1]] = platform_column(state)
     return out
 
 
-CHUNK = 4096  # samples per pass: keeps the (3, chunk) temporaries in cache
+CHUNK = 2048  # samples per pass: keeps the (3, 3 legs, chunk) temporaries in cache
 
 
 def observation_columns(
