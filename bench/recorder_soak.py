@@ -1,18 +1,27 @@
-"""Recorder soak: record a stand-in controller at 1 kHz, count lost samples from the stamps.
+"""Recorder soak: record a 1 kHz source (real driver or stand-in), count lost samples from stamps.
 
-    python bench/recorder_soak.py [--duration 60] [--max-rate-search] [--search-duration 10]
+    python bench/recorder_soak.py [--source driver|standin] [--duration 60] [--max-rate-search]
 
-Starts the recorder node and bench/recorder_publisher.py in their own ROS domain (localhost),
-records ``--duration`` seconds, then prints: ticks sent, samples lost (sent − recorded, and missing
-ticks found in the header stamps), recorder CPU % (of one core) while recording, RSS at start and
-end, bag size. ``--max-rate-search`` repeats short runs at rising rates and prints the highest rate
-with zero loss on this machine. The 10-minute figure of DESIGN §7: ``--duration 600``.
+Starts the recorder node and the source in their own ROS domain (localhost), records ``--duration``
+seconds, then prints: ticks sent, samples lost (sent − recorded, and missing ticks found in the
+header stamps), recorder CPU % (of one core) while recording, RSS at start and end, bag size, load
+average during the run.
+
+``--source standin`` (default): bench/recorder_publisher.py, which sends every tick (catch-up when
+late); ``sent`` is what it reports. ``--source driver``: the simulator driver node (realtime,
+exciting trajectory, pid, unloaded), which also publishes every tick at consecutive 1 ms stamps;
+the recording starts once it publishes (after its jax compilation) and stops while it still runs,
+so ``sent`` is the number of ticks in the recorded span (first to last stamp that both topics hold
+in the bag) and any sample the bag lacks in that span is a loss. ``--max-rate-search`` (stand-in
+only) repeats short runs at rising rates and prints the highest rate with zero loss. The 10-minute
+figure of DESIGN §7: ``--duration 600``.
 """
 
 from __future__ import annotations
 
 import argparse
 import os
+import signal
 import subprocess
 import sys
 import tempfile
@@ -35,14 +44,102 @@ def rss_mib(pid: int) -> float:
     return float("nan")
 
 
+def loadavg() -> float:
+    return float(Path("/proc/loadavg").read_text().split()[0])
+
+
+def start_driver(env: dict[str, str], log: Path) -> subprocess.Popen:
+    """The simulator driver, realtime, until interrupted; returns once it publishes."""
+    drv = subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "orthoglide_sim.driver_node",
+            "--ros-args",
+            *("-p", "realtime:=true", "-p", "duration:=0.0", "-p", "trajectory:=exciting"),
+            *("-p", "controller:=pid", "-p", "payload:=none"),
+        ],
+        env=env,
+        stdout=log.open("w"),
+        stderr=subprocess.STDOUT,
+    )
+    deadline = time.monotonic() + 300  # the first jax compilation: 20-50 s, more under load
+    while "driver: controller" not in log.read_text():  # logged just before the first tick
+        if drv.poll() is not None or time.monotonic() > deadline:
+            raise SystemExit(f"driver did not start:\n{log.read_text()}")
+        time.sleep(0.2)
+    time.sleep(1.0)
+    return drv
+
+
 def run(
-    client, env: dict[str, str], out: Path, name: str, rate: float, duration: float, pid: int
+    client,
+    env: dict[str, str],
+    out: Path,
+    name: str,
+    rate: float,
+    duration: float,
+    pid: int,
+    driver: subprocess.Popen | None = None,
+    stall: float = 0.0,
 ) -> dict:
     from orthoglide_ident import bags
 
     res = client.start("unloaded", 0.0, name)
     assert res.success, res.message
     rss0, c0, t0 = rss_mib(pid), cpu_s(pid), time.monotonic()
+    loads = [loadavg()]
+    if driver is not None:
+        rss_samples = []
+        while time.monotonic() - t0 < duration:
+            left = max(0.0, t0 + duration - time.monotonic())
+            if stall and time.monotonic() - t0 >= duration / 2:
+                os.kill(pid, signal.SIGSTOP)
+                time.sleep(stall)
+                os.kill(pid, signal.SIGCONT)
+                print(f"recorder stopped {stall} s at {time.monotonic() - t0:.1f} s", flush=True)
+                stall = 0.0
+                continue
+            step = min(5.0, max(duration / 10, 0.5), left)
+            if stall:
+                step = min(step, max(0.0, t0 + duration / 2 - time.monotonic()))
+            time.sleep(step)
+            rss_samples.append(rss_mib(pid))
+            loads.append(loadavg())
+        if driver.poll() is not None:
+            raise SystemExit("the driver stopped during the recording")
+        cpu = (cpu_s(pid) - c0) / (time.monotonic() - t0) * 100
+        rss1 = rss_mib(pid)
+        stop = client.stop()
+        data = bags.read_bag(res.bag_path)
+        js, cr = data.joint_states.stamps_ns, data.current_reference.stamps_ns
+        # the span both topics cover (start and stop cut the two streams a tick apart at most)
+        first, last = max(js[0], cr[0]), min(js[-1], cr[-1])
+        js, cr = js[(js >= first) & (js <= last)], cr[(cr >= first) & (cr <= last)]
+        sent = int((last - first) // 1_000_000) + 1  # the driver publishes every 1 ms stamp
+        size = sum(f.stat().st_size for f in Path(res.bag_path).glob("*.mcap"))
+        return dict(
+            rate=rate,
+            sent=sent,
+            pub_s=(last - first) / 1e9,
+            lost_js=sent - len(js),
+            lost_cr=sent - len(cr),
+            gaps=bags.find_gaps(js, 1e6).missing + bags.find_gaps(cr, 1e6).missing,
+            same=len(js) == len(cr) and bool((js == cr).all()),
+            where={
+                "js": bags.find_gaps(js, 1e6).where,
+                "cr": bags.find_gaps(cr, 1e6).where,
+            },
+            cpu=cpu,
+            rss0=rss0,
+            rss1=rss1,
+            rss_max=max(rss_samples + [rss1]),
+            size=size,
+            load=loads,
+            stop=stop.message,
+        )
+    if stall:
+        raise SystemExit("--stall needs --source driver")
     pub = subprocess.Popen(
         [
             sys.executable,
@@ -60,6 +157,7 @@ def run(
     while pub.poll() is None:
         time.sleep(min(5.0, max(duration / 10, 0.5)))
         rss_samples.append(rss_mib(pid))
+        loads.append(loadavg())
     stdout = pub.communicate()[0]
     sent = int(stdout.split("sent ")[1].split()[0])
     pub_elapsed = float(stdout.split(" in ")[1].split()[0])
@@ -70,6 +168,7 @@ def run(
     data = bags.read_bag(res.bag_path)
     got_js, got_cr = len(data.joint_states.stamps_ns), len(data.current_reference.stamps_ns)
     gaps = bags.find_gaps(data.joint_states.stamps_ns, 1e9 / rate).missing
+    js, cr = data.joint_states.stamps_ns, data.current_reference.stamps_ns
     size = sum(f.stat().st_size for f in Path(res.bag_path).glob("*.mcap"))
     return dict(
         rate=rate,
@@ -78,28 +177,48 @@ def run(
         lost_js=sent - got_js,
         lost_cr=sent - got_cr,
         gaps=gaps,
+        same=len(js) == len(cr) and bool((js == cr).all()),
         cpu=cpu,
         rss0=rss0,
         rss1=rss1,
         rss_max=max(rss_samples + [rss1]),
         size=size,
+        load=loads,
         stop=stop.message,
     )
 
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument(
+        "--source",
+        choices=("standin", "driver"),
+        default="standin",
+        help="1 kHz source: the stand-in publisher or the simulator driver node",
+    )
     ap.add_argument("--duration", type=float, default=60.0, help="seconds recorded at 1 kHz")
+    ap.add_argument("--keep", type=Path, help="keep the bags (and driver log) in this folder")
+    ap.add_argument(
+        "--stall",
+        type=float,
+        default=0.0,
+        help="stop the recorder process (SIGSTOP) this many seconds, once, half-way through "
+        "(a recorder starved of CPU); the source keeps publishing",
+    )
     ap.add_argument(
         "--max-rate-search", action="store_true", help="also find the highest zero-loss rate"
     )
     ap.add_argument("--search-duration", type=float, default=10.0)
     ap.add_argument("--rates", default="2000,3000,4000,5000,7000,10000")
     a = ap.parse_args(argv)
+    if a.source == "driver" and a.max_rate_search:
+        ap.error("--max-rate-search needs --source standin (the driver runs at 1 kHz)")
 
     env = dict(
         os.environ,
-        ROS_DOMAIN_ID=str(101 - os.getpid() % 50),
+        # 215-232: valid on Linux (ports above the ephemeral range) and outside the 1-100 that
+        # tests/conftest.py gives pytest runs, so a test run never talks to a soak
+        ROS_DOMAIN_ID=str(215 + os.getpid() % 18),
         ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST",
         PYTHONUNBUFFERED="1",
     )
@@ -111,7 +230,8 @@ def main(argv: list[str] | None = None) -> int:
     from orthoglide_msgs.srv import StartRecording
 
     with tempfile.TemporaryDirectory() as tmp:
-        out = Path(tmp)
+        out = Path(tmp) if a.keep is None else a.keep.resolve()
+        out.mkdir(parents=True, exist_ok=True)
         rec = subprocess.Popen(
             [
                 sys.executable,
@@ -148,8 +268,13 @@ def main(argv: list[str] | None = None) -> int:
         client = Client()
         assert client.s.wait_for_service(timeout_sec=30)
         time.sleep(1.0)
+        driver = None
         try:
-            rows = [run(client, env, out, "soak", 1000.0, a.duration, rec.pid)]
+            t_start = time.monotonic()
+            if a.source == "driver":
+                driver = start_driver(env, out / "driver.log")
+                print(f"driver publishing after {time.monotonic() - t_start:.1f} s", flush=True)
+            rows = [run(client, env, out, "soak", 1000.0, a.duration, rec.pid, driver, a.stall)]
             if a.max_rate_search:
                 for r in (float(x) for x in a.rates.split(",")):
                     rows.append(
@@ -158,6 +283,19 @@ def main(argv: list[str] | None = None) -> int:
                     if rows[-1]["lost_js"] or rows[-1]["lost_cr"] or rows[-1]["gaps"]:
                         break
         finally:
+            if driver is not None:
+                driver.send_signal(signal.SIGINT)
+                try:
+                    driver.wait(20)
+                except subprocess.TimeoutExpired:
+                    driver.kill()
+                    driver.wait()
+                said = [
+                    ln
+                    for ln in (out / "driver.log").read_text().splitlines()
+                    if "ticks published" in ln
+                ]
+                print(f"driver said: {said[-1] if said else f'(nothing; exit code {driver.returncode})'}")
             rec.terminate()
             rec.wait(20)
             node.destroy_node()
@@ -174,6 +312,17 @@ def main(argv: list[str] | None = None) -> int:
             f"{r['size'] / 1e6:>7.2f}"
         )
     print(f"recorder said: {rows[0]['stop']}")
+    for r in rows:
+        ld = r["load"]
+        print(
+            f"{r['rate']:.0f} Hz: source {a.source}, {r['sent']} ticks over {r['pub_s']:.1f} s, "
+            f"identical stamps on both topics: {r['same']}, load average (1 min) during the run: "
+            f"min {min(ld):.2f} mean {sum(ld) / len(ld):.2f} max {max(ld):.2f}"
+        )
+        for topic, where in r.get("where", {}).items():
+            if where:
+                at = ", ".join(f"{n} at {t:.3f} s" for t, n in where)
+                print(f"  {topic} gaps (first 10): {at}")
     if a.max_rate_search:
         ok = [r["rate"] for r in rows if not (r["lost_js"] or r["lost_cr"] or r["gaps"])]
         print(

@@ -62,8 +62,10 @@ def main(argv: list[str] | None = None) -> int:
             self.session = DriverSession(parse_payload(v["payload"]), v["trajectory"], v["controller"],
                                          load_parameters(v["params_file"] or None), int(v["seed"]), bool(v["noise"]),
                                          start_ns=0)
-            self.pub_js = self.create_publisher(JointState, "/orthoglide/joint_states", 100)
-            self.pub_cr = self.create_publisher(CurrentReference, "/orthoglide/current_reference", 100)
+            # reliable, keep last 1000 (1 s): a subscriber starved of CPU for a moment gets the ticks
+            # its DDS reader missed resent from this history (depth 100 lost ~280 on a 0.5 s stall)
+            self.pub_js = self.create_publisher(JointState, "/orthoglide/joint_states", 1000)
+            self.pub_cr = self.create_publisher(CurrentReference, "/orthoglide/current_reference", 1000)
             self.pub_clock = None if self.realtime else self.create_publisher(Clock, "/clock", 10)
             self.command = None
             if v["controller"] == "external":
@@ -116,6 +118,9 @@ def main(argv: list[str] | None = None) -> int:
                     k += 1
             finally:
                 stop.set()
+                # a daemon thread still inside jax when Python finalises aborts the process
+                # ("terminate called ... FATAL: exception not rethrown", exit -6): wait for it
+                worker.join(timeout=30.0)
             self.get_logger().info(f"driver: {k} ticks published, {self.late} more than 0.5 ms late")
 
         def _produce(self, stop) -> None:

@@ -86,6 +86,7 @@ def client():
     node = rclpy.create_node("recorder_test_client")
 
     class Client:
+        ros_node = node
         start_cli = node.create_client(StartRecording, "/orthoglide/recorder/start")
         stop_cli = node.create_client(Trigger, "/orthoglide/recorder/stop")
         param_cli = node.create_client(SetParameters, "/recorder/set_parameters")
@@ -298,3 +299,206 @@ def test_sigkill_leaves_readable_bag(client, spawn_recorder, ros_env) -> None:
     assert bags.find_gaps(data.joint_states.stamps_ns).missing == 0
     info = bags.bag_info(res.bag_path)
     assert not info.closed and "NOT CLOSED" in info.to_text()
+
+
+# -- from the real simulator driver ---------------------------------------------------------------
+DRIVER_SECONDS = 6.0
+
+
+def _wait_for(proc: subprocess.Popen, log: Path, text: str, timeout: float, spin=None) -> None:
+    deadline = time.monotonic() + timeout
+    while text not in log.read_text():
+        assert proc.poll() is None, f"exited before {text!r}:\n{log.read_text()}"
+        assert time.monotonic() < deadline, f"no {text!r} after {timeout} s:\n{log.read_text()}"
+        spin() if spin else time.sleep(0.1)
+
+
+@pytest.fixture(scope="module")
+def driver_bag(client, tmp_path_factory, request):
+    """Record the real driver (realtime, exciting trajectory, unloaded): start recording about 1 s
+    after its first tick, freeze the recorder (SIGSTOP) for 0.3 s 1.5 s later; the driver stops
+    after DRIVER_SECONDS, then the recording is stopped.
+
+    Returns (bag path, stop message, ticks the driver says it published, the stamp of its first
+    tick, stamps an independent listener received)."""
+    from sensor_msgs.msg import JointState
+    from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
+
+    from conftest import ros_environment
+
+    tmp = tmp_path_factory.mktemp("driver_bag")
+    env = ros_environment()
+    cache = getattr(request.config, "cache", None)  # None with -p no:cacheprovider
+    if cache is not None and "JAX_COMPILATION_CACHE_DIR" not in env:
+        # jax's persistent cache in .pytest_cache: the driver starts in ~5 s instead of 20-50 s
+        env["JAX_COMPILATION_CACHE_DIR"] = str(cache.mkdir("jax_compilation_cache"))
+        env["JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS"] = "0"
+    procs = []
+    try:
+        rec_log = tmp / "recorder.log"
+        procs.append(subprocess.Popen(
+            [sys.executable, "-m", "orthoglide_ident.nodes.recorder", "--ros-args",
+             "-p", f"output_dir:={tmp / 'bags'}"],
+            env=env, stdout=rec_log.open("w"), stderr=subprocess.STDOUT, cwd=tmp))
+        _wait_for(procs[0], rec_log, "recorder ready", 30)
+        client.wait_ready()
+
+        # an independent listener: the stamps of every tick the driver published
+        heard: list[int] = []
+        node = client.ros_node
+        qos = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=10000,
+                         reliability=ReliabilityPolicy.RELIABLE)
+        sub = node.create_subscription(
+            JointState, bags.JOINT_STATES_TOPIC,
+            lambda m: heard.append(m.header.stamp.sec * 10**9 + m.header.stamp.nanosec), qos)
+
+        def spin() -> None:
+            rclpy.spin_once(node, timeout_sec=0.05)
+
+        drv_log = tmp / "driver.log"
+        driver = subprocess.Popen(
+            [sys.executable, "-m", "orthoglide_sim.driver_node", "--ros-args",
+             "-p", "realtime:=true", "-p", f"duration:={DRIVER_SECONDS}",
+             "-p", "trajectory:=exciting", "-p", "controller:=pid", "-p", "payload:=none"],
+            env=env, stdout=drv_log.open("w"), stderr=subprocess.STDOUT, cwd=tmp)
+        procs.append(driver)
+        # the first jax compilation takes 20-50 s (more on a loaded machine): wait for a tick
+        deadline = time.monotonic() + 240
+        while not heard:
+            assert driver.poll() is None, f"driver exited:\n{drv_log.read_text()}"
+            assert time.monotonic() < deadline, f"driver never published:\n{drv_log.read_text()}"
+            spin()
+        end = time.monotonic() + 1.0  # start mid-stream, about 1 s into the run
+        while time.monotonic() < end:
+            spin()
+        res = client.start("unloaded", 0.0, "driver")
+        assert res.success, res.message
+        end = time.monotonic() + 1.5
+        while time.monotonic() < end:
+            spin()
+        # a recorder starved of CPU for 0.3 s: the driver's reliable history (1 s) must cover it
+        # (with the former depth of 100 a 0.5 s stall lost ~280 ticks per topic)
+        procs[0].send_signal(signal.SIGSTOP)
+        time.sleep(0.3)
+        procs[0].send_signal(signal.SIGCONT)
+        deadline = time.monotonic() + DRIVER_SECONDS + 60
+        while driver.poll() is None:
+            assert time.monotonic() < deadline, f"driver did not end:\n{drv_log.read_text()}"
+            spin()
+        end = time.monotonic() + 0.5
+        while time.monotonic() < end:
+            spin()
+        stop = client.stop()
+        assert stop.success, stop.message
+        node.destroy_subscription(sub)
+        out = drv_log.read_text()
+        assert driver.returncode == 0, out
+        published = int(out.split("driver: ")[-1].split(" ticks published")[0])
+        yield Path(res.bag_path), stop.message, published, np.array(heard, dtype=np.int64)
+    finally:
+        for proc in procs:
+            if proc.poll() is None:
+                proc.terminate()
+                try:
+                    proc.wait(10)
+                except subprocess.TimeoutExpired:
+                    proc.kill()
+                    proc.wait()
+
+
+@pytest.mark.slow
+def test_record_from_driver_loses_nothing(driver_bag) -> None:
+    bag, stop_message, published, heard = driver_bag
+    assert published == int(round(DRIVER_SECONDS * 1000))
+    first = int(heard[0])  # the listener was matched long before the first tick (jax compile)
+    last = first + (published - 1) * 1_000_000  # realtime: tick k is stamped first + k ms
+    assert np.all(np.diff(heard) == 1_000_000) and heard[-1] == last, "listener lost ticks"
+
+    # our reader: both topics, identical stamps, every tick from the first recorded to the last
+    data = bags.read_bag(bag)
+    assert data.tags == bags.BagTags("unloaded", 0.0) and data.warnings == []
+    js, cr = data.joint_states.stamps_ns, data.current_reference.stamps_ns
+    np.testing.assert_array_equal(js, cr)
+    assert js[-1] == last, "the driver's last ticks are not in the bag"
+    assert (js[0] - first) % 1_000_000 == 0 and js[0] >= first
+    expected = (last - int(js[0])) // 1_000_000 + 1
+    assert len(js) == expected and bags.find_gaps(js).missing == 0
+    assert np.all(np.diff(js) == 1_000_000)
+    assert js[0] > first and len(js) >= 2000  # started mid-stream, >= 2 of the 6 s recorded
+    np.testing.assert_array_equal(js, heard[heard >= js[0]])
+    assert "0 missing on /orthoglide/joint_states" in stop_message
+    assert f"wrote {len(js)} /orthoglide/joint_states, {len(js)} " in stop_message
+    assert data.joint_states.names == ("q11", "q12", "q13")
+    q, cur = data.joint_states.position, data.current_reference.current
+    assert q.shape == cur.shape == (len(js), 3)
+    assert np.all(np.isfinite(q)) and np.ptp(q, axis=0).min() > 1e-3  # it moved (exciting)
+    assert np.ptp(cur, axis=0).min() > 0
+
+    # rosbags: deserialises every message to the same stamps and values
+    from rosbags.highlevel import AnyReader
+
+    got: dict[str, list] = {bags.JOINT_STATES_TOPIC: [], bags.CURRENT_REFERENCE_TOPIC: []}
+    with AnyReader([bag]) as reader:
+        assert {c.topic for c in reader.connections} >= set(got)
+        for conn, _, raw in reader.messages():
+            msg = reader.deserialize(raw, conn.msgtype)
+            vals = msg.position if conn.topic == bags.JOINT_STATES_TOPIC else msg.current
+            got[conn.topic].append(
+                (msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec, np.array(vals)))
+    for topic, values in ((bags.JOINT_STATES_TOPIC, q), (bags.CURRENT_REFERENCE_TOPIC, cur)):
+        stamps = np.array([s for s, _ in got[topic]], dtype=np.int64)
+        np.testing.assert_array_equal(stamps, js)
+        np.testing.assert_array_equal(np.stack([v for _, v in got[topic]]), values)
+
+    # the mcap library, CRCs validated: the tag record in each file, every message
+    from mcap.reader import make_reader
+    from mcap.stream_reader import StreamReader
+
+    total = 0
+    files = sorted(bag.glob("*.mcap"))
+    assert files
+    for f in files:
+        with f.open("rb") as fh:
+            reader = make_reader(fh, validate_crcs=True)
+            meta = {m.name: m.metadata for m in reader.iter_metadata()}
+            assert meta["orthoglide"] == {
+                "orthoglide.condition": "unloaded",
+                "orthoglide.payload_mass": "0",
+            }
+            total += sum(1 for _ in reader.iter_messages())
+        with f.open("rb") as fh:
+            list(StreamReader(fh, validate_crcs=True).records)
+    assert total == 2 * len(js)
+
+    # metadata.yaml: rosbag2 version 9, custom_data tags, counts
+    import yaml
+
+    info = yaml.safe_load((bag / "metadata.yaml").read_text())["rosbag2_bagfile_information"]
+    assert info["version"] == 9 and info["storage_identifier"] == "mcap"
+    assert info["custom_data"].items() >= {
+        "orthoglide.condition": "unloaded",
+        "orthoglide.payload_mass": "0",
+    }.items()
+    assert info["message_count"] == 2 * len(js)
+
+
+@pytest.mark.slow
+def test_info_cli_on_driver_bag(driver_bag) -> None:
+    try:
+        import orthoglide_ident.cli  # noqa: F401
+    except ImportError as exc:
+        pytest.skip(f"orthoglide_ident.cli not importable yet: {exc}")
+    exe = Path(sys.executable).parent / "orthoglide-ident"
+    cmd = [str(exe)] if exe.exists() else [sys.executable, "-m", "orthoglide_ident.cli"]
+    bag = driver_bag[0]
+    n = len(bags.read_bag(bag).joint_states.stamps_ns)
+    out = subprocess.run([*cmd, "info", str(bag)], capture_output=True, text=True, timeout=60)
+    assert out.returncode == 0, out.stderr
+    text = out.stdout
+    assert "unloaded, payload 0 kg" in text and "NOT CLOSED" not in text and "closed" in text
+    for topic in (bags.JOINT_STATES_TOPIC, bags.CURRENT_REFERENCE_TOPIC):
+        line = next(ln for ln in text.splitlines() if ln.strip().startswith(topic))
+        assert f" {n} msgs" in line and "1000.0 Hz" in line, line
+    assert text.count("no missing ticks (period 1.000 ms)") == 2
+    duration = float(text.split("duration:")[1].split()[0])
+    assert duration == pytest.approx((n - 1) / 1000, abs=1e-6)
