@@ -100,7 +100,7 @@ def test_ctc_node_waits_for_parameters_then_commands(ros_env):
         node.destroy_node()
         rclpy.shutdown()
         proc.terminate()
-        proc.wait(timeout=20)
+        proc.wait(timeout=60)  # Fast DDS teardown can be slow when both sides leave at once
     assert len(got) == 20, (len(got), "".join(lines))
     local = CTC(CTCParameters.from_message_fields({"names": p.names, "values": p.chi_b,
                                                    "drive_gains": p.drive_gains, "payload_mass": 1.983}),

@@ -137,7 +137,7 @@ def observe(rec: Record, model: IdentificationModel, opts: IdentifyOptions,
     T = rep.period_s
     trim = int(round(opts.edge_trim_s / T))
     n_d = opts.decimation
-    parts: dict[str, list[np.ndarray]] = {"v": [], "w_m": [], "qd": [], "t": [], "keep": []}
+    parts: dict[str, list[np.ndarray]] = {"v": [], "w_m": [], "t": [], "keep": []}
     times["filtering"] = 0.0
     times["regressor+decimation"] = 0.0
     n_bridged = n_unbridged = 0
@@ -186,9 +186,7 @@ def observe(rec: Record, model: IdentificationModel, opts: IdentifyOptions,
                    "w_m": w_m.reshape(3, m).T.copy()}
             if zones is not None:
                 bridge(zones, a2, out)
-            out = {k: x[a - a2:b - a2] for k, x in out.items()}
-            out["qd"] = qdh[a:b]
-            return out
+            return {k: x[a - a2:b - a2] for k, x in out.items()}
 
         r_seg = counts[iseg]
         dec = decimate_chunked(qh.shape[0], n_d, producer, opts.chunk_samples,
@@ -197,7 +195,7 @@ def observe(rec: Record, model: IdentificationModel, opts: IdentifyOptions,
         if not fir:
             W_all[:, r0:r0 + r_seg] = dec["W"].transpose(1, 0, 2)
         r0 += r_seg
-        for k in ("v", "w_m", "qd"):
+        for k in ("v", "w_m"):
             parts[k].append(dec[k])
         first = fir_output_range(qh.shape[0], n_d)[0] if opts.decimation_filter == "fir" else 0
         r = dec["v"].shape[0]
@@ -209,7 +207,6 @@ def observe(rec: Record, model: IdentificationModel, opts: IdentifyOptions,
             log.debug("%s: segment %d/%d decimated", rec.source, iseg + 1, len(segments))
     v_d = np.concatenate(parts["v"], axis=0).T
     w_d = np.concatenate(parts["w_m"], axis=0).T
-    qd_d = np.concatenate(parts["qd"], axis=0).T
     keep = None
     if opts.velocity_deadband_mps > 0:
         keep = np.concatenate(parts["keep"], axis=0).T

@@ -73,11 +73,9 @@ def find_reversals(qd: np.ndarray, deadband: float, max_bridge: int, margin: int
         e = np.minimum(e + margin, n)
         if s.size > 1:  # merge runs that overlap once widened
             new = np.concatenate(([True], s[1:] > e[:-1]))
-            grp = np.cumsum(new) - 1
             s = s[new]
             e = np.maximum.reduceat(e, np.flatnonzero(new))
             long_run = np.logical_or.reduceat(long_run, np.flatnonzero(new))
-            del grp
         ok = (s >= 1) & (e <= n - 1) & ~long_run  # both sides have at least one clean sample
         for a, b in zip(s[~ok], e[~ok]):
             drop[a:b, j] = True

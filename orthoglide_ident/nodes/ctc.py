@@ -6,6 +6,8 @@ from __future__ import annotations
 
 import sys
 
+from orthoglide_ident.nodes._spin import spin
+
 HELP = """\
 usage: ros2 run orthoglide_ident ctc [--ros-args -p NAME:=VALUE ... | --params-file config/ctc.yaml]
 
@@ -40,8 +42,6 @@ def main(argv: list[str] | None = None) -> int:
         return 0
 
     import numpy as np
-    import rclpy
-    from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
     from rclpy.node import Node
     from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
     from sensor_msgs.msg import JointState
@@ -114,25 +114,7 @@ def main(argv: list[str] | None = None) -> int:
                 return
             self.pub.publish(CurrentReference(header=msg.header, name=JOINTS, current=[float(v) for v in v_tau]))
 
-    rclpy.init(args=argv)
-    node = None
-    try:
-        node = CTCNode()
-        executor = SingleThreadedExecutor()
-        executor.add_node(node)
-        executor.spin()
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    except OrthoglideError as e:
-        print(f"ctc: {e}", file=sys.stderr)
-        return 2
-    finally:
-        if node is not None:
-            node.destroy_node()
-        if rclpy.ok():
-            rclpy.shutdown()
-    return 0
-
+    return spin(CTCNode, argv, "ctc")
 
 if __name__ == "__main__":
     sys.exit(main())

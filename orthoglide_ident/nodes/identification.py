@@ -13,6 +13,8 @@ import sys
 import threading
 from pathlib import Path
 
+from orthoglide_ident.nodes._spin import spin
+
 HELP = """\
 usage: ros2 run orthoglide_ident identification [--ros-args -p NAME:=VALUE ...]
 
@@ -57,9 +59,7 @@ def main(argv: list[str] | None = None) -> int:
     import os
 
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
-    import rclpy
     from rclpy.callback_groups import ReentrantCallbackGroup
-    from rclpy.executors import ExternalShutdownException, MultiThreadedExecutor
     from rclpy.node import Node
     from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 
@@ -140,20 +140,7 @@ def main(argv: list[str] | None = None) -> int:
             response.parameters = msg
             self.get_logger().info(response.message)
 
-    rclpy.init(args=argv)
-    node = IdentificationNode()
-    executor = MultiThreadedExecutor(num_threads=2)
-    executor.add_node(node)
-    try:
-        executor.spin()
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    finally:
-        node.destroy_node()
-        if rclpy.ok():
-            rclpy.shutdown()
-    return 0
-
+    return spin(IdentificationNode, argv, "identification", threads=2)
 
 if __name__ == "__main__":
     sys.exit(main())

@@ -18,6 +18,7 @@ from typing import Any
 from orthoglide_ident import bags
 from orthoglide_ident.bags.recording import Recording
 from orthoglide_ident.errors import OrthoglideError
+from orthoglide_ident.nodes._spin import spin
 
 HELP = """usage: ros2 run orthoglide_ident recorder [--ros-args -p NAME:=VALUE ...
                                            | --params-file config/recorder.yaml]
@@ -253,25 +254,8 @@ def main(argv: list[str] | None = None) -> int:
     if "-h" in argv or "--help" in argv:
         print(HELP)
         return 0
-    import rclpy
-    from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 
-    rclpy.init(args=["recorder", *argv])
-    node = None
-    try:
-        node = make_node()
-        executor = SingleThreadedExecutor()
-        executor.add_node(node)
-        executor.spin()
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    finally:
-        if node is not None:
-            node.close()
-            node.destroy_node()
-        if rclpy.ok():
-            rclpy.shutdown()
-    return 0
+    return spin(make_node, ["recorder", *argv], "recorder")
 
 
 if __name__ == "__main__":
