@@ -48,6 +48,23 @@ class SimRecord:
         return self.v_tau * self.g_tau
 
 
+def _setup(duration_s, payload, trajectory, seed, params, noise, start_ns, ripple):
+    """What every simulated run needs: plant and drive parameters, reference, noise, stamps."""
+    if not (duration_s > 0):
+        raise ConfigError(f"duration must be positive, got {duration_s}")
+    params = params or load_parameters()
+    chi_l = params.payload_vector(payload)
+    p = pl.pack(params.standard_vector(), chi_l,
+                (params.coulomb_velocity["prismatic"], params.coulomb_velocity["revolute"]))
+    drive = sm.drive_model(params, ripple)
+    N = int(round(duration_s / sm.TICK))
+    reference = get_trajectory(trajectory).evaluate(np.arange(N) * sm.TICK)
+    rng = np.random.default_rng(seed)
+    current_noise = rng.normal(0.0, sm.CURRENT_NOISE_STD, (N, 3)) if noise else np.zeros((N, 3))
+    stamps = start_ns + np.arange(N, dtype=np.int64) * int(round(sm.TICK * 1e9))
+    return params, chi_l, p, drive, reference, current_noise, stamps
+
+
 def simulate(duration_s: float, payload: str | float = "none", trajectory: str = "exciting",
              controller: str = "pid", seed: int = 0, params: TrueParameters | None = None,
              noise: bool = True, start_ns: int = 0, ripple: bool | None = None) -> SimRecord:
@@ -57,23 +74,11 @@ def simulate(duration_s: float, payload: str | float = "none", trajectory: str =
     noise: current noise (encoder quantisation is always on); ripple: screw ripple (default from
     params). Raises ConfigError on bad arguments.
     """
-    if not (duration_s > 0):
-        raise ConfigError(f"duration must be positive, got {duration_s}")
     if controller not in ("pid", "pid_ff"):
         raise ConfigError(f"controller must be pid or pid_ff for a record, got {controller!r}")
-    params = params or load_parameters()
-    chi_l = params.payload_vector(payload)
-    p = pl.pack(params.standard_vector(), chi_l,
-                (params.coulomb_velocity["prismatic"], params.coulomb_velocity["revolute"]))
-    drive = sm.drive_model(params, ripple)
-    traj = get_trajectory(trajectory)
-    N = int(round(duration_s / sm.TICK))
-    t = np.arange(N) * sm.TICK
-    q_ref, qd_ref, qdd_ref = traj.evaluate(t)
-    rng = np.random.default_rng(seed)
-    current_noise = rng.normal(0.0, sm.CURRENT_NOISE_STD, (N, 3)) if noise else np.zeros((N, 3))
+    params, chi_l, p, drive, (q_ref, qd_ref, qdd_ref), current_noise, stamps = _setup(
+        duration_s, payload, trajectory, seed, params, noise, start_ns, ripple)
     res = sm.simulate_closed_loop(q_ref, qd_ref, qdd_ref, p, drive, controller, current_noise)
-    stamps = start_ns + np.arange(N, dtype=np.int64) * int(round(sm.TICK * 1e9))
     return SimRecord(stamps, res.q_meas, res.v_tau, res.q, res.qd, res.qdd, q_ref, float(chi_l[9]), chi_l,
                      params, np.asarray(params.g_tau, float), trajectory, controller)
 
@@ -89,17 +94,9 @@ def simulate_external(duration_s: float, command: Callable[[int, np.ndarray], np
     controller is expected to follow (q_ref in the record). One compiled tick per call (~0.5 ms of
     wall time per simulated ms here, after a one-off compilation), so keep it to seconds in tests.
     """
-    if not (duration_s > 0):
-        raise ConfigError(f"duration must be positive, got {duration_s}")
-    params = params or load_parameters()
-    chi_l = params.payload_vector(payload)
-    p = pl.pack(params.standard_vector(), chi_l,
-                (params.coulomb_velocity["prismatic"], params.coulomb_velocity["revolute"]))
-    drive = sm.drive_model(params, ripple)
-    N = int(round(duration_s / sm.TICK))
-    q_ref, qd_ref, qdd_ref = get_trajectory(trajectory).evaluate(np.arange(N) * sm.TICK)
-    rng = np.random.default_rng(seed)
-    current_noise = rng.normal(0.0, sm.CURRENT_NOISE_STD, (N, 3)) if noise else np.zeros((N, 3))
+    params, chi_l, p, drive, (q_ref, qd_ref, qdd_ref), current_noise, stamps = _setup(
+        duration_s, payload, trajectory, seed, params, noise, start_ns, ripple)
+    N = len(stamps)
     x, _ = sm.initial_state(q_ref[0], qd_ref[0], qdd_ref[0], p, drive)
     q_meas, v_tau, xs = np.empty((N, 3)), np.empty((N, 3)), np.empty((N, 6))
     for k in range(N):
@@ -108,7 +105,6 @@ def simulate_external(duration_s: float, command: Callable[[int, np.ndarray], np
         v_tau[k] = command(k, q_meas[k])
         _, x = sm.external_tick(x, jnp.asarray(v_tau[k]), jnp.asarray(current_noise[k]), p, drive)
     qdd = np.gradient(xs[:, 3:], sm.TICK, axis=0)  # approximate: the exact qdd is not kept per tick
-    stamps = start_ns + np.arange(N, dtype=np.int64) * int(round(sm.TICK * 1e9))
     return SimRecord(stamps, q_meas, v_tau, xs[:, :3], xs[:, 3:], qdd, q_ref, float(chi_l[9]), chi_l,
                      params, np.asarray(params.g_tau, float), trajectory, "external")
 
