@@ -114,14 +114,23 @@ def main(argv: list[str] | None = None) -> int:
                             time.sleep(delay / 1e9)
                         elif delay < -500_000:
                             self.late += 1
-                    self.publish_tick()
+                    try:
+                        self.publish_tick()
+                    except Exception:
+                        if rclpy.ok():
+                            raise
+                        break  # Ctrl-C shut the context down between the check and the publish
                     k += 1
             finally:
                 stop.set()
                 # a daemon thread still inside jax when Python finalises aborts the process
                 # ("terminate called ... FATAL: exception not rethrown", exit -6): wait for it
                 worker.join(timeout=30.0)
-            self.get_logger().info(f"driver: {k} ticks published, {self.late} more than 0.5 ms late")
+            done = f"driver: {k} ticks published, {self.late} more than 0.5 ms late"
+            if rclpy.ok():
+                self.get_logger().info(done)
+            else:
+                print(done, file=sys.stderr)
 
         def _produce(self, stop) -> None:
             try:  # compute ahead at a lower priority than the publishing loop
@@ -140,7 +149,13 @@ def main(argv: list[str] | None = None) -> int:
     try:
         node = Driver()
         executor.add_node(node)
-        spinner = threading.Thread(target=executor.spin, daemon=True)  # subscriptions (external mode)
+        def spin_quietly() -> None:  # subscriptions (external mode); Ctrl-C ends it, not an error
+            try:
+                executor.spin()
+            except (KeyboardInterrupt, ExternalShutdownException):
+                pass
+
+        spinner = threading.Thread(target=spin_quietly, daemon=True)
         spinner.start()
         node.run()
     except (KeyboardInterrupt, ExternalShutdownException):
