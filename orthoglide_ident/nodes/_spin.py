@@ -1,11 +1,16 @@
 """The life cycle every node shares (ros2/examples style): init, build, spin, clean exit."""
 from __future__ import annotations
 
+import signal
 import sys
 from collections.abc import Callable
 from typing import Any
 
 from orthoglide_ident.errors import OrthoglideError
+
+
+def _interrupt(signum: int, frame: Any) -> None:
+    raise KeyboardInterrupt
 
 
 def spin(make_node: Callable[[], Any], args: list[str], prog: str, threads: int = 1) -> int:
@@ -19,12 +24,18 @@ def spin(make_node: Callable[[], Any], args: list[str], prog: str, threads: int 
     from rclpy.executors import ExternalShutdownException, MultiThreadedExecutor, SingleThreadedExecutor
 
     rclpy.init(args=args)
+    # SIGTERM (ros2 launch, systemd, kill) must end the node as cleanly as Ctrl-C. rclpy's own
+    # SIGTERM handling did not always wake a waiting executor here (tests/test_ctc_node.py hung in
+    # about one full test run in two), so SIGTERM raises KeyboardInterrupt in the main thread and
+    # the executor waits with a timeout, which lets the Python handler run.
+    signal.signal(signal.SIGTERM, _interrupt)
     node = None
     try:
         node = make_node()
         executor = MultiThreadedExecutor(num_threads=threads) if threads > 1 else SingleThreadedExecutor()
         executor.add_node(node)
-        executor.spin()
+        while rclpy.ok():
+            executor.spin_once(timeout_sec=0.1)
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     except OrthoglideError as e:
