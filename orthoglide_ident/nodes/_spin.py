@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import signal
 import sys
+import threading
 from collections.abc import Callable
 from typing import Any
 
@@ -13,35 +14,50 @@ def _interrupt(signum: int, frame: Any) -> None:
     raise KeyboardInterrupt
 
 
+def _spin_quietly(executor: Any) -> None:
+    from rclpy.executors import ExternalShutdownException
+
+    try:
+        executor.spin()
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass  # Ctrl-C or shutdown: the main thread cleans up
+
+
 def spin(make_node: Callable[[], Any], args: list[str], prog: str, threads: int = 1) -> int:
-    """Run ``make_node()`` until Ctrl-C or an external shutdown; return the exit code.
+    """Run ``make_node()`` until Ctrl-C, SIGTERM or an external shutdown; return the exit code.
 
     A node whose construction fails with an OrthoglideError (bad parameter, unknown trajectory)
     prints one line and exits 2. On the way out the node's ``close()`` runs if it has one (the
     recorder closes its bag), then the node and rclpy are shut down.
     """
     import rclpy
-    from rclpy.executors import ExternalShutdownException, MultiThreadedExecutor, SingleThreadedExecutor
+    from rclpy.executors import MultiThreadedExecutor, SingleThreadedExecutor
 
     rclpy.init(args=args)
     # SIGTERM (ros2 launch, systemd, kill) must end the node as cleanly as Ctrl-C. rclpy's own
     # SIGTERM handling did not always wake a waiting executor here (tests/test_ctc_node.py hung in
-    # about one full test run in two), so SIGTERM raises KeyboardInterrupt in the main thread and
-    # the executor waits with a timeout, which lets the Python handler run.
+    # about one full test run in two), so the executor spins on its own thread while the main
+    # thread stays in Python, where a SIGTERM handler can run and stop everything.
     signal.signal(signal.SIGTERM, _interrupt)
-    node = None
+    node = executor = spinner = None
     try:
         node = make_node()
         executor = MultiThreadedExecutor(num_threads=threads) if threads > 1 else SingleThreadedExecutor()
         executor.add_node(node)
-        while rclpy.ok():
-            executor.spin_once(timeout_sec=0.1)
-    except (KeyboardInterrupt, ExternalShutdownException):
+        spinner = threading.Thread(target=_spin_quietly, args=(executor,), name="executor", daemon=True)
+        spinner.start()
+        while spinner.is_alive():
+            spinner.join(0.1)
+    except KeyboardInterrupt:
         pass
     except OrthoglideError as e:
         print(f"{prog}: {e}", file=sys.stderr)
         return 2
     finally:
+        if executor is not None:
+            executor.shutdown(timeout_sec=5.0)
+        if spinner is not None:
+            spinner.join(5.0)
         if node is not None:
             if hasattr(node, "close"):
                 node.close()
