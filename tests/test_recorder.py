@@ -32,6 +32,26 @@ class _Log:
     warning = info = error
 
 
+def mcap_messages(files, condition: str, mass: str, channels: list | None = None) -> int:
+    """Read every .mcap with the mcap library, CRCs validated (indexed and streamed), check the
+    `orthoglide` tag record of each, collect the channels; return the number of messages."""
+    from mcap.reader import make_reader
+    from mcap.stream_reader import StreamReader
+
+    total = 0
+    for f in files:
+        with f.open("rb") as fh:
+            reader = make_reader(fh, validate_crcs=True)
+            meta = {m.name: m.metadata for m in reader.iter_metadata()}
+            assert meta["orthoglide"] == {"orthoglide.condition": condition, "orthoglide.payload_mass": mass}
+            total += sum(1 for _ in reader.iter_messages())
+            if channels is not None:
+                channels.extend(reader.get_summary().channels.values())
+        with f.open("rb") as fh:
+            list(StreamReader(fh, validate_crcs=True).records)
+    return total
+
+
 def test_disk_full_ends_recording_and_keeps_data(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
@@ -232,26 +252,9 @@ def test_misuse_record_split_and_read_back(client, spawn_recorder, ros_env, tmp_
     assert bags.find_gaps(data.joint_states.stamps_ns).missing == 0
     np.testing.assert_array_equal(data.joint_states.stamps_ns, data.current_reference.stamps_ns)
 
-    from mcap.reader import make_reader
-    from mcap.stream_reader import StreamReader
-
-    total = 0
-    for f in files:
-        with f.open("rb") as fh:
-            reader = make_reader(fh, validate_crcs=True)
-            meta = {m.name: m.metadata for m in reader.iter_metadata()}
-            assert meta["orthoglide"] == {
-                "orthoglide.condition": "loaded",
-                "orthoglide.payload_mass": "1.136",
-            }
-            total += sum(1 for _ in reader.iter_messages())
-            channels = reader.get_summary().channels.values()
-            assert all(
-                "reliability: reliable" in c.metadata["offered_qos_profiles"] for c in channels
-            )
-        with f.open("rb") as fh:
-            list(StreamReader(fh, validate_crcs=True).records)
-    assert total == 2 * n
+    channels = []
+    assert mcap_messages(files, "loaded", "1.136", channels) == 2 * n
+    assert all("reliability: reliable" in c.metadata["offered_qos_profiles"] for c in channels)
     from rosbags.highlevel import AnyReader
     from rosbags.rosbag2 import Reader
 
@@ -457,24 +460,9 @@ def test_record_from_driver_loses_nothing(driver_bag) -> None:
         np.testing.assert_array_equal(np.stack([v for _, v in got[topic]]), values)
 
     # the mcap library, CRCs validated: the tag record in each file, every message
-    from mcap.reader import make_reader
-    from mcap.stream_reader import StreamReader
-
-    total = 0
     files = sorted(bag.glob("*.mcap"))
     assert files
-    for f in files:
-        with f.open("rb") as fh:
-            reader = make_reader(fh, validate_crcs=True)
-            meta = {m.name: m.metadata for m in reader.iter_metadata()}
-            assert meta["orthoglide"] == {
-                "orthoglide.condition": "unloaded",
-                "orthoglide.payload_mass": "0",
-            }
-            total += sum(1 for _ in reader.iter_messages())
-        with f.open("rb") as fh:
-            list(StreamReader(fh, validate_crcs=True).records)
-    assert total == len(js_all) + len(cr_all)
+    assert mcap_messages(files, "unloaded", "0") == len(js_all) + len(cr_all)
 
     # metadata.yaml: rosbag2 version 9, custom_data tags, counts
     import yaml
