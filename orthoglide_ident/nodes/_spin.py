@@ -10,10 +10,6 @@ from typing import Any
 from orthoglide_ident.errors import OrthoglideError
 
 
-def _interrupt(signum: int, frame: Any) -> None:
-    raise KeyboardInterrupt
-
-
 def _spin_quietly(executor: Any) -> None:
     from rclpy.executors import ExternalShutdownException
 
@@ -34,11 +30,13 @@ def spin(make_node: Callable[[], Any], args: list[str], prog: str, threads: int 
     from rclpy.executors import MultiThreadedExecutor, SingleThreadedExecutor
 
     rclpy.init(args=args)
-    # SIGTERM (ros2 launch, systemd, kill) must end the node as cleanly as Ctrl-C. rclpy's own
+    # Ctrl-C and SIGTERM (ros2 launch, systemd, kill) end the node the same clean way. rclpy's own
     # SIGTERM handling did not always wake a waiting executor here (tests/test_ctc_node.py hung in
     # about one full test run in two), so the executor spins on its own thread while the main
-    # thread stays in Python, where a SIGTERM handler can run and stop everything.
-    signal.signal(signal.SIGTERM, _interrupt)
+    # thread stays in Python, where these handlers only raise a flag (no exception mid-join).
+    stop = threading.Event()
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(sig, lambda signum, frame: stop.set())
     node = executor = spinner = None
     try:
         node = make_node()
@@ -46,7 +44,7 @@ def spin(make_node: Callable[[], Any], args: list[str], prog: str, threads: int 
         executor.add_node(node)
         spinner = threading.Thread(target=_spin_quietly, args=(executor,), name="executor", daemon=True)
         spinner.start()
-        while spinner.is_alive():
+        while spinner.is_alive() and not stop.is_set():
             spinner.join(0.1)
     except KeyboardInterrupt:
         pass
