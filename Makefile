@@ -19,6 +19,7 @@ MSGS_DIR := msg_defs/orthoglide_msgs
 MSGS_SOURCES := $(wildcard $(MSGS_DIR)/msg/*.msg $(MSGS_DIR)/srv/*.srv) \
 	$(MSGS_DIR)/CMakeLists.txt $(MSGS_DIR)/package.xml $(MSGS_DIR)/pyproject.toml
 PROJECT_SOURCES := pyproject.toml setup.py setup.cfg package.xml orthoglide_ident/_install_ament.py \
+	$(wildcard config/*.yaml launch/*.py) \
 	$(wildcard resource/* resource/launchers/*)
 
 # Stamps live in the venv: deleting .venv starts over; each step re-runs when its inputs change.
@@ -27,13 +28,14 @@ STAMP_DEPS := $(VENV)/.stamp-deps
 STAMP_MSGS := $(VENV)/.stamp-msgs
 STAMP_PROJECT := $(VENV)/.stamp-project
 
-.PHONY: help setup setup-stamps test test-slow demo bench bags lock clean distclean
+.PHONY: help setup setup-stamps test test-slow demo demo-offline bench bags lock clean distclean
 
 help:
 	@echo "make setup      create $(VENV) (Python 3.11) with ROS 2 Jazzy wheels, build orthoglide_msgs, install the project"
 	@echo "make test       setup if needed, then the fast tests (pytest -m 'not slow')"
 	@echo "make test-slow  setup if needed, then the slow tests (pytest -m slow)"
-	@echo "make demo       setup if needed, then the end-to-end demo"
+	@echo "make demo       setup if needed, then the live node set end to end (record, identify, Table 4 over ROS 2)"
+	@echo "make demo-offline  setup if needed, then the offline pipeline (simulate, bags, identify, validate)"
 	@echo "make bench      setup if needed, then every bench/*.py"
 	@echo "make bags       regenerate the sample bags (DURATION=10 s, OUT=bags); e.g. make bags DURATION=60 OUT=records"
 	@echo "make lock       rewrite constraints.txt from the current venv"
@@ -88,7 +90,10 @@ bench: setup
 	@for b in $(BENCHES); do if [ -f bench/$$b.py ]; then echo "== bench/$$b.py"; $(PY) bench/$$b.py; fi; done
 
 demo: setup
-	$(PY) -m orthoglide_ident.demo
+	$(PY) -m orthoglide_sim.demo
+
+demo-offline: setup
+	$(PY) -m orthoglide_sim.demo_offline
 
 lock: $(STAMP_DEPS)
 	{ echo '# Every distribution of the venv, exact versions: `pip install -c constraints.txt`.'; \

@@ -34,6 +34,9 @@ EXECUTABLES: dict[str, str] = {
 }
 """`ros2 run orthoglide_ident <exec>` -> module whose ``main()`` it runs (resource/launchers/<exec>)."""
 
+CONFIG_FILES = ("driver", "recorder", "identification", "ctc", "plant")
+"""config/<name>.yaml, installed under share/orthoglide_ident/config (the launch file loads them)."""
+
 PTH_FILE = "orthoglide_ident_ament_prefix.pth"
 
 
@@ -43,6 +46,8 @@ def data_files() -> list[tuple[str, list[str]]]:
         ("share/ament_index/resource_index/packages", [f"resource/{PACKAGE}"]),
         (f"share/{PACKAGE}", ["package.xml"]),
         (f"lib/{PACKAGE}", [f"resource/launchers/{name}" for name in EXECUTABLES]),
+        (f"share/{PACKAGE}/launch", ["launch/orthoglide.launch.py"]),
+        (f"share/{PACKAGE}/config", [f"config/{name}.yaml" for name in CONFIG_FILES]),
     ]
 
 

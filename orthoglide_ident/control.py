@@ -1,33 +1,27 @@
-"""Computed torque control (CTC) with the identified model (paper Sect. 5.2, Table 4).
+"""Computed torque control (CTC) with the identified model: its model part (paper Sect. 5.2, Table 4).
 
-The paper's CTC is a model-based feed-forward on top of a linear part with the same bandwidth
-(100 rad/s) as the PID controllers it is compared with. Here, per actuator j at tick k:
+The paper's CTC is the IDIM along the reference on top of a linear part with the same bandwidth
+(100 rad/s) as the PID controllers it is compared with. Split as robot controllers are, the linear
+part stays in the controller (the driver's PID with velocity feed-forward, at its tick), and the
+model part is computed here, ahead of the tick it is for:
 
-    e_k       = q_d(t_k) - q_meas[k]                          position error, m
-    v_est[k]  = (q_meas[k] - q_meas[k-1]) / T                  backward difference, m/s
-    I_k       = I_{k-1} + e_k T                                integral of the error, m s
-    tau_ff[k] = W_b(q_d, qd_d, qdd_d) chi_b + W_kl m_7         IDIM along the reference, N (eq. 29)
-    tau[k]    = tau_ff[k] + Kp e_k + Ki I_k + Kd (qd_d(t_k) - v_est[k])
-    v_tau[k]  = tau[k] / g_tau                                 eq. (17) inverted, A
+    tau_ff[k] = W_b(q_d, qd_d, qdd_d) chi_b + W_kl m_7       IDIM along the reference, N (eq. 29)
+    v_ff[k]   = tau_ff[k] / g_tau                            eq. (17) inverted, A
 
-The linear part is the simulator's "pid_ff" law (triple closed-loop pole at OMEGA = 100 rad/s on a
-nominal foot mass of 10 kg: Kp = 3 M w^2, Kd = 3 M w, Ki = M w^3), so CTC, simple PID and PID with
-velocity feed-forward differ only by the feed-forward, as in the paper. chi_b are the identified
-base parameters (names of ``base_model().names``; parameters absent from a result, e.g. cancelled
-as non-essential, count as 0), m_7 the payload mass put in the model (the paper uses the nominal
+v_tau[k] is held over [t_k, t_k+1) (zero-order hold), so the reference is taken in the middle of
+the hold, t_k + T/2, as the identification does (``zoh_shift``). chi_b are the identified base
+parameters (names of ``base_model().names``; parameters absent from a result, e.g. cancelled as
+non-essential, count as 0), m_7 the payload mass put in the model (the paper uses the nominal
 weighed mass), g_tau the drive gains (identified, manufacturer's 2001 N/A, or any others).
 
-v_tau[k] is held over [t_k, t_k+1) (zero-order hold): by default the feed-forward is evaluated on
-the reference at t_k + T/2, the middle of the hold, as the identification does (``zoh_shift``).
-
-Pure numpy, no ROS: ``feedforward`` is vectorised over samples; ``CTC`` evaluates the reference
-and the feed-forward in blocks ahead and applies the feedback per tick in a few microseconds.
+Pure numpy, no ROS: ``feedforward`` is vectorised over samples; the ctc node calls
+``feedforward_currents`` on batches of setpoints.
 """
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any, Callable, Mapping, Sequence
+from typing import TYPE_CHECKING, Any, Mapping, Sequence
 
 import numpy as np
 
@@ -37,30 +31,7 @@ from orthoglide_ident.model.base import base_model
 if TYPE_CHECKING:
     from orthoglide_ident.results import IdentificationResult
 
-TICK = 1.0e-3  # s, controller period (1 kHz)
-G_TAU_MANUFACTURER = 637.0 * math.pi  # N/A, ~2001.2
-JOINT_NAMES = ("q11", "q12", "q13")
 FF_CHUNK = 4096  # samples per call of the regressor in ``feedforward`` (bounds memory)
-
-Reference = Callable[[np.ndarray], tuple[np.ndarray, np.ndarray, np.ndarray]]
-"""t (N,) s -> (q_d, qd_d, qdd_d), each (N, 3) in m, m/s, m/s² (e.g. a sim trajectory's evaluate)."""
-
-
-@dataclass(frozen=True)
-class LinearGains:
-    """PID gains of the linear part, per actuator: N/m, N s/m, N/(m s)."""
-
-    kp: float
-    kd: float
-    ki: float
-
-    @classmethod
-    def from_bandwidth(cls, omega: float = 100.0, m_nominal: float = 10.0) -> "LinearGains":
-        """Triple closed-loop pole at ``omega`` (rad/s) on a mass ``m_nominal`` (kg): the
-        simulator's gains by default (Kp = 3.0e5, Kd = 3.0e3, Ki = 1.0e7)."""
-        if not (omega > 0 and m_nominal > 0 and math.isfinite(omega) and math.isfinite(m_nominal)):
-            raise ConfigError(f"omega and m_nominal must be positive, got {omega}, {m_nominal}")
-        return cls(3.0 * m_nominal * omega**2, 3.0 * m_nominal * omega, m_nominal * omega**3)
 
 
 @dataclass(frozen=True)
@@ -166,68 +137,12 @@ def feedforward(q_d: np.ndarray, qd_d: np.ndarray, qdd_d: np.ndarray, params: CT
     return tau
 
 
-class CTC:
-    """Per-tick CTC along a reference ``reference(t)`` sampled at t_k = k T.
-
-    ``command(k, q_meas)`` -> v_tau (3,) A. The reference and the feed-forward are computed in
-    blocks of ``block`` ticks (one vectorised regressor call each), so a tick costs a few array
-    operations. ``ff_lead`` (s): the feed-forward uses the reference at t_k + ff_lead (default
-    T/2, the middle of the zero-order hold). ``feedforward_on=False`` gives the "pid_ff" law
-    (v_tau = feedback / g_tau) with the same machinery.
-    """
-
-    def __init__(self, params: CTCParameters, reference: Reference, gains: LinearGains | None = None,
-                 tick: float = TICK, block: int = 1000, ff_lead: float | None = None,
-                 feedforward_on: bool = True):
-        if not (tick > 0) or block < 1:
-            raise ConfigError(f"tick must be > 0 s and block >= 1, got {tick}, {block}")
-        self.params = params
-        self.reference = reference
-        self.gains = gains or LinearGains.from_bandwidth()
-        self.tick = float(tick)
-        self.block = int(block)
-        self.ff_lead = 0.5 * self.tick if ff_lead is None else float(ff_lead)
-        self.feedforward_on = feedforward_on
-        self._k0 = None  # first tick of the buffered block
-        self.reset()
-
-    def set_params(self, params: CTCParameters) -> None:
-        """Use another model or gains from the next tick on (the feed-forward buffer is recomputed)."""
-        self.params = params
-        self._k0 = None
-
-    def reset(self) -> None:
-        """Forget the integral and the previous measurement (the next tick assumes v_est = qd_d)."""
-        self.integral = np.zeros(3)
-        self.q_meas_prev: np.ndarray | None = None
-
-    def _fill(self, k0: int) -> None:
-        t = (k0 + np.arange(self.block)) * self.tick
-        self._q_d, self._qd_d, _ = (np.asarray(a, float) for a in self.reference(t))
-        if self.feedforward_on:
-            self._tau_ff = feedforward(*self.reference(t + self.ff_lead), self.params)
-        else:
-            self._tau_ff = np.zeros((self.block, 3))
-        self._k0 = k0
-
-    def setpoint(self, k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(q_d, qd_d, tau_ff) at tick k, from the buffer (computing the block holding k if needed)."""
-        if self._k0 is None or not (self._k0 <= k < self._k0 + self.block):
-            self._fill(k)
-        i = k - self._k0
-        return self._q_d[i], self._qd_d[i], self._tau_ff[i]
-
-    def force(self, k: int, q_meas: np.ndarray) -> np.ndarray:
-        """tau[k] (3,) N for the measured position q_meas (3,) m at tick k; updates the state."""
-        q_meas = np.asarray(q_meas, dtype=float)
-        q_d, qd_d, tau_ff = self.setpoint(k)
-        e = q_d - q_meas
-        v_est = qd_d if self.q_meas_prev is None else (q_meas - self.q_meas_prev) / self.tick
-        self.integral = self.integral + e * self.tick
-        self.q_meas_prev = q_meas
-        g = self.gains
-        return tau_ff + g.kp * e + g.ki * self.integral + g.kd * (qd_d - v_est)
-
-    def command(self, k: int, q_meas: np.ndarray) -> np.ndarray:
-        """v_tau[k] (3,) A = tau[k] / g_tau (eq. 17)."""
-        return self.force(k, q_meas) / self.params.drive_gains
+def feedforward_currents(q_d: np.ndarray, qd_d: np.ndarray, qdd_d: np.ndarray,
+                         params: CTCParameters) -> np.ndarray:
+    """Model feed-forward currents v_ff (N - 1, 3) A for ticks 0..N-2 of a reference sampled at N
+    consecutive ticks: the IDIM force (eq. 29) in the middle of each tick's zero-order hold (the
+    mean of two consecutive samples, as the identification evaluates the model at t_k + T/2),
+    divided by the drive gains (eq. 17). This is the model part of the paper's CTC; the linear
+    part (PID with velocity feed-forward, 100 rad/s) is the robot controller's own."""
+    mid = [0.5 * (a[:-1] + a[1:]) for a in (np.atleast_2d(np.asarray(x, dtype=float)) for x in (q_d, qd_d, qdd_d))]
+    return feedforward(*mid, params) / params.drive_gains

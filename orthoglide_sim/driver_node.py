@@ -1,37 +1,306 @@
-"""Driver node: the simulated Orthoglide and its controller (`ros2 run orthoglide_ident driver`).
-
-Publishes, once per 1 kHz controller tick and with the same header.stamp:
-  /orthoglide/joint_states       sensor_msgs/JointState (name q11..q13, position m)
-  /orthoglide/current_reference  orthoglide_msgs/CurrentReference (name q11..q13, current A)
-In external mode it applies the latest orthoglide_msgs/CurrentReference received on
-/orthoglide/current_command (zero-order hold). With realtime:=false it publishes /clock and runs
-as fast as it can (stamps are simulated time from 0).
-"""
+"""Driver node: the simulated Orthoglide and its 1 kHz controller (`ros2 run orthoglide_ident driver`)."""
 from __future__ import annotations
 
+import gc
 import os
 import sys
 import threading
 import time
 
-PARAMETERS = {
-    "payload": ("none", "none, 1.983, 1.136 or a custom mass in kg"),
-    "trajectory": ("exciting", "exciting, exciting2, test1, test2 or a .json Fourier trajectory"),
-    "controller": ("pid", "pid, pid_ff or external"),
-    "duration": (0.0, "seconds to run, 0 = until shut down"),
-    "realtime": (True, "false: publish /clock and run faster than real time"),
-    "params_file": ("", "YAML overriding the true plant parameters (config/plant.yaml)"),
-    "seed": (0, "seed of the current noise"),
-    "noise": (True, "current noise on/off"),
-}
+from builtin_interfaces.msg import Time
+from rclpy.node import Node
+from rclpy.qos import QoSProfile, ReliabilityPolicy
+from rclpy.serialization import deserialize_message
+from rosgraph_msgs.msg import Clock
+from sensor_msgs.msg import JointState
+from std_msgs.msg import Header
+from std_srvs.srv import Trigger
+
+from orthoglide_ident.nodes._batch import BatchTaker, BatchTopic
+from orthoglide_ident.nodes._params import Param, declare, on_set, usage
+from orthoglide_ident.nodes._spin import spin
+from orthoglide_msgs.msg import CurrentReference, JointSetpoint
+from orthoglide_sim.session import DriverSession
+from orthoglide_sim.true_parameters import load_parameters
+
+DOC = """\
+The simulated Orthoglide (orthoglide_sim: Pinocchio closed-loop plant, 1 um encoder, current noise)
+and its 1 kHz controller. Every tick k it publishes, with header.stamp = t_k:
+  orthoglide/joint_states       sensor_msgs/JointState (q11..q13, position m)
+  orthoglide/current_reference  orthoglide_msgs/CurrentReference (q11..q13, current A) applied over the tick
+and, setpoint_lead ticks ahead (stamp = the tick it is for):
+  orthoglide/setpoints          orthoglide_msgs/JointSetpoint (q_d, qd_d, qdd_d of the tracked reference)
+Inputs: orthoglide/feedforward (CurrentReference stamped for the tick it is for; controller ctc adds it
+to its PID with velocity feed-forward) and orthoglide/current_command (CurrentReference stamped with
+the joint state it was computed from; controller external applies the latest from the next tick, and
+holds the robot with its own PID until the first command and whenever commands stop for 0.1 s).
+Every current is clipped to current_limit. A non-finite input, or the robot leaving its stroke,
+stops the simulated robot with an error in the log; call orthoglide_driver/reset (std_srvs/Trigger)
+to put it back on its reference. Names are relative: -r __ns:=/robot2 moves the whole interface."""
+
+PARAMETERS = (
+    Param("payload", "none", "payload on the platform: none, 1.983, 1.136 or a mass in kg; set it while "
+          "running to mount or remove one", dynamic=True, any_type=True),
+    Param("trajectory", "exciting", "reference: exciting, exciting2, test1, test2 or a .json Fourier file; a "
+          "change blends in over 2 s", dynamic=True),
+    Param("controller", "pid", "pid | pid_ff (velocity feed-forward) | ctc (pid_ff + orthoglide/feedforward) | "
+          "external (orthoglide/current_command)", dynamic=True),
+    Param("current_limit", [1.0, 1.0, 1.0], "A per joint (one or three values): every current is clipped to it",
+          dynamic=True),
+    Param("setpoint_lead", 50, "ticks: orthoglide/setpoints are published this far ahead of their tick"),
+    Param("duration", 0.0, "s to run, 0 = until shut down"),
+    Param("realtime", True, "false: simulated time as fast as the plant runs, /clock published; ctc and "
+          "external then wait for their input of each tick (lockstep)"),
+    Param("params_file", "", "YAML overriding the true plant parameters (config/plant.yaml)"),
+    Param("rt_priority", 40, "SCHED_FIFO priority of the tick loop (1-99), as robot controllers run; 0: "
+          "normal scheduling. Needs CAP_SYS_NICE or an rtprio limit; without it the driver says so and goes on"),
+    Param("seed", 0, "seed of the current noise"),
+    Param("noise", True, "current noise on/off"),
+)
 JOINTS = ["q11", "q12", "q13"]
+TICK_NS = 1_000_000
+LATE_NS = 500_000  # a tick published more than 0.5 ms after its deadline is late
+WAKE_EARLY_NS = 100_000
+LOCKSTEP_TIMEOUT_S = 2.0
+STATUS_PERIOD_TICKS = 10_000
 
 
 def _usage() -> str:
-    lines = ["usage: ros2 run orthoglide_ident driver [--ros-args -p NAME:=VALUE ...]", "", __doc__.strip(), "",
-             "ROS parameters (--ros-args -p name:=value):"]
-    lines += [f"  {k:<12} default {v[0]!r:<12} {v[1]}" for k, v in PARAMETERS.items()]
-    return "\n".join(lines)
+    return usage("usage: ros2 run orthoglide_ident driver [--ros-args -p NAME:=VALUE ...]", DOC, PARAMETERS)
+
+
+class Driver(Node):
+    """ROS side of the driver: parameters, topics and the tick loop around a DriverSession."""
+
+    def __init__(self) -> None:
+        super().__init__("orthoglide_driver")
+        v = declare(self, PARAMETERS)
+        self.realtime, self.duration, self.rt_priority = v["realtime"], v["duration"], v["rt_priority"]
+        self.session = DriverSession(v["payload"], v["trajectory"], v["controller"],
+                                     load_parameters(v["params_file"] or None), v["seed"], v["noise"],
+                                     v["current_limit"], v["setpoint_lead"])
+        self.lock = threading.Condition()
+        self.finished = False
+        self.late = 0
+        self.start_ns = 0
+        # reliable, keep last 1000 (1 s): a subscriber starved of CPU for a moment gets the ticks
+        # its DDS reader missed resent from this history (depth 100 lost ~280 on a 0.5 s stall)
+        self.pub_js = self.create_publisher(JointState, "orthoglide/joint_states", 1000)
+        self.pub_cr = self.create_publisher(CurrentReference, "orthoglide/current_reference", 1000)
+        self.pub_sp = self.create_publisher(JointSetpoint, "orthoglide/setpoints", 1000)
+        self.pub_clock = None if self.realtime else self.create_publisher(Clock, "/clock", 10)
+        inputs = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE)
+        # taken in batches on a thread of their own, not one executor callback per message: less
+        # CPU and GIL taken from the tick loop (orthoglide_ident.nodes._batch)
+        self.taker = BatchTaker(self, [BatchTopic(CurrentReference, "orthoglide/current_command", inputs,
+                                                  lambda b: self._on_inputs(b, "command")),
+                                       BatchTopic(CurrentReference, "orthoglide/feedforward", inputs,
+                                                  lambda b: self._on_inputs(b, "feed-forward"))], period_s=0.0)
+        self.create_service(Trigger, "~/reset", self._on_reset)
+        on_set(self, PARAMETERS, self._apply)
+        self.get_logger().info(
+            f"controller {v['controller']}, payload {v['payload']}, trajectory {v['trajectory']}, "
+            f"{'real time' if self.realtime else 'simulated time'}; publishing "
+            f"{self.resolve_topic_name('orthoglide/joint_states')} at 1 kHz")
+
+    # ---- inputs (executor thread) --------------------------------------------------------------
+    def _tick_of(self, msg) -> int:
+        stamp = msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
+        return round((stamp - self.start_ns) / TICK_NS)
+
+    def _currents(self, msg, what: str):
+        try:
+            return [msg.current[list(msg.name).index(j)] for j in JOINTS] if msg.name else list(msg.current)
+        except ValueError:
+            self.get_logger().warning(f"ignored {what} without joints {', '.join(JOINTS)}: {list(msg.name)}",
+                                      throttle_duration_sec=5.0)
+            return None
+
+    def _on_inputs(self, batch: list, what: str) -> None:
+        msgs = [deserialize_message(raw, CurrentReference) for raw, _, _ in batch]
+        offer = self.session.offer_command if what == "command" else self.session.offer_feedforward
+        with self.lock:
+            for msg in msgs:
+                current = self._currents(msg, what)
+                if current is not None:
+                    offer(self._tick_of(msg), current)
+            self.lock.notify_all()
+
+    def close(self) -> None:
+        self.taker.close()
+
+    def _apply(self, changes) -> None:
+        with self.lock:
+            s = self.session
+            for name, value in changes.items():
+                if name == "payload":
+                    s.set_payload(value)
+                elif name == "trajectory":
+                    k = s.set_trajectory(value)
+                    self.get_logger().info(f"trajectory {value} blends in from tick {k}")
+                elif name == "controller":
+                    s.set_controller(value)
+                elif name == "current_limit":
+                    s.set_current_limit(value)
+                self.get_logger().info(f"{name} set to {value}")
+
+    def _on_reset(self, request, response):
+        with self.lock:
+            was = self.session.fault
+            self.session.reset()
+        response.success = True
+        response.message = f"robot back on its reference (was stopped: {was})" if was else "no fault to clear"
+        self.get_logger().info(response.message)
+        return response
+
+    # ---- the tick loop (main thread) -----------------------------------------------------------
+    def _header(self, k: int) -> Header:
+        return Header(stamp=self._stamp(k))
+
+    def _publish_js(self, k: int, q) -> None:
+        self.pub_js.publish(JointState(header=self._header(k), name=JOINTS, position=[float(x) for x in q]))
+
+    def _wait_for_input_publisher(self, stop: threading.Event) -> None:
+        """Simulated time with an outside controller: the first tick waits until it is there."""
+        topic = {"ctc": "orthoglide/feedforward", "external": "orthoglide/current_command"}.get(self.session.controller)
+        if topic is None:
+            return
+        t_end = time.monotonic() + LOCKSTEP_TIMEOUT_S * 10
+        while not self.count_publishers(topic) and time.monotonic() < t_end and not stop.is_set():
+            stop.wait(0.05)
+        if not self.count_publishers(topic):
+            self.get_logger().warning(f"no publisher on {self.resolve_topic_name(topic)}: ticks go on without "
+                                      f"their input after {LOCKSTEP_TIMEOUT_S} s each")
+        time.sleep(0.2)  # discovery of the way back (its subscription to our joint states)
+
+    def _publish_setpoint(self, k: int, sp) -> None:
+        msg = JointSetpoint(name=JOINTS, position=[float(x) for x in sp[0]],
+                            velocity=[float(x) for x in sp[1]], acceleration=[float(x) for x in sp[2]])
+        msg.header.stamp = self._stamp(k)
+        self.pub_sp.publish(msg)
+
+    def _stamp(self, k: int) -> Time:
+        sec, nsec = divmod(self.start_ns + k * TICK_NS, 1_000_000_000)
+        return Time(sec=sec, nanosec=nsec)
+
+    def _wait_input(self, k: int) -> None:
+        """Simulated time: hold tick k until its feed-forward / command is in (lockstep)."""
+        s = self.session
+        if s.controller == "ctc":
+            ready = lambda: s.has_feedforward(k)  # noqa: E731
+        elif s.controller == "external":
+            ready = lambda: s.has_command_from(k)  # noqa: E731
+        else:
+            return
+        self.lock.wait_for(ready, timeout=LOCKSTEP_TIMEOUT_S)
+
+    def main_loop(self, stop: threading.Event) -> None:
+        """Publish ticks at their deadlines (real time) or back to back (simulated time)."""
+        n_ticks = round(self.duration * 1000) if self.duration > 0 else None
+        s = self.session
+        if self.realtime and self.rt_priority > 0:
+            self._real_time_priority()
+        if not self.realtime:  # before the setpoint horizon, which the outside controller needs
+            self._wait_for_input_publisher(stop)
+        margin = 5 * TICK_NS if self.realtime else 0  # tick 0 is due once the horizon is out
+        self.start_ns = time.time_ns() + margin if self.realtime else 0
+        self.t0 = time.monotonic_ns() + margin
+        for k in range(s.lead):  # the setpoint horizon is complete from the first tick on
+            self._publish_setpoint(k, s.setpoint(k))
+        gc.collect()
+        gc.freeze()  # what exists now is never scanned again: no collection pause in the loop
+        t_end = None if n_ticks is None else self.t0 + n_ticks * TICK_NS
+        while not stop.is_set() and (n_ticks is None or s.k < n_ticks):
+            if s.fault and t_end is not None and (not self.realtime or time.monotonic_ns() > t_end):
+                break  # a run of given duration ends when its time is up, or stopped in simulated time
+            if s.fault:
+                self._idle_in_fault(stop)
+                continue
+            if self.realtime:
+                self._sleep_until(self.t0 + s.k * TICK_NS)
+            if not self._tick():
+                break
+        self.finished = True
+        self._summary()
+
+    def _tick(self) -> bool:
+        """One tick: measure, control, publish, integrate. In simulated time with an outside
+        controller the tick waits for its input: external mode publishes the joint state first and
+        waits for the command computed from it; ctc waits for the tick's feed-forward."""
+        s = self.session
+        lockstep_external = not self.realtime and s.controller == "external"
+        with self.lock:
+            k = s.k
+            q = s.measure()
+        try:
+            if self.pub_clock is not None:
+                self.pub_clock.publish(Clock(clock=self._stamp(k)))
+            if lockstep_external:
+                self._publish_js(k, q)
+            with self.lock:
+                if not self.realtime:
+                    self._wait_input(k)
+                v_tau = s.control(q)
+                sp_k = k + s.lead
+                sp = s.setpoint(sp_k)
+            if self.realtime and time.monotonic_ns() - (self.t0 + k * TICK_NS) > LATE_NS:
+                self.late += 1
+            if not lockstep_external:
+                self._publish_js(k, q)
+            self.pub_cr.publish(CurrentReference(header=self._header(k), name=JOINTS,
+                                                 current=[float(x) for x in v_tau]))
+            self._publish_setpoint(sp_k, sp)
+        except Exception:  # Ctrl-C shut the context down between the check and the publish
+            return False
+        with self.lock:
+            s.advance()
+        if s.fault:
+            self.get_logger().error(f"stopped: {s.fault}; call {self.get_name()}/reset to put the robot "
+                                    "back on its reference")
+        elif s.k % STATUS_PERIOD_TICKS == 0:
+            self.get_logger().info(self._status())
+        return True
+
+    def _real_time_priority(self) -> None:
+        """SCHED_FIFO for this thread: the ticks keep their deadlines while other nodes run."""
+        try:
+            os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(min(self.rt_priority, 99)))
+            self.get_logger().info(f"tick loop at real-time priority {self.rt_priority} (SCHED_FIFO)")
+        except (OSError, AttributeError) as e:
+            self.get_logger().warning(f"no real-time priority for the tick loop ({e}); ticks may be late "
+                                      "when the machine is busy (set rt_priority:=0 to silence this)")
+
+    def _sleep_until(self, deadline_ns: int) -> None:
+        """Sleep to just before the deadline, then wait out the rest: time.sleep overshoots by
+        ~0.08 ms here, a tenth of the tick, and the tick is published at its deadline."""
+        delay = deadline_ns - WAKE_EARLY_NS - time.monotonic_ns()
+        if delay > 0:
+            time.sleep(delay * 1e-9)
+        while time.monotonic_ns() < deadline_ns:
+            pass
+
+    def _idle_in_fault(self, stop: threading.Event) -> None:
+        """The robot is stopped: wait for a reset, then go on from now (stamps keep their grid)."""
+        stop.wait(0.05)
+        if not self.session.fault:
+            self.t0 = time.monotonic_ns() - self.session.k * TICK_NS
+            self.start_ns = time.time_ns() - self.session.k * TICK_NS
+
+    def _status(self) -> str:
+        st = self.session.stats
+        text = f"{self.session.k} ticks, {self.late} late (> 0.5 ms), {st.saturated} current-limited"
+        if st.ff_used or st.ff_missing:
+            text += f", feed-forward: {st.ff_used} fresh, {st.ff_missing} missing (held)"
+        if self.session.controller == "external" or st.command_ages:
+            text += f"; {st.age_summary()}; {st.no_command} ticks held by the PID without a fresh command"
+        return text
+
+    def _summary(self) -> None:
+        done = f"driver: {self._status()}"
+        try:
+            self.get_logger().info(done)
+        except Exception:
+            print(done, file=sys.stderr)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -39,137 +308,8 @@ def main(argv: list[str] | None = None) -> int:
     if "-h" in argv or "--help" in argv:
         print(_usage())
         return 0
-    import rclpy
-    from rclpy.executors import ExternalShutdownException
-    from rcl_interfaces.msg import ParameterDescriptor
-    from rclpy.node import Node
-    from rosgraph_msgs.msg import Clock
-    from sensor_msgs.msg import JointState
-
-    from orthoglide_ident.errors import OrthoglideError
-    from orthoglide_msgs.msg import CurrentReference
-    from orthoglide_sim.session import DriverSession, parse_payload
-    from orthoglide_sim.true_parameters import load_parameters
-
-    class Driver(Node):
-        def __init__(self):
-            super().__init__("orthoglide_driver")
-            for name, (default, text) in PARAMETERS.items():  # payload may be given as 1.983 or "none"
-                self.declare_parameter(name, default, ParameterDescriptor(description=text,
-                                                                          dynamic_typing=name == "payload"))
-            v = {name: self.get_parameter(name).value for name in PARAMETERS}
-            self.realtime, self.duration = bool(v["realtime"]), float(v["duration"])
-            self.session = DriverSession(parse_payload(v["payload"]), v["trajectory"], v["controller"],
-                                         load_parameters(v["params_file"] or None), int(v["seed"]), bool(v["noise"]),
-                                         start_ns=0)
-            # reliable, keep last 1000 (1 s): a subscriber starved of CPU for a moment gets the ticks
-            # its DDS reader missed resent from this history (depth 100 lost ~280 on a 0.5 s stall)
-            self.pub_js = self.create_publisher(JointState, "/orthoglide/joint_states", 1000)
-            self.pub_cr = self.create_publisher(CurrentReference, "/orthoglide/current_reference", 1000)
-            self.pub_clock = None if self.realtime else self.create_publisher(Clock, "/clock", 10)
-            self.command = None
-            if v["controller"] == "external":
-                self.create_subscription(CurrentReference, "/orthoglide/current_command", self._on_command, 10)
-            self.session.warm_up()
-            self.late = 0
-            self.get_logger().info(f"driver: controller {v['controller']}, payload {v['payload']}, "
-                                   f"trajectory {v['trajectory']}, realtime {self.realtime}")
-
-        def _on_command(self, msg):
-            if len(msg.current) == 3:
-                self.command = list(msg.current)
-            else:
-                self.get_logger().warning(f"ignored current command with {len(msg.current)} values (need 3)")
-
-        def publish_tick(self) -> int:
-            stamp_ns, q, v_tau = self.session.next_tick(self.command)
-            sec, nsec = divmod(stamp_ns, 1_000_000_000)
-            if self.pub_clock is not None:
-                clock = Clock()
-                clock.clock.sec, clock.clock.nanosec = sec, nsec
-                self.pub_clock.publish(clock)
-            js = JointState(name=JOINTS, position=[float(x) for x in q])
-            js.header.stamp.sec, js.header.stamp.nanosec = sec, nsec
-            cr = CurrentReference(header=js.header, name=JOINTS, current=[float(x) for x in v_tau])
-            self.pub_js.publish(js)
-            self.pub_cr.publish(cr)
-            return stamp_ns
-
-        def run(self) -> None:
-            """Publish ticks at their deadlines (realtime) or back to back (sim time)."""
-            n_ticks = int(round(self.duration * 1000)) if self.duration > 0 else None
-            stop = threading.Event()
-            worker = threading.Thread(target=self._produce, args=(stop,), daemon=True)
-            worker.start()
-            if self.realtime:  # stamps are the ticks' nominal wall-clock times from now on
-                self.session.start_ns = time.time_ns()
-            t0 = time.monotonic_ns()
-            k = 0
-            try:
-                while rclpy.ok() and (n_ticks is None or k < n_ticks):
-                    if self.realtime:
-                        deadline = t0 + k * 1_000_000
-                        delay = deadline - time.monotonic_ns()
-                        if delay > 0:
-                            time.sleep(delay / 1e9)
-                        elif delay < -500_000:
-                            self.late += 1
-                    try:
-                        self.publish_tick()
-                    except Exception:
-                        if rclpy.ok():
-                            raise
-                        break  # Ctrl-C shut the context down between the check and the publish
-                    k += 1
-            finally:
-                stop.set()
-                # a daemon thread still inside jax when Python finalises aborts the process
-                # ("terminate called ... FATAL: exception not rethrown", exit -6): wait for it
-                worker.join(timeout=30.0)
-            done = f"driver: {k} ticks published, {self.late} more than 0.5 ms late"
-            if rclpy.ok():
-                self.get_logger().info(done)
-            else:
-                print(done, file=sys.stderr)
-
-        def _produce(self, stop) -> None:
-            try:  # compute ahead at a lower priority than the publishing loop
-                os.setpriority(os.PRIO_PROCESS, threading.get_native_id(), 10)
-            except (AttributeError, OSError):
-                pass
-            while not stop.is_set():
-                if not self.session.fill_ahead(min_ticks=3 * 1000):
-                    time.sleep(0.01)
-
-    from rclpy.executors import SingleThreadedExecutor
-
-    rclpy.init(args=argv)
-    executor = SingleThreadedExecutor()
-    spinner = None
-    try:
-        node = Driver()
-        executor.add_node(node)
-        def spin_quietly() -> None:  # subscriptions (external mode); Ctrl-C ends it, not an error
-            try:
-                executor.spin()
-            except (KeyboardInterrupt, ExternalShutdownException):
-                pass
-
-        spinner = threading.Thread(target=spin_quietly, daemon=True)
-        spinner.start()
-        node.run()
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    except OrthoglideError as exc:
-        print(f"driver: {exc}", file=sys.stderr)
-        return 2
-    finally:
-        executor.shutdown()
-        if spinner is not None:
-            spinner.join(timeout=2.0)
-        if rclpy.ok():
-            rclpy.shutdown()
-    return 0
+    sys.setswitchinterval(2e-4)  # the tick loop gets the GIL back within 0.2 ms of a callback
+    return spin(Driver, argv, "driver")
 
 
 if __name__ == "__main__":

@@ -11,12 +11,11 @@ import sys
 from dataclasses import dataclass
 from typing import Callable
 
-import jax.numpy as jnp
 import numpy as np
 
 from orthoglide_ident.errors import ConfigError, OrthoglideError
-from orthoglide_sim import plant as pl
 from orthoglide_sim import simulator as sm
+from orthoglide_sim.plant import Plant
 from orthoglide_sim.trajectories import get_trajectory
 from orthoglide_sim.true_parameters import TrueParameters, load_parameters
 
@@ -54,31 +53,33 @@ def _setup(duration_s, payload, trajectory, seed, params, noise, start_ns, rippl
         raise ConfigError(f"duration must be positive, got {duration_s}")
     params = params or load_parameters()
     chi_l = params.payload_vector(payload)
-    p = pl.pack(params.standard_vector(), chi_l,
-                (params.coulomb_velocity["prismatic"], params.coulomb_velocity["revolute"]))
+    plant = Plant(params, payload)
     drive = sm.drive_model(params, ripple)
     N = int(round(duration_s / sm.TICK))
     reference = get_trajectory(trajectory).evaluate(np.arange(N) * sm.TICK)
     rng = np.random.default_rng(seed)
     current_noise = rng.normal(0.0, sm.CURRENT_NOISE_STD, (N, 3)) if noise else np.zeros((N, 3))
     stamps = start_ns + np.arange(N, dtype=np.int64) * int(round(sm.TICK * 1e9))
-    return params, chi_l, p, drive, reference, current_noise, stamps
+    return params, chi_l, plant, drive, reference, current_noise, stamps
 
 
 def simulate(duration_s: float, payload: str | float = "none", trajectory: str = "exciting",
              controller: str = "pid", seed: int = 0, params: TrueParameters | None = None,
-             noise: bool = True, start_ns: int = 0, ripple: bool | None = None) -> SimRecord:
+             noise: bool = True, start_ns: int = 0, ripple: bool | None = None,
+             feedforward: np.ndarray | None = None) -> SimRecord:
     """Simulate the robot tracking ``trajectory`` for ``duration_s`` seconds under ``controller``.
 
-    payload: "none", "1.983", "1.136" or a mass in kg; controller: "pid" or "pid_ff";
+    payload: "none", "1.983", "1.136" or a mass in kg; controller: "pid", "pid_ff" or "ctc" (then
+    ``feedforward`` (N, 3) A is the model current added at each tick, e.g.
+    ``orthoglide_ident.control.feedforward_currents``);
     noise: current noise (encoder quantisation is always on); ripple: screw ripple (default from
     params). Raises ConfigError on bad arguments.
     """
-    if controller not in ("pid", "pid_ff"):
-        raise ConfigError(f"controller must be pid or pid_ff for a record, got {controller!r}")
-    params, chi_l, p, drive, (q_ref, qd_ref, qdd_ref), current_noise, stamps = _setup(
+    if controller not in ("pid", "pid_ff", "ctc"):
+        raise ConfigError(f"controller must be pid, pid_ff or ctc for a record, got {controller!r}")
+    params, chi_l, plant, drive, (q_ref, qd_ref, qdd_ref), current_noise, stamps = _setup(
         duration_s, payload, trajectory, seed, params, noise, start_ns, ripple)
-    res = sm.simulate_closed_loop(q_ref, qd_ref, qdd_ref, p, drive, controller, current_noise)
+    res = sm.simulate_closed_loop(q_ref, qd_ref, qdd_ref, plant, drive, controller, current_noise, feedforward)
     return SimRecord(stamps, res.q_meas, res.v_tau, res.q, res.qd, res.qdd, q_ref, float(chi_l[9]), chi_l,
                      params, np.asarray(params.g_tau, float), trajectory, controller)
 
@@ -91,21 +92,19 @@ def simulate_external(duration_s: float, command: Callable[[int, np.ndarray], np
     called at every tick (e.g. ``orthoglide_ident.control.CTC.command``) and held over the tick.
 
     The plant starts on ``trajectory`` at t = 0 (q, qd); the trajectory is only the reference the
-    controller is expected to follow (q_ref in the record). One compiled tick per call (~0.5 ms of
-    wall time per simulated ms here, after a one-off compilation), so keep it to seconds in tests.
+    controller is expected to follow (q_ref in the record). About 0.2 ms of wall time per tick.
     """
-    params, chi_l, p, drive, (q_ref, qd_ref, qdd_ref), current_noise, stamps = _setup(
+    params, chi_l, plant, drive, (q_ref, qd_ref, qdd_ref), current_noise, stamps = _setup(
         duration_s, payload, trajectory, seed, params, noise, start_ns, ripple)
     N = len(stamps)
-    x, _ = sm.initial_state(q_ref[0], qd_ref[0], qdd_ref[0], p, drive)
-    q_meas, v_tau, xs = np.empty((N, 3)), np.empty((N, 3)), np.empty((N, 6))
+    sim = sm.Integrator(plant, drive, q_ref[0], qd_ref[0])
+    q_meas, v_tau, q, qd, qdd = (np.empty((N, 3)) for _ in range(5))
     for k in range(N):
-        xs[k] = np.asarray(x)
-        q_meas[k] = np.round(xs[k, :3] / sm.ENCODER_RESOLUTION) * sm.ENCODER_RESOLUTION  # = sm.quantise
+        q[k], qd[k] = sim.q, sim.qd
+        q_meas[k] = sm.quantise(q[k])
         v_tau[k] = command(k, q_meas[k])
-        _, x = sm.external_tick(x, jnp.asarray(v_tau[k]), jnp.asarray(current_noise[k]), p, drive)
-    qdd = np.gradient(xs[:, 3:], sm.TICK, axis=0)  # approximate: the exact qdd is not kept per tick
-    return SimRecord(stamps, q_meas, v_tau, xs[:, :3], xs[:, 3:], qdd, q_ref, float(chi_l[9]), chi_l,
+        qdd[k] = sim.tick(v_tau[k] + current_noise[k])
+    return SimRecord(stamps, q_meas, v_tau, q, qd, qdd, q_ref, float(chi_l[9]), chi_l,
                      params, np.asarray(params.g_tau, float), trajectory, "external")
 
 

@@ -1,46 +1,42 @@
-"""Sampled-data simulation: 1 kHz controller with zero-order hold, plant integrated at 10 kHz (RK4).
-
-Integration: RK4 at 10 kHz. The configuration-dependent terms of the Lagrange equations (M, dM/dq,
-dV/dq, J_t and their first derivatives) are evaluated once per window of GEOMETRY_TICKS = 2 ticks,
-at the predicted middle of the window, and expanded to first order inside it (plant.forward_dynamics_local): this is what
-makes the plant run several times faster than real time; ``exact=True`` uses the full equations at
-every stage.
+"""Sampled-data simulation: 1 kHz controller with zero-order hold, plant integrated by RK4.
 
 Timing of one controller tick k (t_k = k T, T = 1 ms):
   1. the encoder is read: q_meas[k] = round(q(t_k) / 1 um) * 1 um;
   2. the controller computes the current reference v_tau[k] (A) from q_meas and the reference;
   3. during [t_k, t_k+1) the drive applies tau = g_tau_true * (v_tau[k] + n[k]) (n: current noise,
      held with the reference) plus, if switched on, the ball-screw force ripple;
-  4. the plant is integrated with SUBSTEPS RK4 steps.
+  4. the plant (orthoglide_sim.plant, Pinocchio) is integrated with SUBSTEPS RK4 steps.
 (q_meas[k], v_tau[k]) carry the same stamp t_k.
+
+The integrator works on the 15 tree coordinates; every RELIFT_TICKS ticks the tree is put back
+exactly on the closed loop from the actuator state (kinematics.tree_state), so the constraint
+drift of the integration (~1e-10 rad per 0.1 s) never accumulates. A position outside the actuator
+stroke or a non-finite state raises WorkspaceError: a simulated robot does not leave its workspace.
 
 Controllers (all with the same linear part, a triple closed-loop pole at OMEGA = 100 rad/s on a
 nominal foot mass M_NOMINAL = 10 kg): Kp = 3 M w^2, Kd = 3 M w, Ki = M w^3, so
 Kp = 3.0e5 N/m, Kd = 3.0e3 N s/m, Ki = 1.0e7 N/(m s):
   - "pid":    F = Kp e + Ki int(e) - Kd v_est                       (simple PID, D on measurement)
   - "pid_ff": F = Kp e + Ki int(e) + Kd (qd_ref - v_est)            (PID with velocity feed-forward)
+  - "ctc":    "pid_ff" plus a model feed-forward current per tick (computed elsewhere, e.g. the
+              ctc node: the split computed-torque control of the paper's Sect. 5.2)
   - "external": v_tau given per tick (e.g. received on a topic).
 v_est is the backward difference of the quantised position. The force command is converted to a
 current with the manufacturer's gain 637 pi ~ 2001 N/A: v_tau = F / 2001.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
-from functools import partial
-from typing import NamedTuple
+from dataclasses import dataclass, field
 
-import jax
+import numpy as np
 
-jax.config.update("jax_enable_x64", True)
-
-import jax.numpy as jnp  # noqa: E402
-import numpy as np  # noqa: E402
-
-from orthoglide_sim import plant as pl  # noqa: E402
-from orthoglide_sim.true_parameters import G_TAU_MANUFACTURER  # noqa: E402
+from orthoglide_ident.errors import WorkspaceError
+from orthoglide_sim.plant import ACTUATED, Plant
+from orthoglide_sim.true_parameters import G_TAU_MANUFACTURER, TrueParameters
 
 TICK = 1.0e-3  # s, controller period (1 kHz)
-SUBSTEPS = 10  # RK4 steps per tick: 10 kHz integration
+SUBSTEPS = 4  # RK4 steps per tick (4 kHz): 0.05 um from a 20 kHz integration over 2 s
+RELIFT_TICKS = 100  # ticks between exact re-projections of the tree on the closed loop
 ENCODER_RESOLUTION = 1.0e-6  # m
 CURRENT_NOISE_STD = 1.0e-3  # A, white, held over the tick
 OMEGA = 100.0  # rad/s, bandwidth of the linear part
@@ -48,182 +44,157 @@ M_NOMINAL = 10.0  # kg
 KP = 3.0 * M_NOMINAL * OMEGA**2
 KD = 3.0 * M_NOMINAL * OMEGA
 KI = M_NOMINAL * OMEGA**3
-CONTROLLERS = ("pid", "pid_ff", "external")
+CONTROLLERS = ("pid", "pid_ff", "ctc", "external")
+# Mechanical stroke of each actuator (m): the safe box [-0.04, 0.12] of the trajectories plus
+# 20 mm. Beyond it a real Orthoglide hits its end stops; the simulator stops with an error.
+STROKE = (-0.06, 0.14)
 
 
-class DriveModel(NamedTuple):
-    """What lies between the current reference and the plant (jax pytree)."""
+@dataclass(frozen=True)
+class DriveModel:
+    """What lies between the current reference and the plant: true gains and screw ripple."""
 
-    g_tau: jnp.ndarray  # (3,) true drive gains N/A
-    ripple_amplitude: jnp.ndarray  # () N, 0 = off
-    ripple_lead: jnp.ndarray  # () m
-    ripple_phase: jnp.ndarray  # (3,) rad
+    g_tau: np.ndarray  # (3,) true drive gains N/A
+    ripple_amplitude: float = 0.0  # N, 0 = off
+    ripple_lead: float = 0.02  # m
+    ripple_phase: np.ndarray = field(default_factory=lambda: np.array([0.0, 2.1, 4.2]))
+
+    def force(self, current: np.ndarray, q: np.ndarray) -> np.ndarray:
+        """Actuator forces (3,) N for the current in the motors (3,) A at actuator positions q."""
+        f = self.g_tau * current
+        if self.ripple_amplitude:
+            f = f + self.ripple_amplitude * np.sin(2.0 * np.pi * q / self.ripple_lead + self.ripple_phase)
+        return f
 
 
-def drive_model(params, ripple: bool | None = None) -> DriveModel:
+def drive_model(params: TrueParameters, ripple: bool | None = None) -> DriveModel:
     """DriveModel from TrueParameters (ripple on/off taken from params unless given)."""
     r = params.screw_ripple
     on = r["enabled"] if ripple is None else ripple
-    return DriveModel(jnp.asarray(params.g_tau, dtype=jnp.float64),
-                      jnp.asarray(r["amplitude"] if on else 0.0, dtype=jnp.float64),
-                      jnp.asarray(r["lead"], dtype=jnp.float64),
-                      jnp.array([0.0, 2.1, 4.2]))
+    return DriveModel(np.asarray(params.g_tau, dtype=float), float(r["amplitude"]) if on else 0.0,
+                      float(r["lead"]))
 
 
-def _ripple(q, drive: DriveModel):
-    return drive.ripple_amplitude * jnp.sin(2.0 * jnp.pi * q / drive.ripple_lead + drive.ripple_phase)
+def quantise(q: np.ndarray, resolution: float = ENCODER_RESOLUTION) -> np.ndarray:
+    return np.round(np.asarray(q) / resolution) * resolution
 
 
-GEOMETRY_TICKS = 2  # ticks sharing one evaluation of the configuration-dependent terms
+class Integrator:
+    """The plant's state over controller ticks: ``tick(current)`` integrates [t_k, t_k+1) under a
+    held motor current (SUBSTEPS RK4 steps on the tree coordinates)."""
+
+    def __init__(self, plant: Plant, drive: DriveModel, q0: np.ndarray, qd0: np.ndarray,
+                 substeps: int = SUBSTEPS):
+        self.plant, self.drive, self.substeps = plant, drive, int(substeps)
+        self.ticks = 0
+        self.Q, self.V = plant.lift(np.asarray(q0, float), np.asarray(qd0, float))
+
+    @property
+    def q(self) -> np.ndarray:
+        """Actuator positions (3,) m at the current tick."""
+        return self.Q[ACTUATED].copy()
+
+    @property
+    def qd(self) -> np.ndarray:
+        """Actuator velocities (3,) m/s at the current tick."""
+        return self.V[ACTUATED].copy()
+
+    def _acceleration(self, Q: np.ndarray, V: np.ndarray, current: np.ndarray) -> np.ndarray:
+        return self.plant.tree_acceleration(Q, V, self.drive.force(current, Q[ACTUATED]))
+
+    def tick(self, current: np.ndarray) -> np.ndarray:
+        """Integrate one tick under ``current`` (3,) A; returns the actuator accelerations (3,) at
+        its start. Raises WorkspaceError if the robot leaves its stroke or the state is not finite."""
+        h = TICK / self.substeps
+        Q, V = self.Q, self.V
+        qdd0 = None
+        for _ in range(self.substeps):
+            a1 = self._acceleration(Q, V, current)
+            if qdd0 is None:
+                qdd0 = a1[ACTUATED].copy()
+            V2 = V + 0.5 * h * a1
+            a2 = self._acceleration(Q + 0.5 * h * V, V2, current)
+            V3 = V + 0.5 * h * a2
+            a3 = self._acceleration(Q + 0.5 * h * V2, V3, current)
+            V4 = V + h * a3
+            a4 = self._acceleration(Q + h * V3, V4, current)
+            Q = Q + (h / 6.0) * (V + 2.0 * V2 + 2.0 * V3 + V4)
+            V = V + (h / 6.0) * (a1 + 2.0 * a2 + 2.0 * a3 + a4)
+        self._check(Q, V, current)
+        self.Q, self.V = Q, V
+        self.ticks += 1
+        if self.ticks % RELIFT_TICKS == 0:
+            self.Q, self.V = self.plant.lift(Q[ACTUATED], V[ACTUATED])
+        return qdd0
+
+    def _check(self, Q: np.ndarray, V: np.ndarray, current: np.ndarray) -> None:
+        q = Q[ACTUATED]
+        if not (np.all(np.isfinite(Q)) and np.all(np.isfinite(V))):
+            raise WorkspaceError(f"the simulated robot's state is not finite after tick {self.ticks} "
+                                 f"(current {np.round(current, 3).tolist()} A): stopped")
+        out = (q < STROKE[0]) | (q > STROKE[1])
+        if np.any(out):
+            j = int(np.argmax(out))
+            raise WorkspaceError(f"q1{j + 1} = {q[j] * 1e3:.1f} mm left the actuator stroke "
+                                 f"[{STROKE[0] * 1e3:.0f}, {STROKE[1] * 1e3:.0f}] mm at tick {self.ticks} "
+                                 f"(current {np.round(current, 3).tolist()} A): the simulated robot stopped")
 
 
-def window_geometry(x, p: pl.PlantParams, ticks: int = GEOMETRY_TICKS) -> pl.Geometry:
-    """Geometry at the predicted middle of a window of ``ticks`` ticks starting at state x."""
-    return pl.geometry(x[:3] + 0.5 * ticks * TICK * x[3:], p)
+@dataclass
+class PID:
+    """The 1 kHz linear part: PID on the quantised position, D on the measurement's backward
+    difference, force converted to current with the manufacturer's gain."""
 
+    q_meas_prev: np.ndarray  # (3,) m
+    integral: np.ndarray  # (3,) m s, integral of the position error
+    velocity_ff: bool = False  # True: "pid_ff" (Kd acts on qd_ref - v_est)
 
-def _rk4_tick(x, force, p: pl.PlantParams, drive: DriveModel, substeps: int, exact: bool = False,
-              geo: pl.Geometry | None = None):
-    """Integrate the state x = (q, qd) (6,) over one tick under a held actuator force (3,).
+    def current(self, q_meas: np.ndarray, q_ref: np.ndarray, qd_ref: np.ndarray) -> np.ndarray:
+        """One controller tick: v_tau (3,) A."""
+        e = q_ref - q_meas
+        self.integral = self.integral + e * TICK
+        v_est = (q_meas - self.q_meas_prev) / TICK
+        self.q_meas_prev = q_meas
+        qd_term = qd_ref if self.velocity_ff else 0.0
+        return (KP * e + KI * self.integral + KD * (qd_term - v_est)) / G_TAU_MANUFACTURER
 
-    Returns (x at the end of the tick, qdd at its start). Default: the configuration-dependent terms
-    ``geo`` (evaluated at the predicted middle of the tick when not given) are expanded to first
-    order (plant.forward_dynamics_local); ``exact=True`` evaluates the full Lagrange equations at
-    every RK4 stage (40 times slower; for validation).
-    """
-    h = TICK / substeps
-    if exact:
-        def f(x):
-            qdd = pl._forward_one(x[:3], x[3:], force + _ripple(x[:3], drive), p, "smooth")
-            return jnp.concatenate([x[3:], qdd])
-    else:
-        if geo is None:
-            geo = window_geometry(x, p, 1)
-
-        def f(x):
-            q = [x[0], x[1], x[2]]
-            qd = [x[3], x[4], x[5]]
-            tau = force + _ripple(x[:3], drive)
-            qdd = pl.forward_dynamics_local(q, qd, [tau[0], tau[1], tau[2]], geo, p)
-            return jnp.stack(qd + qdd)
-
-    def step(x, _):
-        k1 = f(x)
-        k2 = f(x + 0.5 * h * k1)
-        k3 = f(x + 0.5 * h * k2)
-        k4 = f(x + h * k3)
-        return x + (h / 6.0) * (k1 + 2 * k2 + 2 * k3 + k4), k1[3:]
-
-    x, qdds = jax.lax.scan(step, x, None, length=substeps)
-    return x, qdds[0]
-
-
-def quantise(q, resolution: float = ENCODER_RESOLUTION):
-    return jnp.round(q / resolution) * resolution
-
-
-class ControllerState(NamedTuple):
-    q_meas_prev: jnp.ndarray  # (3,)
-    integral: jnp.ndarray  # (3,) integral of the position error, m s
-
-
-def pid_current(ctrl: ControllerState, q_meas, q_ref, qd_ref, ff: float):
-    """One controller tick: (new state, v_tau (3,) in A)."""
-    e = q_ref - q_meas
-    integral = ctrl.integral + e * TICK
-    v_est = (q_meas - ctrl.q_meas_prev) / TICK
-    force = KP * e + KI * integral + KD * (ff * qd_ref - v_est)
-    return ControllerState(q_meas, integral), force / G_TAU_MANUFACTURER
-
-
-@partial(jax.jit, static_argnames=("ff", "substeps", "exact"))
-def run_closed_loop(x0, ctrl0: ControllerState, q_ref, qd_ref, noise, p: pl.PlantParams, drive: DriveModel,
-                    ff: float = 0.0, substeps: int = SUBSTEPS, exact: bool = False):
-    """Whole record in one scan. q_ref, qd_ref, noise: (N, 3), N a multiple of GEOMETRY_TICKS.
-    Returns per-tick arrays (N, 3): q_meas, v_tau, true q, true qd, true qdd (at t_k, under the held
-    force), and the final state."""
-
-    def tick(x, ctrl, inp, geo):
-        qr, qdr, n = inp
-        q_meas = quantise(x[:3])
-        ctrl, v_tau = pid_current(ctrl, q_meas, qr, qdr, ff)
-        force = drive.g_tau * (v_tau + n)
-        x_next, qdd = _rk4_tick(x, force, p, drive, substeps, exact, geo)
-        return x_next, ctrl, (q_meas, v_tau, x[:3], x[3:], qdd)
-
-    def window(carry, inp):  # GEOMETRY_TICKS ticks sharing one geometry evaluation
-        x, ctrl = carry
-        geo = None if exact else window_geometry(x, p)
-        outs = []
-        for j in range(GEOMETRY_TICKS):
-            x, ctrl, out = tick(x, ctrl, [a[j] for a in inp], geo)
-            outs.append(out)
-        return (x, ctrl), tuple(jnp.stack([o[k] for o in outs]) for k in range(5))
-
-    N = q_ref.shape[0]
-    xs = tuple(a.reshape(N // GEOMETRY_TICKS, GEOMETRY_TICKS, 3) for a in (q_ref, qd_ref, noise))
-    (x, ctrl), out = jax.lax.scan(window, (x0, ctrl0), xs)
-    return tuple(o.reshape(N, 3) for o in out), x, ctrl
-
-
-@partial(jax.jit, static_argnames=("substeps",))
-def external_tick(x, v_tau, noise, p: pl.PlantParams, drive: DriveModel, substeps: int = SUBSTEPS):
-    """External mode: apply the current v_tau (3,) A for one tick; returns (q_meas at t_k, x_next)."""
-    force = drive.g_tau * (v_tau + noise)
-    return quantise(x[:3]), _rk4_tick(x, force, p, drive, substeps)[0]
-
-
-@partial(jax.jit, static_argnames=("ff",))
-def controller_tick(x, ctrl: ControllerState, q_ref, qd_ref, noise, p: pl.PlantParams, drive: DriveModel,
-                    ff: float = 0.0):
-    """One tick of the internal controllers for the driver node: (q_meas, v_tau, x_next, ctrl)."""
-    q_meas = quantise(x[:3])
-    ctrl, v_tau = pid_current(ctrl, q_meas, q_ref, qd_ref, ff)
-    x_next = _rk4_tick(x, drive.g_tau * (v_tau + noise), p, drive, SUBSTEPS)[0]
-    return q_meas, v_tau, x_next, ctrl
-
-
-def initial_state(q0, qd0, qdd0, p: pl.PlantParams, drive: DriveModel):
-    """Plant state on the reference, controller integrator pre-loaded with the force needed there."""
-    q0, qd0, qdd0 = (jnp.asarray(v, dtype=jnp.float64) for v in (q0, qd0, qdd0))
-    tau0 = pl._inverse_one(q0, qd0, qdd0, p, "smooth")
-    x0 = jnp.concatenate([q0, qd0])
-    q_meas = quantise(q0)
-    ctrl0 = ControllerState(q_meas - qd0 * TICK, tau0 / KI)
-    return x0, ctrl0
+    @classmethod
+    def preloaded(cls, plant: Plant, q0, qd0, qdd0, velocity_ff: bool = False) -> "PID":
+        """A PID whose integrator already holds the force needed on the reference at t_0."""
+        q0, qd0 = np.asarray(q0, float), np.asarray(qd0, float)
+        tau0 = plant.inverse_dynamics(q0, qd0, np.asarray(qdd0, float))
+        return cls(quantise(q0) - qd0 * TICK, tau0 / KI, velocity_ff)
 
 
 @dataclass
 class ClosedLoopResult:
-    q_meas: np.ndarray
-    v_tau: np.ndarray
-    q: np.ndarray
-    qd: np.ndarray
-    qdd: np.ndarray
+    q_meas: np.ndarray  # (N, 3) m
+    v_tau: np.ndarray  # (N, 3) A
+    q: np.ndarray  # (N, 3) m, true
+    qd: np.ndarray  # (N, 3) m/s, true
+    qdd: np.ndarray  # (N, 3) m/s², true, at t_k under the held force
 
 
-CHUNK = 1000  # ticks per compiled scan: one compilation serves records of any length
+def simulate_closed_loop(q_ref, qd_ref, qdd_ref, plant: Plant, drive: DriveModel, controller: str = "pid",
+                         noise: np.ndarray | None = None, feedforward: np.ndarray | None = None) -> ClosedLoopResult:
+    """Run the plant under "pid", "pid_ff" or "ctc" along a sampled reference (N, 3) at 1 kHz.
 
-
-def simulate_closed_loop(q_ref, qd_ref, qdd_ref, p: pl.PlantParams, drive: DriveModel, controller: str = "pid",
-                         noise: np.ndarray | None = None, exact: bool = False) -> ClosedLoopResult:
-    """Run the plant under "pid" or "pid_ff" along a sampled reference (N, 3) at 1 kHz.
-
-    The plant starts on the reference (q, qd at t_0) with the controller's integrator pre-loaded.
+    ``feedforward`` (N, 3) A: the model feed-forward current of "ctc" for each tick. The plant
+    starts on the reference (q, qd at t_0) with the controller's integrator pre-loaded.
     """
-    if controller not in ("pid", "pid_ff"):
-        raise ValueError(f"controller must be 'pid' or 'pid_ff' for a recorded run, got {controller!r}")
+    if controller not in ("pid", "pid_ff", "ctc"):
+        raise ValueError(f"controller must be 'pid', 'pid_ff' or 'ctc' for a recorded run, got {controller!r}")
     q_ref, qd_ref = np.asarray(q_ref, float), np.asarray(qd_ref, float)
     N = len(q_ref)
-    if noise is None:
-        noise = np.zeros_like(q_ref)
-    x, ctrl = initial_state(q_ref[0], qd_ref[0], qdd_ref[0], p, drive)
-    pad = (-N) % CHUNK
-    padded = [np.concatenate([a, np.repeat(a[-1:], pad, axis=0)]) for a in (q_ref, qd_ref, np.asarray(noise, float))]
-    outs = []
-    for start in range(0, N + pad, CHUNK):
-        sl = slice(start, start + CHUNK)
-        out, x, ctrl = run_closed_loop(x, ctrl, *(jnp.asarray(a[sl]) for a in padded), p, drive,
-                                       ff=1.0 if controller == "pid_ff" else 0.0, exact=exact)
-        outs.append([np.asarray(o) for o in out])
-    return ClosedLoopResult(*(np.concatenate([o[k] for o in outs])[:N] for k in range(5)))
+    noise = np.zeros((N, 3)) if noise is None else np.asarray(noise, float)
+    ff = np.zeros((N, 3)) if feedforward is None else np.asarray(feedforward, float)
+    sim = Integrator(plant, drive, q_ref[0], qd_ref[0])
+    pid = PID.preloaded(plant, q_ref[0], qd_ref[0], qdd_ref[0], velocity_ff=controller != "pid")
+    pid.integral = pid.integral - ff[0] * G_TAU_MANUFACTURER / KI  # the feed-forward brings its share
+    out = ClosedLoopResult(*(np.empty((N, 3)) for _ in range(5)))
+    for k in range(N):
+        out.q[k], out.qd[k] = sim.q, sim.qd
+        out.q_meas[k] = quantise(out.q[k])
+        out.v_tau[k] = pid.current(out.q_meas[k], q_ref[k], qd_ref[k]) + ff[k]
+        out.qdd[k] = sim.tick(out.v_tau[k] + noise[k])
+    return out

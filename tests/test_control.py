@@ -1,11 +1,11 @@
-"""orthoglide_ident.control: IDIM feed-forward, the per-tick CTC law and its parameters."""
+"""orthoglide_ident.control: the IDIM feed-forward of the CTC and its parameters."""
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
 from orthoglide_ident import control as ctl
-from orthoglide_ident.control import CTC, CTCParameters, LinearGains, feedforward
+from orthoglide_ident.control import CTCParameters, feedforward, feedforward_currents
 from orthoglide_ident.errors import ConfigError
 from orthoglide_ident.model.base import base_model
 from orthoglide_ident.results import Estimate, IdentificationResult, PayloadMass
@@ -31,29 +31,19 @@ def fake_result(params: CTCParameters) -> IdentificationResult:
         residual_rms=[1.0, 1.0, 1.0], bags=["a", "b"])
 
 
-def test_linear_part_is_the_simulators():
-    from orthoglide_sim import simulator as sm
-
-    g = LinearGains.from_bandwidth()
-    assert (g.kp, g.kd, g.ki) == pytest.approx((sm.KP, sm.KD, sm.KI), rel=1e-15)
-    assert ctl.G_TAU_MANUFACTURER == pytest.approx(sm.G_TAU_MANUFACTURER, rel=1e-15)
-    assert ctl.TICK == sm.TICK
-
-
 def test_feedforward_equals_plant_torque_on_exact_data(monkeypatch):
-    """Plant forward dynamics (independent Lagrange formulation, sign() friction like the model)
+    """Plant forward dynamics (Pinocchio, independent of the model; sign() friction like the model)
     under random forces, then the feed-forward at the resulting (q, qd, qdd) gives the forces back."""
-    from orthoglide_sim import plant as pl
+    from orthoglide_sim.plant import Plant
     from orthoglide_sim.true_parameters import load_parameters
 
     rng = np.random.default_rng(1)
-    n = 12  # the shape test_sim_plant_vs_model compiles forward_dynamics for
+    n = 12
     q, qd = 0.04 + rng.uniform(-0.08, 0.08, (n, 3)), rng.uniform(-1.0, 1.0, (n, 3))  # the safe box
-    tp = load_parameters()
-    tau = np.random.default_rng(3).uniform(-300.0, 300.0, (len(q), 3))
-    qdd = pl.forward_dynamics(q, qd, tau, (tp.standard_vector(), tp.payload_vector("1.983")), coulomb="sign")
+    tau = np.random.default_rng(3).uniform(-300.0, 300.0, (n, 3))
+    qdd = Plant(load_parameters(), "1.983", coulomb="sign").forward_dynamics(q, qd, tau)
     monkeypatch.setattr(ctl, "FF_CHUNK", 3)  # several chunks
-    tau_ff = feedforward(q, qd, np.asarray(qdd), true_params(1.983))
+    tau_ff = feedforward(q, qd, qdd, true_params(1.983))
     assert np.abs(tau_ff - tau).max() / np.abs(tau).max() < 1e-8
 
 
@@ -75,39 +65,29 @@ def test_feedforward_matches_observation_and_ignores_absent_parameters():
     assert np.allclose(feedforward(q, qd, qdd, sub), (W @ chi + w_m7).reshape(3, 7).T)
 
 
-def test_command_is_feedforward_over_gain_when_on_the_reference():
-    """Constant-velocity reference (so the backward difference is exact): zero error, zero integral,
-    v_est = qd_d, hence v_tau = tau_ff / g_tau on every tick, across block boundaries."""
-    q0, v = np.array([0.01, 0.03, 0.05]), np.array([0.2, -0.1, 0.3])
+def test_feedforward_currents_in_the_middle_of_each_hold_over_the_gains():
+    """Tick k's current is the model force at the mean of samples k and k+1 (t_k + T/2 for a
+    smooth reference) divided by g_tau; N samples give N - 1 ticks."""
+    from orthoglide_ident.model.base import random_states
 
-    def reference(t):
-        t = np.asarray(t, float)[:, None]
-        return q0 + v * t, np.broadcast_to(v, (len(t), 3)).copy(), np.zeros((len(t), 3))
-
+    q, qd, qdd = random_states(6, seed=2)
     p = true_params()
-    ctc = CTC(p, reference, block=4, ff_lead=0.0)
-    ks = np.arange(11)
-    q_d, qd_d, qdd_d = reference(ks * ctl.TICK)
-    tau_ff = feedforward(q_d, qd_d, qdd_d, p)
-    for k in ks:
-        np.testing.assert_allclose(ctc.command(int(k), q_d[k]), tau_ff[k] / p.drive_gains, rtol=1e-9, atol=1e-12)
-    np.testing.assert_allclose(ctc.integral, 0.0, atol=1e-15)
+    v_ff = feedforward_currents(q, qd, qdd, p)
+    mid = [0.5 * (a[:-1] + a[1:]) for a in (q, qd, qdd)]
+    assert v_ff.shape == (5, 3)
+    np.testing.assert_allclose(v_ff * p.drive_gains, feedforward(*mid, p), rtol=1e-12)
 
 
-def test_feedback_is_the_pid_ff_law():
+def test_feedforward_currents_of_a_quintic_are_the_half_tick_model():
+    """On a smooth test trajectory the mean of two ticks is the reference at t_k + T/2 to ~1e-6 m."""
+    from orthoglide_sim.trajectories import get_trajectory
+
+    traj = get_trajectory("test2")
+    t = np.arange(0.0, 0.5, 1e-3)
     p = true_params()
-
-    def reference(t):
-        n = len(np.atleast_1d(t))
-        return np.full((n, 3), 0.04), np.zeros((n, 3)), np.zeros((n, 3))
-
-    ctc = CTC(p, reference, feedforward_on=False)
-    g = LinearGains.from_bandwidth()
-    ctc.command(0, np.full(3, 0.04))
-    q1 = np.array([0.04 - 1e-5, 0.04, 0.04 + 2e-6])
-    e = 0.04 - q1
-    expected = g.kp * e + g.ki * e * ctl.TICK + g.kd * (0.0 - (q1 - 0.04) / ctl.TICK)
-    np.testing.assert_allclose(ctc.force(1, q1), expected, rtol=1e-12)
+    v_ff = feedforward_currents(*traj.evaluate(t), p)
+    exact = feedforward(*traj.evaluate(t[:-1] + 0.5e-3), p) / p.drive_gains
+    assert np.abs(v_ff - exact).max() < 2e-3 * np.abs(exact).max()
 
 
 def test_parameters_from_result_and_message_agree():
@@ -148,5 +128,3 @@ def test_bad_parameters_raise_config_error(change, match):
 def test_missing_field_raises_config_error():
     with pytest.raises(ConfigError, match="lack field"):
         CTCParameters.from_message_fields({"names": ["m_11R"], "values": [1.0]})
-    with pytest.raises(ConfigError):
-        LinearGains.from_bandwidth(-1.0)

@@ -1,4 +1,4 @@
-"""CTC in the simulator's closed loop (external controller, one compiled tick per call)."""
+"""The split CTC in the simulator's closed loop: the driver's pid_ff plus the model feed-forward."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -6,8 +6,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from orthoglide_ident.control import CTC, CTCParameters
-from orthoglide_sim.record import simulate, simulate_external
+from orthoglide_ident.control import CTCParameters, feedforward_currents
+from orthoglide_sim.record import simulate
 from orthoglide_sim.trajectories import get_trajectory
 
 BAGS = [Path(__file__).resolve().parent.parent / "bags" / c for c in ("unloaded", "loaded")]
@@ -28,12 +28,13 @@ def rms_um(rec) -> np.ndarray:
 
 
 def test_ctc_tracks_far_better_than_pid(identified):
-    ctc = CTC(identified, get_trajectory("test2").evaluate)
-    rec_ctc = simulate_external(DURATION, ctc.command, payload="1.983", trajectory="test2", seed=1)
+    ref = get_trajectory("test2").evaluate(np.arange(round(DURATION * 1000) + 1) * 1e-3)
+    rec_ctc = simulate(DURATION, payload="1.983", trajectory="test2", controller="ctc", seed=1,
+                       feedforward=feedforward_currents(*ref, identified))
     rec_pid = simulate(DURATION, payload="1.983", trajectory="test2", controller="pid", seed=1)
     e_ctc, e_pid = rms_um(rec_ctc), rms_um(rec_pid)
     # measured (bench/ctc_tracking.py): PID ~450-660 um, CTC ~4-5 um rms per joint on test2
     assert np.all(e_ctc < 15.0), e_ctc
     assert np.all(e_pid / e_ctc >= 20.0), (e_pid, e_ctc)
     # the command really is what the CTC law computed, held by the plant
-    assert rec_ctc.controller == "external" and np.all(np.isfinite(rec_ctc.v_tau))
+    assert rec_ctc.controller == "ctc" and np.all(np.isfinite(rec_ctc.v_tau))

@@ -106,4 +106,4 @@ def test_a_call_while_busy_is_refused_at_once(node, client):
 
 def test_help_needs_no_ros():
     out = subprocess.run([sys.executable, "-c", NODE, "--help"], capture_output=True, text=True, timeout=30)
-    assert out.returncode == 0 and out.stdout.startswith("usage:") and "/orthoglide/identify" in out.stdout
+    assert out.returncode == 0 and out.stdout.startswith("usage:") and "orthoglide/identify" in out.stdout and "orthoglide/identification/live" in out.stdout

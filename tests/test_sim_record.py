@@ -5,8 +5,8 @@ import numpy as np
 import pytest
 
 from orthoglide_ident.errors import ConfigError
-from orthoglide_sim import plant as pl
 from orthoglide_sim import simulator as sm
+from orthoglide_sim.plant import Plant
 from orthoglide_sim.record import simulate
 
 
@@ -36,18 +36,15 @@ def test_zero_order_hold_between_ticks(rec):
     g_tau (v_tau[k] + noise[k]) gives; with the noise regenerated from the seed it matches exactly."""
     rng = np.random.default_rng(1)
     noise = rng.normal(0.0, sm.CURRENT_NOISE_STD, (500, 3))
-    p = pl.plant_params(rec.params, "1.983")
-    drive = sm.drive_model(rec.params)
-    k = 200  # start of a geometry window (GEOMETRY_TICKS divides k)
-    x = np.concatenate([rec.q_true[k], rec.qd_true[k]])
-    geo = sm.window_geometry(x, p)
-    force = drive.g_tau * (rec.v_tau[k] + noise[k])
-    x1 = np.asarray(sm._rk4_tick(x, force, p, drive, sm.SUBSTEPS, geo=geo)[0])
-    assert np.abs(x1[:3] - rec.q_true[k + 1]).max() < 1e-12
-    # a linearly interpolated (first-order hold) current would give a measurably different state
-    force_foh = drive.g_tau * (0.5 * (rec.v_tau[k] + rec.v_tau[k + 1]) + noise[k])
-    x2 = np.asarray(sm._rk4_tick(x, force_foh, p, drive, sm.SUBSTEPS, geo=geo)[0])
-    assert np.abs(x2[:3] - rec.q_true[k + 1]).max() > 1e-9
+    plant, drive = Plant(rec.params, "1.983"), sm.drive_model(rec.params)
+    k = 200  # the tree was put back on the closed loop here (every RELIFT_TICKS), as lift() does
+    sim = sm.Integrator(plant, drive, rec.q_true[k], rec.qd_true[k])
+    sim.tick(rec.v_tau[k] + noise[k])
+    assert np.abs(sim.q - rec.q_true[k + 1]).max() < 1e-12
+    # a linearly interpolated (first-order hold) current gives a measurably different state
+    sim = sm.Integrator(plant, drive, rec.q_true[k], rec.qd_true[k])
+    sim.tick(0.5 * (rec.v_tau[k] + rec.v_tau[k + 1]) + noise[k])
+    assert np.abs(sim.q - rec.q_true[k + 1]).max() > 1e-9
 
 
 def test_bad_arguments():

@@ -1,8 +1,6 @@
 """Trajectories stay inside the safe box, within limits, and away from singularities."""
 from __future__ import annotations
 
-import jax
-import jax.numpy as jnp
 import numpy as np
 import pytest
 
@@ -24,9 +22,8 @@ def test_inside_workspace_and_away_from_singularities(name):
     q, qd, qdd = traj.evaluate(t)
     assert np.all(q >= Q_CENTER - Q_HALF - 1e-12) and np.all(q <= Q_CENTER + Q_HALF + 1e-12)
     assert np.abs(qd).max() <= 1.5 and np.abs(qdd).max() <= 25.0
-    m = np.asarray(jax.jit(jax.vmap(lambda x: jnp.stack(kin.singularity_margins(x))))(jnp.asarray(q[::10])))
-    assert np.isfinite(m).all()
-    assert m[:, 0].min() > 0.8 and m[:, 1].min() > 0.5 and (1 / m[:, 2]).max() < 3.0
+    serial, parallel, inv_cond = kin.singularity_margins(q[::10])
+    assert serial.min() > 0.8 and parallel.min() > 0.5 and (1 / inv_cond).max() < 3.0
 
 
 def test_exciting_trajectory_is_strongly_exciting():

@@ -22,7 +22,7 @@ from ._types import (
 )
 from .info import BagInfo, Gaps, TickCounter, TopicInfo, bag_info, find_gaps
 from .recording import Recording
-from .reader import BagData, CurrentReferences, FileStatus, JointStates, bag_files, read_bag
+from .reader import BagData, CurrentReferences, FileStatus, JointStates, bag_files, decode_messages, read_bag
 from .writer import BagWriter, encode_messages, write_bag
 
 __all__ = [
@@ -47,6 +47,7 @@ __all__ = [
     "TopicInfo",
     "bag_files",
     "bag_info",
+    "decode_messages",
     "default_qos",
     "encode_messages",
     "find_gaps",

@@ -126,12 +126,15 @@ class TickCounter:
 
     def __init__(self, rate_hz: float) -> None:
         self.period_ns = 1e9 / rate_hz if rate_hz > 0 else 0.0
+        self.first: int | None = None
         self.last: int | None = None
         self.missing = 0
         self.backwards = 0
 
     def add(self, stamp_ns: int) -> None:
         last, self.last = self.last, stamp_ns
+        if last is None:
+            self.first = stamp_ns
         if last is None or not self.period_ns:
             return
         d = stamp_ns - last

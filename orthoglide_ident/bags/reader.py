@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -13,9 +13,11 @@ from orthoglide_ident.errors import BagError, DataError
 
 from . import _cdr, _mcap
 from ._tags import METADATA_NAME, BagTags
-from ._types import CURRENT_REFERENCE_TOPIC, JOINT_STATES_TOPIC, ensure_type, typestore
+from ._types import (CURRENT_REFERENCE_TOPIC, CURRENT_REFERENCE_TYPE, JOINT_STATE_TYPE, JOINT_STATES_TOPIC,
+                     ensure_type, typestore)
 
 DECODED = {JOINT_STATES_TOPIC: "position", CURRENT_REFERENCE_TOPIC: "current"}
+FIELD_OF_TYPE = {JOINT_STATE_TYPE: "position", CURRENT_REFERENCE_TYPE: "current"}
 
 
 @dataclass
@@ -134,7 +136,7 @@ def _decode_rows(series: TopicSeries, rows: Iterable[bytes]) -> None:
     """Slow path: rosbags deserialiser for messages without the expected fixed layout."""
     ensure_type(series.msgtype)
     store = typestore()
-    field_name = DECODED[series.topic]
+    field_name = FIELD_OF_TYPE[series.msgtype]
     st, vals = [], []
     for raw in rows:
         try:
@@ -353,6 +355,20 @@ def _take(
             dec = decoders[ch.topic] = _Decoder(s)
         lens = _mcap.record_lengths(arr, offs) - _mcap.MSG_HEAD_LEN
         dec.add(arr, offs + _mcap.MSG_HEAD_LEN, lens)
+
+
+def decode_messages(raw: Sequence[bytes], msgtype: str) -> tuple[np.ndarray, tuple[str, ...], np.ndarray]:
+    """Serialized JointState or CurrentReference messages (CDR, as a raw subscription receives
+    them) decoded in bulk: (header stamps ns (n,), joint names, values (n, len(names))). Raises
+    DataError when the joint names change from one message to another."""
+    series = TopicSeries(msgtype, msgtype)
+    if raw:
+        lens = np.fromiter((len(r) for r in raw), np.int64, len(raw))
+        offs = np.concatenate([[0], np.cumsum(lens)[:-1]])
+        _Decoder(series).add(np.frombuffer(b"".join(raw), np.uint8), offs, lens)
+    if not series.stamps:
+        return np.empty(0, np.int64), series.names or (), np.empty((0, len(series.names or ())))
+    return np.concatenate(series.stamps), series.names or (), np.concatenate(series.values)
 
 
 def read_bag(path: str | Path, *, require_tags: bool = True) -> BagData:

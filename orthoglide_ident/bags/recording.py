@@ -23,6 +23,55 @@ from .writer import BagWriter
 _STAMP = struct.Struct("<iI")
 
 
+class TickAligner:
+    """Keeps the stamped topics of a recording on the same ticks, in arrival order.
+
+    The controller publishes the two messages of a tick one after the other, so a recording that
+    starts or stops between them would hold one topic's tick without the other's. Messages are
+    released in arrival order once every stamped topic has reached their stamp; the first tick
+    is the first one every stamped topic delivered, and ``finish()`` ends all of them on the last
+    tick they all delivered. Messages of other topics go through, in order.
+    """
+
+    def __init__(self, stamped: set[str]) -> None:
+        self.stamped = stamped
+        self.first: dict[str, int] = {}
+        self.latest: dict[str, int] = {}
+        self.start: int | None = None
+        self.held: collections.deque[tuple] = collections.deque()
+
+    def push(self, item: tuple, stamp: int | None) -> list[tuple]:
+        """Queue ``item`` (stamp: its header stamp when its topic is stamped); what may be written."""
+        if stamp is not None:
+            topic = item[0]
+            self.first.setdefault(topic, stamp)
+            self.latest[topic] = max(stamp, self.latest.get(topic, stamp))
+            if self.start is None and len(self.first) == len(self.stamped):
+                self.start = max(self.first.values())
+        self.held.append((item, stamp))
+        return self._release(None)
+
+    def finish(self) -> list[tuple]:
+        """Everything still held, cut at the last tick every stamped topic delivered."""
+        end = min(self.latest.values()) if len(self.latest) == len(self.stamped) else None
+        return self._release(end, final=True)
+
+    def _release(self, end: int | None, final: bool = False) -> list[tuple]:
+        if self.start is None and not final:
+            return []
+        common = min(self.latest.values()) if self.latest else None
+        out = []
+        while self.held:
+            item, stamp = self.held[0]
+            if stamp is not None and not final and stamp > common:
+                break  # another stamped topic has not reached this tick yet
+            self.held.popleft()
+            if stamp is None or (self.start is not None and stamp >= self.start
+                                 and (end is None or stamp <= end)):
+                out.append(item)
+        return out
+
+
 class Recording:
     """One bag being written: a queue filled by the callbacks, drained by a writer thread."""
 
@@ -33,6 +82,8 @@ class Recording:
         self.counters = {t: TickCounter(rate_hz) for t in stamped}
         self.registered: set[str] = set()
         self.stamped = stamped
+        self.aligner = TickAligner(stamped)
+        self._log_time = 0  # last log time written (ns)
         self.error = ""
         self.alive = True
         self._stop = threading.Event()
@@ -49,21 +100,21 @@ class Recording:
             while True:
                 stopping = self._stop.is_set()
                 while q:
-                    topic, data, a, b = q.popleft()
+                    item = q.popleft()
+                    topic, data, a, b = item
                     if data is None:  # a topic to register: (topic, None, msgtype, qos)
                         try:
                             self.channels[topic] = w.add_topic(topic, a, qos=b)
                         except OrthoglideError as exc:
                             self._log.warning(f"not recording {topic}: {exc}")
                         continue
-                    cid = self.channels.get(topic)
-                    if cid is None:
-                        continue
+                    stamp = None
                     if topic in self.stamped and len(data) >= 12:
                         sec, nsec = _STAMP.unpack_from(data, 4)
-                        self.counters[topic].add(sec * 1_000_000_000 + nsec)
-                    w.write(cid, data, a, b)
+                        stamp = sec * 1_000_000_000 + nsec
+                    self._write(self.aligner.push(item, stamp))
                 if stopping:
+                    self._write(self.aligner.finish())
                     break
                 w.flush_if_due(time.time_ns())
                 self._stop.wait(0.02)
@@ -77,6 +128,19 @@ class Recording:
                 f"recording to {w.path} ended by an internal error ({type(exc).__name__}: {exc}); "
                 "what was written is kept"
             )
+
+    def _write(self, items: list[tuple]) -> None:
+        """Write in arrival order; log times never decrease in a file (MCAP tools check it), so a
+        message received a moment before the previous one written is logged at that one's time."""
+        for topic, data, received, published in items:
+            cid = self.channels.get(topic)
+            if cid is None:
+                continue
+            if topic in self.stamped:
+                sec, nsec = _STAMP.unpack_from(data, 4)
+                self.counters[topic].add(sec * 1_000_000_000 + nsec)
+            self._log_time = max(self._log_time, received)
+            self.writer.write(cid, data, self._log_time, published)
 
     def _fail(self, message: str) -> None:
         self.alive = False

@@ -6,10 +6,18 @@
 
 One module per step: segments (pairing, gaps) → filtering (derivative filter, zero-order hold)
 → reversals (sign() friction at velocity reversals) → decimation (parallel decimation, eqs.
-19-20) → tls / wls (eqs. 24-39) → essential (Sect. 5.2) → validation (Fig. 5); pipeline ties
-them together, options holds the tuning (config/identification.yaml).
+19-20) → tls / wls (eqs. 24-39) → essential (Sect. 5.2) → validation (Fig. 5); stream runs a
+segment through filtering, W, reversals and decimation block by block, factors keeps the
+equations as per-joint R factors, solve turns them into a result; pipeline ties them together
+for bags, live (with pairing and live_recording) while recording; options holds the tuning
+(config/identification.yaml).
+
+    live = LiveIdentification()                      # see identify/live.py
+    live.start_recording("run-1", "unloaded"); live.add_joint_states(...); ...
 """
+from orthoglide_ident.identify.live import LiveEstimate, LiveIdentification
 from orthoglide_ident.identify.options import IdentifyOptions
 from orthoglide_ident.identify.pipeline import Record, identify, identify_records, read_record
 
-__all__ = ["IdentifyOptions", "Record", "identify", "identify_records", "read_record"]
+__all__ = ["IdentifyOptions", "LiveEstimate", "LiveIdentification", "Record", "identify",
+           "identify_records", "read_record"]

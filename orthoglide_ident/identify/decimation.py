@@ -87,6 +87,11 @@ def fir_output_range(n: int, n_d: int) -> tuple[int, int]:
     return h, (n - 2 * h - 1) // n_d + 1
 
 
+def decimated_count(n: int, n_d: int) -> int:
+    """Decimated samples the FIR gives for a segment of ``n`` states (all of them if n_d = 1)."""
+    return max(n, 0) if n_d == 1 else fir_output_range(n, n_d)[1]
+
+
 def _fir_block(x: np.ndarray, taps: np.ndarray, n_d: int, r: int) -> np.ndarray:
     """y[i] = Σ_l taps[l] x[i n_d + l], i < r (x holds at least (r - 1) n_d + len(taps) samples)."""
     L = taps.shape[0]
@@ -104,6 +109,27 @@ def _fir_block(x: np.ndarray, taps: np.ndarray, n_d: int, r: int) -> np.ndarray:
     for b in range(n_blocks):
         y += np.matmul(h[b], flat[b:b + r])  # (n_d,) @ (r, n_d, C) -> (r, C)
     return y.reshape((r,) + x.shape[1:])
+
+
+def fir_decimate_last(x: np.ndarray, n_d: int, r: int) -> np.ndarray:
+    """y[..., i] = Σ_l taps[l] x[..., i n_d + l], i < r: the FIR outputs along the last axis.
+
+    Polyphase: ``x`` (..., m) with m ≥ (r - 1) n_d + 8 n_d + 1 is viewed as blocks of n_d
+    samples; one matrix product per row multiplies the 8 full blocks of taps by every block,
+    output i sums the partial products of blocks i..i+7, plus the last tap: only the kept
+    samples are computed (~9 multiply-adds per input sample and column). Each row of ``x``
+    must be contiguous in time (a slice of a (rows, capacity) buffer is); no copy is made.
+    """
+    taps = fir_taps(n_d)
+    nb = (taps.shape[0] - 1) // n_d  # full blocks: 8
+    lead = x.shape[:-1]
+    x2 = x.reshape(-1, x.shape[-1])
+    xb = x2[:, :(r - 1 + nb) * n_d].reshape(x2.shape[0], r - 1 + nb, n_d)
+    Z = np.matmul(taps[:nb * n_d].reshape(nb, n_d), xb.transpose(0, 2, 1))  # (rows, nb, blocks)
+    y = taps[-1] * x2[:, nb * n_d:nb * n_d + (r - 1) * n_d + 1:n_d]
+    for b in range(nb):
+        y += Z[:, b, b:b + r]
+    return y.reshape(lead + (r,))
 
 
 def decimate_fir(x: np.ndarray, n_d: int) -> np.ndarray:

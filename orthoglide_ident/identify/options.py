@@ -49,6 +49,13 @@ class IdentifyOptions:
     max_gain_rel_std: float = 0.05
     gain_min: float = 200.0
     gain_max: float = 20000.0
+    # Live identification (identify/live.py)
+    live_block_s: float = 1.0  # new paired data processed in blocks of about this length
+    live_pairing_slack_s: float = 0.02  # a tick is paired once both topics are this far past it
+    live_still_s: float = 2.0  # warn when a joint stays below the velocity dead band this long
+    live_enough_gain_rel_std: float = 0.005  # status "enough data" once every gain's σ is below
+    current_limit_a: float = 0.0  # A, the drives' current limit; 0: no saturation warning
+    current_warn_fraction: float = 0.9  # warn when |v_tau| reaches this fraction of the limit
 
     def limits(self) -> ExcitationLimits:
         return ExcitationLimits(self.max_condition, self.max_singular_ratio,
@@ -106,6 +113,11 @@ class IdentifyOptions:
             raise ConfigError(f"{source}: r_sigma must be > 1 (the paper uses 10)")
         if self.filter_cutoff_hz <= 0:
             raise ConfigError(f"{source}: filter_cutoff_hz must be > 0")
+        if not (self.live_block_s > 0 and self.live_pairing_slack_s >= 0
+                and self.live_still_s > 0 and self.current_limit_a >= 0
+                and 0 < self.current_warn_fraction <= 1):
+            raise ConfigError(f"{source}: live_block_s, live_still_s > 0, live_pairing_slack_s, "
+                              "current_limit_a >= 0 and 0 < current_warn_fraction <= 1")
 
     @classmethod
     def from_yaml(cls, path: str | Path) -> "IdentifyOptions":

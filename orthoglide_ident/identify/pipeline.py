@@ -18,23 +18,23 @@ from typing import Any, Iterable, Iterator, Protocol, Sequence
 
 import numpy as np
 
-from orthoglide_ident.errors import ExcitationError, IdentificationError
-from orthoglide_ident.identify.decimation import decimate_chunked, fir_output_range
-from orthoglide_ident.identify.essential import EssentialResult, essential_parameters
+from orthoglide_ident.errors import IdentificationError
+from orthoglide_ident.identify.decimation import decimate_chunked, decimated_count
+from orthoglide_ident.identify.factors import RecordFactors
 from orthoglide_ident.identify.filtering import states_at_half_tick
 from orthoglide_ident.identify.observations import Observations
 from orthoglide_ident.identify.options import IdentifyOptions
 from orthoglide_ident.identify.reversals import bridge, find_reversals, rows_clear
-from orthoglide_ident.identify.segments import JOINT_NAMES, SegmentReport, split_record
-from orthoglide_ident.identify.tls import (TLSProblem, TLSSolution, check_excitation,
-                                           require_loaded_and_unloaded)
+from orthoglide_ident.identify.segments import JOINT_NAMES, Segment, SegmentReport, split_record
+from orthoglide_ident.identify.solve import G_TAU_MANUFACTURER, Solved, solve
+from orthoglide_ident.identify.stream import DecimatedRows, SegmentStream, model_block
 from orthoglide_ident.identify.validation import ValidationResult, cross_validate
-from orthoglide_ident.identify.wls import WLSSolution, idim_wls
-from orthoglide_ident.results import Estimate, IdentificationResult, PayloadMass
+from orthoglide_ident.results import IdentificationResult
 
 log = logging.getLogger("orthoglide_ident.identify")
 
-G_TAU_MANUFACTURER = 637.0 * np.pi  # N/A, eq. (17), the paper's 2001
+__all__ = ["G_TAU_MANUFACTURER", "IdentificationModel", "Record", "identify", "identify_records",
+           "observe", "read_record", "resolve_payload"]
 
 
 class IdentificationModel(Protocol):
@@ -122,7 +122,7 @@ def resolve_payload(rec: Record, payload_mass: float | None, tol: float) -> floa
 
 def observe(rec: Record, model: IdentificationModel, opts: IdentifyOptions,
             payload_mass: float) -> tuple[Observations, SegmentReport, dict[str, float]]:
-    """Segments, derivative filtering, W in chunks and parallel decimation of one record."""
+    """Segments, derivative filtering, W and parallel decimation of one record (§6.1-3)."""
     times: dict[str, float] = {}
     t0 = time.perf_counter()
     period_guess = 1e-3
@@ -134,34 +134,82 @@ def observe(rec: Record, model: IdentificationModel, opts: IdentifyOptions,
         source=rec.source)
     times["segments"] = time.perf_counter() - t0
     log.info("%s: %s", rec.source, rep.summary())
-    T = rep.period_s
+    decimate = _segments_fir if opts.decimation_filter == "fir" else _segments_iir
+    rows, n_bridged, n_unbridged = decimate(segments, model, opts, rep.period_s, times)
+    n_b = len(model.names)
+    # views of the (n_b + 2, 3, r) rows: W (3, r, n_b), v_tau and w_m (3, r), no copies
+    obs = Observations(rec.source, str(rec.condition), payload_mass,
+                       rows.X[:n_b].transpose(1, 2, 0), rows.X[n_b + 1], rows.X[n_b],
+                       t=rows.t, keep=rows.keep)
+    rep.n_reversal_bridged = n_bridged
+    rep.n_reversal_unbridged = n_unbridged
+    log.info("%s: W built and decimated by %d: %s equations per joint (%.2f s); velocity "
+             "reversals: %d joint samples bridged, %d in runs too long to bridge", rec.source,
+             opts.decimation, "/".join(str(x) for x in obs.rows_per_joint()),
+             times["regressor+decimation"], n_bridged, n_unbridged)
+    return obs, rep, times
+
+
+def _segments_fir(segments: list[Segment], model: IdentificationModel, opts: IdentifyOptions,
+                  T: float, times: dict[str, float]) -> tuple[DecimatedRows, int, int]:
+    """Every segment through a :class:`SegmentStream`, pushed ``chunk_samples`` at a time.
+
+    The decimated rows of each segment are known in advance: they are written once into their
+    final ``(n_b + 2, 3, r)`` array (no lists of parts, no concatenated copies).
+    """
+    n_b = len(model.names)
+    trim = int(round(opts.edge_trim_s / T))
+    zoh = 1 if opts.zoh_shift else 0
+    counts = [decimated_count(len(seg) - zoh - 2 * trim, opts.decimation) for seg in segments]
+    with_keep = opts.velocity_deadband_mps > 0
+    out = DecimatedRows(np.empty((n_b + 2, 3, sum(counts))),
+                        np.empty((3, sum(counts)), bool) if with_keep else None,
+                        np.empty(sum(counts)))
+    t_start = int(segments[0].stamps_ns[0])
+    n_bridged = n_unbridged = 0
+    r0 = 0
+    for seg in segments:
+        stream = SegmentStream(model, opts, T, t_start, n_b)
+        t0 = time.perf_counter()
+        states = states_at_half_tick(seg.q, seg.v_tau, T, opts.filter_cutoff_hz,
+                                     opts.filter_order, trim, opts.zoh_shift)
+        stamps = seg.stamps_ns[trim:trim + states[0].shape[0]]
+        times["filtering"] = times.get("filtering", 0.0) + time.perf_counter() - t0
+        for a in range(0, stamps.shape[0], opts.chunk_samples):
+            b = a + opts.chunk_samples
+            r0 = out.write(r0, stream.push_states(stamps[a:b], *(x[a:b] for x in states)))
+        r0 = out.write(r0, stream.finish())
+        n_bridged += stream.n_bridged
+        n_unbridged += stream.n_unbridged
+        for k, v in stream.times.items():
+            times[k] = times.get(k, 0.0) + v
+    assert r0 == out.r, (r0, out.r)
+    times["regressor+decimation"] = times.pop("regressor", 0.0) + times.pop("decimation", 0.0)
+    return out, n_bridged, n_unbridged
+
+
+def _segments_iir(segments: list[Segment], model: IdentificationModel, opts: IdentifyOptions,
+                  T: float, times: dict[str, float]) -> tuple[DecimatedRows, int, int]:
+    """MATLAB-like Chebyshev decimation (cheby1): whole segments, W produced in chunks.
+
+    The IIR depends on the whole segment, so this path (offline only) keeps the chunked
+    producer of decimation.decimate_chunked; bridges are applied chunk by chunk.
+    """
     trim = int(round(opts.edge_trim_s / T))
     n_d = opts.decimation
-    parts: dict[str, list[np.ndarray]] = {"v": [], "w_m": [], "t": [], "keep": []}
-    times["filtering"] = 0.0
-    times["regressor+decimation"] = 0.0
+    parts: dict[str, list[np.ndarray]] = {"X": [], "t": [], "keep": []}
+    times["filtering"] = times["regressor+decimation"] = 0.0
     n_bridged = n_unbridged = 0
     t_start = int(segments[0].stamps_ns[0])
-    # decimated rows of each segment, known in advance: W is written once into its final
-    # (3, r, n_b) array, chunk by chunk (no lists of parts, no concatenated copies)
-    fir = opts.decimation_filter == "fir"
-    counts = []
     for seg in segments:
-        n_states = len(seg) - (1 if opts.zoh_shift else 0) - 2 * trim
-        counts.append(fir_output_range(n_states, n_d)[1] if fir else -(-n_states // n_d))
-    r_all = int(sum(counts))
-    W_all = np.empty((3, r_all, len(model.names)))
-    r0 = 0
-    for iseg, seg in enumerate(segments):
         t1 = time.perf_counter()
         qh, qdh, qddh, v = states_at_half_tick(seg.q, seg.v_tau, T, opts.filter_cutoff_hz,
                                                opts.filter_order, trim, opts.zoh_shift)
         ts = (seg.stamps_ns[trim:trim + qh.shape[0]] - t_start) * 1e-9
         if opts.zoh_shift:
             ts = ts + 0.5 * T
-        times["filtering"] += time.perf_counter() - t1
         t2 = time.perf_counter()
-
+        times["filtering"] += t2 - t1
         zones = None
         if opts.velocity_deadband_mps > 0:
             zones = find_reversals(qdh, opts.velocity_deadband_mps,
@@ -174,97 +222,24 @@ def observe(rec: Record, model: IdentificationModel, opts: IdentifyOptions,
             # margin so that every run overlapping [a, b) has both clean neighbours
             pad = 0 if zones is None else zones.margin_needed
             a2, b2 = max(0, a - pad), min(qh.shape[0], b + pad)
-            q_, qd_, qdd_ = qh[a2:b2], qdh[a2:b2], qddh[a2:b2]
             m = b2 - a2
-            if hasattr(model, "observation"):  # W and W_kl in one pass
-                W, w_m = model.observation(q_, qd_, qdd_)
-            else:
-                W = model.regressor(q_, qd_, qdd_)
-                w_m = model.payload_mass_column(q_, qd_, qdd_)
-            n_b = W.shape[1]
-            out = {"W": W.reshape(3, m, n_b).transpose(1, 0, 2), "v": v[a2:b2].copy(),
-                   "w_m": w_m.reshape(3, m).T.copy()}
+            blk = np.empty((len(model.names) + 1, 3, m))
+            model_block(model, qh[a2:b2], qdh[a2:b2], qddh[a2:b2], blk)
+            out = {"X": np.concatenate([blk, v[a2:b2].T[None]]).transpose(2, 1, 0)}
             if zones is not None:
                 bridge(zones, a2, out)
             return {k: x[a - a2:b - a2] for k, x in out.items()}
 
-        r_seg = counts[iseg]
-        dec = decimate_chunked(qh.shape[0], n_d, producer, opts.chunk_samples,
-                               opts.decimation_filter,
-                               out={"W": W_all[:, r0:r0 + r_seg].transpose(1, 0, 2)})
-        if not fir:
-            W_all[:, r0:r0 + r_seg] = dec["W"].transpose(1, 0, 2)
-        r0 += r_seg
-        for k in ("v", "w_m"):
-            parts[k].append(dec[k])
-        first = fir_output_range(qh.shape[0], n_d)[0] if opts.decimation_filter == "fir" else 0
-        r = dec["v"].shape[0]
-        parts["t"].append(ts[first::n_d][:r])
+        dec = decimate_chunked(qh.shape[0], n_d, producer, opts.chunk_samples, "cheby1")
+        parts["X"].append(dec["X"].transpose(2, 1, 0))
+        r = dec["X"].shape[0]
+        parts["t"].append(ts[0::n_d][:r])
         if zones is not None:
-            parts["keep"].append(rows_clear(zones.drop, n_d, r, opts.decimation_filter))
+            parts["keep"].append(rows_clear(zones.drop, n_d, r, "cheby1").T)
         times["regressor+decimation"] += time.perf_counter() - t2
-        if len(segments) > 1:
-            log.debug("%s: segment %d/%d decimated", rec.source, iseg + 1, len(segments))
-    v_d = np.concatenate(parts["v"], axis=0).T
-    w_d = np.concatenate(parts["w_m"], axis=0).T
-    keep = None
-    if opts.velocity_deadband_mps > 0:
-        keep = np.concatenate(parts["keep"], axis=0).T
-    obs = Observations(rec.source, str(rec.condition), payload_mass, W_all,
-                       np.ascontiguousarray(v_d), np.ascontiguousarray(w_d),
-                       t=np.concatenate(parts["t"]), keep=keep)
-    rep.n_reversal_bridged = n_bridged
-    rep.n_reversal_unbridged = n_unbridged
-    log.info("%s: W built and decimated by %d: %s equations per joint (%.2f s); velocity "
-             "reversals: %d joint samples bridged, %d in runs too long to bridge", rec.source, n_d,
-             "/".join(str(x) for x in obs.rows_per_joint()), times["regressor+decimation"],
-             n_bridged, n_unbridged)
-    return obs, rep, times
-
-
-def _gains_estimates(g: np.ndarray, rel: np.ndarray | None) -> list[Estimate]:
-    return [Estimate(j, float(g[i]), float(rel[i]) if rel is not None else 0.0)
-            for i, j in enumerate(JOINT_NAMES)]
-
-
-def _param_estimates(model: IdentificationModel, sol: TLSSolution | WLSSolution) -> list[Estimate]:
-    idx = np.flatnonzero(sol.active)
-    exprs = list(getattr(model, "expressions", [""] * len(model.names)))
-    return [Estimate(str(model.names[k]), float(sol.chi[i]), float(sol.rel_std[i]),
-                     str(exprs[k]) if k < len(exprs) else "")
-            for i, k in enumerate(idx)]
-
-
-def _tls_result(model, sol: TLSSolution, blocks, opts, bags: list[str]) -> IdentificationResult:
-    n = sol.chi.shape[0]
-    loaded = [b for b in blocks if b.loaded]
-    payloads = []
-    for m in sorted({b.payload_mass for b in loaded}):
-        payloads.append(PayloadMass(m, opts.payload_mass_std_kg / m, True, m,
-                                    [b.source for b in loaded if b.payload_mass == m]))
-    return IdentificationResult(
-        method="tls", joint_names=list(JOINT_NAMES),
-        drive_gains=_gains_estimates(sol.g_tau, sol.rel_std[n:n + 3]), drive_gains_given=False,
-        parameters=_param_estimates(model, sol), payload_mass=payloads[0] if payloads else None,
-        payloads=payloads, condition_number=sol.condition_number,
-        residual_rms=[float(x) for x in sol.residual_rms], bags=bags,
-    )
-
-
-def _wls_result(model, sol: WLSSolution, g_tau: np.ndarray, blocks, bags) -> IdentificationResult:
-    n = sol.chi.shape[0]
-    payloads = []
-    for k, m_tag in enumerate(sol.payload_groups):
-        payloads.append(PayloadMass(float(sol.payload_masses[k]), float(sol.rel_std[n + k]), False,
-                                    m_tag, [b.source for b in blocks
-                                            if b.loaded and abs(b.payload_mass - m_tag) < 1e-9]))
-    return IdentificationResult(
-        method="wls", joint_names=list(JOINT_NAMES), drive_gains=_gains_estimates(g_tau, None),
-        drive_gains_given=True, parameters=_param_estimates(model, sol),
-        payload_mass=payloads[0] if payloads else None, payloads=payloads,
-        condition_number=sol.condition_number, residual_rms=[float(x) for x in sol.residual_rms],
-        bags=bags,
-    )
+    keep = np.concatenate(parts["keep"], axis=1) if parts["keep"] else None
+    return (DecimatedRows(np.concatenate(parts["X"], axis=2), keep, np.concatenate(parts["t"])),
+            n_bridged, n_unbridged)
 
 
 def identify_records(
@@ -313,111 +288,74 @@ def identify_records(
         obs, rep, ts = observe(rec, model, opts, m)
         add(ts)
         blocks.append(obs)
-        d = dict(vars(rep))
-        d.update(bag=rec.source, condition=rec.condition, payload_mass=m,
-                 equations_per_joint=obs.rows_per_joint())
-        reports.append(d)
+        reports.append(bag_report(rep, rec.source, rec.condition, m, obs.rows_per_joint()))
         del rec  # a lazily read bag's raw samples can go now
     if not blocks:
         raise IdentificationError("no bag given")
-    n_b = blocks[0].W.shape[2]
-    for j, name in enumerate(JOINT_NAMES):
-        rows = sum(b.rows_per_joint()[j] for b in blocks)
-        total = sum(b.n_samples for b in blocks)
-        if rows < max(50, 2 * n_b):
-            raise ExcitationError(
-                f"{name} moves slower than the velocity dead band "
-                f"({opts.velocity_deadband_mps} m/s)"
-                f" almost all the time: {rows} of {total} equations left; the trajectories are "
-                "not exciting (or lower velocity_deadband_mps)")
-
     t_solve = time.perf_counter()
-    ess_res: EssentialResult | None = None
-    if method == "tls":
-        require_loaded_and_unloaded(blocks, "IDIM-TLS")
-        log.info("IDIM-TLS on %d equations × %d unknowns", sum(b.n_rows for b in blocks),
-                 blocks[0].W.shape[2] + 4)
-        problem = TLSProblem(blocks, opts.weighting, noisy_columns=opts.tls_noisy_columns)
-        sol = problem.solve()
-        if opts.check_excitation:
-            check_excitation(sol, opts.limits(), list(model.names))
-        timings["solve"] = time.perf_counter() - t_solve
-        result = _tls_result(model, sol, blocks, opts, bag_names)
-        solver_diag = {"tls_noisy_columns": opts.tls_noisy_columns,
-                       "singular_ratio": sol.singular_ratio,
-                       "smallest_singular_values": [float(x) for x in sol.singular_values[-3:]],
-                       "joint_sigma": [float(x) for x in sol.joint_sigma],
-                       "lambda": sol.lambda_scale}
-        if essential:
-            t_e = time.perf_counter()
-            log.info("essential parameters (r_sigma = %g)", opts.r_sigma)
-            ess_res = essential_parameters(lambda act: problem.solve(act, reweight=False),
-                                           problem.n_b, opts.r_sigma, start=sol)
-            timings["essential"] = time.perf_counter() - t_e
-            result.essential = _tls_result(model, ess_res.solution, blocks, opts, bag_names)
-        final_chi, final_g = sol.chi_full(), sol.g_tau
-    else:
-        g = np.full(3, G_TAU_MANUFACTURER) if gains is None else np.asarray(gains, dtype=float)
-        if g.shape != (3,) or not np.all(np.isfinite(g)) or np.any(g <= 0):
-            raise IdentificationError(
-                f"drive gains must be three positive numbers in N/A, not {gains}")
-        if gains is None:
-            log.info("IDIM-WLS with the manufacturer's drive gains 637π = %.1f N/A "
-                     "(give --gains to use identified ones)", G_TAU_MANUFACTURER)
-        log.info("IDIM-WLS on %d equations", sum(b.n_rows for b in blocks))
-        wsol = idim_wls(blocks, g, weighting=opts.weighting)
-        timings["solve"] = time.perf_counter() - t_solve
-        result = _wls_result(model, wsol, g, blocks, bag_names)
-        solver_diag = {"joint_sigma": [float(x) for x in wsol.joint_sigma]}
-        if essential:
-            t_e = time.perf_counter()
-            ess_res = essential_parameters(
-                lambda act: idim_wls(blocks, g, active=act, weighting=opts.weighting),
-                len(model.names), opts.r_sigma, start=wsol)
-            timings["essential"] = time.perf_counter() - t_e
-            result.essential = _wls_result(model, ess_res.solution, g, blocks, bag_names)
-        final_chi, final_g = wsol.chi_full(), g
-    if ess_res is not None and result.essential is not None:
-        result.essential.removed = [str(model.names[k]) for k in ess_res.removed]
-        result.essential.diagnostics = {"stopped_because": ess_res.stopped_because,
-                                        "ratios": [float(x) for x in ess_res.ratios]}
-        result.removed = list(result.essential.removed)
+    factors = [RecordFactors.from_observations(b) for b in blocks]
+    solved = solve(factors, model, opts, method, gains, essential, bag_names)
+    add(solved.timings)
+    timings["solve"] = time.perf_counter() - t_solve - timings.get("essential", 0.0)
+    result = solved.result
 
-    vals: list[ValidationResult] = []
     t_v = time.perf_counter()
-    for rec in validation:
-        m = resolve_payload(rec, payload_mass, opts.payload_tolerance_kg)
-        if rec.condition == "loaded" and method == "wls" and result.payloads:
-            m = next((p.value for p in result.payloads if p.tagged == m), m)
-        obs, _, _ = observe(rec, model, opts, m)
-        v = cross_validate(obs, final_chi, final_g, m, np.asarray(result.residual_rms),
-                           joint_names=JOINT_NAMES)
-        vals.append(v)
-        warnings.extend(v.warnings)
+    vals = _validate(validation, solved, model, opts, payload_mass)
     if vals:
         timings["validation"] = time.perf_counter() - t_v
+    for v in vals:
+        warnings.extend(v.warnings)
     result.validation = [v.to_json(JOINT_NAMES) for v in vals]
     result.validation_details = vals
+    timings["total"] = time.perf_counter() - t_all
+    finish_result(result, solved, reports, warnings, opts, timings)
+    result.observations = blocks
+    return result
+
+
+def _validate(records: Iterable[Record], solved: Solved, model: IdentificationModel,
+              opts: IdentifyOptions, payload_mass: float | None) -> list[ValidationResult]:
+    """Cross-validation (Fig. 5) of the solution on records not used to identify it."""
+    result, out = solved.result, []
+    for rec in records:
+        m = resolve_payload(rec, payload_mass, opts.payload_tolerance_kg)
+        if rec.condition == "loaded" and result.method == "wls" and result.payloads:
+            m = next((p.value for p in result.payloads if p.tagged == m), m)
+        obs, _, _ = observe(rec, model, opts, m)
+        out.append(cross_validate(obs, solved.chi, solved.g_tau, m,
+                                  np.asarray(result.residual_rms), joint_names=JOINT_NAMES))
+    return out
+
+
+def bag_report(rep: SegmentReport, source: str, condition: str | None, payload_mass: float,
+               equations: list[int]) -> dict[str, Any]:
+    """One record's entry of ``diagnostics["bags"]``: pairing, gaps, reversals, equations."""
+    d = dict(vars(rep))
+    d.update(bag=source, condition=condition, payload_mass=payload_mass,
+             equations_per_joint=equations)
+    return d
+
+
+def finish_result(result: IdentificationResult, solved: Solved, reports: list[dict[str, Any]],
+                  warnings: list[str], opts: IdentifyOptions, timings: dict[str, float]) -> None:
+    """Warnings and diagnostics of a solved identification (the JSON's ``diagnostics``)."""
     if result.condition_number > opts.warn_condition:
         warnings.append(f"condition number of the scaled observation matrix is "
                         f"{result.condition_number:.3g}: some base parameters are poorly excited "
                         "(see their %σ; --essential keeps the well-identified ones)")
     result.warnings = warnings
-    timings["total"] = time.perf_counter() - t_all
     result.diagnostics = {
         "samples_used": int(sum(r["n_used"] for r in reports)),
         "samples_dropped": int(sum(r["n_paired"] - r["n_used"] + r["n_unpaired_joint_states"]
                                    + r["n_unpaired_current_reference"] for r in reports)),
         "segments": int(sum(r["n_segments"] for r in reports)),
-        "rows": int(sum(b.n_rows for b in blocks)),
-        "solver": solver_diag,
+        "rows": int(sum(sum(r["equations_per_joint"]) for r in reports)),
+        "solver": solved.solver,
         "decimation": opts.decimation,
         "bags": reports,
         "timings_s": {k: round(v, 4) for k, v in timings.items()},
         "options": dict(vars(opts)),
     }
-    result.observations = blocks
-    return result
 
 
 def identify(

@@ -12,6 +12,11 @@ the joint-j equation (its W row, W_kl and v_τ) is replaced by the straight line
 samples on either side. W·χ = Y holds at both ends, so it holds exactly on the bridge, and the
 sign() step disappears. Runs too long to bridge (slow reversals, pauses) or touching a segment
 end are reported in a mask; rows whose decimation window meets them are left out.
+
+:func:`find_reversals` decides on a whole segment; :class:`ReversalTracker` takes the same
+decisions on a stream of blocks (stream.py, offline FIR path and live), where the bridges are
+applied in order, each reading its anchors as the previous bridges left them. :func:`bridge`
+applies them chunk by chunk for the chunked cheby1 path.
 """
 from __future__ import annotations
 
@@ -102,14 +107,133 @@ def bridge(zones: ReversalZones, a: int, arrays: dict[str, np.ndarray], anchor: 
         hi_a = np.minimum(e_all + anchor, zones.n)
         sel = (lo_a >= a) & (hi_a <= a + m)
         for s, e, l0, h0 in zip(s_all[sel] - a, e_all[sel] - a, lo_a[sel] - a, hi_a[sel] - a):
-            t_lo = 0.5 * (l0 + s - 1)
-            t_hi = 0.5 * (e + h0 - 1)
-            alpha = (np.arange(s, e) - t_lo) / (t_hi - t_lo)
+            alpha = bridge_weights(s, e, l0, h0)
             for x in arrays.values():
                 lo = x[l0:s, j].mean(axis=0)
                 hi = x[e:h0, j].mean(axis=0)
                 shape = (-1,) + (1,) * (lo.ndim)
                 x[s:e, j] = lo + alpha.reshape(shape) * (hi - lo)
+
+
+def bridge_weights(s: int, e: int, lo: int, hi: int) -> np.ndarray:
+    """Position (0..1) of samples s..e-1 on the line between the anchor means [lo, s), [e, hi)."""
+    t_lo = 0.5 * (lo + s - 1)
+    t_hi = 0.5 * (e + hi - 1)
+    return (np.arange(s, e) - t_lo) / (t_hi - t_lo)
+
+
+@dataclass
+class _Group:
+    """Raw runs of one joint merged once widened: first raw start, last raw end (exclusive)."""
+
+    s_raw: int
+    e_raw: int
+    run_start: int  # start of the last raw run (for its length)
+    long: bool = False
+    raw_open: bool = False  # the last raw run reaches the newest sample
+
+
+@dataclass
+class Decision:
+    """A finished group of joint j: bridge samples s..e-1 (``ok``) or drop them."""
+
+    j: int
+    s: int
+    e: int
+    ok: bool
+
+
+class ReversalTracker:
+    """:func:`find_reversals` on a stream of q̂̇ blocks, with the same runs and decisions.
+
+    ``update(qd_block)`` takes the next states (n_new, 3) m/s; ``update(None, n_total)`` ends the
+    segment. Decided groups come out in order (``pop_decisions``); ``final_upto(j)`` is the state
+    index below which joint j's bridges and drops are all known (what a consumer may use now).
+    """
+
+    def __init__(self, deadband: float, max_bridge: int, margin: int):
+        self.deadband = deadband
+        self.max_bridge = max_bridge
+        self.margin = margin
+        self.pos = 0  # states whose dead-band flag is final
+        self.n: int | None = None  # states in the segment, once it has ended
+        self._tail_qd: np.ndarray | None = None  # last state: its flag waits for the next sign
+        self._tail_bad: np.ndarray | None = None
+        self._open: list[_Group | None] = [None, None, None]
+        self.decisions: list[Decision] = []
+
+    def update(self, qd: np.ndarray | None, n_total: int | None = None) -> None:
+        """Feed states (``qd: (m, 3)``); with ``n_total`` the segment ends after them."""
+        if qd is not None and qd.shape[0]:
+            bad = np.abs(qd) < self.deadband
+            if self._tail_qd is not None:
+                qd = np.concatenate([self._tail_qd, qd])
+                bad = np.concatenate([self._tail_bad, bad])
+            flip = np.signbit(qd[1:]) != np.signbit(qd[:-1])
+            bad[1:] |= flip
+            bad[:-1] |= flip
+            self._tail_qd, self._tail_bad = qd[-1:].copy(), bad[-1:].copy()
+            self._scan(bad[:-1])
+        if n_total is not None:
+            if self._tail_bad is not None:
+                self._scan(self._tail_bad)
+                self._tail_qd = self._tail_bad = None
+            self.n = n_total
+            for j in range(3):
+                g = self._open[j]
+                if g is not None:
+                    self._decide(j, g)
+                    self._open[j] = None
+
+    def _scan(self, bad: np.ndarray) -> None:
+        """Runs of the final flags of states pos .. pos + len(bad) - 1, joint by joint."""
+        p0, m = self.pos, bad.shape[0]
+        self.pos += m
+        for j in range(bad.shape[1]):
+            d = np.diff(np.concatenate(([0], bad[:, j].astype(np.int8), [0])))
+            g = self._open[j]
+            for s, e in zip(np.flatnonzero(d == 1) + p0, np.flatnonzero(d == -1) + p0):
+                if g is not None and g.raw_open and s == p0:  # the open raw run goes on
+                    g.e_raw = e
+                elif g is not None and s - g.e_raw <= 2 * self.margin:  # merges once widened
+                    g.e_raw, g.run_start = e, s
+                else:
+                    if g is not None:
+                        self._decide(j, g)
+                    g = _Group(s, e, s)
+                g.long |= g.e_raw - g.run_start > self.max_bridge
+                g.raw_open = e == self.pos
+            if g is not None:
+                g.raw_open = g.e_raw == self.pos
+                if self.pos - g.e_raw > 2 * self.margin:
+                    self._decide(j, g)  # no later run can reach it once widened
+                    g = None
+            self._open[j] = g
+
+    def _decide(self, j: int, g: _Group) -> None:
+        s = max(g.s_raw - self.margin, 0)
+        e = g.e_raw + self.margin if self.n is None else min(g.e_raw + self.margin, self.n)
+        ok = s >= 1 and not g.long and (self.n is None or e <= self.n - 1)
+        self.decisions.append(Decision(j, int(s), int(e), bool(ok)))
+
+    def final_upto(self, j: int) -> int:
+        """States below this index have their joint-j decision made (or lie in no run)."""
+        if self.n is not None:
+            return self.n
+        g = self._open[j]
+        if g is None:
+            return max(self.pos - self.margin, 0)
+        s = max(g.s_raw - self.margin, 0)
+        if g.long:  # dropped whatever follows: final up to its known widened end
+            return max(s, min(g.e_raw + self.margin, self.pos))
+        return s
+
+    def open_drop(self, j: int) -> tuple[int, int] | None:
+        """Samples already known to be dropped in joint j's open (long) group."""
+        g = self._open[j]
+        if self.n is not None or g is None or not g.long:
+            return None
+        return max(g.s_raw - self.margin, 0), self.final_upto(j)
 
 
 def rows_clear(drop: np.ndarray, n_d: int, r: int, method: str) -> np.ndarray:

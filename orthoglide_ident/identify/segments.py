@@ -71,7 +71,7 @@ class SegmentReport:
         )
 
 
-def _column_order(names: Sequence[str], topic: str, expected: Sequence[str]) -> np.ndarray | None:
+def column_order(names: Sequence[str], topic: str, expected: Sequence[str]) -> np.ndarray | None:
     """Column permutation putting ``names`` in the order ``expected``; None when in order."""
     names = [str(n) for n in names]
     if list(names) == list(expected):
@@ -84,13 +84,21 @@ def _column_order(names: Sequence[str], topic: str, expected: Sequence[str]) -> 
     )
 
 
-def _unique_sorted(stamps: np.ndarray) -> tuple[np.ndarray, int]:
+def unique_sorted(stamps: np.ndarray) -> tuple[np.ndarray, int]:
     """Indices of the first sample of each distinct stamp (in stamp order), duplicate count."""
     order = np.argsort(stamps, kind="stable")
     s = stamps[order]
     keep = np.ones(s.shape[0], dtype=bool)
     keep[1:] = s[1:] != s[:-1]
     return order[keep], int(s.shape[0] - np.count_nonzero(keep))
+
+
+def find_breaks(dt_ns: np.ndarray, period_ns: float) -> tuple[np.ndarray, int]:
+    """Breaks between consecutive paired stamps (a step outside (0.5, 1.5) periods) and the
+    number of ticks missing in them. ``dt_ns``: stamp differences, ns."""
+    ratio = dt_ns / period_ns
+    brk = (ratio < 0.5) | (ratio > 1.5)
+    return brk, int(np.sum(np.maximum(np.rint(ratio[brk]) - 1, 0)))
 
 
 def split_record(
@@ -130,17 +138,17 @@ def split_record(
                 f"{source}: {topic} holds an array of shape {arr.shape} for {st.shape[0]} stamps; "
                 f"expected ({st.shape[0]}, {len(joint_names)})"
             )
-    perm = _column_order(names_q, f"{source}: joint_states", joint_names)
+    perm = column_order(names_q, f"{source}: joint_states", joint_names)
     if perm is not None:
         q = q[:, perm]
         rep.reordered.append("joint_states")
-    perm = _column_order(names_v, f"{source}: current_reference", joint_names)
+    perm = column_order(names_v, f"{source}: current_reference", joint_names)
     if perm is not None:
         v_tau = v_tau[:, perm]
         rep.reordered.append("current_reference")
 
-    iq, dq = _unique_sorted(stamps_q_ns)
-    iv, dv = _unique_sorted(stamps_v_ns)
+    iq, dq = unique_sorted(stamps_q_ns)
+    iv, dv = unique_sorted(stamps_v_ns)
     rep.n_duplicate_stamps = dq + dv
     common, jq, jv = np.intersect1d(stamps_q_ns[iq], stamps_v_ns[iv], assume_unique=True,
                                     return_indices=True)
@@ -174,9 +182,7 @@ def split_record(
     rep.period_s = period_ns * 1e-9
     # A tick counts as missing when its stamp is absent; a break is any non-nominal step
     # or a removed non-finite tick.
-    ratio = dt / period_ns
-    brk = (ratio < 0.5) | (ratio > 1.5)
-    rep.n_missing_ticks = int(np.sum(np.maximum(np.rint(ratio[brk]) - 1, 0)))
+    brk, rep.n_missing_ticks = find_breaks(dt, period_ns)
     if n_bad:
         # drop non-finite ticks: they split the record where they sit
         brk = brk | ~finite[:-1] | ~finite[1:]

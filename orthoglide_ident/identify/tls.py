@@ -22,6 +22,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from orthoglide_ident.errors import ExcitationError, IdentificationError
+from orthoglide_ident.identify.factors import RecordFactors, as_factors
 from orthoglide_ident.identify.observations import Observations
 
 
@@ -71,7 +72,7 @@ class TLSSolution:
         return out
 
 
-def require_loaded_and_unloaded(blocks: list[Observations], what: str) -> None:
+def require_loaded_and_unloaded(blocks: list[Observations | RecordFactors], what: str) -> None:
     """TLS needs a known payload (scale) and an unloaded record (m_7 apart from the platform)."""
     n_loaded = sum(b.loaded for b in blocks)
     if n_loaded == 0:
@@ -92,20 +93,15 @@ def require_loaded_and_unloaded(blocks: list[Observations], what: str) -> None:
             )
 
 
-def joint_rows(blocks: list[Observations], j: int, n_joints: int = 3) -> np.ndarray:
-    """The rows of W_tot (eq. 33) that belong to joint j, all records stacked: (r_j, n_b + 4)."""
-    n_b = blocks[0].W.shape[2]
-    parts = []
-    for b in blocks:
-        keep = slice(None) if b.keep is None else b.keep[j]
-        Wj = b.W[j][keep]
-        A = np.zeros((Wj.shape[0], n_b + n_joints + 1))
-        A[:, :n_b] = -Wj
-        A[:, n_b + j] = b.v_tau[j][keep]
-        if b.loaded:
-            A[:, -1] = -b.w_m[j][keep] * b.payload_mass
-        parts.append(A)
-    return np.concatenate(parts, axis=0)
+def tls_columns(b: RecordFactors, j: int, n_joints: int = 3) -> np.ndarray:
+    """T with [W | W_kl | v_τ]·T = joint j's rows of W_tot (eq. 33): (n_b + 2, n_b + 4)."""
+    n_b = b.n_b
+    T = np.zeros((n_b + 2, n_b + n_joints + 1))
+    T[np.arange(n_b), np.arange(n_b)] = -1.0  # -W
+    T[n_b + 1, n_b + j] = 1.0  # v_τ in the column of g_τ,j
+    if b.loaded:
+        T[n_b, -1] = -b.payload_mass  # -W_kl χ_kl with χ_kl = m_7
+    return T
 
 
 class TLSProblem:
@@ -117,25 +113,22 @@ class TLSProblem:
     singular vectors of W_tot[:, cols] are those of the stacked R_j[:, cols].
     """
 
-    def __init__(self, blocks: list[Observations], weighting: bool = True, n_joints: int = 3,
-                 noisy_columns: str = "all"):
+    def __init__(self, blocks: list[Observations | RecordFactors], weighting: bool = True,
+                 n_joints: int = 3, noisy_columns: str = "all"):
         if noisy_columns not in ("all", "currents"):
             raise IdentificationError(
                 f"noisy_columns must be 'all' or 'currents', not {noisy_columns!r}")
         self.noisy_columns = noisy_columns
-        self.blocks = blocks
+        self.blocks = as_factors(blocks)
         self.n_joints = n_joints
-        self.n_b = blocks[0].W.shape[2]
+        self.n_b = self.blocks[0].n_b
         self.R_joint: list[np.ndarray] = []
         self.rows_joint = np.zeros(n_joints, dtype=int)
         for j in range(n_joints):
-            # R of joint j's rows, record by record (one record's rows in memory at a time)
-            Rs = []
-            for b in blocks:
-                A = joint_rows([b], j, n_joints)
-                self.rows_joint[j] += A.shape[0]
-                Rs.append(np.linalg.qr(A, mode="r"))
-            self.R_joint.append(Rs[0] if len(Rs) == 1 else np.linalg.qr(np.vstack(Rs), mode="r"))
+            # R of joint j's rows of W_tot from each record's R of [W | W_kl | v_τ]
+            Rs = [b.joint_r(j, tls_columns(b, j, n_joints)) for b in self.blocks]
+            self.rows_joint[j] = sum(int(b.rows[j]) for b in self.blocks)
+            self.R_joint.append(np.linalg.qr(np.vstack(Rs), mode="r"))
             if self.rows_joint[j] == 0:
                 raise ExcitationError(f"no equation left for joint {j + 1}: record longer or "
                                       "more exciting trajectories")
@@ -306,7 +299,7 @@ class TLSProblem:
         )
 
 
-def idim_tls(blocks: list[Observations], weighting: bool = True,
+def idim_tls(blocks: list[Observations | RecordFactors], weighting: bool = True,
              active: np.ndarray | None = None, noisy_columns: str = "all") -> TLSSolution:
     """IDIM-TLS (eqs. 33-39) on decimated records; rows weighted per joint when ``weighting``.
 

@@ -12,6 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from orthoglide_ident.errors import ExcitationError, IdentificationError
+from orthoglide_ident.identify.factors import RecordFactors, as_factors
 from orthoglide_ident.identify.observations import Observations
 
 
@@ -38,7 +39,7 @@ class WLSSolution:
         return out
 
 
-def payload_groups(blocks: list[Observations]) -> list[float]:
+def payload_groups(blocks: list[Observations | RecordFactors]) -> list[float]:
     """Distinct tagged payload masses of the loaded records (one unknown m_7 per group)."""
     groups: list[float] = []
     for b in blocks:
@@ -47,27 +48,24 @@ def payload_groups(blocks: list[Observations]) -> list[float]:
     return groups
 
 
-def _joint_r(blocks: list[Observations], j: int, g_j: float, groups: list[float],
+def _joint_r(blocks: list[RecordFactors], j: int, g_j: float, groups: list[float],
              estimate_payload: bool, cols: np.ndarray) -> tuple[np.ndarray, int]:
-    """R of [A_j | Y_j] for joint j's rows (eq. 28), record by record; and the row count."""
-    n_b = blocks[0].W.shape[2]
+    """R of [A_j | Y_j] for joint j's rows (eq. 28), from each record's R of [W | W_kl | v_τ]."""
+    n_b = blocks[0].n_b
     Rs, rows = [], 0
     for b in blocks:
-        keep = slice(None) if b.keep is None else b.keep[j]
-        Wj = b.W[j][keep]
-        M = np.zeros((Wj.shape[0], n_b + len(groups) + 1))
-        M[:, :n_b] = Wj
-        M[:, -1] = g_j * b.v_tau[j][keep]
+        T = np.zeros((n_b + 2, n_b + len(groups) + 1))  # [W | W_kl | v_τ]·T = [A_j | Y_j]
+        T[np.arange(n_b), np.arange(n_b)] = 1.0
+        T[n_b + 1, -1] = g_j  # Y = g_τ v_τ
         if b.loaded:
             if estimate_payload:
                 k = next(i for i, m in enumerate(groups) if abs(b.payload_mass - m) < 1e-9)
-                M[:, n_b + k] = b.w_m[j][keep]
+                T[n_b, n_b + k] = 1.0
             else:
-                M[:, -1] -= b.w_m[j][keep] * b.payload_mass
-        M = M[:, np.concatenate([cols, [M.shape[1] - 1]])]
-        rows += M.shape[0]
-        Rs.append(np.linalg.qr(M, mode="r"))
-    return (Rs[0] if len(Rs) == 1 else np.linalg.qr(np.vstack(Rs), mode="r")), rows
+                T[n_b, -1] = -b.payload_mass
+        rows += int(b.rows[j])
+        Rs.append(b.joint_r(j, T[:, np.concatenate([cols, [T.shape[1] - 1]])]))
+    return np.linalg.qr(np.vstack(Rs), mode="r"), rows
 
 
 def _solve_r(R: np.ndarray, c: int) -> tuple[np.ndarray, np.ndarray]:
@@ -83,7 +81,8 @@ def _solve_r(R: np.ndarray, c: int) -> tuple[np.ndarray, np.ndarray]:
     return np.linalg.solve(R11, R[:c, c]), R11
 
 
-def idim_wls(blocks: list[Observations], g_tau: np.ndarray, active: np.ndarray | None = None,
+def idim_wls(blocks: list[Observations | RecordFactors], g_tau: np.ndarray,
+             active: np.ndarray | None = None,
              estimate_payload: bool = True, weighting: bool = True) -> WLSSolution:
     """IDIM-WLS (eqs. 24-28) with the given drive gains ``g_tau (3,)`` N/A.
 
@@ -91,8 +90,9 @@ def idim_wls(blocks: list[Observations], g_tau: np.ndarray, active: np.ndarray |
     joint are ‖R_j [x; -1]‖, and no (r × c) matrix of all records is ever formed.
     """
     g_tau = np.asarray(g_tau, dtype=float)
-    n_b = blocks[0].W.shape[2]
-    n_j = blocks[0].W.shape[0]
+    blocks = as_factors(blocks)
+    n_b = blocks[0].n_b
+    n_j = 3
     if active is None:
         active = np.ones(n_b, dtype=bool)
     active = np.asarray(active, dtype=bool)

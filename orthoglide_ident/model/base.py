@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from orthoglide_ident.model.geometry import A, JOINT_NAMES
-from orthoglide_ident.model.idim import observation_columns
+from orthoglide_ident.model.idim import observation_block, observation_columns
 from orthoglide_ident.model.kinematics import igm
 from orthoglide_ident.model.parameters import (
     N_LEGS,
@@ -153,6 +153,11 @@ class BaseModel:
         """(W (3 N, n_b), W_kl (3 N,)) in one pass: base columns and the payload-mass column m_7."""
         X = observation_columns(q, qd, qdd, self.columns, with_payload_mass=True)
         return X[:, :-1], X[:, -1]
+
+    def observation_block(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray,
+                          out: np.ndarray | None = None) -> np.ndarray:
+        """[W | W_kl] as (n_b + 1, 3, N): column, joint, sample (written into ``out`` if given)."""
+        return observation_block(q, qd, qdd, self.columns, with_payload_mass=True, out=out)
 
     def regressor(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> np.ndarray:
         """W (3 N, n_b), rows stacked joint by joint (eq. 20)."""

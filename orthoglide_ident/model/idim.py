@@ -28,6 +28,7 @@ import numpy as np
 
 from orthoglide_ident.model.geometry import D4, GRAVITY, GRAVITY_LEG
 from orthoglide_ident.model.kinematics import TreeState, as_samples, tree_state
+from orthoglide_ident.model.leg_closed_form import closed_form_columns, has_closed_form, leg_state
 from orthoglide_ident.model.parameters import LEG_PARAMETERS, N_LEGS, N_ST, N_ST_LEG
 
 _ALPHA = {2: -np.pi / 2, 3: -np.pi / 2, 4: 0.0, 5: np.pi / 2}  # MDH alpha of frames 2..5 (Table 2)
@@ -171,23 +172,68 @@ def platform_column(state: TreeState) -> np.ndarray:
     return (state.J_p * f[:, :, None]).sum(1).T
 
 
-def regressor_columns(state: TreeState, columns: Sequence[int]) -> np.ndarray:
-    """Selected standard-parameter columns, (len(columns), 3, N): column, joint, sample."""
-    N = state.P.shape[0]
-    out = np.zeros((len(columns), 3, N))
+def _leg_wanted(columns: Sequence[int]) -> set[int]:
+    return {c % N_ST_LEG for c in columns if c < N_LEGS * N_ST_LEG}
+
+
+def _place(legs: dict[int, np.ndarray], platform: np.ndarray, columns: Sequence[int],
+           out: np.ndarray) -> None:
+    """Leg columns (3 actuators, 3 legs, N) and the platform column into ``out`` (n, 3, N)."""
     where = {c: n for n, c in enumerate(columns)}
-    wanted = {c % N_ST_LEG for c in columns if c < N_LEGS * N_ST_LEG}
-    for k_leg, val in leg_columns(state, wanted).items():
+    for k_leg, val in legs.items():
         for leg in range(1, N_LEGS + 1):
             c = (leg - 1) * N_ST_LEG + k_leg
             if c in where:
                 out[where[c]] = val[:, leg - 1]
     if N_ST - 1 in where:  # m_6; the other 9 platform columns are identically zero
-        out[where[N_ST - 1]] = platform_column(state)
+        out[where[N_ST - 1]] = platform
+
+
+def regressor_columns(state: TreeState, columns: Sequence[int]) -> np.ndarray:
+    """Selected standard-parameter columns, (len(columns), 3, N): column, joint, sample."""
+    out = np.zeros((len(columns), 3, state.P.shape[0]))
+    wanted = _leg_wanted(columns)
+    closed = closed_form_columns(state, wanted)  # most base columns: a few array operations
+    generic = leg_columns(state, wanted - set(closed)) if wanted - set(closed) else {}
+    _place({**closed, **generic}, platform_column(state), columns, out)
     return out
 
 
 CHUNK = 2048  # samples per pass: keeps the (3, 3 legs, chunk) temporaries in cache
+
+
+def observation_block(
+    q: np.ndarray, qd: np.ndarray, qdd: np.ndarray, columns: Sequence[int],
+    with_payload_mass: bool = False, out: np.ndarray | None = None,
+) -> np.ndarray:
+    """Selected standard columns (and the payload-mass column last, if asked): (n, 3, N).
+
+    Column, joint, sample: each column of each joint is contiguous in time, the layout the
+    parallel decimation filters along. ``out`` (n, 3, N), e.g. a view of a larger buffer, is
+    written in place and returned.
+    """
+    q, qd, qdd = (as_samples(x, name) for x, name in ((q, "q"), (qd, "qd"), (qdd, "qdd")))
+    N = q.shape[0]
+    columns = list(columns)
+    n = len(columns) + int(with_payload_mass)
+    if out is None:
+        out = np.zeros((n, 3, N))
+    wanted = _leg_wanted(columns)
+    fast = has_closed_form(wanted)  # the base columns: component-first closed forms
+    zero = [n for n, c in enumerate(columns) if c >= N_LEGS * N_ST_LEG and c != N_ST - 1]
+    for s in range(0, N, CHUNK):
+        e = min(N, s + CHUNK)
+        if fast:
+            leg, platform = leg_state(q[s:e], qd[s:e], qdd[s:e])
+            _place(closed_form_columns(leg, wanted), platform, columns, out[:len(columns), :, s:e])
+            out[zero, :, s:e] = 0.0  # platform columns other than m_6: identically zero
+        else:
+            state = tree_state(q[s:e], qd[s:e], qdd[s:e])
+            out[: len(columns), :, s:e] = regressor_columns(state, columns)
+            platform = platform_column(state) if with_payload_mass else None
+        if with_payload_mass:
+            out[-1, :, s:e] = platform
+    return out
 
 
 def observation_columns(
@@ -198,18 +244,8 @@ def observation_columns(
     Returns W (3 N, n), rows stacked joint by joint (eq. 20). It is column-major (a transposed
     view), so that each column, filtered on its own by the parallel decimation, is contiguous.
     """
-    q, qd, qdd = (as_samples(x, name) for x, name in ((q, "q"), (qd, "qd"), (qdd, "qdd")))
-    N = q.shape[0]
-    columns = list(columns)
-    n = len(columns) + int(with_payload_mass)
-    out = np.zeros((n, 3, N))
-    for s in range(0, N, CHUNK):
-        e = min(N, s + CHUNK)
-        state = tree_state(q[s:e], qd[s:e], qdd[s:e])
-        out[: len(columns), :, s:e] = regressor_columns(state, columns)
-        if with_payload_mass:
-            out[-1, :, s:e] = platform_column(state)
-    return out.reshape(n, 3 * N).T
+    out = observation_block(q, qd, qdd, columns, with_payload_mass)
+    return out.reshape(out.shape[0], -1).T
 
 
 def standard_regressor(q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

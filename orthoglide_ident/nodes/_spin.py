@@ -10,21 +10,28 @@ from typing import Any
 from orthoglide_ident.errors import OrthoglideError
 
 
-def _spin_quietly(executor: Any) -> None:
+def _spin_quietly(executor: Any, stop: threading.Event) -> None:
     from rclpy.executors import ExternalShutdownException
 
     try:
         executor.spin()
     except (KeyboardInterrupt, ExternalShutdownException):
         pass  # Ctrl-C or shutdown: the main thread cleans up
+    except Exception:
+        if not stop.is_set():
+            raise
+        # rclpy's executor can trip over entities destroyed while it shuts down: not an error
 
 
 def spin(make_node: Callable[[], Any], args: list[str], prog: str, threads: int = 1) -> int:
     """Run ``make_node()`` until Ctrl-C, SIGTERM or an external shutdown; return the exit code.
 
     A node whose construction fails with an OrthoglideError (bad parameter, unknown trajectory)
-    prints one line and exits 2. On the way out the node's ``close()`` runs if it has one (the
-    recorder closes its bag), then the node and rclpy are shut down.
+    prints one line and exits 2. A node with a ``main_loop(stop: threading.Event)`` method runs it on the
+    main thread while the executor serves its callbacks (the driver's tick loop); the node ends
+    when ``main_loop`` returns with ``node.finished`` set, or on a stop request. On the way out the
+    node's ``close()`` runs if it has one (the recorder closes its bag), then the node and rclpy
+    are shut down.
     """
     import rclpy
     from rclpy.executors import MultiThreadedExecutor, SingleThreadedExecutor
@@ -42,9 +49,11 @@ def spin(make_node: Callable[[], Any], args: list[str], prog: str, threads: int 
         node = make_node()
         executor = MultiThreadedExecutor(num_threads=threads) if threads > 1 else SingleThreadedExecutor()
         executor.add_node(node)
-        spinner = threading.Thread(target=_spin_quietly, args=(executor,), name="executor", daemon=True)
+        spinner = threading.Thread(target=_spin_quietly, args=(executor, stop), name="executor", daemon=True)
         spinner.start()
-        while spinner.is_alive() and not stop.is_set():
+        if hasattr(node, "main_loop"):  # a node with its own main loop (the driver's ticks) returns on stop
+            node.main_loop(stop)
+        while spinner.is_alive() and not stop.is_set() and not getattr(node, "finished", False):
             spinner.join(0.1)
     except KeyboardInterrupt:
         pass
@@ -52,6 +61,7 @@ def spin(make_node: Callable[[], Any], args: list[str], prog: str, threads: int 
         print(f"{prog}: {e}", file=sys.stderr)
         return 2
     finally:
+        stop.set()
         if executor is not None:
             executor.shutdown(timeout_sec=5.0)
         if spinner is not None:

@@ -1,120 +1,196 @@
-"""CTC node: computed torque control with the identified model (orthoglide_ident.control).
+"""CTC node: the identified model's feed-forward for every setpoint tick (paper Sect. 5.2).
 
-    ros2 run orthoglide_ident ctc [--ros-args -p trajectory:=test1 ...]
+    ros2 run orthoglide_ident ctc [--ros-args --params-file config/ctc.yaml]
 """
 from __future__ import annotations
 
 import sys
+import threading
 
+import numpy as np
+from rclpy.node import Node
+from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+from rclpy.serialization import deserialize_message
+from sensor_msgs.msg import JointState
+
+from orthoglide_ident.control import CTCParameters, feedforward_currents
+from orthoglide_ident.errors import OrthoglideError
+from orthoglide_ident.nodes._batch import BatchTaker, BatchTopic
+from orthoglide_ident.nodes._params import Param, declare, usage
 from orthoglide_ident.nodes._spin import spin
+from orthoglide_msgs.msg import CurrentReference, IdentifiedParameters, JointSetpoint
 
-HELP = """\
-usage: ros2 run orthoglide_ident ctc [--ros-args -p NAME:=VALUE ... | --params-file config/ctc.yaml]
+DOC = """\
+Computed torque control of the Orthoglide (Briot & Gautier 2013, Sect. 5.2), split as robot
+controllers are: this node computes the model part, the controller keeps its linear part.
 
-Computed torque control of the Orthoglide (Briot & Gautier 2013, Sect. 5.2): IDIM feed-forward
-with the identified base parameters and payload mass along the reference, plus a PID with the
-simulator's linear part (triple pole at omega on m_nominal), divided by the identified drive gains.
+For every setpoint tick k on orthoglide/setpoints (orthoglide_msgs/JointSetpoint, published ahead of
+its tick by the controller) it publishes on orthoglide/feedforward the current
+    v_ff[k] = (W_b chi_b + W_kl m_7)(reference in the middle of tick k) / g_tau      (eqs. 29, 17)
+(orthoglide_msgs/CurrentReference, A, header.stamp = tick k), with the base parameters chi_b and
+drive gains g_tau of orthoglide/identified_parameters (transient local, the identification node's
+result). The controller (the driver with controller:=ctc) adds v_ff[k] to its PID with velocity
+feed-forward at tick k, so transport delay does not enter the loop: the feed-forward is computed
+setpoint_lead ticks before it is needed. Until parameters arrive nothing is published, and the log
+says so; new parameters replace the old ones at once. Feed-forward currents are clipped to
+current_limit; a non-finite one stops the output with an error until new parameters arrive.
+With monitor true it also pairs orthoglide/joint_states with the setpoints and logs the tracking
+error every 5 s. Names are relative: -r __ns:=/robot2 moves the whole interface."""
 
-Subscribes /orthoglide/identified_parameters (orthoglide_msgs/IdentifiedParameters, transient
-local, depth 1) and /orthoglide/joint_states (sensor_msgs/JointState, q11..q13). For every joint
-state it publishes orthoglide_msgs/CurrentReference (A, same header) on /orthoglide/current_command
-(what the driver's controller:=external applies). Until parameters arrive it publishes nothing and
-says so in the log; new parameters replace the old ones at once.
-
-Setpoint: the simulator's trajectory named by the parameter `trajectory`, evaluated from t = 0 at
-the first joint state received once parameters are in (the start of control; time then follows
-the joint states' header stamps). test1 and test2 start at rest where the driver's external mode
-starts the robot.
-
-ROS parameters:
-  trajectory (string, default "test1")  test1, test2, exciting, exciting2 or a .json Fourier file
-  payload_mass (double, default -1.0)   kg put in the model; < 0: the message's payload_mass
-  omega (double, default 100.0)         rad/s, bandwidth of the linear part
-  m_nominal (double, default 10.0)      kg, nominal mass of the linear part
-"""
+PARAMETERS = (
+    Param("payload_mass", -1.0, "kg put in the model (the paper: the nominal weighed mass); < 0: the "
+          "identified parameters' payload_mass"),
+    Param("batch", 10, "setpoint ticks per feed-forward computation (one vectorised model call)"),
+    Param("current_limit", [1.0, 1.0, 1.0], "A per joint: feed-forward currents are clipped to it"),
+    Param("monitor", False, "log the tracking error (joint states vs setpoints) every 5 s (one more 1 kHz "
+          "subscription)"),
+)
 JOINTS = ["q11", "q12", "q13"]
+TICK_NS = 1_000_000
+MONITOR_PERIOD_NS = 5_000_000_000
+
+
+def _stamp_ns(msg) -> int:
+    return msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
+
+
+class CTCNode(Node):
+    """Identified parameters + setpoints -> feed-forward currents stamped for their tick."""
+
+    def __init__(self) -> None:
+        super().__init__("orthoglide_ctc")
+        v = declare(self, PARAMETERS)
+        if v["batch"] < 1:
+            raise OrthoglideError(f"parameter batch: must be >= 1, got {v['batch']}")
+        self.payload_mass, self.batch = v["payload_mass"], v["batch"]
+        self.current_limit = np.broadcast_to(np.asarray(v["current_limit"]), (3,))
+        self.model: CTCParameters | None = None
+        self.stopped: str | None = None
+        self.pending: dict[int, np.ndarray] = {}  # stamp -> (3, 3): q_d, qd_d, qdd_d
+        self.published = self.clipped = 0
+        latched = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL,
+                             reliability=ReliabilityPolicy.RELIABLE)
+        stream = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE)
+        self.create_subscription(IdentifiedParameters, "orthoglide/identified_parameters", self.on_params, latched)
+        self.pub = self.create_publisher(CurrentReference, "orthoglide/feedforward", stream)
+        self.taker = BatchTaker(self, [BatchTopic(JointSetpoint, "orthoglide/setpoints", stream, self.on_setpoints)])
+        self.monitor = TrackingMonitor(self) if v["monitor"] else None
+        self.get_logger().info(f"waiting for {self.resolve_topic_name('orthoglide/identified_parameters')} "
+                               "(no feed-forward until they arrive)")
+
+    def on_params(self, msg: IdentifiedParameters) -> None:
+        fields = {"names": msg.names, "values": msg.values, "drive_gains": msg.drive_gains,
+                  "payload_mass": msg.payload_mass}
+        try:
+            model = CTCParameters.from_message_fields(fields, None if self.payload_mass < 0 else self.payload_mass)
+        except OrthoglideError as e:
+            state = "keeping the previous ones" if self.model else "still waiting"
+            self.get_logger().error(f"identified parameters rejected, {state}: {e}")
+            return
+        self.model, self.stopped = model, None
+        gains = ", ".join(f"{g:.1f}" for g in model.drive_gains)
+        self.get_logger().info(f"parameters in ({msg.method}): drive gains [{gains}] N/A, {len(model.names)} "
+                               f"base parameters, payload {model.payload_mass:.4g} kg")
+
+    def on_setpoints(self, batch: list) -> None:
+        """A batch of serialized setpoints (taken together, see nodes._batch)."""
+        for raw, _, _ in batch:
+            msg = deserialize_message(raw, JointSetpoint)
+            try:
+                idx = [list(msg.name).index(j) for j in JOINTS]
+            except ValueError:
+                self.get_logger().warning(f"setpoint without joints {', '.join(JOINTS)}: {list(msg.name)}",
+                                          throttle_duration_sec=5.0)
+                continue
+            stamp = _stamp_ns(msg)
+            sp = np.array([[msg.position[i] for i in idx], [msg.velocity[i] for i in idx],
+                           [msg.acceleration[i] for i in idx]])
+            self.pending[stamp] = sp
+            if self.monitor is not None:
+                self.monitor.setpoint(stamp, sp[0])
+        if len(self.pending) > self.batch:
+            self.flush()
+
+    def close(self) -> None:
+        self.taker.close()
+
+    def flush(self) -> None:
+        """Feed-forward of every pending tick whose successor is in (runs of consecutive stamps);
+        the newest tick waits for its successor, a tick before a gap in the setpoints is dropped."""
+        stamps = np.array(sorted(self.pending), dtype=np.int64)
+        if self.model is None or self.stopped:
+            if self.model is None:
+                self.get_logger().warning("no identified parameters yet: no feed-forward published",
+                                          throttle_duration_sec=10.0)
+        else:
+            runs = np.split(stamps, np.flatnonzero(np.diff(stamps) != TICK_NS) + 1)
+            for run in (r for r in runs if len(r) > 1):
+                ref = np.stack([self.pending[int(t)] for t in run])  # (n, 3, 3): q_d, qd_d, qdd_d per tick
+                self._publish(run[:-1], feedforward_currents(ref[:, 0], ref[:, 1], ref[:, 2], self.model))
+        self.pending = {int(stamps[-1]): self.pending[int(stamps[-1])]}
+
+    def _publish(self, stamps: np.ndarray, v_ff: np.ndarray) -> None:
+        if not np.all(np.isfinite(v_ff)):
+            self.stopped = f"non-finite feed-forward at stamp {stamps[0]}"
+            self.get_logger().error(f"stopped: {self.stopped}; waiting for new identified parameters")
+            return
+        clipped = np.clip(v_ff, -self.current_limit, self.current_limit)
+        n_clip = int(np.sum(np.any(clipped != v_ff, axis=1)))
+        if n_clip:
+            self.clipped += n_clip
+            self.get_logger().warning(f"feed-forward beyond current_limit clipped ({self.clipped} ticks so far)",
+                                      throttle_duration_sec=5.0)
+        for stamp, v in zip(stamps, clipped):
+            msg = CurrentReference(name=JOINTS, current=[float(x) for x in v])
+            msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(int(stamp), 1_000_000_000)
+            self.pub.publish(msg)
+        self.published += len(stamps)
+
+
+class TrackingMonitor:
+    """Joint states vs setpoints of the same stamp: rms and max error per joint every 5 s."""
+
+    def __init__(self, node: Node) -> None:
+        self.node = node
+        self.lock = threading.Lock()  # setpoints come from the batch thread, joint states from the executor
+        self.setpoints: dict[int, np.ndarray] = {}
+        self.errors: list[np.ndarray] = []
+        self.t_last = None
+        node.create_subscription(JointState, "orthoglide/joint_states", self.joint_state,
+                                 QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE))
+
+    def setpoint(self, stamp: int, q_d: np.ndarray) -> None:
+        with self.lock:
+            self.setpoints[stamp] = q_d
+            if len(self.setpoints) > 5000:
+                for s in sorted(self.setpoints)[:1000]:
+                    del self.setpoints[s]
+
+    def joint_state(self, msg: JointState) -> None:
+        stamp = _stamp_ns(msg)
+        with self.lock:
+            q_d = self.setpoints.pop(stamp, None)
+        if q_d is None or len(msg.position) != 3:
+            return
+        self.errors.append(np.asarray(msg.position) - q_d)
+        self.t_last = self.t_last or stamp
+        if stamp - self.t_last >= MONITOR_PERIOD_NS:
+            e = np.array(self.errors) * 1e6
+            rms, mx = np.sqrt(np.mean(e**2, axis=0)), np.abs(e).max(axis=0)
+            self.node.get_logger().info(
+                "tracking error over %.1f s: rms %s um, max %s um" % (
+                    len(e) / 1000, " / ".join(f"{x:.1f}" for x in rms), " / ".join(f"{x:.1f}" for x in mx)))
+            self.errors, self.t_last = [], stamp
 
 
 def main(argv: list[str] | None = None) -> int:
     argv = sys.argv if argv is None else argv
     if any(a in ("-h", "--help") for a in argv[1:]):
-        print(HELP)
+        print(usage("usage: ros2 run orthoglide_ident ctc [--ros-args -p NAME:=VALUE ... | --params-file "
+                    "config/ctc.yaml]", DOC, PARAMETERS))
         return 0
-
-    import numpy as np
-    from rclpy.node import Node
-    from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
-    from sensor_msgs.msg import JointState
-
-    from orthoglide_ident.control import CTC, CTCParameters, LinearGains
-    from orthoglide_ident.errors import OrthoglideError
-    from orthoglide_msgs.msg import CurrentReference, IdentifiedParameters
-    from orthoglide_sim.trajectories import get_trajectory
-
-    class CTCNode(Node):
-        def __init__(self) -> None:
-            super().__init__("orthoglide_ctc")
-            self.declare_parameter("trajectory", "test1")
-            self.declare_parameter("payload_mass", -1.0)
-            self.declare_parameter("omega", 100.0)
-            self.declare_parameter("m_nominal", 10.0)
-            p = {n: self.get_parameter(n).value for n in ("trajectory", "payload_mass", "omega", "m_nominal")}
-            self.reference = get_trajectory(str(p["trajectory"])).evaluate
-            self.gains = LinearGains.from_bandwidth(float(p["omega"]), float(p["m_nominal"]))
-            self.payload_mass = float(p["payload_mass"])
-            self.ctc: CTC | None = None
-            self.t0_ns: int | None = None
-            latched = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL,
-                                 reliability=ReliabilityPolicy.RELIABLE)
-            self.create_subscription(IdentifiedParameters, "/orthoglide/identified_parameters", self.on_params,
-                                     latched)
-            self.create_subscription(JointState, "/orthoglide/joint_states", self.on_joint_state, 100)
-            self.pub = self.create_publisher(CurrentReference, "/orthoglide/current_command", 100)
-            self.get_logger().info(f"trajectory {p['trajectory']}; waiting for /orthoglide/identified_parameters "
-                                   "(publishing nothing until they arrive)")
-
-        def on_params(self, msg) -> None:
-            fields = {"names": msg.names, "values": msg.values, "drive_gains": msg.drive_gains,
-                      "payload_mass": msg.payload_mass}
-            try:
-                params = CTCParameters.from_message_fields(
-                    fields, None if self.payload_mass < 0 else self.payload_mass)
-            except OrthoglideError as e:
-                state = "keeping the previous ones" if self.ctc else "still waiting"
-                self.get_logger().error(f"identified parameters rejected, {state}: {e}")
-                return
-            if self.ctc is None:
-                self.ctc = CTC(params, self.reference, self.gains)
-            else:
-                self.ctc.set_params(params)
-            gains = ", ".join(f"{g:.1f}" for g in params.drive_gains)
-            self.get_logger().info(f"parameters in ({msg.method}): drive gains [{gains}] N/A, "
-                                   f"{len(params.names)} base parameters, payload {params.payload_mass:.4g} kg")
-
-        def on_joint_state(self, msg) -> None:
-            if self.ctc is None:
-                self.get_logger().warning("no identified parameters yet: no current command published",
-                                          throttle_duration_sec=5.0)
-                return
-            try:
-                q = np.array([msg.position[list(msg.name).index(j)] for j in JOINTS], dtype=float)
-            except (ValueError, IndexError):
-                self.get_logger().warning(f"joint state without positions for {', '.join(JOINTS)}: ignored",
-                                          throttle_duration_sec=5.0)
-                return
-            stamp_ns = msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
-            if self.t0_ns is None:
-                self.t0_ns = stamp_ns
-                self.get_logger().info("control started: trajectory time 0 at this joint state")
-            k = int(round((stamp_ns - self.t0_ns) * 1e-9 / self.ctc.tick))
-            try:
-                v_tau = self.ctc.command(k, q)
-            except OrthoglideError as e:  # e.g. the reference crosses a singularity
-                self.get_logger().error(f"no command: {e}", throttle_duration_sec=5.0)
-                return
-            self.pub.publish(CurrentReference(header=msg.header, name=JOINTS, current=[float(v) for v in v_tau]))
-
     return spin(CTCNode, argv, "ctc")
+
 
 if __name__ == "__main__":
     sys.exit(main())

@@ -1,146 +1,194 @@
-"""Identification node: the /orthoglide/identify service over the IDIM-TLS core.
+"""Identification node: the orthoglide/identify service over the IDIM-TLS core.
 
-    ros2 run orthoglide_ident identification [--ros-args -p bag_dir:=bags -p method:=tls ...]
-
-A call identifies drive gains and base parameters from the bags it names (or, when it names none,
-every bag under ``bag_dir``), answers with the result, and publishes it latched on
-/orthoglide/identified_parameters for the CTC node. The work runs on its own thread of a
-multi-threaded executor: a second call while one runs gets ``success: false`` at once.
+    ros2 run orthoglide_ident identification [--ros-args --params-file config/identification.yaml]
 """
 from __future__ import annotations
 
-import sys
-import threading
+import os
+
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # before numpy: small solves, threads only contend
+
+import sys  # noqa: E402
+import threading  # noqa: E402
+from dataclasses import fields
 from pathlib import Path
+from typing import Any
 
+from rclpy.callback_groups import ReentrantCallbackGroup
+from rclpy.node import Node
+from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+
+from orthoglide_ident.errors import OrthoglideError
+from orthoglide_ident.identify.live import LiveIdentification
+from orthoglide_ident.identify.options import IdentifyOptions
+from orthoglide_ident.identify.pipeline import G_TAU_MANUFACTURER, identify
+from orthoglide_ident.nodes._params import Param, declare, usage
 from orthoglide_ident.nodes._spin import spin
+from orthoglide_ident.nodes.live_feed import LiveFeed
+from orthoglide_ident.results import IdentificationResult
+from orthoglide_msgs.msg import IdentifiedParameters
+from orthoglide_msgs.srv import Identify
 
-HELP = """\
-usage: ros2 run orthoglide_ident identification [--ros-args -p NAME:=VALUE ...]
+DOC = """\
+Identifies the Orthoglide's drive gains and dynamic parameters together (IDIM-TLS, Briot & Gautier
+2013) from recorded bags when orthoglide/identify is called.
 
-Identifies the Orthoglide's drive gains and dynamic parameters (IDIM-TLS, Briot & Gautier 2013)
-from recorded bags when /orthoglide/identify is called.
+Live (parameter live, default true): while the recorder records (orthoglide/recorder/status), the
+joint states and current references it records are identified as they come, and the estimate goes
+out about once a second on orthoglide/identification/live (orthoglide_msgs/msg/LiveIdentification:
+gains with %sigma, seconds used, s_c/s_(c-1), condition number, residual rms, lag, a one-line
+status and the warnings: lost ticks, NaN, wrong joint names, weak excitation, current near the limit).
 
-ROS parameters:
-  bag_dir (string, default "bags")   where to look for bags when a request names none
-  method (string, default "tls")     tls: gains identified, payload mass known;
-                                     wls: gains given (manufacturer's 2001 N/A), payload estimated
-  essential (bool, default false)    also reduce to essential parameters (Sect. 5.2)
-  r_sigma (double, default 10.0)     stop ratio max %sigma / min %sigma of that reduction
-  config (string, default "")        identification options YAML (same keys as the CLI's --config)
+Service  orthoglide/identify (orthoglide_msgs/srv/Identify)
+  request: bags (paths; empty = the live data when there are some, else every bag in bag_dir),
+           payload_mass (kg; 0 = from the bag tags / the recordings),
+           method (tls | wls; "" = the parameter), essential (reduce to essential parameters)
+  reply:   success, message (one line, with the warnings), parameters (the essential ones when
+           essential is true)
+Topics   orthoglide/identified_parameters (orthoglide_msgs/msg/IdentifiedParameters, transient
+         local, depth 1): the last successful IDIM-TLS result, what the ctc node uses;
+         orthoglide/identified_parameters/wls: the last IDIM-WLS result (gains given, payload
+         estimated), so that a validation run does not switch a running CTC to other gains.
+Every identification option is a ROS parameter (the keys of config/identification.yaml)."""
 
-Service  /orthoglide/identify (orthoglide_msgs/srv/Identify)
-  request: bags (paths; empty = every bag in bag_dir), payload_mass (kg; 0 = from the bag tags),
-           method ("" = the parameter), essential
-  reply:   success, message (one line), parameters
-Topic    /orthoglide/identified_parameters (orthoglide_msgs/msg/IdentifiedParameters,
-         transient local, depth 1): the last successful result.
-"""
+NODE_PARAMETERS = (
+    Param("bag_dir", "bags", "where to look for bags when a request names none"),
+    Param("method", "tls", "tls: gains identified, payload mass known; wls: gains given (wls_gains), "
+          "payload mass estimated"),
+    Param("essential", False, "also reduce to the essential parameters (Sect. 5.2) and answer with them"),
+    Param("wls_gains", [G_TAU_MANUFACTURER] * 3, "N/A, the drive gains IDIM-WLS uses (default the "
+          "manufacturer's 637 pi)", dynamic=True),
+    Param("live", True, "identify the recordings while they run (orthoglide/identification/live); an "
+          "identify call with no bags then answers from the live data"),
+)
+# Every IdentifyOptions field is a parameter of the same name, so --params-file
+# config/identification.yaml sets them (the CLI's --config reads the same file).
+OPTION_PARAMETERS = tuple(Param(f.name, getattr(IdentifyOptions(), f.name), "identification option (see "
+                                "config/identification.yaml)", dynamic=True) for f in fields(IdentifyOptions))
+PARAMETERS = NODE_PARAMETERS + OPTION_PARAMETERS
 
 
 def find_bags(bag_dir: Path) -> list[str]:
     """Bag directories (holding metadata.yaml) and lone .mcap files directly under bag_dir."""
     if not bag_dir.is_dir():
         return []
-    found = []
-    for p in sorted(bag_dir.iterdir()):
-        if (p / "metadata.yaml").is_file() or (p.is_file() and p.suffix == ".mcap"):
-            found.append(str(p))
-    return found
+    return [str(p) for p in sorted(bag_dir.iterdir())
+            if (p / "metadata.yaml").is_file() or (p.is_file() and p.suffix == ".mcap")]
+
+
+def result_message(result: IdentificationResult, stamp: Any) -> IdentifiedParameters:
+    msg = IdentifiedParameters()
+    msg.header.stamp = stamp
+    for key, value in result.message_fields().items():
+        setattr(msg, key, value)
+    return msg
+
+
+class IdentificationNode(Node):
+    """The service, the latched results; the work runs on its own thread (a call while busy is refused)."""
+
+    def __init__(self) -> None:
+        super().__init__("orthoglide_identification")
+        declare(self, PARAMETERS)
+        self.options()  # bad option values stop the node at start with a one-line reason
+        latched = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL,
+                             reliability=ReliabilityPolicy.RELIABLE)
+        self.pub = {"tls": self.create_publisher(IdentifiedParameters, "orthoglide/identified_parameters", latched),
+                    "wls": self.create_publisher(IdentifiedParameters, "orthoglide/identified_parameters/wls",
+                                                 latched)}
+        self.busy = threading.Lock()
+        self.live_lock = threading.Lock()
+        self.live = None
+        if self.param("live"):
+            self.live = LiveIdentification(self.options())
+            self.feed = LiveFeed(self, self.live, self.live_lock)
+        self.create_service(Identify, "orthoglide/identify", self.on_identify, callback_group=ReentrantCallbackGroup())
+        self.get_logger().info(f"ready: call {self.resolve_service_name('orthoglide/identify')}")
+
+    def close(self) -> None:
+        if self.live is not None:
+            self.feed.close()
+
+    def param(self, name: str) -> Any:
+        return next(p for p in PARAMETERS if p.name == name).coerce(self.get_parameter(name).value)
+
+    def options(self) -> IdentifyOptions:
+        """The pipeline options from the node's parameters (validated in the core)."""
+        return IdentifyOptions.from_mapping({p.name: self.param(p.name) for p in OPTION_PARAMETERS},
+                                            source="parameters")
+
+    def on_identify(self, request: Identify.Request, response: Identify.Response) -> Identify.Response:
+        if not self.busy.acquire(blocking=False):
+            response.success = False
+            response.message = "busy: another identification is running; call again when it has answered"
+            return response
+        try:
+            self.run(request, response)
+        finally:
+            self.busy.release()
+        return response
+
+    def run(self, request: Identify.Request, response: Identify.Response) -> None:
+        method = request.method or self.param("method")
+        essential = bool(request.essential or self.param("essential"))
+        try:
+            result = self.identify(request, method, essential)
+        except OrthoglideError as e:
+            response.success, response.message = False, str(e).splitlines()[0]
+            self.get_logger().error(f"identification failed: {response.message}")
+            return
+        except Exception as e:  # a bug must not kill the node: answer and log it
+            response.success, response.message = False, f"internal error: {type(e).__name__}: {e}"
+            self.get_logger().error(response.message)
+            return
+        self.answer(result, method, essential, response)
+
+    def identify(self, request: Identify.Request, method: str, essential: bool) -> IdentificationResult:
+        """From the bags named, else the live data, else every bag of bag_dir."""
+        payload_mass = request.payload_mass if request.payload_mass > 0 else None
+        gains = self.param("wls_gains") if method == "wls" else None
+        if not request.bags and self.live is not None:
+            with self.live_lock:
+                est = self.live.estimate()
+                if est.seconds_loaded + est.seconds_unloaded > 0:
+                    self.get_logger().info(f"identifying ({method}) from the live data: {est.seconds_unloaded:.0f} s "
+                                           f"unloaded, {est.seconds_loaded:.0f} s loaded")
+                    return self.live.result(method, essential, gains, payload_mass)
+        bags = list(request.bags) or find_bags(Path(self.param("bag_dir")))
+        if not bags:
+            raise OrthoglideError(f"no bags given and none found in bag_dir '{self.param('bag_dir')}'")
+        self.get_logger().info(f"identifying ({method}) from {len(bags)} bag(s): {', '.join(bags)}")
+        return identify(bags, payload_mass=payload_mass, method=method, gains=gains, essential=essential,
+                        options=self.options())
+
+    def answer(self, result: IdentificationResult, method: str, essential: bool,
+               response: Identify.Response) -> None:
+        """Publish (latched) and answer with the result; its warnings go to the log and the reply."""
+        chosen = result.essential if essential and result.essential is not None else result
+        msg = result_message(chosen, self.get_clock().now().to_msg())
+        self.pub["wls" if method == "wls" else "tls"].publish(msg)
+        for w in result.warnings:
+            self.get_logger().warning(w)
+        gains = ", ".join(f"{g:.1f}" for g in msg.drive_gains)
+        response.success = True
+        response.message = (f"{method}{' essential' if chosen is not result else ''}: drive gains [{gains}] N/A, "
+                            f"{len(msg.names)} parameters, payload {msg.payload_mass:.4g} kg, residual rms "
+                            f"{msg.residual_rms:.3g} N, cond {msg.condition_number:.3g}")
+        if result.warnings:
+            response.message += f"; {len(result.warnings)} warning(s): " + " | ".join(result.warnings)
+        response.parameters = msg
+        self.get_logger().info(response.message)
 
 
 def main(argv: list[str] | None = None) -> int:
     argv = sys.argv if argv is None else argv
     if any(a in ("-h", "--help") for a in argv[1:]):
-        print(HELP)
+        print(usage("usage: ros2 run orthoglide_ident identification [--ros-args -p NAME:=VALUE ... | "
+                    "--params-file config/identification.yaml]", DOC, NODE_PARAMETERS)
+              + "\n  ... and every identification option of config/identification.yaml (same names)")
         return 0
-
-    # One BLAS thread: the solves are small, and threads only contend on a loaded machine.
-    import os
-
-    os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
-    from rclpy.callback_groups import ReentrantCallbackGroup
-    from rclpy.node import Node
-    from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
-
-    from orthoglide_ident.errors import OrthoglideError
-    from orthoglide_ident.identify.options import IdentifyOptions
-    from orthoglide_ident.identify.pipeline import identify
-    from orthoglide_msgs.msg import IdentifiedParameters
-    from orthoglide_msgs.srv import Identify
-
-    class IdentificationNode(Node):
-        def __init__(self) -> None:
-            super().__init__("orthoglide_identification")
-            self.declare_parameter("bag_dir", "bags")
-            self.declare_parameter("method", "tls")
-            self.declare_parameter("essential", False)
-            self.declare_parameter("r_sigma", 10.0)
-            self.declare_parameter("config", "")
-            latched = QoSProfile(
-                depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL, reliability=ReliabilityPolicy.RELIABLE
-            )
-            self.pub = self.create_publisher(IdentifiedParameters, "/orthoglide/identified_parameters", latched)
-            self.busy = threading.Lock()
-            self.create_service(
-                Identify, "/orthoglide/identify", self.on_identify, callback_group=ReentrantCallbackGroup()
-            )
-            self.get_logger().info("ready: call /orthoglide/identify")
-
-        def param(self, name: str):
-            return self.get_parameter(name).value
-
-        def on_identify(self, request, response):
-            if not self.busy.acquire(blocking=False):
-                response.success = False
-                response.message = "busy: another identification is running; call again when it has answered"
-                return response
-            try:
-                self.run(request, response)
-            finally:
-                self.busy.release()
-            return response
-
-        def run(self, request, response) -> None:
-            bags = list(request.bags) or find_bags(Path(self.param("bag_dir")))
-            method = request.method or self.param("method")
-            try:
-                if not bags:
-                    raise OrthoglideError(f"no bags given and none found in bag_dir '{self.param('bag_dir')}'")
-                options = IdentifyOptions.from_yaml(self.param("config")) if self.param("config") else None
-                if options is not None or self.param("r_sigma") != 10.0:
-                    options = (options or IdentifyOptions()).replace(r_sigma=float(self.param("r_sigma")))
-                self.get_logger().info(f"identifying ({method}) from {len(bags)} bag(s): {', '.join(bags)}")
-                result = identify(
-                    bags,
-                    payload_mass=request.payload_mass if request.payload_mass > 0 else None,
-                    method=method,
-                    essential=bool(request.essential or self.param("essential")),
-                    options=options,
-                )
-            except OrthoglideError as e:
-                response.success, response.message = False, str(e).splitlines()[0]
-                self.get_logger().error(f"identification failed: {response.message}")
-                return
-            except Exception as e:  # a bug must not kill the node: answer and log it
-                response.success, response.message = False, f"internal error: {type(e).__name__}: {e}"
-                self.get_logger().error(response.message)
-                return
-            msg = IdentifiedParameters()
-            msg.header.stamp = self.get_clock().now().to_msg()
-            for key, value in result.message_fields().items():
-                setattr(msg, key, value)
-            self.pub.publish(msg)
-            gains = ", ".join(f"{g:.1f}" for g in msg.drive_gains)
-            response.success = True
-            response.message = (
-                f"{method}: drive gains [{gains}] N/A, {len(msg.names)} parameters, "
-                f"residual rms {msg.residual_rms:.3g} N, cond {msg.condition_number:.3g}"
-            )
-            response.parameters = msg
-            self.get_logger().info(response.message)
-
     return spin(IdentificationNode, argv, "identification", threads=2)
+
 
 if __name__ == "__main__":
     sys.exit(main())

@@ -15,47 +15,49 @@ from datetime import datetime
 from pathlib import Path
 from typing import Any
 
+from rclpy.node import Node
+from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+from std_srvs.srv import Trigger
+
 from orthoglide_ident import bags
 from orthoglide_ident.bags.recording import Recording
-from orthoglide_ident.errors import OrthoglideError
+from orthoglide_ident.errors import ConfigError, OrthoglideError
+from orthoglide_ident.nodes._batch import BatchTaker, BatchTopic
+from orthoglide_ident.nodes._params import Param, declare, on_set, usage
 from orthoglide_ident.nodes._spin import spin
+from orthoglide_msgs.msg import RecorderStatus
+from orthoglide_msgs.srv import StartRecording
 
-HELP = """usage: ros2 run orthoglide_ident recorder [--ros-args -p NAME:=VALUE ...
-                                           | --params-file config/recorder.yaml]
-
+DOC = """\
 Records tagged rosbag2 bags (metadata.yaml v9 + MCAP) of the Orthoglide topics.
 
-services:
-  /orthoglide/recorder/start  orthoglide_msgs/srv/StartRecording  condition (loaded|unloaded),
-                              payload_mass [kg, 0 when unloaded], name (bag folder, default
-                              <condition>_<date>_<time>) -> success, message, bag_path
-  /orthoglide/recorder/stop   std_srvs/srv/Trigger -> success, message (messages written,
-                              missing ticks)
+Services (relative names: /orthoglide/... in the root namespace, -r __ns:=/robot2 moves them):
+  orthoglide/recorder/start  orthoglide_msgs/srv/StartRecording  condition (loaded|unloaded),
+                             payload_mass [kg, 0 when unloaded], name (bag folder, default
+                             <condition>_<date>_<time>) -> success, message, bag_path
+  orthoglide/recorder/stop   std_srvs/srv/Trigger -> success (false when nothing was written),
+                             message (messages written, missing ticks)
+Topic:
+  orthoglide/recorder/status orthoglide_msgs/msg/RecorderStatus (transient local): recording?,
+                             condition, payload mass, bag, ticks written and missing; on start,
+                             on stop and every second while recording."""
 
-parameters (defaults):
-  output_dir       bags                      folder for the bag directories
-  topics           [/orthoglide/joint_states, /orthoglide/current_reference]
-  optional_topics  [/orthoglide/setpoints, /orthoglide/current_command]  recorded when published
-  expected_rate    1000.0     Hz, for counting missing ticks from the header stamps
-  chunk_duration   0.5        s per MCAP chunk (what a SIGKILL can lose)
-  split_duration   0.0        s per .mcap file (0: no split)
-  split_size       0          bytes per .mcap file (0: no split)
-  compression      zstd       zstd | lz4 | none
-  queue_depth      1000       subscription depth (reliable, keep last)
-"""
-
-DEFAULTS: dict[str, Any] = {
-    "output_dir": "bags",
-    "topics": [bags.JOINT_STATES_TOPIC, bags.CURRENT_REFERENCE_TOPIC],
-    "optional_topics": ["/orthoglide/setpoints", "/orthoglide/current_command"],
-    "expected_rate": 1000.0,
-    "chunk_duration": 0.5,
-    "split_duration": 0.0,
-    "split_size": 0,
-    "compression": "zstd",
-    "queue_depth": 1000,
-}
+PARAMETERS = (
+    Param("output_dir", "bags", "folder for the bag directories (this and the next ones: from the next start "
+          "on when changed)", dynamic=True),
+    Param("topics", ["orthoglide/joint_states", "orthoglide/current_reference"],
+          "always recorded (subscribed at start-up); relative names resolve in the node's namespace"),
+    Param("optional_topics", ["orthoglide/setpoints", "orthoglide/current_command"],
+          "recorded when a publisher exists (checked every second)"),
+    Param("expected_rate", 1000.0, "Hz of the controller ticks, for counting missing ticks from the stamps", dynamic=True),
+    Param("chunk_duration", 0.5, "s per MCAP chunk: what a SIGKILL can lose at most", dynamic=True),
+    Param("split_duration", 0.0, "s per .mcap file (0: no split)", dynamic=True),
+    Param("split_size", 0, "bytes per .mcap file (0: no split)", dynamic=True),
+    Param("compression", "zstd", "zstd | lz4 | none", dynamic=True),
+    Param("queue_depth", 1000, "subscription history depth (reliable, keep last)"),
+)
 _NAME = re.compile(r"^[A-Za-z0-9_.+-]+$")
+STATUS_PERIOD_S = 1.0
 
 
 def _qos_dict(qos: Any) -> dict[str, Any]:
@@ -80,182 +82,214 @@ def _import_type(msgtype: str) -> Any:
     return getattr(importlib.import_module(f"{pkg}.{kind}"), name)
 
 
-def make_node() -> Any:
-    from rclpy.event_handler import SubscriptionEventCallbacks
-    from rclpy.node import Node
-    from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
-    from std_srvs.srv import Trigger
+class RecorderNode(Node):
+    """Start/stop services around a :class:`Recording`; the recorder's state on a latched topic."""
 
-    from orthoglide_msgs.srv import StartRecording
+    def __init__(self) -> None:
+        super().__init__("orthoglide_recorder")
+        p = declare(self, PARAMETERS)
+        _check(p)
+        self.p = p
+        on_set(self, PARAMETERS, self._changed)
+        self.rec: Recording | None = None
+        self.last = {"condition": "", "payload_mass": 0.0, "bag_path": "", "message": "idle"}
+        self.last_ticks: tuple = (0, 0, None, None)  # written, missing, first and last stamp
+        self.subs: dict[str, tuple[Any, str]] = {}  # topic -> (QoS subscribed with, type)
+        self.taker = BatchTaker(self, [], period_s=0.005)
+        self.known = {self.resolve_topic_name(t): m for t, m in (
+            ("orthoglide/joint_states", bags.JOINT_STATE_TYPE),
+            ("orthoglide/current_reference", bags.CURRENT_REFERENCE_TYPE))}
+        self.required = [self.resolve_topic_name(t) for t in p["topics"]]
+        self.optional = [self.resolve_topic_name(t) for t in p["optional_topics"]]
+        self.discover()
+        latched = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL,
+                             reliability=ReliabilityPolicy.RELIABLE)
+        self.status_pub = self.create_publisher(RecorderStatus, "orthoglide/recorder/status", latched)
+        self.create_service(StartRecording, "orthoglide/recorder/start", self.on_start)
+        self.create_service(Trigger, "orthoglide/recorder/stop", self.on_stop)
+        self.create_timer(1.0, self.discover)
+        self.create_timer(STATUS_PERIOD_S, lambda: self.rec is not None and self.publish_status())
+        self.publish_status()
+        self.get_logger().info(f"recorder ready; bags go to {Path(p['output_dir']).resolve()}")
 
-    class RecorderNode(Node):
-        def __init__(self) -> None:
-            super().__init__("recorder")
-            for name, value in DEFAULTS.items():
-                self.declare_parameter(name, value)
-            p = {n: self.get_parameter(n).value for n in DEFAULTS}
-            self.p = p
-            self.qos = QoSProfile(
-                history=HistoryPolicy.KEEP_LAST,
-                depth=int(p["queue_depth"]),
-                reliability=ReliabilityPolicy.RELIABLE,
-            )
-            self.rec: Recording | None = None
-            self.subs: dict[str, tuple[Any, str]] = {}
-            known = {
-                bags.JOINT_STATES_TOPIC: bags.JOINT_STATE_TYPE,
-                bags.CURRENT_REFERENCE_TOPIC: bags.CURRENT_REFERENCE_TYPE,
-            }
-            for topic in p["topics"]:
-                msgtype = known.get(topic) or self._graph_type(topic)
-                if msgtype is None:
-                    self.get_logger().warning(
-                        f"{topic}: type unknown until it is published; will retry"
-                    )
-                    p["optional_topics"] = list(p["optional_topics"]) + [topic]
-                    continue
-                self._subscribe(topic, msgtype)
-            self.create_service(StartRecording, "/orthoglide/recorder/start", self.on_start)
-            self.create_service(Trigger, "/orthoglide/recorder/stop", self.on_stop)
-            self.create_timer(1.0, self.discover)
-            self.get_logger().info(f"recorder ready; bags go to {Path(p['output_dir']).resolve()}")
+    def _changed(self, changes: dict[str, Any]) -> None:
+        """Run-time parameter changes: checked now, used from the next start on."""
+        p = {**self.p, **changes}
+        _check(p)
+        self.p = p
 
-        def _graph_type(self, topic: str) -> str | None:
-            types = dict(self.get_topic_names_and_types()).get(topic)
-            return types[0] if types else None
+    def _graph_type(self, topic: str) -> str | None:
+        types = dict(self.get_topic_names_and_types()).get(topic)
+        return types[0] if types else None
 
-        def _subscribe(self, topic: str, msgtype: str) -> None:
-            try:
-                cls = _import_type(msgtype)
-            except (ImportError, AttributeError, ValueError):
-                self.get_logger().warning(f"{topic}: cannot import {msgtype}; not recorded")
-                return
+    def _subscribe(self, topic: str, msgtype: str) -> None:
+        """Record ``topic`` from now on, with the reliability and durability its publishers offer
+        (as rosbag2 does: a reliable subscription never matches a best-effort publisher)."""
+        try:
+            cls = _import_type(msgtype)
+        except (ImportError, AttributeError, ValueError):
+            self.get_logger().warning(f"{topic}: cannot import {msgtype}; not recorded")
+            return
+        qos = self._adapted_qos(topic)
 
-            def callback(data: bytes, info: dict[str, int]) -> None:
-                rec = self.rec
-                if rec is not None and rec.alive:
-                    if (
-                        topic not in rec.registered
-                    ):  # first message: its publishers' QoS are known now
-                        self._register(rec, topic)
-                    rec.queue.append(
-                        (topic, data, info["received_timestamp"], info["source_timestamp"])
-                    )
-
-            def incompatible(event: Any) -> None:
-                self.get_logger().warning(
-                    f"{topic}: a publisher's QoS is incompatible with this reliable "
-                    f"subscription (best effort?); its messages are not recorded"
-                )
-
-            events = SubscriptionEventCallbacks(incompatible_qos=incompatible)
-            sub = self.create_subscription(
-                cls, topic, callback, self.qos, raw=True, event_callbacks=events
-            )
-            self.subs[topic] = (sub, msgtype)
-
-        def _register(self, rec: Recording, topic: str) -> None:
-            """Add a topic to the bag with its publishers' offered QoS, as rosbag2 records them."""
-            infos = self.get_publishers_info_by_topic(topic)
-            rec.registered.add(topic)
-            rec.add_topic(
-                topic,
-                self.subs[topic][1],
-                [_qos_dict(i.qos_profile) for i in infos] or bags.default_qos(),
-            )
-
-        def discover(self) -> None:
-            for topic in self.p["optional_topics"]:
-                if topic not in self.subs and (msgtype := self._graph_type(topic)):
-                    self._subscribe(topic, msgtype)
-
-        def on_start(self, req: Any, res: Any) -> Any:
-            res.success = False
-            if self.rec is not None and self.rec.error:  # ended by a write error: finish it first
-                self.rec.stop()
-                self.rec = None
-            if self.rec is not None:
-                res.message = f"already recording to {self.rec.writer.path}; call stop first"
-                return res
-            try:
-                tags = bags.BagTags.checked(req.condition, req.payload_mass)
-            except OrthoglideError as exc:
-                res.message = str(exc)
-                return res
-            p = {
-                n: self.get_parameter(n).value for n in DEFAULTS
-            }  # changes apply at the next start
-            name = req.name or f"{tags.condition}_{datetime.now():%Y%m%d_%H%M%S}"
-            if not _NAME.match(name) or name in (".", ".."):
-                res.message = f"bad bag name {name!r}: use letters, digits, '_', '-', '.', '+'"
-                return res
-            out = Path(p["output_dir"]).expanduser()
-            try:
-                out.mkdir(parents=True, exist_ok=True)
-            except OSError as exc:
-                res.message = (
-                    f"output folder {out} is not writable: cannot create it ({exc.strerror or exc})"
-                )
-                return res
-            if not os.access(out, os.W_OK | os.X_OK):
-                res.message = f"output folder {out} is not writable"
-                return res
-            comp = "" if p["compression"] in ("none", "") else p["compression"]
-            writer = bags.BagWriter(
-                out / name,
-                tags,
-                compression=comp,
-                chunk_duration_s=float(p["chunk_duration"]),
-                split_duration_s=float(p["split_duration"]) or None,
-                split_size_bytes=int(p["split_size"]) or None,
-            )
-            try:
-                writer.open()
-            except (OrthoglideError, OSError) as exc:
-                res.message = str(exc)
-                return res
-            stamped = {
-                t
-                for t, (_, m) in self.subs.items()
-                if m in (bags.JOINT_STATE_TYPE, bags.CURRENT_REFERENCE_TYPE)
-            }
-            rec = Recording(writer, stamped, float(p["expected_rate"]), self.get_logger())
-            for topic in self.subs:  # topics already published; the others at their first message
-                if self.count_publishers(topic):
+        def on_batch(batch: list) -> None:
+            rec = self.rec
+            if rec is not None and rec.alive:
+                if topic not in rec.registered:  # first message: its publishers' QoS are known now
                     self._register(rec, topic)
-            self.rec = rec
-            res.success, res.bag_path = True, str(writer.path)
-            res.message = f"recording {tags.condition} ({tags.payload_mass:g} kg) to {writer.path}"
-            self.get_logger().info(res.message)
+                rec.queue.extend((topic, data, received, published) for data, received, published in batch)
+
+        self.taker.add(BatchTopic(cls, topic, qos, on_batch))
+        self.subs[topic] = (qos, msgtype)
+
+    def _adapted_qos(self, topic: str, quiet: bool = False) -> QoSProfile:
+        offered = [i.qos_profile for i in self.get_publishers_info_by_topic(topic)]
+        qos = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=self.p["queue_depth"],
+                         reliability=ReliabilityPolicy.RELIABLE)
+        if offered and any(o.reliability == ReliabilityPolicy.BEST_EFFORT for o in offered):
+            qos.reliability = ReliabilityPolicy.BEST_EFFORT
+            if not quiet:
+                self.get_logger().warning(f"{topic}: a publisher offers best effort: recorded best effort (ticks "
+                                          "may be lost on the way, the missing count will say)")
+        if offered and all(o.durability == DurabilityPolicy.TRANSIENT_LOCAL for o in offered):
+            qos.durability = DurabilityPolicy.TRANSIENT_LOCAL
+        return qos
+
+    def _register(self, rec: Recording, topic: str) -> None:
+        """Add a topic to the bag with its publishers' offered QoS, as rosbag2 records them."""
+        infos = self.get_publishers_info_by_topic(topic)
+        rec.registered.add(topic)
+        rec.add_topic(topic, self.subs[topic][1], [_qos_dict(i.qos_profile) for i in infos] or bags.default_qos())
+
+    def discover(self) -> None:
+        """Subscribe to the wanted topics: the required ones from the start (reliable), the optional
+        ones once published; and follow the QoS their publishers offer (best effort, latched)."""
+        for topic in self.required + self.optional:
+            published = self.count_publishers(topic) > 0
+            if topic not in self.subs:
+                msgtype = self.known.get(topic) or (self._graph_type(topic) if published else None)
+                if msgtype and (published or topic in self.required):
+                    self._subscribe(topic, msgtype)
+            elif published and self._adapted_qos(topic, quiet=True) != self.subs[topic][0]:
+                self._subscribe(topic, self.subs[topic][1])  # a publisher with another QoS appeared
+
+    def publish_status(self) -> None:
+        """orthoglide/recorder/status: what is being (or was last) recorded, and how it goes."""
+        msg = RecorderStatus(recording=self.rec is not None, **self.last)
+        msg.header.stamp = self.get_clock().now().to_msg()
+        if self.rec is not None:
+            self.last_ticks = self._ticks(self.rec)
+        msg.ticks_written, msg.ticks_missing, first, last = self.last_ticks
+        for field, ns in (("first_tick", first), ("last_tick", last)):
+            getattr(msg, field).sec, getattr(msg, field).nanosec = divmod(ns or 0, 1_000_000_000)
+        self.status_pub.publish(msg)
+
+    def _ticks(self, rec: Recording) -> tuple[int, int, int | None, int | None]:
+        """(written, missing, first stamp, last stamp) of the joint states of a recording."""
+        js = self.resolve_topic_name("orthoglide/joint_states")
+        counter = rec.counters.get(js)
+        return (rec.writer.counts.get(js, 0), _missing(rec), counter and counter.first, counter and counter.last)
+
+    def on_start(self, req: Any, res: Any) -> Any:
+        res.success = False
+        if self.rec is not None and self.rec.error:  # ended by a write error: finish it first
+            self.on_stop(None, Trigger.Response())
+        if self.rec is not None:
+            res.message = f"already recording to {self.rec.writer.path}; call stop first"
             return res
-
-        def on_stop(self, req: Any, res: Any) -> Any:
-            rec, self.rec = self.rec, None
-            if rec is None:
-                res.success, res.message = False, "not recording"
-                return res
-            res.message = rec.stop()
-            res.success = not rec.error
-            (self.get_logger().error if rec.error else self.get_logger().info)(res.message)
+        try:
+            tags = bags.BagTags.checked(req.condition, req.payload_mass)
+            writer = self._open_writer(req.name or f"{tags.condition}_{datetime.now():%Y%m%d_%H%M%S}", tags)
+        except (OrthoglideError, OSError) as exc:
+            res.message = str(exc)
             return res
+        self.discover()
+        for topic in self.required:
+            if topic not in self.subs:
+                self.get_logger().warning(f"{topic} has no publisher: recorded from its first message when one appears")
+        stamped = set(self.known)  # the two topics of every tick
+        rec = Recording(writer, stamped, float(self.p["expected_rate"]), self.get_logger())
+        for topic in self.subs:  # topics already published; the others at their first message
+            if self.count_publishers(topic):
+                self._register(rec, topic)
+        self.rec = rec
+        res.success, res.bag_path = True, str(writer.path)
+        res.message = f"recording {tags.condition} ({tags.payload_mass:g} kg) to {writer.path}"
+        self.last = {"condition": tags.condition, "payload_mass": float(tags.payload_mass),
+                     "bag_path": str(writer.path), "message": res.message}
+        self.get_logger().info(res.message)
+        self.publish_status()
+        return res
 
-        def close(self) -> None:
-            """Close the bag properly (called on SIGINT/SIGTERM and at exit)."""
-            rec, self.rec = self.rec, None
-            if rec is not None:
-                msg = rec.stop()
-                print(f"[recorder] {msg}", file=sys.stderr)
+    def _open_writer(self, name: str, tags: Any) -> Any:
+        if not _NAME.match(name) or name in (".", ".."):
+            raise ConfigError(f"bad bag name {name!r}: use letters, digits, '_', '-', '.', '+'")
+        out = Path(self.p["output_dir"]).expanduser()
+        try:
+            out.mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            raise ConfigError(f"output folder {out} is not writable: cannot create it ({exc.strerror or exc})") \
+                from None
+        if not os.access(out, os.W_OK | os.X_OK):
+            raise ConfigError(f"output folder {out} is not writable")
+        comp = "" if self.p["compression"] in ("none", "") else self.p["compression"]
+        writer = bags.BagWriter(out / name, tags, compression=comp, chunk_duration_s=self.p["chunk_duration"],
+                                split_duration_s=self.p["split_duration"] or None,
+                                split_size_bytes=self.p["split_size"] or None)
+        writer.open()
+        return writer
 
-    return RecorderNode()
+    def on_stop(self, req: Any, res: Any) -> Any:
+        rec, self.rec = self.rec, None
+        if rec is None:
+            res.success, res.message = False, "not recording"
+            return res
+        res.message = rec.stop()
+        js = self.resolve_topic_name("orthoglide/joint_states")
+        written = rec.writer.counts.get(js, 0)
+        res.success = not rec.error and written > 0
+        if not rec.error and not written:
+            res.message = (f"nothing recorded on {js} (no publisher, or one whose QoS does not match); "
+                           f"{rec.writer.path} holds no data")
+        self.last_ticks = self._ticks(rec)
+        self.last["message"] = res.message
+        (self.get_logger().info if res.success else self.get_logger().error)(res.message)
+        self.publish_status()
+        return res
+
+    def close(self) -> None:
+        """Close the bag properly (called on SIGINT/SIGTERM and at exit)."""
+        self.taker.close()
+        rec, self.rec = self.rec, None
+        if rec is not None:
+            msg = rec.stop()
+            print(f"[recorder] {msg}", file=sys.stderr)
+
+
+def _missing(rec: Recording) -> int:
+    """Ticks missing from the recorded stamps (the worst of the stamped topics)."""
+    return max((c.missing for c in rec.counters.values()), default=0)
+
+
+def _check(p: dict[str, Any]) -> None:
+    """One-line reasons for parameter values that cannot work."""
+    if p["queue_depth"] < 1:
+        raise ConfigError(f"parameter queue_depth: must be >= 1, got {p['queue_depth']}")
+    if p["expected_rate"] <= 0 or p["chunk_duration"] <= 0:
+        raise ConfigError("parameters expected_rate and chunk_duration must be positive")
+    if p["split_duration"] < 0 or p["split_size"] < 0:
+        raise ConfigError("parameters split_duration and split_size must be >= 0 (0: no split)")
+    if p["compression"] not in ("zstd", "lz4", "none", ""):
+        raise ConfigError(f"parameter compression: zstd, lz4 or none, got {p['compression']!r}")
 
 
 def main(argv: list[str] | None = None) -> int:
-    argv = sys.argv[1:] if argv is None else argv
+    argv = sys.argv if argv is None else argv
     if "-h" in argv or "--help" in argv:
-        print(HELP)
+        print(usage("usage: ros2 run orthoglide_ident recorder [--ros-args -p NAME:=VALUE ... | --params-file "
+                    "config/recorder.yaml]", DOC, PARAMETERS))
         return 0
-
-    return spin(make_node, ["recorder", *argv], "recorder")
+    return spin(RecorderNode, argv, "recorder")
 
 
 if __name__ == "__main__":

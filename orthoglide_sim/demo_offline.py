@@ -1,6 +1,6 @@
-"""`make demo`: the product's main job end to end on the built-in simulator.
+"""`make demo-offline`: the product's main job end to end on the built-in simulator.
 
-1. simulate the robot (independent Lagrangian plant, 1 kHz PID, 1 um encoder, current noise) on
+1. simulate the robot (independent Pinocchio closed-loop plant, 1 kHz PID, 1 um encoder, current noise) on
    exciting trajectories without load, with the weighed 1.983 kg payload, with the second 1.136 kg
    payload, and on a smooth test trajectory for cross-validation;
 2. write each record as a tagged rosbag2/MCAP bag, as the recorder node would;
@@ -10,7 +10,7 @@
    identified ones (the paper's 1.09 vs 1.14 kg check);
 5. print everything next to the plant's truth.
 
-    python -m orthoglide_ident.demo [--duration 60] [--out demo_out] [--seed 0]
+    python -m orthoglide_sim.demo_offline [--duration 60] [--out demo_out] [--seed 0]
 """
 from __future__ import annotations
 
@@ -43,7 +43,7 @@ def run(duration: float, out: Path, seed: int) -> int:
         ("loaded_1.136kg", "1.136", "exciting2", duration, seed + 2),
         ("validation_1.983kg", "1.983", "test2", min(duration, 20.0), seed + 3),
     ]
-    _say(f"1. Simulating {len(runs)} records on the plant (1 kHz controller, 10 kHz RK4, 1 um encoder, current noise)")
+    _say(f"1. Simulating {len(runs)} records on the plant (1 kHz controller, 4 kHz RK4, 1 um encoder, current noise)")
     paths, truth = {}, None
     for name, payload, traj, dur, s in runs:
         t0 = time.perf_counter()
@@ -132,7 +132,7 @@ def run(duration: float, out: Path, seed: int) -> int:
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(
-        prog="python -m orthoglide_ident.demo",
+        prog="python -m orthoglide_sim.demo_offline",
         description="Simulate, record, identify (IDIM-TLS) and validate, end to end.",
     )
     ap.add_argument("--duration", type=float, default=60.0, help="seconds per exciting record (default 60)")

@@ -1,0 +1,334 @@
+"""Online identification: the offline pipeline fed while the recordings run (DESIGN §1, §7).
+
+    live = LiveIdentification(IdentifyOptions.from_yaml("config/identification.yaml"))
+    live.start_recording("run-1", "unloaded", 0.0)
+    live.add_joint_states(stamps_ns, ["q11", "q12", "q13"], q)           # any batch size
+    live.add_current_reference(stamps_ns, ["q11", "q12", "q13"], v_tau)  # arrives independently
+    live.stop_recording()
+    live.start_recording("run-2", "loaded", 1.983) ...
+    live.estimate()   # about once a second: gains ± σ, seconds used, lag, one-line status
+    live.result()     # the IdentificationResult identify_records gives on the same records
+
+Each recording is one record (like one bag). Samples are paired by stamp once both topics are
+``live_pairing_slack_s`` past them (pairing.py), split at real gaps, and every continuous segment
+runs through a :class:`~stream.SegmentStream` about every ``live_block_s`` of data: the same
+filtering, W, reversal bridging and FIR decimation as ``pipeline.observe``, exact across blocks.
+The decimated equations are folded into per-condition, per-joint R factors (factors.py), so
+memory and CPU per second of data stay constant; ``result()`` solves them with the offline
+solver (solve.py). Non-finite samples are dropped and split the record (offline
+``nonfinite: drop``); nothing here raises on bad or insufficient data: warnings and ``status``
+say what is wrong. Never imports rclpy.
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+from typing import Sequence
+
+import numpy as np
+
+from orthoglide_ident.errors import (ConfigError, ExcitationError, IdentificationError,
+                                     OrthoglideError)
+from orthoglide_ident.identify.factors import RecordFactors
+from orthoglide_ident.identify.live_recording import LiveRecording
+from orthoglide_ident.identify.options import IdentifyOptions
+from orthoglide_ident.identify.pipeline import IdentificationModel, default_model, finish_result
+from orthoglide_ident.identify.segments import JOINT_NAMES
+from orthoglide_ident.identify.solve import min_rows, solve
+from orthoglide_ident.identify.tls import TLSProblem, check_excitation
+from orthoglide_ident.results import IdentificationResult
+
+MAX_LOGGED_WARNINGS = 200  # the first ones, kept for result().warnings
+MAX_PENDING_WARNINGS = 1000  # waiting for drain_warnings()
+
+
+@dataclass
+class LiveEstimate:
+    """What a user watches about once a second while recording.
+
+    Gains in N/A with their relative standard deviation (fraction; NaN until identified),
+    seconds of data folded in per condition, s_c/s_(c-1) of W_tot (``singular_ratio``), the
+    condition number of the scaled W, residual rms per joint (N), the lag (s of received data not
+    yet folded in) and a one-line ``status``; ``ok`` when the gains pass every excitation check,
+    ``enough_data`` when moreover every gain's σ is below ``live_enough_gain_rel_std``.
+    """
+
+    status: str
+    ok: bool = False
+    enough_data: bool = False
+    gains: tuple[float, float, float] = (math.nan, math.nan, math.nan)
+    gains_rel_std: tuple[float, float, float] = (math.nan, math.nan, math.nan)
+    seconds_loaded: float = 0.0
+    seconds_unloaded: float = 0.0
+    singular_ratio: float = math.nan
+    condition_number: float = math.nan
+    residual_rms: tuple[float, float, float] = (math.nan, math.nan, math.nan)
+    lag_s: float = 0.0
+    equations: tuple[int, int, int] = (0, 0, 0)
+    recording: str | None = None  # condition of the recording under way
+    joint_names: tuple[str, ...] = JOINT_NAMES
+
+    def message_fields(self, warnings: Sequence[str] = ()) -> dict:
+        """Fields of orthoglide_msgs/LiveIdentification (header excluded)."""
+        known = not math.isnan(self.gains[0])
+        return {
+            "status": self.status, "enough_data": self.enough_data,
+            "joint_names": list(self.joint_names),
+            "drive_gains": [float(g) for g in self.gains] if known else [],
+            "drive_gains_rel_std": [float(s) for s in self.gains_rel_std] if known else [],
+            "unloaded_seconds": float(self.seconds_unloaded),
+            "loaded_seconds": float(self.seconds_loaded),
+            "singular_ratio": float(self.singular_ratio),
+            "condition_number": float(self.condition_number),
+            "residual_rms": [float(r) for r in self.residual_rms] if known else [],
+            "lag": float(self.lag_s), "warnings": list(warnings),
+        }
+
+    def line(self) -> str:
+        """The estimate in one line (a log or a terminal)."""
+        g = "gains —" if math.isnan(self.gains[0]) else "  ".join(
+            f"{n} {v:7.1f} N/A ±{100 * s:.2f} %"
+            for n, v, s in zip(self.joint_names, self.gains, self.gains_rel_std))
+        return (f"{g} | {self.seconds_unloaded:.0f} s unloaded, {self.seconds_loaded:.0f} s "
+                f"loaded, lag {self.lag_s:.1f} s | {self.status}")
+
+
+@dataclass
+class _Version:
+    n: int = 0  # folds so far
+    estimate: LiveEstimate | None = None
+    at: tuple = ()  # (folds, condition recorded) the estimate was made at
+
+
+class LiveIdentification:
+    """IDIM-TLS identification fed topic by topic while the recordings run.
+
+    ``options`` as offline (``decimation_filter`` must be ``fir``); ``model`` the base model by
+    default. See the module docstring for the calls; every ``add_*`` returns the warnings it
+    raised, and :meth:`drain_warnings` returns all warnings since its last call (use either).
+    Not thread-safe: call it from one thread (a node with a multi-threaded executor holds a lock
+    or puts the subscriptions in one mutually exclusive callback group).
+    """
+
+    def __init__(self, options: IdentifyOptions | None = None,
+                 model: IdentificationModel | None = None):
+        self.opts = options or IdentifyOptions()
+        self.opts.validate()
+        if self.opts.decimation_filter != "fir":
+            raise ConfigError("live identification needs decimation_filter: fir (cheby1's IIR "
+                              "decimation depends on the whole segment)")
+        self.model = model if model is not None else default_model()
+        self.n_b = len(self.model.names)
+        self._factors: dict[tuple[str, float], RecordFactors] = {}
+        self._seconds: dict[str, float] = {"loaded": 0.0, "unloaded": 0.0}
+        self._recordings: list[LiveRecording] = []
+        self._current: LiveRecording | None = None
+        self._pending_warnings: list[str] = []
+        self._n_undrained_lost = 0
+        self._log: list[str] = []
+        self._n_ignored = 0
+        self._version = _Version()
+
+    # --- recordings ---------------------------------------------------------------------------
+    @property
+    def recording(self) -> bool:
+        return self._current is not None
+
+    def start_recording(self, source: str, condition: str, payload_mass: float = 0.0) -> None:
+        """Start a record: ``condition`` "loaded" (payload of ``payload_mass`` kg) or "unloaded".
+
+        Raises IdentificationError on a wrong condition or a loaded record without a mass; a
+        recording still running is stopped first (with a warning).
+        """
+        if condition not in ("loaded", "unloaded"):
+            raise IdentificationError(f"condition must be loaded or unloaded, not {condition!r}")
+        mass = 0.0 if condition == "unloaded" else float(payload_mass)
+        if condition == "loaded" and not (math.isfinite(mass) and mass > 0):
+            raise IdentificationError(
+                f"{source} is loaded without a payload mass: give the weighed mass in kg")
+        if self._current is not None:
+            self._warn([f"{self._current.source}: still recording when {source} started: "
+                        "stopped"])
+            self.stop_recording()
+        self._current = LiveRecording(source, condition, mass, self.opts, self.model, self.n_b,
+                                      self._fold)
+        self._recordings.append(self._current)
+
+    def stop_recording(self) -> list[str]:
+        """End the record under way: pair and process everything received; its warnings."""
+        rec, self._current = self._current, None
+        if rec is None:
+            return []
+        return self._warn(rec.close())
+
+    def add_joint_states(self, stamps_ns: Sequence[int] | np.ndarray, names: Sequence[str],
+                         positions: np.ndarray) -> list[str]:
+        """Samples of /orthoglide/joint_states: stamps (ns), joint names, positions (n, 3) m."""
+        return self._add("q", stamps_ns, names, positions)
+
+    def add_current_reference(self, stamps_ns: Sequence[int] | np.ndarray,
+                              names: Sequence[str], currents: np.ndarray) -> list[str]:
+        """Samples of /orthoglide/current_reference: stamps (ns), names, v_tau (n, 3) A."""
+        return self._add("v", stamps_ns, names, currents)
+
+    def _add(self, topic: str, stamps_ns, names, values) -> list[str]:
+        rec = self._current
+        if rec is None:
+            self._n_ignored += int(np.size(stamps_ns))
+            if self._n_ignored == int(np.size(stamps_ns)):
+                return self._warn(["samples received while not recording: ignored "
+                                   "(call start_recording first)"])
+            return []
+        out = rec.add(topic, stamps_ns, names, values)
+        if rec.due():
+            out += rec.process()
+        return self._warn(out)
+
+    def process(self) -> list[str]:
+        """Pair and process what has arrived (the add_* calls do it every live_block_s)."""
+        return self._warn(self._current.process() if self._current is not None else [])
+
+    def drain_warnings(self) -> list[str]:
+        """Every warning since the last call (lost ticks, NaN, names, excitation, saturation);
+        the newest MAX_PENDING_WARNINGS when more have piled up undrained."""
+        out, self._pending_warnings = self._pending_warnings, []
+        if self._n_undrained_lost:
+            out.insert(0, f"{self._n_undrained_lost} older warnings were not drained in time")
+            self._n_undrained_lost = 0
+        return out
+
+    def _warn(self, messages: list[str]) -> list[str]:
+        self._pending_warnings.extend(messages)
+        extra = len(self._pending_warnings) - MAX_PENDING_WARNINGS
+        if extra > 0:
+            del self._pending_warnings[:extra]
+            self._n_undrained_lost += extra
+        room = MAX_LOGGED_WARNINGS - len(self._log)
+        self._log.extend(messages[:max(room, 0)])
+        return messages
+
+    def _fold(self, rec: LiveRecording, X: np.ndarray, keep: np.ndarray | None,
+              seconds: float) -> None:
+        key = (rec.condition, rec.payload_mass)
+        f = self._factors.get(key)
+        if f is None:
+            f = self._factors[key] = RecordFactors(rec.condition, rec.payload_mass, self.n_b)
+        f.add_source(rec.source)
+        f.fold(X, keep)
+        self._seconds[rec.condition] += seconds
+        self._version.n += 1
+
+    # --- answers ------------------------------------------------------------------------------
+    def _folded(self) -> list[RecordFactors]:
+        """Factors of every condition with decimated samples (equations kept or not)."""
+        return [f for f in self._factors.values() if f.n_samples > 0]
+
+    @property
+    def lag_s(self) -> float:
+        """Seconds of received data whose equations are not folded in yet."""
+        return self._current.lag_s if self._current is not None else 0.0
+
+    def result(self, method: str = "tls", essential: bool = False,
+               gains: Sequence[float] | None = None,
+               payload_mass: float | None = None) -> IdentificationResult:
+        """IDIM-TLS (or WLS with ``gains`` N/A) on everything folded in: the IdentificationResult
+        ``identify_records`` gives on the same records (once they are stopped). ``payload_mass``
+        (kg) checks the masses given to start_recording, as ``--payload-mass`` checks bag tags.
+        Raises the product's errors with a one-line reason (e.g. no loaded data)."""
+        factors = self._folded()
+        if not factors:
+            raise IdentificationError("no equations yet: record the trajectories unloaded and "
+                                      "loaded with the weighed payload")
+        if payload_mass is not None:
+            factors = self._with_payload(factors, payload_mass)
+        solved = solve(factors, self.model, self.opts, method, gains, essential,
+                       [r.source for r in self._recordings if r.n_decimated])
+        reports = [r.report() for r in self._recordings]
+        finish_result(solved.result, solved, reports, list(self._log), self.opts,
+                      dict(solved.timings))
+        return solved.result
+
+    def _with_payload(self, factors: list[RecordFactors], mass: float) -> list[RecordFactors]:
+        if not (math.isfinite(mass) and mass > 0):
+            raise IdentificationError(f"payload mass must be a positive mass in kg, not {mass}")
+        for f in factors:
+            if f.loaded and abs(f.payload_mass - mass) > self.opts.payload_tolerance_kg:
+                raise IdentificationError(
+                    f"{f.source} was recorded with a payload of {f.payload_mass:g} kg but "
+                    f"{mass:g} kg is asked; check which payload was mounted")
+        return [dataclasses.replace(f, payload_mass=mass) if f.loaded else f for f in factors]
+
+    def estimate(self) -> LiveEstimate:
+        """Gains ± σ and a one-line status from the data folded in so far (never raises)."""
+        v = self._version
+        key = (v.n, self._current.condition if self._current is not None else None)
+        if v.estimate is None or v.at != key:
+            v.estimate, v.at = self._estimate(), key
+        est = v.estimate
+        est.lag_s = self.lag_s
+        est.recording = self._current.condition if self._current is not None else None
+        return est
+
+    def _estimate(self) -> LiveEstimate:
+        factors = self._folded()
+        rows = tuple(int(sum(f.rows[j] for f in factors)) for j in range(3))
+        base = dict(seconds_loaded=self._seconds["loaded"],
+                    seconds_unloaded=self._seconds["unloaded"], equations=rows)
+        loaded = any(f.loaded for f in factors)
+        unloaded = any(not f.loaded for f in factors)
+        if not factors:
+            what = "collecting: the first equations come after about 1 s of data" if \
+                self._current is not None else "no data: start a recording"
+            return LiveEstimate(what, **base)
+        now = self._current.condition if self._current is not None else None
+        if not loaded:
+            what = "loaded recording under way" if now == "loaded" else "record with the payload"
+            return LiveEstimate(f"unloaded only: {what}", **base)
+        if not unloaded:
+            what = "unloaded recording under way" if now == "unloaded" else \
+                "record without the payload"
+            return LiveEstimate(f"loaded only: {what}", **base)
+        need = min_rows(self.n_b)
+        for j, n in enumerate(rows):
+            if n < need:
+                return LiveEstimate(
+                    f"excitation too weak on {JOINT_NAMES[j]}: {n} equations above the velocity "
+                    f"dead band ({self.opts.velocity_deadband_mps} m/s), {need} needed", **base)
+        return self._solve_status(factors, base)
+
+    def _solve_status(self, factors: list[RecordFactors], base: dict) -> LiveEstimate:
+        """TLS on the factors; status from the excitation checks (IdentifyOptions limits)."""
+        opts = self.opts
+        try:
+            sol = TLSProblem(factors, opts.weighting, noisy_columns=opts.tls_noisy_columns).solve()
+        except (OrthoglideError, np.linalg.LinAlgError) as exc:
+            return LiveEstimate(f"not identifiable yet: {exc}", **base)
+        n = sol.chi.shape[0]
+        grel = sol.rel_std[n:n + 3]
+        est = LiveEstimate("", gains=tuple(float(x) for x in sol.g_tau),
+                           gains_rel_std=tuple(float(x) for x in grel),
+                           singular_ratio=sol.singular_ratio,
+                           condition_number=sol.condition_number,
+                           residual_rms=tuple(float(x) for x in sol.residual_rms), **base)
+        try:
+            if opts.check_excitation:
+                check_excitation(sol, opts.limits(), list(self.model.names))
+        except ExcitationError as exc:
+            j = int(np.argmax(grel))
+            if grel[j] > opts.max_gain_rel_std and str(exc).startswith("drive gain of"):
+                est.status = (f"excitation too weak on {JOINT_NAMES[j]}: its gain is known to "
+                              f"{100 * grel[j]:.1f} % (> {100 * opts.max_gain_rel_std:g} %); "
+                              "record longer or more exciting trajectories")
+            else:
+                est.status = f"excitation too weak: {exc}"
+            return est
+        worst = float(np.max(grel))
+        est.ok = True
+        if worst <= opts.live_enough_gain_rel_std:
+            est.enough_data = True
+            est.status = f"gains known to {100 * worst:.2f} %: enough data"
+        else:
+            est.status = (f"gains known to {100 * worst:.2f} %: keep recording (enough below "
+                          f"{100 * opts.live_enough_gain_rel_std:g} %)")
+        return est

@@ -1,0 +1,306 @@
+"""One continuous segment processed block by block into decimated equations (DESIGN §6.2-3).
+
+The offline pipeline (a whole segment at once, pushed in chunks to bound memory) and the live
+identification (1 kHz samples pushed about once a second) both run a segment through a
+:class:`SegmentStream`, so that both give the same equations whatever the block boundaries:
+
+- derivative filtering (filtering.py): the zero-phase low-pass depends on the future, so a state
+  is computed only once :func:`~filtering.filter_horizon` samples after it have arrived (or the
+  segment has ended), from a window with that much context on both sides; the segment-end edge
+  trim happens only when the segment really ends;
+- W and W_kl at the state instants, written once into a buffer ``X: (n_b + 2, 3, samples)`` —
+  columns [W | W_kl | v_tau], joints, time — that holds only what is still needed;
+- velocity reversals (reversals.py): a :class:`~reversals.ReversalTracker` decides the same
+  bridges and dropped runs as ``find_reversals`` on the whole segment; bridges are applied in
+  order, each reading the anchors left by the previous one;
+- parallel decimation (eqs. 19-20): FIR output i (state i n_d + 4 n_d) is computed once the
+  8 n_d + 1 states of its window are final, from the kept samples only.
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from orthoglide_ident.errors import DataError
+from orthoglide_ident.identify.decimation import fir_decimate_last, fir_taps
+from orthoglide_ident.identify.filtering import filter_horizon, filtered_states
+from orthoglide_ident.identify.options import IdentifyOptions
+from orthoglide_ident.identify.reversals import ANCHOR, ReversalTracker, bridge_weights
+
+
+@dataclass
+class DecimatedRows:
+    """Decimated equations of a stretch of a segment, joint by joint (eq. 20).
+
+    ``X: (n_b + 2, 3, r)``: for joint j and decimated sample i, ``X[:n_b, j, i]`` is the row of
+    W, ``X[n_b, j, i]`` the payload-mass column W_kl (N/kg) and ``X[n_b + 1, j, i]`` v_tau (A).
+    ``keep: (3, r)`` bool (rows away from unbridged reversals) or None; ``t: (r,)`` s since the
+    record's first stamp (state instants).
+    """
+
+    X: np.ndarray
+    keep: np.ndarray | None
+    t: np.ndarray
+
+    @property
+    def r(self) -> int:
+        return int(self.X.shape[2])
+
+    def write(self, r0: int, rows: "DecimatedRows") -> int:
+        """Copy ``rows`` into this (preallocated) block at decimated sample r0; the next r0."""
+        r1 = r0 + rows.r
+        self.X[:, :, r0:r1] = rows.X
+        self.t[r0:r1] = rows.t
+        if self.keep is not None:
+            self.keep[:, r0:r1] = rows.keep
+        return r1
+
+    @staticmethod
+    def empty(n_cols: int, with_keep: bool) -> "DecimatedRows":
+        return DecimatedRows(np.zeros((n_cols, 3, 0)), np.zeros((3, 0), bool) if with_keep
+                             else None, np.zeros(0))
+
+
+def model_block(model, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray,
+                out: np.ndarray) -> None:
+    """Write [W | W_kl] of states (m, 3) into ``out: (n_b + 1, 3, m)``."""
+    if hasattr(model, "observation_block"):
+        model.observation_block(q, qd, qdd, out=out)
+        return
+    m = q.shape[0]
+    W = model.regressor(q, qd, qdd)  # (3 m, n_b), rows joint by joint
+    out[:-1] = W.T.reshape(W.shape[1], 3, m)
+    out[-1] = np.asarray(model.payload_mass_column(q, qd, qdd)).reshape(3, m)
+
+
+class SegmentStream:
+    """Samples of one continuous segment in, its decimated equations out, block by block.
+
+    ``push(stamps_ns, q, v_tau)`` appends consecutive ticks (q m, v_tau A, both (m, 3)) and
+    returns the rows that became final; ``finish()`` ends the segment (edge trim, last rows).
+    Offline, ``push_states`` takes the states of the whole segment filtered at once instead
+    (one FFT per segment, as before block processing existed). Either way the concatenation of
+    everything returned is the same to round-off (~1e-12 relative), whatever the block sizes.
+    ``n_b``: columns of W; ``t0_ns``: the record's first stamp (for the rows' instants).
+    """
+
+    def __init__(self, model, opts: IdentifyOptions, period_s: float, t0_ns: int, n_b: int):
+        if opts.decimation_filter != "fir":
+            raise DataError("block-by-block processing needs decimation_filter: fir (cheby1's "
+                            "IIR depends on the whole segment)")
+        self.model, self.opts, self.T, self.t0_ns, self.n_b = model, opts, period_s, t0_ns, n_b
+        self.zoh = 1 if opts.zoh_shift else 0
+        self.trim = int(round(opts.edge_trim_s / period_s))
+        self.M = filter_horizon(period_s, opts.filter_cutoff_hz, opts.filter_order)
+        self.n_d = opts.decimation
+        self.L = 1 if self.n_d == 1 else fir_taps(self.n_d).shape[0]
+        self.tracker = None
+        if opts.velocity_deadband_mps > 0:
+            self.tracker = ReversalTracker(
+                opts.velocity_deadband_mps,
+                max(1, int(round(opts.reversal_max_bridge_s / period_s))),
+                int(round(opts.reversal_margin_s / period_s)))
+        self.pending: list[list] = [[], [], []]  # decisions waiting for their anchors
+        self.n_raw = 0  # ticks received
+        self.n_states: int | None = None  # known once the segment has ended
+        self.n_bridged = self.n_unbridged = 0  # joint samples (SegmentReport)
+        self.last_qd = np.zeros((0, 3))  # q̂̇ of the states computed by the last call (m/s)
+        self._raw0 = 0  # tick index of the first raw sample held
+        self._st = np.zeros(0, np.int64)
+        self._q = np.zeros((0, 3))
+        self._v = np.zeros((0, 3))
+        self._b0 = 0  # state index of buffer column 0
+        self._S = 0  # states computed
+        self._X = np.zeros((n_b + 2, 3, 0))
+        self._drop = np.zeros((3, 0), bool)
+        self._ts = np.zeros(0, np.int64)
+        self._i_out = 0  # next decimated output
+        self.times = {"filtering": 0.0, "regressor": 0.0, "decimation": 0.0}  # s, wall clock
+
+    # --- input --------------------------------------------------------------------------------
+    def push(self, stamps_ns: np.ndarray, q: np.ndarray, v_tau: np.ndarray) -> DecimatedRows:
+        """Append consecutive ticks (live); the rows that became final."""
+        self._st = np.concatenate([self._st, np.asarray(stamps_ns, np.int64)])
+        self._q = np.concatenate([self._q, np.asarray(q, float)])
+        self._v = np.concatenate([self._v, np.asarray(v_tau, float)])
+        self.n_raw += int(np.shape(stamps_ns)[0])
+        return self._advance(self._filter_new())
+
+    def push_states(self, stamps_ns: np.ndarray, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray,
+                    v_tau: np.ndarray) -> DecimatedRows:
+        """Append states filtered elsewhere (offline: the whole trimmed segment at once, as
+        ``filtering.states_at_half_tick`` gives them, with the stamps of their ticks)."""
+        self.n_raw = -1  # states mode: no raw samples
+        self._add_states(np.asarray(stamps_ns, np.int64), q, qd, qdd, v_tau)
+        return self._advance(qd)
+
+    def finish(self) -> DecimatedRows:
+        """End the segment: trim its end and return the last rows."""
+        if self.n_raw < 0:
+            self.n_states = self._S
+            return self._advance(None)
+        n = self.n_raw - self.zoh - 2 * self.trim
+        if n < 1:
+            raise DataError(f"segment of {self.n_raw} samples is too short to trim {self.trim} "
+                            "at each end")
+        self.n_states = n
+        return self._advance(self._filter_new())
+
+    # --- processing ---------------------------------------------------------------------------
+    def _advance(self, qd: np.ndarray | None) -> DecimatedRows:
+        """Reversals, bridges, decimation and buffer upkeep after new states (q̂̇ ``qd``)."""
+        t0 = time.perf_counter()
+        self.last_qd = np.zeros((0, 3)) if qd is None else qd
+        if self.tracker is not None:
+            self.tracker.update(qd, self.n_states)
+            self._apply_decisions()
+        out = self._decimate(self._final_states())
+        self._compact()
+        if self.n_states is not None:
+            self.n_unbridged += int(self._drop[:, :self._S - self._b0].sum())
+            self._drop[:, :] = False
+        self.times["decimation"] += time.perf_counter() - t0
+        return out
+
+    def _filter_new(self) -> np.ndarray | None:
+        """Filter and differentiate every state whose filter context has arrived; its q̂̇."""
+        if self.n_states is not None:
+            s_new = self.n_states
+        else:
+            # context for the filter, and only states that exist whenever the segment ends
+            s_new = self.n_raw - self.zoh - self.trim - max(self.M, self.trim)
+        S, trim, r0 = self._S, self.trim, self._raw0
+        if s_new <= S:
+            return None
+        t0 = time.perf_counter()
+        w0 = max(0, trim + S - self.M)
+        w1 = min(self.n_raw, trim + s_new + self.zoh + self.M)
+        qh, qdh, qddh = filtered_states(self._q[w0 - r0:w1 - r0], self.T,
+                                        self.opts.filter_cutoff_hz, self.opts.filter_order,
+                                        self.opts.zoh_shift)
+        a, b = trim + S - w0, trim + s_new - w0
+        self.times["filtering"] += time.perf_counter() - t0
+        self._add_states(self._st[trim + S - r0:trim + s_new - r0], qh[a:b], qdh[a:b], qddh[a:b],
+                         self._v[trim + S - r0:trim + s_new - r0])
+        keep_from = max(0, trim + s_new - self.M) - r0  # the next window's first tick
+        if keep_from > 0:
+            self._st, self._q, self._v = (x[keep_from:] for x in (self._st, self._q, self._v))
+            self._raw0 += keep_from
+        return qdh[a:b]
+
+    def _add_states(self, stamps_ns: np.ndarray, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray,
+                    v_tau: np.ndarray) -> None:
+        """W and W_kl of new states into the buffer, with their v_tau and stamps."""
+        t0 = time.perf_counter()
+        m = q.shape[0]
+        X, pos = self._reserve(m)
+        model_block(self.model, q, qd, qdd, X[:self.n_b + 1, :, pos:pos + m])
+        X[self.n_b + 1, :, pos:pos + m] = np.asarray(v_tau).T
+        self._ts[pos:pos + m] = stamps_ns
+        self._drop[:, pos:pos + m] = False
+        self._S += m
+        self.times["regressor"] += time.perf_counter() - t0
+
+    def _reserve(self, m: int) -> tuple[np.ndarray, int]:
+        """Room for m more states at the end of the buffer: (buffer, column of the first)."""
+        used = self._S - self._b0
+        if used + m > self._X.shape[2]:
+            cap = used + m + max(1024, (used + m) // 8)
+            X = np.empty((self._X.shape[0], 3, cap))
+            X[:, :, :used] = self._X[:, :, :used]
+            drop = np.zeros((3, cap), bool)
+            drop[:, :used] = self._drop[:, :used]
+            ts = np.zeros(cap, np.int64)
+            ts[:used] = self._ts[:used]
+            self._X, self._drop, self._ts = X, drop, ts
+        return self._X, used
+
+    def _compact(self) -> None:
+        """Forget states no later bridge or decimation window can reach."""
+        keep = self._S
+        if self.tracker is not None:
+            for j in range(3):
+                keep = min(keep, self._final(j) - ANCHOR)
+        keep = min(keep, self._i_out * self.n_d)
+        k = keep - self._b0
+        if k <= 0 or (k < self._X.shape[2] // 2 and self.n_states is None):
+            return  # move the live tail to the front only when half the buffer is free
+        used = self._S - self._b0
+        self.n_unbridged += int(self._drop[:, :k].sum())
+        self._X[:, :, :used - k] = self._X[:, :, k:used]
+        self._drop[:, :used - k] = self._drop[:, k:used]
+        self._ts[:used - k] = self._ts[k:used]
+        self._b0 = keep
+
+    # --- velocity reversals -------------------------------------------------------------------
+    def _final(self, j: int) -> int:
+        """State index below which joint j's values and drop flags are final."""
+        f = self.tracker.final_upto(j)
+        if self.pending[j]:
+            f = min(f, self.pending[j][0].s)
+        return f
+
+    def _apply_decisions(self) -> None:
+        """Bridge or drop each decided run, in order per joint, once its anchors are computed."""
+        for d in self.tracker.decisions:
+            self.pending[d.j].append(d)
+        self.tracker.decisions.clear()
+        n = self.n_states
+        for j in range(3):
+            queue = self.pending[j]
+            while queue:
+                d = queue[0]
+                hi = d.e + ANCHOR if n is None else min(d.e + ANCHOR, n)
+                if d.ok and hi > self._S or not d.ok and d.e > self._S:
+                    break
+                queue.pop(0)
+                if d.ok:
+                    self._bridge(j, d.s, d.e, max(d.s - ANCHOR, 0), hi)
+                else:  # the part below the buffer was marked while the run was open
+                    self._drop[j, max(d.s - self._b0, 0):d.e - self._b0] = True
+            span = self.tracker.open_drop(j)
+            if span is not None:
+                self._drop[j, max(span[0] - self._b0, 0):min(span[1], self._S) - self._b0] = True
+
+    def _bridge(self, j: int, s: int, e: int, lo: int, hi: int) -> None:
+        """The straight line of reversals.bridge across states s..e-1 of joint j, every column."""
+        b0 = self._b0
+        x = self._X[:, j, :]
+        lo_mean = x[:, lo - b0:s - b0].mean(axis=1)
+        hi_mean = x[:, e - b0:hi - b0].mean(axis=1)
+        alpha = bridge_weights(s, e, lo, hi)
+        x[:, s - b0:e - b0] = lo_mean[:, None] + alpha[None, :] * (hi_mean - lo_mean)[:, None]
+        self.n_bridged += e - s
+
+    # --- decimation ---------------------------------------------------------------------------
+    def _final_states(self) -> int:
+        """States whose values (bridges) and drop flags are final."""
+        end = self._S
+        if self.tracker is not None:
+            for j in range(3):
+                end = min(end, self._final(j))
+        return end
+
+    def _decimate(self, end: int) -> DecimatedRows:
+        """FIR outputs whose whole window lies below state ``end``."""
+        n_d, L, b0 = self.n_d, self.L, self._b0
+        r = (end - L) // n_d + 1 - self._i_out if end >= L else 0
+        with_keep = self.tracker is not None
+        if r <= 0:
+            return DecimatedRows.empty(self.n_b + 2, with_keep)
+        a = self._i_out * n_d - b0
+        b = a + (r - 1) * n_d + L
+        x = self._X[:, :, a:b]
+        Xd = x[:, :, ::n_d].copy() if n_d == 1 else fir_decimate_last(x, n_d, r)
+        keep = None
+        if with_keep:
+            cs = np.concatenate([np.zeros((3, 1), np.int64),
+                                 np.cumsum(self._drop[:, a:b], axis=1, dtype=np.int64)], axis=1)
+            start = np.arange(r) * n_d
+            keep = (cs[:, start + L] - cs[:, start]) == 0
+        centre = a + (L - 1) // 2 + np.arange(r) * n_d
+        t = (self._ts[centre] - self.t0_ns) * 1e-9 + (0.5 * self.T if self.zoh else 0.0)
+        self._i_out += r
+        return DecimatedRows(Xd, keep, t)

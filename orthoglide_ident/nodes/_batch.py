@@ -1,0 +1,112 @@
+"""High-rate topics taken in batches: what rclpy's executor costs per message, paid per wake-up.
+
+rclpy's Python executor rebuilds its wait set and runs a callback for every message: ~0.1 ms each
+here, so one 1 kHz topic costs a node ~10 % of a core, and the recorder's three ~30 %. On a 2-core
+robot computer next to a 1 kHz controller that is the difference between keeping up and losing
+ticks. ``BatchTaker`` waits on a few subscriptions of its own on one thread and, at each wake-up
+(at most every ``period_s``), takes every pending message of every topic and hands them over in
+one call per topic: the same 3 kHz cost ~4 % of a core (bench/driver_realtime.py has the figures).
+
+The subscriptions live on a small private node (``<node>_rx``) that no executor spins; it
+subscribes to the topic names as the owning node resolves them, so remapping and namespaces of the
+owner apply. Messages are handed over serialized (CDR bytes) with their receive and publish times.
+"""
+from __future__ import annotations
+
+import threading
+import time
+from dataclasses import dataclass
+from typing import Any, Callable
+
+import rclpy
+from rclpy.exceptions import InvalidHandle
+from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
+from rclpy.node import Node
+from rclpy.qos import QoSProfile
+
+Batch = list[tuple[bytes, int, int]]  # (serialized message, receive time ns, publish time ns)
+
+
+@dataclass
+class BatchTopic:
+    msg_type: Any
+    topic: str  # as the owning node names it (relative names resolve in its namespace)
+    qos: QoSProfile
+    on_batch: Callable[[Batch], None]
+
+
+class BatchTaker:
+    """Take the messages of ``topics`` in batches on a thread of its own; ``close()`` to stop."""
+
+    def __init__(self, owner: Node, topics: list[BatchTopic], period_s: float = 0.005):
+        self.owner = owner
+        self.period_s = period_s
+        self.node = rclpy.create_node(f"{owner.get_name()}_rx", namespace=owner.get_namespace(),
+                                      context=owner.context, use_global_arguments=False,
+                                      start_parameter_services=False)
+        self.subs: list[tuple[Any, Callable[[Batch], None]]] = []
+        self._topics: list[str] = []  # resolved name of each subscription in self.subs
+        self._new: list[BatchTopic] = list(topics)  # subscribed by the thread (it owns the node)
+        self._lock = threading.Lock()
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._run, name=f"{owner.get_name()}-rx", daemon=True)
+        self._thread.start()
+
+    def add(self, topic: BatchTopic) -> None:
+        """Take one more topic from the next wake-up on (or the same topic with another QoS)."""
+        with self._lock:
+            self._new.append(topic)
+
+    def _subscribe_new(self) -> None:
+        with self._lock:
+            new, self._new = self._new, []
+        for t in new:
+            name = self.owner.resolve_topic_name(t.topic)
+            if name in self._topics:  # a new QoS for a topic taken already: replace its subscription
+                i = self._topics.index(name)
+                self.node.destroy_subscription(self.subs[i][0])
+                del self.subs[i], self._topics[i]
+            sub = self.node.create_subscription(t.msg_type, name, lambda m: None, t.qos, raw=True)
+            self.subs.append((sub, t.on_batch))
+            self._topics.append(name)
+
+    def _run(self) -> None:
+        ctx = self.node.context
+        while not self._stop.is_set() and ctx.ok():
+            try:
+                self._subscribe_new()
+                if not self.subs:
+                    self._stop.wait(0.1)
+                    continue
+                self._wait(ctx)
+                for sub, on_batch in self.subs:
+                    batch = self._take_all(sub)
+                    if batch:
+                        on_batch(batch)
+            except (InvalidHandle, RuntimeError):
+                break  # shutting down
+            if self.period_s:
+                time.sleep(self.period_s)  # let messages gather: one wake-up takes them all
+
+    def _wait(self, ctx: Any) -> None:
+        with ctx.handle:
+            wait_set = _rclpy.WaitSet(len(self.subs), 0, 0, 0, 0, 0, ctx.handle)
+            wait_set.clear_entities()
+            for sub, _ in self.subs:
+                wait_set.add_subscription(sub.handle)
+            wait_set.wait(100_000_000)  # 0.1 s at most, so that close() is seen
+
+    @staticmethod
+    def _take_all(sub: Any) -> Batch:
+        out = []
+        while True:
+            with sub.handle:
+                taken = sub.handle.take_message(sub.msg_type, True)
+            if taken is None:
+                return out
+            out.append((taken[0], taken[1]["received_timestamp"], taken[1]["source_timestamp"]))
+
+    def close(self) -> None:
+        self._stop.set()
+        self._thread.join(timeout=2.0)
+        self.node.destroy_node()

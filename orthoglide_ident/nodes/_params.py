@@ -1,0 +1,134 @@
+"""ROS parameters from one table: declared with descriptors, typed leniently, listed in --help.
+
+Each node keeps a tuple of ``Param``; the same table declares the parameters (with their
+descriptions, so ``ros2 param describe`` explains them), checks values given on the command line
+or in a YAML file (an integer where a float is expected is fine; anything else gets a one-line
+reason naming the parameter), refuses changes to read-only parameters at run time with a reason,
+and writes the parameter section of ``--help``.
+"""
+from __future__ import annotations
+
+import array
+import math
+from dataclasses import dataclass
+from typing import Any, Callable, Iterable, Mapping
+
+from orthoglide_ident.errors import ConfigError, OrthoglideError
+
+
+@dataclass(frozen=True)
+class Param:
+    """One ROS parameter: name, default (its type is the parameter's type), what it means, and
+    whether it may change while the node runs (``ros2 param set``)."""
+
+    name: str
+    default: Any
+    description: str
+    dynamic: bool = False
+    any_type: bool = False  # e.g. payload: "none" or 1.983
+
+    @property
+    def kind(self) -> str:
+        d = self.default
+        if self.any_type:
+            return "any"
+        if isinstance(d, bool):
+            return "bool"
+        if isinstance(d, int):
+            return "int"
+        if isinstance(d, float):
+            return "float"
+        if isinstance(d, str):
+            return "string"
+        if isinstance(d, (list, tuple)) and d and isinstance(d[0], str):
+            return "string[]"
+        return "float[]"
+
+    def coerce(self, value: Any) -> Any:
+        """The value as the parameter's type; ConfigError with a one-line reason otherwise."""
+        kind = self.kind
+
+        def bad() -> ConfigError:
+            return ConfigError(f"parameter {self.name}: expected {kind}, got {value!r}")
+
+        if kind == "any":
+            return value
+        if kind == "bool":
+            if isinstance(value, bool):
+                return value
+            raise bad()
+        if kind == "string":
+            if isinstance(value, str):
+                return value
+            raise bad()
+        if kind == "int":
+            if isinstance(value, int) and not isinstance(value, bool):
+                return value
+            raise bad()
+        if kind == "float":
+            if isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value):
+                return float(value)
+            raise bad()
+        if isinstance(value, array.array):  # rclpy hands numeric arrays over as array.array
+            value = value.tolist()
+        if kind == "string[]":
+            if isinstance(value, (list, tuple)) and all(isinstance(v, str) for v in value):
+                return list(value)
+            raise bad()
+        if isinstance(value, (int, float)) and not isinstance(value, bool):
+            value = [value]
+        if isinstance(value, (list, tuple)) and all(isinstance(v, (int, float)) and not isinstance(v, bool)
+                                                    and math.isfinite(v) for v in value):
+            return [float(v) for v in value]
+        raise bad()
+
+
+def usage(synopsis: str, doc: str, table: Iterable[Param]) -> str:
+    """--help text: usage line, the node's description, then every parameter."""
+    lines = [synopsis, "", doc.strip(), "", "ROS parameters (--ros-args -p NAME:=VALUE or --params-file FILE.yaml;"
+             " * = may be changed while running with ros2 param set):"]
+    for p in table:
+        default = repr(p.default) if not isinstance(p.default, str) else f'"{p.default}"'
+        lines.append(f"  {p.name + (' *' if p.dynamic else ''):<22} {p.kind:<8} default {default}")
+        lines.append(f"      {p.description}")
+    return "\n".join(lines)
+
+
+def declare(node: Any, table: Iterable[Param]) -> dict[str, Any]:
+    """Declare every parameter of ``table`` on ``node`` and return the checked values by name.
+
+    Declared with dynamic typing so that ``-p duration:=2`` (an integer) reaches our check instead
+    of an rclpy traceback; read-only unless ``dynamic``. Raises ConfigError on a bad value.
+    """
+    from rcl_interfaces.msg import ParameterDescriptor
+
+    values = {}
+    for p in table:
+        desc = ParameterDescriptor(description=p.description, dynamic_typing=True, read_only=not p.dynamic)
+        value = node.declare_parameter(p.name, p.default, desc).value
+        values[p.name] = p.coerce(value)
+    return values
+
+
+def on_set(node: Any, table: Iterable[Param], apply: Callable[[Mapping[str, Any]], None]) -> None:
+    """Accept run-time changes of dynamic parameters: checked, then ``apply({name: value})``; an
+    OrthoglideError from ``apply`` refuses the change with its one-line reason."""
+    from rcl_interfaces.msg import SetParametersResult
+
+    by_name = {p.name: p for p in table}
+
+    def callback(params: list) -> Any:
+        changes = {}
+        try:
+            for prm in params:
+                spec = by_name.get(prm.name)
+                if spec is None:
+                    continue  # e.g. use_sim_time: rclpy's own
+                changes[prm.name] = spec.coerce(prm.value)
+            if changes:
+                apply(changes)
+        except OrthoglideError as e:
+            return SetParametersResult(successful=False, reason=str(e).splitlines()[0])
+        return SetParametersResult(successful=True)
+
+    node.add_on_set_parameters_callback(callback)

@@ -1,0 +1,150 @@
+"""The identification node's live side: the recorded topics into LiveIdentification, ~1 Hz estimate.
+
+The recorder says what it records on orthoglide/recorder/status (condition, payload mass, bag,
+first and last tick written). The joint states and current references come in raw (serialized),
+taken in batches (nodes._batch), and wait in a short buffer; every FEED_PERIOD_S they are decoded in bulk and handed to
+``LiveIdentification`` from the recording's first tick to its last, so that the live data are the
+ticks the bag holds, and the live result equals ``orthoglide-ident identify`` on that bag. About
+once a second the estimate goes out on orthoglide/identification/live with the warnings of the
+last second; the same warnings go to the log as they happen.
+"""
+from __future__ import annotations
+
+import collections
+import struct
+import threading
+import time
+from typing import Any
+
+from rclpy.node import Node
+from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+from sensor_msgs.msg import JointState
+
+from orthoglide_ident.bags import CURRENT_REFERENCE_TYPE, JOINT_STATE_TYPE, decode_messages
+from orthoglide_ident.errors import OrthoglideError
+from orthoglide_ident.identify.live import LiveIdentification
+from orthoglide_ident.nodes._batch import BatchTaker, BatchTopic
+from orthoglide_msgs.msg import CurrentReference, LiveIdentification as LiveMsg, RecorderStatus
+
+FEED_PERIOD_S = 0.1
+ESTIMATE_PERIOD_S = 1.0
+IDLE_BUFFER = 5000  # messages kept per topic while nothing records: the recorder may start first
+STOP_WAIT_S = 1.0  # after the recorder stopped, wait this long at most for its last ticks here
+HOLDBACK_NS = 250_000_000  # the newest 0.25 s wait: the recorder's stop may end the recording there
+_STAMP = struct.Struct("<iI")
+
+
+def _stamp_ns(raw: bytes) -> int:
+    sec, nsec = _STAMP.unpack_from(raw, 4)
+    return sec * 1_000_000_000 + nsec
+
+
+def _tick(t: Any) -> int | None:
+    ns = t.sec * 1_000_000_000 + t.nanosec
+    return ns or None
+
+
+class LiveFeed:
+    """Subscriptions, buffers and timers of live identification, on ``node`` (under ``lock``)."""
+
+    TOPICS = {"q": ("orthoglide/joint_states", JointState, JOINT_STATE_TYPE),
+              "v": ("orthoglide/current_reference", CurrentReference, CURRENT_REFERENCE_TYPE)}
+
+    def __init__(self, node: Node, live: LiveIdentification, lock: threading.Lock) -> None:
+        self.node, self.live, self.lock = node, live, lock
+        self.buffers = {k: collections.deque(maxlen=IDLE_BUFFER) for k in self.TOPICS}
+        self.bag: str | None = None  # the recording being fed
+        self.first: int | None = None
+        self.last: int | None = None  # set when the recorder has stopped
+        self.stopped_at = 0.0
+        self.warnings: list[str] = []
+        self.dirty = False  # something to say on orthoglide/identification/live
+        stream = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE)
+        latched = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL,
+                             reliability=ReliabilityPolicy.RELIABLE)
+        self.taker = BatchTaker(node, [BatchTopic(cls, topic, stream, lambda batch, buf=self.buffers[key]:
+                                                  buf.extend(m[0] for m in batch))
+                                       for key, (topic, cls, _) in self.TOPICS.items()], period_s=0.01)
+        node.create_subscription(RecorderStatus, "orthoglide/recorder/status", self.on_status, latched)
+        self.pub = node.create_publisher(LiveMsg, "orthoglide/identification/live", 10)
+        node.create_timer(FEED_PERIOD_S, self.feed)
+        node.create_timer(ESTIMATE_PERIOD_S, self.publish_estimate)
+
+    # ---- the recorder's state ----------------------------------------------------------------
+    def on_status(self, msg: RecorderStatus) -> None:
+        with self.lock:
+            if msg.recording and msg.bag_path != self.bag:
+                self._finish()
+                self.bag, self.first, self.last = msg.bag_path, None, None
+                try:
+                    self.live.start_recording(msg.bag_path, msg.condition, msg.payload_mass)
+                except OrthoglideError as e:
+                    self._say([f"live identification ignores {msg.bag_path}: {e}"])
+                    self.bag = None
+                    return
+                self.node.get_logger().info(f"live identification: {msg.condition} recording {msg.bag_path}")
+            if self.bag is not None and msg.bag_path == self.bag:
+                self.first = self.first or _tick(msg.first_tick)
+                if not msg.recording:
+                    self.last = _tick(msg.last_tick) or 0
+                    self.stopped_at = time.monotonic()
+
+    # ---- data --------------------------------------------------------------------------------
+    def feed(self) -> None:
+        """Hand the buffered ticks of the recording to LiveIdentification (bulk-decoded)."""
+        with self.lock:
+            if self.bag is None or self.first is None:
+                return
+            for key, (topic, _, msgtype) in self.TOPICS.items():
+                raw = self._take(self.buffers[key])
+                if raw:
+                    self._add(key, raw, msgtype, topic)
+                    self.dirty = True
+            done = all(not b or _stamp_ns(b[-1]) >= (self.last or 0) for b in self.buffers.values())
+            if self.last is not None and (done or time.monotonic() - self.stopped_at > STOP_WAIT_S):
+                self._finish()
+
+    def _take(self, buf: collections.deque) -> list[bytes]:
+        """Messages of the recording's ticks, oldest first; earlier ones dropped, later ones kept."""
+        while buf and _stamp_ns(buf[0]) < self.first:
+            buf.popleft()
+        limit = self.last if self.last is not None else (_stamp_ns(buf[-1]) - HOLDBACK_NS if buf else 0)
+        out = []
+        while buf and _stamp_ns(buf[0]) <= limit:
+            out.append(buf.popleft())
+        return out
+
+    def _add(self, key: str, raw: list[bytes], msgtype: str, topic: str) -> None:
+        try:
+            stamps, names, values = decode_messages(raw, msgtype)
+        except OrthoglideError as e:
+            self._say([f"{topic}: {e}; {len(raw)} messages not used"])
+            return
+        add = self.live.add_joint_states if key == "q" else self.live.add_current_reference
+        self._say(add(stamps, list(names), values))
+
+    def _finish(self) -> None:
+        if self.bag is not None:
+            self._say(self.live.stop_recording())
+            self.node.get_logger().info(f"live identification: {self.bag} done; {self.live.estimate().line()}")
+            self.dirty = True
+        self.bag, self.first, self.last = None, None, None
+
+    def _say(self, warnings: list[str]) -> None:
+        for w in warnings:
+            self.node.get_logger().warning(f"live: {w}")
+        self.warnings.extend(warnings)
+
+    # ---- the estimate ------------------------------------------------------------------------
+    def publish_estimate(self) -> None:
+        with self.lock:
+            if not (self.dirty or self.warnings or self.bag is not None):
+                return  # nothing new since the last recording ended
+            est = self.live.estimate()
+            warnings, self.warnings, self.dirty = self.warnings, [], False
+        msg = LiveMsg(**est.message_fields(warnings))
+        msg.header.stamp = self.node.get_clock().now().to_msg()
+        self.pub.publish(msg)
+
+    def close(self) -> None:
+        self.taker.close()

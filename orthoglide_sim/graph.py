@@ -1,0 +1,177 @@
+"""Start the node set as processes and talk to it over ROS 2, as a user at the robot would.
+
+``Graph`` owns the node processes (started with the `ros2 run` launchers of the venv, logs in a
+folder) and one client node in this process, spun on its own thread, through which it calls the
+services, sets parameters and listens to topics. Used by ``orthoglide_sim.demo`` and the tests of
+the live graph; nothing here is numerical.
+"""
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+from typing import Any
+
+import rclpy
+from rclpy.executors import MultiThreadedExecutor
+from rclpy.parameter import Parameter
+from rclpy.parameter_client import AsyncParameterClient
+from rclpy.qos import QoSProfile, ReliabilityPolicy
+from sensor_msgs.msg import JointState
+
+from orthoglide_ident.errors import OrthoglideError
+from orthoglide_msgs.msg import CurrentReference, LiveIdentification
+
+LAUNCHERS = Path(sys.prefix) / "lib" / "orthoglide_ident"
+
+
+class GraphError(OrthoglideError):
+    """A node of the graph did not start, died, or did not answer."""
+
+
+def _stamp(msg: Any) -> int:
+    return msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
+
+
+class Graph:
+    """The node processes and a client node (``with Graph(logs) as g: ...``)."""
+
+    def __init__(self, log_dir: Path, env: dict[str, str] | None = None):
+        self.log_dir = Path(log_dir)
+        self.log_dir.mkdir(parents=True, exist_ok=True)
+        self.env = dict(os.environ if env is None else env, PYTHONUNBUFFERED="1")
+        self.procs: dict[str, subprocess.Popen] = {}
+        self._logs: dict[str, Any] = {}
+
+    def __enter__(self) -> "Graph":
+        rclpy.init()
+        self.node = rclpy.create_node("orthoglide_demo")
+        # entities are created here, once: destroying one while the executor waits on it races
+        self._clients: dict[str, Any] = {}
+        self._param_clients: dict[str, AsyncParameterClient] = {}
+        self.live: list[Any] = []  # orthoglide/identification/live messages (about 1 Hz)
+        self.node.create_subscription(LiveIdentification, "orthoglide/identification/live",
+                                      lambda m: self.live.append(m), 10)
+        self.executor = MultiThreadedExecutor(num_threads=2)
+        self.executor.add_node(self.node)
+        self._spinner = threading.Thread(target=self.executor.spin, daemon=True)
+        self._spinner.start()
+        return self
+
+    def __exit__(self, *exc: Any) -> None:
+        for name in list(self.procs):
+            self.stop(name)
+        self.executor.shutdown()
+        self.node.destroy_node()
+        rclpy.shutdown()
+
+    # ---- processes -------------------------------------------------------------------------------
+    def start(self, name: str, executable: str, params: dict[str, Any] | None = None,
+              remap: dict[str, str] | None = None, params_file: Path | None = None) -> None:
+        """`ros2 run orthoglide_ident <executable> --ros-args -r __node:=<name> ...`, logged to <name>.log."""
+        args = [str(LAUNCHERS / executable), "--ros-args", "-r", f"__node:={name}"]
+        if params_file is not None:
+            args += ["--params-file", str(params_file)]
+        for k, v in (params or {}).items():
+            args += ["-p", f"{k}:={_param_text(v)}"]
+        for a, b in (remap or {}).items():
+            args += ["-r", f"{a}:={b}"]
+        log = open(self.log_dir / f"{name}.log", "w")
+        self._logs[name] = log
+        self.procs[name] = subprocess.Popen(args, stdout=log, stderr=subprocess.STDOUT, env=self.env)
+
+    def stop(self, name: str, timeout: float = 10.0) -> int | None:
+        proc = self.procs.pop(name, None)
+        if proc is None:
+            return None
+        if proc.poll() is None:
+            proc.send_signal(signal.SIGINT)
+            try:
+                proc.wait(timeout)
+            except subprocess.TimeoutExpired:
+                proc.kill()
+                proc.wait()
+        self._logs.pop(name).close()
+        return proc.returncode
+
+    def check_alive(self) -> None:
+        for name, proc in self.procs.items():
+            if proc.poll() is not None:
+                tail = (self.log_dir / f"{name}.log").read_text().strip().splitlines()[-3:]
+                raise GraphError(f"node {name} exited ({proc.returncode}): " + " | ".join(tail))
+
+    def log_tail(self, name: str, n: int = 1) -> list[str]:
+        return (self.log_dir / f"{name}.log").read_text().strip().splitlines()[-n:]
+
+    # ---- services and parameters -----------------------------------------------------------------
+    def call(self, srv_type: Any, service: str, timeout: float = 120.0, **fields: Any) -> Any:
+        """Call ``service`` with the request ``fields``; GraphError if it never answers."""
+        client = self._clients.get(service) or self._clients.setdefault(
+            service, self.node.create_client(srv_type, service))
+        if not client.wait_for_service(timeout_sec=30.0):
+            self.check_alive()
+            raise GraphError(f"service {service} did not appear within 30 s")
+        request = srv_type.Request()
+        for k, v in fields.items():
+            setattr(request, k, v)
+        return self._wait(client.call_async(request), timeout, f"service {service}")
+
+    def set_params(self, node_name: str, **values: Any) -> None:
+        """`ros2 param set` for each value; GraphError with the node's reason when refused."""
+        client = self._param_clients.get(node_name) or self._param_clients.setdefault(
+            node_name, AsyncParameterClient(self.node, node_name))
+        if not client.wait_for_services(timeout_sec=30.0):
+            raise GraphError(f"parameter services of {node_name} did not appear")
+        result = self._wait(client.set_parameters([Parameter(k, value=v) for k, v in values.items()]),
+                            10.0, f"{node_name} set_parameters")
+        for (k, _), r in zip(values.items(), result.results):
+            if not r.successful:
+                raise GraphError(f"{node_name} refused {k}: {r.reason}")
+
+    def _wait(self, future: Any, timeout: float, what: str) -> Any:
+        t_end = time.monotonic() + timeout
+        while not future.done():
+            if time.monotonic() > t_end:
+                raise GraphError(f"{what}: no answer within {timeout:.0f} s")
+            self.check_alive()
+            time.sleep(0.02)
+        return future.result()
+
+    # ---- topics ----------------------------------------------------------------------------------
+    def wait_for_messages(self, msg_type: Any, topic: str, count: int = 1, timeout: float = 30.0) -> float:
+        """Seconds until ``count`` messages arrived on ``topic``. A short-lived node of its own listens,
+        so that nothing subscribes at 1 kHz in this process the rest of the time."""
+        got = [0]
+        probe = rclpy.create_node("orthoglide_demo_probe")
+        probe.create_subscription(msg_type, topic, lambda m: got.__setitem__(0, got[0] + 1),
+                                  QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE))
+        t0 = time.monotonic()
+        try:
+            while got[0] < count:
+                rclpy.spin_once(probe, timeout_sec=0.05)
+                if time.monotonic() - t0 > timeout:
+                    self.check_alive()
+                    raise GraphError(f"{got[0]} of {count} messages on {topic} within {timeout:.0f} s")
+        finally:
+            probe.destroy_node()
+        return time.monotonic() - t0
+
+    def wait_for_ticks(self, timeout: float = 30.0) -> float:
+        """Seconds until a joint state arrives (the driver or robot is publishing)."""
+        return self.wait_for_messages(JointState, "orthoglide/joint_states", 1, timeout)
+
+    def wait_for_feedforward(self, ticks: int = 200, timeout: float = 20.0) -> float:
+        """Until ``ticks`` feed-forward messages arrived (a ctc node fed with parameters is running)."""
+        return self.wait_for_messages(CurrentReference, "orthoglide/feedforward", ticks, timeout)
+
+
+def _param_text(v: Any) -> str:
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, (list, tuple)):
+        return "[" + ",".join(_param_text(x) for x in v) + "]"
+    return str(v)

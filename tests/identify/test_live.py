@@ -1,0 +1,242 @@
+"""Online identification (identify/live.py): equal to the offline pipeline, says what is wrong."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from orthoglide_ident.errors import ExcitationError, IdentificationError
+from orthoglide_ident.identify.live import LiveIdentification
+from orthoglide_ident.identify.options import IdentifyOptions
+from orthoglide_ident.identify.pipeline import Record, identify_records, read_record
+
+BAGS = Path(__file__).resolve().parents[2] / "bags"
+
+
+@pytest.fixture(scope="module")
+def bag_records() -> list[Record]:
+    """The sample bags: 10 s unloaded, 10 s loaded (1.983 kg), simulated plant at 1 kHz."""
+    return [read_record(BAGS / "unloaded"), read_record(BAGS / "loaded")]
+
+
+@pytest.fixture(scope="module")
+def offline(bag_records):
+    return identify_records(bag_records)
+
+
+def feed(live: LiveIdentification, rec: Record, batches=(100,), offset: int = 0, seed: int = 0,
+         names_q=None) -> list[str]:
+    """One recording, both topics in batches drawn from ``batches``; current_reference trails
+    joint_states by ``offset`` ticks. Returns the warnings of the add_* and stop calls."""
+    rng = np.random.default_rng(seed)
+    live.start_recording(rec.source, rec.condition, rec.payload_mass)
+    nq, nv = len(rec.stamps_q_ns), len(rec.stamps_v_ns)
+    a = b = 0
+    out: list[str] = []
+    while a < nq or b < nv:
+        if a < nq:
+            k = int(rng.choice(batches))
+            out += live.add_joint_states(rec.stamps_q_ns[a:a + k], names_q or rec.names_q,
+                                         rec.q[a:a + k])
+            a += k
+        while b < nv and (b < a - offset or a >= nq):
+            k = int(rng.choice(batches))
+            out += live.add_current_reference(rec.stamps_v_ns[b:b + k], rec.names_v,
+                                              rec.v_tau[b:b + k])
+            b += k
+    return out + live.stop_recording()
+
+
+def rel_diff(a, b) -> tuple[float, float]:
+    """Max relative difference of the gains and of the base parameters of two results."""
+    ga = np.array([g.value for g in a.drive_gains])
+    gb = np.array([g.value for g in b.drive_gains])
+    pa = np.array([p.value for p in a.parameters])
+    pb = np.array([p.value for p in b.parameters])
+    return float(np.abs(gb / ga - 1).max()), float(np.abs(pb / pa - 1).max())
+
+
+@pytest.mark.parametrize("batches, offset", [((1,), 0), ((7,), 3), ((100,), 5),
+                                             ((1000,), 40), ((1, 7, 100, 1000), 4)])
+def test_live_result_equals_offline_whatever_the_batches(bag_records, offline, batches, offset):
+    live = LiveIdentification()
+    warnings = []
+    for i, rec in enumerate(bag_records):
+        warnings += feed(live, rec, batches, offset, seed=i)
+    assert warnings == []
+    res = live.result()
+    dg, dp = rel_diff(offline, res)
+    assert dg < 1e-6 and dp < 1e-6
+    assert res.bags == offline.bags and res.payload_mass.value == 1.983
+    for d_off, d_live in zip(offline.diagnostics["bags"], res.diagnostics["bags"]):
+        for key in ("n_paired", "n_missing_ticks", "n_segments", "n_used", "period_s",
+                    "n_reversal_bridged", "n_reversal_unbridged", "equations_per_joint"):
+            assert d_live[key] == d_off[key], key
+    # memory is bounded: one (n_b + 2)-square R factor per joint and condition
+    assert all(R.shape == (live.n_b + 2, live.n_b + 2)
+               for f in live._factors.values() for R in f.R)
+
+
+def test_wls_and_essential_equal_offline(bag_records, offline):
+    live = LiveIdentification()
+    for rec in bag_records:
+        feed(live, rec, (250,))
+    g = [2170.0, 2100.0, 2070.0]
+    assert max(rel_diff(identify_records(bag_records, method="wls", gains=g),
+                        live.result("wls", gains=g))) < 1e-6
+    with pytest.raises(IdentificationError, match="1.983 kg but 1.136 kg"):
+        live.result(payload_mass=1.136)
+    assert live.result(payload_mass=1.9832).payload_mass.value == 1.9832
+    ess_off = identify_records(bag_records, essential=True).essential
+    ess_live = live.result(essential=True).essential
+    assert [p.name for p in ess_live.parameters] == [p.name for p in ess_off.parameters]
+    assert max(rel_diff(ess_off, ess_live)) < 1e-6
+
+
+def _with_gap_and_nan(rec: Record, a: int, b: int, k_nan: int) -> Record:
+    keep = np.ones(len(rec.stamps_q_ns), bool)
+    keep[a:b] = False
+    v = rec.v_tau.copy()
+    v[k_nan, 1] = np.nan
+    return Record(rec.source, rec.stamps_q_ns[keep], rec.names_q, rec.q[keep], rec.stamps_v_ns,
+                  rec.names_v, v, rec.condition, rec.payload_mass)
+
+
+def test_gaps_and_nan_split_the_record_like_offline_drop(bag_records):
+    recs = [_with_gap_and_nan(bag_records[0], 4000, 4025, 7000),
+            _with_gap_and_nan(bag_records[1], 5000, 5001, 2500)]
+    opts = IdentifyOptions(nonfinite="drop")
+    off = identify_records(recs, options=opts)
+    live = LiveIdentification(opts)
+    warnings = [w for i, rec in enumerate(recs) for w in feed(live, rec, (1, 50, 333), 7, i)]
+    res = live.result()
+    assert max(rel_diff(off, res)) < 1e-6
+    assert any("25 tick(s) lost" in w and "joint_states" in w for w in warnings)
+    assert sum("NaN" in w for w in warnings) == 2
+    d = res.diagnostics["bags"][0]
+    assert d["n_missing_ticks"] == off.diagnostics["bags"][0]["n_missing_ticks"] == 26
+    assert d["n_segments"] == off.diagnostics["bags"][0]["n_segments"] == 3
+
+
+def test_status_says_what_is_missing_and_result_raises_with_the_reason(bag_records):
+    live = LiveIdentification()
+    assert live.estimate().status.startswith("no data")
+    unloaded, loaded = bag_records
+    live.start_recording(unloaded.source, "unloaded")
+    half = 5000
+    live.add_joint_states(unloaded.stamps_q_ns[:half], unloaded.names_q, unloaded.q[:half])
+    live.add_current_reference(unloaded.stamps_v_ns[:half], unloaded.names_v, unloaded.v_tau[:half])
+    est = live.estimate()  # folded while recording, ~1 s blocks, lag under 2 s
+    assert est.status.startswith("unloaded only: record with the payload")
+    assert est.recording == "unloaded" and 2.0 < est.seconds_unloaded and est.lag_s < 2.0
+    live.add_joint_states(unloaded.stamps_q_ns[half:], unloaded.names_q, unloaded.q[half:])
+    live.add_current_reference(unloaded.stamps_v_ns[half:], unloaded.names_v, unloaded.v_tau[half:])
+    live.stop_recording()
+    with pytest.raises(IdentificationError, match="loaded"):
+        live.result()
+    feed(live, loaded)
+    est = live.estimate()
+    assert est.ok and est.status.startswith("gains known to") and est.lag_s == 0.0
+    fields = est.message_fields(["a warning"])
+    assert fields["enough_data"] == est.enough_data and len(fields["drive_gains"]) == 3
+    assert fields["warnings"] == ["a warning"] and fields["lag"] == 0.0
+    assert np.allclose(est.gains, [2170, 2100, 2070], rtol=0.01)
+    assert 9 < est.seconds_loaded < 10 and est.singular_ratio < 0.5
+
+    only_loaded = LiveIdentification()
+    feed(only_loaded, loaded)
+    assert only_loaded.estimate().status == "loaded only: record without the payload"
+    with pytest.raises(IdentificationError, match="unloaded"):
+        only_loaded.result()
+
+
+def test_a_joint_that_does_not_move_is_said(bag_records):
+    live = LiveIdentification()
+    warnings = []
+    for rec in bag_records:
+        still = Record(**{**vars(rec), "q": rec.q.copy()})
+        still.q[:, 2] = still.q[0, 2]  # q13 never moves
+        warnings += feed(live, still, (100,))
+    assert any(w.startswith("q13 has stayed below the velocity dead band") for w in warnings)
+    assert live.estimate().status.startswith("excitation too weak on q13")
+    with pytest.raises(ExcitationError, match="q13"):
+        live.result()
+
+
+def test_bad_samples_warn_and_the_rest_is_used(bag_records, offline):
+    live = LiveIdentification(IdentifyOptions(current_limit_a=0.5))
+    unloaded, loaded = bag_records
+    feed(live, unloaded)
+    live.start_recording(loaded.source, "loaded", loaded.payload_mass)
+    w = live.add_joint_states(loaded.stamps_q_ns[:10], ["x", "y", "z"], loaded.q[:10])
+    assert len(w) == 1 and "joint names" in w[0] and "dropped" in w[0]
+    assert live.add_joint_states(loaded.stamps_q_ns[:3], ["x", "y", "z"], loaded.q[:3]) == []
+    w = live.add_joint_states(loaded.stamps_q_ns[10:12], loaded.names_q, np.zeros((2, 2)))
+    assert "shape" in w[0]
+    names = ("q13", "q11", "q12")  # another order is fine: reordered as offline
+    live.add_joint_states(loaded.stamps_q_ns[12:], names, loaded.q[12:, [2, 0, 1]])
+    live.add_current_reference(loaded.stamps_v_ns, loaded.names_v, loaded.v_tau)
+    live.stop_recording()
+    drained = live.drain_warnings()
+    assert any("q11 at" in x and "beyond 0.45 A" in x for x in drained)  # 90 % of 0.5 A
+    assert live.drain_warnings() == []
+    res = live.result()  # the first 12 ticks of the loaded record are missing: nearly offline
+    assert rel_diff(offline, res)[0] < 1e-3
+    assert res.diagnostics["bags"][1]["n_unpaired_current_reference"] == 12
+
+
+
+@pytest.fixture(scope="module")
+def sim_records() -> list[Record]:
+    """12 s unloaded and 12 s loaded (1.983 kg) from the simulated plant (its own trajectories)."""
+    simulate = pytest.importorskip("orthoglide_sim.record").simulate
+    out = []
+    for payload, seed, trajectory in (("none", 1, "exciting"), ("1.983", 2, "exciting2")):
+        r = simulate(12.0, payload=payload, trajectory=trajectory, controller="pid", seed=seed)
+        cond = "loaded" if r.payload_mass > 0 else "unloaded"
+        out.append(Record.from_arrays(f"sim-{cond}", r.stamps_ns, r.q, r.v_tau, cond,
+                                      r.payload_mass))
+    return out
+
+
+def test_simulated_records_with_a_real_gap(sim_records):
+    unloaded, loaded = sim_records
+    keep = np.ones(len(loaded.stamps_q_ns), bool)
+    keep[6000:6200] = False  # 0.2 s lost on both topics in the middle of the loaded record
+    gappy = Record.from_arrays(loaded.source, loaded.stamps_q_ns[keep], loaded.q[keep],
+                               loaded.v_tau[keep], "loaded", loaded.payload_mass)
+    off = identify_records([unloaded, gappy])
+    live = LiveIdentification()
+    warnings = feed(live, unloaded, (10,), 2) + feed(live, gappy, (10, 37), 3, seed=1)
+    assert sum("200 tick(s) lost" in w for w in warnings) == 2  # one per topic
+    res = live.result()
+    assert max(rel_diff(off, res)) < 1e-6
+    assert res.diagnostics["bags"][1]["n_segments"] == off.diagnostics["bags"][1]["n_segments"] == 2
+    est = live.estimate()
+    assert est.ok and np.allclose(est.gains, [2170.0, 2100.0, 2070.0], rtol=0.01)
+
+
+def test_gentle_trajectories_are_said_not_returned_as_gains():
+    from orthoglide_ident.identify.synthetic import SyntheticModel, synthetic_record
+
+    model = SyntheticModel()
+    live = LiveIdentification(model=model)
+    for payload, seed in ((0.0, 1), (1.983, 2)):
+        feed(live, synthetic_record(20.0, payload, seed=seed, amplitude=0.01, f_max=0.5), (50,))
+    est = live.estimate()
+    assert not est.ok and est.status.startswith("excitation too weak")
+    with pytest.raises(ExcitationError):
+        live.result()
+
+
+def test_a_silent_topic_and_a_recording_too_short_are_said(bag_records):
+    live = LiveIdentification()
+    rec = bag_records[0]
+    live.start_recording("silent", "unloaded")
+    w = live.add_current_reference(rec.stamps_v_ns[:10], rec.names_v, rec.v_tau[:10])
+    w += live.add_joint_states(rec.stamps_q_ns[:3000], rec.names_q, rec.q[:3000])
+    assert any(x.startswith("current_reference: nothing new for") for x in w)
+    w = live.stop_recording()
+    assert any("nothing used from this recording" in x for x in w)
+    assert live.estimate().status.startswith("no data")
