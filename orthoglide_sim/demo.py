@@ -24,6 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from orthoglide_ident.errors import OrthoglideError
+from orthoglide_ident.ros_client import live_line
 from orthoglide_sim.graph import Graph, GraphError
 from orthoglide_sim.true_parameters import G_TAU_MANUFACTURER, load_parameters
 
@@ -64,20 +65,13 @@ def record(g: Graph, name: str, condition: str, mass: float, seconds: float, qui
     while (left := t_end - time.monotonic()) > 0:
         time.sleep(min(LIVE_PRINT_S, left))
         if not quiet and g.live and left > 1.0:
-            say(f"   live: {live_line(g.live[-1])}")
+            say(f"   {live_line(g.live[-1])}")
     res_stop = g.call(Trigger, "orthoglide/recorder/stop")
     if not res_stop.success:
         raise GraphError(f"recording failed: {res_stop.message}")
     if not quiet:
         say(f"   {res_stop.message}")
     return res.bag_path
-
-
-def live_line(m: object) -> str:
-    """One orthoglide/identification/live message in a line."""
-    gains = "gains -" if not m.drive_gains else "  ".join(
-        f"{n} {g:7.1f} ±{100 * s:.2f}%" for n, g, s in zip(m.joint_names, m.drive_gains, m.drive_gains_rel_std))
-    return f"{m.unloaded_seconds:3.0f} s unloaded {m.loaded_seconds:3.0f} s loaded | {gains} | {m.status}"
 
 
 def identify(g: Graph, bags: list[str], method: str = "tls") -> object:
@@ -246,7 +240,11 @@ def run(out: Path, record_s: float, measure_s: float) -> int:
         bags = [record(g, "unloaded", "unloaded", 0.0, record_s)]
         g.set_params("orthoglide_driver", payload=str(PAYLOAD), trajectory="exciting2")
         time.sleep(BLEND_S)
+        cpu0, t0 = g.cpu_seconds(), time.monotonic()
         bags.append(record(g, "loaded", "loaded", PAYLOAD, record_s))
+        cpu1, dt = g.cpu_seconds(), time.monotonic() - t0
+        say("   CPU while recording (% of one core): " + ", ".join(
+            f"{n.removeprefix('orthoglide_')} {100 * (cpu1[n] - cpu0.get(n, 0.0)) / dt:.0f}" for n in cpu1))
         time.sleep(1.5)  # the live identification folds in the last ticks of the recording
         say("3. orthoglide/identify with no bag named: IDIM-TLS on the live data (latched on "
             "orthoglide/identified_parameters), then on the recorded bags")

@@ -104,6 +104,17 @@ class Graph:
                 tail = (self.log_dir / f"{name}.log").read_text().strip().splitlines()[-3:]
                 raise GraphError(f"node {name} exited ({proc.returncode}): " + " | ".join(tail))
 
+    def cpu_seconds(self) -> dict[str, float]:
+        """CPU time (user + system, s) each node process has used so far (from /proc)."""
+        out = {}
+        for name, proc in self.procs.items():
+            try:
+                fields = Path(f"/proc/{proc.pid}/stat").read_text().rsplit(")", 1)[1].split()
+                out[name] = (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+            except (OSError, IndexError, ValueError):
+                pass
+        return out
+
     def log_tail(self, name: str, n: int = 1) -> list[str]:
         return (self.log_dir / f"{name}.log").read_text().strip().splitlines()[-n:]
 

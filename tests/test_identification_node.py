@@ -107,3 +107,73 @@ def test_a_call_while_busy_is_refused_at_once(node, client):
 def test_help_needs_no_ros():
     out = subprocess.run([sys.executable, "-c", NODE, "--help"], capture_output=True, text=True, timeout=30)
     assert out.returncode == 0 and out.stdout.startswith("usage:") and "orthoglide/identify" in out.stdout and "orthoglide/identification/live" in out.stdout
+
+
+def test_live_identification_warns_and_survives_nan_and_wrong_names(spawn_python, tmp_path):
+    """A recording fed with NaN positions, a burst with other joint names and lost ticks: the live
+    estimate goes on, says what happened in its warnings, and the node keeps answering."""
+    import numpy as np
+    import rclpy
+    from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+    from sensor_msgs.msg import JointState
+    from std_srvs.srv import Trigger
+
+    from orthoglide_msgs.msg import CurrentReference, LiveIdentification, RecorderStatus
+    from orthoglide_msgs.srv import Identify, StartRecording
+    from orthoglide_sim.record import simulate
+
+    rec = simulate(5.0, payload="none", trajectory="exciting", seed=3)
+    spawn_python(NODE, "--ros-args", "-p", f"bag_dir:={tmp_path}")
+    spawn_python("from orthoglide_ident.nodes.recorder import main; import sys; sys.exit(main())",
+                 "--ros-args", "-p", f"output_dir:={tmp_path}")
+    rclpy.init()
+    n = rclpy.create_node("test_live_feeder")
+    try:
+        live: list = []
+        n.create_subscription(LiveIdentification, "/orthoglide/identification/live", live.append, 10)
+        status: list = []
+        latched = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL, reliability=ReliabilityPolicy.RELIABLE)
+        n.create_subscription(RecorderStatus, "/orthoglide/recorder/status", status.append, latched)
+        pub_js = n.create_publisher(JointState, "/orthoglide/joint_states", 1000)
+        pub_cr = n.create_publisher(CurrentReference, "/orthoglide/current_reference", 1000)
+        start = n.create_client(StartRecording, "/orthoglide/recorder/start")
+        stop = n.create_client(Trigger, "/orthoglide/recorder/stop")
+        ident = n.create_client(Identify, "/orthoglide/identify")
+        for cli in (start, stop, ident):
+            assert cli.wait_for_service(timeout_sec=60)
+        t_end = time.time() + 30
+        while (n.count_subscribers("/orthoglide/joint_states") < 2 or not status) and time.time() < t_end:
+            rclpy.spin_once(n, timeout_sec=0.1)
+        fut = start.call_async(StartRecording.Request(condition="unloaded", name="bad_data"))
+        rclpy.spin_until_future_complete(n, fut, timeout_sec=30)
+        assert fut.result().success, fut.result().message
+        names = ["q11", "q12", "q13"]
+        for k in range(len(rec.stamps_ns)):
+            if 1500 <= k < 1520:
+                continue  # lost ticks
+            q = rec.q[k].copy()
+            if 1000 <= k < 1005:
+                q[1] = float("nan")
+            js = JointState(name=["a", "b", "c"] if 2000 <= k < 2010 else names, position=[float(x) for x in q])
+            js.header.stamp.sec, js.header.stamp.nanosec = divmod(int(rec.stamps_ns[k]) + 10**9, 10**9)
+            pub_js.publish(js)
+            pub_cr.publish(CurrentReference(header=js.header, name=names, current=[float(x) for x in rec.v_tau[k]]))
+            if k % 50 == 0:
+                rclpy.spin_once(n, timeout_sec=0.0)
+                time.sleep(0.04)
+        fut = stop.call_async(Trigger.Request())
+        rclpy.spin_until_future_complete(n, fut, timeout_sec=30)
+        t_end = time.time() + 5
+        while time.time() < t_end:
+            rclpy.spin_once(n, timeout_sec=0.1)
+        warnings = " | ".join(w for m in live for w in m.warnings)
+        assert "lost" in warnings and ("NaN" in warnings or "non-finite" in warnings), warnings
+        assert "names" in warnings, warnings
+        assert live[-1].unloaded_seconds > 1.5 and live[-1].status.startswith("unloaded only"), live[-1]
+        fut = ident.call_async(Identify.Request())  # the live data: no payload yet, refused with the reason
+        rclpy.spin_until_future_complete(n, fut, timeout_sec=60)
+        res = fut.result()
+        assert not res.success and "loaded" in res.message and "\n" not in res.message
+    finally:
+        n.destroy_node()
+        rclpy.shutdown()

@@ -1,0 +1,161 @@
+"""The client side of the node set for ``orthoglide-ident``: one command per service, and a watch.
+
+    orthoglide-ident record start --condition loaded --payload-mass 1.983 [--name run2]
+    orthoglide-ident record stop
+    orthoglide-ident record status
+    orthoglide-ident identify --service [BAG...] [--method tls|wls] [--essential] [--payload-mass KG]
+    orthoglide-ident watch [--seconds S]
+
+The same services and topics as `ros2 service call` / `ros2 topic echo` (names relative to
+``--namespace``, default the root: /orthoglide/...), without the ros2 CLI, which a venv made by
+`make setup` does not have. rclpy is imported only here, and only when one of these runs.
+"""
+from __future__ import annotations
+
+import argparse
+import time
+from typing import Any
+
+from orthoglide_ident.errors import OrthoglideError
+
+SERVICE_TIMEOUT_S = 30.0
+
+
+class ServiceError(OrthoglideError):
+    """A node of the graph did not answer, or answered success: false."""
+
+
+def add_parsers(sub: Any) -> None:
+    """``record`` and ``watch`` subcommands (``identify --service`` lives with ``identify``)."""
+    p = sub.add_parser("record", help="start / stop a recording, or print the recorder's status (ROS 2)",
+                       description="Call the recorder node's services (orthoglide/recorder/start|stop) or "
+                                   "print its latched status (orthoglide/recorder/status).")
+    p.add_argument("action", choices=("start", "stop", "status"))
+    p.add_argument("--condition", choices=("loaded", "unloaded"), help="start: with or without the payload")
+    p.add_argument("--payload-mass", type=float, default=0.0, metavar="KG", help="start: weighed payload, kg")
+    p.add_argument("--name", default="", help="start: bag folder name (default <condition>_<date>_<time>)")
+    add_namespace(p)
+    p = sub.add_parser("watch", help="follow the recording and the live identification (ROS 2)",
+                       description="Print orthoglide/recorder/status and orthoglide/identification/live "
+                                   "as they come, until Ctrl-C or --seconds.")
+    p.add_argument("--seconds", type=float, default=0.0, help="stop after this long (default: Ctrl-C)")
+    add_namespace(p)
+
+
+def add_namespace(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--namespace", default="", help="namespace of the robot's graph (default: the root)")
+
+
+class Client:
+    """A short-lived rclpy node in the robot's namespace (``with Client(ns) as c: ...``)."""
+
+    def __init__(self, namespace: str = ""):
+        self.namespace = namespace
+
+    def __enter__(self) -> "Client":
+        import rclpy
+
+        rclpy.init()
+        self.rclpy = rclpy
+        self.node = rclpy.create_node("orthoglide_ident_cli", namespace=self.namespace or "/")
+        return self
+
+    def __exit__(self, *exc: Any) -> None:
+        self.node.destroy_node()
+        self.rclpy.try_shutdown()
+
+    def call(self, srv_type: Any, service: str, timeout: float = SERVICE_TIMEOUT_S, **fields: Any) -> Any:
+        client = self.node.create_client(srv_type, service)
+        name = client.srv_name
+        if not client.wait_for_service(timeout_sec=min(timeout, 10.0)):
+            raise ServiceError(f"no service {name}: is the node running (ros2 launch orthoglide_ident "
+                               "orthoglide.launch.py) in this ROS_DOMAIN_ID and namespace?")
+        future = client.call_async(srv_type.Request(**fields))
+        self.rclpy.spin_until_future_complete(self.node, future, timeout_sec=timeout)
+        if not future.done():
+            raise ServiceError(f"{name} did not answer within {timeout:.0f} s")
+        return future.result()
+
+    def latched(self, msg_type: Any, topic: str, timeout: float = 3.0) -> Any | None:
+        """The last message of a transient-local topic, or None."""
+        from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+
+        got: list = []
+        qos = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL, reliability=ReliabilityPolicy.RELIABLE)
+        self.node.create_subscription(msg_type, topic, got.append, qos)
+        t_end = time.monotonic() + timeout
+        while not got and time.monotonic() < t_end:
+            self.rclpy.spin_once(self.node, timeout_sec=0.1)
+        return got[-1] if got else None
+
+
+def record(args: argparse.Namespace) -> int:
+    from std_srvs.srv import Trigger
+
+    from orthoglide_msgs.msg import RecorderStatus
+    from orthoglide_msgs.srv import StartRecording
+
+    with Client(args.namespace) as c:
+        if args.action == "status":
+            msg = c.latched(RecorderStatus, "orthoglide/recorder/status")
+            if msg is None:
+                raise ServiceError("no orthoglide/recorder/status: is the recorder running?")
+            print(status_line(msg))
+            return 0
+        if args.action == "start":
+            if args.condition is None:
+                raise ServiceError("record start needs --condition loaded|unloaded")
+            res = c.call(StartRecording, "orthoglide/recorder/start", condition=args.condition,
+                         payload_mass=float(args.payload_mass), name=args.name)
+        else:
+            res = c.call(Trigger, "orthoglide/recorder/stop")
+    if not res.success:
+        raise ServiceError(res.message)
+    print(res.message)
+    return 0
+
+
+def identify_service(args: argparse.Namespace) -> Any:
+    """Call orthoglide/identify; the IdentifiedParameters of the answer."""
+    from orthoglide_msgs.srv import Identify
+
+    with Client(args.namespace) as c:
+        res = c.call(Identify, "orthoglide/identify", timeout=600.0, bags=list(args.bags or []),
+                     payload_mass=float(args.payload_mass or 0.0), method=args.method or "",
+                     essential=bool(args.essential))
+    if not res.success:
+        raise ServiceError(res.message)
+    print(res.message)
+    return res.parameters
+
+
+def status_line(m: Any) -> str:
+    """orthoglide/recorder/status in one line."""
+    what = f"recording {m.condition}" if m.recording else f"idle (last: {m.condition or 'none'})"
+    mass = f", {m.payload_mass:g} kg" if m.condition == "loaded" else ""
+    return f"recorder: {what}{mass} {m.bag_path} | {m.ticks_written} ticks, {m.ticks_missing} missing | {m.message}"
+
+
+def live_line(m: Any) -> str:
+    """orthoglide/identification/live in one line."""
+    gains = "gains -" if not m.drive_gains else "  ".join(
+        f"{n} {g:7.1f} N/A ±{100 * s:.2f}%" for n, g, s in zip(m.joint_names, m.drive_gains, m.drive_gains_rel_std))
+    line = f"live: {m.unloaded_seconds:.0f} s unloaded, {m.loaded_seconds:.0f} s loaded | {gains} | {m.status}"
+    return line + "".join(f"\n  warning: {w}" for w in m.warnings)
+
+
+def watch(args: argparse.Namespace) -> int:
+    from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+
+    from orthoglide_msgs.msg import LiveIdentification, RecorderStatus
+
+    latched = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL, reliability=ReliabilityPolicy.RELIABLE)
+    with Client(args.namespace) as c:
+        c.node.create_subscription(RecorderStatus, "orthoglide/recorder/status",
+                                   lambda m: print(status_line(m), flush=True), latched)
+        c.node.create_subscription(LiveIdentification, "orthoglide/identification/live",
+                                   lambda m: print(live_line(m), flush=True), 10)
+        t_end = time.monotonic() + args.seconds if args.seconds > 0 else None
+        while t_end is None or time.monotonic() < t_end:
+            c.rclpy.spin_once(c.node, timeout_sec=0.1)
+    return 0
