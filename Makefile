@@ -84,7 +84,7 @@ test-slow: setup
 	$(PY) -m pytest -m slow $(PYTEST_ARGS) || { rc=$$?; [ $$rc -eq 5 ] && echo "test-slow: no slow tests"; exit $$((rc == 5 ? 0 : rc)); }
 
 # Each prints a small table; helpers (identify_data.py, recorder_publisher.py) are not benchmarks.
-BENCHES := model_regressor driver_realtime read_speed identify_speed identify_accuracy live_identification \
+BENCHES := model_regressor driver_realtime ros_intake read_speed identify_speed identify_accuracy live_identification \
 	recorder_soak ctc_tracking
 bench: setup
 	@for b in $(BENCHES); do if [ -f bench/$$b.py ]; then echo "== bench/$$b.py"; $(PY) bench/$$b.py; fi; done

@@ -5,7 +5,7 @@ here, so one 1 kHz topic costs a node ~10 % of a core, and the recorder's three 
 robot computer next to a 1 kHz controller that is the difference between keeping up and losing
 ticks. ``BatchTaker`` waits on a few subscriptions of its own on one thread and, at each wake-up
 (at most every ``period_s``), takes every pending message of every topic and hands them over in
-one call per topic: the same 3 kHz cost ~4 % of a core (bench/driver_realtime.py has the figures).
+one call per topic: the same 3 kHz cost ~4 % of a core instead of ~30 % (bench/ros_intake.py).
 
 The subscriptions live on a small private node (``<node>_rx``) that no executor spins; it
 subscribes to the topic names as the owning node resolves them, so remapping and namespaces of the
