@@ -16,6 +16,7 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Header
 from std_srvs.srv import Trigger
 
+from orthoglide_ident.model.geometry import JOINT_NAMES
 from orthoglide_ident.nodes._batch import BatchTaker, BatchTopic
 from orthoglide_ident.nodes._params import Param, declare, on_set, usage
 from orthoglide_ident.nodes._spin import spin
@@ -57,7 +58,7 @@ PARAMETERS = (
     Param("seed", 0, "seed of the current noise"),
     Param("noise", True, "current noise on/off"),
 )
-JOINTS = ["q11", "q12", "q13"]
+JOINTS = list(JOINT_NAMES)  # the interface (DESIGN §4); the plant keeps its own truth
 TICK_NS = 1_000_000
 LATE_NS = 500_000  # a tick published more than 0.5 ms after its deadline is late
 WAKE_EARLY_NS = 100_000

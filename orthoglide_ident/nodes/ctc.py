@@ -15,6 +15,7 @@ from sensor_msgs.msg import JointState
 
 from orthoglide_ident.control import CTCParameters, feedforward_currents
 from orthoglide_ident.errors import OrthoglideError
+from orthoglide_ident.model.geometry import JOINT_NAMES
 from orthoglide_ident.nodes._batch import BatchTaker, BatchTopic
 from orthoglide_ident.nodes._params import Param, declare, usage
 from orthoglide_ident.nodes._spin import spin
@@ -45,7 +46,7 @@ PARAMETERS = (
     Param("monitor", False, "log the tracking error (joint states vs setpoints) every 5 s (one more 1 kHz "
           "subscription)"),
 )
-JOINTS = ["q11", "q12", "q13"]
+JOINTS = list(JOINT_NAMES)
 TICK_NS = 1_000_000
 MONITOR_PERIOD_NS = 5_000_000_000
 

@@ -21,7 +21,8 @@ from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from orthoglide_ident.errors import OrthoglideError
 from orthoglide_ident.identify.live import LiveIdentification
 from orthoglide_ident.identify.options import IdentifyOptions
-from orthoglide_ident.identify.pipeline import G_TAU_MANUFACTURER, identify
+from orthoglide_ident.identify.pipeline import identify
+from orthoglide_ident.model.geometry import G_TAU_MANUFACTURER
 from orthoglide_ident.nodes._params import Param, declare, usage
 from orthoglide_ident.nodes._spin import spin
 from orthoglide_ident.nodes.live_feed import LiveFeed
