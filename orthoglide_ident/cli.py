@@ -4,11 +4,16 @@
                      [--gains G1,G2,G3|FILE.json] [--essential] [--json FILE]
                      [--r-sigma R] [--config YAML] [--validate BAG...]
     orthoglide-ident info BAG...
+    orthoglide-ident reindex BAG...
     orthoglide-ident model --base-parameters [--json FILE]
     orthoglide-ident report BAG... --out DIR [identify options]
+    orthoglide-ident identify --service [BAG...] [--method tls|wls] [--essential]   (ROS 2)
+    orthoglide-ident record start|stop|status [--condition C --payload-mass KG --name N]  (ROS 2)
+    orthoglide-ident watch [--seconds S]                                          (ROS 2)
 
 Exit codes: 0 success; 2 bad input (a one-line reason on stderr, never a traceback);
-1 internal error (a bug: set ORTHOGLIDE_DEBUG=1 for the traceback); 130 interrupted.
+1 internal error (a bug: set ORTHOGLIDE_DEBUG=1 for the traceback); 130 interrupted;
+141 standard output closed early (``| head``; quietly, as a process ended by SIGPIPE).
 Progress of long steps goes to stderr; results go to stdout.
 """
 from __future__ import annotations
@@ -23,10 +28,11 @@ import traceback
 from pathlib import Path
 from typing import Sequence
 
+from orthoglide_ident import ros_client
 from orthoglide_ident.errors import ConfigError, OrthoglideError
 
 PROG = "orthoglide-ident"
-EXIT_OK, EXIT_BUG, EXIT_BAD_INPUT, EXIT_INTERRUPTED = 0, 1, 2, 130
+EXIT_OK, EXIT_BUG, EXIT_BAD_INPUT, EXIT_INTERRUPTED, EXIT_BROKEN_PIPE = 0, 1, 2, 130, 141
 
 
 def parse_gains(text: str) -> list[float]:
@@ -65,7 +71,7 @@ def parse_gains(text: str) -> list[float]:
 
 
 def _add_identify_options(p: argparse.ArgumentParser) -> None:
-    p.add_argument("bags", nargs="+", metavar="BAG",
+    p.add_argument("bags", nargs="*", metavar="BAG",
                    help="rosbag2 directories or lone .mcap files, tagged loaded|unloaded")
     p.add_argument("--payload-mass", type=float, metavar="KG",
                    help="weighed payload mass of the loaded bags in kg (checked against their tags;"
@@ -102,10 +108,23 @@ def build_parser() -> argparse.ArgumentParser:
                        description="Identify drive gains (N/A) and base dynamic parameters from "
                                    "unloaded and loaded bags; prints a table, --json writes JSON.")
     _add_identify_options(p)
+    p.add_argument("--service", action="store_true",
+                   help="ask the identification node instead (ROS 2 service orthoglide/identify): "
+                        "with no BAG, the live data of the recordings; the result is latched for "
+                        "the ctc node")
+    ros_client.add_namespace(p)
     p = sub.add_parser("info", help="print what a bag holds (topics, counts, gaps, tag)",
                        description="Print topics, message counts, rate, gaps and the "
                                    "loaded/unloaded tag of each bag.")
     p.add_argument("bags", nargs="+", metavar="BAG")
+    p = sub.add_parser("reindex", help="repair a bag whose recorder was killed",
+                       description="Write a closed copy of every .mcap file that was cut short "
+                                   "(every complete chunk; the original is kept as "
+                                   "<file>.mcap.orig) and rebuild metadata.yaml from the files: "
+                                   "message counts, start and duration, topics with their QoS, "
+                                   "custom_data tags. Says what was lost.")
+    p.add_argument("bags", nargs="+", metavar="BAG",
+                   help="rosbag2 directories or lone .mcap files")
     p = sub.add_parser("model", help="print the base parameters of the Orthoglide model",
                        description="Print the base parameters (name, legs, regrouping expression "
                                    "of standard parameters).")
@@ -118,6 +137,7 @@ def build_parser() -> argparse.ArgumentParser:
                                    "(%%σ), summary.md and result.json into --out.")
     _add_identify_options(p)
     p.add_argument("--out", required=True, metavar="DIR", help="output directory (created)")
+    ros_client.add_parsers(sub)
     return parser
 
 
@@ -162,6 +182,15 @@ def _write_json(path: str, doc: dict) -> None:
 
 
 def _main(args: argparse.Namespace) -> int:
+    if args.command == "record":
+        return ros_client.record(args)
+    if args.command == "watch":
+        return ros_client.watch(args)
+    if args.command == "identify" and args.service:
+        ros_client.identify_service(args)
+        return EXIT_OK
+    if args.command in ("identify", "report") and not args.bags:
+        raise ConfigError(f"{args.command}: give at least one BAG (or --service to ask the running node)")
     if args.command in ("identify", "report"):
         _setup_logging(args.quiet)
         res = _run_identify(args)
@@ -186,6 +215,12 @@ def _main(args: argparse.Namespace) -> int:
         texts = [bags.bag_info(p).to_text() for p in args.bags]
         print("\n\n".join(texts))
         return EXIT_OK
+    if args.command == "reindex":
+        from orthoglide_ident import bags
+
+        for i, p in enumerate(args.bags):  # each bag's report as soon as it is repaired
+            print(("\n" if i else "") + bags.reindex(p).to_text(), flush=True)
+        return EXIT_OK
     if args.command == "model":
         _setup_logging(True)
         from orthoglide_ident.model.base import base_model
@@ -208,17 +243,32 @@ def _single_threaded_blas() -> None:
         os.environ.setdefault(var, "1")
 
 
+def _silence_stdout() -> None:
+    """Point stdout at /dev/null so that the interpreter's last flush does not fail again."""
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        os.close(devnull)
+    except (OSError, ValueError):
+        pass
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``orthoglide-ident`` console script; returns the exit code."""
     _single_threaded_blas()
     parser = build_parser()
     args = parser.parse_args(argv)
     try:
-        return _main(args)
+        code = _main(args)
+        sys.stdout.flush()  # a closed pipe shows here, not at interpreter exit
+        return code
     except OrthoglideError as exc:
         msg = " ".join(str(exc).split()) or type(exc).__name__
         print(f"{PROG}: error: {msg}", file=sys.stderr)
         return EXIT_BAD_INPUT
+    except BrokenPipeError:  # `orthoglide-ident ... | head -1`: the reader has what it wanted
+        _silence_stdout()
+        return EXIT_BROKEN_PIPE
     except KeyboardInterrupt:
         print(f"{PROG}: interrupted", file=sys.stderr)
         return EXIT_INTERRUPTED

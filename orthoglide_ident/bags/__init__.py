@@ -1,11 +1,14 @@
-"""rosbag2/MCAP bags of the Orthoglide: tagged writing, fast reading, info (DESIGN §4).
+"""rosbag2/MCAP bags of the Orthoglide: tagged writing, fast reading, info, recovery (DESIGN §4).
 
-No rclpy here: writing and reading use the MCAP format directly (``_mcap``), message definitions
-and type hashes come from rosbags' typestore, q and v_tau are decoded in bulk with numpy (``_cdr``).
+No rclpy here. Files are written by the official MCAP library as rosbag2's MCAP storage plugin
+writes them (``_mcapfile``, ``_metadata``) and read by a fast crash-tolerant scanner (``_mcap``);
+message definitions and type hashes come from rosbags' typestore, q and v_tau are decoded in bulk
+with numpy (``_cdr``).
 
 - :func:`write_bag` — a whole record at once (the simulator's sample bags).
 - :class:`BagWriter` — streaming, chunked, split-capable writer (the recorder).
 - :func:`read_bag` → :class:`BagData`; :func:`bag_info` → :class:`BagInfo`.
+- :func:`reindex` → :class:`ReindexResult` — close cut-short files, rebuild metadata.yaml.
 """
 
 from __future__ import annotations
@@ -22,7 +25,16 @@ from ._types import (
 )
 from .info import BagInfo, Gaps, TickCounter, TopicInfo, bag_info, find_gaps
 from .recording import Recording
-from .reader import BagData, CurrentReferences, FileStatus, JointStates, bag_files, decode_messages, read_bag
+from .reader import (
+    BagData,
+    CurrentReferences,
+    FileStatus,
+    JointStates,
+    bag_files,
+    decode_messages,
+    read_bag,
+)
+from .reindex import FileReport, ReindexResult, reindex
 from .writer import BagWriter, encode_messages, write_bag
 
 __all__ = [
@@ -40,7 +52,9 @@ __all__ = [
     "BagTags",
     "BagWriter",
     "Recording",
+    "ReindexResult",
     "CurrentReferences",
+    "FileReport",
     "FileStatus",
     "Gaps",
     "JointStates",
@@ -54,5 +68,6 @@ __all__ = [
     "msgdef_and_hash",
     "qos_profile",
     "read_bag",
+    "reindex",
     "write_bag",
 ]

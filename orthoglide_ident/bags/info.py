@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from ._tags import BagTags
-from .reader import DECODED, FileStatus, _scan_bag
+from .reader import FileStatus, _scan_bag, is_decoded
 
 
 @dataclass
@@ -94,18 +94,22 @@ class BagInfo:
 
 
 def bag_info(path: str | Path) -> BagInfo:
-    """Summarise a bag directory or lone .mcap file (BagError if it is unreadable)."""
+    """Summarise a bag directory or lone .mcap file (BagError if it is unreadable).
+
+    Start and duration are those of the controller ticks (header stamps of the joint states and
+    current references) when the bag has them; of the log (receive) times otherwise. Mixing the
+    two made the duration depend on how late the last message of another topic arrived.
+    """
     scan = _scan_bag(path, decode=True)
     topics = []
-    starts, ends = [], []
+    ticks: list[tuple[int, int]] = []  # (first, last) header stamp of each decoded topic
+    logged: list[tuple[int, int]] = []  # (first, last) log time of every topic
     for s in scan.topics.values():
-        if s.topic in DECODED and s.stamps and len(s.stamps[0]):
-            starts.append(int(s.stamps[0][0]))
-            ends.append(int(s.stamps[0][-1]))
-        elif s.count:
-            starts.append(s.log_start)
-            ends.append(s.log_end)
-        stamped = s.topic in DECODED and bool(s.stamps) and len(s.stamps[0]) > 1
+        if is_decoded(s.topic) and s.stamps and len(s.stamps[0]):
+            ticks.append((int(s.stamps[0][0]), int(s.stamps[0][-1])))
+        if s.count:
+            logged.append((s.log_start, s.log_end))
+        stamped = is_decoded(s.topic) and bool(s.stamps) and len(s.stamps[0]) > 1
         if stamped:  # header stamps (controller ticks); receive times are bursty
             span = (int(s.stamps[0][-1]) - int(s.stamps[0][0])) / 1e9
             rate = (len(s.stamps[0]) - 1) / span if span > 0 else 0.0
@@ -114,8 +118,9 @@ def bag_info(path: str | Path) -> BagInfo:
             rate = (s.count - 1) / span if span > 0 else 0.0
         gaps = find_gaps(s.stamps[0]) if stamped else None
         topics.append(TopicInfo(s.topic, s.msgtype, s.count, rate, gaps))
-    start = min(starts, default=0)
-    duration = (max(ends, default=0) - start) / 1e9 if starts else 0.0
+    spans = ticks or logged
+    start = min((a for a, _ in spans), default=0)
+    duration = (max(b for _, b in spans) - start) / 1e9 if spans else 0.0
     return BagInfo(
         scan.path, scan.files, topics, start, duration, scan.tags, scan.tag_problem, scan.warnings
     )

@@ -17,6 +17,20 @@ from ._types import (CURRENT_REFERENCE_TOPIC, CURRENT_REFERENCE_TYPE, JOINT_STAT
                      ensure_type, typestore)
 
 DECODED = {JOINT_STATES_TOPIC: "position", CURRENT_REFERENCE_TOPIC: "current"}
+
+
+def is_decoded(topic: str) -> bool:
+    """One of the two topics of every tick, at the root (/orthoglide/joint_states) or under a
+    robot's namespace (/robot2/orthoglide/joint_states)."""
+    return any(topic == base or topic.endswith(base) for base in DECODED)
+
+
+def _recorded_name(scan_topics: Iterable[str], base: str, path: Path) -> str | None:
+    hits = [t for t in scan_topics if t == base or t.endswith(base)]
+    if len(hits) > 1:
+        raise BagError(f"{path}: {len(hits)} robots' {base} in one bag ({', '.join(sorted(hits))}); "
+                       "record one namespace per bag")
+    return hits[0] if hits else None
 FIELD_OF_TYPE = {JOINT_STATE_TYPE: "position", CURRENT_REFERENCE_TYPE: "current"}
 
 
@@ -223,67 +237,70 @@ def _scan_bag(path: str | Path, decode: bool) -> _Scan:
     file_tags: list[tuple[Path, BagTags | None]] = []
     tag_problem = ""
     for fpath in files:
-        res = _mcap.scan(fpath)
-        try:
-            tag = None
-            for name, items in res.metadata:
-                if name == METADATA_NAME:
-                    try:
-                        tag = BagTags.from_dict(
-                            items, f"{fpath.name} metadata record '{METADATA_NAME}'"
-                        )
-                    except BagError as exc:
-                        tag_problem = tag_problem or str(exc)
-                    break
-            file_tags.append((fpath, tag))
-            status = FileStatus(fpath, res.size, res.closed, 0, 0)
-            for chunk in res.chunks:
-                try:
-                    data = _mcap.chunk_bytes(res, chunk)
-                except BagError as exc:
-                    warnings.append(f"{exc}; its messages are skipped")
-                    continue
-                status.chunks += 1
-                arr = np.frombuffer(data, np.uint8)
-                for cid, offs in _mcap.chunk_messages(res, chunk, data).items():
-                    _take(res, cid, arr, offs, topics, decoders, decode, status)
-            if res.loose_messages:
-                arr = np.frombuffer(res.buffer, np.uint8)
-                by_ch: dict[int, list[int]] = {}
-                for cid, off, _ in res.loose_messages:
-                    by_ch.setdefault(cid, []).append(off)
-                for cid, offl in by_ch.items():
-                    _take(
-                        res, cid, arr, np.asarray(offl, np.int64), topics, decoders, decode, status
-                    )
-            if not res.closed and res.data_end:
-                status.lost = "summary/footer damaged, data section complete"
-                warnings.append(
-                    f"{fpath}: summary or footer missing or damaged; all "
-                    f"{status.messages} messages of the data section were read"
-                )
-            elif not res.closed:
-                what = (
-                    f"an incomplete record of {res.partial[1]} bytes at its end was dropped"
-                    if res.partial
-                    else "no data was cut mid-record"
-                )
-                if res.partial_times:
-                    a, b = res.partial_times
-                    what += f" (a chunk of {(b - a) / 1e9:.3f} s of messages)"
-                status.lost = what
-                warnings.append(
-                    f"{fpath}: not closed properly (recording interrupted?): read {status.chunks} "
-                    f"complete chunks, {status.messages} messages; {what}; messages the recorder "
-                    "still held in memory (at most one chunk, about 0.5 s) are not in the file"
-                )
-            if status.messages == 0 and not res.channels:
-                raise BagError(f"{fpath}: nothing readable (no complete chunk or channel)")
-            statuses.append(status)
-        finally:
-            del res
-    # tags: metadata.yaml custom_data vs each file's metadata record
-    tags = None
+        status, tag, problem = _scan_file(fpath, topics, decoders, decode, warnings)
+        statuses.append(status)
+        file_tags.append((fpath, tag))
+        tag_problem = tag_problem or problem
+    tags, tag_problem = _agree_tags(bag, info, file_tags, tag_problem)
+    if decode:
+        for s in topics.values():
+            _concat_sorted(s)
+    return _Scan(bag, statuses, topics, tags, tag_problem, warnings)
+
+
+def _file_tag(
+    fpath: Path, metadata: list[tuple[str, dict[str, str]]]
+) -> tuple[BagTags | None, str]:
+    """The tag of one file's first ``orthoglide`` metadata record, or the problem with it."""
+    for name, items in metadata:
+        if name == METADATA_NAME:
+            try:
+                return BagTags.from_dict(items, f"{fpath.name} metadata record '{name}'"), ""
+            except BagError as exc:
+                return None, str(exc)
+    return None, ""
+
+
+def _scan_file(
+    fpath: Path,
+    topics: dict[str, TopicSeries],
+    decoders: dict[str, _Decoder],
+    decode: bool,
+    warnings: list[str],
+) -> tuple[FileStatus, BagTags | None, str]:
+    """Read one .mcap into ``topics``: its status, its tag and the problem with its tag."""
+    res = _mcap.scan(fpath)
+    try:
+        tag, problem = _file_tag(fpath, res.metadata)
+        status = FileStatus(fpath, res.size, res.closed, 0, 0)
+        for arr, per, in_chunk in _mcap.iter_messages(res, warnings):
+            status.chunks += in_chunk
+            for cid, offs in per.items():
+                _take(res, cid, arr, offs, topics, decoders, decode, status)
+        status.lost = res.loss()
+        if not res.closed and res.data_end:
+            warnings.append(
+                f"{fpath}: summary or footer missing or damaged; all "
+                f"{status.messages} messages of the data section were read"
+            )
+        elif not res.closed:
+            warnings.append(
+                f"{fpath}: not closed properly (recording interrupted?): read {status.chunks} "
+                f"complete chunks, {status.messages} messages; {status.lost}; messages the "
+                "recorder still held in memory (at most one chunk, about 0.5 s) are not in the "
+                "file; `orthoglide-ident reindex` writes a closed copy"
+            )
+        if status.messages == 0 and not res.channels:
+            raise BagError(f"{fpath}: nothing readable (no complete chunk or channel)")
+        return status, tag, problem
+    finally:
+        del res
+
+
+def _agree_tags(
+    bag: Path, info: dict | None, file_tags: list[tuple[Path, BagTags | None]], tag_problem: str
+) -> tuple[BagTags | None, str]:
+    """The bag's tag: metadata.yaml custom_data and every file's record must agree."""
     yaml_tag = None
     if info is not None:
         try:
@@ -294,33 +311,30 @@ def _scan_bag(path: str | Path, decode: bool) -> _Scan:
             tag_problem = tag_problem or str(exc)
     found = [(str(bag / "metadata.yaml"), yaml_tag)] if yaml_tag else []
     found += [(str(p), t) for p, t in file_tags if t is not None]
-    if found:
-        tags = found[0][1]
-        for where, t in found[1:]:
-            if t != tags:
-                tag_problem = (
-                    f"{bag}: contradictory tags: {found[0][0]} says {tags.condition} "
-                    f"{tags.payload_mass:g} kg, {where} says {t.condition} {t.payload_mass:g} kg"
-                )
-                tags = None
-                break
-    elif not tag_problem:
-        tag_problem = (
+    if not found:
+        return None, tag_problem or (
             f"{bag}: not tagged: no orthoglide.condition/orthoglide.payload_mass in metadata.yaml "
             f"custom_data nor in an MCAP metadata record '{METADATA_NAME}'"
         )
-    if tag_problem:
-        tags = None
-    if decode:
-        for s in topics.values():
-            if len(s.stamps) > 1 or (s.stamps and np.any(np.diff(s.stamps[0]) < 0)):
-                st = np.concatenate(s.stamps) if s.stamps else np.zeros(0, np.int64)
-                vals = np.concatenate(s.values) if s.values else np.zeros((0, 0))
-                if np.any(np.diff(st) < 0):
-                    order = np.argsort(st, kind="stable")
-                    st, vals = st[order], vals[order]
-                s.stamps, s.values = [st], [vals]
-    return _Scan(bag, statuses, topics, tags, tag_problem, warnings)
+    tags = found[0][1]
+    for where, t in found[1:]:
+        if t != tags:
+            return None, (
+                f"{bag}: contradictory tags: {found[0][0]} says {tags.condition} "
+                f"{tags.payload_mass:g} kg, {where} says {t.condition} {t.payload_mass:g} kg"
+            )
+    return (None, tag_problem) if tag_problem else (tags, "")
+
+
+def _concat_sorted(s: TopicSeries) -> None:
+    """One stamps array and one values array per topic, sorted by stamp."""
+    if len(s.stamps) > 1 or (s.stamps and np.any(np.diff(s.stamps[0]) < 0)):
+        st = np.concatenate(s.stamps) if s.stamps else np.zeros(0, np.int64)
+        vals = np.concatenate(s.values) if s.values else np.zeros((0, 0))
+        if np.any(np.diff(st) < 0):
+            order = np.argsort(st, kind="stable")
+            st, vals = st[order], vals[order]
+        s.stamps, s.values = [st], [vals]
 
 
 def _take(
@@ -346,10 +360,10 @@ def _take(
     status.messages += n
     if n == 0:
         return
-    logs = arr[(offs[:, None] + np.arange(15, 23))].copy().view("<u8").reshape(-1)
+    logs = _mcap.log_times(arr, offs)
     s.log_start = min(s.log_start, int(logs.min()))
     s.log_end = max(s.log_end, int(logs.max()))
-    if decode and ch.topic in DECODED and ch.encoding == "cdr":
+    if decode and is_decoded(ch.topic) and ch.encoding == "cdr":
         dec = decoders.get(ch.topic)
         if dec is None:
             dec = decoders[ch.topic] = _Decoder(s)
@@ -386,7 +400,8 @@ def read_bag(path: str | Path, *, require_tags: bool = True) -> BagData:
     if scan.tags is None:
         warnings.append(scan.tag_problem)
     out = []
-    for topic in (JOINT_STATES_TOPIC, CURRENT_REFERENCE_TOPIC):
+    for base in (JOINT_STATES_TOPIC, CURRENT_REFERENCE_TOPIC):
+        topic = _recorded_name(scan.topics, base, scan.path) or base
         s = scan.topics.get(topic)
         if s is None or not s.stamps:
             raise BagError(

@@ -1,9 +1,13 @@
-"""Writing rosbag2 directories (metadata.yaml version 9 + MCAP files) tagged loaded/unloaded."""
+"""Writing rosbag2 directories (metadata.yaml version 9 + MCAP files) tagged loaded/unloaded.
+
+Every .mcap file is written by the official MCAP library (:mod:`._mcapfile`), laid out as
+rosbag2's MCAP storage plugin does; metadata.yaml and the ``rosbag2`` record come from
+:mod:`._metadata`.
+"""
 
 from __future__ import annotations
 
 import functools
-import os
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -13,10 +17,11 @@ from typing import Any
 import numpy as np
 import yaml
 
-from orthoglide_ident import __version__
 from orthoglide_ident.errors import BagError, DataError
 
-from . import _cdr, _mcap
+from . import _cdr
+from ._mcapfile import McapFile
+from ._metadata import ROSBAG2_RECORD, BagMetadata, FileStat, TopicStat
 from ._tags import METADATA_NAME, BagTags
 from ._types import (
     CURRENT_REFERENCE_TOPIC,
@@ -28,27 +33,17 @@ from ._types import (
     typestore,
 )
 
-LIBRARY = f"orthoglide_ident {__version__}"
-
 
 @dataclass
 class _Topic:
     channel_id: int
     topic: str
     msgtype: str
-    schema_id: int
+    msgdef: str
     qos: list[dict[str, Any]]
     type_hash: str
     count: int = 0
     sequence: int = 0
-
-
-@dataclass
-class _FileStat:
-    path: Path
-    count: int = 0
-    start: int = 2**63 - 1
-    end: int = 0
 
 
 @dataclass
@@ -58,7 +53,9 @@ class BagWriter:
     ``chunk_duration_s`` / ``chunk_size_bytes`` bound the data held in memory: a killed process
     loses at most that much. ``split_duration_s`` / ``split_size_bytes`` start a new file
     ``<name>_<i>.mcap`` at a chunk boundary (the message that triggers the split opens the new
-    file, so nothing is lost). Times are in ns; sizes in bytes.
+    file, so nothing is lost); each file starts with the ``orthoglide`` tag record and a
+    ``rosbag2`` metadata record, and closes with a final ``rosbag2`` record. Log times must not
+    decrease (DataError otherwise). Times are in ns; sizes in bytes.
     """
 
     path: Path
@@ -71,16 +68,17 @@ class BagWriter:
     fsync: bool = False
     custom_data: dict[str, str] = field(default_factory=dict)
     topics: dict[int, _Topic] = field(default_factory=dict, init=False)
-    files: list[_FileStat] = field(default_factory=list, init=False)
+    files: list[FileStat] = field(default_factory=list, init=False)
 
     def __post_init__(self) -> None:
         self.path = Path(self.path)
-        self._file: _mcap.McapFileWriter | None = None
-        self._schemas: dict[str, tuple[int, str]] = {}
-        self._closed = False
+        self._file: McapFile | None = None
+        self._schema_ids: dict[str, int] = {}  # message type -> schema id in the open file
+        self._chunk_ns = self.chunk_duration_s * 1e9
 
     # -- lifecycle -----------------------------------------------------------------------------
     def open(self) -> BagWriter:
+        """Create the bag directory and its first file; BagError if it exists or cannot be made."""
         if self.path.exists():
             raise BagError(f"{self.path} exists already; choose another bag name")
         try:
@@ -104,25 +102,30 @@ class BagWriter:
             self.abort()
 
     def _open_file(self) -> None:
-        stat = _FileStat(self.path / f"{self.path.name}_{len(self.files)}.mcap")
-        self._file = _mcap.McapFileWriter(stat.path, compression=self.compression, library=LIBRARY)
+        """Next ``<name>_<i>.mcap``: tag and rosbag2 records, then every known topic again."""
+        stat = FileStat(self.path / f"{self.path.name}_{len(self.files)}.mcap")
+        self._file = McapFile(stat.path, compression=self.compression)
         self.files.append(stat)
+        self._schema_ids = {}
         self._file.add_metadata(METADATA_NAME, self.tags.to_dict())
-        for name, (sid, msgdef) in self._schemas.items():
-            self._file.add_schema(sid, name, "ros2msg", msgdef)
+        self._file.add_metadata(ROSBAG2_RECORD, self.bag_metadata().record())
         for t in self.topics.values():
-            self._add_channel(t)
-        self._file.flush_chunk()
-        assert self._file is not None
+            self._register(t)
         self.write_metadata()
 
-    def _add_channel(self, t: _Topic) -> None:
-        assert self._file is not None
+    def _register(self, t: _Topic) -> None:
+        """Schema (once per type and file) and channel of ``t`` in the open file."""
+        f = self._file
+        assert f is not None
+        sid = self._schema_ids.get(t.msgtype)
+        if sid is None:
+            sid = self._schema_ids[t.msgtype] = f.add_schema(t.msgtype, "ros2msg", t.msgdef)
         meta = {
             "offered_qos_profiles": yaml.safe_dump(t.qos, sort_keys=False).strip(),
             "topic_type_hash": t.type_hash,
         }
-        self._file.add_channel(t.channel_id, t.schema_id, t.topic, "cdr", meta)
+        cid = f.add_channel(sid, t.topic, "cdr", meta)
+        assert cid == t.channel_id, "channel ids are the same in every file of a bag"
 
     def add_topic(
         self,
@@ -133,26 +136,22 @@ class BagWriter:
         msgdef: str | None = None,
         type_hash: str | None = None,
     ) -> int:
-        """Register a topic; returns the channel id to pass to :meth:`write`."""
+        """Register a topic (offered QoS in rosbag2's layout); returns the id for :meth:`write`."""
         if self._file is None:
             raise BagError("bag writer is not open")
         if msgdef is None or type_hash is None:
             d, h = msgdef_and_hash(msgtype)
             msgdef, type_hash = msgdef or d, type_hash or h
-        if msgtype not in self._schemas:
-            sid = len(self._schemas) + 1
-            self._schemas[msgtype] = (sid, msgdef)
-            self._file.add_schema(sid, msgtype, "ros2msg", msgdef)
         t = _Topic(
             len(self.topics) + 1,
             topic,
             msgtype,
-            self._schemas[msgtype][0],
+            msgdef,
             [dict(q) for q in (qos or default_qos())],
             type_hash,
         )
+        self._register(t)
         self.topics[t.channel_id] = t
-        self._add_channel(t)
         return t.channel_id
 
     def write(
@@ -162,19 +161,21 @@ class BagWriter:
         log_time_ns: int,
         publish_time_ns: int | None = None,
     ) -> None:
-        """Append one serialized (CDR) message. OSError (disk full) propagates to the caller."""
+        """Append one serialized (CDR) message. OSError (disk full) propagates to the caller;
+        DataError when ``log_time_ns`` is before the previous message's."""
         f = self._file
         if f is None:
             raise BagError("bag writer is not open")
         if f.pending_bytes and (
-            log_time_ns - f.chunk_start_time >= self.chunk_duration_s * 1e9
+            log_time_ns - f.chunk_start_time >= self._chunk_ns
             or f.pending_bytes >= self.chunk_size_bytes
         ):
-            f.flush_chunk(self.fsync)
-            self._maybe_split(log_time_ns)
+            self._end_chunk(log_time_ns)
             f = self._file
             assert f is not None
-        t = self.topics[channel_id]
+        t = self.topics.get(channel_id)
+        if t is None:
+            raise BagError(f"unknown channel id {channel_id}: register the topic with add_topic")
         f.add_message(
             channel_id,
             t.sequence,
@@ -185,39 +186,40 @@ class BagWriter:
         t.sequence += 1
         t.count += 1
         st = self.files[-1]
+        if not st.count:
+            st.start = log_time_ns
         st.count += 1
-        st.start = min(st.start, log_time_ns)
-        st.end = max(st.end, log_time_ns)
+        st.end = log_time_ns  # log times never decrease in a file
 
-    def _maybe_split(self, now_ns: int) -> None:
-        st, f = self.files[-1], self._file
+    def _end_chunk(self, now_ns: int) -> None:
+        """Write the open chunk; start the next file if the split duration or size is reached."""
+        f, st = self._file, self.files[-1]
         assert f is not None
+        f.flush_chunk(self.fsync)
         if not st.count:
             return
         if (self.split_duration_s and now_ns - st.start >= self.split_duration_s * 1e9) or (
             self.split_size_bytes and f.size >= self.split_size_bytes
         ):
-            f.close()
+            self._close_file()
             self._open_file()
+
+    def _close_file(self) -> None:
+        f, self._file = self._file, None
+        if f is not None:
+            f.close([(ROSBAG2_RECORD, self.bag_metadata().record())])
 
     def flush_if_due(self, now_ns: int) -> None:
         """Write the open chunk if it is older than the chunk duration (call from a timer)."""
         f = self._file
-        if (
-            f is not None
-            and f.pending_bytes
-            and now_ns - f.chunk_start_time >= self.chunk_duration_s * 1e9
-        ):
-            f.flush_chunk(self.fsync)
-            self._maybe_split(now_ns)
+        if f is not None and f.pending_bytes and now_ns - f.chunk_start_time >= self._chunk_ns:
+            self._end_chunk(now_ns)
 
     def close(self) -> None:
-        """Write the last chunk, the summaries and metadata.yaml."""
+        """Write the last chunk, the closing ``rosbag2`` record, the summary and metadata.yaml."""
         if self._file is not None:
-            self._file.close()
-            self._file = None
+            self._close_file()
             self.write_metadata()
-        self._closed = True
 
     def abort(self) -> None:
         """Stop after an error: keep what is on disk (readable up to its last chunk)."""
@@ -225,7 +227,7 @@ class BagWriter:
         if f is not None:
             try:
                 f.flush_chunk()
-            except OSError:
+            except (OSError, BagError):
                 pass
             f.abort()
         try:
@@ -238,50 +240,16 @@ class BagWriter:
         """Messages written per topic."""
         return {t.topic: t.count for t in self.topics.values()}
 
-    # -- metadata.yaml -------------------------------------------------------------------------
+    # -- metadata ------------------------------------------------------------------------------
+    def bag_metadata(self) -> BagMetadata:
+        """The bag's rosbag2 metadata as written so far (counts, files, tags in custom_data)."""
+        topics = [TopicStat(t.topic, t.msgtype, t.qos, t.type_hash, t.count)
+                  for t in self.topics.values()]
+        return BagMetadata(topics, list(self.files), {**self.custom_data, **self.tags.to_dict()})
+
     def write_metadata(self) -> None:
         """(Re)write metadata.yaml; done at open, at each split and at close."""
-        files = [f for f in self.files]
-        start = min((f.start for f in files if f.count), default=0)
-        end = max((f.end for f in files if f.count), default=0)
-        info = {
-            "version": 9,
-            "storage_identifier": "mcap",
-            "duration": {"nanoseconds": max(0, end - start)},
-            "starting_time": {"nanoseconds_since_epoch": start},
-            "message_count": sum(f.count for f in files),
-            "topics_with_message_count": [
-                {
-                    "topic_metadata": {
-                        "name": t.topic,
-                        "type": t.msgtype,
-                        "serialization_format": "cdr",
-                        "offered_qos_profiles": t.qos,
-                        "type_description_hash": t.type_hash,
-                    },
-                    "message_count": t.count,
-                }
-                for t in self.topics.values()
-            ],
-            "compression_format": "",
-            "compression_mode": "",
-            "relative_file_paths": [f.path.name for f in files],
-            "files": [
-                {
-                    "path": f.path.name,
-                    "starting_time": {"nanoseconds_since_epoch": f.start if f.count else 0},
-                    "duration": {"nanoseconds": max(0, f.end - f.start) if f.count else 0},
-                    "message_count": f.count,
-                }
-                for f in files
-            ],
-            "custom_data": {**self.custom_data, **self.tags.to_dict()},
-            "ros_distro": "jazzy",
-        }
-        text = yaml.safe_dump({"rosbag2_bagfile_information": info}, sort_keys=False)
-        tmp = self.path / "metadata.yaml.tmp"
-        tmp.write_text(text)
-        os.replace(tmp, self.path / "metadata.yaml")
+        self.bag_metadata().write_yaml(self.path)
 
 
 @functools.lru_cache(maxsize=32)
@@ -323,6 +291,27 @@ def encode_messages(
     return out
 
 
+def _checked_record(
+    stamps_ns: np.ndarray, q: np.ndarray, v_tau: np.ndarray, n_joints: int
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """write_bag's inputs as int64 stamps and float arrays; DataError with the reason otherwise."""
+    stamps = np.asarray(stamps_ns)
+    q = np.asarray(q, float)
+    v_tau = np.asarray(v_tau, float)
+    n = len(stamps)
+    if stamps.ndim != 1 or not np.issubdtype(stamps.dtype, np.integer):
+        raise DataError("stamps_ns must be a 1-D integer array of nanoseconds")
+    stamps = stamps.astype(np.int64)
+    if q.shape != (n, n_joints) or v_tau.shape != (n, n_joints):
+        raise DataError(f"q and v_tau must be ({n}, {n_joints}); got {q.shape} and {v_tau.shape}")
+    if n and (stamps.min() < 0 or np.any(np.diff(stamps) <= 0)):
+        raise DataError("stamps_ns must be non-negative and strictly increasing")
+    return stamps, q, v_tau
+
+
+_BLOCK = 4096  # ticks encoded at once by write_bag (memory O(block))
+
+
 def write_bag(
     path: str | Path,
     stamps_ns: np.ndarray,
@@ -341,69 +330,42 @@ def write_bag(
     ``stamps_ns`` (N,) int controller ticks (ns, used for header.stamp and as log/publish time),
     ``q`` (N, 3) actuated joint positions [m], ``v_tau`` (N, 3) current references [A], columns in
     ``joint_names`` order. ``extra``: additional string entries for metadata.yaml custom_data
-    (e.g. the simulator's seed). Encoding is vectorised, chunk by chunk (≈ 0.5 M messages/s,
-    memory O(chunk)).
-    Returns the bag directory path.
+    (e.g. the simulator's seed). Messages are encoded in bulk, block by block, and written tick by
+    tick (joint state, then current reference) through :class:`BagWriter`, in chunks of
+    ``chunk_duration_s`` s. Returns the bag directory path.
     """
     tags = BagTags.checked(condition, payload_mass)
-    stamps = np.asarray(stamps_ns)
-    q = np.asarray(q, float)
-    v_tau = np.asarray(v_tau, float)
-    n = len(stamps)
-    if stamps.ndim != 1 or not np.issubdtype(stamps.dtype, np.integer):
-        raise DataError("stamps_ns must be a 1-D integer array of nanoseconds")
-    stamps = stamps.astype(np.int64)
-    k = len(joint_names)
-    if q.shape != (n, k) or v_tau.shape != (n, k):
-        raise DataError(f"q and v_tau must be ({n}, {k}); got {q.shape} and {v_tau.shape}")
-    if n and (stamps.min() < 0 or np.any(np.diff(stamps) <= 0)):
-        raise DataError("stamps_ns must be non-negative and strictly increasing")
+    names = tuple(joint_names)
+    stamps, q, v_tau = _checked_record(stamps_ns, q, v_tau, len(names))
     w = BagWriter(
         Path(path),
         tags,
         compression=compression,
+        chunk_duration_s=chunk_duration_s,
         custom_data={key: str(val) for key, val in (extra or {}).items()},
     )
     w.open()
     try:
         c_js = w.add_topic(JOINT_STATES_TOPIC, JOINT_STATE_TYPE)
         c_cr = w.add_topic(CURRENT_REFERENCE_TOPIC, CURRENT_REFERENCE_TYPE)
-        names = tuple(joint_names)
-        f = w._file
-        assert f is not None
-        step_ns = chunk_duration_s * 1e9
-        i = 0
-        while i < n:
-            j = int(np.searchsorted(stamps, stamps[i] + step_ns, side="left"))
-            j = max(j, i + 1)
-            m = j - i
-            st = stamps[i:j]  # encode chunk by chunk: memory stays O(chunk)
-            rec_js = _mcap.message_records(
-                c_js, st, st, encode_messages(JOINT_STATE_TYPE, names, st, q[i:j]), i
-            )
-            rec_cr = _mcap.message_records(
-                c_cr, st, st, encode_messages(CURRENT_REFERENCE_TYPE, names, st, v_tau[i:j]), i
-            )
-            pair = np.concatenate(
-                [rec_js, rec_cr], axis=1
-            )  # one tick: joint state then current reference
-            stride, lj = pair.shape[1], rec_js.shape[1]
-            offs = np.empty(2 * m, np.int64)
-            offs[0::2] = np.arange(m) * stride
-            offs[1::2] = offs[0::2] + lj
-            cids = np.tile(np.array([c_js, c_cr]), m)
-            times = np.repeat(stamps[i:j], 2)
-            f.add_message_block(cids, times, pair.tobytes(), offs)
-            f.flush_chunk()
-            i = j
-        for t in w.topics.values():
-            t.count = t.sequence = n
-        fstat = w.files[-1]
-        fstat.count = 2 * n
-        if n:
-            fstat.start, fstat.end = int(stamps[0]), int(stamps[-1])
+        for i in range(0, len(stamps), _BLOCK):
+            st = stamps[i : i + _BLOCK]
+            js = encode_messages(JOINT_STATE_TYPE, names, st, q[i : i + _BLOCK])
+            cr = encode_messages(CURRENT_REFERENCE_TYPE, names, st, v_tau[i : i + _BLOCK])
+            _write_ticks(w, (c_js, c_cr), (js, cr), st)
         w.close()
     except BaseException:
         w.abort()
         raise
     return Path(path)
+
+
+def _write_ticks(
+    w: BagWriter, channels: tuple[int, ...], rows: tuple[np.ndarray, ...], stamps: np.ndarray
+) -> None:
+    """One message per channel and tick, in tick order; ``rows[c]`` (n, L_c) serialized bytes."""
+    views = [(cid, memoryview(r.tobytes()), r.shape[1]) for cid, r in zip(channels, rows)]
+    write = w.write
+    for k, t in enumerate(stamps.tolist()):
+        for cid, mv, length in views:
+            write(cid, mv[k * length : (k + 1) * length], t, t)
