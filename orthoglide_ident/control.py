@@ -110,10 +110,6 @@ class CTCParameters:
         return CTCParameters.from_values(self.names or base_model().names, self._values(), drive_gains,
                                          self.payload_mass)
 
-    def with_payload(self, payload_mass: float) -> "CTCParameters":
-        return CTCParameters.from_values(self.names or base_model().names, self._values(), self.drive_gains,
-                                         payload_mass)
-
     def _values(self) -> np.ndarray:
         if not self.names:
             return self.chi_b

@@ -10,17 +10,51 @@ was written.
 from __future__ import annotations
 
 import collections
+import os
+import re
 import struct
 import threading
 import time
+from datetime import datetime
+from pathlib import Path
 from typing import Any
 
-from orthoglide_ident.errors import OrthoglideError
+from orthoglide_ident.errors import BagError, ConfigError, OrthoglideError
 
+from ._tags import BagTags
 from .info import TickCounter
 from .writer import BagWriter
 
 _STAMP = struct.Struct("<iI")
+
+
+BAG_NAME = re.compile(r"^[A-Za-z0-9_.+-]+$")
+
+
+def open_bag(output_dir: str | Path, name: str, tags: BagTags, compression: str = "zstd",
+             chunk_duration_s: float = 0.5, split_duration_s: float = 0.0, split_size_bytes: int = 0) -> BagWriter:
+    """The writer of a new recording ``output_dir/name`` (name "" = <condition>_<date>_<time>).
+
+    Checks the name and that the folder is writable before anything is created, so that a refused
+    start leaves nothing behind; ConfigError / BagError with a one-line reason.
+    """
+    name = name or f"{tags.condition}_{datetime.now():%Y%m%d_%H%M%S}"
+    if not BAG_NAME.match(name) or name in (".", ".."):
+        raise ConfigError(f"bad bag name {name!r}: use letters, digits, '_', '-', '.', '+'")
+    out = Path(output_dir).expanduser()
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise ConfigError(f"output folder {out} is not writable: cannot create it ({exc.strerror or exc})") from None
+    if not os.access(out, os.W_OK | os.X_OK):
+        raise ConfigError(f"output folder {out} is not writable")
+    writer = BagWriter(out / name, tags, compression="" if compression in ("none", "") else compression,
+                       chunk_duration_s=chunk_duration_s, split_duration_s=split_duration_s or None,
+                       split_size_bytes=split_size_bytes or None)
+    try:
+        return writer.open()
+    except OSError as exc:
+        raise BagError(f"cannot open {out / name}: {exc.strerror or exc}") from None
 
 
 class TickAligner:

@@ -8,10 +8,7 @@ compresses and writes chunks of ``chunk_duration`` seconds. The executor thread 
 from __future__ import annotations
 
 import importlib
-import os
-import re
 import sys
-from datetime import datetime
 from pathlib import Path
 from typing import Any
 
@@ -20,7 +17,7 @@ from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPo
 from std_srvs.srv import Trigger
 
 from orthoglide_ident import bags
-from orthoglide_ident.bags.recording import Recording
+from orthoglide_ident.bags.recording import Recording, open_bag
 from orthoglide_ident.errors import ConfigError, OrthoglideError
 from orthoglide_ident.nodes._batch import BatchTaker, BatchTopic
 from orthoglide_ident.nodes._params import Param, declare, on_set, usage
@@ -56,7 +53,6 @@ PARAMETERS = (
     Param("compression", "zstd", "zstd | lz4 | none", dynamic=True),
     Param("queue_depth", 1000, "subscription history depth (reliable, keep last)"),
 )
-_NAME = re.compile(r"^[A-Za-z0-9_.+-]+$")
 STATUS_PERIOD_S = 1.0
 
 
@@ -197,10 +193,12 @@ class RecorderNode(Node):
         if self.rec is not None:
             res.message = f"already recording to {self.rec.writer.path}; call stop first"
             return res
+        p = self.p
         try:
             tags = bags.BagTags.checked(req.condition, req.payload_mass)
-            writer = self._open_writer(req.name or f"{tags.condition}_{datetime.now():%Y%m%d_%H%M%S}", tags)
-        except (OrthoglideError, OSError) as exc:
+            writer = open_bag(p["output_dir"], req.name, tags, p["compression"], p["chunk_duration"],
+                              p["split_duration"], p["split_size"])
+        except OrthoglideError as exc:
             res.message = str(exc)
             return res
         self.discover()
@@ -220,24 +218,6 @@ class RecorderNode(Node):
         self.get_logger().info(res.message)
         self.publish_status()
         return res
-
-    def _open_writer(self, name: str, tags: Any) -> Any:
-        if not _NAME.match(name) or name in (".", ".."):
-            raise ConfigError(f"bad bag name {name!r}: use letters, digits, '_', '-', '.', '+'")
-        out = Path(self.p["output_dir"]).expanduser()
-        try:
-            out.mkdir(parents=True, exist_ok=True)
-        except OSError as exc:
-            raise ConfigError(f"output folder {out} is not writable: cannot create it ({exc.strerror or exc})") \
-                from None
-        if not os.access(out, os.W_OK | os.X_OK):
-            raise ConfigError(f"output folder {out} is not writable")
-        comp = "" if self.p["compression"] in ("none", "") else self.p["compression"]
-        writer = bags.BagWriter(out / name, tags, compression=comp, chunk_duration_s=self.p["chunk_duration"],
-                                split_duration_s=self.p["split_duration"] or None,
-                                split_size_bytes=self.p["split_size"] or None)
-        writer.open()
-        return writer
 
     def on_stop(self, req: Any, res: Any) -> Any:
         rec, self.rec = self.rec, None
