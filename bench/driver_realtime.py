@@ -8,7 +8,7 @@
 2. plant step per tick (Pinocchio closed-loop dynamics, RK4, PID) p50/p99, in-process;
 3. real-time factor of a batch record (orthoglide_sim.record.simulate, 10 s);
 4. controller:=external for --duration s in real time, this process being the outside
-   controller (PID with velocity feed-forward on orthoglide/setpoints, the driver's own law): ticks
+   controller (PID with velocity feed-forward on orthoglide/setpoints, 40 rad/s): ticks
    published more than 0.5 ms after their deadline (the driver's count), arrival latency here, and
    the age of every applied command, found by matching each published current_reference with the
    command it applied (age 1 = the command computed from the previous tick's joint state).
@@ -81,9 +81,12 @@ def plant_step_and_batch() -> tuple[np.ndarray, float]:
 
 
 class ExternalController:
-    """The driver's pid_ff law outside the driver: a command per joint state, stamped with it."""
+    """A PID with velocity feed-forward outside the driver: a command per joint state, stamped
+    with it. Its bandwidth (default 40 rad/s, triple pole on 10 kg) is lower than the driver's own
+    100 rad/s: a loop closed over DDS sees its commands one tick late or more, and the 100 rad/s
+    loop has no margin for that (the reason the ctc node sends feed-forward, not commands)."""
 
-    def __init__(self, node):
+    def __init__(self, node, omega: float = 40.0):
         from rclpy.qos import QoSProfile, ReliabilityPolicy
         from sensor_msgs.msg import JointState
 
@@ -92,13 +95,25 @@ class ExternalController:
 
         self.sm, self.CurrentReference = sm, CurrentReference
         qos = QoSProfile(depth=5000, reliability=ReliabilityPolicy.RELIABLE)
+        from rclpy.serialization import deserialize_message
+
+        from orthoglide_ident.nodes._batch import BatchTaker, BatchTopic
+
         self.pub = node.create_publisher(CurrentReference, "/orthoglide/current_command", qos)
-        node.create_subscription(JointSetpoint, "/orthoglide/setpoints", self.on_setpoint, qos)
-        node.create_subscription(JointState, "/orthoglide/joint_states", self.on_joint_state, qos)
+
+        def each(cls, handler):  # the node set's batch intake, woken by every message (period 0)
+            return lambda batch: [handler(deserialize_message(raw, cls)) for raw, _, _ in batch]
+
+        self.taker = BatchTaker(node, [BatchTopic(JointSetpoint, "/orthoglide/setpoints", qos,
+                                                  each(JointSetpoint, self.on_setpoint)),
+                                       BatchTopic(JointState, "/orthoglide/joint_states", qos,
+                                                  each(JointState, self.on_joint_state))], period_s=0.0)
         node.create_subscription(CurrentReference, "/orthoglide/current_reference", self.on_applied, qos)
         self.setpoints: dict[int, tuple] = {}
         self.last_setpoint: tuple | None = None
-        self.pid = None
+        self.gains = (3 * 10.0 * omega**2, 3 * 10.0 * omega, 10.0 * omega**3)  # Kp, Kd, Ki
+        self.q_prev: np.ndarray | None = None
+        self.integral = np.zeros(3)
         self.sent: dict[float, int] = {}  # first current of each command -> stamp it came from
         self.applied: list[tuple[int, int | None]] = []  # (tick stamp, stamp of the command applied)
         self.latency: list[int] = []
@@ -114,9 +129,12 @@ class ExternalController:
             return
         self.last_setpoint = sp
         q = np.array(m.position)
-        if self.pid is None:
-            self.pid = self.sm.PID(q - sp[1] * self.sm.TICK, np.zeros(3), velocity_ff=True)
-        v = self.pid.current(q, *sp)
+        q_d, qd_d = sp
+        v_est = qd_d if self.q_prev is None else (q - self.q_prev) / self.sm.TICK
+        self.q_prev = q
+        kp, kd, ki = self.gains
+        self.integral = self.integral + (q_d - q) * self.sm.TICK
+        v = (kp * (q_d - q) + ki * self.integral + kd * (qd_d - v_est)) / self.sm.G_TAU_MANUFACTURER
         self.sent[float(v[0])] = st
         self.pub.publish(self.CurrentReference(header=m.header, name=JOINTS, current=[float(x) for x in v]))
 
@@ -141,6 +159,7 @@ def external_run(node, duration: float) -> dict:
         proc.terminate()
     time.sleep(0.5)
     executor.shutdown()
+    ctl.taker.close()
     err = proc.communicate(timeout=30)[1] if proc.poll() is not None else ""
     m = re.search(r"(\d+) ticks, (\d+) late", err or "")
     ages = [round((t - c) / 1e6) for t, c in ctl.applied if c is not None]
@@ -161,9 +180,9 @@ def main(argv: list[str] | None = None) -> int:
     rclpy.init()
     node = rclpy.create_node("bench_driver_realtime")
     try:
+        ext = external_run(node, args.duration)
         firsts = time_to_first_tick(node, args.starts)
         step_ms, rtf = plant_step_and_batch()
-        ext = external_run(node, args.duration)
     finally:
         node.destroy_node()
         rclpy.shutdown()
