@@ -161,9 +161,9 @@ def external_run(node, duration: float) -> dict:
     executor.shutdown()
     ctl.taker.close()
     err = proc.communicate(timeout=30)[1] if proc.poll() is not None else ""
-    m = re.search(r"(\d+) ticks, (\d+) late", err or "")
+    m = (re.findall(r"driver: (\d+) ticks, (\d+) late", err or "") or [None])[-1]
     ages = [round((t - c) / 1e6) for t, c in ctl.applied if c is not None]
-    return {"ticks": int(m.group(1)) if m else 0, "late": int(m.group(2)) if m else -1,
+    return {"ticks": int(m[0]) if m else 0, "late": int(m[1]) if m else -1,
             "latency_ms": np.array(ctl.latency) / 1e6, "ages": np.array(ages),
             "unmatched": sum(c is None for _, c in ctl.applied), "received": len(ctl.applied),
             "log_tail": (err or "").strip().splitlines()[-2:]}
