@@ -101,6 +101,74 @@ def find_breaks(dt_ns: np.ndarray, period_ns: float) -> tuple[np.ndarray, int]:
     return brk, int(np.sum(np.maximum(np.rint(ratio[brk]) - 1, 0)))
 
 
+def _checked_columns(arr: np.ndarray, stamps: np.ndarray, names: Sequence[str], topic: str,
+                     joint_names: Sequence[str], rep: SegmentReport) -> np.ndarray:
+    """``arr`` (n, 3) with its columns in ``joint_names`` order; DataError on a wrong shape or names."""
+    if arr.ndim != 2 or arr.shape[0] != stamps.shape[0] or arr.shape[1] != len(joint_names):
+        raise DataError(f"{topic} holds an array of shape {arr.shape} for {stamps.shape[0]} stamps; "
+                        f"expected ({stamps.shape[0]}, {len(joint_names)})")
+    perm = column_order(names, topic, joint_names)
+    if perm is None:
+        return arr
+    rep.reordered.append(topic.rsplit(": ", 1)[-1])
+    return arr[:, perm]
+
+
+def _pair(stamps_q: np.ndarray, q: np.ndarray, stamps_v: np.ndarray, v_tau: np.ndarray,
+          rep: SegmentReport, source: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Samples of both topics sharing a stamp, in stamp order (duplicates keep the first)."""
+    iq, dq = unique_sorted(stamps_q)
+    iv, dv = unique_sorted(stamps_v)
+    rep.n_duplicate_stamps = dq + dv
+    stamps, jq, jv = np.intersect1d(stamps_q[iq], stamps_v[iv], assume_unique=True, return_indices=True)
+    rep.n_paired = int(stamps.shape[0])
+    rep.n_unpaired_joint_states = int(iq.shape[0] - stamps.shape[0])
+    rep.n_unpaired_current_reference = int(iv.shape[0] - stamps.shape[0])
+    if rep.n_paired < 2:
+        raise DataError(f"{source}: only {rep.n_paired} joint_states/current_reference samples share a header "
+                        "stamp; both topics must carry the controller tick as stamp")
+    return stamps, q[iq[jq]], v_tau[iv[jv]]
+
+
+def _breaks(stamps: np.ndarray, finite: np.ndarray, rep: SegmentReport, source: str) -> np.ndarray:
+    """Where the record splits: a missing tick, a non-nominal step, or a non-finite tick."""
+    dt = np.diff(stamps)
+    period_ns = float(np.median(dt))
+    if period_ns <= 0:
+        raise DataError(f"{source}: cannot infer the sampling period from the stamps")
+    rep.period_s = period_ns * 1e-9
+    brk, rep.n_missing_ticks = find_breaks(dt, period_ns)
+    n_bad = int(finite.shape[0] - np.count_nonzero(finite))
+    if n_bad:  # non-finite ticks are removed: they split the record where they sit
+        brk = brk | ~finite[:-1] | ~finite[1:]
+        rep.n_missing_ticks += n_bad
+    rep.n_gaps = int(np.count_nonzero(brk))
+    return brk
+
+
+def _segments(stamps: np.ndarray, qp: np.ndarray, vp: np.ndarray, finite: np.ndarray, brk: np.ndarray,
+              min_samples: int, rep: SegmentReport) -> list[Segment]:
+    starts = np.concatenate(([0], np.flatnonzero(brk) + 1))
+    ends = np.concatenate((np.flatnonzero(brk) + 1, [stamps.shape[0]]))
+    segments: list[Segment] = []
+    for a, b in zip(starts, ends):
+        while a < b and not finite[a]:  # a boundary sits on each side of a bad tick: skip it
+            a += 1
+        if a < b and not finite[b - 1]:
+            b -= 1
+        n = b - a
+        if n <= 0:
+            continue
+        if n < min_samples:
+            rep.n_short_segments_dropped += 1
+            rep.n_samples_in_short_segments += int(n)
+            continue
+        segments.append(Segment(stamps[a:b].copy(), qp[a:b].copy(), vp[a:b].copy()))
+    rep.n_segments = len(segments)
+    rep.n_used = int(sum(len(s) for s in segments))
+    return segments
+
+
 def split_record(
     stamps_q_ns: np.ndarray,
     names_q: Sequence[str],
@@ -116,9 +184,8 @@ def split_record(
     """Pair q and v_tau by exact stamp, find missing ticks and split into continuous segments.
 
     ``q: (N_q, 3)`` m and ``v_tau: (N_v, 3)`` A with their int64 stamps in ns. The tick period is
-    the
-    median difference of the paired stamps; a stamp difference outside (0.5, 1.5) periods is a gap.
-    Segments shorter than ``min_samples`` are dropped (counted in the report).
+    the median difference of the paired stamps; a stamp difference outside (0.5, 1.5) periods is a
+    gap. Segments shorter than ``min_samples`` are dropped (counted in the report).
     Raises :class:`DataError` on mismatched joint names, non-finite data (``nonfinite="error"``),
     or when fewer than two samples pair up.
     """
@@ -127,91 +194,22 @@ def split_record(
     rep = SegmentReport()
     stamps_q_ns = np.asarray(stamps_q_ns, dtype=np.int64)
     stamps_v_ns = np.asarray(stamps_v_ns, dtype=np.int64)
-    q = np.asarray(q, dtype=float)
-    v_tau = np.asarray(v_tau, dtype=float)
     rep.n_joint_states = int(stamps_q_ns.shape[0])
     rep.n_current_reference = int(stamps_v_ns.shape[0])
-    for arr, st, topic in ((q, stamps_q_ns, "joint_states"),
-                           (v_tau, stamps_v_ns, "current_reference")):
-        if arr.ndim != 2 or arr.shape[0] != st.shape[0] or arr.shape[1] != len(joint_names):
-            raise DataError(
-                f"{source}: {topic} holds an array of shape {arr.shape} for {st.shape[0]} stamps; "
-                f"expected ({st.shape[0]}, {len(joint_names)})"
-            )
-    perm = column_order(names_q, f"{source}: joint_states", joint_names)
-    if perm is not None:
-        q = q[:, perm]
-        rep.reordered.append("joint_states")
-    perm = column_order(names_v, f"{source}: current_reference", joint_names)
-    if perm is not None:
-        v_tau = v_tau[:, perm]
-        rep.reordered.append("current_reference")
-
-    iq, dq = unique_sorted(stamps_q_ns)
-    iv, dv = unique_sorted(stamps_v_ns)
-    rep.n_duplicate_stamps = dq + dv
-    common, jq, jv = np.intersect1d(stamps_q_ns[iq], stamps_v_ns[iv], assume_unique=True,
-                                    return_indices=True)
-    stamps = common
-    qp = q[iq[jq]]
-    vp = v_tau[iv[jv]]
-    rep.n_paired = int(stamps.shape[0])
-    rep.n_unpaired_joint_states = int(iq.shape[0] - stamps.shape[0])
-    rep.n_unpaired_current_reference = int(iv.shape[0] - stamps.shape[0])
-    if rep.n_paired < 2:
-        raise DataError(
-            f"{source}: only {rep.n_paired} joint_states/current_reference samples share a header "
-            "stamp; both topics must carry the controller tick as stamp"
-        )
-
+    q = _checked_columns(np.asarray(q, dtype=float), stamps_q_ns, names_q, f"{source}: joint_states",
+                         joint_names, rep)
+    v_tau = _checked_columns(np.asarray(v_tau, dtype=float), stamps_v_ns, names_v,
+                             f"{source}: current_reference", joint_names, rep)
+    stamps, qp, vp = _pair(stamps_q_ns, q, stamps_v_ns, v_tau, rep, source)
     finite = np.isfinite(qp).all(axis=1) & np.isfinite(vp).all(axis=1)
     n_bad = int(finite.shape[0] - np.count_nonzero(finite))
-    if n_bad:
-        if nonfinite == "error":
-            first = (stamps[~finite][0] - stamps[0]) * 1e-9
-            raise DataError(
-                f"{source}: {n_bad} samples hold NaN or inf (first at t = {first:.3f} s into the "
-                "record); fix the recording or set nonfinite: drop to treat them as gaps"
-            )
-        rep.n_nonfinite_dropped = n_bad
-
-    dt = np.diff(stamps)
-    period_ns = float(np.median(dt))
-    if period_ns <= 0:
-        raise DataError(f"{source}: cannot infer the sampling period from the stamps")
-    rep.period_s = period_ns * 1e-9
-    # A tick counts as missing when its stamp is absent; a break is any non-nominal step
-    # or a removed non-finite tick.
-    brk, rep.n_missing_ticks = find_breaks(dt, period_ns)
-    if n_bad:
-        # drop non-finite ticks: they split the record where they sit
-        brk = brk | ~finite[:-1] | ~finite[1:]
-        rep.n_missing_ticks += n_bad
-    rep.n_gaps = int(np.count_nonzero(brk))
-
-    starts = np.concatenate(([0], np.flatnonzero(brk) + 1))
-    ends = np.concatenate((np.flatnonzero(brk) + 1, [stamps.shape[0]]))
-    segments: list[Segment] = []
-    for a, b in zip(starts, ends):
-        if n_bad:
-            # a segment boundary sits on each side of a bad tick; skip bad ticks themselves
-            while a < b and not finite[a]:
-                a += 1
-            if a < b and not finite[b - 1]:
-                b -= 1
-        n = b - a
-        if n <= 0:
-            continue
-        if n < min_samples:
-            rep.n_short_segments_dropped += 1
-            rep.n_samples_in_short_segments += int(n)
-            continue
-        segments.append(Segment(stamps[a:b].copy(), qp[a:b].copy(), vp[a:b].copy()))
-    rep.n_segments = len(segments)
-    rep.n_used = int(sum(len(s) for s in segments))
+    if n_bad and nonfinite == "error":
+        first = (stamps[~finite][0] - stamps[0]) * 1e-9
+        raise DataError(f"{source}: {n_bad} samples hold NaN or inf (first at t = {first:.3f} s into the "
+                        "record); fix the recording or set nonfinite: drop to treat them as gaps")
+    rep.n_nonfinite_dropped = n_bad
+    segments = _segments(stamps, qp, vp, finite, _breaks(stamps, finite, rep, source), min_samples, rep)
     if not segments:
-        raise DataError(
-            f"{source}: no continuous run of at least {min_samples} samples "
-            f"({min_samples * rep.period_s:.2f} s) without a gap; {rep.summary()}"
-        )
+        raise DataError(f"{source}: no continuous run of at least {min_samples} samples "
+                        f"({min_samples * rep.period_s:.2f} s) without a gap; {rep.summary()}")
     return segments, rep
