@@ -1,0 +1,115 @@
+"""Bad and unusual inputs to the nodes over real ROS 2: a reason, never a traceback or a dead node.
+
+A best-effort publisher is recorded (the recorder follows the offered QoS, as rosbag2 does); an
+integer where a float parameter is expected is fine; an impossible value is a one-line error; the
+identification answers with the essential model when asked, and a WLS call does not replace the
+latched TLS result a running CTC uses.
+"""
+from __future__ import annotations
+
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+rclpy = pytest.importorskip("rclpy")
+pytest.importorskip("orthoglide_msgs.msg")
+
+ROOT = Path(__file__).resolve().parents[1]
+RECORDER = "from orthoglide_ident.nodes.recorder import main; import sys; sys.exit(main())"
+IDENTIFICATION = "from orthoglide_ident.nodes.identification import main; import sys; sys.exit(main())"
+
+
+def _call(node, cli, request, timeout=60.0):
+    assert cli.wait_for_service(timeout_sec=60), f"no service {cli.srv_name}"
+    fut = cli.call_async(request)
+    rclpy.spin_until_future_complete(node, fut, timeout_sec=timeout)
+    assert fut.done(), f"{cli.srv_name} did not answer"
+    return fut.result()
+
+
+@pytest.fixture
+def node():
+    rclpy.init()
+    n = rclpy.create_node("test_node_inputs")
+    yield n
+    n.destroy_node()
+    rclpy.shutdown()
+
+
+def test_best_effort_publisher_is_recorded(spawn_python, node, tmp_path):
+    from rclpy.qos import QoSProfile, ReliabilityPolicy
+    from sensor_msgs.msg import JointState
+    from std_srvs.srv import Trigger
+
+    from orthoglide_ident import bags
+    from orthoglide_msgs.msg import CurrentReference
+    from orthoglide_msgs.srv import StartRecording
+
+    best_effort = QoSProfile(depth=100, reliability=ReliabilityPolicy.BEST_EFFORT)
+    pub_js = node.create_publisher(JointState, "/orthoglide/joint_states", best_effort)
+    pub_cr = node.create_publisher(CurrentReference, "/orthoglide/current_reference", best_effort)
+    rec = spawn_python(RECORDER, "--ros-args", "-p", f"output_dir:={tmp_path}")
+    start = node.create_client(StartRecording, "/orthoglide/recorder/start")
+    stop = node.create_client(Trigger, "/orthoglide/recorder/stop")
+    time.sleep(2.5)  # the recorder's discovery (every second) re-subscribes best effort
+    res = _call(node, start, StartRecording.Request(condition="unloaded", name="be"))
+    assert res.success, res.message
+    names = ["q11", "q12", "q13"]
+    for k in range(300):
+        js = JointState(name=names, position=[0.01 * k, 0.0, 0.0])
+        js.header.stamp.sec, js.header.stamp.nanosec = 5, k * 1_000_000
+        pub_js.publish(js)
+        pub_cr.publish(CurrentReference(header=js.header, name=names, current=[0.1, 0.0, 0.0]))
+        time.sleep(0.002)
+    time.sleep(0.5)
+    res = _call(node, stop, Trigger.Request())
+    assert res.success, res.message
+    data = bags.read_bag(tmp_path / "be")
+    assert len(data.joint_states.stamps_ns) >= 250  # best effort on loopback: nearly everything
+    assert rec.poll() is None
+
+
+def test_parameter_types_are_lenient_and_bad_values_are_one_line(ros_env):
+    def run(module, *params):
+        args = [sys.executable, "-m", module, "--ros-args"]
+        for p in params:
+            args += ["-p", p]
+        return subprocess.run(args, env=ros_env, capture_output=True, text=True, timeout=60)
+
+    ok = run("orthoglide_sim.driver_node", "duration:=1", "realtime:=false", "payload:=2")  # ints for floats
+    assert ok.returncode == 0 and "1000 ticks" in ok.stderr, ok.stderr
+    bad = run("orthoglide_ident.nodes.recorder", "queue_depth:=-5")
+    assert bad.returncode == 2 and "queue_depth" in bad.stderr and "Traceback" not in bad.stderr
+    bad = run("orthoglide_sim.driver_node", "duration:=soon")
+    assert bad.returncode == 2 and "parameter duration: expected float" in bad.stderr
+    bad = run("orthoglide_sim.driver_node", "controller:=turbo")
+    assert bad.returncode == 2 and "controller must be one of" in bad.stderr
+
+
+def test_essential_answer_and_wls_keeps_the_latched_tls(spawn_python, node):
+    from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+
+    from orthoglide_msgs.msg import IdentifiedParameters
+    from orthoglide_msgs.srv import Identify
+
+    spawn_python(IDENTIFICATION, "--ros-args", "-p", f"bag_dir:={ROOT / 'bags'}", "-p", "live:=false")
+    cli = node.create_client(Identify, "/orthoglide/identify")
+    bags = [str(ROOT / "bags/unloaded"), str(ROOT / "bags/loaded")]
+    tls = _call(node, cli, Identify.Request(bags=bags), timeout=120)
+    assert tls.success and len(tls.parameters.names) == 61, tls.message
+    ess = _call(node, cli, Identify.Request(bags=bags, essential=True), timeout=300)
+    assert ess.success and 0 < len(ess.parameters.names) < 61, ess.message
+    wls = _call(node, cli, Identify.Request(bags=bags, method="wls"), timeout=120)
+    assert wls.success and wls.parameters.method == "wls", wls.message
+    got: dict[str, list] = {"tls": [], "wls": []}
+    latched = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL, reliability=ReliabilityPolicy.RELIABLE)
+    node.create_subscription(IdentifiedParameters, "/orthoglide/identified_parameters", got["tls"].append, latched)
+    node.create_subscription(IdentifiedParameters, "/orthoglide/identified_parameters/wls", got["wls"].append, latched)
+    t_end = time.time() + 20
+    while not (got["tls"] and got["wls"]) and time.time() < t_end:
+        rclpy.spin_once(node, timeout_sec=0.1)
+    assert got["tls"][-1].method == "tls" and len(got["tls"][-1].names) < 61  # the essential TLS, last TLS call
+    assert got["wls"][-1].method == "wls"
