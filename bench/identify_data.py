@@ -29,7 +29,9 @@ def simulator_available(trajectory: str = "exciting") -> bool:
 
 
 def record(duration_s: float, payload_kg: float, seed: int, noise: bool = True,
-           source: str | None = None, trajectory: str = "exciting") -> tuple[Record, dict]:
+           source: str | None = None, trajectory: str = "exciting",
+           profile: str | None = None) -> tuple[Record, dict]:
+    """``profile``: the simulator's plant profile ("nominal" by default, or "realistic")."""
     cond = "loaded" if payload_kg > 0 else "unloaded"
     name = source or f"{cond}-{payload_kg:g}kg-seed{seed}"
     if simulator_available(trajectory):
@@ -37,7 +39,8 @@ def record(duration_s: float, payload_kg: float, seed: int, noise: bool = True,
 
         payload = "none" if payload_kg == 0 else (f"{payload_kg:g}" if f"{payload_kg:g}" in
                                                  ("1.983", "1.136") else payload_kg)
-        rec = simulate(duration_s, payload=payload, trajectory=trajectory, seed=seed, noise=noise)
+        rec = simulate(duration_s, payload=payload, trajectory=trajectory, seed=seed, noise=noise,
+                       profile=profile)
         truth = {"g_tau": np.asarray(rec.g_tau, float), "source": f"simulator ({trajectory})"}
         return Record.from_arrays(name, rec.stamps_ns, rec.q, rec.v_tau, cond, payload_kg), truth
     from orthoglide_ident.identify.synthetic import synthetic_record

@@ -1,6 +1,9 @@
 """Identification results: one dataclass, serialised once to the JSON of DESIGN §4 and to a table.
 
-Relative standard deviations (``rel_std``) are fractions (0.002 = 0.2 %σ); the table prints %σ.
+Relative standard deviations are fractions (0.002 = 0.2 %σ); the table prints %σ. Two are given:
+``rel_std`` the honest one, which also covers residuals correlated from row to row (the forces
+the IDIM lacks; identify/uncertainty.py) — the one to trust, and the one the ROS message carries;
+``rel_std_paper`` that of the paper's eqs. (38)-(39), which assumes independent errors.
 Units: drive gains N/A, payload mass kg, residuals N, base parameters in the SI units of the
 standard parameters they regroup (kg, kg·m, kg·m², N·s/m, N).
 """
@@ -19,17 +22,26 @@ def _num(x: float) -> float | None:
     return x if math.isfinite(x) else None
 
 
+def _pct(x: float | None) -> str:
+    """A relative std as a 7-wide percentage; - when unknown, >1000% when meaningless."""
+    if x is None or not math.isfinite(x):
+        return "      -"
+    return f"{100 * x:7.3g}" if x < 10 else " >1000%"
+
+
 @dataclass
 class Estimate:
     """One identified quantity: value, relative std (fraction), the expression it stands for."""
 
     name: str
     value: float
-    rel_std: float
+    rel_std: float  # honest (covers correlated residuals)
     expression: str = ""
+    rel_std_paper: float | None = None  # eqs. (38)-(39)
 
     def to_json(self) -> dict[str, Any]:
         return {"name": self.name, "value": _num(self.value), "rel_std": _num(self.rel_std),
+                "rel_std_paper": None if self.rel_std_paper is None else _num(self.rel_std_paper),
                 "expression": self.expression}
 
 
@@ -42,9 +54,12 @@ class PayloadMass:
     known: bool
     tagged: float | None = None  # the mass written in the bag tag, kg
     bags: list[str] = field(default_factory=list)
+    rel_std_paper: float | None = None  # estimated (WLS): eq. (27)'s, next to the honest rel_std
 
     def to_json(self) -> dict[str, Any]:
-        return {"value": _num(self.value), "rel_std": _num(self.rel_std), "known": self.known,
+        return {"value": _num(self.value), "rel_std": _num(self.rel_std),
+                "rel_std_paper": None if self.rel_std_paper is None else _num(self.rel_std_paper),
+                "known": self.known,
                 "tagged": None if self.tagged is None else _num(self.tagged), "bags": self.bags}
 
 
@@ -65,6 +80,10 @@ class IdentificationResult:
     diagnostics: dict[str, Any] = field(default_factory=dict)
     essential: "IdentificationResult | None" = None
     removed: list[str] = field(default_factory=list)  # cancelled base parameters (essential)
+    # position-periodic forces found in the residual and modelled (identify/drive_terms.py)
+    ripple: list[dict[str, Any]] = field(default_factory=list)
+    # essential: every cancellation tried, with its cost (identify/essential.EssentialStep)
+    essential_steps: list[Any] = field(default_factory=list, repr=False, compare=False)
     validation: list[dict[str, Any]] = field(default_factory=list)
     warnings: list[str] = field(default_factory=list)
     # In-memory extras for plots (report.py); not serialised.
@@ -79,7 +98,9 @@ class IdentificationResult:
         out: dict[str, Any] = {
             "method": self.method,
             "joint_names": list(self.joint_names),
-            "drive_gains": [{"joint": g.name, "value": _num(g.value), "rel_std": _num(g.rel_std)}
+            "drive_gains": [{"joint": g.name, "value": _num(g.value), "rel_std": _num(g.rel_std),
+                             "rel_std_paper": None if g.rel_std_paper is None
+                             else _num(g.rel_std_paper)}
                             for g in self.drive_gains],
             "drive_gains_given": self.drive_gains_given,
             "parameters": [p.to_json() for p in self.parameters],
@@ -91,8 +112,14 @@ class IdentificationResult:
             "bags": list(self.bags),
             "units": {"drive_gains": "N/A", "payload_mass": "kg", "residual_rms": "N",
                       "rel_std": "fraction (0.01 = 1 %)"},
+            "rel_std": "honest: covers residuals correlated from row to row (largest of eqs. "
+                       "(38)-(39), a stationary-correlation and a block sandwich); rel_std_paper: "
+                       "eqs. (38)-(39), independent errors",
             "warnings": list(self.warnings),
         }
+        if self.ripple:
+            out["ripple"] = list(self.ripple)
+
         if self.removed:
             out["removed"] = list(self.removed)
         if self.essential is not None:
@@ -128,60 +155,27 @@ class IdentificationResult:
     def to_text(self) -> str:
         """A readable table; with essential parameters, base and essential side by side."""
         ess = self.essential
-        lines: list[str] = []
-        head = {"tls": "IDIM-TLS (drive gains and base parameters, scale from the payload mass)",
-                "wls": "IDIM-WLS with given drive gains (payload mass estimated)"}
-        lines.append(head.get(self.method, self.method))
-        variant = self.diagnostics.get("solver", {}).get("tls_noisy_columns")
-        if self.method == "tls" and variant:
-            lines.append({"currents": "mixed LS-TLS: W exact, errors in the current references",
-                          "all": "TLS of eqs. (35)-(36): errors in every column of W_tot"}
-                         .get(variant, variant))
-        lines.append(f"bags: {', '.join(self.bags)}")
-        lines.append("")
-
-        def pct(x: float) -> str:
-            return "    -" if not math.isfinite(x) else (f"{100 * x:7.3g}" if x < 10 else ">1000%")
-
-        w = max([len(p.name) for p in self.parameters] + [12])
-        if ess is None:
-            hdr = f"  {'parameter':<{w}} {'value':>12} {'%σ':>7}"
-        else:
-            hdr = (f"  {'parameter':<{w}} {'base':>12} {'%σ':>7}   {'essential':>12} {'%σ':>7}")
-        gtitle = "drive gains (N/A)" + (" — given" if self.drive_gains_given else "")
-        lines.append(gtitle)
-        lines.append(hdr)
-        eg = {g.name: g for g in ess.drive_gains} if ess else {}
-        for g in self.drive_gains:
-            row = f"  g_tau {g.name:<{w - 6}} {g.value:12.6g} {pct(g.rel_std)}"
-            if ess is not None:
-                e = eg[g.name]
-                row += f"   {e.value:12.6g} {pct(e.rel_std)}"
-            lines.append(row)
-        lines.append("")
-        lines.append("base parameters" + (" (— = cancelled as non-essential)" if ess else ""))
-        lines.append(hdr + "   expression")
-        ep = {p.name: p for p in ess.parameters} if ess else {}
-        for p in self.parameters:
-            row = f"  {p.name:<{w}} {p.value:12.6g} {pct(p.rel_std)}"
-            if ess is not None:
-                e = ep.get(p.name)
-                row += (f"   {e.value:12.6g} {pct(e.rel_std)}" if e else f"   {'—':>12} {'':>7}")
-            lines.append(row + (f"   {p.expression}" if p.expression else ""))
-        lines.append("")
+        lines = self._header_lines()
+        lines.extend(self._table_lines())
+        lines.append("%σ: covers residuals correlated from row to row (the largest of eqs. (38)-(39), "
+                     "a stationary-correlation and a block sandwich); %σ eq39: the paper's eqs. "
+                     "(38)-(39), independent errors")
         for pm in self.payloads:
             what = "known (weighed)" if pm.known else "estimated"
             tag = "" if pm.tagged is None or pm.known else f", tagged {pm.tagged:.4g} kg"
-            lines.append(f"payload mass m_7: {pm.value:.5g} kg ± {pct(pm.rel_std).strip()} % "
+            paper = "" if pm.rel_std_paper is None else f" (eq. 27: ± {_pct(pm.rel_std_paper).strip()} %)"
+            lines.append(f"payload mass m_7: {pm.value:.5g} kg ± {_pct(pm.rel_std).strip()} %{paper} "
                          f"({what}{tag})")
         lines.append(f"condition number (scaled W): {self.condition_number:.4g}")
         lines.append("residual rms (N): " + ", ".join(
             f"{j} {r:.4g}" for j, r in zip(self.joint_names, self.residual_rms)))
+        for r in self.ripple:
+            lines.append(f"ripple modelled: {r['joint']} ±{r['amplitude_n']:.3g} N (σ "
+                         f"{r['amplitude_std_n']:.2g} N) at a {1e3 * r['wavelength_m']:.1f} mm period of "
+                         f"its position, {r['kind']}")
+        lines.extend(self._residual_lines())
         if ess is not None:
-            lines.append(f"essential parameters: {len(ess.parameters)} kept of "
-                         f"{len(self.parameters)} ({ess.diagnostics.get('stopped_because', '')}); "
-                         "residual rms (N): " + ", ".join(
-                             f"{j} {r:.4g}" for j, r in zip(ess.joint_names, ess.residual_rms)))
+            lines.extend(self._essential_lines(ess))
         for v in self.validation:
             lines.append(f"cross-validation on {v['bag']}: " + ", ".join(
                 f"{j['joint']} {j['residual_rms']:.3g} N rms ({100 * j['relative_error']:.1f} %)"
@@ -195,3 +189,101 @@ class IdentificationResult:
         for wmsg in self.warnings:
             lines.append(f"warning: {wmsg}")
         return "\n".join(lines)
+
+    def _header_lines(self) -> list[str]:
+        head = {"tls": "IDIM-TLS (drive gains and base parameters, scale from the payload mass)",
+                "wls": "IDIM-WLS with given drive gains (payload mass estimated)"}
+        lines = [head.get(self.method, self.method)]
+        variant = self.diagnostics.get("solver", {}).get("tls_noisy_columns")
+        if self.method == "tls" and variant:
+            lines.append({"currents": "mixed LS-TLS: W exact, errors in the current references",
+                          "all": "TLS of eqs. (35)-(36): errors in every column of W_tot"}
+                         .get(variant, variant))
+        lines.append(f"bags: {', '.join(self.bags)}")
+        lines.append("")
+        return lines
+
+    def _table_lines(self) -> list[str]:
+        """Gains and base parameters, with the essential model's column when there is one."""
+        ess = self.essential
+        w = max([len(p.name) for p in self.parameters] + [12])
+        hdr = f"  {'parameter':<{w}} {'value' if ess is None else 'base':>12} {'%σ':>7} {'%σ eq39':>7}"
+        if ess is not None:
+            hdr += f"   {'essential':>12} {'%σ':>7}"
+        lines = ["drive gains (N/A)" + (" — given" if self.drive_gains_given else ""), hdr]
+        eg = {g.name: g for g in ess.drive_gains} if ess else {}
+        for g in self.drive_gains:
+            row = f"  g_tau {g.name:<{w - 6}} {g.value:12.6g} {_pct(g.rel_std)} {_pct(g.rel_std_paper)}"
+            if ess is not None:
+                e = eg[g.name]
+                row += f"   {e.value:12.6g} {_pct(e.rel_std)}"
+            lines.append(row)
+        lines.append("")
+        lines.append("base parameters" + (" (— = cancelled as non-essential)" if ess else ""))
+        lines.append(hdr + "   expression")
+        ep = {p.name: p for p in ess.parameters} if ess else {}
+        for p in self.parameters:
+            row = f"  {p.name:<{w}} {p.value:12.6g} {_pct(p.rel_std)} {_pct(p.rel_std_paper)}"
+            if ess is not None:
+                e = ep.get(p.name)
+                row += (f"   {e.value:12.6g} {_pct(e.rel_std)}" if e else f"   {'—':>12} {'':>7}")
+            lines.append(row + (f"   {p.expression}" if p.expression else ""))
+        lines.append("")
+        return lines
+
+    def _residual_lines(self) -> list[str]:
+        u = self.diagnostics.get("uncertainty")
+        if not u:
+            return []
+        ac = u.get("autocorrelation", {})
+        white = u.get("autocorrelation_white", [])
+        out = []
+        if ac and white:
+            out.append("residual autocorrelation at lags 1-3 (rows): " + "; ".join(
+                f"{j} " + " ".join(f"{x:.2f}" for x in v[:3]) for j, v in ac.items())
+                + "  (white noise after the decimation filter: "
+                + " ".join(f"{x:.2f}" for x in white[:3]) + ")")
+        inf = u.get("gain_sigma_inflation")
+        if inf:
+            out.append(f"σ of the gains / eqs. (38)-(39): " + ", ".join(
+                f"{j} {x:.2f}" for j, x in inf.items())
+                + f"  ({u.get('blocks', 0)} blocks of {u.get('block_s', 0):g} s)")
+        where = " (of the model without the ripple columns)" if self.ripple else ""
+        for pk in u.get("position_spectrum_peaks", []):
+            out.append(f"residual vs position{where}: {pk['joint']} ±{pk['amplitude_n']:.2g} N at a "
+                       f"{1e3 * pk['wavelength_m']:.1f} mm period ({pk['kind']}; spectrum median "
+                       f"{pk['median_n']:.2g} N)")
+        return out
+
+    def _essential_lines(self, ess: "IdentificationResult") -> list[str]:
+        d = ess.diagnostics
+        out = [f"essential parameters ({d.get('method', 'paper')}): {len(ess.parameters)} kept of "
+               f"{len(self.parameters)} ({d.get('stopped_because', '')}); residual rms (N): "
+               + ", ".join(f"{j} {r:.4g}" for j, r in zip(ess.joint_names, ess.residual_rms))]
+        steps = d.get("steps", [])
+        if not steps:
+            return out
+        prot = "g_tau" if self.method == "tls" else "m_7"
+        n_prot = len(steps[0].get("shift", [])) or 3
+        labels = (list(self.joint_names) if self.method == "tls"
+                  else [f"{p.tagged:g}kg" for p in self.payloads])[:n_prot]
+        tol = d.get("tolerance", [])
+        out.append(f"what each cancellation cost (cumulative from the base model; tolerance on "
+                   f"{prot}: " + ", ".join(f"{100 * t:.2f} %" for t in tol) + "):")
+        w = max(len(s["parameter"]) for s in steps)
+        out.append(f"  {'':<4} {'parameter':<{w}} {'%σ':>7} {'residual':>9} "
+                   + " ".join(f"{'Δ' + prot + ' ' + lab:>14}" for lab in labels) + "  ")
+        for st in steps:
+            mark = "x" if st["cancelled"] else "kept"
+            res = st["residual_change"]
+            rtxt = f"{100 * res:+8.2f}%" if res is not None and math.isfinite(res) else f"{'-':>9}"
+            shifts = " ".join(f"{100 * x:+13.3f}%" for x in st["shift"]) if st["shift"] else ""
+            why = "" if st["cancelled"] else f"  {st['reason']}"
+            out.append(f"  {mark:<4} {st['parameter']:<{w}} {pct_or_dash(st['rel_std'])} {rtxt} "
+                       f"{shifts}{why}")
+        return out
+
+
+def pct_or_dash(x: float | None) -> str:
+    return "      -" if x is None or not math.isfinite(x) else (
+        f"{100 * x:7.3g}" if x < 10 else " >1000%")

@@ -82,3 +82,37 @@ def test_simulator_realistic_noise_gains_and_second_payload():
     err_manuf = abs(manuf.payload_mass.value / 1.136 - 1)
     assert err_id < 0.01
     assert err_manuf > 2 * err_id
+
+
+def _profile_records(simulate, seconds, seed, profile):
+    out = []
+    for payload, trajectory, s in (("none", "exciting", 1000 + seed), ("1.983", "exciting2", 2000 + seed)):
+        rec = simulate(seconds, payload=payload, trajectory=trajectory, seed=s, profile=profile)
+        cond = "loaded" if rec.payload_mass > 0 else "unloaded"
+        out.append(Record.from_arrays(f"{profile}-{cond}-{s}", rec.stamps_ns, rec.q, rec.v_tau, cond,
+                                      rec.payload_mass))
+    return out, np.asarray(rec.g_tau, float)
+
+
+def test_realistic_drive_honest_sigma_covers_the_gain_errors_and_essential_keeps_them():
+    """The realistic plant profile (current-loop lag, Stribeck breakaway, screw friction ripple,
+    2 mA), 30 s unloaded + 30 s loaded, seeds 0-3 (bench/identify_accuracy.py runs more): every
+    gain within 3 honest σ and at least 11 of 12 within 2; eqs. (38)-(39)'s σ do not cover them.
+    The screw ripple is found and modelled; the essential reduction keeps every gain within
+    max(its σ, 0.3 %) of the base model's."""
+    simulate = _simulate()
+    z_honest, z_paper = [], []
+    for seed in range(4):
+        recs, g_true = _profile_records(simulate, 30.0, seed, "realistic")
+        res = identify_records(recs, essential=True)
+        g = _gains(res)
+        honest = np.array([x.rel_std for x in res.drive_gains]) * g
+        paper = np.array([x.rel_std_paper for x in res.drive_gains]) * g
+        z_honest += list((g - g_true) / honest)
+        z_paper += list((g - g_true) / paper)
+        assert "q12" in [r["joint"] for r in res.ripple]
+        ge = np.array([x.value for x in res.essential.drive_gains])
+        assert np.all(np.abs(ge / g - 1) <= np.maximum(honest / g, 0.003) + 1e-12)
+    z_honest, z_paper = np.abs(z_honest), np.abs(z_paper)
+    assert z_honest.max() <= 3.0 and np.sum(z_honest <= 2.0) >= 11, z_honest
+    assert z_paper.max() > 3.0  # the paper's σ: one gain 3.2σ off

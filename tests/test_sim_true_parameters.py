@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from orthoglide_ident.errors import ConfigError
-from orthoglide_sim.true_parameters import PAYLOAD_NAMES, STANDARD_NAMES, load_parameters
+from orthoglide_sim.true_parameters import PAYLOAD_NAMES, PROFILES, STANDARD_NAMES, load_parameters
 
 
 def test_every_parameter_present_nonzero_and_consistent():
@@ -36,13 +36,35 @@ def test_every_parameter_present_nonzero_and_consistent():
 def test_yaml_override(tmp_path):
     f = tmp_path / "plant.yaml"
     f.write_text("plant:\n  g_tau: [2200, 2100.5, 2000]\n  parameters:\n    fv_12: 90.0\n"
-                 "  payloads:\n    '1.983': {m_7: 2.0}\n  screw_ripple: {enabled: true}\n")
+                 "  payloads:\n    '1.983': {m_7: 2.0}\n  profile: rig\n"
+                 "  profiles:\n    rig: {current_lag: 1.5e-4, screw_ripple: {amplitude: 0.02}}\n"
+                 "    realistic: {stribeck: {breakaway: 0.25}}\n")
     tp = load_parameters(f)
     assert tp.g_tau == (2200.0, 2100.5, 2000.0)
     assert tp.values["fv_12"] == 90.0
     assert tp.payload_vector("1.983")[9] == 2.0
-    assert tp.screw_ripple["enabled"] is True
-    assert load_parameters("config/plant.yaml").values["fs_13"] == 24.1
+    rig = tp.plant_profile()  # the YAML's default profile
+    assert rig.name == "rig" and rig.current_lag_s == 1.5e-4 and rig.ripple_amplitude == 0.02
+    assert rig.stribeck_breakaway == 0.0 and rig.current_noise_std == 1e-3  # the rest: nominal
+    real = tp.plant_profile("realistic")  # overridden key by key, the rest kept
+    assert real.stribeck_breakaway == 0.25 and real.current_lag_s == 1.2e-4
+    shipped = load_parameters("config/plant.yaml")
+    assert shipped.values["fs_13"] == 24.1
+    assert shipped.profile == "nominal" and shipped.plant_profile("realistic") == PROFILES["realistic"]
+    assert shipped.plant_profile("nominal") == PROFILES["nominal"]
+
+
+def test_profiles_default_and_realistic():
+    tp = load_parameters()
+    nominal = tp.plant_profile()
+    assert nominal.name == "nominal" and not nominal.unmodelled
+    real = tp.plant_profile("realistic")
+    assert 1.0e-4 <= real.current_lag_s <= 1.5e-4 and 0.2 <= real.stribeck_breakaway <= 0.4
+    assert 0.01 <= real.ripple_amplitude <= 0.02 and real.ripple_lead == 0.01
+    assert real.current_noise_std == 2 * nominal.current_noise_std
+    assert len(real.unmodelled) == 3
+    with pytest.raises(ConfigError, match="unknown plant profile 'rough'"):
+        tp.plant_profile("rough")
 
 
 @pytest.mark.parametrize("text, word", [
@@ -51,6 +73,13 @@ def test_yaml_override(tmp_path):
     ("plant:\n  gains: [1, 2, 3]\n", "gains"),
     ("plant:\n  g_tau: [1, 2]\n", "g_tau"),
     ("plant: [unclosed\n", "YAML"),
+    ("plant:\n  profiles:\n    realistic: {current_lag: -1.0e-4}\n", "current_lag"),
+    ("plant:\n  profiles:\n    realistic: {current_lag: slow}\n", "current_lag"),
+    ("plant:\n  profiles:\n    realistic: {stribeck: {breakaway: 0.3, width: 1}}\n", "width"),
+    ("plant:\n  profiles:\n    realistic: {screw_ripple: {lead: 0}}\n", "lead"),
+    ("plant:\n  profiles:\n    realistic: {gain_ripple: 1}\n", "gain_ripple"),
+    ("plant:\n  profile: rough\n", "rough"),
+    ("plant:\n  screw_ripple: {enabled: true}\n", "profiles"),
 ])
 def test_bad_yaml_gets_a_clear_error(tmp_path, text, word):
     f = tmp_path / "bad.yaml"

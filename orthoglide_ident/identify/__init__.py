@@ -6,11 +6,13 @@
 
 One module per step: segments (pairing, gaps) → filtering (derivative filter, zero-order hold)
 → reversals (sign() friction at velocity reversals) → decimation (parallel decimation, eqs.
-19-20) → tls / wls (eqs. 24-39) → essential (Sect. 5.2) → validation (Fig. 5); stream runs a
-segment through filtering, W, reversals and decimation block by block, factors keeps the
-equations as per-joint R factors, solve turns them into a result; pipeline ties them together
-for bags, live (with pairing and live_recording) while recording; options holds the tuning
-(config/identification.yaml).
+19-20) → tls / wls (eqs. 24-39) → uncertainty (σ that cover correlated residuals, next to eqs.
+38-39's; the residual's autocorrelation and spectrum over position) → drive_terms (a screw
+ripple found in the residual, added to the model) → essential (Sect. 5.2, keeping the gains) →
+validation (Fig. 5); stream runs a segment through filtering, W, reversals and decimation block
+by block, factors keeps the equations as per-joint R factors (and the residual moments), solve
+turns them into a result; pipeline ties them together for bags, live (with pairing and
+live_recording) while recording; options holds the tuning (config/identification.yaml).
 
     live = LiveIdentification()                      # see identify/live.py
     live.start_recording("run-1", "unloaded"); live.add_joint_states(...); ...

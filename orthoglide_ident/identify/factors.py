@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from orthoglide_ident.identify.observations import Observations
+from orthoglide_ident.identify.uncertainty import ResidualMoments
 
 FOLD_ROWS = 8192  # equations factored at once: a few MB whatever the record length
 
@@ -25,7 +26,8 @@ class RecordFactors:
 
     ``R[j]``: (≤ n_b + 2, n_b + 2) upper triangular, columns [W (n_b) | W_kl | v_τ];
     ``rows[j]``: equations of joint j folded in; ``n_samples``: decimated samples (before the
-    reversal selection); ``sources``: the records (bags) folded in.
+    reversal selection); ``sources``: the records (bags) folded in; ``moments``: per record, what
+    the honest σ and the residual diagnostics need (uncertainty.py), when the rows have instants.
     """
 
     condition: str  # "loaded" | "unloaded"
@@ -35,6 +37,7 @@ class RecordFactors:
     R: list[np.ndarray] = field(default_factory=list)
     rows: np.ndarray = field(default_factory=lambda: np.zeros(3, dtype=int))
     n_samples: int = 0
+    moments: dict[str, ResidualMoments] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         if not self.R:
@@ -55,11 +58,25 @@ class RecordFactors:
     def n_rows(self) -> int:
         return int(self.rows.sum())
 
-    def fold(self, X: np.ndarray, keep: np.ndarray | None = None) -> None:
-        """Fold decimated equations ``X: (n_b + 2, 3, r)`` (rows kept where ``keep: (3, r)``)."""
+    def fold(self, X: np.ndarray, keep: np.ndarray | None = None, t: np.ndarray | None = None,
+             source: str | None = None, row_period_s: float | None = None,
+             q: np.ndarray | None = None, qd: np.ndarray | None = None,
+             decimation: int = 1) -> None:
+        """Fold decimated equations ``X: (n_b + 2, 3, r)`` (rows kept where ``keep: (3, r)``).
+
+        With the rows' instants ``t: (r,)`` s (and ``source``, the record they belong to, the row
+        period, the rows' positions and velocities (r, 3) and the decimation factor), the residual
+        moments are folded too; rows of one record must come in time order.
+        """
         self.n_samples += int(X.shape[2])
         for j in range(3):
             self.fold_joint(j, (X[:, j, :] if keep is None else X[:, j, keep[j]]).T)
+        if t is not None:
+            key = source if source is not None else (self.sources[-1] if self.sources else "")
+            mom = self.moments.get(key)
+            if mom is None:
+                mom = self.moments[key] = ResidualMoments(self.n_b + 2, row_period_s, decimation)
+            mom.fold(X, keep, np.asarray(t, float), q, qd)
 
     def fold_joint(self, j: int, rows: np.ndarray) -> None:
         """Fold joint j's equations ``rows: (r, n_b + 2)``, FOLD_ROWS at a time (bounded memory)."""
@@ -81,6 +98,16 @@ class RecordFactors:
         for j in range(3):
             sel = slice(None) if obs.keep is None else obs.keep[j]
             f.fold_joint(j, np.column_stack([obs.W[j][sel], obs.w_m[j][sel], obs.v_tau[j][sel]]))
+        if obs.t is not None:
+            mom = f.moments[obs.source] = ResidualMoments(n_b + 2, obs.row_period_s,
+                                                          obs.decimation)
+            for a in range(0, obs.n_samples, FOLD_ROWS):  # in pieces: bounded temporary memory
+                b = min(a + FOLD_ROWS, obs.n_samples)
+                X = np.concatenate([obs.W[:, a:b].transpose(2, 0, 1), obs.w_m[None, :, a:b],
+                                    obs.v_tau[None, :, a:b]])
+                mom.fold(X, None if obs.keep is None else obs.keep[:, a:b], obs.t[a:b],
+                         None if obs.q is None else obs.q[a:b],
+                         None if obs.qd is None else obs.qd[a:b])
         return f
 
     def joint_r(self, j: int, T: np.ndarray) -> np.ndarray:

@@ -35,8 +35,9 @@ from orthoglide_ident.identify.live_recording import LiveRecording
 from orthoglide_ident.identify.options import IdentifyOptions
 from orthoglide_ident.identify.pipeline import IdentificationModel, default_model, finish_result
 from orthoglide_ident.identify.segments import JOINT_NAMES
-from orthoglide_ident.identify.solve import min_rows, solve
-from orthoglide_ident.identify.tls import TLSProblem, check_excitation
+from orthoglide_ident.identify.solve import min_rows, solve, tls_model
+from orthoglide_ident.identify.stream import DecimatedRows
+from orthoglide_ident.identify.tls import check_excitation
 from orthoglide_ident.results import IdentificationResult
 
 MAX_LOGGED_WARNINGS = 200  # the first ones, kept for result().warnings
@@ -208,14 +209,14 @@ class LiveIdentification:
         self._log.extend(messages[:max(room, 0)])
         return messages
 
-    def _fold(self, rec: LiveRecording, X: np.ndarray, keep: np.ndarray | None,
-              seconds: float) -> None:
+    def _fold(self, rec: LiveRecording, rows: DecimatedRows, seconds: float) -> None:
         key = (rec.condition, rec.payload_mass)
         f = self._factors.get(key)
         if f is None:
             f = self._factors[key] = RecordFactors(rec.condition, rec.payload_mass, self.n_b)
         f.add_source(rec.source)
-        f.fold(X, keep)
+        f.fold(rows.X, rows.keep, rows.t, rec.source,
+               self.opts.decimation * rec.period_ns * 1e-9, rows.q, rows.qd, self.opts.decimation)
         self._seconds[rec.condition] += seconds
         self._version.n += 1
 
@@ -301,7 +302,8 @@ class LiveIdentification:
         """TLS on the factors; status from the excitation checks (IdentifyOptions limits)."""
         opts = self.opts
         try:
-            sol = TLSProblem(factors, opts.weighting, noisy_columns=opts.tls_noisy_columns).solve()
+            m, _ = tls_model(factors, self.model, opts)  # as result() solves it
+            sol = m.full
         except (OrthoglideError, np.linalg.LinAlgError) as exc:
             return LiveEstimate(f"not identifiable yet: {exc}", **base)
         n = sol.chi.shape[0]
@@ -313,7 +315,7 @@ class LiveIdentification:
                            residual_rms=tuple(float(x) for x in sol.residual_rms), **base)
         try:
             if opts.check_excitation:
-                check_excitation(sol, opts.limits(), list(self.model.names))
+                check_excitation(sol, opts.limits(), m.names)
         except ExcitationError as exc:
             j = int(np.argmax(grel))
             if grel[j] > opts.max_gain_rel_std and str(exc).startswith("drive gain of"):

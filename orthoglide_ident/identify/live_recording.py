@@ -24,7 +24,7 @@ PERIOD_SAMPLES = 200  # paired ticks whose median step sets the period
 MAX_STEP_VALUES = 10_000  # distinct stamp steps kept to recompute the record's median
 SILENT_TOPIC_S = 2.0  # one topic this far behind the other: say so
 
-Fold = Callable[["LiveRecording", np.ndarray, "np.ndarray | None", float], None]
+Fold = Callable[["LiveRecording", DecimatedRows, float], None]
 
 
 class LiveRecording:
@@ -224,7 +224,7 @@ class LiveRecording:
         self.n_decimated += rows.r
         self._done_s = float(rows.t[-1])
         seconds = rows.r * self.opts.decimation * self.period_ns * 1e-9
-        self._fold(self, rows.X, keep, seconds)
+        self._fold(self, rows, seconds)
 
     def _watch_still(self, qd: np.ndarray, out: list[str]) -> None:
         """Warn once per run when a joint stays below the velocity dead band ``live_still_s``."""

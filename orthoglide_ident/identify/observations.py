@@ -25,6 +25,10 @@ class Observations:
     w_m: np.ndarray  # (3, r)
     t: np.ndarray | None = None  # (r,) s since the record's first stamp (state instants)
     keep: np.ndarray | None = None  # (3, r) bool: rows used (e.g. away from velocity reversal)
+    q: np.ndarray | None = None  # (r, 3) m, filtered positions at the rows' instants
+    qd: np.ndarray | None = None  # (r, 3) m/s, filtered velocities at the rows' instants
+    row_period_s: float | None = None  # s between consecutive decimated rows of a segment
+    decimation: int = 1  # n_d of the rows (the decimation filter's gain, uncertainty.py)
 
     @property
     def n_samples(self) -> int:

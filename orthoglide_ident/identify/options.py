@@ -40,6 +40,15 @@ class IdentifyOptions:
     # when they excite less
     tls_noisy_columns: str = "all"  # the paper's TLS (eqs. 35-36); "currents": mixed LS-TLS
     r_sigma: float = 10.0  # essential parameters stop at max %σ / min %σ < r_sigma
+    # "keep_gains": cancel by the r_sigma order only while the gains (TLS) or the estimated
+    # payload masses (WLS) stay within max(their σ, essential_min_tolerance) of the base model's
+    # and the residual grows by at most essential_max_residual_increase; "paper": Sect. 5.2 as is
+    # a position-periodic force found in the residual (a screw's friction ripple at its lead):
+    # "auto" adds two columns per joint that has one (drive_terms.py), "off" leaves it to the σ
+    ripple_model: str = "auto"
+    essential_method: str = "keep_gains"
+    essential_min_tolerance: float = 0.003  # fraction (0.3 %)
+    essential_max_residual_increase: float = 0.05  # fraction of the weighted residual norm
     payload_mass_std_kg: float = 0.001  # std of the weighed payload mass (reported for m_7)
     payload_tolerance_kg: float = 0.0005  # bag tag vs --payload-mass disagreement allowed
     check_excitation: bool = True
@@ -111,6 +120,13 @@ class IdentifyOptions:
             raise ConfigError(f"{source}: decimation, filter_order >= 1 and chunk_samples >= 64")
         if self.r_sigma <= 1:
             raise ConfigError(f"{source}: r_sigma must be > 1 (the paper uses 10)")
+        if self.ripple_model not in ("auto", "off"):
+            raise ConfigError(f"{source}: ripple_model must be 'auto' or 'off'")
+        if self.essential_method not in ("keep_gains", "paper"):
+            raise ConfigError(f"{source}: essential_method must be 'keep_gains' or 'paper'")
+        if not (self.essential_min_tolerance >= 0 and self.essential_max_residual_increase >= 0):
+            raise ConfigError(f"{source}: essential_min_tolerance and "
+                              "essential_max_residual_increase must be >= 0 (fractions)")
         if self.filter_cutoff_hz <= 0:
             raise ConfigError(f"{source}: filter_cutoff_hz must be > 0")
         if not (self.live_block_s > 0 and self.live_pairing_slack_s >= 0

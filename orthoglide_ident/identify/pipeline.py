@@ -140,7 +140,8 @@ def observe(rec: Record, model: IdentificationModel, opts: IdentifyOptions,
     # views of the (n_b + 2, 3, r) rows: W (3, r, n_b), v_tau and w_m (3, r), no copies
     obs = Observations(rec.source, str(rec.condition), payload_mass,
                        rows.X[:n_b].transpose(1, 2, 0), rows.X[n_b + 1], rows.X[n_b],
-                       t=rows.t, keep=rows.keep)
+                       t=rows.t, keep=rows.keep, q=rows.q, qd=rows.qd,
+                       row_period_s=opts.decimation * rep.period_s, decimation=opts.decimation)
     rep.n_reversal_bridged = n_bridged
     rep.n_reversal_unbridged = n_unbridged
     log.info("%s: W built and decimated by %d: %s equations per joint (%.2f s); velocity "
@@ -164,7 +165,7 @@ def _segments_fir(segments: list[Segment], model: IdentificationModel, opts: Ide
     with_keep = opts.velocity_deadband_mps > 0
     out = DecimatedRows(np.empty((n_b + 2, 3, sum(counts))),
                         np.empty((3, sum(counts)), bool) if with_keep else None,
-                        np.empty(sum(counts)))
+                        np.empty(sum(counts)), np.empty((sum(counts), 3)), np.empty((sum(counts), 3)))
     t_start = int(segments[0].stamps_ns[0])
     n_bridged = n_unbridged = 0
     r0 = 0
@@ -197,7 +198,7 @@ def _segments_iir(segments: list[Segment], model: IdentificationModel, opts: Ide
     """
     trim = int(round(opts.edge_trim_s / T))
     n_d = opts.decimation
-    parts: dict[str, list[np.ndarray]] = {"X": [], "t": [], "keep": []}
+    parts: dict[str, list[np.ndarray]] = {"X": [], "t": [], "keep": [], "q": [], "qd": []}
     times["filtering"] = times["regressor+decimation"] = 0.0
     n_bridged = n_unbridged = 0
     t_start = int(segments[0].stamps_ns[0])
@@ -234,11 +235,14 @@ def _segments_iir(segments: list[Segment], model: IdentificationModel, opts: Ide
         parts["X"].append(dec["X"].transpose(2, 1, 0))
         r = dec["X"].shape[0]
         parts["t"].append(ts[0::n_d][:r])
+        parts["q"].append(qh[0::n_d][:r])
+        parts["qd"].append(qdh[0::n_d][:r])
         if zones is not None:
             parts["keep"].append(rows_clear(zones.drop, n_d, r, "cheby1").T)
         times["regressor+decimation"] += time.perf_counter() - t2
     keep = np.concatenate(parts["keep"], axis=1) if parts["keep"] else None
-    return (DecimatedRows(np.concatenate(parts["X"], axis=2), keep, np.concatenate(parts["t"])),
+    return (DecimatedRows(np.concatenate(parts["X"], axis=2), keep, np.concatenate(parts["t"]),
+                          np.concatenate(parts["q"]), np.concatenate(parts["qd"])),
             n_bridged, n_unbridged)
 
 
@@ -343,7 +347,8 @@ def finish_result(result: IdentificationResult, solved: Solved, reports: list[di
         warnings.append(f"condition number of the scaled observation matrix is "
                         f"{result.condition_number:.3g}: some base parameters are poorly excited "
                         "(see their %σ; --essential keeps the well-identified ones)")
-    result.warnings = warnings
+    result.warnings = list(warnings) + [w for w in result.warnings if w not in warnings]
+    solver_diagnostics = dict(result.diagnostics)  # e.g. "uncertainty", set by the solve
     result.diagnostics = {
         "samples_used": int(sum(r["n_used"] for r in reports)),
         "samples_dropped": int(sum(r["n_paired"] - r["n_used"] + r["n_unpaired_joint_states"]
@@ -356,6 +361,8 @@ def finish_result(result: IdentificationResult, solved: Solved, reports: list[di
         "timings_s": {k: round(v, 4) for k, v in timings.items()},
         "options": dict(vars(opts)),
     }
+    for key, value in solver_diagnostics.items():
+        result.diagnostics.setdefault(key, value)
 
 
 def identify(

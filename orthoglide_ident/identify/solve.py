@@ -16,12 +16,14 @@ from typing import Any, Sequence
 import numpy as np
 
 from orthoglide_ident.errors import ExcitationError, IdentificationError
+from orthoglide_ident.identify import drive_terms
 from orthoglide_ident.identify.essential import EssentialResult, essential_parameters
 from orthoglide_ident.identify.factors import RecordFactors
 from orthoglide_ident.identify.options import IdentifyOptions
 from orthoglide_ident.identify.segments import JOINT_NAMES
 from orthoglide_ident.identify.tls import (TLSProblem, TLSSolution, check_excitation,
                                            require_loaded_and_unloaded)
+from orthoglide_ident.identify.uncertainty import diagnose
 from orthoglide_ident.identify.wls import WLSSolution, idim_wls
 from orthoglide_ident.results import Estimate, IdentificationResult, PayloadMass
 
@@ -61,17 +63,34 @@ def check_rows(factors: list[RecordFactors], opts: IdentifyOptions) -> None:
                 "not exciting (or lower velocity_deadband_mps)")
 
 
-def _gains_estimates(g: np.ndarray, rel: np.ndarray | None) -> list[Estimate]:
-    return [Estimate(j, float(g[i]), float(rel[i]) if rel is not None else 0.0)
+def _gains_estimates(g: np.ndarray, rel: np.ndarray | None,
+                     rel_paper: np.ndarray | None = None) -> list[Estimate]:
+    return [Estimate(j, float(g[i]), float(rel[i]) if rel is not None else 0.0,
+                     rel_std_paper=float(rel_paper[i]) if rel_paper is not None else
+                     (None if rel is not None else 0.0))
             for i, j in enumerate(JOINT_NAMES)]
 
 
 def _param_estimates(model, sol: TLSSolution | WLSSolution) -> list[Estimate]:
     idx = np.flatnonzero(sol.active)
     exprs = list(getattr(model, "expressions", [""] * len(model.names)))
+    paper = sol.rel_std_paper
     return [Estimate(str(model.names[k]), float(sol.chi[i]), float(sol.rel_std[i]),
-                     str(exprs[k]) if k < len(exprs) else "")
+                     str(exprs[k]) if k < len(exprs) else "",
+                     float(paper[i]) if paper is not None else None)
             for i, k in enumerate(idx)]
+
+
+def _uncertainty(result: IdentificationResult, sol: TLSSolution | WLSSolution,
+                 opts: IdentifyOptions, gains: bool) -> None:
+    """The honest σ's diagnostics and the residual's warnings into ``result``."""
+    if sol.uncertainty is None:
+        return
+    n = sol.chi.shape[0]
+    d, warnings = diagnose(sol.uncertainty, opts.decimation, n, JOINT_NAMES,
+                           gain_index=slice(n, n + 3) if gains else None)
+    result.diagnostics["uncertainty"] = d
+    result.warnings.extend(warnings)
 
 
 def _sources(factors: list[RecordFactors], mass: float) -> list[str]:
@@ -87,7 +106,10 @@ def tls_result(model, sol: TLSSolution, factors: list[RecordFactors], opts: Iden
                 for m in sorted({f.payload_mass for f in factors if f.loaded})]
     return IdentificationResult(
         method="tls", joint_names=list(JOINT_NAMES),
-        drive_gains=_gains_estimates(sol.g_tau, sol.rel_std[n:n + 3]), drive_gains_given=False,
+        drive_gains=_gains_estimates(sol.g_tau, sol.rel_std[n:n + 3],
+                                     None if sol.rel_std_paper is None
+                                     else sol.rel_std_paper[n:n + 3]),
+        drive_gains_given=False,
         parameters=_param_estimates(model, sol), payload_mass=payloads[0] if payloads else None,
         payloads=payloads, condition_number=sol.condition_number,
         residual_rms=[float(x) for x in sol.residual_rms], bags=bags,
@@ -99,7 +121,8 @@ def wls_result(model, sol: WLSSolution, g_tau: np.ndarray, factors: list[RecordF
     """The result of an IDIM-WLS solve (gains given, payload masses estimated)."""
     n = sol.chi.shape[0]
     payloads = [PayloadMass(float(sol.payload_masses[k]), float(sol.rel_std[n + k]), False, m_tag,
-                            _sources(factors, m_tag))
+                            _sources(factors, m_tag),
+                            None if sol.rel_std_paper is None else float(sol.rel_std_paper[n + k]))
                 for k, m_tag in enumerate(sol.payload_groups)]
     return IdentificationResult(
         method="wls", joint_names=list(JOINT_NAMES), drive_gains=_gains_estimates(g_tau, None),
@@ -110,30 +133,117 @@ def wls_result(model, sol: WLSSolution, g_tau: np.ndarray, factors: list[RecordF
     )
 
 
+@dataclass
+class _Model:
+    """How a solve is set up: the base problem, or the one with the drive terms' columns
+    (drive_terms.py: unknowns = the base parameters, then the terms'), and how to read it."""
+
+    solve_active: Any  # active (n_b + n_extra,) bool -> solution
+    full: Any  # solution on every column
+    n_b: int
+    terms: drive_terms.Terms
+    names: list[str]
+
+    @property
+    def fixed(self) -> np.ndarray:
+        f = np.zeros(self.n_b + self.terms.n_extra, bool)
+        f[self.n_b:] = True
+        return f
+
+    def view(self, sol) -> tuple[Any, list]:
+        """Base-model view of a solution, and its identified ripples."""
+        if not self.terms:
+            return sol, []
+        return drive_terms.split(sol, self.n_b, self.terms, JOINT_NAMES)
+
+
+def _set_up(factors: list[RecordFactors], model, opts: IdentifyOptions, base, make_solver
+            ) -> _Model:
+    """The model to report: the base one, or with the ripple columns the base residual's
+    position spectrum calls for.
+
+    ``make_solver(factors) -> solve(active, reweight)`` builds a solver on (augmented) factors.
+    """
+    n_b = factors[0].n_b
+    base_solve = make_solver(factors)
+    plain = _Model(lambda act: base_solve(act, False), base, n_b, drive_terms.Terms(),
+                   list(model.names))
+    terms = drive_terms.Terms(drive_terms.detect_ripples(base.uncertainty, JOINT_NAMES)
+                              if opts.ripple_model == "auto" else ())
+    if not terms or not drive_terms.can_model(factors, terms):
+        return plain
+    k = terms.n_extra
+    log.info("ripple in the residual of %s: two columns each added to the model", ", ".join(
+        f"{JOINT_NAMES[t.joint]} ({1e3 * t.wavelength_m:.1f} mm)" for t in terms.ripples))
+    aug_solve = make_solver(drive_terms.augmented_factors(factors, terms))
+    full = drive_terms.transfer_inflation(aug_solve(None, None), base, n_b, k)
+    return _Model(lambda act: drive_terms.transfer_inflation(aug_solve(act, False), base, n_b, k),
+                  full, n_b, terms, list(model.names) + terms.names(JOINT_NAMES))
+
+
+def _ripple_notes(result: IdentificationResult, ripples: list) -> None:
+    result.ripple = [r.to_json() for r in ripples]
+    for r in ripples:  # said once: as modelled, not as a peak in the residual
+        result.warnings = [w for w in result.warnings
+                           if not w.startswith(f"the residual of {r.joint} varies with its position")]
+        result.warnings.append(
+            f"{r.joint}: a {'friction' if r.friction else 'force'} ripple of ±{r.amplitude_n:.2g} N "
+            f"(σ {r.amplitude_std_n:.1g} N) at a {1e3 * r.wavelength_m:.1f} mm period of its "
+            "position was found in the residual and added to the model (ripple_model: auto); the "
+            "gains and parameters are those of the model with it")
+
+
+def tls_model(factors: list[RecordFactors], model, opts: IdentifyOptions) -> tuple[_Model, Any]:
+    """The IDIM-TLS solve a result reports (with the ripple columns the residual calls for), not
+    checked for excitation; and the base model's solution (whose residual the diagnostics
+    describe). Shared by :func:`solve_tls` and the live estimate."""
+    problem = TLSProblem(factors, opts.weighting, noisy_columns=opts.tls_noisy_columns)
+    base = problem.solve()
+
+    def make_solver(fs):
+        pr = problem if fs is factors else TLSProblem(fs, opts.weighting,
+                                                      noisy_columns=opts.tls_noisy_columns)
+        return pr.solve
+
+    return _set_up(factors, model, opts, base, make_solver), base
+
+
 def solve_tls(factors: list[RecordFactors], model, opts: IdentifyOptions, essential: bool,
               bags: list[str]) -> Solved:
     """IDIM-TLS (eqs. 33-39), excitation checked, optionally the essential parameters."""
     require_loaded_and_unloaded(factors, "IDIM-TLS")
     log.info("IDIM-TLS on %d equations × %d unknowns", sum(f.n_rows for f in factors),
              factors[0].n_b + 4)
-    problem = TLSProblem(factors, opts.weighting, noisy_columns=opts.tls_noisy_columns)
-    sol = problem.solve()
+    m, base = tls_model(factors, model, opts)
+    sol = m.full
     if opts.check_excitation:
-        check_excitation(sol, opts.limits(), list(model.names))
-    result = tls_result(model, sol, factors, opts, bags)
+        check_excitation(sol, opts.limits(), m.names)
+    view, ripples = m.view(sol)
+    result = tls_result(model, view, factors, opts, bags)
+    _uncertainty(result, base, opts, gains=True)
+    _ripple_notes(result, ripples)
     solver = {"tls_noisy_columns": opts.tls_noisy_columns, "singular_ratio": sol.singular_ratio,
               "smallest_singular_values": [float(x) for x in sol.singular_values[-3:]],
               "joint_sigma": [float(x) for x in sol.joint_sigma], "lambda": sol.lambda_scale}
-    out = Solved(result, sol.chi_full(), sol.g_tau, solver, sol)
+    out = Solved(result, view.chi_full(), view.g_tau, solver, view)
     if essential:
         t0 = time.perf_counter()
-        log.info("essential parameters (r_sigma = %g)", opts.r_sigma)
-        ess = essential_parameters(lambda act: problem.solve(act, reweight=False), problem.n_b,
-                                   opts.r_sigma, start=sol)
-        result.essential = tls_result(model, ess.solution, factors, opts, bags)
-        _note_essential(model, result, ess)
+        log.info("essential parameters (%s, r_sigma = %g)", opts.essential_method, opts.r_sigma)
+        ess = _essential(m, opts, [f"g_tau {j}" for j in JOINT_NAMES])
+        ess_view, ess_ripples = m.view(ess.solution)
+        result.essential = tls_result(model, ess_view, factors, opts, bags)
+        result.essential.ripple = [r.to_json() for r in ess_ripples]
+        _note_essential(m.names, result, ess)
         out.timings["essential"] = time.perf_counter() - t0
     return out
+
+
+def _essential(m: _Model, opts: IdentifyOptions, protected_names: list[str]) -> EssentialResult:
+    return essential_parameters(m.solve_active, len(m.names), opts.r_sigma, start=m.full,
+                                method=opts.essential_method, names=m.names,
+                                min_tolerance=opts.essential_min_tolerance,
+                                max_residual_increase=opts.essential_max_residual_increase,
+                                protected_names=protected_names, fixed=m.fixed)
 
 
 def manufacturer_or_given(gains: Sequence[float] | None) -> np.ndarray:
@@ -153,25 +263,38 @@ def solve_wls(factors: list[RecordFactors], model, opts: IdentifyOptions,
     """IDIM-WLS (eqs. 24-28) with given gains, payload masses estimated."""
     g = manufacturer_or_given(gains)
     log.info("IDIM-WLS on %d equations", sum(f.n_rows for f in factors))
-    wsol = idim_wls(factors, g, weighting=opts.weighting)
-    result = wls_result(model, wsol, g, factors, bags)
-    out = Solved(result, wsol.chi_full(), g, {"joint_sigma": [float(x) for x in wsol.joint_sigma]})
+    base = idim_wls(factors, g, weighting=opts.weighting)
+
+    def make_solver(fs):
+        def solve_active(act, reweight):
+            return idim_wls(fs, g, active=act, weighting=opts.weighting)
+        return solve_active
+
+    m = _set_up(factors, model, opts, base, make_solver)
+    view, ripples = m.view(m.full)
+    result = wls_result(model, view, g, factors, bags)
+    _uncertainty(result, base, opts, gains=False)
+    _ripple_notes(result, ripples)
+    out = Solved(result, view.chi_full(), g, {"joint_sigma": [float(x) for x in view.joint_sigma]})
     if essential:
         t0 = time.perf_counter()
-        ess = essential_parameters(
-            lambda act: idim_wls(factors, g, active=act, weighting=opts.weighting),
-            len(model.names), opts.r_sigma, start=wsol)
-        result.essential = wls_result(model, ess.solution, g, factors, bags)
-        _note_essential(model, result, ess)
+        ess = _essential(m, opts, [f"m_7 ({mass:g} kg)" for mass in base.payload_groups])
+        ess_view, ess_ripples = m.view(ess.solution)
+        result.essential = wls_result(model, ess_view, g, factors, bags)
+        result.essential.ripple = [r.to_json() for r in ess_ripples]
+        _note_essential(m.names, result, ess)
         out.timings["essential"] = time.perf_counter() - t0
     return out
 
 
-def _note_essential(model, result: IdentificationResult, ess: EssentialResult) -> None:
+def _note_essential(names: list[str], result: IdentificationResult, ess: EssentialResult) -> None:
     assert result.essential is not None
-    result.essential.removed = [str(model.names[k]) for k in ess.removed]
-    result.essential.diagnostics = {"stopped_because": ess.stopped_because,
-                                    "ratios": [float(x) for x in ess.ratios]}
+    result.essential.removed = [str(names[k]) for k in ess.removed]
+    result.essential.diagnostics = {"method": ess.method, "stopped_because": ess.stopped_because,
+                                    "ratios": [float(x) for x in ess.ratios],
+                                    "tolerance": ess.tolerance,
+                                    "steps": [st.to_json() for st in ess.steps]}
+    result.essential.essential_steps = list(ess.steps)
     result.removed = list(result.essential.removed)
 
 

@@ -37,12 +37,16 @@ class DecimatedRows:
     ``X: (n_b + 2, 3, r)``: for joint j and decimated sample i, ``X[:n_b, j, i]`` is the row of
     W, ``X[n_b, j, i]`` the payload-mass column W_kl (N/kg) and ``X[n_b + 1, j, i]`` v_tau (A).
     ``keep: (3, r)`` bool (rows away from unbridged reversals) or None; ``t: (r,)`` s since the
-    record's first stamp (state instants).
+    record's first stamp (state instants); ``q, qd: (r, 3)`` the filtered positions (m) and
+    velocities (m/s) at those instants (the residual's position spectrum and the ripple columns
+    of identify/drive_terms.py), or None.
     """
 
     X: np.ndarray
     keep: np.ndarray | None
     t: np.ndarray
+    q: np.ndarray | None = None
+    qd: np.ndarray | None = None
 
     @property
     def r(self) -> int:
@@ -55,12 +59,15 @@ class DecimatedRows:
         self.t[r0:r1] = rows.t
         if self.keep is not None:
             self.keep[:, r0:r1] = rows.keep
+        if self.q is not None and rows.q is not None:
+            self.q[r0:r1] = rows.q
+            self.qd[r0:r1] = rows.qd
         return r1
 
     @staticmethod
     def empty(n_cols: int, with_keep: bool) -> "DecimatedRows":
         return DecimatedRows(np.zeros((n_cols, 3, 0)), np.zeros((3, 0), bool) if with_keep
-                             else None, np.zeros(0))
+                             else None, np.zeros(0), np.zeros((0, 3)), np.zeros((0, 3)))
 
 
 def model_block(model, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray,
@@ -116,6 +123,7 @@ class SegmentStream:
         self._X = np.zeros((n_b + 2, 3, 0))
         self._drop = np.zeros((3, 0), bool)
         self._ts = np.zeros(0, np.int64)
+        self._qs = np.zeros((0, 6))  # q̂, q̂̇ of the states (m, m/s): the rows' positions
         self._i_out = 0  # next decimated output
         self.times = {"filtering": 0.0, "regressor": 0.0, "decimation": 0.0}  # s, wall clock
 
@@ -192,13 +200,15 @@ class SegmentStream:
 
     def _add_states(self, stamps_ns: np.ndarray, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray,
                     v_tau: np.ndarray) -> None:
-        """W and W_kl of new states into the buffer, with their v_tau and stamps."""
+        """W and W_kl of new states into the buffer, with their v_tau, stamps and q̂, q̂̇."""
         t0 = time.perf_counter()
         m = q.shape[0]
         X, pos = self._reserve(m)
         model_block(self.model, q, qd, qdd, X[:self.n_b + 1, :, pos:pos + m])
         X[self.n_b + 1, :, pos:pos + m] = np.asarray(v_tau).T
         self._ts[pos:pos + m] = stamps_ns
+        self._qs[pos:pos + m, :3] = q
+        self._qs[pos:pos + m, 3:] = qd
         self._drop[:, pos:pos + m] = False
         self._S += m
         self.times["regressor"] += time.perf_counter() - t0
@@ -214,7 +224,9 @@ class SegmentStream:
             drop[:, :used] = self._drop[:, :used]
             ts = np.zeros(cap, np.int64)
             ts[:used] = self._ts[:used]
-            self._X, self._drop, self._ts = X, drop, ts
+            qs = np.zeros((cap, 6))
+            qs[:used] = self._qs[:used]
+            self._X, self._drop, self._ts, self._qs = X, drop, ts, qs
         return self._X, used
 
     def _compact(self) -> None:
@@ -232,6 +244,7 @@ class SegmentStream:
         self._X[:, :, :used - k] = self._X[:, :, k:used]
         self._drop[:, :used - k] = self._drop[:, k:used]
         self._ts[:used - k] = self._ts[k:used]
+        self._qs[:used - k] = self._qs[k:used]
         self._b0 = keep
 
     # --- velocity reversals -------------------------------------------------------------------
@@ -303,4 +316,5 @@ class SegmentStream:
         centre = a + (L - 1) // 2 + np.arange(r) * n_d
         t = (self._ts[centre] - self.t0_ns) * 1e-9 + (0.5 * self.T if self.zoh else 0.0)
         self._i_out += r
-        return DecimatedRows(Xd, keep, t)
+        qs = self._qs[centre]
+        return DecimatedRows(Xd, keep, t, qs[:, :3], qs[:, 3:])

@@ -9,7 +9,8 @@ Several loaded records may be stacked, each with its own weighed mass: the last 
 -W_kl·m_7 of each. χ_ul is empty for the Orthoglide (only m_7 acts on a translating platform).
 The solution is the right singular vector of the smallest singular value (eqs. 35-36), scaled so
 that its last component is 1. Rows of joint j are weighted by 1/σ_j (Sect. 4.2), σ_j from a first
-unweighted solution. Standard deviations by eqs. (37)-(39).
+unweighted solution. Standard deviations by eqs. (37)-(39) (``rel_std_paper``) and the honest
+ones that also cover correlated residuals (``rel_std``, uncertainty.py).
 
 Non-excitation is detected, not returned as numbers: with gentle trajectories the smallest
 singular vector of W_tot is a near-null direction of the regressor, not the gains
@@ -24,6 +25,7 @@ import numpy as np
 from orthoglide_ident.errors import ExcitationError, IdentificationError
 from orthoglide_ident.identify.factors import RecordFactors, as_factors
 from orthoglide_ident.identify.observations import Observations
+from orthoglide_ident.identify.uncertainty import Uncertainty, evaluate
 
 
 @dataclass
@@ -40,8 +42,10 @@ class ExcitationLimits:
 class TLSSolution:
     """Result of one IDIM-TLS solve over the active base parameters.
 
-    ``chi (n,)`` active base parameters, ``g_tau (3,)`` N/A; ``cov`` over ``[chi, g_tau]`` (eq. 39),
-    ``rel_std`` = σ/|value| as a fraction; residuals in N.
+    ``chi (n,)`` active base parameters, ``g_tau (3,)`` N/A; ``cov`` over ``[chi, g_tau]``: the
+    honest covariance (uncertainty.py: the largest of eq. 39, the stationary-correlation and the
+    block sandwich), ``cov_paper`` that of eq. (39); ``rel_std`` = σ/|value| as a fraction (honest),
+    ``rel_std_paper`` the paper's; residuals in N.
     """
 
     active: np.ndarray  # (n_b,) bool
@@ -59,6 +63,10 @@ class TLSSolution:
     n_cols: int
     lambda_scale: float  # eq. (36) scale 1/χ^n_c
     notes: list[str] = field(default_factory=list)
+    cov_paper: np.ndarray | None = None  # eq. (39)
+    rel_std_paper: np.ndarray | None = None
+    uncertainty: Uncertainty | None = None
+    rows_per_joint: np.ndarray | None = None  # (3,) equations
 
     @property
     def singular_ratio(self) -> float:
@@ -265,14 +273,20 @@ class TLSProblem:
         sigma_w = np.sqrt(sigma_rho2 / (1.0 + x @ x))
         G1 = G[:c - 1, :c - 1]
         try:
-            cov = sigma_rho2 * np.linalg.inv(G1)  # eq. (39): σ_W² (1 + ‖χ̂‖²) (Ŵᵀ Ŵ)⁻¹
+            G_inv = np.linalg.inv(G1)
         except np.linalg.LinAlgError as exc:
             raise ExcitationError(
                 "Ŵ_tot is singular: some base parameter has no effect on the recorded forces"
             ) from exc
+        cov_paper = sigma_rho2 * G_inv  # eq. (39): σ_W² (1 + ‖χ̂‖²) (Ŵᵀ Ŵ)⁻¹
+        unc = evaluate(self.blocks, lambda b, j: tls_columns(b, j, self.n_joints)[:, cols],
+                       chi_tot, self.joint_sigma, G_inv, cov_paper, r)
+        cov = unc.cov
         std = np.sqrt(np.abs(np.diag(cov)))
+        std_paper = np.sqrt(np.abs(np.diag(cov_paper)))
         with np.errstate(divide="ignore", invalid="ignore"):
             rel = np.where(x != 0, std / np.abs(x), np.inf)
+            rel_paper = np.where(x != 0, std_paper / np.abs(x), np.inf)
         rms, _ = self.joint_rms(self._full(chi_tot, active), c - 1)
         Wa = A[:, :n]
         norms = np.linalg.norm(Wa, axis=0)
@@ -296,6 +310,10 @@ class TLSProblem:
             n_rows=r,
             n_cols=c,
             lambda_scale=float(lam),
+            cov_paper=cov_paper,
+            rel_std_paper=rel_paper,
+            uncertainty=unc,
+            rows_per_joint=self.rows_joint.copy(),
         )
 
 

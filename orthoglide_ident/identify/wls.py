@@ -14,6 +14,7 @@ import numpy as np
 from orthoglide_ident.errors import ExcitationError, IdentificationError
 from orthoglide_ident.identify.factors import RecordFactors, as_factors
 from orthoglide_ident.identify.observations import Observations
+from orthoglide_ident.identify.uncertainty import Uncertainty, evaluate
 
 
 @dataclass
@@ -24,7 +25,7 @@ class WLSSolution:
     chi: np.ndarray
     payload_masses: np.ndarray
     payload_groups: list[float]  # tagged mass of each group, kg
-    cov: np.ndarray  # over [chi, payload_masses], eq. (27)
+    cov: np.ndarray  # over [chi, payload_masses]: honest (uncertainty.py)
     std: np.ndarray
     rel_std: np.ndarray
     joint_sigma: np.ndarray
@@ -32,6 +33,10 @@ class WLSSolution:
     condition_number: float
     n_rows: int
     n_cols: int
+    cov_paper: np.ndarray | None = None  # eq. (27)
+    rel_std_paper: np.ndarray | None = None
+    uncertainty: Uncertainty | None = None
+    rows_per_joint: np.ndarray | None = None  # (3,) equations
 
     def chi_full(self) -> np.ndarray:
         out = np.zeros(self.active.shape[0])
@@ -48,23 +53,29 @@ def payload_groups(blocks: list[Observations | RecordFactors]) -> list[float]:
     return groups
 
 
+def wls_columns(b: RecordFactors, g_j: float, groups: list[float], estimate_payload: bool,
+                cols: np.ndarray) -> np.ndarray:
+    """T with [W | W_kl | v_τ]·T = [A_j | Y_j] (eq. 28) for record b: (n_b + 2, len(cols) + 1)."""
+    n_b = b.n_b
+    T = np.zeros((n_b + 2, n_b + len(groups) + 1))
+    T[np.arange(n_b), np.arange(n_b)] = 1.0
+    T[n_b + 1, -1] = g_j  # Y = g_τ v_τ
+    if b.loaded:
+        if estimate_payload:
+            k = next(i for i, m in enumerate(groups) if abs(b.payload_mass - m) < 1e-9)
+            T[n_b, n_b + k] = 1.0
+        else:
+            T[n_b, -1] = -b.payload_mass
+    return T[:, np.concatenate([cols, [T.shape[1] - 1]])]
+
+
 def _joint_r(blocks: list[RecordFactors], j: int, g_j: float, groups: list[float],
              estimate_payload: bool, cols: np.ndarray) -> tuple[np.ndarray, int]:
     """R of [A_j | Y_j] for joint j's rows (eq. 28), from each record's R of [W | W_kl | v_τ]."""
-    n_b = blocks[0].n_b
     Rs, rows = [], 0
     for b in blocks:
-        T = np.zeros((n_b + 2, n_b + len(groups) + 1))  # [W | W_kl | v_τ]·T = [A_j | Y_j]
-        T[np.arange(n_b), np.arange(n_b)] = 1.0
-        T[n_b + 1, -1] = g_j  # Y = g_τ v_τ
-        if b.loaded:
-            if estimate_payload:
-                k = next(i for i, m in enumerate(groups) if abs(b.payload_mass - m) < 1e-9)
-                T[n_b, n_b + k] = 1.0
-            else:
-                T[n_b, -1] = -b.payload_mass
         rows += int(b.rows[j])
-        Rs.append(b.joint_r(j, T[:, np.concatenate([cols, [T.shape[1] - 1]])]))
+        Rs.append(b.joint_r(j, wls_columns(b, g_j, groups, estimate_payload, cols)))
     return np.linalg.qr(np.vstack(Rs), mode="r"), rows
 
 
@@ -79,6 +90,30 @@ def _solve_r(R: np.ndarray, c: int) -> tuple[np.ndarray, np.ndarray]:
             "unloaded bag next to the loaded ones"
         )
     return np.linalg.solve(R11, R[:c, c]), R11
+
+
+def _joint_ss(Rj: list[np.ndarray], x: np.ndarray) -> np.ndarray:
+    """‖Y_j - A_j x‖² per joint from the R factors of [A_j | Y_j]."""
+    xe = np.concatenate([x, [-1.0]])
+    return np.array([float(np.sum((R @ xe) ** 2)) for R in Rj])
+
+
+def _weighted_ls(Rj: list[np.ndarray], nrows: list[int], c: int, weighting: bool
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Ordinary LS (eq. 24), then the rows of joint j weighted by 1/σ_j (eq. 28) and solved again:
+    the unweighted stacked R factor, x, the weighted triangular R11 and σ_j."""
+    r = int(sum(nrows))
+    R0 = np.linalg.qr(np.vstack(Rj), mode="r")
+    x, _ = _solve_r(R0, c)
+    sig = np.ones(len(Rj))
+    if not weighting:
+        return R0, x, _solve_r(R0, c)[1], sig
+    ss = _joint_ss(Rj, x)
+    for j in range(len(Rj)):
+        sig[j] = np.sqrt(ss[j] / max(nrows[j] - c * nrows[j] / r, 1.0))  # eq. (28)
+    sig[sig <= 0] = 1.0
+    x, R11 = _solve_r(np.linalg.qr(np.vstack([R / s for R, s in zip(Rj, sig)]), mode="r"), c)
+    return R0, x, R11, sig
 
 
 def idim_wls(blocks: list[Observations | RecordFactors], g_tau: np.ndarray,
@@ -113,29 +148,20 @@ def idim_wls(blocks: list[Observations | RecordFactors], g_tau: np.ndarray,
     if r <= c:
         raise IdentificationError(f"only {r} equations for {c} unknowns: record longer")
 
-    def joint_ss(x: np.ndarray) -> np.ndarray:
-        xe = np.concatenate([x, [-1.0]])
-        return np.array([float(np.sum((R @ xe) ** 2)) for R in Rj])  # ‖Y_j - A_j x‖²
-
-    R0 = np.linalg.qr(np.vstack(Rj), mode="r")
-    x, _ = _solve_r(R0, c)  # ordinary LS (eq. 24)
-    sig = np.ones(n_j)
-    if weighting:
-        ss = joint_ss(x)
-        for j in range(n_j):
-            sig[j] = np.sqrt(ss[j] / max(nrows[j] - c * nrows[j] / r, 1.0))  # eq. (28)
-        sig[sig <= 0] = 1.0
-        Rw = np.linalg.qr(np.vstack([R / s for R, s in zip(Rj, sig)]), mode="r")
-    else:
-        Rw = R0
-    x, R11 = _solve_r(Rw, c)
-    ss = joint_ss(x)
+    R0, x, R11, sig = _weighted_ls(Rj, nrows, c, weighting)
+    ss = _joint_ss(Rj, x)
     sigma_rho2 = float(np.sum(ss / sig**2)) / (r - c)  # eq. (26), weighted rows
     Rinv = np.linalg.inv(R11)
-    cov = sigma_rho2 * (Rinv @ Rinv.T)  # eq. (27)
+    G_inv = Rinv @ Rinv.T
+    cov_paper = sigma_rho2 * G_inv  # eq. (27)
+    unc = evaluate(blocks, lambda b, j: wls_columns(b, g_tau[j], groups, estimate_payload, cols),
+                   np.concatenate([x, [-1.0]]), sig, G_inv, cov_paper, r)
+    cov = unc.cov
     std = np.sqrt(np.diag(cov))
+    std_paper = np.sqrt(np.diag(cov_paper))
     with np.errstate(divide="ignore", invalid="ignore"):
         rel = np.where(x != 0, std / np.abs(x), np.inf)
+        rel_paper = np.where(x != 0, std_paper / np.abs(x), np.inf)
     rms = np.sqrt(ss / np.maximum(np.array(nrows), 1))
     n = int(active.sum())
     Aw = R0[:c, :n]  # same column norms and singular values as the stacked W
@@ -145,4 +171,6 @@ def idim_wls(blocks: list[Observations | RecordFactors], g_tau: np.ndarray,
         active=active.copy(), chi=x[:n], payload_masses=x[n:], payload_groups=groups, cov=cov,
         std=std, rel_std=rel, joint_sigma=sig, residual_rms=rms,
         condition_number=float(sv[0] / sv[-1]) if sv[-1] > 0 else np.inf, n_rows=r, n_cols=c,
+        cov_paper=cov_paper, rel_std_paper=rel_paper, uncertainty=unc,
+        rows_per_joint=np.asarray(nrows),
     )

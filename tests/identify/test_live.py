@@ -48,6 +48,15 @@ def feed(live: LiveIdentification, rec: Record, batches=(100,), offset: int = 0,
     return out + live.stop_recording()
 
 
+def rel_sigma_diff(a, b) -> tuple[float, float]:
+    """Max relative difference of the honest and of the eqs. (38)-(39) σ of two results."""
+    ea = a.drive_gains + a.parameters
+    eb = b.drive_gains + b.parameters
+    h = np.array([y.rel_std / x.rel_std - 1 for x, y in zip(ea, eb)])
+    p = np.array([y.rel_std_paper / x.rel_std_paper - 1 for x, y in zip(ea, eb)])
+    return float(np.abs(h).max()), float(np.abs(p).max())
+
+
 def rel_diff(a, b) -> tuple[float, float]:
     """Max relative difference of the gains and of the base parameters of two results."""
     ga = np.array([g.value for g in a.drive_gains])
@@ -76,6 +85,9 @@ def test_live_result_equals_offline_whatever_the_batches(bag_records, offline, b
     # memory is bounded: one (n_b + 2)-square R factor per joint and condition
     assert all(R.shape == (live.n_b + 2, live.n_b + 2)
                for f in live._factors.values() for R in f.R)
+    # the honest σ (residual moments folded with the factors) and the paper's are the same too
+    assert max(rel_sigma_diff(offline, res)) < 1e-6
+    assert res.diagnostics["uncertainty"]["blocks"] == offline.diagnostics["uncertainty"]["blocks"]
 
 
 def test_wls_and_essential_equal_offline(bag_records, offline):
@@ -92,6 +104,11 @@ def test_wls_and_essential_equal_offline(bag_records, offline):
     ess_live = live.result(essential=True).essential
     assert [p.name for p in ess_live.parameters] == [p.name for p in ess_off.parameters]
     assert max(rel_diff(ess_off, ess_live)) < 1e-6
+    assert max(rel_sigma_diff(ess_off, ess_live)) < 1e-6
+    s_off, s_live = ess_off.diagnostics["steps"], ess_live.diagnostics["steps"]
+    assert [(s["parameter"], s["cancelled"]) for s in s_live] == \
+        [(s["parameter"], s["cancelled"]) for s in s_off]
+    assert np.allclose([s["shift"] for s in s_live], [s["shift"] for s in s_off], atol=1e-8)
 
 
 def _with_gap_and_nan(rec: Record, a: int, b: int, k_nan: int) -> Record:
@@ -240,3 +257,32 @@ def test_a_silent_topic_and_a_recording_too_short_are_said(bag_records):
     w = live.stop_recording()
     assert any("nothing used from this recording" in x for x in w)
     assert live.estimate().status.startswith("no data")
+
+
+def test_realistic_drive_ripple_found_and_modelled_alike_live_and_offline():
+    """A realistic drive (screw friction ripple at a 10 mm lead, current-loop lag, Stribeck):
+    the ripple is found in the residual and modelled, with the same result live as offline."""
+    simulate = pytest.importorskip("orthoglide_sim.record").simulate
+    recs = []
+    for payload, seed, trajectory in (("none", 5, "exciting"), ("1.983", 6, "exciting2")):
+        r = simulate(15.0, payload=payload, trajectory=trajectory, seed=seed, profile="realistic")
+        cond = "loaded" if r.payload_mass > 0 else "unloaded"
+        recs.append(Record.from_arrays(f"real-{cond}", r.stamps_ns, r.q, r.v_tau, cond,
+                                       r.payload_mass))
+    off = identify_records(recs)
+    assert "q12" in {r["joint"] for r in off.ripple}
+    for r in off.ripple:
+        assert abs(r["wavelength_m"] - 0.01) < 0.0005 and r["kind"].startswith("friction")
+    live = LiveIdentification()
+    for i, rec in enumerate(recs):
+        feed(live, rec, (333,), 2, seed=i)
+    res = live.result()
+    assert max(rel_diff(off, res)) < 1e-6 and max(rel_sigma_diff(off, res)) < 1e-6
+    assert [r["joint"] for r in res.ripple] == [r["joint"] for r in off.ripple]
+    assert np.allclose([r["amplitude_n"] for r in res.ripple],
+                       [r["amplitude_n"] for r in off.ripple], rtol=1e-6)
+    g = np.array([x.value for x in res.drive_gains])
+    s = np.array([x.rel_std for x in res.drive_gains]) * g
+    assert np.all(np.abs(g - [2170.0, 2100.0, 2070.0]) < 3 * s)
+    est = live.estimate()  # the estimate watched while recording is the result's solve
+    assert np.allclose(est.gains, g, rtol=1e-12) and np.allclose(est.gains_rel_std, s / g)

@@ -1,0 +1,468 @@
+"""Honest standard deviations and residual diagnostics, from moments folded with the R factors.
+
+The paper's eqs. (38)-(39) assume that the equation errors of W_tot are independent from row to
+row. Decimated residuals of a real drive are not: the decimation filter correlates neighbouring
+rows (white current noise gives a lag-1 autocorrelation of ~0.37 after it), and the forces the
+IDIM lacks (current-loop lag, Stribeck friction, screw ripple) leave a residual that is
+correlated sample to sample and concentrated where the regressors are large (velocity
+reversals, fast moves). A covariance that assumes white errors then covers the noise but not
+the error those forces cause. Two sandwich estimates of the covariance of the solution (the
+errors-in-the-equation linearisation of TLS and WLS: δx = G⁻¹ Aᵀ ρ, so Cov(x) = G⁻¹ M G⁻¹ with
+M = Cov(Aᵀ ρ)) fix this, both from quantities folded as the data come (same offline and live):
+
+- **stationary correlation** (lag window): M = Σ_j Σ_|L|≤K w_L γ_j(L) Σ_k a_k a_(k+L)ᵀ / σ_j², the
+  exact covariance of least squares under a stationary error with the residual's autocovariance
+  γ_j(L) per joint (Bartlett weights w_L, K = ``LAGS`` rows): it covers the decimation filter's
+  correlation and short-range correlation of the residual;
+- **blocks** (cluster-robust sandwich, the linearised block bootstrap): rows grouped in blocks
+  of consecutive time (``BLOCK_S``, doubled while a record has more than ``MAX_BLOCKS``), all
+  joints of a block together; M = Σ_b s_b s_bᵀ with the block score s_b = Σ_(k in b) a_k ρ_k. It
+  covers residuals that are correlated over a block and aligned with the regressors (an
+  unmodelled force that recurs at every reversal), whose error no row-by-row estimate sees.
+
+The reported σ ("honest") is, parameter by parameter, the largest of eqs. (38)-(39), the
+stationary and the block estimate; the paper's σ is reported next to it.
+
+Folded per record (``ResidualMoments``): per-block Gram matrices of the rows of each joint, lagged
+products z_k z_(k+L)ᵀ (L = 1..LAGS) over consecutive rows of a segment, and the Fourier
+coefficients of the rows against position, Σ_k z_k w_k exp(-2πi q_k / λ) on a grid of
+wavelengths λ, which give the residual's spectrum over position: a peak at the screw lead says
+"ripple". The weights are w_k = H_k (a force ripple) and sign(q̇_k) H_k (a friction ripple), with
+H_k = H(|q̇_k| / λ) the decimation filter's gain at the ripple's frequency in time when the joint
+moves at q̇_k: what of a ripple r(q) survives in the decimated row is ≈ r(q_k) H_k. With
+Σ w_k² and Σ w_k² exp(-4πi q_k / λ) they also hold the normal equations of a model with two more
+columns per joint, w cos and w sin of 2π q / λ (drive_terms.py). Everything stays linear in the
+solution, so it is evaluated for whatever solution the solver picks, without the rows.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from functools import lru_cache
+from typing import Callable, Iterable
+
+import numpy as np
+
+BLOCK_S = 1.0  # s, shortest block of the block sandwich
+MAX_BLOCKS = 64  # per record: beyond, neighbouring blocks merge (block length doubles)
+MIN_BLOCKS = 8  # fewer blocks in all: the block sandwich is too noisy to use
+LAGS = 5  # decimated rows of lagged products (autocorrelation, stationary sandwich)
+# wavelengths of the position spectrum of the residual: 4 mm .. 50 mm, 3 % apart (screw leads;
+# shorter ones are lost by the decimated rows except at a crawl)
+WAVELENGTHS_M = np.geomspace(4.0e-3, 50.0e-3, 86)
+CONTINUITY_TOL = 0.25  # of the row period: consecutive rows of one segment
+
+
+@dataclass
+class ResidualMoments:
+    """What one record's decimated rows leave for the σ and the diagnostics (see module doc).
+
+    ``n_c`` columns per row ([W | W_kl | v_tau]); ``blocks``: block index → (3, n_c, n_c) Gram of
+    the kept rows of each joint in [index·block_s, (index+1)·block_s); ``lagged: (3, LAGS, n_c,
+    n_c)`` Σ z_k z_(k+L)ᵀ over rows L apart in one segment (z = 0 where a row is left out);
+    ``pairs: (3, LAGS + 1)`` rows (L = 0) and pairs of kept rows; ``spectrum: (3, 2, n_λ, n_c)``
+    Σ z_k w_k exp(-2πi q_k/λ) with w = (H, sign(q̇) H); ``ripple_s0: (3, 2, n_λ)`` Σ w_k² and
+    ``ripple_s2: (3, 2, n_λ)`` Σ w_k² exp(-4πi q_k/λ) over kept rows; ``spectrum_rows: (3,)``.
+    ``decimation``: n_d of the rows (for H), ``row_period_s`` = n_d x the tick period.
+    """
+
+    n_c: int
+    row_period_s: float | None = None
+    decimation: int = 1
+    block_s: float = 0.0  # s, current block length (0: BLOCK_S)
+    blocks: dict[int, np.ndarray] = field(default_factory=dict)
+    block_rows: dict[int, np.ndarray] = field(default_factory=dict)  # (3,) kept rows per joint
+    lagged: np.ndarray | None = None
+    pairs: np.ndarray = field(default_factory=lambda: np.zeros((3, LAGS + 1), dtype=np.int64))
+    spectrum: np.ndarray | None = None
+    ripple_s0: np.ndarray | None = None
+    ripple_s2: np.ndarray | None = None
+    spectrum_rows: np.ndarray = field(default_factory=lambda: np.zeros(3, dtype=np.int64))
+    _tail: tuple | None = None  # last LAGS rows: (Z (3, m, n_c), t (m,))
+
+    def __post_init__(self) -> None:
+        if self.lagged is None:
+            self.lagged = np.zeros((3, LAGS, self.n_c, self.n_c))
+        if self.block_s <= 0:
+            self.block_s = BLOCK_S
+        n_l = WAVELENGTHS_M.shape[0]
+        if self.spectrum is None:
+            self.spectrum = np.zeros((3, 2, n_l, self.n_c), dtype=complex)
+        if self.ripple_s0 is None:
+            self.ripple_s0 = np.zeros((3, 2, n_l))
+        if self.ripple_s2 is None:
+            self.ripple_s2 = np.zeros((3, 2, n_l), dtype=complex)
+
+    @property
+    def n_blocks(self) -> int:
+        return len(self.blocks)
+
+    def fold(self, X: np.ndarray, keep: np.ndarray | None, t: np.ndarray,
+             q: np.ndarray | None = None, qd: np.ndarray | None = None) -> None:
+        """Fold decimated rows ``X: (n_c, 3, r)`` at instants ``t: (r,)`` s (in time order,
+        after the rows already folded), ``keep: (3, r)`` or None, positions/velocities (r, 3)."""
+        r = X.shape[2]
+        if r == 0:
+            return
+        Z = np.ascontiguousarray(X.transpose(1, 2, 0))  # (3, r, n_c)
+        if keep is not None:
+            Z = Z * keep[:, :, None]
+        kept = np.ones((3, r), bool) if keep is None else np.asarray(keep, bool)
+        self._fold_blocks(Z, kept, t)
+        self._fold_lagged(Z, kept, t)
+        if q is not None and qd is not None:
+            self._fold_spectrum(Z, kept, q, qd)
+
+    def _fold_blocks(self, Z: np.ndarray, kept: np.ndarray, t: np.ndarray) -> None:
+        idx = np.floor(np.asarray(t) / self.block_s).astype(np.int64)
+        cuts = np.flatnonzero(np.diff(idx)) + 1
+        for a, b in zip(np.concatenate([[0], cuts]), np.concatenate([cuts, [idx.shape[0]]])):
+            G = np.einsum("jri,jrk->jik", Z[:, a:b], Z[:, a:b])
+            n = kept[:, a:b].sum(axis=1)
+            key = int(idx[a])
+            if key in self.blocks:
+                self.blocks[key] += G
+                self.block_rows[key] += n
+            else:
+                self.blocks[key] = G
+                self.block_rows[key] = n
+        while len(self.blocks) > MAX_BLOCKS:  # longer records: longer blocks, bounded memory
+            merged: dict[int, np.ndarray] = {}
+            rows: dict[int, np.ndarray] = {}
+            for key, G in self.blocks.items():
+                k2 = key // 2
+                merged[k2] = merged[k2] + G if k2 in merged else G
+                rows[k2] = rows[k2] + self.block_rows[key] if k2 in rows else self.block_rows[key]
+            self.blocks, self.block_rows = merged, rows
+            self.block_s *= 2.0
+
+    def _fold_lagged(self, Z: np.ndarray, kept: np.ndarray, t: np.ndarray) -> None:
+        n_t = 0
+        if self._tail is not None:
+            Zt, tt, kt = self._tail
+            n_t = tt.shape[0]
+            Z = np.concatenate([Zt, Z], axis=1)
+            t = np.concatenate([tt, t])
+            kept = np.concatenate([kt, kept], axis=1)
+        m = t.shape[0]
+        self.pairs[:, 0] += kept[:, n_t:].sum(axis=1)
+        if self.row_period_s is not None and m > 1:
+            step = np.diff(t)
+            brk = np.abs(step - self.row_period_s) > CONTINUITY_TOL * self.row_period_s
+            run = np.concatenate([[0], np.cumsum(brk)])
+            for L in range(1, LAGS + 1):
+                i0 = max(n_t - L, 0)
+                if i0 + L >= m:
+                    continue
+                same = run[i0:m - L] == run[i0 + L:m]
+                for j in range(3):
+                    Z1 = Z[j, i0:m - L] * same[:, None]
+                    self.lagged[j, L - 1] += Z1.T @ Z[j, i0 + L:m]
+                    self.pairs[j, L] += int(np.sum(same & kept[j, i0:m - L] & kept[j, i0 + L:m]))
+        k = min(LAGS, m)
+        self._tail = (Z[:, m - k:].copy(), t[m - k:].copy(), kept[:, m - k:].copy())
+
+    def _fold_spectrum(self, Z: np.ndarray, kept: np.ndarray, q: np.ndarray, qd: np.ndarray
+                       ) -> None:
+        k = 2.0 * np.pi / WAVELENGTHS_M
+        tick = None if self.row_period_s is None else self.row_period_s / max(self.decimation, 1)
+        for j in range(3):
+            phase = np.outer(q[:, j], k)  # (r, n_λ)
+            E = np.exp(-1j * phase)
+            H = fir_gain(np.abs(qd[:, j])[:, None] / WAVELENGTHS_M[None, :], self.decimation, tick)
+            H = H * kept[j][:, None]
+            for kind, w in enumerate((H, H * np.sign(qd[:, j])[:, None])):
+                self.spectrum[j, kind] += (E * w).T @ Z[j]
+                w2 = w * w
+                self.ripple_s0[j, kind] += w2.sum(axis=0)
+                self.ripple_s2[j, kind] += (w2 * E * E).sum(axis=0)
+            self.spectrum_rows[j] += int(kept[j].sum())
+
+
+# --------------------------------------------------------------------------------------------
+# Evaluation for a solution
+# --------------------------------------------------------------------------------------------
+# A solver describes, for every (record factors f, joint j), how the record's columns map to its
+# unknowns: T (n_c, c + 1), whose last column is the fixed one (TLS: the payload column with
+# coefficient 1; WLS: Y with coefficient -1), and z (c + 1,) the solution with the fixed entry,
+# so that the residual of a row x is x·T·z (N, unweighted) and its regressor row is x·T[:, :c].
+LayoutFn = Callable[[object, int], np.ndarray]
+
+
+@lru_cache(maxsize=8)
+def _fir_gain_table(n_d: int) -> tuple[np.ndarray, np.ndarray]:
+    """Gain H of the decimation FIR against frequency (cycles per tick), 0..0.5."""
+    from orthoglide_ident.identify.decimation import fir_taps
+
+    h = fir_taps(n_d)
+    tl = np.arange(h.shape[0]) - (h.shape[0] - 1) / 2.0
+    f = np.linspace(0.0, 0.5, 4001)
+    return f, np.cos(2.0 * np.pi * np.outer(f, tl)) @ h
+
+
+def fir_gain(freq_hz: np.ndarray, n_d: int, tick_s: float | None) -> np.ndarray:
+    """Gain of the zero-phase decimation FIR (n_d) at ``freq_hz`` for ticks of ``tick_s``."""
+    if n_d <= 1 or tick_s is None:
+        return np.ones_like(np.asarray(freq_hz, float))
+    f, H = _fir_gain_table(n_d)
+    return np.interp(np.asarray(freq_hz) * tick_s, f, H, right=0.0)
+
+
+def fir_white_autocorrelation(n_d: int, lags: int = LAGS) -> np.ndarray:
+    """Autocorrelation at lags 1..``lags`` of white noise after the FIR decimation by ``n_d``."""
+    if n_d <= 1:
+        return np.zeros(lags)
+    from orthoglide_ident.identify.decimation import fir_taps
+
+    h = fir_taps(n_d)
+    out = np.zeros(lags)
+    for L in range(1, lags + 1):
+        s = L * n_d
+        out[L - 1] = float(h[:-s] @ h[s:]) / float(h @ h) if s < h.shape[0] else 0.0
+    return out
+
+
+@dataclass
+class Uncertainty:
+    """Covariances of a solve's unknowns and what the residual looks like (per joint)."""
+
+    cov: np.ndarray  # honest: per unknown the largest of the three variances (correlations of
+    #                  the stationary estimate)
+    cov_paper: np.ndarray
+    var_stationary: np.ndarray
+    var_block: np.ndarray
+    n_blocks: int
+    block_s: float
+    autocorrelation: np.ndarray  # (3, LAGS + 1), lag 0 = 1
+    rows: np.ndarray  # (3,) rows with a residual (kept)
+    spectrum: np.ndarray | None = None  # (3, 2, n_λ) amplitude (N) vs wavelength (1, sign q̇)
+    spectrum_floor: np.ndarray | None = None  # (3, 2, n_λ) N, what a white residual would give
+    notes: list[str] = field(default_factory=list)
+
+
+@dataclass
+class _Folded:
+    """Sums over records and joints of what ``evaluate`` needs, for one solution z."""
+
+    scores: dict = field(default_factory=dict)  # (record, block) → block score s_b
+    score_rows: dict = field(default_factory=dict)  # (record, block) → rows in it
+    ac_num: np.ndarray = field(default_factory=lambda: np.zeros((3, LAGS + 1)))  # Σ ρ_k ρ_(k+L)
+    pairs: np.ndarray = field(default_factory=lambda: np.zeros((3, LAGS + 1)))
+    lag_terms: list = field(default_factory=list)  # (j, L, Tcᵀ C_L Tc)
+    spec: np.ndarray | None = None  # (3, 2, n_λ) complex
+    spec_s0: np.ndarray | None = None
+    ss: np.ndarray = field(default_factory=lambda: np.zeros(3))  # Σ ρ² per joint
+    rows: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    have_moments: bool = False
+    block_s: float = BLOCK_S
+
+    def add(self, rec: int, mom: ResidualMoments, j: int, v: np.ndarray, Tc: np.ndarray,
+            w2j: float) -> None:
+        """Fold joint j of one record's moments; ``v``: residual of a record row x is x·v."""
+        self.have_moments = True
+        self.block_s = max(self.block_s, mom.block_s)
+        for key, P in mom.blocks.items():
+            s = Tc.T @ (P[j] @ v) * w2j
+            k = (rec, key)
+            self.scores[k] = self.scores[k] + s if k in self.scores else s
+            self.score_rows[k] = self.score_rows.get(k, 0.0) + float(mom.block_rows[key][j])
+        for L in range(1, LAGS + 1):
+            if mom.pairs[j, L] == 0:
+                continue
+            C = mom.lagged[j, L - 1]
+            self.ac_num[j, L] += float(v @ C @ v)
+            self.pairs[j, L] += mom.pairs[j, L]
+            self.lag_terms.append((j, L, Tc.T @ C @ Tc))
+        if mom.spectrum_rows[j]:
+            if self.spec is None:
+                self.spec = np.zeros((3, 2, WAVELENGTHS_M.shape[0]), dtype=complex)
+                self.spec_s0 = np.zeros((3, 2, WAVELENGTHS_M.shape[0]))
+            self.spec[j] += mom.spectrum[j] @ v
+            self.spec_s0[j] += mom.ripple_s0[j]
+
+
+def _fold(factors: list, layout: LayoutFn, z: np.ndarray, w2: np.ndarray, c: int) -> _Folded:
+    acc = _Folded()
+    for fi, f in enumerate(factors):
+        moments = getattr(f, "moments", {}) or {}
+        for j in range(3):
+            T = layout(f, j)
+            v = T @ z
+            Rv = f.R[j] @ v
+            acc.ss[j] += float(Rv @ Rv)
+            acc.rows[j] += float(f.rows[j])
+            for mi, mom in enumerate(moments.values()):
+                acc.add(fi * 1000 + mi, mom, j, v, T[:, :c], w2[j])
+    return acc
+
+
+def _autocovariance(acc: _Folded, n_rows: int, c: int) -> np.ndarray:
+    """γ_j(L), N², L = 0..LAGS; lag 0 from the R factors (all kept rows, dof-corrected)."""
+    p = max(n_rows, 1)
+    gamma = np.zeros((3, LAGS + 1))
+    gamma[:, 0] = acc.ss / np.maximum(acc.rows - c * acc.rows / p, 1.0)
+    gamma[:, 1:] = np.where(acc.pairs[:, 1:] > 0,
+                            acc.ac_num[:, 1:] / np.maximum(acc.pairs[:, 1:], 1), 0.0)
+    return gamma
+
+
+def _block_variance(acc: _Folded, G_inv: np.ndarray, n_rows: int) -> np.ndarray:
+    """Diagonal of the block sandwich (CR1 small-sample factor)."""
+    c = G_inv.shape[0]
+    n_b = len(acc.scores)
+    # centred: TLS's estimating equation is Aᵀρ = s_c² x (not 0 as for LS), shared by rows
+    S = np.array(list(acc.scores.values()))
+    share = np.array([acc.score_rows[k] for k in acc.scores])
+    S = S - np.outer(share / max(share.sum(), 1.0), S.sum(axis=0))
+    p = max(n_rows, 1)
+    corr = n_b / (n_b - 1.0) * (p - 1.0) / max(p - c, 1.0)
+    return np.diag(corr * (G_inv @ (S.T @ S) @ G_inv)).copy()
+
+
+def _position_spectrum(acc: _Folded, gamma0: np.ndarray, autocorrelation: np.ndarray
+                       ) -> tuple[np.ndarray, np.ndarray]:
+    """Amplitude (N) of a sinusoid of wavelength λ as it is before the decimation filter (least
+    squares on the weights w), and a white residual's level times what the rows' correlation adds
+    (the weights vary slowly from row to row): 1 + 2 Σ_L autocorrelation(L)."""
+    s0 = np.maximum(acc.spec_s0, 1e-12)
+    amplitude = 2.0 * np.abs(acc.spec) / s0
+    corr = np.maximum(1.0 + 2.0 * autocorrelation[:, 1:].sum(axis=1), 1.0)
+    floor = 2.0 * np.sqrt((np.maximum(gamma0, 0.0) * corr)[:, None, None] / s0)
+    return amplitude, floor
+
+
+def evaluate(factors: Iterable, layout: LayoutFn, z: np.ndarray, joint_sigma: np.ndarray,
+             G_inv: np.ndarray, cov_paper: np.ndarray, n_rows: int) -> Uncertainty:
+    """The three covariances and the residual statistics of one solution (see module doc).
+
+    ``layout(f, j)``: T of record factors f, joint j; ``z``: solution with its fixed entry;
+    ``joint_sigma``: row weights 1/σ_j of the solve; ``G_inv``: (c × c) inverse of the weighted
+    normal matrix the solver used for eq. (39) (cov_paper = σ² G_inv); ``n_rows``: equations.
+    """
+    c = G_inv.shape[0]
+    w2 = 1.0 / np.asarray(joint_sigma, float) ** 2
+    acc = _fold(list(factors), layout, z, w2, c)
+    var_paper = np.diag(cov_paper).copy()
+    out = Uncertainty(cov=cov_paper.copy(), cov_paper=cov_paper, var_stationary=var_paper.copy(),
+                      var_block=np.zeros(c), n_blocks=0, block_s=acc.block_s,
+                      autocorrelation=np.zeros((3, LAGS + 1)), rows=acc.rows.copy())
+    out.autocorrelation[:, 0] = 1.0
+    if not acc.have_moments:
+        out.notes.append("no row instants: σ by eqs. (38)-(39) only")
+        return out
+    gamma = _autocovariance(acc, n_rows, c)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        out.autocorrelation[:, 1:] = np.where(gamma[:, :1] > 0, gamma[:, 1:] / gamma[:, :1], 0.0)
+    # stationary sandwich: σ_ρ² G (the white part, as eq. 39) + the lagged terms (Bartlett)
+    M = np.zeros((c, c))
+    for j, L, S in acc.lag_terms:
+        M += (1.0 - L / (LAGS + 1.0)) * gamma[j, L] * w2[j] * (S + S.T)
+    cov_stat = cov_paper + G_inv @ M @ G_inv
+    out.var_stationary = np.diag(cov_stat).copy()
+    out.n_blocks = len(acc.scores)
+    if out.n_blocks >= MIN_BLOCKS:
+        out.var_block = _block_variance(acc, G_inv, n_rows)
+    else:
+        out.notes.append(f"only {out.n_blocks} blocks of {acc.block_s:g} s: the block estimate "
+                         "is left out (record longer for a σ that covers correlated residuals)")
+    # honest: per parameter the largest variance, with the stationary estimate's correlations
+    var = np.maximum(np.maximum(var_paper, out.var_stationary), out.var_block)
+    d = np.sqrt(np.maximum(out.var_stationary, 1e-300))
+    out.cov = (cov_stat / np.outer(d, d)) * np.outer(np.sqrt(var), np.sqrt(var))
+    if acc.spec is not None:
+        out.spectrum, out.spectrum_floor = _position_spectrum(acc, gamma[:, 0], out.autocorrelation)
+    return out
+
+
+# --------------------------------------------------------------------------------------------
+# What the residual says, in words
+# --------------------------------------------------------------------------------------------
+WHITE_TOLERANCE = 0.15  # |autocorrelation - that of white noise after the FIR| at any lag 1..LAGS
+INFLATION_WARN = 2.0  # honest σ of a gain / eq. (39)'s beyond which the residual is said to matter
+PEAK_RATIO = 4.0  # a position-spectrum peak this far above the spectrum's median ...
+PEAK_FLOOR = 5.0  # ... and this far above a white residual's level (P < 1e-10 each) is reported
+
+
+@dataclass
+class SpectrumPeak:
+    joint: str
+    wavelength_m: float
+    amplitude_n: float
+    median_n: float
+    sign_modulated: bool  # a friction ripple (turns with the velocity) rather than a force ripple
+
+    def to_json(self) -> dict:
+        return {"joint": self.joint, "wavelength_m": self.wavelength_m,
+                "amplitude_n": self.amplitude_n, "median_n": self.median_n,
+                "kind": "friction (sign of velocity)" if self.sign_modulated else "force"}
+
+
+def spectrum_peaks(unc: Uncertainty, joint_names: tuple[str, ...]) -> list[SpectrumPeak]:
+    """The strongest position-periodic component of each joint's residual, when it stands out."""
+    if unc.spectrum is None:
+        return []
+    out = []
+    for j, name in enumerate(joint_names):
+        best = None
+        for kind in (1, 0):  # sign-modulated first: a friction ripple also shows in the plain one
+            a = unc.spectrum[j, kind]
+            i = int(np.argmax(a))
+            med = float(np.median(a))
+            if a[i] > PEAK_RATIO * med and a[i] > PEAK_FLOOR * float(unc.spectrum_floor[j, kind, i]):
+                if best is None or a[i] > 1.5 * best.amplitude_n:
+                    best = SpectrumPeak(name, float(WAVELENGTHS_M[i]), float(a[i]), med, kind == 1)
+        if best is not None:
+            out.append(best)
+    return out
+
+
+def diagnose(unc: Uncertainty, decimation: int, n_params: int,
+             joint_names: tuple[str, ...] = ("q11", "q12", "q13"),
+             values: np.ndarray | None = None, gain_index: slice | None = None
+             ) -> tuple[dict, list[str]]:
+    """``diagnostics["uncertainty"]`` of a result, and the warnings the residual calls for.
+
+    ``values``: the solution's unknowns (for the relative inflation of the gains at
+    ``gain_index``).
+    """
+    white = fir_white_autocorrelation(decimation)
+    ac = unc.autocorrelation[:, 1:]
+    dev = np.abs(ac - white[None, :])
+    var_paper = np.diag(unc.cov_paper)
+    inflation = np.sqrt(np.maximum(np.diag(unc.cov), 0.0) / np.where(var_paper > 0, var_paper, np.inf))
+    d: dict = {
+        "method": "largest of eqs. (38)-(39), a stationary-correlation sandwich (lags 1.."
+                  f"{LAGS} rows) and a block sandwich (blocks of {unc.block_s:g} s)",
+        "blocks": unc.n_blocks, "block_s": unc.block_s, "lags": LAGS,
+        "autocorrelation": {n: [float(x) for x in ac[j]] for j, n in enumerate(joint_names)},
+        "autocorrelation_white": [float(x) for x in white],
+        "notes": list(unc.notes),
+    }
+    warnings: list[str] = []
+    for j, n in enumerate(joint_names):
+        if unc.rows[j] > 0 and unc.n_blocks and dev[j].max() > WHITE_TOLERANCE:
+            L = int(np.argmax(dev[j]))
+            warnings.append(
+                f"the residual of {n} is far from white: autocorrelation {ac[j, L]:.2f} at lag "
+                f"{L + 1} where white current noise gives {white[L]:.2f} after the decimation "
+                "filter; forces the model lacks are in it (the reported σ covers them)")
+    if gain_index is not None:
+        g_inf = inflation[gain_index]
+        d["gain_sigma_inflation"] = {n: float(x) for n, x in zip(joint_names, g_inf)}
+        worst = int(np.argmax(g_inf))
+        if unc.n_blocks and g_inf[worst] > INFLATION_WARN:
+            warnings.append(
+                f"the σ of the drive gains is up to {g_inf[worst]:.1f}x that of eqs. (38)-(39) "
+                f"({joint_names[worst]}): the residual is correlated with the regressors over "
+                f"{unc.block_s:g} s blocks — forces the IDIM lacks (friction near velocity "
+                "reversals, current-loop lag, ripple); the reported σ includes them")
+    peaks = spectrum_peaks(unc, joint_names)
+    d["position_spectrum_peaks"] = [p.to_json() for p in peaks]
+    for p in peaks:
+        what = ("a friction ripple (it turns with the velocity), e.g. of the ball screw at its lead"
+                if p.sign_modulated else "a position-dependent force, e.g. a cogging or screw ripple")
+        warnings.append(
+            f"the residual of {p.joint} varies with its position with a "
+            f"{1e3 * p.wavelength_m:.1f} mm period (±{p.amplitude_n:.2g} N, "
+            f"{p.amplitude_n / max(p.median_n, 1e-12):.0f}x the spectrum's median): {what} "
+            "that the IDIM does not model")
+    return d, warnings
