@@ -2,8 +2,8 @@
 
     PYTHONPATH=. .venv/bin/python bench/identify_speed.py [--seconds 60] [--keep DIR]
 
-Writes an unloaded and a loaded bag of --seconds each at 1 kHz (simulator if available, else
-model data, see identify_data.py), then in the same run:
+Writes an unloaded and a loaded bag of --seconds each at 1 kHz from the simulator
+(identify_data.py), then in the same run:
   1. rosbags: AnyReader + deserialize_cdr of every message of both bags (read only);
   2. `orthoglide-ident identify` as a subprocess, end to end (start-up, reading, filtering, W,
      decimation, TLS, printing), wall time and peak RSS;

@@ -26,7 +26,8 @@ import numpy as np
 from orthoglide_ident.errors import OrthoglideError
 from orthoglide_ident.ros_client import live_line
 from orthoglide_sim.graph import Graph, GraphError
-from orthoglide_sim.true_parameters import G_TAU_MANUFACTURER, load_parameters
+from orthoglide_ident.model.geometry import G_TAU_MANUFACTURER
+from orthoglide_sim.true_parameters import load_parameters
 
 PAYLOAD = 1.983
 TABLE4 = ("simple PID", "PID + vel. ff", "CTC, manuf. gains", "CTC, identif. gains", "CTC, gains +25 %")

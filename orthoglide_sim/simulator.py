@@ -37,7 +37,8 @@ import numpy as np
 
 from orthoglide_ident.errors import WorkspaceError
 from orthoglide_sim.plant import ACTUATED, Plant
-from orthoglide_sim.true_parameters import G_TAU_MANUFACTURER, PROFILES, PlantProfile, TrueParameters
+from orthoglide_ident.model.geometry import G_TAU_MANUFACTURER
+from orthoglide_sim.true_parameters import PROFILES, PlantProfile, TrueParameters
 
 TICK = 1.0e-3  # s, controller period (1 kHz)
 SUBSTEPS = 4  # RK4 steps per tick (4 kHz): 0.05 um from a 20 kHz integration over 2 s

@@ -12,6 +12,10 @@ current loop, Stribeck breakaway friction, ball-screw friction ripple at the scr
 the current and encoder noise. "nominal" (the default) has none of the unmodelled effects;
 "realistic" switches them on. Both are overridable, and more can be named, in YAML.
 
+This table is the plant's own truth, kept apart from the identification model on purpose (DESIGN
+§5): nothing here is derived from orthoglide_ident's regressor. Only interface facts are imported
+from it: joint names and the manufacturer's gain 637π N/A that a controller is configured with.
+
 Units: kg, m, kg·m²; prismatic joints N, N·s/m, kg (ia); revolute joints N·m, N·m·s/rad.
 Names follow docs/conventions.md: ``<p>_<j><i>`` for body j of leg i, ``<p>_6`` platform,
 ``<p>_7`` payload.
@@ -28,7 +32,6 @@ import numpy as np
 from orthoglide_ident.errors import ConfigError
 
 INERTIAL = ("xx", "xy", "xz", "yy", "yz", "zz", "mx", "my", "mz", "m")
-G_TAU_MANUFACTURER = 637.0 * math.pi  # N/A, Sect. 5.2
 
 # --------------------------------------------------------------------------------------------
 # The table.  Rigid bodies: (mass kg, centre of mass in the body's MDH frame m,

@@ -9,7 +9,7 @@ import pytest
 from orthoglide_ident import bags
 from orthoglide_ident.cli import main, parse_gains
 from orthoglide_ident.errors import ConfigError
-from orthoglide_ident.identify.synthetic import synthetic_record
+from synthetic import synthetic_record
 
 
 def _one_line_error(capsys, code, match=None):

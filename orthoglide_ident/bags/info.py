@@ -7,6 +7,8 @@ from pathlib import Path
 
 import numpy as np
 
+from orthoglide_ident.ticks import find_breaks, missing_in_step
+
 from ._tags import BagTags
 from .reader import FileStatus, _scan_bag, is_decoded
 
@@ -23,17 +25,18 @@ class Gaps:
 
 
 def find_gaps(stamps_ns: np.ndarray, period_ns: float | None = None, limit: int = 10) -> Gaps:
-    """Count missing ticks: a step of k periods (k ≥ 2, rounded) means k - 1 ticks are missing."""
+    """Missing ticks against the median period (or ``period_ns``), by the rule of ticks.py."""
     if len(stamps_ns) < 2:
         return Gaps(0.0, 0)
     d = np.diff(stamps_ns)
     period = float(period_ns or np.median(d))
     if period <= 0:
         return Gaps(0.0, 0)
-    k = np.rint(d / period).astype(np.int64) - 1
-    at = np.flatnonzero(k > 0)
-    where = [(float((stamps_ns[i] - stamps_ns[0]) / 1e9), int(k[i])) for i in at[:limit]]
-    return Gaps(period / 1e9, int(k[at].sum()), where)
+    brk, missing = find_breaks(d, period)
+    at = np.flatnonzero(brk & (d > period))
+    k = np.rint(d[at] / period).astype(np.int64) - 1
+    where = [(float((stamps_ns[i] - stamps_ns[0]) / 1e9), int(n)) for i, n in zip(at[:limit], k)]
+    return Gaps(period / 1e9, missing, where)
 
 
 @dataclass
@@ -145,5 +148,5 @@ class TickCounter:
         d = stamp_ns - last
         if d <= 0:
             self.backwards += 1
-        elif d > 1.5 * self.period_ns:
-            self.missing += round(d / self.period_ns) - 1
+        else:
+            self.missing += missing_in_step(d, self.period_ns)

@@ -3,7 +3,7 @@
 Fed by :class:`~live.LiveIdentification`. The tick period is the median step of the first
 ``PERIOD_SAMPLES`` paired stamps (the offline pipeline takes the median over the whole record:
 the same for a controller's regular ticks; a different median at the end is warned about). A
-step outside (0.5, 1.5) periods ends the segment under way (segments.find_breaks); a segment
+step outside (0.5, 1.5) periods ends the segment under way (ticks.find_breaks); a segment
 becomes a :class:`~stream.SegmentStream` once it is long enough to be kept
 (``IdentifyOptions.min_segment_samples``), and its decimated rows go to ``fold`` as they come.
 """
@@ -17,7 +17,8 @@ from orthoglide_ident.errors import OrthoglideError
 from orthoglide_ident.identify.options import IdentifyOptions
 from orthoglide_ident.identify.pairing import Paired, TopicBuffer, pair_upto
 from orthoglide_ident.identify.pipeline import bag_report
-from orthoglide_ident.identify.segments import JOINT_NAMES, SegmentReport, find_breaks
+from orthoglide_ident.identify.segments import JOINT_NAMES, SegmentReport
+from orthoglide_ident.ticks import find_breaks
 from orthoglide_ident.identify.stream import DecimatedRows, SegmentStream
 
 PERIOD_SAMPLES = 200  # paired ticks whose median step sets the period

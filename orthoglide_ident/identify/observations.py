@@ -48,24 +48,3 @@ class Observations:
     @property
     def loaded(self) -> bool:
         return self.condition == "loaded"
-
-    def stacked(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """``(W (R, n_b), V (R, 3) block-diagonal as eq. (32), w_m (R,))``, rows joint by joint.
-
-        R = 3 r, or the rows kept by ``keep``.
-        """
-        n_j, r, n_b = self.W.shape
-        if self.keep is None:
-            V = np.zeros((n_j * r, n_j))
-            for j in range(n_j):
-                V[j * r:(j + 1) * r, j] = self.v_tau[j]
-            return self.W.reshape(n_j * r, n_b), V, self.w_m.reshape(n_j * r)
-        counts = self.rows_per_joint()
-        V = np.zeros((sum(counts), n_j))
-        r0 = 0
-        for j in range(n_j):
-            V[r0:r0 + counts[j], j] = self.v_tau[j][self.keep[j]]
-            r0 += counts[j]
-        W = np.concatenate([self.W[j][self.keep[j]] for j in range(n_j)], axis=0)
-        w_m = np.concatenate([self.w_m[j][self.keep[j]] for j in range(n_j)])
-        return W, V, w_m

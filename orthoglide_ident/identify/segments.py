@@ -18,8 +18,9 @@ from typing import Sequence
 import numpy as np
 
 from orthoglide_ident.errors import DataError
+from orthoglide_ident.model.geometry import JOINT_NAMES
+from orthoglide_ident.ticks import find_breaks
 
-JOINT_NAMES: tuple[str, ...] = ("q11", "q12", "q13")
 
 
 @dataclass
@@ -91,14 +92,6 @@ def unique_sorted(stamps: np.ndarray) -> tuple[np.ndarray, int]:
     keep = np.ones(s.shape[0], dtype=bool)
     keep[1:] = s[1:] != s[:-1]
     return order[keep], int(s.shape[0] - np.count_nonzero(keep))
-
-
-def find_breaks(dt_ns: np.ndarray, period_ns: float) -> tuple[np.ndarray, int]:
-    """Breaks between consecutive paired stamps (a step outside (0.5, 1.5) periods) and the
-    number of ticks missing in them. ``dt_ns``: stamp differences, ns."""
-    ratio = dt_ns / period_ns
-    brk = (ratio < 0.5) | (ratio > 1.5)
-    return brk, int(np.sum(np.maximum(np.rint(ratio[brk]) - 1, 0)))
 
 
 def _checked_columns(arr: np.ndarray, stamps: np.ndarray, names: Sequence[str], topic: str,

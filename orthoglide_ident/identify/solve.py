@@ -25,11 +25,11 @@ from orthoglide_ident.identify.tls import (TLSProblem, TLSSolution, check_excita
                                            require_loaded_and_unloaded)
 from orthoglide_ident.identify.uncertainty import diagnose
 from orthoglide_ident.identify.wls import WLSSolution, idim_wls
+from orthoglide_ident.model.geometry import G_TAU_MANUFACTURER
 from orthoglide_ident.results import Estimate, IdentificationResult, PayloadMass
 
 log = logging.getLogger("orthoglide_ident.identify")
 
-G_TAU_MANUFACTURER = 637.0 * np.pi  # N/A, eq. (17), the paper's 2001
 
 
 @dataclass

@@ -18,7 +18,7 @@ singular vector of W_tot is a near-null direction of the regressor, not the gain
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -62,7 +62,6 @@ class TLSSolution:
     n_rows: int
     n_cols: int
     lambda_scale: float  # eq. (36) scale 1/χ^n_c
-    notes: list[str] = field(default_factory=list)
     cov_paper: np.ndarray | None = None  # eq. (39)
     rel_std_paper: np.ndarray | None = None
     uncertainty: Uncertainty | None = None

@@ -235,7 +235,7 @@ def test_simulated_records_with_a_real_gap(sim_records):
 
 
 def test_gentle_trajectories_are_said_not_returned_as_gains():
-    from orthoglide_ident.identify.synthetic import SyntheticModel, synthetic_record
+    from synthetic import SyntheticModel, synthetic_record
 
     model = SyntheticModel()
     live = LiveIdentification(model=model)

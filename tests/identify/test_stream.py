@@ -9,7 +9,7 @@ from orthoglide_ident.identify.filtering import states_at_half_tick
 from orthoglide_ident.identify.options import IdentifyOptions
 from orthoglide_ident.identify.reversals import ReversalTracker, find_reversals
 from orthoglide_ident.identify.stream import SegmentStream
-from orthoglide_ident.identify.synthetic import SyntheticModel, synthetic_record
+from synthetic import SyntheticModel, synthetic_record
 
 
 def _velocities(rng: np.random.Generator, n: int) -> np.ndarray:

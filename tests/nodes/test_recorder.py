@@ -17,7 +17,7 @@ import pytest
 from orthoglide_ident import bags
 from orthoglide_ident.bags import Recording
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 PUBLISHER = ROOT / "bench" / "recorder_publisher.py"
 
 

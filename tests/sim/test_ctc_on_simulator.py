@@ -10,7 +10,7 @@ from orthoglide_ident.control import CTCParameters, feedforward_currents
 from orthoglide_sim.record import simulate
 from orthoglide_sim.trajectories import get_trajectory
 
-BAGS = [Path(__file__).resolve().parent.parent / "bags" / c for c in ("unloaded", "loaded")]
+BAGS = [Path(__file__).resolve().parents[2] / "bags" / c for c in ("unloaded", "loaded")]
 DURATION = 2.0  # s of test2 (one period is 2.15 s)
 
 

@@ -12,7 +12,7 @@ import pytest
 
 from orthoglide_ident.identify.options import IdentifyOptions
 from orthoglide_ident.identify.pipeline import Record, identify_records
-from orthoglide_ident.identify.synthetic import synthetic_record
+from synthetic import synthetic_record
 
 pytestmark = pytest.mark.slow
 

@@ -9,7 +9,7 @@ import pytest
 from orthoglide_ident.errors import ConfigError, DataError, ExcitationError, IdentificationError
 from orthoglide_ident.identify.options import IdentifyOptions
 from orthoglide_ident.identify.pipeline import Record, identify_records
-from orthoglide_ident.identify.synthetic import (TRUE_CHI, TRUE_GAINS, SyntheticModel,
+from synthetic import (TRUE_CHI, TRUE_GAINS, SyntheticModel,
                                                  synthetic_record)
 
 MODEL = SyntheticModel()

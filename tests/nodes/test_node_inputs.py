@@ -17,7 +17,7 @@ import pytest
 rclpy = pytest.importorskip("rclpy")
 pytest.importorskip("orthoglide_msgs.msg")
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 RECORDER = "from orthoglide_ident.nodes.recorder import main; import sys; sys.exit(main())"
 IDENTIFICATION = "from orthoglide_ident.nodes.identification import main; import sys; sys.exit(main())"
 

@@ -6,7 +6,7 @@ import numpy as np
 from orthoglide_ident.identify.options import IdentifyOptions
 from orthoglide_ident.identify.pipeline import identify_records
 from orthoglide_ident.identify.reversals import bridge, find_reversals, rows_clear
-from orthoglide_ident.identify.synthetic import SyntheticModel, synthetic_record
+from synthetic import SyntheticModel, synthetic_record
 
 
 def test_bridge_removes_the_sign_step_and_keeps_the_linear_relation():

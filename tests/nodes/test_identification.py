@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pytest
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 BAGS = ROOT / "bags"
 
 NODE = "from orthoglide_ident.nodes.identification import main; import sys; sys.exit(main())"

@@ -1,4 +1,4 @@
-"""A small synthetic 3-joint model and records generated from it, for tests and benchmarks.
+"""A small synthetic 3-joint model and records generated from it: a test fixture.
 
 Not the Orthoglide: a stand-in with the same interface as the base model (``names``,
 ``expressions``, ``regressor``, ``payload_mass_column``) so that every numerical step of the
