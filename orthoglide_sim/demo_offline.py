@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import argparse
 import logging
+import shutil
 import sys
 import time
 from pathlib import Path
@@ -29,11 +30,9 @@ def _say(msg: str) -> None:
     print(msg, flush=True)
 
 
-def run(duration: float, out: Path, seed: int) -> int:
+def _simulate_records(duration: float, out: Path, seed: int) -> tuple[dict[str, str], object]:
+    """The four records of the demo as bags in ``out``; their paths and the plant's truth."""
     from orthoglide_ident import bags
-    from orthoglide_ident.identify.pipeline import identify
-    from orthoglide_ident.model.base import base_model
-    from orthoglide_ident.model.geometry import G_TAU_MANUFACTURER
     from orthoglide_sim.record import simulate
 
     out.mkdir(parents=True, exist_ok=True)
@@ -53,8 +52,6 @@ def run(duration: float, out: Path, seed: int) -> int:
         cond = "unloaded" if payload == "none" else "loaded"
         path = out / name
         if path.exists():
-            import shutil
-
             shutil.rmtree(path)
         bags.write_bag(path, rec.stamps_ns, rec.q, rec.v_tau, cond, rec.payload_mass)
         paths[name] = str(path)
@@ -63,24 +60,13 @@ def run(duration: float, out: Path, seed: int) -> int:
             f"   {name:<20} {traj:<10} {dur:5.0f} s  simulated in {t_sim:5.1f} s ({dur / t_sim:4.1f}x real time)"
             f"  -> {path} ({size:.1f} MB)"
         )
+    return paths, truth
 
-    bm = base_model()
-    g_true = truth.g_tau
-    chi_true = bm.base_values(truth.params.standard_vector())
 
-    _say("\n2. IDIM-TLS on the unloaded and 1.983 kg bags (payload mass from the bag tag)")
-    t0 = time.perf_counter()
-    res = identify(
-        [paths["unloaded"], paths["loaded_1.983kg"]],
-        method="tls",
-        essential=True,
-        validation_bags=[paths["validation_1.983kg"]],
-    )
-    t_id = time.perf_counter() - t0
-    res.write_json(out / "tls.json")
-    _say(f"   identified in {t_id:.2f} s; full result: {out / 'tls.json'}")
+def _report_gains(res, g_true: np.ndarray) -> None:
+    from orthoglide_ident.model.geometry import G_TAU_MANUFACTURER
+
     _say(f"   {'joint':<6} {'truth':>8} {'IDIM-TLS':>9} {'%sigma':>7} {'error':>8}   {'manufacturer':>12} {'error':>8}")
-    g_id = np.array([g.value for g in res.drive_gains])
     for j, g in enumerate(res.drive_gains):
         err = 100 * (g.value / g_true[j] - 1)
         err_m = 100 * (G_TAU_MANUFACTURER / g_true[j] - 1)
@@ -98,6 +84,8 @@ def run(duration: float, out: Path, seed: int) -> int:
             + ", ".join(f"{m:+.2f}%" for m in moved)
         )
 
+
+def _report_parameters(res, bm, chi_true: np.ndarray) -> None:
     _say("\n   Largest base parameters, identified vs plant truth (regrouped as in the model):")
     _say(f"   {'name':<11} {'truth':>10} {'identified':>11} {'%sigma':>8}")
     idx = {p.name: p for p in res.parameters}
@@ -108,6 +96,8 @@ def run(duration: float, out: Path, seed: int) -> int:
             continue
         _say(f"   {p.name:<11} {chi_true[k]:10.4g} {p.value:11.4g} {100 * p.rel_std:7.2f}%")
 
+
+def _report_validation(res) -> None:
     _say("\n3. Cross-validation on a record not used for identification (paper Fig. 5)")
     for v in res.validation:
         _say(f"   {v.get('bag', '')}")
@@ -118,6 +108,11 @@ def run(duration: float, out: Path, seed: int) -> int:
                 f"{100 * j['relative_error']:8.2f}% {j['noise_ratio']:14.2f}"
             )
 
+
+def _report_payload(paths: dict[str, str], g_id: np.ndarray) -> None:
+    from orthoglide_ident.identify.pipeline import identify
+    from orthoglide_ident.model.geometry import G_TAU_MANUFACTURER
+
     _say("\n4. Payload check: IDIM-WLS re-identifies the 1.136 kg payload (paper: 1.09 vs 1.14 kg)")
     for label, gains in (("manufacturer 2001 N/A", [G_TAU_MANUFACTURER] * 3), ("IDIM-TLS gains", list(g_id))):
         w = identify([paths["unloaded"], paths["loaded_1.136kg"]], method="wls", gains=gains)
@@ -126,6 +121,25 @@ def run(duration: float, out: Path, seed: int) -> int:
             f"   with {label:<22}: m_7 = {m.value:.4f} kg +- {100 * m.rel_std:.2f}%  "
             f"(error {100 * (m.value / 1.136 - 1):+.2f}%)"
         )
+
+
+def run(duration: float, out: Path, seed: int) -> int:
+    from orthoglide_ident.identify.pipeline import identify
+    from orthoglide_ident.model.base import base_model
+
+    paths, truth = _simulate_records(duration, out, seed)
+    bm = base_model()
+    _say("\n2. IDIM-TLS on the unloaded and 1.983 kg bags (payload mass from the bag tag)")
+    t0 = time.perf_counter()
+    res = identify([paths["unloaded"], paths["loaded_1.983kg"]], method="tls", essential=True,
+                   validation_bags=[paths["validation_1.983kg"]])
+    t_id = time.perf_counter() - t0
+    res.write_json(out / "tls.json")
+    _say(f"   identified in {t_id:.2f} s; full result: {out / 'tls.json'}")
+    _report_gains(res, truth.g_tau)
+    _report_parameters(res, bm, bm.base_values(truth.params.standard_vector()))
+    _report_validation(res)
+    _report_payload(paths, np.array([g.value for g in res.drive_gains]))
     _say(f"\nDone. Bags and results are in {out}/ ; try: orthoglide-ident info {paths['unloaded']}")
     return 0
 

@@ -14,7 +14,7 @@ import logging
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Iterable, Iterator, Protocol, Sequence
+from typing import Any, Callable, Iterable, Iterator, Protocol, Sequence
 
 import numpy as np
 
@@ -246,6 +246,41 @@ def _segments_iir(segments: list[Segment], model: IdentificationModel, opts: Ide
             n_bridged, n_unbridged)
 
 
+def _check_request(opts: IdentifyOptions, method: str, payload_mass: float | None) -> None:
+    opts.validate()
+    if method not in ("tls", "wls"):
+        raise IdentificationError(f"unknown method {method!r}: use tls or wls")
+    if payload_mass is not None and not (np.isfinite(payload_mass) and payload_mass > 0):
+        raise IdentificationError(
+            f"--payload-mass must be a positive mass in kg, not {payload_mass}")
+
+
+def _observe_all(records: Iterable[Record], model: IdentificationModel, opts: IdentifyOptions,
+                 payload_mass: float | None, add_timings: Callable[[dict[str, float]], None]
+                 ) -> tuple[list[Observations], list[dict[str, Any]], list[str], list[str]]:
+    """Each record to its observation rows (one record's raw samples in memory at a time):
+    the rows, the per-bag reports, the warnings and the bag names."""
+    if isinstance(records, Sequence):  # in memory: check every tag before the long steps
+        for r in records:
+            resolve_payload(r, payload_mass, opts.payload_tolerance_kg)
+    blocks: list[Observations] = []
+    reports: list[dict[str, Any]] = []
+    warnings: list[str] = []
+    bag_names: list[str] = []
+    for rec in records:
+        m = resolve_payload(rec, payload_mass, opts.payload_tolerance_kg)
+        bag_names.append(rec.source)
+        warnings.extend(rec.warnings)
+        obs, rep, ts = observe(rec, model, opts, m)
+        add_timings(ts)
+        blocks.append(obs)
+        reports.append(bag_report(rep, rec.source, rec.condition, m, obs.rows_per_joint()))
+        del rec  # a lazily read bag's raw samples can go now
+    if not blocks:
+        raise IdentificationError("no bag given")
+    return blocks, reports, warnings, bag_names
+
+
 def identify_records(
     records: Iterable[Record],
     payload_mass: float | None = None,
@@ -262,12 +297,7 @@ def identify_records(
     one record's raw samples are in memory at once).
     """
     opts = options or IdentifyOptions()
-    opts.validate()
-    if method not in ("tls", "wls"):
-        raise IdentificationError(f"unknown method {method!r}: use tls or wls")
-    if payload_mass is not None and not (np.isfinite(payload_mass) and payload_mass > 0):
-        raise IdentificationError(
-            f"--payload-mass must be a positive mass in kg, not {payload_mass}")
+    _check_request(opts, method, payload_mass)
     timings: dict[str, float] = {}
     t_all = time.perf_counter()
     if model is None:
@@ -278,24 +308,7 @@ def identify_records(
         for k, v in ts.items():
             timings[k] = timings.get(k, 0.0) + v
 
-    if isinstance(records, Sequence):  # in memory: check every tag before the long steps
-        for r in records:
-            resolve_payload(r, payload_mass, opts.payload_tolerance_kg)
-    blocks: list[Observations] = []
-    reports: list[dict[str, Any]] = []
-    warnings: list[str] = []
-    bag_names: list[str] = []
-    for rec in records:
-        m = resolve_payload(rec, payload_mass, opts.payload_tolerance_kg)
-        bag_names.append(rec.source)
-        warnings.extend(rec.warnings)
-        obs, rep, ts = observe(rec, model, opts, m)
-        add(ts)
-        blocks.append(obs)
-        reports.append(bag_report(rep, rec.source, rec.condition, m, obs.rows_per_joint()))
-        del rec  # a lazily read bag's raw samples can go now
-    if not blocks:
-        raise IdentificationError("no bag given")
+    blocks, reports, warnings, bag_names = _observe_all(records, model, opts, payload_mass, add)
     t_solve = time.perf_counter()
     factors = [RecordFactors.from_observations(b) for b in blocks]
     solved = solve(factors, model, opts, method, gains, essential, bag_names)
