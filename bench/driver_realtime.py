@@ -158,6 +158,7 @@ def external_run(node, duration: float) -> dict:
     except subprocess.TimeoutExpired:
         proc.terminate()
     time.sleep(0.5)
+    executor.remove_node(node)  # free for the next phase's spin_once (a node has one executor)
     executor.shutdown()
     ctl.taker.close()
     err = proc.communicate(timeout=30)[1] if proc.poll() is not None else ""

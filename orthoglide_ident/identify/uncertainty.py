@@ -167,14 +167,27 @@ class ResidualMoments:
         tick = None if self.row_period_s is None else self.row_period_s / max(self.decimation, 1)
         for j in range(3):
             phase = np.outer(q[:, j], k)  # (r, n_λ)
-            E = np.exp(-1j * phase)
             H = fir_gain(np.abs(qd[:, j])[:, None] / WAVELENGTHS_M[None, :], self.decimation, tick)
-            H = H * kept[j][:, None]
-            for kind, w in enumerate((H, H * np.sign(qd[:, j])[:, None])):
-                self.spectrum[j, kind] += (E * w).T @ Z[j]
-                w2 = w * w
-                self.ripple_s0[j, kind] += w2.sum(axis=0)
-                self.ripple_s2[j, kind] += (w2 * E * E).sum(axis=0)
+            H *= kept[j][:, None]
+            C, S = np.cos(phase) * H, np.sin(phase) * H  # w exp(-iφ) = C - iS, real products
+            sgn = np.sign(qd[:, j])[:, None]
+            both = np.concatenate([Z[j], Z[j] * sgn], axis=1)  # kinds 0 (w = H), 1 (w = sign H)
+            n_c = Z.shape[2]
+            F = C.T @ both - 1j * (S.T @ both)  # (n_λ, 2 n_c)
+            w2 = H * H
+            s0 = w2.sum(axis=0)
+            s2 = (C * C - S * S).sum(axis=0) - 2j * (C * S).sum(axis=0)  # Σ w² exp(-2iφ)
+            s0_sign, s2_sign = s0, s2  # sign² = 1, but where q̇ is exactly 0
+            if not np.all(sgn):
+                nz = sgn != 0
+                s0_sign = (w2 * nz).sum(axis=0)
+                s2_sign = ((C * C - S * S) * nz).sum(axis=0) - 2j * ((C * S) * nz).sum(axis=0)
+            self.spectrum[j, 0] += F[:, :n_c]
+            self.spectrum[j, 1] += F[:, n_c:]
+            self.ripple_s0[j, 0] += s0
+            self.ripple_s0[j, 1] += s0_sign
+            self.ripple_s2[j, 0] += s2
+            self.ripple_s2[j, 1] += s2_sign
             self.spectrum_rows[j] += int(kept[j].sum())
 
 

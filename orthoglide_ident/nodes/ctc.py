@@ -127,13 +127,20 @@ class CTCNode(Node):
             runs = np.split(stamps, np.flatnonzero(np.diff(stamps) != TICK_NS) + 1)
             for run in (r for r in runs if len(r) > 1):
                 ref = np.stack([self.pending[int(t)] for t in run])  # (n, 3, 3): q_d, qd_d, qdd_d per tick
+                if not np.all(np.isfinite(ref)):  # the model refuses it; stop rather than guess
+                    bad = int(run[np.flatnonzero(~np.isfinite(ref).all(axis=(1, 2)))[0]])
+                    self._stop(f"non-finite feed-forward: setpoint at stamp {bad} is not finite")
+                    break
                 self._publish(run[:-1], feedforward_currents(ref[:, 0], ref[:, 1], ref[:, 2], self.model))
         self.pending = {int(stamps[-1]): self.pending[int(stamps[-1])]}
 
+    def _stop(self, reason: str) -> None:
+        self.stopped = reason
+        self.get_logger().error(f"stopped: {reason}; waiting for new identified parameters")
+
     def _publish(self, stamps: np.ndarray, v_ff: np.ndarray) -> None:
         if not np.all(np.isfinite(v_ff)):
-            self.stopped = f"non-finite feed-forward at stamp {stamps[0]}"
-            self.get_logger().error(f"stopped: {self.stopped}; waiting for new identified parameters")
+            self._stop(f"non-finite feed-forward at stamp {stamps[0]}")
             return
         clipped = np.clip(v_ff, -self.current_limit, self.current_limit)
         n_clip = int(np.sum(np.any(clipped != v_ff, axis=1)))

@@ -119,3 +119,69 @@ def test_ctc_node_bad_parameter_is_a_one_line_error(ros_env, args, reason):
                          env=ros_env, capture_output=True, text=True, timeout=60)
     assert out.returncode == 2, out.stderr
     assert reason in out.stderr and "Traceback" not in out.stderr
+
+
+def test_ctc_node_clips_to_the_current_limit_and_stops_on_nan(ros_env):
+    """Safety: parameters 1000x too large give currents clipped to current_limit (and a warning);
+    NaN parameters are refused (the previous ones stay); a NaN setpoint stops the feed-forward
+    with the reason, and nothing more is published."""
+    rclpy = pytest.importorskip("rclpy")
+    pytest.importorskip("orthoglide_msgs.msg")
+    from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+
+    from orthoglide_msgs.msg import CurrentReference, IdentifiedParameters, JointSetpoint
+    from orthoglide_sim.trajectories import get_trajectory
+    from test_control import true_params
+
+    p = true_params()
+    proc = subprocess.Popen([sys.executable, "-m", "orthoglide_ident.nodes.ctc", "--ros-args", "-p", "batch:=2",
+                             "-p", "current_limit:=[0.5, 0.5, 0.5]"],
+                            env=ros_env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    lines: list[str] = []
+    threading.Thread(target=lambda: lines.extend(iter(proc.stdout.readline, "")), daemon=True).start()
+    rclpy.init()
+    node = rclpy.create_node("test_ctc_safety")
+    got: list[list[float]] = []
+    latched = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL, reliability=ReliabilityPolicy.RELIABLE)
+    pub_par = node.create_publisher(IdentifiedParameters, "/orthoglide/identified_parameters", latched)
+    pub_sp = node.create_publisher(JointSetpoint, "/orthoglide/setpoints", 100)
+    node.create_subscription(CurrentReference, "/orthoglide/feedforward", lambda m: got.append(list(m.current)), 100)
+    ref = get_trajectory("test2").evaluate(np.arange(60) * 1e-3)
+
+    def spin(seconds: float) -> None:
+        t_end = time.monotonic() + seconds
+        while time.monotonic() < t_end:
+            rclpy.spin_once(node, timeout_sec=0.01)
+
+    def publish(values: list[float], first: int, qdd_scale: float = 1.0) -> None:
+        pub_par.publish(IdentifiedParameters(names=list(p.names), values=values,
+                                             drive_gains=[float(g) for g in p.drive_gains], payload_mass=1.983))
+        spin(0.5)
+        for k in range(first, first + 20):
+            m = JointSetpoint(name=["q11", "q12", "q13"], position=list(ref[0][k]), velocity=list(ref[1][k]),
+                              acceleration=list(qdd_scale * ref[2][k]))
+            m.header.stamp.sec, m.header.stamp.nanosec = divmod(10**11 + k * 10**6, 10**9)
+            pub_sp.publish(m)
+            spin(0.003)
+        spin(1.0)
+
+    try:
+        _wait_for(lines, "waiting for", 60, proc)
+        t_end = time.monotonic() + 30
+        while node.count_subscribers("/orthoglide/setpoints") < 1 and time.monotonic() < t_end:
+            spin(0.05)
+        publish([1000.0 * float(v) for v in p.chi_b], 0)
+        _wait_for(lines, "clipped", 10, proc)
+        assert len(got) >= 15 and np.max(np.abs(got)) == pytest.approx(0.5), got
+        publish([float("nan")] * len(p.names), 20)
+        _wait_for(lines, "rejected, keeping the previous ones", 10, proc)
+        n = len(got)
+        assert n >= 35 and np.max(np.abs(got)) == pytest.approx(0.5)  # still fed, with the old ones
+        publish([1000.0 * float(v) for v in p.chi_b], 40, qdd_scale=float("nan"))
+        _wait_for(lines, "stopped: non-finite feed-forward", 10, proc)
+        assert len(got) <= n + 1 and proc.poll() is None  # the tick held back before the NaN, at most
+    finally:
+        node.destroy_node()
+        rclpy.shutdown()
+        proc.terminate()
+        proc.wait(timeout=60)

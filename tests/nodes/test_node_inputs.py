@@ -113,3 +113,30 @@ def test_essential_answer_and_wls_keeps_the_latched_tls(spawn_python, node):
         rclpy.spin_once(node, timeout_sec=0.1)
     assert got["tls"][-1].method == "tls" and len(got["tls"][-1].names) < 61  # the essential TLS, last TLS call
     assert got["wls"][-1].method == "wls"
+
+
+def test_namespace_moves_the_recorder_and_empty_or_refused_recordings_fail(spawn_python, node,
+                                                                            tmp_path):
+    """``-r __ns:=/robot2`` moves every name; a refused start leaves no folder behind; a stop with
+    nothing written answers success false (rosbag2 would leave an empty bag and say nothing)."""
+    from std_srvs.srv import Trigger
+
+    from orthoglide_msgs.srv import StartRecording
+
+    rec = spawn_python(RECORDER, "--ros-args", "-r", "__ns:=/robot2", "-p", f"output_dir:={tmp_path}")
+    start = node.create_client(StartRecording, "/robot2/orthoglide/recorder/start")
+    stop = node.create_client(Trigger, "/robot2/orthoglide/recorder/stop")
+    res = _call(node, start, StartRecording.Request(condition="loaded", payload_mass=0.0, name="x"))
+    assert not res.success and "payload_mass" in res.message
+    assert list(tmp_path.iterdir()) == []  # the refused start created nothing
+    res = _call(node, start, StartRecording.Request(condition="unloaded", name="quiet"))
+    assert res.success, res.message
+    topics = dict(node.get_topic_names_and_types())
+    assert "/robot2/orthoglide/recorder/status" in topics
+    assert "/orthoglide/recorder/status" not in topics
+    subs = node.get_subscriptions_info_by_topic("/robot2/orthoglide/joint_states")
+    assert subs, "the recorder does not subscribe to the namespaced joint states"
+    time.sleep(0.5)
+    res = _call(node, stop, Trigger.Request())
+    assert not res.success and "nothing recorded on /robot2/orthoglide/joint_states" in res.message
+    assert rec.poll() is None
