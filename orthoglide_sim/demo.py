@@ -102,11 +102,18 @@ def print_gains(res: object, seconds: float) -> None:
             f"   {G_TAU_MANUFACTURER:12.1f} {100 * (G_TAU_MANUFACTURER / g_true - 1):+7.2f}%")
 
 
-def run_strategy(g: Graph, controller: str, name: str, seconds: float) -> np.ndarray:
-    """Switch the driver's controller, let it settle, record the run, return its tracking errors."""
+COUNTERS = ("ticks", "late", "feedforward_fresh", "feedforward_missing")
+
+
+def run_strategy(g: Graph, controller: str, name: str, seconds: float) -> tuple[np.ndarray, dict]:
+    """Switch the driver's controller, let it settle, record the run: its tracking errors and what
+    the driver counted meanwhile (from /diagnostics, to the second)."""
     g.set_params("orthoglide_driver", controller=controller)
     time.sleep(SETTLE_S)
-    return tracking_errors(record(g, name, "loaded", PAYLOAD, seconds, quiet=True))
+    before = g.driver_counters()
+    errors = tracking_errors(record(g, name, "loaded", PAYLOAD, seconds, quiet=True))
+    after = g.driver_counters()
+    return errors, {k: int(after[k]) - int(before[k]) for k in COUNTERS}
 
 
 def tracking_errors(bag: str) -> np.ndarray:
@@ -139,9 +146,17 @@ def use_ctc(g: Graph, which: str) -> None:
             remap=remap)
 
 
-def table4_over_ros(g: Graph, bags: list[str], seconds: float) -> dict:
-    """Errors (N, 3) m per (trajectory, strategy), every run through the driver, ctc and DDS."""
-    rows = {}
+def _health(c: dict) -> str:
+    text = f"; driver: {c['late']} of {c['ticks']} ticks late"
+    if c["feedforward_fresh"] or c["feedforward_missing"]:
+        text += f", {c['feedforward_missing']} without a fresh feed-forward (previous one held)"
+    return text
+
+
+def table4_over_ros(g: Graph, bags: list[str], seconds: float) -> tuple[dict, dict]:
+    """Errors (N, 3) m per (trajectory, strategy), every run through the driver, ctc and DDS, and
+    the driver's counters over each run."""
+    rows, counts = {}, {}
     for traj in ("test1", "test2"):
         g.set_params("orthoglide_driver", trajectory=traj, controller="pid")
         time.sleep(BLEND_S)
@@ -159,10 +174,11 @@ def table4_over_ros(g: Graph, bags: list[str], seconds: float) -> dict:
                 g.wait_for_feedforward()  # the model of this case is feeding the driver
             controller = {"simple PID": "pid", "PID + vel. ff": "pid_ff"}.get(case, "ctc")
             slug = case.lower().replace(" ", "_").replace(",", "").replace(".", "").replace("+", "plus").replace("%", "pc")
-            rows[traj, case] = run_strategy(g, controller, f"table4_{traj}_{slug}", seconds)
-            say(f"   {traj} {case:<20} rms " + " / ".join(f"{x:6.1f}" for x in _rms_um(rows[traj, case])) + " um")
+            rows[traj, case], counts[traj, case] = run_strategy(g, controller, f"table4_{traj}_{slug}", seconds)
+            say(f"   {traj} {case:<20} rms " + " / ".join(f"{x:6.1f}" for x in _rms_um(rows[traj, case])) + " um"
+                + _health(counts[traj, case]))
     g.set_params("orthoglide_driver", controller="pid")
-    return rows
+    return rows, counts
 
 
 def _rms_um(e: np.ndarray) -> np.ndarray:
@@ -186,17 +202,20 @@ def in_process_ctc(tls_msg: object, seconds: float) -> dict:
     return out
 
 
-def print_table4(rows: dict, inproc: dict) -> None:
+def print_table4(rows: dict, inproc: dict, counts: dict) -> None:
     say(f"\n   Tracking errors, payload {PAYLOAD} kg, over ROS 2 (um; paper Table 4 layout)")
-    say(f"   {'control strategy':<22} {'maximal error':^27} {'rms error':^27}")
+    say(f"   {'control strategy':<22} {'maximal error':^27} {'rms error':^27}  {'ticks: late, no fresh ff':>24}")
     say(f"   {'':<22} {'joint 1':>8} {'joint 2':>8} {'joint 3':>8}  {'joint 1':>8} {'joint 2':>8} {'joint 3':>8}")
     for traj in ("test1", "test2"):
         say(f"   {traj}")
         for case in TABLE4 + ("CTC in-process",):
             e = inproc[traj] if case == "CTC in-process" else rows[traj, case]
             mx = np.abs(e).max(axis=0) * 1e6
+            c = counts.get((traj, case))
+            health = "" if c is None else f"  {c['late']:>6} of {c['ticks']}, " + (
+                f"{c['feedforward_missing']}" if case.startswith("CTC") else "-")
             say(f"   {case:<22} " + " ".join(f"{x:8.1f}" for x in mx) + "  "
-                + " ".join(f"{x:8.1f}" for x in _rms_um(e)))
+                + " ".join(f"{x:8.1f}" for x in _rms_um(e)) + health)
     for traj in ("test1", "test2"):
         pid, ctc, ref = (_rms_um(rows[traj, "simple PID"]), _rms_um(rows[traj, "CTC, identif. gains"]),
                          _rms_um(inproc[traj]))
@@ -255,9 +274,9 @@ def run(out: Path, record_s: float, measure_s: float) -> int:
         offline = identify(g, bags)
         say("   live vs bags: max relative difference " + live_vs_bags(tls.parameters, offline.parameters))
         say(f"4. Paper Table 4 over ROS 2: test1 and test2, {measure_s:.0f} s per control strategy")
-        rows = table4_over_ros(g, bags, measure_s)
+        rows, counts = table4_over_ros(g, bags, measure_s)
     inproc = in_process_ctc(tls.parameters, measure_s)
-    print_table4(rows, inproc)
+    print_table4(rows, inproc, counts)
     plot_table4(rows, out / "tracking_errors.png")
     report_plots(bags, out)
     say(f"\nDone in {time.perf_counter() - t_start:.0f} s. Bags, plots ({out}/*.png) and node logs are in {out}/")

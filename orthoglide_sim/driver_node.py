@@ -8,6 +8,7 @@ import threading
 import time
 
 from builtin_interfaces.msg import Time
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from rclpy.serialization import deserialize_message
@@ -37,7 +38,10 @@ the joint state it was computed from; controller external applies the latest fro
 holds the robot with its own PID until the first command and whenever commands stop for 0.1 s).
 Every current is clipped to current_limit. A non-finite input, or the robot leaving its stroke,
 stops the simulated robot with an error in the log; call orthoglide_driver/reset (std_srvs/Trigger)
-to put it back on its reference. Names are relative: -r __ns:=/robot2 moves the whole interface."""
+to put it back on its reference. Names are relative: -r __ns:=/robot2 moves the whole interface.
+Once a second it publishes its counters on /diagnostics (diagnostic_msgs/DiagnosticArray, as
+robot drivers do): ticks, late ticks, current-limited ticks, fresh and missing feed-forwards,
+commands applied and ticks without one, the fault if any."""
 
 PARAMETERS = (
     Param("payload", "none", "payload on the platform: none, 1.983, 1.136 or a mass in kg; set it while "
@@ -63,7 +67,8 @@ TICK_NS = 1_000_000
 LATE_NS = 500_000  # a tick published more than 0.5 ms after its deadline is late
 WAKE_EARLY_NS = 100_000
 LOCKSTEP_TIMEOUT_S = 2.0
-STATUS_PERIOD_TICKS = 10_000
+STATUS_PERIOD_TICKS = 10_000  # a log line
+DIAGNOSTICS_PERIOD_TICKS = 1_000  # a /diagnostics message
 
 
 def _usage() -> str:
@@ -90,6 +95,7 @@ class Driver(Node):
         self.pub_cr = self.create_publisher(CurrentReference, "orthoglide/current_reference", 1000)
         self.pub_sp = self.create_publisher(JointSetpoint, "orthoglide/setpoints", 1000)
         self.pub_clock = None if self.realtime else self.create_publisher(Clock, "/clock", 10)
+        self.pub_diag = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
         inputs = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE)
         # taken in batches on a thread of their own, not one executor callback per message: less
         # CPU and GIL taken from the tick loop (orthoglide_ident.nodes._batch)
@@ -260,7 +266,28 @@ class Driver(Node):
                                     "back on its reference")
         elif s.k % STATUS_PERIOD_TICKS == 0:
             self.get_logger().info(self._status())
+        if s.k % DIAGNOSTICS_PERIOD_TICKS == 0 or s.fault:
+            self._publish_diagnostics()
         return True
+
+    def _publish_diagnostics(self) -> None:
+        """The counters on /diagnostics (rqt_robot_monitor, Foxglove and the demo read them)."""
+        s, st = self.session, self.session.stats
+        values = {"ticks": s.k, "late": self.late, "current_limited": st.saturated,
+                  "feedforward_fresh": st.ff_used, "feedforward_missing": st.ff_missing,
+                  "commands_applied": sum(st.command_ages.values()), "no_command": st.no_command,
+                  "controller": s.controller, "fault": s.fault or ""}
+        level = DiagnosticStatus.ERROR if s.fault else (
+            DiagnosticStatus.WARN if self.late > 0.01 * max(s.k, 1) else DiagnosticStatus.OK)
+        status = DiagnosticStatus(level=level, name=f"{self.get_name()}: tick loop", hardware_id="orthoglide_sim",
+                                  message=s.fault or self._status(),
+                                  values=[KeyValue(key=k, value=str(v)) for k, v in values.items()])
+        msg = DiagnosticArray(status=[status])
+        msg.header.stamp = self.get_clock().now().to_msg()
+        try:
+            self.pub_diag.publish(msg)
+        except Exception:  # shutting down
+            pass
 
     def _real_time_priority(self) -> None:
         """SCHED_FIFO for this thread: the ticks keep their deadlines while other nodes run."""

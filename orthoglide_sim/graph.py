@@ -21,6 +21,7 @@ from rclpy.executors import MultiThreadedExecutor
 from rclpy.parameter import Parameter
 from rclpy.parameter_client import AsyncParameterClient
 from rclpy.qos import QoSProfile, ReliabilityPolicy
+from diagnostic_msgs.msg import DiagnosticArray
 from sensor_msgs.msg import JointState
 
 from orthoglide_ident.errors import OrthoglideError
@@ -170,6 +171,29 @@ class Graph:
         finally:
             probe.destroy_node()
         return time.monotonic() - t0
+
+    def driver_counters(self, timeout: float = 5.0) -> dict[str, str]:
+        """The driver's counters (ticks, late, feedforward_fresh, ...) from its next /diagnostics
+        message (published once a second)."""
+        got: dict[str, str] = {}
+
+        def on_diagnostics(m: DiagnosticArray) -> None:
+            for st in m.status:
+                if st.hardware_id == "orthoglide_sim":
+                    got.update({kv.key: kv.value for kv in st.values})
+
+        probe = rclpy.create_node("orthoglide_demo_diagnostics")
+        probe.create_subscription(DiagnosticArray, "/diagnostics", on_diagnostics, 10)
+        t0 = time.monotonic()
+        try:
+            while not got:
+                rclpy.spin_once(probe, timeout_sec=0.05)
+                if time.monotonic() - t0 > timeout:
+                    self.check_alive()
+                    raise GraphError(f"no driver counters on /diagnostics within {timeout:.0f} s")
+        finally:
+            probe.destroy_node()
+        return got
 
     def wait_for_ticks(self, timeout: float = 30.0) -> float:
         """Seconds until a joint state arrives (the driver or robot is publishing)."""

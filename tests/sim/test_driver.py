@@ -98,8 +98,10 @@ def _stamp(m) -> int:
 
 def test_driver_node_first_tick_stamps_and_setpoints(ros_env):
     """Simulated time, pid: both topics on the 1 kHz grid with identical stamps; setpoints carry
-    the tracked reference, published setpoint_lead ticks ahead; first tick within seconds."""
+    the tracked reference, published setpoint_lead ticks ahead; first tick within seconds; the
+    driver's counters on /diagnostics once a second."""
     rclpy = pytest.importorskip("rclpy")
+    from diagnostic_msgs.msg import DiagnosticArray
     from rclpy.qos import QoSProfile, ReliabilityPolicy
     from sensor_msgs.msg import JointState
 
@@ -115,6 +117,10 @@ def test_driver_node_first_tick_stamps_and_setpoints(ros_env):
                              lambda m: (first.setdefault("cr", time.monotonic()), cr.append(_stamp(m))), qos)
     node.create_subscription(JointSetpoint, "/orthoglide/setpoints",
                              lambda m: sp.setdefault(_stamp(m), (len(js), list(m.position))), qos)
+    diag = []
+    node.create_subscription(DiagnosticArray, "/diagnostics",
+                             lambda m: diag.extend({kv.key: kv.value for kv in st.values} for st in m.status
+                                                   if st.hardware_id == "orthoglide_sim"), 10)
     t0 = time.monotonic()
     proc = subprocess.Popen([sys.executable, "-m", "orthoglide_sim.driver_node", "--ros-args",
                              "-p", "realtime:=false", "-p", "duration:=3.0", "-p", "trajectory:=test1",
@@ -145,6 +151,7 @@ def test_driver_node_first_tick_stamps_and_setpoints(ros_env):
     np.testing.assert_allclose([sp[s][1] for s in stamps], ref.evaluate(np.array(stamps) * 1e-9)[0], atol=1e-12)
     ahead = [s / 1e6 - sp[s][0] for s in stamps[100:]]  # tick of the setpoint - ticks received then
     assert np.median(ahead) >= 10
+    assert [int(d["ticks"]) for d in diag][:3] == [1000, 2000, 3000] and diag[-1]["controller"] == "pid", diag
 
 
 def test_external_mode_lockstep_applies_each_command_at_its_tick(ros_env):
