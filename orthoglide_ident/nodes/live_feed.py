@@ -57,6 +57,7 @@ class LiveFeed:
         self.first: int | None = None
         self.last: int | None = None  # set when the recorder has stopped
         self.stopped_at = 0.0
+        self.seen: dict[str, int] = {}  # newest stamp received per topic during the recording
         self.warnings: list[str] = []
         self.dirty = False  # something to say on orthoglide/identification/live
         stream = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE)
@@ -75,7 +76,7 @@ class LiveFeed:
         with self.lock:
             if msg.recording and msg.bag_path != self.bag:
                 self._finish()
-                self.bag, self.first, self.last = msg.bag_path, None, None
+                self.bag, self.first, self.last, self.seen = msg.bag_path, None, None, {}
                 try:
                     self.live.start_recording(msg.bag_path, msg.condition, msg.payload_mass)
                 except OrthoglideError as e:
@@ -96,11 +97,16 @@ class LiveFeed:
             if self.bag is None or self.first is None:
                 return
             for key, (topic, _, msgtype) in self.TOPICS.items():
-                raw = self._take(self.buffers[key])
+                buf = self.buffers[key]
+                if buf:
+                    self.seen[key] = max(self.seen.get(key, 0), _stamp_ns(buf[-1]))
+                raw = self._take(buf)
                 if raw:
                     self._add(key, raw, msgtype, topic)
                     self.dirty = True
-            done = all(not b or _stamp_ns(b[-1]) >= (self.last or 0) for b in self.buffers.values())
+            # done when every topic has delivered the last recorded tick here (an empty buffer
+            # only means its last messages may still be on their way)
+            done = all(self.seen.get(key, 0) >= (self.last or 0) for key in self.TOPICS)
             if self.last is not None and (done or time.monotonic() - self.stopped_at > STOP_WAIT_S):
                 self._finish()
 
