@@ -116,7 +116,8 @@ class ResidualMoments:
         idx = np.floor(np.asarray(t) / self.block_s).astype(np.int64)
         cuts = np.flatnonzero(np.diff(idx)) + 1
         for a, b in zip(np.concatenate([[0], cuts]), np.concatenate([cuts, [idx.shape[0]]])):
-            G = np.einsum("jri,jrk->jik", Z[:, a:b], Z[:, a:b])
+            Zb = Z[:, a:b]
+            G = Zb.transpose(0, 2, 1) @ Zb  # (3, n_c, n_c) Gram per joint, batched BLAS
             n = kept[:, a:b].sum(axis=1)
             key = int(idx[a])
             if key in self.blocks:
