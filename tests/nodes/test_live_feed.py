@@ -1,0 +1,85 @@
+"""The live feed hands LiveIdentification exactly the recorded ticks: a recording ends only when
+every topic has delivered its last recorded tick here, not when the buffers happen to be empty."""
+from __future__ import annotations
+
+import threading
+
+import pytest
+
+rclpy = pytest.importorskip("rclpy")
+pytest.importorskip("orthoglide_msgs.msg")
+
+
+class _Spy:
+    """Stands in for LiveIdentification: records which stamps were fed and when it stopped."""
+
+    def __init__(self) -> None:
+        self.stamps: dict[str, list[int]] = {"q": [], "v": []}
+        self.stopped = False
+
+    def start_recording(self, *_):
+        pass
+
+    def stop_recording(self):
+        self.stopped = True
+        return []
+
+    def add_joint_states(self, stamps, names, values):
+        self.stamps["q"] += [int(s) for s in stamps]
+        return []
+
+    def add_current_reference(self, stamps, names, values):
+        self.stamps["v"] += [int(s) for s in stamps]
+        return []
+
+    def estimate(self):
+        return type("E", (), {"line": lambda self: "spy"})()
+
+
+def _raw(cls, stamp_ns: int) -> bytes:
+    from rclpy.serialization import serialize_message
+
+    m = cls(name=["q11", "q12", "q13"])
+    if hasattr(m, "position"):
+        m.position = [0.0, 0.0, 0.0]
+    else:
+        m.current = [0.0, 0.0, 0.0]
+    m.header.stamp.sec, m.header.stamp.nanosec = divmod(stamp_ns, 1_000_000_000)
+    return serialize_message(m)
+
+
+def test_recording_ends_when_every_topic_delivered_its_last_tick():
+    from sensor_msgs.msg import JointState
+
+    from orthoglide_ident.nodes.live_feed import LiveFeed
+    from orthoglide_msgs.msg import CurrentReference, RecorderStatus
+
+    rclpy.init()
+    node = rclpy.create_node("test_live_feed")
+    try:
+        spy = _Spy()
+        feed = LiveFeed(node, spy, threading.Lock())
+        t0 = 10**12
+        status = RecorderStatus(recording=True, condition="unloaded", bag_path="/bags/x")
+        status.first_tick.sec, status.first_tick.nanosec = divmod(t0, 10**9)
+        feed.on_status(status)
+        for k in range(100):  # ticks 0..99 arrive; the recorder wrote 0..119
+            feed.buffers["q"].append(_raw(JointState, t0 + k * 10**6))
+            feed.buffers["v"].append(_raw(CurrentReference, t0 + k * 10**6))
+        status.recording = False
+        status.last_tick.sec, status.last_tick.nanosec = divmod(t0 + 119 * 10**6, 10**9)
+        feed.on_status(status)
+        feed.feed()
+        assert not spy.stopped, "finished before ticks 100..119 arrived"
+        assert spy.stamps["q"][-1] == t0 + 99 * 10**6
+        for k in range(100, 125):  # the rest arrives, with ticks after the recording
+            feed.buffers["q"].append(_raw(JointState, t0 + k * 10**6))
+            feed.buffers["v"].append(_raw(CurrentReference, t0 + k * 10**6))
+        feed.feed()
+        assert spy.stopped
+        want = [t0 + k * 10**6 for k in range(120)]
+        assert spy.stamps["q"] == want and spy.stamps["v"] == want
+        feed.close()
+    finally:
+        node.destroy_node()
+        rclpy.shutdown()
