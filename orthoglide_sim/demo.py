@@ -51,6 +51,8 @@ def start_graph(g: Graph, out: Path) -> None:
             params_file=config / "identification.yaml")
     g.start("orthoglide_ctc", "ctc", params_file=config / "ctc.yaml")
     t = g.wait_for_ticks()
+    for topic in ("orthoglide/joint_states", "orthoglide/current_reference"):  # live from tick one
+        g.wait_for_subscriber(topic, "orthoglide_identification")
     say(f"   driver publishing {t:.1f} s after start; recorder, identification and ctc up "
         f"(logs in {g.log_dir}/)")
 

@@ -195,6 +195,21 @@ class Graph:
             probe.destroy_node()
         return got
 
+    def wait_for_subscriber(self, topic: str, node_prefix: str, timeout: float = 30.0) -> float:
+        """Seconds until a node whose name starts with ``node_prefix`` subscribes to ``topic`` (its
+        batch intake is the ``<node>_rx`` node), plus 0.5 s for DDS to match it with the
+        publishers: a subscriber gets nothing published before that."""
+        name = self.node.resolve_topic_name(topic)
+        t0 = time.monotonic()
+        while not any(i.node_name.startswith(node_prefix)
+                      for i in self.node.get_subscriptions_info_by_topic(name)):
+            if time.monotonic() - t0 > timeout:
+                self.check_alive()
+                raise GraphError(f"{node_prefix} did not subscribe to {name} within {timeout:.0f} s")
+            time.sleep(0.05)
+        time.sleep(0.5)
+        return time.monotonic() - t0
+
     def wait_for_ticks(self, timeout: float = 30.0) -> float:
         """Seconds until a joint state arrives (the driver or robot is publishing)."""
         return self.wait_for_messages(JointState, "orthoglide/joint_states", 1, timeout)

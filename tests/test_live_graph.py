@@ -31,6 +31,10 @@ def test_record_identify_live_and_control_over_ros(tmp_path):
                 params_file=ROOT / "config/recorder.yaml")
         g.start("orthoglide_identification", "identification", {"bag_dir": str(tmp_path / "bags")})
         assert g.wait_for_ticks() < 30
+        # live identification gets only what is published after its subscription matched: a
+        # recording started before that begins without it (the feed says so)
+        g.wait_for_subscriber("orthoglide/joint_states", "orthoglide_identification")
+        g.wait_for_subscriber("orthoglide/current_reference", "orthoglide_identification")
         bags = [record(g, "unloaded", "unloaded", 0.0, 12.0, quiet=True)]
         g.set_params("orthoglide_driver", payload="1.983", trajectory="exciting2")
         time.sleep(3.0)

@@ -58,6 +58,7 @@ class LiveFeed:
         self.last: int | None = None  # set when the recorder has stopped
         self.stopped_at = 0.0
         self.seen: dict[str, int] = {}  # newest stamp received per topic during the recording
+        self.started: dict[int, bool] = {}  # per buffer: its first tick of the recording checked
         self.warnings: list[str] = []
         self.dirty = False  # something to say on orthoglide/identification/live
         stream = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE)
@@ -76,7 +77,7 @@ class LiveFeed:
         with self.lock:
             if msg.recording and msg.bag_path != self.bag:
                 self._finish()
-                self.bag, self.first, self.last, self.seen = msg.bag_path, None, None, {}
+                self.bag, self.first, self.last, self.seen, self.started = msg.bag_path, None, None, {}, {}
                 try:
                     self.live.start_recording(msg.bag_path, msg.condition, msg.payload_mass)
                 except OrthoglideError as e:
@@ -114,6 +115,13 @@ class LiveFeed:
         """Messages of the recording's ticks, oldest first; earlier ones dropped, later ones kept."""
         while buf and _stamp_ns(buf[0]) < self.first:
             buf.popleft()
+        if buf and not self.started.get(id(buf)):
+            self.started[id(buf)] = True
+            late_ns = _stamp_ns(buf[0]) - self.first
+            if late_ns > 0:  # subscribed after the recording began (DDS matching takes a moment)
+                self._say([f"the first {round(late_ns / 1e6)} ms of {self.bag} never reached live "
+                           "identification (subscribed after the recording began): the live estimate "
+                           "leaves them out; identify the bag for the exact result"])
         limit = self.last if self.last is not None else (_stamp_ns(buf[-1]) - HOLDBACK_NS if buf else 0)
         out = []
         while buf and _stamp_ns(buf[0]) <= limit:
