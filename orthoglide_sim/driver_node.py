@@ -279,7 +279,7 @@ class Driver(Node):
                   "controller": s.controller, "fault": s.fault or ""}
         level = DiagnosticStatus.ERROR if s.fault else (
             DiagnosticStatus.WARN if self.late > 0.01 * max(s.k, 1) else DiagnosticStatus.OK)
-        status = DiagnosticStatus(level=level, name=f"{self.get_name()}: tick loop", hardware_id="orthoglide_sim",
+        status = DiagnosticStatus(level=level, name=f"{self.get_fully_qualified_name()}: tick loop", hardware_id="orthoglide_sim",
                                   message=s.fault or self._status(),
                                   values=[KeyValue(key=k, value=str(v)) for k, v in values.items()])
         msg = DiagnosticArray(status=[status])

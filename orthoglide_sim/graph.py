@@ -154,23 +154,30 @@ class Graph:
         return future.result()
 
     # ---- topics ----------------------------------------------------------------------------------
-    def wait_for_messages(self, msg_type: Any, topic: str, count: int = 1, timeout: float = 30.0) -> float:
-        """Seconds until ``count`` messages arrived on ``topic``. A short-lived node of its own listens,
-        so that nothing subscribes at 1 kHz in this process the rest of the time."""
-        got = [0]
+    def _listen(self, msg_type: Any, topic: str, qos: Any, on_message: Any, done: Any, timeout: float,
+                failure: Any) -> float:
+        """Spin a short-lived node of its own subscribed to ``topic`` until ``done()``; seconds it took.
+        Its own node, so that nothing subscribes at 1 kHz in this process the rest of the time;
+        GraphError with ``failure()`` after ``timeout`` s."""
         probe = rclpy.create_node("orthoglide_demo_probe")
-        probe.create_subscription(msg_type, topic, lambda m: got.__setitem__(0, got[0] + 1),
-                                  QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE))
+        probe.create_subscription(msg_type, topic, on_message, qos)
         t0 = time.monotonic()
         try:
-            while got[0] < count:
+            while not done():
                 rclpy.spin_once(probe, timeout_sec=0.05)
                 if time.monotonic() - t0 > timeout:
                     self.check_alive()
-                    raise GraphError(f"{got[0]} of {count} messages on {topic} within {timeout:.0f} s")
+                    raise GraphError(failure())
         finally:
             probe.destroy_node()
         return time.monotonic() - t0
+
+    def wait_for_messages(self, msg_type: Any, topic: str, count: int = 1, timeout: float = 30.0) -> float:
+        """Seconds until ``count`` messages arrived on ``topic``."""
+        got = [0]
+        return self._listen(msg_type, topic, QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE),
+                            lambda m: got.__setitem__(0, got[0] + 1), lambda: got[0] >= count, timeout,
+                            lambda: f"{got[0]} of {count} messages on {topic} within {timeout:.0f} s")
 
     def driver_counters(self, timeout: float = 5.0) -> dict[str, str]:
         """The driver's counters (ticks, late, feedforward_fresh, ...) from its next /diagnostics
@@ -182,17 +189,8 @@ class Graph:
                 if st.hardware_id == "orthoglide_sim":
                     got.update({kv.key: kv.value for kv in st.values})
 
-        probe = rclpy.create_node("orthoglide_demo_diagnostics")
-        probe.create_subscription(DiagnosticArray, "/diagnostics", on_diagnostics, 10)
-        t0 = time.monotonic()
-        try:
-            while not got:
-                rclpy.spin_once(probe, timeout_sec=0.05)
-                if time.monotonic() - t0 > timeout:
-                    self.check_alive()
-                    raise GraphError(f"no driver counters on /diagnostics within {timeout:.0f} s")
-        finally:
-            probe.destroy_node()
+        self._listen(DiagnosticArray, "/diagnostics", 10, on_diagnostics, lambda: bool(got), timeout,
+                     lambda: f"no driver counters on /diagnostics within {timeout:.0f} s")
         return got
 
     def wait_for_subscriber(self, topic: str, node_prefix: str, timeout: float = 30.0) -> float:

@@ -71,6 +71,11 @@ def spawn_python() -> Iterator[SpawnPython]:
         return process
 
     yield spawn
+    stop_processes(processes)
+
+
+def stop_processes(processes: list[subprocess.Popen]) -> None:
+    """Terminate what still runs (10 s to exit cleanly, then kill), draining any pipes."""
     for process in processes:
         if process.poll() is None:
             process.terminate()

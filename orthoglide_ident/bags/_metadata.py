@@ -121,24 +121,23 @@ def _file_dict(f: FileStat) -> dict[str, Any]:
 
 def parse_record(items: dict[str, str]) -> dict[str, Any] | None:
     """The bag metadata mapping of a ``rosbag2`` record, or None when it is absent or unreadable."""
-    text = items.get(SERIALIZED_KEY)
-    if not text:
-        return None
-    try:
-        doc = yaml.safe_load(text)
-    except yaml.YAMLError:
-        return None
+    doc = _yaml(items.get(SERIALIZED_KEY))
     return doc if isinstance(doc, dict) else None
 
 
 def channel_qos(text: str | None) -> list[dict[str, Any]] | None:
     """The offered QoS profiles of a channel's ``offered_qos_profiles`` metadata (a YAML list)."""
-    if not text:
-        return None
-    try:
-        doc = yaml.safe_load(text)
-    except yaml.YAMLError:
-        return None
+    doc = _yaml(text)
     if isinstance(doc, list) and all(isinstance(q, dict) for q in doc):
         return doc
     return None
+
+
+def _yaml(text: str | None) -> Any:
+    """The YAML document in ``text``; None when there is none or it does not parse."""
+    if not text:
+        return None
+    try:
+        return yaml.safe_load(text)
+    except yaml.YAMLError:
+        return None

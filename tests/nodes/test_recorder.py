@@ -16,6 +16,7 @@ import pytest
 
 from orthoglide_ident import bags
 from orthoglide_ident.bags import Recording
+from conftest import stop_processes
 
 ROOT = Path(__file__).resolve().parents[2]
 PUBLISHER = ROOT / "bench" / "recorder_publisher.py"
@@ -177,14 +178,7 @@ def spawn_recorder(ros_env, tmp_path: Path):
         return proc
 
     yield spawn
-    for proc in procs:
-        if proc.poll() is None:
-            proc.terminate()
-            try:
-                proc.wait(10)
-            except subprocess.TimeoutExpired:
-                proc.kill()
-                proc.wait()
+    stop_processes(procs)
 
 
 def _publish(ros_env, seconds: float, rate: float = 1000.0) -> subprocess.Popen:
@@ -394,14 +388,7 @@ def driver_bag(client, tmp_path_factory, request):
         published = int(out.split("driver: ")[-1].split(" ticks")[0])
         yield Path(res.bag_path), stop.message, published, np.array(heard, dtype=np.int64)
     finally:
-        for proc in procs:
-            if proc.poll() is None:
-                proc.terminate()
-                try:
-                    proc.wait(10)
-                except subprocess.TimeoutExpired:
-                    proc.kill()
-                    proc.wait()
+        stop_processes(procs)
 
 
 @pytest.mark.slow
