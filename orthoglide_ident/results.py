@@ -279,11 +279,6 @@ class IdentificationResult:
             rtxt = f"{100 * res:+8.2f}%" if res is not None and math.isfinite(res) else f"{'-':>9}"
             shifts = " ".join(f"{100 * x:+13.3f}%" for x in st["shift"]) if st["shift"] else ""
             why = "" if st["cancelled"] else f"  {st['reason']}"
-            out.append(f"  {mark:<4} {st['parameter']:<{w}} {pct_or_dash(st['rel_std'])} {rtxt} "
+            out.append(f"  {mark:<4} {st['parameter']:<{w}} {_pct(st['rel_std'])} {rtxt} "
                        f"{shifts}{why}")
         return out
-
-
-def pct_or_dash(x: float | None) -> str:
-    return "      -" if x is None or not math.isfinite(x) else (
-        f"{100 * x:7.3g}" if x < 10 else " >1000%")
