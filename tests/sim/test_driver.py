@@ -151,7 +151,11 @@ def test_driver_node_first_tick_stamps_and_setpoints(ros_env):
     np.testing.assert_allclose([sp[s][1] for s in stamps], ref.evaluate(np.array(stamps) * 1e-9)[0], atol=1e-12)
     ahead = [s / 1e6 - sp[s][0] for s in stamps[100:]]  # tick of the setpoint - ticks received then
     assert np.median(ahead) >= 10
-    assert [int(d["ticks"]) for d in diag][:3] == [1000, 2000, 3000] and diag[-1]["controller"] == "pid", diag
+    # once a second (every 1000 ticks); in simulated time the first one can go out before this
+    # subscriber is matched (volatile, like every /diagnostics publisher), the last one cannot
+    ticks = [int(d["ticks"]) for d in diag]
+    assert ticks and ticks[-1] == 3000 and all(t % 1000 == 0 for t in ticks), diag
+    assert diag[-1]["controller"] == "pid" and diag[-1]["late"] == "0", diag  # no deadlines in simulated time
 
 
 def test_external_mode_lockstep_applies_each_command_at_its_tick(ros_env):
