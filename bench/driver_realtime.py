@@ -142,12 +142,12 @@ class ExternalController:
         self.applied.append((_stamp(m), self.sent.get(float(m.current[0]))))
 
 
-def external_run(node, duration: float) -> dict:
+def external_run(node, duration: float, omega: float = 40.0) -> dict:
     import threading
 
     from rclpy.executors import SingleThreadedExecutor
 
-    ctl = ExternalController(node)
+    ctl = ExternalController(node, omega)
     executor = SingleThreadedExecutor()
     executor.add_node(node)
     spinner = threading.Thread(target=executor.spin, daemon=True)
