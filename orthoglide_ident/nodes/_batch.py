@@ -49,6 +49,7 @@ class BatchTaker:
         self._new: list[BatchTopic] = list(topics)  # subscribed by the thread (it owns the node)
         self._lock = threading.Lock()
         self._stop = threading.Event()
+        self.failures = 0  # batches whose callback raised (logged, the thread goes on)
         self._thread = threading.Thread(target=self._run, name=f"{owner.get_name()}-rx", daemon=True)
         self._thread.start()
 
@@ -79,14 +80,25 @@ class BatchTaker:
                     self._stop.wait(0.1)
                     continue
                 self._wait(ctx)
-                for sub, on_batch in self.subs:
+                for (sub, on_batch), topic in zip(self.subs, self._topics):
                     batch = self._take_all(sub)
                     if batch:
-                        on_batch(batch)
+                        self._hand_over(on_batch, batch, topic)
             except (InvalidHandle, RuntimeError):
                 break  # shutting down
             if self.period_s:
                 time.sleep(self.period_s)  # let messages gather: one wake-up takes them all
+
+    def _hand_over(self, on_batch: Callable[[Batch], None], batch: Batch, topic: str) -> None:
+        """One call of the owner's callback; its failure is logged and the thread goes on (a
+        dead thread would leave the node up but deaf to the topic, saying nothing)."""
+        try:
+            on_batch(batch)
+        except Exception as exc:  # noqa: BLE001 - any bug in a callback, reported with its reason
+            self.failures += 1
+            self.owner.get_logger().error(
+                f"{topic}: {len(batch)} message(s) lost, the batch callback failed: "
+                f"{type(exc).__name__}: {exc}", throttle_duration_sec=5.0)
 
     def _wait(self, ctx: Any) -> None:
         with ctx.handle:

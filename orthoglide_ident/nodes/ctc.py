@@ -74,8 +74,9 @@ class CTCNode(Node):
         stream = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE)
         self.create_subscription(IdentifiedParameters, "orthoglide/identified_parameters", self.on_params, latched)
         self.pub = self.create_publisher(CurrentReference, "orthoglide/feedforward", stream)
-        self.taker = BatchTaker(self, [BatchTopic(JointSetpoint, "orthoglide/setpoints", stream, self.on_setpoints)])
         self.monitor = TrackingMonitor(self) if v["monitor"] else None
+        # last: the taker's thread calls on_setpoints at once, which needs everything above
+        self.taker = BatchTaker(self, [BatchTopic(JointSetpoint, "orthoglide/setpoints", stream, self.on_setpoints)])
         self.get_logger().info(f"waiting for {self.resolve_topic_name('orthoglide/identified_parameters')} "
                                "(no feed-forward until they arrive)")
 
