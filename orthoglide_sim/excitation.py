@@ -65,6 +65,14 @@ def scaled(traj: FourierTrajectory, n: int = 400) -> FourierTrajectory:
     return FourierTrajectory(Q_CENTER - s * mid, traj.a * s, traj.b * s, traj.w_f)
 
 
+def _shape_maker(K: int, w_f: float) -> Callable[[np.ndarray], FourierTrajectory]:
+    """x (6K: a then b, actuator by actuator) -> the trajectory of that shape, scaled to the limits."""
+    def make(x: np.ndarray) -> FourierTrajectory:
+        a, b = x.reshape(2, 3, K)
+        return scaled(FourierTrajectory(np.full(3, Q_CENTER), a, b, w_f))
+    return make
+
+
 def criterion(traj: FourierTrajectory, regressor, n: int = 250) -> float:
     t = np.linspace(0.0, traj.period, n, endpoint=False)
     W = regressor(*traj.evaluate(t))
@@ -130,10 +138,7 @@ def optimise_pair(K: int = 6, period: float = 1.5, seed: int = 0, restarts: int 
     design = design or Design.default()
     w_f = 2.0 * np.pi / period
     rng = np.random.default_rng(seed)
-
-    def make(x):
-        a, b = x.reshape(2, 3, K)
-        return scaled(FourierTrajectory(np.full(3, Q_CENTER), a, b, w_f))
+    make = _shape_maker(K, w_f)
 
     def f(x):
         tu, tl = make(x[:6 * K]), make(x[6 * K:])
@@ -146,7 +151,7 @@ def optimise_pair(K: int = 6, period: float = 1.5, seed: int = 0, restarts: int 
         print(f"random restarts: best rms gain σ {np.exp(f(best_x)):.3f} %")
     res = minimize(f, best_x, method="L-BFGS-B", options={"maxiter": maxiter, "eps": 1e-4})
     tu, tl = make(res.x[:6 * K]), make(res.x[6 * K:])
-    s = predicted_gain_std(tu, tl, design)
+    s = predicted_gain_std(tu, tl, design, n)
     if verbose:
         print(f"optimised: gain σ {np.round(s, 3)} % ({res.nit} iterations)")
     return tu, tl, s
@@ -158,10 +163,7 @@ def optimise(K: int = 5, period: float = 2.0, seed: int = 0, restarts: int = 12,
     regressor = _base_regressor()
     w_f = 2.0 * np.pi / period
     rng = np.random.default_rng(seed)
-
-    def make(x):
-        a, b = x.reshape(2, 3, K)
-        return scaled(FourierTrajectory(np.full(3, Q_CENTER), a, b, w_f))
+    make = _shape_maker(K, w_f)
 
     def f(x):
         return np.log(criterion(make(x), regressor))
