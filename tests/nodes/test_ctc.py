@@ -43,70 +43,107 @@ def _stamp(m) -> int:
     return m.header.stamp.sec * 10**9 + m.header.stamp.nanosec
 
 
-def test_ctc_node_waits_for_parameters_then_feeds_forward(ros_env):
-    rclpy = pytest.importorskip("rclpy")
-    pytest.importorskip("orthoglide_msgs.msg")
-    from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+class _CTCRun:
+    """A ctc node process with ``args`` and a client node that publishes its inputs and takes
+    its feed-forward (``on_feedforward(msg)``); ``close()`` stops both."""
 
+    def __init__(self, ros_env, args: list[str], client: str, on_feedforward):
+        import rclpy
+        from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+
+        from orthoglide_msgs.msg import CurrentReference, IdentifiedParameters, JointSetpoint
+
+        self.rclpy = rclpy
+        self.proc = subprocess.Popen([sys.executable, "-m", "orthoglide_ident.nodes.ctc", "--ros-args", *args],
+                                     env=ros_env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+        self.lines: list[str] = []
+        threading.Thread(target=lambda: self.lines.extend(iter(self.proc.stdout.readline, "")),
+                         daemon=True).start()
+        rclpy.init()
+        self.node = rclpy.create_node(client)
+        latched = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL,
+                             reliability=ReliabilityPolicy.RELIABLE)
+        self.pub_par = self.node.create_publisher(IdentifiedParameters, "/orthoglide/identified_parameters",
+                                                  latched)
+        self.pub_sp = self.node.create_publisher(JointSetpoint, "/orthoglide/setpoints", 100)
+        self.node.create_subscription(CurrentReference, "/orthoglide/feedforward", on_feedforward, 100)
+
+    def wait_for(self, text: str, timeout: float) -> None:
+        _wait_for(self.lines, text, timeout, self.proc)
+
+    def spin(self, seconds: float) -> None:
+        t_end = time.monotonic() + seconds
+        while time.monotonic() < t_end:
+            self.rclpy.spin_once(self.node, timeout_sec=0.01)
+
+    def start(self) -> None:
+        """Until the node is up and subscribed to the setpoints."""
+        self.wait_for("waiting for", 60)
+        t_end = time.monotonic() + 30
+        while self.node.count_subscribers("/orthoglide/setpoints") < 1 and time.monotonic() < t_end:
+            self.spin(0.05)
+
+    def publish_parameters(self, p, values: list[float]) -> None:
+        from orthoglide_msgs.msg import IdentifiedParameters
+
+        self.pub_par.publish(IdentifiedParameters(names=list(p.names), values=values,
+                                                  drive_gains=[float(g) for g in p.drive_gains],
+                                                  payload_mass=1.983))
+
+    def publish_setpoint(self, ref, k: int, stamp_ns: int, order=(0, 1, 2), qdd_scale: float = 1.0) -> None:
+        """Tick k of ``ref`` (q, qd, qdd arrays), joints in ``order``, then a 3 ms spin."""
+        from orthoglide_msgs.msg import JointSetpoint
+
+        m = JointSetpoint(name=[f"q1{i + 1}" for i in order], position=[ref[0][k, i] for i in order],
+                          velocity=[ref[1][k, i] for i in order],
+                          acceleration=[qdd_scale * ref[2][k, i] for i in order])
+        m.header.stamp.sec, m.header.stamp.nanosec = divmod(stamp_ns, 10**9)
+        self.pub_sp.publish(m)
+        self.spin(0.003)
+
+    def close(self) -> None:
+        self.node.destroy_node()
+        self.rclpy.shutdown()
+        self.proc.terminate()
+        self.proc.wait(timeout=60)
+
+
+def test_ctc_node_waits_for_parameters_then_feeds_forward(ros_env):
+    pytest.importorskip("rclpy")
+    pytest.importorskip("orthoglide_msgs.msg")
     from orthoglide_ident.control import feedforward_currents
-    from orthoglide_msgs.msg import CurrentReference, IdentifiedParameters, JointSetpoint
     from orthoglide_sim.trajectories import get_trajectory
     from test_control import true_params
 
     p = true_params()
-    proc = subprocess.Popen([sys.executable, "-m", "orthoglide_ident.nodes.ctc", "--ros-args", "-p", "batch:=4"],
-                            env=ros_env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
-    lines: list[str] = []
-    threading.Thread(target=lambda: lines.extend(iter(proc.stdout.readline, "")), daemon=True).start()
-    rclpy.init()
-    node = rclpy.create_node("test_ctc_client")
     got: dict[int, list[float]] = {}
-    latched = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL, reliability=ReliabilityPolicy.RELIABLE)
-    pub_par = node.create_publisher(IdentifiedParameters, "/orthoglide/identified_parameters", latched)
-    pub_sp = node.create_publisher(JointSetpoint, "/orthoglide/setpoints", 100)
-    node.create_subscription(CurrentReference, "/orthoglide/feedforward",
-                             lambda m: got.__setitem__(_stamp(m), list(m.current)), 100)
+    run = _CTCRun(ros_env, ["-p", "batch:=4"], "test_ctc_client",
+                  lambda m: got.__setitem__(_stamp(m), list(m.current)))
     ref = get_trajectory("test2").evaluate(np.arange(40) * 1e-3)
     t0 = 100 * 10**9
 
-    def spin(seconds: float) -> None:
-        t_end = time.monotonic() + seconds
-        while time.monotonic() < t_end:
-            rclpy.spin_once(node, timeout_sec=0.01)
-
     def publish_setpoints(first: int, n: int) -> None:
         for k in range(first, first + n):
-            order = [1, 0, 2]  # names in another order than q11, q12, q13: matched by name
-            m = JointSetpoint(name=[f"q1{i + 1}" for i in order], position=[ref[0][k, i] for i in order],
-                              velocity=[ref[1][k, i] for i in order], acceleration=[ref[2][k, i] for i in order])
-            m.header.stamp.sec, m.header.stamp.nanosec = divmod(t0 + k * 10**6, 10**9)
-            pub_sp.publish(m)
-            spin(0.003)
+            # names in another order than q11, q12, q13: matched by name
+            run.publish_setpoint(ref, k, t0 + k * 10**6, order=(1, 0, 2))
 
     try:
-        _wait_for(lines, "waiting for", 60, proc)
-        t_end = time.monotonic() + 30
-        while node.count_subscribers("/orthoglide/setpoints") < 1 and time.monotonic() < t_end:
-            spin(0.05)
+        run.start()
         publish_setpoints(0, 10)
-        spin(0.5)
+        run.spin(0.5)
         assert got == {}, "published a feed-forward before parameters arrived"
-        _wait_for(lines, "no identified parameters yet", 10, proc)
-        pub_par.publish(IdentifiedParameters(names=list(p.names), values=[float(v) for v in p.chi_b],
-                                             drive_gains=[float(g) for g in p.drive_gains], payload_mass=1.983))
-        _wait_for(lines, "parameters in", 30, proc)
+        run.wait_for("no identified parameters yet", 10)
+        run.publish_parameters(p, [float(v) for v in p.chi_b])
+        run.wait_for("parameters in", 30)
         publish_setpoints(10, 30)
-        spin(1.0)
+        run.spin(1.0)
     finally:
-        node.destroy_node()
-        rclpy.shutdown()
-        proc.terminate()
-        proc.wait(timeout=60)
+        run.close()
     # every tick from the parameters on is fed (setpoints kept from before them too, when their
     # successor came); 39 has no successor yet and the last batch may still wait for more
     expected = feedforward_currents(*ref, p)
     ticks = sorted((s - t0) // 10**6 for s in got)
-    assert set(range(10, 35)) <= set(ticks) <= set(range(0, 39)), (ticks, "".join(lines))
+    assert set(range(10, 35)) <= set(ticks) <= set(range(0, 39)), (ticks, "".join(run.lines))
     for k in ticks:
         np.testing.assert_allclose(got[t0 + k * 10**6], expected[k], rtol=1e-9)
 
@@ -125,63 +162,35 @@ def test_ctc_node_clips_to_the_current_limit_and_stops_on_nan(ros_env):
     """Safety: parameters 1000x too large give currents clipped to current_limit (and a warning);
     NaN parameters are refused (the previous ones stay); a NaN setpoint stops the feed-forward
     with the reason, and nothing more is published."""
-    rclpy = pytest.importorskip("rclpy")
+    pytest.importorskip("rclpy")
     pytest.importorskip("orthoglide_msgs.msg")
-    from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
-
-    from orthoglide_msgs.msg import CurrentReference, IdentifiedParameters, JointSetpoint
     from orthoglide_sim.trajectories import get_trajectory
     from test_control import true_params
 
     p = true_params()
-    proc = subprocess.Popen([sys.executable, "-m", "orthoglide_ident.nodes.ctc", "--ros-args", "-p", "batch:=2",
-                             "-p", "current_limit:=[0.5, 0.5, 0.5]"],
-                            env=ros_env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
-    lines: list[str] = []
-    threading.Thread(target=lambda: lines.extend(iter(proc.stdout.readline, "")), daemon=True).start()
-    rclpy.init()
-    node = rclpy.create_node("test_ctc_safety")
     got: list[list[float]] = []
-    latched = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL, reliability=ReliabilityPolicy.RELIABLE)
-    pub_par = node.create_publisher(IdentifiedParameters, "/orthoglide/identified_parameters", latched)
-    pub_sp = node.create_publisher(JointSetpoint, "/orthoglide/setpoints", 100)
-    node.create_subscription(CurrentReference, "/orthoglide/feedforward", lambda m: got.append(list(m.current)), 100)
+    run = _CTCRun(ros_env, ["-p", "batch:=2", "-p", "current_limit:=[0.5, 0.5, 0.5]"], "test_ctc_safety",
+                  lambda m: got.append(list(m.current)))
     ref = get_trajectory("test2").evaluate(np.arange(60) * 1e-3)
 
-    def spin(seconds: float) -> None:
-        t_end = time.monotonic() + seconds
-        while time.monotonic() < t_end:
-            rclpy.spin_once(node, timeout_sec=0.01)
-
     def publish(values: list[float], first: int, qdd_scale: float = 1.0) -> None:
-        pub_par.publish(IdentifiedParameters(names=list(p.names), values=values,
-                                             drive_gains=[float(g) for g in p.drive_gains], payload_mass=1.983))
-        spin(0.5)
+        run.publish_parameters(p, values)
+        run.spin(0.5)
         for k in range(first, first + 20):
-            m = JointSetpoint(name=["q11", "q12", "q13"], position=list(ref[0][k]), velocity=list(ref[1][k]),
-                              acceleration=list(qdd_scale * ref[2][k]))
-            m.header.stamp.sec, m.header.stamp.nanosec = divmod(10**11 + k * 10**6, 10**9)
-            pub_sp.publish(m)
-            spin(0.003)
-        spin(1.0)
+            run.publish_setpoint(ref, k, 10**11 + k * 10**6, qdd_scale=qdd_scale)
+        run.spin(1.0)
 
     try:
-        _wait_for(lines, "waiting for", 60, proc)
-        t_end = time.monotonic() + 30
-        while node.count_subscribers("/orthoglide/setpoints") < 1 and time.monotonic() < t_end:
-            spin(0.05)
+        run.start()
         publish([1000.0 * float(v) for v in p.chi_b], 0)
-        _wait_for(lines, "clipped", 10, proc)
+        run.wait_for("clipped", 10)
         assert len(got) >= 15 and np.max(np.abs(got)) == pytest.approx(0.5), got
         publish([float("nan")] * len(p.names), 20)
-        _wait_for(lines, "rejected, keeping the previous ones", 10, proc)
+        run.wait_for("rejected, keeping the previous ones", 10)
         n = len(got)
         assert n >= 35 and np.max(np.abs(got)) == pytest.approx(0.5)  # still fed, with the old ones
         publish([1000.0 * float(v) for v in p.chi_b], 40, qdd_scale=float("nan"))
-        _wait_for(lines, "stopped: non-finite feed-forward", 10, proc)
-        assert len(got) <= n + 1 and proc.poll() is None  # the tick held back before the NaN, at most
+        run.wait_for("stopped: non-finite feed-forward", 10)
+        assert len(got) <= n + 1 and run.proc.poll() is None  # the tick held back before the NaN, at most
     finally:
-        node.destroy_node()
-        rclpy.shutdown()
-        proc.terminate()
-        proc.wait(timeout=60)
+        run.close()
