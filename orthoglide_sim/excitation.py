@@ -233,7 +233,6 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--out-dir", type=Path, default=DATA_DIR)
     args = ap.parse_args(argv)
     print("workspace:", workspace_report())
-    regressor = _base_regressor()
     if args.criterion == "gains":
         design = Design.default()
         if args.gains:
@@ -242,7 +241,7 @@ def main(argv: list[str] | None = None) -> int:
                              design=design, n=args.samples)
         for k, traj in enumerate(pair[:2], 1):
             _write(args.out_dir / f"exciting{k}.json", traj, criterion="gains",
-                   condition_number=criterion(traj, regressor),
+                   condition_number=criterion(traj, design.regressor),
                    predicted_gain_std_pct=pair[2].tolist())
         return 0
     for k, seed in ((1, args.seed), (2, args.seed + 1)):
