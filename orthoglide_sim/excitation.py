@@ -207,7 +207,7 @@ def optimise_pair(K: int = 6, period: float = 1.5, seed: int = 0, restarts: int 
         x0 = min((rng.normal(size=12 * K) for _ in range(restarts)), key=f)
     if verbose:
         print(f"start: rms gain error {np.exp(f(x0)):.3f} %")
-    x = _local_search(f, x0, maxiter, rng)
+    x = _local_search(f, x0, maxiter, rng, verbose)
     tu, tl = make(x[:6 * K]), make(x[6 * K:])
     s = predicted_gain_std(tu, tl, design, n)
     if verbose:
@@ -217,12 +217,14 @@ def optimise_pair(K: int = 6, period: float = 1.5, seed: int = 0, restarts: int 
 
 
 def _local_search(f: Callable[[np.ndarray], float], x: np.ndarray, steps: int,
-                  rng: np.random.Generator) -> np.ndarray:
+                  rng: np.random.Generator, verbose: bool = False) -> np.ndarray:
     """(1+1) evolution strategy: a Gaussian step is kept if it lowers f; the step size grows
     ×1.5 on success and shrinks ×0.9 on failure. Chosen over L-BFGS-B, which stalls on this
     cost's kinks (the scaling to the limits, the cond penalty); repeatable for a given seed."""
     fx, step = f(x), 0.05
-    for _ in range(steps):
+    for k in range(steps):
+        if verbose and k % 50 == 0:
+            print(f"  step {k}/{steps}: rms gain error {np.exp(fx):.4f} %", flush=True)
         y = x + step * np.abs(x).mean() * rng.normal(size=x.size)
         fy = f(y)
         if fy < fx:
