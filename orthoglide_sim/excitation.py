@@ -17,9 +17,10 @@ one period (``orthoglide_ident.model.base``: trajectories are designed for it):
   ``COND_SOFT``. The committed pair (exciting1, exciting2) predicts σ 0.113/0.124/0.076 % for
   30 s each at 1 mA and a 0.15 ms lag bias of +0.008/-0.015/-0.002 %; the pair before it
   (designed for the σ alone) 0.105/0.112/0.075 % and -0.25/+0.23/-0.06 %, the pair designed
-  for cond(W) alone 0.161/0.213/0.079 % and +0.08/+0.06/-0.15 %. On the simulator (bench/identify_accuracy.py, README)
-  the lag's measured share of the bias fell less than predicted (q12 +0.28 -> +0.21 % for 0.12 ms,
-  noise-free): the closed loop's own current transients carry the rest.
+  for cond(W) alone 0.161/0.213/0.079 % and +0.08/+0.06/-0.15 %. On the simulator
+  (bench/identify_accuracy.py, README) the lag's measured share of the bias fell less than
+  predicted (q12 +0.28 -> +0.21 % for 0.12 ms, noise-free): under the PID the records track
+  within ~1.8 mm rms, and the closed loop's own current transients carry the rest.
 - ``cond``: cond(W) of one trajectory, the paper's criterion (each trajectory on its own).
 
 ``python -m orthoglide_sim.excitation`` re-optimises and writes orthoglide_sim/data/exciting*.json.
@@ -41,7 +42,7 @@ from typing import Callable
 import numpy as np
 from scipy.optimize import minimize
 
-from orthoglide_ident.errors import WorkspaceError
+from orthoglide_ident.errors import OrthoglideError, WorkspaceError
 from orthoglide_ident.identify.options import IdentifyOptions
 from orthoglide_sim import kinematics as kin
 from orthoglide_sim.trajectories import (A_MAX, DATA_DIR, Q_CENTER, Q_HALF, V_MAX,
@@ -292,6 +293,25 @@ def _write(path: Path, traj: FourierTrajectory, **figures) -> None:
           f"acceleration {a:.1f} m/s²")
 
 
+def _gains_inputs(args) -> tuple[Design, tuple[FourierTrajectory, FourierTrajectory] | None]:
+    """The design (a priori gains from ``--gains``) and the ``--start`` pair, checked."""
+    design = Design.default()
+    if args.gains:
+        g = np.array([float(x) for x in args.gains.split(",")])
+        if g.shape != (3,) or not np.all(g > 0):
+            raise ValueError(f"--gains needs 3 positive gains in N/A, got {args.gains!r}")
+        design = replace(design, g_tau=g)
+    if not args.start:
+        return design, None
+    start = tuple(get_trajectory(name) for name in args.start.split(","))
+    w_f = 2.0 * np.pi / args.period
+    if len(start) != 2 or any(not isinstance(t, FourierTrajectory) or t.a.shape != (3, args.harmonics)
+                              or not np.isclose(t.w_f, w_f) for t in start):
+        raise ValueError(f"--start needs two Fourier trajectories of {args.harmonics} harmonics "
+                         f"and period {args.period} s (see --harmonics, --period)")
+    return design, start
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="python -m orthoglide_sim.excitation", description=__doc__.splitlines()[0])
     ap.add_argument("--criterion", choices=["gains", "cond"], default="gains",
@@ -300,8 +320,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--harmonics", type=int, default=6)
     ap.add_argument("--period", type=float, default=1.5, help="s")
     ap.add_argument("--restarts", type=int, default=20)
-    ap.add_argument("--maxiter", type=int, default=450,
-                    help="local search steps (gains) or L-BFGS-B iterations (cond: use ~30)")
+    ap.add_argument("--maxiter", type=int, default=None,
+                    help="local search steps (gains, default 450) or L-BFGS-B iterations "
+                         "(cond, default 30)")
     ap.add_argument("--start", default=None, metavar="U.json,L.json",
                     help="gains criterion: start from this pair instead of random shapes")
     ap.add_argument("--seed", type=int, default=0)
@@ -309,19 +330,18 @@ def main(argv: list[str] | None = None) -> int:
                     help="a priori drive gains N/A for the gains criterion (default: the "
                          "manufacturer's 637π; the committed pair used 2170,2100,2070)")
     ap.add_argument("--samples", type=int, default=240,
-                    help="samples per period for the gains criterion (the committed pair: 500)")
+                    help="samples per period for the gains' σ (the committed pair: 240)")
     ap.add_argument("--out-dir", type=Path, default=DATA_DIR)
     args = ap.parse_args(argv)
     print("workspace:", workspace_report())
     if args.criterion == "gains":
-        design = Design.default()
-        if args.gains:
-            design = replace(design, g_tau=np.array([float(g) for g in args.gains.split(",")]))
-        start = None
-        if args.start:
-            start = tuple(get_trajectory(name) for name in args.start.split(","))
-        pair = optimise_pair(args.harmonics, args.period, args.seed, args.restarts, args.maxiter,
-                             design=design, n=args.samples, start=start)
+        try:
+            design, start = _gains_inputs(args)
+        except (OrthoglideError, ValueError) as exc:
+            print(f"error: {exc}", file=sys.stderr)
+            return 2
+        pair = optimise_pair(args.harmonics, args.period, args.seed, args.restarts,
+                             args.maxiter or 450, design=design, n=args.samples, start=start)
         for k, traj in enumerate(pair[:2], 1):
             _write(args.out_dir / f"exciting{k}.json", traj, criterion="gains",
                    condition_number=criterion(traj, design.regressor),
@@ -329,7 +349,7 @@ def main(argv: list[str] | None = None) -> int:
                    predicted_delay_bias_pct=predicted_delay_bias(*pair[:2], design).tolist())
         return 0
     for k, seed in ((1, args.seed), (2, args.seed + 1)):
-        traj, c = optimise(args.harmonics, args.period, seed, args.restarts, args.maxiter)
+        traj, c = optimise(args.harmonics, args.period, seed, args.restarts, args.maxiter or 30)
         _write(args.out_dir / f"exciting{k}.json", traj, criterion="cond", condition_number=c)
     return 0
 

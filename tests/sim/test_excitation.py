@@ -61,3 +61,33 @@ def test_scaled_trajectory_sits_on_a_limit():
     ratios = [np.ptp(q, 0).max() / (2 * POSITION_LIMIT), np.abs(qd).max() / V_MAX,
               np.abs(qdd).max() / A_MAX]
     assert max(ratios) > 0.99 and max(ratios) < 1.01, ratios
+
+
+def test_local_search_descends_and_is_repeatable():
+    from orthoglide_sim.excitation import _local_search
+
+    def f(x):  # a kinked bowl, like the criterion's max() and penalty
+        return float(np.sum(np.abs(x - 1.0)) + np.max(x**2))
+
+    x0 = np.full(12, 3.0)
+    runs = [_local_search(f, x0.copy(), 300, np.random.default_rng(7)) for _ in range(2)]
+    assert np.array_equal(runs[0], runs[1])
+    assert f(runs[0]) < 0.2 * f(x0)
+
+
+def test_optimise_pair_from_a_start_is_repeatable():
+    from orthoglide_sim.excitation import optimise_pair
+
+    start = (get_trajectory("exciting1"), get_trajectory("exciting2"))
+    runs = [optimise_pair(seed=3, maxiter=5, verbose=False, start=start) for _ in range(2)]
+    assert np.array_equal(runs[0][0].a, runs[1][0].a) and np.array_equal(runs[0][1].b, runs[1][1].b)
+    assert np.all(runs[0][2] < 0.13), runs[0][2]
+
+
+def test_cli_refuses_a_start_pair_it_cannot_continue(tmp_path, capsys):
+    from orthoglide_sim.excitation import main
+
+    assert main(["--start", "exciting1,test1", "--out-dir", str(tmp_path)]) == 2
+    assert "--start needs two Fourier trajectories" in capsys.readouterr().err
+    assert main(["--gains", "2170,-1,2070", "--out-dir", str(tmp_path)]) == 2
+    assert not list(tmp_path.iterdir())
