@@ -131,13 +131,17 @@ def states_at_half_tick(
     order: int = 4,
     trim: int = 0,
     zoh_shift: bool = True,
+    filter_currents: bool = False,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Filtered states paired with the current references they act with.
 
     Returns ``(q̂, q̂̇, q̂̈, v_tau)`` with the states at t_k + T/2 (``zoh_shift``) or at t_k, and
-    ``trim`` samples dropped at each end (filter edge transients). All ``(m, 3)``.
+    ``trim`` samples dropped at each end (filter edge transients). All ``(m, 3)``. With
+    ``filter_currents`` v_tau goes through the same zero-phase low-pass as q (parallel filtering).
     """
     qf, qd, qdd = filtered_states(q, period_s, cutoff_hz, order, zoh_shift)
+    if filter_currents:
+        v_tau = zero_phase_butterworth(np.asarray(v_tau, dtype=float), period_s, cutoff_hz, order)
     v = v_tau[:-1] if zoh_shift else v_tau
     n = qf.shape[0]
     if n - 2 * trim < 1:

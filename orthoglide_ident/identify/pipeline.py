@@ -173,7 +173,8 @@ def _segments_fir(segments: list[Segment], model: IdentificationModel, opts: Ide
         stream = SegmentStream(model, opts, T, t_start, n_b)
         t0 = time.perf_counter()
         states = states_at_half_tick(seg.q, seg.v_tau, T, opts.filter_cutoff_hz,
-                                     opts.filter_order, trim, opts.zoh_shift)
+                                     opts.filter_order, trim, opts.zoh_shift,
+                                     opts.filter_currents)
         stamps = seg.stamps_ns[trim:trim + states[0].shape[0]]
         times["filtering"] = times.get("filtering", 0.0) + time.perf_counter() - t0
         for a in range(0, stamps.shape[0], opts.chunk_samples):
@@ -205,7 +206,8 @@ def _segments_iir(segments: list[Segment], model: IdentificationModel, opts: Ide
     for seg in segments:
         t1 = time.perf_counter()
         qh, qdh, qddh, v = states_at_half_tick(seg.q, seg.v_tau, T, opts.filter_cutoff_hz,
-                                               opts.filter_order, trim, opts.zoh_shift)
+                                               opts.filter_order, trim, opts.zoh_shift,
+                                               opts.filter_currents)
         ts = (seg.stamps_ns[trim:trim + qh.shape[0]] - t_start) * 1e-9
         if opts.zoh_shift:
             ts = ts + 0.5 * T

@@ -25,7 +25,7 @@ import numpy as np
 
 from orthoglide_ident.errors import DataError
 from orthoglide_ident.identify.decimation import fir_decimate_last, fir_taps
-from orthoglide_ident.identify.filtering import filter_horizon, filtered_states
+from orthoglide_ident.identify.filtering import filter_horizon, filtered_states, zero_phase_butterworth
 from orthoglide_ident.identify.options import IdentifyOptions
 from orthoglide_ident.identify.reversals import ANCHOR, ReversalTracker, bridge_weights
 
@@ -189,9 +189,12 @@ class SegmentStream:
                                         self.opts.filter_cutoff_hz, self.opts.filter_order,
                                         self.opts.zoh_shift)
         a, b = trim + S - w0, trim + s_new - w0
+        v = self._v[w0 - r0:w1 - r0]
+        if self.opts.filter_currents:  # the same window and filter as q: rows as offline's
+            v = zero_phase_butterworth(v, self.T, self.opts.filter_cutoff_hz, self.opts.filter_order)
         self.times["filtering"] += time.perf_counter() - t0
         self._add_states(self._st[trim + S - r0:trim + s_new - r0], qh[a:b], qdh[a:b], qddh[a:b],
-                         self._v[trim + S - r0:trim + s_new - r0])
+                         v[a:b])
         keep_from = max(0, trim + s_new - self.M) - r0  # the next window's first tick
         if keep_from > 0:
             self._st, self._q, self._v = (x[keep_from:] for x in (self._st, self._q, self._v))

@@ -37,6 +37,22 @@ def test_half_tick_interpolates_forward_by_half_a_sample():
     assert qh.shape == v.shape == (2000 - 1 - 200, 3)
 
 
+def test_filter_currents_puts_v_tau_through_the_filter_of_q():
+    # parallel filtering: a current with the same samples as q comes out as q̂ (same filter, same
+    # instants), 150 Hz content is taken out of both, and the default options ask for it
+    from orthoglide_ident.identify.options import IdentifyOptions
+
+    t = np.arange(4000) * T
+    q = _sines(t)[0] + 1e-4 * np.sin(2 * np.pi * 150.0 * t)[:, None]
+    qh, _, _, v = states_at_half_tick(q, q, T, 100.0, 4, trim=200, zoh_shift=False,
+                                      filter_currents=True)
+    assert np.abs(v - qh).max() < 1e-15
+    assert np.abs(v - _sines(t)[0][200:-200]).max() < 5e-6  # the 150 Hz part: 1e-4 -> ~3e-6
+    raw = states_at_half_tick(q, q, T, 100.0, 4, trim=200, zoh_shift=False)[3]
+    assert np.array_equal(raw, q[200:-200])
+    assert IdentifyOptions().filter_currents
+
+
 def test_fir_is_zero_phase_unit_gain_and_chunks_exactly():
     taps = fir_taps(10)
     assert taps.sum() == pytest.approx(1.0) and np.allclose(taps, taps[::-1])

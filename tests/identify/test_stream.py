@@ -66,7 +66,8 @@ def test_fir_decimate_last_is_the_direct_convolution_at_the_kept_samples():
 
 @pytest.mark.parametrize("opts", [IdentifyOptions(), IdentifyOptions(edge_trim_s=0.02),
                                   IdentifyOptions(zoh_shift=False, decimation=5),
-                                  IdentifyOptions(decimation=1, velocity_deadband_mps=0.0)])
+                                  IdentifyOptions(decimation=1, velocity_deadband_mps=0.0),
+                                  IdentifyOptions(filter_currents=False)])
 def test_raw_blocks_give_the_rows_of_the_whole_segment(opts):
     """Ticks pushed in random blocks (live) = the whole segment filtered at once (offline)."""
     rec = synthetic_record(6.0, 0.0, seed=3, amplitude=0.1, f_max=4.0)
@@ -75,7 +76,7 @@ def test_raw_blocks_give_the_rows_of_the_whole_segment(opts):
     trim = int(round(opts.edge_trim_s / T))
     whole = SegmentStream(model, opts, T, 0, n_b)
     states = states_at_half_tick(rec.q, rec.v_tau, T, opts.filter_cutoff_hz, opts.filter_order,
-                                 trim, opts.zoh_shift)
+                                 trim, opts.zoh_shift, opts.filter_currents)
     stamps = rec.stamps_q_ns[trim:trim + states[0].shape[0]]
     ref = [whole.push_states(stamps, *states), whole.finish()]
     blocks = SegmentStream(model, opts, T, 0, n_b)
