@@ -187,6 +187,7 @@ class Recording:
         self.alive = False
         self._stop.set()
         self._thread.join()
-        counts = ", ".join(f"{n} {t}" for t, n in self.writer.counts.items())
-        missing = ", ".join(f"{c.missing} missing on {t}" for t, c in self.counters.items())
+        # by topic name: channels register in arrival order and ``stamped`` is a set
+        counts = ", ".join(f"{n} {t}" for t, n in sorted(self.writer.counts.items()))
+        missing = ", ".join(f"{c.missing} missing on {t}" for t, c in sorted(self.counters.items()))
         return self.error or f"{self.writer.path}: wrote {counts}; samples missing: {missing}"

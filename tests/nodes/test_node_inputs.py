@@ -134,7 +134,10 @@ def test_namespace_moves_the_recorder_and_empty_or_refused_recordings_fail(spawn
     topics = dict(node.get_topic_names_and_types())
     assert "/robot2/orthoglide/recorder/status" in topics
     assert "/orthoglide/recorder/status" not in topics
-    subs = node.get_subscriptions_info_by_topic("/robot2/orthoglide/joint_states")
+    deadline = time.monotonic() + 10.0  # discovery of the new subscription takes a moment
+    while not (subs := node.get_subscriptions_info_by_topic("/robot2/orthoglide/joint_states")) \
+            and time.monotonic() < deadline:
+        rclpy.spin_once(node, timeout_sec=0.1)
     assert subs, "the recorder does not subscribe to the namespaced joint states"
     time.sleep(0.5)
     res = _call(node, stop, Trigger.Request())

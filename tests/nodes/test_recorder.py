@@ -231,7 +231,7 @@ def test_misuse_record_split_and_read_back(client, spawn_recorder, ros_env, tmp_
     res = client.stop()
     assert (
         res.success
-        and f"wrote {n} /orthoglide/joint_states, {n} /orthoglide/current_reference" in res.message
+        and f"wrote {n} /orthoglide/current_reference, {n} /orthoglide/joint_states" in res.message
     )
     assert "0 missing on /orthoglide/joint_states" in res.message
     res = client.start("loaded", 1.136, "run1")
@@ -418,7 +418,8 @@ def test_record_from_driver_loses_nothing(driver_bag) -> None:
     np.testing.assert_array_equal(js, cr_all[cr_all >= start])  # identical stamps after the start
     assert len(js) >= 2000  # >= 2 of the 6 s recorded
     assert "0 missing on /orthoglide/joint_states" in stop_message
-    assert f"wrote {len(js_all)} /orthoglide/joint_states, {len(cr_all)} " in stop_message
+    assert (f"wrote {len(cr_all)} /orthoglide/current_reference, {len(js_all)} "
+            "/orthoglide/joint_states" in stop_message)
     assert data.joint_states.names == ("q11", "q12", "q13")
     q_all, cur_all = data.joint_states.position, data.current_reference.current
     assert q_all.shape == (len(js_all), 3) and cur_all.shape == (len(cr_all), 3)
