@@ -23,7 +23,7 @@ from orthoglide_ident.identify.live import LiveIdentification
 from orthoglide_ident.identify.options import IdentifyOptions
 from orthoglide_ident.identify.pipeline import identify
 from orthoglide_ident.model.geometry import G_TAU_MANUFACTURER
-from orthoglide_ident.nodes._params import Param, declare, usage
+from orthoglide_ident.nodes._params import Param, declare, on_set, usage
 from orthoglide_ident.nodes._spin import spin
 from orthoglide_ident.nodes.live_feed import LiveFeed
 from orthoglide_ident.results import IdentificationResult
@@ -92,6 +92,7 @@ class IdentificationNode(Node):
         super().__init__("orthoglide_identification")
         declare(self, PARAMETERS)
         self.options()  # bad option values stop the node at start with a one-line reason
+        on_set(self, PARAMETERS, self._check_changes)  # and are refused at `ros2 param set`
         latched = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL,
                              reliability=ReliabilityPolicy.RELIABLE)
         self.pub = {"tls": self.create_publisher(IdentifiedParameters, "orthoglide/identified_parameters", latched),
@@ -112,6 +113,12 @@ class IdentificationNode(Node):
 
     def param(self, name: str) -> Any:
         return next(p for p in PARAMETERS if p.name == name).coerce(self.get_parameter(name).value)
+
+    def _check_changes(self, changes: dict[str, Any]) -> None:
+        """A run-time change must leave valid options (ConfigError: refused with its reason)."""
+        values = {p.name: self.param(p.name) for p in OPTION_PARAMETERS}
+        values.update((k, v) for k, v in changes.items() if k in values)
+        IdentifyOptions.from_mapping(values, source="parameters")
 
     def options(self) -> IdentifyOptions:
         """The pipeline options from the node's parameters (validated in the core)."""

@@ -177,3 +177,24 @@ def test_live_identification_warns_and_survives_nan_and_wrong_names(spawn_python
     finally:
         n.destroy_node()
         rclpy.shutdown()
+
+
+def test_option_changes_with_a_wrong_type_or_value_are_refused_with_a_reason(node, client):
+    import rclpy
+    from rcl_interfaces.msg import Parameter, ParameterType, ParameterValue
+    from rcl_interfaces.srv import SetParameters
+
+    n, _ = client
+    cli = n.create_client(SetParameters, "/orthoglide_identification/set_parameters")
+    assert cli.wait_for_service(timeout_sec=30)
+
+    def set_one(name, **value):
+        fut = cli.call_async(SetParameters.Request(parameters=[Parameter(name=name, value=ParameterValue(**value))]))
+        rclpy.spin_until_future_complete(n, fut, timeout_sec=30)
+        return fut.result().results[0]
+
+    bad_type = set_one("filter_currents", type=ParameterType.PARAMETER_STRING, string_value="maybe")
+    assert not bad_type.successful and "filter_currents" in bad_type.reason and "bool" in bad_type.reason
+    bad_value = set_one("r_sigma", type=ParameterType.PARAMETER_DOUBLE, double_value=0.5)
+    assert not bad_value.successful and "r_sigma" in bad_value.reason
+    assert set_one("filter_currents", type=ParameterType.PARAMETER_BOOL, bool_value=False).successful
