@@ -117,8 +117,12 @@ class IdentificationNode(Node):
     def _check_changes(self, changes: dict[str, Any]) -> None:
         """A run-time change must leave valid options (ConfigError: refused with its reason)."""
         values = {p.name: self.param(p.name) for p in OPTION_PARAMETERS}
-        values.update((k, v) for k, v in changes.items() if k in values)
+        changed = [k for k in changes if k in values]
+        values.update((k, changes[k]) for k in changed)
         IdentifyOptions.from_mapping(values, source="parameters")
+        if changed and getattr(self, "live", None) is not None:
+            self.get_logger().info(f"{', '.join(changed)} changed: used by identifications from bags; "
+                                   "the live identification keeps the options it started with")
 
     def options(self) -> IdentifyOptions:
         """The pipeline options from the node's parameters (validated in the core)."""
