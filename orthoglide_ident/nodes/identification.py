@@ -66,6 +66,7 @@ NODE_PARAMETERS = (
 # config/identification.yaml sets them (the CLI's --config reads the same file).
 OPTION_PARAMETERS = tuple(Param(f.name, getattr(IdentifyOptions(), f.name), "identification option (see "
                                 "config/identification.yaml)", dynamic=True) for f in fields(IdentifyOptions))
+OPTION_NAMES = frozenset(p.name for p in OPTION_PARAMETERS)
 PARAMETERS = NODE_PARAMETERS + OPTION_PARAMETERS
 
 
@@ -92,7 +93,6 @@ class IdentificationNode(Node):
         super().__init__("orthoglide_identification")
         declare(self, PARAMETERS)
         self.options()  # bad option values stop the node at start with a one-line reason
-        on_set(self, PARAMETERS, self._check_changes)  # and are refused at `ros2 param set`
         latched = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL,
                              reliability=ReliabilityPolicy.RELIABLE)
         self.pub = {"tls": self.create_publisher(IdentifiedParameters, "orthoglide/identified_parameters", latched),
@@ -105,6 +105,7 @@ class IdentificationNode(Node):
             self.live = LiveIdentification(self.options())
             self.feed = LiveFeed(self, self.live, self.live_lock)
         self.create_service(Identify, "orthoglide/identify", self.on_identify, callback_group=ReentrantCallbackGroup())
+        on_set(self, PARAMETERS, self._check_changes)  # bad values refused at `ros2 param set`
         self.get_logger().info(f"ready: call {self.resolve_service_name('orthoglide/identify')}")
 
     def close(self) -> None:
@@ -116,18 +117,18 @@ class IdentificationNode(Node):
 
     def _check_changes(self, changes: dict[str, Any]) -> None:
         """A run-time change must leave valid options (ConfigError: refused with its reason)."""
-        values = {p.name: self.param(p.name) for p in OPTION_PARAMETERS}
-        changed = [k for k in changes if k in values]
-        values.update((k, changes[k]) for k in changed)
-        IdentifyOptions.from_mapping(values, source="parameters")
-        if changed and getattr(self, "live", None) is not None:
+        self.options(changes)
+        changed = [k for k in changes if k in OPTION_NAMES]
+        if changed and self.live is not None:
             self.get_logger().info(f"{', '.join(changed)} changed: used by identifications from bags; "
                                    "the live identification keeps the options it started with")
 
-    def options(self) -> IdentifyOptions:
-        """The pipeline options from the node's parameters (validated in the core)."""
-        return IdentifyOptions.from_mapping({p.name: self.param(p.name) for p in OPTION_PARAMETERS},
-                                            source="parameters")
+    def options(self, changes: dict[str, Any] | None = None) -> IdentifyOptions:
+        """The pipeline options from the node's parameters (validated in the core), with
+        ``changes`` (a ``ros2 param set`` being checked) in place of their current values."""
+        values = {p.name: self.param(p.name) for p in OPTION_PARAMETERS}
+        values.update((k, v) for k, v in (changes or {}).items() if k in OPTION_NAMES)
+        return IdentifyOptions.from_mapping(values, source="parameters")
 
     def on_identify(self, request: Identify.Request, response: Identify.Response) -> Identify.Response:
         if not self.busy.acquire(blocking=False):

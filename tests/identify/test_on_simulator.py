@@ -98,8 +98,9 @@ def test_realistic_drive_honest_sigma_covers_the_gain_errors_and_essential_keeps
     """The realistic plant profile (current-loop lag, Stribeck breakaway, screw friction ripple,
     2 mA), 30 s unloaded + 30 s loaded, seeds 0-3 (bench/identify_accuracy.py runs more): every
     gain within 3 honest σ and at least 11 of 12 within 2 (eqs. (38)-(39)'s σ, smaller, are
-    reported beside them: bench/identify_accuracy.py gives their coverage). The screw ripple is found and modelled; the essential reduction keeps every gain within
-    max(its σ, 0.3 %) of the base model's."""
+    reported beside them: bench/identify_accuracy.py gives their coverage). The screw ripple is
+    found and modelled; the essential reduction keeps every gain within max(its σ, 0.3 %) of the
+    base model's."""
     simulate = _simulate()
     z_honest, z_paper = [], []
     for seed in range(4):
