@@ -1,20 +1,23 @@
 """Accuracy of the identification and honesty of its σ over seeds, both plant profiles (DESIGN §7).
 
     PYTHONPATH=. .venv/bin/python bench/identify_accuracy.py [--profiles nominal,realistic]
-        [--seconds 30,60] [--seeds 5] [--cache DIR] [--validate] [--set OPTION=VALUE ...]
+        [--seconds 30,60] [--seeds 5] [--first-seed 0] [--payload KG] [--cache DIR] [--validate]
+        [--set OPTION=VALUE ...]
 
 Per profile, record length and seed (orthoglide_sim: "nominal" = the IDIM-like plant with 1 mA
 current noise; "realistic" = 2 mA, current-loop lag, Stribeck breakaway, screw friction ripple):
-IDIM-TLS on an unloaded ("exciting") and a 1.983 kg ("exciting2") record → gain errors against the
-plant's truth (2170, 2100, 2070 N/A), each divided by its reported σ — the paper's eqs. (38)-(39)
-and the honest one (rel_std); the base parameters' errors against the plant's true base
-parameters, likewise; IDIM-WLS on the unloaded and a 1.136 kg record with the identified gains and
-with the manufacturer's 2001 N/A → payload error; the default essential reduction → gains shift
-from the base model. For the issue's two figure cases the "noise floor" line gives the chance that
-an estimator with no bias at all, and the σ of eqs. (38)-(39), meets the figure (every gain within
-it) in one run of this many seeds. ``--validate`` adds a cross-validation record (test2) per seed;
-``--set ripple_model=off --set essential_method=paper`` gives the figures of the paper's method
-alone (identification options as in config/identification.yaml).
+IDIM-TLS on an unloaded ("exciting") and a 1.983 kg (``--payload``) "exciting2" record → gain
+errors against the plant's truth (2170, 2100, 2070 N/A), each divided by its reported σ — the
+paper's eqs. (38)-(39) and the honest one (rel_std); the base parameters' errors against the
+plant's true base parameters, likewise; IDIM-WLS on the unloaded and a 1.136 kg record with the
+identified gains and with the manufacturer's 2001 N/A → payload error; the default essential
+reduction → gains shift from the base model. The issue's two figures (realistic 30 s: every gain
+within 0.3 %; nominal 60 s: within 0.1 %) are for a run of 5 seeds: the "noise floor" line gives
+the chance that an estimator with no bias at all, and the σ of eqs. (38)-(39), meets the figure
+in such a run; with more seeds (``--seeds 20``) the next line says how many runs of 5 consecutive
+seeds met it. ``--validate`` adds a cross-validation record (test2) per seed; ``--set
+ripple_model=off --set essential_method=paper`` gives the figures of the paper's method alone
+(identification options as in config/identification.yaml).
 A simulated second costs ~0.25 s of CPU: the default (2 profiles x 30 and 60 s x 5 seeds x 3
 records, 45 min of records) simulates for ~11 min; ``--cache DIR`` keeps the records (.npz), and a
 run on them takes about a minute.
@@ -37,6 +40,7 @@ from orthoglide_ident.identify.pipeline import Record, default_model, identify_r
 PAYLOAD = 1.983
 SECOND_PAYLOAD = 1.136
 GAIN_BAR = {"realistic": 0.3, "nominal": 0.1}  # %, issue 13's figures
+RUN_SEEDS = 5  # seeds of one run of the issue's figures
 
 
 def record(profile: str, seconds: float, payload: str, trajectory: str, seed: int,
@@ -68,12 +72,14 @@ def true_base_parameters() -> tuple[list[str], np.ndarray]:
 
 
 def run_case(profile: str, seconds: float, seed: int, cache: Path | None, validate: bool,
-             names: list[str], chi_true: np.ndarray, opts: IdentifyOptions) -> dict:
+             names: list[str], chi_true: np.ndarray, opts: IdentifyOptions,
+             payload: float = PAYLOAD) -> dict:
     t0 = time.perf_counter()
     ru, g_true = record(profile, seconds, "none", "exciting", 1000 + seed, cache)
-    rl, _ = record(profile, seconds, f"{PAYLOAD:g}", "exciting2", 2000 + seed, cache)
+    rl, _ = record(profile, seconds, f"{payload:g}", "exciting2", 2000 + seed, cache)
     r2, _ = record(profile, seconds, f"{SECOND_PAYLOAD:g}", "exciting2", 3000 + seed, cache)
-    rv = [record(profile, seconds, f"{PAYLOAD:g}", "test2", 4000 + seed, cache)[0]] if validate else []
+    rv = [record(profile, seconds, f"{payload:g}", "test2", 4000 + seed, cache)[0]] \
+        if validate else []
     t_sim = time.perf_counter() - t0
     res = identify_records([ru, rl], options=opts, essential=True, validation=rv)
     g = np.array([x.value for x in res.drive_gains])
@@ -116,11 +122,27 @@ def coverage(z: np.ndarray) -> str:
 
 
 def chance_all_within(sig: np.ndarray, bar: float) -> float:
-    """Probability that every gain of a run lands within ±bar (%) when each error is N(0, σ²),
-    σ the eqs. (38)-(39) figure of its case and seed: the best a noise-limited method can do."""
+    """Probability that every gain lands within ±bar (%) when each error is N(0, σ²), σ the
+    eqs. (38)-(39) figure (one per gain): the best a noise-limited method can do."""
     from scipy.special import erf
 
     return float(np.prod(erf(bar / (np.sqrt(2.0) * np.asarray(sig)))))
+
+
+def figure_lines(E: np.ndarray, Sp: np.ndarray, bar: float, seeds: list[int]) -> list[str]:
+    """The issue's figure is per run of RUN_SEEDS seeds: its chance for an unbiased estimator
+    with this case's σ, and how many runs of consecutive seeds met it (when there are several)."""
+    n = E.shape[0] // RUN_SEEDS
+    chance = chance_all_within(np.tile(Sp.mean(axis=0), RUN_SEEDS), bar)
+    lines = [f"  noise floor: an unbiased estimator with the paper's σ puts all {3 * RUN_SEEDS} "
+             f"gains of a {RUN_SEEDS}-seed run within {bar} % in {100 * chance:.0f} % of runs"]
+    if n > 1:
+        worst = [np.abs(E[k * RUN_SEEDS:(k + 1) * RUN_SEEDS]).max() for k in range(n)]
+        runs = ", ".join(f"seeds {seeds[k * RUN_SEEDS]}-{seeds[(k + 1) * RUN_SEEDS - 1]}: {w:.2f} %"
+                         for k, w in enumerate(worst))
+        lines.append(f"  {RUN_SEEDS}-seed runs meeting the figure: "
+                     f"{sum(w <= bar for w in worst)} of {n} (worst gain {runs})")
+    return lines
 
 
 def summary(profile: str, seconds: float, rows: list[dict]) -> list[str]:
@@ -136,8 +158,7 @@ def summary(profile: str, seconds: float, rows: list[dict]) -> list[str]:
     lines.append("  σ %  paper (eqs. 38-39): " + "  ".join(f"{Sp[:, j].mean():.3f}" for j in range(3))
                  + "   honest: " + "  ".join(f"{Sh[:, j].mean():.3f}" for j in range(3)))
     if bar:
-        lines.append(f"  noise floor: an unbiased estimator with the paper's σ puts all {E.size} "
-                     f"gains within {bar} % in {100 * chance_all_within(Sp, bar):.0f} % of runs")
+        lines += figure_lines(E, Sp, bar, [r["seed"] for r in rows])
     lines.append("  gains  |err|/σ   paper: " + coverage([r["z_paper"] for r in rows])
                  + "   honest: " + coverage([r["z_honest"] for r in rows]))
     lines.append("  params |err|/σ   paper: " + coverage([r["param_z_paper"] for r in rows])
@@ -167,6 +188,9 @@ def main() -> int:
     ap.add_argument("--first-seed", type=int, default=0)
     ap.add_argument("--cache", type=Path, default=None, help="keep the simulated records here")
     ap.add_argument("--validate", action="store_true", help="cross-validate on a test2 record")
+    ap.add_argument("--payload", type=float, default=PAYLOAD,
+                    help=f"kg, the weighed payload of the TLS's loaded record (default "
+                         f"{PAYLOAD:g}, the paper's): the gains' σ scales as 1 / payload")
     ap.add_argument("--set", action="append", default=[], metavar="OPTION=VALUE",
                     help="an identification option (config/identification.yaml key)")
     args = ap.parse_args()
@@ -186,10 +210,11 @@ def main() -> int:
             for seed in range(args.first_seed, args.first_seed + args.seeds):
                 try:
                     r = run_case(profile, seconds, seed, args.cache, args.validate, names, chi_true,
-                                 opts)
+                                 opts, args.payload)
                 except OrthoglideError as exc:
                     print(f"{profile} {seconds:g} s seed {seed} failed: {exc}")
                     continue
+                r["seed"] = seed
                 rows.append(r)
                 print(f"{profile + ' ' + format(seconds, 'g') + ' s':>16} {seed:>4} "
                       + " ".join(f"{x:+7.3f}" for x in r["gain_err"]) + "  "
