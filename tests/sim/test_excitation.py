@@ -3,9 +3,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from orthoglide_sim.excitation import (COND_SOFT, DESIGN_DELAY_S, Design, criterion,
-                                       predicted_delay_bias, predicted_gain_std, scaled)
+from orthoglide_sim.excitation import (COND_SOFT, DESIGN_DELAY_S, Design, _local_search,
+                                       criterion, main, optimise_pair, predicted_delay_bias,
+                                       predicted_gain_std, scaled)
 from orthoglide_sim.trajectories import FourierTrajectory, get_trajectory
+
 
 def test_committed_pair_predicts_the_gains_to_a_seventh_of_a_percent():
     # 30 s unloaded + 30 s with 1.983 kg, 1 mA white current noise. The pair designed for
@@ -64,8 +66,6 @@ def test_scaled_trajectory_sits_on_a_limit():
 
 
 def test_local_search_descends_and_is_repeatable():
-    from orthoglide_sim.excitation import _local_search
-
     def f(x):  # a kinked bowl, like the criterion's max() and penalty
         return float(np.sum(np.abs(x - 1.0)) + np.max(x**2))
 
@@ -76,8 +76,6 @@ def test_local_search_descends_and_is_repeatable():
 
 
 def test_optimise_pair_from_a_start_is_repeatable():
-    from orthoglide_sim.excitation import optimise_pair
-
     start = (get_trajectory("exciting1"), get_trajectory("exciting2"))
     runs = [optimise_pair(seed=3, maxiter=5, verbose=False, start=start) for _ in range(2)]
     assert np.array_equal(runs[0][0].a, runs[1][0].a) and np.array_equal(runs[0][1].b, runs[1][1].b)
@@ -85,8 +83,6 @@ def test_optimise_pair_from_a_start_is_repeatable():
 
 
 def test_cli_refuses_a_start_pair_it_cannot_continue(tmp_path, capsys):
-    from orthoglide_sim.excitation import main
-
     assert main(["--start", "exciting1,test1", "--out-dir", str(tmp_path)]) == 2
     assert "--start needs two Fourier trajectories" in capsys.readouterr().err
     assert main(["--gains", "2170,-1,2070", "--out-dir", str(tmp_path)]) == 2
