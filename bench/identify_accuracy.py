@@ -16,8 +16,9 @@ within 0.3 %; nominal 60 s: within 0.1 %) are for a run of 5 seeds: the "noise f
 the chance that an estimator with no bias at all, and the σ of eqs. (38)-(39), meets the figure
 in such a run; with more seeds (``--seeds 20``) the next line says how many runs of 5 consecutive
 seeds met it. ``--validate`` adds a cross-validation record (test2) per seed; ``--set
-ripple_model=off --set essential_method=paper`` gives the figures of the paper's method alone
-(identification options as in config/identification.yaml).
+ripple_model=off --set essential_method=paper`` gives the figures of the paper's method alone,
+``--set screw_lead_m=0.01`` those with the screws' lead given (identification options as in
+config/identification.yaml).
 A simulated second costs ~0.25 s of CPU: the default (2 profiles x 30 and 60 s x 5 seeds x 3
 records, 45 min of records) simulates for ~11 min; ``--cache DIR`` keeps the records (.npz), and a
 run on them takes about a minute.

@@ -32,6 +32,7 @@ from orthoglide_ident.errors import (ConfigError, ExcitationError, Identificatio
                                      OrthoglideError)
 from orthoglide_ident.identify.factors import RecordFactors
 from orthoglide_ident.identify.live_recording import LiveRecording
+from orthoglide_ident.identify.drive_terms import observation_model
 from orthoglide_ident.identify.options import IdentifyOptions
 from orthoglide_ident.identify.pipeline import IdentificationModel, default_model, finish_result
 from orthoglide_ident.identify.segments import JOINT_NAMES
@@ -119,7 +120,8 @@ class LiveIdentification:
         if self.opts.decimation_filter != "fir":
             raise ConfigError("live identification needs decimation_filter: fir (cheby1's IIR "
                               "decimation depends on the whole segment)")
-        self.model = model if model is not None else default_model()
+        self.model = observation_model(model if model is not None else default_model(),
+                                       self.opts.screw_lead_m)
         self.n_b = len(self.model.names)
         self._factors: dict[tuple[str, float], RecordFactors] = {}
         self._seconds: dict[str, float] = {"loaded": 0.0, "unloaded": 0.0}

@@ -50,6 +50,10 @@ class IdentifyOptions:
     # a position-periodic force found in the residual (a screw's friction ripple at its lead):
     # "auto" adds two columns per joint that has one (drive_terms.py), "off" leaves it to the σ
     ripple_model: str = "auto"
+    # m, the ball screws' lead (a datasheet value) when known: each joint then gets the friction
+    # ripple's two columns at that period, built at the sample rate and decimated with W
+    # (drive_terms.ScrewRippleModel); 0: unknown, left to ripple_model
+    screw_lead_m: float = 0.0
     essential_method: str = "keep_gains"
     essential_min_tolerance: float = 0.003  # fraction (0.3 %)
     essential_max_residual_increase: float = 0.05  # fraction of the weighted residual norm
@@ -126,6 +130,9 @@ class IdentifyOptions:
             raise ConfigError(f"{source}: r_sigma must be > 1 (the paper uses 10)")
         if self.ripple_model not in ("auto", "off"):
             raise ConfigError(f"{source}: ripple_model must be 'auto' or 'off'")
+        if not (self.screw_lead_m == 0 or 1e-4 <= self.screw_lead_m <= 0.5):
+            raise ConfigError(f"{source}: screw_lead_m is the screws' lead in metres (e.g. 0.010 "
+                              f"for 10 mm), or 0 when unknown; not {self.screw_lead_m:g}")
         if self.essential_method not in ("keep_gains", "paper"):
             raise ConfigError(f"{source}: essential_method must be 'keep_gains' or 'paper'")
         if not (self.essential_min_tolerance >= 0 and self.essential_max_residual_increase >= 0):

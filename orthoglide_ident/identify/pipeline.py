@@ -20,6 +20,7 @@ import numpy as np
 
 from orthoglide_ident.errors import IdentificationError
 from orthoglide_ident.identify.decimation import decimate_chunked, decimated_count
+from orthoglide_ident.identify.drive_terms import observation_model
 from orthoglide_ident.identify.factors import RecordFactors
 from orthoglide_ident.identify.filtering import states_at_half_tick
 from orthoglide_ident.identify.observations import Observations
@@ -305,6 +306,7 @@ def identify_records(
     if model is None:
         model = default_model()
         timings["model"] = time.perf_counter() - t_all
+    model = observation_model(model, opts.screw_lead_m)
 
     def add(ts: dict[str, float]) -> None:
         for k, v in ts.items():

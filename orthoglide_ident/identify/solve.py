@@ -37,7 +37,7 @@ class Solved:
     """A result and what cross-validation and diagnostics need from the solve."""
 
     result: IdentificationResult
-    chi: np.ndarray  # (n_b,) base parameters, zero where cancelled
+    chi: np.ndarray  # (n_b,) base parameters, zero where cancelled (then ripple, if in the rows)
     g_tau: np.ndarray  # (3,) N/A, identified (TLS) or given (WLS)
     solver: dict[str, Any] = field(default_factory=dict)
     tls: TLSSolution | None = None
@@ -166,6 +166,10 @@ def _set_up(factors: list[RecordFactors], model, opts: IdentifyOptions, base, ma
     """
     n_b = factors[0].n_b
     base_solve = make_solver(factors)
+    in_rows = getattr(model, "terms", None)
+    if in_rows:  # ScrewRippleModel: the ripple columns are in the equations, solved as they are
+        return _Model(lambda act: base_solve(act, False), base, n_b - in_rows.n_extra, in_rows,
+                      list(model.names))
     plain = _Model(lambda act: base_solve(act, False), base, n_b, drive_terms.Terms(),
                    list(model.names))
     terms = drive_terms.Terms(drive_terms.detect_ripples(base.uncertainty, JOINT_NAMES)
@@ -181,16 +185,27 @@ def _set_up(factors: list[RecordFactors], model, opts: IdentifyOptions, base, ma
                   full, n_b, terms, list(model.names) + terms.names(JOINT_NAMES))
 
 
-def _ripple_notes(result: IdentificationResult, ripples: list) -> None:
+def _ripple_notes(result: IdentificationResult, ripples: list, terms: drive_terms.Terms) -> None:
     result.ripple = [r.to_json() for r in ripples]
+    if terms.in_rows:  # modelled because the lead was given: a figure, not a warning
+        lead_mm = 1e3 * terms.ripples[0].wavelength_m
+        log.info("screw friction ripple at the %.1f mm lead (screw_lead_m): %s", lead_mm,
+                 ", ".join(f"{r.joint} ±{r.amplitude_n:.2g} N (σ {r.amplitude_std_n:.1g})"
+                           for r in ripples))
+        result.warnings = [  # a ripple left in the residual: another period than the one given
+            f"{w}; screw_lead_m is {lead_mm:.1f} mm: check the screws' lead"
+            if w.startswith("the residual of ") and "varies with its position" in w else w
+            for w in result.warnings]
+        return
     for r in ripples:  # said once: as modelled, not as a peak in the residual
         result.warnings = [w for w in result.warnings
                            if not w.startswith(f"the residual of {r.joint} varies with its position")]
         result.warnings.append(
             f"{r.joint}: a {'friction' if r.friction else 'force'} ripple of ±{r.amplitude_n:.2g} N "
             f"(σ {r.amplitude_std_n:.1g} N) at a {1e3 * r.wavelength_m:.1f} mm period of its "
-            "position was found in the residual and added to the model (ripple_model: auto); the "
-            "gains and parameters are those of the model with it")
+            "position was found in the residual and added to the model (ripple_model: auto; "
+            "screw_lead_m models it at a given lead); the gains and parameters are those of "
+            "the model with it")
 
 
 def tls_model(factors: list[RecordFactors], model, opts: IdentifyOptions) -> tuple[_Model, Any]:
@@ -221,11 +236,11 @@ def solve_tls(factors: list[RecordFactors], model, opts: IdentifyOptions, essent
     view, ripples = m.view(sol)
     result = tls_result(model, view, factors, opts, bags)
     _uncertainty(result, base, opts, gains=True)
-    _ripple_notes(result, ripples)
+    _ripple_notes(result, ripples, m.terms)
     solver = {"tls_noisy_columns": opts.tls_noisy_columns, "singular_ratio": sol.singular_ratio,
               "smallest_singular_values": [float(x) for x in sol.singular_values[-3:]],
               "joint_sigma": [float(x) for x in sol.joint_sigma], "lambda": sol.lambda_scale}
-    out = Solved(result, view.chi_full(), view.g_tau, solver, view)
+    out = Solved(result, _chi(m, sol, view), view.g_tau, solver, view)
     if essential:
         t0 = time.perf_counter()
         log.info("essential parameters (%s, r_sigma = %g)", opts.essential_method, opts.r_sigma)
@@ -236,6 +251,12 @@ def solve_tls(factors: list[RecordFactors], model, opts: IdentifyOptions, essent
         _note_essential(m.names, result, ess)
         out.timings["essential"] = time.perf_counter() - t0
     return out
+
+
+def _chi(m: _Model, sol, view) -> np.ndarray:
+    """χ for the observation matrix of the records (cross-validation): with the ripple
+    coefficients when the equations hold their columns."""
+    return sol.chi_full() if m.terms.in_rows else view.chi_full()
 
 
 def _essential(m: _Model, opts: IdentifyOptions, protected_names: list[str]) -> EssentialResult:
@@ -274,8 +295,9 @@ def solve_wls(factors: list[RecordFactors], model, opts: IdentifyOptions,
     view, ripples = m.view(m.full)
     result = wls_result(model, view, g, factors, bags)
     _uncertainty(result, base, opts, gains=False)
-    _ripple_notes(result, ripples)
-    out = Solved(result, view.chi_full(), g, {"joint_sigma": [float(x) for x in view.joint_sigma]})
+    _ripple_notes(result, ripples, m.terms)
+    out = Solved(result, _chi(m, m.full, view), g,
+                 {"joint_sigma": [float(x) for x in view.joint_sigma]})
     if essential:
         t0 = time.perf_counter()
         ess = _essential(m, opts, [f"m_7 ({mass:g} kg)" for mass in base.payload_groups])

@@ -242,7 +242,7 @@ def test_ripple_columns_from_the_moments_are_the_rows_own():
         o.decimation = 10
     f = [RecordFactors.from_observations(o) for o in obs]
     i = int(np.argmin(np.abs(WAVELENGTHS_M - 0.01)))
-    terms = drive_terms.Terms((drive_terms.RippleTerm(1, i, True),))
+    terms = drive_terms.Terms((drive_terms.RippleTerm(1, float(WAVELENGTHS_M[i]), True, i),))
     aug = drive_terms.augmented_factors(f, terms)
     lam = WAVELENGTHS_M[i]
     for o, a in zip(obs, aug):
