@@ -26,7 +26,12 @@ without a ripple model, -0.03/+0.07/+0.01 % with the columns from the moments, +
 
 (A current-loop lag was tried the same way, as a column of v_τ's backward difference: on the
 simulated drives it took up friction errors at the velocity reversals instead — 0.3 ms found for
-a 0.12 ms lag, 0.05 ms on a drive without any — and moved the gains the wrong way; not kept.)
+a 0.12 ms lag, 0.05 ms on a drive without any — and moved the gains the wrong way; not kept.
+As a column of the derivative filtered and decimated like v_τ, in a mixed LS-TLS with its noise
+scaled to v_τ's, it finds 0.117-0.133 ms noise-free but 0.22-0.31 ms with 2 mA: the noise is in
+the applied current and the controller answers it within a tick, so the zero-phase derivative
+of the reference correlates with the equation error. Instruments free of the noise, e.g. the
+reference trajectory's, would be the way.)
 """
 from __future__ import annotations
 
