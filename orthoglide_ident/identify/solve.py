@@ -37,7 +37,8 @@ class Solved:
     """A result and what cross-validation and diagnostics need from the solve."""
 
     result: IdentificationResult
-    chi: np.ndarray  # (n_b,) base parameters, zero where cancelled (then ripple, if in the rows)
+    chi: np.ndarray  # (n_b,) base parameters, zero where cancelled; + 6 ripple ones when the
+    # equations hold the ripple columns (ScrewRippleModel): what cross-validation multiplies
     g_tau: np.ndarray  # (3,) N/A, identified (TLS) or given (WLS)
     solver: dict[str, Any] = field(default_factory=dict)
     tls: TLSSolution | None = None
@@ -160,16 +161,15 @@ class _Model:
 def _set_up(factors: list[RecordFactors], model, opts: IdentifyOptions, base, make_solver
             ) -> _Model:
     """The model to report: the base one, or with the ripple columns the base residual's
-    position spectrum calls for.
+    position spectrum calls for, or (a ScrewRippleModel) with the ripple columns of the rows.
 
     ``make_solver(factors) -> solve(active, reweight)`` builds a solver on (augmented) factors.
     """
     n_b = factors[0].n_b
     base_solve = make_solver(factors)
-    in_rows = getattr(model, "terms", None)
-    if in_rows:  # ScrewRippleModel: the ripple columns are in the equations, solved as they are
-        return _Model(lambda act: base_solve(act, False), base, n_b - in_rows.n_extra, in_rows,
-                      list(model.names))
+    if isinstance(model, drive_terms.ScrewRippleModel):  # the ripple columns are in the rows
+        return _Model(lambda act: base_solve(act, False), base, n_b - model.terms.n_extra,
+                      model.terms, list(model.names))
     plain = _Model(lambda act: base_solve(act, False), base, n_b, drive_terms.Terms(),
                    list(model.names))
     terms = drive_terms.Terms(drive_terms.detect_ripples(base.uncertainty, JOINT_NAMES)
