@@ -138,7 +138,6 @@ class ScrewRippleModel:
             out[n + 2 * j + 1, j] = s[:, j] * np.sin(phi[:, j])
         return out
 
-
     def regressor(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> np.ndarray:
         """[W | ripple] (3 N, n_b + 6), rows joint by joint (the model protocol's layout)."""
         X = self.observation_block(q, qd, qdd)[:-1]

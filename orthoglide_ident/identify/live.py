@@ -30,9 +30,9 @@ import numpy as np
 
 from orthoglide_ident.errors import (ConfigError, ExcitationError, IdentificationError,
                                      OrthoglideError)
+from orthoglide_ident.identify.drive_terms import observation_model
 from orthoglide_ident.identify.factors import RecordFactors
 from orthoglide_ident.identify.live_recording import LiveRecording
-from orthoglide_ident.identify.drive_terms import observation_model
 from orthoglide_ident.identify.options import IdentifyOptions
 from orthoglide_ident.identify.pipeline import IdentificationModel, default_model, finish_result
 from orthoglide_ident.identify.segments import JOINT_NAMES

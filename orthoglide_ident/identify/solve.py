@@ -23,7 +23,7 @@ from orthoglide_ident.identify.options import IdentifyOptions
 from orthoglide_ident.identify.segments import JOINT_NAMES
 from orthoglide_ident.identify.tls import (TLSProblem, TLSSolution, check_excitation,
                                            require_loaded_and_unloaded)
-from orthoglide_ident.identify.uncertainty import diagnose
+from orthoglide_ident.identify.uncertainty import diagnose, ripple_warning_start
 from orthoglide_ident.identify.wls import WLSSolution, idim_wls
 from orthoglide_ident.model.geometry import G_TAU_MANUFACTURER
 from orthoglide_ident.results import Estimate, IdentificationResult, PayloadMass
@@ -194,12 +194,12 @@ def _ripple_notes(result: IdentificationResult, ripples: list, terms: drive_term
                            for r in ripples))
         result.warnings = [  # a ripple left in the residual: another period than the one given
             f"{w}; screw_lead_m is {lead_mm:.1f} mm: check the screws' lead"
-            if w.startswith("the residual of ") and "varies with its position" in w else w
+            if any(w.startswith(ripple_warning_start(j)) for j in JOINT_NAMES) else w
             for w in result.warnings]
         return
     for r in ripples:  # said once: as modelled, not as a peak in the residual
         result.warnings = [w for w in result.warnings
-                           if not w.startswith(f"the residual of {r.joint} varies with its position")]
+                           if not w.startswith(ripple_warning_start(r.joint))]
         result.warnings.append(
             f"{r.joint}: a {'friction' if r.friction else 'force'} ripple of ±{r.amplitude_n:.2g} N "
             f"(σ {r.amplitude_std_n:.1g} N) at a {1e3 * r.wavelength_m:.1f} mm period of its "

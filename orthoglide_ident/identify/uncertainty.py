@@ -429,6 +429,12 @@ def spectrum_peaks(unc: Uncertainty, joint_names: tuple[str, ...]) -> list[Spect
     return out
 
 
+def ripple_warning_start(joint: str) -> str:
+    """How diagnose's warning of a position-spectrum peak of ``joint`` begins (solve.py
+    replaces or completes it once the ripple is modelled)."""
+    return f"the residual of {joint} varies with its position"
+
+
 def diagnose(unc: Uncertainty, decimation: int, n_params: int,
              joint_names: tuple[str, ...] = ("q11", "q12", "q13"),
              values: np.ndarray | None = None, gain_index: slice | None = None
@@ -475,8 +481,7 @@ def diagnose(unc: Uncertainty, decimation: int, n_params: int,
         what = ("a friction ripple (it turns with the velocity), e.g. of the ball screw at its lead"
                 if p.sign_modulated else "a position-dependent force, e.g. a cogging or screw ripple")
         warnings.append(
-            f"the residual of {p.joint} varies with its position with a "
-            f"{1e3 * p.wavelength_m:.1f} mm period (±{p.amplitude_n:.2g} N, "
+            f"{ripple_warning_start(p.joint)} with a {1e3 * p.wavelength_m:.1f} mm period (±{p.amplitude_n:.2g} N, "
             f"{p.amplitude_n / max(p.median_n, 1e-12):.0f}x the spectrum's median): {what} "
             "that the IDIM does not model")
     return d, warnings
