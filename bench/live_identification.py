@@ -36,6 +36,7 @@ from identify_speed import rosbags_read  # noqa: E402
 
 from orthoglide_ident import bags  # noqa: E402
 from orthoglide_ident.identify.live import LiveIdentification  # noqa: E402
+from orthoglide_ident.identify.options import IdentifyOptions  # noqa: E402
 from orthoglide_ident.identify.pipeline import (Record, identify, identify_records,  # noqa: E402
                                                 read_record)
 
@@ -183,7 +184,7 @@ def run(args, paths: list[Path], source: str) -> int:
         print(f"convergence plot: {args.png}")
 
     res = live10.result()
-    off = identify_records(recs)
+    off = identify_records(recs, options=IdentifyOptions(lag_model="off"))  # live's drive model
     dg = max(abs(a.value / b.value - 1) for a, b in zip(res.drive_gains, off.drive_gains))
     dp = max(abs(a.value / b.value - 1) for a, b in zip(res.parameters, off.parameters))
     print(f"\nlive result() vs identify_records on the same recordings: max relative difference "

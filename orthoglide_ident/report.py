@@ -26,7 +26,8 @@ def _validation_for_plot(res: IdentificationResult) -> tuple[ValidationResult | 
     if not res.observations:
         return None, False
     block = res.observations[-1]
-    chi = np.array([p.value for p in res.parameters])
+    chi = np.array([p.value for p in res.parameters]) if res.observations_chi is None \
+        else np.asarray(res.observations_chi)
     if chi.shape[0] != block.W.shape[2]:
         return None, False
     g = np.array([g.value for g in res.drive_gains])

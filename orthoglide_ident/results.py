@@ -82,6 +82,8 @@ class IdentificationResult:
     removed: list[str] = field(default_factory=list)  # cancelled base parameters (essential)
     # position-periodic forces found in the residual and modelled (identify/drive_terms.py)
     ripple: list[dict[str, Any]] = field(default_factory=list)
+    # the current loops' lags, identified from periodic records (identify/current_lag.py)
+    current_lag: list[dict[str, Any]] = field(default_factory=list)
     # essential: every cancellation tried, with its cost (identify/essential.EssentialStep)
     essential_steps: list[Any] = field(default_factory=list, repr=False, compare=False)
     validation: list[dict[str, Any]] = field(default_factory=list)
@@ -89,6 +91,8 @@ class IdentificationResult:
     # In-memory extras for plots (report.py); not serialised.
     validation_details: list[Any] = field(default_factory=list, repr=False, compare=False)
     observations: list[Any] = field(default_factory=list, repr=False, compare=False)
+    # χ over the observations' columns: with the drive terms' coefficients in them (lag, ripple)
+    observations_chi: Any = field(default=None, repr=False, compare=False)
 
     @property
     def residual_rms_total(self) -> float:
@@ -119,6 +123,8 @@ class IdentificationResult:
         }
         if self.ripple:
             out["ripple"] = list(self.ripple)
+        if self.current_lag:
+            out["current_lag"] = list(self.current_lag)
 
         if self.removed:
             out["removed"] = list(self.removed)
@@ -169,6 +175,10 @@ class IdentificationResult:
         lines.append(f"condition number (scaled W): {self.condition_number:.4g}")
         lines.append("residual rms (N): " + ", ".join(
             f"{j} {r:.4g}" for j, r in zip(self.joint_names, self.residual_rms)))
+        if self.current_lag:
+            lines.append("current-loop lag modelled: " + ", ".join(
+                f"{x['joint']} {x['tau_ms']:.3f} ms (σ {x['tau_std_ms']:.2g})"
+                for x in self.current_lag))
         for r in self.ripple:
             lines.append(f"ripple modelled: {r['joint']} ±{r['amplitude_n']:.3g} N (σ "
                          f"{r['amplitude_std_n']:.2g} N) at a {1e3 * r['wavelength_m']:.1f} mm period of "

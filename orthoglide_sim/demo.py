@@ -274,7 +274,9 @@ def run(out: Path, record_s: float, measure_s: float) -> int:
         tls = identify(g, [])
         print_gains(tls, time.perf_counter() - t0)
         offline = identify(g, bags)
-        say("   live vs bags: max relative difference " + live_vs_bags(tls.parameters, offline.parameters))
+        say("   live vs bags: max relative difference " + live_vs_bags(tls.parameters, offline.parameters)
+            + " (from the bags each joint's current-loop lag is identified too, lag_model: auto; "
+            "the live data keep the paper's drive model)")
         say(f"4. Paper Table 4 over ROS 2: test1 and test2, {measure_s:.0f} s per control strategy")
         rows, counts = table4_over_ros(g, bags, measure_s)
     inproc = in_process_ctc(tls.parameters, measure_s)

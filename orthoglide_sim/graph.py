@@ -217,9 +217,14 @@ class Graph:
         return self.wait_for_messages(CurrentReference, "orthoglide/feedforward", ticks, timeout)
 
 
+YAML_BOOL_WORDS = ("on", "off", "yes", "no", "y", "n", "true", "false")
+
+
 def _param_text(v: Any) -> str:
     if isinstance(v, bool):
         return "true" if v else "false"
     if isinstance(v, (list, tuple)):
         return "[" + ",".join(_param_text(x) for x in v) + "]"
+    if isinstance(v, str) and v.lower() in YAML_BOOL_WORDS:
+        return f'"{v}"'  # a string parameter, not the YAML boolean the bare word would be
     return str(v)

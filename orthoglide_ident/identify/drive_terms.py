@@ -1,5 +1,6 @@
-"""A term of a real drive the paper's IDIM lacks, added to the model when the residual calls for
-it: a position-periodic force, such as a ball screw's friction ripple at its lead.
+"""Terms of a real drive the paper's IDIM lacks, added to the model: a position-periodic force,
+such as a ball screw's friction ripple at its lead (when the residual calls for it, or at a given
+lead), and the current loop's lag (current_lag.py).
 
 The IDIM has no term for a force that varies periodically with an actuator's position, yet a
 ball-screw drive has one. Unmodelled, ±1.5 % of fs at a 10 mm lead moved a gain by ~0.5 % on
@@ -15,7 +16,7 @@ with the records (Σ x w e^(-iφ), Σ w², Σ w² e^(-2iφ)), so the augmented s
 and live. Its σ are eq. (39)'s, scaled unknown by unknown by the base model's honest / eq. (39)
 variance ratio (the block moments hold no ripple columns).
 
-When the lead is known (``screw_lead_m``, a datasheet value), :class:`ScrewRippleModel` computes
+When the lead is known (``screw_lead_m``, a datasheet value), :class:`DriveTermsModel` computes
 the columns sign(q̂̇_j) cos(2π q̂_j/λ), sign(q̂̇_j) sin(2π q̂_j/λ) at the sample rate, beside W, and
 the decimation filters them with W (the paper's parallel filtering, eqs. 19-20, applied to the
 drive term too) instead of weighting the decimated rows by H: no approximation where |q̇|/λ
@@ -24,14 +25,15 @@ IDIM is a ±1.5 % fs ripple at 10 mm (noise-free 30 s + 30 s): gain errors +0.11
 without a ripple model, -0.03/+0.07/+0.01 % with the columns from the moments, +0.01/-0.02/
 -0.02 % with these; README has the noisy figures over 20 seeds.
 
-(A current-loop lag was tried the same way, as a column of v_τ's backward difference: on the
-simulated drives it took up friction errors at the velocity reversals instead — 0.3 ms found for
-a 0.12 ms lag, 0.05 ms on a drive without any — and moved the gains the wrong way; not kept.
-As a column of the derivative filtered and decimated like v_τ, in a mixed LS-TLS with its noise
-scaled to v_τ's, it finds 0.117-0.133 ms noise-free but 0.22-0.31 ms with 2 mA: the noise is in
-the applied current and the controller answers it within a tick, so the zero-phase derivative
-of the reference correlates with the equation error. Instruments free of the noise, e.g. the
-reference trajectory's, would be the way.)
+The current loop's lag is the other drive term in the equations (``lag_model: auto``): one
+column per joint, the mean of v̇_τ over the record's other periods (current_lag.py), which the
+stream carries beside v_τ and writes into the joint's own rows. (As a column of v_τ's backward
+difference it took up friction errors at the velocity reversals instead — 0.3 ms found for a
+0.12 ms lag, 0.05 ms on a drive without any; as the derivative filtered and decimated like v_τ,
+in a mixed LS-TLS with its noise scaled to v_τ's, it finds 0.117-0.133 ms noise-free but
+0.22-0.31 ms with 2 mA: the noise is in the applied current and the controller answers it
+within a tick, so the zero-phase derivative of the reference correlates with the equation error.
+The other periods' mean is free of the row's own noise.)
 """
 from __future__ import annotations
 
@@ -46,11 +48,12 @@ from orthoglide_ident.identify.segments import JOINT_NAMES
 from orthoglide_ident.identify.stream import model_block
 from orthoglide_ident.identify.uncertainty import WAVELENGTHS_M, Uncertainty, spectrum_peaks
 
+
 @dataclass(frozen=True)
 class RippleTerm:
     """Two columns of joint ``joint`` (0..2): a ripple of wavelength ``wavelength_m``; ``index``
     is its wavelength in the residual's position spectrum (WAVELENGTHS_M) when the columns are
-    built from the moments, None when they are in the equations (ScrewRippleModel)."""
+    built from the moments, None when they are in the equations (DriveTermsModel)."""
 
     joint: int
     wavelength_m: float
@@ -60,21 +63,37 @@ class RippleTerm:
 
 @dataclass(frozen=True)
 class Terms:
-    """The drive terms of a model: ripple terms, at most one per joint. ``in_rows``: their
-    columns are in the decimated equations already (after W, before W_kl)."""
+    """The drive terms of a model, in their column order: each joint's current-loop lag (one
+    column per joint, ``lag``: current_lag.py), then the ripple terms (two columns each, at most
+    one per joint). A ripple whose ``index`` is None has its columns in the decimated equations
+    (a given lead); the others are built from the moments (augmented_factors)."""
 
     ripples: tuple[RippleTerm, ...] = ()
-    in_rows: bool = False
+    lag: bool = False
 
     @property
     def n_extra(self) -> int:
-        return 2 * len(self.ripples)
+        return 3 * self.lag + 2 * len(self.ripples)
 
     def __bool__(self) -> bool:
         return self.n_extra > 0
 
     def names(self, joint_names: Sequence[str]) -> list[str]:
-        return [f"ripple_{c}_{joint_names[t.joint]}" for t in self.ripples for c in ("c", "s")]
+        lag = [f"lag_{j}" for j in joint_names] if self.lag else []
+        return lag + [f"ripple_{c}_{joint_names[t.joint]}" for t in self.ripples
+                      for c in ("c", "s")]
+
+
+@dataclass
+class LagEstimate:
+    """An identified current-loop lag: the drive applies g_τ (v_τ - τ v̇_τ)."""
+
+    joint: str
+    tau_s: float
+    tau_std_s: float
+
+    def to_json(self) -> dict:
+        return {"joint": self.joint, "tau_ms": 1e3 * self.tau_s, "tau_std_ms": 1e3 * self.tau_std_s}
 
 
 @dataclass
@@ -107,39 +126,48 @@ def detect_ripples(unc: Uncertainty | None, joint_names: tuple[str, ...]) -> tup
     return tuple(out)
 
 
-class ScrewRippleModel:
-    """The pipeline's model with each joint's screw friction ripple at a known lead λ: the
-    columns [W | ripple (2 per joint) | W_kl], joint j's ripple columns sign(q̂̇_j) cos(2π q̂_j/λ)
-    and sign(q̂̇_j) sin(2π q̂_j/λ) in its own rows (zero in the others'). Built at the sample
-    rate with W, so the stream decimates (and bridges at reversals) them as it does W."""
+class DriveTermsModel:
+    """The pipeline's model with drive terms in the equations: columns [W | lag | ripple | W_kl].
 
-    def __init__(self, model, lead_m: float):
+    ``lag``: each joint's current-loop lag, one column in its own rows (zero in the others'),
+    which the stream fills with the lag instrument (current_lag.py) at ``lag_column`` + j.
+    ``lead_m`` > 0: each joint's screw friction ripple at that lead, the columns
+    sign(q̂̇_j) cos(2π q̂_j/λ) and sign(q̂̇_j) sin(2π q̂_j/λ) in its own rows. Both are built at the
+    sample rate with W, so the stream decimates (and bridges at reversals) them as it does W."""
+
+    def __init__(self, model, lead_m: float = 0.0, lag: bool = False):
         self.base, self.lead_m = model, float(lead_m)
         self.n_base = len(model.names)
-        self.terms = Terms(tuple(RippleTerm(j, self.lead_m, True) for j in range(3)), True)
+        ripples = tuple(RippleTerm(j, self.lead_m, True) for j in range(3)) if lead_m > 0 else ()
+        self.terms = Terms(ripples, bool(lag))
+        self.lag_column = self.n_base if lag else None
         self.names = list(model.names) + self.terms.names(JOINT_NAMES)
         self.expressions = list(getattr(model, "expressions", [""] * self.n_base)) + [
+            f"τ g_τ{j[1:]}: v̇τ{j[1:]} averaged over the other periods" for j in JOINT_NAMES
+            if lag] + [
             f"sign(q̇{JOINT_NAMES[t.joint][1:]}) {f}(2π {JOINT_NAMES[t.joint]} / {self.lead_m:g} m)"
             for t in self.terms.ripples for f in ("cos", "sin")]
 
     def observation_block(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray,
                           out: np.ndarray | None = None) -> np.ndarray:
-        """[W | ripple | W_kl] of states (m, 3) as (n_b + 7, 3, m), into ``out`` if given."""
-        n, m = self.n_base, q.shape[0]
+        """[W | lag (zero) | ripple | W_kl] of states (m, 3) as (n_b + k + 1, 3, m)."""
+        n, m, k = self.n_base, q.shape[0], self.terms.n_extra
         if out is None:
-            out = np.empty((n + 7, 3, m))
+            out = np.empty((n + k + 1, 3, m))
         model_block(self.base, q, qd, qdd, out[:n + 1])
-        out[n + 6] = out[n]  # W_kl goes last
-        out[n:n + 6] = 0.0
-        phi = (2.0 * np.pi / self.lead_m) * np.asarray(q)
+        out[n + k] = out[n]  # W_kl goes last
+        out[n:n + k] = 0.0
+        r0 = n + 3 * self.terms.lag
+        phi = (2.0 * np.pi / self.lead_m) * np.asarray(q) if self.terms.ripples else None
         s = np.sign(qd)
-        for j in range(3):
-            out[n + 2 * j, j] = s[:, j] * np.cos(phi[:, j])
-            out[n + 2 * j + 1, j] = s[:, j] * np.sin(phi[:, j])
+        for t in self.terms.ripples:
+            j = t.joint
+            out[r0 + 2 * j, j] = s[:, j] * np.cos(phi[:, j])
+            out[r0 + 2 * j + 1, j] = s[:, j] * np.sin(phi[:, j])
         return out
 
     def regressor(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> np.ndarray:
-        """[W | ripple] (3 N, n_b + 6), rows joint by joint (the model protocol's layout)."""
+        """[W | lag (zero: it needs the currents) | ripple] (3 N, n_b + k), rows joint by joint."""
         X = self.observation_block(q, qd, qdd)[:-1]
         return X.transpose(1, 2, 0).reshape(-1, X.shape[0])
 
@@ -147,10 +175,15 @@ class ScrewRippleModel:
         return self.base.payload_mass_column(q, qd, qdd)
 
 
-def observation_model(model, lead_m: float):
-    """``model`` with the screw ripple columns when the lead is known (``lead_m`` > 0)."""
-    if lead_m > 0 and not isinstance(model, ScrewRippleModel):
-        return ScrewRippleModel(model, lead_m)
+def observation_model(model, lead_m: float, lag: bool = False):
+    """``model`` with the drive terms in the equations: the screw ripple columns when the lead
+    is known (``lead_m`` > 0), the current-loop lag columns when ``lag``."""
+    if isinstance(model, DriveTermsModel):
+        if model.lead_m == float(lead_m) and model.terms.lag == bool(lag):
+            return model
+        model = model.base
+    if lead_m > 0 or lag:
+        return DriveTermsModel(model, lead_m, lag)
     return model
 
 
@@ -236,10 +269,11 @@ def _rest(sol) -> np.ndarray:
     return np.asarray(sol.g_tau if hasattr(sol, "g_tau") else sol.payload_masses, float)
 
 
-def split(sol, n_b: int, terms: Terms, joint_names: Sequence[str]
-          ) -> tuple[object, list[RippleEstimate]]:
+def split(sol, n_b: int, terms: Terms, joint_names: Sequence[str], gains: np.ndarray | None = None
+          ) -> tuple[object, list[RippleEstimate], list[LagEstimate]]:
     """The base-model view of an augmented solution (``active``, χ, covariances over the base
-    parameters and the gains / payload masses), and its identified ripples."""
+    parameters and the gains / payload masses), its identified ripples and lags (τ = θ / g_τ,
+    ``gains`` given to a WLS solve, else the solution's own with their covariance)."""
     k = terms.n_extra
     n_a = int(np.count_nonzero(sol.active[:n_b]))
     keep = np.concatenate([np.arange(n_a), np.arange(n_a + k, sol.cov.shape[0])])
@@ -249,9 +283,11 @@ def split(sol, n_b: int, terms: Terms, joint_names: Sequence[str]
         std=sol.std[keep], rel_std=sol.rel_std[keep],
         cov_paper=None if sol.cov_paper is None else sol.cov_paper[sub],
         rel_std_paper=None if sol.rel_std_paper is None else sol.rel_std_paper[keep])
+    lags = _lags(sol, n_a, n_a + k, joint_names, gains) if terms.lag else []
     ripples = []
+    r0 = n_a + 3 * terms.lag
     for i, t in enumerate(terms.ripples):
-        a, b = n_a + 2 * i, n_a + 2 * i + 1
+        a, b = r0 + 2 * i, r0 + 2 * i + 1
         c, s = float(sol.chi[a]), float(sol.chi[b])
         amp = float(np.hypot(c, s))
         C = sol.cov[np.ix_([a, b], [a, b])]
@@ -260,4 +296,24 @@ def split(sol, n_b: int, terms: Terms, joint_names: Sequence[str]
         ripples.append(RippleEstimate(joint_names[t.joint], t.wavelength_m, t.friction, amp,
                                       float(np.sqrt(max(u @ C @ u, 0.0))),
                                       float(np.arctan2(-s, c))))
-    return view, ripples
+    return view, ripples, lags
+
+
+def _lags(sol, a: int, g0: int, joint_names: Sequence[str], gains: np.ndarray | None
+          ) -> list[LagEstimate]:
+    """τ_j = θ_j / g_τj of the lag coefficients θ at a.. (gains at g0.. when identified), σ to
+    first order."""
+    out = []
+    for j, name in enumerate(joint_names):
+        theta = float(sol.chi[a + j])
+        if gains is None:
+            g = float(sol.g_tau[j])
+            idx = [a + j, g0 + j]
+            grad = np.array([1.0 / g, -theta / g ** 2])
+        else:
+            g = float(gains[j])
+            idx = [a + j]
+            grad = np.array([1.0 / g])
+        C = sol.cov[np.ix_(idx, idx)]
+        out.append(LagEstimate(name, theta / g, float(np.sqrt(max(grad @ C @ grad, 0.0)))))
+    return out

@@ -22,6 +22,7 @@ say what is wrong. Never imports rclpy.
 from __future__ import annotations
 
 import dataclasses
+import logging
 import math
 from dataclasses import dataclass
 from typing import Sequence
@@ -41,7 +42,12 @@ from orthoglide_ident.identify.stream import DecimatedRows
 from orthoglide_ident.identify.tls import check_excitation
 from orthoglide_ident.results import IdentificationResult
 
+log = logging.getLogger("orthoglide_ident.identify")
+
 MAX_LOGGED_WARNINGS = 200  # the first ones, kept for result().warnings
+LIVE_LAG_NOTE = ("the live identification keeps the paper's drive model: the current-loop lag "
+                 "(lag_model: auto) needs every period of a record, so it is identified from bags "
+                 "(name them in the identify call)")
 MAX_PENDING_WARNINGS = 1000  # waiting for drain_warnings()
 
 
@@ -250,6 +256,9 @@ class LiveIdentification:
         reports = [r.report() for r in self._recordings]
         finish_result(solved.result, solved, reports, list(self._log), self.opts,
                       dict(solved.timings))
+        if self.opts.lag_model == "auto":
+            solved.result.diagnostics["current_lag"] = LIVE_LAG_NOTE
+            log.info(LIVE_LAG_NOTE)
         return solved.result
 
     def _with_payload(self, factors: list[RecordFactors], mass: float) -> list[RecordFactors]:

@@ -52,8 +52,13 @@ class IdentifyOptions:
     ripple_model: str = "auto"
     # m, the ball screws' lead (a datasheet value) when known: each joint then gets the friction
     # ripple's two columns at that period, built at the sample rate and decimated with W
-    # (drive_terms.ScrewRippleModel); 0: unknown, left to ripple_model
+    # (drive_terms.DriveTermsModel); 0: unknown, left to ripple_model
     screw_lead_m: float = 0.0
+    # each joint's current-loop lag (the drive applies g_τ (v_τ - τ v̇_τ)): "auto" adds a column
+    # per joint when the records repeat a periodic trajectory, its instrument the mean of v̇_τ
+    # over the other periods (current_lag.py); bags only: the live identification folds its
+    # rows before the later periods exist and keeps the paper's model; "off": the paper's model
+    lag_model: str = "auto"
     essential_method: str = "keep_gains"
     essential_min_tolerance: float = 0.003  # fraction (0.3 %)
     essential_max_residual_increase: float = 0.05  # fraction of the weighted residual norm
@@ -108,6 +113,8 @@ class IdentifyOptions:
                     out[k] = int(value)
                 elif isinstance(default, float):
                     out[k] = float(value)
+                elif isinstance(value, bool):  # YAML's bare on/off: the words meant
+                    out[k] = "on" if value else "off"
                 else:
                     out[k] = str(value)
             except (TypeError, ValueError):
@@ -130,6 +137,8 @@ class IdentifyOptions:
             raise ConfigError(f"{source}: r_sigma must be > 1 (the paper uses 10)")
         if self.ripple_model not in ("auto", "off"):
             raise ConfigError(f"{source}: ripple_model must be 'auto' or 'off'")
+        if self.lag_model not in ("auto", "off"):
+            raise ConfigError(f"{source}: lag_model must be 'auto' or 'off'")
         if not (self.screw_lead_m == 0 or 1e-4 <= self.screw_lead_m <= 0.5):
             raise ConfigError(f"{source}: screw_lead_m is the screws' lead in metres (e.g. 0.010 "
                               f"for 10 mm), or 0 when unknown; not {self.screw_lead_m:g}")

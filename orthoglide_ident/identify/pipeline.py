@@ -10,6 +10,7 @@ NaN (DataError), contradicting tags (IdentificationError), only unloaded bags fo
 """
 from __future__ import annotations
 
+import dataclasses
 import logging
 import time
 from dataclasses import dataclass, field
@@ -19,6 +20,7 @@ from typing import Any, Callable, Iterable, Iterator, Protocol, Sequence
 import numpy as np
 
 from orthoglide_ident.errors import IdentificationError
+from orthoglide_ident.identify.current_lag import lag_instrument
 from orthoglide_ident.identify.decimation import decimate_chunked, decimated_count
 from orthoglide_ident.identify.drive_terms import observation_model
 from orthoglide_ident.identify.factors import RecordFactors
@@ -28,7 +30,7 @@ from orthoglide_ident.identify.options import IdentifyOptions
 from orthoglide_ident.identify.reversals import bridge, find_reversals, rows_clear
 from orthoglide_ident.identify.segments import JOINT_NAMES, Segment, SegmentReport, split_record
 from orthoglide_ident.identify.solve import G_TAU_MANUFACTURER, Solved, solve
-from orthoglide_ident.identify.stream import DecimatedRows, SegmentStream, model_block
+from orthoglide_ident.identify.stream import DecimatedRows, SegmentStream, lag_rows, model_block
 from orthoglide_ident.identify.validation import ValidationResult, cross_validate
 from orthoglide_ident.results import IdentificationResult
 
@@ -173,7 +175,7 @@ def _segments_fir(segments: list[Segment], model: IdentificationModel, opts: Ide
     for seg in segments:
         stream = SegmentStream(model, opts, T, t_start, n_b)
         t0 = time.perf_counter()
-        states = states_at_half_tick(seg.q, seg.v_tau, T, opts.filter_cutoff_hz,
+        states = states_at_half_tick(seg.q, _currents(seg, model, T), T, opts.filter_cutoff_hz,
                                      opts.filter_order, trim, opts.zoh_shift,
                                      opts.filter_currents)
         stamps = seg.stamps_ns[trim:trim + states[0].shape[0]]
@@ -191,6 +193,19 @@ def _segments_fir(segments: list[Segment], model: IdentificationModel, opts: Ide
     return out, n_bridged, n_unbridged
 
 
+def _currents(seg: Segment, model: IdentificationModel, T: float) -> np.ndarray:
+    """The segment's v_τ (m, 3), with the lag instrument beside it (m, 6) when the model has
+    lag columns: zero when the segment does not repeat a periodic trajectory."""
+    if getattr(model, "lag_column", None) is None:
+        return seg.v_tau
+    z = lag_instrument(seg.q, seg.v_tau, T)
+    if z is None:
+        log.info("segment at %.1f s does not repeat a trajectory: its current-loop lag is not "
+                 "modelled", seg.stamps_ns[0] * 1e-9)
+        z = np.zeros_like(seg.v_tau)
+    return np.hstack([seg.v_tau, z])
+
+
 def _segments_iir(segments: list[Segment], model: IdentificationModel, opts: IdentifyOptions,
                   T: float, times: dict[str, float]) -> tuple[DecimatedRows, int, int]:
     """MATLAB-like Chebyshev decimation (cheby1): whole segments, W produced in chunks.
@@ -206,7 +221,8 @@ def _segments_iir(segments: list[Segment], model: IdentificationModel, opts: Ide
     t_start = int(segments[0].stamps_ns[0])
     for seg in segments:
         t1 = time.perf_counter()
-        qh, qdh, qddh, v = states_at_half_tick(seg.q, seg.v_tau, T, opts.filter_cutoff_hz,
+        qh, qdh, qddh, v = states_at_half_tick(seg.q, _currents(seg, model, T), T,
+                                               opts.filter_cutoff_hz,
                                                opts.filter_order, trim, opts.zoh_shift,
                                                opts.filter_currents)
         ts = (seg.stamps_ns[trim:trim + qh.shape[0]] - t_start) * 1e-9
@@ -229,7 +245,8 @@ def _segments_iir(segments: list[Segment], model: IdentificationModel, opts: Ide
             m = b2 - a2
             blk = np.empty((len(model.names) + 1, 3, m))
             model_block(model, qh[a2:b2], qdh[a2:b2], qddh[a2:b2], blk)
-            out = {"X": np.concatenate([blk, v[a2:b2].T[None]]).transpose(2, 1, 0)}
+            v_tau = lag_rows(model, blk, v[a2:b2])
+            out = {"X": np.concatenate([blk, v_tau.T[None]]).transpose(2, 1, 0)}
             if zones is not None:
                 bridge(zones, a2, out)
             return {k: x[a - a2:b - a2] for k, x in out.items()}
@@ -306,13 +323,14 @@ def identify_records(
     if model is None:
         model = default_model()
         timings["model"] = time.perf_counter() - t_all
-    model = observation_model(model, opts.screw_lead_m)
+    model = observation_model(model, opts.screw_lead_m, opts.lag_model == "auto")
 
     def add(ts: dict[str, float]) -> None:
         for k, v in ts.items():
             timings[k] = timings.get(k, 0.0) + v
 
     blocks, reports, warnings, bag_names = _observe_all(records, model, opts, payload_mass, add)
+    model, blocks = _without_empty_lag(model, blocks, opts)
     t_solve = time.perf_counter()
     factors = [RecordFactors.from_observations(b) for b in blocks]
     solved = solve(factors, model, opts, method, gains, essential, bag_names)
@@ -331,7 +349,22 @@ def identify_records(
     timings["total"] = time.perf_counter() - t_all
     finish_result(result, solved, reports, warnings, opts, timings)
     result.observations = blocks
+    result.observations_chi = solved.chi
     return result
+
+
+def _without_empty_lag(model: IdentificationModel, blocks: list[Observations],
+                       opts: IdentifyOptions) -> tuple[IdentificationModel, list[Observations]]:
+    """The model and rows without the lag columns when no record repeated its trajectory
+    (the columns would be zero): the paper's model, as with lag_model: off."""
+    col = getattr(model, "lag_column", None)
+    if col is None or any(np.any(b.W[:, :, col:col + 3]) for b in blocks):
+        return model, blocks
+    log.info("no record repeats a periodic trajectory: the current-loop lag is not modelled "
+             "(lag_model: auto needs the exciting trajectories' periods)")
+    cols = np.r_[col:col + 3]
+    out = [dataclasses.replace(b, W=np.delete(b.W, cols, axis=2)) for b in blocks]
+    return observation_model(model, opts.screw_lead_m, False), out
 
 
 def _validate(records: Iterable[Record], solved: Solved, model: IdentificationModel,

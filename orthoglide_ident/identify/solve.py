@@ -37,8 +37,8 @@ class Solved:
     """A result and what cross-validation and diagnostics need from the solve."""
 
     result: IdentificationResult
-    chi: np.ndarray  # (n_b,) base parameters, zero where cancelled; + 6 ripple ones when the
-    # equations hold the ripple columns (ScrewRippleModel): what cross-validation multiplies
+    chi: np.ndarray  # (n_b,) base parameters, zero where cancelled; + the drive terms' whose
+    # columns the equations hold (DriveTermsModel): what cross-validation multiplies
     g_tau: np.ndarray  # (3,) N/A, identified (TLS) or given (WLS)
     solver: dict[str, Any] = field(default_factory=dict)
     tls: TLSSolution | None = None
@@ -141,9 +141,11 @@ class _Model:
 
     solve_active: Any  # active (n_b + n_extra,) bool -> solution
     full: Any  # solution on every column
-    n_b: int
+    n_b: int  # base parameters
     terms: drive_terms.Terms
     names: list[str]
+    n_rows_cols: int  # columns of W in the decimated equations (base + the terms in them)
+    gains: np.ndarray | None = None  # given to WLS (None: identified by TLS)
 
     @property
     def fixed(self) -> np.ndarray:
@@ -151,43 +153,52 @@ class _Model:
         f[self.n_b:] = True
         return f
 
-    def view(self, sol) -> tuple[Any, list]:
-        """Base-model view of a solution, and its identified ripples."""
+    def view(self, sol) -> tuple[Any, list, list]:
+        """Base-model view of a solution, its identified ripples and current-loop lags."""
         if not self.terms:
-            return sol, []
-        return drive_terms.split(sol, self.n_b, self.terms, JOINT_NAMES)
+            return sol, [], []
+        return drive_terms.split(sol, self.n_b, self.terms, JOINT_NAMES, self.gains)
 
 
-def _set_up(factors: list[RecordFactors], model, opts: IdentifyOptions, base, make_solver
-            ) -> _Model:
-    """The model to report: the base one, or with the ripple columns the base residual's
-    position spectrum calls for, or (a ScrewRippleModel) with the ripple columns of the rows.
+def _set_up(factors: list[RecordFactors], model, opts: IdentifyOptions, base, make_solver,
+            gains: np.ndarray | None = None) -> _Model:
+    """The model to report: the base one with the drive terms already in the equations (a
+    DriveTermsModel: lag, ripple at a given lead), and the ripple columns the base residual's
+    position spectrum calls for when no lead is given (built from the moments).
 
     ``make_solver(factors) -> solve(active, reweight)`` builds a solver on (augmented) factors.
     """
-    n_b = factors[0].n_b
+    n_cols = factors[0].n_b
     base_solve = make_solver(factors)
-    if isinstance(model, drive_terms.ScrewRippleModel):  # the ripple columns are in the rows
-        return _Model(lambda act: base_solve(act, False), base, n_b - model.terms.n_extra,
-                      model.terms, list(model.names))
-    plain = _Model(lambda act: base_solve(act, False), base, n_b, drive_terms.Terms(),
-                   list(model.names))
-    terms = drive_terms.Terms(drive_terms.detect_ripples(base.uncertainty, JOINT_NAMES)
-                              if opts.ripple_model == "auto" else ())
-    if not terms or not drive_terms.can_model(factors, terms):
+    in_rows = model.terms if isinstance(model, drive_terms.DriveTermsModel) else drive_terms.Terms()
+    n_b = n_cols - in_rows.n_extra
+    plain = _Model(lambda act: base_solve(act, False), base, n_b, in_rows, list(model.names),
+                   n_cols, gains)
+    if in_rows.ripples or opts.ripple_model != "auto":
         return plain
-    k = terms.n_extra
+    found = drive_terms.Terms(drive_terms.detect_ripples(base.uncertainty, JOINT_NAMES))
+    if not found or not drive_terms.can_model(factors, found):
+        return plain
+    k = found.n_extra
     log.info("ripple in the residual of %s: two columns each added to the model", ", ".join(
-        f"{JOINT_NAMES[t.joint]} ({1e3 * t.wavelength_m:.1f} mm)" for t in terms.ripples))
-    aug_solve = make_solver(drive_terms.augmented_factors(factors, terms))
-    full = drive_terms.transfer_inflation(aug_solve(None, None), base, n_b, k)
-    return _Model(lambda act: drive_terms.transfer_inflation(aug_solve(act, False), base, n_b, k),
-                  full, n_b, terms, list(model.names) + terms.names(JOINT_NAMES))
+        f"{JOINT_NAMES[t.joint]} ({1e3 * t.wavelength_m:.1f} mm)" for t in found.ripples))
+    aug_solve = make_solver(drive_terms.augmented_factors(factors, found))
+    full = drive_terms.transfer_inflation(aug_solve(None, None), base, n_cols, k)
+    return _Model(lambda act: drive_terms.transfer_inflation(aug_solve(act, False), base, n_cols,
+                                                             k),
+                  full, n_b, drive_terms.Terms(found.ripples, in_rows.lag),
+                  list(model.names) + found.names(JOINT_NAMES), n_cols, gains)
 
 
-def _ripple_notes(result: IdentificationResult, ripples: list, terms: drive_terms.Terms) -> None:
+def _drive_notes(result: IdentificationResult, ripples: list, lags: list,
+                 terms: drive_terms.Terms) -> None:
+    """The identified drive terms into ``result`` (and the log); the warnings they answer."""
+    result.current_lag = [x.to_json() for x in lags]
+    if lags:
+        log.info("current-loop lag (lag_model: auto): %s", ", ".join(
+            f"{x.joint} {1e3 * x.tau_s:.3f} ms (σ {1e3 * x.tau_std_s:.2g})" for x in lags))
     result.ripple = [r.to_json() for r in ripples]
-    if terms.in_rows:  # modelled because the lead was given: a figure, not a warning
+    if any(t.index is None for t in terms.ripples):  # modelled at the given lead: a figure
         lead_mm = 1e3 * terms.ripples[0].wavelength_m
         log.info("screw friction ripple at the %.1f mm lead (screw_lead_m): %s", lead_mm,
                  ", ".join(f"{r.joint} ±{r.amplitude_n:.2g} N (σ {r.amplitude_std_n:.1g})"
@@ -233,30 +244,31 @@ def solve_tls(factors: list[RecordFactors], model, opts: IdentifyOptions, essent
     sol = m.full
     if opts.check_excitation:
         check_excitation(sol, opts.limits(), m.names)
-    view, ripples = m.view(sol)
+    view, ripples, lags = m.view(sol)
     result = tls_result(model, view, factors, opts, bags)
     _uncertainty(result, base, opts, gains=True)
-    _ripple_notes(result, ripples, m.terms)
+    _drive_notes(result, ripples, lags, m.terms)
     solver = {"tls_noisy_columns": opts.tls_noisy_columns, "singular_ratio": sol.singular_ratio,
               "smallest_singular_values": [float(x) for x in sol.singular_values[-3:]],
               "joint_sigma": [float(x) for x in sol.joint_sigma], "lambda": sol.lambda_scale}
-    out = Solved(result, _chi(m, sol, view), view.g_tau, solver, view)
+    out = Solved(result, _chi(m, sol), view.g_tau, solver, view)
     if essential:
         t0 = time.perf_counter()
         log.info("essential parameters (%s, r_sigma = %g)", opts.essential_method, opts.r_sigma)
         ess = _essential(m, opts, [f"g_tau {j}" for j in JOINT_NAMES])
-        ess_view, ess_ripples = m.view(ess.solution)
+        ess_view, ess_ripples, ess_lags = m.view(ess.solution)
         result.essential = tls_result(model, ess_view, factors, opts, bags)
         result.essential.ripple = [r.to_json() for r in ess_ripples]
+        result.essential.current_lag = [x.to_json() for x in ess_lags]
         _note_essential(m.names, result, ess)
         out.timings["essential"] = time.perf_counter() - t0
     return out
 
 
-def _chi(m: _Model, sol, view) -> np.ndarray:
-    """χ for the observation matrix of the records (cross-validation): with the ripple
-    coefficients when the equations hold their columns."""
-    return sol.chi_full() if m.terms.in_rows else view.chi_full()
+def _chi(m: _Model, sol) -> np.ndarray:
+    """χ for the observation matrix of the records (cross-validation): with the drive terms'
+    coefficients whose columns the equations hold (lag, ripple at a given lead)."""
+    return sol.chi_full()[:m.n_rows_cols]
 
 
 def _essential(m: _Model, opts: IdentifyOptions, protected_names: list[str]) -> EssentialResult:
@@ -291,19 +303,20 @@ def solve_wls(factors: list[RecordFactors], model, opts: IdentifyOptions,
             return idim_wls(fs, g, active=act, weighting=opts.weighting)
         return solve_active
 
-    m = _set_up(factors, model, opts, base, make_solver)
-    view, ripples = m.view(m.full)
+    m = _set_up(factors, model, opts, base, make_solver, g)
+    view, ripples, lags = m.view(m.full)
     result = wls_result(model, view, g, factors, bags)
     _uncertainty(result, base, opts, gains=False)
-    _ripple_notes(result, ripples, m.terms)
-    out = Solved(result, _chi(m, m.full, view), g,
+    _drive_notes(result, ripples, lags, m.terms)
+    out = Solved(result, _chi(m, m.full), g,
                  {"joint_sigma": [float(x) for x in view.joint_sigma]})
     if essential:
         t0 = time.perf_counter()
         ess = _essential(m, opts, [f"m_7 ({mass:g} kg)" for mass in base.payload_groups])
-        ess_view, ess_ripples = m.view(ess.solution)
+        ess_view, ess_ripples, ess_lags = m.view(ess.solution)
         result.essential = wls_result(model, ess_view, g, factors, bags)
         result.essential.ripple = [r.to_json() for r in ess_ripples]
+        result.essential.current_lag = [x.to_json() for x in ess_lags]
         _note_essential(m.names, result, ess)
         out.timings["essential"] = time.perf_counter() - t0
     return out

@@ -82,11 +82,23 @@ def model_block(model, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray,
     out[-1] = np.asarray(model.payload_mass_column(q, qd, qdd)).reshape(3, m)
 
 
+def lag_rows(model, block: np.ndarray, currents: np.ndarray) -> np.ndarray:
+    """v_τ of ``currents`` (m, 3), or (m, 6) = [v_τ | lag instrument] for a model with lag
+    columns (drive_terms.DriveTermsModel), whose instrument goes into ``block``'s (n_b + 1, 3, m)
+    lag rows, joint j's in its own rows; v_τ returned."""
+    col = getattr(model, "lag_column", None)
+    if col is not None and currents.shape[1] == 6:
+        for j in range(3):
+            block[col + j, j] = currents[:, 3 + j]
+    return currents[:, :3]
+
+
 class SegmentStream:
     """Samples of one continuous segment in, its decimated equations out, block by block.
 
-    ``push(stamps_ns, q, v_tau)`` appends consecutive ticks (q m, v_tau A, both (m, 3)) and
-    returns the rows that became final; ``finish()`` ends the segment (edge trim, last rows).
+    ``push(stamps_ns, q, v_tau)`` appends consecutive ticks (q m, v_tau A, both (m, 3); v_tau
+    (m, 6) with the lag instrument beside it, :func:`lag_rows`) and returns the rows that became
+    final; ``finish()`` ends the segment (edge trim, last rows).
     Offline, ``push_states`` takes the states of the whole segment filtered at once instead
     (one FFT per segment, as before block processing existed). Either way the concatenation of
     everything returned is the same to round-off (~1e-12 relative), whatever the block sizes.
@@ -207,8 +219,9 @@ class SegmentStream:
         t0 = time.perf_counter()
         m = q.shape[0]
         X, pos = self._reserve(m)
-        model_block(self.model, q, qd, qdd, X[:self.n_b + 1, :, pos:pos + m])
-        X[self.n_b + 1, :, pos:pos + m] = np.asarray(v_tau).T
+        block = X[:self.n_b + 1, :, pos:pos + m]
+        model_block(self.model, q, qd, qdd, block)
+        X[self.n_b + 1, :, pos:pos + m] = lag_rows(self.model, block, np.asarray(v_tau)).T
         self._ts[pos:pos + m] = stamps_ns
         self._qs[pos:pos + m, :3] = q
         self._qs[pos:pos + m, 3:] = qd

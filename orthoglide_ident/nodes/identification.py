@@ -187,6 +187,12 @@ class IdentificationNode(Node):
         response.message = (f"{method}{' essential' if chosen is not result else ''}: drive gains [{gains}] N/A, "
                             f"{len(msg.names)} parameters, payload {msg.payload_mass:.4g} kg, residual rms "
                             f"{msg.residual_rms:.3g} N, cond {msg.condition_number:.3g}")
+        if chosen.current_lag:  # a drive term, not a parameter of the message
+            response.message += "; current-loop lag " + ", ".join(
+                f"{x['joint']} {x['tau_ms']:.3f} ms (σ {x['tau_std_ms']:.2g})"
+                for x in chosen.current_lag)
+        elif "current_lag" in result.diagnostics:  # live data: the paper's drive model, and why
+            self.get_logger().info(result.diagnostics["current_lag"])
         if result.warnings:
             response.message += f"; {len(result.warnings)} warning(s): " + " | ".join(result.warnings)
         response.parameters = msg

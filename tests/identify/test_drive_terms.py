@@ -1,10 +1,10 @@
-"""The screw friction ripple at a known lead (drive_terms.ScrewRippleModel, ``screw_lead_m``)."""
+"""The screw friction ripple at a known lead (drive_terms.DriveTermsModel, ``screw_lead_m``)."""
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from orthoglide_ident.identify.drive_terms import ScrewRippleModel, observation_model
+from orthoglide_ident.identify.drive_terms import DriveTermsModel, observation_model
 from orthoglide_ident.identify.options import IdentifyOptions
 from orthoglide_ident.identify.pipeline import identify_records
 from synthetic import TRUE_CHI, TRUE_GAINS, SyntheticModel, synthetic_record, trajectory
@@ -17,7 +17,7 @@ RIPPLE = np.array([0.30, -0.25, 0.10, 0.45, -0.35, -0.20])
 
 def test_ripple_columns_sit_in_their_own_joint_rows_beside_W():
     base = SyntheticModel()
-    model = ScrewRippleModel(base, LEAD)
+    model = DriveTermsModel(base, LEAD)
     q, qd, qdd = trajectory(np.linspace(0.0, 2.0, 500), seed=3)
     X = model.observation_block(q, qd, qdd)
     n = len(base.names)
@@ -35,7 +35,7 @@ def test_ripple_columns_sit_in_their_own_joint_rows_beside_W():
 
 
 def _ripple_records(noise: bool):
-    model = ScrewRippleModel(SyntheticModel(), LEAD)
+    model = DriveTermsModel(SyntheticModel(), LEAD)
     chi = np.concatenate([TRUE_CHI, RIPPLE])
     return [synthetic_record(20.0, m, seed=s, noise=noise, model=model, chi=chi)
             for m, s in ((0.0, 1), (1.983, 2))]
@@ -99,7 +99,7 @@ def test_a_lead_that_is_not_in_metres_is_refused(lead):
 def test_cross_validation_predicts_with_the_ripple():
     """A record kept out of the identification is predicted with the identified ripple too:
     residual ≤ 0.012 N measured with the lead, 0.29-0.31 N (the ripple itself) without."""
-    model = ScrewRippleModel(SyntheticModel(), LEAD)
+    model = DriveTermsModel(SyntheticModel(), LEAD)
     val = synthetic_record(10.0, 1.983, seed=9, noise=False, model=model,
                            chi=np.concatenate([TRUE_CHI, RIPPLE]))
     rms = {}

@@ -12,6 +12,7 @@ from orthoglide_ident.identify.options import IdentifyOptions
 from orthoglide_ident.identify.pipeline import Record, identify_records, read_record
 
 BAGS = Path(__file__).resolve().parents[2] / "bags"
+AS_LIVE = IdentifyOptions(lag_model="off")  # the live identification keeps the paper's drive model
 
 
 @pytest.fixture(scope="module")
@@ -22,7 +23,7 @@ def bag_records() -> list[Record]:
 
 @pytest.fixture(scope="module")
 def offline(bag_records):
-    return identify_records(bag_records)
+    return identify_records(bag_records, options=AS_LIVE)
 
 
 def feed(live: LiveIdentification, rec: Record, batches=(100,), offset: int = 0, seed: int = 0,
@@ -95,12 +96,12 @@ def test_wls_and_essential_equal_offline(bag_records, offline):
     for rec in bag_records:
         feed(live, rec, (250,))
     g = [2170.0, 2100.0, 2070.0]
-    assert max(rel_diff(identify_records(bag_records, method="wls", gains=g),
+    assert max(rel_diff(identify_records(bag_records, method="wls", gains=g, options=AS_LIVE),
                         live.result("wls", gains=g))) < 1e-6
     with pytest.raises(IdentificationError, match="1.983 kg but 1.136 kg"):
         live.result(payload_mass=1.136)
     assert live.result(payload_mass=1.9832).payload_mass.value == 1.9832
-    ess_off = identify_records(bag_records, essential=True).essential
+    ess_off = identify_records(bag_records, essential=True, options=AS_LIVE).essential
     ess_live = live.result(essential=True).essential
     assert [p.name for p in ess_live.parameters] == [p.name for p in ess_off.parameters]
     assert max(rel_diff(ess_off, ess_live)) < 1e-6
@@ -123,7 +124,7 @@ def _with_gap_and_nan(rec: Record, a: int, b: int, k_nan: int) -> Record:
 def test_gaps_and_nan_split_the_record_like_offline_drop(bag_records):
     recs = [_with_gap_and_nan(bag_records[0], 4000, 4025, 7000),
             _with_gap_and_nan(bag_records[1], 5000, 5001, 2500)]
-    opts = IdentifyOptions(nonfinite="drop")
+    opts = IdentifyOptions(nonfinite="drop", lag_model="off")
     off = identify_records(recs, options=opts)
     live = LiveIdentification(opts)
     warnings = [w for i, rec in enumerate(recs) for w in feed(live, rec, (1, 50, 333), 7, i)]
@@ -223,7 +224,7 @@ def test_simulated_records_with_a_real_gap(sim_records):
     keep[6000:6200] = False  # 0.2 s lost on both topics in the middle of the loaded record
     gappy = Record.from_arrays(loaded.source, loaded.stamps_q_ns[keep], loaded.q[keep],
                                loaded.v_tau[keep], "loaded", loaded.payload_mass)
-    off = identify_records([unloaded, gappy])
+    off = identify_records([unloaded, gappy], options=AS_LIVE)
     live = LiveIdentification()
     warnings = feed(live, unloaded, (10,), 2) + feed(live, gappy, (10, 37), 3, seed=1)
     assert sum("200 tick(s) lost" in w for w in warnings) == 2  # one per topic
@@ -284,7 +285,7 @@ def test_realistic_drive_ripple_found_and_modelled_alike_live_and_offline(realis
     """The realistic drive's ripple is found in the residual and modelled, with the same result
     live as offline."""
     recs = realistic_records
-    off = identify_records(recs)
+    off = identify_records(recs, options=AS_LIVE)
     assert "q12" in {r["joint"] for r in off.ripple}
     for r in off.ripple:
         assert abs(r["wavelength_m"] - 0.01) < 0.0005 and r["kind"].startswith("friction")
@@ -306,7 +307,7 @@ def test_screw_ripple_at_the_given_lead_alike_live_and_offline(realistic_records
     plant's (1.5 % of fs_1i = 35.2, 41.7, 24.1 N in config/plant.yaml) within 3 of their σ
     (measured 0.8-1.7 σ here; noise-free, within 2 %: the plant turns the ripple with
     tanh(q̇/v_s), the model with sign(q̂̇))."""
-    opts = IdentifyOptions(screw_lead_m=0.01)
+    opts = IdentifyOptions(screw_lead_m=0.01, lag_model="off")
     off = identify_records(realistic_records, options=opts)
     _, res = _live_result(realistic_records, IdentifyOptions(screw_lead_m=0.01))
     assert max(rel_diff(off, res)) < 1e-6 and max(rel_sigma_diff(off, res)) < 1e-6

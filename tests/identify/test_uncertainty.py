@@ -252,7 +252,7 @@ def test_ripple_columns_from_the_moments_are_the_rows_own():
         X = np.column_stack([o.W[j], w * np.cos(ph), w * np.sin(ph), o.w_m[j], o.v_tau[j]])
         assert np.allclose(a.R[j].T @ a.R[j], X.T @ X, rtol=1e-9, atol=1e-9 * np.abs(X.T @ X).max())
     sol = TLSProblem(aug).solve()
-    view, rip = drive_terms.split(sol, 4, terms, ("q11", "q12", "q13"))
+    view, rip, _ = drive_terms.split(sol, 4, terms, ("q11", "q12", "q13"))
     assert view.chi.shape == (4,) and view.cov.shape == (7, 7)
     # the synthetic ripple is 0.5 N sin(2π q/λ) sign(q̇) in the force (its rows' H is ~1: slow)
     assert abs(rip[0].amplitude_n - 0.5) < 0.1 and abs(rip[0].phase_rad + np.pi / 2) < 0.2

@@ -66,6 +66,7 @@ def test_identify_service_answers_and_latches_the_result(node, client):
     for g, true in zip(gains, (2170.0, 2100.0, 2070.0)):
         assert abs(g / true - 1) < 0.01, gains
     assert res.parameters.method == "tls" and len(res.parameters.names) == 61
+    assert "; current-loop lag q11 " in res.message  # lag_model: auto, the bags repeat a trajectory
     assert abs(res.parameters.payload_mass - 1.983) < 1e-9
 
     # a late subscriber still gets the result (transient local, depth 1)
