@@ -160,10 +160,10 @@ class DriveTermsModel:
         r0 = n + 3 * self.terms.lag
         phi = (2.0 * np.pi / self.lead_m) * np.asarray(q) if self.terms.ripples else None
         s = np.sign(qd)
-        for t in self.terms.ripples:
+        for i, t in enumerate(self.terms.ripples):
             j = t.joint
-            out[r0 + 2 * j, j] = s[:, j] * np.cos(phi[:, j])
-            out[r0 + 2 * j + 1, j] = s[:, j] * np.sin(phi[:, j])
+            out[r0 + 2 * i, j] = s[:, j] * np.cos(phi[:, j])
+            out[r0 + 2 * i + 1, j] = s[:, j] * np.sin(phi[:, j])
         return out
 
     def regressor(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> np.ndarray:

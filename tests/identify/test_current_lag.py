@@ -68,7 +68,7 @@ def realistic_pair():
     return recs
 
 
-def test_lag_of_the_realistic_drive_identified_despite_the_current_noise(realistic_pair):
+def test_lag_of_the_realistic_drive_identified_despite_the_current_noise(realistic_pair, tmp_path):
     """τ of every joint near the plant's 0.12 ms, its σ an honest bar; the raw derivative of
     v_τ as the column finds 0.22-0.31 ms here (the noise bias, drive_terms.py). The gains keep
     their σ (the lag costs three unknowns)."""
@@ -81,6 +81,10 @@ def test_lag_of_the_realistic_drive_identified_despite_the_current_noise(realist
     assert abs(tau.mean() - LAG_S) < 3 * np.sqrt(np.sum(sig ** 2)) / 3
     assert [x["joint"] for x in res.essential.current_lag] == ["q11", "q12", "q13"]
     assert "current-loop lag modelled: q11" in res.to_text()
+    # the report's force plot multiplies the rows' lag columns too
+    from orthoglide_ident.report import write_report
+
+    assert "torques.png" in [p.name for p in write_report(res, tmp_path)]
     g = np.array([x.value for x in res.drive_gains])
     s = np.array([x.rel_std for x in res.drive_gains])
     off = identify_records(realistic_pair, options=IdentifyOptions(screw_lead_m=0.01,
