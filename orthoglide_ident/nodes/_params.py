@@ -2,7 +2,8 @@
 
 Each node keeps a tuple of ``Param``; the same table declares the parameters (with their
 descriptions, so ``ros2 param describe`` explains them), checks values given on the command line
-or in a YAML file (an integer where a float is expected is fine; anything else gets a one-line
+or in a YAML file (an integer where a float is expected is fine, and YAML's true/false where a
+string is, as the words on/off it was written as; anything else gets a one-line
 reason naming the parameter), refuses changes to read-only parameters at run time with a reason,
 and writes the parameter section of ``--help``.
 """
@@ -60,6 +61,8 @@ class Param:
         if kind == "string":
             if isinstance(value, str):
                 return value
+            if isinstance(value, bool):  # `ros2 param set ... off` arrives as YAML's false
+                return "on" if value else "off"
             raise bad()
         if kind == "int":
             if isinstance(value, int) and not isinstance(value, bool):

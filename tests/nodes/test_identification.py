@@ -199,3 +199,8 @@ def test_option_changes_with_a_wrong_type_or_value_are_refused_with_a_reason(nod
     bad_value = set_one("r_sigma", type=ParameterType.PARAMETER_DOUBLE, double_value=0.5)
     assert not bad_value.successful and "r_sigma" in bad_value.reason
     assert set_one("filter_currents", type=ParameterType.PARAMETER_BOOL, bool_value=False).successful
+    # `ros2 param set /orthoglide_identification lag_model off`: YAML's false, meant as the word
+    assert set_one("lag_model", type=ParameterType.PARAMETER_BOOL, bool_value=False).successful
+    on = set_one("lag_model", type=ParameterType.PARAMETER_BOOL, bool_value=True)
+    assert not on.successful and "lag_model must be 'auto' or 'off'" in on.reason
+    assert set_one("lag_model", type=ParameterType.PARAMETER_STRING, string_value="auto").successful
