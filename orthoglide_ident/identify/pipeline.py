@@ -175,9 +175,9 @@ def _segments_fir(segments: list[Segment], model: IdentificationModel, opts: Ide
     for seg in segments:
         stream = SegmentStream(model, opts, T, t_start, n_b)
         t0 = time.perf_counter()
-        states = states_at_half_tick(seg.q, _currents(seg, model, T), T, opts.filter_cutoff_hz,
-                                     opts.filter_order, trim, opts.zoh_shift,
-                                     opts.filter_currents)
+        states = states_at_half_tick(seg.q, _currents(seg, model, T, t_start), T,
+                                     opts.filter_cutoff_hz, opts.filter_order, trim,
+                                     opts.zoh_shift, opts.filter_currents)
         stamps = seg.stamps_ns[trim:trim + states[0].shape[0]]
         times["filtering"] = times.get("filtering", 0.0) + time.perf_counter() - t0
         for a in range(0, stamps.shape[0], opts.chunk_samples):
@@ -193,15 +193,16 @@ def _segments_fir(segments: list[Segment], model: IdentificationModel, opts: Ide
     return out, n_bridged, n_unbridged
 
 
-def _currents(seg: Segment, model: IdentificationModel, T: float) -> np.ndarray:
+def _currents(seg: Segment, model: IdentificationModel, T: float, t_start: int) -> np.ndarray:
     """The segment's v_τ (m, 3), with the lag instrument beside it (m, 6) when the model has
-    lag columns: zero when the segment does not repeat a periodic trajectory."""
+    lag columns: zero when the segment does not repeat a periodic trajectory. ``t_start``: the
+    record's first stamp (ns), for the log."""
     if getattr(model, "lag_column", None) is None:
         return seg.v_tau
     z = lag_instrument(seg.q, seg.v_tau, T)
     if z is None:
-        log.info("segment at %.1f s does not repeat a trajectory: its current-loop lag is not "
-                 "modelled", seg.stamps_ns[0] * 1e-9)
+        log.info("segment at %.1f s of the record does not repeat a trajectory: its "
+                 "current-loop lag is not modelled", (seg.stamps_ns[0] - t_start) * 1e-9)
         z = np.zeros_like(seg.v_tau)
     return np.hstack([seg.v_tau, z])
 
@@ -221,7 +222,7 @@ def _segments_iir(segments: list[Segment], model: IdentificationModel, opts: Ide
     t_start = int(segments[0].stamps_ns[0])
     for seg in segments:
         t1 = time.perf_counter()
-        qh, qdh, qddh, v = states_at_half_tick(seg.q, _currents(seg, model, T), T,
+        qh, qdh, qddh, v = states_at_half_tick(seg.q, _currents(seg, model, T, t_start), T,
                                                opts.filter_cutoff_hz,
                                                opts.filter_order, trim, opts.zoh_shift,
                                                opts.filter_currents)
