@@ -19,8 +19,10 @@ errors -0.16/+0.17/-0.09 % → -0.08/+0.02/+0.00 %; on the drive without a lag
 -0.011/-0.004/+0.007 ms (sd 0.013). Noise-free, the lag-only drive's gains go from
 -0.08/+0.11/-0.12 % to +0.00/+0.05/-0.00 % (τ 0.119/0.118/0.131 ms).
 
-A record whose trajectory does not repeat (no period found) gets zero in these columns: its lag
-is left out of the model, as in the paper.
+When a segment used does not repeat (no period found), the lag is left out of the whole
+identification (pipeline._lag_or_paper, the paper's model): a zero column in its rows would leave
+the lag's force there and bias τ and the gains (the first 6 s of 30 s records without the
+instrument, the rest with it, halved τ on the simulator).
 """
 from __future__ import annotations
 

@@ -55,7 +55,7 @@ class IdentifyOptions:
     # (drive_terms.DriveTermsModel); 0: unknown, left to ripple_model
     screw_lead_m: float = 0.0
     # each joint's current-loop lag (the drive applies g_τ (v_τ - τ v̇_τ)): "auto" adds a column
-    # per joint when the records repeat a periodic trajectory, its instrument the mean of v̇_τ
+    # per joint when every segment repeats a periodic trajectory, its instrument the mean of v̇_τ
     # over the other periods (current_lag.py); bags only: the live identification folds its
     # rows before the later periods exist and keeps the paper's model; "off": the paper's model
     lag_model: str = "auto"

@@ -138,7 +138,7 @@ def observe(rec: Record, model: IdentificationModel, opts: IdentifyOptions,
     times["segments"] = time.perf_counter() - t0
     log.info("%s: %s", rec.source, rep.summary())
     decimate = _segments_fir if opts.decimation_filter == "fir" else _segments_iir
-    rows, n_bridged, n_unbridged = decimate(segments, model, opts, rep.period_s, times)
+    rows, n_bridged, n_unbridged = decimate(segments, model, opts, rep, times)
     n_b = len(model.names)
     # views of the (n_b + 2, 3, r) rows: W (3, r, n_b), v_tau and w_m (3, r), no copies
     obs = Observations(rec.source, str(rec.condition), payload_mass,
@@ -155,13 +155,14 @@ def observe(rec: Record, model: IdentificationModel, opts: IdentifyOptions,
 
 
 def _segments_fir(segments: list[Segment], model: IdentificationModel, opts: IdentifyOptions,
-                  T: float, times: dict[str, float]) -> tuple[DecimatedRows, int, int]:
+                  rep: SegmentReport, times: dict[str, float]) -> tuple[DecimatedRows, int, int]:
     """Every segment through a :class:`SegmentStream`, pushed ``chunk_samples`` at a time.
 
     The decimated rows of each segment are known in advance: they are written once into their
     final ``(n_b + 2, 3, r)`` array (no lists of parts, no concatenated copies).
     """
     n_b = len(model.names)
+    T = rep.period_s
     trim = int(round(opts.edge_trim_s / T))
     zoh = 1 if opts.zoh_shift else 0
     counts = [decimated_count(len(seg) - zoh - 2 * trim, opts.decimation) for seg in segments]
@@ -175,7 +176,7 @@ def _segments_fir(segments: list[Segment], model: IdentificationModel, opts: Ide
     for seg in segments:
         stream = SegmentStream(model, opts, T, t_start, n_b)
         t0 = time.perf_counter()
-        states = states_at_half_tick(seg.q, _currents(seg, model, T, t_start), T,
+        states = states_at_half_tick(seg.q, _currents(seg, model, rep, t_start), T,
                                      opts.filter_cutoff_hz, opts.filter_order, trim,
                                      opts.zoh_shift, opts.filter_currents)
         stamps = seg.stamps_ns[trim:trim + states[0].shape[0]]
@@ -193,27 +194,30 @@ def _segments_fir(segments: list[Segment], model: IdentificationModel, opts: Ide
     return out, n_bridged, n_unbridged
 
 
-def _currents(seg: Segment, model: IdentificationModel, T: float, t_start: int) -> np.ndarray:
+def _currents(seg: Segment, model: IdentificationModel, rep: SegmentReport,
+              t_start: int) -> np.ndarray:
     """The segment's v_τ (m, 3), with the lag instrument beside it (m, 6) when the model has
-    lag columns: zero when the segment does not repeat a periodic trajectory. ``t_start``: the
-    record's first stamp (ns), for the log."""
+    lag columns: zero when the segment does not repeat a periodic trajectory (counted in
+    ``rep``; identify_records then leaves the lag out). ``t_start``: the record's first stamp."""
     if getattr(model, "lag_column", None) is None:
         return seg.v_tau
-    z = lag_instrument(seg.q, seg.v_tau, T)
+    z = lag_instrument(seg.q, seg.v_tau, rep.period_s)
     if z is None:
-        log.info("segment at %.1f s of the record does not repeat a trajectory: its "
-                 "current-loop lag is not modelled", (seg.stamps_ns[0] - t_start) * 1e-9)
+        log.info("segment at %.1f s of the record does not repeat a trajectory (no lag "
+                 "instrument)", (seg.stamps_ns[0] - t_start) * 1e-9)
+        rep.n_not_repeating += 1
         z = np.zeros_like(seg.v_tau)
     return np.hstack([seg.v_tau, z])
 
 
 def _segments_iir(segments: list[Segment], model: IdentificationModel, opts: IdentifyOptions,
-                  T: float, times: dict[str, float]) -> tuple[DecimatedRows, int, int]:
+                  rep: SegmentReport, times: dict[str, float]) -> tuple[DecimatedRows, int, int]:
     """MATLAB-like Chebyshev decimation (cheby1): whole segments, W produced in chunks.
 
     The IIR depends on the whole segment, so this path (offline only) keeps the chunked
     producer of decimation.decimate_chunked; bridges are applied chunk by chunk.
     """
+    T = rep.period_s
     trim = int(round(opts.edge_trim_s / T))
     n_d = opts.decimation
     parts: dict[str, list[np.ndarray]] = {"X": [], "t": [], "keep": [], "q": [], "qd": []}
@@ -222,7 +226,7 @@ def _segments_iir(segments: list[Segment], model: IdentificationModel, opts: Ide
     t_start = int(segments[0].stamps_ns[0])
     for seg in segments:
         t1 = time.perf_counter()
-        qh, qdh, qddh, v = states_at_half_tick(seg.q, _currents(seg, model, T, t_start), T,
+        qh, qdh, qddh, v = states_at_half_tick(seg.q, _currents(seg, model, rep, t_start), T,
                                                opts.filter_cutoff_hz,
                                                opts.filter_order, trim, opts.zoh_shift,
                                                opts.filter_currents)
@@ -331,7 +335,7 @@ def identify_records(
             timings[k] = timings.get(k, 0.0) + v
 
     blocks, reports, warnings, bag_names = _observe_all(records, model, opts, payload_mass, add)
-    model, blocks = _without_empty_lag(model, blocks, opts)
+    model, blocks = _lag_or_paper(model, blocks, reports, opts)
     t_solve = time.perf_counter()
     factors = [RecordFactors.from_observations(b) for b in blocks]
     solved = solve(factors, model, opts, method, gains, essential, bag_names)
@@ -354,15 +358,21 @@ def identify_records(
     return result
 
 
-def _without_empty_lag(model: IdentificationModel, blocks: list[Observations],
-                       opts: IdentifyOptions) -> tuple[IdentificationModel, list[Observations]]:
-    """The model and rows without the lag columns when no record repeated its trajectory
-    (the columns would be zero): the paper's model, as with lag_model: off."""
+def _lag_or_paper(model: IdentificationModel, blocks: list[Observations],
+                  reports: list[dict[str, Any]], opts: IdentifyOptions
+                  ) -> tuple[IdentificationModel, list[Observations]]:
+    """The model and rows with the lag columns only when every segment used had its instrument:
+    rows with a zero lag column would still hold the lag's force and bias τ and the gains
+    (a third of the rows without it halved τ on the simulator). Otherwise the paper's model."""
     col = getattr(model, "lag_column", None)
-    if col is None or any(np.any(b.W[:, :, col:col + 3]) for b in blocks):
+    if col is None:
         return model, blocks
-    log.info("no record repeats a periodic trajectory: the current-loop lag is not modelled "
-             "(lag_model: auto needs the exciting trajectories' periods)")
+    lacking = [f"{r['bag']} ({r['n_not_repeating']} of {r['n_segments']} segments)"
+               for r in reports if r.get("n_not_repeating")]
+    if not lacking:
+        return model, blocks
+    log.info("the current-loop lag is not modelled: %s do not repeat a periodic trajectory "
+             "(lag_model: auto needs every segment to)", ", ".join(lacking))
     cols = np.r_[col:col + 3]
     out = [dataclasses.replace(b, W=np.delete(b.W, cols, axis=2)) for b in blocks]
     return observation_model(model, opts.screw_lead_m, False), out

@@ -58,6 +58,7 @@ class SegmentReport:
     n_used: int = 0
     n_reversal_bridged: int = 0  # joint samples bridged at velocity reversals (reversals.py)
     n_reversal_unbridged: int = 0  # joint samples in runs too long to bridge (rows left out)
+    n_not_repeating: int = 0  # segments used without a period: no current-loop lag instrument
     reordered: list[str] = field(default_factory=list)
 
     def summary(self) -> str:
