@@ -7,6 +7,7 @@ from orthoglide_ident.errors import ConfigError
 from orthoglide_ident.identify.current_lag import MIN_PERIODS, find_period, lag_instrument
 from orthoglide_ident.identify.options import IdentifyOptions
 from orthoglide_ident.identify.pipeline import Record, identify_records
+from simulated import simulated_pair
 
 T = 1e-3  # s, the driver's tick
 G_TRUE = np.array([2170.0, 2100.0, 2070.0])  # config/plant.yaml
@@ -58,14 +59,7 @@ def test_instrument_holds_no_noise_of_its_own_period():
 def realistic_pair():
     """20 s unloaded + 20 s loaded on the simulated realistic drive (0.12 ms current-loop lag,
     2 mA, Stribeck, screw ripple at the 10 mm lead)."""
-    simulate = pytest.importorskip("orthoglide_sim.record").simulate
-    recs = []
-    for payload, seed, trajectory in (("none", 11, "exciting"), ("1.983", 12, "exciting2")):
-        r = simulate(20.0, payload=payload, trajectory=trajectory, seed=seed, profile="realistic")
-        cond = "loaded" if r.payload_mass > 0 else "unloaded"
-        recs.append(Record.from_arrays(f"real-{cond}", r.stamps_ns, r.q, r.v_tau, cond,
-                                       r.payload_mass))
-    return recs
+    return simulated_pair(20.0, (11, 12), "real", profile="realistic")
 
 
 def test_lag_of_the_realistic_drive_identified_despite_the_current_noise(realistic_pair, tmp_path):

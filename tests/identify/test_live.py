@@ -10,6 +10,7 @@ from orthoglide_ident.errors import ExcitationError, IdentificationError
 from orthoglide_ident.identify.live import LiveIdentification
 from orthoglide_ident.identify.options import IdentifyOptions
 from orthoglide_ident.identify.pipeline import Record, identify_records, read_record
+from simulated import simulated_pair
 
 BAGS = Path(__file__).resolve().parents[2] / "bags"
 AS_LIVE = IdentifyOptions(lag_model="off")  # the live identification keeps the paper's drive model
@@ -208,14 +209,7 @@ def test_bad_samples_warn_and_the_rest_is_used(bag_records, offline):
 @pytest.fixture(scope="module")
 def sim_records() -> list[Record]:
     """12 s unloaded and 12 s loaded (1.983 kg) from the simulated plant (its own trajectories)."""
-    simulate = pytest.importorskip("orthoglide_sim.record").simulate
-    out = []
-    for payload, seed, trajectory in (("none", 1, "exciting"), ("1.983", 2, "exciting2")):
-        r = simulate(12.0, payload=payload, trajectory=trajectory, controller="pid", seed=seed)
-        cond = "loaded" if r.payload_mass > 0 else "unloaded"
-        out.append(Record.from_arrays(f"sim-{cond}", r.stamps_ns, r.q, r.v_tau, cond,
-                                      r.payload_mass))
-    return out
+    return simulated_pair(12.0, (1, 2), "sim", controller="pid")
 
 
 def test_simulated_records_with_a_real_gap(sim_records):
@@ -264,14 +258,7 @@ def test_a_silent_topic_and_a_recording_too_short_are_said(bag_records):
 def realistic_records():
     """15 s unloaded + 15 s loaded of the simulated realistic drive (screw friction ripple at a
     10 mm lead, current-loop lag, Stribeck, 2 mA)."""
-    simulate = pytest.importorskip("orthoglide_sim.record").simulate
-    recs = []
-    for payload, seed, trajectory in (("none", 5, "exciting"), ("1.983", 6, "exciting2")):
-        r = simulate(15.0, payload=payload, trajectory=trajectory, seed=seed, profile="realistic")
-        cond = "loaded" if r.payload_mass > 0 else "unloaded"
-        recs.append(Record.from_arrays(f"real-{cond}", r.stamps_ns, r.q, r.v_tau, cond,
-                                       r.payload_mass))
-    return recs
+    return simulated_pair(15.0, (5, 6), "real", profile="realistic")
 
 
 def _live_result(recs, opts=None):

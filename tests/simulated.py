@@ -1,0 +1,27 @@
+"""Records from the simulated Orthoglide (orthoglide_sim) for tests: a test fixture.
+
+    recs = simulated_pair(15.0, (5, 6), "real", profile="realistic")
+
+The test is skipped when the simulator is not importable.
+"""
+from __future__ import annotations
+
+import pytest
+
+from orthoglide_ident.identify.pipeline import Record
+
+
+def simulated_pair(seconds: float, seeds: tuple[int, int], name: str, **simulate_kwargs
+                   ) -> list[Record]:
+    """An unloaded record on the "exciting" trajectory and a 1.983 kg one on "exciting2", each
+    ``seconds`` long with its seed, named ``<name>-unloaded`` and ``<name>-loaded``;
+    ``simulate_kwargs`` go to orthoglide_sim.record.simulate (profile, controller...)."""
+    simulate = pytest.importorskip("orthoglide_sim.record").simulate
+    recs = []
+    for payload, seed, trajectory in (("none", seeds[0], "exciting"),
+                                      ("1.983", seeds[1], "exciting2")):
+        r = simulate(seconds, payload=payload, trajectory=trajectory, seed=seed, **simulate_kwargs)
+        cond = "loaded" if r.payload_mass > 0 else "unloaded"
+        recs.append(Record.from_arrays(f"{name}-{cond}", r.stamps_ns, r.q, r.v_tau, cond,
+                                       r.payload_mass))
+    return recs
