@@ -100,7 +100,9 @@ def live_vs_bags(live: object, offline: object) -> str:
 def print_gains(res: object, seconds: float) -> None:
     tp = load_parameters()
     p = res.parameters
-    say(f"   answered in {seconds:.1f} s: {res.message.split(';')[0]}")
+    parts = [x.strip() for x in res.message.split(";")]
+    say(f"   answered in {seconds:.1f} s: " + "; ".join(
+        [parts[0]] + [x for x in parts if x.startswith("current-loop")]))
     say(f"   {'joint':<6} {'truth':>8} {'IDIM-TLS':>9} {'%sigma':>7} {'error':>8}   {'manufacturer':>12} {'error':>8}")
     for j, (g_id, rel, g_true) in enumerate(zip(p.drive_gains, p.drive_gains_rel_std, tp.g_tau)):
         say(f"   q1{j + 1:<4} {g_true:8.1f} {g_id:9.1f} {100 * rel:6.2f}% {100 * (g_id / g_true - 1):+7.3f}%"
@@ -278,10 +280,11 @@ def run(out: Path, record_s: float, measure_s: float) -> int:
         print_gains(tls, time.perf_counter() - t0)
         offline = identify(g, bags)
         parts = [p.strip() for p in offline.message.split(";")]
-        say("   from the bags: " + "; ".join([parts[0]] + [p for p in parts if p.startswith("current-loop")]))
+        lags = [p for p in parts if p.startswith("current-loop")]
+        say("   from the bags: " + "; ".join([parts[0]] + lags))
         say("   live vs bags: max difference " + live_vs_bags(tls.parameters, offline.parameters)
-            + " (the bags' model adds each joint's current-loop lag, lag_model: auto; the live "
-            "data keep the paper's drive model)")
+            + " (lag_model: auto: the live lag instrument averages the previous periods, the "
+            "bags' all the others)")
         say(f"4. Paper Table 4 over ROS 2: test1 and test2, {measure_s:.0f} s per control strategy")
         rows, counts = table4_over_ros(g, bags, measure_s)
     inproc = in_process_ctc(tls.parameters, measure_s)

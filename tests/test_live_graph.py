@@ -29,7 +29,8 @@ def test_record_identify_live_and_control_over_ros(tmp_path):
         g.start("orthoglide_driver", "driver", {"trajectory": "exciting", "controller": "pid"})
         g.start("orthoglide_recorder", "recorder", {"output_dir": str(tmp_path / "bags")},
                 params_file=ROOT / "config/recorder.yaml")
-        # the bags identified with the live data's drive model (no lag column: identify/live.py)
+        # live = offline to 1e-6 for the same equations: without the lag columns, whose live
+        # instrument averages only the previous periods (tests/identify/test_live.py: within σ)
         g.start("orthoglide_identification", "identification",
                 {"bag_dir": str(tmp_path / "bags"), "lag_model": "off"})
         assert g.wait_for_ticks() < 30

@@ -23,6 +23,13 @@ When a segment used does not repeat (no period found), the lag is left out of th
 identification (pipeline._lag_or_paper, the paper's model): a zero column in its rows would leave
 the lag's force there and bias τ and the gains (the first 6 s of 30 s records without the
 instrument, the rest with it, halved τ on the simulator).
+
+Live (:class:`LiveLagInstrument`), the later periods do not exist yet when a row is folded: each
+segment's first ticks are held until its period is found (4 periods), then get the mean over the
+other periods held, and every later tick the mean over the periods before its own. On 15 s + 15 s
+realistic records the live gains are within 0.05 σ of the offline ones (every parameter within
+0.08 σ, τ within 0.013 ms); without holding (a zero instrument until the period is known) τ came
+out at half the plant's, for the reason above.
 """
 from __future__ import annotations
 
@@ -31,6 +38,8 @@ import numpy as np
 MIN_PERIODS = 4  # full periods a segment needs: the first is left out, and one other at least
 MAX_REPEAT_ERROR = 0.002  # rms of q(k + P) - q(k) over rms of q, past the first period
 MIN_PERIOD_S = 0.2  # s, shortest period looked for
+SEARCH_EVERY_S = 1.0  # s, live: the period is searched on the first 1, 2, 3... s of a segment
+MAX_SEARCH_S = 30.0  # s, live: longest a segment's ticks are held while its period is searched
 
 
 def find_period(q: np.ndarray, period_s: float) -> int | None:
@@ -86,3 +95,121 @@ def lag_instrument(q: np.ndarray, v_tau: np.ndarray, period_s: float) -> np.ndar
     rest = v_dot.shape[0] - n_full * P  # a last partial period: the mean of the full ones
     out[n_full * P:] = total[:rest] / (n_full - 1)
     return out
+
+
+Ticks = tuple  # (stamps_ns (m,), q (m, 3), v_τ (m, 3) or (m, 6) with the instrument beside it)
+
+
+class LiveLagInstrument:
+    """The live counterpart of :func:`lag_instrument`, one per segment: ticks pushed in order
+    come out, v_τ (m, 6) with the instrument beside it, once their instrument is known.
+
+    A segment's ticks are held while its period is searched on its first SEARCH_EVERY_S·i s
+    (fixed tick counts, so that the batching changes nothing), for at most MAX_SEARCH_S. Found at
+    tick ``mark``: with F = (mark - 1) // P whole periods (the tick after them received), the held
+    ticks of periods 0..F-1 get lag_instrument's value over those F periods (the mean of v̇_τ
+    over the *other* steady periods at their phase, F - 2 ≥ 1 of them); every later tick, of
+    period p ≥ F, the mean over the steady periods 1..p-1, all past when it comes. Either way no
+    row holds its own period's noise. Not found (``repeats`` False): the held ticks come out with
+    a zero instrument, and the identification must leave the lag out (see the module docstring).
+    """
+
+    def __init__(self, period_s: float):
+        self.T = period_s
+        self.every = max(1, int(round(SEARCH_EVERY_S / period_s)))
+        self.max_ticks = int(round(MAX_SEARCH_S / period_s))
+        self.n = 0  # ticks received
+        self.P: int | None = None
+        self.repeats: bool | None = None  # None while searching
+        self._held: list[Ticks] = []
+        self._sums = np.zeros((0, 3))  # (P, 3) Σ v̇_τ over the steady periods 1.._folded
+        self._folded = 0
+        self._v = np.zeros((0, 3))  # v_τ from tick _v0 on, for the differences still to take
+        self._v0 = 0
+
+    @property
+    def n_held(self) -> int:
+        return sum(x[0].shape[0] for x in self._held)
+
+    def push(self, stamps_ns: np.ndarray, q: np.ndarray, v_tau: np.ndarray) -> Ticks | None:
+        """The ticks whose instrument became known (None: all held)."""
+        k0 = self.n
+        self.n += q.shape[0]
+        v_tau = np.asarray(v_tau, float)
+        if self.repeats is False:
+            return stamps_ns, q, np.hstack([v_tau, np.zeros_like(v_tau)])
+        if self.repeats is None:
+            self._held.append((stamps_ns, np.asarray(q, float), v_tau))
+            mark = self._search(k0)
+            if mark is None:
+                return self._release_zero() if self.repeats is False else None
+            return self._release(mark)
+        self._v = np.concatenate([self._v, v_tau])
+        return stamps_ns, q, np.hstack([v_tau, self._causal(k0)])
+
+    def finish(self) -> Ticks | None:
+        """The segment ended: ticks still held come out with a zero instrument (no period)."""
+        if self.repeats is not None or not self._held:
+            return None
+        self.repeats = False
+        return self._release_zero()
+
+    def _release_zero(self) -> Ticks:
+        s, q, v = (np.concatenate(x) for x in zip(*self._held))
+        self._held = []
+        return s, q, np.hstack([v, np.zeros_like(v)])
+
+    def _search(self, k0: int) -> int | None:
+        """The tick count at which the period was found (None: not yet, or given up)."""
+        last = min(self.n, self.max_ticks)
+        marks = range((k0 // self.every + 1) * self.every, last + 1, self.every)
+        if len(marks):
+            q = np.concatenate([x[1] for x in self._held])
+            for mark in marks:
+                P = find_period(q[:mark], self.T)
+                if P is not None:
+                    self.P, self.repeats = P, True
+                    return mark
+        if self.n >= self.max_ticks:
+            self.repeats = False
+        return None
+
+    def _release(self, mark: int) -> Ticks:
+        """Every held tick, with lag_instrument over the first F periods, then the causal mean."""
+        s, q, v = (np.concatenate(x) for x in zip(*self._held))
+        self._held = []
+        P, F = self.P, (mark - 1) // self.P
+        v_dot = np.gradient(v[:F * P + 1], self.T, axis=0)[:F * P]  # central inside
+        periods = v_dot.reshape(F, P, 3)
+        total = periods[1:].sum(axis=0)
+        z = np.empty_like(v)
+        z[:P] = total / (F - 1)
+        z[P:F * P] = ((total[None] - periods[1:]) / (F - 2)).reshape(-1, 3)
+        self._sums, self._folded = total, F - 1
+        self._v, self._v0 = v[F * P - 1:], F * P - 1
+        z[F * P:] = self._causal(F * P)
+        return s, q, np.hstack([v, z])
+
+    def _causal(self, k0: int) -> np.ndarray:
+        """(n - k0, 3): ticks k0..n-1, each the mean over the steady periods before its own."""
+        P, out, k = self.P, np.empty((self.n - k0, 3)), k0
+        while k < self.n:
+            p = k // P
+            self._fold_upto(p - 1)
+            stop = min(self.n, (p + 1) * P)
+            out[k - k0:stop - k0] = self._sums[np.arange(k, stop) % P] / self._folded
+            k = stop
+        keep_from = (self._folded + 1) * P - 1  # the tick before the next period to fold
+        if keep_from > self._v0:
+            self._v, self._v0 = self._v[keep_from - self._v0:], keep_from
+        return out
+
+    def _fold_upto(self, last: int) -> None:
+        """Add the steady periods up to ``last`` to the sums (each has the tick after it)."""
+        P = self.P
+        while self._folded < last:
+            p = self._folded + 1
+            a = p * P - 1 - self._v0  # central differences: one tick each side
+            part = self._v[a:a + P + 2]
+            self._sums = self._sums + (part[2:] - part[:-2]) / (2.0 * self.T)
+            self._folded = p

@@ -110,6 +110,16 @@ class RecordFactors:
                          None if obs.qd is None else obs.qd[a:b])
         return f
 
+    def without_columns(self, cols: np.ndarray) -> "RecordFactors":
+        """These factors without W's columns ``cols`` (zero ones, e.g. a drive term no record
+        could give): same Gram of the columns left, same rows and moments otherwise."""
+        keep = np.setdiff1d(np.arange(self.n_b + 2), cols)
+        return RecordFactors(self.condition, self.payload_mass, self.n_b - len(cols),
+                             list(self.sources),
+                             [np.linalg.qr(R[:, keep], mode="r") for R in self.R],
+                             self.rows.copy(), self.n_samples,
+                             {k: m.without_columns(keep) for k, m in self.moments.items()})
+
     def joint_r(self, j: int, T: np.ndarray) -> np.ndarray:
         """R_j·T: the triangular factor's rows mapped to another column layout (same Gram)."""
         return self.R[j] @ T

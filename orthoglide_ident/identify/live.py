@@ -8,6 +8,7 @@
     live.start_recording("run-2", "loaded", 1.983) ...
     live.estimate()   # about once a second: gains ± σ, seconds used, lag, one-line status
     live.result()     # the IdentificationResult identify_records gives on the same records
+                      # (to 1e-6 with lag_model: off; within σ with the lag, below)
 
 Each recording is one record (like one bag). Samples are paired by stamp once both topics are
 ``live_pairing_slack_s`` past them (pairing.py), split at real gaps, and every continuous segment
@@ -18,11 +19,17 @@ memory and CPU per second of data stay constant; ``result()`` solves them with t
 solver (solve.py). Non-finite samples are dropped and split the record (offline
 ``nonfinite: drop``); nothing here raises on bad or insufficient data: warnings and ``status``
 say what is wrong. Never imports rclpy.
+
+The current-loop lag (``lag_model: auto``, current_lag.py) needs the record's periods: offline a
+row's instrument is the mean of v̇_τ over all the other periods, live over the previous ones
+(current_lag.LiveLagInstrument), so each segment's first ticks are held until its trajectory has
+repeated 4 times (6 s for the simulator's 1.5 s period) and the two answers differ by the
+instruments' noise, within the gains' σ. A segment used that does not repeat leaves the lag out
+of the whole identification, as offline.
 """
 from __future__ import annotations
 
 import dataclasses
-import logging
 import math
 from dataclasses import dataclass
 from typing import Sequence
@@ -31,6 +38,7 @@ import numpy as np
 
 from orthoglide_ident.errors import (ConfigError, ExcitationError, IdentificationError,
                                      OrthoglideError)
+from orthoglide_ident.identify.current_lag import MAX_SEARCH_S
 from orthoglide_ident.identify.drive_terms import observation_model
 from orthoglide_ident.identify.factors import RecordFactors
 from orthoglide_ident.identify.live_recording import LiveRecording
@@ -42,12 +50,7 @@ from orthoglide_ident.identify.stream import DecimatedRows
 from orthoglide_ident.identify.tls import check_excitation
 from orthoglide_ident.results import IdentificationResult
 
-log = logging.getLogger("orthoglide_ident.identify")
-
 MAX_LOGGED_WARNINGS = 200  # the first ones, kept for result().warnings
-LIVE_LAG_NOTE = ("the live identification keeps the paper's drive model: the current-loop lag "
-                 "(lag_model: auto) needs every period of a record, so it is identified from bags "
-                 "(name them in the identify call)")
 MAX_PENDING_WARNINGS = 1000  # waiting for drain_warnings()
 
 
@@ -127,7 +130,7 @@ class LiveIdentification:
             raise ConfigError("live identification needs decimation_filter: fir (cheby1's IIR "
                               "decimation depends on the whole segment)")
         self.model = observation_model(model if model is not None else default_model(),
-                                       self.opts.screw_lead_m)
+                                       self.opts.screw_lead_m, self.opts.lag_model == "auto")
         self.n_b = len(self.model.names)
         self._factors: dict[tuple[str, float], RecordFactors] = {}
         self._seconds: dict[str, float] = {"loaded": 0.0, "unloaded": 0.0}
@@ -160,8 +163,9 @@ class LiveIdentification:
             self._warn([f"{self._current.source}: still recording when {source} started: "
                         "stopped"])
             self.stop_recording()
+        lag = getattr(self.model, "lag_column", None) is not None and not self._lag_left_out()
         self._current = LiveRecording(source, condition, mass, self.opts, self.model, self.n_b,
-                                      self._fold)
+                                      self._fold, lag)
         self._recordings.append(self._current)
 
     def stop_recording(self) -> list[str]:
@@ -233,6 +237,20 @@ class LiveIdentification:
         """Factors of every condition with decimated samples (equations kept or not)."""
         return [f for f in self._factors.values() if f.n_samples > 0]
 
+    def _lag_left_out(self) -> bool:
+        """A segment used did not repeat a periodic trajectory: no lag instrument for its rows."""
+        return any(r.rep.n_not_repeating for r in self._recordings)
+
+    def _solvable(self, factors: list[RecordFactors]) -> tuple[list[RecordFactors], object]:
+        """The factors and model to solve: without the lag columns when a segment used has no
+        instrument (pipeline._lag_or_paper: all or nothing, the paper's drive model)."""
+        col = getattr(self.model, "lag_column", None)
+        if col is None or not self._lag_left_out():
+            return factors, self.model
+        cols = np.arange(col, col + 3)
+        return ([f.without_columns(cols) for f in factors],
+                observation_model(self.model, self.opts.screw_lead_m, False))
+
     @property
     def lag_s(self) -> float:
         """Seconds of received data whose equations are not folded in yet."""
@@ -251,14 +269,12 @@ class LiveIdentification:
                                       "loaded with the weighed payload")
         if payload_mass is not None:
             factors = self._with_payload(factors, payload_mass)
-        solved = solve(factors, self.model, self.opts, method, gains, essential,
+        factors, model = self._solvable(factors)
+        solved = solve(factors, model, self.opts, method, gains, essential,
                        [r.source for r in self._recordings if r.n_decimated])
         reports = [r.report() for r in self._recordings]
         finish_result(solved.result, solved, reports, list(self._log), self.opts,
                       dict(solved.timings))
-        if self.opts.lag_model == "auto":
-            solved.result.diagnostics["current_lag"] = LIVE_LAG_NOTE
-            log.info(LIVE_LAG_NOTE)
         return solved.result
 
     def _with_payload(self, factors: list[RecordFactors], mass: float) -> list[RecordFactors]:
@@ -290,9 +306,7 @@ class LiveIdentification:
         loaded = any(f.loaded for f in factors)
         unloaded = any(not f.loaded for f in factors)
         if not factors:
-            what = "collecting: the first equations come after about 1 s of data" if \
-                self._current is not None else "no data: start a recording"
-            return LiveEstimate(what, **base)
+            return LiveEstimate(self._collecting(), **base)
         now = self._current.condition if self._current is not None else None
         if not loaded:
             what = "loaded recording under way" if now == "loaded" else "record with the payload"
@@ -309,11 +323,23 @@ class LiveIdentification:
                     f"dead band ({self.opts.velocity_deadband_mps} m/s), {need} needed", **base)
         return self._solve_status(factors, base)
 
+    def _collecting(self) -> str:
+        rec = self._current
+        if rec is None:
+            return "no data: start a recording"
+        if rec.held_s > 0:
+            return (f"collecting: {rec.held_s:.0f} s held until the trajectory has repeated 4 "
+                    "times (the current-loop lag's instrument, lag_model: auto; at most "
+                    f"{MAX_SEARCH_S:g} s)")
+        return ("collecting: the first equations come after about 1 s of data, or once the "
+                "trajectory has repeated 4 times (lag_model: auto)")
+
     def _solve_status(self, factors: list[RecordFactors], base: dict) -> LiveEstimate:
         """TLS on the factors; status from the excitation checks (IdentifyOptions limits)."""
         opts = self.opts
         try:
-            m, _ = tls_model(factors, self.model, opts)  # as result() solves it
+            factors, model = self._solvable(factors)
+            m, _ = tls_model(factors, model, opts)  # as result() solves it
             sol = m.full
         except (OrthoglideError, np.linalg.LinAlgError) as exc:
             return LiveEstimate(f"not identifiable yet: {exc}", **base)

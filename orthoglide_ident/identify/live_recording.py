@@ -14,6 +14,7 @@ from typing import Callable, Sequence
 import numpy as np
 
 from orthoglide_ident.errors import OrthoglideError
+from orthoglide_ident.identify.current_lag import MAX_SEARCH_S, LiveLagInstrument
 from orthoglide_ident.identify.options import IdentifyOptions
 from orthoglide_ident.identify.pairing import Paired, TopicBuffer, pair_upto
 from orthoglide_ident.identify.pipeline import bag_report
@@ -32,7 +33,7 @@ class LiveRecording:
     """A record under way: two topic buffers, the segment being built, its report."""
 
     def __init__(self, source: str, condition: str, payload_mass: float, opts: IdentifyOptions,
-                 model, n_b: int, fold: Fold):
+                 model, n_b: int, fold: Fold, lag: bool = False):
         self.source, self.condition, self.payload_mass = source, condition, payload_mass
         self.opts, self.model, self.n_b, self._fold = opts, model, n_b, fold
         limit = opts.current_warn_fraction * opts.current_limit_a
@@ -52,6 +53,8 @@ class LiveRecording:
         self._seg: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []  # before the stream
         self._seg_len = 0
         self._broken = False  # the segment under way is left out (model error)
+        self.lag = lag  # the segments get a lag instrument (current_lag.LiveLagInstrument)
+        self._lag: LiveLagInstrument | None = None  # the segment's, holding its first ticks
         self._still = np.zeros(3, dtype=int)
         self._still_warned = np.zeros(3, dtype=bool)
         self._silent_warned = False
@@ -89,6 +92,14 @@ class LiveRecording:
             first = [x for x in (self.q.t0_ns, self.v.t0_ns) if x is not None]
             return (newest - min(first)) * 1e-9 if first else 0.0
         return max((newest - self._t0_ns) * 1e-9 - self._done_s, 0.0)
+
+    @property
+    def held_s(self) -> float:
+        """Seconds of the segment under way held while its period is looked for."""
+        lag = self._lag
+        if lag is None or lag.repeats is not None or self.period_ns is None:
+            return 0.0
+        return lag.n_held * self.period_ns * 1e-9
 
     def process(self, final: bool = False) -> list[str]:
         """Pair what both topics have passed and run it through the segments."""
@@ -172,10 +183,25 @@ class LiveRecording:
                 self._extend(s[a:b], p.q[a:b], p.v_tau[a:b], out)
 
     def _extend(self, s: np.ndarray, q: np.ndarray, v: np.ndarray, out: list[str]) -> None:
-        """Consecutive ticks onto the segment under way."""
+        """Consecutive ticks onto the segment under way (through its lag instrument)."""
         self._seg_len += s.shape[0]
         if self._broken:
             return
+        if self.lag:
+            if self._lag is None:
+                self._lag = LiveLagInstrument(self.period_ns * 1e-9)
+            ticks = self._lag.push(s, q, v)
+            if ticks is None:
+                return
+            if self._lag.repeats is False:
+                self._not_repeating(out)
+            s, q, v = ticks
+        elif getattr(self.model, "lag_column", None) is not None:
+            v = np.hstack([v, np.zeros_like(v)])  # the lag is left out: see LiveIdentification
+        self._to_stream(s, q, v, out)
+
+    def _to_stream(self, s: np.ndarray, q: np.ndarray, v: np.ndarray, out: list[str]) -> None:
+        """Ticks into the segment's stream, made once the segment is long enough to be kept."""
         try:
             if self._stream is not None:
                 self._rows(self._stream.push(s, q, v), out)
@@ -190,8 +216,27 @@ class LiveRecording:
         except OrthoglideError as exc:
             self._abandon(exc, out)
 
+    def _not_repeating(self, out: list[str]) -> None:
+        """The segment under way has no period: the lag is left out of the identification
+        (LiveIdentification), as offline; its later segments are not held."""
+        if self._seg_len < self.opts.min_segment_samples(self.period_ns * 1e-9):
+            return  # too short to be used: dropped, as offline
+        self.lag = False
+        self.rep.n_not_repeating += 1
+        t = ((self._last_ns or 0) - (self._t0_ns or 0)) * 1e-9
+        held = min(self._seg_len * self.period_ns * 1e-9, MAX_SEARCH_S)
+        out.append(f"{self.source}: the segment before t = {t:.1f} s does not repeat a periodic "
+                   f"trajectory (looked for over {held:.1f} s): the current-loop lag is left out "
+                   "of the identification (the paper's drive model; lag_model: auto needs every "
+                   "segment to repeat its trajectory 4 times)")
+
     def _end_segment(self, out: list[str]) -> None:
         """A gap or the end: finish the segment under way (edge trim) or drop it if short."""
+        if self._lag is not None and not self._broken:
+            ticks = self._lag.finish()  # held to the end: no period
+            if ticks is not None:
+                self._not_repeating(out)
+                self._to_stream(*ticks, out)
         stream, n = self._stream, self._seg_len
         if stream is not None and not self._broken:
             try:
@@ -206,6 +251,7 @@ class LiveRecording:
             self.rep.n_short_segments_dropped += 1
             self.rep.n_samples_in_short_segments += n
         self._stream, self._seg, self._seg_len, self._broken = None, [], 0, False
+        self._lag = None
         self._still[:] = 0
 
     def _abandon(self, exc: OrthoglideError, out: list[str]) -> None:

@@ -56,8 +56,8 @@ class IdentifyOptions:
     screw_lead_m: float = 0.0
     # each joint's current-loop lag (the drive applies g_τ (v_τ - τ v̇_τ)): "auto" adds a column
     # per joint when every segment repeats a periodic trajectory, its instrument the mean of v̇_τ
-    # over the other periods (current_lag.py); bags only: the live identification folds its
-    # rows before the later periods exist and keeps the paper's model; "off": the paper's model
+    # over the other periods (current_lag.py; live over the previous ones, each segment's first
+    # ~4 periods held until its period is known); "off": the paper's model
     lag_model: str = "auto"
     essential_method: str = "keep_gains"
     essential_min_tolerance: float = 0.003  # fraction (0.3 %)

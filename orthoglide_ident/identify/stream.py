@@ -144,7 +144,9 @@ class SegmentStream:
         """Append consecutive ticks (live); the rows that became final."""
         self._st = np.concatenate([self._st, np.asarray(stamps_ns, np.int64)])
         self._q = np.concatenate([self._q, np.asarray(q, float)])
-        self._v = np.concatenate([self._v, np.asarray(v_tau, float)])
+        v = np.asarray(v_tau, float)
+        self._v = np.concatenate([self._v.reshape(-1, v.shape[1]) if self._v.size == 0 else
+                                  self._v, v])  # (m, 3), or (m, 6) with the lag instrument
         self.n_raw += int(np.shape(stamps_ns)[0])
         return self._advance(self._filter_new())
 

@@ -96,6 +96,19 @@ class ResidualMoments:
     def n_blocks(self) -> int:
         return len(self.blocks)
 
+    def without_columns(self, keep: np.ndarray) -> "ResidualMoments":
+        """The moments of the columns ``keep`` only (RecordFactors.without_columns)."""
+        ix = np.ix_(keep, keep)
+        tail = None if self._tail is None else (self._tail[0][:, :, keep], self._tail[1],
+                                                self._tail[2])
+        return ResidualMoments(
+            len(keep), self.row_period_s, self.decimation, self.block_s,
+            {b: g[(slice(None),) + ix] for b, g in self.blocks.items()},
+            {b: r.copy() for b, r in self.block_rows.items()},
+            self.lagged[(slice(None), slice(None)) + ix], self.pairs.copy(),
+            self.spectrum[..., keep], self.ripple_s0.copy(), self.ripple_s2.copy(),
+            self.spectrum_rows.copy(), tail)
+
     def fold(self, X: np.ndarray, keep: np.ndarray | None, t: np.ndarray,
              q: np.ndarray | None = None, qd: np.ndarray | None = None) -> None:
         """Fold decimated rows ``X: (n_c, 3, r)`` at instants ``t: (r,)`` s (in time order,

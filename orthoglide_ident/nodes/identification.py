@@ -191,8 +191,6 @@ class IdentificationNode(Node):
             response.message += "; current-loop lag " + ", ".join(
                 f"{x['joint']} {x['tau_ms']:.3f} ms (σ {x['tau_std_ms']:.2g})"
                 for x in chosen.current_lag)
-        elif "current_lag" in result.diagnostics:  # live data: the paper's drive model, and why
-            self.get_logger().info(result.diagnostics["current_lag"])
         if result.warnings:
             response.message += f"; {len(result.warnings)} warning(s): " + " | ".join(result.warnings)
         response.parameters = msg

@@ -4,7 +4,8 @@ import numpy as np
 import pytest
 
 from orthoglide_ident.errors import ConfigError
-from orthoglide_ident.identify.current_lag import MIN_PERIODS, find_period, lag_instrument
+from orthoglide_ident.identify.current_lag import (MAX_SEARCH_S, MIN_PERIODS, LiveLagInstrument,
+                                                   find_period, lag_instrument)
 from orthoglide_ident.identify.options import IdentifyOptions
 from orthoglide_ident.identify.pipeline import Record, identify_records
 from simulated import simulated_pair
@@ -117,3 +118,63 @@ def test_lag_model_is_a_word():
     assert IdentifyOptions.from_mapping({"lag_model": False}).lag_model == "off"  # YAML's off
     with pytest.raises(ConfigError, match="lag_model must be 'auto' or 'off'"):
         IdentifyOptions.from_mapping({"lag_model": "periodic"})
+
+
+def _live_instrument(q: np.ndarray, v: np.ndarray, sizes: tuple[int, ...]):
+    """The ticks through a LiveLagInstrument in batches of ``sizes`` (cycled): what came out
+    after each push (None while held), then the instrument."""
+    live, a, i, out = LiveLagInstrument(T), 0, 0, []
+    stamps = np.arange(q.shape[0])
+    while a < q.shape[0]:
+        b = a + sizes[i % len(sizes)]
+        out.append(live.push(stamps[a:b], q[a:b], v[a:b]))
+        a, i = b, i + 1
+    out.append(live.finish())
+    return live, out
+
+
+def test_live_instrument_holds_the_first_periods_then_uses_the_past_ones():
+    """Live, ticks are held until the period is found on the first 1, 2, 3... s (4 periods:
+    6 s here); those of the first F = 3 whole periods then get the offline instrument over those
+    periods (the mean over the other steady ones), every later tick the mean over the steady
+    periods before its own. Every tick comes out once, in order, whatever the batches."""
+    P, n_per = 1500, 12
+    q = _fourier(n_per * P, 1.5)
+    v = np.random.default_rng(2).standard_normal((n_per * P, 3))
+    v_dot = np.gradient(v, T, axis=0)
+    z = []
+    for sizes in ((n_per * P,), (1, 7, 100, 999, 333)):
+        live, out = _live_instrument(q, v, sizes)
+        ticks = [x for x in out if x is not None]
+        assert np.array_equal(np.concatenate([x[0] for x in ticks]), np.arange(n_per * P))
+        np.testing.assert_array_equal(np.concatenate([x[2][:, :3] for x in ticks]), v)
+        z.append(np.concatenate([x[2][:, 3:] for x in ticks]))
+    np.testing.assert_array_equal(z[0], z[1])
+    assert live.P == P and live.repeats
+    first = next(i for i, x in enumerate(out) if x is not None)
+    assert 6000 <= sum(sizes[k % 5] for k in range(first + 1)) < 6000 + 999  # held until 6 s
+    z = z[0]
+    F = (6000 - 1) // P  # whole periods with the tick after them at the 6th second
+    for k in (0, 700, P + 3, 2 * P + 1499):  # mean over the other steady periods of the F
+        others = [j for j in range(1, F) if j != k // P]
+        np.testing.assert_allclose(z[k], np.mean([v_dot[j * P + k % P] for j in others], 0),
+                                   rtol=1e-12, atol=1e-9)
+    for k in (F * P, F * P + 700, 9 * P + 1499, n_per * P - 2):
+        p = k // P
+        np.testing.assert_allclose(z[k], np.mean([v_dot[j * P + k % P] for j in range(1, p)], 0),
+                                   rtol=1e-12, atol=1e-9)
+
+
+def test_live_instrument_gives_up_on_a_trajectory_that_does_not_repeat():
+    """No period within MAX_SEARCH_S (or before the segment ends): the held ticks come out with a
+    zero instrument, and so do the later ones."""
+    walk = np.cumsum(np.random.default_rng(0).standard_normal((40000, 3)), axis=0) * 1e-4
+    v = np.ones_like(walk)
+    live, out = _live_instrument(walk, v, (700,))
+    first = next(i for i, x in enumerate(out) if x is not None)
+    assert (first + 1) * 700 >= MAX_SEARCH_S / T and live.repeats is False
+    ticks = np.concatenate([x[2] for x in out if x is not None])
+    assert ticks.shape == (40000, 6) and not ticks[:, 3:].any()
+    short, out = _live_instrument(_fourier(5000, 1.5), np.ones((5000, 3)), (1000,))
+    assert out[:-1] == [None] * 5 and out[-1][0].shape == (5000,) and short.repeats is False
+    assert not out[-1][2][:, 3:].any()
