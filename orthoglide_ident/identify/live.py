@@ -290,7 +290,9 @@ class LiveIdentification:
     def estimate(self) -> LiveEstimate:
         """Gains ± σ and a one-line status from the data folded in so far (never raises)."""
         v = self._version
-        key = (v.n, self._current.condition if self._current is not None else None)
+        rec = self._current
+        key = (v.n, rec.condition if rec is not None else None,
+               int(rec.held_s) if rec is not None else 0)  # a hold says how long it has held
         if v.estimate is None or v.at != key:
             v.estimate, v.at = self._estimate(), key
         est = v.estimate

@@ -327,6 +327,7 @@ def test_live_lag_within_a_fraction_of_sigma_of_offline_whatever_the_batches(rea
     unloaded = realistic_records[0]
     live = LiveIdentification()
     live.start_recording(unloaded.source, "unloaded")
+    assert live.estimate().status.startswith("collecting: the first equations come after")
     live.add_joint_states(unloaded.stamps_q_ns[:5000], unloaded.names_q, unloaded.q[:5000])
     live.add_current_reference(unloaded.stamps_v_ns[:5000], unloaded.names_v,
                                unloaded.v_tau[:5000])
