@@ -23,6 +23,7 @@ from orthoglide_ident.identify.live import LiveIdentification
 from orthoglide_ident.identify.options import IdentifyOptions
 from orthoglide_ident.identify.pipeline import identify
 from orthoglide_ident.model.geometry import G_TAU_MANUFACTURER
+from orthoglide_ident.nodes._core_log import CoreLog
 from orthoglide_ident.nodes._params import Param, declare, on_set, usage
 from orthoglide_ident.nodes._spin import spin
 from orthoglide_ident.nodes.live_feed import LiveFeed
@@ -145,7 +146,8 @@ class IdentificationNode(Node):
         method = request.method or self.param("method")
         essential = bool(request.essential or self.param("essential"))
         try:
-            result = self.identify(request, method, essential)
+            with CoreLog(self.get_logger()):  # records read, ripple, lags: in the node's log
+                result = self.identify(request, method, essential)
         except OrthoglideError as e:
             response.success, response.message = False, str(e).splitlines()[0]
             self.get_logger().error(f"identification failed: {response.message}")

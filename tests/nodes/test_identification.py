@@ -1,6 +1,7 @@
 """The identification node over real ROS 2: service answers, latched result, bad input, busy."""
 from __future__ import annotations
 
+import os
 import subprocess
 import sys
 import threading
@@ -52,6 +53,21 @@ def call(n, cli, timeout=120.0, **fields):
     return fut.result()
 
 
+def read_available(pipe, until: str, timeout: float = 10.0) -> str:
+    """What a running process has written to ``pipe`` so far, waiting for ``until`` to appear."""
+    fd, text, t0 = pipe.fileno(), "", time.time()
+    os.set_blocking(fd, False)
+    try:
+        while until not in text and time.time() - t0 < timeout:
+            try:
+                text += os.read(fd, 1 << 16).decode(errors="replace")
+            except BlockingIOError:
+                time.sleep(0.1)
+    finally:
+        os.set_blocking(fd, True)
+    return text
+
+
 def test_identify_service_answers_and_latches_the_result(node, client):
     import rclpy
     from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
@@ -68,6 +84,9 @@ def test_identify_service_answers_and_latches_the_result(node, client):
     assert res.parameters.method == "tls" and len(res.parameters.names) == 61
     assert "; current-loop lag q11 " in res.message  # lag_model: auto, the bags repeat a trajectory
     assert abs(res.parameters.payload_mass - 1.983) < 1e-9
+    # the core's lines of the call are in the node's log (nodes/_core_log.py)
+    log = read_available(node.stderr, until="current-loop lag (lag_model: auto)")
+    assert "IDIM-TLS on" in log and "current-loop lag (lag_model: auto)" in log, log[-2000:]
 
     # a late subscriber still gets the result (transient local, depth 1)
     got = []
