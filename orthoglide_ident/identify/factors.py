@@ -111,8 +111,9 @@ class RecordFactors:
         return f
 
     def without_columns(self, cols: np.ndarray) -> "RecordFactors":
-        """These factors without W's columns ``cols`` (zero ones, e.g. a drive term no record
-        could give): same Gram of the columns left, same rows and moments otherwise."""
+        """These factors without the columns ``cols`` (the lag's, when a segment used has no
+        instrument): R[:, keep]ᵀ R[:, keep] is the Gram of the columns left, exactly, whatever
+        the dropped ones held; same rows, and the moments of the columns left."""
         keep = np.setdiff1d(np.arange(self.n_b + 2), cols)
         return RecordFactors(self.condition, self.payload_mass, self.n_b - len(cols),
                              list(self.sources),

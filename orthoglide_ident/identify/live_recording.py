@@ -6,6 +6,8 @@ the same for a controller's regular ticks; a different median at the end is warn
 step outside (0.5, 1.5) periods ends the segment under way (ticks.find_breaks); a segment
 becomes a :class:`~stream.SegmentStream` once it is long enough to be kept
 (``IdentifyOptions.min_segment_samples``), and its decimated rows go to ``fold`` as they come.
+With the current-loop lag in the model, a segment's ticks first pass its
+:class:`~current_lag.LiveLagInstrument`, which holds them until the trajectory has repeated.
 """
 from __future__ import annotations
 
