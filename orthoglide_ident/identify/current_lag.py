@@ -100,6 +100,35 @@ def lag_instrument(q: np.ndarray, v_tau: np.ndarray, period_s: float) -> np.ndar
 Ticks = tuple  # (stamps_ns (m,), q (m, 3), v_τ (m, 3) or (m, 6) with the instrument beside it)
 
 
+class RepeatWatch:
+    """Live, :func:`find_period`'s repeat criterion kept on the growing segment: at the end of
+    every period, the mean square of q(k) - q(k - P) past the first period, so far, within
+    MAX_REPEAT_ERROR² of q's variance over the search window (a trajectory switched mid-segment
+    fails it within a period; offline, the whole segment would have no period)."""
+
+    def __init__(self, q_window: np.ndarray, P: int):
+        x = q_window - q_window.mean(axis=0)
+        self.var = float(np.mean((x * x).sum(axis=1)))
+        d = q_window[2 * P:] - q_window[P:-P]
+        self.P, self.sum, self.count = P, float((d * d).sum()), d.size
+        self.n, self.last = q_window.shape[0], q_window[-P:]
+
+    def push(self, q: np.ndarray) -> bool:
+        """Ticks after the last ones; False once a period's end broke the criterion."""
+        m, P = q.shape[0], self.P
+        if m == 0:
+            return True
+        both = np.concatenate([self.last, q])
+        d = both[P:] - both[:-P]
+        total = self.sum + np.cumsum((d * d).sum(axis=1))
+        count = self.count + 3 * np.arange(1, m + 1)
+        ends = (self.n + np.arange(1, m + 1)) % P == 0  # the last tick of a period
+        self.sum, self.count = float(total[-1]), int(count[-1])
+        self.n, self.last = self.n + m, both[-P:]
+        bar = MAX_REPEAT_ERROR ** 2 * self.var
+        return bool(np.all(total[ends] <= bar * count[ends]))
+
+
 class LiveLagInstrument:
     """The live counterpart of :func:`lag_instrument`, one per segment: ticks pushed in order
     come out, v_τ (m, 6) with the instrument beside it, once their instrument is known.
@@ -126,6 +155,8 @@ class LiveLagInstrument:
         self._folded = 0
         self._v = np.zeros((0, 3))  # v_τ from tick _v0 on, for the differences still to take
         self._v0 = 0
+        self._watch: RepeatWatch | None = None
+        self.why = ""  # when repeats is False: why, for the user
 
     @property
     def n_held(self) -> int:
@@ -144,14 +175,24 @@ class LiveLagInstrument:
             if mark is None:
                 return self._release_zero() if self.repeats is False else None
             return self._release(mark)
+        if not self._watch.push(np.asarray(q, float)):
+            return self._stopped(stamps_ns, q, v_tau)
         self._v = np.concatenate([self._v, v_tau])
         return stamps_ns, q, np.hstack([v_tau, self._causal(k0)])
+
+    def _stopped(self, stamps_ns: np.ndarray, q: np.ndarray, v_tau: np.ndarray) -> Ticks:
+        self.repeats = False
+        self.why = (f"stopped repeating its trajectory (period {self.P * self.T:.3g} s, "
+                    f"q(k) - q(k - P) above {100 * MAX_REPEAT_ERROR:g} % of q's rms)")
+        return stamps_ns, q, np.hstack([v_tau, np.zeros_like(v_tau)])
 
     def finish(self) -> Ticks | None:
         """The segment ended: ticks still held come out with a zero instrument (no period)."""
         if self.repeats is not None or not self._held:
             return None
         self.repeats = False
+        self.why = (f"does not repeat a periodic trajectory {MIN_PERIODS} times within its "
+                    f"{self.n * self.T:.1f} s")
         return self._release_zero()
 
     def _release_zero(self) -> Ticks:
@@ -172,6 +213,7 @@ class LiveLagInstrument:
                     return mark
         if self.n >= self.max_ticks:
             self.repeats = False
+            self.why = f"does not repeat a periodic trajectory within {MAX_SEARCH_S:g} s"
         return None
 
     def _release(self, mark: int) -> Ticks:
@@ -188,6 +230,9 @@ class LiveLagInstrument:
         self._sums, self._folded = total, F - 1
         self._v, self._v0 = v[F * P - 1:], F * P - 1
         z[F * P:] = self._causal(F * P)
+        self._watch = RepeatWatch(q[:mark], P)
+        if not self._watch.push(q[mark:]):
+            return self._stopped(s, q, v)
         return s, q, np.hstack([v, z])
 
     def _causal(self, k0: int) -> np.ndarray:

@@ -16,7 +16,7 @@ from typing import Callable, Sequence
 import numpy as np
 
 from orthoglide_ident.errors import OrthoglideError
-from orthoglide_ident.identify.current_lag import MAX_SEARCH_S, LiveLagInstrument
+from orthoglide_ident.identify.current_lag import LiveLagInstrument
 from orthoglide_ident.identify.options import IdentifyOptions
 from orthoglide_ident.identify.pairing import Paired, TopicBuffer, pair_upto
 from orthoglide_ident.identify.pipeline import bag_report
@@ -226,11 +226,9 @@ class LiveRecording:
         self.lag = False
         self.rep.n_not_repeating += 1
         t = ((self._last_ns or 0) - (self._t0_ns or 0)) * 1e-9
-        held = min(self._seg_len * self.period_ns * 1e-9, MAX_SEARCH_S)
-        out.append(f"{self.source}: the segment before t = {t:.1f} s does not repeat a periodic "
-                   f"trajectory (looked for over {held:.1f} s): the current-loop lag is left out "
-                   "of the identification (the paper's drive model; lag_model: auto needs every "
-                   "segment to repeat its trajectory 4 times)")
+        out.append(f"{self.source}: the segment before t = {t:.1f} s {self._lag.why}: the "
+                   "current-loop lag is left out of the identification (the paper's drive model; "
+                   "lag_model: auto needs every segment to repeat its trajectory)")
 
     def _end_segment(self, out: list[str]) -> None:
         """A gap or the end: finish the segment under way (edge trim) or drop it if short."""

@@ -178,3 +178,21 @@ def test_live_instrument_gives_up_on_a_trajectory_that_does_not_repeat():
     short, out = _live_instrument(_fourier(5000, 1.5), np.ones((5000, 3)), (1000,))
     assert out[:-1] == [None] * 5 and out[-1][0].shape == (5000,) and short.repeats is False
     assert not out[-1][2][:, 3:].any()
+
+
+def test_live_instrument_notices_a_trajectory_that_stops_repeating():
+    """A trajectory switched mid-segment (1.5 s period for 9 s, then 1.2 s): live, the period's
+    end after the switch breaks find_period's repeat criterion, ``repeats`` turns False with the
+    reason, and the instrument is zero from there (the identification then leaves the lag out,
+    as offline, where the whole segment has no period)."""
+    n1, n = 9000, 15000
+    q = np.concatenate([_fourier(n1, 1.5), _fourier(n - n1, 1.2)])
+    v = np.random.default_rng(3).standard_normal((n, 3))
+    live, out = _live_instrument(q, v, (250,))
+    assert live.P == 1500 and live.repeats is False and "stopped repeating" in live.why
+    z = np.concatenate([x[2][:, 3:] for x in out if x is not None])
+    first_zero = int(np.flatnonzero(~z.any(axis=1))[0])
+    assert n1 <= first_zero <= n1 + 1500 + 250 and not z[first_zero:].any()
+    assert find_period(q, T) is None
+    steady, out = _live_instrument(_fourier(n, 1.5), v, (250,))
+    assert steady.repeats and all(x is None or x[2][:, 3:].any() for x in out[-10:-1])
