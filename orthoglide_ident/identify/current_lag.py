@@ -84,17 +84,26 @@ def lag_instrument(q: np.ndarray, v_tau: np.ndarray, period_s: float) -> np.ndar
     P = find_period(q, period_s)
     if P is None:
         return None
-    v_dot = np.gradient(np.asarray(v_tau, float), period_s, axis=0)
+    return other_periods_mean(np.gradient(np.asarray(v_tau, float), period_s, axis=0), P)[0]
+
+
+def other_periods_mean(v_dot: np.ndarray, P: int) -> tuple[np.ndarray, np.ndarray]:
+    """Per tick of ``v_dot`` (m, 3), the mean over the other steady periods at its phase (the
+    first period enters no mean; a last partial period gets the mean of the full ones), and
+    the (P, 3) sum over the steady periods."""
     n_full = v_dot.shape[0] // P
     periods = v_dot[:n_full * P].reshape(n_full, P, -1)
     total = periods[1:].sum(axis=0)  # steady periods only
     out = np.empty_like(v_dot)
-    for k in range(n_full):
-        own, count = (periods[k], n_full - 2) if k >= 1 else (0.0, n_full - 1)
-        out[k * P:(k + 1) * P] = (total - own) / count
-    rest = v_dot.shape[0] - n_full * P  # a last partial period: the mean of the full ones
-    out[n_full * P:] = total[:rest] / (n_full - 1)
-    return out
+    out[:P] = total / (n_full - 1)
+    out[P:n_full * P] = ((total[None] - periods[1:]) / (n_full - 2)).reshape(-1, v_dot.shape[1])
+    out[n_full * P:] = total[:v_dot.shape[0] - n_full * P] / (n_full - 1)
+    return out, total
+
+
+def without_instrument(v_tau: np.ndarray) -> np.ndarray:
+    """(m, 6): v_τ with a zero lag instrument beside it (no period: the lag is left out)."""
+    return np.hstack([v_tau, np.zeros_like(v_tau)])
 
 
 Ticks = tuple  # (stamps_ns (m,), q (m, 3), v_τ (m, 3) or (m, 6) with the instrument beside it)
@@ -168,7 +177,7 @@ class LiveLagInstrument:
         self.n += q.shape[0]
         v_tau = np.asarray(v_tau, float)
         if self.repeats is False:
-            return stamps_ns, q, np.hstack([v_tau, np.zeros_like(v_tau)])
+            return stamps_ns, q, without_instrument(v_tau)
         if self.repeats is None:
             self._held.append((stamps_ns, np.asarray(q, float), v_tau))
             mark = self._search(k0)
@@ -184,7 +193,7 @@ class LiveLagInstrument:
         self.repeats = False
         self.why = (f"stopped repeating its trajectory (period {self.P * self.T:.3g} s, "
                     f"q(k) - q(k - P) above {100 * MAX_REPEAT_ERROR:g} % of q's rms)")
-        return stamps_ns, q, np.hstack([v_tau, np.zeros_like(v_tau)])
+        return stamps_ns, q, without_instrument(v_tau)
 
     def finish(self) -> Ticks | None:
         """The segment ended: ticks still held come out with a zero instrument (no period)."""
@@ -198,7 +207,7 @@ class LiveLagInstrument:
     def _release_zero(self) -> Ticks:
         s, q, v = (np.concatenate(x) for x in zip(*self._held))
         self._held = []
-        return s, q, np.hstack([v, np.zeros_like(v)])
+        return s, q, without_instrument(v)
 
     def _search(self, k0: int) -> int | None:
         """The tick count at which the period was found (None: not yet, or given up)."""
@@ -221,13 +230,10 @@ class LiveLagInstrument:
         s, q, v = (np.concatenate(x) for x in zip(*self._held))
         self._held = []
         P, F = self.P, (mark - 1) // self.P
-        v_dot = np.gradient(v[:F * P + 1], self.T, axis=0)[:F * P]  # central inside
-        periods = v_dot.reshape(F, P, 3)
-        total = periods[1:].sum(axis=0)
         z = np.empty_like(v)
-        z[:P] = total / (F - 1)
-        z[P:F * P] = ((total[None] - periods[1:]) / (F - 2)).reshape(-1, 3)
-        self._sums, self._folded = total, F - 1
+        v_dot = np.gradient(v[:F * P + 1], self.T, axis=0)[:F * P]  # central inside
+        z[:F * P], self._sums = other_periods_mean(v_dot, P)
+        self._folded = F - 1
         self._v, self._v0 = v[F * P - 1:], F * P - 1
         z[F * P:] = self._causal(F * P)
         self._watch = RepeatWatch(q[:mark], P)

@@ -16,7 +16,7 @@ from typing import Callable, Sequence
 import numpy as np
 
 from orthoglide_ident.errors import OrthoglideError
-from orthoglide_ident.identify.current_lag import LiveLagInstrument
+from orthoglide_ident.identify.current_lag import LiveLagInstrument, without_instrument
 from orthoglide_ident.identify.options import IdentifyOptions
 from orthoglide_ident.identify.pairing import Paired, TopicBuffer, pair_upto
 from orthoglide_ident.identify.pipeline import bag_report
@@ -199,7 +199,7 @@ class LiveRecording:
                 self._not_repeating(out)
             s, q, v = ticks
         elif getattr(self.model, "lag_column", None) is not None:
-            v = np.hstack([v, np.zeros_like(v)])  # the lag is left out: see LiveIdentification
+            v = without_instrument(v)  # the lag is left out: see LiveIdentification
         self._to_stream(s, q, v, out)
 
     def _to_stream(self, s: np.ndarray, q: np.ndarray, v: np.ndarray, out: list[str]) -> None:

@@ -20,7 +20,7 @@ from typing import Any, Callable, Iterable, Iterator, Protocol, Sequence
 import numpy as np
 
 from orthoglide_ident.errors import IdentificationError
-from orthoglide_ident.identify.current_lag import lag_instrument
+from orthoglide_ident.identify.current_lag import lag_instrument, without_instrument
 from orthoglide_ident.identify.decimation import decimate_chunked, decimated_count
 from orthoglide_ident.identify.drive_terms import observation_model
 from orthoglide_ident.identify.factors import RecordFactors
@@ -206,7 +206,7 @@ def _currents(seg: Segment, model: IdentificationModel, rep: SegmentReport,
         log.info("segment at %.1f s of the record does not repeat a trajectory (no lag "
                  "instrument)", (seg.stamps_ns[0] - t_start) * 1e-9)
         rep.n_not_repeating += 1
-        z = np.zeros_like(seg.v_tau)
+        return without_instrument(seg.v_tau)
     return np.hstack([seg.v_tau, z])
 
 
