@@ -22,6 +22,13 @@ def _num(x: float) -> float | None:
     return x if math.isfinite(x) else None
 
 
+def lag_text(current_lag: list[dict[str, Any]]) -> str:
+    """The identified current-loop lags (``IdentificationResult.current_lag``) as one line:
+    "q11 0.102 ms (σ 0.032), ..." (the text table, the log and the identify service's reply)."""
+    return ", ".join(f"{x['joint']} {x['tau_ms']:.3f} ms (σ {x['tau_std_ms']:.2g})"
+                     for x in current_lag)
+
+
 def _pct(x: float | None) -> str:
     """A relative std as a 7-wide percentage; - when unknown, >1000% when meaningless."""
     if x is None or not math.isfinite(x):
@@ -176,9 +183,7 @@ class IdentificationResult:
         lines.append("residual rms (N): " + ", ".join(
             f"{j} {r:.4g}" for j, r in zip(self.joint_names, self.residual_rms)))
         if self.current_lag:
-            lines.append("current-loop lag modelled: " + ", ".join(
-                f"{x['joint']} {x['tau_ms']:.3f} ms (σ {x['tau_std_ms']:.2g})"
-                for x in self.current_lag))
+            lines.append("current-loop lag modelled: " + lag_text(self.current_lag))
         for r in self.ripple:
             lines.append(f"ripple modelled: {r['joint']} ±{r['amplitude_n']:.3g} N (σ "
                          f"{r['amplitude_std_n']:.2g} N) at a {1e3 * r['wavelength_m']:.1f} mm period of "

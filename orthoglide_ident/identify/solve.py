@@ -26,7 +26,7 @@ from orthoglide_ident.identify.tls import (TLSProblem, TLSSolution, check_excita
 from orthoglide_ident.identify.uncertainty import diagnose, ripple_warning_start
 from orthoglide_ident.identify.wls import WLSSolution, idim_wls
 from orthoglide_ident.model.geometry import G_TAU_MANUFACTURER
-from orthoglide_ident.results import Estimate, IdentificationResult, PayloadMass
+from orthoglide_ident.results import Estimate, IdentificationResult, PayloadMass, lag_text
 
 log = logging.getLogger("orthoglide_ident.identify")
 
@@ -195,8 +195,7 @@ def _drive_notes(result: IdentificationResult, ripples: list, lags: list,
     """The identified drive terms into ``result`` (and the log); the warnings they answer."""
     result.current_lag = [x.to_json() for x in lags]
     if lags:
-        log.info("current-loop lag (lag_model: auto): %s", ", ".join(
-            f"{x.joint} {1e3 * x.tau_s:.3f} ms (σ {1e3 * x.tau_std_s:.2g})" for x in lags))
+        log.info("current-loop lag (lag_model: auto): %s", lag_text(result.current_lag))
     result.ripple = [r.to_json() for r in ripples]
     if any(t.index is None for t in terms.ripples):  # modelled at the given lead: a figure
         lead_mm = 1e3 * terms.ripples[0].wavelength_m

@@ -27,7 +27,7 @@ from orthoglide_ident.nodes._core_log import CoreLog
 from orthoglide_ident.nodes._params import Param, declare, on_set, usage
 from orthoglide_ident.nodes._spin import spin
 from orthoglide_ident.nodes.live_feed import LiveFeed
-from orthoglide_ident.results import IdentificationResult
+from orthoglide_ident.results import IdentificationResult, lag_text
 from orthoglide_msgs.msg import IdentifiedParameters
 from orthoglide_msgs.srv import Identify
 
@@ -190,9 +190,7 @@ class IdentificationNode(Node):
                             f"{len(msg.names)} parameters, payload {msg.payload_mass:.4g} kg, residual rms "
                             f"{msg.residual_rms:.3g} N, cond {msg.condition_number:.3g}")
         if chosen.current_lag:  # a drive term, not a parameter of the message
-            response.message += "; current-loop lag " + ", ".join(
-                f"{x['joint']} {x['tau_ms']:.3f} ms (σ {x['tau_std_ms']:.2g})"
-                for x in chosen.current_lag)
+            response.message += "; current-loop lag " + lag_text(chosen.current_lag)
         if result.warnings:
             response.message += f"; {len(result.warnings)} warning(s): " + " | ".join(result.warnings)
         response.parameters = msg
