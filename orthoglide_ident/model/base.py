@@ -15,17 +15,22 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from orthoglide_ident.model.geometry import A, JOINT_NAMES
-from orthoglide_ident.model.idim import observation_block, observation_columns
+from orthoglide_ident.errors import ConfigError
+from orthoglide_ident.model.geometry import A, G_TAU_MANUFACTURER, JOINT_NAMES
+from orthoglide_ident.model.idim import observation_block, observation_columns, standard_regressor
 from orthoglide_ident.model.kinematics import igm
 from orthoglide_ident.model.parameters import (
+    INERTIAL,
+    N_BODIES,
     N_LEGS,
     N_ST,
     N_ST_LEG,
     PLATFORM_COLUMNS,
     STANDARD_NAMES,
     leg_column,
+    leg_name,
 )
+from orthoglide_ident.model.robot import ActuatedJoint, Body, Payload, RobotModel
 
 QR_EPS = 1e-8  # exact model data: dependent columns sit at ~1e-13 relative
 COEF_TOL = 1e-7  # coefficients below this (relative to 1) are numerical noise
@@ -79,10 +84,34 @@ class BaseParameter:
         return out
 
 
-class BaseModel:
-    """The base-parameter IDIM: W (3 N, n_b) with tau = W chi_b, chi_b = K chi_st (eq. 21)."""
+PAYLOAD_FRAME = "platform"  # the payload (body 7) is fixed to the translating platform (body 6)
+
+
+def orthoglide_joints() -> tuple[ActuatedJoint, ...]:
+    """q11, q12, q13: prismatic, the manufacturer's 637π N/A (Sect. 5.2)."""
+    return tuple(ActuatedJoint(name, "prismatic", G_TAU_MANUFACTURER) for name in JOINT_NAMES)
+
+
+def orthoglide_bodies() -> tuple[Body, ...]:
+    """Leg bodies 1..5 of legs 1..3 (MDH frames j_i), then the platform (frame at P)."""
+    index = {n: k for k, n in enumerate(STANDARD_NAMES)}
+    legs = tuple(Body(f"body {j} of leg {i}", tuple(index[leg_name(k, j, i)] for k in INERTIAL),
+                      f"{j}_{i}")
+                 for i in range(1, N_LEGS + 1) for j in range(1, N_BODIES + 1))
+    return legs + (Body("platform", tuple(PLATFORM_COLUMNS), PAYLOAD_FRAME),)
+
+
+class BaseModel(RobotModel):
+    """The Orthoglide's base-parameter IDIM in closed form: W (3 N, n_b) with tau = W chi_b,
+    chi_b = K chi_st (eq. 21); the robot model the product uses without ``--robot``."""
+
+    name = "orthoglide"
+    payload_frame = PAYLOAD_FRAME
+    standard_names = STANDARD_NAMES
 
     def __init__(self, n_states: int = 600, seed: int = 0):
+        self.joints = orthoglide_joints()
+        self.bodies = orthoglide_bodies()
         order = eq23_order()
         q, qd, qdd = random_states(n_states, seed)
         W_r = observation_columns(q, qd, qdd, order)
@@ -134,20 +163,16 @@ class BaseModel:
 
     # --- what identification uses -------------------------------------------------------------
     @property
-    def names(self) -> list[str]:
+    def names(self) -> list[str]:  # type: ignore[override]
         return [p.name for p in self.parameters]
 
     @property
-    def expressions(self) -> list[str]:
+    def expressions(self) -> list[str]:  # type: ignore[override]
         return [p.expression for p in self.parameters]
 
     @property
     def legs(self) -> list[tuple[int, ...]]:
         return [p.legs for p in self.parameters]
-
-    @property
-    def n_b(self) -> int:
-        return len(self.columns)
 
     def observation(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(W (3 N, n_b), W_kl (3 N,)) in one pass: base columns and the payload-mass column m_7."""
@@ -167,9 +192,20 @@ class BaseModel:
         """W_kl (3 N,): efforts per kg of payload (eq. 29); the other 9 payload parameters have no effect."""
         return observation_columns(q, qd, qdd, [], with_payload_mass=True)[:, 0]
 
-    def base_values(self, chi_st: np.ndarray) -> np.ndarray:
-        """chi_b = K chi_st for a standard parameter vector in STANDARD_NAMES order."""
-        return self.K @ np.asarray(chi_st, dtype=float)
+    def with_payload(self, payload: Payload) -> "BaseModel":
+        """The platform only translates, so a payload's only effect is its mass: the same model
+        (its column is per kg); ConfigError for a payload fixed elsewhere than the platform."""
+        if payload.frame not in ("", PAYLOAD_FRAME):
+            raise ConfigError(f"the Orthoglide carries its payload on the {PAYLOAD_FRAME}, not on "
+                              f"{payload.frame!r}")
+        return self
+
+    def standard_regressor(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> np.ndarray:
+        """W_st (3 N, 208), rows joint by joint (eq. 20)."""
+        return standard_regressor(q, qd, qdd)[0]
+
+    def random_states(self, n: int, seed: int = 0):
+        return random_states(n, seed)
 
     # --- what people read --------------------------------------------------------------------
     def table(self) -> str:

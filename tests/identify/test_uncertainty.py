@@ -70,7 +70,8 @@ def test_white_errors_honest_sigma_is_the_papers():
         ratios.append(honest / paper)
         assert sol.uncertainty.n_blocks == 30  # 15 s records, 1 s blocks
         assert np.all(np.abs(sol.uncertainty.autocorrelation[:, 1:]) < 0.1)
-    assert np.all(np.array(ratios) >= 1.0) and np.mean(ratios) < 1.25
+    # honest = max(eq. 39, sandwiches): equal to eq. (39) up to round-off when it is the largest
+    assert np.all(np.array(ratios) >= 1.0 - 1e-12) and np.mean(ratios) < 1.25
 
 
 def test_correlated_errors_paper_sigma_too_small_honest_covers():

@@ -1,0 +1,205 @@
+"""The robot as a value: what identification, control, the nodes and the CLI take from a model.
+
+Every size and name the product uses comes from a :class:`RobotModel`, as Pinocchio code takes
+its sizes from ``model.nv``: the actuated joints (names, kinds, units, the manufacturer's drive
+gains), the standard parameters per body, the base parameters with their regrouping expressions
+(eq. 21: chi_b = K chi_st), and the IDIM rows of the actuated joints for samples (q, q̇, q̈)
+(eqs. 15, 18, 20), with the known payload's column (eq. 33) last.
+
+Two implementations:
+
+- the Orthoglide's closed form (``model/base.py``: the paper's virtual tree closed by
+  J_t = J_k⁻¹ J_tk J_p and its 61 symmetric base parameters);
+- the general model on Pinocchio (``model/pinocchio_model.py``): a URDF or MJCF tree, closed
+  chains by loop constraints, base parameters by pivoted QR on random states.
+
+Layouts (docs/architecture.md): samples ``q, qd, qdd: (m, n)`` with n = ``n_joints`` columns in
+``joint_names`` order; ``observation_block`` is ``(n_b + 1, n, m)`` — column, joint, sample, each
+column of each joint contiguous in time (what the parallel decimation filters); ``regressor`` is
+``(n m, n_b)`` with rows stacked joint by joint (eq. 20). SI units: m or rad, N or N·m, A,
+N/A or N·m/A (a joint's ``kind`` says which).
+"""
+from __future__ import annotations
+
+import abc
+import math
+from dataclasses import dataclass
+from typing import Sequence
+
+import numpy as np
+
+from orthoglide_ident.errors import ConfigError
+
+# The 10 inertial parameters of a body in the product's order (paper Sect. 2.2): inertia at the
+# origin of the body's frame, first moments in that frame, mass.
+INERTIAL_KINDS = ("xx", "xy", "xz", "yy", "yz", "zz", "mx", "my", "mz", "m")
+# Drive and friction terms of a joint: rotor inertia (actuated joints), viscous, Coulomb, offset.
+DRIVE_KINDS = ("ia", "fv", "fs", "tauoff")
+JOINT_KINDS = ("prismatic", "revolute")
+
+
+@dataclass(frozen=True)
+class ActuatedJoint:
+    """One actuated joint: name, kind, the manufacturer's drive gain and its limits."""
+
+    name: str
+    kind: str  # "prismatic" | "revolute"
+    nominal_gain: float  # N/A (prismatic) or N·m/A (revolute): the manufacturer's g_tau
+    lower: float = -math.inf  # position limits, m or rad
+    upper: float = math.inf
+    velocity_limit: float = math.inf  # m/s or rad/s
+
+    def __post_init__(self) -> None:
+        if self.kind not in JOINT_KINDS:
+            raise ConfigError(f"joint {self.name}: kind {self.kind!r} is not prismatic or revolute")
+        if not (math.isfinite(self.nominal_gain) and self.nominal_gain > 0):
+            raise ConfigError(f"joint {self.name}: nominal drive gain {self.nominal_gain!r} must be "
+                              "a positive number")
+
+    @property
+    def unit(self) -> str:
+        """Position unit: m or rad."""
+        return "m" if self.kind == "prismatic" else "rad"
+
+    @property
+    def effort_unit(self) -> str:
+        return "N" if self.kind == "prismatic" else "N·m"
+
+    @property
+    def gain_unit(self) -> str:
+        return f"{self.effort_unit}/A"
+
+
+@dataclass(frozen=True)
+class Body:
+    """A body's standard inertial parameters: where its 10 (``INERTIAL_KINDS`` order) sit in
+    ``RobotModel.standard_names``, and the frame they are expressed in (a link or a frame name)."""
+
+    name: str
+    inertial: tuple[int, ...]  # 10 indices into standard_names
+    frame: str = ""
+
+
+@dataclass(frozen=True)
+class Payload:
+    """The known payload of a loaded record: mass, centre of mass and inertia fixed to a frame.
+
+    ``com`` (m) in ``frame``; ``inertia`` (Ixx, Ixy, Ixz, Iyy, Iyz, Izz, kg·m²) about the centre
+    of mass, axes of ``frame``. ``frame`` "" is the model's ``payload_frame``. Without com and
+    inertia: a point mass at the frame origin (the Orthoglide's case: its platform only
+    translates, so only the mass acts).
+    """
+
+    mass: float
+    frame: str = ""
+    com: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    inertia: tuple[float, float, float, float, float, float] = (0.0,) * 6
+
+    def __post_init__(self) -> None:
+        vals = (self.mass, *self.com, *self.inertia)
+        if len(self.com) != 3 or len(self.inertia) != 6 or not all(map(math.isfinite, vals)):
+            raise ConfigError(f"payload: com needs 3 and inertia 6 finite numbers, got "
+                              f"com {self.com}, inertia {self.inertia}")
+        if self.mass < 0:
+            raise ConfigError(f"payload mass {self.mass:g} kg is negative")
+
+    @property
+    def is_point_mass(self) -> bool:
+        return not any(self.com) and not any(self.inertia)
+
+    def shape(self) -> np.ndarray:
+        """(10,) inertial parameters per kg of mass at the frame origin, ``INERTIAL_KINDS`` order:
+        mass 1, first moments c, inertia (I_c + m S(c)ᵀ S(c)) / m (parallel axis theorem)."""
+        c = np.asarray(self.com, float)
+        xx, xy, xz, yy, yz, zz = self.inertia
+        I_c = np.array([[xx, xy, xz], [xy, yy, yz], [xz, yz, zz]])
+        m = self.mass if self.mass > 0 else 1.0
+        I_o = I_c / m + (c @ c) * np.eye(3) - np.outer(c, c)
+        return np.array([I_o[0, 0], I_o[0, 1], I_o[0, 2], I_o[1, 1], I_o[1, 2], I_o[2, 2],
+                         c[0], c[1], c[2], 1.0])
+
+
+class RobotModel(abc.ABC):
+    """What the product needs from a robot: see the module docstring for layouts and units.
+
+    Subclasses set the attributes and implement the abstract methods; the derived properties
+    (``joint_names``, ``n_joints``, ``n_b``, ``nominal_gains``...) are written once here.
+    """
+
+    name: str
+    joints: tuple[ActuatedJoint, ...]
+    standard_names: tuple[str, ...]  # every standard parameter: bodies' inertial, joints' drive
+    bodies: tuple[Body, ...]
+    payload_frame: str  # where a payload is mounted unless its tag names another frame
+    names: list[str]  # base parameters
+    expressions: list[str]  # each base parameter's regrouping of standard ones
+    K: np.ndarray  # (n_b, n_st): chi_b = K chi_st (eq. 21)
+
+    @abc.abstractmethod
+    def observation_block(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray,
+                          out: np.ndarray | None = None) -> np.ndarray:
+        """[W | W_payload] as (n_b + 1, n, m): the base columns, then the actuated efforts per kg
+        of the bound payload (``with_payload``); written into ``out`` when given."""
+
+    @abc.abstractmethod
+    def with_payload(self, payload: Payload) -> "RobotModel":
+        """The same model whose payload column is that of ``payload``'s shape (frame, com,
+        inertia per kg); ConfigError for a frame the robot does not have."""
+
+    @abc.abstractmethod
+    def standard_regressor(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> np.ndarray:
+        """W_st (n m, n_st), rows joint by joint: tau = W_st chi_st (checks, consistency)."""
+
+    @abc.abstractmethod
+    def random_states(self, n: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """n regular states (q, q̇, q̈), each (n, n_joints), inside the joint limits."""
+
+    @abc.abstractmethod
+    def table(self) -> str:
+        """The base parameters and their regrouping, for people."""
+
+    @abc.abstractmethod
+    def to_json(self) -> dict:
+        """The base parameters as data (``orthoglide-ident model --base-parameters --json``)."""
+
+    # --- derived, written once -------------------------------------------------------------
+    def regressor(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> np.ndarray:
+        """W (n m, n_b), rows joint by joint (eq. 20): tau = W chi_b."""
+        X = self.observation_block(q, qd, qdd)[:-1]
+        return X.reshape(X.shape[0], -1).T
+
+    def payload_mass_column(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> np.ndarray:
+        """W_kl (n m,): efforts per kg of the bound payload (eq. 29)."""
+        return self.observation_block(q, qd, qdd)[-1].reshape(-1)
+
+    def base_values(self, chi_st: np.ndarray) -> np.ndarray:
+        """chi_b = K chi_st for a standard parameter vector in ``standard_names`` order."""
+        return self.K @ np.asarray(chi_st, dtype=float)
+
+    @property
+    def joint_names(self) -> tuple[str, ...]:
+        return tuple(j.name for j in self.joints)
+
+    @property
+    def n_joints(self) -> int:
+        return len(self.joints)
+
+    @property
+    def n_b(self) -> int:
+        return len(self.names)
+
+    @property
+    def nominal_gains(self) -> np.ndarray:
+        """(n,) the manufacturer's drive gains, N/A or N·m/A."""
+        return np.array([j.nominal_gain for j in self.joints], dtype=float)
+
+    @property
+    def gain_units(self) -> tuple[str, ...]:
+        return tuple(j.gain_unit for j in self.joints)
+
+    def check_joint_names(self, names: Sequence[str], what: str) -> None:
+        """ConfigError unless ``names`` hold every joint of the model (any order, extras allowed)."""
+        missing = [j for j in self.joint_names if j not in names]
+        if missing:
+            raise ConfigError(f"{what} lacks the joints {missing} of robot {self.name} "
+                              f"(has {list(names)})")
