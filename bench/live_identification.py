@@ -42,7 +42,7 @@ from orthoglide_ident.identify.options import IdentifyOptions  # noqa: E402
 from orthoglide_ident.identify.pipeline import (Record, identify, identify_records,  # noqa: E402
                                                 read_record)
 
-G_TRUE = np.array([2170.0, 2100.0, 2070.0])  # N/A, the plant's drive gains (DESIGN §5)
+G_TRUE = np.array([2170.0, 2100.0, 2070.0])  # N/A, the plant's drive gains (docs/architecture.md §5)
 
 
 def get_bags(args, tmp: str) -> tuple[list[Path], str]:
@@ -113,7 +113,7 @@ def in_sigma(live: list, offline: list) -> float:
 
 
 def convergence_table(trace: list[dict]) -> list[dict]:
-    rows = [r for r in trace if not np.isnan(r["gains"][0])]
+    rows = [r for r in trace if len(r["gains"])]
     print(f"\nconvergence (batches of 10 ms): gain error vs the plant's truth "
           f"{', '.join(f'{g:g}' for g in G_TRUE)} N/A")
     print(f"{'data s':>7} {'unl. s':>7} {'load. s':>7} {'q11 err%':>9} {'q12 err%':>9} "

@@ -4,7 +4,7 @@
 
 Prints a small table: write_bag time and msg/s (the official MCAP writer underneath), read_bag
 time and msg/s, the official MCAP reader merely iterating the same messages (what our scanner must
-beat to earn its place), rosbags AnyReader + deserialise time on the same bags (the DESIGN §7
+beat to earn its place), rosbags AnyReader + deserialise time on the same bags (the docs/architecture.md §7
 yardstick), the ratio, and peak RSS.
 """
 

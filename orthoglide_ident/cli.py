@@ -1,12 +1,15 @@
-"""``orthoglide-ident``: offline identification, bag info, base model and reports (DESIGN §4).
+"""``orthoglide-ident``: offline identification, bag info, base model and reports (docs/architecture.md §4).
 
-    orthoglide-ident identify BAG... [--payload-mass KG] [--method tls|wls]
-                     [--gains G1,G2,G3|FILE.json] [--essential] [--json FILE]
+    orthoglide-ident identify [--robot FILE] BAG... [--payload-mass KG] [--method tls|wls]
+                     [--gains G1,G2,...|FILE.json] [--essential] [--json FILE]
                      [--r-sigma R] [--config YAML] [--validate BAG...]
     orthoglide-ident info BAG...
     orthoglide-ident reindex BAG...
-    orthoglide-ident model --base-parameters [--json FILE]
-    orthoglide-ident report BAG... --out DIR [identify options]
+    orthoglide-ident model [--robot FILE] --base-parameters [--json FILE]
+    orthoglide-ident report [--robot FILE] BAG... --out DIR [identify options]
+
+``--robot``: a URDF, a robot YAML or a bundled robot's name (model/robots.py); without it, the
+Orthoglide exactly as before.
     orthoglide-ident identify --service [BAG...] [--method tls|wls] [--essential]   (ROS 2)
     orthoglide-ident record start|stop|status [--condition C --payload-mass KG --name N]  (ROS 2)
     orthoglide-ident watch [--seconds S]                                          (ROS 2)
@@ -30,14 +33,16 @@ from typing import Sequence
 
 from orthoglide_ident import ros_client
 from orthoglide_ident.errors import ConfigError, OrthoglideError
+from orthoglide_ident.model.geometry import JOINT_NAMES as ORTHOGLIDE_JOINTS
+from orthoglide_ident.model.robots import bundled_robots
 
 PROG = "orthoglide-ident"
 EXIT_OK, EXIT_BUG, EXIT_BAD_INPUT, EXIT_INTERRUPTED, EXIT_BROKEN_PIPE = 0, 1, 2, 130, 141
 
 
-def parse_gains(text: str) -> list[float]:
-    """Three drive gains in N/A from ``G1,G2,G3`` or a JSON file (an ``identify --json`` result,
-    a list of three numbers, or a mapping joint name -> gain)."""
+def parse_gains(text: str, joints: Sequence[str] = ORTHOGLIDE_JOINTS) -> list[float]:
+    """One drive gain per joint of ``joints`` (N/A or N·m/A) from ``G1,G2,...`` or a JSON file (an
+    ``identify --json`` result, a list of numbers, or a mapping joint name -> gain)."""
     p = Path(text)
     if "," not in text or p.exists():
         try:
@@ -52,7 +57,7 @@ def parse_gains(text: str) -> list[float]:
             doc = doc["drive_gains"]
         if isinstance(doc, dict):
             try:
-                doc = [doc[j] for j in ("q11", "q12", "q13")]
+                doc = [doc[j] for j in joints]
             except KeyError as exc:
                 raise ConfigError(f"--gains {text}: no gain for joint {exc.args[0]}") from None
         if isinstance(doc, list):
@@ -64,10 +69,18 @@ def parse_gains(text: str) -> list[float]:
     try:
         gains = [float(v) for v in vals]
     except (TypeError, ValueError):
-        raise ConfigError(f"--gains {text}: drive gains must be numbers in N/A") from None
-    if len(gains) != 3 or not all(math.isfinite(g) and g > 0 for g in gains):
-        raise ConfigError(f"--gains {text}: give three positive drive gains in N/A (q11,q12,q13)")
+        raise ConfigError(f"--gains {text}: drive gains must be numbers") from None
+    if len(gains) != len(joints) or not all(math.isfinite(g) and g > 0 for g in gains):
+        raise ConfigError(f"--gains {text}: give {len(joints)} positive drive gains "
+                          f"({','.join(joints)})")
     return gains
+
+
+def _add_robot_option(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--robot", metavar="FILE", default="",
+                   help="the robot: a URDF, a robot YAML (docs/robot_files.md) or a bundled "
+                        f"robot ({', '.join(bundled_robots())}); default "
+                        "the Orthoglide (the paper's closed form)")
 
 
 def _add_identify_options(p: argparse.ArgumentParser) -> None:
@@ -78,11 +91,12 @@ def _add_identify_options(p: argparse.ArgumentParser) -> None:
                         " needed when a loaded bag carries no mass)")
     p.add_argument("--method", choices=("tls", "wls"), default=None,
                    help="tls: drive gains and base parameters at once, scaled by the payload mass "
-                        "(default); wls: gains given (--gains, default the manufacturer's "
-                        "637π ≈ 2001.2 N/A), payload mass of the loaded bags estimated")
-    p.add_argument("--gains", metavar="G1,G2,G3|FILE.json",
-                   help="drive gains in N/A for --method wls: three numbers or a JSON file "
-                        "(e.g. the --json output of a TLS identification)")
+                        "(default); wls: gains given (--gains, default the robot's nominal ones: "
+                        "the Orthoglide's 637π ≈ 2001.2 N/A), payload mass of the loaded bags "
+                        "estimated")
+    p.add_argument("--gains", metavar="G1,G2,...|FILE.json",
+                   help="drive gains (N/A, N·m/A for a revolute joint) for --method wls: one per "
+                        "joint, or a JSON file (e.g. the --json output of a TLS identification)")
     p.add_argument("--essential", action="store_true",
                    help="also reduce to essential parameters (paper Sect. 5.2) and show base and "
                         "essential results side by side")
@@ -93,16 +107,18 @@ def _add_identify_options(p: argparse.ArgumentParser) -> None:
                         "decimation, velocity dead band in m/s, excitation limits...)")
     p.add_argument("--validate", nargs="+", default=[], metavar="BAG",
                    help="bags not used for identification, to cross-validate the model on")
-    p.add_argument("--json", metavar="FILE", help="write the result as JSON (DESIGN §4) to FILE")
+    p.add_argument("--json", metavar="FILE", help="write the result as JSON (docs/architecture.md §4) to FILE")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress on stderr")
+    _add_robot_option(p)
 
 
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog=PROG,
-        description="Orthoglide identification of drive gains and dynamic parameters "
-                    "(IDIM-TLS, Briot & Gautier 2013) from tagged rosbag2/MCAP bags. "
-                    "Units: m, A, N, kg, N/A.")
+        description="Identification of a robot's drive gains and dynamic parameters together "
+                    "(IDIM-TLS, Briot & Gautier 2013) from tagged rosbag2/MCAP bags: the "
+                    "Orthoglide by default, any robot with --robot (a URDF or robot YAML). "
+                    "Units: m or rad, A, N or N·m, kg, N/A or N·m/A.")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
     p = sub.add_parser("identify", help="identify gains and base parameters from bags",
                        description="Identify drive gains (N/A) and base dynamic parameters from "
@@ -125,9 +141,10 @@ def build_parser() -> argparse.ArgumentParser:
                                    "custom_data tags. Says what was lost.")
     p.add_argument("bags", nargs="+", metavar="BAG",
                    help="rosbag2 directories or lone .mcap files")
-    p = sub.add_parser("model", help="print the base parameters of the Orthoglide model",
+    p = sub.add_parser("model", help="print the base parameters of the robot's model",
                        description="Print the base parameters (name, legs, regrouping expression "
-                                   "of standard parameters).")
+                                   "of standard parameters) of the Orthoglide or --robot.")
+    _add_robot_option(p)
     p.add_argument("--base-parameters", action="store_true",
                    help="the base-parameter table (the default and only listing)")
     p.add_argument("--json", metavar="FILE", help="also write the base model as JSON to FILE")
@@ -154,24 +171,28 @@ def _setup_logging(quiet: bool) -> None:
 def _run_identify(args: argparse.Namespace):
     from orthoglide_ident.identify.options import IdentifyOptions
     from orthoglide_ident.identify.pipeline import identify
+    from orthoglide_ident.model.robots import load_robot
 
+    robot = load_robot(args.robot)
     opts = IdentifyOptions.from_yaml(args.config) if args.config else IdentifyOptions()
     if args.r_sigma is not None:
         if not args.r_sigma > 1:
             raise ConfigError(f"--r-sigma must be > 1 (the paper uses 10), not {args.r_sigma}")
         opts = opts.replace(r_sigma=args.r_sigma)
     method = args.method or "tls"
-    gains = parse_gains(args.gains) if args.gains else None
+    gains = parse_gains(args.gains, robot.joint_names) if args.gains else None
     if gains is not None and method == "tls":
         raise ConfigError("--gains is for --method wls: IDIM-TLS identifies the gains")
     if method == "wls" and gains is None:
         logging.getLogger("orthoglide_ident").info(
-            "no --gains: using the manufacturer's 637π ≈ 2001.2 N/A for every joint")
+            "no --gains: using the manufacturer's (nominal) gains %s", ", ".join(
+                f"{j.name} {j.nominal_gain:.5g} {j.gain_unit}" for j in robot.joints))
     if args.payload_mass is not None and not (math.isfinite(args.payload_mass)
                                               and args.payload_mass > 0):
         raise ConfigError(f"--payload-mass must be a positive mass in kg, not {args.payload_mass}")
     return identify(args.bags, payload_mass=args.payload_mass, method=method, gains=gains,
-                    essential=args.essential, options=opts, validation_bags=args.validate)
+                    essential=args.essential, options=opts, model=robot,
+                    validation_bags=args.validate)
 
 
 def _write_json(path: str, doc: dict) -> None:
@@ -223,9 +244,9 @@ def _main(args: argparse.Namespace) -> int:
         return EXIT_OK
     if args.command == "model":
         _setup_logging(True)
-        from orthoglide_ident.model.base import base_model
+        from orthoglide_ident.model.robots import load_robot
 
-        bm = base_model()
+        bm = load_robot(args.robot)
         print(bm.table())
         if args.json:
             _write_json(args.json, bm.to_json())

@@ -10,9 +10,11 @@ model part is computed here, ahead of the tick it is for:
 
 v_tau[k] is held over [t_k, t_k+1) (zero-order hold), so the reference is taken in the middle of
 the hold, t_k + T/2, as the identification does (``zoh_shift``). chi_b are the identified base
-parameters (names of ``base_model().names``; parameters absent from a result, e.g. cancelled as
-non-essential, count as 0), m_7 the payload mass put in the model (the paper uses the nominal
-weighed mass), g_tau the drive gains (identified, manufacturer's 2001 N/A, or any others).
+parameters (names of the robot model's ``names``, model/robot.py; parameters absent from a
+result, e.g. cancelled as non-essential, count as 0), m_7 the payload mass put in the model (the
+paper uses the nominal weighed mass), g_tau the drive gains (identified, the manufacturer's —
+the Orthoglide's 2001 N/A — or any others). The robot is any RobotModel (default the
+Orthoglide); every size comes from it.
 
 Pure numpy, no ROS: ``feedforward`` is vectorised over samples; the ctc node calls
 ``feedforward_currents`` on batches of setpoints.
@@ -26,7 +28,8 @@ from typing import TYPE_CHECKING, Any, Mapping, Sequence
 import numpy as np
 
 from orthoglide_ident.errors import ConfigError
-from orthoglide_ident.model.base import base_model
+from orthoglide_ident.model.robot import RobotModel
+from orthoglide_ident.model.robots import load_robot
 
 if TYPE_CHECKING:
     from orthoglide_ident.results import IdentificationResult
@@ -36,20 +39,26 @@ FF_CHUNK = 4096  # samples per call of the regressor in ``feedforward`` (bounds 
 
 @dataclass(frozen=True)
 class CTCParameters:
-    """What the CTC needs from an identification: g_tau (3,) N/A, chi_b (n_b,) in
-    ``base_model().names`` order (absent parameters 0), payload mass m_7 in kg."""
+    """What the CTC needs from an identification: g_tau (n_j,) N/A or N·m/A, chi_b (n_b,) in
+    ``model.names`` order (absent parameters 0), payload mass m_7 in kg, and the robot model."""
 
     drive_gains: np.ndarray
     chi_b: np.ndarray
     payload_mass: float
     names: tuple[str, ...] = field(default=())  # the names the values came with
+    model: RobotModel | None = field(default=None, compare=False)  # None: the Orthoglide
+
+    @property
+    def robot(self) -> RobotModel:
+        return self.model if self.model is not None else load_robot(None)
 
     @classmethod
     def from_values(cls, names: Sequence[str], values: Sequence[float], drive_gains: Sequence[float],
-                    payload_mass: float) -> "CTCParameters":
-        """Validate and order: unknown or repeated names, non-finite values, gains that are not 3
-        positive numbers or a negative payload mass raise ConfigError."""
-        bm_names = base_model().names
+                    payload_mass: float, model: RobotModel | None = None) -> "CTCParameters":
+        """Validate and order: unknown or repeated names, non-finite values, gains that are not
+        one positive number per joint or a negative payload mass raise ConfigError."""
+        robot = model if model is not None else load_robot(None)
+        bm_names = robot.names
         index = {n: i for i, n in enumerate(bm_names)}
         names = [str(n) for n in names]
         try:
@@ -65,22 +74,24 @@ class CTCParameters:
         unknown = [n for n in names if n not in index]
         if unknown:
             raise ConfigError(f"unknown base parameter name(s) {', '.join(unknown[:5])}: expected names of the "
-                              f"Orthoglide base model (e.g. {', '.join(bm_names[:3])})")
+                              f"{robot.name} base model (e.g. {', '.join(bm_names[:3])})")
         if len(set(names)) != len(names):
             raise ConfigError("repeated base parameter names")
         if not np.all(np.isfinite(values)):
             raise ConfigError("non-finite base parameter value(s)")
-        if g.shape != (3,) or not np.all(np.isfinite(g)) or np.any(g <= 0):
-            raise ConfigError(f"drive_gains must be 3 positive numbers (N/A), got {g.tolist()}")
+        if g.shape != (robot.n_joints,) or not np.all(np.isfinite(g)) or np.any(g <= 0):
+            raise ConfigError(f"drive_gains must be {robot.n_joints} positive numbers "
+                              f"({', '.join(robot.gain_units)}), got {g.tolist()}")
         if not (math.isfinite(m7) and m7 >= 0):
             raise ConfigError(f"payload mass must be a finite mass >= 0 kg, got {payload_mass}")
         chi_b = np.zeros(len(bm_names))
         chi_b[[index[n] for n in names]] = values
-        return cls(g, chi_b, m7, tuple(names))
+        return cls(g, chi_b, m7, tuple(names), model)
 
     @classmethod
     def from_result(cls, result: IdentificationResult, payload_mass: float | None = None,
-                    drive_gains: Sequence[float] | None = None, essential: bool = False) -> "CTCParameters":
+                    drive_gains: Sequence[float] | None = None, essential: bool = False,
+                    model: RobotModel | None = None) -> "CTCParameters":
         """From an ``IdentificationResult``; ``payload_mass`` (kg) is the payload on the robot now
         (default: the result's, known or estimated), ``drive_gains`` override the result's (e.g. the
         manufacturer's); ``essential`` takes the essential-parameter result (Sect. 5.2)."""
@@ -92,10 +103,11 @@ class CTCParameters:
             payload_mass = result.payload_mass.value if result.payload_mass is not None else 0.0
         gains = [g.value for g in result.drive_gains] if drive_gains is None else drive_gains
         return cls.from_values([p.name for p in result.parameters], [p.value for p in result.parameters],
-                               gains, payload_mass)
+                               gains, payload_mass, model)
 
     @classmethod
-    def from_message_fields(cls, fields: Mapping[str, Any], payload_mass: float | None = None) -> "CTCParameters":
+    def from_message_fields(cls, fields: Mapping[str, Any], payload_mass: float | None = None,
+                            model: RobotModel | None = None) -> "CTCParameters":
         """From the fields of orthoglide_msgs/IdentifiedParameters (names, values, drive_gains,
         payload_mass; ``IdentificationResult.message_fields()`` or a received message's)."""
         try:
@@ -103,39 +115,41 @@ class CTCParameters:
             m7 = fields.get("payload_mass", 0.0) if payload_mass is None else payload_mass
         except (KeyError, TypeError) as exc:
             raise ConfigError(f"identified parameters lack field {exc}") from None
-        return cls.from_values(list(names), list(values), list(gains), m7)
+        return cls.from_values(list(names), list(values), list(gains), m7, model)
 
     def with_gains(self, drive_gains: Sequence[float]) -> "CTCParameters":
-        """The same model with other drive gains (N/A)."""
-        return CTCParameters.from_values(self.names or base_model().names, self._values(), drive_gains,
-                                         self.payload_mass)
+        """The same model with other drive gains (N/A or N·m/A)."""
+        return CTCParameters.from_values(self.names or self.robot.names, self._values(),
+                                         drive_gains, self.payload_mass, self.model)
 
     def _values(self) -> np.ndarray:
         if not self.names:
             return self.chi_b
-        index = {n: i for i, n in enumerate(base_model().names)}
+        index = {n: i for i, n in enumerate(self.robot.names)}
         return self.chi_b[[index[n] for n in self.names]]
 
 
 def feedforward(q_d: np.ndarray, qd_d: np.ndarray, qdd_d: np.ndarray, params: CTCParameters) -> np.ndarray:
-    """IDIM forces along a reference: tau (N, 3) N = W_b chi_b + W_kl m_7 (eq. 29), evaluated in
-    chunks of FF_CHUNK samples. q_d, qd_d, qdd_d: (N, 3) m, m/s, m/s²."""
+    """IDIM forces along a reference: tau (N, n_j) N or N·m = W_b chi_b + W_kl m_7 (eq. 29),
+    evaluated in chunks of FF_CHUNK samples. q_d, qd_d, qdd_d: (N, n_j) in the joints' units."""
+    robot = params.robot
+    n_j = robot.n_joints
     q_d, qd_d, qdd_d = (np.atleast_2d(np.asarray(a, dtype=float)) for a in (q_d, qd_d, qdd_d))
-    if not (q_d.shape == qd_d.shape == qdd_d.shape and q_d.shape[1:] == (3,)):
-        raise ConfigError(f"reference arrays must all be (N, 3), got {q_d.shape}, {qd_d.shape}, {qdd_d.shape}")
-    bm = base_model()
+    if not (q_d.shape == qd_d.shape == qdd_d.shape and q_d.shape[1:] == (n_j,)):
+        raise ConfigError(f"reference arrays must all be (N, {n_j}), got {q_d.shape}, "
+                          f"{qd_d.shape}, {qdd_d.shape}")
     N = len(q_d)
-    tau = np.empty((N, 3))
+    tau = np.empty((N, n_j))
     for s in range(0, N, FF_CHUNK):
         sl = slice(s, min(s + FF_CHUNK, N))
-        W, w_m7 = bm.observation(q_d[sl], qd_d[sl], qdd_d[sl])  # (3 n, n_b), rows joint by joint
-        tau[sl] = (W @ params.chi_b + w_m7 * params.payload_mass).reshape(3, -1).T
+        X = robot.observation_block(q_d[sl], qd_d[sl], qdd_d[sl])  # (n_b + 1, n_j, n)
+        tau[sl] = (np.tensordot(params.chi_b, X[:-1], axes=1) + params.payload_mass * X[-1]).T
     return tau
 
 
 def feedforward_currents(q_d: np.ndarray, qd_d: np.ndarray, qdd_d: np.ndarray,
                          params: CTCParameters) -> np.ndarray:
-    """Model feed-forward currents v_ff (N - 1, 3) A for ticks 0..N-2 of a reference sampled at N
+    """Model feed-forward currents v_ff (N - 1, n_j) A for ticks 0..N-2 of a reference sampled at N
     consecutive ticks: the IDIM force (eq. 29) in the middle of each tick's zero-order hold (the
     mean of two consecutive samples, as the identification evaluates the model at t_k + T/2),
     divided by the drive gains (eq. 17). This is the model part of the paper's CTC; the linear

@@ -47,14 +47,17 @@ def plot_torques(res: IdentificationResult, path: Path, window_s: float = 10.0) 
     val, crossed = _validation_for_plot(res)
     if val is None:
         return False
-    fig, axes = plt.subplots(3, 1, figsize=(10, 8), sharex=True)
+    n_j = len(res.joint_names)
+    units = res.effort_units or ["N"] * n_j
+    fig, axes = plt.subplots(n_j, 1, figsize=(10, 2 + 2 * n_j), sharex=True, squeeze=False)
+    axes = axes[:, 0]
     # a readable window (the figures in the titles are over the whole record)
     w = (val.t >= val.t[0]) & (val.t <= val.t[0] + window_s)
     for j, ax in enumerate(axes):
         ax.plot(val.t[w], val.tau_measured[j][w], lw=0.9, label="measured  g_τ·v_τ")
         ax.plot(val.t[w], val.tau_model[j][w], lw=0.9, ls="--", label="model  IDM·χ̂")
-        ax.set_ylabel(f"{res.joint_names[j]} force (N)")
-        ax.set_title(f"{res.joint_names[j]}: residual rms {val.residual_rms[j]:.3g} N "
+        ax.set_ylabel(f"{res.joint_names[j]} ({units[j]})")
+        ax.set_title(f"{res.joint_names[j]}: residual rms {val.residual_rms[j]:.3g} {units[j]} "
                      f"({100 * val.relative_error[j]:.1f} %) over the record", fontsize=9)
         ax.grid(alpha=0.3)
     axes[0].legend(loc="upper right", fontsize=8)
@@ -102,9 +105,10 @@ def plot_parameters(res: IdentificationResult, path: Path) -> None:
 
 
 def write_summary(res: IdentificationResult, path: Path, figures: list[str]) -> None:
-    lines = [f"# Orthoglide identification — IDIM-{res.method.upper()}", ""]
+    lines = [f"# {res.robot.capitalize()} identification — IDIM-{res.method.upper()}", ""]
     lines += ["Bags: " + ", ".join(f"`{b}`" for b in res.bags), ""]
-    lines += ["## Drive gains (N/A)" + (" — given" if res.drive_gains_given else ""), "",
+    lines += [f"## Drive gains ({res._units(res.gain_units, 'N/A')})"
+              + (" — given" if res.drive_gains_given else ""), "",
               "| joint | value | %σ |" + (" essential | %σ |" if res.essential else ""),
               "|---|---:|---:|" + ("---:|---:|" if res.essential else "")]
     eg = {g.name: g for g in res.essential.drive_gains} if res.essential else {}
@@ -131,7 +135,7 @@ def write_summary(res: IdentificationResult, path: Path, figures: list[str]) -> 
         lines.append(f"- payload mass m_7: **{pm.value:.5g} kg** ± {100 * pm.rel_std:.3g} %, "
                      f"{kind}")
     lines.append(f"- condition number of the scaled observation matrix: {res.condition_number:.4g}")
-    lines.append("- residual rms per joint (N): " + ", ".join(
+    lines.append(f"- residual rms per joint ({res._units(res.effort_units, 'N')}): " + ", ".join(
         f"{j} {r:.4g}" for j, r in zip(res.joint_names, res.residual_rms)))
     for v in res.validation:
         lines.append(f"- cross-validation on `{v['bag']}`: " + ", ".join(

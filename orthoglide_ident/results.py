@@ -1,11 +1,12 @@
-"""Identification results: one dataclass, serialised once to the JSON of DESIGN §4 and to a table.
+"""Identification results: one dataclass, serialised once to the JSON of docs/architecture.md §4 and to a table.
 
 Relative standard deviations are fractions (0.002 = 0.2 %σ); the table prints %σ. Two are given:
 ``rel_std`` the honest one, which also covers residuals correlated from row to row (the forces
 the IDIM lacks; identify/uncertainty.py) — the one to trust, and the one the ROS message carries;
 ``rel_std_paper`` that of the paper's eqs. (38)-(39), which assumes independent errors.
-Units: drive gains N/A, payload mass kg, residuals N, base parameters in the SI units of the
-standard parameters they regroup (kg, kg·m, kg·m², N·s/m, N).
+Units: drive gains N/A (N·m/A for a revolute joint: ``gain_units``), payload mass kg, residuals
+N or N·m (``effort_units``), base parameters in the SI units of the standard parameters they
+regroup (kg, kg·m, kg·m², N·s/m, N; N·m·s/rad, N·m for revolute joints).
 """
 from __future__ import annotations
 
@@ -27,6 +28,13 @@ def lag_text(current_lag: list[dict[str, Any]]) -> str:
     "q11 0.102 ms (σ 0.032), ..." (the text table, the log and the identify service's reply)."""
     return ", ".join(f"{x['joint']} {x['tau_ms']:.3f} ms (σ {x['tau_std_ms']:.2g})"
                      for x in current_lag)
+
+
+def _unit(units: list[str], default: str) -> str | list[str]:
+    """One unit when every joint shares it (the Orthoglide's N/A), else the list per joint."""
+    if not units:
+        return default
+    return units[0] if len(set(units)) == 1 else list(units)
 
 
 def _pct(x: float | None) -> str:
@@ -72,7 +80,7 @@ class PayloadMass:
 
 @dataclass
 class IdentificationResult:
-    """What ``identify`` found; ``to_json()`` is the document of DESIGN §4."""
+    """What ``identify`` found; ``to_json()`` is the document of docs/architecture.md §4."""
 
     method: str  # "tls" | "wls"
     joint_names: list[str]
@@ -82,8 +90,11 @@ class IdentificationResult:
     payload_mass: PayloadMass | None
     payloads: list[PayloadMass]
     condition_number: float
-    residual_rms: list[float]  # per joint, N
+    residual_rms: list[float]  # per joint, N or N·m
     bags: list[str]
+    robot: str = "orthoglide"  # RobotModel.name
+    gain_units: list[str] = field(default_factory=list)  # per joint: N/A or N·m/A (empty: N/A)
+    effort_units: list[str] = field(default_factory=list)  # per joint: N or N·m (empty: N)
     diagnostics: dict[str, Any] = field(default_factory=dict)
     essential: "IdentificationResult | None" = None
     removed: list[str] = field(default_factory=list)  # cancelled base parameters (essential)
@@ -108,6 +119,7 @@ class IdentificationResult:
     def to_json(self) -> dict[str, Any]:
         out: dict[str, Any] = {
             "method": self.method,
+            "robot": self.robot,
             "joint_names": list(self.joint_names),
             "drive_gains": [{"joint": g.name, "value": _num(g.value), "rel_std": _num(g.rel_std),
                              "rel_std_paper": None if g.rel_std_paper is None
@@ -121,7 +133,8 @@ class IdentificationResult:
             "residual_rms": _num(self.residual_rms_total),
             "residual_rms_per_joint": [_num(r) for r in self.residual_rms],
             "bags": list(self.bags),
-            "units": {"drive_gains": "N/A", "payload_mass": "kg", "residual_rms": "N",
+            "units": {"drive_gains": _unit(self.gain_units, "N/A"), "payload_mass": "kg",
+                      "residual_rms": _unit(self.effort_units, "N"),
                       "rel_std": "fraction (0.01 = 1 %)"},
             "rel_std": "honest: covers residuals correlated from row to row (largest of eqs. "
                        "(38)-(39), a stationary-correlation and a block sandwich); rel_std_paper: "
@@ -180,7 +193,7 @@ class IdentificationResult:
             lines.append(f"payload mass m_7: {pm.value:.5g} kg ± {_pct(pm.rel_std).strip()} %{paper} "
                          f"({what}{tag})")
         lines.append(f"condition number (scaled W): {self.condition_number:.4g}")
-        lines.append("residual rms (N): " + ", ".join(
+        lines.append(f"residual rms ({self._units(self.effort_units, 'N')}): " + ", ".join(
             f"{j} {r:.4g}" for j, r in zip(self.joint_names, self.residual_rms)))
         if self.current_lag:
             lines.append("current-loop lag modelled: " + lag_text(self.current_lag))
@@ -205,6 +218,12 @@ class IdentificationResult:
             lines.append(f"warning: {wmsg}")
         return "\n".join(lines)
 
+    @staticmethod
+    def _units(units: list[str], default: str) -> str:
+        """The units of a per-joint column for a heading: "N/A", or "N/A/N·m/A" when mixed."""
+        u = _unit(units, default)
+        return u if isinstance(u, str) else "/".join(dict.fromkeys(u))
+
     def _header_lines(self) -> list[str]:
         head = {"tls": "IDIM-TLS (drive gains and base parameters, scale from the payload mass)",
                 "wls": "IDIM-WLS with given drive gains (payload mass estimated)"}
@@ -225,7 +244,8 @@ class IdentificationResult:
         hdr = f"  {'parameter':<{w}} {'value' if ess is None else 'base':>12} {'%σ':>7} {'%σ eq39':>7}"
         if ess is not None:
             hdr += f"   {'essential':>12} {'%σ':>7}"
-        lines = ["drive gains (N/A)" + (" — given" if self.drive_gains_given else ""), hdr]
+        lines = [f"drive gains ({self._units(self.gain_units, 'N/A')})"
+                 + (" — given" if self.drive_gains_given else ""), hdr]
         eg = {g.name: g for g in ess.drive_gains} if ess else {}
         for g in self.drive_gains:
             row = f"  g_tau {g.name:<{w - 6}} {g.value:12.6g} {_pct(g.rel_std)} {_pct(g.rel_std_paper)}"

@@ -62,7 +62,7 @@ PARAMETERS = (
     Param("seed", 0, "seed of the current noise"),
     Param("noise", True, "current noise on/off"),
 )
-JOINTS = list(JOINT_NAMES)  # the interface (DESIGN §4); the plant keeps its own truth
+JOINTS = list(JOINT_NAMES)  # the interface (docs/architecture.md §4); the plant keeps its own truth
 TICK_NS = 1_000_000
 LATE_NS = 500_000  # a tick published more than 0.5 ms after its deadline is late
 WAKE_EARLY_NS = 100_000

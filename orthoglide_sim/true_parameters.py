@@ -12,7 +12,7 @@ current loop, Stribeck breakaway friction, ball-screw friction ripple at the scr
 the current and encoder noise. "nominal" (the default) has none of the unmodelled effects;
 "realistic" switches them on. Both are overridable, and more can be named, in YAML.
 
-This table is the plant's own truth, kept apart from the identification model on purpose (DESIGN
+This table is the plant's own truth, kept apart from the identification model on purpose (docs/architecture.md
 §5): nothing here is derived from orthoglide_ident's regressor. Only interface facts are imported
 from it: joint names and the manufacturer's gain 637π N/A that a controller is configured with.
 
@@ -98,7 +98,7 @@ COULOMB_VELOCITY = {"prismatic": 1.0e-3, "revolute": 5.0e-3}  # m/s, rad/s
 
 @dataclass(frozen=True)
 class PlantProfile:
-    """What lies between the controller and the ideal plant, beyond the IDIM (DESIGN §5).
+    """What lies between the controller and the ideal plant, beyond the IDIM (docs/architecture.md §5).
 
     Units: s, A, m, m/s; friction terms are fractions of each actuator's Coulomb level fs_1i.
     """

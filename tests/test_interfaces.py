@@ -1,4 +1,4 @@
-"""The orthoglide_msgs interfaces (DESIGN §4): exact fields, CDR round trip, and real exchange
+"""The orthoglide_msgs interfaces (docs/architecture.md §4): exact fields, CDR round trip, and real exchange
 between processes over Fast DDS -- a publisher and a subscriber, a service server and a client."""
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ from rclpy.serialization import deserialize_message, serialize_message
 from orthoglide_msgs.msg import CurrentReference, IdentifiedParameters
 from orthoglide_msgs.srv import Identify, StartRecording
 
-# DESIGN §4, field for field; tools outside the project rely on these.
+# docs/architecture.md §4, field for field; tools outside the project rely on these.
 EXPECTED_FIELDS = {
     CurrentReference: {
         "header": "std_msgs/Header",

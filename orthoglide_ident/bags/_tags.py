@@ -1,4 +1,4 @@
-"""The loaded/unloaded tag of a bag (DESIGN §4)."""
+"""The loaded/unloaded tag of a bag (docs/architecture.md §4)."""
 
 from __future__ import annotations
 

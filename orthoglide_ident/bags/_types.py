@@ -1,6 +1,6 @@
 """Message types known to the bag code: definitions, RIHS01 hashes, rosbag2 QoS records.
 
-The custom ``orthoglide_msgs`` definitions are embedded (DESIGN §4, fields exactly) so that an
+The custom ``orthoglide_msgs`` definitions are embedded (docs/architecture.md §4, fields exactly) so that an
 installed copy works without the source tree; other packages' .msg files are looked up under the
 ament prefixes when a recorder meets an unknown type.
 """

@@ -2,7 +2,7 @@
 
     from orthoglide_ident.identify import identify, IdentifyOptions
     res = identify(["bags/unloaded", "bags/loaded"])          # IDIM-TLS, payload from the tags
-    res.to_json(); res.to_text(); res.message_fields()         # DESIGN §4 JSON, table, msg fields
+    res.to_json(); res.to_text(); res.message_fields()         # docs/architecture.md §4 JSON, table, msg fields
 
 One module per step: segments (pairing, gaps) → filtering (derivative filter, zero-order hold)
 → reversals (sign() friction at velocity reversals) → decimation (parallel decimation, eqs.

@@ -43,7 +43,7 @@ MAX_SEARCH_S = 30.0  # s, live: longest a segment's ticks are held while its per
 
 
 def find_period(q: np.ndarray, period_s: float) -> int | None:
-    """Samples of the period with which the positions ``q`` (m, 3) repeat, or None.
+    """Samples of the period with which the positions ``q`` (m, n_j) repeat, or None.
 
     The candidate is the first lag past the first decorrelation where the mean square of
     q(k + P) - q(k) (all lags at once by FFT) comes near its least value; it is kept if it
@@ -79,7 +79,7 @@ def find_period(q: np.ndarray, period_s: float) -> int | None:
 
 
 def lag_instrument(q: np.ndarray, v_tau: np.ndarray, period_s: float) -> np.ndarray | None:
-    """(m, 3) A/s: per tick, the mean of v̇_τ over the other periods at its phase (the first
+    """(m, n_j) A/s: per tick, the mean of v̇_τ over the other periods at its phase (the first
     period left out of every mean); None when ``q`` does not repeat (:func:`find_period`)."""
     P = find_period(q, period_s)
     if P is None:
@@ -88,9 +88,9 @@ def lag_instrument(q: np.ndarray, v_tau: np.ndarray, period_s: float) -> np.ndar
 
 
 def other_periods_mean(v_dot: np.ndarray, P: int) -> tuple[np.ndarray, np.ndarray]:
-    """Per tick of ``v_dot`` (m, 3), the mean over the other steady periods at its phase (the
+    """Per tick of ``v_dot`` (m, n_j), the mean over the other steady periods at its phase (the
     first period enters no mean; a last partial period gets the mean of the full ones), and
-    the (P, 3) sum over the steady periods."""
+    the (P, n_j) sum over the steady periods."""
     n_full = v_dot.shape[0] // P
     periods = v_dot[:n_full * P].reshape(n_full, P, -1)
     total = periods[1:].sum(axis=0)  # steady periods only
@@ -102,11 +102,11 @@ def other_periods_mean(v_dot: np.ndarray, P: int) -> tuple[np.ndarray, np.ndarra
 
 
 def without_instrument(v_tau: np.ndarray) -> np.ndarray:
-    """(m, 6): v_τ with a zero lag instrument beside it (no period: the lag is left out)."""
+    """(m, 2 n_j): v_τ with a zero lag instrument beside it (no period: the lag is left out)."""
     return np.hstack([v_tau, np.zeros_like(v_tau)])
 
 
-Ticks = tuple  # (stamps_ns (m,), q (m, 3), v_τ (m, 3) or (m, 6) with the instrument beside it)
+Ticks = tuple  # (stamps_ns (m,), q (m, n_j), v_τ (m, n_j) or (m, 2 n_j) with the instrument)
 
 
 class RepeatWatch:
@@ -130,7 +130,7 @@ class RepeatWatch:
         both = np.concatenate([self.last, q])
         d = both[P:] - both[:-P]
         total = self.sum + np.cumsum((d * d).sum(axis=1))
-        count = self.count + 3 * np.arange(1, m + 1)
+        count = self.count + d.shape[1] * np.arange(1, m + 1)
         ends = (self.n + np.arange(1, m + 1)) % P == 0  # the last tick of a period
         self.sum, self.count = float(total[-1]), int(count[-1])
         self.n, self.last = self.n + m, both[-P:]
@@ -140,7 +140,7 @@ class RepeatWatch:
 
 class LiveLagInstrument:
     """The live counterpart of :func:`lag_instrument`, one per segment: ticks pushed in order
-    come out, v_τ (m, 6) with the instrument beside it, once their instrument is known.
+    come out, v_τ (m, 2 n_j) with the instrument beside it, once their instrument is known.
 
     A segment's ticks are held while its period is searched on its first SEARCH_EVERY_S·i s
     (fixed tick counts, so that the batching changes nothing), for at most MAX_SEARCH_S. Found at
@@ -152,17 +152,17 @@ class LiveLagInstrument:
     a zero instrument, and the identification must leave the lag out (see the module docstring).
     """
 
-    def __init__(self, period_s: float):
-        self.T = period_s
+    def __init__(self, period_s: float, n_j: int):
+        self.T, self.n_j = period_s, n_j
         self.every = max(1, int(round(SEARCH_EVERY_S / period_s)))
         self.max_ticks = int(round(MAX_SEARCH_S / period_s))
         self.n = 0  # ticks received
         self.P: int | None = None
         self.repeats: bool | None = None  # None while searching
         self._held: list[Ticks] = []
-        self._sums = np.zeros((0, 3))  # (P, 3) Σ v̇_τ over the steady periods 1.._folded
+        self._sums = np.zeros((0, n_j))  # (P, n_j) Σ v̇_τ over the steady periods 1.._folded
         self._folded = 0
-        self._v = np.zeros((0, 3))  # v_τ from tick _v0 on, for the differences still to take
+        self._v = np.zeros((0, n_j))  # v_τ from tick _v0 on, for the differences still to take
         self._v0 = 0
         self._watch: RepeatWatch | None = None
         self.why = ""  # when repeats is False: why, for the user
@@ -242,8 +242,8 @@ class LiveLagInstrument:
         return s, q, np.hstack([v, z])
 
     def _causal(self, k0: int) -> np.ndarray:
-        """(n - k0, 3): ticks k0..n-1, each the mean over the steady periods before its own."""
-        P, out, k = self.P, np.empty((self.n - k0, 3)), k0
+        """(n - k0, n_j): ticks k0..n-1, each the mean over the steady periods before its own."""
+        P, out, k = self.P, np.empty((self.n - k0, self.n_j)), k0
         while k < self.n:
             p = k // P
             self._fold_upto(p - 1)

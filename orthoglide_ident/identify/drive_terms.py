@@ -44,14 +44,13 @@ from typing import Sequence
 import numpy as np
 
 from orthoglide_ident.identify.factors import RecordFactors
-from orthoglide_ident.identify.segments import JOINT_NAMES
 from orthoglide_ident.identify.stream import model_block
 from orthoglide_ident.identify.uncertainty import WAVELENGTHS_M, Uncertainty, spectrum_peaks
 
 
 @dataclass(frozen=True)
 class RippleTerm:
-    """Two columns of joint ``joint`` (0..2): a ripple of wavelength ``wavelength_m``; ``index``
+    """Two columns of joint ``joint`` (its index): a ripple of wavelength ``wavelength_m``; ``index``
     is its wavelength in the residual's position spectrum (WAVELENGTHS_M) when the columns are
     built from the moments, None when they are in the equations (DriveTermsModel)."""
 
@@ -64,16 +63,17 @@ class RippleTerm:
 @dataclass(frozen=True)
 class Terms:
     """The drive terms of a model, in their column order: each joint's current-loop lag (one
-    column per joint, ``lag``: current_lag.py), then the ripple terms (two columns each, at most
-    one per joint). A ripple whose ``index`` is None has its columns in the decimated equations
-    (a given lead); the others are built from the moments (augmented_factors)."""
+    column per joint: ``lag`` is their number, n_j or 0; current_lag.py), then the ripple terms
+    (two columns each, at most one per joint). A ripple whose ``index`` is None has its columns
+    in the decimated equations (a given lead); the others are built from the moments
+    (augmented_factors)."""
 
     ripples: tuple[RippleTerm, ...] = ()
-    lag: bool = False
+    lag: int = 0
 
     @property
     def n_extra(self) -> int:
-        return 3 * self.lag + 2 * len(self.ripples)
+        return self.lag + 2 * len(self.ripples)
 
     def __bool__(self) -> bool:
         return self.n_extra > 0
@@ -114,16 +114,28 @@ class RippleEstimate:
                 "phase_rad": self.phase_rad}
 
 
-def detect_ripples(unc: Uncertainty | None, joint_names: tuple[str, ...]) -> tuple[RippleTerm, ...]:
-    """The ripple terms the residual calls for: one per joint with a position-spectrum peak."""
+def detect_ripples(unc: Uncertainty | None, joint_names: tuple[str, ...],
+                   screws: Sequence[bool] | None = None) -> tuple[RippleTerm, ...]:
+    """The ripple terms the residual calls for: one per joint with a position-spectrum peak
+    (``screws``: the joints looked at, uncertainty.spectrum_peaks)."""
     if unc is None or unc.spectrum is None:
         return ()
     out = []
-    for p in spectrum_peaks(unc, joint_names):
+    for p in spectrum_peaks(unc, joint_names, screws):
         i = int(np.argmin(np.abs(WAVELENGTHS_M - p.wavelength_m)))
         out.append(RippleTerm(joint_names.index(p.joint), float(WAVELENGTHS_M[i]),
                               p.sign_modulated, i))
     return tuple(out)
+
+
+def screw_joints(model) -> list[int]:
+    """The joints a screw's lead applies to: the prismatic ones (ball-screw drives)."""
+    return [j for j, joint in enumerate(model.joints) if joint.kind == "prismatic"]
+
+
+def screw_mask(model) -> tuple[bool, ...]:
+    """Per joint, whether its position spectrum is looked at for a screw ripple."""
+    return tuple(joint.kind == "prismatic" for joint in model.joints)
 
 
 class DriveTermsModel:
@@ -131,33 +143,38 @@ class DriveTermsModel:
 
     ``lag``: each joint's current-loop lag, one column in its own rows (zero in the others'),
     which the stream fills with the lag instrument (current_lag.py) at ``lag_column`` + j.
-    ``lead_m`` > 0: each joint's screw friction ripple at that lead, the columns
+    ``lead_m`` > 0: each prismatic joint's screw friction ripple at that lead, the columns
     sign(q̂̇_j) cos(2π q̂_j/λ) and sign(q̂̇_j) sin(2π q̂_j/λ) in its own rows. Both are built at the
-    sample rate with W, so the stream decimates (and bridges at reversals) them as it does W."""
+    sample rate with W, so the stream decimates (and bridges at reversals) them as it does W.
+    The robot's joints, gains and payload frame are the base model's (``model.joints`` ...)."""
 
     def __init__(self, model, lead_m: float = 0.0, lag: bool = False):
         self.base, self.lead_m = model, float(lead_m)
         self.n_base = len(model.names)
-        ripples = tuple(RippleTerm(j, self.lead_m, True) for j in range(3)) if lead_m > 0 else ()
-        self.terms = Terms(ripples, bool(lag))
+        self.joints, self.name = model.joints, model.name
+        self.joint_names, self.n_joints = model.joint_names, model.n_joints
+        self.nominal_gains = model.nominal_gains
+        names = self.joint_names
+        ripples = tuple(RippleTerm(j, self.lead_m, True) for j in screw_joints(model)) \
+            if lead_m > 0 else ()
+        self.terms = Terms(ripples, self.n_joints if lag else 0)
         self.lag_column = self.n_base if lag else None
-        self.names = list(model.names) + self.terms.names(JOINT_NAMES)
+        self.names = list(model.names) + self.terms.names(names)
         self.expressions = list(getattr(model, "expressions", [""] * self.n_base)) + [
-            f"τ g_τ{j[1:]}: v̇τ{j[1:]} averaged over the other periods" for j in JOINT_NAMES
-            if lag] + [
-            f"sign(q̇{JOINT_NAMES[t.joint][1:]}) {f}(2π {JOINT_NAMES[t.joint]} / {self.lead_m:g} m)"
+            f"τ g_τ {j}: v̇τ {j} averaged over the other periods" for j in names if lag] + [
+            f"sign(q̇ {names[t.joint]}) {f}(2π {names[t.joint]} / {self.lead_m:g} m)"
             for t in self.terms.ripples for f in ("cos", "sin")]
 
     def observation_block(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray,
                           out: np.ndarray | None = None) -> np.ndarray:
-        """[W | lag (zero) | ripple | W_kl] of states (m, 3) as (n_b + k + 1, 3, m)."""
+        """[W | lag (zero) | ripple | W_kl] of states (m, n_j) as (n_b + k + 1, n_j, m)."""
         n, m, k = self.n_base, q.shape[0], self.terms.n_extra
         if out is None:
-            out = np.empty((n + k + 1, 3, m))
+            out = np.empty((n + k + 1, self.n_joints, m))
         model_block(self.base, q, qd, qdd, out[:n + 1])
         out[n + k] = out[n]  # W_kl goes last
         out[n:n + k] = 0.0
-        r0 = n + 3 * self.terms.lag
+        r0 = n + self.terms.lag
         phi = (2.0 * np.pi / self.lead_m) * np.asarray(q) if self.terms.ripples else None
         s = np.sign(qd)
         for i, t in enumerate(self.terms.ripples):
@@ -167,19 +184,25 @@ class DriveTermsModel:
         return out
 
     def regressor(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> np.ndarray:
-        """[W | lag (zero: it needs the currents) | ripple] (3 N, n_b + k), rows joint by joint."""
+        """[W | lag (zero: it needs the currents) | ripple] (n_j N, n_b + k), rows joint by joint."""
         X = self.observation_block(q, qd, qdd)[:-1]
         return X.transpose(1, 2, 0).reshape(-1, X.shape[0])
 
     def payload_mass_column(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> np.ndarray:
         return self.base.payload_mass_column(q, qd, qdd)
 
+    def with_payload(self, payload) -> "DriveTermsModel":
+        """The same drive terms on the base model bound to ``payload`` (RobotModel.with_payload)."""
+        base = self.base.with_payload(payload)
+        return self if base is self.base else DriveTermsModel(base, self.lead_m,
+                                                              bool(self.terms.lag))
+
 
 def observation_model(model, lead_m: float, lag: bool = False):
     """``model`` with the drive terms in the equations: the screw ripple columns when the lead
     is known (``lead_m`` > 0), the current-loop lag columns when ``lag``."""
     if isinstance(model, DriveTermsModel):
-        if model.lead_m == float(lead_m) and model.terms.lag == bool(lag):
+        if model.lead_m == float(lead_m) and bool(model.terms.lag) == bool(lag):
             return model
         model = model.base
     if lead_m > 0 or lag:
@@ -208,7 +231,7 @@ def augmented_factors(factors: list[RecordFactors], terms: Terms) -> list[Record
     out = []
     for f in factors:
         R_new = []
-        for j in range(3):
+        for j in range(f.n_joints):
             G = np.zeros((n_new, n_new))
             G[np.ix_(old_to_new, old_to_new)] = f.R[j].T @ f.R[j]
             ripple = [(i, t) for i, t in enumerate(terms.ripples) if t.joint == j]
@@ -285,7 +308,7 @@ def split(sol, n_b: int, terms: Terms, joint_names: Sequence[str], gains: np.nda
         rel_std_paper=None if sol.rel_std_paper is None else sol.rel_std_paper[keep])
     lags = _lags(sol, n_a, n_a + k, joint_names, gains) if terms.lag else []
     ripples = []
-    r0 = n_a + 3 * terms.lag
+    r0 = n_a + terms.lag
     for i, t in enumerate(terms.ripples):
         a, b = r0 + 2 * i, r0 + 2 * i + 1
         c, s = float(sol.chi[a]), float(sol.chi[b])

@@ -6,7 +6,7 @@ parameter at a time (never a drive gain or a payload mass):
 - ``"paper"``: the paper's rule. The parameter with the largest relative standard deviation (of
   eqs. 38-39) is cancelled and the model identified again, until max(%σ)/min(%σ) < r_σ (the paper
   uses 10; the gains' and payload's %σ take part in the ratio). On the Orthoglide this rule can
-  cancel parameters the gains lean on: 13 parameters kept moved two gains by 3-6 % (DESIGN §6).
+  cancel parameters the gains lean on: 13 parameters kept moved two gains by 3-6 % (docs/architecture.md §6).
 - ``"keep_gains"`` (the default): the same order (largest honest %σ first) and the same stopping
   ratio, but a cancellation is accepted only if the protected quantities — the drive gains (TLS)
   or the estimated payload masses (WLS) — stay within their tolerance of the base model's values
@@ -85,7 +85,7 @@ def _weighted_ss(sol: Solution) -> float:
 
 def _rows(sol: Solution) -> np.ndarray:
     rows = sol.rows_per_joint
-    return np.ones(3) if rows is None else np.asarray(rows, float)
+    return np.ones(len(sol.joint_sigma)) if rows is None else np.asarray(rows, float)
 
 
 def _ratio(sol: Solution, paper: bool, fixed: np.ndarray) -> tuple[float, np.ndarray]:

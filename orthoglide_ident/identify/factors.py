@@ -24,10 +24,11 @@ FOLD_ROWS = 8192  # equations factored at once: a few MB whatever the record len
 class RecordFactors:
     """R factors of the equations of the records taken with one payload (or none).
 
-    ``R[j]``: (≤ n_b + 2, n_b + 2) upper triangular, columns [W (n_b) | W_kl | v_τ];
-    ``rows[j]``: equations of joint j folded in; ``n_samples``: decimated samples (before the
-    reversal selection); ``sources``: the records (bags) folded in; ``moments``: per record, what
-    the honest σ and the residual diagnostics need (uncertainty.py), when the rows have instants.
+    ``R[j]``: (≤ n_b + 2, n_b + 2) upper triangular, columns [W (n_b) | W_kl | v_τ], one per
+    actuated joint; ``rows[j]``: equations of joint j folded in; ``n_samples``: decimated samples
+    (before the reversal selection); ``sources``: the records (bags) folded in; ``moments``: per
+    record, what the honest σ and the residual diagnostics need (uncertainty.py), when the rows
+    have instants. ``n_joints`` is taken from ``R`` or ``rows`` when they are given.
     """
 
     condition: str  # "loaded" | "unloaded"
@@ -35,13 +36,20 @@ class RecordFactors:
     n_b: int
     sources: list[str] = field(default_factory=list)
     R: list[np.ndarray] = field(default_factory=list)
-    rows: np.ndarray = field(default_factory=lambda: np.zeros(3, dtype=int))
+    rows: np.ndarray | None = None
     n_samples: int = 0
     moments: dict[str, ResidualMoments] = field(default_factory=dict)
+    n_joints: int = 0
 
     def __post_init__(self) -> None:
+        if not self.n_joints:
+            self.n_joints = len(self.R) or (0 if self.rows is None else len(self.rows))
+        if not self.n_joints:
+            raise ValueError("RecordFactors needs n_joints (or R / rows to take it from)")
         if not self.R:
-            self.R = [np.zeros((0, self.n_b + 2)) for _ in range(3)]
+            self.R = [np.zeros((0, self.n_b + 2)) for _ in range(self.n_joints)]
+        if self.rows is None:
+            self.rows = np.zeros(self.n_joints, dtype=int)
 
     @property
     def loaded(self) -> bool:
@@ -62,20 +70,21 @@ class RecordFactors:
              source: str | None = None, row_period_s: float | None = None,
              q: np.ndarray | None = None, qd: np.ndarray | None = None,
              decimation: int = 1) -> None:
-        """Fold decimated equations ``X: (n_b + 2, 3, r)`` (rows kept where ``keep: (3, r)``).
+        """Fold decimated equations ``X: (n_b + 2, n_j, r)`` (rows kept where ``keep: (n_j, r)``).
 
         With the rows' instants ``t: (r,)`` s (and ``source``, the record they belong to, the row
-        period, the rows' positions and velocities (r, 3) and the decimation factor), the residual
+        period, the rows' positions and velocities (r, n_j) and the decimation factor), the residual
         moments are folded too; rows of one record must come in time order.
         """
         self.n_samples += int(X.shape[2])
-        for j in range(3):
+        for j in range(self.n_joints):
             self.fold_joint(j, (X[:, j, :] if keep is None else X[:, j, keep[j]]).T)
         if t is not None:
             key = source if source is not None else (self.sources[-1] if self.sources else "")
             mom = self.moments.get(key)
             if mom is None:
-                mom = self.moments[key] = ResidualMoments(self.n_b + 2, row_period_s, decimation)
+                mom = self.moments[key] = ResidualMoments(self.n_b + 2, self.n_joints, row_period_s,
+                                                          decimation)
             mom.fold(X, keep, np.asarray(t, float), q, qd)
 
     def fold_joint(self, j: int, rows: np.ndarray) -> None:
@@ -92,14 +101,14 @@ class RecordFactors:
     @classmethod
     def from_observations(cls, obs: Observations) -> "RecordFactors":
         """The factors of one record's decimated equations."""
-        n_b = obs.W.shape[2]
-        f = cls(obs.condition, float(obs.payload_mass), n_b, [obs.source])
+        n_j, _, n_b = obs.W.shape
+        f = cls(obs.condition, float(obs.payload_mass), n_b, [obs.source], n_joints=n_j)
         f.n_samples = obs.n_samples
-        for j in range(3):
+        for j in range(n_j):
             sel = slice(None) if obs.keep is None else obs.keep[j]
             f.fold_joint(j, np.column_stack([obs.W[j][sel], obs.w_m[j][sel], obs.v_tau[j][sel]]))
         if obs.t is not None:
-            mom = f.moments[obs.source] = ResidualMoments(n_b + 2, obs.row_period_s,
+            mom = f.moments[obs.source] = ResidualMoments(n_b + 2, n_j, obs.row_period_s,
                                                           obs.decimation)
             for a in range(0, obs.n_samples, FOLD_ROWS):  # in pieces: bounded temporary memory
                 b = min(a + FOLD_ROWS, obs.n_samples)

@@ -59,7 +59,7 @@ def derivative_filter(
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """q̂, q̂̇, q̂̈ at the sample instants: zero-phase low-pass then central differences.
 
-    ``q: (n, 3)`` in m, sampled every ``period_s``; returns three ``(n, 3)`` arrays in m, m/s,
+    ``q: (n, n_j)`` in m or rad, sampled every ``period_s``; returns three ``(n, n_j)`` arrays in m, m/s,
     m/s². The first and last samples carry the filter's edge transient: callers trim them.
     """
     qf = zero_phase_butterworth(np.asarray(q, dtype=float), period_s, cutoff_hz, order)
@@ -91,7 +91,7 @@ def filtered_states(
     q: np.ndarray, period_s: float, cutoff_hz: float = 25.0, order: int = 4,
     zoh_shift: bool = True,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """q̂, q̂̇, q̂̈ of a run of samples ``q: (n, 3)`` m, untrimmed.
+    """q̂, q̂̇, q̂̈ of a run of samples ``q: (n, n_j)`` m or rad, untrimmed.
 
     Row k is the state at t_k + T/2 (``zoh_shift``, n - 1 rows) or at t_k (n rows). Rows near
     either end of ``q`` carry the edge transients: callers trim them, or (block processing) give
@@ -136,7 +136,7 @@ def states_at_half_tick(
     """Filtered states paired with the current references they act with.
 
     Returns ``(q̂, q̂̇, q̂̈, v_tau)`` with the states at t_k + T/2 (``zoh_shift``) or at t_k, and
-    ``trim`` samples dropped at each end (filter edge transients). All ``(m, 3)``. With
+    ``trim`` samples dropped at each end (filter edge transients). All ``(m, n_j)``. With
     ``filter_currents`` v_tau goes through the same zero-phase low-pass as q (parallel filtering).
     """
     qf, qd, qdd = filtered_states(q, period_s, cutoff_hz, order, zoh_shift)

@@ -1,4 +1,4 @@
-"""Online identification: the offline pipeline fed while the recordings run (DESIGN §1, §7).
+"""Online identification: the offline pipeline fed while the recordings run (docs/architecture.md §1, §7).
 
     live = LiveIdentification(IdentifyOptions.from_yaml("config/identification.yaml"))
     live.start_recording("run-1", "unloaded", 0.0)
@@ -44,7 +44,6 @@ from orthoglide_ident.identify.factors import RecordFactors
 from orthoglide_ident.identify.live_recording import LiveRecording
 from orthoglide_ident.identify.options import IdentifyOptions
 from orthoglide_ident.identify.pipeline import IdentificationModel, default_model, finish_result
-from orthoglide_ident.identify.segments import JOINT_NAMES
 from orthoglide_ident.identify.solve import min_rows, solve, tls_model
 from orthoglide_ident.identify.stream import DecimatedRows
 from orthoglide_ident.identify.tls import check_excitation
@@ -58,34 +57,42 @@ MAX_PENDING_WARNINGS = 1000  # waiting for drain_warnings()
 class LiveEstimate:
     """What a user watches about once a second while recording.
 
-    Gains in N/A with their relative standard deviation (fraction; NaN until identified),
-    seconds of data folded in per condition, s_c/s_(c-1) of W_tot (``singular_ratio``), the
-    condition number of the scaled W, residual rms per joint (N), the lag (s of received data not
+    Gains in N/A (N·m/A for a revolute joint) with their relative standard deviation (fraction;
+    empty until identified), seconds of data folded in per condition, s_c/s_(c-1) of W_tot
+    (``singular_ratio``), the condition number of the scaled W, residual rms per joint (N or
+    N·m), the lag (s of received data not
     yet folded in) and a one-line ``status``; ``ok`` when the gains pass every excitation check,
     ``enough_data`` when moreover every gain's σ is below ``live_enough_gain_rel_std``.
     """
 
     status: str
+    joint_names: tuple[str, ...] = ()
     ok: bool = False
     enough_data: bool = False
-    gains: tuple[float, float, float] = (math.nan, math.nan, math.nan)
-    gains_rel_std: tuple[float, float, float] = (math.nan, math.nan, math.nan)
+    gains: tuple[float, ...] = ()  # empty until identified
+    gains_rel_std: tuple[float, ...] = ()
     seconds_loaded: float = 0.0
     seconds_unloaded: float = 0.0
     singular_ratio: float = math.nan
     condition_number: float = math.nan
-    residual_rms: tuple[float, float, float] = (math.nan, math.nan, math.nan)
+    residual_rms: tuple[float, ...] = ()
     lag_s: float = 0.0
-    equations: tuple[int, int, int] = (0, 0, 0)
+    equations: tuple[int, ...] = ()
     recording: str | None = None  # condition of the recording under way
-    joint_names: tuple[str, ...] = JOINT_NAMES
+    gain_units: tuple[str, ...] = ()
+
+    @property
+    def known(self) -> bool:
+        """The gains have been identified (TLS could be solved)."""
+        return bool(self.gains)
 
     def message_fields(self, warnings: Sequence[str] = ()) -> dict:
         """Fields of orthoglide_msgs/LiveIdentification (header excluded)."""
-        known = not math.isnan(self.gains[0])
+        known = self.known
         return {
             "status": self.status, "enough_data": self.enough_data,
             "joint_names": list(self.joint_names),
+            "gain_units": list(self.gain_units),
             "drive_gains": [float(g) for g in self.gains] if known else [],
             "drive_gains_rel_std": [float(s) for s in self.gains_rel_std] if known else [],
             "unloaded_seconds": float(self.seconds_unloaded),
@@ -98,9 +105,10 @@ class LiveEstimate:
 
     def line(self) -> str:
         """The estimate in one line (a log or a terminal)."""
-        g = "gains —" if math.isnan(self.gains[0]) else "  ".join(
-            f"{n} {v:7.1f} N/A ±{100 * s:.2f} %"
-            for n, v, s in zip(self.joint_names, self.gains, self.gains_rel_std))
+        units = self.gain_units or ("N/A",) * len(self.gains)
+        g = "gains —" if not self.known else "  ".join(
+            f"{n} {v:7.1f} {u} ±{100 * s:.2f} %"
+            for n, v, s, u in zip(self.joint_names, self.gains, self.gains_rel_std, units))
         return (f"{g} | {self.seconds_unloaded:.0f} s unloaded, {self.seconds_loaded:.0f} s "
                 f"loaded, lag {self.lag_s:.1f} s | {self.status}")
 
@@ -225,7 +233,8 @@ class LiveIdentification:
         key = (rec.condition, rec.payload_mass)
         f = self._factors.get(key)
         if f is None:
-            f = self._factors[key] = RecordFactors(rec.condition, rec.payload_mass, self.n_b)
+            f = self._factors[key] = RecordFactors(rec.condition, rec.payload_mass, self.n_b,
+                                                   n_joints=self.model.n_joints)
         f.add_source(rec.source)
         f.fold(rows.X, rows.keep, rows.t, rec.source,
                self.opts.decimation * rec.period_ns * 1e-9, rows.q, rows.qd, self.opts.decimation)
@@ -247,7 +256,7 @@ class LiveIdentification:
         col = getattr(self.model, "lag_column", None)
         if col is None or not self._lag_left_out():
             return factors, self.model
-        cols = np.arange(col, col + 3)
+        cols = np.arange(col, col + self.model.n_joints)
         return ([f.without_columns(cols) for f in factors],
                 observation_model(self.model, self.opts.screw_lead_m, False))
 
@@ -302,9 +311,12 @@ class LiveIdentification:
 
     def _estimate(self) -> LiveEstimate:
         factors = self._folded()
-        rows = tuple(int(sum(f.rows[j] for f in factors)) for j in range(3))
+        model = self.model
+        rows = tuple(int(sum(f.rows[j] for f in factors)) for j in range(model.n_joints))
         base = dict(seconds_loaded=self._seconds["loaded"],
-                    seconds_unloaded=self._seconds["unloaded"], equations=rows)
+                    seconds_unloaded=self._seconds["unloaded"], equations=rows,
+                    joint_names=tuple(model.joint_names),
+                    gain_units=tuple(j.gain_unit for j in model.joints))
         loaded = any(f.loaded for f in factors)
         unloaded = any(not f.loaded for f in factors)
         if not factors:
@@ -318,11 +330,12 @@ class LiveIdentification:
                 "record without the payload"
             return LiveEstimate(f"loaded only: {what}", **base)
         need = min_rows(self.n_b)
-        for j, n in enumerate(rows):
+        for joint, n in zip(model.joints, rows):
             if n < need:
                 return LiveEstimate(
-                    f"excitation too weak on {JOINT_NAMES[j]}: {n} equations above the velocity "
-                    f"dead band ({self.opts.velocity_deadband_mps} m/s), {need} needed", **base)
+                    f"excitation too weak on {joint.name}: {n} equations above the velocity "
+                    f"dead band ({self.opts.velocity_deadband_mps} {joint.unit}/s), {need} "
+                    "needed", **base)
         return self._solve_status(factors, base)
 
     def _collecting(self) -> str:
@@ -345,8 +358,8 @@ class LiveIdentification:
             sol = m.full
         except (OrthoglideError, np.linalg.LinAlgError) as exc:
             return LiveEstimate(f"not identifiable yet: {exc}", **base)
-        n = sol.chi.shape[0]
-        grel = sol.rel_std[n:n + 3]
+        n, names = sol.chi.shape[0], self.model.joint_names
+        grel = sol.rel_std[n:n + self.model.n_joints]
         est = LiveEstimate("", gains=tuple(float(x) for x in sol.g_tau),
                            gains_rel_std=tuple(float(x) for x in grel),
                            singular_ratio=sol.singular_ratio,
@@ -354,11 +367,11 @@ class LiveIdentification:
                            residual_rms=tuple(float(x) for x in sol.residual_rms), **base)
         try:
             if opts.check_excitation:
-                check_excitation(sol, opts.limits(), m.names)
+                check_excitation(sol, opts.limits(self.model.nominal_gains), m.names, names)
         except ExcitationError as exc:
             j = int(np.argmax(grel))
             if grel[j] > opts.max_gain_rel_std and str(exc).startswith("drive gain of"):
-                est.status = (f"excitation too weak on {JOINT_NAMES[j]}: its gain is known to "
+                est.status = (f"excitation too weak on {names[j]}: its gain is known to "
                               f"{100 * grel[j]:.1f} % (> {100 * opts.max_gain_rel_std:g} %); "
                               "record longer or more exciting trajectories")
             else:

@@ -20,7 +20,7 @@ from orthoglide_ident.identify.current_lag import LiveLagInstrument, without_ins
 from orthoglide_ident.identify.options import IdentifyOptions
 from orthoglide_ident.identify.pairing import Paired, TopicBuffer, pair_upto
 from orthoglide_ident.identify.pipeline import bag_report
-from orthoglide_ident.identify.segments import JOINT_NAMES, SegmentReport
+from orthoglide_ident.identify.segments import SegmentReport
 from orthoglide_ident.ticks import find_breaks
 from orthoglide_ident.identify.stream import DecimatedRows, SegmentStream
 
@@ -39,11 +39,13 @@ class LiveRecording:
         self.source, self.condition, self.payload_mass = source, condition, payload_mass
         self.opts, self.model, self.n_b, self._fold = opts, model, n_b, fold
         limit = opts.current_warn_fraction * opts.current_limit_a
-        self.q = TopicBuffer("joint_states")
-        self.v = TopicBuffer("current_reference", limit=limit)
+        self.joint_names = names = tuple(model.joint_names)
+        n_j = len(names)
+        self.q = TopicBuffer("joint_states", names)
+        self.v = TopicBuffer("current_reference", names, limit=limit)
         self.rep = SegmentReport()
         self.period_ns: float | None = None
-        self.equations = np.zeros(3, dtype=int)  # per joint, folded in
+        self.equations = np.zeros(n_j, dtype=int)  # per joint, folded in
         self.n_decimated = 0  # decimated samples folded in (before the reversal selection)
         self._pre: list[Paired] = []  # paired before the period is known
         self._steps: dict[int, int] | None = {}  # histogram of paired stamp steps (ns)
@@ -57,8 +59,8 @@ class LiveRecording:
         self._broken = False  # the segment under way is left out (model error)
         self.lag = lag  # the segments get a lag instrument (current_lag.LiveLagInstrument)
         self._lag: LiveLagInstrument | None = None  # the segment's, holding its first ticks
-        self._still = np.zeros(3, dtype=int)
-        self._still_warned = np.zeros(3, dtype=bool)
+        self._still = np.zeros(n_j, dtype=int)
+        self._still_warned = np.zeros(n_j, dtype=bool)
         self._silent_warned = False
 
     # --- input --------------------------------------------------------------------------------
@@ -191,7 +193,7 @@ class LiveRecording:
             return
         if self.lag:
             if self._lag is None:
-                self._lag = LiveLagInstrument(self.period_ns * 1e-9)
+                self._lag = LiveLagInstrument(self.period_ns * 1e-9, len(self.joint_names))
             ticks = self._lag.push(s, q, v)
             if ticks is None:
                 return
@@ -280,7 +282,7 @@ class LiveRecording:
             return
         need = int(round(self.opts.live_still_s / (self.period_ns * 1e-9)))
         below = np.abs(qd) < db
-        for j in range(3):
+        for j, name in enumerate(self.joint_names):
             moving = np.flatnonzero(~below[:, j])
             runs = np.diff(np.concatenate([[-1 - self._still[j]], moving, [qd.shape[0]]])) - 1
             longest = int(runs.max())
@@ -290,10 +292,11 @@ class LiveRecording:
             if longest >= need and not self._still_warned[j]:
                 self._still_warned[j] = True
                 t = ((self._last_ns or 0) - (self._t0_ns or 0)) * 1e-9
-                out.append(f"{JOINT_NAMES[j]} has stayed below the velocity dead band ({db:g} m/s) "
+                unit = self.model.joints[j].unit
+                out.append(f"{name} has stayed below the velocity dead band ({db:g} {unit}/s) "
                            f"for {longest * self.period_ns * 1e-9:.1f} s (before t = {t:.1f} s): "
                            f"its equations there are left out; the trajectory does not excite "
-                           f"{JOINT_NAMES[j]}")
+                           f"{name}")
 
     # --- end of recording ---------------------------------------------------------------------
     def _period_check(self) -> list[str]:

@@ -1,10 +1,11 @@
 """The decimated inverse dynamic identification model of one record (eq. 20), joint by joint.
 
-One :class:`Observations` per bag: ``W: (3, r, n_b)`` (joint j's r decimated equations in
-``W[j]``), the decimated current references ``v_tau: (3, r)`` and the decimated column of the
-payload mass ``w_m: (3, r)`` (W_kl of eq. 29 for m_7; the other nine payload parameters have no
-effect on the translating platform, so χ_ul is empty). Stacking ``W[j]`` over j gives the paper's
-``(3 r, n_b)`` layout, rows grouped joint by joint.
+One :class:`Observations` per bag: ``W: (n_j, r, n_b)`` for the robot's n_j actuated joints
+(joint j's r decimated equations in ``W[j]``), the decimated current references ``v_tau: (n_j,
+r)`` and the decimated column of the known payload ``w_m: (n_j, r)`` (W_kl of eq. 33 per kg: the
+payload's efforts for its known centre of mass and inertia, RobotModel.with_payload; for the
+Orthoglide's translating platform only its mass acts, so χ_ul is empty). Stacking ``W[j]`` over j
+gives the paper's ``(n_j r, n_b)`` layout, rows grouped joint by joint.
 """
 from __future__ import annotations
 
@@ -20,13 +21,13 @@ class Observations:
     source: str
     condition: str  # "loaded" | "unloaded"
     payload_mass: float  # kg (0 when unloaded); for WLS the tagged value, estimated again
-    W: np.ndarray  # (3, r, n_b)
-    v_tau: np.ndarray  # (3, r)
-    w_m: np.ndarray  # (3, r)
+    W: np.ndarray  # (n_j, r, n_b), n_j actuated joints
+    v_tau: np.ndarray  # (n_j, r)
+    w_m: np.ndarray  # (n_j, r)
     t: np.ndarray | None = None  # (r,) s since the record's first stamp (state instants)
-    keep: np.ndarray | None = None  # (3, r) bool: rows used (e.g. away from velocity reversal)
-    q: np.ndarray | None = None  # (r, 3) m, filtered positions at the rows' instants
-    qd: np.ndarray | None = None  # (r, 3) m/s, filtered velocities at the rows' instants
+    keep: np.ndarray | None = None  # (n_j, r) bool: rows used (e.g. away from velocity reversal)
+    q: np.ndarray | None = None  # (r, n_j) m or rad, filtered positions at the rows' instants
+    qd: np.ndarray | None = None  # (r, n_j) m/s or rad/s, filtered velocities there
     row_period_s: float | None = None  # s between consecutive decimated rows of a segment
     decimation: int = 1  # n_d of the rows (the decimation filter's gain, uncertainty.py)
 

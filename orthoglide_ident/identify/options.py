@@ -8,7 +8,9 @@ from __future__ import annotations
 import dataclasses
 from dataclasses import dataclass, fields
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any, Mapping, Sequence
+
+import numpy as np
 
 from orthoglide_ident.errors import ConfigError
 from orthoglide_ident.identify.tls import ExcitationLimits
@@ -16,7 +18,9 @@ from orthoglide_ident.identify.tls import ExcitationLimits
 
 @dataclass
 class IdentifyOptions:
-    """Tuning of the pipeline; units in the names (Hz, s, m/s, kg, N/A)."""
+    """Tuning of the pipeline; units in the names (Hz, s, m/s, kg, N/A). A joint-space unit
+    names the Orthoglide's prismatic one: for a revolute joint read rad for m (e.g.
+    ``velocity_deadband_mps`` is rad/s there) and N·m/A for N/A."""
 
     # Butterworth low-pass of q before differentiation, Hz: well above the decimation cut-off
     # 0.8 f_m / (2 n_d) = 40 Hz so that W keeps the whole band Y keeps
@@ -69,8 +73,11 @@ class IdentifyOptions:
     warn_condition: float = 1.0e5
     max_singular_ratio: float = 0.5
     max_gain_rel_std: float = 0.05
-    gain_min: float = 200.0
-    gain_max: float = 20000.0
+    # plausible drive gains: within [nominal / ratio, nominal x ratio] of the robot's nominal
+    # (manufacturer's) gains; gain_min / gain_max > 0 set absolute bounds instead (N/A, N·m/A)
+    gain_range_ratio: float = 10.0
+    gain_min: float = 0.0
+    gain_max: float = 0.0
     # Live identification (identify/live.py)
     live_block_s: float = 1.0  # new paired data processed in blocks of about this length
     live_pairing_slack_s: float = 0.02  # a tick is paired once both topics are this far past it
@@ -79,9 +86,13 @@ class IdentifyOptions:
     current_limit_a: float = 0.0  # A, the drives' current limit; 0: no saturation warning
     current_warn_fraction: float = 0.9  # warn when |v_tau| reaches this fraction of the limit
 
-    def limits(self) -> ExcitationLimits:
+    def limits(self, nominal_gains: Sequence[float]) -> ExcitationLimits:
+        """The excitation checks' thresholds for a robot of these nominal gains (N/A, N·m/A)."""
+        g = np.asarray(nominal_gains, float)
+        lo = np.full_like(g, self.gain_min) if self.gain_min > 0 else g / self.gain_range_ratio
+        hi = np.full_like(g, self.gain_max) if self.gain_max > 0 else g * self.gain_range_ratio
         return ExcitationLimits(self.max_condition, self.max_singular_ratio,
-                                self.max_gain_rel_std, (self.gain_min, self.gain_max))
+                                self.max_gain_rel_std, (lo, hi))
 
     def min_segment_samples(self, period_s: float = 1e-3) -> int:
         """Shortest segment worth keeping: both trims plus a few decimated samples."""
@@ -100,7 +111,7 @@ class IdentifyOptions:
         for key, value in data.items():
             k = str(key).replace("-", "_")
             if k not in known:
-                if k in ("method", "essential", "payload_mass", "gains", "bags"):
+                if k in ("method", "essential", "payload_mass", "gains", "bags", "robot"):
                     continue  # request keys shared with the node's parameters
                 raise ConfigError(f"{source}: unknown option {key!r}; known: {', '.join(known)}")
             default = getattr(base, k)
@@ -147,6 +158,9 @@ class IdentifyOptions:
         if not (self.essential_min_tolerance >= 0 and self.essential_max_residual_increase >= 0):
             raise ConfigError(f"{source}: essential_min_tolerance and "
                               "essential_max_residual_increase must be >= 0 (fractions)")
+        if not (self.gain_range_ratio > 1 and self.gain_min >= 0 and self.gain_max >= 0):
+            raise ConfigError(f"{source}: gain_range_ratio must be > 1, gain_min and gain_max "
+                              ">= 0 (0: from the nominal gains and the ratio)")
         if self.filter_cutoff_hz <= 0:
             raise ConfigError(f"{source}: filter_cutoff_hz must be > 0")
         if not (self.live_block_s > 0 and self.live_pairing_slack_s >= 0

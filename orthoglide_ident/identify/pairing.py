@@ -1,4 +1,4 @@
-"""The two recorded topics as they arrive, checked on arrival and paired by stamp (DESIGN §6.1).
+"""The two recorded topics as they arrive, checked on arrival and paired by stamp (docs/architecture.md §6.1).
 
 ``/orthoglide/joint_states`` (q) and ``/orthoglide/current_reference`` (v_tau) carry the same
 header stamp for the same controller tick but arrive independently, a few ticks apart, in
@@ -16,7 +16,7 @@ from typing import Sequence
 import numpy as np
 
 from orthoglide_ident.errors import DataError
-from orthoglide_ident.identify.segments import JOINT_NAMES, column_order, unique_sorted
+from orthoglide_ident.identify.segments import column_order, unique_sorted
 
 
 @dataclass
@@ -32,9 +32,11 @@ class TopicCounts:
 
 @dataclass
 class TopicBuffer:
-    """Samples of one topic waiting to be paired: stamps (ns) and values (n, 3), q11..q13."""
+    """Samples of one topic waiting to be paired: stamps (ns) and values (n, n_j), the robot's
+    ``joint_names`` in order (a topic's columns are matched by name: any order, extras ignored)."""
 
     topic: str
+    joint_names: tuple[str, ...]
     limit: float = 0.0  # |value| that warns of saturation (0: no check)
     counts: TopicCounts = field(default_factory=TopicCounts)
     max_ns: int | None = None  # newest stamp received
@@ -58,10 +60,10 @@ class TopicBuffer:
             x = x[None, :]
         n = stamps.shape[0]
         self.counts.received += n
-        if x.ndim != 2 or x.shape != (n, len(JOINT_NAMES)):
+        if x.ndim != 2 or x.shape != (n, len(names)):
             self.counts.bad_shape += n
             return [f"{self.topic}: {n} sample(s) with values of shape {x.shape} for {n} stamps "
-                    f"(expected ({n}, 3)): dropped"]
+                    f"(expected ({n}, {len(names)}), one column per joint name): dropped"]
         if self.t0_ns is None and n:
             self.t0_ns = int(stamps.min())
         out: list[str] = []
@@ -86,18 +88,18 @@ class TopicBuffer:
         return (int(stamp_ns) - (self.t0_ns or 0)) * 1e-9
 
     def _permutation(self, names: Sequence[str], stamps: np.ndarray, out: list[str]):
-        """Column order for ``names`` (None: already q11, q12, q13; False: unusable)."""
+        """Columns for ``names`` (None: already the robot's joints in order; False: unusable)."""
         key = tuple(str(s) for s in names)
         if key == self._names:
             return self._perm
         try:
-            perm = column_order(key, self.topic, JOINT_NAMES)
+            perm = column_order(key, self.topic, self.joint_names)
         except DataError:
             self.counts.wrong_names += stamps.shape[0]
             if key not in self._warned_names:
                 self._warned_names.add(key)
-                out.append(f"{self.topic}: joint names {list(key)} do not match the Orthoglide's "
-                           f"{list(JOINT_NAMES)}: samples dropped (first at t = "
+                out.append(f"{self.topic}: joint names {list(key)} do not hold the robot's "
+                           f"{list(self.joint_names)}: samples dropped (first at t = "
                            f"{self._t(stamps[0]):.3f} s)")
             return False
         self._names, self._perm = key, perm
@@ -163,7 +165,7 @@ class TopicBuffer:
             if last is not None and stamps[k] - last < 1_000_000_000:
                 continue
             self._last_saturation_ns[int(j)] = int(stamps[k])
-            out.append(f"{self.topic}: {JOINT_NAMES[j]} at {x[k, j]:+.3g} A, beyond "
+            out.append(f"{self.topic}: {self.joint_names[j]} at {x[k, j]:+.3g} A, beyond "
                        f"{self.limit:.3g} A, near the drive's current limit at t = "
                        f"{self._t(stamps[k]):.3f} s: the drive may saturate (slow the trajectory)")
 
@@ -171,7 +173,7 @@ class TopicBuffer:
         """Stamps ≤ ``horizon_ns`` in order, one sample per stamp (the first received): stamps,
         values and the duplicates dropped; later stamps stay."""
         if not self._stamps:
-            return np.zeros(0, np.int64), np.zeros((0, 3)), 0
+            return np.zeros(0, np.int64), np.zeros((0, len(self.joint_names))), 0
         s = np.concatenate(self._stamps)
         x = np.concatenate(self._values)
         keep, n_dup = unique_sorted(s)
@@ -194,8 +196,8 @@ class Paired:
     """Ticks present on both topics, in stamp order; counts of what did not pair."""
 
     stamps_ns: np.ndarray
-    q: np.ndarray  # (n, 3) m
-    v_tau: np.ndarray  # (n, 3) A
+    q: np.ndarray  # (n, n_j) m or rad
+    v_tau: np.ndarray  # (n, n_j) A
     unpaired_q: int = 0
     unpaired_v: int = 0
     duplicates: int = 0

@@ -15,7 +15,7 @@ import logging
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable, Iterable, Iterator, Protocol, Sequence
+from typing import Any, Callable, Iterable, Iterator, Sequence
 
 import numpy as np
 
@@ -28,52 +28,55 @@ from orthoglide_ident.identify.filtering import states_at_half_tick
 from orthoglide_ident.identify.observations import Observations
 from orthoglide_ident.identify.options import IdentifyOptions
 from orthoglide_ident.identify.reversals import bridge, find_reversals, rows_clear
-from orthoglide_ident.identify.segments import JOINT_NAMES, Segment, SegmentReport, split_record
-from orthoglide_ident.identify.solve import G_TAU_MANUFACTURER, Solved, solve
+from orthoglide_ident.identify.segments import Segment, SegmentReport, split_record
+from orthoglide_ident.identify.solve import Solved, solve
 from orthoglide_ident.identify.stream import DecimatedRows, SegmentStream, lag_rows, model_block
 from orthoglide_ident.identify.validation import ValidationResult, cross_validate
+from orthoglide_ident.model.geometry import JOINT_NAMES as ORTHOGLIDE_JOINTS
+from orthoglide_ident.model.robot import Payload, RobotModel
 from orthoglide_ident.results import IdentificationResult
 
 log = logging.getLogger("orthoglide_ident.identify")
 
-__all__ = ["G_TAU_MANUFACTURER", "IdentificationModel", "Record", "identify", "identify_records",
-           "observe", "read_record", "resolve_payload"]
+__all__ = ["Record", "identify", "identify_records", "observe", "read_record",
+           "resolve_payload"]
 
-
-class IdentificationModel(Protocol):
-    """What the pipeline needs from the model (``orthoglide_ident.model.base.base_model()``)."""
-
-    names: Sequence[str]
-    expressions: Sequence[str]
-
-    def regressor(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> np.ndarray:
-        """W: (3 N, n_b), rows joint by joint."""
-
-    def payload_mass_column(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> np.ndarray:
-        """W_kl of m_7: (3 N,)."""
+# What the pipeline needs from the robot (model/robot.py): sizes, names, nominal gains, the
+# IDIM block [W | W_payload]; also a DriveTermsModel wrapping one (drive_terms.py).
+IdentificationModel = RobotModel
 
 
 @dataclass
 class Record:
-    """One recording in memory: both topics with their stamps and the bag's tag."""
+    """One recording in memory: positions and currents with their stamps and the bag's tag.
+
+    ``q (N_q, len(names_q))`` m or rad, ``v_tau (N_v, len(names_v))`` A, joints by name (any
+    order, extra ones ignored); ``payload``: where and how the payload is mounted (frame, centre
+    of mass, inertia: the tag's ``orthoglide.payload_*`` keys; None: a point mass at the
+    robot's payload frame)."""
 
     source: str
     stamps_q_ns: np.ndarray
     names_q: Sequence[str]
-    q: np.ndarray  # (N, 3) m
+    q: np.ndarray
     stamps_v_ns: np.ndarray
     names_v: Sequence[str]
-    v_tau: np.ndarray  # (N, 3) A
+    v_tau: np.ndarray
     condition: str | None  # "loaded" | "unloaded"
     payload_mass: float  # kg, tagged (0 unloaded)
     warnings: list[str] = field(default_factory=list)
+    payload: Payload | None = None
 
     @classmethod
     def from_arrays(cls, source: str, stamps_ns: np.ndarray, q: np.ndarray, v_tau: np.ndarray,
-                    condition: str, payload_mass: float) -> "Record":
-        """A record whose two topics share stamps and the joint names q11, q12, q13."""
-        return cls(source, stamps_ns, JOINT_NAMES, q, stamps_ns, JOINT_NAMES, v_tau, condition,
-                   float(payload_mass))
+                    condition: str, payload_mass: float,
+                    joint_names: Sequence[str] = ORTHOGLIDE_JOINTS,
+                    payload: Payload | None = None) -> "Record":
+        """A record whose positions and currents share stamps and ``joint_names`` (default the
+        Orthoglide's)."""
+        names = tuple(joint_names)
+        return cls(source, stamps_ns, names, q, stamps_ns, names, v_tau, condition,
+                   float(payload_mass), payload=payload)
 
 
 def read_record(path: str | Path) -> Record:
@@ -94,10 +97,11 @@ def read_record(path: str | Path) -> Record:
     )
 
 
-def default_model() -> IdentificationModel:
-    from orthoglide_ident.model.base import base_model
+def default_model() -> RobotModel:
+    """The robot when none is given: the Orthoglide's closed form (model/robots.py)."""
+    from orthoglide_ident.model.robots import load_robot
 
-    return base_model()
+    return load_robot(None)
 
 
 def resolve_payload(rec: Record, payload_mass: float | None, tol: float) -> float:
@@ -125,8 +129,13 @@ def resolve_payload(rec: Record, payload_mass: float | None, tol: float) -> floa
 
 def observe(rec: Record, model: IdentificationModel, opts: IdentifyOptions,
             payload_mass: float) -> tuple[Observations, SegmentReport, dict[str, float]]:
-    """Segments, derivative filtering, W and parallel decimation of one record (§6.1-3)."""
+    """Segments, derivative filtering, W and parallel decimation of one record (§6.1-3).
+
+    A loaded record's payload column is that of its payload (``rec.payload``: frame, centre of
+    mass and inertia per kg; eq. 33's W_kl generalised), through ``model.with_payload``."""
     times: dict[str, float] = {}
+    if rec.payload is not None and rec.condition == "loaded":
+        model = model.with_payload(rec.payload)
     t0 = time.perf_counter()
     period_guess = 1e-3
     if len(rec.stamps_q_ns) > 2:
@@ -134,13 +143,13 @@ def observe(rec: Record, model: IdentificationModel, opts: IdentifyOptions,
     segments, rep = split_record(
         rec.stamps_q_ns, rec.names_q, rec.q, rec.stamps_v_ns, rec.names_v, rec.v_tau,
         min_samples=opts.min_segment_samples(period_guess), nonfinite=opts.nonfinite,
-        source=rec.source)
+        source=rec.source, joint_names=model.joint_names)
     times["segments"] = time.perf_counter() - t0
     log.info("%s: %s", rec.source, rep.summary())
     decimate = _segments_fir if opts.decimation_filter == "fir" else _segments_iir
     rows, n_bridged, n_unbridged = decimate(segments, model, opts, rep, times)
     n_b = len(model.names)
-    # views of the (n_b + 2, 3, r) rows: W (3, r, n_b), v_tau and w_m (3, r), no copies
+    # views of the (n_b + 2, n_j, r) rows: W (n_j, r, n_b), v_tau and w_m (n_j, r), no copies
     obs = Observations(rec.source, str(rec.condition), payload_mass,
                        rows.X[:n_b].transpose(1, 2, 0), rows.X[n_b + 1], rows.X[n_b],
                        t=rows.t, keep=rows.keep, q=rows.q, qd=rows.qd,
@@ -159,17 +168,17 @@ def _segments_fir(segments: list[Segment], model: IdentificationModel, opts: Ide
     """Every segment through a :class:`SegmentStream`, pushed ``chunk_samples`` at a time.
 
     The decimated rows of each segment are known in advance: they are written once into their
-    final ``(n_b + 2, 3, r)`` array (no lists of parts, no concatenated copies).
+    final ``(n_b + 2, n_j, r)`` array (no lists of parts, no concatenated copies).
     """
-    n_b = len(model.names)
+    n_b, n_j = len(model.names), model.n_joints
     T = rep.period_s
     trim = int(round(opts.edge_trim_s / T))
     zoh = 1 if opts.zoh_shift else 0
     counts = [decimated_count(len(seg) - zoh - 2 * trim, opts.decimation) for seg in segments]
     with_keep = opts.velocity_deadband_mps > 0
-    out = DecimatedRows(np.empty((n_b + 2, 3, sum(counts))),
-                        np.empty((3, sum(counts)), bool) if with_keep else None,
-                        np.empty(sum(counts)), np.empty((sum(counts), 3)), np.empty((sum(counts), 3)))
+    r = sum(counts)
+    out = DecimatedRows(np.empty((n_b + 2, n_j, r)), np.empty((n_j, r), bool) if with_keep
+                        else None, np.empty(r), np.empty((r, n_j)), np.empty((r, n_j)))
     t_start = int(segments[0].stamps_ns[0])
     n_bridged = n_unbridged = 0
     r0 = 0
@@ -196,7 +205,7 @@ def _segments_fir(segments: list[Segment], model: IdentificationModel, opts: Ide
 
 def _currents(seg: Segment, model: IdentificationModel, rep: SegmentReport,
               t_start: int) -> np.ndarray:
-    """The segment's v_τ (m, 3), with the lag instrument beside it (m, 6) when the model has
+    """The segment's v_τ (m, n_j), with the lag instrument beside it (m, 2 n_j) when the model has
     lag columns: zero when the segment does not repeat a periodic trajectory (counted in
     ``rep``; identify_records then leaves the lag out). ``t_start``: the record's first stamp."""
     if getattr(model, "lag_column", None) is None:
@@ -248,7 +257,7 @@ def _segments_iir(segments: list[Segment], model: IdentificationModel, opts: Ide
             pad = 0 if zones is None else zones.margin_needed
             a2, b2 = max(0, a - pad), min(qh.shape[0], b + pad)
             m = b2 - a2
-            blk = np.empty((len(model.names) + 1, 3, m))
+            blk = np.empty((len(model.names) + 1, model.n_joints, m))
             model_block(model, qh[a2:b2], qdh[a2:b2], qddh[a2:b2], blk)
             v_tau = lag_rows(model, blk, v[a2:b2])
             out = {"X": np.concatenate([blk, v_tau.T[None]]).transpose(2, 1, 0)}
@@ -349,7 +358,7 @@ def identify_records(
         timings["validation"] = time.perf_counter() - t_v
     for v in vals:
         warnings.extend(v.warnings)
-    result.validation = [v.to_json(JOINT_NAMES) for v in vals]
+    result.validation = [v.to_json(model.joint_names) for v in vals]
     result.validation_details = vals
     timings["total"] = time.perf_counter() - t_all
     finish_result(result, solved, reports, warnings, opts, timings)
@@ -373,7 +382,7 @@ def _lag_or_paper(model: IdentificationModel, blocks: list[Observations],
         return model, blocks
     log.info("the current-loop lag is not modelled: %s do not repeat a periodic trajectory "
              "(lag_model: auto needs every segment to)", ", ".join(lacking))
-    cols = np.r_[col:col + 3]
+    cols = np.r_[col:col + model.n_joints]
     out = [dataclasses.replace(b, W=np.delete(b.W, cols, axis=2)) for b in blocks]
     return observation_model(model, opts.screw_lead_m, False), out
 
@@ -388,7 +397,7 @@ def _validate(records: Iterable[Record], solved: Solved, model: IdentificationMo
             m = next((p.value for p in result.payloads if p.tagged == m), m)
         obs, _, _ = observe(rec, model, opts, m)
         out.append(cross_validate(obs, solved.chi, solved.g_tau, m,
-                                  np.asarray(result.residual_rms), joint_names=JOINT_NAMES))
+                                  np.asarray(result.residual_rms), joint_names=model.joint_names))
     return out
 
 
@@ -436,11 +445,12 @@ def identify(
     model: IdentificationModel | None = None,
     validation_bags: Sequence[str | Path] = (),
 ) -> IdentificationResult:
-    """Identify drive gains and base parameters from tagged bags (DESIGN §6).
+    """Identify drive gains and base parameters from tagged bags (docs/architecture.md).
 
-    ``payload_mass`` (kg) overrides/checks the loaded bags' tags; ``method`` "tls" (gains
-    identified, payload known) or "wls" (``gains`` given in N/A, default the manufacturer's 2001;
-    payload mass of loaded bags estimated); ``essential`` adds the essential-parameter reduction
+    ``model``: the robot (model/robots.load_robot; default the Orthoglide). ``payload_mass``
+    (kg) overrides/checks the loaded bags' tags; ``method`` "tls" (gains identified, payload
+    known) or "wls" (``gains`` given in N/A or N·m/A, default the robot's nominal ones; payload
+    mass of loaded bags estimated); ``essential`` adds the essential-parameter reduction
     (Sect. 5.2). ``validation_bags`` are cross-validated, not used for identification.
     """
     if not bag_paths:

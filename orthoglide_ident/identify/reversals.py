@@ -3,7 +3,7 @@
 At a reversal of joint j the model switches fs_j·sign(q̇_j) in one sample, while the drive's
 friction turns smoothly (and the zero-order hold averages the switch over a tick). The mismatch
 is up to 2·fs (tens of N) on one or two samples — tens of times the current noise — and the
-decimation filter would spread it over its window. DESIGN §6: it biases the payload mass by
+decimation filter would spread it over its window. docs/architecture.md §6: it biases the payload mass by
 ~1.5 % when ignored.
 
 Cure without losing the high-acceleration samples that sit at reversals: for each joint, the
@@ -28,7 +28,7 @@ import numpy as np
 @dataclass
 class ReversalZones:
     """Per joint, bridgeable runs ``starts[j], ends[j]`` (samples s..e-1, clean s-1 and e) and
-    the full-rate ``drop`` mask (n, 3) of runs that could not be bridged."""
+    the full-rate ``drop`` mask (n, n_j) of runs that could not be bridged."""
 
     starts: list[np.ndarray]
     ends: list[np.ndarray]
@@ -55,7 +55,7 @@ class ReversalZones:
 
 def find_reversals(qd: np.ndarray, deadband: float, max_bridge: int, margin: int = 0
                    ) -> ReversalZones:
-    """Runs of |q̂̇_j| < ``deadband`` or sign changes, per joint; ``qd: (n, 3)`` in m/s.
+    """Runs of |q̂̇_j| < ``deadband`` or sign changes, per joint; ``qd: (n, n_j)`` in m/s or rad/s.
 
     Each run is widened by ``margin`` samples on both sides: the friction step at a reversal is
     an acceleration step that the derivative filter smears over a few milliseconds, so the
@@ -149,12 +149,12 @@ class Decision:
 class ReversalTracker:
     """:func:`find_reversals` on a stream of q̂̇ blocks, with the same runs and decisions.
 
-    ``update(qd_block)`` takes the next states (n_new, 3) m/s; ``update(None, n_total)`` ends the
+    ``update(qd_block)`` takes the next states (n_new, n_j), m/s or rad/s; ``update(None, n_total)`` ends the
     segment. Decided groups come out in order (``pop_decisions``); ``final_upto(j)`` is the state
     index below which joint j's bridges and drops are all known (what a consumer may use now).
     """
 
-    def __init__(self, deadband: float, max_bridge: int, margin: int):
+    def __init__(self, deadband: float, max_bridge: int, margin: int, n_j: int):
         self.deadband = deadband
         self.max_bridge = max_bridge
         self.margin = margin
@@ -162,11 +162,11 @@ class ReversalTracker:
         self.n: int | None = None  # states in the segment, once it has ended
         self._tail_qd: np.ndarray | None = None  # last state: its flag waits for the next sign
         self._tail_bad: np.ndarray | None = None
-        self._open: list[_Group | None] = [None, None, None]
+        self._open: list[_Group | None] = [None] * n_j
         self.decisions: list[Decision] = []
 
     def update(self, qd: np.ndarray | None, n_total: int | None = None) -> None:
-        """Feed states (``qd: (m, 3)``); with ``n_total`` the segment ends after them."""
+        """Feed states (``qd: (m, n_j)``); with ``n_total`` the segment ends after them."""
         if qd is not None and qd.shape[0]:
             bad = np.abs(qd) < self.deadband
             if self._tail_qd is not None:
@@ -182,7 +182,7 @@ class ReversalTracker:
                 self._scan(self._tail_bad)
                 self._tail_qd = self._tail_bad = None
             self.n = n_total
-            for j in range(3):
+            for j in range(len(self._open)):
                 g = self._open[j]
                 if g is not None:
                     self._decide(j, g)
@@ -240,7 +240,7 @@ class ReversalTracker:
 
 
 def rows_clear(drop: np.ndarray, n_d: int, r: int, method: str) -> np.ndarray:
-    """(r, 3) bool: decimated rows whose filter window meets no dropped sample."""
+    """(r, n_j) bool: decimated rows whose filter window meets no dropped sample."""
     if method != "fir":
         return ~drop[0::n_d][:r]
     L = 8 * n_d + 1

@@ -1,4 +1,4 @@
-"""Pair joint positions with current references by stamp and split the record at gaps (DESIGN §6.1).
+"""Pair joint positions with current references by stamp and split the record at gaps (docs/architecture.md §6.1).
 
 The controller publishes q (``/orthoglide/joint_states``) and v_tau
 (``/orthoglide/current_reference``)
@@ -18,16 +18,15 @@ from typing import Sequence
 import numpy as np
 
 from orthoglide_ident.errors import DataError
-from orthoglide_ident.model.geometry import JOINT_NAMES
 from orthoglide_ident.ticks import find_breaks
-
 
 
 @dataclass
 class Segment:
     """A run of consecutive controller ticks with no sample missing.
 
-    ``stamps_ns: (n,)`` int64, ``q: (n, 3)`` in m, ``v_tau: (n, 3)`` in A, columns q11, q12, q13.
+    ``stamps_ns: (n,)`` int64, ``q: (n, n_j)`` in m or rad, ``v_tau: (n, n_j)`` in A, columns in
+    the robot's joint order (RobotModel.joint_names).
     """
 
     stamps_ns: np.ndarray
@@ -74,16 +73,20 @@ class SegmentReport:
 
 
 def column_order(names: Sequence[str], topic: str, expected: Sequence[str]) -> np.ndarray | None:
-    """Column permutation putting ``names`` in the order ``expected``; None when in order."""
+    """Columns of ``names`` that hold the joints ``expected``, in that order; None when ``names``
+    are exactly ``expected``. Joints are matched by name: any order, extra joints (a gripper)
+    ignored; a missing or repeated one is a DataError."""
     names = [str(n) for n in names]
-    if list(names) == list(expected):
+    if names == list(expected):
         return None
-    if sorted(names) == sorted(expected) and len(set(names)) == len(names):
-        return np.array([names.index(n) for n in expected])
-    raise DataError(
-        f"{topic} joint names {names} do not match the Orthoglide's actuated joints "
-        f"{list(expected)}; record the topics published by the Orthoglide controller"
-    )
+    missing = [j for j in expected if j not in names]
+    repeated = sorted({j for j in expected if names.count(j) > 1})
+    if missing or repeated:
+        what = f"lack {missing}" if missing else f"repeat {repeated}"
+        raise DataError(
+            f"{topic} joint names {names} {what} of the robot's actuated joints "
+            f"{list(expected)}; record the topics of this robot's controller, or give --robot")
+    return np.array([names.index(n) for n in expected])
 
 
 def unique_sorted(stamps: np.ndarray) -> tuple[np.ndarray, int]:
@@ -97,10 +100,11 @@ def unique_sorted(stamps: np.ndarray) -> tuple[np.ndarray, int]:
 
 def _checked_columns(arr: np.ndarray, stamps: np.ndarray, names: Sequence[str], topic: str,
                      joint_names: Sequence[str], rep: SegmentReport) -> np.ndarray:
-    """``arr`` (n, 3) with its columns in ``joint_names`` order; DataError on a wrong shape or names."""
-    if arr.ndim != 2 or arr.shape[0] != stamps.shape[0] or arr.shape[1] != len(joint_names):
+    """``arr`` (n, n_j) with its columns in ``joint_names`` order; DataError on a wrong shape or
+    names (``arr`` has one column per name in ``names``)."""
+    if arr.ndim != 2 or arr.shape[0] != stamps.shape[0] or arr.shape[1] != len(names):
         raise DataError(f"{topic} holds an array of shape {arr.shape} for {stamps.shape[0]} stamps; "
-                        f"expected ({stamps.shape[0]}, {len(joint_names)})")
+                        f"expected ({stamps.shape[0]}, {len(names)})")
     perm = column_order(names, topic, joint_names)
     if perm is None:
         return arr
@@ -173,11 +177,13 @@ def split_record(
     min_samples: int,
     nonfinite: str = "error",
     source: str = "record",
-    joint_names: Sequence[str] = JOINT_NAMES,
+    joint_names: Sequence[str] = (),
 ) -> tuple[list[Segment], SegmentReport]:
     """Pair q and v_tau by exact stamp, find missing ticks and split into continuous segments.
 
-    ``q: (N_q, 3)`` m and ``v_tau: (N_v, 3)`` A with their int64 stamps in ns. The tick period is
+    ``q: (N_q, len(names_q))`` and ``v_tau: (N_v, len(names_v))`` (m or rad, A) with their int64
+    stamps in ns; the segments hold the robot's ``joint_names`` (default ``names_q``), in that
+    order. The tick period is
     the median difference of the paired stamps; a stamp difference outside (0.5, 1.5) periods is a
     gap. Segments shorter than ``min_samples`` are dropped (counted in the report).
     Raises :class:`DataError` on mismatched joint names, non-finite data (``nonfinite="error"``),
@@ -190,6 +196,7 @@ def split_record(
     stamps_v_ns = np.asarray(stamps_v_ns, dtype=np.int64)
     rep.n_joint_states = int(stamps_q_ns.shape[0])
     rep.n_current_reference = int(stamps_v_ns.shape[0])
+    joint_names = tuple(joint_names) or tuple(str(n) for n in names_q)
     q = _checked_columns(np.asarray(q, dtype=float), stamps_q_ns, names_q, f"{source}: joint_states",
                          joint_names, rep)
     v_tau = _checked_columns(np.asarray(v_tau, dtype=float), stamps_v_ns, names_v,

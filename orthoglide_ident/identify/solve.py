@@ -20,16 +20,13 @@ from orthoglide_ident.identify import drive_terms
 from orthoglide_ident.identify.essential import EssentialResult, essential_parameters
 from orthoglide_ident.identify.factors import RecordFactors
 from orthoglide_ident.identify.options import IdentifyOptions
-from orthoglide_ident.identify.segments import JOINT_NAMES
 from orthoglide_ident.identify.tls import (TLSProblem, TLSSolution, check_excitation,
                                            require_loaded_and_unloaded)
 from orthoglide_ident.identify.uncertainty import diagnose, ripple_warning_start
 from orthoglide_ident.identify.wls import WLSSolution, idim_wls
-from orthoglide_ident.model.geometry import G_TAU_MANUFACTURER
 from orthoglide_ident.results import Estimate, IdentificationResult, PayloadMass, lag_text
 
 log = logging.getLogger("orthoglide_ident.identify")
-
 
 
 @dataclass
@@ -39,7 +36,7 @@ class Solved:
     result: IdentificationResult
     chi: np.ndarray  # (n_b,) base parameters, zero where cancelled; + the drive terms' whose
     # columns the equations hold (DriveTermsModel): what cross-validation multiplies
-    g_tau: np.ndarray  # (3,) N/A, identified (TLS) or given (WLS)
+    g_tau: np.ndarray  # (n_j,) N/A or N·m/A, identified (TLS) or given (WLS)
     solver: dict[str, Any] = field(default_factory=dict)
     tls: TLSSolution | None = None
     timings: dict[str, float] = field(default_factory=dict)  # s: "essential" when asked
@@ -50,26 +47,26 @@ def min_rows(n_b: int) -> int:
     return max(50, 2 * n_b)
 
 
-def check_rows(factors: list[RecordFactors], opts: IdentifyOptions) -> None:
+def check_rows(factors: list[RecordFactors], model, opts: IdentifyOptions) -> None:
     """ExcitationError when a joint has too few equations left (below the dead band)."""
     n_b = factors[0].n_b
-    for j, name in enumerate(JOINT_NAMES):
+    for j, joint in enumerate(model.joints):
         rows = sum(int(f.rows[j]) for f in factors)
         total = sum(f.n_samples for f in factors)
         if rows < min_rows(n_b):
             raise ExcitationError(
-                f"{name} moves slower than the velocity dead band "
-                f"({opts.velocity_deadband_mps} m/s)"
+                f"{joint.name} moves slower than the velocity dead band "
+                f"({opts.velocity_deadband_mps} {joint.unit}/s)"
                 f" almost all the time: {rows} of {total} equations left; the trajectories are "
                 "not exciting (or lower velocity_deadband_mps)")
 
 
-def _gains_estimates(g: np.ndarray, rel: np.ndarray | None,
+def _gains_estimates(joint_names: Sequence[str], g: np.ndarray, rel: np.ndarray | None,
                      rel_paper: np.ndarray | None = None) -> list[Estimate]:
     return [Estimate(j, float(g[i]), float(rel[i]) if rel is not None else 0.0,
                      rel_std_paper=float(rel_paper[i]) if rel_paper is not None else
                      (None if rel is not None else 0.0))
-            for i, j in enumerate(JOINT_NAMES)]
+            for i, j in enumerate(joint_names)]
 
 
 def _param_estimates(model, sol: TLSSolution | WLSSolution) -> list[Estimate]:
@@ -82,14 +79,15 @@ def _param_estimates(model, sol: TLSSolution | WLSSolution) -> list[Estimate]:
             for i, k in enumerate(idx)]
 
 
-def _uncertainty(result: IdentificationResult, sol: TLSSolution | WLSSolution,
+def _uncertainty(result: IdentificationResult, sol: TLSSolution | WLSSolution, model,
                  opts: IdentifyOptions, gains: bool) -> None:
     """The honest σ's diagnostics and the residual's warnings into ``result``."""
     if sol.uncertainty is None:
         return
-    n = sol.chi.shape[0]
-    d, warnings = diagnose(sol.uncertainty, opts.decimation, n, JOINT_NAMES,
-                           gain_index=slice(n, n + 3) if gains else None)
+    n, n_j = sol.chi.shape[0], model.n_joints
+    d, warnings = diagnose(sol.uncertainty, opts.decimation, n, model.joint_names,
+                           gain_index=slice(n, n + n_j) if gains else None,
+                           screws=drive_terms.screw_mask(model))
     result.diagnostics["uncertainty"] = d
     result.warnings.extend(warnings)
 
@@ -102,19 +100,26 @@ def _sources(factors: list[RecordFactors], mass: float) -> list[str]:
 def tls_result(model, sol: TLSSolution, factors: list[RecordFactors], opts: IdentifyOptions,
                bags: list[str]) -> IdentificationResult:
     """The result of an IDIM-TLS solve (payload masses known)."""
-    n = sol.chi.shape[0]
+    n, n_j = sol.chi.shape[0], model.n_joints
     payloads = [PayloadMass(m, opts.payload_mass_std_kg / m, True, m, _sources(factors, m))
                 for m in sorted({f.payload_mass for f in factors if f.loaded})]
     return IdentificationResult(
-        method="tls", joint_names=list(JOINT_NAMES),
-        drive_gains=_gains_estimates(sol.g_tau, sol.rel_std[n:n + 3],
+        method="tls", joint_names=list(model.joint_names),
+        drive_gains=_gains_estimates(model.joint_names, sol.g_tau, sol.rel_std[n:n + n_j],
                                      None if sol.rel_std_paper is None
-                                     else sol.rel_std_paper[n:n + 3]),
+                                     else sol.rel_std_paper[n:n + n_j]),
         drive_gains_given=False,
         parameters=_param_estimates(model, sol), payload_mass=payloads[0] if payloads else None,
         payloads=payloads, condition_number=sol.condition_number,
-        residual_rms=[float(x) for x in sol.residual_rms], bags=bags,
+        residual_rms=[float(x) for x in sol.residual_rms], bags=bags, **_robot_fields(model),
     )
+
+
+def _robot_fields(model) -> dict[str, Any]:
+    """The result's robot name and per-joint units (RobotModel)."""
+    return {"robot": str(getattr(model, "name", "")),
+            "gain_units": [j.gain_unit for j in model.joints],
+            "effort_units": [j.effort_unit for j in model.joints]}
 
 
 def wls_result(model, sol: WLSSolution, g_tau: np.ndarray, factors: list[RecordFactors],
@@ -126,11 +131,12 @@ def wls_result(model, sol: WLSSolution, g_tau: np.ndarray, factors: list[RecordF
                             None if sol.rel_std_paper is None else float(sol.rel_std_paper[n + k]))
                 for k, m_tag in enumerate(sol.payload_groups)]
     return IdentificationResult(
-        method="wls", joint_names=list(JOINT_NAMES), drive_gains=_gains_estimates(g_tau, None),
+        method="wls", joint_names=list(model.joint_names),
+        drive_gains=_gains_estimates(model.joint_names, g_tau, None),
         drive_gains_given=True, parameters=_param_estimates(model, sol),
         payload_mass=payloads[0] if payloads else None, payloads=payloads,
         condition_number=sol.condition_number, residual_rms=[float(x) for x in sol.residual_rms],
-        bags=bags,
+        bags=bags, **_robot_fields(model),
     )
 
 
@@ -145,6 +151,7 @@ class _Model:
     terms: drive_terms.Terms
     names: list[str]
     n_rows_cols: int  # columns of W in the decimated equations (base + the terms in them)
+    joint_names: tuple[str, ...]
     gains: np.ndarray | None = None  # given to WLS (None: identified by TLS)
 
     @property
@@ -157,7 +164,7 @@ class _Model:
         """Base-model view of a solution, its identified ripples and current-loop lags."""
         if not self.terms:
             return sol, [], []
-        return drive_terms.split(sol, self.n_b, self.terms, JOINT_NAMES, self.gains)
+        return drive_terms.split(sol, self.n_b, self.terms, self.joint_names, self.gains)
 
 
 def _set_up(factors: list[RecordFactors], model, opts: IdentifyOptions, base, make_solver,
@@ -169,29 +176,31 @@ def _set_up(factors: list[RecordFactors], model, opts: IdentifyOptions, base, ma
     ``make_solver(factors) -> solve(active, reweight)`` builds a solver on (augmented) factors.
     """
     n_cols = factors[0].n_b
+    names = tuple(model.joint_names)
     base_solve = make_solver(factors)
     in_rows = model.terms if isinstance(model, drive_terms.DriveTermsModel) else drive_terms.Terms()
     n_b = n_cols - in_rows.n_extra
     plain = _Model(lambda act: base_solve(act, False), base, n_b, in_rows, list(model.names),
-                   n_cols, gains)
+                   n_cols, names, gains)
     if in_rows.ripples or opts.ripple_model != "auto":
         return plain
-    found = drive_terms.Terms(drive_terms.detect_ripples(base.uncertainty, JOINT_NAMES))
+    found = drive_terms.Terms(drive_terms.detect_ripples(base.uncertainty, names,
+                                                         drive_terms.screw_mask(model)))
     if not found or not drive_terms.can_model(factors, found):
         return plain
     k = found.n_extra
     log.info("ripple in the residual of %s: two columns each added to the model", ", ".join(
-        f"{JOINT_NAMES[t.joint]} ({1e3 * t.wavelength_m:.1f} mm)" for t in found.ripples))
+        f"{names[t.joint]} ({1e3 * t.wavelength_m:.1f} mm)" for t in found.ripples))
     aug_solve = make_solver(drive_terms.augmented_factors(factors, found))
     full = drive_terms.transfer_inflation(aug_solve(None, None), base, n_cols, k)
     return _Model(lambda act: drive_terms.transfer_inflation(aug_solve(act, False), base, n_cols,
                                                              k),
                   full, n_b, drive_terms.Terms(found.ripples, in_rows.lag),
-                  list(model.names) + found.names(JOINT_NAMES), n_cols, gains)
+                  list(model.names) + found.names(names), n_cols, names, gains)
 
 
 def _drive_notes(result: IdentificationResult, ripples: list, lags: list,
-                 terms: drive_terms.Terms) -> None:
+                 terms: drive_terms.Terms, joint_names: Sequence[str]) -> None:
     """The identified drive terms into ``result`` (and the log); the warnings they answer."""
     result.current_lag = [x.to_json() for x in lags]
     if lags:
@@ -204,7 +213,7 @@ def _drive_notes(result: IdentificationResult, ripples: list, lags: list,
                            for r in ripples))
         result.warnings = [  # a ripple left in the residual: another period than the one given
             f"{w}; screw_lead_m is {lead_mm:.1f} mm: check the screws' lead"
-            if any(w.startswith(ripple_warning_start(j)) for j in JOINT_NAMES) else w
+            if any(w.startswith(ripple_warning_start(j)) for j in joint_names) else w
             for w in result.warnings]
         return
     for r in ripples:  # said once: as modelled, not as a peak in the residual
@@ -238,15 +247,15 @@ def solve_tls(factors: list[RecordFactors], model, opts: IdentifyOptions, essent
     """IDIM-TLS (eqs. 33-39), excitation checked, optionally the essential parameters."""
     require_loaded_and_unloaded(factors, "IDIM-TLS")
     log.info("IDIM-TLS on %d equations × %d unknowns", sum(f.n_rows for f in factors),
-             factors[0].n_b + 4)
+             factors[0].n_b + model.n_joints + 1)
     m, base = tls_model(factors, model, opts)
     sol = m.full
     if opts.check_excitation:
-        check_excitation(sol, opts.limits(), m.names)
+        check_excitation(sol, opts.limits(model.nominal_gains), m.names, model.joint_names)
     view, ripples, lags = m.view(sol)
     result = tls_result(model, view, factors, opts, bags)
-    _uncertainty(result, base, opts, gains=True)
-    _drive_notes(result, ripples, lags, m.terms)
+    _uncertainty(result, base, model, opts, gains=True)
+    _drive_notes(result, ripples, lags, m.terms, model.joint_names)
     solver = {"tls_noisy_columns": opts.tls_noisy_columns, "singular_ratio": sol.singular_ratio,
               "smallest_singular_values": [float(x) for x in sol.singular_values[-3:]],
               "joint_sigma": [float(x) for x in sol.joint_sigma], "lambda": sol.lambda_scale}
@@ -254,7 +263,7 @@ def solve_tls(factors: list[RecordFactors], model, opts: IdentifyOptions, essent
     if essential:
         t0 = time.perf_counter()
         log.info("essential parameters (%s, r_sigma = %g)", opts.essential_method, opts.r_sigma)
-        ess = _essential(m, opts, [f"g_tau {j}" for j in JOINT_NAMES])
+        ess = _essential(m, opts, [f"g_tau {j}" for j in model.joint_names])
         ess_view, ess_ripples, ess_lags = m.view(ess.solution)
         result.essential = tls_result(model, ess_view, factors, opts, bags)
         result.essential.ripple = [r.to_json() for r in ess_ripples]
@@ -278,22 +287,25 @@ def _essential(m: _Model, opts: IdentifyOptions, protected_names: list[str]) -> 
                                 protected_names=protected_names, fixed=m.fixed)
 
 
-def manufacturer_or_given(gains: Sequence[float] | None) -> np.ndarray:
-    """Drive gains for WLS: the given ones (N/A) or the manufacturer's 637π."""
-    g = np.full(3, G_TAU_MANUFACTURER) if gains is None else np.asarray(gains, dtype=float)
-    if g.shape != (3,) or not np.all(np.isfinite(g)) or np.any(g <= 0):
+def manufacturer_or_given(gains: Sequence[float] | None, model) -> np.ndarray:
+    """Drive gains for WLS: the given ones (N/A, N·m/A) or the robot's nominal (manufacturer's)
+    gains (the Orthoglide's 637π)."""
+    n_j = model.n_joints
+    g = np.asarray(model.nominal_gains if gains is None else gains, dtype=float)
+    if g.shape != (n_j,) or not np.all(np.isfinite(g)) or np.any(g <= 0):
         raise IdentificationError(
-            f"drive gains must be three positive numbers in N/A, not {gains}")
+            f"drive gains must be {n_j} positive numbers ({', '.join(model.joint_names)}), "
+            f"not {gains}")
     if gains is None:
-        log.info("IDIM-WLS with the manufacturer's drive gains 637π = %.1f N/A "
-                 "(give --gains to use identified ones)", G_TAU_MANUFACTURER)
+        log.info("IDIM-WLS with the manufacturer's drive gains %s (give --gains to use "
+                 "identified ones)", ", ".join(f"{x:.1f}" for x in g))
     return g
 
 
 def solve_wls(factors: list[RecordFactors], model, opts: IdentifyOptions,
               gains: Sequence[float] | None, essential: bool, bags: list[str]) -> Solved:
     """IDIM-WLS (eqs. 24-28) with given gains, payload masses estimated."""
-    g = manufacturer_or_given(gains)
+    g = manufacturer_or_given(gains, model)
     log.info("IDIM-WLS on %d equations", sum(f.n_rows for f in factors))
     base = idim_wls(factors, g, weighting=opts.weighting)
 
@@ -305,8 +317,8 @@ def solve_wls(factors: list[RecordFactors], model, opts: IdentifyOptions,
     m = _set_up(factors, model, opts, base, make_solver, g)
     view, ripples, lags = m.view(m.full)
     result = wls_result(model, view, g, factors, bags)
-    _uncertainty(result, base, opts, gains=False)
-    _drive_notes(result, ripples, lags, m.terms)
+    _uncertainty(result, base, model, opts, gains=False)
+    _drive_notes(result, ripples, lags, m.terms, model.joint_names)
     out = Solved(result, _chi(m, m.full), g,
                  {"joint_sigma": [float(x) for x in view.joint_sigma]})
     if essential:
@@ -340,7 +352,7 @@ def solve(factors: list[RecordFactors], model, opts: IdentifyOptions, method: st
         raise IdentificationError(f"unknown method {method!r}: use tls or wls")
     if not factors:
         raise IdentificationError("no bag given")
-    check_rows(factors, opts)
+    check_rows(factors, model, opts)
     if method == "tls":
         return solve_tls(factors, model, opts, essential, list(bags))
     return solve_wls(factors, model, opts, gains, essential, list(bags))

@@ -1,4 +1,4 @@
-"""One continuous segment processed block by block into decimated equations (DESIGN §6.2-3).
+"""One continuous segment processed block by block into decimated equations (docs/architecture.md §6.2-3).
 
 The offline pipeline (a whole segment at once, pushed in chunks to bound memory) and the live
 identification (1 kHz samples pushed about once a second) both run a segment through a
@@ -8,7 +8,7 @@ identification (1 kHz samples pushed about once a second) both run a segment thr
   is computed only once :func:`~filtering.filter_horizon` samples after it have arrived (or the
   segment has ended), from a window with that much context on both sides; the segment-end edge
   trim happens only when the segment really ends;
-- W and W_kl at the state instants, written once into a buffer ``X: (n_b + 2, 3, samples)`` —
+- W and W_kl at the state instants, written once into a buffer ``X: (n_b + 2, n_j, samples)`` —
   columns [W | W_kl | v_tau], joints, time — that holds only what is still needed;
 - velocity reversals (reversals.py): a :class:`~reversals.ReversalTracker` decides the same
   bridges and dropped runs as ``find_reversals`` on the whole segment; bridges are applied in
@@ -34,11 +34,11 @@ from orthoglide_ident.identify.reversals import ANCHOR, ReversalTracker, bridge_
 class DecimatedRows:
     """Decimated equations of a stretch of a segment, joint by joint (eq. 20).
 
-    ``X: (n_b + 2, 3, r)``: for joint j and decimated sample i, ``X[:n_b, j, i]`` is the row of
-    W, ``X[n_b, j, i]`` the payload-mass column W_kl (N/kg) and ``X[n_b + 1, j, i]`` v_tau (A).
-    ``keep: (3, r)`` bool (rows away from unbridged reversals) or None; ``t: (r,)`` s since the
-    record's first stamp (state instants); ``q, qd: (r, 3)`` the filtered positions (m) and
-    velocities (m/s) at those instants (the residual's position spectrum and the ripple columns
+    ``X: (n_b + 2, n_j, r)``: for joint j and decimated sample i, ``X[:n_b, j, i]`` is the row
+    of W, ``X[n_b, j, i]`` the payload column W_kl (per kg) and ``X[n_b + 1, j, i]`` v_tau (A).
+    ``keep: (n_j, r)`` bool (rows away from unbridged reversals) or None; ``t: (r,)`` s since the
+    record's first stamp (state instants); ``q, qd: (r, n_j)`` the filtered positions (m or rad)
+    and velocities at those instants (the residual's position spectrum and the ripple columns
     of identify/drive_terms.py), or None.
     """
 
@@ -65,39 +65,34 @@ class DecimatedRows:
         return r1
 
     @staticmethod
-    def empty(n_cols: int, with_keep: bool) -> "DecimatedRows":
-        return DecimatedRows(np.zeros((n_cols, 3, 0)), np.zeros((3, 0), bool) if with_keep
-                             else None, np.zeros(0), np.zeros((0, 3)), np.zeros((0, 3)))
+    def empty(n_cols: int, n_j: int, with_keep: bool) -> "DecimatedRows":
+        return DecimatedRows(np.zeros((n_cols, n_j, 0)), np.zeros((n_j, 0), bool) if with_keep
+                             else None, np.zeros(0), np.zeros((0, n_j)), np.zeros((0, n_j)))
 
 
 def model_block(model, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray,
                 out: np.ndarray) -> None:
-    """Write [W | W_kl] of states (m, 3) into ``out: (n_b + 1, 3, m)``."""
-    if hasattr(model, "observation_block"):
-        model.observation_block(q, qd, qdd, out=out)
-        return
-    m = q.shape[0]
-    W = model.regressor(q, qd, qdd)  # (3 m, n_b), rows joint by joint
-    out[:-1] = W.T.reshape(W.shape[1], 3, m)
-    out[-1] = np.asarray(model.payload_mass_column(q, qd, qdd)).reshape(3, m)
+    """Write [W | W_kl] of states (m, n_j) into ``out: (n_b + 1, n_j, m)``."""
+    model.observation_block(q, qd, qdd, out=out)
 
 
 def lag_rows(model, block: np.ndarray, currents: np.ndarray) -> np.ndarray:
-    """v_τ of ``currents`` (m, 3), or (m, 6) = [v_τ | lag instrument] for a model with lag
-    columns (drive_terms.DriveTermsModel), whose instrument goes into ``block``'s (n_b + 1, 3, m)
-    lag rows, joint j's in its own rows; v_τ returned."""
+    """v_τ of ``currents`` (m, n_j), or (m, 2 n_j) = [v_τ | lag instrument] for a model with
+    lag columns (drive_terms.DriveTermsModel), whose instrument goes into ``block``'s
+    (n_b + 1, n_j, m) lag rows, joint j's in its own rows; v_τ returned."""
     col = getattr(model, "lag_column", None)
-    if col is not None and currents.shape[1] == 6:
-        for j in range(3):
-            block[col + j, j] = currents[:, 3 + j]
-    return currents[:, :3]
+    n_j = block.shape[1]
+    if col is not None and currents.shape[1] == 2 * n_j:
+        for j in range(n_j):
+            block[col + j, j] = currents[:, n_j + j]
+    return currents[:, :n_j]
 
 
 class SegmentStream:
     """Samples of one continuous segment in, its decimated equations out, block by block.
 
-    ``push(stamps_ns, q, v_tau)`` appends consecutive ticks (q m, v_tau A, both (m, 3); v_tau
-    (m, 6) with the lag instrument beside it, :func:`lag_rows`) and returns the rows that became
+    ``push(stamps_ns, q, v_tau)`` appends consecutive ticks (q m or rad, v_tau A, both (m, n_j);
+    v_tau (m, 2 n_j) with the lag instrument beside it, :func:`lag_rows`) and returns the rows that became
     final; ``finish()`` ends the segment (edge trim, last rows).
     Offline, ``push_states`` takes the states of the whole segment filtered at once instead
     (one FFT per segment, as before block processing existed). Either way the concatenation of
@@ -110,6 +105,7 @@ class SegmentStream:
             raise DataError("block-by-block processing needs decimation_filter: fir (cheby1's "
                             "IIR depends on the whole segment)")
         self.model, self.opts, self.T, self.t0_ns, self.n_b = model, opts, period_s, t0_ns, n_b
+        self.n_j = n_j = model.n_joints
         self.zoh = 1 if opts.zoh_shift else 0
         self.trim = int(round(opts.edge_trim_s / period_s))
         self.M = filter_horizon(period_s, opts.filter_cutoff_hz, opts.filter_order)
@@ -120,22 +116,22 @@ class SegmentStream:
             self.tracker = ReversalTracker(
                 opts.velocity_deadband_mps,
                 max(1, int(round(opts.reversal_max_bridge_s / period_s))),
-                int(round(opts.reversal_margin_s / period_s)))
-        self.pending: list[list] = [[], [], []]  # decisions waiting for their anchors
+                int(round(opts.reversal_margin_s / period_s)), n_j)
+        self.pending: list[list] = [[] for _ in range(n_j)]  # decisions waiting for anchors
         self.n_raw = 0  # ticks received
         self.n_states: int | None = None  # known once the segment has ended
         self.n_bridged = self.n_unbridged = 0  # joint samples (SegmentReport)
-        self.last_qd = np.zeros((0, 3))  # q̂̇ of the states computed by the last call (m/s)
+        self.last_qd = np.zeros((0, n_j))  # q̂̇ of the states computed by the last call
         self._raw0 = 0  # tick index of the first raw sample held
         self._st = np.zeros(0, np.int64)
-        self._q = np.zeros((0, 3))
-        self._v = np.zeros((0, 3))
+        self._q = np.zeros((0, n_j))
+        self._v = np.zeros((0, n_j))
         self._b0 = 0  # state index of buffer column 0
         self._S = 0  # states computed
-        self._X = np.zeros((n_b + 2, 3, 0))
-        self._drop = np.zeros((3, 0), bool)
+        self._X = np.zeros((n_b + 2, n_j, 0))
+        self._drop = np.zeros((n_j, 0), bool)
         self._ts = np.zeros(0, np.int64)
-        self._qs = np.zeros((0, 6))  # q̂, q̂̇ of the states (m, m/s): the rows' positions
+        self._qs = np.zeros((0, 2 * n_j))  # q̂, q̂̇ of the states: the rows' positions
         self._i_out = 0  # next decimated output
         self.times = {"filtering": 0.0, "regressor": 0.0, "decimation": 0.0}  # s, wall clock
 
@@ -146,7 +142,7 @@ class SegmentStream:
         self._q = np.concatenate([self._q, np.asarray(q, float)])
         v = np.asarray(v_tau, float)
         self._v = np.concatenate([self._v.reshape(-1, v.shape[1]) if self._v.size == 0 else
-                                  self._v, v])  # (m, 3), or (m, 6) with the lag instrument
+                                  self._v, v])  # (m, n_j), or (m, 2 n_j) with the instrument
         self.n_raw += int(np.shape(stamps_ns)[0])
         return self._advance(self._filter_new())
 
@@ -174,7 +170,7 @@ class SegmentStream:
     def _advance(self, qd: np.ndarray | None) -> DecimatedRows:
         """Reversals, bridges, decimation and buffer upkeep after new states (q̂̇ ``qd``)."""
         t0 = time.perf_counter()
-        self.last_qd = np.zeros((0, 3)) if qd is None else qd
+        self.last_qd = np.zeros((0, self.n_j)) if qd is None else qd
         if self.tracker is not None:
             self.tracker.update(qd, self.n_states)
             self._apply_decisions()
@@ -225,8 +221,8 @@ class SegmentStream:
         model_block(self.model, q, qd, qdd, block)
         X[self.n_b + 1, :, pos:pos + m] = lag_rows(self.model, block, np.asarray(v_tau)).T
         self._ts[pos:pos + m] = stamps_ns
-        self._qs[pos:pos + m, :3] = q
-        self._qs[pos:pos + m, 3:] = qd
+        self._qs[pos:pos + m, :self.n_j] = q
+        self._qs[pos:pos + m, self.n_j:] = qd
         self._drop[:, pos:pos + m] = False
         self._S += m
         self.times["regressor"] += time.perf_counter() - t0
@@ -236,13 +232,13 @@ class SegmentStream:
         used = self._S - self._b0
         if used + m > self._X.shape[2]:
             cap = used + m + max(1024, (used + m) // 8)
-            X = np.empty((self._X.shape[0], 3, cap))
+            X = np.empty((self._X.shape[0], self.n_j, cap))
             X[:, :, :used] = self._X[:, :, :used]
-            drop = np.zeros((3, cap), bool)
+            drop = np.zeros((self.n_j, cap), bool)
             drop[:, :used] = self._drop[:, :used]
             ts = np.zeros(cap, np.int64)
             ts[:used] = self._ts[:used]
-            qs = np.zeros((cap, 6))
+            qs = np.zeros((cap, 2 * self.n_j))
             qs[:used] = self._qs[:used]
             self._X, self._drop, self._ts, self._qs = X, drop, ts, qs
         return self._X, used
@@ -251,7 +247,7 @@ class SegmentStream:
         """Forget states no later bridge or decimation window can reach."""
         keep = self._S
         if self.tracker is not None:
-            for j in range(3):
+            for j in range(self.n_j):
                 keep = min(keep, self._final(j) - ANCHOR)
         keep = min(keep, self._i_out * self.n_d)
         k = keep - self._b0
@@ -279,7 +275,7 @@ class SegmentStream:
             self.pending[d.j].append(d)
         self.tracker.decisions.clear()
         n = self.n_states
-        for j in range(3):
+        for j in range(self.n_j):
             queue = self.pending[j]
             while queue:
                 d = queue[0]
@@ -310,7 +306,7 @@ class SegmentStream:
         """States whose values (bridges) and drop flags are final."""
         end = self._S
         if self.tracker is not None:
-            for j in range(3):
+            for j in range(self.n_j):
                 end = min(end, self._final(j))
         return end
 
@@ -320,14 +316,14 @@ class SegmentStream:
         r = (end - L) // n_d + 1 - self._i_out if end >= L else 0
         with_keep = self.tracker is not None
         if r <= 0:
-            return DecimatedRows.empty(self.n_b + 2, with_keep)
+            return DecimatedRows.empty(self.n_b + 2, self.n_j, with_keep)
         a = self._i_out * n_d - b0
         b = a + (r - 1) * n_d + L
         x = self._X[:, :, a:b]
         Xd = x[:, :, ::n_d].copy() if n_d == 1 else fir_decimate_last(x, n_d, r)
         keep = None
         if with_keep:
-            cs = np.concatenate([np.zeros((3, 1), np.int64),
+            cs = np.concatenate([np.zeros((self.n_j, 1), np.int64),
                                  np.cumsum(self._drop[:, a:b], axis=1, dtype=np.int64)], axis=1)
             start = np.arange(r) * n_d
             keep = (cs[:, start + L] - cs[:, start]) == 0
@@ -335,4 +331,4 @@ class SegmentStream:
         t = (self._ts[centre] - self.t0_ns) * 1e-9 + (0.5 * self.T if self.zoh else 0.0)
         self._i_out += r
         qs = self._qs[centre]
-        return DecimatedRows(Xd, keep, t, qs[:, :3], qs[:, 3:])
+        return DecimatedRows(Xd, keep, t, qs[:, :self.n_j], qs[:, self.n_j:])

@@ -35,14 +35,15 @@ class ExcitationLimits:
     max_condition: float = 1.0e7  # of the column-scaled regressor W
     max_singular_ratio: float = 0.5  # s_c / s_(c-1) of W_tot
     max_gain_rel_std: float = 0.05  # fraction
-    gain_range: tuple[float, float] = (200.0, 20000.0)  # N/A, plausible drive gains
+    # plausible drive gains per joint (N/A or N·m/A): (lowest, highest) arrays or numbers
+    gain_range: tuple = (200.0, 20000.0)
 
 
 @dataclass
 class TLSSolution:
     """Result of one IDIM-TLS solve over the active base parameters.
 
-    ``chi (n,)`` active base parameters, ``g_tau (3,)`` N/A; ``cov`` over ``[chi, g_tau]``: the
+    ``chi (n,)`` active base parameters, ``g_tau (n_j,)`` N/A or N·m/A; ``cov`` over ``[chi, g_tau]``: the
     honest covariance (uncertainty.py: the largest of eq. 39, the stationary-correlation and the
     block sandwich), ``cov_paper`` that of eq. (39); ``rel_std`` = σ/|value| as a fraction (honest),
     ``rel_std_paper`` the paper's; residuals in N.
@@ -56,8 +57,8 @@ class TLSSolution:
     rel_std: np.ndarray
     sigma_w: float  # eq. (38), weighted units
     singular_values: np.ndarray  # of weighted W_tot, decreasing
-    joint_sigma: np.ndarray  # (3,) σ_j used as row weights, N
-    residual_rms: np.ndarray  # (3,) rms of ρ per joint, N
+    joint_sigma: np.ndarray  # (n_j,) σ_j used as row weights, N or N·m
+    residual_rms: np.ndarray  # (n_j,) rms of ρ per joint, N or N·m
     condition_number: float  # column-scaled regressor (weighted rows)
     n_rows: int
     n_cols: int
@@ -65,7 +66,7 @@ class TLSSolution:
     cov_paper: np.ndarray | None = None  # eq. (39)
     rel_std_paper: np.ndarray | None = None
     uncertainty: Uncertainty | None = None
-    rows_per_joint: np.ndarray | None = None  # (3,) equations
+    rows_per_joint: np.ndarray | None = None  # (n_j,) equations
 
     @property
     def singular_ratio(self) -> float:
@@ -100,10 +101,10 @@ def require_loaded_and_unloaded(blocks: list[Observations | RecordFactors], what
             )
 
 
-def tls_columns(b: RecordFactors, j: int, n_joints: int = 3) -> np.ndarray:
-    """T with [W | W_kl | v_τ]·T = joint j's rows of W_tot (eq. 33): (n_b + 2, n_b + 4)."""
+def tls_columns(b: RecordFactors, j: int) -> np.ndarray:
+    """T with [W | W_kl | v_τ]·T = joint j's rows of W_tot (eq. 33): (n_b + 2, n_b + n_j + 1)."""
     n_b = b.n_b
-    T = np.zeros((n_b + 2, n_b + n_joints + 1))
+    T = np.zeros((n_b + 2, n_b + b.n_joints + 1))
     T[np.arange(n_b), np.arange(n_b)] = -1.0  # -W
     T[n_b + 1, n_b + j] = 1.0  # v_τ in the column of g_τ,j
     if b.loaded:
@@ -121,19 +122,19 @@ class TLSProblem:
     """
 
     def __init__(self, blocks: list[Observations | RecordFactors], weighting: bool = True,
-                 n_joints: int = 3, noisy_columns: str = "all"):
+                 noisy_columns: str = "all"):
         if noisy_columns not in ("all", "currents"):
             raise IdentificationError(
                 f"noisy_columns must be 'all' or 'currents', not {noisy_columns!r}")
         self.noisy_columns = noisy_columns
         self.blocks = as_factors(blocks)
-        self.n_joints = n_joints
+        self.n_joints = n_joints = self.blocks[0].n_joints
         self.n_b = self.blocks[0].n_b
         self.R_joint: list[np.ndarray] = []
         self.rows_joint = np.zeros(n_joints, dtype=int)
         for j in range(n_joints):
             # R of joint j's rows of W_tot from each record's R of [W | W_kl | v_τ]
-            Rs = [b.joint_r(j, tls_columns(b, j, n_joints)) for b in self.blocks]
+            Rs = [b.joint_r(j, tls_columns(b, j)) for b in self.blocks]
             self.rows_joint[j] = sum(int(b.rows[j]) for b in self.blocks)
             self.R_joint.append(np.linalg.qr(np.vstack(Rs), mode="r"))
             if self.rows_joint[j] == 0:
@@ -278,7 +279,7 @@ class TLSProblem:
                 "Ŵ_tot is singular: some base parameter has no effect on the recorded forces"
             ) from exc
         cov_paper = sigma_rho2 * G_inv  # eq. (39): σ_W² (1 + ‖χ̂‖²) (Ŵᵀ Ŵ)⁻¹
-        unc = evaluate(self.blocks, lambda b, j: tls_columns(b, j, self.n_joints)[:, cols],
+        unc = evaluate(self.blocks, lambda b, j: tls_columns(b, j)[:, cols],
                        chi_tot, self.joint_sigma, G_inv, cov_paper, r)
         cov = unc.cov
         std = np.sqrt(np.abs(np.diag(cov)))
@@ -327,18 +328,20 @@ def idim_tls(blocks: list[Observations | RecordFactors], weighting: bool = True,
     return TLSProblem(blocks, weighting, noisy_columns=noisy_columns).solve(active)
 
 
-def check_excitation(sol: TLSSolution, limits: ExcitationLimits, names: list[str] | None = None,
-                     joint_names: tuple[str, ...] = ("q11", "q12", "q13")) -> None:
+def check_excitation(sol: TLSSolution, limits: ExcitationLimits, names: list[str] | None,
+                     joint_names: tuple[str, ...]) -> None:
     """Raise :class:`ExcitationError` (one-line reason) when the TLS answer is not the gains."""
     g = sol.g_tau
-    lo, hi = limits.gain_range
+    lo, hi = (np.broadcast_to(np.asarray(x, float), g.shape) for x in limits.gain_range)
     n = sol.chi.shape[0]
-    if np.any(g <= 0) or np.any(g < lo) or np.any(g > hi):
-        txt = ", ".join(f"{j} {v:.4g}" for j, v in zip(joint_names, g))
+    bad = (g <= 0) | (g < lo) | (g > hi)
+    if np.any(bad):
+        j = int(np.argmax(bad))
+        txt = ", ".join(f"{name} {v:.4g}" for name, v in zip(joint_names, g))
         raise ExcitationError(
-            f"identified drive gains ({txt} N/A) are implausible (expected {lo:g}-{hi:g} N/A): the "
-            "smallest singular vector of W_tot is a near-null regressor direction, not the gains; "
-            "record faster, more exciting trajectories"
+            f"identified drive gains ({txt}) are implausible ({joint_names[j]} expected "
+            f"{lo[j]:.4g}-{hi[j]:.4g}): the smallest singular vector of W_tot is a near-null "
+            "regressor direction, not the gains; record faster, more exciting trajectories"
         )
     if sol.singular_ratio > limits.max_singular_ratio:
         raise ExcitationError(

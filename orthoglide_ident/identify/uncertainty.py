@@ -38,7 +38,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from functools import lru_cache
-from typing import Callable, Iterable
+from typing import Callable, Iterable, Sequence
 
 import numpy as np
 
@@ -56,41 +56,46 @@ CONTINUITY_TOL = 0.25  # of the row period: consecutive rows of one segment
 class ResidualMoments:
     """What one record's decimated rows leave for the σ and the diagnostics (see module doc).
 
-    ``n_c`` columns per row ([W | W_kl | v_tau]); ``blocks``: block index → (3, n_c, n_c) Gram of
-    the kept rows of each joint in [index·block_s, (index+1)·block_s); ``lagged: (3, LAGS, n_c,
+    ``n_c`` columns per row ([W | W_kl | v_tau]); ``blocks``: block index → (n_j, n_c, n_c) Gram of
+    the kept rows of each joint in [index·block_s, (index+1)·block_s); ``lagged: (n_j, LAGS, n_c,
     n_c)`` Σ z_k z_(k+L)ᵀ over rows L apart in one segment (z = 0 where a row is left out);
-    ``pairs: (3, LAGS + 1)`` rows (L = 0) and pairs of kept rows; ``spectrum: (3, 2, n_λ, n_c)``
-    Σ z_k w_k exp(-2πi q_k/λ) with w = (H, sign(q̇) H); ``ripple_s0: (3, 2, n_λ)`` Σ w_k² and
-    ``ripple_s2: (3, 2, n_λ)`` Σ w_k² exp(-4πi q_k/λ) over kept rows; ``spectrum_rows: (3,)``.
+    ``pairs: (n_j, LAGS + 1)`` rows (L = 0) and pairs of kept rows; ``spectrum: (n_j, 2, n_λ, n_c)``
+    Σ z_k w_k exp(-2πi q_k/λ) with w = (H, sign(q̇) H); ``ripple_s0: (n_j, 2, n_λ)`` Σ w_k² and
+    ``ripple_s2: (n_j, 2, n_λ)`` Σ w_k² exp(-4πi q_k/λ) over kept rows; ``spectrum_rows: (n_j,)``.
     ``decimation``: n_d of the rows (for H), ``row_period_s`` = n_d x the tick period.
     """
 
     n_c: int
+    n_j: int  # actuated joints
     row_period_s: float | None = None
     decimation: int = 1
     block_s: float = 0.0  # s, current block length (0: BLOCK_S)
     blocks: dict[int, np.ndarray] = field(default_factory=dict)
-    block_rows: dict[int, np.ndarray] = field(default_factory=dict)  # (3,) kept rows per joint
+    block_rows: dict[int, np.ndarray] = field(default_factory=dict)  # (n_j,) kept rows per joint
     lagged: np.ndarray | None = None
-    pairs: np.ndarray = field(default_factory=lambda: np.zeros((3, LAGS + 1), dtype=np.int64))
+    pairs: np.ndarray | None = None
     spectrum: np.ndarray | None = None
     ripple_s0: np.ndarray | None = None
     ripple_s2: np.ndarray | None = None
-    spectrum_rows: np.ndarray = field(default_factory=lambda: np.zeros(3, dtype=np.int64))
-    _tail: tuple | None = None  # last LAGS rows: (Z (3, m, n_c), t (m,))
+    spectrum_rows: np.ndarray | None = None
+    _tail: tuple | None = None  # last LAGS rows: (Z (n_j, m, n_c), t (m,))
 
     def __post_init__(self) -> None:
+        n_j, n_l = self.n_j, WAVELENGTHS_M.shape[0]
         if self.lagged is None:
-            self.lagged = np.zeros((3, LAGS, self.n_c, self.n_c))
+            self.lagged = np.zeros((n_j, LAGS, self.n_c, self.n_c))
+        if self.pairs is None:
+            self.pairs = np.zeros((n_j, LAGS + 1), dtype=np.int64)
         if self.block_s <= 0:
             self.block_s = BLOCK_S
-        n_l = WAVELENGTHS_M.shape[0]
         if self.spectrum is None:
-            self.spectrum = np.zeros((3, 2, n_l, self.n_c), dtype=complex)
+            self.spectrum = np.zeros((n_j, 2, n_l, self.n_c), dtype=complex)
         if self.ripple_s0 is None:
-            self.ripple_s0 = np.zeros((3, 2, n_l))
+            self.ripple_s0 = np.zeros((n_j, 2, n_l))
         if self.ripple_s2 is None:
-            self.ripple_s2 = np.zeros((3, 2, n_l), dtype=complex)
+            self.ripple_s2 = np.zeros((n_j, 2, n_l), dtype=complex)
+        if self.spectrum_rows is None:
+            self.spectrum_rows = np.zeros(n_j, dtype=np.int64)
 
     @property
     def n_blocks(self) -> int:
@@ -102,7 +107,7 @@ class ResidualMoments:
         tail = None if self._tail is None else (self._tail[0][:, :, keep], self._tail[1],
                                                 self._tail[2])
         return ResidualMoments(
-            len(keep), self.row_period_s, self.decimation, self.block_s,
+            len(keep), self.n_j, self.row_period_s, self.decimation, self.block_s,
             {b: g[(slice(None),) + ix] for b, g in self.blocks.items()},
             {b: r.copy() for b, r in self.block_rows.items()},
             self.lagged[(slice(None), slice(None)) + ix], self.pairs.copy(),
@@ -111,15 +116,15 @@ class ResidualMoments:
 
     def fold(self, X: np.ndarray, keep: np.ndarray | None, t: np.ndarray,
              q: np.ndarray | None = None, qd: np.ndarray | None = None) -> None:
-        """Fold decimated rows ``X: (n_c, 3, r)`` at instants ``t: (r,)`` s (in time order,
-        after the rows already folded), ``keep: (3, r)`` or None, positions/velocities (r, 3)."""
+        """Fold decimated rows ``X: (n_c, n_j, r)`` at instants ``t: (r,)`` s (in time order,
+        after the rows already folded), ``keep: (n_j, r)`` or None, positions/velocities (r, n_j)."""
         r = X.shape[2]
         if r == 0:
             return
-        Z = np.ascontiguousarray(X.transpose(1, 2, 0))  # (3, r, n_c)
+        Z = np.ascontiguousarray(X.transpose(1, 2, 0))  # (n_j, r, n_c)
         if keep is not None:
             Z = Z * keep[:, :, None]
-        kept = np.ones((3, r), bool) if keep is None else np.asarray(keep, bool)
+        kept = np.ones((self.n_j, r), bool) if keep is None else np.asarray(keep, bool)
         self._fold_blocks(Z, kept, t)
         self._fold_lagged(Z, kept, t)
         if q is not None and qd is not None:
@@ -130,7 +135,7 @@ class ResidualMoments:
         cuts = np.flatnonzero(np.diff(idx)) + 1
         for a, b in zip(np.concatenate([[0], cuts]), np.concatenate([cuts, [idx.shape[0]]])):
             Zb = Z[:, a:b]
-            G = Zb.transpose(0, 2, 1) @ Zb  # (3, n_c, n_c) Gram per joint, batched BLAS
+            G = Zb.transpose(0, 2, 1) @ Zb  # (n_j, n_c, n_c) Gram per joint, batched BLAS
             n = kept[:, a:b].sum(axis=1)
             key = int(idx[a])
             if key in self.blocks:
@@ -168,7 +173,7 @@ class ResidualMoments:
                 if i0 + L >= m:
                     continue
                 same = run[i0:m - L] == run[i0 + L:m]
-                for j in range(3):
+                for j in range(self.n_j):
                     Z1 = Z[j, i0:m - L] * same[:, None]
                     self.lagged[j, L - 1] += Z1.T @ Z[j, i0 + L:m]
                     self.pairs[j, L] += int(np.sum(same & kept[j, i0:m - L] & kept[j, i0 + L:m]))
@@ -179,7 +184,7 @@ class ResidualMoments:
                        ) -> None:
         k = 2.0 * np.pi / WAVELENGTHS_M
         tick = None if self.row_period_s is None else self.row_period_s / max(self.decimation, 1)
-        for j in range(3):
+        for j in range(self.n_j):
             phase = np.outer(q[:, j], k)  # (r, n_λ)
             H = fir_gain(np.abs(qd[:, j])[:, None] / WAVELENGTHS_M[None, :], self.decimation, tick)
             H *= kept[j][:, None]
@@ -259,10 +264,10 @@ class Uncertainty:
     var_block: np.ndarray
     n_blocks: int
     block_s: float
-    autocorrelation: np.ndarray  # (3, LAGS + 1), lag 0 = 1
-    rows: np.ndarray  # (3,) rows with a residual (kept)
-    spectrum: np.ndarray | None = None  # (3, 2, n_λ) amplitude (N) vs wavelength (1, sign q̇)
-    spectrum_floor: np.ndarray | None = None  # (3, 2, n_λ) N, what a white residual would give
+    autocorrelation: np.ndarray  # (n_j, LAGS + 1), lag 0 = 1
+    rows: np.ndarray  # (n_j,) rows with a residual (kept)
+    spectrum: np.ndarray | None = None  # (n_j, 2, n_λ) amplitude (N) vs wavelength (1, sign q̇)
+    spectrum_floor: np.ndarray | None = None  # (n_j, 2, n_λ) N, what a white residual would give
     notes: list[str] = field(default_factory=list)
 
 
@@ -270,17 +275,20 @@ class Uncertainty:
 class _Folded:
     """Sums over records and joints of what ``evaluate`` needs, for one solution z."""
 
+    n_j: int  # actuated joints
     scores: dict = field(default_factory=dict)  # (record, block) → block score s_b
     score_rows: dict = field(default_factory=dict)  # (record, block) → rows in it
-    ac_num: np.ndarray = field(default_factory=lambda: np.zeros((3, LAGS + 1)))  # Σ ρ_k ρ_(k+L)
-    pairs: np.ndarray = field(default_factory=lambda: np.zeros((3, LAGS + 1)))
     lag_terms: list = field(default_factory=list)  # (j, L, Tcᵀ C_L Tc)
-    spec: np.ndarray | None = None  # (3, 2, n_λ) complex
+    spec: np.ndarray | None = None  # (n_j, 2, n_λ) complex
     spec_s0: np.ndarray | None = None
-    ss: np.ndarray = field(default_factory=lambda: np.zeros(3))  # Σ ρ² per joint
-    rows: np.ndarray = field(default_factory=lambda: np.zeros(3))
     have_moments: bool = False
     block_s: float = BLOCK_S
+
+    def __post_init__(self) -> None:
+        self.ac_num = np.zeros((self.n_j, LAGS + 1))  # Σ ρ_k ρ_(k+L)
+        self.pairs = np.zeros((self.n_j, LAGS + 1))
+        self.ss = np.zeros(self.n_j)  # Σ ρ² per joint
+        self.rows = np.zeros(self.n_j)
 
     def add(self, rec: int, mom: ResidualMoments, j: int, v: np.ndarray, Tc: np.ndarray,
             w2j: float) -> None:
@@ -301,17 +309,17 @@ class _Folded:
             self.lag_terms.append((j, L, Tc.T @ C @ Tc))
         if mom.spectrum_rows[j]:
             if self.spec is None:
-                self.spec = np.zeros((3, 2, WAVELENGTHS_M.shape[0]), dtype=complex)
-                self.spec_s0 = np.zeros((3, 2, WAVELENGTHS_M.shape[0]))
+                self.spec = np.zeros((self.n_j, 2, WAVELENGTHS_M.shape[0]), dtype=complex)
+                self.spec_s0 = np.zeros((self.n_j, 2, WAVELENGTHS_M.shape[0]))
             self.spec[j] += mom.spectrum[j] @ v
             self.spec_s0[j] += mom.ripple_s0[j]
 
 
 def _fold(factors: list, layout: LayoutFn, z: np.ndarray, w2: np.ndarray, c: int) -> _Folded:
-    acc = _Folded()
+    acc = _Folded(len(factors[0].R))
     for fi, f in enumerate(factors):
         moments = getattr(f, "moments", {}) or {}
-        for j in range(3):
+        for j in range(acc.n_j):
             T = layout(f, j)
             v = T @ z
             Rv = f.R[j] @ v
@@ -325,7 +333,7 @@ def _fold(factors: list, layout: LayoutFn, z: np.ndarray, w2: np.ndarray, c: int
 def _autocovariance(acc: _Folded, n_rows: int, c: int) -> np.ndarray:
     """γ_j(L), N², L = 0..LAGS; lag 0 from the R factors (all kept rows, dof-corrected)."""
     p = max(n_rows, 1)
-    gamma = np.zeros((3, LAGS + 1))
+    gamma = np.zeros((acc.n_j, LAGS + 1))
     gamma[:, 0] = acc.ss / np.maximum(acc.rows - c * acc.rows / p, 1.0)
     gamma[:, 1:] = np.where(acc.pairs[:, 1:] > 0,
                             acc.ac_num[:, 1:] / np.maximum(acc.pairs[:, 1:], 1), 0.0)
@@ -371,7 +379,7 @@ def evaluate(factors: Iterable, layout: LayoutFn, z: np.ndarray, joint_sigma: np
     var_paper = np.diag(cov_paper).copy()
     out = Uncertainty(cov=cov_paper.copy(), cov_paper=cov_paper, var_stationary=var_paper.copy(),
                       var_block=np.zeros(c), n_blocks=0, block_s=acc.block_s,
-                      autocorrelation=np.zeros((3, LAGS + 1)), rows=acc.rows.copy())
+                      autocorrelation=np.zeros((acc.n_j, LAGS + 1)), rows=acc.rows.copy())
     out.autocorrelation[:, 0] = 1.0
     if not acc.have_moments:
         out.notes.append("no row instants: σ by eqs. (38)-(39) only")
@@ -423,12 +431,18 @@ class SpectrumPeak:
                 "kind": "friction (sign of velocity)" if self.sign_modulated else "force"}
 
 
-def spectrum_peaks(unc: Uncertainty, joint_names: tuple[str, ...]) -> list[SpectrumPeak]:
-    """The strongest position-periodic component of each joint's residual, when it stands out."""
+def spectrum_peaks(unc: Uncertainty, joint_names: tuple[str, ...],
+                   screws: Sequence[bool] | None = None) -> list[SpectrumPeak]:
+    """The strongest position-periodic component of each joint's residual, when it stands out.
+
+    ``screws``: per joint, whether to look (a prismatic joint's ball screw; the wavelengths are
+    in m); default every joint."""
     if unc.spectrum is None:
         return []
     out = []
     for j, name in enumerate(joint_names):
+        if screws is not None and not screws[j]:
+            continue
         best = None
         for kind in (1, 0):  # sign-modulated first: a friction ripple also shows in the plain one
             a = unc.spectrum[j, kind]
@@ -448,14 +462,14 @@ def ripple_warning_start(joint: str) -> str:
     return f"the residual of {joint} varies with its position"
 
 
-def diagnose(unc: Uncertainty, decimation: int, n_params: int,
-             joint_names: tuple[str, ...] = ("q11", "q12", "q13"),
-             values: np.ndarray | None = None, gain_index: slice | None = None
-             ) -> tuple[dict, list[str]]:
+def diagnose(unc: Uncertainty, decimation: int, n_params: int, joint_names: tuple[str, ...],
+             values: np.ndarray | None = None, gain_index: slice | None = None,
+             screws: Sequence[bool] | None = None) -> tuple[dict, list[str]]:
     """``diagnostics["uncertainty"]`` of a result, and the warnings the residual calls for.
 
     ``values``: the solution's unknowns (for the relative inflation of the gains at
-    ``gain_index``).
+    ``gain_index``); ``screws``: the joints whose position spectrum is looked at
+    (:func:`spectrum_peaks`).
     """
     white = fir_white_autocorrelation(decimation)
     ac = unc.autocorrelation[:, 1:]
@@ -488,7 +502,7 @@ def diagnose(unc: Uncertainty, decimation: int, n_params: int,
                 f"({joint_names[worst]}): the residual is correlated with the regressors over "
                 f"{unc.block_s:g} s blocks — forces the IDIM lacks (friction near velocity "
                 "reversals, current-loop lag, ripple); the reported σ includes them")
-    peaks = spectrum_peaks(unc, joint_names)
+    peaks = spectrum_peaks(unc, joint_names, screws)
     d["position_spectrum_peaks"] = [p.to_json() for p in peaks]
     for p in peaks:
         what = ("a friction ripple (it turns with the velocity), e.g. of the ball screw at its lead"

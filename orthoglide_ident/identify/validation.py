@@ -15,7 +15,7 @@ from orthoglide_ident.identify.observations import Observations
 
 @dataclass
 class ValidationResult:
-    """Per-joint figures of one validation record; forces in N, ``tau_*: (3, r)``."""
+    """Per-joint figures of one validation record; forces in N or N·m, ``tau_*: (n_j, r)``."""
 
     source: str
     residual_rms: np.ndarray
@@ -45,7 +45,7 @@ class ValidationResult:
 def cross_validate(
     block: Observations, chi: np.ndarray, g_tau: np.ndarray, payload_mass: float = 0.0,
     identification_rms: np.ndarray | None = None, max_relative_error: float = 0.2,
-    max_noise_ratio: float = 1.5, joint_names: tuple[str, ...] = ("q11", "q12", "q13"),
+    max_noise_ratio: float = 1.5, joint_names: tuple[str, ...] = (),
 ) -> ValidationResult:
     """Compare τ_idm = W χ (+ W_kl m_7) with g_τ v_τ on ``block``; ``chi`` over all n_b."""
     tau_model = np.einsum("jrn,n->jr", block.W, chi)
@@ -60,7 +60,7 @@ def cross_validate(
     rel = rms / np.where(mrms > 0, mrms, np.inf)
     ratio = None if identification_rms is None else rms / np.asarray(identification_rms)
     warns = []
-    for i, j in enumerate(joint_names):
+    for i, j in enumerate(joint_names or [f"joint {k + 1}" for k in range(res.shape[0])]):
         if rel[i] > max_relative_error:
             warns.append(f"{block.source}: {j} model torque misses the measured force by "
                          f"{100 * rel[i]:.0f} % rms: poor excitation or an unmodelled effect")

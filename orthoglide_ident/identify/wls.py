@@ -29,14 +29,14 @@ class WLSSolution:
     std: np.ndarray
     rel_std: np.ndarray
     joint_sigma: np.ndarray
-    residual_rms: np.ndarray  # (3,) N
+    residual_rms: np.ndarray  # (n_j,) N or N·m
     condition_number: float
     n_rows: int
     n_cols: int
     cov_paper: np.ndarray | None = None  # eq. (27)
     rel_std_paper: np.ndarray | None = None
     uncertainty: Uncertainty | None = None
-    rows_per_joint: np.ndarray | None = None  # (3,) equations
+    rows_per_joint: np.ndarray | None = None  # (n_j,) equations
 
     def chi_full(self) -> np.ndarray:
         out = np.zeros(self.active.shape[0])
@@ -119,7 +119,7 @@ def _weighted_ls(Rj: list[np.ndarray], nrows: list[int], c: int, weighting: bool
 def idim_wls(blocks: list[Observations | RecordFactors], g_tau: np.ndarray,
              active: np.ndarray | None = None,
              estimate_payload: bool = True, weighting: bool = True) -> WLSSolution:
-    """IDIM-WLS (eqs. 24-28) with the given drive gains ``g_tau (3,)`` N/A.
+    """IDIM-WLS (eqs. 24-28) with the given drive gains ``g_tau (n_j,)`` N/A or N·m/A.
 
     Works on one R factor of [A_j | Y_j] per joint: weighting scales them, residual norms per
     joint are ‖R_j [x; -1]‖, and no (r × c) matrix of all records is ever formed.
@@ -127,7 +127,7 @@ def idim_wls(blocks: list[Observations | RecordFactors], g_tau: np.ndarray,
     g_tau = np.asarray(g_tau, dtype=float)
     blocks = as_factors(blocks)
     n_b = blocks[0].n_b
-    n_j = 3
+    n_j = blocks[0].n_joints
     if active is None:
         active = np.ones(n_b, dtype=bool)
     active = np.asarray(active, dtype=bool)

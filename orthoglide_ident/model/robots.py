@@ -26,8 +26,9 @@ DEFAULT_ROBOT = "orthoglide"
 
 
 def bundled_robots() -> list[str]:
-    """Names ``--robot`` accepts without a path."""
-    return sorted(p.stem for p in ROBOTS_DIR.glob("*.yaml"))
+    """Names ``--robot`` accepts without a path, the Orthoglide first."""
+    return [DEFAULT_ROBOT] + sorted(p.stem for p in ROBOTS_DIR.glob("*.yaml")
+                                    if p.stem != DEFAULT_ROBOT)
 
 
 def resolve(spec: str | Path | None) -> Path | None:
@@ -42,7 +43,7 @@ def resolve(spec: str | Path | None) -> Path | None:
     if bundled.exists() and path.suffix == "":
         return bundled
     raise ConfigError(f"robot {text!r}: no such file, and not a bundled robot "
-                      f"({', '.join([DEFAULT_ROBOT] + bundled_robots())})")
+                      f"({', '.join(bundled_robots())})")
 
 
 def read_yaml(path: Path) -> dict[str, Any]:

@@ -15,15 +15,16 @@ from sensor_msgs.msg import JointState
 
 from orthoglide_ident.control import CTCParameters, feedforward_currents
 from orthoglide_ident.errors import OrthoglideError
-from orthoglide_ident.model.geometry import JOINT_NAMES
+from orthoglide_ident.model.robots import load_robot
 from orthoglide_ident.nodes._batch import BatchTaker, BatchTopic
 from orthoglide_ident.nodes._params import Param, declare, usage
 from orthoglide_ident.nodes._spin import spin
 from orthoglide_msgs.msg import CurrentReference, IdentifiedParameters, JointSetpoint
 
 DOC = """\
-Computed torque control of the Orthoglide (Briot & Gautier 2013, Sect. 5.2), split as robot
-controllers are: this node computes the model part, the controller keeps its linear part.
+Computed torque control (Briot & Gautier 2013, Sect. 5.2) of the Orthoglide or any robot the
+identification knows (robot parameter), split as robot controllers are: this node computes the
+model part, the controller keeps its linear part.
 
 For every setpoint tick k on orthoglide/setpoints (orthoglide_msgs/JointSetpoint, published ahead of
 its tick by the controller) it publishes on orthoglide/feedforward the current
@@ -39,14 +40,16 @@ With monitor true it also pairs orthoglide/joint_states with the setpoints and l
 error every 5 s. Names are relative: -r __ns:=/robot2 moves the whole interface."""
 
 PARAMETERS = (
+    Param("robot", "", "the robot: a URDF, a robot YAML or a bundled robot's name, as the "
+          "identification node's; empty: the Orthoglide"),
     Param("payload_mass", -1.0, "kg put in the model (the paper: the nominal weighed mass); < 0: the "
           "identified parameters' payload_mass"),
     Param("batch", 10, "setpoint ticks per feed-forward computation (one vectorised model call)"),
-    Param("current_limit", [1.0, 1.0, 1.0], "A per joint: feed-forward currents are clipped to it"),
+    Param("current_limit", [1.0], "A per joint (one number: every joint): feed-forward currents "
+          "are clipped to it"),
     Param("monitor", False, "log the tracking error (joint states vs setpoints) every 5 s (one more 1 kHz "
           "subscription)"),
 )
-JOINTS = list(JOINT_NAMES)
 TICK_NS = 1_000_000
 MONITOR_PERIOD_NS = 5_000_000_000
 
@@ -64,10 +67,17 @@ class CTCNode(Node):
         if v["batch"] < 1:
             raise OrthoglideError(f"parameter batch: must be >= 1, got {v['batch']}")
         self.payload_mass, self.batch = v["payload_mass"], v["batch"]
-        self.current_limit = np.broadcast_to(np.asarray(v["current_limit"]), (3,))
+        self.robot = load_robot(v["robot"])
+        self.joints = list(self.robot.joint_names)
+        n_j = len(self.joints)
+        limit = np.asarray(v["current_limit"], float)
+        if limit.shape not in ((1,), (n_j,)) or not np.all(limit > 0):
+            raise OrthoglideError(f"parameter current_limit: one positive current (A) or {n_j} "
+                                  f"({', '.join(self.joints)}), got {v['current_limit']}")
+        self.current_limit = np.broadcast_to(limit, (n_j,))
         self.model: CTCParameters | None = None
         self.stopped: str | None = None
-        self.pending: dict[int, np.ndarray] = {}  # stamp -> (3, 3): q_d, qd_d, qdd_d
+        self.pending: dict[int, np.ndarray] = {}  # stamp -> (3, n_j): q_d, qd_d, qdd_d
         self.published = self.clipped = 0
         latched = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL,
                              reliability=ReliabilityPolicy.RELIABLE)
@@ -84,25 +94,28 @@ class CTCNode(Node):
         fields = {"names": msg.names, "values": msg.values, "drive_gains": msg.drive_gains,
                   "payload_mass": msg.payload_mass}
         try:
-            model = CTCParameters.from_message_fields(fields, None if self.payload_mass < 0 else self.payload_mass)
+            model = CTCParameters.from_message_fields(
+                fields, None if self.payload_mass < 0 else self.payload_mass, self.robot)
         except OrthoglideError as e:
             state = "keeping the previous ones" if self.model else "still waiting"
             self.get_logger().error(f"identified parameters rejected, {state}: {e}")
             return
         self.model, self.stopped = model, None
         gains = ", ".join(f"{g:.1f}" for g in model.drive_gains)
-        self.get_logger().info(f"parameters in ({msg.method}): drive gains [{gains}] N/A, {len(model.names)} "
-                               f"base parameters, payload {model.payload_mass:.4g} kg")
+        units = "/".join(dict.fromkeys(self.robot.gain_units))
+        self.get_logger().info(f"parameters in ({msg.method}): drive gains [{gains}] {units}, "
+                               f"{len(model.names)} base parameters, payload "
+                               f"{model.payload_mass:.4g} kg")
 
     def on_setpoints(self, batch: list) -> None:
         """A batch of serialized setpoints (taken together, see nodes._batch)."""
         for raw, _, _ in batch:
             msg = deserialize_message(raw, JointSetpoint)
             try:
-                idx = [list(msg.name).index(j) for j in JOINTS]
+                idx = [list(msg.name).index(j) for j in self.joints]
             except ValueError:
-                self.get_logger().warning(f"setpoint without joints {', '.join(JOINTS)}: {list(msg.name)}",
-                                          throttle_duration_sec=5.0)
+                self.get_logger().warning(f"setpoint without joints {', '.join(self.joints)}: "
+                                          f"{list(msg.name)}", throttle_duration_sec=5.0)
                 continue
             stamp = _stamp_ns(msg)
             sp = np.array([[msg.position[i] for i in idx], [msg.velocity[i] for i in idx],
@@ -127,7 +140,7 @@ class CTCNode(Node):
         else:
             runs = np.split(stamps, np.flatnonzero(np.diff(stamps) != TICK_NS) + 1)
             for run in (r for r in runs if len(r) > 1):
-                ref = np.stack([self.pending[int(t)] for t in run])  # (n, 3, 3): q_d, qd_d, qdd_d per tick
+                ref = np.stack([self.pending[int(t)] for t in run])  # (n, 3, n_j): q_d, qd_d, qdd_d
                 if not np.all(np.isfinite(ref)):  # the model refuses it; stop rather than guess
                     bad = int(run[np.flatnonzero(~np.isfinite(ref).all(axis=(1, 2)))[0]])
                     self._stop(f"non-finite feed-forward: setpoint at stamp {bad} is not finite")
@@ -150,7 +163,7 @@ class CTCNode(Node):
             self.get_logger().warning(f"feed-forward beyond current_limit clipped ({self.clipped} ticks so far)",
                                       throttle_duration_sec=5.0)
         for stamp, v in zip(stamps, clipped):
-            msg = CurrentReference(name=JOINTS, current=[float(x) for x in v])
+            msg = CurrentReference(name=self.joints, current=[float(x) for x in v])
             msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(int(stamp), 1_000_000_000)
             self.pub.publish(msg)
         self.published += len(stamps)
@@ -179,7 +192,7 @@ class TrackingMonitor:
         stamp = _stamp_ns(msg)
         with self.lock:
             q_d = self.setpoints.pop(stamp, None)
-        if q_d is None or len(msg.position) != 3:
+        if q_d is None or len(msg.position) != len(q_d):
             return
         self.errors.append(np.asarray(msg.position) - q_d)
         self.t_last = self.t_last or stamp

@@ -18,11 +18,11 @@ from rclpy.callback_groups import ReentrantCallbackGroup
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 
-from orthoglide_ident.errors import OrthoglideError
+from orthoglide_ident.errors import ConfigError, OrthoglideError
 from orthoglide_ident.identify.live import LiveIdentification
 from orthoglide_ident.identify.options import IdentifyOptions
 from orthoglide_ident.identify.pipeline import identify
-from orthoglide_ident.model.geometry import G_TAU_MANUFACTURER
+from orthoglide_ident.model.robots import load_robot
 from orthoglide_ident.nodes._core_log import CoreLog
 from orthoglide_ident.nodes._params import Param, declare, on_set, usage
 from orthoglide_ident.nodes._spin import spin
@@ -32,8 +32,9 @@ from orthoglide_msgs.msg import IdentifiedParameters
 from orthoglide_msgs.srv import Identify
 
 DOC = """\
-Identifies the Orthoglide's drive gains and dynamic parameters together (IDIM-TLS, Briot & Gautier
-2013) from recorded bags when orthoglide/identify is called.
+Identifies a robot's drive gains and dynamic parameters together (IDIM-TLS, Briot & Gautier 2013)
+from recorded bags when orthoglide/identify is called: the Orthoglide by default, any robot with
+the robot parameter (a URDF, a robot YAML or a bundled robot's name).
 
 Live (parameter live, default true): while the recorder records (orthoglide/recorder/status), the
 joint states and current references it records are identified as they come, and the estimate goes
@@ -54,12 +55,15 @@ Topics   orthoglide/identified_parameters (orthoglide_msgs/msg/IdentifiedParamet
 Every identification option is a ROS parameter (the keys of config/identification.yaml)."""
 
 NODE_PARAMETERS = (
+    Param("robot", "", "the robot: a URDF, a robot YAML (docs/robot_files.md) or a bundled robot "
+          "(orthoglide, ur5, ...); empty: the Orthoglide"),
     Param("bag_dir", "bags", "where to look for bags when a request names none"),
     Param("method", "tls", "tls: gains identified, payload mass known; wls: gains given (wls_gains), "
           "payload mass estimated"),
     Param("essential", False, "also reduce to the essential parameters (Sect. 5.2) and answer with them"),
-    Param("wls_gains", [G_TAU_MANUFACTURER] * 3, "N/A, the drive gains IDIM-WLS uses (default the "
-          "manufacturer's 637 pi)", dynamic=True),
+    Param("wls_gains", [0.0], "N/A (N·m/A for revolute joints), the drive gains IDIM-WLS uses, one "
+          "per joint; [0.0]: the robot's nominal (manufacturer's) gains, the Orthoglide's 637 pi",
+          dynamic=True),
     Param("live", True, "identify the recordings while they run (orthoglide/identification/live); an "
           "identify call with no bags then answers from the live data"),
 )
@@ -94,6 +98,8 @@ class IdentificationNode(Node):
         super().__init__("orthoglide_identification")
         declare(self, PARAMETERS)
         self.options()  # bad option values stop the node at start with a one-line reason
+        self.robot = load_robot(self.param("robot"))  # a bad robot file: one line, exit 2
+        self._check_gains(self.param("wls_gains"))
         latched = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL,
                              reliability=ReliabilityPolicy.RELIABLE)
         self.pub = {"tls": self.create_publisher(IdentifiedParameters, "orthoglide/identified_parameters", latched),
@@ -103,11 +109,13 @@ class IdentificationNode(Node):
         self.live_lock = threading.Lock()
         self.live = None
         if self.param("live"):
-            self.live = LiveIdentification(self.options())
+            self.live = LiveIdentification(self.options(), self.robot)
             self.feed = LiveFeed(self, self.live, self.live_lock)
         self.create_service(Identify, "orthoglide/identify", self.on_identify, callback_group=ReentrantCallbackGroup())
         on_set(self, PARAMETERS, self._check_changes)  # bad values refused at `ros2 param set`
-        self.get_logger().info(f"ready: call {self.resolve_service_name('orthoglide/identify')}")
+        self.get_logger().info(f"ready ({self.robot.name}: {self.robot.n_joints} joints "
+                               f"{', '.join(self.robot.joint_names)}, {self.robot.n_b} base "
+                               f"parameters): call {self.resolve_service_name('orthoglide/identify')}")
 
     def close(self) -> None:
         if self.live is not None:
@@ -119,10 +127,22 @@ class IdentificationNode(Node):
     def _check_changes(self, changes: dict[str, Any]) -> None:
         """A run-time change must leave valid options (ConfigError: refused with its reason)."""
         self.options(changes)
+        if "wls_gains" in changes:
+            self._check_gains(changes["wls_gains"])
         changed = [k for k in changes if k in OPTION_NAMES]
         if changed and self.live is not None:
             self.get_logger().info(f"{', '.join(changed)} changed: used by identifications from bags; "
                                    "the live identification keeps the options it started with")
+
+    def _check_gains(self, gains: list[float]) -> None:
+        if gains != [0.0] and (len(gains) != self.robot.n_joints or min(gains) <= 0):
+            raise ConfigError(f"parameter wls_gains: {self.robot.n_joints} positive gains "
+                              f"({', '.join(self.robot.joint_names)}) or [0.0] for the nominal "
+                              f"ones, got {gains}")
+
+    def wls_gains(self) -> list[float]:
+        gains = self.param("wls_gains")
+        return list(self.robot.nominal_gains) if gains == [0.0] else gains
 
     def options(self, changes: dict[str, Any] | None = None) -> IdentifyOptions:
         """The pipeline options from the node's parameters (validated in the core), with
@@ -161,7 +181,7 @@ class IdentificationNode(Node):
     def identify(self, request: Identify.Request, method: str, essential: bool) -> IdentificationResult:
         """From the bags named, else the live data, else every bag of bag_dir."""
         payload_mass = request.payload_mass if request.payload_mass > 0 else None
-        gains = self.param("wls_gains") if method == "wls" else None
+        gains = self.wls_gains() if method == "wls" else None
         if not request.bags and self.live is not None:
             with self.live_lock:
                 est = self.live.estimate()
@@ -174,7 +194,7 @@ class IdentificationNode(Node):
             raise OrthoglideError(f"no bags given and none found in bag_dir '{self.param('bag_dir')}'")
         self.get_logger().info(f"identifying ({method}) from {len(bags)} bag(s): {', '.join(bags)}")
         return identify(bags, payload_mass=payload_mass, method=method, gains=gains, essential=essential,
-                        options=self.options())
+                        options=self.options(), model=self.robot)
 
     def answer(self, result: IdentificationResult, method: str, essential: bool,
                response: Identify.Response) -> None:
@@ -186,9 +206,10 @@ class IdentificationNode(Node):
             self.get_logger().warning(w)
         gains = ", ".join(f"{g:.1f}" for g in msg.drive_gains)
         response.success = True
-        response.message = (f"{method}{' essential' if chosen is not result else ''}: drive gains [{gains}] N/A, "
-                            f"{len(msg.names)} parameters, payload {msg.payload_mass:.4g} kg, residual rms "
-                            f"{msg.residual_rms:.3g} N, cond {msg.condition_number:.3g}")
+        response.message = (f"{method}{' essential' if chosen is not result else ''}: drive gains [{gains}] "
+                            f"{chosen._units(chosen.gain_units, 'N/A')}, {len(msg.names)} parameters, payload "
+                            f"{msg.payload_mass:.4g} kg, residual rms {msg.residual_rms:.3g} "
+                            f"{chosen._units(chosen.effort_units, 'N')}, cond {msg.condition_number:.3g}")
         if chosen.current_lag:  # a drive term, not a parameter of the message
             response.message += "; current-loop lag " + lag_text(chosen.current_lag)
         if result.warnings:

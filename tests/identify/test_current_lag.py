@@ -123,7 +123,7 @@ def test_lag_model_is_a_word():
 def _live_instrument(q: np.ndarray, v: np.ndarray, sizes: tuple[int, ...]):
     """The ticks through a LiveLagInstrument in batches of ``sizes`` (cycled): what came out
     after each push (None while held), then the instrument."""
-    live, a, i, out = LiveLagInstrument(T), 0, 0, []
+    live, a, i, out = LiveLagInstrument(T, q.shape[1]), 0, 0, []
     stamps = np.arange(q.shape[0])
     while a < q.shape[0]:
         b = a + sizes[i % len(sizes)]

@@ -51,7 +51,7 @@ def test_a_ripple_at_the_given_lead_is_identified_with_the_gains():
     g = np.array([x.value for x in res.drive_gains])
     err = np.abs(g / TRUE_GAINS - 1)
     assert err.max() < 2e-4, err  # 3.6e-5 measured (the filters' round-off of a sign step)
-    assert [p.name for p in res.parameters] == SyntheticModel.names
+    assert [p.name for p in res.parameters] == SyntheticModel().names
     amp = np.hypot(RIPPLE[0::2], RIPPLE[1::2])
     assert [r["joint"] for r in res.ripple] == ["q11", "q12", "q13"]
     for r, a, c, s in zip(res.ripple, amp, RIPPLE[0::2], RIPPLE[1::2]):

@@ -29,7 +29,7 @@ def test_tracker_decides_what_find_reversals_decides_whatever_the_blocks():
         qd = _velocities(rng, n)
         max_bridge, margin = int(rng.integers(1, 30)), int(rng.integers(0, 10))
         zones = find_reversals(qd, 0.02, max_bridge, margin)
-        tr = ReversalTracker(0.02, max_bridge, margin)
+        tr = ReversalTracker(0.02, max_bridge, margin, qd.shape[1])
         final = np.zeros(3, int)
         a = seen = 0
         while a < n:

@@ -12,6 +12,7 @@ from orthoglide_ident.identify.tls import (ExcitationLimits, TLSProblem, check_e
 from orthoglide_ident.identify.wls import idim_wls
 
 G = np.array([2170.0, 2100.0, 2070.0])
+JOINTS = ("q11", "q12", "q13")
 
 
 def _blocks(chi, r=800, masses=(0.0, 1.983), noise=(0.0, 0.0, 0.0), seed=0, w_scale=None):
@@ -90,12 +91,12 @@ def test_near_null_regressor_direction_is_detected():
             b.v_tau.shape)
     sol = idim_tls(blocks)
     with pytest.raises(ExcitationError):
-        check_excitation(sol, ExcitationLimits())
+        check_excitation(sol, ExcitationLimits(), None, JOINTS)
 
 
 def test_good_excitation_passes_the_checks():
     sol = idim_tls(_blocks(CHI, noise=(1e-5,) * 3))
-    check_excitation(sol, ExcitationLimits())
+    check_excitation(sol, ExcitationLimits(), None, JOINTS)
     assert sol.singular_ratio < 0.1 and sol.condition_number < 10
 
 

@@ -89,7 +89,7 @@ def test_correlated_errors_paper_sigma_too_small_honest_covers():
     assert np.all(cover > 0.7) and np.all(cover < 1.3), cover
     z = np.abs(np.array(est) - G) / np.array(honest)
     assert np.mean(z <= 2) >= 0.9 and z.max() <= 4.0
-    d, warnings = diagnose(sol.uncertainty, 10, 4, gain_index=slice(4, 7))
+    d, warnings = diagnose(sol.uncertainty, 10, 4, ("q11", "q12", "q13"), gain_index=slice(4, 7))
     assert d["autocorrelation"]["q11"][0] > 0.8  # AR(1) 0.9
     assert sum("far from white" in w for w in warnings) == 3
     assert any("σ of the drive gains is up to" in w for w in warnings)
@@ -117,9 +117,9 @@ def test_moments_fold_in_pieces_as_at_once():
     t[400:] += 0.5  # a gap
     keep = rng.random((3, r)) > 0.1
     q, qd = rng.random((r, 3)) * 0.1, rng.standard_normal((r, 3))
-    whole = ResidualMoments(n_c, DT)
+    whole = ResidualMoments(n_c, 3, DT)
     whole.fold(X, keep, t, q, qd)
-    parts = ResidualMoments(n_c, DT)
+    parts = ResidualMoments(n_c, 3, DT)
     for a, b in ((0, 1), (1, 7), (7, 399), (399, 402), (402, 700)):
         parts.fold(X[:, :, a:b], keep[:, a:b], t[a:b], q[a:b], qd[a:b])
     assert whole.blocks.keys() == parts.blocks.keys()
@@ -137,7 +137,7 @@ def test_moments_fold_in_pieces_as_at_once():
 
 
 def test_long_records_merge_blocks():
-    m = ResidualMoments(4, DT)
+    m = ResidualMoments(4, 3, DT)
     t = np.arange(20000) * DT  # 200 s
     m.fold(np.ones((4, 3, t.shape[0])), None, t)
     assert m.n_blocks <= 64 and m.block_s == 4.0
@@ -147,7 +147,8 @@ def test_long_records_merge_blocks():
 def test_screw_ripple_shows_in_the_position_spectrum():
     blocks = _blocks(1, r=3000, noise=1e-4, ripple=0.5)
     sol = TLSProblem(blocks).solve()
-    d, warnings = diagnose(sol.uncertainty, 10, sol.chi.shape[0], gain_index=slice(4, 7))
+    d, warnings = diagnose(sol.uncertainty, 10, sol.chi.shape[0], ("q11", "q12", "q13"),
+                           gain_index=slice(4, 7))
     peaks = d["position_spectrum_peaks"]
     assert len(peaks) == 3
     for p in peaks:
@@ -155,7 +156,8 @@ def test_screw_ripple_shows_in_the_position_spectrum():
         assert 0.3 < p["amplitude_n"] < 0.7
     assert sum(" mm period" in w and "friction ripple" in w for w in warnings) == 3
     clean = TLSProblem(_blocks(1, r=3000, noise=1e-4)).solve()
-    d, warnings = diagnose(clean.uncertainty, 10, clean.chi.shape[0], gain_index=slice(4, 7))
+    d, warnings = diagnose(clean.uncertainty, 10, clean.chi.shape[0], ("q11", "q12", "q13"),
+                           gain_index=slice(4, 7))
     assert d["position_spectrum_peaks"] == [] and not any("period" in w for w in warnings)
 
 
