@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from orthoglide_ident.errors import ConfigError
-from orthoglide_ident.model.geometry import A, G_TAU_MANUFACTURER, JOINT_NAMES
+from orthoglide_ident.model.geometry import A, G_TAU_MANUFACTURER, JOINT_NAMES, PAPER, Geometry
 from orthoglide_ident.model.idim import observation_block, observation_columns, standard_regressor
 from orthoglide_ident.model.kinematics import igm
 from orthoglide_ident.model.parameters import (
@@ -43,10 +43,14 @@ def eq23_order() -> list[int]:
     ]
 
 
-def random_states(n: int, seed: int = 0, half_width: float = 0.1):
-    """n regular states: platform uniform in a cube around the isotropic point, random qd, qdd."""
+def random_states(n: int, seed: int = 0, half_width: float | None = None,
+                  geom: Geometry = PAPER):
+    """n regular states: platform uniform in a cube around the isotropic point (0, 0, a), half
+    width 0.1 m for the paper's a = 0.34 m (scaled with a), random qd, qdd."""
     rng = np.random.default_rng(seed)
-    q = igm(np.array([0.0, 0.0, A]) + rng.uniform(-half_width, half_width, (n, 3)))
+    if half_width is None:
+        half_width = 0.1 if geom.a == A else 0.1 * geom.a / A
+    q = igm(np.array([0.0, 0.0, geom.a]) + rng.uniform(-half_width, half_width, (n, 3)), geom)
     return q, rng.normal(0.0, 1.0, (n, 3)), rng.normal(0.0, 10.0, (n, 3))
 
 
@@ -87,9 +91,11 @@ class BaseParameter:
 PAYLOAD_FRAME = "platform"  # the payload (body 7) is fixed to the translating platform (body 6)
 
 
-def orthoglide_joints() -> tuple[ActuatedJoint, ...]:
-    """q11, q12, q13: prismatic, the manufacturer's 637π N/A (Sect. 5.2)."""
-    return tuple(ActuatedJoint(name, "prismatic", G_TAU_MANUFACTURER) for name in JOINT_NAMES)
+def orthoglide_joints(nominal_gains: tuple[float, float, float] | None = None
+                      ) -> tuple[ActuatedJoint, ...]:
+    """q11, q12, q13: prismatic, the manufacturer's 637π N/A (Sect. 5.2) unless given."""
+    gains = (G_TAU_MANUFACTURER,) * 3 if nominal_gains is None else tuple(nominal_gains)
+    return tuple(ActuatedJoint(name, "prismatic", float(g)) for name, g in zip(JOINT_NAMES, gains))
 
 
 def orthoglide_bodies() -> tuple[Body, ...]:
@@ -109,12 +115,14 @@ class BaseModel(RobotModel):
     payload_frame = PAYLOAD_FRAME
     standard_names = STANDARD_NAMES
 
-    def __init__(self, n_states: int = 600, seed: int = 0):
-        self.joints = orthoglide_joints()
+    def __init__(self, n_states: int = 600, seed: int = 0, geometry: Geometry = PAPER,
+                 nominal_gains: tuple[float, float, float] | None = None):
+        self.geometry = geometry
+        self.joints = orthoglide_joints(nominal_gains)
         self.bodies = orthoglide_bodies()
         order = eq23_order()
-        q, qd, qdd = random_states(n_states, seed)
-        W_r = observation_columns(q, qd, qdd, order)
+        q, qd, qdd = random_states(n_states, seed, geom=geometry)
+        W_r = observation_columns(q, qd, qdd, order, geom=geometry)
         R = np.linalg.qr(W_r, mode="r")  # eq. (22)
         d = np.abs(np.diag(R))
         keep = d > QR_EPS * d.max()
@@ -176,21 +184,24 @@ class BaseModel(RobotModel):
 
     def observation(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(W (3 N, n_b), W_kl (3 N,)) in one pass: base columns and the payload-mass column m_7."""
-        X = observation_columns(q, qd, qdd, self.columns, with_payload_mass=True)
+        X = observation_columns(q, qd, qdd, self.columns, with_payload_mass=True,
+                                geom=self.geometry)
         return X[:, :-1], X[:, -1]
 
     def observation_block(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray,
                           out: np.ndarray | None = None) -> np.ndarray:
         """[W | W_kl] as (n_b + 1, 3, N): column, joint, sample (written into ``out`` if given)."""
-        return observation_block(q, qd, qdd, self.columns, with_payload_mass=True, out=out)
+        return observation_block(q, qd, qdd, self.columns, with_payload_mass=True, out=out,
+                                 geom=self.geometry)
 
     def regressor(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> np.ndarray:
         """W (3 N, n_b), rows stacked joint by joint (eq. 20)."""
-        return observation_columns(q, qd, qdd, self.columns)
+        return observation_columns(q, qd, qdd, self.columns, geom=self.geometry)
 
     def payload_mass_column(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> np.ndarray:
         """W_kl (3 N,): efforts per kg of payload (eq. 29); the other 9 payload parameters have no effect."""
-        return observation_columns(q, qd, qdd, [], with_payload_mass=True)[:, 0]
+        return observation_columns(q, qd, qdd, [], with_payload_mass=True,
+                                   geom=self.geometry)[:, 0]
 
     def with_payload(self, payload: Payload) -> "BaseModel":
         """The platform only translates, so a payload's only effect is its mass: the same model
@@ -202,10 +213,10 @@ class BaseModel(RobotModel):
 
     def standard_regressor(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> np.ndarray:
         """W_st (3 N, 208), rows joint by joint (eq. 20)."""
-        return standard_regressor(q, qd, qdd)[0]
+        return standard_regressor(q, qd, qdd, self.geometry)[0]
 
     def random_states(self, n: int, seed: int = 0):
-        return random_states(n, seed)
+        return random_states(n, seed, geom=self.geometry)
 
     # --- what people read --------------------------------------------------------------------
     def table(self) -> str:
@@ -218,7 +229,10 @@ class BaseModel(RobotModel):
         for k, p in enumerate(self.parameters, 1):
             legs = ",".join(map(str, p.legs)) if p.legs else "-"
             lines.append(f"{k:>3}  {p.name:<{w}}  {legs:<7}  {p.expression}")
-        lines.append(f"Joints: {', '.join(JOINT_NAMES)}. Regrouping coefficients: 1/d4 = 3.2258, 1/g = 0.10197.")
+        g = self.geometry
+        lines.append(f"Joints: {', '.join(JOINT_NAMES)}. Geometry a = {g.a:g}, d4 = {g.d4:g}, "
+                     f"d6 = {g.d6:g} m. Regrouping coefficients: 1/d4 = {1 / g.d4:.5g}, "
+                     f"1/g = {1 / g.g0:.5g}.")
         return "\n".join(lines)
 
     def to_json(self) -> dict:
@@ -242,7 +256,8 @@ class BaseModel(RobotModel):
         return json.dumps(self.to_json(), indent=2)
 
 
-@functools.lru_cache(maxsize=1)
-def base_model() -> BaseModel:
-    """The Orthoglide base model (computed once per process, ~0.2 s)."""
-    return BaseModel()
+@functools.lru_cache(maxsize=4)
+def base_model(geometry: Geometry = PAPER,
+               nominal_gains: tuple[float, float, float] | None = None) -> BaseModel:
+    """The Orthoglide base model of that geometry (computed once per process, ~0.2 s)."""
+    return BaseModel(geometry=geometry, nominal_gains=nominal_gains)

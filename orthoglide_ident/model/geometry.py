@@ -4,10 +4,17 @@ Each leg i is described in its own *leg frame*, the MDH frame of its foot (frame
 cyclic permutation of the base axes, so the three legs have identical equations in leg coordinates
 and differ only by the rotation ``R_LEG[i]``, the foot offset ``FOOT_OFFSET[i]`` and the gravity
 direction. See docs/conventions.md.
+
+The dimensions are a value (:class:`Geometry`, from the robot file's ``geometry``: a, d4, d6 and
+g); ``PAPER`` is the paper's prototype, whose numbers the module constants below name.
 """
 from __future__ import annotations
 
+from dataclasses import dataclass, field
+
 import numpy as np
+
+from orthoglide_ident.errors import ConfigError
 
 A = 0.34  # m, Fig. 3(b)
 D4 = 0.31  # m, length of the equivalent parallelogram bar
@@ -39,3 +46,33 @@ GRAVITY_LEG = np.einsum("iab,a->ib", R_LEG, GRAVITY)
 # Thresholds for the singularity checks (dimensionless, see kinematics.check_regular).
 SERIAL_MARGIN = 0.05  # |u_i . e_i| / d4: bar too close to perpendicular to its actuator
 PARALLEL_MARGIN = 0.05  # |det(u_1, u_2, u_3)| / d4³: the three bars close to coplanar
+
+
+@dataclass(frozen=True)
+class Geometry:
+    """An Orthoglide's dimensions (m) and gravity (m/s², along y0): the paper's by default."""
+
+    a: float = A
+    d4: float = D4
+    d6: float = D6
+    g0: float = G0
+    foot_offset: np.ndarray = field(init=False, repr=False, compare=False)
+    gravity: np.ndarray = field(init=False, repr=False, compare=False)
+    gravity_leg: np.ndarray = field(init=False, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        if not (0 < self.d6 < self.d4 and 0 < self.a and self.g0 >= 0):
+            raise ConfigError(f"Orthoglide geometry a = {self.a}, d4 = {self.d4}, d6 = {self.d6} m, "
+                              f"g = {self.g0} m/s²: needs a > 0, 0 < d6 < d4 and g >= 0")
+        a = self.a
+        gravity = np.array([0.0, self.g0, 0.0])
+        object.__setattr__(self, "foot_offset", np.array([[0.0, 0.0, 0.0], [0.0, a, -a],
+                                                          [a, 0.0, -a]]))
+        object.__setattr__(self, "gravity", gravity)
+        object.__setattr__(self, "gravity_leg", np.einsum("iab,a->ib", R_LEG, gravity))
+
+    def __hash__(self) -> int:
+        return hash((self.a, self.d4, self.d6, self.g0))
+
+
+PAPER = Geometry()  # the prototype of the paper, Sect. 5.1

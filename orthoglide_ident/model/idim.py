@@ -26,7 +26,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from orthoglide_ident.model.geometry import D4, GRAVITY, GRAVITY_LEG
+from orthoglide_ident.model.geometry import PAPER, Geometry
 from orthoglide_ident.model.kinematics import TreeState, as_samples, tree_state
 from orthoglide_ident.model.leg_closed_form import closed_form_columns, has_closed_form, leg_state
 from orthoglide_ident.model.parameters import LEG_PARAMETERS, N_LEGS, N_ST, N_ST_LEG
@@ -112,7 +112,7 @@ def leg_columns(state: TreeState, wanted: Sequence[int]) -> dict[int, np.ndarray
         Rk = _child_frame(R[-1], _ALPHA[k], qt[k - 1])
         zk = Rk[2]
         if k == 4:
-            r_bar = D4 * R[-1][0]
+            r_bar = state.geom.d4 * R[-1][0]
             acc.append(acc[-1] + _cross(wd[-1], r_bar) + _cross(w[-1], _cross(w[-1], r_bar)))
         else:
             acc.append(acc[-1])
@@ -120,7 +120,7 @@ def leg_columns(state: TreeState, wanted: Sequence[int]) -> dict[int, np.ndarray
         wd.append(wd[-1] + zk * qddt[k - 1] + _cross(w[-2], zk * qdt[k - 1]))
         R.append(Rk)
 
-    g = GRAVITY_LEG.T[:, :, None]  # (3 components, 3 legs, 1)
+    g = state.geom.gravity_leg.T[:, :, None]  # (3 components, 3 legs, 1)
     out: dict[int, np.ndarray] = {}
     col0 = 0
     for k in range(1, 6):
@@ -168,7 +168,7 @@ def platform_column(state: TreeState) -> np.ndarray:
 
     tau = J_p^T D^T tau_p with tau_p = m (P'' - g): the column of m_6 and of the payload mass m_7.
     """
-    f = state.Pdd - GRAVITY
+    f = state.Pdd - state.geom.gravity
     return (state.J_p * f[:, :, None]).sum(1).T
 
 
@@ -204,7 +204,7 @@ CHUNK = 2048  # samples per pass: keeps the (3, 3 legs, chunk) temporaries in ca
 
 def observation_block(
     q: np.ndarray, qd: np.ndarray, qdd: np.ndarray, columns: Sequence[int],
-    with_payload_mass: bool = False, out: np.ndarray | None = None,
+    with_payload_mass: bool = False, out: np.ndarray | None = None, geom: Geometry = PAPER,
 ) -> np.ndarray:
     """Selected standard columns (and the payload-mass column last, if asked): (n, 3, N).
 
@@ -224,11 +224,11 @@ def observation_block(
     for s in range(0, N, CHUNK):
         e = min(N, s + CHUNK)
         if fast:
-            leg, platform = leg_state(q[s:e], qd[s:e], qdd[s:e])
+            leg, platform = leg_state(q[s:e], qd[s:e], qdd[s:e], geom)
             _place(closed_form_columns(leg, wanted), platform, columns, out[:len(columns), :, s:e])
             out[zero, :, s:e] = 0.0  # platform columns other than m_6: identically zero
         else:
-            state = tree_state(q[s:e], qd[s:e], qdd[s:e])
+            state = tree_state(q[s:e], qd[s:e], qdd[s:e], geom=geom)
             out[: len(columns), :, s:e] = regressor_columns(state, columns)
             platform = platform_column(state) if with_payload_mass else None
         if with_payload_mass:
@@ -237,24 +237,26 @@ def observation_block(
 
 
 def observation_columns(
-    q: np.ndarray, qd: np.ndarray, qdd: np.ndarray, columns: Sequence[int], with_payload_mass: bool = False
+    q: np.ndarray, qd: np.ndarray, qdd: np.ndarray, columns: Sequence[int],
+    with_payload_mass: bool = False, geom: Geometry = PAPER,
 ) -> np.ndarray:
     """Selected standard columns (and the payload-mass column last, if asked) for samples (N, 3).
 
     Returns W (3 N, n), rows stacked joint by joint (eq. 20). It is column-major (a transposed
     view), so that each column, filtered on its own by the parallel decimation, is contiguous.
     """
-    out = observation_block(q, qd, qdd, columns, with_payload_mass)
+    out = observation_block(q, qd, qdd, columns, with_payload_mass, geom=geom)
     return out.reshape(out.shape[0], -1).T
 
 
-def standard_regressor(q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def standard_regressor(q: np.ndarray, qd: np.ndarray, qdd: np.ndarray,
+                       geom: Geometry = PAPER) -> tuple[np.ndarray, np.ndarray]:
     """W_st (3 N, 208) and W_l (3 N, 10) for samples (N, 3), rows stacked joint by joint (eq. 20).
 
     tau (3 N,) = W_st chi_st + W_l chi_payload with chi in parameters.STANDARD_NAMES / PAYLOAD_NAMES
     order; friction uses sign(qd) (Sect. 2.2).
     """
-    X = observation_columns(q, qd, qdd, range(N_ST), with_payload_mass=True)
+    X = observation_columns(q, qd, qdd, range(N_ST), with_payload_mass=True, geom=geom)
     W = X[:, :N_ST]
     W_l = np.zeros((W.shape[0], 10))
     W_l[:, 9] = X[:, N_ST]  # m_7; the other 9 payload columns are identically zero

@@ -1,7 +1,7 @@
 """Orthoglide kinematics: IGM, FGM, passive joints, A_p, B_p, J_p, J_k, J_t (paper eqs. 3-9, 15, 41).
 
 All functions are vectorised over N samples: ``q, qd, qdd`` are (N, 3) arrays (q11, q12, q13) in m,
-m/s, m/s². Leg quantities are computed in each leg's own frame (geometry.R_LEG), where the three
+m/s, m/s²; ``geom`` is the robot's :class:`~geometry.Geometry` (the paper's by default). Leg quantities are computed in each leg's own frame (geometry.R_LEG), where the three
 legs obey the same equations:
 
     foot point   O_1i = FOOT_OFFSET[i] + q1i z                       (Table 1)
@@ -19,13 +19,12 @@ import numpy as np
 
 from orthoglide_ident.errors import ModelError, SingularityError, WorkspaceError
 from orthoglide_ident.model.geometry import (
-    D4,
-    D6,
     E_AXIS,
-    FOOT_OFFSET,
+    PAPER,
     PARALLEL_MARGIN,
     R_LEG,
     SERIAL_MARGIN,
+    Geometry,
 )
 
 _Z = np.array([0.0, 0.0, 1.0])
@@ -81,21 +80,21 @@ def matmat(M: np.ndarray, B: np.ndarray) -> np.ndarray:
     return M[..., :, 0, None] * B[..., None, 0, :] + M[..., :, 1, None] * B[..., None, 1, :] + M[..., :, 2, None] * B[..., None, 2, :]
 
 
-def foot_points(q: np.ndarray) -> np.ndarray:
+def foot_points(q: np.ndarray, geom: Geometry = PAPER) -> np.ndarray:
     """O_1i in leg coordinates, (N, 3 legs, 3)."""
-    o = np.broadcast_to(FOOT_OFFSET, (q.shape[0], 3, 3)).copy()
+    o = np.broadcast_to(geom.foot_offset, (q.shape[0], 3, 3)).copy()
     o[:, :, 2] += q
     return o
 
 
-def bar_vectors(q: np.ndarray, P: np.ndarray) -> np.ndarray:
+def bar_vectors(q: np.ndarray, P: np.ndarray, geom: Geometry = PAPER) -> np.ndarray:
     """u_i = C_i - O_1i in leg coordinates, (N, 3 legs, 3)."""
-    u = to_leg(P) - foot_points(q)
-    u[:, :, 2] -= D6
+    u = to_leg(P) - foot_points(q, geom)
+    u[:, :, 2] -= geom.d6
     return u
 
 
-def fgm(q: np.ndarray) -> np.ndarray:
+def fgm(q: np.ndarray, geom: Geometry = PAPER) -> np.ndarray:
     """Forward geometric model: platform point P (N, 3) from q by the three sphere intersections.
 
     f_p of eq. (41): |P - c_i|² = d4² with c_i = O_1i + d6 e_i. Differences of the spheres give a
@@ -103,7 +102,7 @@ def fgm(q: np.ndarray) -> np.ndarray:
     that holds P = (0, 0, a) at q = 0.
     """
     q = as_samples(q, "q")
-    c = to_base(foot_points(q)) + D6 * E_AXIS  # base coords (N, 3, 3)
+    c = to_base(foot_points(q, geom)) + geom.d6 * E_AXIS  # base coords (N, 3, 3)
     n = np.cross(c[:, 1] - c[:, 0], c[:, 2] - c[:, 0])
     n /= np.sqrt(n[:, 0] ** 2 + n[:, 1] ** 2 + n[:, 2] ** 2)[:, None]
     # Linear part: 2 (c_i - c_1) . P = |c_i|² - |c_1|², i = 2, 3, plus n . P = n . c_1 (a point of the line).
@@ -112,7 +111,7 @@ def fgm(q: np.ndarray) -> np.ndarray:
     h = np.stack([sq[:, 1] - sq[:, 0], sq[:, 2] - sq[:, 0], (n * c[:, 0]).sum(-1)], axis=1)
     P0 = matvec(inv3(L), h)
     # |P0 + t n - c_1|² = d4², with (P0 - c_1) . n = 0 by construction.
-    r2 = D4**2 - ((P0 - c[:, 0]) ** 2).sum(-1)
+    r2 = geom.d4**2 - ((P0 - c[:, 0]) ** 2).sum(-1)
     if np.any(r2 < 0):
         k = int(np.flatnonzero(r2 < 0)[0])
         raise WorkspaceError(
@@ -121,7 +120,7 @@ def fgm(q: np.ndarray) -> np.ndarray:
         )
     P = P0 + np.sqrt(r2)[:, None] * n
     # The real working mode has every bar pointing forward along its actuator (u_i . e_i > 0).
-    ahead = bar_vectors(q, P)[:, :, 2]
+    ahead = bar_vectors(q, P, geom)[:, :, 2]
     if np.any(ahead <= 0):
         k, i = np.argwhere(ahead <= 0)[0]
         raise WorkspaceError(
@@ -131,31 +130,31 @@ def fgm(q: np.ndarray) -> np.ndarray:
     return P
 
 
-def igm(P: np.ndarray) -> np.ndarray:
+def igm(P: np.ndarray, geom: Geometry = PAPER) -> np.ndarray:
     """Inverse geometric model: q (N, 3) from the platform point P (N, 3), real assembly mode."""
     P = as_samples(P, "P")
-    Pl = to_leg(P) - FOOT_OFFSET
-    r2 = D4**2 - Pl[:, :, 0] ** 2 - Pl[:, :, 1] ** 2
+    Pl = to_leg(P) - geom.foot_offset
+    r2 = geom.d4**2 - Pl[:, :, 0] ** 2 - Pl[:, :, 1] ** 2
     if np.any(r2 < 0):
         k = int(np.flatnonzero(np.any(r2 < 0, axis=1))[0])
         raise WorkspaceError(f"P = {np.round(P[k], 4).tolist()} m (sample {k}) is out of reach of a leg")
-    return Pl[:, :, 2] - D6 - np.sqrt(r2)
+    return Pl[:, :, 2] - geom.d6 - np.sqrt(r2)
 
 
-def check_regular(q: np.ndarray, u: np.ndarray, U: np.ndarray) -> None:
+def check_regular(q: np.ndarray, u: np.ndarray, U: np.ndarray, d4: float) -> None:
     """Raise SingularityError when a leg or the platform is too close to a singularity.
 
     Serial (leg) singularity: the bar is perpendicular to its actuator, u_i . e_i -> 0, B_p and J_k
     lose rank. Parallel singularity: the three bars become coplanar, det(A_p) -> 0.
     """
-    serial = np.abs(u[:, :, 2]) / D4
+    serial = np.abs(u[:, :, 2]) / d4
     if np.any(serial < SERIAL_MARGIN):
         k, i = np.argwhere(serial < SERIAL_MARGIN)[0]
         raise SingularityError(
             f"q = {np.round(q[k], 4).tolist()} m (sample {k}) is at a serial singularity of leg {i + 1}: "
             f"its bar is nearly perpendicular to the actuator (|u.e|/d4 = {serial[k, i]:.3g} < {SERIAL_MARGIN})"
         )
-    parallel = np.abs(np.linalg.det(U)) / D4**3
+    parallel = np.abs(np.linalg.det(U)) / d4**3
     if np.any(parallel < PARALLEL_MARGIN):
         k = int(np.flatnonzero(parallel < PARALLEL_MARGIN)[0])
         raise SingularityError(
@@ -171,7 +170,7 @@ class TreeState:
     P, Pd, Pdd: (N, 3) platform point, velocity v and acceleration (eqs. 5-6; D = [I3; 0] here).
     qt, qdt, qddt: (N, 3 legs, 5) tree joints q1i..q5i (eqs. 7-8).
     J_p: (N, 3, 3) with v = J_p qd (eq. 5). J_t: (N, 3 legs, 5, 3) with qdt = J_t qd (eq. 15).
-    u: (N, 3 legs, 3) bars in leg coordinates.
+    u: (N, 3 legs, 3) bars in leg coordinates. geom: the dimensions they were computed with.
     """
 
     P: np.ndarray
@@ -183,29 +182,31 @@ class TreeState:
     J_p: np.ndarray
     J_t: np.ndarray
     u: np.ndarray
+    geom: Geometry = PAPER
 
 
-def _bar_derivatives(q2: np.ndarray, q3: np.ndarray):
+def _bar_derivatives(q2: np.ndarray, q3: np.ndarray, d4: float):
     """du/dq2, du/dq3 and the second derivatives of u = d4 (c2 c3, -s3, -s2 c3), each (..., 3)."""
     c2, s2, c3, s3 = np.cos(q2), np.sin(q2), np.cos(q3), np.sin(q3)
     z = np.zeros_like(c2)
-    du2 = D4 * np.stack([-s2 * c3, z, -c2 * c3], -1)
-    du3 = D4 * np.stack([-c2 * s3, -c3, s2 * s3], -1)
-    d22 = D4 * np.stack([-c2 * c3, z, s2 * c3], -1)
-    d23 = D4 * np.stack([s2 * s3, z, c2 * s3], -1)
-    d33 = D4 * np.stack([-c2 * c3, s3, s2 * c3], -1)
+    du2 = d4 * np.stack([-s2 * c3, z, -c2 * c3], -1)
+    du3 = d4 * np.stack([-c2 * s3, -c3, s2 * s3], -1)
+    d22 = d4 * np.stack([-c2 * c3, z, s2 * c3], -1)
+    d23 = d4 * np.stack([s2 * s3, z, c2 * s3], -1)
+    d33 = d4 * np.stack([-c2 * c3, s3, s2 * c3], -1)
     return du2, du3, d22, d23, d33
 
 
-def tree_state(q: np.ndarray, qd: np.ndarray, qdd: np.ndarray, check: bool = True) -> TreeState:
+def tree_state(q: np.ndarray, qd: np.ndarray, qdd: np.ndarray, check: bool = True,
+               geom: Geometry = PAPER) -> TreeState:
     """All platform and tree coordinates, velocities, accelerations and Jacobians from (q, qd, qdd)."""
     q, qd, qdd = (as_samples(x, name) for x, name in ((q, "q"), (qd, "qd"), (qdd, "qdd")))
     N = q.shape[0]
-    P = fgm(q)
-    u = bar_vectors(q, P)  # leg coordinates
+    P = fgm(q, geom)
+    u = bar_vectors(q, P, geom)  # leg coordinates
     ub = to_base(u)  # base coordinates, rows of A_p / 2
     if check:
-        check_regular(q, u, ub)
+        check_regular(q, u, ub, geom.d4)
 
     # eq. (9) with f_p of eq. (41): A_p = 2 [u_i^T], B_p = diag(-2 u_i . e_i).
     A_p = 2.0 * ub
@@ -220,10 +221,10 @@ def tree_state(q: np.ndarray, qd: np.ndarray, qdd: np.ndarray, check: bool = Tru
     Pdd = -matvec(A_p_inv, Ad_v + B_p * qdd + Bd_qd)
 
     # Passive pivots from the bar direction: u/d4 = (c2 c3, -s3, -s2 c3), real mode has c3 > 0.
-    s = u / D4
+    s = u / geom.d4
     q3 = np.arcsin(np.clip(-s[:, :, 1], -1.0, 1.0))
     q2 = np.arctan2(-s[:, :, 2], s[:, :, 0])
-    du2, du3, d22, d23, d33 = _bar_derivatives(q2, q3)
+    du2, du3, d22, d23, d33 = _bar_derivatives(q2, q3, geom.d4)
     # eq. (7) for leg i, position rows: [z, du/dq2, du/dq3] (qd1, qd2, qd3) = R_i^T v   (J_k, J_tk)
     Jk = np.stack([np.broadcast_to(_Z, du2.shape), du2, du3], axis=-1)  # (N, 3, 3 rows, 3 cols)
     Jtk_Jp = J_p[:, _TO_LEG, :]  # R_i^T J_p: (N, 3 legs, 3, 3)
@@ -245,18 +246,20 @@ def tree_state(q: np.ndarray, qd: np.ndarray, qdd: np.ndarray, check: bool = Tru
     qddt = five(qdd123[:, :, 0], qdd123[:, :, 1], qdd123[:, :, 2])
     J_t = np.stack([J123[:, :, 0], J123[:, :, 1], J123[:, :, 2], -J123[:, :, 2], -J123[:, :, 1]], axis=2)
     assert J_t.shape == (N, 3, 5, 3)
-    return TreeState(P=P, Pd=Pd, Pdd=Pdd, qt=qt, qdt=qdt, qddt=qddt, J_p=J_p, J_t=J_t, u=u)
+    return TreeState(P=P, Pd=Pd, Pdd=Pdd, qt=qt, qdt=qdt, qddt=qddt, J_p=J_p, J_t=J_t, u=u,
+                     geom=geom)
 
 
-def loop_closure_residual(q: np.ndarray, P: np.ndarray, qt: np.ndarray) -> np.ndarray:
+def loop_closure_residual(q: np.ndarray, P: np.ndarray, qt: np.ndarray,
+                          geom: Geometry = PAPER) -> np.ndarray:
     """Residual of the full loop-closure equations f of eqs. (40)-(41), (N, 3 legs, 5).
 
     f_1i: P - R_0^i (d4 c2 c3 + ..., ...) i.e. the bar end computed from the tree joints must be the
     platform attachment point; f_2i: q2i + q5i and q3i + q4i.
     """
     q2, q3 = qt[:, :, 1], qt[:, :, 2]
-    u = D4 * np.stack([np.cos(q2) * np.cos(q3), -np.sin(q3), -np.sin(q2) * np.cos(q3)], -1)
-    C_from_tree = foot_points(q) + u + D6 * _Z
+    u = geom.d4 * np.stack([np.cos(q2) * np.cos(q3), -np.sin(q3), -np.sin(q2) * np.cos(q3)], -1)
+    C_from_tree = foot_points(q, geom) + u + geom.d6 * _Z
     f1 = to_leg(P) - C_from_tree
     f2 = np.stack([q2 + qt[:, :, 4], q3 + qt[:, :, 3]], axis=-1)
     return np.concatenate([f1, f2], axis=-1)

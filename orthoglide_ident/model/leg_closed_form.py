@@ -23,8 +23,7 @@ from typing import Callable, Iterable
 
 import numpy as np
 
-from orthoglide_ident.model.geometry import (D4, D6, FOOT_OFFSET, GRAVITY, GRAVITY_LEG,
-                                             PARALLEL_MARGIN, R_LEG, SERIAL_MARGIN)
+from orthoglide_ident.model.geometry import PAPER, PARALLEL_MARGIN, R_LEG, SERIAL_MARGIN, Geometry
 from orthoglide_ident.model.kinematics import (_TO_BASE, _TO_LEG, TreeState, check_regular, fgm,
                                                to_leg)
 from orthoglide_ident.model.parameters import LEG_PARAMETERS
@@ -36,7 +35,7 @@ _E = R_LEG[:, :, 2]  # actuator axis e_i in base coordinates (3 legs, 3)
 class _Leg:
     """Component-first leg quantities of one chunk: arrays (3 legs, N) unless said otherwise."""
 
-    def __init__(self, c2, s2, c3, s3, qdt, qddt, J, V, a4):
+    def __init__(self, c2, s2, c3, s3, qdt, qddt, J, V, a4, gravity_leg: np.ndarray):
         self.c2, self.s2, self.c3, self.s3 = c2, s2, c3, s3
         self.qdt, self.qddt = qdt, qddt  # (3 legs, 5, N): tree-joint rates and q̈ (q̈1..q̈3 used)
         self.J = J  # (3 legs, 5 joints, 3 act, N): J_t
@@ -44,7 +43,7 @@ class _Leg:
         self.a4 = a4  # (3 legs, 3 comps, N): R_iᵀ P̈ - g, leg coordinates
         self.qd2, self.qd3 = qdt[:, 1], qdt[:, 2]
         self.qdd2, self.qdd3 = qddt[:, 1], qddt[:, 2]
-        g = GRAVITY_LEG[:, :, None]  # (3 legs, 3 components, 1)
+        g = gravity_leg[:, :, None]  # (3 legs, 3 components, 1)
         # v̇ - g of O_1 in leg coordinates: (-g_x, -g_y, q̈1 - g_z)
         self.v1 = (-g[:, 0], -g[:, 1], qddt[:, 0] - g[:, 2])
         self._cache: dict[str, object] = {}
@@ -54,9 +53,10 @@ class _Leg:
         qt, qdt, qddt = (np.ascontiguousarray(np.moveaxis(x, 0, -1)) for x in (s.qt, s.qdt, s.qddt))
         J = np.ascontiguousarray(np.moveaxis(s.J_t, 0, -1))
         V = np.moveaxis(s.J_p[:, _TO_LEG, :], 0, -1)
-        a4 = np.moveaxis(to_leg(s.Pdd), 0, -1) - GRAVITY_LEG[:, :, None]
+        g_leg = s.geom.gravity_leg
+        a4 = np.moveaxis(to_leg(s.Pdd), 0, -1) - g_leg[:, :, None]
         return cls(np.cos(qt[:, 1]), np.sin(qt[:, 1]), np.cos(qt[:, 2]), np.sin(qt[:, 2]), qdt,
-                   qddt, J, V, a4)
+                   qddt, J, V, a4, g_leg)
 
     def Jrow(self, j: int) -> np.ndarray:
         """(3 actuators, 3 legs, N): rate of tree joint j + 1 per unit actuator rate."""
@@ -218,16 +218,18 @@ def _inv3(M: np.ndarray) -> np.ndarray:
     return co / det
 
 
-def leg_state(q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> tuple[_Leg, np.ndarray]:
+def leg_state(q: np.ndarray, qd: np.ndarray, qdd: np.ndarray,
+              geom: Geometry = PAPER) -> tuple[_Leg, np.ndarray]:
     """Component-first kinematics of a chunk (eqs. 5-9 with f_p of eq. 41, as
     ``kinematics.tree_state``) for the closed-form columns, and the platform column J_pᵀ(P̈ - g)
     (3, N). Raises WorkspaceError / SingularityError like ``tree_state``."""
-    P = fgm(q)
+    d4 = geom.d4
+    P = fgm(q, geom)
     Pt, qt_, qdt_, qddt_ = P.T, q.T, qd.T, qdd.T  # (3, N)
-    u = Pt[_TO_LEG] - FOOT_OFFSET[:, :, None]  # bars in leg coordinates (3 legs, 3, N)
-    u[:, 2] -= qt_ + D6
+    u = Pt[_TO_LEG] - geom.foot_offset[:, :, None]  # bars in leg coordinates (3 legs, 3, N)
+    u[:, 2] -= qt_ + geom.d6
     ub = u[np.arange(3)[:, None], _TO_BASE]  # base coordinates: rows of A_p / 2
-    _check(q, u, ub)
+    _check(q, u, ub, d4)
     Ainv = _inv3(2.0 * ub)  # eq. (9): A_p = 2 [u_iᵀ], B_p = diag(-2 u_i . e_i)
     J_p = 2.0 * Ainv * u[:, 2][None]  # eq. (5): J_p = -A_p⁻¹ B_p, (3 comps, 3 act, N)
     Pd = (J_p * qdt_[None]).sum(1)
@@ -235,39 +237,40 @@ def leg_state(q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> tuple[_Leg, np.
     rhs = (2.0 * (ud * Pd[None]).sum(1) - 2.0 * u[:, 2] * qddt_
            - 2.0 * (ud * _E[:, :, None]).sum(1) * qdt_)
     Pdd = -(Ainv * rhs[None]).sum(1)  # eq. (6)
-    sx, sy, sz = u[:, 0] / D4, u[:, 1] / D4, u[:, 2] / D4
+    sx, sy, sz = u[:, 0] / d4, u[:, 1] / d4, u[:, 2] / d4
     q3 = np.arcsin(np.clip(-sy, -1.0, 1.0))
     q2 = np.arctan2(-sz, sx)
     c2, s2, c3, s3 = np.cos(q2), np.sin(q2), np.cos(q3), np.sin(q3)
 
     def solve_jk(y, c2, s2, c3, s3):  # J_k x = y, J_k = [z, du/dq2, du/dq3] (eq. 7), triangular
-        x3 = y[1] / (-D4 * c3)
-        x2 = (y[0] + D4 * c2 * s3 * x3) / (-D4 * s2 * c3)
-        return y[2] + D4 * c2 * c3 * x2 - D4 * s2 * s3 * x3, x2, x3
+        x3 = y[1] / (-d4 * c3)
+        x2 = (y[0] + d4 * c2 * s3 * x3) / (-d4 * s2 * c3)
+        return y[2] + d4 * c2 * c3 * x2 - d4 * s2 * s3 * x3, x2, x3
 
     V = J_p[_TO_LEG]  # R_iᵀ J_p: (3 legs, 3 comps, 3 act, N)
     J123 = solve_jk(tuple(np.moveaxis(V, 1, 0)), *(x[:, None] for x in (c2, s2, c3, s3)))
     qd123 = [(x * qdt_[None]).sum(1) for x in J123]
     qd2, qd3 = qd123[1], qd123[2]
-    bias = (D4 * (-c2 * c3 * qd2 ** 2 + 2 * s2 * s3 * qd2 * qd3 - c2 * c3 * qd3 ** 2),
-            D4 * s3 * qd3 ** 2,
-            D4 * (s2 * c3 * qd2 ** 2 + 2 * c2 * s3 * qd2 * qd3 + s2 * c3 * qd3 ** 2))
+    bias = (d4 * (-c2 * c3 * qd2 ** 2 + 2 * s2 * s3 * qd2 * qd3 - c2 * c3 * qd3 ** 2),
+            d4 * s3 * qd3 ** 2,
+            d4 * (s2 * c3 * qd2 ** 2 + 2 * c2 * s3 * qd2 * qd3 + s2 * c3 * qd3 ** 2))
     Pdd_leg = Pdd[_TO_LEG]  # (3 legs, 3, N)
     qdd123 = solve_jk(tuple(Pdd_leg[:, k] - bias[k] for k in range(3)), c2, s2, c3, s3)  # eq. (8)
     qdt = np.stack([qd123[0], qd2, qd3, -qd3, -qd2], axis=1)
     qddt = np.stack([qdd123[0], qdd123[1], qdd123[2], -qdd123[2], -qdd123[1]], axis=1)
     J = np.stack([J123[0], J123[1], J123[2], -J123[2], -J123[1]], axis=1)
-    leg = _Leg(c2, s2, c3, s3, qdt, qddt, J, V, Pdd_leg - GRAVITY_LEG[:, :, None])
-    platform = (J_p * (Pdd - GRAVITY[:, None])[:, None]).sum(0)  # J_pᵀ (P̈ - g): m_6, m_7
+    g_leg = geom.gravity_leg
+    leg = _Leg(c2, s2, c3, s3, qdt, qddt, J, V, Pdd_leg - g_leg[:, :, None], g_leg)
+    platform = (J_p * (Pdd - geom.gravity[:, None])[:, None]).sum(0)  # J_pᵀ (P̈ - g): m_6, m_7
     return leg, platform
 
 
-def _check(q: np.ndarray, u: np.ndarray, ub: np.ndarray) -> None:
+def _check(q: np.ndarray, u: np.ndarray, ub: np.ndarray, d4: float) -> None:
     """kinematics.check_regular's margins; its message when one is crossed."""
-    serial = np.abs(u[:, 2]) / D4
+    serial = np.abs(u[:, 2]) / d4
     a, b, c = ub[0]
     d, e, f = ub[1]
     g, h, i = ub[2]
     det = a * (e * i - f * h) - b * (d * i - f * g) + c * (d * h - e * g)
-    if np.any(serial < SERIAL_MARGIN) or np.any(np.abs(det) / D4 ** 3 < PARALLEL_MARGIN):
-        check_regular(q, np.moveaxis(u, -1, 0), np.moveaxis(ub, -1, 0))
+    if np.any(serial < SERIAL_MARGIN) or np.any(np.abs(det) / d4 ** 3 < PARALLEL_MARGIN):
+        check_regular(q, np.moveaxis(u, -1, 0), np.moveaxis(ub, -1, 0), d4)

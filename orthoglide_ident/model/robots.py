@@ -78,12 +78,39 @@ def _load(path: str) -> RobotModel:
     data = read_yaml(p)
     kind = str(data.get("model", "pinocchio"))
     if kind == "orthoglide":
-        from orthoglide_ident.model.base import base_model
-
-        return base_model()
+        return _orthoglide(data, p)
     if kind != "pinocchio":
         raise ConfigError(f"robot file {p}: model {kind!r} is not orthoglide or pinocchio")
     return _pinocchio(data, p.parent)
+
+
+ORTHOGLIDE_KEYS = ("name", "model", "geometry", "nominal_gains")
+
+
+def _orthoglide(data: dict[str, Any], path: Path) -> RobotModel:
+    """The closed form with the file's geometry (a, d4, d6 in m; gravity in m/s² along y0) and
+    nominal gains (N/A: three numbers or one for all)."""
+    from orthoglide_ident.model.base import base_model
+    from orthoglide_ident.model.geometry import PAPER, Geometry
+
+    unknown = sorted(set(data) - set(ORTHOGLIDE_KEYS))
+    if unknown:
+        raise ConfigError(f"robot file {path}: unknown key(s) {unknown} for model: orthoglide "
+                          f"(known: {', '.join(ORTHOGLIDE_KEYS)})")
+    geo = data.get("geometry") or {}
+    if not isinstance(geo, dict) or set(geo) - {"a", "d4", "d6", "gravity"}:
+        raise ConfigError(f"robot file {path}: geometry takes a, d4, d6 (m) and gravity (m/s²)")
+    try:
+        geometry = Geometry(float(geo.get("a", PAPER.a)), float(geo.get("d4", PAPER.d4)),
+                            float(geo.get("d6", PAPER.d6)), float(geo.get("gravity", PAPER.g0)))
+        gains = data.get("nominal_gains")
+        if gains is not None:
+            gains = tuple(float(x) for x in (gains if isinstance(gains, list) else [gains] * 3))
+            if len(gains) != 3:
+                raise ValueError("nominal_gains needs 3 numbers (q11, q12, q13) or one")
+    except (TypeError, ValueError) as exc:
+        raise ConfigError(f"robot file {path}: {exc}") from None
+    return base_model(geometry, gains)
 
 
 def _pinocchio(data: dict[str, Any], base_dir: Path) -> RobotModel:
