@@ -18,7 +18,7 @@ from scipy.linalg import qr
 
 from orthoglide_ident.errors import ConfigError
 from orthoglide_sim.arm_description import ArmDescription
-from orthoglide_sim.arm_truth import ArmPayload, ArmTruth, RigidBody
+from orthoglide_sim.arm_truth import GRAVITY, ArmPayload, ArmTruth, RigidBody
 
 PIN_INERTIAL = ("m", "mx", "my", "mz", "xx", "xy", "yy", "xz", "yz", "zz")
 DRIVE = ("ia", "fv", "fs", "tauoff")
@@ -89,7 +89,7 @@ class ArmRegressor:
     criterion cond(W) needs (a regroupable column makes W rank-deficient).
     """
 
-    def __init__(self, arm: ArmDescription, gravity: float = 9.81, n_random: int = 400, seed: int = 0):
+    def __init__(self, arm: ArmDescription, gravity: float = GRAVITY, n_random: int = 400, seed: int = 0):
         self.arm = arm
         self.model, self.idx = urdf_model(arm, gravity)
         self.data = self.model.createData()

@@ -13,7 +13,7 @@ from orthoglide_ident.errors import ConfigError
 from orthoglide_sim import arm_excitation as ax
 from orthoglide_sim.arm_description import load_arm
 from orthoglide_sim.arm_limits import MotionLimits, motion_limits
-from orthoglide_sim.arm_truth import default_truth
+from orthoglide_sim.arm_truth import GRAVITY, default_truth
 from orthoglide_sim.pinocchio_arm import ArmRegressor, TruthDynamics, urdf_model
 
 NAMES = ("exciting1", "exciting2")
@@ -63,7 +63,7 @@ def test_designed_trajectory_beats_random_fourier_series(arm, regressor, name):
 
 def test_safe_box_keeps_the_arm_above_its_mounting_plane(arm):
     """Random corners of the UR5's box: forearm to tool0 at least 0.2 m above the base plane."""
-    model, idx = urdf_model(arm, 9.81)
+    model, idx = urdf_model(arm, GRAVITY)
     data = model.createData()
     lim = motion_limits(arm)
     frames = [model.getFrameId(f) for f in ("forearm_link", "wrist_1_link", "wrist_2_link",
