@@ -84,7 +84,8 @@ def simulate_arm(duration_s: float, robot: str = "ur5", payload: str | None = No
     noise_a = np.random.default_rng(seed).normal(0.0, 1.0, (N, arm.n)) * std if noise else np.zeros((N, arm.n))
     current_limit = np.array([j.effort for j in arm.joints]) / arm.nominal_gains
     torque0 = plant.inverse_dynamics(q_ref[:1], qd_ref[:1], qdd_ref[:1], friction=True)[0]
-    pid = asim.ArmPID.tuned(asim.joint_inertia(plant, limits.centre), arm.nominal_gains, current_limit,
+    inertia = asim.joint_inertia(MujocoPlant(truth), limits.centre)  # tuned once, unloaded
+    pid = asim.ArmPID.tuned(inertia, arm.nominal_gains, current_limit,
                             asim.quantise(q_ref[0] - qd_ref[0] * asim.TICK, truth.encoder_resolution),
                             qd_ref[0], torque0)
     plant.reset(q_ref[0], qd_ref[0])

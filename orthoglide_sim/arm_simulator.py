@@ -4,8 +4,9 @@ Per tick k (t_k = k TICK), as orthoglide_sim/simulator.py does for the Orthoglid
 
 1. the encoder reads q_meas = quantise(q(t_k)) (``ArmTruth.encoder_resolution``);
 2. the joint PID with velocity feed-forward, a triple pole at -ω (ω = OMEGA = 100 rad/s, the
-   paper's linear part) tuned on each joint's inertia J_j (the plant's mass matrix diagonal at
-   the box centre, as a commissioning engineer tunes on the robot):
+   paper's linear part) tuned on each joint's inertia J_j (the unloaded plant's mass matrix
+   diagonal at the box centre, as a commissioning engineer tunes on the robot; the same gains
+   with any payload), D on a low-passed velocity (VELOCITY_FILTER):
        torque = Kp e + Ki ∫e + Kd (q̇_ref - v_est),  Kp = 3 J ω², Kd = 3 J ω, Ki = J ω³,
    e = q_ref - q_meas, v_est the backward difference of q_meas;
 3. the current reference v_tau = torque / g_nominal (the manufacturer's gain the controller is

@@ -34,6 +34,7 @@ TIMESTEP = 2.5e-4  # s: 4 RK4 steps per 1 kHz controller tick
 # a real joint's Stribeck scale, and is 8 steps: stable)
 FRICTION_TIMECONST = 2.0e-3
 PAYLOAD_BODY = "payload"
+INERTIAL_TOLERANCE = 1e-12  # relative: what MuJoCo's principal-axes storage loses to round-off
 _log = logging.getLogger("orthoglide_sim.mujoco")
 
 
@@ -110,6 +111,10 @@ class MujocoPlant:
                               f"{len(ids)} actuated joints")
         self.dof = np.array([m.jnt_dofadr[i] for i in ids])
         self.offset = truth.drive_array("offset")
+        worst = max(self.inertial_errors().items(), key=lambda kv: kv[1])
+        if worst[1] > INERTIAL_TOLERANCE:  # MuJoCo must not have changed the truth's inertials
+            raise ConfigError(f"MuJoCo changed the inertial of body {worst[0]} by {worst[1]:.1e} "
+                              "(relative) while loading it")
 
     # state -----------------------------------------------------------------------------------
     def reset(self, q: np.ndarray, qd: np.ndarray) -> None:

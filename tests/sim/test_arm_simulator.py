@@ -147,3 +147,13 @@ def test_bags_bad_input_one_line(tmp_path, capsys):
     err = capsys.readouterr().err
     assert err.startswith("error: robot 'nope'") and err.count("\n") == 1
     assert bags_main(["--duration", "-1", "--out", str(tmp_path)]) == 2
+
+
+@pytest.mark.slow
+def test_the_60_s_records_stay_in_the_workspace_unsaturated(tmp_path, capsys):
+    """The bags command's three 60 s records (unloaded, 2 kg, 1 kg) run to the end."""
+    assert bags_main(["--robot", "ur5", "--duration", "60", "--out", str(tmp_path)]) == 0
+    out = capsys.readouterr().out
+    assert out.count("0 saturated ticks") == 3
+    for name in ("unloaded", "loaded_2kg", "loaded_1kg"):
+        assert len(read_bag(tmp_path / name).joint_states.stamps_ns) == 60_000
