@@ -45,15 +45,16 @@ UR5_LINKS: dict[str, tuple[float, tuple, tuple, tuple]] = {
     "wrist_2_link": (1.061, (-0.007, 0.004, 0.006), (1.03, 1.05, 1.02), (-0.06, 0.08, 0.05)),
     "wrist_3_link": (0.936, (0.003, 0.006, -0.005), (1.05, 1.04, 1.02), (0.05, 0.07, -0.06)),
 }
-# UR5 joints: (armature kg·m², damping N·m·s/rad, frictionloss N·m, offset N·m, g_tau N·m/A);
-# the true gains are +4.2, -3.2, +3.1, -4.3, +4.8, -2.5 % off the nominal 13.0 / 9.3 N·m/A.
+# UR5 joints: (armature kg·m², damping N·m·s/rad, frictionloss N·m, offset N·m, g_tau / nominal
+# gain): the true gains 13.546, 12.584, 13.403, 8.900, 9.746, 9.068 N·m/A of the nominal
+# 13.0 / 9.3 (the factor applies to whatever nominal gain the robot file gives).
 UR5_JOINTS: dict[str, tuple[float, float, float, float, float]] = {
-    "shoulder_pan_joint": (0.35, 2.4, 5.1, 0.42, 13.546),
-    "shoulder_lift_joint": (0.33, 2.9, 5.8, -0.55, 12.584),
-    "elbow_joint": (0.27, 1.9, 4.2, 0.31, 13.403),
-    "wrist_1_joint": (0.098, 0.62, 1.45, -0.12, 8.900),
-    "wrist_2_joint": (0.091, 0.55, 1.32, 0.09, 9.746),
-    "wrist_3_joint": (0.087, 0.51, 1.21, -0.07, 9.068),
+    "shoulder_pan_joint": (0.35, 2.4, 5.1, 0.42, 1.042),
+    "shoulder_lift_joint": (0.33, 2.9, 5.8, -0.55, 0.968),
+    "elbow_joint": (0.27, 1.9, 4.2, 0.31, 1.031),
+    "wrist_1_joint": (0.098, 0.62, 1.45, -0.12, 0.957),
+    "wrist_2_joint": (0.091, 0.55, 1.32, 0.09, 1.048),
+    "wrist_3_joint": (0.087, 0.51, 1.21, -0.07, 0.975),
 }
 # Payloads fixed to the payload frame (tool0): (mass, centre of mass, principal moments, tilt).
 # "2.0": the 2 kg off-centre payload of the loaded TLS record; "1.0": the WLS check's.
@@ -213,7 +214,8 @@ def default_truth(arm: ArmDescription, seed: int = DEFAULT_SEED) -> ArmTruth:
     drives = {}
     for j in arm.joints:
         if j.name in UR5_JOINTS:
-            drives[j.name] = JointDrive(*UR5_JOINTS[j.name])
+            ia, fv, fs, off, factor = UR5_JOINTS[j.name]
+            drives[j.name] = JointDrive(ia, fv, fs, off, j.nominal_gain * factor)
         else:
             drives[j.name] = _seeded_joint(j.effort if math.isfinite(j.effort) else 100.0, j.nominal_gain, rng)
     payloads = {k: ArmPayload(k, arm.payload_frame, RigidBody.from_principal(*v)) for k, v in PAYLOADS.items()}

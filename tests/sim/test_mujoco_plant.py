@@ -140,7 +140,9 @@ def test_bad_overrides_get_a_one_line_reason(truth, data, reason):
 
 def test_config_file_is_the_default_truth(truth):
     t = load_truth(truth.arm, "config/arm_plant.yaml")
-    assert t.drives == truth.drives and t.encoder_counts == 2**19 and t.current_noise_fraction == 0.005
+    for key in ("armature", "damping", "frictionloss", "offset", "g_tau"):
+        assert np.allclose(t.drive_array(key), truth.drive_array(key), rtol=1e-12, atol=0), key
+    assert t.encoder_counts == 2**19 and t.current_noise_fraction == 0.005
 
 
 def test_payload_tag_is_its_rigid_body(truth):
@@ -151,3 +153,10 @@ def test_payload_tag_is_its_rigid_body(truth):
     assert tag["orthoglide.payload_frame"] == "tool0" and np.array_equal(com, p.body.com)
     assert np.array_equal(np.array([[xx, xy, xz], [xy, yy, yz], [xz, yz, zz]]), p.body.inertia)
     assert np.linalg.norm(com) > 0.05 and abs(xy) > 0  # off-centre, not a point mass
+
+
+def test_true_gains_follow_the_robot_files_nominal_gains():
+    """The UR5's URDF alone has nominal gains 1: the true ones are the same few % off them."""
+    bare = default_truth(load_arm("orthoglide_ident/robots/ur5.urdf"))
+    full = default_truth(load_arm("ur5"))
+    assert np.allclose(bare.drive_array("g_tau"), full.drive_array("g_tau") / full.arm.nominal_gains)
