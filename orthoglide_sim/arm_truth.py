@@ -284,10 +284,9 @@ def apply_overrides(truth: ArmTruth, data: Mapping[str, Any], source: str = "ove
             raise ConfigError(f"{source}: joints.{joint}.g_tau must be positive")
         drives[joint] = replace(drives[joint], **values)
     for name, d in (data.get("payloads") or {}).items():
-        name = str(name)
-        d = dict(d) if isinstance(d, Mapping) else d
-        frame = str(d.pop("frame", truth.arm.payload_frame)) if isinstance(d, dict) else ""
-        old = payloads.get(name)
+        name, old = str(name), payloads.get(str(name))
+        d = dict(d) if isinstance(d, Mapping) else {"": d}  # a non-mapping: _rigid_body says so
+        frame = str(d.pop("frame", old.frame if old else truth.arm.payload_frame))
         payloads[name] = ArmPayload(name, frame, _rigid_body(d, old.body if old else None,
                                                              f"{source}: payloads.{name}"))
     noise = _number(data.get("current_noise", truth.current_noise_fraction), f"{source}: current_noise", 0.0, 1.0)
