@@ -1,0 +1,64 @@
+"""Where a simulated serial arm may move: the box its exciting trajectories stay in (position,
+velocity, acceleration per joint) and the stop limits beyond which the simulator raises
+WorkspaceError (a real arm's protective stop).
+
+UR5: the box is centred on q_c = (0, -2.0, 1.2, -π/2, -π/2, 0) rad, the upper arm leaning back
+from the vertical and the elbow bent, half-widths (1.4, 0.5, 0.7, 1.0, 1.2, 1.5) rad. Over 1500
+random corners of it every distal link frame (forearm to tool0) stays 0.2 m or more above the
+base's mounting plane (tests/sim/test_arm_excitation.py checks it with Pinocchio's kinematics),
+the elbow stays between 0.5 and 1.9 rad (away from the stretched-arm singularity and from folding
+onto the upper arm), and the speeds and accelerations are about half of what a UR5 allows
+(3.15 rad/s). Another arm gets a box from its URDF limits.
+
+Units: rad, rad/s, rad/s² (prismatic joints: m, m/s, m/s²).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from orthoglide_sim.arm_description import ArmDescription
+
+STOP_MARGIN = 0.25  # rad (or m/10) beyond the box: the simulated arm's protective stop
+
+
+@dataclass(frozen=True)
+class MotionLimits:
+    """Per joint (n,): box centre and half-width, peak speed and acceleration of a trajectory."""
+
+    centre: np.ndarray
+    half: np.ndarray
+    velocity: np.ndarray
+    acceleration: np.ndarray
+    stop_lower: np.ndarray  # the simulator's WorkspaceError limits
+    stop_upper: np.ndarray
+
+
+UR5 = {
+    "centre": (0.0, -2.0, 1.2, -math.pi / 2, -math.pi / 2, 0.0),
+    "half": (1.4, 0.5, 0.7, 1.0, 1.2, 1.5),
+    "velocity": (1.5, 1.5, 2.0, 2.5, 2.5, 2.5),
+    "acceleration": (8.0, 8.0, 12.0, 15.0, 15.0, 15.0),
+}
+
+
+def motion_limits(arm: ArmDescription) -> MotionLimits:
+    """The arm's box: the UR5's table for the UR5, else 40 % of each URDF range (at most ±1.5 rad)
+    around its middle, half the URDF's speed limit, 5 s⁻¹ times that as acceleration."""
+    lo = np.array([j.lower for j in arm.joints])
+    hi = np.array([j.upper for j in arm.joints])
+    if arm.name == "ur5" and arm.n == len(UR5["centre"]):
+        table = {k: np.array(v, float) for k, v in UR5.items()}
+    else:
+        finite = np.isfinite(lo) & np.isfinite(hi)
+        mid = np.where(finite, 0.5 * (lo + hi), 0.0)
+        span = np.where(finite, 0.5 * (hi - lo), math.pi)
+        vel = np.array([j.velocity if math.isfinite(j.velocity) else 2.0 for j in arm.joints])
+        table = {"centre": mid, "half": np.minimum(0.4 * span, 1.5), "velocity": 0.5 * vel,
+                 "acceleration": 2.5 * vel}
+    margin = np.array([STOP_MARGIN if j.kind == "revolute" else 0.1 * STOP_MARGIN for j in arm.joints])
+    return MotionLimits(table["centre"], table["half"], table["velocity"], table["acceleration"],
+                        np.maximum(table["centre"] - table["half"] - margin, lo),
+                        np.minimum(table["centre"] + table["half"] + margin, hi))
