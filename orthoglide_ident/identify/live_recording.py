@@ -114,7 +114,8 @@ class LiveRecording:
         else:
             horizon = min(self.q.max_ns, self.v.max_ns) - self.opts.live_pairing_slack_s * 1e9
         self._processed_ns = max(x for x in (self.q.max_ns, self.v.max_ns, 0) if x is not None)
-        p = pair_upto(self.q, self.v, horizon)
+        tol = 0 if self.q.period_ns is None else max(int((self.q.period_ns - 1) // 2), 0)
+        p = pair_upto(self.q, self.v, horizon, tol)  # as segments.pairing_tolerance_ns
         self.rep.n_paired += p.stamps_ns.shape[0]
         self.rep.n_unpaired_joint_states += p.unpaired_q
         self.rep.n_unpaired_current_reference += p.unpaired_v

@@ -3,8 +3,9 @@
 ``/orthoglide/joint_states`` (q) and ``/orthoglide/current_reference`` (v_tau) carry the same
 header stamp for the same controller tick but arrive independently, a few ticks apart, in
 batches of any length. A :class:`TopicBuffer` holds each topic's samples until both topics have
-gone past their stamp; :func:`pair_upto` then pairs them by exact stamp as
-``segments.split_record`` does (duplicates: the first received is kept). Whatever cannot be used
+gone past their stamp; :func:`pair_upto` then pairs them by stamp as ``segments.split_record``
+does — equal stamps, or the nearest within half a tick for a current published by another node
+(duplicates: the first received is kept). Whatever cannot be used
 is said the moment it arrives (``TopicBuffer.add`` returns one-line warnings): wrong joint names,
 NaN/inf, lost ticks, samples out of order or too late, currents near saturation.
 """
@@ -16,7 +17,7 @@ from typing import Sequence
 import numpy as np
 
 from orthoglide_ident.errors import DataError
-from orthoglide_ident.identify.segments import column_order, unique_sorted
+from orthoglide_ident.identify.segments import column_order, nearest_pairs, unique_sorted
 
 
 @dataclass
@@ -186,6 +187,12 @@ class TopicBuffer:
             self.horizon_ns = top if self.horizon_ns is None else max(self.horizon_ns, top)
         return s[:k], x[:k], n_dup
 
+    def put_back(self, stamps_ns: np.ndarray, values: np.ndarray) -> None:
+        """Return samples taken but not used (past the pairing horizon) to the buffer."""
+        if stamps_ns.shape[0]:
+            self._stamps.insert(0, stamps_ns)
+            self._values.insert(0, values)
+
     @property
     def pending(self) -> int:
         return int(sum(s.shape[0] for s in self._stamps))
@@ -203,15 +210,21 @@ class Paired:
     duplicates: int = 0
 
 
-def pair_upto(q: TopicBuffer, v: TopicBuffer, horizon_ns: float) -> Paired:
-    """Pair every tick up to ``horizon_ns`` (both topics must be past it, or have ended)."""
+def pair_upto(q: TopicBuffer, v: TopicBuffer, horizon_ns: float, tol_ns: int = 0) -> Paired:
+    """Pair every position tick up to ``horizon_ns`` (both topics must be past it by more than
+    ``tol_ns``, or have ended) with the current of the same stamp or the nearest within
+    ``tol_ns`` (segments.nearest_pairs); currents past the horizon that did not pair stay."""
+    before = [x for x in (q.horizon_ns, v.horizon_ns) if x is not None]
     sq, xq, dq = q.take_upto(horizon_ns)
-    sv, xv, dv = v.take_upto(horizon_ns)
+    sv, xv, dv = v.take_upto(horizon_ns + tol_ns)
+    iq, iv = nearest_pairs(sq, sv, tol_ns)
+    later = np.ones(sv.shape[0], bool)
+    later[iv] = False
+    later &= sv > horizon_ns  # unpaired, and a position tick after the horizon may still claim it
+    v.put_back(sv[later], xv[later])
     # a tick up to the horizon is settled on both topics: later arrivals there are late
-    done = [x for x in (q.horizon_ns, v.horizon_ns) if x is not None]
-    if np.isfinite(horizon_ns):
-        done.append(int(horizon_ns))
+    done = before + ([int(horizon_ns)] if np.isfinite(horizon_ns) else
+                     [int(x[-1]) for x in (sq, sv) if x.shape[0]])
     q.horizon_ns = v.horizon_ns = max(done) if done else None
-    common, iq, iv = np.intersect1d(sq, sv, assume_unique=True, return_indices=True)
-    return Paired(common, xq[iq], xv[iv], sq.shape[0] - common.shape[0],
-                  sv.shape[0] - common.shape[0], dq + dv)
+    n_v = int(sv.shape[0] - later.sum())
+    return Paired(sq[iq], xq[iq], xv[iv], sq.shape[0] - iq.shape[0], n_v - iv.shape[0], dq + dv)

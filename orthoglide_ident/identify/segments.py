@@ -1,9 +1,12 @@
 """Pair joint positions with current references by stamp and split the record at gaps (docs/architecture.md §6.1).
 
 The controller publishes q (``/orthoglide/joint_states``) and v_tau
-(``/orthoglide/current_reference``)
-with the same header stamp for the same tick. Samples are paired by exact stamp; a missing tick on
-either topic is a gap. Derivative filtering and decimation never run across a gap, so the record is
+(``/orthoglide/current_reference``) with the same header stamp for the same tick, as ros2_control's
+joint_state_broadcaster stamps ``/joint_states`` and ``/dynamic_joint_states`` from one update.
+Samples are paired by stamp: equal stamps, or, when the current comes from another publisher that
+stamps with its own clock (a controller's ``now()``), the nearest stamp within half a tick
+(:func:`nearest_pairs`); the pair takes the position's stamp. A missing tick on either topic is a
+gap. Derivative filtering and decimation never run across a gap, so the record is
 split into continuous segments and segments too short for the filters are dropped. Everything that
 was dropped is counted in a :class:`SegmentReport` for the log.
 
@@ -112,19 +115,52 @@ def _checked_columns(arr: np.ndarray, stamps: np.ndarray, names: Sequence[str], 
     return arr[:, perm]
 
 
+def pairing_tolerance_ns(stamps_q: np.ndarray) -> int:
+    """Largest stamp difference that still pairs two samples: under half the median tick (so a
+    neighbouring tick never pairs), from the positions' sorted distinct stamps."""
+    dt = np.diff(stamps_q)
+    return max(int((float(np.median(dt)) - 1) // 2), 0) if dt.size else 0
+
+
+def nearest_pairs(sq: np.ndarray, sv: np.ndarray, tol_ns: int) -> tuple[np.ndarray, np.ndarray]:
+    """Indices (iq, iv) pairing stamps of ``sq`` with the nearest of ``sv`` within ``tol_ns``
+    (both sorted, distinct; one to one, the nearer wins a shared partner; equal stamps always
+    pair). With tol_ns = 0 it is the intersection of the two."""
+    if sq.size == 0 or sv.size == 0:
+        return np.zeros(0, np.intp), np.zeros(0, np.intp)
+    right = np.clip(np.searchsorted(sv, sq), 0, sv.size - 1)
+    left = np.clip(right - 1, 0, sv.size - 1)
+    d_left, d_right = np.abs(sq - sv[left]), np.abs(sv[right] - sq)
+    j = np.where(d_right < d_left, right, left)
+    d = np.minimum(d_left, d_right)
+    ok = np.flatnonzero(d <= tol_ns)
+    if ok.size == 0:
+        return ok, ok
+    # a partner claimed twice (adjacent in q order): the nearer claim keeps it
+    order = ok[np.lexsort((d[ok], j[ok]))]
+    first = np.ones(order.size, bool)
+    first[1:] = j[order[1:]] != j[order[:-1]]
+    iq = np.sort(order[first])
+    return iq, j[iq]
+
+
 def _pair(stamps_q: np.ndarray, q: np.ndarray, stamps_v: np.ndarray, v_tau: np.ndarray,
           rep: SegmentReport, source: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Samples of both topics sharing a stamp, in stamp order (duplicates keep the first)."""
+    """Samples of both topics paired by stamp (equal, or nearest within half a tick), in stamp
+    order, with the positions' stamps (duplicates keep the first)."""
     iq, dq = unique_sorted(stamps_q)
     iv, dv = unique_sorted(stamps_v)
     rep.n_duplicate_stamps = dq + dv
-    stamps, jq, jv = np.intersect1d(stamps_q[iq], stamps_v[iv], assume_unique=True, return_indices=True)
+    sq, sv = stamps_q[iq], stamps_v[iv]
+    jq, jv = nearest_pairs(sq, sv, pairing_tolerance_ns(sq))
+    stamps = sq[jq]
     rep.n_paired = int(stamps.shape[0])
     rep.n_unpaired_joint_states = int(iq.shape[0] - stamps.shape[0])
     rep.n_unpaired_current_reference = int(iv.shape[0] - stamps.shape[0])
     if rep.n_paired < 2:
-        raise DataError(f"{source}: only {rep.n_paired} joint_states/current_reference samples share a header "
-                        "stamp; both topics must carry the controller tick as stamp")
+        raise DataError(f"{source}: only {rep.n_paired} joint_states/current_reference samples "
+                        "pair by header stamp (equal, or within half a tick); both topics must "
+                        "carry the controller tick as stamp")
     return stamps, q[iq[jq]], v_tau[iv[jv]]
 
 

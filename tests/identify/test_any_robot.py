@@ -89,3 +89,18 @@ def test_a_missing_joint_is_a_one_line_reason(arm_records):
     live = LiveIdentification(PAPER_DRIVE, ARM)
     warnings = feed(live, bad, (100,))
     assert any("joint_6" in w and "dropped" in w for w in warnings)
+
+
+def test_currents_stamped_by_another_publisher_pair_within_half_a_tick(arm_records, arm_result):
+    """The current from a controller that stamps with its own now() (0.3 ms late ± 0.15 ms):
+    paired by nearest stamp, offline and live, the same identification as shared stamps."""
+    rng = np.random.default_rng(5)
+    recs = [dataclasses.replace(r, stamps_v_ns=r.stamps_v_ns + 300_000
+                                + rng.integers(-150_000, 150_000, len(r.stamps_v_ns)))
+            for r in arm_records]
+    res = identify_records(recs, model=ARM, options=PAPER_DRIVE)
+    assert max(rel_diff(arm_result, res)) < 1e-12
+    live = LiveIdentification(PAPER_DRIVE, ARM)
+    for i, rec in enumerate(recs):
+        assert feed(live, rec, (1, 37, 250), 3, seed=i) == []
+    assert max(rel_diff(arm_result, live.result())) < 1e-6

@@ -78,10 +78,26 @@ def test_joint_names_mismatch_and_permutation():
     assert np.all(segs[0].v_tau[:, 1] == 7.0) and rep.reordered == ["current_reference"]
 
 
+def test_currents_of_another_publisher_pair_by_nearest_stamp():
+    """A controller stamping with its own clock (offset, jitter under half a tick) pairs as if
+    it shared the stamps; the pairs keep the positions' stamps."""
+    s, q, v = _data(1000)
+    same, _ = split_record(s, NAMES, q, s, NAMES, v, min_samples=100)
+    jitter = np.random.default_rng(0).integers(-150_000, 150_000, s.shape[0])
+    drop = np.ones(1000, bool)
+    drop[500] = False  # one current lost: a gap, as with equal stamps
+    segs, rep = split_record(s, NAMES, q, (s + 300_000 + jitter)[drop], NAMES, v[drop],
+                             min_samples=100)
+    assert rep.n_paired == 999 and rep.n_gaps == 1 and rep.n_unpaired_joint_states == 1
+    assert np.array_equal(np.concatenate([g.stamps_ns for g in segs]), s[drop])
+    assert np.array_equal(np.concatenate([g.v_tau for g in segs]), v[drop])
+    assert np.array_equal(same[0].q, q)
+
+
 def test_no_common_stamps_and_all_too_short():
     s, q, v = _data(1000)
-    with pytest.raises(DataError, match="share a header stamp"):
-        split_record(s, NAMES, q, s + 1, NAMES, v, min_samples=100)
+    with pytest.raises(DataError, match="pair by header stamp"):
+        split_record(s, NAMES, q, s + T_NS // 2, NAMES, v, min_samples=100)  # half a tick off
     keep = np.ones(1000, bool)
     keep[::50] = False
     with pytest.raises(DataError, match="no continuous run"):
