@@ -122,6 +122,32 @@ def ensure_type(msgtype: str) -> None:
                 raise BagError(f"cannot load message type {name} from {path}: {exc}") from None
 
 
+@functools.lru_cache(maxsize=64)
+def schema_store(msgtype: str, encoding: str, schema: str) -> Any:
+    """A typestore that decodes ``msgtype`` as the bag's own MCAP schema defines it.
+
+    rosbag2 stores each type's full definition (``ros2msg``, dependencies after ``MSG:`` lines,
+    or ``ros2idl``), so a bag of a real robot decodes without any compiled or embedded type;
+    an empty schema falls back to :func:`typestore`. BagError if the schema does not parse.
+    """
+    if not schema.strip():
+        ensure_type(msgtype)
+        return typestore()
+    from rosbags.typesys import Stores, get_types_from_idl, get_types_from_msg, get_typestore
+
+    store = get_typestore(Stores.EMPTY)
+    try:
+        types = (get_types_from_idl(schema) if encoding == "ros2idl"
+                 else get_types_from_msg(schema, msgtype))
+        store.register(types)
+    except Exception as exc:  # rosbags raises several types for a definition it cannot use
+        raise BagError(f"the bag's {encoding} definition of {msgtype} does not parse: "
+                       f"{str(exc).splitlines()[0] if str(exc) else type(exc).__name__}") from None
+    if msgtype not in store.types:
+        raise BagError(f"the bag's {encoding} schema named {msgtype} does not define it")
+    return store
+
+
 def msgdef_and_hash(msgtype: str) -> tuple[str, str]:
     """Full ros2msg definition text (with dependencies, as rosbag2 stores it) and RIHS01 hash."""
     ensure_type(msgtype)
