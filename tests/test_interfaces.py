@@ -426,7 +426,8 @@ def test_control_msgs_between_two_processes(spawn_python) -> None:
     talker.terminate()
     assert listener.returncode == 0, f"subscriber got nothing (rc {listener.returncode}):\n{err}"
     got = json.loads(out.strip().splitlines()[-1])
-    assert got["joints"] == ["shoulder_lift_joint", "gripper_joint"] and got["stamp"] == [7, 1_000_000]
+    assert got["joints"] == ["shoulder_lift_joint", "gripper_joint"]
+    assert got["stamp"] == [7, 1_000_000]
     assert got["interfaces"] == [[["position", "velocity", "current"], [0.5, -0.25, 1.75]],
                                  [["position"], [0.01]]]
     assert got["effort"] == [1.5, -2.0] and got["speed"] == 0.5

@@ -9,8 +9,9 @@ messages of a topic are equal-length rows whose float64 values sit at fixed offs
 :func:`layout` reads the layout off one message; :func:`matches` tells which rows share it (every
 meaningful byte outside the stamp and the values equal to that message's) and :func:`stamps`,
 :func:`values` decode those rows at once. Rows that differ (other names, a frame id, another
-length) take another layout or the reader's slower path. Values are labelled by column, ``(joint, field)``: field is ``position``, ``velocity``,
-``effort``, ``current``, or a DynamicJointState interface name.
+length) take another layout or the reader's slower path. Values are labelled by column,
+``(joint, field)``: field is ``position``, ``velocity``, ``effort``, ``current``, or a
+DynamicJointState interface name.
 """
 
 from __future__ import annotations

@@ -25,9 +25,9 @@ Block = tuple[np.ndarray, tuple[Column, ...], np.ndarray]  # stamps (n,), column
 
 @dataclass
 class TopicSeries:
-    """One topic's messages. After :meth:`finish`: ``stamps_ns`` (N,) int64 header stamps sorted,
-    ``values`` (N, len(columns)) float64, NaN where a message lacked a column; ``names`` the
-    joints in the order first published."""
+    """One topic's messages. After :meth:`finish`: ``stamps_ns`` (N,) int64 header stamps (sorted
+    unless asked otherwise), ``columns`` every (joint, field) seen, and :meth:`take` the (N, k)
+    values of one field; ``names`` the joints in the order first published."""
 
     topic: str
     msgtype: str
@@ -40,7 +40,7 @@ class TopicSeries:
     blocks: list[Block] = field(default_factory=list)
     stamps_ns: np.ndarray | None = None
     columns: tuple[Column, ...] = ()
-    values: np.ndarray | None = None
+    _order: np.ndarray | None = None  # stamp order of the joined blocks, None when sorted
 
     @property
     def decoded(self) -> bool:
@@ -57,43 +57,59 @@ class TopicSeries:
             self.blocks.append((stamps, columns, values))
 
     def finish(self, sort: bool = True) -> None:
-        """Join the blocks into ``stamps_ns``/``columns``/``values``, sorted by stamp (stable)
-        unless ``sort`` is False (arrival order)."""
-        blocks, self.blocks = self.blocks, []
-        cols: dict[Column, int] = {}
-        for _, c, _ in blocks:
-            for col in c:
-                cols.setdefault(col, len(cols))
+        """Join the stamps (sorted, stably, unless ``sort`` is False: arrival order) and the runs
+        of blocks that share their columns; values stay by block until :meth:`take`, so a field
+        that few messages carry costs no (N, all columns) table."""
+        runs: list[list[Block]] = []
+        for b in self.blocks:
+            if runs and runs[-1][0][1] == b[1]:
+                runs[-1].append(b)
+            else:
+                runs.append([b])
+        self.blocks = [r[0] if len(r) == 1 else (np.concatenate([b[0] for b in r]), r[0][1],
+                                                 np.concatenate([b[2] for b in r])) for r in runs]
+        cols: dict[Column, None] = {}
+        for _, c, _ in self.blocks:
+            cols.update(dict.fromkeys(c))
         self.columns = tuple(cols)
-        if not blocks:
-            st, vals = np.zeros(0, np.int64), np.zeros((0, len(cols)))
-        elif all(c == self.columns for _, c, _ in blocks):
-            st = np.concatenate([b[0] for b in blocks])
-            vals = np.concatenate([b[2] for b in blocks]) if len(blocks) > 1 else blocks[0][2]
-        else:  # blocks with other columns (reordered joints, a field only some messages carry)
-            st = np.concatenate([b[0] for b in blocks])
-            vals = np.full((len(st), len(cols)), np.nan)
-            row = 0
-            for s, c, v in blocks:
-                vals[row : row + len(s), [cols[x] for x in c]] = v
-                row += len(s)
+        st = (np.concatenate([b[0] for b in self.blocks]) if self.blocks
+              else np.zeros(0, np.int64))
+        self._order = None
         if sort and len(st) > 1 and np.any(np.diff(st) < 0):
-            order = np.argsort(st, kind="stable")
-            st, vals = st[order], vals[order]
-        self.stamps_ns, self.values = st, vals
+            self._order = np.argsort(st, kind="stable")
+            st = st[self._order]
+        self.stamps_ns = st
 
     def take(self, name: str, joints: Sequence[str] | None = None
              ) -> tuple[tuple[str, ...], np.ndarray]:
         """(joints, values (N, k)) of one field, for ``joints`` (default: every joint that has
-        it, in the topic's order). A joint without it is left out: the caller says why."""
-        assert self.values is not None, "finish() first"
-        index = {c: k for k, c in enumerate(self.columns)}
+        it, in the topic's order), NaN where a message lacked it. A joint without it anywhere is
+        left out: the caller says why."""
+        assert self.stamps_ns is not None, "finish() first"
+        seen = set(self.columns)
         wanted = joints if joints is not None else (self.names or ())
-        have = tuple(j for j in wanted if (j, name) in index)
-        return have, self.values[:, [index[(j, name)] for j in have]]
+        have = tuple(j for j in wanted if (j, name) in seen)
+        want = [(j, name) for j in have]
+        if len(self.blocks) == 1:
+            _, c, v = self.blocks[0]
+            index = {x: k for k, x in enumerate(c)}
+            if all(w in index for w in want):
+                out = v[:, [index[w] for w in want]]
+                return have, out if self._order is None else out[self._order]
+        out = np.full((len(self.stamps_ns), len(want)), np.nan)
+        row = 0
+        for st, c, v in self.blocks:
+            index = {x: k for k, x in enumerate(c)}
+            pairs = [(k, index[w]) for k, w in enumerate(want) if w in index]
+            if pairs:
+                dst, src = zip(*pairs)
+                out[row : row + len(st), list(dst)] = v[:, list(src)]
+            row += len(st)
+        return have, out if self._order is None else out[self._order]
 
 
-def _columns_of(msg: Any, msgtype: str, topic: str) -> tuple[tuple[str, ...], list[tuple[Column, float]]]:
+def _columns_of(msg: Any, msgtype: str, topic: str
+                ) -> tuple[tuple[str, ...], list[tuple[Column, float]]]:
     """Joint names and labelled values of one deserialised message; DataError if malformed."""
     if msgtype == DYNAMIC_JOINT_STATE_TYPE:
         names = tuple(msg.joint_names)
@@ -129,7 +145,8 @@ def decode_rows(series: TopicSeries, rows: Iterable[bytes]) -> None:
     def flush() -> None:
         if run and key is not None:
             st = np.fromiter((s for s, _ in run), np.int64, len(run))
-            series.add(st, key[0], key[1], np.array([v for _, v in run], float).reshape(len(run), -1))
+            values = np.array([v for _, v in run], float).reshape(len(run), -1)
+            series.add(st, key[0], key[1], values)
         run.clear()
 
     for raw in rows:
@@ -188,13 +205,13 @@ class Decoder:
     def _take(self, rows: np.ndarray, lay: _cdr.Layout, tpl: np.ndarray) -> np.ndarray:
         """Decode the rows of ``lay``; return the others."""
         ok = _cdr.matches(rows, lay, tpl)
-        if ok.all():
-            self.series.add(_cdr.stamps(rows), lay.names, lay.columns, _cdr.values(rows, lay.offsets))
-            return rows[:0]
-        if ok.any():
-            mine = rows[ok]
-            self.series.add(_cdr.stamps(mine), lay.names, lay.columns, _cdr.values(mine, lay.offsets))
-        return rows[~ok]
+        if not ok.any():
+            return rows
+        mine = rows if ok.all() else rows[ok]
+        if len(mine):
+            self.series.add(_cdr.stamps(mine), lay.names, lay.columns,
+                            _cdr.values(mine, lay.offsets))
+        return rows[:0] if len(mine) == len(rows) else rows[~ok]
 
 
 def _rows(arr: np.ndarray, sel: np.ndarray, length: int) -> np.ndarray:

@@ -62,7 +62,8 @@ def _encode(msgtype: str, names: Sequence[str], shape: tuple, stamps_ns: np.ndar
     return out
 
 
-def _by_joint(names: Sequence[str], field: str, values: np.ndarray) -> dict[tuple[str, str], np.ndarray]:
+def _by_joint(names: Sequence[str], field: str, values: np.ndarray
+              ) -> dict[tuple[str, str], np.ndarray]:
     values = np.asarray(values, float)
     if values.ndim != 2 or values.shape[1] != len(names):
         raise DataError(f"{field} must be (N, {len(names)}); got {values.shape}")

@@ -87,7 +87,8 @@ class BagTags:
                 f"condition 'unloaded' takes no payload_mass (got {mass:g} kg); use 0"
             )
         com = _numbers(payload_com, 3, "payload_com", "'x y z' (m)")
-        inertia = _numbers(payload_inertia, 6, "payload_inertia", "'Ixx Ixy Ixz Iyy Iyz Izz' (kg·m²)")
+        inertia = _numbers(payload_inertia, 6, "payload_inertia",
+                           "'Ixx Ixy Ixz Iyy Iyz Izz' (kg·m²)")
         if condition == "unloaded" and (com is not None or inertia is not None):
             raise ConfigError("condition 'unloaded' takes no payload_com or payload_inertia")
         if inertia is not None:
@@ -171,7 +172,8 @@ def _numbers(values: Sequence[float] | None, n: int, name: str, form: str) -> tu
     except (TypeError, ValueError):
         raise ConfigError(f"{name} {values!r} is not {n} numbers {form}") from None
     if len(out) != n or not all(math.isfinite(v) for v in out):
-        raise ConfigError(f"{name} {_join(out) if out else values!r} is not {n} finite numbers {form}")
+        shown = _join(out) if out else repr(values)
+        raise ConfigError(f"{name} {shown} is not {n} finite numbers {form}")
     return out
 
 

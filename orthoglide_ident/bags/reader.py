@@ -29,7 +29,8 @@ DEFAULT_FIELD = {JOINT_STATE_TYPE: "position", CURRENT_REFERENCE_TYPE: "current"
 
 @dataclass
 class JointStates:
-    """``stamps_ns`` (N,) int64 header stamps; ``position`` (N, n_joints) [m or rad] by ``names``."""
+    """``stamps_ns`` (N,) int64 header stamps; ``position`` (N, n_joints) [m or rad] by
+    ``names``."""
 
     stamps_ns: np.ndarray
     names: tuple[str, ...]

@@ -88,8 +88,9 @@ def find_topic(topics: Mapping[str, TopicSeries], msgtype: str, path: Path) -> T
     hits = [s for s in topics.values()
             if s.msgtype == msgtype and s.decoded and s.topic.rsplit("/", 1)[-1] == base]
     if len(hits) > 1:
-        raise BagError(f"{path}: {len(hits)} robots' {base} in one bag "
-                       f"({', '.join(sorted(s.topic for s in hits))}); record one namespace per bag")
+        names = ", ".join(sorted(s.topic for s in hits))
+        raise BagError(f"{path}: {len(hits)} robots' {base} in one bag ({names}); record one "
+                       "namespace per bag")
     return hits[0] if hits else None
 
 
