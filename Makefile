@@ -1,6 +1,7 @@
 # Orthoglide logger and identification: `make setup`, `make test`, `make demo`.
 # Everything lives in .venv (Python 3.11): ROS 2 Jazzy from PyPI wheels, orthoglide_msgs built by
-# rosidl, the project installed editable. Nothing to source first.
+# rosidl (and control_msgs, unless installed), the project installed editable. Nothing to source
+# first.
 
 SHELL := /bin/bash
 .SHELLFLAGS := -eu -o pipefail -c
@@ -17,7 +18,12 @@ PYTHON ?= $(shell command -v python3.11 || command -v python3)
 REQUIREMENTS := requirements.txt requirements-build.txt constraints.txt
 MSGS_DIR := msg_defs/orthoglide_msgs
 MSGS_SOURCES := $(wildcard $(MSGS_DIR)/msg/*.msg $(MSGS_DIR)/srv/*.srv) \
-	$(MSGS_DIR)/CMakeLists.txt $(MSGS_DIR)/package.xml $(MSGS_DIR)/pyproject.toml
+	$(MSGS_DIR)/CMakeLists.txt $(MSGS_DIR)/package.xml $(MSGS_DIR)/pyproject.toml \
+	msg_defs/wheel_include_dirs.cmake
+CONTROL_MSGS_DIR := msg_defs/control_msgs
+CONTROL_MSGS_SOURCES := $(wildcard $(CONTROL_MSGS_DIR)/msg/*.msg) $(CONTROL_MSGS_DIR)/CMakeLists.txt \
+	$(CONTROL_MSGS_DIR)/package.xml $(CONTROL_MSGS_DIR)/pyproject.toml \
+	$(CONTROL_MSGS_DIR)/found_elsewhere.py msg_defs/wheel_include_dirs.cmake
 PROJECT_SOURCES := pyproject.toml setup.py setup.cfg package.xml orthoglide_ident/_install_ament.py \
 	$(wildcard config/*.yaml launch/*.py) \
 	$(wildcard resource/* resource/launchers/*)
@@ -26,12 +32,13 @@ PROJECT_SOURCES := pyproject.toml setup.py setup.cfg package.xml orthoglide_iden
 STAMP_VENV := $(VENV)/.stamp-venv
 STAMP_DEPS := $(VENV)/.stamp-deps
 STAMP_MSGS := $(VENV)/.stamp-msgs
+STAMP_CONTROL_MSGS := $(VENV)/.stamp-control-msgs
 STAMP_PROJECT := $(VENV)/.stamp-project
 
 .PHONY: help setup setup-stamps test test-slow demo demo-offline bench bags lock clean distclean
 
 help:
-	@echo "make setup      create $(VENV) (Python 3.11) with ROS 2 Jazzy wheels, build orthoglide_msgs, install the project"
+	@echo "make setup      create $(VENV) (Python 3.11) with ROS 2 Jazzy wheels, build orthoglide_msgs (and control_msgs if missing), install the project"
 	@echo "make test       setup if needed, then the fast tests (pytest -m 'not slow')"
 	@echo "make test-slow  setup if needed, then the slow tests (pytest -m slow)"
 	@echo "make demo       setup if needed, then the live node set end to end (record, identify, Table 4 over ROS 2)"
@@ -42,10 +49,10 @@ help:
 	@echo "make clean      remove build artefacts and caches (keeps $(VENV)); distclean also removes $(VENV)"
 
 setup: setup-stamps
-	@echo "setup: $(VENV) is ready ($$($(PY) -c 'import sys; print(sys.version.split()[0])'), ROS 2 Jazzy, orthoglide_msgs, orthoglide_ident)"
+	@echo "setup: $(VENV) is ready ($$($(PY) -c 'import sys; print(sys.version.split()[0])'), ROS 2 Jazzy, orthoglide_msgs, control_msgs, orthoglide_ident)"
 
 # `make -q setup-stamps` exits 0 when a `make setup` would have nothing to do.
-setup-stamps: $(STAMP_DEPS) $(STAMP_MSGS) $(STAMP_PROJECT)
+setup-stamps: $(STAMP_DEPS) $(STAMP_MSGS) $(STAMP_CONTROL_MSGS) $(STAMP_PROJECT)
 
 $(STAMP_VENV):
 	@test -n "$(PYTHON)" || { echo "setup: no python3.11 or python3 on PATH; install Python 3.11 (Debian 12: apt install python3 python3-venv python3-dev)" >&2; exit 1; }
@@ -62,6 +69,17 @@ $(STAMP_MSGS): $(STAMP_DEPS) $(MSGS_SOURCES)
 	@command -v cmake >/dev/null && command -v c++ >/dev/null || { echo "setup: building orthoglide_msgs needs cmake and a C++ compiler (Debian 12: apt install cmake g++ python3-dev)" >&2; exit 1; }
 	CMAKE_PREFIX_PATH=$(VENV_ABS) AMENT_PREFIX_PATH=$(VENV_ABS) \
 		$(PIP) install --quiet --no-build-isolation --no-deps --force-reinstall ./$(MSGS_DIR)
+	@touch $@
+
+# ros2_control's messages (DynamicJointState, InterfaceValue, JointTrajectoryControllerState) have
+# no PyPI wheel: an installed control_msgs is used as it is, otherwise the same rosidl step builds
+# them from msg_defs/control_msgs (Jazzy's fields, so the type hashes are a real install's).
+$(STAMP_CONTROL_MSGS): $(STAMP_DEPS) $(CONTROL_MSGS_SOURCES)
+	@command -v cmake >/dev/null && command -v c++ >/dev/null || { echo "setup: building control_msgs needs cmake and a C++ compiler (Debian 12: apt install cmake g++ python3-dev)" >&2; exit 1; }
+	if ! $(PY) $(CONTROL_MSGS_DIR)/found_elsewhere.py; then \
+		CMAKE_PREFIX_PATH=$(VENV_ABS) AMENT_PREFIX_PATH=$(VENV_ABS) \
+			$(PIP) install --quiet --no-build-isolation --no-deps --force-reinstall ./$(CONTROL_MSGS_DIR); \
+	fi
 	@touch $@
 
 # Editable install (code changes need no reinstall), then the ROS 2 layout that editable
@@ -98,13 +116,13 @@ demo-offline: setup
 lock: $(STAMP_DEPS)
 	{ echo '# Every distribution of the venv, exact versions: `pip install -c constraints.txt`.'; \
 	  echo '# Regenerate with `make lock` after changing requirements*.txt in a working venv.'; \
-	  $(PY) -c 'import importlib.metadata as md; skip = {"pip", "setuptools", "orthoglide-msgs-interfaces", "orthoglide-ident"}; \
+	  $(PY) -c 'import importlib.metadata as md; skip = {"pip", "setuptools", "orthoglide-msgs-interfaces", "control-msgs-interfaces", "orthoglide-ident"}; \
 	rows = {d.metadata["Name"].lower().replace("_", "-"): d.version for d in md.distributions() if not str(getattr(d, "_path", "")).endswith(".egg-info")}; \
 	print("\n".join(f"{k}=={v}" for k, v in sorted(rows.items()) if k not in skip))'; \
 	} > constraints.txt.new && mv constraints.txt.new constraints.txt
 
 clean:
-	rm -rf build $(MSGS_DIR)/build .pytest_cache demo_out out *.egg-info
+	rm -rf build $(MSGS_DIR)/build $(CONTROL_MSGS_DIR)/build .pytest_cache demo_out out *.egg-info
 	find . -path ./$(VENV) -prune -o -name __pycache__ -type d -prune -exec rm -rf {} +
 
 distclean: clean

@@ -148,7 +148,7 @@ class ArmPayload:
         return self.body.mass
 
     def tag(self) -> dict[str, str]:
-        """The bag tag keys of a non-point-mass payload (DESIGN §8)."""
+        """The bag tag keys of a non-point-mass payload (docs/architecture.md §8)."""
         I = self.body.inertia
         six = (I[0, 0], I[0, 1], I[0, 2], I[1, 1], I[1, 2], I[2, 2])
         return {"orthoglide.payload_frame": self.frame,

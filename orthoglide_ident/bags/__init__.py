@@ -1,9 +1,10 @@
-"""rosbag2/MCAP bags of the Orthoglide: tagged writing, fast reading, info, recovery (docs/architecture.md §4).
+"""rosbag2/MCAP bags: tagged writing, fast reading, info, recovery (docs/architecture.md §4, §8).
 
 No rclpy here. Files are written by the official MCAP library as rosbag2's MCAP storage plugin
 writes them (``_mcapfile``, ``_metadata``) and read by a fast crash-tolerant scanner (``_mcap``);
-message definitions and type hashes come from rosbags' typestore, q and v_tau are decoded in bulk
-with numpy (``_cdr``).
+message definitions and type hashes come from rosbags' typestore (reading: from the bag's own
+schemas); q and the current are decoded in bulk with numpy (``_cdr``, ``_decode``) from the
+Orthoglide's topics or a ros2_control robot's, as :mod:`.sources` chooses.
 
 - :func:`write_bag` — a whole record at once (the simulator's sample bags).
 - :class:`BagWriter` — streaming, chunked, split-capable writer (the recorder).
@@ -13,12 +14,27 @@ with numpy (``_cdr``).
 
 from __future__ import annotations
 
-from ._tags import CONDITION_KEY, CONDITIONS, MASS_KEY, METADATA_NAME, BagTags
+from ._tags import (
+    COM_KEY,
+    CONDITION_KEY,
+    CONDITIONS,
+    CURRENT_SOURCE_KEY,
+    FRAME_KEY,
+    INERTIA_KEY,
+    MASS_KEY,
+    METADATA_NAME,
+    POSITION_SOURCE_KEY,
+    BagTags,
+)
 from ._types import (
     CURRENT_REFERENCE_TOPIC,
     CURRENT_REFERENCE_TYPE,
+    DYNAMIC_JOINT_STATE_TYPE,
+    DYNAMIC_JOINT_STATES_TOPIC,
     JOINT_STATE_TYPE,
     JOINT_STATES_TOPIC,
+    JTC_STATE_TYPE,
+    ROS2_CONTROL_JOINT_STATES_TOPIC,
     default_qos,
     msgdef_and_hash,
     qos_profile,
@@ -35,24 +51,38 @@ from .reader import (
     read_bag,
 )
 from .reindex import FileReport, ReindexResult, reindex
-from .writer import BagWriter, encode_messages, write_bag
+from .sources import BagSources, Source
+from ._encode import encode_dynamic_joint_states, encode_joint_states, encode_messages
+from .writer import LAYOUTS, BagWriter, write_bag
 
 __all__ = [
+    "COM_KEY",
     "CONDITIONS",
     "CONDITION_KEY",
     "CURRENT_REFERENCE_TOPIC",
     "CURRENT_REFERENCE_TYPE",
+    "CURRENT_SOURCE_KEY",
+    "DYNAMIC_JOINT_STATES_TOPIC",
+    "DYNAMIC_JOINT_STATE_TYPE",
+    "FRAME_KEY",
+    "INERTIA_KEY",
     "JOINT_STATES_TOPIC",
     "JOINT_STATE_TYPE",
+    "JTC_STATE_TYPE",
+    "LAYOUTS",
     "MASS_KEY",
     "METADATA_NAME",
+    "POSITION_SOURCE_KEY",
+    "ROS2_CONTROL_JOINT_STATES_TOPIC",
     "TickCounter",
     "BagData",
     "BagInfo",
+    "BagSources",
     "BagTags",
     "BagWriter",
     "Recording",
     "ReindexResult",
+    "Source",
     "CurrentReferences",
     "FileReport",
     "FileStatus",
@@ -63,6 +93,8 @@ __all__ = [
     "bag_info",
     "decode_messages",
     "default_qos",
+    "encode_dynamic_joint_states",
+    "encode_joint_states",
     "encode_messages",
     "find_gaps",
     "msgdef_and_hash",

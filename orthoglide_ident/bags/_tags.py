@@ -1,27 +1,79 @@
-"""The loaded/unloaded tag of a bag (docs/architecture.md §4)."""
+"""The tag of a bag: loaded/unloaded, the payload, and where q and the current were recorded.
+
+Stored as strings, the same keys in metadata.yaml ``custom_data`` and in each .mcap file's
+``orthoglide`` metadata record (docs/architecture.md §4, §8):
+
+==============================  ==================================================================
+``orthoglide.condition``        ``loaded`` | ``unloaded``
+``orthoglide.payload_mass``     kg, ``"0"`` when unloaded
+``orthoglide.payload_frame``    the link the payload is fixed to (optional; default: the robot's
+                                payload frame)
+``orthoglide.payload_com``      ``"x y z"``: its centre of mass in that frame, m (optional;
+                                absent: the frame origin)
+``orthoglide.payload_inertia``  ``"Ixx Ixy Ixz Iyy Iyz Izz"``: its inertia about the centre of mass,
+                                kg·m², in that frame (optional; absent: a point mass)
+``orthoglide.position_source``  ``"TOPIC FIELD"``: where q was recorded, e.g.
+                                ``/joint_states position`` (optional)
+``orthoglide.current_source``   ``"TOPIC FIELD"``: where the current (A) was recorded:
+                                ``/dynamic_joint_states current`` (a DynamicJointState interface),
+                                ``/joint_states effort`` or ``/orthoglide/current_reference
+                                current`` (optional; absent: the reader's order of preference)
+==============================  ==================================================================
+
+The payload's com and inertia need ``loaded``; a source's topic is a ROS name (``/...``) and its
+field one word. Values that break these rules are refused with a one-line reason: ConfigError
+from :meth:`BagTags.checked` (a recorder's request), BagError from :meth:`BagTags.from_dict` (a
+bag on disk).
+"""
 
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
+
+import numpy as np
 
 from orthoglide_ident.errors import BagError, ConfigError
 
 CONDITION_KEY = "orthoglide.condition"
 MASS_KEY = "orthoglide.payload_mass"
+FRAME_KEY = "orthoglide.payload_frame"
+COM_KEY = "orthoglide.payload_com"
+INERTIA_KEY = "orthoglide.payload_inertia"
+POSITION_SOURCE_KEY = "orthoglide.position_source"
+CURRENT_SOURCE_KEY = "orthoglide.current_source"
 METADATA_NAME = "orthoglide"
 CONDITIONS = ("loaded", "unloaded")
+_INERTIA_TOL = 1e-12  # kg·m², relative to the largest moment: round-off in a principal moment
 
 
 @dataclass(frozen=True)
 class BagTags:
-    """``condition``: ``loaded`` | ``unloaded``; ``payload_mass`` in kg (0 when unloaded)."""
+    """``condition``: ``loaded`` | ``unloaded``; ``payload_mass`` in kg (0 when unloaded); the
+    payload's frame, centre of mass (m) and inertia about it (kg·m², Ixx Ixy Ixz Iyy Iyz Izz),
+    None when not given; the sources as ``"TOPIC FIELD"``, None when not given."""
 
     condition: str
     payload_mass: float
+    payload_frame: str | None = None
+    payload_com: tuple[float, float, float] | None = None
+    payload_inertia: tuple[float, float, float, float, float, float] | None = None
+    position_source: str | None = None
+    current_source: str | None = None
 
     @classmethod
-    def checked(cls, condition: str, payload_mass: float) -> BagTags:
+    def checked(
+        cls,
+        condition: str,
+        payload_mass: float,
+        *,
+        payload_frame: str | None = None,
+        payload_com: Sequence[float] | None = None,
+        payload_inertia: Sequence[float] | None = None,
+        position_source: str | None = None,
+        current_source: str | None = None,
+    ) -> BagTags:
         """Validated tags; ConfigError with the reason otherwise (used for recorder requests)."""
         if condition not in CONDITIONS:
             raise ConfigError(f"unknown condition {condition!r}: use 'loaded' or 'unloaded'")
@@ -34,16 +86,47 @@ class BagTags:
             raise ConfigError(
                 f"condition 'unloaded' takes no payload_mass (got {mass:g} kg); use 0"
             )
-        return cls(condition, mass)
+        com = _numbers(payload_com, 3, "payload_com", "'x y z' (m)")
+        inertia = _numbers(payload_inertia, 6, "payload_inertia",
+                           "'Ixx Ixy Ixz Iyy Iyz Izz' (kg·m²)")
+        if condition == "unloaded" and (com is not None or inertia is not None):
+            raise ConfigError("condition 'unloaded' takes no payload_com or payload_inertia")
+        if inertia is not None:
+            _check_inertia(inertia)
+        return cls(condition, mass, _word(payload_frame, "payload_frame"), com, inertia,
+                   _source(position_source, "position_source"),
+                   _source(current_source, "current_source"))
 
     def to_dict(self) -> dict[str, str]:
-        """The two keys as stored in custom_data and in the MCAP metadata record."""
+        """The keys as stored in custom_data and in the MCAP metadata record (absent ones left
+        out, so an Orthoglide bag keeps exactly the two keys of docs/architecture.md §4)."""
         mass = "0" if self.payload_mass == 0 else format(self.payload_mass, ".12g")
-        return {CONDITION_KEY: self.condition, MASS_KEY: mass}
+        out = {CONDITION_KEY: self.condition, MASS_KEY: mass}
+        optional = {
+            FRAME_KEY: self.payload_frame,
+            COM_KEY: None if self.payload_com is None else _join(self.payload_com),
+            INERTIA_KEY: None if self.payload_inertia is None else _join(self.payload_inertia),
+            POSITION_SOURCE_KEY: self.position_source,
+            CURRENT_SOURCE_KEY: self.current_source,
+        }
+        out.update({k: v for k, v in optional.items() if v is not None})
+        return out
+
+    def describe(self) -> str:
+        """One line: ``loaded, payload 1.136 kg`` and the payload's frame, CoM, inertia if given."""
+        out = f"{self.condition}, payload {self.payload_mass:g} kg"
+        if self.payload_frame is not None:
+            out += f" at {self.payload_frame}"
+        if self.payload_com is not None:
+            out += f", CoM {' '.join(f'{x:g}' for x in self.payload_com)} m"
+        if self.payload_inertia is not None:
+            out += f", inertia {' '.join(f'{x:g}' for x in self.payload_inertia)} kg·m²"
+        return out
 
     @classmethod
     def from_dict(cls, items: dict[str, str] | None, where: str) -> BagTags | None:
-        """Parse the two keys; None when neither is there; BagError when they are invalid."""
+        """Parse the keys; None when neither condition nor mass is there; BagError when they are
+        incomplete or invalid."""
         items = items or {}
         cond, mass = items.get(CONDITION_KEY), items.get(MASS_KEY)
         if cond is None and mass is None:
@@ -56,6 +139,71 @@ class BagTags:
         except ValueError:
             raise BagError(f"{where}: {MASS_KEY} {mass!r} is not a number") from None
         try:
-            return cls.checked(cond, value)
+            return cls.checked(
+                cond, value,
+                payload_frame=items.get(FRAME_KEY),
+                payload_com=_split(items.get(COM_KEY), COM_KEY),
+                payload_inertia=_split(items.get(INERTIA_KEY), INERTIA_KEY),
+                position_source=items.get(POSITION_SOURCE_KEY),
+                current_source=items.get(CURRENT_SOURCE_KEY),
+            )
         except ConfigError as exc:
             raise BagError(f"{where}: invalid tag: {exc}") from None
+
+
+def _join(values: Sequence[float]) -> str:
+    return " ".join(repr(float(v)) for v in values)  # shortest text that reads back exactly
+
+
+def _split(text: str | None, key: str) -> list[float] | None:
+    if text is None:
+        return None
+    try:
+        return [float(x) for x in str(text).split()]
+    except ValueError:
+        raise ConfigError(f"{key} {text!r} is not a list of numbers") from None
+
+
+def _numbers(values: Sequence[float] | None, n: int, name: str, form: str) -> tuple | None:
+    if values is None:
+        return None
+    try:
+        out = tuple(float(v) for v in values)
+    except (TypeError, ValueError):
+        raise ConfigError(f"{name} {values!r} is not {n} numbers {form}") from None
+    if len(out) != n or not all(math.isfinite(v) for v in out):
+        shown = _join(out) if out else repr(values)
+        raise ConfigError(f"{name} {shown} is not {n} finite numbers {form}")
+    return out
+
+
+def _check_inertia(i: tuple[float, ...]) -> None:
+    """A rigid body's inertia about its CoM: symmetric positive semi-definite, and its principal
+    moments obey the triangle inequality (I1 + I2 >= I3)."""
+    ixx, ixy, ixz, iyy, iyz, izz = i
+    m = np.array([[ixx, ixy, ixz], [ixy, iyy, iyz], [ixz, iyz, izz]])
+    moments = np.linalg.eigvalsh(m)  # ascending
+    tol = _INERTIA_TOL * max(1e-12, float(np.abs(moments).max()))
+    if moments[0] < -tol:
+        raise ConfigError(f"payload_inertia {_join(i)} is not positive semi-definite (principal "
+                          f"moments {', '.join(f'{x:.6g}' for x in moments)} kg·m²)")
+    if moments[0] + moments[1] < moments[2] - tol:
+        raise ConfigError(f"payload_inertia {_join(i)} is not a rigid body's: principal moments "
+                          f"{', '.join(f'{x:.6g}' for x in moments)} kg·m² break I1 + I2 >= I3")
+
+
+def _word(text: str | None, name: str) -> str | None:
+    if text is None:
+        return None
+    if not isinstance(text, str) or not text or text.split() != [text]:
+        raise ConfigError(f"{name} {text!r} is not a link name (one word)")
+    return text
+
+
+def _source(text: str | None, name: str) -> str | None:
+    if text is None:
+        return None
+    parts = text.split() if isinstance(text, str) else []
+    if len(parts) != 2 or not parts[0].startswith("/") or " ".join(parts) != text:
+        raise ConfigError(f"{name} {text!r} is not 'TOPIC FIELD' (e.g. '/joint_states position')")
+    return text

@@ -1,8 +1,11 @@
 """Message types known to the bag code: definitions, RIHS01 hashes, rosbag2 QoS records.
 
-The custom ``orthoglide_msgs`` definitions are embedded (docs/architecture.md §4, fields exactly) so that an
-installed copy works without the source tree; other packages' .msg files are looked up under the
-ament prefixes when a recorder meets an unknown type.
+The custom ``orthoglide_msgs`` definitions (docs/architecture.md §4, fields exactly) and the ros2_control
+``control_msgs`` ones the product reads and writes (Jazzy's fields, msg_defs/control_msgs) are
+embedded so that an installed copy works without the source tree or any compiled type; other
+packages' .msg files are looked up under the ament prefixes when a recorder meets an unknown
+type. Reading a bag needs none of this for its own types: :func:`schema_store` decodes from the
+definitions the MCAP file carries.
 """
 
 from __future__ import annotations
@@ -20,6 +23,12 @@ JOINT_STATES_TOPIC = "/orthoglide/joint_states"
 CURRENT_REFERENCE_TOPIC = "/orthoglide/current_reference"
 JOINT_STATE_TYPE = "sensor_msgs/msg/JointState"
 CURRENT_REFERENCE_TYPE = "orthoglide_msgs/msg/CurrentReference"
+# ros2_control's joint_state_broadcaster (Jazzy): one update, one header.stamp on both topics
+ROS2_CONTROL_JOINT_STATES_TOPIC = "/joint_states"
+DYNAMIC_JOINT_STATES_TOPIC = "/dynamic_joint_states"
+DYNAMIC_JOINT_STATE_TYPE = "control_msgs/msg/DynamicJointState"
+INTERFACE_VALUE_TYPE = "control_msgs/msg/InterfaceValue"
+JTC_STATE_TYPE = "control_msgs/msg/JointTrajectoryControllerState"
 
 EMBEDDED_MSGS: dict[str, str] = {
     CURRENT_REFERENCE_TYPE: "std_msgs/Header header\nstring[] name\nfloat64[] current\n",
@@ -28,6 +37,24 @@ EMBEDDED_MSGS: dict[str, str] = {
         "float64[] drive_gains_rel_std\nstring[] names\nfloat64[] values\nfloat64[] rel_std\n"
         "float64 payload_mass\nfloat64 residual_rms\nfloat64 condition_number\n"
         "string[] source_bags\n"
+    ),
+    # control_msgs 5.8.0 (jazzy branch), fields of msg_defs/control_msgs/msg/*.msg
+    INTERFACE_VALUE_TYPE: "string[] interface_names\nfloat64[] values\n",
+    DYNAMIC_JOINT_STATE_TYPE: (
+        "std_msgs/Header header\nstring[] joint_names\nInterfaceValue[] interface_values\n"
+    ),
+    JTC_STATE_TYPE: (
+        "std_msgs/Header header\nstring[] joint_names\n"
+        "trajectory_msgs/JointTrajectoryPoint reference\n"
+        "trajectory_msgs/JointTrajectoryPoint feedback\n"
+        "trajectory_msgs/JointTrajectoryPoint error\n"
+        "trajectory_msgs/JointTrajectoryPoint output\n"
+        "string[] multi_dof_joint_names\n"
+        "trajectory_msgs/MultiDOFJointTrajectoryPoint multi_dof_reference\n"
+        "trajectory_msgs/MultiDOFJointTrajectoryPoint multi_dof_feedback\n"
+        "trajectory_msgs/MultiDOFJointTrajectoryPoint multi_dof_error\n"
+        "trajectory_msgs/MultiDOFJointTrajectoryPoint multi_dof_output\n"
+        "float64 speed_scaling_factor\n"
     ),
 }
 
@@ -93,6 +120,32 @@ def ensure_type(msgtype: str) -> None:
                     seen.discard(name)
                     continue
                 raise BagError(f"cannot load message type {name} from {path}: {exc}") from None
+
+
+@functools.lru_cache(maxsize=64)
+def schema_store(msgtype: str, encoding: str, schema: str) -> Any:
+    """A typestore that decodes ``msgtype`` as the bag's own MCAP schema defines it.
+
+    rosbag2 stores each type's full definition (``ros2msg``, dependencies after ``MSG:`` lines,
+    or ``ros2idl``), so a bag of a real robot decodes without any compiled or embedded type;
+    an empty schema falls back to :func:`typestore`. BagError if the schema does not parse.
+    """
+    if not schema.strip():
+        ensure_type(msgtype)
+        return typestore()
+    from rosbags.typesys import Stores, get_types_from_idl, get_types_from_msg, get_typestore
+
+    store = get_typestore(Stores.EMPTY)
+    try:
+        types = (get_types_from_idl(schema) if encoding == "ros2idl"
+                 else get_types_from_msg(schema, msgtype))
+        store.register(types)
+    except Exception as exc:  # rosbags raises several types for a definition it cannot use
+        raise BagError(f"the bag's {encoding} definition of {msgtype} does not parse: "
+                       f"{str(exc).splitlines()[0] if str(exc) else type(exc).__name__}") from None
+    if msgtype not in store.types:
+        raise BagError(f"the bag's {encoding} schema named {msgtype} does not define it")
+    return store
 
 
 def msgdef_and_hash(msgtype: str) -> tuple[str, str]:

@@ -9,8 +9,11 @@ import numpy as np
 
 from orthoglide_ident.ticks import find_breaks, missing_in_step
 
+from orthoglide_ident.errors import BagError
+
 from ._tags import BagTags
-from .reader import FileStatus, _scan_bag, is_decoded
+from .reader import FileStatus, _scan_bag
+from .sources import BagSources, choose_sources
 
 
 @dataclass
@@ -58,6 +61,8 @@ class BagInfo:
     tags: BagTags | None
     tag_problem: str
     warnings: list[str]
+    sources: BagSources | None = None
+    source_problem: str = ""
 
     @property
     def closed(self) -> bool:
@@ -67,9 +72,14 @@ class BagInfo:
         """Human-readable summary, as printed by ``orthoglide-ident info``."""
         lines = [f"bag:       {self.path}"]
         if self.tags is not None:
-            lines.append(f"tag:       {self.tags.condition}, payload {self.tags.payload_mass:g} kg")
+            lines.append(f"tag:       {self.tags.describe()}")
         else:
             lines.append(f"tag:       NONE: {self.tag_problem}")
+        if self.sources is not None:
+            lines.append(f"q:         {self.sources.position.describe()}")
+            lines.append(f"current:   {self.sources.current.describe()}")
+        else:
+            lines.append(f"sources:   NONE: {self.source_problem}")
         lines.append(f"duration:  {self.duration_s:.3f} s   start: {self.start_ns / 1e9:.9f} s")
         lines.append("files:")
         for f in self.files:
@@ -99,34 +109,38 @@ class BagInfo:
 def bag_info(path: str | Path) -> BagInfo:
     """Summarise a bag directory or lone .mcap file (BagError if it is unreadable).
 
-    Start and duration are those of the controller ticks (header stamps of the joint states and
-    current references) when the bag has them; of the log (receive) times otherwise. Mixing the
-    two made the duration depend on how late the last message of another topic arrived.
+    Start and duration are those of the controller ticks (header stamps of the joint-state
+    topics) when the bag has them; of the log (receive) times otherwise. Mixing the two made the
+    duration depend on how late the last message of another topic arrived. ``sources``: where q
+    and the current would be read from (None, with the reason, when the bag has none).
     """
     scan = _scan_bag(path, decode=True)
     topics = []
     ticks: list[tuple[int, int]] = []  # (first, last) header stamp of each decoded topic
     logged: list[tuple[int, int]] = []  # (first, last) log time of every topic
     for s in scan.topics.values():
-        if is_decoded(s.topic) and s.stamps and len(s.stamps[0]):
-            ticks.append((int(s.stamps[0][0]), int(s.stamps[0][-1])))
+        st = s.stamps_ns if s.decoded else None
+        if st is not None and len(st):
+            ticks.append((int(st[0]), int(st[-1])))
         if s.count:
             logged.append((s.log_start, s.log_end))
-        stamped = is_decoded(s.topic) and bool(s.stamps) and len(s.stamps[0]) > 1
-        if stamped:  # header stamps (controller ticks); receive times are bursty
-            span = (int(s.stamps[0][-1]) - int(s.stamps[0][0])) / 1e9
-            rate = (len(s.stamps[0]) - 1) / span if span > 0 else 0.0
+        if st is not None and len(st) > 1:  # header stamps (controller ticks); receipt is bursty
+            span = (int(st[-1]) - int(st[0])) / 1e9
+            rate = (len(st) - 1) / span if span > 0 else 0.0
         else:
             span = (s.log_end - s.log_start) / 1e9 if s.count > 1 else 0.0
             rate = (s.count - 1) / span if span > 0 else 0.0
-        gaps = find_gaps(s.stamps[0]) if stamped else None
+        gaps = find_gaps(st) if st is not None and len(st) > 1 else None
         topics.append(TopicInfo(s.topic, s.msgtype, s.count, rate, gaps))
+    try:
+        sources, source_problem = choose_sources(scan.topics, scan.path, tags=scan.tags), ""
+    except BagError as exc:
+        sources, source_problem = None, str(exc)
     spans = ticks or logged
     start = min((a for a, _ in spans), default=0)
     duration = (max(b for _, b in spans) - start) / 1e9 if spans else 0.0
-    return BagInfo(
-        scan.path, scan.files, topics, start, duration, scan.tags, scan.tag_problem, scan.warnings
-    )
+    return BagInfo(scan.path, scan.files, topics, start, duration, scan.tags, scan.tag_problem,
+                   scan.warnings, sources, source_problem)
 
 
 class TickCounter:

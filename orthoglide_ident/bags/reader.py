@@ -1,42 +1,36 @@
-"""Reading tagged rosbag2/MCAP bags fast: raw chunks, messages decoded in bulk with numpy."""
+"""Reading tagged rosbag2/MCAP bags fast: raw chunks, messages decoded in bulk with numpy.
+
+Any bag of joint states reads: the Orthoglide's (``/orthoglide/joint_states`` +
+``/orthoglide/current_reference``) and a ros2_control robot's (``/joint_states``, optionally
+``/dynamic_joint_states``). :mod:`.sources` says which topic and field carry q and the current;
+message types are decoded from the bag's own schemas, so no compiled type is needed.
+"""
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 import yaml
 
-from orthoglide_ident.errors import BagError, DataError
+from orthoglide_ident.errors import BagError
 
 from . import _cdr, _mcap
+from ._decode import Decoder, TopicSeries
 from ._tags import METADATA_NAME, BagTags
-from ._types import (CURRENT_REFERENCE_TOPIC, CURRENT_REFERENCE_TYPE, JOINT_STATE_TYPE, JOINT_STATES_TOPIC,
-                     ensure_type, typestore)
+from ._types import CURRENT_REFERENCE_TYPE, DYNAMIC_JOINT_STATE_TYPE, JOINT_STATE_TYPE
+from .sources import BagSources, choose_sources, take_joints
 
-DECODED = {JOINT_STATES_TOPIC: "position", CURRENT_REFERENCE_TOPIC: "current"}
-
-
-def is_decoded(topic: str) -> bool:
-    """One of the two topics of every tick, at the root (/orthoglide/joint_states) or under a
-    robot's namespace (/robot2/orthoglide/joint_states)."""
-    return any(topic == base or topic.endswith(base) for base in DECODED)
-
-
-def _recorded_name(scan_topics: Iterable[str], base: str, path: Path) -> str | None:
-    hits = [t for t in scan_topics if t == base or t.endswith(base)]
-    if len(hits) > 1:
-        raise BagError(f"{path}: {len(hits)} robots' {base} in one bag ({', '.join(sorted(hits))}); "
-                       "record one namespace per bag")
-    return hits[0] if hits else None
-FIELD_OF_TYPE = {JOINT_STATE_TYPE: "position", CURRENT_REFERENCE_TYPE: "current"}
+DEFAULT_FIELD = {JOINT_STATE_TYPE: "position", CURRENT_REFERENCE_TYPE: "current",
+                 DYNAMIC_JOINT_STATE_TYPE: "current"}
 
 
 @dataclass
 class JointStates:
-    """``stamps_ns`` (N,) int64 header stamps; ``position`` (N, n_joints) [m] by ``names``."""
+    """``stamps_ns`` (N,) int64 header stamps; ``position`` (N, n_joints) [m or rad] by
+    ``names``."""
 
     stamps_ns: np.ndarray
     names: tuple[str, ...]
@@ -54,13 +48,25 @@ class CurrentReferences:
 
 @dataclass
 class BagData:
-    """What :func:`read_bag` returns. ``tags`` is None only with ``require_tags=False``."""
+    """What :func:`read_bag` returns: q and the current, each with the header stamps of its own
+    topic (pairing by stamp is the caller's), ``sources`` saying where each came from; ``tags``
+    is None only with ``require_tags=False``. ``joint_states`` / ``current_reference`` are the
+    same two series under the names of the Orthoglide's topics."""
 
     path: Path
-    joint_states: JointStates
-    current_reference: CurrentReferences
+    positions: JointStates
+    current: CurrentReferences
+    sources: BagSources
     tags: BagTags | None
     warnings: list[str] = field(default_factory=list)
+
+    @property
+    def joint_states(self) -> JointStates:
+        return self.positions
+
+    @property
+    def current_reference(self) -> CurrentReferences:
+        return self.current
 
 
 @dataclass
@@ -71,18 +77,6 @@ class FileStatus:
     chunks: int
     messages: int
     lost: str = ""
-
-
-@dataclass
-class TopicSeries:
-    topic: str
-    msgtype: str
-    count: int = 0
-    log_start: int = 2**63 - 1
-    log_end: int = 0
-    stamps: list[np.ndarray] = field(default_factory=list)
-    values: list[np.ndarray] = field(default_factory=list)
-    names: tuple[str, ...] | None = None
 
 
 @dataclass
@@ -146,93 +140,10 @@ def _split_index(f: Path) -> tuple[int, str]:
     return (int(tail) if tail.isdigit() else -1, f.name)
 
 
-def _decode_rows(series: TopicSeries, rows: Iterable[bytes]) -> None:
-    """Slow path: rosbags deserialiser for messages without the expected fixed layout."""
-    ensure_type(series.msgtype)
-    store = typestore()
-    field_name = FIELD_OF_TYPE[series.msgtype]
-    st, vals = [], []
-    for raw in rows:
-        try:
-            msg = store.deserialize_cdr(raw, series.msgtype)
-        except Exception as exc:
-            raise BagError(f"{series.topic}: undecodable {series.msgtype} message: {exc}") from None
-        names = tuple(msg.name)
-        v = np.asarray(getattr(msg, field_name), float)
-        if len(v) != len(names):
-            raise DataError(f"{series.topic}: message with {len(names)} names but {len(v)} values")
-        if series.names is None:
-            series.names = names
-        if names != series.names:
-            if sorted(names) != sorted(series.names):
-                raise DataError(
-                    f"{series.topic}: joint names change from {series.names} to {names}"
-                )
-            v = v[[names.index(n) for n in series.names]]
-        st.append(msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec)
-        vals.append(v)
-    if st:
-        series.stamps.append(np.asarray(st, np.int64))
-        series.values.append(np.vstack(vals))
-
-
-class _Decoder:
-    """Bulk decoding of one topic's messages, with a cache of layouts per message length."""
-
-    def __init__(self, series: TopicSeries) -> None:
-        self.series = series
-        self.cache: dict[int, tuple[_cdr.Layout, np.ndarray] | None] = {}
-
-    def add(self, arr: np.ndarray, data_offs: np.ndarray, data_lens: np.ndarray) -> None:
-        s = self.series
-        for length in np.unique(data_lens):
-            length = int(length)
-            sel = data_offs[data_lens == length]
-            steps = np.diff(sel)
-            if len(sel) > 1 and steps[0] >= length and (steps == steps[0]).all():
-                # evenly spaced records (the usual interleaving): a strided view, no gather
-                block = np.lib.stride_tricks.as_strided(
-                    arr[sel[0] :],
-                    shape=(len(sel), length),
-                    strides=(int(steps[0]), 1),
-                    writeable=False,
-                )
-            else:
-                block = arr[sel[:, None] + np.arange(length)]
-            if length not in self.cache:
-                lay = (
-                    _cdr.layout(block[0].tobytes(), _cdr.FLOAT_ARRAYS.get(s.msgtype, -1))
-                    if s.msgtype in _cdr.FLOAT_ARRAYS
-                    else None
-                )
-                ok_layout = (
-                    lay is not None and len(lay.arrays) > 0 and lay.arrays[0][1] == len(lay.names)
-                )
-                self.cache[length] = (lay, block[0].copy()) if ok_layout else None
-            entry = self.cache[length]
-            if entry is None:
-                _decode_rows(s, (r.tobytes() for r in block))
-                continue
-            lay, tpl = entry
-            ok, st, vals = _cdr.decode_group(block, lay, tpl)
-            if s.names is None:
-                s.names = lay.names
-            if lay.names != s.names:
-                _decode_rows(s, (r.tobytes() for r in block))
-                continue
-            if ok.all():
-                s.stamps.append(st)
-                s.values.append(vals)
-            else:
-                s.stamps.append(st[ok])
-                s.values.append(vals[ok])
-                _decode_rows(s, (r.tobytes() for r in block[~ok]))
-
-
 def _scan_bag(path: str | Path, decode: bool) -> _Scan:
     bag, files, info, warnings = bag_files(path)
     topics: dict[str, TopicSeries] = {}
-    decoders: dict[str, _Decoder] = {}
+    decoders: dict[str, Decoder] = {}
     statuses: list[FileStatus] = []
     file_tags: list[tuple[Path, BagTags | None]] = []
     tag_problem = ""
@@ -244,7 +155,8 @@ def _scan_bag(path: str | Path, decode: bool) -> _Scan:
     tags, tag_problem = _agree_tags(bag, info, file_tags, tag_problem)
     if decode:
         for s in topics.values():
-            _concat_sorted(s)
+            if s.msgtype in _cdr.DECODABLE:
+                s.finish()
     return _Scan(bag, statuses, topics, tags, tag_problem, warnings)
 
 
@@ -264,7 +176,7 @@ def _file_tag(
 def _scan_file(
     fpath: Path,
     topics: dict[str, TopicSeries],
-    decoders: dict[str, _Decoder],
+    decoders: dict[str, Decoder],
     decode: bool,
     warnings: list[str],
 ) -> tuple[FileStatus, BagTags | None, str]:
@@ -326,35 +238,25 @@ def _agree_tags(
     return (None, tag_problem) if tag_problem else (tags, "")
 
 
-def _concat_sorted(s: TopicSeries) -> None:
-    """One stamps array and one values array per topic, sorted by stamp."""
-    if len(s.stamps) > 1 or (s.stamps and np.any(np.diff(s.stamps[0]) < 0)):
-        st = np.concatenate(s.stamps) if s.stamps else np.zeros(0, np.int64)
-        vals = np.concatenate(s.values) if s.values else np.zeros((0, 0))
-        if np.any(np.diff(st) < 0):
-            order = np.argsort(st, kind="stable")
-            st, vals = st[order], vals[order]
-        s.stamps, s.values = [st], [vals]
-
-
 def _take(
     res: _mcap.ScanResult,
     cid: int,
     arr: np.ndarray,
     offs: np.ndarray,
     topics: dict[str, TopicSeries],
-    decoders: dict[str, _Decoder],
+    decoders: dict[str, Decoder],
     decode: bool,
     status: FileStatus,
 ) -> None:
     ch = res.channels.get(cid)
     if ch is None:
         return
-    schema = res.schemas.get(ch.schema_id)
-    msgtype = schema.name if schema else "?"
     s = topics.get(ch.topic)
     if s is None:
-        s = topics[ch.topic] = TopicSeries(ch.topic, msgtype)
+        schema = res.schemas.get(ch.schema_id)
+        s = topics[ch.topic] = TopicSeries(
+            ch.topic, schema.name if schema else "?", schema.encoding if schema else "",
+            schema.data.decode(errors="replace") if schema else "")
     n = len(offs)
     s.count += n
     status.messages += n
@@ -363,35 +265,45 @@ def _take(
     logs = _mcap.log_times(arr, offs)
     s.log_start = min(s.log_start, int(logs.min()))
     s.log_end = max(s.log_end, int(logs.max()))
-    if decode and is_decoded(ch.topic) and ch.encoding == "cdr":
+    if decode and s.msgtype in _cdr.DECODABLE and ch.encoding == "cdr":
         dec = decoders.get(ch.topic)
         if dec is None:
-            dec = decoders[ch.topic] = _Decoder(s)
+            dec = decoders[ch.topic] = Decoder(s)
         lens = _mcap.record_lengths(arr, offs) - _mcap.MSG_HEAD_LEN
         dec.add(arr, offs + _mcap.MSG_HEAD_LEN, lens)
 
 
-def decode_messages(raw: Sequence[bytes], msgtype: str) -> tuple[np.ndarray, tuple[str, ...], np.ndarray]:
-    """Serialized JointState or CurrentReference messages (CDR, as a raw subscription receives
-    them) decoded in bulk: (header stamps ns (n,), joint names, values (n, len(names))). Raises
-    DataError when the joint names change from one message to another."""
+def decode_messages(raw: Sequence[bytes], msgtype: str, field: str | None = None
+                    ) -> tuple[np.ndarray, tuple[str, ...], np.ndarray]:
+    """Serialized JointState, CurrentReference or DynamicJointState messages (CDR, as a raw
+    subscription receives them) decoded in bulk: (header stamps ns (n,), joint names, values
+    (n, len(names))) of ``field`` (default: ``position``, ``current``, interface ``current``),
+    in arrival order; the joints that lack the field are left out. Raises DataError when the
+    joint names change from one message to another."""
     series = TopicSeries(msgtype, msgtype)
     if raw:
         lens = np.fromiter((len(r) for r in raw), np.int64, len(raw))
         offs = np.concatenate([[0], np.cumsum(lens)[:-1]])
-        _Decoder(series).add(np.frombuffer(b"".join(raw), np.uint8), offs, lens)
-    if not series.stamps:
-        return np.empty(0, np.int64), series.names or (), np.empty((0, len(series.names or ())))
-    return np.concatenate(series.stamps), series.names or (), np.concatenate(series.values)
+        Decoder(series).add(np.frombuffer(b"".join(raw), np.uint8), offs, lens)
+    series.finish(sort=False)
+    names, values = series.take(field or DEFAULT_FIELD[msgtype])
+    assert series.stamps_ns is not None
+    return series.stamps_ns, names, values
 
 
-def read_bag(path: str | Path, *, require_tags: bool = True) -> BagData:
-    """Read q and v_tau of one bag (a rosbag2 directory or a lone .mcap file).
+def read_bag(path: str | Path, *, require_tags: bool = True, interface: str | None = None,
+             joints: Sequence[str] | None = None) -> BagData:
+    """Read q and the current of one bag (a rosbag2 directory or a lone .mcap file).
 
-    Raises BagError when the bag is unreadable, lacks one of the two topics, or (with
-    ``require_tags``) is untagged or carries contradictory tags; DataError when joint names change
-    inside a topic. A bag cut short by a crash is read up to its last complete chunk, with a
-    warning in ``BagData.warnings``.
+    The sources follow the bag's tag, else the order of preference of :mod:`.sources`: a
+    DynamicJointState ``interface`` (default ``current``; given explicitly, it must be there),
+    the JointState ``effort``, the CurrentReference. ``joints``: those joints in that order
+    (BagError naming one that is missing); default: every joint of each source, in its order.
+
+    Raises BagError when the bag is unreadable, has no joint states or no current, or (with
+    ``require_tags``) is untagged or carries contradictory tags; DataError when joint names
+    change inside a topic. A bag cut short by a crash is read up to its last complete chunk,
+    with a warning in ``BagData.warnings``.
     """
     scan = _scan_bag(path, decode=True)
     if require_tags and scan.tags is None:
@@ -399,21 +311,13 @@ def read_bag(path: str | Path, *, require_tags: bool = True) -> BagData:
     warnings = list(scan.warnings)
     if scan.tags is None:
         warnings.append(scan.tag_problem)
+    src = choose_sources(scan.topics, scan.path, tags=scan.tags, interface=interface,
+                         joints=joints)
     out = []
-    for base in (JOINT_STATES_TOPIC, CURRENT_REFERENCE_TOPIC):
-        topic = _recorded_name(scan.topics, base, scan.path) or base
-        s = scan.topics.get(topic)
-        if s is None or not s.stamps:
-            raise BagError(
-                f"{scan.path}: topic {topic} is missing (found: "
-                f"{', '.join(sorted(scan.topics)) or 'no topics'})"
-            )
-        out.append((s.stamps[0], s.names or (), s.values[0]))
-    (js_t, js_n, js_v), (cr_t, cr_n, cr_v) = out
-    return BagData(
-        scan.path,
-        JointStates(js_t, tuple(js_n), js_v),
-        CurrentReferences(cr_t, tuple(cr_n), cr_v),
-        scan.tags,
-        warnings,
-    )
+    for one in (src.position, src.current):
+        s = scan.topics[one.topic]
+        names, values = take_joints(s, one, joints, scan.path)
+        out.append((s.stamps_ns, names, values))
+    (q_t, q_n, q_v), (c_t, c_n, c_v) = out
+    return BagData(scan.path, JointStates(q_t, q_n, q_v), CurrentReferences(c_t, c_n, c_v), src,
+                   scan.tags, warnings)

@@ -7,8 +7,7 @@ rosbag2's MCAP storage plugin does; metadata.yaml and the ``rosbag2`` record com
 
 from __future__ import annotations
 
-import functools
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from types import TracebackType
@@ -19,18 +18,20 @@ import yaml
 
 from orthoglide_ident.errors import BagError, DataError
 
-from . import _cdr
+from ._encode import encode_dynamic_joint_states, encode_joint_states, encode_messages
 from ._mcapfile import McapFile
 from ._metadata import ROSBAG2_RECORD, BagMetadata, FileStat, TopicStat
 from ._tags import METADATA_NAME, BagTags
 from ._types import (
     CURRENT_REFERENCE_TOPIC,
     CURRENT_REFERENCE_TYPE,
+    DYNAMIC_JOINT_STATE_TYPE,
+    DYNAMIC_JOINT_STATES_TOPIC,
     JOINT_STATE_TYPE,
     JOINT_STATES_TOPIC,
+    ROS2_CONTROL_JOINT_STATES_TOPIC,
     default_qos,
     msgdef_and_hash,
-    typestore,
 )
 
 
@@ -252,45 +253,6 @@ class BagWriter:
         self.bag_metadata().write_yaml(self.path)
 
 
-@functools.lru_cache(maxsize=32)
-def _template(msgtype: str, names: tuple[str, ...], n: int) -> tuple[np.ndarray, _cdr.Layout]:
-    store = typestore()
-    T = store.types["builtin_interfaces/msg/Time"]
-    H = store.types["std_msgs/msg/Header"]
-    hdr = H(stamp=T(sec=0, nanosec=0), frame_id="")
-    z, e = np.zeros(n), np.zeros(0)
-    if msgtype == JOINT_STATE_TYPE:
-        msg = store.types[msgtype](header=hdr, name=list(names), position=z, velocity=e, effort=e)
-    else:
-        msg = store.types[msgtype](header=hdr, name=list(names), current=z)
-    raw = bytes(store.serialize_cdr(msg, msgtype))
-    lay = _cdr.layout(raw, _cdr.FLOAT_ARRAYS[msgtype])
-    assert lay is not None
-    return np.frombuffer(raw, np.uint8), lay
-
-
-def encode_messages(
-    msgtype: str, names: Sequence[str], stamps_ns: np.ndarray, values: np.ndarray
-) -> np.ndarray:
-    """CDR bytes of many JointState (position) or CurrentReference (current) messages at once.
-
-    ``stamps_ns`` (N,) header stamps, ``values`` (N, len(names)); returns ``(N, L) uint8``, one
-    serialized message per row (empty frame id; JointState velocity and effort empty).
-    """
-    values = np.asarray(values, float)
-    stamps_ns = np.asarray(stamps_ns, np.int64)
-    tpl, lay = _template(msgtype, tuple(names), values.shape[1])
-    out = np.tile(tpl, (len(stamps_ns), 1))
-    sec, nsec = np.divmod(stamps_ns, 1_000_000_000)
-    out[:, 4:8] = sec.astype("<i4").view(np.uint8).reshape(-1, 4)
-    out[:, 8:12] = nsec.astype("<u4").view(np.uint8).reshape(-1, 4)
-    off, c = lay.arrays[0]
-    out[:, off : off + 8 * c] = (
-        np.ascontiguousarray(values, "<f8").view(np.uint8).reshape(-1, 8 * c)
-    )
-    return out
-
-
 def _checked_record(
     stamps_ns: np.ndarray, q: np.ndarray, v_tau: np.ndarray, n_joints: int
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -310,6 +272,66 @@ def _checked_record(
 
 
 _BLOCK = 4096  # ticks encoded at once by write_bag (memory O(block))
+LAYOUTS = ("orthoglide", "joint_states", "dynamic_joint_states")
+DJS_INTERFACES = ("position", "velocity", "current")  # of an actuated joint in the sample bags
+EXTRA_INTERFACES = ("position", "velocity")  # of an extra joint (a gripper without current)
+
+
+@dataclass
+class _Robot:
+    """What a ros2_control layout publishes: joints in message order, q (N, n) and its rate,
+    JointState effort and the current (N, n) in that order (NaN for extra joints)."""
+
+    names: tuple[str, ...]
+    q: np.ndarray
+    qd: np.ndarray
+    effort: np.ndarray
+    current: np.ndarray
+    actuated: tuple[bool, ...]
+
+
+def _robot(stamps: np.ndarray, names: tuple[str, ...], q: np.ndarray, v_tau: np.ndarray,
+           qd: np.ndarray | None, effort: np.ndarray | None, joint_order: Sequence[str] | None,
+           extra_joints: Mapping[str, float] | None) -> _Robot:
+    """The columns of a ros2_control layout; DataError with the reason on bad input."""
+    extra = dict(extra_joints or {})
+    all_names = names + tuple(extra)
+    order = tuple(joint_order) if joint_order is not None else all_names
+    if sorted(order) != sorted(all_names) or len(set(order)) != len(order):
+        raise DataError(f"joint_order {order} must name each of {all_names} once")
+    n = len(stamps)
+    if qd is None:  # the hardware's velocity: a derivative of q
+        qd = np.gradient(q, stamps * 1e-9, axis=0) if n > 1 else np.zeros_like(q)
+    effort = v_tau if effort is None else effort
+    for name, a in (("qd", qd), ("effort", effort)):
+        if np.shape(a) != q.shape:
+            raise DataError(f"{name} must be {q.shape}; got {np.shape(a)}")
+    pad = np.full((n, len(extra)), np.nan)
+    cols = {j: k for k, j in enumerate(all_names)}
+    perm = [cols[j] for j in order]
+    stack = lambda a, b: np.hstack([np.asarray(a, float), b])[:, perm]  # noqa: E731
+    q_all = stack(q, np.tile(np.fromiter(extra.values(), float, len(extra)), (n, 1)))
+    return _Robot(order, q_all, stack(qd, np.zeros((n, len(extra)))), stack(effort, pad),
+                  stack(v_tau, pad), tuple(j in names for j in order))
+
+
+def _ros2_control_topics(w: BagWriter, robot: _Robot, dynamic: bool
+                         ) -> list[tuple[int, Callable[[slice, np.ndarray], np.ndarray]]]:
+    """Register /joint_states (and /dynamic_joint_states): (channel, encoder of a tick block)."""
+    def joint_states(k: slice, st: np.ndarray) -> np.ndarray:
+        return encode_joint_states(robot.names, st, robot.q[k], robot.qd[k], robot.effort[k])
+
+    ifs = [DJS_INTERFACES if a else EXTRA_INTERFACES for a in robot.actuated]
+
+    def dynamic_joint_states(k: slice, st: np.ndarray) -> np.ndarray:
+        values = {"position": robot.q[k], "velocity": robot.qd[k], "current": robot.current[k]}
+        return encode_dynamic_joint_states(robot.names, ifs, st, values)
+
+    out = [(w.add_topic(ROS2_CONTROL_JOINT_STATES_TOPIC, JOINT_STATE_TYPE), joint_states)]
+    if dynamic:
+        out.append((w.add_topic(DYNAMIC_JOINT_STATES_TOPIC, DYNAMIC_JOINT_STATE_TYPE),
+                    dynamic_joint_states))
+    return out
 
 
 def write_bag(
@@ -322,42 +344,82 @@ def write_bag(
     joint_names: Sequence[str] = ("q11", "q12", "q13"),
     extra: Mapping[str, str] | None = None,
     *,
+    layout: str = "orthoglide",
+    qd: np.ndarray | None = None,
+    effort: np.ndarray | None = None,
+    joint_order: Sequence[str] | None = None,
+    extra_joints: Mapping[str, float] | None = None,
+    payload: Mapping[str, Any] | None = None,
+    tag_sources: bool = True,
     compression: str = "zstd",
     chunk_duration_s: float = 0.5,
 ) -> Path:
-    """Write a tagged rosbag2 bag of /orthoglide/joint_states and /orthoglide/current_reference.
+    """Write a tagged rosbag2 bag of one record; returns the bag directory path.
 
     ``stamps_ns`` (N,) int controller ticks (ns, used for header.stamp and as log/publish time),
-    ``q`` (N, 3) actuated joint positions [m], ``v_tau`` (N, 3) current references [A], columns in
+    ``q`` (N, n) actuated joint positions [m or rad], ``v_tau`` (N, n) currents [A], columns in
     ``joint_names`` order. ``extra``: additional string entries for metadata.yaml custom_data
-    (e.g. the simulator's seed). Messages are encoded in bulk, block by block, and written tick by
-    tick (joint state, then current reference) through :class:`BagWriter`, in chunks of
-    ``chunk_duration_s`` s. Returns the bag directory path.
+    (e.g. the simulator's seed); ``payload``: ``payload_frame``, ``payload_com``,
+    ``payload_inertia`` for the tag (:class:`BagTags`). ``layout``:
+
+    - ``orthoglide``: /orthoglide/joint_states (position) and /orthoglide/current_reference;
+    - ``joint_states``: what a ros2_control joint_state_broadcaster with
+      ``map_interface_to_joint_state: {effort: current}`` publishes: /joint_states with
+      position, velocity (``qd``, default the derivative of q) and effort = ``v_tau``;
+    - ``dynamic_joint_states``: the same /joint_states (effort: ``effort``, default ``v_tau``)
+      and /dynamic_joint_states with interfaces position, velocity and current per joint.
+
+    ros2_control layouts may list the joints in ``joint_order`` and add ``extra_joints``
+    (name -> constant position; no current, NaN effort), as real hardware does; with
+    ``tag_sources`` their tag names the topics and fields that carry q and the current.
+    Messages are encoded in bulk, block by block, and written tick by tick through
+    :class:`BagWriter`, in chunks of ``chunk_duration_s`` s.
     """
-    tags = BagTags.checked(condition, payload_mass)
+    if layout not in LAYOUTS:
+        raise DataError(f"unknown layout {layout!r}: use one of {', '.join(LAYOUTS)}")
     names = tuple(joint_names)
     stamps, q, v_tau = _checked_record(stamps_ns, q, v_tau, len(names))
-    w = BagWriter(
-        Path(path),
-        tags,
-        compression=compression,
-        chunk_duration_s=chunk_duration_s,
-        custom_data={key: str(val) for key, val in (extra or {}).items()},
-    )
+    robot = None
+    if layout != "orthoglide":
+        robot = _robot(stamps, names, q, v_tau, qd, effort, joint_order, extra_joints)
+    elif any(x is not None for x in (qd, effort, joint_order, extra_joints)):
+        raise DataError("layout 'orthoglide' publishes q and v_tau only: qd, effort, joint_order "
+                        "and extra_joints are for the ros2_control layouts")
+    sources = {}
+    if robot is not None and tag_sources:
+        current = (f"{DYNAMIC_JOINT_STATES_TOPIC} current" if layout == "dynamic_joint_states"
+                   else f"{ROS2_CONTROL_JOINT_STATES_TOPIC} effort")
+        sources = {"position_source": f"{ROS2_CONTROL_JOINT_STATES_TOPIC} position",
+                   "current_source": current}
+    tags = BagTags.checked(condition, payload_mass, **dict(payload or {}), **sources)
+    w = BagWriter(Path(path), tags, compression=compression, chunk_duration_s=chunk_duration_s,
+                  custom_data={key: str(val) for key, val in (extra or {}).items()})
     w.open()
     try:
-        c_js = w.add_topic(JOINT_STATES_TOPIC, JOINT_STATE_TYPE)
-        c_cr = w.add_topic(CURRENT_REFERENCE_TOPIC, CURRENT_REFERENCE_TYPE)
+        if robot is None:
+            topics = _orthoglide_topics(w, names, q, v_tau)
+        else:
+            topics = _ros2_control_topics(w, robot, layout == "dynamic_joint_states")
         for i in range(0, len(stamps), _BLOCK):
-            st = stamps[i : i + _BLOCK]
-            js = encode_messages(JOINT_STATE_TYPE, names, st, q[i : i + _BLOCK])
-            cr = encode_messages(CURRENT_REFERENCE_TYPE, names, st, v_tau[i : i + _BLOCK])
-            _write_ticks(w, (c_js, c_cr), (js, cr), st)
+            k = slice(i, i + _BLOCK)
+            rows = tuple(encode(k, stamps[k]) for _, encode in topics)
+            _write_ticks(w, tuple(c for c, _ in topics), rows, stamps[k])
         w.close()
     except BaseException:
         w.abort()
         raise
     return Path(path)
+
+
+def _orthoglide_topics(w: BagWriter, names: tuple[str, ...], q: np.ndarray, v_tau: np.ndarray
+                       ) -> list[tuple[int, Callable[[slice, np.ndarray], np.ndarray]]]:
+    """Register the Orthoglide's two topics (docs/architecture.md §4): (channel, encoder of a tick block)."""
+    return [
+        (w.add_topic(JOINT_STATES_TOPIC, JOINT_STATE_TYPE),
+         lambda k, st: encode_messages(JOINT_STATE_TYPE, names, st, q[k])),
+        (w.add_topic(CURRENT_REFERENCE_TOPIC, CURRENT_REFERENCE_TYPE),
+         lambda k, st: encode_messages(CURRENT_REFERENCE_TYPE, names, st, v_tau[k])),
+    ]
 
 
 def _write_ticks(

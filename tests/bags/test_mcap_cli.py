@@ -57,3 +57,19 @@ def test_recover_keeps_the_start_time(bag: Path, tmp_path: Path) -> None:
     assert fields["start"].split("(")[-1].rstrip(")") == f"{T0 // 10**9}.000000000"
     kept = bags.read_bag(cut)  # our reader and mcap recover keep the same complete chunks
     assert int(fields["messages"]) == 2 * len(kept.joint_states.stamps_ns) > 0
+
+
+def test_doctor_ros2_control_bag(tmp_path: Path) -> None:
+    """/joint_states + /dynamic_joint_states, shuffled joints and an extra one, pass the doctor."""
+    mcap = _mcap_cli()
+    n = 2000
+    stamps = T0 + np.arange(n, dtype=np.int64) * 1_000_000
+    rng = np.random.default_rng(6)
+    names = ("a", "b", "c")
+    bag = bags.write_bag(tmp_path / "rc", stamps, rng.normal(size=(n, 3)), rng.normal(size=(n, 3)),
+                         "unloaded", 0.0, names, layout="dynamic_joint_states",
+                         joint_order=("c", "x", "a", "b"), extra_joints={"x": 0.0})
+    (f,) = bag.glob("*.mcap")
+    done = subprocess.run([mcap, "doctor", "--strict-message-order", str(f)],
+                          capture_output=True, text=True, timeout=60)
+    assert done.returncode == 0, done.stderr

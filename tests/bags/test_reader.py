@@ -330,7 +330,7 @@ def test_rclpy_serialisation_matches(tmp_path: Path) -> None:
         msg.name = list(NAMES)
         msg.position = row.tolist()
         raws.append(rclpy_ser.serialize_message(msg))
-    lay = bags._cdr.layout(raws[0], 3)
+    lay = bags._cdr.layout(raws[0], bags.JOINT_STATE_TYPE)
     assert lay is not None and lay.names == NAMES
     w = bags.BagWriter(tmp_path / "r", bags.BagTags("unloaded", 0.0)).open()
     a = w.add_topic(bags.JOINT_STATES_TOPIC, bags.JOINT_STATE_TYPE)

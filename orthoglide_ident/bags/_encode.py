@@ -1,0 +1,114 @@
+"""CDR bytes of many joint-state messages at once (the writer's and the simulators' side).
+
+One message is serialised by rosbags as a template; its layout (``_cdr.layout``) says where the
+stamp and every float64 sit, and N messages are that template tiled with the stamps and values
+written in as numpy columns. The bytes are those rosbags (and rclpy) would produce one by one.
+"""
+
+from __future__ import annotations
+
+import functools
+from collections.abc import Mapping, Sequence
+
+import numpy as np
+
+from orthoglide_ident.errors import DataError
+
+from . import _cdr
+from ._cdr import JOINT_STATE_FIELDS
+from ._types import CURRENT_REFERENCE_TYPE, DYNAMIC_JOINT_STATE_TYPE, JOINT_STATE_TYPE, typestore
+
+
+@functools.lru_cache(maxsize=64)
+def _template(msgtype: str, names: tuple[str, ...], shape: tuple) -> tuple[np.ndarray, _cdr.Layout]:
+    """A message with zero values: JointState ``shape`` = the fields it carries; CurrentReference
+    ``()``; DynamicJointState ``shape`` = each joint's interface names."""
+    store = typestore()
+    T, H = store.types["builtin_interfaces/msg/Time"], store.types["std_msgs/msg/Header"]
+    hdr = H(stamp=T(sec=0, nanosec=0), frame_id="")
+    n = len(names)
+    if msgtype == JOINT_STATE_TYPE:
+        arrays = {f: np.zeros(n if f in shape else 0) for f in JOINT_STATE_FIELDS}
+        msg = store.types[msgtype](header=hdr, name=list(names), **arrays)
+    elif msgtype == CURRENT_REFERENCE_TYPE:
+        msg = store.types[msgtype](header=hdr, name=list(names), current=np.zeros(n))
+    else:
+        iv = store.types["control_msgs/msg/InterfaceValue"]
+        msg = store.types[msgtype](header=hdr, joint_names=list(names), interface_values=[
+            iv(interface_names=list(i), values=np.zeros(len(i))) for i in shape])
+    raw = bytes(store.serialize_cdr(msg, msgtype))
+    lay = _cdr.layout(raw, msgtype)
+    if lay is None:
+        raise DataError(f"cannot encode {msgtype} for joints {names}: empty or repeated names")
+    return np.frombuffer(raw, np.uint8), lay
+
+
+def _encode(msgtype: str, names: Sequence[str], shape: tuple, stamps_ns: np.ndarray,
+            columns: Mapping[tuple[str, str], np.ndarray]) -> np.ndarray:
+    """``(N, L) uint8``: one message per stamp, column ``(joint, field)`` from ``columns``."""
+    stamps_ns = np.asarray(stamps_ns, np.int64)
+    tpl, lay = _template(msgtype, tuple(names), shape)
+    n = len(stamps_ns)
+    out = np.tile(tpl, (n, 1))
+    sec, nsec = np.divmod(stamps_ns, 1_000_000_000)
+    out[:, 4:8] = sec.astype("<i4").view(np.uint8).reshape(-1, 4)
+    out[:, 8:12] = nsec.astype("<u4").view(np.uint8).reshape(-1, 4)
+    if lay.columns:
+        vals = np.empty((n, len(lay.columns)), "<f8")
+        for k, col in enumerate(lay.columns):
+            vals[:, k] = columns[col]
+        idx = (lay.offsets[:, None] + np.arange(8)).reshape(-1)
+        out[:, idx] = vals.view(np.uint8).reshape(n, -1)
+    return out
+
+
+def _by_joint(names: Sequence[str], field: str, values: np.ndarray
+              ) -> dict[tuple[str, str], np.ndarray]:
+    values = np.asarray(values, float)
+    if values.ndim != 2 or values.shape[1] != len(names):
+        raise DataError(f"{field} must be (N, {len(names)}); got {values.shape}")
+    return {(j, field): values[:, i] for i, j in enumerate(names)}
+
+
+def encode_messages(
+    msgtype: str, names: Sequence[str], stamps_ns: np.ndarray, values: np.ndarray
+) -> np.ndarray:
+    """CDR bytes of many JointState (position) or CurrentReference (current) messages at once.
+
+    ``stamps_ns`` (N,) header stamps, ``values`` (N, len(names)); returns ``(N, L) uint8``, one
+    serialized message per row (empty frame id; JointState velocity and effort empty).
+    """
+    field = "position" if msgtype == JOINT_STATE_TYPE else "current"
+    shape = ("position",) if msgtype == JOINT_STATE_TYPE else ()
+    return _encode(msgtype, names, shape, stamps_ns, _by_joint(names, field, values))
+
+
+def encode_joint_states(names: Sequence[str], stamps_ns: np.ndarray, position: np.ndarray,
+                        velocity: np.ndarray | None = None,
+                        effort: np.ndarray | None = None) -> np.ndarray:
+    """JointState messages with position and, when given, velocity and effort, each (N, n) by
+    ``names`` (m or rad, /s, and the effort's unit: A when it carries the current)."""
+    columns = _by_joint(names, "position", position)
+    shape = ["position"]
+    for f, v in (("velocity", velocity), ("effort", effort)):
+        if v is not None:
+            columns.update(_by_joint(names, f, v))
+            shape.append(f)
+    return _encode(JOINT_STATE_TYPE, names, tuple(shape), stamps_ns, columns)
+
+
+def encode_dynamic_joint_states(names: Sequence[str], interfaces: Sequence[Sequence[str]],
+                                stamps_ns: np.ndarray,
+                                values: Mapping[str, np.ndarray]) -> np.ndarray:
+    """DynamicJointState messages: joint ``names[j]`` carries ``interfaces[j]``; ``values[i]``
+    (N, n) holds interface ``i`` by ``names`` (columns of joints without ``i`` are ignored)."""
+    if len(interfaces) != len(names):
+        raise DataError(f"{len(names)} joints but {len(interfaces)} interface lists")
+    columns: dict[tuple[str, str], np.ndarray] = {}
+    for i, v in values.items():
+        columns.update(_by_joint(names, i, v))
+    missing = [(j, i) for j, ifs in zip(names, interfaces) for i in ifs if (j, i) not in columns]
+    if missing:
+        raise DataError(f"no values for interface {missing[0][1]!r} of joint {missing[0][0]!r}")
+    shape = tuple(tuple(i) for i in interfaces)
+    return _encode(DYNAMIC_JOINT_STATE_TYPE, names, shape, stamps_ns, columns)
