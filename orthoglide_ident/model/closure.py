@@ -71,6 +71,10 @@ class Closure:
         self.n_a = len(actuated)
         self.steps = np.array([self._step(j) for j in actuated])
         self._dv = np.zeros(model.nv)
+        # Every joint a vector space (no quaternion, no unbounded revolute): integrate is +.
+        self._flat = model.nq == model.nv
+        self._iq = np.array([j.iq for j in actuated])
+        self._plain = all(j.kind != "continuous" for j in actuated)
         self._check_mobility(reference)  # near a closed configuration the rank is the same
         self.reference = self.close(self.actuated_values(reference), reference, "the reference "
                                     "configuration")
@@ -84,9 +88,14 @@ class Closure:
         return STEP_FRACTION * span if math.isfinite(span) else DEFAULT_STEP[j.unit_kind]
 
     def actuated_values(self, q: np.ndarray) -> np.ndarray:
+        if self._plain:
+            return q[self._iq]
         return np.array([get_joint(q, j) for j in self.actuated])
 
     def _set_actuated(self, q: np.ndarray, q_a: np.ndarray) -> None:
+        if self._plain:
+            q[self._iq] = q_a
+            return
         for j, x in zip(self.actuated, q_a):
             if j.kind == "continuous":
                 q[j.iq], q[j.iq + 1] = math.cos(x), math.sin(x)
@@ -118,8 +127,11 @@ class Closure:
             _, x, info = lapack.dgels(J[:, P], e)
             if info != 0:
                 return False, res
-            self._dv[P] = -x[:P.size]
-            q[:] = pin.integrate(self.model, q, self._dv)
+            if self._flat:
+                q[P] -= x[:P.size]
+            else:
+                self._dv[P] = -x[:P.size]
+                q[:] = pin.integrate(self.model, q, self._dv)
         return False, res
 
     def close(self, q_a: np.ndarray, start: np.ndarray, what: str = "") -> np.ndarray:
@@ -148,12 +160,14 @@ class Closure:
             prev_a, prev_t = self._last_step
             den = float(prev_a @ prev_a)
             if den > 0.0:
-                start = pin.integrate(self.model, self._last, prev_t * (float(step @ prev_a) / den))
+                dq = prev_t * (float(step @ prev_a) / den)
+                start = self._last + dq if self._flat else pin.integrate(self.model, self._last, dq)
         try:
             q = self.close(q_a, start)
         except WorkspaceError:
             q = self.close(q_a, self.reference)
-        self._last_step = (step, pin.difference(self.model, self._last, q))
+        self._last_step = (step, q - self._last if self._flat else
+                           pin.difference(self.model, self._last, q))
         self._last, self._last_a = q, q_a.copy()
         return q
 

@@ -61,7 +61,21 @@ class _Body:
     def column(self, kind: str) -> Column:
         if kind not in INERTIAL_KINDS:
             return Column("drive", self.joint.iv, kind)
-        return Column("joint", self.joint.id, kind) if self.joint else Column("frame", self.slot, kind)
+        if self.joint is None:
+            return Column("frame", self.slot, kind)
+        return Column("joint", self.joint.id, kind)
+
+
+def _nearest_first(points: np.ndarray, start: np.ndarray, scale: np.ndarray) -> list[np.ndarray]:
+    """``points`` (k, n) in greedy nearest-neighbour order from ``start`` (distances per
+    ``scale``): a short path through them."""
+    left = list(range(len(points)))
+    here, order = start, []
+    while left:
+        d = np.max(np.abs(points[left] - here) / scale, axis=1)
+        here = points[left.pop(int(np.argmin(d)))]
+        order.append(here)
+    return order
 
 
 def _fmt(values: Sequence[float]) -> str:
@@ -74,7 +88,8 @@ class PinocchioRobot(RobotModel):
     @classmethod
     def from_description(cls, data: dict[str, Any], base_dir: Path) -> "PinocchioRobot":
         """The model a robot YAML's mapping describes (``description`` relative to base_dir)."""
-        desc = read_description(data, Path(base_dir), f"robot {data.get('name') or data.get('description')}")
+        where = f"robot {data.get('name') or data.get('description')}"
+        desc = read_description(data, Path(base_dir), where)
         return cls(desc)
 
     def __init__(self, desc: RobotDescription, seed: int = 0):
@@ -113,7 +128,8 @@ class PinocchioRobot(RobotModel):
                 raise ConfigError(f"robot {self.name}: actuated joint {n!r} is a "
                                   f"{by_name[n].kind}; only 1-DOF joints can be actuated")
         if len(set(names)) != len(names):
-            raise ConfigError(f"robot {self.name}: actuated_joints lists a joint twice: {list(names)}")
+            raise ConfigError(f"robot {self.name}: actuated_joints lists a joint twice: "
+                              f"{list(names)}")
         return tuple(by_name[n] for n in names)
 
     def _joints(self, desc: RobotDescription) -> tuple[ActuatedJoint, ...]:
@@ -142,8 +158,9 @@ class PinocchioRobot(RobotModel):
         if not desc.loops and not anchors:
             free = [j.name for j in self.tree_joints if j not in self.actuated]
             if free:
-                raise ConfigError(f"robot {self.name}: joints {free} move but are neither actuated "
-                                  "nor closed by a loop: list them in actuated_joints, or add the loops")
+                raise ConfigError(f"robot {self.name}: joints {free} move but are neither "
+                                  "actuated nor closed by a loop: list them in actuated_joints, "
+                                  "or add the loops")
             return None
         loops = LoopConstraints(self.model, desc.loops, anchors)
         try:
@@ -215,10 +232,12 @@ class PinocchioRobot(RobotModel):
                               f"{self.description.path.name}")
         fid = self.model.getFrameId(frame)
         if self.model.frames[fid].parentJoint == 0:
-            raise ConfigError(f"robot {self.name}: the payload frame {frame!r} is fixed to the world")
+            raise ConfigError(f"robot {self.name}: the payload frame {frame!r} is fixed to the "
+                              "world")
         self.payload = payload
         self._payload = (len(self._fixed_frames), pin_parameters(payload.shape()))
-        self._rows = TreeRegressor(self.model, self.actuated, self._fixed_frames + [fid], self.closure)
+        self._rows = TreeRegressor(self.model, self.actuated, self._fixed_frames + [fid],
+                                   self.closure)
 
     # --- RobotModel -----------------------------------------------------------------------
     @property
@@ -242,7 +261,8 @@ class PinocchioRobot(RobotModel):
                 raise ModelError(f"{name} has a non-finite value at sample {k}: {_fmt(x[k])}")
             out.append(x)
         if len({x.shape[0] for x in out}) != 1:
-            raise ModelError(f"q, qd, qdd have different numbers of samples: {[x.shape for x in out]}")
+            raise ModelError("q, qd, qdd have different numbers of samples: "
+                             f"{[x.shape for x in out]}")
         if self.closure is not None:
             self._check_limits(out[0])
         return out
@@ -302,6 +322,8 @@ class PinocchioRobot(RobotModel):
 
     def _closed_states(self, n: int, rng: np.random.Generator, lo: np.ndarray,
                        hi: np.ndarray) -> np.ndarray:
+        """Uniform candidates, visited nearest first and each closed by continuation from the
+        last one kept (short hops: a few Newton steps each, on the reference's branch)."""
         c = self.closure
         model, zero = self.model, np.zeros((1, self.n_joints))
 
@@ -313,18 +335,21 @@ class PinocchioRobot(RobotModel):
         passive = [j for j in self.tree_joints if j not in self.actuated and j.one_dof
                    and j.kind != "continuous"]
         out: list[np.ndarray] = []
-        for _ in range(50 * n):
-            q_a = rng.uniform(lo, hi)
-            try:
-                q_t = c.close(q_a, c.reference)
-                ok = all(j.lower <= q_t[j.iq] <= j.upper for j in passive) and \
-                    rates(q_a, q_t) <= limit
-            except OrthoglideError:
-                continue
-            if ok:
-                out.append(q_a)
-                if len(out) == n:
-                    return np.array(out)
+        last = c.reference
+        for _ in range(20):
+            candidates = rng.uniform(lo, hi, (2 * (n - len(out)) + 10, self.n_joints))
+            for q_a in _nearest_first(candidates, c.actuated_values(last), hi - lo):
+                try:
+                    q_t = c.close(q_a, last)
+                    ok = all(j.lower <= q_t[j.iq] <= j.upper for j in passive) and \
+                        rates(q_a, q_t) <= limit
+                except OrthoglideError:
+                    continue
+                if ok:
+                    out.append(q_a)
+                    last = q_t
+                    if len(out) == n:
+                        return np.array(out)
         raise ModelError(f"robot {self.name}: found only {len(out)} of {n} regular assembled "
                          "states within the joint limits: check the limits and the reference")
 
@@ -364,7 +389,8 @@ class PinocchioRobot(RobotModel):
         for k, p in enumerate(self.parameters, 1):
             lines.append(f"{k:>3}  {p.name:<{w}}  {p.expression}")
         gains = ", ".join(f"{j.name} {j.nominal_gain:g} {j.gain_unit}" for j in self.joints)
-        lines.append(f"Actuated joints (nominal gains): {gains}. Payload frame: {self.payload_frame}.")
+        lines.append(f"Actuated joints (nominal gains): {gains}. "
+                     f"Payload frame: {self.payload_frame}.")
         return "\n".join(lines)
 
     def _order_text(self) -> str:

@@ -96,7 +96,8 @@ def _column_order(where: str, value: Any) -> tuple[tuple[str, ...], ...]:
     return tuple(tuple(str(x) for x in g) if isinstance(g, list) else (str(g),) for g in value)
 
 
-def read_description(data: dict[str, Any], base_dir: Path, where: str = "robot file") -> RobotDescription:
+def read_description(data: dict[str, Any], base_dir: Path,
+                     where: str = "robot file") -> RobotDescription:
     """A :class:`RobotDescription` from a robot YAML's mapping; ``description`` is relative to
     ``base_dir`` (the YAML's folder)."""
     unknown = sorted(set(data) - set(KEYS))

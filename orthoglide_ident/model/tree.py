@@ -104,7 +104,8 @@ def load_tree(path: Path) -> tuple[pin.Model, list]:
             failure = None
     if failure is not None:
         kind = "URDF" if suffix == ".urdf" else "MJCF"
-        raise ConfigError(f"robot description {path} is not a valid {kind}: {_reason(lines, failure)}")
+        raise ConfigError(f"robot description {path} is not a valid {kind}: "
+                          f"{_reason(lines, failure)}")
     if model.njoints < 2:
         raise ConfigError(f"robot description {path} has no movable joint")
     return model, anchors

@@ -44,8 +44,9 @@ def kkt_accelerations(chi: dict[str, float], payload: float, st: TreeStates, tau
     act = [iv["joint_1"], iv["joint_2"]]
     model.armature = np.array([chi.get(f"ia_{JOINTS[n]}", 0.0) for n in sorted(iv, key=iv.get)])
     other = model.frames[model.getFrameId("tip_2")]
-    loop = pin.RigidConstraintModel(pin.ContactType.CONTACT_3D, model, tip.parentJoint, tip.placement,
-                                    other.parentJoint, other.placement, pin.ReferenceFrame.LOCAL)
+    loop = pin.RigidConstraintModel(pin.ContactType.CONTACT_3D, model, tip.parentJoint,
+                                    tip.placement, other.parentJoint, other.placement,
+                                    pin.ReferenceFrame.LOCAL)
     loops = pin.StdVec_RigidConstraintModel([loop])
     datas = pin.StdVec_RigidConstraintData([loop.createData()])
     data = model.createData()
@@ -56,9 +57,11 @@ def kkt_accelerations(chi: dict[str, float], payload: float, st: TreeStates, tau
         tau = np.zeros(model.nv)
         for n, lab in JOINTS.items():
             v = st.v[k, iv[n]]
-            tau[iv[n]] = -(chi[f"fv_{lab}"] * v + chi[f"fs_{lab}"] * np.sign(v) + chi[f"tauoff_{lab}"])
+            tau[iv[n]] = -(chi[f"fv_{lab}"] * v + chi[f"fs_{lab}"] * np.sign(v)
+                           + chi[f"tauoff_{lab}"])
         tau[act] += tau_a[k]
-        out.append(pin.constraintDynamics(model, data, st.q[k], st.v[k], tau, loops, datas, prox)[act])
+        a = pin.constraintDynamics(model, data, st.q[k], st.v[k], tau, loops, datas, prox)
+        out.append(a[act])
     return np.array(out)
 
 
@@ -75,7 +78,8 @@ def test_description(five_bar):
     assert five_bar.joint_names == ("joint_1", "joint_2")
     assert five_bar.standard_names[:14] == tuple(f"{k}_1" for k in INERTIAL_KINDS) + \
         ("ia_1", "fv_1", "fs_1", "tauoff_1")
-    assert "ia_2" not in five_bar.standard_names and "fv_2" in five_bar.standard_names  # passive elbow
+    assert "ia_2" not in five_bar.standard_names  # the passive elbow: friction, no rotor
+    assert "fv_2" in five_bar.standard_names
     assert len(five_bar.standard_names) == 2 * 14 + 2 * 13
     inertial = five_bar.standard_values()[[i for b in five_bar.bodies for i in b.inertial]]
     assert np.all(inertial != 0.0)  # every standard inertial parameter is non-trivial
@@ -134,7 +138,8 @@ def test_payload_elsewhere_than_the_tip(five_bar):
     q, qd, qdd = five_bar.random_states(10, seed=9)
     col, tip = elbow.observation_block(q, qd, qdd)[-1], five_bar.observation_block(q, qd, qdd)[-1]
     assert not np.allclose(col, tip)
-    assert np.allclose(elbow.observation_block(q, qd, qdd)[:-1], five_bar.observation_block(q, qd, qdd)[:-1])
+    assert np.allclose(elbow.observation_block(q, qd, qdd)[:-1],
+                       five_bar.observation_block(q, qd, qdd)[:-1])
 
 
 def test_parallel_singularity_is_a_singularity_error(five_bar):
@@ -148,7 +153,8 @@ def test_parallel_singularity_is_a_singularity_error(five_bar):
     assert "\n" not in str(err.value)
 
 
-def _mjcf_body(name: str, pos: str, angle: float, inertial: str, inner: str, joint: str, rng: str) -> str:
+def _mjcf_body(name: str, pos: str, angle: float, inertial: str, inner: str, joint: str,
+               rng: str) -> str:
     R = pin.utils.rotate("z", angle)
     if name.startswith("proximal"):
         R = pin.utils.rotate("x", np.pi / 2) @ R
@@ -179,11 +185,12 @@ def five_bar_mjcf(assembled: dict[str, float] | None) -> str:
         rng_a = f'range="{lim[0] - ref[act]!r} {lim[1] - ref[act]!r}"'
         distal = _mjcf_body(f"distal_{i}", "0.2 0 0", ref[pas], ine(f"distal_{i}"),
                             site("tip" if i == 1 else "tip_2"), pas, "")
-        legs.append(_mjcf_body(f"proximal_{i}", f"{x} 0 0", ref[act], ine(f"proximal_{i}"), distal, act, rng_a))
-    equality = '<equality><connect body1="distal_1" body2="distal_2" anchor="0.3 0 0"/></equality>' \
-        if assembled else ""
-    return (f'<mujoco model="five_bar"><compiler angle="radian"/><worldbody><body name="base_link">{"".join(legs)}</body>'
-            f"</worldbody>{equality}</mujoco>")
+        legs.append(_mjcf_body(f"proximal_{i}", f"{x} 0 0", ref[act], ine(f"proximal_{i}"),
+                               distal, act, rng_a))
+    connect = '<connect body1="distal_1" body2="distal_2" anchor="0.3 0 0"/>'
+    equality = f"<equality>{connect}</equality>" if assembled else ""
+    return (f'<mujoco model="five_bar"><compiler angle="radian"/><worldbody>'
+            f'<body name="base_link">{"".join(legs)}</body></worldbody>{equality}</mujoco>')
 
 
 @pytest.mark.parametrize("assembled", [False, True])
@@ -193,7 +200,8 @@ def test_the_same_robot_as_mjcf(five_bar, tmp_path: Path, assembled: bool):
     from orthoglide_ident.model.pinocchio_model import PinocchioRobot
 
     q_ref = five_bar.closure.reference  # exactly closed: MJCF anchors are placed at q = 0
-    exact = {n: float(q_ref[five_bar.model.joints[five_bar.model.getJointId(n)].idx_q]) for n in JOINTS}
+    model = five_bar.model
+    exact = {n: float(q_ref[model.joints[model.getJointId(n)].idx_q]) for n in JOINTS}
     (tmp_path / "five_bar.xml").write_text(five_bar_mjcf(exact if assembled else None))
     data = {"name": "five_bar_mjcf", "description": "five_bar.xml",
             "actuated_joints": ["joint_1", "joint_2"], "payload_frame": "distal_1"}

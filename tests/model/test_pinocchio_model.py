@@ -50,7 +50,8 @@ def reference_robot(rng: np.random.Generator):
     for j in range(1, model.njoints):  # the UR5's bodies are labelled 1..6 from the base
         model.inertias[j] = random_inertia(rng)
         fv, fs, tauoff = rng.uniform(0.5, 5.0), rng.uniform(0.5, 5.0), rng.uniform(-1.0, 1.0)
-        chi += dynamic_to_kinds(model.inertias[j].toDynamicParameters()) + [armature[j - 1], fv, fs, tauoff]
+        chi += dynamic_to_kinds(model.inertias[j].toDynamicParameters())
+        chi += [armature[j - 1], fv, fs, tauoff]
     return model, np.array(chi)
 
 
@@ -61,8 +62,8 @@ def test_names_joints_and_bodies(ur5):
     assert ur5.nominal_gains.tolist() == [13.0, 13.0, 13.0, 9.3, 9.3, 9.3]
     assert ur5.gain_units == ("N·m/A",) * 6
     assert len(ur5.standard_names) == 6 * 14
-    assert ur5.standard_names[:14] == ("xx_1", "xy_1", "xz_1", "yy_1", "yz_1", "zz_1", "mx_1", "my_1",
-                                       "mz_1", "m_1", "ia_1", "fv_1", "fs_1", "tauoff_1")
+    assert ur5.standard_names[:14] == ("xx_1", "xy_1", "xz_1", "yy_1", "yz_1", "zz_1", "mx_1",
+                                       "my_1", "mz_1", "m_1", "ia_1", "fv_1", "fs_1", "tauoff_1")
     assert [b.name for b in ur5.bodies] == ["shoulder_link", "upper_arm_link", "forearm_link",
                                             "wrist_1_link", "wrist_2_link", "wrist_3_link"]
     assert ur5.bodies[2].inertial == tuple(range(28, 38))
@@ -71,7 +72,7 @@ def test_names_joints_and_bodies(ur5):
 
 
 def test_standard_rows_are_rnea_plus_armature_and_friction(ur5):
-    """W_st χ = rnea(q, q̇, q̈) (armature included) + fv q̇ + fs sign(q̇) + tauoff, to round-off."""
+    """W_st χ = rnea(q, q̇, q̈) (armature included) + fv q̇ + fs sign(q̇) + tauoff (round-off)."""
     rng = np.random.default_rng(11)
     model, chi = reference_robot(rng)
     data = model.createData()
@@ -92,7 +93,8 @@ def test_base_parameters_equal_the_rank_and_reproduce_the_standard_model(ur5):
     assert W_b.shape == (6 * 400, ur5.n_b)
     assert np.linalg.cond(W_b) < 1e6
     chi = np.random.default_rng(2).normal(size=len(ur5.standard_names))
-    assert np.allclose(W_b @ ur5.base_values(chi), W_st @ chi, rtol=0, atol=1e-9 * np.abs(W_st @ chi).max())
+    tau = W_st @ chi
+    assert np.allclose(W_b @ ur5.base_values(chi), tau, rtol=0, atol=1e-9 * np.abs(tau).max())
     assert len(ur5.expressions) == ur5.n_b
     assert ur5.n_b == 58  # the figure reported; the rank above is what makes it right
 
@@ -109,7 +111,8 @@ def test_observation_block_is_the_kept_standard_columns_with_the_payload_last(ur
 
 def test_payload_column_is_a_body_fixed_to_the_frame(ur5):
     """mass × payload column = rnea with the payload appended at tool0 - rnea without."""
-    payload = Payload(2.0, "tool0", (0.02, -0.01, 0.05), (0.004, 0.0003, -0.0002, 0.005, 0.0001, 0.003))
+    payload = Payload(2.0, "tool0", (0.02, -0.01, 0.05),
+                      (0.004, 0.0003, -0.0002, 0.005, 0.0001, 0.003))
     loaded = ur5.with_payload(payload)
     q, qd, qdd = ur5.random_states(60, seed=5)
     col = loaded.observation_block(q, qd, qdd)[-1].T  # (m, 6) per kg
@@ -117,20 +120,21 @@ def test_payload_column_is_a_body_fixed_to_the_frame(ur5):
     model.gravity = pin.Motion(np.array([0.0, 0.0, -G0]), np.zeros(3))
     frame = model.frames[model.getFrameId("tool0")]
     xx, xy, xz, yy, yz, zz = payload.inertia
-    body = pin.Inertia(payload.mass, np.array(payload.com), np.array([[xx, xy, xz], [xy, yy, yz], [xz, yz, zz]]))
+    I_c = np.array([[xx, xy, xz], [xy, yy, yz], [xz, yz, zz]])
+    body = pin.Inertia(payload.mass, np.array(payload.com), I_c)
     heavy = pin.Model(model)
     heavy.appendBodyToJoint(frame.parentJoint, frame.placement.act(body), pin.SE3.Identity())
     d0, d1 = model.createData(), heavy.createData()
     want = np.array([pin.rnea(heavy, d1, *s) - pin.rnea(model, d0, *s) for s in zip(q, qd, qdd)])
     assert np.abs(payload.mass * col - want).max() <= 1e-11 * np.abs(want).max()
     # the default payload: a point mass at the payload frame's origin
-    point = ur5.observation_block(q, qd, qdd)[-1].T
+    col = ur5.observation_block(q, qd, qdd)[-1].T
     heavy = pin.Model(model)
-    heavy.appendBodyToJoint(frame.parentJoint, pin.Inertia(1.0, frame.placement.translation, np.zeros((3, 3))),
-                            pin.SE3.Identity())
+    point = pin.Inertia(1.0, frame.placement.translation, np.zeros((3, 3)))
+    heavy.appendBodyToJoint(frame.parentJoint, point, pin.SE3.Identity())
     d1 = heavy.createData()
     want = np.array([pin.rnea(heavy, d1, *s) - pin.rnea(model, d0, *s) for s in zip(q, qd, qdd)])
-    assert np.abs(point - want).max() <= 1e-11 * np.abs(want).max()
+    assert np.abs(col - want).max() <= 1e-11 * np.abs(want).max()
     assert loaded.names == ur5.names  # the same base parameters, only the payload column differs
 
 

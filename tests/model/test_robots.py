@@ -31,7 +31,7 @@ def test_a_bare_urdf_actuates_every_movable_joint():
 
 
 def five_bar_file(tmp_path: Path, urdf: str | None = None, **changes) -> Path:
-    """A copy of the five-bar's YAML (and URDF, or the text given) with keys changed (None: removed)."""
+    """A copy of the five-bar's YAML (and URDF, or the text given), keys changed (None: removed)."""
     data = dict(FIVE_BAR)
     for key, value in changes.items():
         if value is None:
@@ -63,11 +63,13 @@ def test_a_urdf_that_does_not_parse(tmp_path):
     bad = ('<robot name="x"><link name="a"/><link name="b"/><joint name="j" type="revolute">'
            '<parent link="a"/><child link="b"/></joint></robot>')
     one_line_error(five_bar_file(tmp_path, urdf=bad),
-                   "is not a valid URDF: Joint \\[j\\] is of type REVOLUTE but it does not specify limits")
+                   "is not a valid URDF: Joint \\[j\\] is of type REVOLUTE but it does not "
+                   "specify limits")
 
 
 def test_a_missing_description(tmp_path):
-    one_line_error(five_bar_file(tmp_path, description="nowhere.urdf"), "nowhere.urdf: no such file")
+    one_line_error(five_bar_file(tmp_path, description="nowhere.urdf"),
+                   "nowhere.urdf: no such file")
     one_line_error(five_bar_file(tmp_path, description=None), "description: the URDF or MJCF file")
 
 
@@ -80,8 +82,8 @@ def test_an_actuated_joint_that_does_not_exist(tmp_path):
 def test_a_loop_frame_that_does_not_exist(tmp_path):
     one_line_error(five_bar_file(tmp_path, loops=[{"frame_a": "tip", "frame_b": "tool"}]),
                    "loop tip-tool: the description has no frame .* named 'tool'")
-    one_line_error(five_bar_file(tmp_path, loops=[{"frame_a": "tip", "frame_b": "tip_2", "type": "hinge"}]),
-                   "type 'hinge' is not point or frame")
+    hinge = [{"frame_a": "tip", "frame_b": "tip_2", "type": "hinge"}]
+    one_line_error(five_bar_file(tmp_path, loops=hinge), "type 'hinge' is not point or frame")
 
 
 def test_a_loop_that_does_not_close(tmp_path):
@@ -91,30 +93,33 @@ def test_a_loop_that_does_not_close(tmp_path):
         '<parent link="distal_2" />\n    <child link="tip_2" />\n    <origin xyz="1.3 0 0"')
     assert "1.3 0 0" in urdf
     one_line_error(five_bar_file(tmp_path, urdf=urdf),
-                   "the loops do not close at the reference configuration .*check the loops' frames")
+                   "the loops do not close at the reference configuration .*check the loops' "
+                   "frames")
 
 
 def test_loops_that_leave_the_wrong_mobility(tmp_path):
     one_line_error(five_bar_file(tmp_path, actuated_joints=["joint_1"], nominal_gains=None),
                    "the loops leave 2 degrees of freedom .* but 1 joints are actuated")
     one_line_error(five_bar_file(tmp_path, loops=None),
-                   r"joints \['joint_3', 'joint_4'\] move but are neither actuated nor closed by a loop")
+                   r"joints \['joint_3', 'joint_4'\] move but are neither actuated nor closed "
+                   "by a loop")
 
 
 def test_keys_of_the_wrong_kind(tmp_path):
-    one_line_error(five_bar_file(tmp_path, actuated_joint=["joint_1"]), r"unknown keys \['actuated_joint'\]")
-    one_line_error(five_bar_file(tmp_path, nominal_gains=[0.5, 0.5, 0.5]), "3 nominal_gains for 2 actuated")
-    one_line_error(five_bar_file(tmp_path, gravity=[0, -9.8]), "gravity: expected 3 numbers")
-    one_line_error(five_bar_file(tmp_path, payload_frame="gripper"), "payload frame 'gripper' is not a frame")
-    one_line_error(five_bar_file(tmp_path, reference_configuration={"joint_9": 1.0}),
-                   "reference_configuration names 'joint_9'")
-    one_line_error(five_bar_file(tmp_path, passive_friction="yes"), "passive_friction: expected true or false")
-    one_line_error(five_bar_file(tmp_path, column_order=[["1", "2"]]),
-                   r"column_order group \['1', '2'\] mixes bodies with different parameters")
-    one_line_error(five_bar_file(tmp_path, fixed_bodies=["distal_1"]),
-                   "fixed body 'distal_1' is moved by a joint of its own")
-    one_line_error(five_bar_file(tmp_path, fixed_bodies=["gripper"]), "fixed body 'gripper': .* no link")
-    one_line_error(five_bar_file(tmp_path, body_labels={"elbow": "5"}), r"body_labels names \['elbow'\]")
+    def bad(match: str, **changes) -> None:
+        one_line_error(five_bar_file(tmp_path, **changes), match)
+
+    bad(r"unknown keys \['actuated_joint'\]", actuated_joint=["joint_1"])
+    bad("3 nominal_gains for 2 actuated", nominal_gains=[0.5, 0.5, 0.5])
+    bad("gravity: expected 3 numbers", gravity=[0, -9.8])
+    bad("payload frame 'gripper' is not a frame", payload_frame="gripper")
+    bad("reference_configuration names 'joint_9'", reference_configuration={"joint_9": 1.0})
+    bad("passive_friction: expected true or false", passive_friction="yes")
+    bad(r"column_order group \['1', '2'\] mixes bodies with different parameters",
+        column_order=[["1", "2"]])
+    bad("fixed body 'distal_1' is moved by a joint of its own", fixed_bodies=["distal_1"])
+    bad("fixed body 'gripper': .* no link", fixed_bodies=["gripper"])
+    bad(r"body_labels names \['elbow'\]", body_labels={"elbow": "5"})
 
 
 def test_a_yaml_that_is_not_a_mapping(tmp_path):
