@@ -151,8 +151,8 @@ def movable_joints(model: pin.Model) -> list[TreeJoint]:
 def fixed_link(model: pin.Model, name: str) -> tuple[int, pin.SE3, pin.Inertia]:
     """A link fixed to a moving body: (joint id, placement in the joint frame, its inertia).
 
-    The URDF parser merges the link's inertia into its joint's body and keeps it on the fixed
-    joint's frame (the link frame's parent); an MJCF body without joint keeps it on its frame."""
+    The URDF and MJCF parsers merge the link's inertia into its joint's body and keep it on the
+    fixed joint's frame (the link frame's parent, at the same placement)."""
     if not model.existFrame(name, pin.FrameType.BODY):
         raise ConfigError(f"fixed body {name!r}: the description has no link of that name")
     frame = model.frames[model.getFrameId(name, pin.FrameType.BODY)]
