@@ -306,7 +306,8 @@ class PinocchioRobot(RobotModel):
     def random_states(self, n: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """n regular states inside the joint limits: q uniform (closed chains: assembled in the
         reference's working mode, passive joints within their limits, |G| at most
-        MAX_RATE_GROWTH times the reference's), q̇ ~ N(0, 1), q̈ ~ N(0, 10)."""
+        MAX_RATE_GROWTH times the reference's, in nearest-neighbour order), q̇ ~ N(0, 1),
+        q̈ ~ N(0, 10) (m or rad per s, per s²)."""
         rng = np.random.default_rng(seed)
         lo = np.array([j.lower if math.isfinite(j.lower) else -UNBOUNDED_RANGE[j.unit_kind]
                        for j in self.actuated])
