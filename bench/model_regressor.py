@@ -1,7 +1,16 @@
-"""Time to build the base-parameter observation matrix (issue 3): 120 000 samples = 2 min at 1 kHz.
+"""Time to build the base-parameter observation matrix (issues 3, 24): 120 000 samples = 2 min
+at 1 kHz.
 
-Prints wall and CPU time and samples/s for W (3 N, n_b) plus the payload-mass column, the form the
-identification uses. Run: .venv/bin/python bench/model_regressor.py [--samples N] [--repeat R]
+Prints wall and CPU time and samples/s for [W | payload column], the form the identification
+uses, for the Orthoglide's closed form and for the general (Pinocchio) model of the bundled
+robots: the UR5 (serial, 6 joints), the planar five-bar and the Orthoglide described to the
+general model (closed chains: Newton on the loops per sample, then Gᵀ projection).
+
+The closed form runs on random states (the platform in a ±0.1 m cube); the general models on a
+smooth 1 kHz trajectory inside the joint limits (sinusoids per joint), which is what recorded
+data is: a closed chain's loops are solved warm-started from the previous sample.
+
+Run: .venv/bin/python bench/model_regressor.py [--samples N] [--repeat R] [--robots ur5,five_bar]
 """
 from __future__ import annotations
 
@@ -11,30 +20,70 @@ import time
 import numpy as np
 
 from orthoglide_ident.model.base import base_model, random_states
+from orthoglide_ident.model.robots import load_robot
+
+GENERAL = ("ur5", "five_bar", "orthoglide_general")
+RATE_HZ = 1000.0
+
+
+def trajectory(robot, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Sinusoids over 40 % of each joint's range around its middle (1 kHz), q̇ and q̈ exact."""
+    lo = np.array([j.lower for j in robot.joints])
+    hi = np.array([j.upper for j in robot.joints])
+    mid, amp = (lo + hi) / 2, 0.2 * (hi - lo)
+    if robot.name == "orthoglide_general":  # its limits are not symmetric about the workspace
+        mid, amp = np.full(3, 0.015), np.full(3, 0.08)
+    w = 2 * np.pi * np.linspace(0.2, 0.5, robot.n_joints)[None, :]
+    t = np.arange(n)[:, None] / RATE_HZ
+    phase = np.arange(robot.n_joints)[None, :]
+    return (mid + amp * np.sin(w * t + phase), amp * w * np.cos(w * t + phase),
+            -amp * w ** 2 * np.sin(w * t + phase))
+
+
+def timed(f, repeat: int) -> tuple[list[float], list[float], np.ndarray]:
+    walls, cpus = [], []
+    out = None
+    for _ in range(repeat):
+        w0, c0 = time.perf_counter(), time.process_time()
+        out = f()
+        walls.append(time.perf_counter() - w0)
+        cpus.append(time.process_time() - c0)
+    return walls, cpus, out
+
+
+def row(name: str, n: int, shape: tuple, walls: list[float], cpus: list[float]) -> str:
+    best = min(walls)
+    return (f"{name:<20} {n:>9} {str(shape):>16} {best:>9.3f}s {np.median(walls):>11.3f}s "
+            f"{min(cpus):>8.3f}s {n / best:>11,.0f}")
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap = argparse.ArgumentParser(description=__doc__,
+                                 formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--samples", type=int, default=120_000)
     ap.add_argument("--repeat", type=int, default=3)
+    ap.add_argument("--robots", default=",".join(GENERAL), help="general-model robots to time")
     args = ap.parse_args()
     t0 = time.perf_counter()
     bm = base_model()
-    t_base = time.perf_counter() - t0
+    loads = [f"orthoglide (closed form, QR on 600 random states) {time.perf_counter() - t0:.2f} s, "
+             f"n_b = {bm.n_b}"]
     q, qd, qdd = random_states(args.samples, seed=1)
-    walls, cpus = [], []
-    for _ in range(args.repeat):
-        w0, c0 = time.perf_counter(), time.process_time()
-        W, w_m7 = bm.observation(q, qd, qdd)
-        walls.append(time.perf_counter() - w0)
-        cpus.append(time.process_time() - c0)
-    best = min(walls)
-    print(f"base model (QR on 600 random states): {t_base:.3f} s, n_b = {bm.n_b}")
-    print(f"{'samples':>9} {'W shape':>14} {'wall best':>10} {'wall median':>12} {'cpu best':>9} {'samples/s':>11}")
-    print(
-        f"{args.samples:>9} {str(W.shape):>14} {best:>9.3f}s {np.median(walls):>11.3f}s {min(cpus):>8.3f}s "
-        f"{args.samples / best:>11,.0f}"
-    )
+    lines = [row("orthoglide", args.samples, (bm.n_b + 1, 3, args.samples),
+                 *timed(lambda: bm.observation_block(q, qd, qdd), args.repeat)[:2])]
+    for name in filter(None, args.robots.split(",")):
+        t0 = time.perf_counter()
+        robot = load_robot(name)
+        loads.append(f"{name} (general, QR on random states) {time.perf_counter() - t0:.2f} s, "
+                     f"n_b = {robot.n_b} of {len(robot.standard_names)} standard")
+        q, qd, qdd = trajectory(robot, args.samples)
+        out = np.empty((robot.n_b + 1, robot.n_joints, args.samples))
+        walls, cpus, _ = timed(lambda: robot.observation_block(q, qd, qdd, out=out), args.repeat)
+        lines.append(row(name, args.samples, out.shape, walls, cpus))
+    print("models:\n  " + "\n  ".join(loads))
+    print(f"{'robot':<20} {'samples':>9} {'[W | W_l]':>16} {'wall best':>10} {'wall median':>12} "
+          f"{'cpu best':>9} {'samples/s':>11}")
+    print("\n".join(lines))
 
 
 if __name__ == "__main__":

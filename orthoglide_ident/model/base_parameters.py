@@ -1,0 +1,67 @@
+"""Base parameters of any robot from its standard regressor on random states (paper Sect. 3.1).
+
+The columns of W_st are ordered (eq. 23 for symmetric legs; bodies from the base outwards for a
+serial robot, so the wrist's parameters are the ones regrouped) and factored by QR (eq. 22): a
+column whose |R_kk| is below ``QR_EPS`` max|R_jj| depends on the columns before it and is
+regrouped into them, W_D = W_B β, so every kept parameter carries the expression
+χ_b = χ_B + Σ β χ_D. The threshold and the coefficient cleaning are the closed form's
+(model/base.py). The singular values of the same matrix (those of R) give its numerical rank
+independently of the column order; the two must agree, or the states do not excite the model
+clearly enough to tell which columns depend on which.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Sequence
+
+import numpy as np
+import scipy.linalg
+
+from orthoglide_ident.errors import ModelError
+from orthoglide_ident.model.base import COEF_TOL, QR_EPS, BaseParameter
+
+
+@dataclass(frozen=True)
+class BaseSet:
+    """Base parameters of a standard regressor: kept columns, K (χ_b = K χ_st), expressions."""
+
+    columns: tuple[int, ...]  # kept standard columns, in the QR order
+    K: np.ndarray  # (n_b, n_st)
+    parameters: tuple[BaseParameter, ...]
+    rank_gap: float  # smallest kept |R_kk| over the largest dropped one (inf: none dropped)
+
+
+def svd_rank(R: np.ndarray, eps: float = QR_EPS) -> int:
+    """Numerical rank from the singular values (R's are W's): s_k > eps max s."""
+    s = np.linalg.svd(R, compute_uv=False)
+    return int(np.sum(s > eps * s[0])) if s.size and s[0] > 0 else 0
+
+
+def base_parameters(W_st: np.ndarray, names: Sequence[str], order: Sequence[int]) -> BaseSet:
+    """Base parameters of ``W_st`` (rows, n_st) with standard ``names``, columns taken in
+    ``order`` (every index once)."""
+    order = list(order)
+    W_r = np.asfortranarray(W_st[:, order])  # LAPACK's layout: no copy inside the QR
+    R = scipy.linalg.qr(W_r, mode="r", check_finite=False)[0]  # eq. (22)
+    d = np.abs(np.diag(R))
+    keep = d > QR_EPS * d.max()
+    kept = [order[j] for j in np.flatnonzero(keep)]
+    dropped = [order[j] for j in np.flatnonzero(~keep)]
+    rank = svd_rank(R[:W_r.shape[1]])
+    if rank != len(kept):
+        raise ModelError(f"the base parameters are ambiguous: QR in the column order keeps "
+                         f"{len(kept)} columns but the regressor's singular values give rank "
+                         f"{rank}; excite the model on more or wider random states")
+    beta = np.linalg.lstsq(W_r[:, keep], W_r[:, ~keep], rcond=None)[0]  # W_D = W_B β
+    beta[np.abs(beta) < COEF_TOL] = 0.0
+    K = np.zeros((len(kept), W_st.shape[1]))
+    K[np.arange(len(kept)), kept] = 1.0
+    K[:, dropped] = beta
+    params = []
+    for b, col in enumerate(kept):
+        terms = [(names[col], 1.0)] + [(names[c], float(beta[b, n]))
+                                       for n, c in enumerate(dropped) if beta[b, n] != 0.0]
+        params.append(BaseParameter(names[col] + ("R" if len(terms) > 1 else ""), names[col],
+                                    tuple(terms), ()))
+    gap = float(d[keep].min() / max(d[~keep].max(), 1e-300)) if (~keep).any() else np.inf
+    return BaseSet(tuple(kept), K, tuple(params), gap)

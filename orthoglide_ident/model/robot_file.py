@@ -1,0 +1,136 @@
+"""The robot YAML of a general (Pinocchio) robot, read and checked key by key.
+
+docs/robot_files.md documents every key; :class:`RobotDescription` holds them with their
+defaults. Every mistake is a ConfigError naming the file, the key and what was expected: an
+unknown key (a typo would otherwise be ignored), a wrong type, a missing description.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from orthoglide_ident.errors import ConfigError
+from orthoglide_ident.model.loop_constraints import LOOP_KINDS, Loop
+
+G0 = 9.80665  # m/s², standard gravity
+DEFAULT_GRAVITY = (0.0, 0.0, -G0)  # z up, as URDF and MJCF robots are described
+
+KEYS = ("name", "model", "description", "actuated_joints", "nominal_gains", "payload_frame",
+        "gravity", "loops", "reference_configuration", "passive_friction", "column_order",
+        "body_labels", "fixed_bodies")
+
+
+@dataclass(frozen=True)
+class RobotDescription:
+    """What a robot YAML says, defaults filled in (see docs/robot_files.md)."""
+
+    path: Path  # the URDF or MJCF, resolved
+    name: str
+    actuated_joints: tuple[str, ...] | None = None  # None: every movable joint
+    nominal_gains: tuple[float, ...] | float = 1.0  # N/A or N·m/A, per actuated joint or one
+    payload_frame: str | None = None  # None: the link of the last movable joint
+    gravity: tuple[float, float, float] = DEFAULT_GRAVITY  # m/s², the gravity acceleration
+    loops: tuple[Loop, ...] = ()
+    reference_configuration: dict[str, float] = field(default_factory=dict)  # joint: m or rad
+    passive_friction: bool | None = None  # None: True for closed chains
+    column_order: tuple[tuple[str, ...], ...] = ()  # groups of body labels (eq. 23)
+    body_labels: dict[str, str] = field(default_factory=dict)  # link: label
+    fixed_bodies: tuple[str, ...] = ()  # links on fixed joints kept as bodies of their own
+
+
+def _fail(where: str, key: str, what: str) -> ConfigError:
+    return ConfigError(f"{where}: {key}: {what}")
+
+
+def _names(where: str, key: str, value: Any) -> tuple[str, ...]:
+    if isinstance(value, str) or not isinstance(value, (list, tuple)) or \
+            not all(isinstance(v, str) and v for v in value):
+        raise _fail(where, key, f"expected a list of names, got {value!r}")
+    return tuple(value)
+
+
+def _number(where: str, key: str, value: Any) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        raise _fail(where, key, f"expected a number, got {value!r}")
+    return float(value)
+
+
+def _gains(where: str, value: Any) -> tuple[float, ...] | float:
+    if isinstance(value, (list, tuple)):
+        return tuple(_number(where, "nominal_gains", v) for v in value)
+    return _number(where, "nominal_gains", value)
+
+
+def _gravity(where: str, value: Any) -> tuple[float, float, float]:
+    if not isinstance(value, (list, tuple)) or len(value) != 3:
+        raise _fail(where, "gravity", f"expected 3 numbers (m/s²), got {value!r}")
+    x, y, z = (_number(where, "gravity", v) for v in value)
+    return x, y, z
+
+
+def _loops(where: str, value: Any) -> tuple[Loop, ...]:
+    if not isinstance(value, list):
+        raise _fail(where, "loops", f"expected a list of {{frame_a, frame_b, type}}, got {value!r}")
+    out = []
+    for item in value:
+        if not isinstance(item, dict) or not {"frame_a", "frame_b"} <= set(item) or \
+                not set(item) <= {"frame_a", "frame_b", "type"}:
+            raise _fail(where, "loops", f"each loop is {{frame_a, frame_b, type: "
+                        f"{'|'.join(LOOP_KINDS)}}}, got {item!r}")
+        out.append(Loop(str(item["frame_a"]), str(item["frame_b"]), str(item.get("type", "point"))))
+    return tuple(out)
+
+
+def _mapping(where: str, key: str, value: Any) -> dict:
+    if not isinstance(value, dict):
+        raise _fail(where, key, f"expected a mapping, got {value!r}")
+    return value
+
+
+def _column_order(where: str, value: Any) -> tuple[tuple[str, ...], ...]:
+    if not isinstance(value, list):
+        raise _fail(where, "column_order", f"expected a list of body labels or of groups of them, "
+                    f"got {value!r}")
+    return tuple(tuple(str(x) for x in g) if isinstance(g, list) else (str(g),) for g in value)
+
+
+def read_description(data: dict[str, Any], base_dir: Path,
+                     where: str = "robot file") -> RobotDescription:
+    """A :class:`RobotDescription` from a robot YAML's mapping; ``description`` is relative to
+    ``base_dir`` (the YAML's folder)."""
+    unknown = sorted(set(data) - set(KEYS))
+    if unknown:
+        raise ConfigError(f"{where}: unknown keys {unknown} (known: {', '.join(KEYS)})")
+    if not isinstance(data.get("description"), str) or not data["description"]:
+        raise _fail(where, "description", "the URDF or MJCF file of the robot is missing")
+    path = (base_dir / data["description"]).resolve()
+    kw: dict[str, Any] = {"path": path, "name": str(data.get("name") or path.stem)}
+    if "actuated_joints" in data:
+        kw["actuated_joints"] = _names(where, "actuated_joints", data["actuated_joints"])
+    if "nominal_gains" in data:
+        kw["nominal_gains"] = _gains(where, data["nominal_gains"])
+    if "payload_frame" in data:
+        kw["payload_frame"] = str(data["payload_frame"])
+    if "gravity" in data:
+        kw["gravity"] = _gravity(where, data["gravity"])
+    if "loops" in data:
+        kw["loops"] = _loops(where, data["loops"])
+    if "reference_configuration" in data:
+        ref = _mapping(where, "reference_configuration", data["reference_configuration"])
+        kw["reference_configuration"] = {str(k): _number(where, f"reference_configuration.{k}", v)
+                                         for k, v in ref.items()}
+    if "passive_friction" in data:
+        if not isinstance(data["passive_friction"], bool):
+            raise _fail(where, "passive_friction", f"expected true or false, got "
+                        f"{data['passive_friction']!r}")
+        kw["passive_friction"] = data["passive_friction"]
+    if "column_order" in data:
+        kw["column_order"] = _column_order(where, data["column_order"])
+    if "body_labels" in data:
+        labels = _mapping(where, "body_labels", data["body_labels"])
+        kw["body_labels"] = {str(k): str(v) for k, v in labels.items()}
+    if "fixed_bodies" in data:
+        kw["fixed_bodies"] = _names(where, "fixed_bodies", data["fixed_bodies"])
+    return RobotDescription(**kw)
