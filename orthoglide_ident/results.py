@@ -95,6 +95,7 @@ class IdentificationResult:
     robot: str = "orthoglide"  # RobotModel.name
     gain_units: list[str] = field(default_factory=list)  # per joint: N/A or N·m/A (empty: N/A)
     effort_units: list[str] = field(default_factory=list)  # per joint: N or N·m (empty: N)
+    nominal_gains: list[float] = field(default_factory=list)  # the manufacturer's, per joint
     diagnostics: dict[str, Any] = field(default_factory=dict)
     essential: "IdentificationResult | None" = None
     removed: list[str] = field(default_factory=list)  # cancelled base parameters (essential)
@@ -123,8 +124,8 @@ class IdentificationResult:
             "joint_names": list(self.joint_names),
             "drive_gains": [{"joint": g.name, "value": _num(g.value), "rel_std": _num(g.rel_std),
                              "rel_std_paper": None if g.rel_std_paper is None
-                             else _num(g.rel_std_paper)}
-                            for g in self.drive_gains],
+                             else _num(g.rel_std_paper), **self._nominal(i)}
+                            for i, g in enumerate(self.drive_gains)],
             "drive_gains_given": self.drive_gains_given,
             "parameters": [p.to_json() for p in self.parameters],
             "payload_mass": None if self.payload_mass is None else self.payload_mass.to_json(),
@@ -155,6 +156,13 @@ class IdentificationResult:
         if self.diagnostics:
             out["diagnostics"] = self.diagnostics
         return out
+
+    def _nominal(self, i: int) -> dict[str, Any]:
+        """The manufacturer's gain of joint i and the identified one's ratio to it."""
+        if i >= len(self.nominal_gains):
+            return {}
+        g0 = self.nominal_gains[i]
+        return {"nominal": _num(g0), "ratio_to_nominal": _num(self.drive_gains[i].value / g0)}
 
     def write_json(self, path: str | Path) -> None:
         Path(path).write_text(json.dumps(self.to_json(), indent=2) + "\n")
@@ -197,6 +205,15 @@ class IdentificationResult:
             f"{j} {r:.4g}" for j, r in zip(self.joint_names, self.residual_rms)))
         if self.current_lag:
             lines.append("current-loop lag modelled: " + lag_text(self.current_lag))
+        if self.diagnostics.get("options", {}).get("effort_unit") == "torque":
+            lines.append("the recorded effort is a torque/force, turned into a current with the "
+                         "nominal gains: the gains' ratio to them (the effort's calibration) is "
+                         + ", ".join(f"{g.name} {g.value / g0:.5f}" for g, g0
+                                     in zip(self.drive_gains, self.nominal_gains)))
+        sources = sorted({b["sources"] for b in self.diagnostics.get("bags", [])
+                          if b.get("sources")})
+        for src in sources:
+            lines.append(f"recorded: {src}")
         for r in self.ripple:
             lines.append(f"ripple modelled: {r['joint']} ±{r['amplitude_n']:.3g} N (σ "
                          f"{r['amplitude_std_n']:.2g} N) at a {1e3 * r['wavelength_m']:.1f} mm period of "
@@ -240,7 +257,8 @@ class IdentificationResult:
     def _table_lines(self) -> list[str]:
         """Gains and base parameters, with the essential model's column when there is one."""
         ess = self.essential
-        w = max([len(p.name) for p in self.parameters] + [12])
+        w = max([len(p.name) for p in self.parameters] + [12]
+                + [len(f"g_tau {g.name}") for g in self.drive_gains])
         hdr = f"  {'parameter':<{w}} {'value' if ess is None else 'base':>12} {'%σ':>7} {'%σ eq39':>7}"
         if ess is not None:
             hdr += f"   {'essential':>12} {'%σ':>7}"

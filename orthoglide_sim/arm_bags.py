@@ -3,8 +3,9 @@ check), tagged as the recorder tags them, the payloads' frame, centre of mass an
 
     python -m orthoglide_sim.arm_bags --robot ur5 --duration 60 --out DIR [--seed 0] [--params YAML]
 
-Bags DIR/unloaded, DIR/loaded_2kg, DIR/loaded_1kg, each /orthoglide/joint_states and
-/orthoglide/current_reference at 1 kHz with the arm's joint names.
+Bags DIR/unloaded, DIR/loaded_2kg, DIR/loaded_1kg at 1 kHz, laid out as a ros2_control robot's
+(joint_state_broadcaster with ``map_interface_to_joint_state: {effort: current}``): /joint_states
+with position, velocity and effort = the drive current (A), by the arm's joint names.
 """
 from __future__ import annotations
 
@@ -27,12 +28,9 @@ RUNS = (  # bag name, payload, trajectory, seed offset
 
 
 def bag_tags(rec: ArmRecord) -> dict[str, str]:
-    """custom_data beyond condition and mass: the payload's shape and what was simulated."""
-    extra = {"orthoglide.sim.robot": rec.truth.arm.name, "orthoglide.sim.trajectory": rec.trajectory,
-             "orthoglide.sim.seed": str(rec.seed)}
-    if rec.payload is not None:
-        extra |= rec.payload.tag()
-    return extra
+    """custom_data beyond the tag: what was simulated."""
+    return {"orthoglide.sim.robot": rec.truth.arm.name, "orthoglide.sim.trajectory": rec.trajectory,
+            "orthoglide.sim.seed": str(rec.seed)}
 
 
 def write_record(path: Path, rec: ArmRecord) -> Path:
@@ -41,7 +39,8 @@ def write_record(path: Path, rec: ArmRecord) -> Path:
         shutil.rmtree(path)
     condition = "unloaded" if rec.payload is None else "loaded"
     return bags.write_bag(path, rec.stamps_ns, rec.q, rec.v_tau, condition, rec.payload_mass,
-                          joint_names=rec.joint_names, extra=bag_tags(rec))
+                          joint_names=rec.joint_names, extra=bag_tags(rec), layout="joint_states",
+                          payload=None if rec.payload is None else rec.payload.tag())
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -27,7 +27,7 @@ import numpy as np
 from orthoglide_ident.errors import ConfigError
 from orthoglide_sim.arm_description import ArmDescription, LinkInertial, rpy_matrix
 
-GRAVITY = 9.81  # m/s² along -z of the URDF's world: Pinocchio's and MuJoCo's default
+GRAVITY = 9.80665  # m/s² along -z of the URDF's world: standard gravity, as the product's robot files
 CURRENT_NOISE_FRACTION = 0.005  # std of the current noise / each joint's rms current (issue 24)
 ENCODER_COUNTS = 2**19  # counts per revolution of a revolute joint's encoder
 LINEAR_ENCODER_RESOLUTION = 1.0e-6  # m, a prismatic joint's encoder step
@@ -147,13 +147,14 @@ class ArmPayload:
     def mass(self) -> float:
         return self.body.mass
 
-    def tag(self) -> dict[str, str]:
-        """The bag tag keys of a non-point-mass payload (docs/architecture.md §8)."""
+    def tag(self) -> dict[str, Any]:
+        """The payload's frame, centre of mass (m) and inertia about it (kg·m², Ixx Ixy Ixz Iyy
+        Iyz Izz): write_bag's ``payload``, which tags the bag with them (docs/architecture.md §4)."""
         I = self.body.inertia
-        six = (I[0, 0], I[0, 1], I[0, 2], I[1, 1], I[1, 2], I[2, 2])
-        return {"orthoglide.payload_frame": self.frame,
-                "orthoglide.payload_com": " ".join(repr(float(v)) for v in self.body.com),
-                "orthoglide.payload_inertia": " ".join(repr(float(v)) for v in six)}
+        return {"payload_frame": self.frame,
+                "payload_com": tuple(float(v) for v in self.body.com),
+                "payload_inertia": (float(I[0, 0]), float(I[0, 1]), float(I[0, 2]),
+                                    float(I[1, 1]), float(I[1, 2]), float(I[2, 2]))}
 
 
 @dataclass(frozen=True)

@@ -41,6 +41,14 @@ class IdentifyOptions:
     reversal_max_bridge_s: float = 0.02
     reversal_margin_s: float = 0.008  # bridges widened by this on both sides (filter smear)
     nonfinite: str = "error"  # NaN/inf in the data: "error" or "drop" (treated as gaps)
+    # The current of a ros2_control robot: the DynamicJointState interface read first when a
+    # bag (or the live topics) has /dynamic_joint_states; "" = "current"
+    current_interface: str = ""
+    # what the current source holds: "A", a current (the drive's reference or measurement), or
+    # "torque", a torque / force (N·m or N, e.g. JointState.effort without a current mapping),
+    # turned into a current with the robot's nominal gains: the gains found are then the true
+    # ones, and their ratio to the nominal ones the calibration of that torque
+    effort_unit: str = "A"
     weighting: bool = True  # per-joint row weighting (Sect. 4.2 / eq. 28)
     # "all": the paper's TLS (every column of W_tot noisy); "currents": mixed LS-TLS, W and W_kl
     # exact, only the current references noisy (the sim's and the robot's case): same answer when
@@ -148,6 +156,8 @@ class IdentifyOptions:
             raise ConfigError(f"{source}: r_sigma must be > 1 (the paper uses 10)")
         if self.ripple_model not in ("auto", "off"):
             raise ConfigError(f"{source}: ripple_model must be 'auto' or 'off'")
+        if self.effort_unit not in ("A", "torque"):
+            raise ConfigError(f"{source}: effort_unit must be 'A' (a current) or 'torque' (N·m or N)")
         if self.lag_model not in ("auto", "off"):
             raise ConfigError(f"{source}: lag_model must be 'auto' or 'off'")
         if not (self.screw_lead_m == 0 or 1e-4 <= self.screw_lead_m <= 0.5):

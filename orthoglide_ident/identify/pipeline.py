@@ -66,6 +66,7 @@ class Record:
     payload_mass: float  # kg, tagged (0 unloaded)
     warnings: list[str] = field(default_factory=list)
     payload: Payload | None = None
+    sources: str = ""  # where q and the current were recorded (bags.BagSources.describe)
 
     @classmethod
     def from_arrays(cls, source: str, stamps_ns: np.ndarray, q: np.ndarray, v_tau: np.ndarray,
@@ -79,22 +80,44 @@ class Record:
                    float(payload_mass), payload=payload)
 
 
-def read_record(path: str | Path) -> Record:
-    """Read a tagged bag (directory or lone .mcap) into a :class:`Record`; BagError if unusable."""
+def read_record(path: str | Path, model: RobotModel | None = None,
+                opts: IdentifyOptions | None = None) -> Record:
+    """Read a tagged bag (directory or lone .mcap) into a :class:`Record`: the robot's joints
+    (``model``, default the Orthoglide) by name from whichever topics hold them (bags.sources:
+    a DynamicJointState interface, the JointState effort or the CurrentReference), the payload's
+    frame, centre of mass and inertia from the tag. With ``effort_unit: torque`` an effort that is
+    a torque or force is turned into a current with the nominal gains. BagError if unusable."""
     from orthoglide_ident import bags
 
-    data = bags.read_bag(path)
-    tags = data.tags
+    model = model if model is not None else default_model()
+    opts = opts or IdentifyOptions()
+    data = bags.read_bag(path, joints=model.joint_names,
+                         interface=opts.current_interface or None)
+    tags, current = data.tags, data.current
+    v_tau = current.current
+    if opts.effort_unit == "torque":
+        v_tau = v_tau / model.nominal_gains[None, :]  # the joints are the model's, in order
     return Record(
         source=str(path),
-        stamps_q_ns=data.joint_states.stamps_ns, names_q=tuple(data.joint_states.names),
-        q=data.joint_states.position,
-        stamps_v_ns=data.current_reference.stamps_ns, names_v=tuple(data.current_reference.names),
-        v_tau=data.current_reference.current,
+        stamps_q_ns=data.positions.stamps_ns, names_q=tuple(data.positions.names),
+        q=data.positions.position,
+        stamps_v_ns=current.stamps_ns, names_v=tuple(current.names), v_tau=v_tau,
         condition=None if tags is None else tags.condition,
         payload_mass=0.0 if tags is None else float(tags.payload_mass),
-        warnings=list(data.warnings),
+        warnings=list(data.warnings), payload=_tagged_payload(tags),
+        sources=data.sources.describe(),
     )
+
+
+def _tagged_payload(tags) -> Payload | None:
+    """The payload of a loaded bag's tag when it is more than a point mass at the robot's payload
+    frame (orthoglide.payload_frame / _com / _inertia)."""
+    if tags is None or tags.condition != "loaded" or not (
+            tags.payload_frame or tags.payload_com or tags.payload_inertia):
+        return None
+    return Payload(float(tags.payload_mass), tags.payload_frame or "",
+                   tuple(tags.payload_com or (0.0, 0.0, 0.0)),
+                   tuple(tags.payload_inertia or (0.0,) * 6))
 
 
 def default_model() -> RobotModel:
@@ -308,7 +331,8 @@ def _observe_all(records: Iterable[Record], model: IdentificationModel, opts: Id
         obs, rep, ts = observe(rec, model, opts, m)
         add_timings(ts)
         blocks.append(obs)
-        reports.append(bag_report(rep, rec.source, rec.condition, m, obs.rows_per_joint()))
+        reports.append(bag_report(rep, rec.source, rec.condition, m, obs.rows_per_joint(),
+                                  rec.sources))
         del rec  # a lazily read bag's raw samples can go now
     if not blocks:
         raise IdentificationError("no bag given")
@@ -402,11 +426,14 @@ def _validate(records: Iterable[Record], solved: Solved, model: IdentificationMo
 
 
 def bag_report(rep: SegmentReport, source: str, condition: str | None, payload_mass: float,
-               equations: list[int]) -> dict[str, Any]:
-    """One record's entry of ``diagnostics["bags"]``: pairing, gaps, reversals, equations."""
+               equations: list[int], sources: str = "") -> dict[str, Any]:
+    """One record's entry of ``diagnostics["bags"]``: pairing, gaps, reversals, equations, and
+    which topics and fields carried q and the current."""
     d = dict(vars(rep))
     d.update(bag=source, condition=condition, payload_mass=payload_mass,
              equations_per_joint=equations)
+    if sources:
+        d["sources"] = sources
     return d
 
 
@@ -456,16 +483,19 @@ def identify(
     if not bag_paths:
         raise IdentificationError("no bag given")
     t_read = [0.0]
+    model = model if model is not None else default_model()
+    opts = options or IdentifyOptions()
 
     def lazily(paths: Sequence[str | Path]) -> Iterator[Record]:
         for p in paths:
             log.info("reading %s", p)
             t0 = time.perf_counter()
-            rec = read_record(p)
+            rec = read_record(p, model, opts)
+            log.info("%s: %s", p, rec.sources)
             t_read[0] += time.perf_counter() - t0
             yield rec
 
-    res = identify_records(lazily(bag_paths), payload_mass, method, gains, essential, options,
+    res = identify_records(lazily(bag_paths), payload_mass, method, gains, essential, opts,
                            model, lazily(validation_bags))
     # reading happens inside identify_records' loop: its total already includes it
     res.diagnostics["timings_s"]["read"] = round(t_read[0], 4)

@@ -119,7 +119,7 @@ def test_yaml_overrides_reach_the_plant(truth):
     plant = MujocoPlant(t, t.payload("3.0"))
     assert max(plant.inertial_errors().values()) < 1e-12
     assert plant.body_inertial("wrist_3_link").mass == 0.2
-    assert t.payload("3.0").tag()["orthoglide.payload_frame"] == "wrist_3_link"
+    assert t.payload("3.0").tag()["payload_frame"] == "wrist_3_link"
 
 
 @pytest.mark.parametrize("data, reason", [
@@ -148,9 +148,9 @@ def test_config_file_is_the_default_truth(truth):
 def test_payload_tag_is_its_rigid_body(truth):
     p = truth.payload("2.0")
     tag = p.tag()
-    com = np.array(tag["orthoglide.payload_com"].split(), float)
-    xx, xy, xz, yy, yz, zz = np.array(tag["orthoglide.payload_inertia"].split(), float)
-    assert tag["orthoglide.payload_frame"] == "tool0" and np.array_equal(com, p.body.com)
+    com = np.array(tag["payload_com"], float)
+    xx, xy, xz, yy, yz, zz = np.array(tag["payload_inertia"], float)
+    assert tag["payload_frame"] == "tool0" and np.array_equal(com, p.body.com)
     assert np.array_equal(np.array([[xx, xy, xz], [xy, yy, yz], [xz, yz, zz]]), p.body.inertia)
     assert np.linalg.norm(com) > 0.05 and abs(xy) > 0  # off-centre, not a point mass
 
