@@ -6,7 +6,7 @@
     orthoglide-ident info BAG...
     orthoglide-ident reindex BAG...
     orthoglide-ident model --base-parameters [--json FILE]
-    orthoglide-ident report BAG... --out DIR [identify options]
+    orthoglide-ident report BAG... --out DIR [--mcap FILE] [identify options]
     orthoglide-ident identify --service [BAG...] [--method tls|wls] [--essential]   (ROS 2)
     orthoglide-ident record start|stop|status [--condition C --payload-mass KG --name N]  (ROS 2)
     orthoglide-ident watch [--seconds S]                                          (ROS 2)
@@ -137,6 +137,8 @@ def build_parser() -> argparse.ArgumentParser:
                                    "(%%σ), summary.md and result.json into --out.")
     _add_identify_options(p)
     p.add_argument("--out", required=True, metavar="DIR", help="output directory (created)")
+    p.add_argument("--mcap", metavar="FILE", help="also write the plots as an MCAP file for Foxglove or "
+                   "Lichtblick (forces, residual, the gains' convergence; orthoglide_ident/view/report_mcap.py)")
     ros_client.add_parsers(sub)
     return parser
 
@@ -202,6 +204,10 @@ def _main(args: argparse.Namespace) -> int:
             except OSError as exc:
                 raise ConfigError(f"cannot write the report into {args.out}: "
                                   f"{exc.strerror or exc}") from None
+            if args.mcap:
+                from orthoglide_ident.view.report_mcap import write_report_mcap
+
+                paths.append(write_report_mcap(res, args.mcap))
             print(res.to_text())
             print("\nwrote " + ", ".join(str(p) for p in paths))
         else:

@@ -7,7 +7,18 @@ the stamps (joint states, currents and setpoints of one tick together).
 """
 from __future__ import annotations
 
+from typing import Sequence
+
 import numpy as np
+
+
+def cdr_stamps(raw: Sequence[bytes]) -> np.ndarray:
+    """header.stamp (ns) of serialized messages whose first field is a std_msgs/Header (CDR:
+    4 bytes of encapsulation, then sec int32, nanosec uint32), without deserializing them."""
+    if not raw:
+        return np.empty(0, np.int64)
+    heads = np.frombuffer(b"".join(r[4:12] for r in raw), dtype=np.dtype([("sec", "<i4"), ("nanosec", "<u4")]))
+    return heads["sec"].astype(np.int64) * 1_000_000_000 + heads["nanosec"].astype(np.int64)
 
 
 class StampDecimator:

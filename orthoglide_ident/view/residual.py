@@ -13,8 +13,8 @@ not publish them. The zero-phase filter needs ``filter_horizon`` ticks (0.16 s a
 row: the residual runs that far behind the newest tick. Only consecutive ticks are filtered
 together; a gap (lost ticks) restarts the filter.
 
-Rows are averaged over ``block`` ticks (the view's period): one value per joint a browser can
-plot at 50 Hz, with the noise of 20 ticks averaged away. Joints are those of the robot model, in
+Rows are averaged over blocks of ``block_s`` (the view's period, 20 ms: 20 ticks at 1 kHz): one
+value per joint a browser can plot at 50 Hz, with the noise of 20 ticks averaged away. Joints are those of the robot model, in
 its order; the messages may carry them in any order, with others beside them.
 """
 from __future__ import annotations
@@ -44,9 +44,9 @@ class ForceBlock:
 class ForceResidual:
     """Pairs joint positions and current references by stamp and gives ``ForceBlock``s."""
 
-    def __init__(self, model: RobotModel, block: int = 20, options: IdentifyOptions | None = None) -> None:
+    def __init__(self, model: RobotModel, block_s: float = 0.02, options: IdentifyOptions | None = None) -> None:
         opts = options or IdentifyOptions()
-        self.model, self.block = model, int(block)
+        self.model, self.block_s, self.block = model, float(block_s), 1  # ticks per block, once the period is known
         self.cutoff_hz, self.order = opts.filter_cutoff_hz, opts.filter_order
         self.zoh_shift, self.filter_currents = opts.zoh_shift, opts.filter_currents
         self.g_tau: np.ndarray | None = None  # (n,) in the model's joint order
@@ -106,11 +106,15 @@ class ForceResidual:
     def take(self) -> list[ForceBlock]:
         """The blocks whose ticks and filter context have all arrived, oldest first."""
         self._pair()
-        if self.g_tau is None or self.period_ns is None or self.done is None:
+        if self.period_ns is None or self.done is None:
             return []
         H, B = self.horizon, self.block
         k = (len(self.t) - H - 1 - self.done) // B  # whole blocks with H ticks of context after
         if k <= 0:
+            return []
+        if self.g_tau is None:  # no model yet: these ticks are passed, only their context kept
+            self.done += k * B
+            self._trim()
             return []
         a, b = self.done - H, self.done + k * B + H + 1
         out = self._blocks(self.t[a:b], self.q[a:b], self.v[a:b], k)
@@ -143,6 +147,7 @@ class ForceResidual:
         if diffs.size >= 10 and np.median(diffs) > 0:
             self.period_ns = int(np.median(diffs))
             self.horizon = filter_horizon(self.period_ns * 1e-9, self.cutoff_hz, self.order)
+            self.block = max(1, round(self.block_s * 1e9 / self.period_ns))
             t, q, v = self.t, self.q, self.v
             self._restart()
             self._extend(t, q, v)
