@@ -8,7 +8,8 @@ own series are ``orthoglide/forces`` (measured vs model force, live) and, in a r
 - every number a plot wants is a field of its own: a gain, its σ (N/A) and gain ± σ, so that a
   Plot panel draws the band without arithmetic; arrays follow the message's joint order, with
   the joint names beside them (any robot, any number of joints);
-- non-finite numbers are sent as null (NaN and Infinity are not JSON).
+- non-finite numbers are sent as null (NaN and Infinity are not JSON); the schemas still say
+  "number" (Foxglove's JSON-schema parser takes one type per field), and a plot skips the nulls.
 
 Builders take the fields of the ROS message (``msg.get_fields_and_field_types()`` names, or the
 core's ``message_fields()`` dicts) and return plain dicts; nothing here imports rclpy.
@@ -28,7 +29,9 @@ FORCES = "orthoglide/forces"  # the viewer's: measured g_τ v_τ vs the identifi
 REPORT_FORCES = "orthoglide/report/forces"  # a report's: the same, over its validation record
 REPORT_CONVERGENCE = "orthoglide/report/convergence"  # a report's: the gains as records accumulate
 
-_NUMBER = {"type": ["number", "null"]}
+# A number, or null for NaN and ±inf. Only single types: Foxglove's JSON-schema parser (mcap-support
+# parseJsonSchema) refuses a type list such as ["number", "null"], and the channel with it.
+_NUMBER = {"type": "number", "description": "null when not finite"}
 _NUMBERS = {"type": "array", "items": _NUMBER}
 _STRINGS = {"type": "array", "items": {"type": "string"}}
 _TIME = {"type": "object", "title": "builtin_interfaces/Time",
