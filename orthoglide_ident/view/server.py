@@ -22,21 +22,14 @@ SERVER_NAME = "orthoglide_ident viewer"
 
 
 class _Listener:
-    """Counts subscriptions; a new one asks for the latched channels' last messages again."""
+    """foxglove-sdk's callbacks (on its threads): a new subscription sets ``new``, so that the
+    caller sends the latched channels' last messages again."""
 
     def __init__(self) -> None:
-        self.lock = threading.Lock()
-        self.subscribed: collections.Counter[str] = collections.Counter()
         self.new = threading.Event()
 
     def on_subscribe(self, client: Any, channel: Any) -> None:
-        with self.lock:
-            self.subscribed[channel.topic] += 1
         self.new.set()
-
-    def on_unsubscribe(self, client: Any, channel: Any) -> None:
-        with self.lock:
-            self.subscribed[channel.topic] -= 1
 
 
 class ViewServer:
@@ -80,11 +73,6 @@ class ViewServer:
         """Queue ``msg`` for every client subscribed to ``topic`` (never waits for one)."""
         self.channels[topic].log(json.dumps(msg, allow_nan=False).encode(), log_time=int(log_time_ns))
         self.sent[topic] += 1
-
-    def clients(self) -> int:
-        """Subscriptions now open, over all channels."""
-        with self.listener.lock:
-            return sum(max(n, 0) for n in self.listener.subscribed.values())
 
     def close(self) -> None:
         for ch in self.channels.values():

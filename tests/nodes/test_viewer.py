@@ -215,6 +215,40 @@ def test_garbage_a_vanished_and_a_stalled_client_leave_the_node_serving(viewer):
         c.close()
 
 
+def test_a_best_effort_publisher_is_followed(viewer):
+    """A reliable subscription never matches a best-effort publisher: the viewer takes the topic as
+    its publishers offer it (re-checked every 2 s), here the setpoints."""
+    from rclpy.qos import QoSProfile, ReliabilityPolicy
+
+    from orthoglide_msgs.msg import JointSetpoint
+
+    pub = viewer.node.create_publisher(JointSetpoint, "/orthoglide/setpoints",
+                                       QoSProfile(depth=100, reliability=ReliabilityPolicy.BEST_EFFORT))
+    t_end = time.monotonic() + 30
+    while not any("/orthoglide/setpoints: now taken best_effort" in line for line in viewer.lines):
+        assert time.monotonic() < t_end, "".join(viewer.lines)
+        time.sleep(0.05)
+    client = FoxgloveClient(viewer.url)
+    client.subscribe(["/orthoglide/setpoints"])
+    while pub.get_subscription_count() == 0:
+        assert time.monotonic() < t_end
+        time.sleep(0.05)
+    time.sleep(0.5)
+    for k in range(100):
+        m = JointSetpoint(name=["q11", "q12", "q13"], position=[0.001 * k] * 3, velocity=[0.1] * 3,
+                          acceleration=[-2.0] * 3)
+        m.header.stamp.sec, m.header.stamp.nanosec = divmod(T0 + k * TICK, 10**9)
+        pub.publish(m)
+        time.sleep(0.001)
+    got = client.frames(20, until=lambda fs: len(fs) >= 3)
+    assert got, "no setpoints frame"
+    for f in got:  # best effort may lose a message on the way, never alter one
+        k = (f.log_time - T0) // TICK
+        assert f.message["position"] == pytest.approx([0.001 * k] * 3)
+        assert f.message["velocity"] == [0.1] * 3 and f.message["acceleration"] == [-2.0] * 3
+    client.close()
+
+
 @pytest.mark.slow
 def test_a_stalled_client_loses_frames_the_others_do_not(ros_env):
     """Every tick sent (rate 1000 Hz), ~24 MB of frames: more than a stalled client's socket
