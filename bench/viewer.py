@@ -106,7 +106,8 @@ def main(argv: list[str] | None = None) -> int:
         print(f"  {name + ' % of a core':<36}{'-' if a is None else f'{a:6.1f}':>8}{with_viewer['cpu'][name]:>20.1f}")
     for key, label in (("written", "ticks recorded"), ("missing", "ticks missed by the recorder"),
                        ("live", "live estimates"), ("lag", "live lag max (s)")):
-        print(f"  {label:<36}{without[key]:>8}{with_viewer[key]:>20}")
+        a, b = (f"{x:.2f}" if isinstance(x, float) else str(x) for x in (without[key], with_viewer[key]))
+        print(f"  {label:<36}{a:>8}{b:>20}")
     print("frames per second delivered to the client:")
     for topic, n in sorted(got.items()):
         print(f"  {topic:<40}{n / elapsed:8.1f}")
