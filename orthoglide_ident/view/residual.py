@@ -117,10 +117,11 @@ class ForceResidual:
             self._trim()
             return []
         a, b = self.done - H, self.done + k * B + H + 1
-        out = self._blocks(self.t[a:b], self.q[a:b], self.v[a:b], k)
-        self.done += k * B
-        self._trim()
-        return out
+        try:
+            return self._blocks(self.t[a:b], self.q[a:b], self.v[a:b], k)
+        finally:  # even when the model refuses these states (ModelError): passed, not retried
+            self.done += k * B
+            self._trim()
 
     def _pair(self) -> None:
         """Move ticks present on both topics into the buffer, in stamp order; a gap restarts it."""

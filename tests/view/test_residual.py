@@ -4,7 +4,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from orthoglide_ident.errors import ConfigError
+from orthoglide_ident.errors import ConfigError, OrthoglideError
 from orthoglide_ident.identify.filtering import filter_horizon
 from orthoglide_ident.model.robots import load_robot
 from orthoglide_ident.view.residual import ForceResidual
@@ -126,3 +126,27 @@ def test_wrong_names_are_refused_with_a_reason(orthoglide):
         res.set_parameters(["q11", "q12"], list(g[:2]), list(bm.names), list(chi))
     with pytest.raises(ConfigError, match="lack joints q13"):
         res.add("q", np.arange(3), ("q11", "q12", "x"), np.zeros((3, 3)))
+
+
+def test_states_the_model_refuses_cost_their_blocks_only(orthoglide):
+    """Positions far outside the workspace (a glitch) for 5 ticks: the blocks whose filter window
+    holds them are lost with a reason, the residual goes on after them."""
+    bm, chi, g = orthoglide
+    rec = _record(orthoglide)
+    rec.q[2000:2005] = 5.0  # m: no assembly of the Orthoglide reaches it
+    res = ForceResidual(bm)
+    res.set_parameters(list(bm.joint_names), list(g), list(bm.names), list(chi))
+    blocks, errors = [], 0
+    for a in range(0, len(rec.stamps_q_ns), 100):
+        sl = slice(a, a + 100)
+        res.add("q", rec.stamps_q_ns[sl], bm.joint_names, rec.q[sl])
+        res.add("v", rec.stamps_v_ns[sl], bm.joint_names, rec.v_tau[sl])
+        try:
+            blocks += res.take()
+        except OrthoglideError:
+            errors += 1
+    glitch = rec.stamps_q_ns[2000]
+    after = [b for b in blocks if b.stamp_ns > glitch + 200 * 1_000_000]
+    assert after and np.all(np.isfinite([b.model for b in after]))
+    assert len(res.t) < 2 * filter_horizon(1e-3, 100.0, 4) + 200
+    assert errors or not any(abs(b.stamp_ns - glitch) < 150 * 1_000_000 for b in blocks)
