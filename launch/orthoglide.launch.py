@@ -1,7 +1,8 @@
-"""The Orthoglide node set: driver (simulated robot, optional), recorder, identification, ctc.
+"""The Orthoglide node set: driver (simulated robot, optional), recorder, identification, ctc,
+and the Foxglove viewer (optional).
 
     ros2 launch orthoglide_ident orthoglide.launch.py [use_sim:=true|false] [namespace:=robot2]
-        [payload:=none] [trajectory:=exciting] [controller:=pid] [output_dir:=bags]
+        [payload:=none] [trajectory:=exciting] [controller:=pid] [output_dir:=bags] [viewer:=false]
 
 Each node reads its YAML file from share/orthoglide_ident/config/ (the files of config/ in the
 source tree); the launch arguments override a few values. Every topic and service name is
@@ -17,15 +18,17 @@ from __future__ import annotations
 PACKAGE = "orthoglide_ident"
 
 # executable, node name, YAML file in share/orthoglide_ident/config, launch arguments passed as
-# parameters, and whether use_sim decides that it runs
+# parameters, and the launch argument that decides whether it runs (None: always)
 NODES = (
     {"executable": "driver", "name": "orthoglide_driver", "config": "driver.yaml",
-     "arguments": ("payload", "trajectory", "controller"), "sim_only": True},
+     "arguments": ("payload", "trajectory", "controller"), "when": "use_sim"},
     {"executable": "recorder", "name": "orthoglide_recorder", "config": "recorder.yaml",
-     "arguments": ("output_dir",), "sim_only": False},
+     "arguments": ("output_dir",), "when": None},
     {"executable": "identification", "name": "orthoglide_identification", "config": "identification.yaml",
-     "arguments": ("bag_dir",), "sim_only": False},
-    {"executable": "ctc", "name": "orthoglide_ctc", "config": "ctc.yaml", "arguments": (), "sim_only": False},
+     "arguments": ("bag_dir",), "when": None},
+    {"executable": "ctc", "name": "orthoglide_ctc", "config": "ctc.yaml", "arguments": (), "when": None},
+    {"executable": "viewer", "name": "orthoglide_viewer", "config": "viewer.yaml", "arguments": (),
+     "when": "viewer"},
 )
 
 ARGUMENTS = {
@@ -36,6 +39,7 @@ ARGUMENTS = {
     "controller": ("pid", "driver: pid, pid_ff, ctc or external"),
     "output_dir": ("bags", "recorder: folder for the bags"),
     "bag_dir": ("bags", "identification: where bags are found when a request names none"),
+    "viewer": ("false", "serve the topics to Foxglove (ws://127.0.0.1:8765, config/viewer.yaml)"),
 }
 
 
@@ -52,7 +56,7 @@ def generate_launch_description():
         Node(package=PACKAGE, executable=n["executable"], name=n["name"], output="screen",
              parameters=[PathJoinSubstitution([config, n["config"]]),
                          {a: LaunchConfiguration(a) for a in n["arguments"]}],
-             condition=IfCondition(LaunchConfiguration("use_sim")) if n["sim_only"] else None)
+             condition=IfCondition(LaunchConfiguration(n["when"])) if n["when"] else None)
         for n in NODES
     ]
     return LaunchDescription(

@@ -31,11 +31,15 @@ EXECUTABLES: dict[str, str] = {
     "recorder": "orthoglide_ident.nodes.recorder",
     "identification": "orthoglide_ident.nodes.identification",
     "ctc": "orthoglide_ident.nodes.ctc",
+    "viewer": "orthoglide_ident.nodes.viewer",
 }
 """`ros2 run orthoglide_ident <exec>` -> module whose ``main()`` it runs (resource/launchers/<exec>)."""
 
-CONFIG_FILES = ("driver", "recorder", "identification", "ctc", "plant")
+CONFIG_FILES = ("driver", "recorder", "identification", "ctc", "viewer", "plant")
 """config/<name>.yaml, installed under share/orthoglide_ident/config (the launch file loads them)."""
+
+FOXGLOVE_LAYOUT = "resource/orthoglide_layout.json"
+"""The Foxglove layout of the viewer's (and a report MCAP's) channels: share/orthoglide_ident/foxglove."""
 
 PTH_FILE = "orthoglide_ident_ament_prefix.pth"
 
@@ -48,6 +52,7 @@ def data_files() -> list[tuple[str, list[str]]]:
         (f"lib/{PACKAGE}", [f"resource/launchers/{name}" for name in EXECUTABLES]),
         (f"share/{PACKAGE}/launch", ["launch/orthoglide.launch.py"]),
         (f"share/{PACKAGE}/config", [f"config/{name}.yaml" for name in CONFIG_FILES]),
+        (f"share/{PACKAGE}/foxglove", [FOXGLOVE_LAYOUT]),
     ]
 
 

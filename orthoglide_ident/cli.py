@@ -6,7 +6,7 @@
     orthoglide-ident info BAG...
     orthoglide-ident reindex BAG...
     orthoglide-ident model [--robot FILE] --base-parameters [--json FILE]
-    orthoglide-ident report [--robot FILE] BAG... --out DIR [identify options]
+    orthoglide-ident report [--robot FILE] BAG... --out DIR [--mcap FILE] [identify options]
 
 ``--robot``: a URDF, a robot YAML or a bundled robot's name (model/robots.py); without it, the
 Orthoglide exactly as before.
@@ -154,6 +154,8 @@ def build_parser() -> argparse.ArgumentParser:
                                    "(%%σ), summary.md and result.json into --out.")
     _add_identify_options(p)
     p.add_argument("--out", required=True, metavar="DIR", help="output directory (created)")
+    p.add_argument("--mcap", metavar="FILE", help="also write the plots as an MCAP file for Foxglove or "
+                   "Lichtblick (forces, residual, the gains' convergence; orthoglide_ident/view/report_mcap.py)")
     ros_client.add_parsers(sub)
     return parser
 
@@ -223,6 +225,10 @@ def _main(args: argparse.Namespace) -> int:
             except OSError as exc:
                 raise ConfigError(f"cannot write the report into {args.out}: "
                                   f"{exc.strerror or exc}") from None
+            if args.mcap:
+                from orthoglide_ident.view.report_mcap import write_report_mcap
+
+                paths.append(write_report_mcap(res, args.mcap))
             print(res.to_text())
             print("\nwrote " + ", ".join(str(p) for p in paths))
         else:

@@ -20,6 +20,7 @@ EXECUTABLES = {
     "recorder": "orthoglide_ident.nodes.recorder",
     "identification": "orthoglide_ident.nodes.identification",
     "ctc": "orthoglide_ident.nodes.ctc",
+    "viewer": "orthoglide_ident.nodes.viewer",
 }
 
 
@@ -124,7 +125,7 @@ def test_launch_file_lists_the_node_set_with_installed_configs():
     spec = importlib.util.spec_from_file_location("orthoglide_launch", path)
     launch = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(launch)
-    assert [n["executable"] for n in launch.NODES] == ["driver", "recorder", "identification", "ctc"]
+    assert [n["executable"] for n in launch.NODES] == ["driver", "recorder", "identification", "ctc", "viewer"]
     assert all(n["executable"] in EXECUTABLES and n["name"].startswith("orthoglide_") for n in launch.NODES)
     installed = dict(data_files())
     assert "launch/orthoglide.launch.py" in installed["share/orthoglide_ident/launch"]
@@ -132,6 +133,8 @@ def test_launch_file_lists_the_node_set_with_installed_configs():
         assert f"config/{n['config']}" in installed["share/orthoglide_ident/config"]
         assert (ROOT / "config" / n["config"]).is_file()
         assert set(n["arguments"]) <= set(launch.ARGUMENTS)
+        assert n["when"] is None or n["when"] in launch.ARGUMENTS
+    assert launch.ARGUMENTS["viewer"][0] == "false"  # the viewer only when asked for
     assert (Path(sys.prefix) / "share/orthoglide_ident/launch/orthoglide.launch.py").is_file()
     try:
         import launch_ros  # noqa: F401  (only with the real ros2 CLI installed by hand)
@@ -145,12 +148,19 @@ def test_config_files_are_the_nodes_parameter_files():
     """Every key of config/<node>.yaml is a parameter the node declares (so the file really sets it)."""
     import yaml
 
-    from orthoglide_ident.nodes import ctc, identification, recorder
+    from orthoglide_ident.nodes import ctc, identification, recorder, viewer
     from orthoglide_sim import driver_node
 
     for module, name in ((driver_node, "driver"), (recorder, "recorder"), (identification, "identification"),
-                         (ctc, "ctc")):
+                         (ctc, "ctc"), (viewer, "viewer")):
         data = yaml.safe_load((ROOT / "config" / f"{name}.yaml").read_text())
         keys = set(data["/**"]["ros__parameters"])
         declared = {p.name for p in module.PARAMETERS}
         assert keys <= declared, (name, keys - declared)
+
+
+def test_foxglove_layout_is_installed():
+    from orthoglide_ident._install_ament import FOXGLOVE_LAYOUT
+
+    installed = PREFIX / "share/orthoglide_ident/foxglove" / Path(FOXGLOVE_LAYOUT).name
+    assert installed.read_bytes() == (ROOT / FOXGLOVE_LAYOUT).read_bytes(), "stale layout: run `make setup`"
