@@ -311,7 +311,8 @@ class IdentificationResult:
     def _essential_lines(self, ess: "IdentificationResult") -> list[str]:
         d = ess.diagnostics
         out = [f"essential parameters ({d.get('method', 'paper')}): {len(ess.parameters)} kept of "
-               f"{len(self.parameters)} ({d.get('stopped_because', '')}); residual rms (N): "
+               f"{len(self.parameters)} ({d.get('stopped_because', '')}); residual rms "
+               f"({self._units(self.effort_units, 'N')}): "
                + ", ".join(f"{j} {r:.4g}" for j, r in zip(ess.joint_names, ess.residual_rms))]
         steps = d.get("steps", [])
         if not steps:
