@@ -294,6 +294,18 @@ class ConsistencyResult:
             lines.append(direct_dynamics_text(d))
         return lines
 
+    def message_fields(self, fields: dict[str, Any]) -> dict[str, Any]:
+        """orthoglide_msgs/IdentifiedParameters fields of the consistent set, from the result's
+        own (``IdentificationResult.message_fields()``): values = K χ_st of the answer (every base
+        parameter), method "<method> consistent"; the gains are the held ones, rel_std the
+        unconstrained answer's."""
+        out = dict(fields)
+        rel = dict(zip(fields["names"], fields["rel_std"]))
+        out.update(method=f"{fields['method']} consistent", names=list(self.base_names),
+                   values=[float(x) for x in self.answer.chi_b],
+                   rel_std=[float(rel.get(n, -1.0)) for n in self.base_names])
+        return out
+
     def _rms(self, key: str) -> str:
         return "/".join(f"{x:.4g}" for x in self.residual_rms[key])
 
