@@ -59,27 +59,41 @@ class Description:
     gravity: tuple[float, float, float] = (0.0, 0.0, -9.80665)
 
 
-class SerialArm(RobotModel):
-    """The 3-joint arm above (``path``: where its URDF is written)."""
+class SerialRobot(RobotModel):
+    """Any serial URDF tree whose movable joints are all actuated, on Pinocchio: bodies are the
+    joints' child links (labels 1..n from the base), ``friction``/``armature`` per label the
+    drive terms ``standard_values()`` adds to the URDF's inertials."""
 
-    name = "arm3"
-    payload_frame = "tool"
+    def __init__(self, path: Path, name: str, nominal_gains, payload_frame: str,
+                 friction: dict[str, tuple[float, float, float]], armature: dict[str, float],
+                 n_states: int = 400):
+        import xml.etree.ElementTree as ET
 
-    def __init__(self, path: Path, n_states: int = 400):
-        path.write_text(URDF)
-        self.description = Description(path)
-        self.model = pin.buildModelFromXML(URDF)
+        self.name, self.payload_frame = name, payload_frame
+        self.description = Description(Path(path))
+        self.model = pin.buildModelFromUrdf(str(path))
         self.model.gravity = pin.Motion(np.array(self.description.gravity), np.zeros(3))
         self.data = self.model.createData()
-        self.joints = tuple(ActuatedJoint(f"j{k}", "revolute", NOMINAL_GAIN) for k in (1, 2, 3))
-        self.standard_names = tuple(f"{k}_{b}" for b in "123" for k in INERTIAL_KINDS + DRIVE)
+        names = [self.model.names[j] for j in range(1, self.model.njoints)]
+        child = {el.get("name"): el.find("child").get("link")
+                 for el in ET.parse(path).getroot().findall("joint")}
+        self.joints = tuple(ActuatedJoint(n, "revolute", float(g))
+                            for n, g in zip(names, nominal_gains))
+        labels = [str(k) for k in range(1, len(names) + 1)]
+        self.friction, self.armature = friction, armature
+        self.standard_names = tuple(f"{k}_{b}" for b in labels for k in INERTIAL_KINDS + DRIVE)
         index = {n: i for i, n in enumerate(self.standard_names)}
-        self.bodies = tuple(Body(f"link{b}", tuple(index[f"{k}_{b}"] for k in INERTIAL_KINDS),
-                                 f"link{b}") for b in "123")
-        # 1 kg at the tool frame, as parameters of link3 (the body it is fixed to), Pinocchio order
-        tool = self.model.frames[self.model.getFrameId("tool")].placement
-        self._payload_link3 = tool.act(pin.Inertia.FromDynamicParameters(
-            pin_parameters(Payload(1.0, "tool").shape()))).toDynamicParameters()
+        self.bodies = tuple(Body(child[n], tuple(index[f"{k}_{b}"] for k in INERTIAL_KINDS),
+                                 child[n]) for n, b in zip(names, labels))
+        # 1 kg at the payload frame, as parameters of the body it is fixed to (Pinocchio order)
+        f = self.model.frames[self.model.getFrameId(payload_frame)]
+        self._payload_joint = f.parentJoint
+        self._payload_params = f.placement.act(pin.Inertia.FromDynamicParameters(
+            pin_parameters(Payload(1.0, payload_frame).shape()))).toDynamicParameters()
+        self._base(n_states)
+
+    def _base(self, n_states: int) -> None:
+        """Base parameters by QR of W_st on random states (eq. 22), K = [1 | β] (eq. 21)."""
         W = self.standard_regressor(*self.random_states(n_states, seed=5))
         R = np.linalg.qr(W, mode="r")
         d = np.abs(np.diag(R))
@@ -93,15 +107,16 @@ class SerialArm(RobotModel):
         self.expressions = [""] * len(self.names)
 
     def _rows(self, q, qd, qdd) -> tuple[np.ndarray, np.ndarray]:
-        """(m, 3, n_st) standard rows and (m, 3) payload rows per kg, sample by sample."""
-        m = q.shape[0]
-        out, pay = np.zeros((m, 3, len(self.standard_names))), np.zeros((m, 3))
+        """(m, n, n_st) standard rows and (m, n) payload rows per kg, sample by sample."""
+        m, n = q.shape
+        out, pay = np.zeros((m, n, len(self.standard_names))), np.zeros((m, n))
+        c = 10 * (self._payload_joint - 1)
         for k in range(m):
             Y = pin.computeJointTorqueRegressor(self.model, self.data, q[k], qd[k], qdd[k])
-            for b in range(3):
+            for b in range(n):
                 out[k, :, 14 * b:14 * b + 10] = Y[:, 10 * b:10 * b + 10][:, PIN_ORDER]
                 out[k, b, 14 * b + 10:14 * b + 14] = [qdd[k, b], qd[k, b], np.sign(qd[k, b]), 1.0]
-            pay[k] = Y[:, 20:30] @ self._payload_link3
+            pay[k] = Y[:, c:c + 10] @ self._payload_params
         return out, pay
 
     def standard_regressor(self, q, qd, qdd) -> np.ndarray:
@@ -116,21 +131,21 @@ class SerialArm(RobotModel):
             return out
         return X
 
-    def with_payload(self, payload: Payload) -> "SerialArm":
+    def with_payload(self, payload: Payload) -> "SerialRobot":
         return self
 
     def random_states(self, n: int, seed: int = 0):
         rng = np.random.default_rng(seed)
-        return (rng.uniform(-2, 2, (n, 3)), rng.normal(0, 1, (n, 3)), rng.normal(0, 5, (n, 3)))
+        nj = self.n_joints
+        return (rng.uniform(-2, 2, (n, nj)), rng.normal(0, 1, (n, nj)), rng.normal(0, 5, (n, nj)))
 
     def standard_values(self) -> np.ndarray:
-        """The URDF's own χ_st (the tool merged into link3), friction and armature of FRICTION."""
+        """The URDF's own χ_st (fixed links merged), the friction and armature given."""
         out = []
-        for b in "123":
-            pi = self.model.inertias[int(b)].toDynamicParameters()
-            ia = ARMATURE[b]
-            fv, fs, off = FRICTION[b]
-            out += list(pi[PIN_ORDER]) + [ia, fv, fs, off]
+        for k, b in enumerate(self.bodies, start=1):
+            pi = self.model.inertias[k].toDynamicParameters()
+            fv, fs, off = self.friction[str(k)]
+            out += list(pi[PIN_ORDER]) + [self.armature[str(k)], fv, fs, off]
         return np.array(out)
 
     def table(self) -> str:
@@ -138,6 +153,26 @@ class SerialArm(RobotModel):
 
     def to_json(self) -> dict:
         return {"names": list(self.names)}
+
+
+class SerialArm(SerialRobot):
+    """The 3-joint arm above, its URDF written to ``path``."""
+
+    def __init__(self, path: Path, n_states: int = 400):
+        path.write_text(URDF)
+        super().__init__(path, "arm3", [NOMINAL_GAIN] * 3, "tool", FRICTION, ARMATURE,
+                         n_states)
+
+
+def ur5(n_states: int = 400) -> SerialRobot:
+    """The bundled UR5 (orthoglide_ident/robots/ur5.urdf) as a SerialRobot, 2 kg payload at
+    tool0, plausible friction and rotor inertias (the URDF has none)."""
+    from orthoglide_ident.model.robots import ROBOTS_DIR
+
+    fr = {str(k): (1.5 - 0.1 * k, 2.0 - 0.2 * k, 0.1 * (-1) ** k) for k in range(1, 7)}
+    arm = {str(k): (0.3 if k <= 3 else 0.05) for k in range(1, 7)}
+    return SerialRobot(ROBOTS_DIR / "ur5.urdf", "ur5", [13.0, 13.0, 13.0, 9.3, 9.3, 9.3],
+                       "tool0", fr, arm, n_states)
 
 
 def pin_parameters(chi10: np.ndarray) -> np.ndarray:

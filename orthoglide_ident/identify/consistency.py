@@ -52,7 +52,7 @@ log = logging.getLogger("orthoglide_ident.identify")
 
 PRIOR_WEIGHT = 1e-4  # default consistency_prior_weight
 CHECK_WEIGHT = 1e-8  # tie-break of the exact-feasibility check in K's null space
-RELAXATION_TOL = 1e-6  # scaled units: a larger relaxation means "inconsistent"
+RELAXATION_TOL = 1e-4  # scaled units: a larger relaxation means "inconsistent" (solver noise ~1e-6)
 AT_PRIOR_TOL = 1e-3  # scaled units: a parameter this close to its prior "stayed at the prior"
 
 
@@ -242,8 +242,8 @@ class ConsistencyResult:
         and whether the unconstrained answer needed them relaxed."""
         C, what = self.lay.inequalities()
         value = C @ (self.answer.chi_st / self.lay.scale)
-        return [{"name": w, "value": float(v), "consistent_unconstrained": bool(u <= RELAXATION_TOL),
-                 "relaxation": float(u)}
+        return [{"name": w, "value": float(v), "relaxation": float(u),
+                 "consistent_unconstrained": bool(u <= RELAXATION_TOL)}
                 for w, v, u in zip(what, value, self.findings.bound_relaxation)]
 
     def summary(self) -> str:
@@ -252,11 +252,13 @@ class ConsistencyResult:
         bad += [b["name"] for b in self.bounds_json() if not b["consistent_unconstrained"]]
         head = ("the unconstrained answer is physically consistent" if not bad else
                 "the unconstrained answer is not physically consistent (" + ", ".join(bad) + ")")
+        rms = self.residual_rms
         out = (f"{head}; projection: d² {self.projection_d2:.3g} over {len(self.base_names)} "
-               f"base parameters, residual {100 * _increase(self.residual_rms['projection'], self.residual_rms['unconstrained']):+.2f} %")
+               f"base parameters, residual "
+               f"{100 * _increase(rms['projection'], rms['unconstrained']):+.2f} %")
         if self.identified is not None:
             out += (f"; identified under the constraints: residual "
-                    f"{100 * _increase(self.residual_rms['identification'], self.residual_rms['unconstrained']):+.2f} %, "
+                    f"{100 * _increase(rms['identification'], rms['unconstrained']):+.2f} %, "
                     f"d² {self.identified_d2:.3g}")
         return out + f" ({self.seconds:.2f} s)"
 
@@ -264,7 +266,8 @@ class ConsistencyResult:
         """The side-by-side table of the text output: base parameters unconstrained and
         consistent, the gains, the residuals, and the bodies of the consistent answer."""
         proj = self._fit_json(self.projection, self.projection_d2, self.residual_rms["projection"])
-        lines = ["", "physical consistency (pseudo-inertias ⪰ 0, ia, fv, fs ≥ 0): " + self.summary(),
+        lines = ["", "physical consistency (pseudo-inertias ⪰ 0, ia, fv, fs ≥ 0): "
+                 + self.summary(),
                  f"  prior: {self.lay.prior_source} (elsewhere 0.05 m spheres), "
                  f"weight {self.prior_weight:g}; projection moved the gains " + ", ".join(
                      f"{j} {v:+.2f}σ" for j, v in zip(self.joint_names, (
@@ -363,12 +366,13 @@ def _increase(residual: Sequence[float], base: Sequence[float]) -> float:
 
 def _base_answer(result, robot) -> tuple[np.ndarray, np.ndarray, float, np.ndarray]:
     """χ̂_b in ``robot.names`` order, the covariance over [χ_b, gains or masses] the fits measure
-    distances in, its inflation κ and the honest σ of the unknowns: eq. (39)'s (eq. 27's for WLS) times κ, the largest honest /
-    eq. (39) variance ratio, so that every σ is at least the honest one (uncertainty.py) while the
-    correlations stay those of the data's normal matrix — a direction the records do not
-    constrain stays cheap to move along. (The honest covariance's own correlations, or eq. (39)'s
-    rescaled unknown by unknown, are not ⪰ eq. (39): along some directions they are narrower,
-    and the projection then moved the sample bags' answer where the data fix it: +6 % residual.)"""
+    distances in, its inflation κ and the honest σ of the unknowns. The covariance is eq. (39)'s
+    (eq. 27's for WLS) times κ, the largest honest / eq. (39) variance ratio: every σ at least
+    the honest one (uncertainty.py), the correlations those of the data's normal matrix, so that
+    a direction the records do not constrain stays cheap to move along. (The honest covariance's
+    own correlations, or eq. (39)'s rescaled unknown by unknown, are not ⪰ eq. (39): along some
+    directions they are narrower, and the projection then moved the sample bags' answer where
+    the data fix it: +6 % residual.)"""
     cov, paper = getattr(result, "covariance", None), getattr(result, "covariance_paper", None)
     names = [p.name for p in result.parameters]
     if cov is None or paper is None or names != list(robot.names):

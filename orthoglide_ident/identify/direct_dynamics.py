@@ -88,7 +88,8 @@ class SerialForward:
 
     def lift(self, q: np.ndarray, qd: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Tree states (m, nq), (m, nv) of actuated states (m, n_j)."""
-        Q, V = np.zeros((q.shape[0], self.tree.model.nq)), np.zeros((q.shape[0], self.tree.model.nv))
+        m = self.tree.model
+        Q, V = np.zeros((q.shape[0], m.nq)), np.zeros((q.shape[0], m.nv))
         Q[:, self.iv], V[:, self.iv] = q, qd
         return Q, V
 

@@ -3,7 +3,7 @@ solver): the numerical core of the physical-consistency step (consistency.py).
 
     minimise   ‖A z − a‖² + w ‖B z − b‖²
     subject to svec(S_k(z)) = G_k z + h_k ⪰ 0      (4×4 blocks: the bodies' pseudo-inertias)
-               C z ≥ 0                                (rotor inertia, friction ≥ 0; bounding spheres)
+               C z ≥ 0                            (rotor inertia, friction ≥ 0; bounding spheres)
 
 The residuals are auxiliary variables (e = A z − a, f = B z − b are equality constraints and the
 objective is ‖e‖² + w ‖f‖²): the ill-conditioning of a whitened A (σ of base parameters spanning
@@ -188,8 +188,8 @@ def relaxation(A: np.ndarray, a: np.ndarray, B: np.ndarray, b: np.ndarray, weigh
     A_psd, b_psd = _rows(blocks, n, n_x, relax=n)
     A_nn = sparse.hstack([sparse.csc_matrix(-C), sparse.csc_matrix((n_u, n_t)), -sparse.eye(n_u),
                           sparse.csc_matrix((n_u, m_f))])
-    A_tu = sparse.csc_matrix((-np.ones(n_t + n_u), (np.arange(n_t + n_u), n + np.arange(n_t + n_u))),
-                             shape=(n_t + n_u, n_x))
+    k = np.arange(n_t + n_u)
+    A_tu = sparse.csc_matrix((-np.ones(n_t + n_u), (k, n + k)), shape=(n_t + n_u, n_x))
     cones = [clarabel.ZeroConeT(m_e + m_f), clarabel.NonnegativeConeT(n_u + n_t + n_u)]
     cones += [clarabel.PSDTriangleConeT(SIDE) for _ in blocks]
     x, status, it, dt = _solve(P, q, [eq, A_nn, A_tu, A_psd],

@@ -14,9 +14,11 @@ inequality (LMI). A joint's rotor inertia ia and its viscous and Coulomb frictio
 Every unknown is scaled to O(1) by its body's mass and length: m by m_ref, h by m_ref L_ref,
 inertias by m_ref L_ref², where m_ref, L_ref are the prior's mass and radius of gyration about the
 frame origin (√(tr Σ / m)) when it has them, 1 kg and 0.1 m otherwise; drive terms by
-max(|prior|, 1) in SI units, or without a prior by the size of the base parameters they enter. The LMIs are imposed on the scaled pseudo-inertia
-D J D / m_ref ⪰ ε 1 (D = diag(1/L_ref, 1/L_ref, 1/L_ref, 1), ε = MARGIN): a simulator gets a
-strictly positive mass and inertia even for a body the data say nothing about.
+max(|prior|, 1) in SI units, or without a prior by the size of the base parameters they enter.
+The LMIs are imposed on the scaled pseudo-inertia D J D / m_ref ⪰ ε 1 (D = diag(1/L_ref,
+1/L_ref, 1/L_ref, 1), ε = MARGIN): a simulator gets a strictly positive mass and inertia even
+for a body the data say nothing about. Each body's mass also lies within a bounding sphere
+(``Layout.inequalities``) so that a nearly massless one keeps its centre of mass near it.
 
 The prior (what the solution is pulled to where the data say nothing): given (all or some
 standard parameters: CAD values, a previous answer), else the robot's own values when its model

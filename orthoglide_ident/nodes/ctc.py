@@ -85,7 +85,8 @@ class CTCNode(Node):
         latched = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL,
                              reliability=ReliabilityPolicy.RELIABLE)
         stream = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE)
-        self.params_topic = "orthoglide/identified_parameters" + ("/consistent" if v["consistent"] else "")
+        self.params_topic = "orthoglide/identified_parameters" + (
+            "/consistent" if v["consistent"] else "")
         self.create_subscription(IdentifiedParameters, self.params_topic, self.on_params, latched)
         self.pub = self.create_publisher(CurrentReference, "orthoglide/feedforward", stream)
         self.monitor = TrackingMonitor(self) if v["monitor"] else None
