@@ -235,6 +235,10 @@ def _main(args: argparse.Namespace) -> int:
     if args.command == "watch":
         return ros_client.watch(args)
     if args.command == "identify" and args.service:
+        if args.consistent or args.urdf_out:
+            raise ConfigError("--consistent and --urdf-out are for identifying from bags here; "
+                              "for the node, set its parameter consistent (the consistent set is "
+                              "latched on orthoglide/identified_parameters/consistent)")
         ros_client.identify_service(args)
         return EXIT_OK
     if args.command in ("identify", "report") and not args.bags:

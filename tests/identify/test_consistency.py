@@ -209,3 +209,17 @@ def test_realistic_records_consistent_answer_within_sigma_and_nearer_the_truth(t
     # the constraints carry information the records lack: the consistent answer is nearer the
     # plant's true base parameters (bench/consistency.py: d² 86 -> 29 at 30 s + 30 s)
     assert d2["consistent"] < d2["tls"]
+
+
+def test_cli_writes_the_urdf_and_the_json(tmp_path, capsys):
+    pin = pytest.importorskip("pinocchio")
+    urdf, out = tmp_path / "identified.urdf", tmp_path / "result.json"
+    assert cli.main(["identify", *BAGS, "--urdf-out", str(urdf), "--json", str(out), "-q"]) == 0
+    assert "physical consistency" in capsys.readouterr().out
+    doc = json.loads(out.read_text())
+    model = pin.buildModelFromUrdf(str(urdf))
+    masses = {b["body"]: b["mass"] for b in doc["standard_parameters"]}
+    assert model.inertias[model.getJointId("q31")].mass == pytest.approx(
+        masses["body 3 of leg 1"], rel=1e-15)
+    assert cli.main(["identify", "--service", "--consistent"]) == cli.EXIT_BAD_INPUT
+    assert "parameter consistent" in capsys.readouterr().err
