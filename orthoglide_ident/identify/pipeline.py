@@ -423,6 +423,12 @@ def _validate(records: Iterable[Record], solved: Solved, model: IdentificationMo
         obs, _, _ = observe(rec, model, opts, m)
         out.append(cross_validate(obs, solved.chi, solved.g_tau, m,
                                   np.asarray(result.residual_rms), joint_names=model.joint_names))
+        if result.consistency is not None:  # the consistent model forward-simulated on it
+            from orthoglide_ident.identify.direct_dynamics import validate
+
+            result.consistency.direct_dynamics.append(validate(
+                rec, getattr(model, "base", model), result.consistency.answer.chi_st,
+                solved.g_tau, m, opts))
     return out
 
 
