@@ -233,8 +233,8 @@ class IdentificationResult:
             lines.extend(self.consistency.text_lines(self._units(self.effort_units, "N")))
         for v in self.validation:
             lines.append(f"cross-validation on {v['bag']}: " + ", ".join(
-                f"{j['joint']} {j['residual_rms']:.3g} N rms ({100 * j['relative_error']:.1f} %)"
-                for j in v["joints"]))
+                f"{j['joint']} {j['residual_rms']:.3g} {u} rms ({100 * j['relative_error']:.1f} %)"
+                for j, u in zip(v["joints"], self.effort_units or ["N"] * len(v["joints"]))))
         d = self.diagnostics
         if d.get("samples_used") is not None:
             lines.append(f"samples: {d['samples_used']} used, "
