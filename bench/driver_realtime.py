@@ -26,6 +26,8 @@ import time
 
 import numpy as np
 
+from orthoglide_ident.nodes import _processes as children  # children end with this process
+
 JOINTS = ["q11", "q12", "q13"]
 
 
@@ -37,7 +39,7 @@ def _spawn(params: list[str]) -> subprocess.Popen:
     args = [sys.executable, "-m", "orthoglide_sim.driver_node", "--ros-args"]
     for p in params:
         args += ["-p", p]
-    return subprocess.Popen(args, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    return children.popen(args, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
 
 
 def time_to_first_tick(node, starts: int) -> list[float]:

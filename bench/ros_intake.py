@@ -15,6 +15,8 @@ import sys
 import threading
 import time
 
+from orthoglide_ident.nodes import _processes as children  # children end with this process
+
 
 def measure(node, seconds: float, counter: list[int]) -> tuple[float, float]:
     time.sleep(1.0)
@@ -38,7 +40,7 @@ def main(argv: list[str] | None = None) -> int:
     topics = [(JointState, "/orthoglide/joint_states"), (CurrentReference, "/orthoglide/current_reference"),
               (JointSetpoint, "/orthoglide/setpoints")]
     qos = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE)
-    driver = subprocess.Popen([sys.executable, "-m", "orthoglide_sim.driver_node", "--ros-args", "-p",
+    driver = children.popen([sys.executable, "-m", "orthoglide_sim.driver_node", "--ros-args", "-p",
                                f"duration:={2 * args.seconds + 6}"], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     rclpy.init()
     try:

@@ -34,7 +34,7 @@ from .reader import (
     decode_messages,
     read_bag,
 )
-from .reindex import FileReport, ReindexResult, reindex
+from .reindex import FileReport, ReindexResult, left_open, reindex
 from .writer import BagWriter, encode_messages, write_bag
 
 __all__ = [
@@ -58,6 +58,7 @@ __all__ = [
     "FileStatus",
     "Gaps",
     "JointStates",
+    "left_open",
     "TopicInfo",
     "bag_files",
     "bag_info",
