@@ -4,9 +4,10 @@ signal ends with one line.
 A node set started by a script (``make demo``, a benchmark, a test) must not outlive it: a
 benchmark killed by ``timeout`` once left the simulator's driver publishing at 1 kHz for 35
 minutes. Cleaning up in ``finally`` covers exceptions and SIGINT/SIGTERM, not SIGKILL; so every
-child also gets Linux's parent-death signal (``prctl(PR_SET_PDEATHSIG, SIGTERM)``, set between fork
-and exec and kept across exec): when the parent dies, the kernel sends the child SIGTERM, which
-our nodes take as a clean stop (the recorder closes its bag).
+child also gets Linux's parent-death signal (``prctl(PR_SET_PDEATHSIG, SIGTERM)``, set by a tiny
+wrapper the child runs before it execs the program, and kept across exec): when the parent dies,
+the kernel sends the child SIGTERM, which our nodes take as a clean stop (the recorder closes its
+bag). The wrapper costs the child ~20 ms of start-up.
 
     proc = popen([sys.executable, "-m", "orthoglide_ident.nodes.recorder"], env=env)
 
@@ -21,49 +22,49 @@ context down under the running code instead: chained RCLError tracebacks).
 """
 from __future__ import annotations
 
-import ctypes
-import ctypes.util
 import os
 import signal
 import subprocess
 import sys
 from typing import Any
 
-PR_SET_PDEATHSIG = 1  # <linux/prctl.h>
+# Run by the child itself, before it becomes the program: set the parent-death signal, check that
+# the parent is still the one that started it (it may have died already), then exec the program.
+# A wrapper rather than Popen's preexec_fn: that forks the whole (multi-threaded) parent and runs
+# Python in the child before exec, which can deadlock; this one starts with posix_spawn/vfork.
+_WRAPPER = """\
+import ctypes, os, signal, sys
+parent, argv = int(sys.argv[1]), sys.argv[2:]
+try:
+    ctypes.CDLL("libc.so.6").prctl(1, signal.SIGTERM, 0, 0, 0)  # PR_SET_PDEATHSIG
+except (OSError, AttributeError):
+    pass  # not glibc: no parent-death signal (the parent's clean-up still stops the child)
+if os.getppid() != parent:
+    sys.exit(1)
+os.execvp(argv[0], argv)
+"""
 
-_prctl = None
-if sys.platform.startswith("linux"):
-    try:
-        _prctl = ctypes.CDLL(ctypes.util.find_library("c") or "libc.so.6", use_errno=True).prctl
-        _prctl.argtypes = [ctypes.c_int, ctypes.c_ulong, ctypes.c_ulong, ctypes.c_ulong, ctypes.c_ulong]
-    except (OSError, AttributeError):
-        _prctl = None
 
-
-def _die_with(parent: int, then: Any = None) -> Any:
-    """The child's side, run between fork and exec."""
-
-    def child() -> None:  # as little as possible between fork and exec: one system call, getppid
-        if _prctl is not None:
-            _prctl(PR_SET_PDEATHSIG, signal.SIGTERM, 0, 0, 0)
-        if os.getppid() != parent:  # the parent died before the line above: do not start at all
-            os._exit(1)
-        if then is not None:
-            then()
-
-    return child
+def _wrapped(args: Any) -> list[str]:
+    if isinstance(args, (str, bytes, os.PathLike)):
+        args = [args]
+    if not sys.platform.startswith("linux"):
+        return [os.fspath(a) for a in args]
+    return [sys.executable, "-S", "-c", _WRAPPER, str(os.getpid()), *(os.fspath(a) for a in args)]
 
 
 def popen(args: Any, **kwargs: Any) -> subprocess.Popen:
     """``subprocess.Popen(args, **kwargs)`` whose process gets SIGTERM when this one dies."""
-    kwargs["preexec_fn"] = _die_with(os.getpid(), kwargs.get("preexec_fn"))
-    return subprocess.Popen(args, **kwargs)
+    if kwargs.get("shell"):
+        raise ValueError("popen: shell=True is not supported; pass the argument list")
+    return subprocess.Popen(_wrapped(args), **kwargs)
 
 
 def run(args: Any, **kwargs: Any) -> subprocess.CompletedProcess:
     """``subprocess.run(args, **kwargs)`` whose process gets SIGTERM when this one dies."""
-    kwargs["preexec_fn"] = _die_with(os.getpid(), kwargs.get("preexec_fn"))
-    return subprocess.run(args, **kwargs)
+    if kwargs.get("shell"):
+        raise ValueError("run: shell=True is not supported; pass the argument list")
+    return subprocess.run(_wrapped(args), **kwargs)
 
 
 class Interrupted(KeyboardInterrupt):

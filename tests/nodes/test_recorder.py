@@ -386,6 +386,14 @@ def driver_bag(client, tmp_path_factory, request):
             assert time.monotonic() < deadline, f"driver did not end:\n{drv_log.read_text()}"
             spin()
         stop = client.stop()  # at once: no "long enough" wait
+        # the driver left once every subscriber had every tick in its DDS queue; this listener
+        # (one callback per spin) may still have some queued: take them until none came for 1 s
+        # of spinning (the queue is local now: nothing is on its way)
+        n, quiet_since = len(heard), time.monotonic()
+        while time.monotonic() - quiet_since < 1.0:
+            rclpy.spin_once(node, timeout_sec=0.1)
+            if len(heard) != n:
+                n, quiet_since = len(heard), time.monotonic()
         assert stop.success, stop.message
         node.destroy_subscription(sub)
         out = drv_log.read_text()
