@@ -1,13 +1,16 @@
 """The Orthoglide node set: driver (simulated robot, optional), recorder, identification, ctc.
 
     ros2 launch orthoglide_ident orthoglide.launch.py [use_sim:=true|false] [namespace:=robot2]
-        [payload:=none] [trajectory:=exciting] [controller:=pid] [output_dir:=bags]
+        [payload:=none] [trajectory:=exciting] [controller:=pid] [output_dir:=bags] [respawn:=true]
 
 Each node reads its YAML file from share/orthoglide_ident/config/ (the files of config/ in the
 source tree); the launch arguments override a few values. Every topic and service name is
 relative, so namespace:=robot2 moves the whole graph to /robot2/orthoglide/... . With
 use_sim:=false the driver is not started: the robot controller publishes orthoglide/joint_states,
 orthoglide/current_reference and orthoglide/setpoints, and takes orthoglide/feedforward.
+A recorder, identification or ctc node that exits (a node that cannot go on exits with code 1,
+see orthoglide_ident/nodes/_spin.py) is started again after RESPAWN_DELAY_S unless respawn:=false;
+a restarted recorder reindexes the bag it left open.
 
 ``NODES`` is plain data, so this file also loads where launch_ros is not installed (the tests read
 it); ``generate_launch_description`` imports launch and launch_ros when ros2 launch calls it.
@@ -17,16 +20,19 @@ from __future__ import annotations
 PACKAGE = "orthoglide_ident"
 
 # executable, node name, YAML file in share/orthoglide_ident/config, launch arguments passed as
-# parameters, and whether use_sim decides that it runs
+# parameters, whether use_sim decides that it runs, and whether it is started again when it exits
+# (the simulated robot is not: it stands in for a robot controller, which has its own supervision)
 NODES = (
     {"executable": "driver", "name": "orthoglide_driver", "config": "driver.yaml",
-     "arguments": ("payload", "trajectory", "controller"), "sim_only": True},
+     "arguments": ("payload", "trajectory", "controller"), "sim_only": True, "respawn": False},
     {"executable": "recorder", "name": "orthoglide_recorder", "config": "recorder.yaml",
-     "arguments": ("output_dir",), "sim_only": False},
+     "arguments": ("output_dir",), "sim_only": False, "respawn": True},
     {"executable": "identification", "name": "orthoglide_identification", "config": "identification.yaml",
-     "arguments": ("bag_dir",), "sim_only": False},
-    {"executable": "ctc", "name": "orthoglide_ctc", "config": "ctc.yaml", "arguments": (), "sim_only": False},
+     "arguments": ("bag_dir",), "sim_only": False, "respawn": True},
+    {"executable": "ctc", "name": "orthoglide_ctc", "config": "ctc.yaml", "arguments": (), "sim_only": False,
+     "respawn": True},
 )
+RESPAWN_DELAY_S = 2.0
 
 ARGUMENTS = {
     "use_sim": ("true", "start the simulated robot and its controller (orthoglide_sim driver)"),
@@ -36,6 +42,7 @@ ARGUMENTS = {
     "controller": ("pid", "driver: pid, pid_ff, ctc or external"),
     "output_dir": ("bags", "recorder: folder for the bags"),
     "bag_dir": ("bags", "identification: where bags are found when a request names none"),
+    "respawn": ("true", "start the recorder, identification and ctc again when one exits"),
 }
 
 
@@ -52,7 +59,8 @@ def generate_launch_description():
         Node(package=PACKAGE, executable=n["executable"], name=n["name"], output="screen",
              parameters=[PathJoinSubstitution([config, n["config"]]),
                          {a: LaunchConfiguration(a) for a in n["arguments"]}],
-             condition=IfCondition(LaunchConfiguration("use_sim")) if n["sim_only"] else None)
+             condition=IfCondition(LaunchConfiguration("use_sim")) if n["sim_only"] else None,
+             respawn=LaunchConfiguration("respawn") if n["respawn"] else False, respawn_delay=RESPAWN_DELAY_S)
         for n in NODES
     ]
     return LaunchDescription(

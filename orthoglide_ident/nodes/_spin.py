@@ -88,17 +88,9 @@ def _warn_unknown_parameters(node: Any) -> None:
                                   "(a typo? --help lists the parameters)")
 
 
-def spin(make_node: Callable[[], Any], args: list[str], prog: str, threads: int = 1) -> int:
-    """Run ``make_node()`` until Ctrl-C, SIGTERM, SIGHUP or an external shutdown; return the exit
-    code (see the module).
-
-    A node with a ``main_loop(stop: threading.Event)`` method runs it on the main thread while the
-    executor serves its callbacks (the driver's tick loop); the node ends when ``main_loop`` returns
-    with ``node.finished`` set, or on a stop request. On the way out the node's ``close()`` runs if
-    it has one (the recorder closes its bag), then the node and rclpy are shut down.
-    """
+def _init_ros(args: list[str], prog: str) -> int | None:
+    """rclpy.init with the checked arguments; the exit code (2, one line said) if they are bad."""
     import rclpy
-    from rclpy.executors import MultiThreadedExecutor, SingleThreadedExecutor
 
     # a file-size limit (RLIMIT_FSIZE) makes a write fail with EFBIG, which the recorder reports,
     # instead of killing the process with SIGXFSZ and leaving its bag open
@@ -112,10 +104,14 @@ def spin(make_node: Callable[[], Any], args: list[str], prog: str, threads: int 
     except Exception as e:  # rcl refused the arguments (RCLError): its first line is the reason
         print(f"{prog}: cannot start: {str(e).splitlines()[0]}", file=sys.stderr)
         return 2
-    # Ctrl-C, SIGTERM (ros2 launch, systemd, kill, a dying parent) and SIGHUP end the node the same
-    # clean way. rclpy's own SIGTERM handling did not always wake a waiting executor here, so the
-    # executor spins on its own thread while the main thread stays in Python, where these handlers
-    # only raise a flag (no exception mid-join).
+    return None
+
+
+def _stop_on_signals() -> tuple[threading.Event, list[int]]:
+    """Ctrl-C, SIGTERM (ros2 launch, systemd, kill, a dying parent) and SIGHUP set the returned
+    event (and say which signal). rclpy's own SIGTERM handling did not always wake a waiting
+    executor here, so the executor spins on its own thread while the main thread stays in Python,
+    where these handlers only raise a flag (no exception mid-join)."""
     stop = threading.Event()
     stopped_by: list[int] = []
 
@@ -125,17 +121,15 @@ def spin(make_node: Callable[[], Any], args: list[str], prog: str, threads: int 
 
     for sig in STOP_SIGNALS:
         signal.signal(sig, on_signal)
-    node = executor = spinner = None
-    code = 0
+    return stop, stopped_by
+
+
+def _run(node: Any, executor: Any, guard: CallbackGuard, stop: threading.Event) -> int:
+    """Serve ``node`` until a stop request, the end of its main loop, an external shutdown, or a
+    reason it cannot go on (exit code 1, logged)."""
+    spinner = threading.Thread(target=_serve, args=(executor, guard, stop), name="executor", daemon=True)
+    spinner.start()
     try:
-        node = make_node()
-        guard = CallbackGuard(node)
-        guard.wrap_all()
-        _warn_unknown_parameters(node)
-        executor = MultiThreadedExecutor(num_threads=threads) if threads > 1 else SingleThreadedExecutor()
-        executor.add_node(node)
-        spinner = threading.Thread(target=_serve, args=(executor, guard, stop), name="executor", daemon=True)
-        spinner.start()
         if hasattr(node, "main_loop"):  # a node with its own main loop (the driver's ticks) returns on stop
             node.main_loop(stop)
         while not stop.is_set() and not getattr(node, "finished", False):
@@ -149,9 +143,41 @@ def spin(make_node: Callable[[], Any], args: list[str], prog: str, threads: int 
         if fatal_reason(node) and not stop.is_set():
             node.get_logger().error(f"cannot go on: {fatal_reason(node)}; exiting with code 1 (ros2 launch "
                                     "respawn or a supervisor restarts the node)")
-            code = 1
+            return 1
+        return 0
+    finally:
+        stop.set()
+        executor.shutdown(timeout_sec=5.0)
+        spinner.join(5.0)
+
+
+def spin(make_node: Callable[[], Any], args: list[str], prog: str, threads: int = 1) -> int:
+    """Run ``make_node()`` until Ctrl-C, SIGTERM, SIGHUP or an external shutdown; return the exit
+    code (see the module).
+
+    A node with a ``main_loop(stop: threading.Event)`` method runs it on the main thread while the
+    executor serves its callbacks (the driver's tick loop); the node ends when ``main_loop`` returns
+    with ``node.finished`` set, or on a stop request. On the way out the node's ``close()`` runs if
+    it has one (the recorder closes its bag), then the node and rclpy are shut down.
+    """
+    import rclpy
+    from rclpy.executors import MultiThreadedExecutor, SingleThreadedExecutor
+
+    code = _init_ros(args, prog)
+    if code is not None:
+        return code
+    stop, stopped_by = _stop_on_signals()
+    node = None
+    try:
+        node = make_node()
+        guard = CallbackGuard(node)
+        guard.wrap_all()
+        _warn_unknown_parameters(node)
+        executor = MultiThreadedExecutor(num_threads=threads) if threads > 1 else SingleThreadedExecutor()
+        executor.add_node(node)
+        code = _run(node, executor, guard, stop)
     except KeyboardInterrupt:
-        pass
+        code = 0
     except OrthoglideError as e:
         print(f"{prog}: {e}", file=sys.stderr)
         code = 2
@@ -163,14 +189,9 @@ def spin(make_node: Callable[[], Any], args: list[str], prog: str, threads: int 
         get_logger(prog).debug("".join(traceback.format_exception(e)))
         code = 1
     finally:
-        stop.set()
-        if stopped_by and node is not None:
-            node.get_logger().info(f"stopping on {signal.Signals(stopped_by[0]).name}")
-        if executor is not None:
-            executor.shutdown(timeout_sec=5.0)
-        if spinner is not None:
-            spinner.join(5.0)
         if node is not None:
+            if stopped_by:
+                node.get_logger().info(f"stopping on {signal.Signals(stopped_by[0]).name}")
             if hasattr(node, "close"):
                 node.close()
             node.destroy_node()
