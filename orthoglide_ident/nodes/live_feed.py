@@ -30,6 +30,7 @@ FEED_PERIOD_S = 0.1
 ESTIMATE_PERIOD_S = 1.0
 IDLE_BUFFER = 5000  # messages kept per topic while nothing records: the recorder may start first
 STOP_WAIT_S = 1.0  # after the recorder stopped, wait this long at most for its last ticks here
+STREAM_DEPTH = 5000  # messages DDS holds for this node while it is stalled (5 s at 1 kHz), as the recorder
 HOLDBACK_NS = 250_000_000  # the newest 0.25 s wait: the recorder's stop may end the recording there
 _STAMP = struct.Struct("<iI")
 
@@ -61,7 +62,7 @@ class LiveFeed:
         self.started: dict[int, bool] = {}  # per buffer: its first tick of the recording checked
         self.warnings: list[str] = []
         self.dirty = False  # something to say on orthoglide/identification/live
-        stream = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE)
+        stream = QoSProfile(depth=STREAM_DEPTH, reliability=ReliabilityPolicy.RELIABLE)
         latched = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL,
                              reliability=ReliabilityPolicy.RELIABLE)
         self.taker = BatchTaker(node, [BatchTopic(cls, topic, stream, lambda batch, buf=self.buffers[key]:
@@ -90,6 +91,16 @@ class LiveFeed:
                 if not msg.recording:
                     self.last = _tick(msg.last_tick) or 0
                     self.stopped_at = time.monotonic()
+            elif self.bag is not None and not msg.recording and self.last is None:
+                self._recorder_restarted()
+
+    def _recorder_restarted(self) -> None:
+        """An idle recorder that is not the one recording ``self.bag``: that one was killed (and
+        restarted). Its recording ends here at the last tick every topic delivered."""
+        newest = [_stamp_ns(self.buffers[k][-1]) if self.buffers[k] else self.seen.get(k, 0) for k in self.TOPICS]
+        self.last, self.stopped_at = min(newest), time.monotonic()
+        self._say([f"the recorder of {self.bag} restarted without stopping it (killed?): its live data end at "
+                   "the last tick received here"])
 
     # ---- data --------------------------------------------------------------------------------
     def feed(self) -> None:
