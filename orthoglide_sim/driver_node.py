@@ -70,6 +70,7 @@ WAKE_EARLY_NS = 100_000
 LOCKSTEP_TIMEOUT_S = 2.0
 STATUS_PERIOD_TICKS = 10_000  # a log line
 HISTORY_TICKS = 5000  # 5 s of ticks kept for resending to a subscriber that fell behind
+SUBSCRIBER_WAIT_S = 10.0  # simulated time: the first tick waits this long at most for a subscriber
 ACK_WAIT_S = 4.0  # on the way out, wait this long at most for subscribers to have every tick (Fast
 # DDS asks for acknowledgements with its heartbeat, every 3 s by default: 0 to 3 s here)
 DIAGNOSTICS_PERIOD_TICKS = 1_000  # a /diagnostics message
@@ -185,7 +186,10 @@ class Driver(Node):
         self.pub_js.publish(JointState(header=self._header(k), name=JOINTS, position=[float(x) for x in q]))
 
     def _wait_for_input_publisher(self, stop: threading.Event) -> None:
-        """Simulated time with an outside controller: the first tick waits until it is there."""
+        """Simulated time: the first tick waits (SUBSCRIBER_WAIT_S at most) until the joint
+        states have a subscriber — a run faster than real time would otherwise be over before
+        discovery — and, with an outside controller, until its input is there."""
+        self._wait_for_subscriber(stop)
         topic = {"ctc": "orthoglide/feedforward", "external": "orthoglide/current_command"}.get(self.session.controller)
         if topic is None:
             return
@@ -196,6 +200,15 @@ class Driver(Node):
             self.get_logger().warning(f"no publisher on {self.resolve_topic_name(topic)}: ticks go on without "
                                       f"their input after {LOCKSTEP_TIMEOUT_S} s each")
         time.sleep(0.2)  # discovery of the way back (its subscription to our joint states)
+
+    def _wait_for_subscriber(self, stop: threading.Event) -> None:
+        t_end = time.monotonic() + SUBSCRIBER_WAIT_S
+        while (not self.pub_js.get_subscription_count() and time.monotonic() < t_end
+               and not stop.is_set()):
+            stop.wait(0.05)
+        if not self.pub_js.get_subscription_count():
+            self.get_logger().warning(f"no subscriber on {self.pub_js.topic_name} after "
+                                      f"{SUBSCRIBER_WAIT_S:g} s: simulating anyway")
 
     def _publish_setpoint(self, k: int, sp) -> None:
         msg = JointSetpoint(name=JOINTS, position=[float(x) for x in sp[0]],
