@@ -1,12 +1,15 @@
 """The identification node's live side: the recorded topics into LiveIdentification, ~1 Hz estimate.
 
 The recorder says what it records on orthoglide/recorder/status (condition, payload mass, bag,
-first and last tick written). The joint states and current references come in raw (serialized),
-taken in batches (nodes._batch), and wait in a short buffer; every FEED_PERIOD_S they are decoded in bulk and handed to
-``LiveIdentification`` from the recording's first tick to its last, so that the live data are the
-ticks the bag holds, and the live result equals ``orthoglide-ident identify`` on that bag. About
-once a second the estimate goes out on orthoglide/identification/live with the warnings of the
-last second; the same warnings go to the log as they happen.
+first and last tick written). The joint states and currents come in raw (serialized), taken in
+batches (nodes._batch), and wait in a short buffer; every FEED_PERIOD_S they are decoded in bulk
+and handed to ``LiveIdentification`` from the recording's first tick to its last, so that the
+live data are the ticks the bag holds, and the live result equals ``orthoglide-ident identify``
+on that bag. The topics are the Orthoglide's (orthoglide/joint_states + current_reference) or a
+ros2_control robot's (joint_states + dynamic_joint_states, or the JointState effort alone):
+``live_sources`` says which, per recording. About once a second the estimate goes out on
+orthoglide/identification/live with the warnings of the last second; the same warnings go to the
+log as they happen.
 """
 from __future__ import annotations
 
@@ -20,10 +23,14 @@ from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import JointState
 
-from orthoglide_ident.bags import CURRENT_REFERENCE_TYPE, JOINT_STATE_TYPE, decode_messages
+from orthoglide_ident.bags import (CURRENT_REFERENCE_TYPE, DYNAMIC_JOINT_STATE_TYPE, JOINT_STATE_TYPE,
+                                   decode_messages)
 from orthoglide_ident.errors import OrthoglideError
 from orthoglide_ident.identify.live import LiveIdentification
+from orthoglide_ident.model.robot import RobotModel
+from orthoglide_ident.model.robots import load_robot
 from orthoglide_ident.nodes._batch import BatchTaker, BatchTopic
+from orthoglide_ident.nodes.live_sources import DYNAMIC, EFFORT, REFERENCE, LiveTopics, choose_current
 from orthoglide_msgs.msg import CurrentReference, LiveIdentification as LiveMsg, RecorderStatus
 
 FEED_PERIOD_S = 0.1
@@ -44,15 +51,35 @@ def _tick(t: Any) -> int | None:
     return ns or None
 
 
+def _topics(t: LiveTopics) -> dict[str, tuple[str, Any, str]]:
+    """Buffer key -> (topic, message class, type name) of the topics read ("" = not read)."""
+    out = {"q": (t.joint_states, JointState, JOINT_STATE_TYPE)}
+    if t.current_reference:
+        out[REFERENCE] = (t.current_reference, CurrentReference, CURRENT_REFERENCE_TYPE)
+    if t.dynamic_joint_states:
+        from control_msgs.msg import DynamicJointState  # built by make setup, or a ROS install's
+
+        out[DYNAMIC] = (t.dynamic_joint_states, DynamicJointState, DYNAMIC_JOINT_STATE_TYPE)
+    return out
+
+
 class LiveFeed:
-    """Subscriptions, buffers and timers of live identification, on ``node`` (under ``lock``)."""
+    """Subscriptions, buffers and timers of live identification, on ``node`` (under ``lock``);
+    ``robot`` the model's joints and nominal gains (None: the Orthoglide); ``effort_unit``
+    "torque": a JointState effort or DynamicJointState interface in N·m or N, turned into a current
+    with the nominal gains, as offline."""
 
-    TOPICS = {"q": ("orthoglide/joint_states", JointState, JOINT_STATE_TYPE),
-              "v": ("orthoglide/current_reference", CurrentReference, CURRENT_REFERENCE_TYPE)}
-
-    def __init__(self, node: Node, live: LiveIdentification, lock: threading.Lock) -> None:
+    def __init__(self, node: Node, live: LiveIdentification, lock: threading.Lock,
+                 topics: LiveTopics | None = None, robot: RobotModel | None = None,
+                 effort_unit: str = "A") -> None:
         self.node, self.live, self.lock = node, live, lock
+        self.topics, self.effort_unit = topics or LiveTopics(), effort_unit
+        self.robot = robot if robot is not None else load_robot(None)
+        self.TOPICS = _topics(self.topics)
         self.buffers = {k: collections.deque(maxlen=IDLE_BUFFER) for k in self.TOPICS}
+        self.source: str | None = None  # where the recording's current comes from (live_sources)
+        self.left_out: set[str] = set()  # recordings live identification gave up (the reason was said)
+        self.waiting_since: float | None = None  # first joint state of the recording seen here
         self.bag: str | None = None  # the recording being fed
         self.first: int | None = None
         self.last: int | None = None  # set when the recorder has stopped
@@ -75,9 +102,10 @@ class LiveFeed:
     # ---- the recorder's state ----------------------------------------------------------------
     def on_status(self, msg: RecorderStatus) -> None:
         with self.lock:
-            if msg.recording and msg.bag_path != self.bag:
+            if msg.recording and msg.bag_path != self.bag and msg.bag_path not in self.left_out:
                 self._finish()
                 self.bag, self.first, self.last, self.seen, self.started = msg.bag_path, None, None, {}, {}
+                self.source, self.waiting_since = None, None
                 try:
                     self.live.start_recording(msg.bag_path, msg.condition, msg.payload_mass)
                 except OrthoglideError as e:
@@ -97,19 +125,56 @@ class LiveFeed:
         with self.lock:
             if self.bag is None or self.first is None:
                 return
-            for key, (topic, _, msgtype) in self.TOPICS.items():
-                buf = self.buffers[key]
+            for key, buf in self.buffers.items():
+                while buf and _stamp_ns(buf[0]) < self.first:
+                    buf.popleft()  # before the recording
                 if buf:
                     self.seen[key] = max(self.seen.get(key, 0), _stamp_ns(buf[-1]))
-                raw = self._take(buf)
+            if self.source is None and not self._choose():
+                if self.last is not None and time.monotonic() - self.stopped_at > STOP_WAIT_S:
+                    self._finish()
+                return
+            used = self._used()
+            for key in used:
+                raw = self._take(self.buffers[key])
                 if raw:
-                    self._add(key, raw, msgtype, topic)
+                    self._add(key, raw)
                     self.dirty = True
-            # done when every topic has delivered the last recorded tick here (an empty buffer
-            # only means its last messages may still be on their way)
-            done = all(self.seen.get(key, 0) >= (self.last or 0) for key in self.TOPICS)
+            # done when every topic used has delivered the last recorded tick here (an empty
+            # buffer only means its last messages may still be on their way)
+            done = all(self.seen.get(key, 0) >= (self.last or 0) for key in used)
             if self.last is not None and (done or time.monotonic() - self.stopped_at > STOP_WAIT_S):
                 self._finish()
+
+    def _used(self) -> tuple[str, ...]:
+        return ("q",) if self.source == EFFORT else ("q", self.source)
+
+    def _choose(self) -> bool:
+        """Pick the recording's current source (live_sources); False while waiting for it. A
+        recording without a usable current is left out with the reason."""
+        if self.waiting_since is None and self.buffers["q"]:
+            self.waiting_since = time.monotonic()
+        waited = 0.0 if self.waiting_since is None else time.monotonic() - self.waiting_since
+        first = {k: (b[0] if b else None) for k, b in self.buffers.items()}
+        publishers = {k: self.node.count_publishers(t) for k, (t, _, _) in self.TOPICS.items()}
+        resolved = {k: self.node.resolve_topic_name(t) for k, (t, _, _) in self.TOPICS.items()}
+        try:
+            self.source = choose_current(self._joints(), self.topics, first, publishers, waited, resolved)
+        except OrthoglideError as e:
+            self._say([f"live identification leaves {self.bag} out: {e}"])
+            self.left_out.add(str(self.bag))
+            self._finish()
+            return False
+        if self.source is not None:
+            what = {DYNAMIC: f"interface {self.topics.iface!r} of", EFFORT: "the effort of",
+                    REFERENCE: "the current of"}[self.source]
+            key = "q" if self.source == EFFORT else self.source
+            self.node.get_logger().info(f"live identification: {self.bag}: current from {what} "
+                                        f"{resolved[key]}, q from {resolved['q']}")
+        return self.source is not None
+
+    def _joints(self) -> tuple[str, ...]:
+        return tuple(self.robot.joint_names)
 
     def _take(self, buf: collections.deque) -> list[bytes]:
         """Messages of the recording's ticks, oldest first; earlier ones dropped, later ones kept."""
@@ -128,21 +193,40 @@ class LiveFeed:
             out.append(buf.popleft())
         return out
 
-    def _add(self, key: str, raw: list[bytes], msgtype: str, topic: str) -> None:
+    def _add(self, key: str, raw: list[bytes]) -> None:
+        topic, _, msgtype = self.TOPICS[key]
         try:
-            stamps, names, values = decode_messages(raw, msgtype)
+            stamps, names, values = decode_messages(raw, msgtype, self.topics.iface if key == DYNAMIC else None)
+            if key == "q":
+                self._say(self.live.add_joint_states(stamps, list(names), values))
+                if self.source != EFFORT:
+                    return
+                stamps, names, values = decode_messages(raw, msgtype, "effort")
         except OrthoglideError as e:
             self._say([f"{topic}: {e}; {len(raw)} messages not used"])
             return
-        add = self.live.add_joint_states if key == "q" else self.live.add_current_reference
-        self._say(add(stamps, list(names), values))
+        if self.effort_unit == "torque":  # N·m or N -> A with the nominal gains, as offline
+            gains = dict(zip(self.robot.joint_names, self.robot.nominal_gains))
+            values = values / [gains.get(n, 1.0) for n in names]
+        self._say(self.live.add_current_reference(stamps, list(names), values))
+
+    def replace(self, live: LiveIdentification, robot: RobotModel) -> None:
+        """Another robot model (a new robot_description): the recording under way, if any, is
+        left out with a warning; the next ones are identified with ``live`` (under the lock)."""
+        if self.bag is not None:
+            self._say([f"the robot model changed to {robot.name} during {self.bag}: live identification "
+                       "leaves it out and starts again from the next recording (identify its bag)"])
+            self.left_out.add(self.bag)
+            self.bag = self.first = self.last = None
+        self.live, self.robot = live, robot
+        self.dirty = True
 
     def _finish(self) -> None:
         if self.bag is not None:
             self._say(self.live.stop_recording())
             self.node.get_logger().info(f"live identification: {self.bag} done; {self.live.estimate().line()}")
             self.dirty = True
-        self.bag, self.first, self.last = None, None, None
+        self.bag, self.first, self.last, self.source = None, None, None, None
 
     def _say(self, warnings: list[str]) -> None:
         for w in warnings:
