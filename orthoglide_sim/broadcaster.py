@@ -24,11 +24,12 @@ import numpy as np
 
 from orthoglide_ident import bags
 from orthoglide_ident.errors import ConfigError
-from orthoglide_sim.arm_session import ArmTick
+from orthoglide_sim.arm_session import ArmSession, ArmTick
 
 ARM_INTERFACES = ("position", "velocity", "current")
 EXTRA_INTERFACES = ("position", "velocity")
 TOPICS = ("joint_states", "dynamic_joint_states")  # relative: the controller manager's namespace
+TICK_NS = 1_000_000  # the controller manager's update period (1 kHz)
 
 
 class BroadcasterLayout:
@@ -111,3 +112,18 @@ class TickDropper:
         for topic, d in zip(TOPICS, drop):
             self.dropped[topic] += bool(d)
         return tuple(not d for d in drop)
+
+
+def broadcast(session: ArmSession, n_ticks: int, layout: BroadcasterLayout, dropper: TickDropper,
+              start_ns: int) -> list[tuple[int, bytes | None, bytes | None]]:
+    """What the stand-in publishes over ``n_ticks`` updates, without ROS (tests, benches): per
+    update (stamp, joint_states bytes, dynamic_joint_states bytes), None where a topic dropped it."""
+    out = []
+    for _ in range(n_ticks):
+        tick = session.tick()
+        if tick is None:
+            break
+        stamp = start_ns + tick.k * TICK_NS
+        raw = layout.encode(stamp, tick)
+        out.append((stamp, *(r if keep else None for r, keep in zip(raw, dropper.keep()))))
+    return out

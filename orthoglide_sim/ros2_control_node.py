@@ -21,8 +21,8 @@ from std_srvs.srv import Trigger
 from orthoglide_ident.nodes._params import Param, declare, on_set, usage
 from orthoglide_ident.nodes._spin import spin
 from orthoglide_sim.arm_session import ArmSession
-from orthoglide_sim.broadcaster import TOPICS, BroadcasterLayout, TickDropper
-from orthoglide_sim.driver_node import LATE_NS, TICK_NS, WAKE_EARLY_NS
+from orthoglide_sim.broadcaster import TICK_NS, TOPICS, BroadcasterLayout, TickDropper
+from orthoglide_sim.driver_node import LATE_NS, WAKE_EARLY_NS
 
 DOC = """\
 A ros2_control robot as the product sees it, simulated: a serial arm (robot: a bundled name, a robot
@@ -128,6 +128,7 @@ class Ros2ControlStandIn(Node):
             self._real_time_priority()
         self.start_ns = time.time_ns() + 5 * TICK_NS
         self.t0 = time.monotonic_ns() + 5 * TICK_NS
+        self.get_logger().info(f"update k is stamped {self.start_ns} + k * {TICK_NS} ns")
         gc.collect()
         gc.freeze()  # no collection pause of what exists now in the loop
         k = 0
