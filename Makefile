@@ -28,6 +28,10 @@ PROJECT_SOURCES := pyproject.toml setup.py setup.cfg package.xml orthoglide_iden
 	$(wildcard config/*.yaml launch/*.py) \
 	$(wildcard resource/* resource/launchers/*)
 
+# One BLAS thread: the identification's matrices are narrow, and on 2 shared cores OpenBLAS's
+# spinning threads made small QR and SVD calls 10-30x slower (the CLI and nodes set it too).
+export OPENBLAS_NUM_THREADS ?= 1
+
 # Stamps live in the venv: deleting .venv starts over; each step re-runs when its inputs change.
 STAMP_VENV := $(VENV)/.stamp-venv
 STAMP_DEPS := $(VENV)/.stamp-deps

@@ -3,6 +3,7 @@
     orthoglide-ident identify [--robot FILE] BAG... [--payload-mass KG] [--method tls|wls]
                      [--gains G1,G2,...|FILE.json] [--essential] [--json FILE]
                      [--r-sigma R] [--config YAML] [--validate BAG...]
+                     [--consistent] [--urdf-out FILE]
     orthoglide-ident info BAG...
     orthoglide-ident reindex BAG...
     orthoglide-ident model [--robot FILE] --base-parameters [--json FILE]
@@ -107,6 +108,16 @@ def _add_identify_options(p: argparse.ArgumentParser) -> None:
                         "decimation, velocity dead band in m/s, excitation limits...)")
     p.add_argument("--validate", nargs="+", default=[], metavar="BAG",
                    help="bags not used for identification, to cross-validate the model on")
+    p.add_argument("--consistent", action="store_true",
+                   help="physically consistent standard parameters (every body's pseudo-inertia "
+                        "positive semidefinite, ia, fv, fs >= 0): the answer projected onto them "
+                        "and the standard parameters identified under these constraints with the "
+                        "gains held, side by side; with --validate, the consistent model is also "
+                        "forward-simulated under the recorded currents")
+    p.add_argument("--urdf-out", metavar="FILE",
+                   help="write the identified model as a URDF (consistent inertials, friction "
+                        "in <dynamics>, rotor inertia and gains in comments) that Pinocchio and "
+                        "MuJoCo load; implies --consistent")
     p.add_argument("--json", metavar="FILE", help="write the result as JSON (docs/architecture.md §4) to FILE")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress on stderr")
     _add_robot_option(p)
@@ -181,6 +192,8 @@ def _run_identify(args: argparse.Namespace):
         if not args.r_sigma > 1:
             raise ConfigError(f"--r-sigma must be > 1 (the paper uses 10), not {args.r_sigma}")
         opts = opts.replace(r_sigma=args.r_sigma)
+    if args.consistent or args.urdf_out:
+        opts = opts.replace(consistent=True)
     method = args.method or "tls"
     gains = parse_gains(args.gains, robot.joint_names) if args.gains else None
     if gains is not None and method == "tls":
@@ -204,12 +217,30 @@ def _write_json(path: str, doc: dict) -> None:
         raise ConfigError(f"cannot write {path}: {exc.strerror or exc}") from None
 
 
+def _write_urdf(path: str, res, robot_spec: str) -> None:
+    """The consistent identified model as a URDF (model/urdf.py)."""
+    from orthoglide_ident.model.robots import load_robot
+    from orthoglide_ident.model.urdf import identified_urdf
+
+    text = identified_urdf(load_robot(robot_spec), res.consistency.answer.chi_st,
+                           [g.value for g in res.drive_gains])
+    try:
+        Path(path).write_text(text)
+    except OSError as exc:
+        raise ConfigError(f"cannot write {path}: {exc.strerror or exc}") from None
+    logging.getLogger("orthoglide_ident").info("wrote %s", path)
+
+
 def _main(args: argparse.Namespace) -> int:
     if args.command == "record":
         return ros_client.record(args)
     if args.command == "watch":
         return ros_client.watch(args)
     if args.command == "identify" and args.service:
+        if args.consistent or args.urdf_out:
+            raise ConfigError("--consistent and --urdf-out are for identifying from bags here; "
+                              "for the node, set its parameter consistent (the consistent set is "
+                              "latched on orthoglide/identified_parameters/consistent)")
         ros_client.identify_service(args)
         return EXIT_OK
     if args.command in ("identify", "report") and not args.bags:
@@ -235,6 +266,8 @@ def _main(args: argparse.Namespace) -> int:
             print(res.to_text())
         if args.json:
             _write_json(args.json, res.to_json())
+        if args.urdf_out:
+            _write_urdf(args.urdf_out, res, args.robot)
         return EXIT_OK
     if args.command == "info":
         from orthoglide_ident import bags

@@ -40,3 +40,7 @@ class ExcitationError(OrthoglideError):
 
 class IdentificationError(OrthoglideError):
     """The identification problem is ill-posed with the data given (e.g. no loaded bag for TLS)."""
+
+
+class SolverError(IdentificationError):
+    """The physical-consistency solve found no answer (infeasible, not converged)."""

@@ -139,8 +139,8 @@ def write_summary(res: IdentificationResult, path: Path, figures: list[str]) -> 
         f"{j} {r:.4g}" for j, r in zip(res.joint_names, res.residual_rms)))
     for v in res.validation:
         lines.append(f"- cross-validation on `{v['bag']}`: " + ", ".join(
-            f"{j['joint']} {j['residual_rms']:.3g} N rms ({100 * j['relative_error']:.1f} %)"
-            for j in v["joints"]))
+            f"{j['joint']} {j['residual_rms']:.3g} {u} rms ({100 * j['relative_error']:.1f} %)"
+            for j, u in zip(v["joints"], res.effort_units or ["N"] * len(v["joints"]))))
     for w in res.warnings:
         lines.append(f"- warning: {w}")
     lines.append("")

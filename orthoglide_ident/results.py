@@ -112,6 +112,11 @@ class IdentificationResult:
     observations: list[Any] = field(default_factory=list, repr=False, compare=False)
     # χ over the observations' columns: with the drive terms' coefficients in them (lag, ripple)
     observations_chi: Any = field(default=None, repr=False, compare=False)
+    # covariance over [base parameters, gains (TLS) or payload masses (WLS)], honest (in memory)
+    covariance: Any = field(default=None, repr=False, compare=False)
+    covariance_paper: Any = field(default=None, repr=False, compare=False)  # eqs. (39), (27)
+    # physically consistent standard parameters (identify/consistency.ConsistencyResult)
+    consistency: Any = field(default=None, repr=False, compare=False)
 
     @property
     def residual_rms_total(self) -> float:
@@ -153,6 +158,9 @@ class IdentificationResult:
             out["essential"] = self.essential.to_json()
         if self.validation:
             out["validation"] = self.validation
+        if self.consistency is not None:
+            out["standard_parameters"] = self.consistency.standard_parameters()
+            out["consistency"] = self.consistency.to_json()
         if self.diagnostics:
             out["diagnostics"] = self.diagnostics
         return out
@@ -221,10 +229,12 @@ class IdentificationResult:
         lines.extend(self._residual_lines())
         if ess is not None:
             lines.extend(self._essential_lines(ess))
+        if self.consistency is not None:
+            lines.extend(self.consistency.text_lines(self._units(self.effort_units, "N")))
         for v in self.validation:
             lines.append(f"cross-validation on {v['bag']}: " + ", ".join(
-                f"{j['joint']} {j['residual_rms']:.3g} N rms ({100 * j['relative_error']:.1f} %)"
-                for j in v["joints"]))
+                f"{j['joint']} {j['residual_rms']:.3g} {u} rms ({100 * j['relative_error']:.1f} %)"
+                for j, u in zip(v["joints"], self.effort_units or ["N"] * len(v["joints"]))))
         d = self.diagnostics
         if d.get("samples_used") is not None:
             lines.append(f"samples: {d['samples_used']} used, "
@@ -311,7 +321,8 @@ class IdentificationResult:
     def _essential_lines(self, ess: "IdentificationResult") -> list[str]:
         d = ess.diagnostics
         out = [f"essential parameters ({d.get('method', 'paper')}): {len(ess.parameters)} kept of "
-               f"{len(self.parameters)} ({d.get('stopped_because', '')}); residual rms (N): "
+               f"{len(self.parameters)} ({d.get('stopped_because', '')}); residual rms "
+               f"({self._units(self.effort_units, 'N')}): "
                + ", ".join(f"{j} {r:.4g}" for j, r in zip(ess.joint_names, ess.residual_rms))]
         steps = d.get("steps", [])
         if not steps:

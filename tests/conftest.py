@@ -14,6 +14,10 @@ from __future__ import annotations
 import os
 import subprocess
 import sys
+
+# One BLAS thread before numpy is imported (as the CLI and the nodes): narrow matrices, and
+# OpenBLAS's spinning threads slow small LAPACK calls 10-30x on a loaded 2-core machine
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 from collections.abc import Callable, Iterator
 
 import pytest

@@ -69,7 +69,7 @@ class RecordFactors:
     def fold(self, X: np.ndarray, keep: np.ndarray | None = None, t: np.ndarray | None = None,
              source: str | None = None, row_period_s: float | None = None,
              q: np.ndarray | None = None, qd: np.ndarray | None = None,
-             decimation: int = 1) -> None:
+             decimation: int = 1, screws: tuple[bool, ...] | None = None) -> None:
         """Fold decimated equations ``X: (n_b + 2, n_j, r)`` (rows kept where ``keep: (n_j, r)``).
 
         With the rows' instants ``t: (r,)`` s (and ``source``, the record they belong to, the row
@@ -84,7 +84,7 @@ class RecordFactors:
             mom = self.moments.get(key)
             if mom is None:
                 mom = self.moments[key] = ResidualMoments(self.n_b + 2, self.n_joints, row_period_s,
-                                                          decimation)
+                                                          decimation, screws=screws)
             mom.fold(X, keep, np.asarray(t, float), q, qd)
 
     def fold_joint(self, j: int, rows: np.ndarray) -> None:
@@ -109,7 +109,7 @@ class RecordFactors:
             f.fold_joint(j, np.column_stack([obs.W[j][sel], obs.w_m[j][sel], obs.v_tau[j][sel]]))
         if obs.t is not None:
             mom = f.moments[obs.source] = ResidualMoments(n_b + 2, n_j, obs.row_period_s,
-                                                          obs.decimation)
+                                                          obs.decimation, screws=obs.screws)
             for a in range(0, obs.n_samples, FOLD_ROWS):  # in pieces: bounded temporary memory
                 b = min(a + FOLD_ROWS, obs.n_samples)
                 X = np.concatenate([obs.W[:, a:b].transpose(2, 0, 1), obs.w_m[None, :, a:b],

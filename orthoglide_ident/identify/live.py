@@ -39,7 +39,7 @@ import numpy as np
 from orthoglide_ident.errors import (ConfigError, ExcitationError, IdentificationError,
                                      OrthoglideError)
 from orthoglide_ident.identify.current_lag import MAX_SEARCH_S
-from orthoglide_ident.identify.drive_terms import observation_model
+from orthoglide_ident.identify.drive_terms import observation_model, screw_mask
 from orthoglide_ident.identify.factors import RecordFactors
 from orthoglide_ident.identify.live_recording import LiveRecording
 from orthoglide_ident.identify.options import IdentifyOptions
@@ -237,7 +237,8 @@ class LiveIdentification:
                                                    n_joints=self.model.n_joints)
         f.add_source(rec.source)
         f.fold(rows.X, rows.keep, rows.t, rec.source,
-               self.opts.decimation * rec.period_ns * 1e-9, rows.q, rows.qd, self.opts.decimation)
+               self.opts.decimation * rec.period_ns * 1e-9, rows.q, rows.qd, self.opts.decimation,
+               screw_mask(self.model))
         self._seconds[rec.condition] += seconds
         self._version.n += 1
 

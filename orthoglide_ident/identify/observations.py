@@ -30,6 +30,7 @@ class Observations:
     qd: np.ndarray | None = None  # (r, n_j) m/s or rad/s, filtered velocities there
     row_period_s: float | None = None  # s between consecutive decimated rows of a segment
     decimation: int = 1  # n_d of the rows (the decimation filter's gain, uncertainty.py)
+    screws: tuple[bool, ...] | None = None  # joints whose position spectrum is looked at
 
     @property
     def n_samples(self) -> int:

@@ -6,6 +6,7 @@ plain mapping or a ROS 2 parameter file (``<node or /**>: ros__parameters: {...}
 from __future__ import annotations
 
 import dataclasses
+import math
 from dataclasses import dataclass, fields
 from pathlib import Path
 from typing import Any, Mapping, Sequence
@@ -98,6 +99,13 @@ class IdentifyOptions:
     live_enough_gain_rel_std: float = 0.005  # status "enough data" once every gain's σ is below
     current_limit_a: float = 0.0  # A, the drives' current limit; 0: no saturation warning
     current_warn_fraction: float = 0.9  # warn when |v_tau| reaches this fraction of the limit
+    # Physical consistency (consistency.py): standard parameters whose pseudo-inertias are PSD
+    # (and ia, fv, fs >= 0) behind the answer, projected and identified under the constraints
+    consistent: bool = False
+    consistency_prior_weight: float = 1.0e-4  # weight of the prior, in the unknowns' scales
+    # JSON of prior standard parameters (CAD values): {name: value, ...} for some or all, or an
+    # identify --json output with a consistency section; "": the robot description's / weak default
+    consistency_prior: str = ""
 
     def limits(self, nominal_gains: Sequence[float]) -> ExcitationLimits:
         """The excitation checks' thresholds for a robot of these nominal gains (N/A, N·m/A)."""
@@ -176,6 +184,9 @@ class IdentifyOptions:
         if not (self.gain_range_ratio > 1 and self.gain_min >= 0 and self.gain_max >= 0):
             raise ConfigError(f"{source}: gain_range_ratio must be > 1, gain_min and gain_max "
                               ">= 0 (0: from the nominal gains and the ratio)")
+        if not (self.consistency_prior_weight > 0 and math.isfinite(self.consistency_prior_weight)):
+            raise ConfigError(f"{source}: consistency_prior_weight must be a positive number "
+                              "(1e-4: the prior decides only what the data leave free)")
         if self.filter_cutoff_hz <= 0:
             raise ConfigError(f"{source}: filter_cutoff_hz must be > 0")
         if not (self.live_block_s > 0 and self.live_pairing_slack_s >= 0

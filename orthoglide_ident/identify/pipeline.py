@@ -22,7 +22,7 @@ import numpy as np
 from orthoglide_ident.errors import IdentificationError
 from orthoglide_ident.identify.current_lag import lag_instrument, without_instrument
 from orthoglide_ident.identify.decimation import decimate_chunked, decimated_count
-from orthoglide_ident.identify.drive_terms import observation_model
+from orthoglide_ident.identify.drive_terms import observation_model, screw_mask
 from orthoglide_ident.identify.factors import RecordFactors
 from orthoglide_ident.identify.filtering import states_at_half_tick
 from orthoglide_ident.identify.observations import Observations
@@ -176,7 +176,8 @@ def observe(rec: Record, model: IdentificationModel, opts: IdentifyOptions,
     obs = Observations(rec.source, str(rec.condition), payload_mass,
                        rows.X[:n_b].transpose(1, 2, 0), rows.X[n_b + 1], rows.X[n_b],
                        t=rows.t, keep=rows.keep, q=rows.q, qd=rows.qd,
-                       row_period_s=opts.decimation * rep.period_s, decimation=opts.decimation)
+                       row_period_s=opts.decimation * rep.period_s, decimation=opts.decimation,
+                       screws=screw_mask(model))
     rep.n_reversal_bridged = n_bridged
     rep.n_reversal_unbridged = n_unbridged
     log.info("%s: W built and decimated by %d: %s equations per joint (%.2f s); velocity "
@@ -422,6 +423,12 @@ def _validate(records: Iterable[Record], solved: Solved, model: IdentificationMo
         obs, _, _ = observe(rec, model, opts, m)
         out.append(cross_validate(obs, solved.chi, solved.g_tau, m,
                                   np.asarray(result.residual_rms), joint_names=model.joint_names))
+        if result.consistency is not None:  # the consistent model forward-simulated on it
+            from orthoglide_ident.identify.direct_dynamics import validate
+
+            result.consistency.direct_dynamics.append(validate(
+                rec, getattr(model, "base", model), result.consistency.answer.chi_st,
+                solved.g_tau, m, opts))
     return out
 
 

@@ -40,6 +40,9 @@ class Solved:
     solver: dict[str, Any] = field(default_factory=dict)
     tls: TLSSolution | None = None
     timings: dict[str, float] = field(default_factory=dict)  # s: "essential" when asked
+    # the factors of the reported solve and its χ over all their columns (consistency.py)
+    factors: list[RecordFactors] = field(default_factory=list)
+    chi_rows: np.ndarray | None = None
 
 
 def min_rows(n_b: int) -> int:
@@ -112,6 +115,7 @@ def tls_result(model, sol: TLSSolution, factors: list[RecordFactors], opts: Iden
         parameters=_param_estimates(model, sol), payload_mass=payloads[0] if payloads else None,
         payloads=payloads, condition_number=sol.condition_number,
         residual_rms=[float(x) for x in sol.residual_rms], bags=bags, **_robot_fields(model),
+        covariance=sol.cov, covariance_paper=sol.cov_paper,
     )
 
 
@@ -137,7 +141,8 @@ def wls_result(model, sol: WLSSolution, g_tau: np.ndarray, factors: list[RecordF
         drive_gains_given=True, parameters=_param_estimates(model, sol),
         payload_mass=payloads[0] if payloads else None, payloads=payloads,
         condition_number=sol.condition_number, residual_rms=[float(x) for x in sol.residual_rms],
-        bags=bags, **_robot_fields(model),
+        bags=bags, **_robot_fields(model), covariance=sol.cov,
+        covariance_paper=sol.cov_paper,
     )
 
 
@@ -154,6 +159,7 @@ class _Model:
     n_rows_cols: int  # columns of W in the decimated equations (base + the terms in them)
     joint_names: tuple[str, ...]
     gains: np.ndarray | None = None  # given to WLS (None: identified by TLS)
+    factors: list[RecordFactors] = field(default_factory=list)  # the equations of ``full``
 
     @property
     def fixed(self) -> np.ndarray:
@@ -182,7 +188,7 @@ def _set_up(factors: list[RecordFactors], model, opts: IdentifyOptions, base, ma
     in_rows = model.terms if isinstance(model, drive_terms.DriveTermsModel) else drive_terms.Terms()
     n_b = n_cols - in_rows.n_extra
     plain = _Model(lambda act: base_solve(act, False), base, n_b, in_rows, list(model.names),
-                   n_cols, names, gains)
+                   n_cols, names, gains, factors)
     if in_rows.ripples or opts.ripple_model != "auto":
         return plain
     found = drive_terms.Terms(drive_terms.detect_ripples(base.uncertainty, names,
@@ -192,12 +198,13 @@ def _set_up(factors: list[RecordFactors], model, opts: IdentifyOptions, base, ma
     k = found.n_extra
     log.info("ripple in the residual of %s: two columns each added to the model", ", ".join(
         f"{names[t.joint]} ({1e3 * t.wavelength_m:.1f} mm)" for t in found.ripples))
-    aug_solve = make_solver(drive_terms.augmented_factors(factors, found))
+    aug_factors = drive_terms.augmented_factors(factors, found)
+    aug_solve = make_solver(aug_factors)
     full = drive_terms.transfer_inflation(aug_solve(None, None), base, n_cols, k)
     return _Model(lambda act: drive_terms.transfer_inflation(aug_solve(act, False), base, n_cols,
                                                              k),
                   full, n_b, drive_terms.Terms(found.ripples, in_rows.lag),
-                  list(model.names) + found.names(names), n_cols, names, gains)
+                  list(model.names) + found.names(names), n_cols, names, gains, aug_factors)
 
 
 def _drive_notes(result: IdentificationResult, ripples: list, lags: list,
@@ -260,7 +267,8 @@ def solve_tls(factors: list[RecordFactors], model, opts: IdentifyOptions, essent
     solver = {"tls_noisy_columns": opts.tls_noisy_columns, "singular_ratio": sol.singular_ratio,
               "smallest_singular_values": [float(x) for x in sol.singular_values[-3:]],
               "joint_sigma": [float(x) for x in sol.joint_sigma], "lambda": sol.lambda_scale}
-    out = Solved(result, _chi(m, sol), view.g_tau, solver, view)
+    out = Solved(result, _chi(m, sol), view.g_tau, solver, view, factors=m.factors,
+                 chi_rows=sol.chi_full())
     if essential:
         t0 = time.perf_counter()
         log.info("essential parameters (%s, r_sigma = %g)", opts.essential_method, opts.r_sigma)
@@ -321,7 +329,8 @@ def solve_wls(factors: list[RecordFactors], model, opts: IdentifyOptions,
     _uncertainty(result, base, model, opts, gains=False)
     _drive_notes(result, ripples, lags, m.terms, model.joint_names)
     out = Solved(result, _chi(m, m.full), g,
-                 {"joint_sigma": [float(x) for x in view.joint_sigma]})
+                 {"joint_sigma": [float(x) for x in view.joint_sigma]}, factors=m.factors,
+                 chi_rows=m.full.chi_full())
     if essential:
         t0 = time.perf_counter()
         ess = _essential(m, opts, [f"m_7 ({mass:g} kg)" for mass in base.payload_groups])
@@ -355,5 +364,11 @@ def solve(factors: list[RecordFactors], model, opts: IdentifyOptions, method: st
         raise IdentificationError("no bag given")
     check_rows(factors, model, opts)
     if method == "tls":
-        return solve_tls(factors, model, opts, essential, list(bags))
-    return solve_wls(factors, model, opts, gains, essential, list(bags))
+        out = solve_tls(factors, model, opts, essential, list(bags))
+    else:
+        out = solve_wls(factors, model, opts, gains, essential, list(bags))
+    if opts.consistent:  # physically consistent standard parameters behind the answer
+        from orthoglide_ident.identify.consistency import attach
+
+        attach(out, model, opts)
+    return out

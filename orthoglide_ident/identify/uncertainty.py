@@ -79,6 +79,8 @@ class ResidualMoments:
     ripple_s2: np.ndarray | None = None
     spectrum_rows: np.ndarray | None = None
     _tail: tuple | None = None  # last LAGS rows: (Z (n_j, m, n_c), t (m,))
+    # the joints whose position spectrum is folded (a screw's ripple: prismatic joints); None: all
+    screws: tuple[bool, ...] | None = None
 
     def __post_init__(self) -> None:
         n_j, n_l = self.n_j, WAVELENGTHS_M.shape[0]
@@ -112,7 +114,7 @@ class ResidualMoments:
             {b: r.copy() for b, r in self.block_rows.items()},
             self.lagged[(slice(None), slice(None)) + ix], self.pairs.copy(),
             self.spectrum[..., keep], self.ripple_s0.copy(), self.ripple_s2.copy(),
-            self.spectrum_rows.copy(), tail)
+            self.spectrum_rows.copy(), tail, self.screws)
 
     def fold(self, X: np.ndarray, keep: np.ndarray | None, t: np.ndarray,
              q: np.ndarray | None = None, qd: np.ndarray | None = None) -> None:
@@ -185,6 +187,8 @@ class ResidualMoments:
         k = 2.0 * np.pi / WAVELENGTHS_M
         tick = None if self.row_period_s is None else self.row_period_s / max(self.decimation, 1)
         for j in range(self.n_j):
+            if self.screws is not None and not self.screws[j]:
+                continue  # no screw: its spectrum stays empty (spectrum_peaks skips it too)
             phase = np.outer(q[:, j], k)  # (r, n_λ)
             H = fir_gain(np.abs(qd[:, j])[:, None] / WAVELENGTHS_M[None, :], self.decimation, tick)
             H *= kept[j][:, None]

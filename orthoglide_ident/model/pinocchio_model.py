@@ -235,9 +235,16 @@ class PinocchioRobot(RobotModel):
             raise ConfigError(f"robot {self.name}: the payload frame {frame!r} is fixed to the "
                               "world")
         self.payload = payload
-        self._payload = (len(self._fixed_frames), pin_parameters(payload.shape()))
-        self._rows = TreeRegressor(self.model, self.actuated, self._fixed_frames + [fid],
-                                   self.closure)
+        # the payload is rigidly fixed to its frame's joint body: per kg, its inertia moved into
+        # that joint's frame, whose regressor columns then give its forces (no per-sample frame
+        # regressor or Jacobian)
+        frame_ = self.model.frames[fid]
+        shape = pin.Inertia.FromDynamicParameters(pin_parameters(payload.shape()))
+        self._payload = (int(frame_.parentJoint),
+                         frame_.placement.act(shape).toDynamicParameters())
+        if getattr(self, "_rows", None) is None:
+            self._rows = TreeRegressor(self.model, self.actuated, self._fixed_frames,
+                                       self.closure)
 
     # --- RobotModel -----------------------------------------------------------------------
     @property

@@ -2,9 +2,10 @@
 
 Per sample, Pinocchio's C++ gives the open tree's joint-torque regressor Y (nv × 10 per joint
 body, ``computeJointTorqueRegressor``) and, for a body fixed to a frame (a link kept as a body
-of its own, the payload), the frame's body regressor (``frameBodyRegressor``, after the same
-forward pass) with the frame's Jacobian J_f (LOCAL), whose product J_fᵀ Φ_f is that body's
-contribution to the tree's joint forces. Everything else is numpy over a chunk of samples:
+of its own), the frame's body regressor (``frameBodyRegressor``, after the same forward pass)
+with the frame's Jacobian J_f (LOCAL), whose product J_fᵀ Φ_f is that body's contribution to
+the tree's joint forces. The payload, rigidly fixed to one joint's body, needs neither: its
+column is that body's columns of Y times its parameters in the joint's frame. Everything else is numpy over a chunk of samples:
 picking the columns asked for, the drive columns (ia q̈ of an actuated joint — the regressor
 omits armature — and fv q̇, fs sign(q̇), tauoff of each joint with friction), and the
 projection onto the actuated joints, τ_a = Gᵀ τ_t (closure.py; a serial robot's G selects its
@@ -87,6 +88,8 @@ class TreeRegressor:
         self.actuated, self.frames, self.closure = tuple(actuated), tuple(frames), closure
         self.S_a = np.array([j.iv for j in actuated])
         self._row = {j.iv: a for a, j in enumerate(actuated)}  # actuated index of a v index
+        # a serial robot whose velocity vector is its actuated joints in order: no selection
+        self._identity = closure is None and np.array_equal(self.S_a, np.arange(model.nv))
 
     # --- per sample (Pinocchio) -----------------------------------------------------------
     def _states(self, c: _Chunk, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> None:
@@ -115,11 +118,12 @@ class TreeRegressor:
     def _project(self, c: _Chunk, T: np.ndarray) -> np.ndarray:
         """Tree forces (m, nv, n) -> actuated forces (m, n_a, n): Gᵀ T."""
         if c.G is None:
-            return T[:, self.S_a]
+            return T if self._identity else T[:, self.S_a]
         return np.matmul(c.G.transpose(0, 2, 1), T)
 
-    def _drive(self, c: _Chunk, col: Column, qdd: np.ndarray) -> np.ndarray:
-        """(m, n_a) column of a drive term of tree joint ``col.index``."""
+    def _drive(self, c: _Chunk, col: Column, qdd: np.ndarray, out: np.ndarray) -> None:
+        """The drive term of tree joint ``col.index`` into ``out`` (n_a, m): its own row for
+        a serial robot, Gᵀ of it for a closed chain."""
         t = col.index
         if col.kind == "ia":
             x = qdd[:, self._row[t]]
@@ -130,20 +134,20 @@ class TreeRegressor:
         else:
             x = np.ones(c.V.shape[0])
         if c.G is None:
-            out = np.zeros((x.shape[0], len(self.actuated)))
-            out[:, self._row[t]] = x
-            return out
-        return c.G[:, t, :] * x[:, None]
+            out[:] = 0.0
+            out[self._row[t]] = x
+        else:
+            out[:] = (c.G[:, t, :] * x[:, None]).T
 
     def block(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray, columns: Sequence[Column],
               payload: tuple[int, np.ndarray] | None, out: np.ndarray) -> np.ndarray:
-        """Columns (and the payload column last when ``payload`` = (slot, its 10 Pinocchio
-        parameters per kg) is given) into ``out`` (n, n_a, m); q, qd, qdd: (m, n_a)."""
+        """Columns (and the payload column last when ``payload`` = (the Pinocchio joint it is
+        fixed to, its 10 Pinocchio parameters per kg in that joint's frame) is given) into
+        ``out`` (n, n_a, m); q, qd, qdd: (m, n_a)."""
         inertial = [n for n, c in enumerate(columns) if c.source != "drive"]
         drive = [(n, c) for n, c in enumerate(columns) if c.source == "drive"]
-        want_y = any(c.source == "joint" for c in columns)
-        slots = sorted({c.index for c in columns if c.source == "frame"}
-                       | ({payload[0]} if payload else set()))
+        want_y = any(c.source == "joint" for c in columns) or payload is not None
+        slots = sorted({c.index for c in columns if c.source == "frame"})
         n_y = 10 * (self.model.njoints - 1) if want_y else 0
         buf = None
         for s in range(0, q.shape[0], CHUNK):
@@ -155,13 +159,15 @@ class TreeRegressor:
             self._pinocchio(buf, slots, want_y)
             if inertial:
                 T = self._inertial(buf, [columns[n] for n in inertial])
-                out[inertial, :, s:e] = self._project(buf, T).transpose(2, 1, 0)
+                where = inertial if len(inertial) != inertial[-1] - inertial[0] + 1 else \
+                    slice(inertial[0], inertial[-1] + 1)  # a slice writes 2-3x faster
+                out[where, :, s:e] = self._project(buf, T).transpose(2, 1, 0)
             for n, c in drive:
-                out[n, :, s:e] = self._drive(buf, c, qdd[s:e]).T
+                self._drive(buf, c, qdd[s:e], out[n, :, s:e])
             if payload is not None:
-                slot, chi = payload
-                f = np.matmul(buf.J[slot].transpose(0, 2, 1), (buf.R[slot] @ chi)[:, :, None])
-                out[len(columns), :, s:e] = self._project(buf, f)[:, :, 0].T  # J_fᵀ Φ_f χ_l
+                joint, chi = payload
+                f = buf.Y[:, :, 10 * (joint - 1):10 * joint] @ chi  # (m, nv): Y_j χ_l
+                out[len(columns), :, s:e] = self._project(buf, f[:, :, None])[:, :, 0].T
         return out
 
     def _inertial(self, c: _Chunk, columns: Sequence[Column]) -> np.ndarray:

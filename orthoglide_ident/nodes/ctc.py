@@ -56,6 +56,9 @@ PARAMETERS = (
           "are clipped to it"),
     Param("monitor", False, "log the tracking error (joint states vs setpoints) every 5 s (one more 1 kHz "
           "subscription)"),
+    Param("consistent", False, "use the physically consistent set (orthoglide/identified_parameters/"
+          "consistent: real bodies identified under the constraints, the identification node's option "
+          "consistent) instead of the unconstrained base parameters"),
     Param("trajectory_topic", "", "also send the setpoints to a joint_trajectory_controller as "
           "trajectory_msgs/JointTrajectory with effort = the feed-forward, e.g. "
           "joint_trajectory_controller/joint_trajectory; empty: not sent"),
@@ -97,7 +100,9 @@ class CTCNode(Node):
         latched = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL,
                              reliability=ReliabilityPolicy.RELIABLE)
         stream = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE)
-        self.create_subscription(IdentifiedParameters, "orthoglide/identified_parameters", self.on_params, latched)
+        self.params_topic = "orthoglide/identified_parameters" + (
+            "/consistent" if v["consistent"] else "")
+        self.create_subscription(IdentifiedParameters, self.params_topic, self.on_params, latched)
         self.pub = self.create_publisher(CurrentReference, "orthoglide/feedforward", stream)
         self.monitor = TrackingMonitor(self) if v["monitor"] else None
         self.outlet = None  # to a joint_trajectory_controller (nodes._jtc)
@@ -107,7 +112,7 @@ class CTCNode(Node):
             self.pub_traj = self.create_publisher(JointTrajectory, v["trajectory_topic"], 10)
         # last: the taker's thread calls on_setpoints at once, which needs everything above
         self.taker = BatchTaker(self, [BatchTopic(JointSetpoint, "orthoglide/setpoints", stream, self.on_setpoints)])
-        self.get_logger().info(f"waiting for {self.resolve_topic_name('orthoglide/identified_parameters')} "
+        self.get_logger().info(f"waiting for {self.resolve_topic_name(self.params_topic)} "
                                "(no feed-forward until they arrive)")
 
     def on_params(self, msg: IdentifiedParameters) -> None:

@@ -58,7 +58,10 @@ Service  orthoglide/identify (orthoglide_msgs/srv/Identify)
 Topics   orthoglide/identified_parameters (orthoglide_msgs/msg/IdentifiedParameters, transient
          local, depth 1): the last successful IDIM-TLS result, what the ctc node uses;
          orthoglide/identified_parameters/wls: the last IDIM-WLS result (gains given, payload
-         estimated), so that a validation run does not switch a running CTC to other gains.
+         estimated), so that a validation run does not switch a running CTC to other gains;
+         orthoglide/identified_parameters/consistent (with the option consistent): the base
+         parameters of physically consistent bodies identified under the constraints, gains
+         held (what the ctc node uses with its parameter consistent).
 Every identification option is a ROS parameter (the keys of config/identification.yaml)."""
 
 NODE_PARAMETERS = (
@@ -96,10 +99,13 @@ def find_bags(bag_dir: Path) -> list[str]:
             if (p / "metadata.yaml").is_file() or (p.is_file() and p.suffix == ".mcap")]
 
 
-def result_message(result: IdentificationResult, stamp: Any) -> IdentifiedParameters:
+def result_message(result: IdentificationResult, stamp: Any,
+                   transform: Any = None) -> IdentifiedParameters:
+    """The message of a result (``transform``: fields -> fields, e.g. the consistent set's)."""
     msg = IdentifiedParameters()
     msg.header.stamp = stamp
-    for key, value in result.message_fields().items():
+    fields = result.message_fields()
+    for key, value in (transform(fields) if transform else fields).items():
         setattr(msg, key, value)
     return msg
 
@@ -117,7 +123,9 @@ class IdentificationNode(Node):
                              reliability=ReliabilityPolicy.RELIABLE)
         self.pub = {"tls": self.create_publisher(IdentifiedParameters, "orthoglide/identified_parameters", latched),
                     "wls": self.create_publisher(IdentifiedParameters, "orthoglide/identified_parameters/wls",
-                                                 latched)}
+                                                 latched),
+                    "consistent": self.create_publisher(
+                        IdentifiedParameters, "orthoglide/identified_parameters/consistent", latched)}
         self.busy = threading.Lock()
         self.live_lock = threading.Lock()
         self.live = None
@@ -247,6 +255,10 @@ class IdentificationNode(Node):
                             f"{chosen._units(chosen.effort_units, 'N')}, cond {msg.condition_number:.3g}")
         if chosen.current_lag:  # a drive term, not a parameter of the message
             response.message += "; current-loop lag " + lag_text(chosen.current_lag)
+        if result.consistency is not None:  # parameter consistent: the set of real bodies, latched
+            self.pub["consistent"].publish(result_message(result, msg.header.stamp,
+                                                          result.consistency.message_fields))
+            response.message += "; physical consistency: " + result.consistency.summary()
         if result.warnings:
             response.message += f"; {len(result.warnings)} warning(s): " + " | ".join(result.warnings)
         response.parameters = msg

@@ -17,6 +17,7 @@ fraction of their σ.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Sequence
 
 import numpy as np
 
@@ -60,20 +61,25 @@ def _fold_upto(f: RecordFactors, obs: Observations, done: int, tau: float) -> in
         sel = np.arange(done, upto)
         f.fold(_rows(obs, sel), None if obs.keep is None else obs.keep[:, sel], t[sel], obs.source,
                obs.row_period_s, None if obs.q is None else obs.q[sel],
-               None if obs.qd is None else obs.qd[sel], obs.decimation)
+               None if obs.qd is None else obs.qd[sel], obs.decimation, obs.screws)
     return max(upto, done)
 
 
 def gain_convergence(observations: list[Observations], step_s: float = 0.5, weighting: bool = True,
-                     noisy_columns: str = "all", limits: ExcitationLimits | None = None) -> list[GainPoint]:
+                     noisy_columns: str = "all", limits: ExcitationLimits | None = None,
+                     joint_names: Sequence[str] = ()) -> list[GainPoint]:
     """The gains with the first τ s of every record, every ``step_s`` (see the module doc);
     ``weighting``, ``noisy_columns`` and ``limits`` as the identification's options
-    (``weighting``, ``tls_noisy_columns``, the excitation limits)."""
+    (``weighting``, ``tls_noisy_columns``, the excitation limits: ``IdentifyOptions.limits``
+    of the robot's nominal gains)."""
     limits = limits or ExcitationLimits()
+    names = tuple(joint_names) or tuple(f"joint {k + 1}" for k in
+                                        range(observations[0].W.shape[0] if observations else 0))
     durations = [record_seconds(o) for o in observations]
     longest = max(durations, default=0.0)
     step = max(step_s, longest / MAX_POINTS)
-    factors = [RecordFactors(o.condition, float(o.payload_mass), o.W.shape[2], [o.source]) for o in observations]
+    factors = [RecordFactors(o.condition, float(o.payload_mass), o.W.shape[2], [o.source],
+                             n_joints=o.W.shape[0]) for o in observations]
     done = [0] * len(observations)  # rows folded per record
     points: list[GainPoint] = []
     for tau in np.append(np.arange(step, longest - 1e-9, step), longest):
@@ -81,17 +87,17 @@ def gain_convergence(observations: list[Observations], step_s: float = 0.5, weig
             done[i] = _fold_upto(factors[i], obs, done[i], tau)
         seconds = {c: sum(min(tau, d) for o, d in zip(observations, durations) if o.condition == c)
                    for c in ("unloaded", "loaded")}
-        point = _solve([f for f in factors if f.n_rows], weighting, noisy_columns, limits)
+        point = _solve([f for f in factors if f.n_rows], weighting, noisy_columns, limits, names)
         if point is not None:
             points.append(GainPoint(float(tau), seconds["unloaded"], seconds["loaded"], *point))
     return points
 
 
-def _solve(factors: list[RecordFactors], weighting: bool, noisy_columns: str, limits: ExcitationLimits
-           ) -> tuple[np.ndarray, np.ndarray] | None:
+def _solve(factors: list[RecordFactors], weighting: bool, noisy_columns: str, limits: ExcitationLimits,
+           joint_names: tuple[str, ...]) -> tuple[np.ndarray, np.ndarray] | None:
     try:
         sol = idim_tls(factors, weighting, noisy_columns=noisy_columns)
-        check_excitation(sol, limits)
+        check_excitation(sol, limits, None, joint_names)
     except (OrthoglideError, np.linalg.LinAlgError):
         return None  # not solvable yet, or not the gains yet: no point
     n = sol.chi.shape[0]

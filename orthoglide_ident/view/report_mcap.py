@@ -16,11 +16,14 @@ instant in its record for the forces, the longest record's end for the result. T
 """
 from __future__ import annotations
 
+import dataclasses
+
 from pathlib import Path
 
 import numpy as np
 
 from orthoglide_ident.errors import ConfigError
+from orthoglide_ident.identify.options import IdentifyOptions
 from orthoglide_ident.identify.tls import ExcitationLimits
 from orthoglide_ident.report import _validation_for_plot
 from orthoglide_ident.results import IdentificationResult
@@ -31,12 +34,11 @@ NS = 1_000_000_000
 CHANNELS = (schemas.REPORT_CONVERGENCE, schemas.REPORT_FORCES, schemas.IDENTIFIED)
 
 
-def _limits(options: dict) -> ExcitationLimits:
-    base = ExcitationLimits()
-    return ExcitationLimits(options.get("max_condition", base.max_condition),
-                            options.get("max_singular_ratio", base.max_singular_ratio),
-                            options.get("max_gain_rel_std", base.max_gain_rel_std),
-                            (options.get("gain_min", base.gain_range[0]), options.get("gain_max", base.gain_range[1])))
+def _limits(options: dict, nominal_gains: list[float]) -> ExcitationLimits:
+    """The identification's excitation limits (its options as recorded in the result)."""
+    known = {f.name for f in dataclasses.fields(IdentifyOptions)}
+    opts = IdentifyOptions(**{k: v for k, v in options.items() if k in known})
+    return opts.limits(nominal_gains)
 
 
 def report_messages(res: IdentificationResult) -> tuple[dict[str, list[tuple[int, dict]]], dict[str, str]]:
@@ -47,7 +49,8 @@ def report_messages(res: IdentificationResult) -> tuple[dict[str, list[tuple[int
     out: dict[str, list[tuple[int, dict]]] = {c: [] for c in CHANNELS}
     if res.method == "tls" and res.observations:
         for p in gain_convergence(res.observations, weighting=opts.get("weighting", True),
-                                  noisy_columns=opts.get("tls_noisy_columns", "all"), limits=_limits(opts)):
+                                  noisy_columns=opts.get("tls_noisy_columns", "all"),
+                                  limits=_limits(opts, res.nominal_gains), joint_names=joints):
             ns = round(p.seconds * NS)
             out[schemas.REPORT_CONVERGENCE].append((ns, schemas.convergence(
                 ns, p.seconds, p.unloaded_seconds, p.loaded_seconds, joints, p.gains, p.rel_std)))

@@ -194,3 +194,30 @@ def test_ctc_node_clips_to_the_current_limit_and_stops_on_nan(ros_env):
         assert len(got) <= n + 1 and run.proc.poll() is None  # the tick held back before the NaN, at most
     finally:
         run.close()
+
+
+def test_ctc_node_with_consistent_uses_the_consistent_set_only(ros_env):
+    pytest.importorskip("rclpy")
+    from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+
+    from orthoglide_msgs.msg import IdentifiedParameters
+    from test_control import true_params
+
+    p = true_params()
+    run = _CTCRun(ros_env, ["-p", "consistent:=true"], "test_ctc_consistent", lambda m: None)
+    latched = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL,
+                         reliability=ReliabilityPolicy.RELIABLE)
+    pub = run.node.create_publisher(IdentifiedParameters,
+                                    "/orthoglide/identified_parameters/consistent", latched)
+    try:
+        run.wait_for("waiting for /orthoglide/identified_parameters/consistent", 60)
+        run.publish_parameters(p, [float(v) for v in p.chi_b])  # the unconstrained topic
+        run.spin(1.0)
+        assert not any("parameters in" in line for line in run.lines)
+        pub.publish(IdentifiedParameters(method="tls consistent", names=list(p.names),
+                                         values=[float(v) for v in p.chi_b],
+                                         drive_gains=[float(g) for g in p.drive_gains],
+                                         payload_mass=1.983))
+        run.wait_for("parameters in (tls consistent)", 30)
+    finally:
+        run.close()

@@ -106,6 +106,38 @@ def test_identify_service_answers_and_latches_the_result(node, client):
     assert not wrong_mass.success and "1.136" in wrong_mass.message
 
 
+@pytest.fixture
+def consistent_node(spawn_python):
+    proc = spawn_python(NODE, "--ros-args", "-p", f"bag_dir:={BAGS}", "-p", "consistent:=true",
+                        "-p", "live:=false")
+    yield proc
+    assert proc.poll() is None, "the node died: " + (proc.communicate()[1] if proc.poll() is not None else "")
+
+
+def test_option_consistent_answers_with_real_bodies_and_latches_them(consistent_node, client):
+    import rclpy
+    from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+
+    from orthoglide_msgs.msg import IdentifiedParameters
+
+    n, cli = client
+    res = call(n, cli)
+    assert res.success, res.message
+    assert "; physical consistency: the unconstrained answer is" in res.message
+    got = []
+    qos = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL,
+                     reliability=ReliabilityPolicy.RELIABLE)
+    n.create_subscription(IdentifiedParameters, "/orthoglide/identified_parameters/consistent",
+                          got.append, qos)
+    t0 = time.time()
+    while not got and time.time() - t0 < 20:
+        rclpy.spin_once(n, timeout_sec=0.2)
+    assert got and got[0].method == "tls consistent"
+    assert list(got[0].names) == list(res.parameters.names)
+    assert list(got[0].drive_gains) == list(res.parameters.drive_gains)  # held
+    assert list(got[0].values) != list(res.parameters.values)
+
+
 def test_a_call_while_busy_is_refused_at_once(node, client):
     n, cli = client
     from orthoglide_msgs.srv import Identify

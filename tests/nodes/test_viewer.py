@@ -262,11 +262,15 @@ def test_a_stalled_client_loses_frames_the_others_do_not(ros_env):
         time.sleep(0.5)
         n, names = 16000, [f"joint_{i:02d}" for i in range(48)]
         stamps = T0 + TICK * np.arange(n)
+        q = np.random.default_rng(0).random((n, 48))
         got: list = []
-        thread = threading.Thread(target=lambda: got.extend(reader.frames(60, until=lambda fs: len(fs) >= n)))
-        thread.start()
-        run.publish_ticks(stamps, names, np.random.default_rng(0).random((n, 48)), ["x"], np.zeros((n, 1)), burst=100)
-        thread.join()
+        # in chunks, each read before the next is sent: the reader keeps up whatever the load
+        # of the machine (a test of the server's per-client queues, not of this machine's speed)
+        for a in range(0, n, 1000):
+            run.publish_ticks(stamps[a:a + 1000], names, q[a:a + 1000], ["x"],
+                              np.zeros((1000, 1)), burst=100)
+            want = a + 1000
+            got.extend(reader.frames(60, until=lambda fs: len(got) + len(fs) >= want))
         assert [f.log_time for f in got] == list(stamps)
         late = stalled.frames(5)
         assert 0 < len(late) < n
