@@ -108,7 +108,7 @@ test-slow: setup
 
 # Each prints a small table; helpers (identify_data.py, recorder_publisher.py) are not benchmarks.
 BENCHES := model_regressor driver_realtime ros_intake read_speed identify_speed identify_accuracy live_identification \
-	recorder_soak ctc_tracking
+	recorder_soak ctc_tracking ros2_control
 bench: setup
 	@for b in $(BENCHES); do if [ -f bench/$$b.py ]; then echo "== bench/$$b.py"; $(PY) bench/$$b.py; fi; done
 

@@ -94,7 +94,9 @@ def run(out: Path, seconds: float) -> int:
         offline = identify(g, bag_paths).parameters
         print_gains(live, offline, truth_gains())
         say(f"   live vs bags: {live_vs_bags(live, offline)}")
-        say(f"   stand-in: {g.log_tail(STANDIN)[0].split(': ', 1)[-1]}")
+        c = g.driver_counters()  # the stand-in's /diagnostics
+        say(f"   stand-in so far: {c['ticks']} updates, dropped {c['dropped_joint_states']} joint_states and "
+            f"{c['dropped_dynamic_joint_states']} dynamic_joint_states over the whole run, {c['late']} late")
     say(f"   offline CLI on the same bags: {offline_cli(bag_paths)}")
     say(f"bags, logs in {out}/")
     return 0

@@ -37,6 +37,8 @@ FEED_PERIOD_S = 0.1
 ESTIMATE_PERIOD_S = 1.0
 IDLE_BUFFER = 5000  # messages kept per topic while nothing records: the recorder may start first
 STOP_WAIT_S = 1.0  # after the recorder stopped, wait this long at most for its last ticks here
+STREAM_DEPTH = 1000  # messages DDS holds for this node while it is busy (1 s at 1 kHz)
+QOS_CHECK_PERIOD_S = 1.0  # how often the publishers' offered reliability is looked at
 HOLDBACK_NS = 250_000_000  # the newest 0.25 s wait: the recorder's stop may end the recording there
 _STAMP = struct.Struct("<iI")
 
@@ -88,16 +90,34 @@ class LiveFeed:
         self.started: dict[int, bool] = {}  # per buffer: its first tick of the recording checked
         self.warnings: list[str] = []
         self.dirty = False  # something to say on orthoglide/identification/live
-        stream = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE)
+        stream = QoSProfile(depth=STREAM_DEPTH, reliability=ReliabilityPolicy.RELIABLE)
         latched = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL,
                              reliability=ReliabilityPolicy.RELIABLE)
-        self.taker = BatchTaker(node, [BatchTopic(cls, topic, stream, lambda batch, buf=self.buffers[key]:
-                                                  buf.extend(m[0] for m in batch))
-                                       for key, (topic, cls, _) in self.TOPICS.items()], period_s=0.01)
+        self.reliability = dict.fromkeys(self.TOPICS, ReliabilityPolicy.RELIABLE)  # subscribed with
+        self.taker = BatchTaker(node, [self._intake(key, stream) for key in self.TOPICS], period_s=0.01)
         node.create_subscription(RecorderStatus, "orthoglide/recorder/status", self.on_status, latched)
         self.pub = node.create_publisher(LiveMsg, "orthoglide/identification/live", 10)
         node.create_timer(FEED_PERIOD_S, self.feed)
         node.create_timer(ESTIMATE_PERIOD_S, self.publish_estimate)
+        node.create_timer(QOS_CHECK_PERIOD_S, self.follow_publishers)
+
+    def _intake(self, key: str, qos: QoSProfile) -> BatchTopic:
+        topic, cls, _ = self.TOPICS[key]
+        return BatchTopic(cls, topic, qos, lambda batch, buf=self.buffers[key]: buf.extend(m[0] for m in batch))
+
+    def follow_publishers(self) -> None:
+        """Subscribe best effort while a publisher offers best effort (a reliable subscription
+        never matches it), reliable again when none does: the recorder's rule."""
+        for key, (topic, _, _) in self.TOPICS.items():
+            offered = [i.qos_profile.reliability for i in self.node.get_publishers_info_by_topic(
+                self.node.resolve_topic_name(topic))]
+            want = (ReliabilityPolicy.BEST_EFFORT if ReliabilityPolicy.BEST_EFFORT in offered
+                    else ReliabilityPolicy.RELIABLE)
+            if offered and want != self.reliability[key]:
+                self.reliability[key] = want
+                self.taker.add(self._intake(key, QoSProfile(depth=STREAM_DEPTH, reliability=want)))
+                self.node.get_logger().info(f"live identification: {topic} taken {want.name.lower()}, as its "
+                                            "publishers offer")
 
     # ---- the recorder's state ----------------------------------------------------------------
     def on_status(self, msg: RecorderStatus) -> None:

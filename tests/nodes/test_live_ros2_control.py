@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import dataclasses
 import threading
+import time
 
 import numpy as np
 import pytest
@@ -181,8 +182,6 @@ def test_a_new_robot_model_during_a_recording_leaves_it_out(node, short_records)
 
 
 def test_a_recording_without_a_current_is_left_out_with_the_reason(node, short_records):
-    import time
-
     from orthoglide_ident import bags
     from orthoglide_ident.nodes.live_sources import LiveTopics
 
@@ -206,3 +205,28 @@ def test_a_recording_without_a_current_is_left_out_with_the_reason(node, short_r
         assert spy.started == ["run-1"]
     finally:
         feed.close()
+
+
+def test_a_best_effort_publisher_is_followed(node):
+    """A reliable subscription never matches a best-effort publisher: the feed follows what the
+    publishers offer, as the recorder does."""
+    from rclpy.qos import QoSProfile, ReliabilityPolicy
+    from sensor_msgs.msg import JointState
+
+    spy, feed = _spy_feed(node, None)
+    pub_node = rclpy.create_node("best_effort_publisher")
+    try:
+        pub = pub_node.create_publisher(JointState, "/joint_states",
+                                        QoSProfile(depth=10, reliability=ReliabilityPolicy.BEST_EFFORT))
+        t_end = time.monotonic() + 20
+        while feed.reliability["q"] != ReliabilityPolicy.BEST_EFFORT:
+            assert time.monotonic() < t_end, "the publisher was never seen"
+            feed.follow_publishers()
+            time.sleep(0.1)
+        while not feed.buffers["q"]:
+            assert time.monotonic() < t_end, "nothing taken from the best-effort publisher"
+            pub.publish(JointState(name=["a"], position=[0.0]))
+            time.sleep(0.05)
+    finally:
+        feed.close()
+        pub_node.destroy_node()
