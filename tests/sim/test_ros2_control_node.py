@@ -100,5 +100,6 @@ def test_publishes_the_broadcasters_topics_with_its_qos(tmp_path):
     steps = np.diff([_stamp(m) for m in js])
     assert set(np.unique(steps % 1_000_000)) == {0}  # a 1 kHz grid, gaps where ticks dropped
     assert "payload set to 2.5" in log and "dropped" in log
-    dropped = int(log.rsplit("dropped ", 1)[1].split()[0])
-    assert dropped > 0 and int(np.sum(steps // 1_000_000 - 1)) >= dropped - 5  # the final ticks may be cut
+    # counted (what was published before this subscription matched is not here: the exact
+    # count against the bag is tests/test_ros2_control_graph.py's)
+    assert int(log.rsplit("dropped ", 1)[1].split()[0]) > 0
