@@ -9,10 +9,13 @@ works on the shapes only. The period (PERIOD = 5 s) repeats 12 times in a 60 s r
 identification's current-loop-lag instrument needs a trajectory repeating at least 4 times.
 
 The optimiser takes any regressor ``regressor(q, qd, qdd) -> W (n m, p)`` (rows joint by joint,
-independent columns); for now ``pinocchio_arm.ArmRegressor.base`` (the URDF's joint-torque
-regressor with drive columns) until the product's general model takes its place.
+independent columns): for a serial arm ``pinocchio_arm.ArmRegressor.base`` (the URDF's
+joint-torque regressor with drive columns), for a closed chain the product's general model
+(``load_robot(name).regressor``: its base columns, the rows of the actuated joints through the
+loops), whose box (arm_limits) keeps the loops closed away from singularities.
 
-    python -m orthoglide_sim.arm_excitation --robot ur5      # rewrites data/ur5_exciting{1,2}.json
+    python -m orthoglide_sim.arm_excitation --robot ur5       # rewrites data/ur5_exciting{1,2}.json
+    python -m orthoglide_sim.arm_excitation --robot five_bar  # data/five_bar_exciting{1,2}.json
 
 The search (best of ``--restarts`` random shapes, then a seeded (1+1) evolution strategy on
 log cond(W)) is repeatable on one machine for a given ``--seed``.
@@ -117,6 +120,22 @@ def designed_trajectory(arm: ArmDescription, name: str) -> FourierTrajectory:
     return traj
 
 
+def design_regressor(robot: str) -> tuple[ArmDescription, Regressor]:
+    """The robot's description and the regressor its trajectories are designed on: a serial
+    arm's URDF regressor (pinocchio_arm), a closed chain's the product's general model (its
+    base columns, rows of the actuated joints through the loops)."""
+    from orthoglide_sim.chain_description import is_closed_chain, load_chain
+
+    if is_closed_chain(robot):
+        from orthoglide_ident.model.robots import load_robot
+
+        return load_chain(robot), load_robot(robot).regressor
+    from orthoglide_sim.pinocchio_arm import ArmRegressor
+
+    arm = load_arm(robot)
+    return arm, ArmRegressor(arm).base
+
+
 def _write(path: Path, arm: ArmDescription, traj: FourierTrajectory, cond: float, limits: MotionLimits,
            seed: int) -> None:
     doc = traj.to_dict() | {
@@ -129,7 +148,7 @@ def _write(path: Path, arm: ArmDescription, traj: FourierTrajectory, cond: float
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="python -m orthoglide_sim.arm_excitation",
-                                 description="Design a serial arm's exciting trajectories (cond(W)).")
+                                 description="Design a robot's exciting trajectories (cond(W)).")
     ap.add_argument("--robot", default="ur5", help="bundled robot name, robot YAML or URDF (default ur5)")
     ap.add_argument("--harmonics", type=int, default=HARMONICS)
     ap.add_argument("--period", type=float, default=PERIOD, help="s (default 5)")
@@ -141,12 +160,10 @@ def main(argv: list[str] | None = None) -> int:
     try:
         if args.harmonics < 1 or not args.period > 0:
             raise ConfigError("--harmonics must be >= 1 and --period positive")
-        from orthoglide_sim.pinocchio_arm import ArmRegressor
-
-        arm = load_arm(args.robot)
-        limits, reg = motion_limits(arm), ArmRegressor(arm)
+        arm, regressor = design_regressor(args.robot)
+        limits = motion_limits(arm)
         for k in (1, 2):
-            traj, cond = optimise(reg.base, limits, args.harmonics, args.period, args.seed + k - 1,
+            traj, cond = optimise(regressor, limits, args.harmonics, args.period, args.seed + k - 1,
                                   args.restarts, args.steps, verbose=True)
             _write(design_path(arm.name, k, args.out_dir), arm, traj, cond, limits, args.seed + k - 1)
     except OrthoglideError as exc:

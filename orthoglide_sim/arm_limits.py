@@ -8,7 +8,8 @@ random corners of it every distal link frame (forearm to tool0) stays 0.2 m or m
 base's mounting plane (tests/sim/test_arm_excitation.py checks it with Pinocchio's kinematics),
 the elbow stays between 0.5 and 1.9 rad (away from the stretched-arm singularity and from folding
 onto the upper arm), and the speeds and accelerations are about half of what a UR5 allows
-(3.15 rad/s). Another arm gets a box from its URDF limits.
+(3.15 rad/s). The five-bar (a closed chain: its actuated joints) has its own table; another
+robot gets a box from its URDF limits.
 
 Units: rad, rad/s, rad/s² (prismatic joints: m, m/s, m/s²).
 """
@@ -44,13 +45,30 @@ UR5 = {
 }
 
 
+# The five-bar's actuated joints (closed chain, chain_description): over the whole box the loop
+# closes in the working mode with the elbows inside their limits and |G| <= 1.45 (no parallel
+# singularity near); 0.05 rad inside the URDF's actuated limits. Its corner (1.5, 1.64) rad
+# bends the elbows least (0.22 rad: 0.07 from their limits): the box reaches there because the
+# passive joints' offsets are seen only through the variation of G (their columns are Gᵀ e_p),
+# which is largest there — a ±0.5 rad box leaves their weakest combination at half the excitation
+# (bench/closed_chain.py). Speeds and accelerations of a 1 Hz motion (6 rad/s allowed).
+FIVE_BAR = {
+    "centre": (2.1, 1.04),
+    "half": (0.6, 0.6),
+    "velocity": (3.0, 3.0),
+    "acceleration": (25.0, 25.0),
+}
+TABLES = {"ur5": UR5, "five_bar": FIVE_BAR}
+
+
 def motion_limits(arm: ArmDescription) -> MotionLimits:
-    """The arm's box: the UR5's table for the UR5, else 40 % of each URDF range (at most ±1.5 rad)
-    around its middle, half the URDF's speed limit, 5 s⁻¹ times that as acceleration."""
+    """The arm's box: the table of the UR5 or the five-bar, else 40 % of each URDF range (at most
+    ±1.5 rad) around its middle, half the URDF's speed limit, 5 s⁻¹ times that as acceleration."""
     lo = np.array([j.lower for j in arm.joints])
     hi = np.array([j.upper for j in arm.joints])
-    if arm.name == "ur5" and arm.n == len(UR5["centre"]):
-        table = {k: np.array(v, float) for k, v in UR5.items()}
+    known = TABLES.get(arm.name)
+    if known is not None and arm.n == len(known["centre"]):
+        table = {k: np.array(v, float) for k, v in known.items()}
     else:
         finite = np.isfinite(lo) & np.isfinite(hi)
         mid = np.where(finite, 0.5 * (lo + hi), 0.0)

@@ -21,6 +21,7 @@ joint's friction does, and is fs sign(q̇) outside that band.
 from __future__ import annotations
 
 import logging
+import re
 
 import mujoco
 import numpy as np
@@ -46,9 +47,13 @@ def _route_warnings() -> None:
 
 
 def _mujoco_urdf(text: str) -> str:
-    """The URDF with MuJoCo's compiler options inserted (what a <mujoco> URDF extension does)."""
+    """The URDF with MuJoCo's compiler options inserted (what a <mujoco> URDF extension does);
+    a <mujoco> element the URDF has already (the bundled closed chains') is replaced: MuJoCo
+    refuses two, and these options include its fusestatic/discardvisual."""
     opts = ('<mujoco><compiler balanceinertia="false" inertiafromgeom="false" fusestatic="false" '
             'discardvisual="true" autolimits="true"/></mujoco>')
+    text = re.sub(r"<!--.*?-->", "", text, flags=re.S)  # a comment may name <robot> or <mujoco>
+    text = re.sub(r"<mujoco\b[^>]*/>|<mujoco\b.*?</mujoco>", "", text, count=1, flags=re.S)
     start = text.find("<robot")
     end = text.find(">", start)
     if start < 0 or end < 0:
