@@ -26,6 +26,8 @@ import time
 
 import numpy as np
 
+from orthoglide_ident.nodes import _processes as children  # children end with this process
+
 JOINTS = ["q11", "q12", "q13"]
 
 
@@ -37,7 +39,7 @@ def _spawn(params: list[str]) -> subprocess.Popen:
     args = [sys.executable, "-m", "orthoglide_sim.driver_node", "--ros-args"]
     for p in params:
         args += ["-p", p]
-    return subprocess.Popen(args, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    return children.popen(args, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
 
 
 def time_to_first_tick(node, starts: int) -> list[float]:
@@ -177,16 +179,21 @@ def main(argv: list[str] | None = None) -> int:
     args = ap.parse_args(argv)
     os.environ.setdefault("PYTHONUNBUFFERED", "1")
     import rclpy
+    from rclpy.signals import SignalHandlerOptions
 
-    rclpy.init()
+    children.interrupt_on_signals()  # SIGTERM (timeout, CI) like Ctrl-C: one line, the driver stopped
+    rclpy.init(signal_handler_options=SignalHandlerOptions.NO)
     node = rclpy.create_node("bench_driver_realtime")
     try:
         ext = external_run(node, args.duration)
         firsts = time_to_first_tick(node, args.starts)
         step_ms, rtf = plant_step_and_batch()
+    except children.Interrupted as e:
+        print(f"driver_realtime: interrupted by {e}", file=sys.stderr)
+        return e.exit_code
     finally:
         node.destroy_node()
-        rclpy.shutdown()
+        rclpy.try_shutdown()
     print(f"time to first tick on both topics, {args.starts} starts: median {np.median(firsts):.2f} s, "
           f"worst {np.max(firsts):.2f} s (before: 28-31 s)")
     print(f"plant + controller per tick: p50 {np.percentile(step_ms, 50):.3f} ms, "

@@ -23,11 +23,12 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import subprocess
 import sys
 import tempfile
 import time
 from pathlib import Path
+
+from orthoglide_ident.nodes import _processes as children  # children end with this process
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
@@ -112,7 +113,7 @@ def main() -> int:
         cmd += ["--robot", args.robot]
     t0 = time.perf_counter()
     # cwd=ROOT: `python -c` puts the working directory first on sys.path
-    proc = subprocess.run(cmd, env=env, capture_output=True, text=True, cwd=ROOT)
+    proc = children.run(cmd, env=env, capture_output=True, text=True, cwd=ROOT)
     t_cli = time.perf_counter() - t0
     peak = [ln for ln in proc.stderr.splitlines() if ln.startswith("PEAK ")]
     rss_mb = int(peak[-1].split()[1]) / 1024 if peak else float("nan")

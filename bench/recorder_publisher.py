@@ -27,16 +27,18 @@ def main(argv: list[str] | None = None) -> int:
     a = ap.parse_args(argv)
 
     import rclpy
+    from rclpy.duration import Duration
+    from rclpy.signals import SignalHandlerOptions
     from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
     from sensor_msgs.msg import JointState
 
     from orthoglide_ident import bags
     from orthoglide_msgs.msg import CurrentReference
 
-    rclpy.init()
+    rclpy.init(signal_handler_options=SignalHandlerOptions.NO)  # SIGTERM: the default, an exit
     node = rclpy.create_node("recorder_test_publisher")
     qos = QoSProfile(
-        history=HistoryPolicy.KEEP_LAST, depth=1000, reliability=ReliabilityPolicy.RELIABLE
+        history=HistoryPolicy.KEEP_LAST, depth=5000, reliability=ReliabilityPolicy.RELIABLE
     )
     pub_js = node.create_publisher(JointState, bags.JOINT_STATES_TOPIC, qos)
     pub_cr = node.create_publisher(CurrentReference, bags.CURRENT_REFERENCE_TOPIC, qos)
@@ -70,7 +72,12 @@ def main(argv: list[str] | None = None) -> int:
             pub_cr.publish(cr[i].tobytes())
         k += m
     elapsed = time.monotonic() - start
-    time.sleep(0.5)  # let reliable resends finish before tearing down
+    # a publisher that vanishes takes the ticks it still had to resend with it: wait until every
+    # subscriber has all of them (as the simulator's driver does on its way out)
+    for pub in (pub_js, pub_cr):
+        if not pub.wait_for_all_acked(Duration(seconds=5)):
+            print(f"{pub.topic_name}: a subscriber had not received every tick 5 s after the last one",
+                  file=sys.stderr, flush=True)
     print(f"sent {n} ticks in {elapsed:.3f} s", flush=True)
     node.destroy_node()
     rclpy.shutdown()

@@ -28,7 +28,10 @@ import tempfile
 import time
 from pathlib import Path
 
+from orthoglide_ident.nodes._processes import Interrupted, interrupt_on_signals, popen
+
 HERE = Path(__file__).resolve().parent
+DRIVER_START_S = 120.0  # the driver publishes within a second or two; far more under heavy load
 CLK = os.sysconf("SC_CLK_TCK")
 
 
@@ -48,9 +51,13 @@ def loadavg() -> float:
     return float(Path("/proc/loadavg").read_text().split()[0])
 
 
-def start_driver(env: dict[str, str], log: Path) -> subprocess.Popen:
-    """The simulator driver, realtime, until interrupted; returns once it publishes."""
-    drv = subprocess.Popen(
+def start_driver(env: dict[str, str], log: Path, node) -> subprocess.Popen:
+    """The simulator driver, realtime, until interrupted; returns once its first tick arrived here
+    (stopped, with a one-line reason, if it does not publish within DRIVER_START_S)."""
+    import rclpy
+    from sensor_msgs.msg import JointState
+
+    drv = popen(
         [
             sys.executable,
             "-m",
@@ -63,13 +70,35 @@ def start_driver(env: dict[str, str], log: Path) -> subprocess.Popen:
         stdout=log.open("w"),
         stderr=subprocess.STDOUT,
     )
-    deadline = time.monotonic() + 300  # the first jax compilation: 20-50 s, more under load
-    while "driver: controller" not in log.read_text():  # logged just before the first tick
-        if drv.poll() is not None or time.monotonic() > deadline:
-            raise SystemExit(f"driver did not start:\n{log.read_text()}")
-        time.sleep(0.2)
+    heard: list = []
+    sub = node.create_subscription(JointState, "/orthoglide/joint_states", heard.append, 10)
+    deadline = time.monotonic() + DRIVER_START_S
+    try:
+        while not heard:
+            if drv.poll() is not None or time.monotonic() > deadline:
+                tail = " | ".join(log.read_text().strip().splitlines()[-3:])
+                raise SystemExit(f"recorder_soak: the driver did not publish within {DRIVER_START_S:.0f} s "
+                                 f"(exit code {drv.poll()}): {tail}")
+            rclpy.spin_once(node, timeout_sec=0.1)
+    except BaseException:
+        stop(drv)
+        raise
+    finally:
+        node.destroy_subscription(sub)
     time.sleep(1.0)
     return drv
+
+
+def stop(proc: subprocess.Popen | None, timeout: float = 20.0) -> None:
+    """SIGINT (a clean stop: the recorder closes its bag), then SIGKILL after ``timeout`` s."""
+    if proc is None or proc.poll() is not None:
+        return
+    proc.send_signal(signal.SIGINT)
+    try:
+        proc.wait(timeout)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        proc.wait()
 
 
 def run(
@@ -140,7 +169,7 @@ def run(
         )
     if stall:
         raise SystemExit("--stall needs --source driver")
-    pub = subprocess.Popen(
+    pub = popen(
         [
             sys.executable,
             str(HERE / "recorder_publisher.py"),
@@ -188,6 +217,81 @@ def run(
     )
 
 
+def soak(a: argparse.Namespace, env: dict[str, str]) -> list[dict]:
+    """Start the recorder (and the driver), run the recordings; every child is stopped on the way
+    out, whatever ends this (and dies with this process if it is killed: a parent-death signal)."""
+    import rclpy
+    from rclpy.signals import SignalHandlerOptions
+
+    rclpy.init(signal_handler_options=SignalHandlerOptions.NO)
+    node = rclpy.create_node("soak_client")
+    rec = driver = None
+    with tempfile.TemporaryDirectory() as tmp:
+        out = Path(tmp) if a.keep is None else a.keep.resolve()
+        out.mkdir(parents=True, exist_ok=True)
+        try:
+            rec = popen(
+                [sys.executable, "-m", "orthoglide_ident.nodes.recorder", "--ros-args",
+                 "-p", f"output_dir:={out}"],
+                env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+            )
+            client = _Client(node)
+            if not client.s.wait_for_service(timeout_sec=30):
+                raise SystemExit("recorder_soak: the recorder's services did not appear within 30 s")
+            time.sleep(1.0)
+            t_start = time.monotonic()
+            if a.source == "driver":
+                driver = start_driver(env, out / "driver.log", node)
+                print(f"driver publishing after {time.monotonic() - t_start:.1f} s", flush=True)
+            rows = [run(client, env, out, "soak", 1000.0, a.duration, rec.pid, driver, a.stall)]
+            if a.max_rate_search:
+                for r in (float(x) for x in a.rates.split(",")):
+                    rows.append(run(client, env, out, f"rate{int(r)}", r, a.search_duration, rec.pid))
+                    if rows[-1]["lost_js"] or rows[-1]["lost_cr"] or rows[-1]["gaps"]:
+                        break
+        finally:
+            if driver is not None:
+                stop(driver)
+                said = [ln for ln in (out / "driver.log").read_text().splitlines() if "driver: " in ln]
+                print(f"driver said: {said[-1] if said else f'(nothing; exit code {driver.returncode})'}")
+            stop(rec)
+            node.destroy_node()
+            rclpy.try_shutdown()
+    return rows
+
+
+class _Client:
+    """The recorder's start and stop services."""
+
+    def __init__(self, node) -> None:
+        from std_srvs.srv import Trigger
+
+        from orthoglide_msgs.srv import StartRecording
+
+        self.node = node
+        self.s = node.create_client(StartRecording, "/orthoglide/recorder/start")
+        self.t = node.create_client(Trigger, "/orthoglide/recorder/stop")
+
+    def call(self, cli, req):
+        import rclpy
+
+        fut = cli.call_async(req)
+        rclpy.spin_until_future_complete(self.node, fut, timeout_sec=30)
+        if not fut.done():
+            raise SystemExit(f"recorder_soak: {cli.srv_name} did not answer within 30 s")
+        return fut.result()
+
+    def start(self, cond, mass, name):
+        from orthoglide_msgs.srv import StartRecording
+
+        return self.call(self.s, StartRecording.Request(condition=cond, payload_mass=mass, name=name))
+
+    def stop(self):
+        from std_srvs.srv import Trigger
+
+        return self.call(self.t, Trigger.Request())
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument(
@@ -224,83 +328,12 @@ def main(argv: list[str] | None = None) -> int:
     )
     env.pop("ROS_LOCALHOST_ONLY", None)
     os.environ.update(env)
-    import rclpy
-    from std_srvs.srv import Trigger
-
-    from orthoglide_msgs.srv import StartRecording
-
-    with tempfile.TemporaryDirectory() as tmp:
-        out = Path(tmp) if a.keep is None else a.keep.resolve()
-        out.mkdir(parents=True, exist_ok=True)
-        rec = subprocess.Popen(
-            [
-                sys.executable,
-                "-m",
-                "orthoglide_ident.nodes.recorder",
-                "--ros-args",
-                "-p",
-                f"output_dir:={out}",
-            ],
-            env=env,
-            stdout=subprocess.DEVNULL,
-            stderr=subprocess.DEVNULL,
-        )
-        rclpy.init()
-        node = rclpy.create_node("soak_client")
-
-        class Client:
-            s = node.create_client(StartRecording, "/orthoglide/recorder/start")
-            t = node.create_client(Trigger, "/orthoglide/recorder/stop")
-
-            def call(self, cli, req):
-                fut = cli.call_async(req)
-                rclpy.spin_until_future_complete(node, fut, timeout_sec=30)
-                return fut.result()
-
-            def start(self, cond, mass, name):
-                return self.call(
-                    self.s, StartRecording.Request(condition=cond, payload_mass=mass, name=name)
-                )
-
-            def stop(self):
-                return self.call(self.t, Trigger.Request())
-
-        client = Client()
-        assert client.s.wait_for_service(timeout_sec=30)
-        time.sleep(1.0)
-        driver = None
-        try:
-            t_start = time.monotonic()
-            if a.source == "driver":
-                driver = start_driver(env, out / "driver.log")
-                print(f"driver publishing after {time.monotonic() - t_start:.1f} s", flush=True)
-            rows = [run(client, env, out, "soak", 1000.0, a.duration, rec.pid, driver, a.stall)]
-            if a.max_rate_search:
-                for r in (float(x) for x in a.rates.split(",")):
-                    rows.append(
-                        run(client, env, out, f"rate{int(r)}", r, a.search_duration, rec.pid)
-                    )
-                    if rows[-1]["lost_js"] or rows[-1]["lost_cr"] or rows[-1]["gaps"]:
-                        break
-        finally:
-            if driver is not None:
-                driver.send_signal(signal.SIGINT)
-                try:
-                    driver.wait(20)
-                except subprocess.TimeoutExpired:
-                    driver.kill()
-                    driver.wait()
-                said = [
-                    ln
-                    for ln in (out / "driver.log").read_text().splitlines()
-                    if "ticks published" in ln
-                ]
-                print(f"driver said: {said[-1] if said else f'(nothing; exit code {driver.returncode})'}")
-            rec.terminate()
-            rec.wait(20)
-            node.destroy_node()
-            rclpy.shutdown()
-
+    interrupt_on_signals()  # Ctrl-C, SIGTERM (timeout), SIGHUP: children stopped, one line
+    try:
+        rows = soak(a, env)
+    except Interrupted as e:
+        print(f"recorder_soak: interrupted by {e}: the recorder and the source were stopped", file=sys.stderr)
+        return e.exit_code
     print(
         f"{'rate Hz':>8} {'sent':>8} {'pub s':>7} {'lost js':>8} {'lost cr':>8} {'gaps':>6} {'CPU %':>6} "
         f"{'RSS0 MiB':>9} {'RSS1 MiB':>9} {'RSSmax':>7} {'bag MB':>7}"

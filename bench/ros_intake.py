@@ -15,6 +15,8 @@ import sys
 import threading
 import time
 
+from orthoglide_ident.nodes import _processes as children  # children end with this process
+
 
 def measure(node, seconds: float, counter: list[int]) -> tuple[float, float]:
     time.sleep(1.0)
@@ -29,6 +31,7 @@ def main(argv: list[str] | None = None) -> int:
     args = ap.parse_args(argv)
     import rclpy
     from rclpy.executors import SingleThreadedExecutor
+    from rclpy.signals import SignalHandlerOptions
     from rclpy.qos import QoSProfile, ReliabilityPolicy
     from sensor_msgs.msg import JointState
 
@@ -38,9 +41,10 @@ def main(argv: list[str] | None = None) -> int:
     topics = [(JointState, "/orthoglide/joint_states"), (CurrentReference, "/orthoglide/current_reference"),
               (JointSetpoint, "/orthoglide/setpoints")]
     qos = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE)
-    driver = subprocess.Popen([sys.executable, "-m", "orthoglide_sim.driver_node", "--ros-args", "-p",
+    driver = children.popen([sys.executable, "-m", "orthoglide_sim.driver_node", "--ros-args", "-p",
                                f"duration:={2 * args.seconds + 6}"], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    rclpy.init()
+    children.interrupt_on_signals()  # SIGTERM (timeout, CI) like Ctrl-C: one line, the driver stopped
+    rclpy.init(signal_handler_options=SignalHandlerOptions.NO)
     try:
         node = rclpy.create_node("bench_intake_executor")
         count = [0]
@@ -60,6 +64,9 @@ def main(argv: list[str] | None = None) -> int:
         rate_b, cpu_b = measure(owner, args.seconds, count)
         taker.close()
         owner.destroy_node()
+    except children.Interrupted as e:
+        print(f"ros_intake: interrupted by {e}", file=sys.stderr)
+        return e.exit_code
     finally:
         rclpy.try_shutdown()
         driver.terminate()

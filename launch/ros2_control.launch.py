@@ -2,7 +2,7 @@
 topics joint_state_broadcaster publishes; the simulated robot (the ros2_control stand-in) optional.
 
     ros2 launch orthoglide_ident ros2_control.launch.py [use_sim:=true|false] [robot:=ur5_mount]
-        [namespace:=] [output_dir:=bags] [ctc:=false] [viewer:=false]
+        [namespace:=] [output_dir:=bags] [ctc:=false] [viewer:=false] [respawn:=true]
 
 Each node reads its own YAML from share/orthoglide_ident/config/ and then config/ros2_control.yaml
 (the broadcaster's topics: joint_states + dynamic_joint_states, relative to the namespace, which is
@@ -23,15 +23,17 @@ SHARED = "ros2_control.yaml"  # loaded after each node's own file
 # argument that decides whether it runs (None: always)
 NODES = (
     {"executable": "driver", "name": "ros2_control_standin", "config": None,
-     "arguments": ("robot",), "when": "use_sim"},
+     "arguments": ("robot",), "when": "use_sim", "respawn": False},
     {"executable": "recorder", "name": "orthoglide_recorder", "config": "recorder.yaml",
-     "arguments": ("output_dir",), "when": None},
+     "arguments": ("output_dir",), "when": None, "respawn": True},
     {"executable": "identification", "name": "orthoglide_identification", "config": "identification.yaml",
-     "arguments": ("robot", "bag_dir"), "when": None},
-    {"executable": "ctc", "name": "orthoglide_ctc", "config": "ctc.yaml", "arguments": ("robot",), "when": "ctc"},
+     "arguments": ("robot", "bag_dir"), "when": None, "respawn": True},
+    {"executable": "ctc", "name": "orthoglide_ctc", "config": "ctc.yaml", "arguments": ("robot",), "when": "ctc",
+     "respawn": True},
     {"executable": "viewer", "name": "orthoglide_viewer", "config": "viewer.yaml", "arguments": ("robot",),
-     "when": "viewer"},
+     "when": "viewer", "respawn": False},
 )
+RESPAWN_DELAY_S = 2.0  # as orthoglide.launch.py: a node that exits is started again (not the stand-in)
 
 ARGUMENTS = {
     "use_sim": ("true", "start the simulated robot (the ros2_control stand-in, orthoglide_sim)"),
@@ -42,6 +44,7 @@ ARGUMENTS = {
     "bag_dir": ("bags", "identification: where bags are found when a request names none"),
     "ctc": ("false", "start the ctc node: feed-forward to joint_trajectory_controller (config/ros2_control.yaml)"),
     "viewer": ("false", "serve the topics to Foxglove (ws://127.0.0.1:8765, config/viewer.yaml)"),
+    "respawn": ("true", "start the recorder, identification and ctc again when one exits"),
 }
 
 
@@ -62,7 +65,8 @@ def generate_launch_description():
     nodes = [
         Node(package=PACKAGE, executable=n["executable"], name=n["name"], output="screen",
              parameters=[*files(n), {a: LaunchConfiguration(a) for a in n["arguments"]}],
-             condition=IfCondition(LaunchConfiguration(n["when"])) if n["when"] else None)
+             condition=IfCondition(LaunchConfiguration(n["when"])) if n["when"] else None,
+             respawn=LaunchConfiguration("respawn") if n["respawn"] else False, respawn_delay=RESPAWN_DELAY_S)
         for n in NODES
     ]
     return LaunchDescription(

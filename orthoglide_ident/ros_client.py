@@ -54,8 +54,9 @@ class Client:
 
     def __enter__(self) -> "Client":
         import rclpy
+        from rclpy.signals import SignalHandlerOptions
 
-        rclpy.init()
+        rclpy.init(signal_handler_options=SignalHandlerOptions.NO)  # Ctrl-C: KeyboardInterrupt, one line
         self.rclpy = rclpy
         self.node = rclpy.create_node("orthoglide_ident_cli", namespace=self.namespace or "/")
         return self

@@ -24,6 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from orthoglide_ident.errors import OrthoglideError
+from orthoglide_ident.nodes._processes import Interrupted, interrupt_on_signals
 from orthoglide_ident.ros_client import live_line
 from orthoglide_sim.graph import Graph, GraphError
 from orthoglide_ident.model.geometry import G_TAU_MANUFACTURER
@@ -309,10 +310,15 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--measure-seconds", type=float, default=4.0, help="s per Table 4 run (default 4: two periods)")
     ap.add_argument("--out", type=Path, default=Path("demo_out"), help="output folder (default demo_out)")
     args = ap.parse_args(argv)
+    interrupt_on_signals()  # Ctrl-C, SIGTERM (timeout, CI), SIGHUP: the nodes are stopped, one line
     try:
         return run(args.out, args.record_seconds, args.measure_seconds)
-    except (OrthoglideError, KeyboardInterrupt) as e:
-        print(f"demo: {e or 'interrupted'}", file=sys.stderr)
+    except Interrupted as e:
+        print(f"demo: interrupted by {e}: the nodes were stopped; what was done so far is in {args.out}/",
+              file=sys.stderr)
+        return e.exit_code
+    except OrthoglideError as e:
+        print(f"demo: {e}", file=sys.stderr)
         return 2
 
 

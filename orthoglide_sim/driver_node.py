@@ -9,6 +9,7 @@ import time
 
 from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from rclpy.duration import Duration
 from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from rclpy.serialization import deserialize_message
@@ -71,6 +72,10 @@ LATE_NS = 500_000  # a tick published more than 0.5 ms after its deadline is lat
 WAKE_EARLY_NS = 100_000
 LOCKSTEP_TIMEOUT_S = 2.0
 STATUS_PERIOD_TICKS = 10_000  # a log line
+HISTORY_TICKS = 5000  # 5 s of ticks kept for resending to a subscriber that fell behind
+SUBSCRIBER_WAIT_S = 10.0  # simulated time: the first tick waits this long at most for a subscriber
+ACK_WAIT_S = 4.0  # on the way out, wait this long at most for subscribers to have every tick (Fast
+# DDS asks for acknowledgements with its heartbeat, every 3 s by default: 0 to 3 s here)
 DIAGNOSTICS_PERIOD_TICKS = 1_000  # a /diagnostics message
 
 
@@ -92,11 +97,12 @@ class Driver(Node):
         self.finished = False
         self.late = 0
         self.start_ns = 0
-        # reliable, keep last 1000 (1 s): a subscriber starved of CPU for a moment gets the ticks
-        # its DDS reader missed resent from this history (depth 100 lost ~280 on a 0.5 s stall)
-        self.pub_js = self.create_publisher(JointState, "orthoglide/joint_states", 1000)
-        self.pub_cr = self.create_publisher(CurrentReference, "orthoglide/current_reference", 1000)
-        self.pub_sp = self.create_publisher(JointSetpoint, "orthoglide/setpoints", 1000)
+        # reliable, keep last HISTORY_TICKS: a subscriber starved of CPU (or stopped) for a moment
+        # gets the ticks its DDS reader missed resent from this history (depth 100 lost ~280 on a
+        # 0.5 s stall; a history shorter than the stall loses the oldest ticks of it)
+        self.pub_js = self.create_publisher(JointState, "orthoglide/joint_states", HISTORY_TICKS)
+        self.pub_cr = self.create_publisher(CurrentReference, "orthoglide/current_reference", HISTORY_TICKS)
+        self.pub_sp = self.create_publisher(JointSetpoint, "orthoglide/setpoints", HISTORY_TICKS)
         self.pub_clock = None if self.realtime else self.create_publisher(Clock, "/clock", 10)
         self.pub_diag = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
         inputs = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE)
@@ -137,7 +143,19 @@ class Driver(Node):
             self.lock.notify_all()
 
     def close(self) -> None:
+        """On the way out, give reliable subscribers (the recorder) the last ticks: a publisher that
+        vanishes takes the ticks it still had to resend with it."""
         self.taker.close()
+        t_end = time.monotonic() + ACK_WAIT_S
+        for pub in (self.pub_js, self.pub_cr, self.pub_sp):
+            left = max(0.0, t_end - time.monotonic())
+            try:
+                acked = pub.wait_for_all_acked(Duration(nanoseconds=int(left * 1e9)))
+            except Exception:  # noqa: BLE001 - shutting down already: nothing more to give
+                return
+            if not acked:
+                self.get_logger().warning(f"{pub.topic_name}: a subscriber had not received every tick "
+                                          f"{ACK_WAIT_S:g} s after the last one (stopped or too slow)")
 
     def _apply(self, changes) -> None:
         with self.lock:
@@ -171,7 +189,10 @@ class Driver(Node):
         self.pub_js.publish(JointState(header=self._header(k), name=JOINTS, position=[float(x) for x in q]))
 
     def _wait_for_input_publisher(self, stop: threading.Event) -> None:
-        """Simulated time with an outside controller: the first tick waits until it is there."""
+        """Simulated time: the first tick waits (SUBSCRIBER_WAIT_S at most) until the joint
+        states have a subscriber — a run faster than real time would otherwise be over before
+        discovery — and, with an outside controller, until its input is there."""
+        self._wait_for_subscriber(stop)
         topic = {"ctc": "orthoglide/feedforward", "external": "orthoglide/current_command"}.get(self.session.controller)
         if topic is None:
             return
@@ -182,6 +203,15 @@ class Driver(Node):
             self.get_logger().warning(f"no publisher on {self.resolve_topic_name(topic)}: ticks go on without "
                                       f"their input after {LOCKSTEP_TIMEOUT_S} s each")
         time.sleep(0.2)  # discovery of the way back (its subscription to our joint states)
+
+    def _wait_for_subscriber(self, stop: threading.Event) -> None:
+        t_end = time.monotonic() + SUBSCRIBER_WAIT_S
+        while (not self.pub_js.get_subscription_count() and time.monotonic() < t_end
+               and not stop.is_set()):
+            stop.wait(0.05)
+        if not self.pub_js.get_subscription_count():
+            self.get_logger().warning(f"no subscriber on {self.pub_js.topic_name} after "
+                                      f"{SUBSCRIBER_WAIT_S:g} s: simulating anyway")
 
     def _publish_setpoint(self, k: int, sp) -> None:
         msg = JointSetpoint(name=JOINTS, position=[float(x) for x in sp[0]],
@@ -260,8 +290,10 @@ class Driver(Node):
             self.pub_cr.publish(CurrentReference(header=self._header(k), name=JOINTS,
                                                  current=[float(x) for x in v_tau]))
             self._publish_setpoint(sp_k, sp)
-        except Exception:  # Ctrl-C shut the context down between the check and the publish
-            return False
+        except Exception:
+            if self.context.ok():
+                raise  # a bug: the node ends with code 1 and the reason (nodes._spin)
+            return False  # Ctrl-C shut the context down between the check and the publish
         with self.lock:
             s.advance()
         if s.fault:

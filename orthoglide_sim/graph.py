@@ -18,6 +18,7 @@ from typing import Any
 
 import rclpy
 from rclpy.executors import MultiThreadedExecutor
+from rclpy.signals import SignalHandlerOptions
 from rclpy.parameter import Parameter
 from rclpy.parameter_client import AsyncParameterClient
 from rclpy.qos import QoSProfile, ReliabilityPolicy
@@ -25,6 +26,7 @@ from diagnostic_msgs.msg import DiagnosticArray
 from sensor_msgs.msg import JointState
 
 from orthoglide_ident.errors import OrthoglideError
+from orthoglide_ident.nodes._processes import popen
 from orthoglide_msgs.msg import CurrentReference, LiveIdentification
 
 LAUNCHERS = Path(sys.prefix) / "lib" / "orthoglide_ident"
@@ -49,7 +51,10 @@ class Graph:
         self._logs: dict[str, Any] = {}
 
     def __enter__(self) -> "Graph":
-        rclpy.init()
+        # no rclpy signal handlers: SIGTERM shut the context down under the running calls (chained
+        # RCLError tracebacks); the caller's handlers (nodes._processes.interrupt_on_signals) or
+        # Python's default end the run, and __exit__ stops the nodes
+        rclpy.init(signal_handler_options=SignalHandlerOptions.NO)
         self.node = rclpy.create_node("orthoglide_demo")
         # entities are created here, once: destroying one while the executor waits on it races
         self._clients: dict[str, Any] = {}
@@ -64,11 +69,15 @@ class Graph:
         return self
 
     def __exit__(self, *exc: Any) -> None:
+        for proc in self.procs.values():  # all at once, then each waited for
+            if proc.poll() is None:
+                proc.send_signal(signal.SIGINT)
         for name in list(self.procs):
             self.stop(name)
         self.executor.shutdown()
+        self._spinner.join(5.0)  # a thread left in rclpy's wait at exit aborted the interpreter
         self.node.destroy_node()
-        rclpy.shutdown()
+        rclpy.try_shutdown()
 
     # ---- processes -------------------------------------------------------------------------------
     def start(self, name: str, executable: str, params: dict[str, Any] | None = None,
@@ -83,7 +92,8 @@ class Graph:
             args += ["-r", f"{a}:={b}"]
         log = open(self.log_dir / f"{name}.log", "w")
         self._logs[name] = log
-        self.procs[name] = subprocess.Popen(args, stdout=log, stderr=subprocess.STDOUT, env=self.env)
+        # the node ends with this process whatever ends it (SIGKILL too): a parent-death signal
+        self.procs[name] = popen(args, stdout=log, stderr=subprocess.STDOUT, env=self.env)
 
     def stop(self, name: str, timeout: float = 10.0) -> int | None:
         proc = self.procs.pop(name, None)

@@ -22,6 +22,8 @@ from collections.abc import Callable, Iterator
 
 import pytest
 
+from orthoglide_ident.nodes import _processes as children  # children end with this process
+
 ROS_ISOLATION = {
     # 1..100: domains above 101 can collide with ephemeral ports on Linux.
     "ROS_DOMAIN_ID": str(1 + os.getpid() % 100),
@@ -64,7 +66,7 @@ def spawn_python() -> Iterator[SpawnPython]:
     processes: list[subprocess.Popen[str]] = []
 
     def spawn(code: str, *args: str, env: dict[str, str] | None = None) -> subprocess.Popen[str]:
-        process = subprocess.Popen(
+        process = children.popen(
             [sys.executable, "-c", code, *args],
             env=env if env is not None else ros_environment(),
             stdout=subprocess.PIPE,

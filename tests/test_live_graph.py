@@ -82,3 +82,63 @@ def test_ctc_without_parameters_publishes_nothing_and_says_so(tmp_path):
             g.wait_for_feedforward(ticks=1, timeout=4.0)
         log = (tmp_path / "logs" / "orthoglide_ctc.log").read_text()
     assert "no feed-forward until they arrive" in log
+
+
+@pytest.mark.slow
+def test_each_node_stopped_for_a_second_while_recording_loses_nothing(tmp_path):
+    """SIGSTOP of the driver, the recorder, the identification and the ctc, 1 s each in turn, while
+    recording under the CTC: the bag has every tick from its first to its last on both topics,
+    the stop says 0 missing; the driver's counters show its own stall (late ticks) and the ctc's
+    (feed-forwards held); live identification gets every tick (no lost-tick warning) and ends
+    with the recording."""
+    import signal
+
+    from orthoglide_ident import bags
+    from orthoglide_ident._install_ament import ROOT
+
+    with Graph(tmp_path / "logs") as g:
+        g.start("orthoglide_driver", "driver", {"trajectory": "exciting", "controller": "pid"})
+        g.start("orthoglide_recorder", "recorder", {"output_dir": str(tmp_path / "bags")},
+                params_file=ROOT / "config/recorder.yaml")
+        g.start("orthoglide_identification", "identification", {"bag_dir": str(tmp_path / "bags"),
+                                                                "lag_model": "off"})
+        g.wait_for_ticks()
+        identify(g, [str(ROOT / "bags" / "unloaded"), str(ROOT / "bags" / "loaded")])  # latched for the ctc
+        g.start("orthoglide_ctc", "ctc", params_file=ROOT / "config/ctc.yaml")
+        g.wait_for_feedforward()
+        g.wait_for_subscriber("orthoglide/joint_states", "orthoglide_identification")
+        g.set_params("orthoglide_driver", controller="ctc")
+        before = g.driver_counters()
+        n_live = len(g.live)
+        from orthoglide_msgs.srv import StartRecording
+        from std_srvs.srv import Trigger
+
+        res = g.call(StartRecording, "orthoglide/recorder/start", condition="unloaded", payload_mass=0.0,
+                     name="stalls")
+        assert res.success, res.message
+        for name in ("orthoglide_driver", "orthoglide_recorder", "orthoglide_identification", "orthoglide_ctc"):
+            time.sleep(1.0)
+            g.procs[name].send_signal(signal.SIGSTOP)
+            time.sleep(1.0)
+            g.procs[name].send_signal(signal.SIGCONT)
+        time.sleep(1.0)
+        stop = g.call(Trigger, "orthoglide/recorder/stop")
+        after = g.driver_counters()
+        assert stop.success, stop.message
+        data = bags.read_bag(res.bag_path)
+        seconds = len(data.joint_states.stamps_ns) / 1000
+        t_end = time.monotonic() + 30  # live identification folds in the recording's last ticks
+        while not (g.live[n_live:] and g.live[-1].unloaded_seconds > 0.9 * seconds):
+            assert time.monotonic() < t_end, [(m.unloaded_seconds, m.status) for m in g.live[n_live:]]
+            time.sleep(0.2)
+        g.check_alive()  # every node went on
+        live = g.live[n_live:]
+    js, cr = data.joint_states.stamps_ns, data.current_reference.stamps_ns
+    np.testing.assert_array_equal(js, cr)
+    assert bags.find_gaps(js).missing == 0 and len(js) > 8000  # ~9 s, every tick first to last
+    assert "0 missing on /orthoglide/current_reference, 0 missing on /orthoglide/joint_states" in stop.message
+    assert f"wrote {len(js)} /orthoglide/current_reference, {len(js)} /orthoglide/joint_states" in stop.message
+    assert int(after["late"]) - int(before["late"]) >= 500  # the driver's own second
+    assert int(after["feedforward_missing"]) - int(before["feedforward_missing"]) >= 500  # the ctc's second
+    warnings = [w for m in live for w in m.warnings]
+    assert not [w for w in warnings if "lost" in w or "missing" in w], warnings

@@ -4,12 +4,13 @@ from __future__ import annotations
 
 import importlib.util
 import os
-import subprocess
 import sys
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import pytest
+
+from orthoglide_ident.nodes import _processes as children  # children end with this process
 
 ROOT = Path(__file__).resolve().parent.parent
 PREFIX = Path(sys.prefix).resolve()
@@ -46,7 +47,7 @@ def test_ament_index_finds_package_in_venv_without_sourcing(package: str) -> Non
     code = ("import sys; from ament_index_python.packages import get_package_prefix, "
             "get_package_share_directory; print(get_package_prefix(sys.argv[1])); "
             "print(get_package_share_directory(sys.argv[1]))")
-    out = subprocess.run([sys.executable, "-c", code, package], env=env, capture_output=True,
+    out = children.run([sys.executable, "-c", code, package], env=env, capture_output=True,
                          text=True, timeout=60)
     assert out.returncode == 0, out.stderr
     prefix, share = out.stdout.split()
@@ -89,7 +90,7 @@ def test_ros2_run_launcher_starts_its_module(executable: str, ros_env: dict[str,
     # Run as `ros2 run` does: the file itself, no venv activation, no sourced ROS.
     env = {k: v for k, v in ros_env.items() if k not in ("AMENT_PREFIX_PATH", "VIRTUAL_ENV")}
     env["PATH"] = "/usr/bin:/bin"
-    out = subprocess.run([str(launcher), "--help"], env=env, capture_output=True, text=True,
+    out = children.run([str(launcher), "--help"], env=env, capture_output=True, text=True,
                          timeout=120)
     assert out.returncode == 0, f"{launcher} --help exited {out.returncode}:\n{out.stderr}"
     assert "usage" in out.stdout.lower(), f"{launcher} --help printed no usage:\n{out.stdout}"
@@ -101,14 +102,14 @@ def test_console_script_orthoglide_ident() -> None:
     assert script.is_file(), "orthoglide-ident console script not installed: run `make setup`"
     if not _module_exists("orthoglide_ident.cli"):
         pytest.skip("orthoglide_ident.cli: module not written yet")
-    out = subprocess.run([str(script), "--help"], capture_output=True, text=True, timeout=120)
+    out = children.run([str(script), "--help"], capture_output=True, text=True, timeout=120)
     assert out.returncode == 0, out.stderr
     assert "identify" in out.stdout
 
 
 def test_make_setup_is_up_to_date() -> None:
     """A second `make setup` has nothing to rebuild (make -q: exit 0 = up to date)."""
-    out = subprocess.run(["make", "-q", "-C", str(ROOT), "VENV=" + str(PREFIX), "setup-stamps"],
+    out = children.run(["make", "-q", "-C", str(ROOT), "VENV=" + str(PREFIX), "setup-stamps"],
                          capture_output=True, text=True, timeout=60)
     assert out.returncode == 0, "make setup would rebuild something: inputs newer than the venv's " \
                                 "stamps (run `make setup`)"
@@ -127,6 +128,8 @@ def test_launch_file_lists_the_node_set_with_installed_configs():
     spec.loader.exec_module(launch)
     assert [n["executable"] for n in launch.NODES] == ["driver", "recorder", "identification", "ctc", "viewer"]
     assert all(n["executable"] in EXECUTABLES and n["name"].startswith("orthoglide_") for n in launch.NODES)
+    # a node that cannot go on exits 1 and is started again (respawn:=true), not the simulated robot
+    assert [n["respawn"] for n in launch.NODES] == [False, True, True, True, False] and "respawn" in launch.ARGUMENTS
     installed = dict(data_files())
     assert "launch/orthoglide.launch.py" in installed["share/orthoglide_ident/launch"]
     for n in launch.NODES:

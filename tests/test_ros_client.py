@@ -7,6 +7,8 @@ from pathlib import Path
 
 import pytest
 
+from orthoglide_ident.nodes import _processes as children  # children end with this process
+
 pytest.importorskip("rclpy")
 pytest.importorskip("orthoglide_msgs.msg")
 
@@ -14,7 +16,7 @@ ROOT = Path(__file__).resolve().parents[1]
 
 
 def cli(ros_env, *args: str, timeout: float = 120.0) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "orthoglide_ident.cli", *args], env=ros_env,
+    return children.run([sys.executable, "-m", "orthoglide_ident.cli", *args], env=ros_env,
                           capture_output=True, text=True, timeout=timeout)
 
 

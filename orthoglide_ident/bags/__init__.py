@@ -50,7 +50,7 @@ from .reader import (
     decode_messages,
     read_bag,
 )
-from .reindex import FileReport, ReindexResult, reindex
+from .reindex import FileReport, ReindexResult, left_open, reindex
 from .sources import BagSources, Source
 from ._encode import MessageTemplate, encode_dynamic_joint_states, encode_joint_states, encode_messages
 from .writer import LAYOUTS, BagWriter, write_bag
@@ -89,6 +89,7 @@ __all__ = [
     "FileStatus",
     "Gaps",
     "JointStates",
+    "left_open",
     "TopicInfo",
     "bag_files",
     "bag_info",

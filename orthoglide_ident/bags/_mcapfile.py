@@ -10,6 +10,7 @@ chunks: :meth:`McapFile.flush_chunk`); the library never closes one on its own.
 
 from __future__ import annotations
 
+import fcntl
 import os
 from pathlib import Path
 from collections.abc import Sequence
@@ -34,6 +35,16 @@ def compression_type(name: str) -> CompressionType:
         return COMPRESSIONS[name]
     except KeyError:
         raise BagError(f"unknown chunk compression {name!r}: use zstd, lz4 or none") from None
+
+
+def _lock(fh: IO[bytes]) -> None:
+    """Hold an exclusive advisory lock on a file being written, released when it is closed or the
+    process dies: a recorder starting later takes a locked file that is not closed for one still
+    being written, not for a killed recorder's (reindex.left_open)."""
+    try:
+        fcntl.flock(fh.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except OSError:
+        pass  # a file system without locks: left_open then cannot tell
 
 
 class _Sink:
@@ -77,6 +88,7 @@ class McapFile:
         self.check_order = check_order
         self.path = Path(path)
         self._fh: IO[bytes] | None = self.path.open("xb")
+        _lock(self._fh)
         self._sink = _Sink(self)
         self._writer = Writer(
             self._sink,  # type: ignore[arg-type]

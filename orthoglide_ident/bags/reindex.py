@@ -14,10 +14,14 @@ short (no summary, the open chunk lost). :func:`reindex`
   ``orthoglide`` record and what the old metadata.yaml still had.
 
 A lone .mcap file gets its closed copy only. Closed files are left as they are.
+
+:func:`left_open` finds the bags of a folder that a killed recorder left open (the recorder
+reindexes them when it starts); a file that a running writer still holds (its lock) is not one.
 """
 
 from __future__ import annotations
 
+import fcntl
 import os
 import struct
 from dataclasses import dataclass, field
@@ -138,6 +142,37 @@ def reindex(path: str | Path) -> ReindexResult:
     except OSError as exc:
         raise BagError(f"{p}: cannot write: {exc.strerror or exc}") from None
     return ReindexResult(p, [s.report for s in scanned], meta if p.is_dir() else None, warnings)
+
+
+def left_open(folder: str | Path) -> list[Path]:
+    """Bag directories directly under ``folder`` with a .mcap file that was not closed (no MCAP
+    magic at its end) and that no process is writing (no lock held on it); [] for no folder."""
+    root = Path(folder)
+    if not root.is_dir():
+        return []
+    found = []
+    for bag in sorted(p for p in root.iterdir() if (p / "metadata.yaml").is_file()):
+        if any(_unclosed_and_free(f) for f in bag.glob("*.mcap")):
+            found.append(bag)
+    return found
+
+
+def _unclosed_and_free(f: Path) -> bool:
+    try:
+        with f.open("rb") as fh:
+            size = fh.seek(0, os.SEEK_END)
+            fh.seek(max(0, size - len(_mcap.MAGIC)))
+            if size >= 2 * len(_mcap.MAGIC) and fh.read() == _mcap.MAGIC:
+                return False  # closed
+            try:
+                fcntl.flock(fh.fileno(), fcntl.LOCK_SH | fcntl.LOCK_NB)
+            except BlockingIOError:
+                return False  # a writer holds it: being recorded
+            except OSError:
+                pass  # no locks on this file system
+            return True
+    except OSError:
+        return False
 
 
 def _is_stub(f: Path) -> bool:

@@ -10,6 +10,12 @@ one call per topic: the same 3 kHz cost ~4 % of a core instead of ~30 % (bench/r
 The subscriptions live on a small private node (``<node>_rx``) that no executor spins; it
 subscribes to the topic names as the owning node resolves them, so remapping and namespaces of the
 owner apply. Messages are handed over serialized (CDR bytes) with their receive and publish times.
+
+``drain()`` hands over, before it returns, every message the subscriptions held when it was
+called (the recorder's stop writes what had arrived). A callback that raises loses its batch, is
+logged (nodes._guard) and the thread goes on; if the thread itself cannot go on, the owner is
+marked so (``cannot_go_on``) and the spin helper ends the node with exit code 1 rather than leave
+it up and deaf to its topics.
 """
 from __future__ import annotations
 
@@ -23,6 +29,8 @@ from rclpy.exceptions import InvalidHandle
 from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
 from rclpy.node import Node
 from rclpy.qos import QoSProfile
+
+from orthoglide_ident.nodes._guard import FailureLog, cannot_go_on
 
 Batch = list[tuple[bytes, int, int]]  # (serialized message, receive time ns, publish time ns)
 
@@ -49,7 +57,10 @@ class BatchTaker:
         self._new: list[BatchTopic] = list(topics)  # subscribed by the thread (it owns the node)
         self._lock = threading.Lock()
         self._stop = threading.Event()
+        self._drains: list[threading.Event] = []  # drain() calls waiting for the next full take
         self.failures = 0  # batches whose callback raised (logged, the thread goes on)
+        self.last_take = time.monotonic()  # when the last take started: what was pending then is handed over
+        self._log = FailureLog(owner.get_logger())
         self._thread = threading.Thread(target=self._run, name=f"{owner.get_name()}-rx", daemon=True)
         self._thread.start()
 
@@ -71,23 +82,41 @@ class BatchTaker:
             self.subs.append((sub, t.on_batch))
             self._topics.append(name)
 
+    def drain(self, timeout_s: float) -> bool:
+        """Return once every message the subscriptions hold now has been handed over (one full
+        take started after this call), or after ``timeout_s``: False then, or if the thread is gone."""
+        done = threading.Event()
+        with self._lock:
+            self._drains.append(done)
+        return self._thread.is_alive() and done.wait(timeout_s)
+
     def _run(self) -> None:
         ctx = self.node.context
-        while not self._stop.is_set() and ctx.ok():
-            try:
+        try:
+            while not self._stop.is_set() and ctx.ok():
+                with self._lock:  # these calls are served by the take below, which starts after them
+                    drains, self._drains = self._drains, []
                 self._subscribe_new()
+                if self.subs:
+                    if not drains:
+                        self._wait(ctx)
+                    self.last_take = time.monotonic()
+                    for (sub, on_batch), topic in zip(self.subs, self._topics):
+                        batch = self._take_all(sub)
+                        if batch:
+                            self._hand_over(on_batch, batch, topic)
+                for d in drains:
+                    d.set()
                 if not self.subs:
                     self._stop.wait(0.1)
-                    continue
-                self._wait(ctx)
-                for (sub, on_batch), topic in zip(self.subs, self._topics):
-                    batch = self._take_all(sub)
-                    if batch:
-                        self._hand_over(on_batch, batch, topic)
-            except (InvalidHandle, RuntimeError):
-                break  # shutting down
-            if self.period_s:
-                time.sleep(self.period_s)  # let messages gather: one wake-up takes them all
+                elif self.period_s:
+                    time.sleep(self.period_s)  # let messages gather: one wake-up takes them all
+        except (InvalidHandle, RuntimeError) as exc:
+            if not self._stop.is_set() and ctx.ok():
+                cannot_go_on(self.owner, f"its intake of {', '.join(self._topics)} failed: {type(exc).__name__}: {exc}")
+        except Exception as exc:  # noqa: BLE001 - a node deaf to its topics must not stay up
+            cannot_go_on(self.owner, f"its intake of {', '.join(self._topics)} failed: {type(exc).__name__}: {exc}")
+        # else: closed, or shutting down
 
     def _hand_over(self, on_batch: Callable[[Batch], None], batch: Batch, topic: str) -> None:
         """One call of the owner's callback; its failure is logged and the thread goes on (a
@@ -96,9 +125,8 @@ class BatchTaker:
             on_batch(batch)
         except Exception as exc:  # noqa: BLE001 - any bug in a callback, reported with its reason
             self.failures += 1
-            self.owner.get_logger().error(
-                f"{topic}: {len(batch)} message(s) lost, the batch callback failed: "
-                f"{type(exc).__name__}: {exc}", throttle_duration_sec=5.0)
+            self._log.failed(f"{topic}: the batch callback", exc,
+                             f"{len(batch)} message(s) lost, the intake goes on")
 
     def _wait(self, ctx: Any) -> None:
         with ctx.handle:

@@ -229,13 +229,16 @@ class IdentificationNode(Node):
             with self.live_lock:
                 est = self.live.estimate()
                 if est.seconds_loaded + est.seconds_unloaded > 0:
-                    self.get_logger().info(f"identifying ({method}) from the live data: {est.seconds_unloaded:.0f} s "
-                                           f"unloaded, {est.seconds_loaded:.0f} s loaded")
+                    self.source = (f"the live data ({est.seconds_unloaded:.0f} s unloaded, {est.seconds_loaded:.0f} s "
+                                   "loaded)")
+                    self.get_logger().info(f"identifying ({method}) from {self.source}")
                     return self.live.result(method, essential, gains, payload_mass)
         bags = list(request.bags) or find_bags(Path(self.param("bag_dir")))
         if not bags:
             raise OrthoglideError(f"no bags given and none found in bag_dir '{self.param('bag_dir')}'")
-        self.get_logger().info(f"identifying ({method}) from {len(bags)} bag(s): {', '.join(bags)}")
+        # no bags named and no live data (none recorded since this node started): say where from
+        self.source = f"{len(bags)} bag(s)" + ("" if request.bags else " of bag_dir (no live data)")
+        self.get_logger().info(f"identifying ({method}) from {self.source}: {', '.join(bags)}")
         return identify(bags, payload_mass=payload_mass, method=method, gains=gains, essential=essential,
                         options=self.options(), model=self.robot)
 
@@ -259,6 +262,7 @@ class IdentificationNode(Node):
             self.pub["consistent"].publish(result_message(result, msg.header.stamp,
                                                           result.consistency.message_fields))
             response.message += "; physical consistency: " + result.consistency.summary()
+        response.message += f"; from {self.source}"
         if result.warnings:
             response.message += f"; {len(result.warnings)} warning(s): " + " | ".join(result.warnings)
         response.parameters = msg

@@ -37,7 +37,7 @@ FEED_PERIOD_S = 0.1
 ESTIMATE_PERIOD_S = 1.0
 IDLE_BUFFER = 5000  # messages kept per topic while nothing records: the recorder may start first
 STOP_WAIT_S = 1.0  # after the recorder stopped, wait this long at most for its last ticks here
-STREAM_DEPTH = 1000  # messages DDS holds for this node while it is busy (1 s at 1 kHz)
+STREAM_DEPTH = 5000  # messages DDS holds for this node while it is stalled (5 s at 1 kHz), as the recorder
 QOS_CHECK_PERIOD_S = 1.0  # how often the publishers' offered reliability is looked at
 HOLDBACK_NS = 250_000_000  # the newest 0.25 s wait: the recorder's stop may end the recording there
 _STAMP = struct.Struct("<iI")
@@ -138,6 +138,17 @@ class LiveFeed:
                 if not msg.recording:
                     self.last = _tick(msg.last_tick) or 0
                     self.stopped_at = time.monotonic()
+            elif self.bag is not None and not msg.recording and self.last is None:
+                self._recorder_restarted()
+
+    def _recorder_restarted(self) -> None:
+        """An idle recorder that is not the one recording ``self.bag``: that one was killed (and
+        restarted). Its recording ends here at the last tick every topic delivered."""
+        used = self._used() if self.source is not None else ("q",)  # the topics this recording reads
+        newest = [_stamp_ns(self.buffers[k][-1]) if self.buffers[k] else self.seen.get(k, 0) for k in used]
+        self.last, self.stopped_at = min(newest), time.monotonic()
+        self._say([f"the recorder of {self.bag} restarted without stopping it (killed?): its live data end at "
+                   "the last tick received here"])
 
     # ---- data --------------------------------------------------------------------------------
     def feed(self) -> None:

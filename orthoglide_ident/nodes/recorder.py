@@ -3,12 +3,19 @@
 Subscriptions take serialized messages; a writer thread parses only the header stamp (for the live
 count of missing ticks) and hands the bytes to :class:`orthoglide_ident.bags.BagWriter`, which
 compresses and writes chunks of ``chunk_duration`` seconds. The executor thread only queues.
+
+Nothing that arrived is lost at the end: stop (and SIGINT/SIGTERM) first has the batch intake
+hand over every message its subscriptions hold (bounded by STOP_DRAIN_S), then the writer writes
+its whole queue and closes the bag. A recording ended by a write error (disk full, file-size limit)
+is finished at the next status tick with the reason; bags a killed recorder left open in
+``output_dir`` are reindexed when the recorder starts.
 """
 
 from __future__ import annotations
 
 import importlib
 import sys
+import time
 from pathlib import Path
 from typing import Any
 
@@ -18,7 +25,7 @@ from std_srvs.srv import Trigger
 
 from orthoglide_ident import bags
 from orthoglide_ident.bags.recording import Recording, open_bag
-from orthoglide_ident.errors import ConfigError, OrthoglideError
+from orthoglide_ident.errors import BagError, ConfigError, OrthoglideError
 from orthoglide_ident.nodes._batch import BatchTaker, BatchTopic
 from orthoglide_ident.nodes._params import Param, declare, on_set, usage
 from orthoglide_ident.nodes._spin import spin
@@ -55,9 +62,12 @@ PARAMETERS = (
     Param("split_duration", 0.0, "s per .mcap file (0: no split)", dynamic=True),
     Param("split_size", 0, "bytes per .mcap file (0: no split)", dynamic=True),
     Param("compression", "zstd", "zstd | lz4 | none", dynamic=True),
-    Param("queue_depth", 1000, "subscription history depth (reliable, keep last)"),
+    Param("queue_depth", 5000, "subscription history depth (reliable, keep last): what DDS holds for the "
+          "recorder while it is stalled; 5 s at 1 kHz"),
 )
 STATUS_PERIOD_S = 1.0
+STOP_DRAIN_S = 2.0  # at stop, the intake has this long to hand over what it holds
+SILENT_S = 0.5  # a required topic silent this long while recording: the status says so
 # topics a controller publishes every tick, subscribed before they have a publisher: the
 # Orthoglide's, and ros2_control's joint_state_broadcaster's (relative: the node's namespace)
 TICK_TOPICS = (("orthoglide/joint_states", bags.JOINT_STATE_TYPE),
@@ -101,7 +111,13 @@ class RecorderNode(Node):
         self.rec: Recording | None = None
         self.last = {"condition": "", "payload_mass": 0.0, "bag_path": "", "message": "idle"}
         self.last_ticks: tuple = (0, 0, None, None)  # written, missing, first and last stamp
+        self.ended = ""  # why the last recording ended by itself (write error), until the next start
+        self.heard: dict[str, float] = {}  # topic -> monotonic time of its last message
+        self.silent: set[str] = set()  # required topics the status says are silent
+        self.started_at = 0.0
         self.subs: dict[str, tuple[Any, str]] = {}  # topic -> (QoS subscribed with, type)
+        self.checked_dirs: set[Path] = set()
+        self.recover_left_open(p["output_dir"])
         self.taker = BatchTaker(self, [], period_s=0.005)
         self.known = {self.resolve_topic_name(t): m for t, m in TICK_TOPICS}
         self.required = [self.resolve_topic_name(t) for t in p["topics"]]
@@ -113,7 +129,7 @@ class RecorderNode(Node):
         self.create_service(StartRecording, "orthoglide/recorder/start", self.on_start)
         self.create_service(Trigger, "orthoglide/recorder/stop", self.on_stop)
         self.create_timer(1.0, self.discover)
-        self.create_timer(STATUS_PERIOD_S, lambda: self.rec is not None and self.publish_status())
+        self.create_timer(STATUS_PERIOD_S, self.status_tick)
         self.publish_status()
         self.get_logger().info(f"recorder ready; bags go to {Path(p['output_dir']).resolve()}")
 
@@ -138,6 +154,7 @@ class RecorderNode(Node):
         qos = self._adapted_qos(topic)
 
         def on_batch(batch: list) -> None:
+            self.heard[topic] = time.monotonic()
             rec = self.rec
             if rec is not None and rec.alive:
                 if topic not in rec.registered:  # first message: its publishers' QoS are known now
@@ -180,7 +197,7 @@ class RecorderNode(Node):
 
     def publish_status(self) -> None:
         """orthoglide/recorder/status: what is being (or was last) recorded, and how it goes."""
-        msg = RecorderStatus(recording=self.rec is not None, **self.last)
+        msg = RecorderStatus(recording=self.rec is not None, **{**self.last, "message": self._status_text()})
         msg.header.stamp = self.get_clock().now().to_msg()
         if self.rec is not None:
             self.last_ticks = self._ticks(self.rec)
@@ -188,6 +205,57 @@ class RecorderNode(Node):
         for field, ns in (("first_tick", first), ("last_tick", last)):
             getattr(msg, field).sec, getattr(msg, field).nanosec = divmod(ns or 0, 1_000_000_000)
         self.status_pub.publish(msg)
+
+    def status_tick(self) -> None:
+        """Every STATUS_PERIOD_S while recording: finish a recording a write error ended, say
+        when a required topic falls silent or comes back, publish the status."""
+        rec = self.rec
+        if rec is None:
+            return
+        if rec.error:
+            self._end()
+            return
+        for topic in self.required:
+            age = self._silent_for(topic)
+            if age >= SILENT_S and topic not in self.silent:
+                self.silent.add(topic)
+                self.get_logger().warning(f"no message on {topic} for {age:.1f} s: source stopped or gone? "
+                                          "What arrived is kept; the recording goes on")
+            elif age < SILENT_S and topic in self.silent:
+                self.silent.discard(topic)
+                self.get_logger().info(f"{topic} is back")
+        self.publish_status()
+
+    def _silent_for(self, topic: str) -> float:
+        """Seconds the intake has been taking without a message of ``topic`` (since the recording
+        started); counted on the intake's clock, so that a recorder that was itself stalled
+        (SIGSTOP, starved of CPU) does not take the backlog it has not taken yet for silence."""
+        return self.taker.last_take - max(self.heard.get(topic, 0.0), self.started_at)
+
+    def _status_text(self) -> str:
+        text = self.last["message"]
+        if self.rec is not None and self.silent:
+            ages = ", ".join(f"{t} for {self._silent_for(t):.1f} s" for t in sorted(self.silent))
+            text += f"; no message on {ages} (source stopped or gone?); what arrived is kept"
+        return text
+
+    def recover_left_open(self, output_dir: str) -> None:
+        """Reindex the bags a killed recorder left open in ``output_dir`` (once per folder), so
+        that every tool reads them whole; one log line each."""
+        folder = Path(output_dir).expanduser().resolve()
+        if folder in self.checked_dirs:
+            return
+        self.checked_dirs.add(folder)
+        for bag in bags.left_open(folder):
+            try:
+                result = bags.reindex(bag)
+            except BagError as exc:
+                self.get_logger().warning(f"{bag} was left open (recorder killed?) and could not be reindexed: {exc}")
+                continue
+            kept = sum(f.messages for f in result.files)
+            lost = "; ".join(f"{f.path.name} lost: {f.lost}" for f in result.files if not f.closed)
+            self.get_logger().warning(f"{bag} was left open (recorder killed?): reindexed: {kept} messages "
+                                      f"kept; {lost}; originals kept as *.mcap.orig")
 
     def _ticks(self, rec: Recording) -> tuple[int, int, int | None, int | None]:
         """(written, missing, first stamp, last stamp) of the joint states of a recording."""
@@ -203,11 +271,12 @@ class RecorderNode(Node):
     def on_start(self, req: Any, res: Any) -> Any:
         res.success = False
         if self.rec is not None and self.rec.error:  # ended by a write error: finish it first
-            self.on_stop(None, Trigger.Response())
+            self._end()
         if self.rec is not None:
             res.message = f"already recording to {self.rec.writer.path}; call stop first"
             return res
         p = self.p
+        self.recover_left_open(p["output_dir"])
         try:
             tags = bags.BagTags.checked(req.condition, req.payload_mass)
             writer = open_bag(p["output_dir"], req.name, tags, p["compression"], p["chunk_duration"],
@@ -225,7 +294,7 @@ class RecorderNode(Node):
         for topic in self.subs:  # topics already published; the others at their first message
             if self.count_publishers(topic):
                 self._register(rec, topic)
-        self.rec = rec
+        self.rec, self.ended, self.silent, self.started_at = rec, "", set(), time.monotonic()
         res.success, res.bag_path = True, str(writer.path)
         res.message = f"recording {tags.condition} ({tags.payload_mass:g} kg) to {writer.path}"
         self.last = {"condition": tags.condition, "payload_mass": float(tags.payload_mass),
@@ -235,25 +304,43 @@ class RecorderNode(Node):
         return res
 
     def on_stop(self, req: Any, res: Any) -> Any:
-        rec, self.rec = self.rec, None
-        if rec is None:
-            res.success, res.message = False, "not recording"
+        if self.rec is None:
+            res.success = False
+            res.message = "not recording" + (f" (the last recording ended: {self.ended})" if self.ended else "")
             return res
-        res.message = rec.stop()
-        js = self._ticks_topic()
-        written = rec.writer.counts.get(js, 0)
-        res.success = not rec.error and written > 0
-        if not rec.error and not written:
-            res.message = (f"nothing recorded on {js} (no publisher, or one whose QoS does not match); "
-                           f"{rec.writer.path} holds no data")
-        self.last_ticks = self._ticks(rec)
-        self.last["message"] = res.message
-        (self.get_logger().info if res.success else self.get_logger().error)(res.message)
-        self.publish_status()
+        res.success, res.message = self._end()
         return res
 
+    def _end(self) -> tuple[bool, str]:
+        """Finish the recording: everything the intake holds is handed over (at most STOP_DRAIN_S),
+        the writer writes its queue and closes the bag. (success, the summary or the reason)."""
+        drained = self.taker.drain(STOP_DRAIN_S)
+        rec, self.rec = self.rec, None
+        assert rec is not None
+        message = rec.stop()
+        js = self._ticks_topic()
+        written = rec.writer.counts.get(js, 0)
+        success = not rec.error and written > 0
+        if not rec.error and not written:
+            message = (f"nothing recorded on {js} (no publisher, or one whose QoS does not match); "
+                       f"{rec.writer.path} holds no data")
+        if not drained:
+            message += (f"; the intake did not hand over what it held within {STOP_DRAIN_S:g} s: the last "
+                        "messages received may be missing")
+        self.ended = message if rec.error else ""
+        self.last_ticks = self._ticks(rec)
+        self.last["message"] = message
+        if success:
+            self.get_logger().info(message)
+        else:  # one severity per call site: rclpy refuses a call site that changes it (issue 26)
+            self.get_logger().error(message)
+        self.publish_status()
+        return success, message
+
     def close(self) -> None:
-        """Close the bag properly (called on SIGINT/SIGTERM and at exit)."""
+        """Close the bag properly, with what arrived (called on SIGINT/SIGTERM and at exit)."""
+        if self.rec is not None:
+            self.taker.drain(STOP_DRAIN_S)
         self.taker.close()
         rec, self.rec = self.rec, None
         if rec is not None:

@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import os
 import shutil
-import subprocess
 import sys
 from pathlib import Path
 
@@ -14,6 +13,7 @@ import numpy as np
 import pytest
 
 from orthoglide_ident import bags
+from orthoglide_ident.nodes import _processes as children  # children end with this process
 
 T0 = 1_700_000_000_000_000_000
 
@@ -21,7 +21,7 @@ T0 = 1_700_000_000_000_000_000
 def _mcap_cli() -> str:
     for cand in (shutil.which("mcap"), os.path.join(sys.prefix, "bin", "mcap")):
         if cand and os.access(cand, os.X_OK):
-            out = subprocess.run([cand, "--version"], capture_output=True, text=True)
+            out = children.run([cand, "--version"], capture_output=True, text=True)
             if out.returncode == 0 and "mcap" in out.stdout:
                 return cand
     pytest.skip("the mcap CLI is not installed")
@@ -39,7 +39,7 @@ def bag(tmp_path_factory: pytest.TempPathFactory) -> Path:
 def test_doctor_strict_message_order(bag: Path) -> None:
     mcap = _mcap_cli()
     (f,) = bag.glob("*.mcap")
-    done = subprocess.run([mcap, "doctor", "--strict-message-order", str(f)],
+    done = children.run([mcap, "doctor", "--strict-message-order", str(f)],
                           capture_output=True, text=True, timeout=60)
     assert done.returncode == 0, done.stderr
 
@@ -50,8 +50,8 @@ def test_recover_keeps_the_start_time(bag: Path, tmp_path: Path) -> None:
     cut = tmp_path / "cut.mcap"
     cut.write_bytes(f.read_bytes()[: f.stat().st_size * 2 // 3])
     out = tmp_path / "recovered.mcap"
-    subprocess.run([mcap, "recover", str(cut), "-o", str(out)], capture_output=True, timeout=60)
-    info = subprocess.run([mcap, "info", str(out)], capture_output=True, text=True, timeout=60)
+    children.run([mcap, "recover", str(cut), "-o", str(out)], capture_output=True, timeout=60)
+    info = children.run([mcap, "info", str(out)], capture_output=True, text=True, timeout=60)
     fields = {ln.split(":")[0]: ln.split(":", 1)[1].strip() for ln in info.stdout.splitlines()
               if ":" in ln and not ln.startswith("\t")}
     assert fields["start"].split("(")[-1].rstrip(")") == f"{T0 // 10**9}.000000000"

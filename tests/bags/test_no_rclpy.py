@@ -4,8 +4,9 @@ whose import system refuses rclpy; then the CLI runs."""
 
 from __future__ import annotations
 
-import subprocess
 import sys
+
+from orthoglide_ident.nodes import _processes as children  # children end with this process
 
 CODE = r"""
 import sys
@@ -45,7 +46,7 @@ sys.exit(main(["model", "--base-parameters"]))
 
 
 def test_core_imports_without_rclpy() -> None:
-    done = subprocess.run([sys.executable, "-c", CODE], capture_output=True, text=True,
+    done = children.run([sys.executable, "-c", CODE], capture_output=True, text=True,
                           timeout=300)
     assert done.returncode == 0, done.stderr[-2000:]
     assert "rclpy" not in done.stderr

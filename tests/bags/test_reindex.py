@@ -19,6 +19,7 @@ from rosbags.highlevel import AnyReaderError
 
 from orthoglide_ident import bags
 from orthoglide_ident.errors import BagError
+from orthoglide_ident.nodes import _processes as children  # children end with this process
 
 NAMES = ("q11", "q12", "q13")
 T0 = 1_700_000_000_000_000_000
@@ -140,7 +141,7 @@ def test_reindex_bad_input(tmp_path: Path) -> None:
 
 
 def _cli(*args: str, stdout: int = subprocess.PIPE) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "orthoglide_ident.cli", *args], stdout=stdout,
+    return children.run([sys.executable, "-m", "orthoglide_ident.cli", *args], stdout=stdout,
                           stderr=subprocess.PIPE, text=True, timeout=120)
 
 

@@ -10,6 +10,8 @@ import time
 import numpy as np
 import pytest
 
+from orthoglide_ident.nodes import _processes as children  # children end with this process
+
 
 def test_ctc_help_does_not_start_ros(capsys):
     from orthoglide_ident.nodes.ctc import main
@@ -23,7 +25,7 @@ def test_ctc_help_does_not_start_ros(capsys):
 
 
 def test_ctc_help_from_the_command_line():
-    out = subprocess.run([sys.executable, "-m", "orthoglide_ident.nodes.ctc", "--help"], capture_output=True,
+    out = children.run([sys.executable, "-m", "orthoglide_ident.nodes.ctc", "--help"], capture_output=True,
                          text=True, timeout=60)
     assert out.returncode == 0 and out.stdout.startswith("usage:")
 
@@ -54,7 +56,7 @@ class _CTCRun:
         from orthoglide_msgs.msg import CurrentReference, IdentifiedParameters, JointSetpoint
 
         self.rclpy = rclpy
-        self.proc = subprocess.Popen([sys.executable, "-m", "orthoglide_ident.nodes.ctc", "--ros-args", *args],
+        self.proc = children.popen([sys.executable, "-m", "orthoglide_ident.nodes.ctc", "--ros-args", *args],
                                      env=ros_env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
         self.lines: list[str] = []
         threading.Thread(target=lambda: self.lines.extend(iter(self.proc.stdout.readline, "")),
@@ -75,6 +77,16 @@ class _CTCRun:
         t_end = time.monotonic() + seconds
         while time.monotonic() < t_end:
             self.rclpy.spin_once(self.node, timeout_sec=0.01)
+
+    def spin_until(self, done, timeout: float, what: str) -> None:
+        """Spin until ``done()`` (no fixed waits: DDS discovery and delivery take what they take)."""
+        t_end = time.monotonic() + timeout
+        while not done():
+            assert time.monotonic() < t_end and self.proc.poll() is None, f"{what}; output:\n" + "".join(self.lines)
+            self.rclpy.spin_once(self.node, timeout_sec=0.01)
+
+    def said(self, text: str) -> int:
+        return sum(text in line for line in self.lines)
 
     def start(self) -> None:
         """Until the node is up and subscribed to the setpoints."""
@@ -136,7 +148,7 @@ def test_ctc_node_waits_for_parameters_then_feeds_forward(ros_env):
         run.publish_parameters(p, [float(v) for v in p.chi_b])
         run.wait_for("parameters in", 30)
         publish_setpoints(10, 30)
-        run.spin(1.0)
+        run.spin_until(lambda: set(range(10, 35)) <= {(s - t0) // 10**6 for s in got}, 30, "not fed")
     finally:
         run.close()
     # every tick from the parameters on is fed (setpoints kept from before them too, when their
@@ -152,7 +164,7 @@ def test_ctc_node_waits_for_parameters_then_feeds_forward(ros_env):
                                           (["-p", "payload_mass:=heavy"], "parameter payload_mass: expected float")])
 def test_ctc_node_bad_parameter_is_a_one_line_error(ros_env, args, reason):
     pytest.importorskip("rclpy")
-    out = subprocess.run([sys.executable, "-m", "orthoglide_ident.nodes.ctc", "--ros-args", *args],
+    out = children.run([sys.executable, "-m", "orthoglide_ident.nodes.ctc", "--ros-args", *args],
                          env=ros_env, capture_output=True, text=True, timeout=60)
     assert out.returncode == 2, out.stderr
     assert reason in out.stderr and "Traceback" not in out.stderr
@@ -173,23 +185,25 @@ def test_ctc_node_clips_to_the_current_limit_and_stops_on_nan(ros_env):
                   lambda m: got.append(list(m.current)))
     ref = get_trajectory("test2").evaluate(np.arange(60) * 1e-3)
 
-    def publish(values: list[float], first: int, qdd_scale: float = 1.0) -> None:
+    def publish(values: list[float], first: int, answer: str, fed: int, qdd_scale: float = 1.0) -> None:
+        """The parameters, until the node answers them (in or rejected), then 20 setpoints, until
+        ``fed`` feed-forwards arrived."""
+        before = run.said(answer)
         run.publish_parameters(p, values)
-        run.spin(0.5)
+        run.spin_until(lambda: run.said(answer) > before, 30, f"the node never logged {answer!r}")
         for k in range(first, first + 20):
             run.publish_setpoint(ref, k, 10**11 + k * 10**6, qdd_scale=qdd_scale)
-        run.spin(1.0)
+        run.spin_until(lambda: len(got) >= fed, 30, f"{len(got)} of {fed} feed-forwards")
 
     try:
         run.start()
-        publish([1000.0 * float(v) for v in p.chi_b], 0)
+        publish([1000.0 * float(v) for v in p.chi_b], 0, "parameters in", 15)
         run.wait_for("clipped", 10)
-        assert len(got) >= 15 and np.max(np.abs(got)) == pytest.approx(0.5), got
-        publish([float("nan")] * len(p.names), 20)
-        run.wait_for("rejected, keeping the previous ones", 10)
+        assert np.max(np.abs(got)) == pytest.approx(0.5), got
+        publish([float("nan")] * len(p.names), 20, "rejected, keeping the previous ones", 35)
         n = len(got)
-        assert n >= 35 and np.max(np.abs(got)) == pytest.approx(0.5)  # still fed, with the old ones
-        publish([1000.0 * float(v) for v in p.chi_b], 40, qdd_scale=float("nan"))
+        assert np.max(np.abs(got)) == pytest.approx(0.5)  # still fed, with the old ones
+        publish([1000.0 * float(v) for v in p.chi_b], 40, "parameters in", 0, qdd_scale=float("nan"))
         run.wait_for("stopped: non-finite feed-forward", 10)
         assert len(got) <= n + 1 and run.proc.poll() is None  # the tick held back before the NaN, at most
     finally:
@@ -221,3 +235,49 @@ def test_ctc_node_with_consistent_uses_the_consistent_set_only(ros_env):
         run.wait_for("parameters in (tls consistent)", 30)
     finally:
         run.close()
+
+
+def test_ctc_node_refuses_a_model_that_does_not_fit_and_keeps_the_old_one(ros_env):
+    """Parameters of another robot's model (names the Orthoglide's base model does not have), then
+    drive gains for two joints: each refused with the reason in the log, and the feed-forward
+    goes on from the model in use, to the last digit."""
+    pytest.importorskip("rclpy")
+    pytest.importorskip("orthoglide_msgs.msg")
+    from orthoglide_ident.control import feedforward_currents
+    from orthoglide_msgs.msg import IdentifiedParameters
+    from orthoglide_sim.trajectories import get_trajectory
+    from test_control import true_params
+
+    p = true_params()
+    got: dict[int, list[float]] = {}
+    run = _CTCRun(ros_env, ["-p", "batch:=2"], "test_ctc_unfit", lambda m: got.__setitem__(_stamp(m), list(m.current)))
+    ref = get_trajectory("test2").evaluate(np.arange(70) * 1e-3)
+    t0 = 100 * 10**9
+    try:
+        run.start()
+        run.publish_parameters(p, [float(v) for v in p.chi_b])
+        run.spin_until(lambda: run.said("parameters in"), 30, "no parameters in")
+        for k in range(0, 20):
+            run.publish_setpoint(ref, k, t0 + k * 10**6)
+        other_robot = IdentifiedParameters(names=["m_shoulder_link", "zz_upper_arm_link"], values=[3.7, 0.1],
+                                           drive_gains=[13.0] * 6, payload_mass=1.0)
+        run.pub_par.publish(other_robot)
+        run.spin_until(lambda: run.said("rejected, keeping the previous ones: unknown base parameter name(s) "
+                                        "m_shoulder_link"), 30, "the other robot's model was not refused")
+        for k in range(20, 40):
+            run.publish_setpoint(ref, k, t0 + k * 10**6)
+        two_gains = IdentifiedParameters(names=list(p.names), values=[float(v) for v in p.chi_b],
+                                         drive_gains=[2100.0, 2100.0], payload_mass=1.983)
+        run.pub_par.publish(two_gains)
+        run.spin_until(lambda: run.said("drive_gains must be 3 positive numbers"), 30, "two gains not refused")
+        for k in range(40, 60):
+            run.publish_setpoint(ref, k, t0 + k * 10**6)
+        run.spin_until(lambda: set(range(55)) <= {(s - t0) // 10**6 for s in got}, 30, "feed-forward stopped")
+    finally:
+        run.close()
+    expected = feedforward_currents(*ref, p)
+    ticks = sorted((s - t0) // 10**6 for s in got)
+    assert set(range(0, 55)) <= set(ticks), (ticks, "".join(run.lines))
+    for k in ticks:
+        np.testing.assert_allclose(got[t0 + k * 10**6], expected[k], rtol=1e-9)
+    assert run.proc.returncode == 0

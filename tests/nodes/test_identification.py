@@ -2,13 +2,14 @@
 from __future__ import annotations
 
 import os
-import subprocess
 import sys
 import threading
 import time
 from pathlib import Path
 
 import pytest
+
+from orthoglide_ident.nodes import _processes as children  # children end with this process
 
 ROOT = Path(__file__).resolve().parents[2]
 BAGS = ROOT / "bags"
@@ -157,7 +158,7 @@ def test_a_call_while_busy_is_refused_at_once(node, client):
 
 
 def test_help_needs_no_ros():
-    out = subprocess.run([sys.executable, "-c", NODE, "--help"], capture_output=True, text=True, timeout=30)
+    out = children.run([sys.executable, "-c", NODE, "--help"], capture_output=True, text=True, timeout=30)
     assert out.returncode == 0 and out.stdout.startswith("usage:") and "orthoglide/identify" in out.stdout and "orthoglide/identification/live" in out.stdout
 
 
@@ -255,3 +256,25 @@ def test_option_changes_with_a_wrong_type_or_value_are_refused_with_a_reason(nod
     on = set_one("lag_model", type=ParameterType.PARAMETER_BOOL, bool_value=True)
     assert not on.successful and "lag_model must be 'auto' or 'off'" in on.reason
     assert set_one("lag_model", type=ParameterType.PARAMETER_STRING, string_value="auto").successful
+
+
+def test_a_bag_deleted_before_it_is_read_and_a_restart_without_live_data(node, client, tmp_path):
+    """A bag removed between the user's listing and the read (its folder, or its .mcap files): a
+    one-line reason, success false, and the node serves the next call. A node restarted (its live
+    data gone) asked with no bag identifies from the recordings in bag_dir and says so."""
+    import shutil
+
+    n, cli = client
+    for name in ("unloaded", "loaded"):
+        shutil.copytree(BAGS / name, tmp_path / name)
+    pair = [str(tmp_path / "unloaded"), str(tmp_path / "loaded")]
+    for f in (tmp_path / "loaded").glob("*.mcap"):
+        f.unlink()
+    res = call(n, cli, bags=pair)
+    assert not res.success and res.message == f"{pair[1]}: files listed in metadata.yaml are missing: loaded_0.mcap"
+    shutil.rmtree(tmp_path / "loaded")
+    res = call(n, cli, bags=pair)
+    assert not res.success and res.message.startswith(f"{pair[1]}: no such bag")
+    res = call(n, cli)  # no bag named, no live data since this node started: bag_dir's recordings
+    assert res.success and res.message.endswith("; from 2 bag(s) of bag_dir (no live data)"), res.message
+    assert node.poll() is None

@@ -83,3 +83,36 @@ def test_recording_ends_when_every_topic_delivered_its_last_tick():
     finally:
         node.destroy_node()
         rclpy.shutdown()
+
+
+def test_a_recorder_killed_and_restarted_ends_the_recording_it_left():
+    """The recorder killed mid-recording never says "stopped"; the one that replaces it says "idle":
+    the live recording ends at the last tick received, with a warning, instead of staying open."""
+    from sensor_msgs.msg import JointState
+
+    from orthoglide_ident.nodes.live_feed import LiveFeed
+    from orthoglide_msgs.msg import CurrentReference, RecorderStatus
+
+    rclpy.init()
+    node = rclpy.create_node("test_live_feed_restart")
+    try:
+        spy = _Spy()
+        feed = LiveFeed(node, spy, threading.Lock())
+        t0 = 10**12
+        status = RecorderStatus(recording=True, condition="unloaded", bag_path="/bags/killed")
+        status.first_tick.sec, status.first_tick.nanosec = divmod(t0, 10**9)
+        feed.on_status(status)
+        for k in range(50):
+            feed.buffers["q"].append(_raw(JointState, t0 + k * 10**6))
+            feed.buffers["v"].append(_raw(CurrentReference, t0 + k * 10**6))
+        feed.feed()
+        feed.on_status(RecorderStatus(recording=False, bag_path="", message="idle"))  # the new recorder
+        feed.feed()
+        assert spy.stopped and feed.bag is None
+        want = [t0 + k * 10**6 for k in range(50)]
+        assert spy.stamps["q"] == want and spy.stamps["v"] == want
+        assert any("restarted without stopping it" in w for w in feed.warnings)
+        feed.close()
+    finally:
+        node.destroy_node()
+        rclpy.shutdown()

@@ -9,10 +9,13 @@ from __future__ import annotations
 
 import subprocess
 import sys
+import threading
 import time
 from pathlib import Path
 
 import pytest
+
+from orthoglide_ident.nodes import _processes as children  # children end with this process
 
 rclpy = pytest.importorskip("rclpy")
 pytest.importorskip("orthoglide_msgs.msg")
@@ -77,7 +80,7 @@ def test_parameter_types_are_lenient_and_bad_values_are_one_line(ros_env):
         args = [sys.executable, "-m", module, "--ros-args"]
         for p in params:
             args += ["-p", p]
-        return subprocess.run(args, env=ros_env, capture_output=True, text=True, timeout=60)
+        return children.run(args, env=ros_env, capture_output=True, text=True, timeout=60)
 
     ok = run("orthoglide_sim.driver_node", "duration:=1", "realtime:=false", "payload:=2")  # ints for floats
     assert ok.returncode == 0 and "1000 ticks" in ok.stderr, ok.stderr
@@ -143,3 +146,52 @@ def test_namespace_moves_the_recorder_and_empty_or_refused_recordings_fail(spawn
     res = _call(node, stop, Trigger.Request())
     assert not res.success and "nothing recorded on /robot2/orthoglide/joint_states" in res.message
     assert rec.poll() is None
+
+
+BAD_PARAMETER_FILES = [
+    ("/**:\n  ros__parameters:\n    decimation: [1, 2\n", "is not valid YAML (line 4)"),
+    ("just a line of text\n", "is not a ROS 2 parameter file"),
+    ("orthoglide_ctc:\n  decimation: 5\n", "is not a ROS 2 parameter file"),
+    (None, "cannot read parameter file"),
+]
+
+
+@pytest.mark.parametrize("module", ["orthoglide_ident.nodes.identification", "orthoglide_ident.nodes.ctc"])
+@pytest.mark.parametrize("text, reason", BAD_PARAMETER_FILES)
+def test_a_bad_parameter_file_is_one_line_and_exit_2(ros_env, tmp_path, module, text, reason):
+    """What rcl refused with a traceback (broken YAML, a missing file) or ignored silently (not a
+    parameter file at all): one line naming the file, exit 2."""
+    f = tmp_path / "params.yaml"
+    if text is not None:
+        f.write_text(text)
+    out = children.run([sys.executable, "-m", module, "--ros-args", "--params-file", str(f)], env=ros_env,
+                       capture_output=True, text=True, timeout=60)
+    assert out.returncode == 2, out.stderr
+    assert reason in out.stderr and str(f) in out.stderr, out.stderr
+    assert len(out.stderr.strip().splitlines()) == 1 and "Traceback" not in out.stderr
+
+
+def test_a_parameter_file_with_a_bad_value_or_a_typo(ros_env, tmp_path):
+    """A bad value stops the node with the parameter's reason; a name the node does not have (a
+    typo) is warned about and the node runs."""
+    f = tmp_path / "identification.yaml"
+    f.write_text("/**:\n  ros__parameters:\n    decimation: -3\n")
+    out = children.run([sys.executable, "-m", "orthoglide_ident.nodes.identification", "--ros-args",
+                        "--params-file", str(f)], env=ros_env, capture_output=True, text=True, timeout=60)
+    assert out.returncode == 2 and "decimation" in out.stderr and "Traceback" not in out.stderr, out.stderr
+    f.write_text("/**:\n  ros__parameters:\n    batch: 5\n    curent_limit: [0.5, 0.5, 0.5]\n")
+    proc = children.popen([sys.executable, "-m", "orthoglide_ident.nodes.ctc", "--ros-args", "--params-file",
+                           str(f)], env=ros_env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    watchdog = threading.Timer(60, proc.terminate)  # the line never coming must not hang the test
+    watchdog.start()
+    try:
+        lines = []
+        for line in proc.stdout:
+            lines.append(line)
+            if "ignored parameter" in line:
+                break
+        assert "ignored parameter(s) this node does not have: curent_limit (a typo?" in lines[-1], lines
+    finally:
+        watchdog.cancel()
+        proc.terminate()
+        assert proc.wait(30) == 0

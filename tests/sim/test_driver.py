@@ -15,6 +15,7 @@ import pytest
 from orthoglide_ident.errors import ConfigError
 from orthoglide_sim.session import DriverSession
 from orthoglide_sim.trajectories import Q_CENTER, Q_HALF, get_trajectory
+from orthoglide_ident.nodes import _processes as children  # children end with this process
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "bench"))  # the bench's outside controller
 
@@ -122,7 +123,7 @@ def test_driver_node_first_tick_stamps_and_setpoints(ros_env):
                              lambda m: diag.extend({kv.key: kv.value for kv in st.values} for st in m.status
                                                    if st.hardware_id == "orthoglide_sim"), 10)
     t0 = time.monotonic()
-    proc = subprocess.Popen([sys.executable, "-m", "orthoglide_sim.driver_node", "--ros-args",
+    proc = children.popen([sys.executable, "-m", "orthoglide_sim.driver_node", "--ros-args",
                              "-p", "realtime:=false", "-p", "duration:=3.0", "-p", "trajectory:=test1",
                              "-p", "controller:=pid", "-p", "payload:=1.983", "-p", "setpoint_lead:=20"],
                             env=ros_env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
@@ -173,7 +174,7 @@ def test_external_mode_lockstep_applies_each_command_at_its_tick(ros_env):
     ex = SingleThreadedExecutor()
     ex.add_node(node)
     threading.Thread(target=ex.spin, daemon=True).start()
-    proc = subprocess.Popen([sys.executable, "-m", "orthoglide_sim.driver_node", "--ros-args",
+    proc = children.popen([sys.executable, "-m", "orthoglide_sim.driver_node", "--ros-args",
                              "-p", "realtime:=false", "-p", "duration:=1.5", "-p", "controller:=external",
                              "-p", "trajectory:=test1"],
                             env=ros_env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
