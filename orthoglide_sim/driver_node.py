@@ -18,9 +18,10 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Header
 from std_srvs.srv import Trigger
 
+from orthoglide_ident.errors import OrthoglideError
 from orthoglide_ident.model.geometry import JOINT_NAMES
 from orthoglide_ident.nodes._batch import BatchTaker, BatchTopic
-from orthoglide_ident.nodes._params import Param, declare, on_set, usage
+from orthoglide_ident.nodes._params import Param, declare, from_command_line, on_set, usage
 from orthoglide_ident.nodes._spin import spin
 from orthoglide_msgs.msg import CurrentReference, JointSetpoint
 from orthoglide_sim.session import DriverSession
@@ -45,6 +46,8 @@ robot drivers do): ticks, late ticks, current-limited ticks, fresh and missing f
 commands applied and ticks without one, the fault if any."""
 
 PARAMETERS = (
+    Param("robot", "", "empty or orthoglide: this driver; another robot (ur5, a robot YAML or a URDF): the "
+          "ros2_control stand-in instead (ros2 run orthoglide_ident driver --ros-args -p robot:=ur5 --help)"),
     Param("payload", "none", "payload on the platform: none, 1.983, 1.136 or a mass in kg; set it while "
           "running to mount or remove one", dynamic=True, any_type=True),
     Param("trajectory", "exciting", "reference: exciting, exciting2, test1, test2 or a .json Fourier file; a "
@@ -365,6 +368,15 @@ class Driver(Node):
 
 def main(argv: list[str] | None = None) -> int:
     argv = sys.argv if argv is None else argv
+    try:
+        robot = from_command_line(argv, "robot", ("orthoglide_driver", "ros2_control_standin"))
+    except OrthoglideError as e:
+        print(f"driver: {e}", file=sys.stderr)
+        return 2
+    if str(robot or "").strip() not in ("", "orthoglide"):  # another robot: ros2_control's topics
+        from orthoglide_sim import ros2_control_node
+
+        return ros2_control_node.main(argv)
     if "-h" in argv or "--help" in argv:
         print(_usage())
         return 0

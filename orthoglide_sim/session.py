@@ -68,8 +68,9 @@ class Reference:
 
     CACHE_TICKS = 256  # single ticks are served from blocks evaluated at once (a few us per tick)
 
-    def __init__(self, name: str):
-        self._chain = [(0, get_trajectory(name), name)]  # (first tick, trajectory, name)
+    def __init__(self, name: str, resolve=get_trajectory):
+        self._resolve = resolve  # name -> trajectory with .evaluate(t); another robot's designs
+        self._chain = [(0, resolve(name), name)]  # (first tick, trajectory, name)
         self._cache: dict[int, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
 
     @property
@@ -77,7 +78,7 @@ class Reference:
         return self._chain[-1][2]
 
     def switch(self, name: str, k: int) -> None:
-        traj = get_trajectory(name)  # ConfigError on an unknown name
+        traj = self._resolve(name)  # ConfigError on an unknown name
         if len(self._chain) > 1:
             k1 = self._chain[-1][0] + round(BLEND_TIME / sm.TICK)
             raise ConfigError(f"trajectory {self.name} is still blending in until tick {k1}; switch again "

@@ -52,7 +52,7 @@ from .reader import (
 )
 from .reindex import FileReport, ReindexResult, left_open, reindex
 from .sources import BagSources, Source
-from ._encode import encode_dynamic_joint_states, encode_joint_states, encode_messages
+from ._encode import MessageTemplate, encode_dynamic_joint_states, encode_joint_states, encode_messages
 from .writer import LAYOUTS, BagWriter, write_bag
 
 __all__ = [
@@ -71,6 +71,7 @@ __all__ = [
     "JTC_STATE_TYPE",
     "LAYOUTS",
     "MASS_KEY",
+    "MessageTemplate",
     "METADATA_NAME",
     "POSITION_SOURCE_KEY",
     "ROS2_CONTROL_JOINT_STATES_TOPIC",

@@ -8,6 +8,7 @@ written in as numpy columns. The bytes are those rosbags (and rclpy) would produ
 from __future__ import annotations
 
 import functools
+import struct
 from collections.abc import Mapping, Sequence
 
 import numpy as np
@@ -17,6 +18,8 @@ from orthoglide_ident.errors import DataError
 from . import _cdr
 from ._cdr import JOINT_STATE_FIELDS
 from ._types import CURRENT_REFERENCE_TYPE, DYNAMIC_JOINT_STATE_TYPE, JOINT_STATE_TYPE, typestore
+
+_STAMP = struct.Struct("<iI")  # header.stamp after the 4-byte encapsulation
 
 
 @functools.lru_cache(maxsize=64)
@@ -112,3 +115,36 @@ def encode_dynamic_joint_states(names: Sequence[str], interfaces: Sequence[Seque
         raise DataError(f"no values for interface {missing[0][1]!r} of joint {missing[0][0]!r}")
     shape = tuple(tuple(i) for i in interfaces)
     return _encode(DYNAMIC_JOINT_STATE_TYPE, names, shape, stamps_ns, columns)
+
+
+class MessageTemplate:
+    """One joint-state message shape, for encoding single messages fast (a publisher's tick:
+    a few µs instead of the ~100 µs of building and serialising the message).
+
+    ``columns`` are the (joint, field) of the values in the order :meth:`encode` takes them;
+    the bytes equal :func:`encode_joint_states` / :func:`encode_dynamic_joint_states`'."""
+
+    def __init__(self, msgtype: str, names: Sequence[str], shape: tuple) -> None:
+        self._tpl, lay = _template(msgtype, tuple(names), shape)
+        self.columns = lay.columns
+        self._idx = (lay.offsets[:, None] + np.arange(8)).reshape(-1)
+
+    @classmethod
+    def joint_state(cls, names: Sequence[str], fields: Sequence[str] = JOINT_STATE_FIELDS
+                    ) -> "MessageTemplate":
+        return cls(JOINT_STATE_TYPE, names, tuple(fields))
+
+    @classmethod
+    def dynamic_joint_state(cls, names: Sequence[str], interfaces: Sequence[Sequence[str]]
+                            ) -> "MessageTemplate":
+        if len(interfaces) != len(names):
+            raise DataError(f"{len(names)} joints but {len(interfaces)} interface lists")
+        return cls(DYNAMIC_JOINT_STATE_TYPE, names, tuple(tuple(i) for i in interfaces))
+
+    def encode(self, stamp_ns: int, values: np.ndarray) -> bytes:
+        """CDR bytes of the message stamped ``stamp_ns`` with ``values`` (len(columns),)."""
+        out = self._tpl.copy()
+        sec, nsec = divmod(int(stamp_ns), 1_000_000_000)
+        out[4:12] = np.frombuffer(_STAMP.pack(sec, nsec), np.uint8)
+        out[self._idx] = np.asarray(values, "<f8").view(np.uint8)
+        return out.tobytes()

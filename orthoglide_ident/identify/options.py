@@ -17,6 +17,11 @@ from orthoglide_ident.errors import ConfigError
 from orthoglide_ident.identify.tls import ExcitationLimits
 
 
+# keys of config/identification.yaml that are the node's or a request's, not pipeline options
+NODE_KEYS = ("method", "essential", "payload_mass", "gains", "bags", "robot", "joint_states_topic",
+             "dynamic_joint_states_topic", "current_reference_topic")
+
+
 @dataclass
 class IdentifyOptions:
     """Tuning of the pipeline; units in the names (Hz, s, m/s, kg, N/A). A joint-space unit
@@ -127,8 +132,8 @@ class IdentifyOptions:
         for key, value in data.items():
             k = str(key).replace("-", "_")
             if k not in known:
-                if k in ("method", "essential", "payload_mass", "gains", "bags", "robot"):
-                    continue  # request keys shared with the node's parameters
+                if k in NODE_KEYS:
+                    continue  # request keys and node parameters in the same YAML file
                 raise ConfigError(f"{source}: unknown option {key!r}; known: {', '.join(known)}")
             default = getattr(base, k)
             try:

@@ -119,3 +119,43 @@ def _pinocchio(data: dict[str, Any], base_dir: Path) -> RobotModel:
     except ImportError as exc:  # the general model lands in its own step
         raise ConfigError(f"the general (Pinocchio) robot model is not available: {exc}") from None
     return PinocchioRobot.from_description(data, base_dir)
+
+
+def description_cache() -> Path:
+    """Where URDFs received as text are kept as files ($XDG_CACHE_HOME/orthoglide_ident)."""
+    import os
+
+    root = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
+    return Path(root) / "orthoglide_ident" / "robot_description"
+
+
+def load_robot_description(urdf: str, cache_dir: Path | None = None) -> RobotModel:
+    """The RobotModel of a URDF given as text (the ``robot_description`` topic): written once to
+    ``<cache_dir>/<sha256 of the text>.urdf`` and loaded as a bare URDF (every movable joint
+    actuated, nominal gains 1); the same text gives the same model without loading it again.
+    ConfigError with a one-line reason if it is not a URDF."""
+    import hashlib
+    import xml.etree.ElementTree as ET
+
+    try:
+        root = ET.fromstring(urdf)
+    except ET.ParseError as exc:
+        raise ConfigError(f"robot_description is not valid XML ({exc})") from None
+    if root.tag != "robot":
+        raise ConfigError(f"robot_description is not a URDF (root element <{root.tag}>, not <robot>)")
+    folder = cache_dir or description_cache()
+    path = folder / f"{hashlib.sha256(urdf.encode()).hexdigest()[:32]}.urdf"
+    if not path.exists():
+        try:
+            folder.mkdir(parents=True, exist_ok=True)
+            tmp = path.with_suffix(".tmp")
+            tmp.write_text(urdf)
+            tmp.replace(path)  # whole or not at all: another process may read it
+        except OSError as exc:
+            raise ConfigError(f"cannot keep robot_description in {folder}: {exc.strerror}") from None
+    return _load_description(str(path), root.get("name") or "robot_description")
+
+
+@functools.lru_cache(maxsize=4)
+def _load_description(path: str, name: str) -> RobotModel:
+    return _pinocchio({"description": Path(path).name, "name": name}, Path(path).parent)

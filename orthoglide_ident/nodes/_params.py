@@ -135,3 +135,39 @@ def on_set(node: Any, table: Iterable[Param], apply: Callable[[Mapping[str, Any]
         return SetParametersResult(successful=True)
 
     node.add_on_set_parameters_callback(callback)
+
+
+def from_command_line(argv: list[str], name: str, nodes: Iterable[str]) -> Any:
+    """The value the command line gives parameter ``name`` before the node exists (which node to
+    build: the driver's ``robot``): ``-p/--param NAME:=VALUE`` after ``--ros-args``, else a
+    ``--params-file`` entry under ``/**`` or one of the node names ``nodes`` (or the name
+    ``-r __node:=`` gives; the last file that has it wins); None when not given. ConfigError for
+    a params file that cannot be read."""
+    import yaml
+
+    value, ros, files, names = None, False, [], list(nodes)
+    for i, arg in enumerate(argv):
+        if arg == "--ros-args":
+            ros = True
+        elif arg == "--":
+            ros = False
+        elif ros and arg in ("-p", "--param") and i + 1 < len(argv) and argv[i + 1].startswith(f"{name}:="):
+            value = yaml.safe_load(argv[i + 1].split(":=", 1)[1])
+        elif ros and arg == "--params-file" and i + 1 < len(argv):
+            files.append(argv[i + 1])
+        elif ros and arg in ("-r", "--remap") and i + 1 < len(argv) and argv[i + 1].startswith("__node:="):
+            names.append(argv[i + 1].split(":=", 1)[1])
+    if value is not None:
+        return value
+    for path in reversed(files):
+        try:
+            with open(path) as f:
+                data = yaml.safe_load(f) or {}
+        except (OSError, yaml.YAMLError) as exc:
+            raise ConfigError(f"--params-file {path}: {str(exc).splitlines()[0]}") from None
+        for key in ("/**", "**", *names, *(f"/{n}" for n in names)):
+            section = data.get(key) if isinstance(data, dict) else None
+            params = section.get("ros__parameters") if isinstance(section, dict) else None
+            if isinstance(params, dict) and name in params:
+                return params[name]
+    return None

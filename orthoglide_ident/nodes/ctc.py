@@ -12,11 +12,13 @@ from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.serialization import deserialize_message
 from sensor_msgs.msg import JointState
+from trajectory_msgs.msg import JointTrajectory
 
 from orthoglide_ident.control import CTCParameters, feedforward_currents
 from orthoglide_ident.errors import OrthoglideError
 from orthoglide_ident.model.robots import load_robot
 from orthoglide_ident.nodes._batch import BatchTaker, BatchTopic
+from orthoglide_ident.nodes._jtc import TrajectoryOutlet
 from orthoglide_ident.nodes._params import Param, declare, usage
 from orthoglide_ident.nodes._spin import spin
 from orthoglide_msgs.msg import CurrentReference, IdentifiedParameters, JointSetpoint
@@ -37,7 +39,12 @@ setpoint_lead ticks before it is needed. Until parameters arrive nothing is publ
 says so; new parameters replace the old ones at once. Feed-forward currents are clipped to
 current_limit; a non-finite one stops the output with an error until new parameters arrive.
 With monitor true it also pairs orthoglide/joint_states with the setpoints and logs the tracking
-error every 5 s. Names are relative: -r __ns:=/robot2 moves the whole interface."""
+error every 5 s. Names are relative: -r __ns:=/robot2 moves the whole interface.
+
+Next to ros2_control (trajectory_topic, e.g. joint_trajectory_controller/joint_trajectory): the
+setpoints also go to a joint_trajectory_controller whose only command interface is effort, as
+trajectory_msgs/JointTrajectory points (q_d, qd_d, qdd_d) whose effort is the feed-forward in the
+controller's units (trajectory_effort); the JTC adds it to its PID (README "Next to ros2_control")."""
 
 PARAMETERS = (
     Param("robot", "", "the robot: a URDF, a robot YAML or a bundled robot's name, as the "
@@ -52,6 +59,14 @@ PARAMETERS = (
     Param("consistent", False, "use the physically consistent set (orthoglide/identified_parameters/"
           "consistent: real bodies identified under the constraints, the identification node's option "
           "consistent) instead of the unconstrained base parameters"),
+    Param("trajectory_topic", "", "also send the setpoints to a joint_trajectory_controller as "
+          "trajectory_msgs/JointTrajectory with effort = the feed-forward, e.g. "
+          "joint_trajectory_controller/joint_trajectory; empty: not sent"),
+    Param("trajectory_effort", "nominal", "the points' effort: nominal (v_ff x nominal gain, N·m or N: what "
+          "the hardware turns into the model's current), torque (v_ff x identified gain, the model's "
+          "torque) or current (v_ff, A)"),
+    Param("trajectory_overlap", 100, "ticks already sent repeated at the start of each trajectory message, "
+          "so that it starts before the controller's now (more than setpoint_lead)"),
 )
 TICK_NS = 1_000_000
 MONITOR_PERIOD_NS = 5_000_000_000
@@ -90,6 +105,11 @@ class CTCNode(Node):
         self.create_subscription(IdentifiedParameters, self.params_topic, self.on_params, latched)
         self.pub = self.create_publisher(CurrentReference, "orthoglide/feedforward", stream)
         self.monitor = TrackingMonitor(self) if v["monitor"] else None
+        self.outlet = None  # to a joint_trajectory_controller (nodes._jtc)
+        if v["trajectory_topic"]:
+            self.outlet = TrajectoryOutlet(self.joints, v["trajectory_effort"], self.robot.nominal_gains,
+                                           v["trajectory_overlap"])
+            self.pub_traj = self.create_publisher(JointTrajectory, v["trajectory_topic"], 10)
         # last: the taker's thread calls on_setpoints at once, which needs everything above
         self.taker = BatchTaker(self, [BatchTopic(JointSetpoint, "orthoglide/setpoints", stream, self.on_setpoints)])
         self.get_logger().info(f"waiting for {self.resolve_topic_name(self.params_topic)} "
@@ -150,14 +170,15 @@ class CTCNode(Node):
                     bad = int(run[np.flatnonzero(~np.isfinite(ref).all(axis=(1, 2)))[0]])
                     self._stop(f"non-finite feed-forward: setpoint at stamp {bad} is not finite")
                     break
-                self._publish(run[:-1], feedforward_currents(ref[:, 0], ref[:, 1], ref[:, 2], self.model))
+                self._publish(run[:-1], feedforward_currents(ref[:, 0], ref[:, 1], ref[:, 2], self.model),
+                              ref[:-1])
         self.pending = {int(stamps[-1]): self.pending[int(stamps[-1])]}
 
     def _stop(self, reason: str) -> None:
         self.stopped = reason
         self.get_logger().error(f"stopped: {reason}; waiting for new identified parameters")
 
-    def _publish(self, stamps: np.ndarray, v_ff: np.ndarray) -> None:
+    def _publish(self, stamps: np.ndarray, v_ff: np.ndarray, ref: np.ndarray) -> None:
         if not np.all(np.isfinite(v_ff)):
             self._stop(f"non-finite feed-forward at stamp {stamps[0]}")
             return
@@ -172,6 +193,10 @@ class CTCNode(Node):
             msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(int(stamp), 1_000_000_000)
             self.pub.publish(msg)
         self.published += len(stamps)
+        if self.outlet is not None:
+            raw = self.outlet.message(stamps, ref, clipped, self.model.drive_gains)
+            if raw is not None:
+                self.pub_traj.publish(raw)
 
 
 class TrackingMonitor:

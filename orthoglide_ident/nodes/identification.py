@@ -17,16 +17,18 @@ from typing import Any
 from rclpy.callback_groups import ReentrantCallbackGroup
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+from std_msgs.msg import String
 
 from orthoglide_ident.errors import ConfigError, OrthoglideError
 from orthoglide_ident.identify.live import LiveIdentification
 from orthoglide_ident.identify.options import IdentifyOptions
 from orthoglide_ident.identify.pipeline import identify
-from orthoglide_ident.model.robots import load_robot
+from orthoglide_ident.model.robots import load_robot, load_robot_description
 from orthoglide_ident.nodes._core_log import CoreLog
 from orthoglide_ident.nodes._params import Param, declare, on_set, usage
 from orthoglide_ident.nodes._spin import spin
 from orthoglide_ident.nodes.live_feed import LiveFeed
+from orthoglide_ident.nodes.live_sources import LiveTopics
 from orthoglide_ident.results import IdentificationResult, lag_text
 from orthoglide_msgs.msg import IdentifiedParameters
 from orthoglide_msgs.srv import Identify
@@ -34,10 +36,15 @@ from orthoglide_msgs.srv import Identify
 DOC = """\
 Identifies a robot's drive gains and dynamic parameters together (IDIM-TLS, Briot & Gautier 2013)
 from recorded bags when orthoglide/identify is called: the Orthoglide by default, any robot with
-the robot parameter (a URDF, a robot YAML or a bundled robot's name).
+the robot parameter (a URDF, a robot YAML or a bundled robot's name). With robot empty, a URDF on
+robot_description (std_msgs/String, transient local, as robot_state_publisher publishes it) is the
+robot from when it arrives (every movable joint actuated, nominal gains 1; a recording under way
+is then left out of the live identification).
 
 Live (parameter live, default true): while the recorder records (orthoglide/recorder/status), the
-joint states and current references it records are identified as they come, and the estimate goes
+joint states and currents it records are identified as they come (q from joint_states_topic; the
+current from a dynamic_joint_states_topic interface, else the JointState effort, else
+current_reference_topic, the first there is), and the estimate goes
 out about once a second on orthoglide/identification/live (orthoglide_msgs/msg/LiveIdentification:
 gains with %sigma, seconds used, s_c/s_(c-1), condition number, residual rms, lag, a one-line
 status and the warnings: lost ticks, NaN, wrong joint names, weak excitation, current near the limit).
@@ -69,6 +76,12 @@ NODE_PARAMETERS = (
           dynamic=True),
     Param("live", True, "identify the recordings while they run (orthoglide/identification/live); an "
           "identify call with no bags then answers from the live data"),
+    Param("joint_states_topic", "orthoglide/joint_states", "live: the JointState topic of q (a ros2_control "
+          "robot: joint_states)"),
+    Param("dynamic_joint_states_topic", "dynamic_joint_states", "live: the DynamicJointState topic whose "
+          "current_interface is the current, when published (\"\": not read)"),
+    Param("current_reference_topic", "orthoglide/current_reference", "live: the CurrentReference topic, "
+          "used when neither of the above carries a current (\"\": not read)"),
 )
 # Every IdentifyOptions field is a parameter of the same name, so --params-file
 # config/identification.yaml sets them (the CLI's --config reads the same file).
@@ -118,7 +131,11 @@ class IdentificationNode(Node):
         self.live = None
         if self.param("live"):
             self.live = LiveIdentification(self.options(), self.robot)
-            self.feed = LiveFeed(self, self.live, self.live_lock)
+            topics = LiveTopics(self.param("joint_states_topic"), self.param("current_reference_topic"),
+                                self.param("dynamic_joint_states_topic"), self.options().current_interface)
+            self.feed = LiveFeed(self, self.live, self.live_lock, topics, self.robot, self.options().effort_unit)
+        if not self.param("robot"):  # the URDF robot_state_publisher publishes, when there is one
+            self.create_subscription(String, "robot_description", self._on_description, latched)
         self.create_service(Identify, "orthoglide/identify", self.on_identify, callback_group=ReentrantCallbackGroup())
         on_set(self, PARAMETERS, self._check_changes)  # bad values refused at `ros2 param set`
         self.get_logger().info(f"ready ({self.robot.name}: {self.robot.n_joints} joints "
@@ -128,6 +145,24 @@ class IdentificationNode(Node):
     def close(self) -> None:
         if self.live is not None:
             self.feed.close()
+
+    def _on_description(self, msg: String) -> None:
+        """robot_description (robot parameter empty): that URDF is the robot from now on, for
+        bags at once and live from the next recording (a recording under way is left out)."""
+        try:
+            robot = load_robot_description(msg.data)
+        except OrthoglideError as e:
+            self.get_logger().error(f"robot_description ignored, keeping {self.robot.name}: {e}")
+            return
+        if robot is self.robot:
+            return  # published again, the same URDF
+        with self.live_lock:  # an identification under way keeps the model it started with
+            self.robot = robot
+            if self.live is not None:
+                self.live = LiveIdentification(self.options(), robot)
+                self.feed.replace(self.live, robot)
+        self.get_logger().info(f"robot from robot_description: {robot.name}, {robot.n_joints} joints "
+                               f"{', '.join(robot.joint_names)}, {robot.n_b} base parameters (nominal gains 1)")
 
     def param(self, name: str) -> Any:
         return next(p for p in PARAMETERS if p.name == name).coerce(self.get_parameter(name).value)

@@ -1,12 +1,15 @@
 """The identification node's live side: the recorded topics into LiveIdentification, ~1 Hz estimate.
 
 The recorder says what it records on orthoglide/recorder/status (condition, payload mass, bag,
-first and last tick written). The joint states and current references come in raw (serialized),
-taken in batches (nodes._batch), and wait in a short buffer; every FEED_PERIOD_S they are decoded in bulk and handed to
-``LiveIdentification`` from the recording's first tick to its last, so that the live data are the
-ticks the bag holds, and the live result equals ``orthoglide-ident identify`` on that bag. About
-once a second the estimate goes out on orthoglide/identification/live with the warnings of the
-last second; the same warnings go to the log as they happen.
+first and last tick written). The joint states and currents come in raw (serialized), taken in
+batches (nodes._batch), and wait in a short buffer; every FEED_PERIOD_S they are decoded in bulk
+and handed to ``LiveIdentification`` from the recording's first tick to its last, so that the
+live data are the ticks the bag holds, and the live result equals ``orthoglide-ident identify``
+on that bag. The topics are the Orthoglide's (orthoglide/joint_states + current_reference) or a
+ros2_control robot's (joint_states + dynamic_joint_states, or the JointState effort alone):
+``live_sources`` says which, per recording. About once a second the estimate goes out on
+orthoglide/identification/live with the warnings of the last second; the same warnings go to the
+log as they happen.
 """
 from __future__ import annotations
 
@@ -20,10 +23,14 @@ from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import JointState
 
-from orthoglide_ident.bags import CURRENT_REFERENCE_TYPE, JOINT_STATE_TYPE, decode_messages
+from orthoglide_ident.bags import (CURRENT_REFERENCE_TYPE, DYNAMIC_JOINT_STATE_TYPE, JOINT_STATE_TYPE,
+                                   decode_messages)
 from orthoglide_ident.errors import OrthoglideError
 from orthoglide_ident.identify.live import LiveIdentification
+from orthoglide_ident.model.robot import RobotModel
+from orthoglide_ident.model.robots import load_robot
 from orthoglide_ident.nodes._batch import BatchTaker, BatchTopic
+from orthoglide_ident.nodes.live_sources import DYNAMIC, EFFORT, REFERENCE, LiveTopics, choose_current
 from orthoglide_msgs.msg import CurrentReference, LiveIdentification as LiveMsg, RecorderStatus
 
 FEED_PERIOD_S = 0.1
@@ -31,6 +38,7 @@ ESTIMATE_PERIOD_S = 1.0
 IDLE_BUFFER = 5000  # messages kept per topic while nothing records: the recorder may start first
 STOP_WAIT_S = 1.0  # after the recorder stopped, wait this long at most for its last ticks here
 STREAM_DEPTH = 5000  # messages DDS holds for this node while it is stalled (5 s at 1 kHz), as the recorder
+QOS_CHECK_PERIOD_S = 1.0  # how often the publishers' offered reliability is looked at
 HOLDBACK_NS = 250_000_000  # the newest 0.25 s wait: the recorder's stop may end the recording there
 _STAMP = struct.Struct("<iI")
 
@@ -45,15 +53,35 @@ def _tick(t: Any) -> int | None:
     return ns or None
 
 
+def _topics(t: LiveTopics) -> dict[str, tuple[str, Any, str]]:
+    """Buffer key -> (topic, message class, type name) of the topics read ("" = not read)."""
+    out = {"q": (t.joint_states, JointState, JOINT_STATE_TYPE)}
+    if t.current_reference:
+        out[REFERENCE] = (t.current_reference, CurrentReference, CURRENT_REFERENCE_TYPE)
+    if t.dynamic_joint_states:
+        from control_msgs.msg import DynamicJointState  # built by make setup, or a ROS install's
+
+        out[DYNAMIC] = (t.dynamic_joint_states, DynamicJointState, DYNAMIC_JOINT_STATE_TYPE)
+    return out
+
+
 class LiveFeed:
-    """Subscriptions, buffers and timers of live identification, on ``node`` (under ``lock``)."""
+    """Subscriptions, buffers and timers of live identification, on ``node`` (under ``lock``);
+    ``robot`` the model's joints and nominal gains (None: the Orthoglide); ``effort_unit``
+    "torque": a JointState effort or DynamicJointState interface in N·m or N, turned into a current
+    with the nominal gains, as offline."""
 
-    TOPICS = {"q": ("orthoglide/joint_states", JointState, JOINT_STATE_TYPE),
-              "v": ("orthoglide/current_reference", CurrentReference, CURRENT_REFERENCE_TYPE)}
-
-    def __init__(self, node: Node, live: LiveIdentification, lock: threading.Lock) -> None:
+    def __init__(self, node: Node, live: LiveIdentification, lock: threading.Lock,
+                 topics: LiveTopics | None = None, robot: RobotModel | None = None,
+                 effort_unit: str = "A") -> None:
         self.node, self.live, self.lock = node, live, lock
+        self.topics, self.effort_unit = topics or LiveTopics(), effort_unit
+        self.robot = robot if robot is not None else load_robot(None)
+        self.TOPICS = _topics(self.topics)
         self.buffers = {k: collections.deque(maxlen=IDLE_BUFFER) for k in self.TOPICS}
+        self.source: str | None = None  # where the recording's current comes from (live_sources)
+        self.left_out: set[str] = set()  # recordings live identification gave up (the reason was said)
+        self.waiting_since: float | None = None  # first joint state of the recording seen here
         self.bag: str | None = None  # the recording being fed
         self.first: int | None = None
         self.last: int | None = None  # set when the recorder has stopped
@@ -65,20 +93,39 @@ class LiveFeed:
         stream = QoSProfile(depth=STREAM_DEPTH, reliability=ReliabilityPolicy.RELIABLE)
         latched = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL,
                              reliability=ReliabilityPolicy.RELIABLE)
-        self.taker = BatchTaker(node, [BatchTopic(cls, topic, stream, lambda batch, buf=self.buffers[key]:
-                                                  buf.extend(m[0] for m in batch))
-                                       for key, (topic, cls, _) in self.TOPICS.items()], period_s=0.01)
+        self.reliability = dict.fromkeys(self.TOPICS, ReliabilityPolicy.RELIABLE)  # subscribed with
+        self.taker = BatchTaker(node, [self._intake(key, stream) for key in self.TOPICS], period_s=0.01)
         node.create_subscription(RecorderStatus, "orthoglide/recorder/status", self.on_status, latched)
         self.pub = node.create_publisher(LiveMsg, "orthoglide/identification/live", 10)
         node.create_timer(FEED_PERIOD_S, self.feed)
         node.create_timer(ESTIMATE_PERIOD_S, self.publish_estimate)
+        node.create_timer(QOS_CHECK_PERIOD_S, self.follow_publishers)
+
+    def _intake(self, key: str, qos: QoSProfile) -> BatchTopic:
+        topic, cls, _ = self.TOPICS[key]
+        return BatchTopic(cls, topic, qos, lambda batch, buf=self.buffers[key]: buf.extend(m[0] for m in batch))
+
+    def follow_publishers(self) -> None:
+        """Subscribe best effort while a publisher offers best effort (a reliable subscription
+        never matches it), reliable again when none does: the recorder's rule."""
+        for key, (topic, _, _) in self.TOPICS.items():
+            offered = [i.qos_profile.reliability for i in self.node.get_publishers_info_by_topic(
+                self.node.resolve_topic_name(topic))]
+            want = (ReliabilityPolicy.BEST_EFFORT if ReliabilityPolicy.BEST_EFFORT in offered
+                    else ReliabilityPolicy.RELIABLE)
+            if offered and want != self.reliability[key]:
+                self.reliability[key] = want
+                self.taker.add(self._intake(key, QoSProfile(depth=STREAM_DEPTH, reliability=want)))
+                self.node.get_logger().info(f"live identification: {topic} taken {want.name.lower()}, as its "
+                                            "publishers offer")
 
     # ---- the recorder's state ----------------------------------------------------------------
     def on_status(self, msg: RecorderStatus) -> None:
         with self.lock:
-            if msg.recording and msg.bag_path != self.bag:
+            if msg.recording and msg.bag_path != self.bag and msg.bag_path not in self.left_out:
                 self._finish()
                 self.bag, self.first, self.last, self.seen, self.started = msg.bag_path, None, None, {}, {}
+                self.source, self.waiting_since = None, None
                 try:
                     self.live.start_recording(msg.bag_path, msg.condition, msg.payload_mass)
                 except OrthoglideError as e:
@@ -97,7 +144,8 @@ class LiveFeed:
     def _recorder_restarted(self) -> None:
         """An idle recorder that is not the one recording ``self.bag``: that one was killed (and
         restarted). Its recording ends here at the last tick every topic delivered."""
-        newest = [_stamp_ns(self.buffers[k][-1]) if self.buffers[k] else self.seen.get(k, 0) for k in self.TOPICS]
+        used = self._used() if self.source is not None else ("q",)  # the topics this recording reads
+        newest = [_stamp_ns(self.buffers[k][-1]) if self.buffers[k] else self.seen.get(k, 0) for k in used]
         self.last, self.stopped_at = min(newest), time.monotonic()
         self._say([f"the recorder of {self.bag} restarted without stopping it (killed?): its live data end at "
                    "the last tick received here"])
@@ -108,19 +156,56 @@ class LiveFeed:
         with self.lock:
             if self.bag is None or self.first is None:
                 return
-            for key, (topic, _, msgtype) in self.TOPICS.items():
-                buf = self.buffers[key]
+            for key, buf in self.buffers.items():
+                while buf and _stamp_ns(buf[0]) < self.first:
+                    buf.popleft()  # before the recording
                 if buf:
                     self.seen[key] = max(self.seen.get(key, 0), _stamp_ns(buf[-1]))
-                raw = self._take(buf)
+            if self.source is None and not self._choose():
+                if self.last is not None and time.monotonic() - self.stopped_at > STOP_WAIT_S:
+                    self._finish()
+                return
+            used = self._used()
+            for key in used:
+                raw = self._take(self.buffers[key])
                 if raw:
-                    self._add(key, raw, msgtype, topic)
+                    self._add(key, raw)
                     self.dirty = True
-            # done when every topic has delivered the last recorded tick here (an empty buffer
-            # only means its last messages may still be on their way)
-            done = all(self.seen.get(key, 0) >= (self.last or 0) for key in self.TOPICS)
+            # done when every topic used has delivered the last recorded tick here (an empty
+            # buffer only means its last messages may still be on their way)
+            done = all(self.seen.get(key, 0) >= (self.last or 0) for key in used)
             if self.last is not None and (done or time.monotonic() - self.stopped_at > STOP_WAIT_S):
                 self._finish()
+
+    def _used(self) -> tuple[str, ...]:
+        return ("q",) if self.source == EFFORT else ("q", self.source)
+
+    def _choose(self) -> bool:
+        """Pick the recording's current source (live_sources); False while waiting for it. A
+        recording without a usable current is left out with the reason."""
+        if self.waiting_since is None and self.buffers["q"]:
+            self.waiting_since = time.monotonic()
+        waited = 0.0 if self.waiting_since is None else time.monotonic() - self.waiting_since
+        first = {k: (b[0] if b else None) for k, b in self.buffers.items()}
+        publishers = {k: self.node.count_publishers(t) for k, (t, _, _) in self.TOPICS.items()}
+        resolved = {k: self.node.resolve_topic_name(t) for k, (t, _, _) in self.TOPICS.items()}
+        try:
+            self.source = choose_current(self._joints(), self.topics, first, publishers, waited, resolved)
+        except OrthoglideError as e:
+            self._say([f"live identification leaves {self.bag} out: {e}"])
+            self.left_out.add(str(self.bag))
+            self._finish()
+            return False
+        if self.source is not None:
+            what = {DYNAMIC: f"interface {self.topics.iface!r} of", EFFORT: "the effort of",
+                    REFERENCE: "the current of"}[self.source]
+            key = "q" if self.source == EFFORT else self.source
+            self.node.get_logger().info(f"live identification: {self.bag}: current from {what} "
+                                        f"{resolved[key]}, q from {resolved['q']}")
+        return self.source is not None
+
+    def _joints(self) -> tuple[str, ...]:
+        return tuple(self.robot.joint_names)
 
     def _take(self, buf: collections.deque) -> list[bytes]:
         """Messages of the recording's ticks, oldest first; earlier ones dropped, later ones kept."""
@@ -139,21 +224,40 @@ class LiveFeed:
             out.append(buf.popleft())
         return out
 
-    def _add(self, key: str, raw: list[bytes], msgtype: str, topic: str) -> None:
+    def _add(self, key: str, raw: list[bytes]) -> None:
+        topic, _, msgtype = self.TOPICS[key]
         try:
-            stamps, names, values = decode_messages(raw, msgtype)
+            stamps, names, values = decode_messages(raw, msgtype, self.topics.iface if key == DYNAMIC else None)
+            if key == "q":
+                self._say(self.live.add_joint_states(stamps, list(names), values))
+                if self.source != EFFORT:
+                    return
+                stamps, names, values = decode_messages(raw, msgtype, "effort")
         except OrthoglideError as e:
             self._say([f"{topic}: {e}; {len(raw)} messages not used"])
             return
-        add = self.live.add_joint_states if key == "q" else self.live.add_current_reference
-        self._say(add(stamps, list(names), values))
+        if self.effort_unit == "torque":  # N·m or N -> A with the nominal gains, as offline
+            gains = dict(zip(self.robot.joint_names, self.robot.nominal_gains))
+            values = values / [gains.get(n, 1.0) for n in names]
+        self._say(self.live.add_current_reference(stamps, list(names), values))
+
+    def replace(self, live: LiveIdentification, robot: RobotModel) -> None:
+        """Another robot model (a new robot_description): the recording under way, if any, is
+        left out with a warning; the next ones are identified with ``live`` (under the lock)."""
+        if self.bag is not None:
+            self._say([f"the robot model changed to {robot.name} during {self.bag}: live identification "
+                       "leaves it out and starts again from the next recording (identify its bag)"])
+            self.left_out.add(self.bag)
+            self.bag = self.first = self.last = None
+        self.live, self.robot = live, robot
+        self.dirty = True
 
     def _finish(self) -> None:
         if self.bag is not None:
             self._say(self.live.stop_recording())
             self.node.get_logger().info(f"live identification: {self.bag} done; {self.live.estimate().line()}")
             self.dirty = True
-        self.bag, self.first, self.last = None, None, None
+        self.bag, self.first, self.last, self.source = None, None, None, None
 
     def _say(self, warnings: list[str]) -> None:
         for w in warnings:

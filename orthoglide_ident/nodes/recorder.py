@@ -33,7 +33,9 @@ from orthoglide_msgs.msg import RecorderStatus
 from orthoglide_msgs.srv import StartRecording
 
 DOC = """\
-Records tagged rosbag2 bags (metadata.yaml v9 + MCAP) of the Orthoglide topics.
+Records tagged rosbag2 bags (metadata.yaml v9 + MCAP) of the Orthoglide's topics, or of a ros2_control
+robot's (topics: [joint_states, dynamic_joint_states], as joint_state_broadcaster publishes them;
+each channel's offered QoS is recorded, its subscription follows it).
 
 Services (relative names: /orthoglide/... in the root namespace, -r __ns:=/robot2 moves them):
   orthoglide/recorder/start  orthoglide_msgs/srv/StartRecording  condition (loaded|unloaded),
@@ -50,7 +52,9 @@ PARAMETERS = (
     Param("output_dir", "bags", "folder for the bag directories (this and the next ones: from the next start "
           "on when changed)", dynamic=True),
     Param("topics", ["orthoglide/joint_states", "orthoglide/current_reference"],
-          "always recorded (subscribed at start-up); relative names resolve in the node's namespace"),
+          "always recorded (subscribed at start-up; relative names resolve in the node's namespace): the "
+          "Orthoglide's, or a ros2_control robot's [joint_states, dynamic_joint_states]; the first "
+          "JointState topic is the one the status counts ticks on"),
     Param("optional_topics", ["orthoglide/setpoints", "orthoglide/current_command"],
           "recorded when a publisher exists (checked every second)"),
     Param("expected_rate", 1000.0, "Hz of the controller ticks, for counting missing ticks from the stamps", dynamic=True),
@@ -64,6 +68,13 @@ PARAMETERS = (
 STATUS_PERIOD_S = 1.0
 STOP_DRAIN_S = 2.0  # at stop, the intake has this long to hand over what it holds
 SILENT_S = 0.5  # a required topic silent this long while recording: the status says so
+# topics a controller publishes every tick, subscribed before they have a publisher: the
+# Orthoglide's, and ros2_control's joint_state_broadcaster's (relative: the node's namespace)
+TICK_TOPICS = (("orthoglide/joint_states", bags.JOINT_STATE_TYPE),
+               ("orthoglide/current_reference", bags.CURRENT_REFERENCE_TYPE),
+               ("joint_states", bags.JOINT_STATE_TYPE),
+               ("dynamic_joint_states", bags.DYNAMIC_JOINT_STATE_TYPE))
+STAMPED_TYPES = (bags.JOINT_STATE_TYPE, bags.CURRENT_REFERENCE_TYPE, bags.DYNAMIC_JOINT_STATE_TYPE)
 
 
 def _qos_dict(qos: Any) -> dict[str, Any]:
@@ -108,9 +119,7 @@ class RecorderNode(Node):
         self.checked_dirs: set[Path] = set()
         self.recover_left_open(p["output_dir"])
         self.taker = BatchTaker(self, [], period_s=0.005)
-        self.known = {self.resolve_topic_name(t): m for t, m in (
-            ("orthoglide/joint_states", bags.JOINT_STATE_TYPE),
-            ("orthoglide/current_reference", bags.CURRENT_REFERENCE_TYPE))}
+        self.known = {self.resolve_topic_name(t): m for t, m in TICK_TOPICS}
         self.required = [self.resolve_topic_name(t) for t in p["topics"]]
         self.optional = [self.resolve_topic_name(t) for t in p["optional_topics"]]
         self.discover()
@@ -250,9 +259,14 @@ class RecorderNode(Node):
 
     def _ticks(self, rec: Recording) -> tuple[int, int, int | None, int | None]:
         """(written, missing, first stamp, last stamp) of the joint states of a recording."""
-        js = self.resolve_topic_name("orthoglide/joint_states")
+        js = self._ticks_topic()
         counter = rec.counters.get(js)
         return (rec.writer.counts.get(js, 0), _missing(rec), counter and counter.first, counter and counter.last)
+
+    def _ticks_topic(self) -> str:
+        """The joint states the status counts ticks on: the first JointState topic of ``topics``."""
+        return next((t for t in self.required if t in self.subs and self.subs[t][1] == bags.JOINT_STATE_TYPE),
+                    self.resolve_topic_name("orthoglide/joint_states"))
 
     def on_start(self, req: Any, res: Any) -> Any:
         res.success = False
@@ -274,7 +288,8 @@ class RecorderNode(Node):
         for topic in self.required:
             if topic not in self.subs:
                 self.get_logger().warning(f"{topic} has no publisher: recorded from its first message when one appears")
-        stamped = set(self.known)  # the two topics of every tick
+        # the topics of every tick (the Orthoglide's two, or the broadcaster's), aligned on their stamps
+        stamped = {t for t in self.required if t in self.subs and self.subs[t][1] in STAMPED_TYPES}
         rec = Recording(writer, stamped, float(self.p["expected_rate"]), self.get_logger())
         for topic in self.subs:  # topics already published; the others at their first message
             if self.count_publishers(topic):
@@ -303,7 +318,7 @@ class RecorderNode(Node):
         rec, self.rec = self.rec, None
         assert rec is not None
         message = rec.stop()
-        js = self.resolve_topic_name("orthoglide/joint_states")
+        js = self._ticks_topic()
         written = rec.writer.counts.get(js, 0)
         success = not rec.error and written > 0
         if not rec.error and not written:

@@ -1,0 +1,65 @@
+"""The recorder on a ros2_control robot's topics (config/ros2_control.yaml): joint_states and
+dynamic_joint_states recorded with the QoS the broadcaster offers, ticks counted on joint_states,
+the ticks a topic dropped counted as missing."""
+from __future__ import annotations
+
+import time
+
+import numpy as np
+import pytest
+
+rclpy = pytest.importorskip("rclpy")
+pytest.importorskip("control_msgs.msg")
+
+TICKS, DROPPED_JS, DROPPED_DJS = 600, (100, 101, 350), (200,)
+
+
+def test_records_the_broadcasters_topics(tmp_path):
+    from control_msgs.msg import DynamicJointState
+    from rclpy.qos import qos_profile_system_default
+    from sensor_msgs.msg import JointState
+    from std_srvs.srv import Trigger
+
+    from orthoglide_ident import bags
+    from orthoglide_ident._install_ament import ROOT
+    from orthoglide_msgs.srv import StartRecording
+    from orthoglide_sim.arm_session import ArmTick
+    from orthoglide_sim.broadcaster import BroadcasterLayout
+    from orthoglide_sim.graph import Graph
+
+    arm = ("shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint", "wrist_1_joint", "wrist_2_joint",
+           "wrist_3_joint")
+    layout = BroadcasterLayout.of(arm, ["gripper_finger_joint"], "shuffled", seed=0)
+    t0 = 1_796_000_000 * 10**9
+    with Graph(tmp_path / "logs") as g:
+        js = g.node.create_publisher(JointState, "joint_states", qos_profile_system_default)
+        djs = g.node.create_publisher(DynamicJointState, "dynamic_joint_states", qos_profile_system_default)
+        g.start("orthoglide_recorder", "recorder", {"output_dir": str(tmp_path / "bags")},
+                params_file=ROOT / "config" / "ros2_control.yaml")
+        g.wait_for_subscriber("joint_states", "orthoglide_recorder")
+        g.wait_for_subscriber("dynamic_joint_states", "orthoglide_recorder")
+        res = g.call(StartRecording, "orthoglide/recorder/start", condition="unloaded", payload_mass=0.0, name="r")
+        assert res.success, res.message
+        time.sleep(0.3)
+        for k in range(TICKS):
+            x = np.full(6, 0.001 * k)
+            a, b = layout.encode(t0 + k * 1_000_000, ArmTick(k, x, x, x))
+            if k not in DROPPED_JS:
+                js.publish(a)
+            if k not in DROPPED_DJS:
+                djs.publish(b)
+            time.sleep(0.001)
+        time.sleep(0.5)
+        stop = g.call(Trigger, "orthoglide/recorder/stop")
+    assert stop.success, stop.message
+    # ticks written and missing are the joint_states' (the first JointState topic of `topics`)
+    assert f"{TICKS - len(DROPPED_JS)} /joint_states" in stop.message, stop.message
+    assert f"{len(DROPPED_JS)} missing on /joint_states" in stop.message
+    assert f"{len(DROPPED_DJS)} missing on /dynamic_joint_states" in stop.message
+    data = bags.read_bag(res.bag_path)
+    assert data.sources.current.topic == "/dynamic_joint_states"
+    got = (np.asarray(data.positions.stamps_ns) - t0) // 1_000_000
+    assert sorted(set(range(TICKS)) - set(got.tolist())) == list(DROPPED_JS)
+    assert "gripper_finger_joint" in data.positions.names
+    info = {t.topic: t for t in bags.bag_info(res.bag_path).topics}
+    assert info["/dynamic_joint_states"].msgtype == "control_msgs/msg/DynamicJointState"

@@ -1,0 +1,117 @@
+"""Next to a ros2_control robot, over the real topics: the stand-in publishes what
+joint_state_broadcaster publishes, the recorder records it, the identification identifies it live
+and from the bags (`make demo-ros2-control` in short)."""
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+
+pytest.importorskip("rclpy")
+pytest.importorskip("control_msgs.msg")
+
+from orthoglide_sim.demo import identify, record  # noqa: E402
+from orthoglide_sim.graph import Graph  # noqa: E402
+
+STANDIN = "ros2_control_standin"
+DROP_RATE, SEED = 3e-4, 4
+TOPICS = ("joint_states", "dynamic_joint_states")
+
+
+def _rel(a, b) -> float:
+    a, b = np.asarray(a, float), np.asarray(b, float)
+    return float(np.max(np.abs(a - b) / np.abs(b)))
+
+
+def _dropped_stamps(start_ns: int, n_ticks: int) -> dict[str, set[int]]:
+    """The stamps the stand-in's seeded drops leave out, per topic (its TickDropper replayed)."""
+    from orthoglide_sim.broadcaster import TICK_NS, TickDropper
+
+    d = TickDropper(DROP_RATE, SEED)
+    out: dict[str, set[int]] = {t: set() for t in TOPICS}
+    for k in range(n_ticks):
+        for topic, keep in zip(TOPICS, d.keep()):
+            if not keep:
+                out[topic].add(start_ns + k * TICK_NS)
+    return out
+
+
+def _system_default_qos() -> dict:
+    """Reliability and durability a publisher with the system default profile offers here, as
+    rosbag2's metadata writes them (Fast DDS: reliable, transient_local)."""
+    import rclpy
+    from rclpy.qos import qos_profile_system_default
+    from std_msgs.msg import String
+
+    rclpy.init()
+    try:
+        node = rclpy.create_node("qos_probe")
+        node.create_publisher(String, "qos_probe", qos_profile_system_default)
+        q = node.get_publishers_info_by_topic("/qos_probe")[0].qos_profile
+        return {"reliability": q.reliability.name.lower(), "durability": q.durability.name.lower()}
+    finally:
+        rclpy.shutdown()
+
+
+@pytest.mark.slow
+def test_record_and_identify_a_ros2_control_robot(tmp_path):
+    from sensor_msgs.msg import JointState
+
+    from orthoglide_ident import bags as bagio
+    from orthoglide_ident._install_ament import ROOT
+    from orthoglide_sim.arm_description import load_arm
+    from orthoglide_sim.arm_truth import load_truth
+
+    config = ROOT / "config" / "ros2_control.yaml"
+    with Graph(tmp_path / "logs") as g:
+        g.start(STANDIN, "driver", {"robot": "ur5_mount", "drop_rate": DROP_RATE, "seed": SEED}, params_file=config)
+        g.start("orthoglide_recorder", "recorder", {"output_dir": str(tmp_path / "bags")}, params_file=config)
+        g.start("orthoglide_identification", "identification",
+                {"bag_dir": str(tmp_path / "bags"), "lag_model": "off"}, params_file=config)
+        g.wait_for_messages(JointState, "joint_states", 1, timeout=60)
+        for topic in TOPICS:
+            g.wait_for_subscriber(topic, "orthoglide_identification")
+            g.wait_for_subscriber(topic, "orthoglide_recorder")
+        paths = [record(g, "unloaded", "unloaded", 0.0, 15.0, quiet=True)]
+        g.set_params(STANDIN, payload=2.5, trajectory="exciting2")
+        time.sleep(3.0)
+        paths.append(record(g, "loaded", "loaded", 2.5, 15.0, quiet=True))
+        time.sleep(1.5)
+        live = identify(g, []).parameters
+        offline = identify(g, paths).parameters
+        log = (tmp_path / "logs" / f"{STANDIN}.log").read_text()
+    start_ns = int(log.split("update k is stamped ", 1)[1].split()[0])
+    mine = _system_default_qos()  # what rclcpp::SystemDefaultsQoS() offers on this rmw
+
+    # identified, live = offline for the same equations (lag_model: off), the plant's gains
+    g_true = load_truth(load_arm("ur5_mount")).drive_array("g_tau")
+    assert list(offline.joint_names) == list(load_arm("ur5_mount").joint_names)
+    assert _rel(live.drive_gains, offline.drive_gains) < 1e-6
+    values = dict(zip(offline.names, offline.values))
+    big = [(n, v) for n, v in zip(live.names, live.values) if abs(values[n]) > 1e-3 * max(map(abs, values.values()))]
+    assert _rel([v for _, v in big], [values[n] for n, _ in big]) < 1e-6
+    assert _rel(offline.drive_gains, g_true) < 0.005
+
+    for path in paths:
+        data = bagio.read_bag(path)
+        # the hardware's order and the gripper, as published; the current from the interface
+        assert "gripper_finger_joint" in data.positions.names
+        assert data.sources.current.topic == "/dynamic_joint_states" and data.sources.current.field == "current"
+        # every tick published is in the bag; the ones missing are exactly those the stand-in dropped
+        stamps = {"joint_states": data.positions.stamps_ns, "dynamic_joint_states": data.current.stamps_ns}
+        first, last = min(int(s[0]) for s in stamps.values()), max(int(s[-1]) for s in stamps.values())
+        dropped = _dropped_stamps(start_ns, (last - start_ns) // 1_000_000 + 1)
+        for topic, st in stamps.items():
+            span = set(range(first, last + 1, 1_000_000))
+            missing = span - set(int(s) for s in st)
+            assert missing == {s for s in dropped[topic] if first <= s <= last}, (path, topic)
+        # each channel's offered QoS, as rosbag2 records it: the broadcaster's
+        meta = yaml.safe_load((Path(path) / "metadata.yaml").read_text())
+        for t in meta["rosbag2_bagfile_information"]["topics_with_message_count"]:
+            qos = t["topic_metadata"]["offered_qos_profiles"]
+            qos = yaml.safe_load(qos) if isinstance(qos, str) else qos
+            assert len(qos) == 1 and qos[0]["reliability"] == mine["reliability"], t
+            assert qos[0]["durability"] == mine["durability"], t
