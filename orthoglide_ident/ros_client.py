@@ -13,6 +13,7 @@ The same services and topics as `ros2 service call` / `ros2 topic echo` (names r
 from __future__ import annotations
 
 import argparse
+import math
 import time
 from typing import Any
 
@@ -34,6 +35,15 @@ def add_parsers(sub: Any) -> None:
     p.add_argument("--condition", choices=("loaded", "unloaded"), help="start: with or without the payload")
     p.add_argument("--payload-mass", type=float, default=0.0, metavar="KG", help="start: weighed payload, kg")
     p.add_argument("--name", default="", help="start: bag folder name (default <condition>_<date>_<time>)")
+    p.add_argument("--payload-frame", default=None, metavar="LINK",
+                   help="start loaded: the link the payload is fixed to (default the robot's payload frame)")
+    p.add_argument("--payload-com", default=None, metavar="X,Y,Z",
+                   help="start loaded: its centre of mass in that frame, m (default its origin)")
+    p.add_argument("--payload-inertia", default=None, metavar="IXX,IXY,IXZ,IYY,IYZ,IZZ",
+                   help="start loaded: its inertia about the centre of mass, kg·m² (default 0: a point mass); "
+                        "the three set the recorder's payload_* parameters, tagged in the bag")
+    p.add_argument("--recorder", default="orthoglide_recorder", metavar="NODE",
+                   help="the recorder node's name, for --payload-* (default orthoglide_recorder)")
     add_namespace(p)
     p = sub.add_parser("watch", help="follow the recording and the live identification (ROS 2)",
                        description="Print orthoglide/recorder/status and orthoglide/identification/live "
@@ -106,6 +116,7 @@ def record(args: argparse.Namespace) -> int:
         if args.action == "start":
             if args.condition is None:
                 raise ServiceError("record start needs --condition loaded|unloaded")
+            set_payload_shape(c, args)
             res = c.call(StartRecording, "orthoglide/recorder/start", condition=args.condition,
                          payload_mass=float(args.payload_mass), name=args.name)
         else:
@@ -114,6 +125,39 @@ def record(args: argparse.Namespace) -> int:
         raise ServiceError(res.message)
     print(res.message)
     return 0
+
+
+def _numbers(text: str, n: int, option: str) -> list[float]:
+    try:
+        vals = [float(x) for x in text.replace(" ", ",").split(",") if x]
+    except ValueError:
+        vals = []
+    if len(vals) != n or not all(math.isfinite(v) for v in vals):
+        raise ServiceError(f"{option} needs {n} numbers separated by commas, not {text!r}")
+    return vals
+
+
+def set_payload_shape(c: Client, args: argparse.Namespace) -> None:
+    """--payload-frame/-com/-inertia into the recorder's payload_* parameters (given ones only)."""
+    from rcl_interfaces.msg import Parameter, ParameterType, ParameterValue
+    from rcl_interfaces.srv import SetParameters
+
+    params = []
+    if args.payload_frame is not None:
+        params.append(Parameter(name="payload_frame", value=ParameterValue(
+            type=ParameterType.PARAMETER_STRING, string_value=args.payload_frame)))
+    for name, text, n in (("payload_com", args.payload_com, 3),
+                          ("payload_inertia", args.payload_inertia, 6)):
+        if text is not None:
+            params.append(Parameter(name=name, value=ParameterValue(
+                type=ParameterType.PARAMETER_DOUBLE_ARRAY,
+                double_array_value=_numbers(text, n, "--" + name.replace("_", "-")))))
+    if not params:
+        return
+    res = c.call(SetParameters, f"{args.recorder}/set_parameters", parameters=params)
+    for p, r in zip(params, res.results):
+        if not r.successful:
+            raise ServiceError(f"recorder refused {p.name}: {r.reason}")
 
 
 def identify_service(args: argparse.Namespace) -> Any:

@@ -47,6 +47,7 @@ from orthoglide_ident.identify.pipeline import IdentificationModel, default_mode
 from orthoglide_ident.identify.solve import min_rows, solve, tls_model
 from orthoglide_ident.identify.stream import DecimatedRows
 from orthoglide_ident.identify.tls import check_excitation
+from orthoglide_ident.model.robot import Payload
 from orthoglide_ident.results import IdentificationResult
 
 MAX_LOGGED_WARNINGS = 200  # the first ones, kept for result().warnings
@@ -155,8 +156,11 @@ class LiveIdentification:
     def recording(self) -> bool:
         return self._current is not None
 
-    def start_recording(self, source: str, condition: str, payload_mass: float = 0.0) -> None:
-        """Start a record: ``condition`` "loaded" (payload of ``payload_mass`` kg) or "unloaded".
+    def start_recording(self, source: str, condition: str, payload_mass: float = 0.0,
+                        payload: Payload | None = None) -> None:
+        """Start a record: ``condition`` "loaded" (payload of ``payload_mass`` kg) or "unloaded";
+        ``payload``: its frame, centre of mass and inertia (the bag tag's), None for a point mass
+        at the robot's payload frame.
 
         Raises IdentificationError on a wrong condition or a loaded record without a mass; a
         recording still running is stopped first (with a warning).
@@ -172,7 +176,9 @@ class LiveIdentification:
                         "stopped"])
             self.stop_recording()
         lag = getattr(self.model, "lag_column", None) is not None and not self._lag_left_out()
-        self._current = LiveRecording(source, condition, mass, self.opts, self.model, self.n_b,
+        model = self.model.with_payload(payload) if payload is not None and \
+            condition == "loaded" else self.model
+        self._current = LiveRecording(source, condition, mass, self.opts, model, self.n_b,
                                       self._fold, lag)
         self._recordings.append(self._current)
 

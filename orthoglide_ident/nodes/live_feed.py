@@ -27,7 +27,7 @@ from orthoglide_ident.bags import (CURRENT_REFERENCE_TYPE, DYNAMIC_JOINT_STATE_T
                                    decode_messages)
 from orthoglide_ident.errors import OrthoglideError
 from orthoglide_ident.identify.live import LiveIdentification
-from orthoglide_ident.model.robot import RobotModel
+from orthoglide_ident.model.robot import Payload, RobotModel
 from orthoglide_ident.model.robots import load_robot
 from orthoglide_ident.nodes._batch import BatchTaker, BatchTopic
 from orthoglide_ident.nodes.live_sources import DYNAMIC, EFFORT, REFERENCE, LiveTopics, choose_current
@@ -64,6 +64,16 @@ def _topics(t: LiveTopics) -> dict[str, tuple[str, Any, str]]:
         out[DYNAMIC] = (t.dynamic_joint_states, DynamicJointState, DYNAMIC_JOINT_STATE_TYPE)
     return out
 
+
+
+def status_payload(msg: RecorderStatus) -> Payload | None:
+    """The payload's frame, centre of mass and inertia the recorder tags a loaded recording with
+    (RecorderStatus); None: a point mass at the robot's payload frame."""
+    com, inertia = list(msg.payload_com), list(msg.payload_inertia)
+    if msg.condition != "loaded" or not (msg.payload_frame or com or inertia):
+        return None
+    return Payload(float(msg.payload_mass), msg.payload_frame, tuple(com or (0.0,) * 3),
+                   tuple(inertia or (0.0,) * 6))
 
 class LiveFeed:
     """Subscriptions, buffers and timers of live identification, on ``node`` (under ``lock``);
@@ -127,7 +137,8 @@ class LiveFeed:
                 self.bag, self.first, self.last, self.seen, self.started = msg.bag_path, None, None, {}, {}
                 self.source, self.waiting_since = None, None
                 try:
-                    self.live.start_recording(msg.bag_path, msg.condition, msg.payload_mass)
+                    self.live.start_recording(msg.bag_path, msg.condition, msg.payload_mass,
+                                              status_payload(msg))
                 except OrthoglideError as e:
                     self._say([f"live identification ignores {msg.bag_path}: {e}"])
                     self.bag = None

@@ -49,6 +49,13 @@ Topic:
                              on stop and every second while recording."""
 
 PARAMETERS = (
+    Param("payload_frame", "", "the link a loaded recording's payload is fixed to (\"\": the robot's "
+          "payload frame); with payload_com and payload_inertia in the bag's tag (orthoglide.payload_*)",
+          dynamic=True),
+    Param("payload_com", [0.0, 0.0, 0.0], "m, the payload's centre of mass in payload_frame (zeros: at its "
+          "origin); used by the next loaded start", dynamic=True),
+    Param("payload_inertia", [0.0] * 6, "kg·m², Ixx Ixy Ixz Iyy Iyz Izz about the payload's centre of mass "
+          "(zeros: a point mass); used by the next loaded start", dynamic=True),
     Param("output_dir", "bags", "folder for the bag directories (this and the next ones: from the next start "
           "on when changed)", dynamic=True),
     Param("topics", ["orthoglide/joint_states", "orthoglide/current_reference"],
@@ -278,7 +285,8 @@ class RecorderNode(Node):
         p = self.p
         self.recover_left_open(p["output_dir"])
         try:
-            tags = bags.BagTags.checked(req.condition, req.payload_mass)
+            tags = bags.BagTags.checked(req.condition, req.payload_mass,
+                                        **self._payload_shape(req.condition))
             writer = open_bag(p["output_dir"], req.name, tags, p["compression"], p["chunk_duration"],
                               p["split_duration"], p["split_size"])
         except OrthoglideError as exc:
@@ -288,8 +296,11 @@ class RecorderNode(Node):
         for topic in self.required:
             if topic not in self.subs:
                 self.get_logger().warning(f"{topic} has no publisher: recorded from its first message when one appears")
-        # the topics of every tick (the Orthoglide's two, or the broadcaster's), aligned on their stamps
-        stamped = {t for t in self.required if t in self.subs and self.subs[t][1] in STAMPED_TYPES}
+        # the topics of every tick (the Orthoglide's two, or the broadcaster's), aligned on their
+        # stamps: those published now (a robot without /dynamic_joint_states, say, must not hold
+        # its /joint_states back waiting for ticks that never come)
+        stamped = {t for t in self.required if t in self.subs and self.subs[t][1] in STAMPED_TYPES
+                   and self.count_publishers(t)}
         rec = Recording(writer, stamped, float(self.p["expected_rate"]), self.get_logger())
         for topic in self.subs:  # topics already published; the others at their first message
             if self.count_publishers(topic):
@@ -298,10 +309,29 @@ class RecorderNode(Node):
         res.success, res.bag_path = True, str(writer.path)
         res.message = f"recording {tags.condition} ({tags.payload_mass:g} kg) to {writer.path}"
         self.last = {"condition": tags.condition, "payload_mass": float(tags.payload_mass),
+                     "payload_frame": tags.payload_frame or "",
+                     "payload_com": list(tags.payload_com or ()),
+                     "payload_inertia": list(tags.payload_inertia or ()),
                      "bag_path": str(writer.path), "message": res.message}
         self.get_logger().info(res.message)
         self.publish_status()
         return res
+
+    def _payload_shape(self, condition: str) -> dict[str, Any]:
+        """The tag's payload frame, centre of mass and inertia (parameters) of a loaded start;
+        none for a point mass at the robot's payload frame, or unloaded."""
+        p = self.p
+        if condition != "loaded":
+            return {}
+        out: dict[str, Any] = {}
+        if p["payload_frame"]:
+            out["payload_frame"] = p["payload_frame"]
+        if len(p["payload_com"]) != 3 or len(p["payload_inertia"]) != 6:
+            raise ConfigError("parameters payload_com (3 numbers, m) and payload_inertia (6, kg·m²) "
+                              f"have {len(p['payload_com'])} and {len(p['payload_inertia'])}")
+        if any(p["payload_com"]) or any(p["payload_inertia"]):
+            out["payload_com"], out["payload_inertia"] = p["payload_com"], p["payload_inertia"]
+        return out
 
     def on_stop(self, req: Any, res: Any) -> Any:
         if self.rec is None:

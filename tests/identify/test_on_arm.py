@@ -77,3 +77,22 @@ def test_the_payload_shape_matters(arm):
     e_exact = np.abs(np.array([x.value for x in exact.drive_gains]) / g_true - 1).max()
     e_point = np.abs(np.array([x.value for x in wrong.drive_gains]) / g_true - 1).max()
     assert e_point > 5 * e_exact
+
+
+def test_live_with_the_payload_shape_equals_offline(arm):
+    """The live identification given the payload's frame, CoM and inertia (as the recorder's
+    status carries them) folds the same equations as the bag's tag gives offline."""
+    from orthoglide_ident.identify.live import LiveIdentification
+    from test_live import rel_diff
+
+    model, recs, _ = arm
+    opts = IdentifyOptions(lag_model="off")
+    offline = identify_records([recs["unloaded"], recs["2kg"]], model=model, options=opts)
+    live = LiveIdentification(opts, model)
+    for rec in (recs["unloaded"], recs["2kg"]):
+        live.start_recording(rec.source, rec.condition, rec.payload_mass, rec.payload)
+        for a in range(0, len(rec.stamps_q_ns), 500):
+            live.add_joint_states(rec.stamps_q_ns[a:a + 500], rec.names_q, rec.q[a:a + 500])
+            live.add_current_reference(rec.stamps_v_ns[a:a + 500], rec.names_v, rec.v_tau[a:a + 500])
+        live.stop_recording()
+    assert max(rel_diff(offline, live.result())) < 1e-6

@@ -1,0 +1,67 @@
+"""A loaded recording of an arm's payload: its frame, centre of mass and inertia in the bag's tag
+(the recorder's payload_* parameters, set by ``orthoglide-ident record start --payload-*``) and
+on the recorder's status, where the live identification takes them from."""
+from __future__ import annotations
+
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+
+rclpy = pytest.importorskip("rclpy")
+
+
+def test_the_payload_shape_goes_into_the_tag_and_the_status(tmp_path, ros_env):
+    from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy, qos_profile_system_default
+    from sensor_msgs.msg import JointState
+    from std_srvs.srv import Trigger
+
+    from orthoglide_ident import bags
+    from orthoglide_ident._install_ament import ROOT
+    from orthoglide_ident.nodes.live_feed import status_payload
+    from orthoglide_msgs.msg import RecorderStatus
+    from orthoglide_sim.graph import Graph
+
+    names = ["j1", "j2"]
+    t0 = 1_796_000_000 * 10**9
+    with Graph(tmp_path / "logs") as g:
+        js = g.node.create_publisher(JointState, "joint_states", qos_profile_system_default)
+        # config/ros2_control.yaml names /dynamic_joint_states too: this robot publishes only
+        # /joint_states (effort = the current), which must be recorded all the same
+        g.start("orthoglide_recorder", "recorder", {"output_dir": str(tmp_path / "bags")},
+                params_file=ROOT / "config" / "ros2_control.yaml")
+        g.wait_for_subscriber("joint_states", "orthoglide_recorder")
+        cli = [sys.executable, "-m", "orthoglide_ident.cli", "record", "start", "--condition",
+               "loaded", "--payload-mass", "2", "--payload-frame", "tool0",
+               "--payload-com", "0.03,-0.02,0.06", "--payload-inertia", "0.004,0,0,0.004,0,0.002",
+               "--name", "shaped"]
+        bad = subprocess.run(cli[:-6] + ["--payload-com", "1,2"], env=ros_env, capture_output=True,
+                             text=True, timeout=120)
+        assert bad.returncode == 2 and "--payload-com needs 3 numbers" in bad.stderr
+        ok = subprocess.run(cli, env=ros_env, capture_output=True, text=True, timeout=120)
+        assert ok.returncode == 0, ok.stderr
+        got: list = []
+        latched = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL,
+                             reliability=ReliabilityPolicy.RELIABLE)
+        g._listen(RecorderStatus, "orthoglide/recorder/status", latched, got.append,
+                  lambda: any(m.recording for m in got), 30, lambda: "no recording status")
+        status = next(m for m in got if m.recording)
+        time.sleep(0.5)  # the recording's subscriptions matched (as test_recorder_ros2_control)
+        for k in range(300):
+            m = JointState(name=names, position=[0.001 * k, 0.0], effort=[0.1, 0.2])
+            m.header.stamp.sec, m.header.stamp.nanosec = divmod(t0 + k * 1_000_000, 10**9)
+            js.publish(m)
+            time.sleep(0.001)
+        time.sleep(0.5)
+        stop = g.call(Trigger, "orthoglide/recorder/stop")
+    assert stop.success, stop.message
+    payload = status_payload(status)
+    assert payload.frame == "tool0" and payload.com == (0.03, -0.02, 0.06) and payload.mass == 2.0
+    data = bags.read_bag(tmp_path / "bags" / "shaped")
+    assert len(data.positions.stamps_ns) == 300  # every tick, though /dynamic_joint_states never came
+    tags = data.tags
+    assert tags.payload_frame == "tool0"
+    assert np.allclose(tags.payload_com, (0.03, -0.02, 0.06))
+    assert np.allclose(tags.payload_inertia, (0.004, 0, 0, 0.004, 0, 0.002))
