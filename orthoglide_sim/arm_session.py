@@ -28,6 +28,9 @@ from orthoglide_sim.arm_excitation import designed_trajectory
 from orthoglide_sim.arm_limits import motion_limits
 from orthoglide_sim.arm_record import NOISE_STRIDE, current_noise_std
 from orthoglide_sim.arm_truth import ArmPayload, ArmTruth, RigidBody, load_truth
+from orthoglide_sim.chain_description import load_chain
+from orthoglide_sim.chain_plant import ChainPlant
+from orthoglide_sim.chain_truth import ChainTruth, load_chain_truth
 from orthoglide_sim.mujoco_plant import MujocoPlant
 from orthoglide_sim.session import Reference
 
@@ -52,16 +55,19 @@ class ArmSession:
     def __init__(self, robot: str = "ur5", payload: object = None, trajectory: str = "exciting1",
                  seed: int = 0, noise: bool = True, params_file: str | None = None,
                  noise_window_s: float | None = None, truth: ArmTruth | None = None):
-        self.truth = truth or load_truth(load_arm(robot), params_file or None)
+        self.truth = truth or robot_truth(robot, params_file or None)
+        self.Plant = ChainPlant if isinstance(self.truth, ChainTruth) else MujocoPlant
         arm = self.truth.arm
         self.limits = motion_limits(arm)
         self.reference = Reference(trajectory, lambda name: designed_trajectory(arm, name))
         self.period = designed_trajectory(arm, trajectory).period  # s
         self.payload = resolve_payload(self.truth, payload)
-        self.plant = MujocoPlant(self.truth, self.payload)
+        self.plant = self.Plant(self.truth, self.payload)
         self.g_tau = self.truth.drive_array("g_tau")
         self.current_limit = np.array([j.effort for j in arm.joints]) / arm.nominal_gains
-        self.inertia = asim.joint_inertia(MujocoPlant(self.truth), self.limits.centre)  # tuned unloaded
+        self.inertia = (ChainPlant(self.truth).actuated_inertia(self.limits.centre)  # tuned unloaded
+                        if self.Plant is ChainPlant
+                        else asim.joint_inertia(MujocoPlant(self.truth), self.limits.centre))
         self.rng = np.random.default_rng(seed)
         self.noise_std = self._noise_std(noise_window_s) if noise else np.zeros(arm.n)
         self.k = 0
@@ -96,7 +102,7 @@ class ArmSession:
         PID keeps its tuning, as on a real arm. ConfigError if unknown."""
         load = resolve_payload(self.truth, name)
         q, qd = self.plant.q, self.plant.qd
-        self.payload, self.plant = load, MujocoPlant(self.truth, load)
+        self.payload, self.plant = load, self.Plant(self.truth, load)
         self.plant.reset(q, qd)
 
     def set_trajectory(self, name: str, k: int) -> None:
@@ -135,6 +141,18 @@ class ArmSession:
         self.k += 1
         self.reference.settle(self.k)
         return ArmTick(k, q_meas, self.pid.v_filtered.copy(), v)
+
+
+def robot_truth(robot: str, params_file: str | None = None) -> ArmTruth:
+    """The plant's truth of a robot file: a serial arm's, or a closed chain's when the file has
+    loop closures (chain_truth; its plant is ChainPlant, MuJoCo with equality constraints)."""
+    from orthoglide_ident.model.robots import read_yaml, resolve
+
+    path = resolve(robot)
+    closed = path is not None and path.suffix in (".yaml", ".yml") and read_yaml(path).get("loops")
+    if closed:
+        return load_chain_truth(load_chain(robot), params_file)
+    return load_truth(load_arm(robot), params_file)
 
 
 def resolve_payload(truth: ArmTruth, value: object) -> ArmPayload | None:

@@ -59,3 +59,20 @@ def test_unknown_trajectory_is_a_one_line_reason():
     s = ArmSession("ur5")
     with pytest.raises(ConfigError, match="no trajectory 'zigzag' for robot ur5"):
         s.set_trajectory("zigzag", 10)
+
+
+def test_a_closed_chain_runs_in_the_session_too():
+    """The driver's stand-in runs the five-bar (a robot file with loops: ChainPlant, MuJoCo's
+    equality-constrained loop) as it runs the UR5: tracking, no fault, the 1 kg payload mounted."""
+    import numpy as np
+
+    from orthoglide_sim.arm_session import ArmSession
+    from orthoglide_sim.chain_plant import ChainPlant
+
+    s = ArmSession("five_bar", payload="1.0", seed=1)
+    assert isinstance(s.plant, ChainPlant) and s.joint_names == ("joint_1", "joint_2")
+    ticks = [s.tick() for _ in range(1500)]
+    assert s.fault is None and all(t is not None for t in ticks)
+    q = np.array([t.position for t in ticks])
+    ref = np.array([s.reference.at(k)[0] for k in range(1500)])
+    assert np.sqrt(np.mean((q - ref) ** 2)) < 1e-3  # rad: tracked
