@@ -299,8 +299,8 @@ class RecorderNode(Node):
         # the topics of every tick (the Orthoglide's two, or the broadcaster's), aligned on their
         # stamps: those published now (a robot without /dynamic_joint_states, say, must not hold
         # its /joint_states back waiting for ticks that never come)
-        stamped = {t for t in self.required if t in self.subs and self.subs[t][1] in STAMPED_TYPES
-                   and self.count_publishers(t)}
+        stamped = {t for t in self.required if t in self.subs and self.subs[t][1] in STAMPED_TYPES}
+        stamped = {t for t in stamped if self.count_publishers(t)} or stamped  # none yet: all
         rec = Recording(writer, stamped, float(self.p["expected_rate"]), self.get_logger())
         for topic in self.subs:  # topics already published; the others at their first message
             if self.count_publishers(topic):
