@@ -25,6 +25,7 @@ from typing import Any, Mapping
 import numpy as np
 
 from orthoglide_ident.errors import ConfigError
+from orthoglide_ident.yaml_files import load_yaml, unwrap_section
 from orthoglide_sim.arm_description import ArmDescription, LinkInertial, rpy_matrix
 
 GRAVITY = 9.80665  # m/s² along -z of the URDF's world: standard gravity, as the product's robot files
@@ -303,18 +304,8 @@ def load_truth(arm: ArmDescription, yaml_path: str | Path | None = None) -> ArmT
     an ``arm_plant`` mapping, or its content). ConfigError with a one-line reason on a bad file."""
     if yaml_path is None:
         return default_truth(arm)
-    import yaml
-
     path = Path(yaml_path)
-    try:
-        data = yaml.safe_load(path.read_text())
-    except OSError as exc:
-        raise ConfigError(f"cannot read arm plant {path}: {exc.strerror}") from None
-    except yaml.YAMLError as exc:
-        raise ConfigError(f"{path}: not valid YAML ({str(exc).splitlines()[0]})") from None
-    if isinstance(data, Mapping) and set(data) == {"arm_plant"}:
-        data = data["arm_plant"]
-    data = data or {}
+    data = unwrap_section(load_yaml(path, "arm plant"), "arm_plant") or {}
     if isinstance(data, Mapping) and "robot" in data and str(data["robot"]) != arm.name:
         raise ConfigError(f"{path}: describes robot {data['robot']!r}, not {arm.name!r}")
     seed = data.get("seed", DEFAULT_SEED) if isinstance(data, Mapping) else DEFAULT_SEED

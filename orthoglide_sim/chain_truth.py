@@ -29,6 +29,7 @@ from typing import Any, Mapping
 import numpy as np
 
 from orthoglide_ident.errors import ConfigError
+from orthoglide_ident.yaml_files import load_yaml, unwrap_section
 from orthoglide_sim.arm_truth import (DEFAULT_SEED, ArmPayload, ArmTruth, JointDrive, RigidBody,
                                       _number, _seeded_joint, _seeded_link, apply_overrides, perturbed)
 from orthoglide_sim.chain_description import ChainDescription
@@ -148,18 +149,8 @@ def load_chain_truth(chain: ChainDescription, yaml_path: str | Path | None = Non
     its content). ConfigError with a one-line reason on a bad file."""
     if yaml_path is None:
         return default_chain_truth(chain)
-    import yaml
-
     path = Path(yaml_path)
-    try:
-        data = yaml.safe_load(path.read_text())
-    except OSError as exc:
-        raise ConfigError(f"cannot read chain plant {path}: {exc.strerror}") from None
-    except yaml.YAMLError as exc:
-        raise ConfigError(f"{path}: not valid YAML ({str(exc).splitlines()[0]})") from None
-    if isinstance(data, Mapping) and set(data) == {"chain_plant"}:
-        data = data["chain_plant"]
-    data = data or {}
+    data = unwrap_section(load_yaml(path, "chain plant"), "chain_plant") or {}
     if not isinstance(data, Mapping):
         raise ConfigError(f"{path}: expected a mapping")
     if "robot" in data and str(data["robot"]) != chain.name:

@@ -30,6 +30,7 @@ from typing import Any, Mapping
 import numpy as np
 
 from orthoglide_ident.errors import ConfigError
+from orthoglide_ident.yaml_files import load_yaml, unwrap_section
 
 INERTIAL = ("xx", "xy", "xz", "yy", "yz", "zz", "mx", "my", "mz", "m")
 
@@ -361,19 +362,8 @@ def load_parameters(yaml_path: str | Path | None = None) -> TrueParameters:
     params = default_parameters()
     if yaml_path is None:
         return params
-    import yaml
-
     path = Path(yaml_path)
-    try:
-        text = path.read_text()
-    except OSError as exc:
-        raise ConfigError(f"cannot read plant parameters {path}: {exc.strerror}") from None
-    try:
-        data = yaml.safe_load(text)
-    except yaml.YAMLError as exc:
-        raise ConfigError(f"{path}: not valid YAML ({str(exc).splitlines()[0]})") from None
+    data = unwrap_section(load_yaml(path, "plant parameters"), "plant")
     if data is None:
         return params
-    if isinstance(data, Mapping) and set(data) == {"plant"}:
-        data = data["plant"]
     return apply_overrides(params, data, source=str(path))

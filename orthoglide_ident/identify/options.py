@@ -15,6 +15,7 @@ import numpy as np
 
 from orthoglide_ident.errors import ConfigError
 from orthoglide_ident.identify.tls import ExcitationLimits
+from orthoglide_ident.yaml_files import load_yaml
 
 
 # keys of config/identification.yaml that are the node's or a request's, not pipeline options
@@ -198,15 +199,8 @@ class IdentifyOptions:
     @classmethod
     def from_yaml(cls, path: str | Path) -> "IdentifyOptions":
         """Options from a YAML file: a plain mapping or a ROS 2 parameter file."""
-        import yaml
-
         p = Path(path)
-        try:
-            data = yaml.safe_load(p.read_text())
-        except OSError as exc:
-            raise ConfigError(f"cannot read config {p}: {exc.strerror or exc}") from None
-        except yaml.YAMLError as exc:
-            raise ConfigError(f"config {p} is not valid YAML: {str(exc).splitlines()[0]}") from None
+        data = load_yaml(p, "config")
         if data is None:
             return cls()
         if not isinstance(data, dict):

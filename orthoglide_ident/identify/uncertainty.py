@@ -175,10 +175,11 @@ class ResidualMoments:
                 if i0 + L >= m:
                     continue
                 same = run[i0:m - L] == run[i0 + L:m]
-                for j in range(self.n_j):
-                    Z1 = Z[j, i0:m - L] * same[:, None]
-                    self.lagged[j, L - 1] += Z1.T @ Z[j, i0 + L:m]
-                    self.pairs[j, L] += int(np.sum(same & kept[j, i0:m - L] & kept[j, i0 + L:m]))
+                Z1 = Z[:, i0:m - L]
+                if not same.all():  # a gap: no product across it (most folds have none)
+                    Z1 = Z1 * same[None, :, None]
+                self.lagged[:, L - 1] += Z1.transpose(0, 2, 1) @ Z[:, i0 + L:m]  # per joint
+                self.pairs[:, L] += np.sum(same & kept[:, i0:m - L] & kept[:, i0 + L:m], axis=1)
         k = min(LAGS, m)
         self._tail = (Z[:, m - k:].copy(), t[m - k:].copy(), kept[:, m - k:].copy())
 

@@ -16,10 +16,9 @@ import functools
 from pathlib import Path
 from typing import Any
 
-import yaml
-
 from orthoglide_ident.errors import ConfigError
 from orthoglide_ident.model.robot import RobotModel
+from orthoglide_ident.yaml_files import load_yaml
 
 ROBOTS_DIR = Path(__file__).resolve().parent.parent / "robots"  # bundled descriptions
 DEFAULT_ROBOT = "orthoglide"
@@ -47,11 +46,7 @@ def resolve(spec: str | Path | None) -> Path | None:
 
 
 def read_yaml(path: Path) -> dict[str, Any]:
-    try:
-        data = yaml.safe_load(path.read_text())
-    except (OSError, yaml.YAMLError) as exc:
-        reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
-        raise ConfigError(f"robot file {path}: cannot read it ({reason})") from None
+    data = load_yaml(path, "robot file")
     if not isinstance(data, dict):
         raise ConfigError(f"robot file {path}: expected a mapping of keys (name, model, "
                           "description, ...), got " + type(data).__name__)
