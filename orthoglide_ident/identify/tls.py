@@ -347,7 +347,8 @@ def check_excitation(sol: TLSSolution, limits: ExcitationLimits, names: list[str
         raise ExcitationError(
             f"the two smallest singular values of W_tot are not separated (s_c/s_c-1 = "
             f"{sol.singular_ratio:.2f} > {limits.max_singular_ratio:g}): the trajectories do not "
-            "excite the model enough to tell the gains from a near-null regressor direction"
+            "excite the model enough to tell the gains from a near-null regressor direction, or "
+            "the loaded records' payload (mass, frame, centre of mass) is not the one mounted"
         )
     if sol.condition_number > limits.max_condition:
         raise ExcitationError(

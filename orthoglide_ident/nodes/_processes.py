@@ -91,3 +91,39 @@ def interrupt_on_signals() -> None:
 
     for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
         signal.signal(sig, handler)
+
+
+def _ros2_launcher(cmdline: list[str]) -> bool:
+    """Whether a process's argv is ``ros2 launch ...`` or ``ros2 run ...`` (any interpreter)."""
+    for a, b in zip(cmdline, cmdline[1:]):
+        if os.path.basename(a) == "ros2" and b in ("launch", "run"):
+            return True
+    return False
+
+
+def end_with_ros2_launcher() -> bool:
+    """A node started by ``ros2 launch`` or ``ros2 run`` gets the parent-death signal (SIGTERM,
+    our nodes' clean stop): launch answers SIGTERM by cancelling itself without stopping its
+    processes ("using SIGTERM can result in orphaned processes", launch_service.py), and ``ros2
+    run`` dies on it the same way, so a ``timeout``, a CI runner or a supervisor that stops the
+    launcher left every node running. Started otherwise (a shell, ``nohup``, systemd) nothing
+    changes: a node may outlive a shell on purpose. Returns whether the signal was set."""
+    if not sys.platform.startswith("linux"):
+        return False
+    parent = os.getppid()
+    try:
+        with open(f"/proc/{parent}/cmdline", "rb") as fh:
+            cmdline = [a.decode(errors="replace") for a in fh.read().split(b"\0") if a]
+    except OSError:
+        return False
+    if not _ros2_launcher(cmdline):
+        return False
+    try:
+        import ctypes
+
+        ctypes.CDLL("libc.so.6").prctl(1, signal.SIGTERM, 0, 0, 0)  # PR_SET_PDEATHSIG
+    except (OSError, AttributeError):
+        return False
+    if os.getppid() != parent:  # the launcher died before the signal was set
+        os.kill(os.getpid(), signal.SIGTERM)
+    return True

@@ -18,6 +18,7 @@ from typing import Any
 
 from orthoglide_ident.errors import ConfigError, OrthoglideError
 from orthoglide_ident.nodes._guard import CallbackGuard, cannot_go_on, fatal_reason
+from orthoglide_ident.nodes._processes import end_with_ros2_launcher
 
 STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
 IDLE_WAIT_S = 0.1  # the executor thread checks for a stop request this often
@@ -167,6 +168,7 @@ def spin(make_node: Callable[[], Any], args: list[str], prog: str, threads: int 
     if code is not None:
         return code
     stop, stopped_by = _stop_on_signals()
+    end_with_ros2_launcher()  # a SIGTERM'd ros2 launch/run leaves its processes running
     node = None
     try:
         node = make_node()

@@ -8,12 +8,15 @@ import collections
 import sys
 from typing import Any
 
+import numpy as np
+
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.serialization import deserialize_message
 from sensor_msgs.msg import JointState
 
-from orthoglide_ident.bags import CURRENT_REFERENCE_TYPE, JOINT_STATE_TYPE, decode_messages
+from orthoglide_ident.bags import (CURRENT_REFERENCE_TYPE, DYNAMIC_JOINT_STATE_TYPE, JOINT_STATE_TYPE,
+                                   decode_messages)
 from orthoglide_ident.errors import ConfigError, OrthoglideError
 from orthoglide_ident.model.robots import load_robot
 from orthoglide_ident.nodes._batch import BatchTaker, BatchTopic
@@ -33,7 +36,10 @@ share/orthoglide_ident/foxglove/orthoglide_layout.json for a ready view.
 
 JSON channels, named after the topics (resolved: /orthoglide/..., or under the namespace):
   orthoglide/joint_states, orthoglide/current_reference, orthoglide/setpoints   at `rate` Hz (the
-      first message of each period of their stamps)
+      first message of each period of their stamps); next to ros2_control (config/ros2_control.yaml)
+      joint_states (positions), joint_states/effort (the effort, as currents) and
+      dynamic_joint_states (the current interface, as currents) instead; the model force takes the
+      current from the interface, else the effort, else the CurrentReference, as the identification
   orthoglide/identification/live    the live estimate: each gain, its sigma and gain +- sigma as
                                     numbers, the status and the warnings as text
   orthoglide/recorder/status        the recorder's state, with a one-line summary
@@ -51,12 +57,21 @@ PARAMETERS = (
     Param("rate", 50.0, "Hz of the high-rate channels sent to clients (joint states, currents, setpoints, forces)"),
     Param("robot", "", "robot model of the model force, as the identification's robot parameter: empty = the "
           "Orthoglide, a bundled name, a URDF or a robot YAML"),
+    Param("joint_states_topic", schemas.JOINT_STATES, "JointState topic of the positions (ros2_control: "
+          "joint_states); its effort, when it has one, is shown as currents on <topic>/effort"),
+    Param("current_reference_topic", schemas.CURRENT_REFERENCE, "CurrentReference topic of the currents "
+          "(\"\": not read)"),
+    Param("dynamic_joint_states_topic", "", "DynamicJointState topic whose current_interface is the current "
+          "(ros2_control: dynamic_joint_states; \"\": not read)"),
+    Param("current_interface", "", "the DynamicJointState interface of the current (\"\" = current)"),
+    Param("effort_unit", "A", "the JointState effort: A (a current) or torque (N·m or N, divided by the "
+          "nominal gains), as the identification's"),
 )
 PROCESS_PERIOD_S = 0.1  # the batches taken are decoded, decimated and sent this often
 QOS_CHECK_PERIOD_S = 2.0
 BUFFER = 5000  # serialized messages kept per high-rate topic between two processings (5 s at 1 kHz)
-STREAMS = {schemas.JOINT_STATES: JointState, schemas.CURRENT_REFERENCE: CurrentReference,
-           schemas.SETPOINTS: JointSetpoint}
+EFFORT, DYNAMIC = "effort", "dynamic"  # the ros2_control sources of the currents (kinds of their own)
+CURRENT_PREFERENCE = (DYNAMIC, EFFORT, schemas.CURRENT_REFERENCE)  # as live identification's sources
 
 
 def fields(msg: Any) -> dict[str, Any]:
@@ -75,30 +90,54 @@ class ViewerNode(Node):
         p = declare(self, PARAMETERS)
         if not p["rate"] > 0:
             raise ConfigError(f"parameter rate: must be > 0 Hz, got {p['rate']}")
+        if p["effort_unit"] not in ("A", "torque"):
+            raise ConfigError(f"parameter effort_unit: A or torque, got {p['effort_unit']!r}")
+        self.p = p
         self.residual = ForceResidual(load_robot(p["robot"]), block_s=1.0 / p["rate"])
         self.server = ViewServer(p["host"], p["port"])
-        self.topic = {kind: self.resolve_topic_name(kind) for kind in (*STREAMS, schemas.LIVE,
+        self.streams = self._streams(p)
+        names = {schemas.JOINT_STATES: p["joint_states_topic"], schemas.CURRENT_REFERENCE: p["current_reference_topic"],
+                 DYNAMIC: p["dynamic_joint_states_topic"]}
+        self.topic = {kind: self.resolve_topic_name(names.get(kind, kind)) for kind in (*self.streams, schemas.LIVE,
                       schemas.RECORDER_STATUS, schemas.IDENTIFIED, schemas.FORCES)}
         for kind, topic in self.topic.items():
-            self.server.add(topic, kind)
+            self.server.add(topic, schemas.CURRENT_REFERENCE if kind == DYNAMIC else kind)
+        self.topic[EFFORT] = self.topic[schemas.JOINT_STATES] + "/effort"
+        if p["joint_states_topic"] != schemas.JOINT_STATES:  # the Orthoglide's joint states carry no effort
+            self.server.add(self.topic[EFFORT], schemas.CURRENT_REFERENCE)
+        self.current_source: str | None = None  # the currents of the model force (CURRENT_PREFERENCE)
         self.latched: dict[str, tuple[dict, int]] = {}  # kind -> last (message, log time)
-        self.buffers = {k: collections.deque(maxlen=BUFFER) for k in STREAMS}
-        self.decimators = {k: StampDecimator(round(1e9 / p["rate"])) for k in STREAMS}
-        self.qos = {k: self._offered_qos(k) for k in STREAMS}
+        self.buffers = {k: collections.deque(maxlen=BUFFER) for k in self.streams}
+        self.decimators = {k: StampDecimator(round(1e9 / p["rate"])) for k in self.streams}
+        self.qos = {k: self._offered_qos(k) for k in self.streams}
         latched = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL, reliability=ReliabilityPolicy.RELIABLE)
         self.create_subscription(LiveIdentification, schemas.LIVE, self.on_live, 10)
         self.create_subscription(RecorderStatus, schemas.RECORDER_STATUS, self.on_status, latched)
         self.create_subscription(IdentifiedParameters, schemas.IDENTIFIED, self.on_identified, latched)
         self.create_timer(PROCESS_PERIOD_S, self.process)
         self.create_timer(QOS_CHECK_PERIOD_S, self.follow_qos)
-        self.taker = BatchTaker(self, [self._stream(k) for k in STREAMS], period_s=0.01)
+        self.taker = BatchTaker(self, [self._stream(k) for k in self.streams], period_s=0.01)
         self.get_logger().info(f"Foxglove view on {self.server.url}: in Foxglove or Lichtblick, Open connection -> "
                                f"Foxglove WebSocket -> {self.server.url}")
+
+    @staticmethod
+    def _streams(p: dict[str, Any]) -> dict[str, tuple[Any, str | None]]:
+        """The high-rate topics read: kind -> (message class, bulk-decoder type name)."""
+        streams: dict[str, tuple[Any, str | None]] = {schemas.JOINT_STATES: (JointState, JOINT_STATE_TYPE),
+                                                      schemas.SETPOINTS: (JointSetpoint, None)}
+        if p["current_reference_topic"]:
+            streams[schemas.CURRENT_REFERENCE] = (CurrentReference, CURRENT_REFERENCE_TYPE)
+        if p["dynamic_joint_states_topic"]:
+            from control_msgs.msg import DynamicJointState  # built by make setup, or a ROS install's
+
+            streams[DYNAMIC] = (DynamicJointState, DYNAMIC_JOINT_STATE_TYPE)
+        return streams
 
     # ---- high-rate topics: taken raw in batches, processed every PROCESS_PERIOD_S ------------------
     def _stream(self, kind: str) -> BatchTopic:
         buf = self.buffers[kind]
-        return BatchTopic(STREAMS[kind], kind, self.qos[kind], lambda batch: buf.extend(m[0] for m in batch))
+        return BatchTopic(self.streams[kind][0], self.topic[kind], self.qos[kind],
+                          lambda batch: buf.extend(m[0] for m in batch))
 
     def _offered_qos(self, kind: str) -> QoSProfile:
         """Reliable unless a publisher offers best effort (a reliable subscription would not match it)."""
@@ -108,7 +147,7 @@ class ViewerNode(Node):
                           else ReliabilityPolicy.RELIABLE)
 
     def follow_qos(self) -> None:
-        for kind in STREAMS:
+        for kind in self.streams:
             qos = self._offered_qos(kind)
             if qos != self.qos[kind]:
                 self.qos[kind] = qos
@@ -146,13 +185,43 @@ class ViewerNode(Node):
                     stamp_ns(m), m.name, position=m.position, velocity=m.velocity, acceleration=m.acceleration),
                     stamp_ns(m))
             return
-        stamps, names, values = decode_messages(raw, JOINT_STATE_TYPE if kind == schemas.JOINT_STATES
-                                                else CURRENT_REFERENCE_TYPE)
-        field = "position" if kind == schemas.JOINT_STATES else "current"
-        for i in self.decimators[kind].pick(stamps):
-            self.server.log(self.topic[kind], schemas.joint_values(int(stamps[i]), names, **{field: values[i]}),
-                            int(stamps[i]))
-        self.residual.add("q" if kind == schemas.JOINT_STATES else "v", stamps, tuple(names), values)
+        msgtype = self.streams[kind][1]
+        iface = (self.p["current_interface"] or "current") if kind == DYNAMIC else None
+        stamps, names, values = decode_messages(raw, msgtype, iface)
+        picked = self.decimators[kind].pick(stamps)
+        if kind == schemas.JOINT_STATES:
+            self._log(kind, picked, stamps, names, "position", values)
+            self.residual.add("q", stamps, tuple(names), values)
+            stamps, names, values = decode_messages(raw, msgtype, "effort")  # the joints that have one
+            if not names:
+                return
+            if self.p["effort_unit"] == "torque":  # N·m or N -> A with the nominal gains
+                gains = dict(zip(self.residual.model.joint_names, self.residual.model.nominal_gains))
+                values = values / [gains.get(n, 1.0) for n in names]
+            kind = EFFORT
+        self._log(kind, picked, stamps, names, "current", values)
+        self._current(kind, stamps, tuple(names), values)
+
+    def _log(self, kind: str, picked: Any, stamps: Any, names: Any, field: str, values: Any) -> None:
+        topic = self.topic[kind]
+        if topic not in self.server.channels:
+            self.server.add(topic, schemas.CURRENT_REFERENCE)  # joint_states/effort, once it comes
+        for i in picked:
+            self.server.log(topic, schemas.joint_values(int(stamps[i]), names, **{field: values[i]}), int(stamps[i]))
+
+    def _current(self, source: str, stamps: Any, names: tuple[str, ...], values: Any) -> None:
+        """The model force's currents from the most preferred source that has them all (finite)."""
+        rank = CURRENT_PREFERENCE.index(source)
+        if self.current_source is not None and rank > CURRENT_PREFERENCE.index(self.current_source):
+            return
+        joints = self.residual.model.joint_names
+        if source == EFFORT and not (set(joints) <= set(names)
+                                     and np.isfinite(values[:, [names.index(j) for j in joints]]).all()):
+            return  # an effort without the robot's currents: not a current source
+        if source != self.current_source:
+            self.current_source = source
+            self.get_logger().info(f"model force: currents from {self.topic[source]}")
+        self.residual.add("v", stamps, names, values)
 
     def _forces_out(self) -> None:
         names = self.residual.model.joint_names

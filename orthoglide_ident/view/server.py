@@ -14,6 +14,8 @@ import json
 import threading
 from typing import Any
 
+from foxglove.websocket import ServerListener
+
 from orthoglide_ident.errors import ConfigError
 from orthoglide_ident.view.schemas import SCHEMAS
 
@@ -21,11 +23,13 @@ BACKLOG = 512  # messages queued per client: ~2 s of the viewer's ~250 msg/s, th
 SERVER_NAME = "orthoglide_ident viewer"
 
 
-class _Listener:
+class _Listener(ServerListener):
     """foxglove-sdk's callbacks (on its threads): a new subscription sets ``new``, so that the
-    caller sends the latched channels' last messages again."""
+    caller sends the latched channels' last messages again. The SDK calls every callback of its
+    ServerListener (an unsubscribe on each disconnect): the base class's are no-ops."""
 
     def __init__(self) -> None:
+        super().__init__()
         self.new = threading.Event()
 
     def on_subscribe(self, client: Any, channel: Any) -> None:

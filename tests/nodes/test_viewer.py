@@ -182,6 +182,62 @@ def test_the_forces_channel_compares_the_measured_and_the_model_force(viewer):
     client.close()
 
 
+def test_a_ros2_control_robot_is_viewed_from_its_broadcaster_topics(ros_env):
+    """joint_states (positions, and the effort as currents) and dynamic_joint_states (the current
+    interface) as config/ros2_control.yaml sets them: each on its channel, a gripper without a
+    current ignored by the model force, which takes the interface (the preferred source)."""
+    from control_msgs.msg import DynamicJointState, InterfaceValue
+    from sensor_msgs.msg import JointState
+
+    from orthoglide_ident.model.robots import load_robot
+
+    run = ViewerRun(ros_env, ["-p", "robot:=ur5_mount", "-p", "joint_states_topic:=/joint_states",
+                              "-p", "dynamic_joint_states_topic:=/dynamic_joint_states"])
+    try:
+        joints = list(load_robot("ur5_mount").joint_names)[::-1] + ["gripper_finger_joint"]  # hardware order
+        pub_js = run.node.create_publisher(JointState, "/joint_states", 1000)
+        pub_d = run.node.create_publisher(DynamicJointState, "/dynamic_joint_states", 1000)
+        client = FoxgloveClient(run.url)
+        assert {"/joint_states", "/dynamic_joint_states"} <= set(client.channels)
+        client.subscribe()
+        t_end = time.monotonic() + 30
+        while not (pub_js.get_subscription_count() and pub_d.get_subscription_count()):
+            assert time.monotonic() < t_end, "the viewer never subscribed"
+            time.sleep(0.05)
+        time.sleep(0.5)
+        for k in range(400):
+            sec, nsec = divmod(T0 + k * TICK, 10**9)
+            effort = [0.1 * k + j for j in range(6)] + [float("nan")]
+            js = JointState(name=joints, position=[0.001 * k] * 7, velocity=[0.0] * 7, effort=effort)
+            d = DynamicJointState(joint_names=joints, interface_values=[
+                InterfaceValue(interface_names=["position", "current"], values=[0.001 * k, 2 * e]) for e in effort])
+            for m in (js, d):
+                m.header.stamp.sec, m.header.stamp.nanosec = sec, nsec
+            pub_js.publish(js)
+            pub_d.publish(d)
+            if k % 50 == 49:
+                time.sleep(0.01)
+        frames = client.frames(20, until=lambda fs: all(
+            sum(f.topic == t for f in fs) >= 20 for t in ("/joint_states", "/joint_states/effort",
+                                                          "/dynamic_joint_states")))
+        by = {t: [f for f in frames if f.topic == t] for t in ("/joint_states", "/joint_states/effort",
+                                                              "/dynamic_joint_states")}
+        assert all(len(v) >= 20 for v in by.values()), {t: len(v) for t, v in by.items()}
+        f = by["/joint_states/effort"][3]
+        k = (f.log_time - T0) // TICK
+        assert f.message["name"] == joints and f.message["current"][:6] == pytest.approx([0.1 * k + j for j in range(6)])
+        assert f.message["current"][6] is None  # NaN is not JSON
+        f = by["/dynamic_joint_states"][3]
+        k = (f.log_time - T0) // TICK
+        assert f.message["current"][:6] == pytest.approx([2 * (0.1 * k + j) for j in range(6)])
+        assert by["/joint_states"][3].message["position"] == pytest.approx([0.001 * k] * 7)
+        client.close()
+    finally:
+        log = run.close()
+    assert "model force: currents from /dynamic_joint_states" in log, log
+    assert "Traceback" not in log and "Callback failed" not in log, log
+
+
 def test_garbage_a_vanished_and_a_stalled_client_leave_the_node_serving(viewer):
     garbage = FoxgloveClient(viewer.url)
     garbage.ws.send("{not json")
