@@ -9,6 +9,7 @@ nodes._guard and the node goes on serving.
 """
 from __future__ import annotations
 
+import os
 import signal
 import sys
 import threading
@@ -111,17 +112,32 @@ def _init_ros(args: list[str], prog: str) -> int | None:
 def _stop_on_signals() -> tuple[threading.Event, list[int]]:
     """Ctrl-C, SIGTERM (ros2 launch, systemd, kill, a dying parent) and SIGHUP set the returned
     event (and say which signal). rclpy's own SIGTERM handling did not always wake a waiting
-    executor here, so the executor spins on its own thread while the main thread stays in Python,
-    where these handlers only raise a flag (no exception mid-join)."""
+    executor here, so the executor spins on its own thread while the main thread stays in Python.
+
+    The handler itself takes no lock: it runs on the main thread between two bytecodes, possibly
+    inside Event.set or Event.wait, which hold the event's lock — a handler calling stop.set()
+    there waited for itself forever (seen: the ros2_control stand-in, SIGTERM'd by its dying
+    launcher and again by hand, hung in six nested handlers). Python's C-level handler writes
+    each signal's number to a wakeup pipe; a thread of its own reads it and sets the event."""
     stop = threading.Event()
     stopped_by: list[int] = []
+    read_fd, write_fd = os.pipe()
+    os.set_blocking(write_fd, False)
 
     def on_signal(signum: int, frame: Any) -> None:
-        stopped_by.append(signum)
-        stop.set()
+        stopped_by.append(signum)  # atomic, lock-free; the watcher sets the event
+
+    def watch() -> None:
+        numbers = {int(s) for s in STOP_SIGNALS}
+        while not stop.is_set():
+            data = os.read(read_fd, 64)  # the numbers of the signals caught, one byte each
+            if not data or numbers.intersection(data):
+                stop.set()
 
     for sig in STOP_SIGNALS:
         signal.signal(sig, on_signal)
+    signal.set_wakeup_fd(write_fd, warn_on_full_buffer=False)
+    threading.Thread(target=watch, name="signals", daemon=True).start()
     return stop, stopped_by
 
 

@@ -70,3 +70,31 @@ def test_a_node_ends_when_its_ros2_launcher_is_killed(tmp_path, ros_env):
     finally:
         if _alive(node):
             os.kill(node, signal.SIGKILL)
+
+
+def test_a_burst_of_stop_signals_ends_a_node_cleanly(tmp_path, ros_env):
+    """SIGINT, SIGTERM and SIGHUP back to back (launch's escalation, a parent-death signal, a user
+    who presses Ctrl-C twice): one clean stop, exit 0. The handler once set the stop event itself
+    and a signal arriving inside it waited for its lock forever: a node up and deaf."""
+    log = tmp_path / "recorder.log"
+    with open(log, "w") as err:
+        node = children.popen([sys.executable, "-m", "orthoglide_ident.nodes.recorder", "--ros-args",
+                               "-p", f"output_dir:={tmp_path / 'bags'}"], env=ros_env, stderr=err)
+    try:
+        deadline = time.monotonic() + 60
+        while "recorder ready" not in log.read_text():
+            assert time.monotonic() < deadline and node.poll() is None, log.read_text()
+            time.sleep(0.1)
+        t_end = time.monotonic() + 2.0  # signals spread over the handler's run (2 cores): nested
+        while time.monotonic() < t_end and node.poll() is None and "stopping on" not in log.read_text():
+            for sig in (signal.SIGTERM, signal.SIGINT, signal.SIGHUP):
+                try:
+                    os.kill(node.pid, sig)
+                except ProcessLookupError:
+                    break
+        assert node.wait(20) == 0, log.read_text()
+    finally:
+        if node.poll() is None:
+            node.kill()
+    text = log.read_text()
+    assert "stopping on SIG" in text and "Traceback" not in text, text  # pending signals merge
