@@ -37,12 +37,13 @@ def test_launch_file_lists_the_nodes_with_installed_configs():
 
 
 def test_ros2_control_yaml_sets_declared_parameters_of_each_node():
-    from orthoglide_ident.nodes import ctc, identification, recorder
+    from orthoglide_ident.nodes import ctc, identification, recorder, viewer
     from orthoglide_sim import ros2_control_node
 
     data = yaml.safe_load((ROOT / "config" / "ros2_control.yaml").read_text())
     declared = {"orthoglide_recorder": recorder.PARAMETERS, "orthoglide_identification": identification.PARAMETERS,
-                "orthoglide_ctc": ctc.PARAMETERS, "ros2_control_standin": ros2_control_node.PARAMETERS}
+                "orthoglide_ctc": ctc.PARAMETERS, "ros2_control_standin": ros2_control_node.PARAMETERS,
+                "orthoglide_viewer": viewer.PARAMETERS}
     launched = {n["name"] for n in _launch().NODES}
     assert set(data) <= set(declared) and set(data) <= launched
     for node, section in data.items():
