@@ -25,11 +25,11 @@ import numpy as np
 from orthoglide_ident import bags
 from orthoglide_ident.errors import ConfigError
 from orthoglide_sim.arm_session import ArmSession, ArmTick
+from orthoglide_sim.tick_clock import TICK_NS
 
 ARM_INTERFACES = ("position", "velocity", "current")
 EXTRA_INTERFACES = ("position", "velocity")
 TOPICS = ("joint_states", "dynamic_joint_states")  # relative: the controller manager's namespace
-TICK_NS = 1_000_000  # the controller manager's update period (1 kHz)
 
 
 class BroadcasterLayout:

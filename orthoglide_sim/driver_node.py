@@ -2,7 +2,6 @@
 from __future__ import annotations
 
 import gc
-import os
 import sys
 import threading
 import time
@@ -25,6 +24,7 @@ from orthoglide_ident.nodes._params import Param, declare, from_command_line, on
 from orthoglide_ident.nodes._spin import spin
 from orthoglide_msgs.msg import CurrentReference, JointSetpoint
 from orthoglide_sim.session import DriverSession
+from orthoglide_sim.tick_clock import LATE_NS, TICK_NS, real_time_priority, sleep_until
 from orthoglide_sim.true_parameters import load_parameters
 
 DOC = """\
@@ -67,9 +67,6 @@ PARAMETERS = (
     Param("noise", True, "current noise on/off"),
 )
 JOINTS = list(JOINT_NAMES)  # the interface (docs/architecture.md §4); the plant keeps its own truth
-TICK_NS = 1_000_000
-LATE_NS = 500_000  # a tick published more than 0.5 ms after its deadline is late
-WAKE_EARLY_NS = 100_000
 LOCKSTEP_TIMEOUT_S = 2.0
 STATUS_PERIOD_TICKS = 10_000  # a log line
 HISTORY_TICKS = 5000  # 5 s of ticks kept for resending to a subscriber that fell behind
@@ -239,7 +236,7 @@ class Driver(Node):
         n_ticks = round(self.duration * 1000) if self.duration > 0 else None
         s = self.session
         if self.realtime and self.rt_priority > 0:
-            self._real_time_priority()
+            real_time_priority(self.rt_priority, self.get_logger(), "tick loop")
         if not self.realtime:  # before the setpoint horizon, which the outside controller needs
             self._wait_for_input_publisher(stop)
         margin = 5 * TICK_NS if self.realtime else 0  # tick 0 is due once the horizon is out
@@ -257,7 +254,7 @@ class Driver(Node):
                 self._idle_in_fault(stop)
                 continue
             if self.realtime:
-                self._sleep_until(self.t0 + s.k * TICK_NS)
+                sleep_until(self.t0 + s.k * TICK_NS)
             if not self._tick():
                 break
         self.finished = True
@@ -322,24 +319,6 @@ class Driver(Node):
         try:
             self.pub_diag.publish(msg)
         except Exception:  # shutting down
-            pass
-
-    def _real_time_priority(self) -> None:
-        """SCHED_FIFO for this thread: the ticks keep their deadlines while other nodes run."""
-        try:
-            os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(min(self.rt_priority, 99)))
-            self.get_logger().info(f"tick loop at real-time priority {self.rt_priority} (SCHED_FIFO)")
-        except (OSError, AttributeError) as e:
-            self.get_logger().warning(f"no real-time priority for the tick loop ({e}); ticks may be late "
-                                      "when the machine is busy (set rt_priority:=0 to silence this)")
-
-    def _sleep_until(self, deadline_ns: int) -> None:
-        """Sleep to just before the deadline, then wait out the rest: time.sleep overshoots by
-        ~0.08 ms here, a tenth of the tick, and the tick is published at its deadline."""
-        delay = deadline_ns - WAKE_EARLY_NS - time.monotonic_ns()
-        if delay > 0:
-            time.sleep(delay * 1e-9)
-        while time.monotonic_ns() < deadline_ns:
             pass
 
     def _idle_in_fault(self, stop: threading.Event) -> None:

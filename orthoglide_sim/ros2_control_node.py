@@ -5,7 +5,6 @@
 from __future__ import annotations
 
 import gc
-import os
 import sys
 import threading
 import time
@@ -21,8 +20,8 @@ from std_srvs.srv import Trigger
 from orthoglide_ident.nodes._params import Param, declare, on_set, usage
 from orthoglide_ident.nodes._spin import spin
 from orthoglide_sim.arm_session import ArmSession
-from orthoglide_sim.broadcaster import TICK_NS, TOPICS, BroadcasterLayout, TickDropper
-from orthoglide_sim.driver_node import LATE_NS, WAKE_EARLY_NS
+from orthoglide_sim.broadcaster import TOPICS, BroadcasterLayout, TickDropper
+from orthoglide_sim.tick_clock import LATE_NS, TICK_NS, real_time_priority, sleep_until
 
 DOC = """\
 A ros2_control robot as the product sees it, simulated: a serial arm (robot: a bundled name, a robot
@@ -125,7 +124,7 @@ class Ros2ControlStandIn(Node):
         """One update per 1 ms deadline: step the arm, publish the broadcaster's two messages."""
         n_ticks = round(self.duration * 1000) if self.duration > 0 else None
         if self.rt_priority > 0:
-            self._real_time_priority()
+            real_time_priority(self.rt_priority, self.get_logger(), "update loop")
         self.start_ns = time.time_ns() + 5 * TICK_NS
         self.t0 = time.monotonic_ns() + 5 * TICK_NS
         self.get_logger().info(f"update k is stamped {self.start_ns} + k * {TICK_NS} ns")
@@ -133,7 +132,7 @@ class Ros2ControlStandIn(Node):
         gc.freeze()  # no collection pause of what exists now in the loop
         k = 0
         while not stop.is_set() and (n_ticks is None or k < n_ticks):
-            self._sleep_until(self.t0 + k * TICK_NS)
+            sleep_until(self.t0 + k * TICK_NS)
             if not self._update(k):
                 break
             k += 1
@@ -183,21 +182,6 @@ class Ros2ControlStandIn(Node):
         try:
             self.pub_diag.publish(msg)
         except Exception:  # noqa: BLE001 - shutting down
-            pass
-
-    def _real_time_priority(self) -> None:
-        try:
-            os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(min(self.rt_priority, 99)))
-        except (OSError, AttributeError) as e:
-            self.get_logger().warning(f"no real-time priority for the update loop ({e}); updates may be "
-                                      "late when the machine is busy (rt_priority:=0 silences this)")
-
-    @staticmethod
-    def _sleep_until(deadline_ns: int) -> None:
-        delay = deadline_ns - WAKE_EARLY_NS - time.monotonic_ns()
-        if delay > 0:
-            time.sleep(delay * 1e-9)
-        while time.monotonic_ns() < deadline_ns:
             pass
 
     def _log(self, text: str) -> None:

@@ -33,9 +33,9 @@ from typing import Sequence
 import numpy as np
 
 from orthoglide_ident.errors import ConfigError
+from orthoglide_ident.ticks import TICK_NS
 
 EFFORTS = ("nominal", "torque", "current")
-TICK_NS = 1_000_000
 
 
 def _string(name: str) -> bytes:

@@ -21,6 +21,7 @@ from orthoglide_ident.nodes._batch import BatchTaker, BatchTopic
 from orthoglide_ident.nodes._jtc import TrajectoryOutlet
 from orthoglide_ident.nodes._params import Param, declare, usage
 from orthoglide_ident.nodes._spin import spin
+from orthoglide_ident.ticks import TICK_NS
 from orthoglide_msgs.msg import CurrentReference, IdentifiedParameters, JointSetpoint
 
 DOC = """\
@@ -68,7 +69,6 @@ PARAMETERS = (
     Param("trajectory_overlap", 100, "ticks already sent repeated at the start of each trajectory message, "
           "so that it starts before the controller's now (more than setpoint_lead)"),
 )
-TICK_NS = 1_000_000
 MONITOR_PERIOD_NS = 5_000_000_000
 
 
