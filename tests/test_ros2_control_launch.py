@@ -51,3 +51,19 @@ def test_ros2_control_yaml_sets_declared_parameters_of_each_node():
         assert keys <= {p.name for p in declared[node]}, (node, keys - {p.name for p in declared[node]})
     topics = data["orthoglide_recorder"]["ros__parameters"]["topics"]
     assert topics == ["joint_states", "dynamic_joint_states"]  # relative: the controller manager's namespace
+
+
+def test_every_node_of_the_launch_accepts_its_parameter_files():
+    """Each node's own YAML, then config/ros2_control.yaml, as ros2 launch passes them, make a
+    node that starts: config/ctc.yaml's 3 current limits (the Orthoglide's) once made the ctc
+    exit 2 for the 6-joint UR5, respawned forever."""
+    from orthoglide_ident.model.robots import load_robot
+    from orthoglide_ident.nodes.ctc import check_current_limit
+
+    merged: dict = {}
+    for name in ("ctc.yaml", "ros2_control.yaml"):
+        data = yaml.safe_load((ROOT / "config" / name).read_text())
+        for section in ("/**", "orthoglide_ctc"):
+            merged.update((data.get(section) or {}).get("ros__parameters", {}))
+    robot = load_robot(merged["robot"])
+    check_current_limit(merged["current_limit"], robot)  # raises ConfigError with the reason

@@ -16,6 +16,7 @@ from trajectory_msgs.msg import JointTrajectory
 
 from orthoglide_ident.control import CTCParameters, feedforward_currents
 from orthoglide_ident.errors import OrthoglideError
+from orthoglide_ident.model.robot import RobotModel
 from orthoglide_ident.model.robots import load_robot
 from orthoglide_ident.nodes._batch import BatchTaker, BatchTopic
 from orthoglide_ident.nodes._jtc import TrajectoryOutlet
@@ -76,6 +77,17 @@ def _stamp_ns(msg) -> int:
     return msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
 
 
+def check_current_limit(value, robot: RobotModel) -> np.ndarray:
+    """The current_limit parameter as one limit per joint of ``robot`` (A); OrthoglideError with
+    the reason unless it is one positive current or one per joint."""
+    limit = np.asarray(value, float)
+    n_j = robot.n_joints
+    if limit.shape not in ((1,), (n_j,)) or not np.all(limit > 0):
+        raise OrthoglideError(f"parameter current_limit: one positive current (A) or {n_j} "
+                              f"({', '.join(robot.joint_names)}), got {value}")
+    return np.broadcast_to(limit, (n_j,))
+
+
 class CTCNode(Node):
     """Identified parameters + setpoints -> feed-forward currents stamped for their tick."""
 
@@ -87,12 +99,7 @@ class CTCNode(Node):
         self.payload_mass, self.batch = v["payload_mass"], v["batch"]
         self.robot = load_robot(v["robot"])
         self.joints = list(self.robot.joint_names)
-        n_j = len(self.joints)
-        limit = np.asarray(v["current_limit"], float)
-        if limit.shape not in ((1,), (n_j,)) or not np.all(limit > 0):
-            raise OrthoglideError(f"parameter current_limit: one positive current (A) or {n_j} "
-                                  f"({', '.join(self.joints)}), got {v['current_limit']}")
-        self.current_limit = np.broadcast_to(limit, (n_j,))
+        self.current_limit = check_current_limit(v["current_limit"], self.robot)
         self.model: CTCParameters | None = None
         self.stopped: str | None = None
         self.pending: dict[int, np.ndarray] = {}  # stamp -> (3, n_j): q_d, qd_d, qdd_d
