@@ -79,20 +79,28 @@ def test_the_payload_shape_matters(arm):
     assert e_point > 5 * e_exact
 
 
+def live_result(model, records, options: IdentifyOptions, batch: int = 500):
+    """The live identification fed ``records`` in batches of ``batch`` ticks, each recording with
+    its payload's shape as the recorder's status carries it."""
+    from orthoglide_ident.identify.live import LiveIdentification
+
+    live = LiveIdentification(options, model)
+    for rec in records:
+        live.start_recording(rec.source, rec.condition, rec.payload_mass, rec.payload)
+        for a in range(0, len(rec.stamps_q_ns), batch):
+            live.add_joint_states(rec.stamps_q_ns[a:a + batch], rec.names_q, rec.q[a:a + batch])
+            live.add_current_reference(rec.stamps_v_ns[a:a + batch], rec.names_v, rec.v_tau[a:a + batch])
+        live.stop_recording()
+    return live.result()
+
+
 def test_live_with_the_payload_shape_equals_offline(arm):
     """The live identification given the payload's frame, CoM and inertia (as the recorder's
     status carries them) folds the same equations as the bag's tag gives offline."""
-    from orthoglide_ident.identify.live import LiveIdentification
     from test_live import rel_diff
 
     model, recs, _ = arm
     opts = IdentifyOptions(lag_model="off")
-    offline = identify_records([recs["unloaded"], recs["2kg"]], model=model, options=opts)
-    live = LiveIdentification(opts, model)
-    for rec in (recs["unloaded"], recs["2kg"]):
-        live.start_recording(rec.source, rec.condition, rec.payload_mass, rec.payload)
-        for a in range(0, len(rec.stamps_q_ns), 500):
-            live.add_joint_states(rec.stamps_q_ns[a:a + 500], rec.names_q, rec.q[a:a + 500])
-            live.add_current_reference(rec.stamps_v_ns[a:a + 500], rec.names_v, rec.v_tau[a:a + 500])
-        live.stop_recording()
-    assert max(rel_diff(offline, live.result())) < 1e-6
+    records = [recs["unloaded"], recs["2kg"]]
+    offline = identify_records(records, model=model, options=opts)
+    assert max(rel_diff(offline, live_result(model, records, opts))) < 1e-6

@@ -25,7 +25,7 @@ from orthoglide_sim.arm_bags import main as bags_main
 from orthoglide_sim.chain_description import load_chain
 from orthoglide_sim.chain_record import simulate_chain
 from orthoglide_sim.chain_truth import default_chain_truth
-from test_on_arm import as_record
+from test_on_arm import as_record, live_result
 
 
 def gain_errors(result, truth) -> tuple[np.ndarray, np.ndarray]:
@@ -95,20 +95,13 @@ def test_live_equals_offline_on_the_closed_chain(five_bar):
     """The live identification of the closed chain (the loop solved per tick inside the model,
     batches of 500 ticks, the payload's shape as the recorder's status carries it) folds the
     same equations as offline: the same answer to 1e-6."""
-    from orthoglide_ident.identify.live import LiveIdentification
     from test_live import rel_diff
 
     model, recs, _ = five_bar
     opts = IdentifyOptions(lag_model="off")
-    offline = identify_records([recs["unloaded"], recs["1kg"]], model=model, options=opts)
-    live = LiveIdentification(opts, model)
-    for rec in (recs["unloaded"], recs["1kg"]):
-        live.start_recording(rec.source, rec.condition, rec.payload_mass, rec.payload)
-        for a in range(0, len(rec.stamps_q_ns), 500):
-            live.add_joint_states(rec.stamps_q_ns[a:a + 500], rec.names_q, rec.q[a:a + 500])
-            live.add_current_reference(rec.stamps_v_ns[a:a + 500], rec.names_v, rec.v_tau[a:a + 500])
-        live.stop_recording()
-    result = live.result()
+    records = [recs["unloaded"], recs["1kg"]]
+    offline = identify_records(records, model=model, options=opts)
+    result = live_result(model, records, opts)
     assert result.joint_names == offline.joint_names
     assert max(rel_diff(offline, result)) < 1e-6
 
