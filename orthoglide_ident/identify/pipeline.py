@@ -96,7 +96,7 @@ def read_record(path: str | Path, model: RobotModel | None = None,
     tags, current = data.tags, data.current
     v_tau = current.current
     if opts.effort_unit == "torque":
-        v_tau = v_tau / model.nominal_gains[None, :]  # the joints are the model's, in order
+        v_tau = model.effort_as_current(current.names, v_tau)
     return Record(
         source=str(path),
         stamps_q_ns=data.positions.stamps_ns, names_q=tuple(data.positions.names),

@@ -193,6 +193,12 @@ class RobotModel(abc.ABC):
         """(n,) the manufacturer's drive gains, N/A or N·m/A."""
         return np.array([j.nominal_gain for j in self.joints], dtype=float)
 
+    def effort_as_current(self, names: Sequence[str], effort: np.ndarray) -> np.ndarray:
+        """A torque/force effort (m, len(names)) in N·m or N -> currents (A) with the nominal
+        gains (``effort_unit: torque``); a joint the model lacks (a gripper) is left as it is."""
+        gains = dict(zip(self.joint_names, self.nominal_gains))
+        return np.asarray(effort, float) / [gains.get(n, 1.0) for n in names]
+
     @property
     def gain_units(self) -> tuple[str, ...]:
         return tuple(j.gain_unit for j in self.joints)

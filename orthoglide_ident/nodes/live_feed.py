@@ -248,8 +248,7 @@ class LiveFeed:
             self._say([f"{topic}: {e}; {len(raw)} messages not used"])
             return
         if self.effort_unit == "torque":  # N·m or N -> A with the nominal gains, as offline
-            gains = dict(zip(self.robot.joint_names, self.robot.nominal_gains))
-            values = values / [gains.get(n, 1.0) for n in names]
+            values = self.robot.effort_as_current(names, values)
         self._say(self.live.add_current_reference(stamps, list(names), values))
 
     def replace(self, live: LiveIdentification, robot: RobotModel) -> None:

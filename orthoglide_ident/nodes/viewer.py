@@ -196,8 +196,7 @@ class ViewerNode(Node):
             if not names:
                 return
             if self.p["effort_unit"] == "torque":  # N·m or N -> A with the nominal gains
-                gains = dict(zip(self.residual.model.joint_names, self.residual.model.nominal_gains))
-                values = values / [gains.get(n, 1.0) for n in names]
+                values = self.residual.model.effort_as_current(names, values)
             kind = EFFORT
         self._log(kind, picked, stamps, names, "current", values)
         self._current(kind, stamps, tuple(names), values)
