@@ -36,7 +36,7 @@ PAYLOAD = "1.983"
 
 def true_model(m7: float) -> CTCParameters:
     """Base parameters of the plant's true standard parameters, with its true drive gains."""
-    from orthoglide_ident.model.base import base_model
+    from orthoglide_ident.model.orthoglide.base import base_model
     from orthoglide_sim.true_parameters import load_parameters
 
     tp, bm = load_parameters(), base_model()

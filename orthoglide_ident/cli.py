@@ -34,7 +34,7 @@ from typing import Sequence
 
 from orthoglide_ident import ros_client
 from orthoglide_ident.errors import ConfigError, OrthoglideError
-from orthoglide_ident.model.geometry import JOINT_NAMES as ORTHOGLIDE_JOINTS
+from orthoglide_ident.model.orthoglide.geometry import JOINT_NAMES as ORTHOGLIDE_JOINTS
 from orthoglide_ident.model.robots import bundled_robots
 
 PROG = "orthoglide-ident"

@@ -27,7 +27,7 @@ from orthoglide_ident.errors import OrthoglideError
 from orthoglide_ident.nodes._processes import Interrupted, interrupt_on_signals
 from orthoglide_ident.ros_client import live_line
 from orthoglide_sim.graph import Graph, GraphError
-from orthoglide_ident.model.geometry import G_TAU_MANUFACTURER
+from orthoglide_ident.model.orthoglide.geometry import G_TAU_MANUFACTURER
 from orthoglide_sim.true_parameters import load_parameters
 
 PAYLOAD = 1.983

@@ -64,7 +64,7 @@ def _simulate_records(duration: float, out: Path, seed: int) -> tuple[dict[str, 
 
 
 def _report_gains(res, g_true: np.ndarray) -> None:
-    from orthoglide_ident.model.geometry import G_TAU_MANUFACTURER
+    from orthoglide_ident.model.orthoglide.geometry import G_TAU_MANUFACTURER
 
     _say(f"   {'joint':<6} {'truth':>8} {'IDIM-TLS':>9} {'%sigma':>7} {'error':>8}   {'manufacturer':>12} {'error':>8}")
     for j, g in enumerate(res.drive_gains):
@@ -111,7 +111,7 @@ def _report_validation(res) -> None:
 
 def _report_payload(paths: dict[str, str], g_id: np.ndarray) -> None:
     from orthoglide_ident.identify.pipeline import identify
-    from orthoglide_ident.model.geometry import G_TAU_MANUFACTURER
+    from orthoglide_ident.model.orthoglide.geometry import G_TAU_MANUFACTURER
 
     _say("\n4. Payload check: IDIM-WLS re-identifies the 1.136 kg payload (paper: 1.09 vs 1.14 kg)")
     for label, gains in (("manufacturer 2001 N/A", [G_TAU_MANUFACTURER] * 3), ("IDIM-TLS gains", list(g_id))):
@@ -125,7 +125,7 @@ def _report_payload(paths: dict[str, str], g_id: np.ndarray) -> None:
 
 def run(duration: float, out: Path, seed: int) -> int:
     from orthoglide_ident.identify.pipeline import identify
-    from orthoglide_ident.model.base import base_model
+    from orthoglide_ident.model.orthoglide.base import base_model
 
     paths, truth = _simulate_records(duration, out, seed)
     bm = base_model()

@@ -18,7 +18,7 @@ from std_msgs.msg import Header
 from std_srvs.srv import Trigger
 
 from orthoglide_ident.errors import OrthoglideError
-from orthoglide_ident.model.geometry import JOINT_NAMES
+from orthoglide_ident.model.orthoglide.geometry import JOINT_NAMES
 from orthoglide_ident.nodes._batch import BatchTaker, BatchTopic
 from orthoglide_ident.nodes._params import Param, declare, from_command_line, on_set, usage
 from orthoglide_ident.nodes._spin import spin

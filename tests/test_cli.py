@@ -27,7 +27,7 @@ def _one_line_error(capsys, code, match=None):
 def model_bags(tmp_path_factory):
     """Noise-free bags of the Orthoglide base model with the simulator's true parameters."""
     true_parameters = pytest.importorskip("orthoglide_sim.true_parameters")
-    from orthoglide_ident.model.base import base_model
+    from orthoglide_ident.model.orthoglide.base import base_model
 
     bm = base_model()
     tp = true_parameters.default_parameters()

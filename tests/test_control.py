@@ -7,7 +7,7 @@ import pytest
 from orthoglide_ident import control as ctl
 from orthoglide_ident.control import CTCParameters, feedforward, feedforward_currents
 from orthoglide_ident.errors import ConfigError
-from orthoglide_ident.model.base import base_model
+from orthoglide_ident.model.orthoglide.base import base_model
 from orthoglide_ident.results import Estimate, IdentificationResult, PayloadMass
 
 
@@ -50,7 +50,7 @@ def test_feedforward_equals_plant_torque_on_exact_data(monkeypatch):
 def test_feedforward_matches_observation_and_ignores_absent_parameters():
     bm = base_model()
     rng = np.random.default_rng(0)
-    from orthoglide_ident.model.base import random_states
+    from orthoglide_ident.model.orthoglide.base import random_states
 
     q, qd, qdd = random_states(7, seed=5)
     p = true_params(1.0)
@@ -68,7 +68,7 @@ def test_feedforward_matches_observation_and_ignores_absent_parameters():
 def test_feedforward_currents_in_the_middle_of_each_hold_over_the_gains():
     """Tick k's current is the model force at the mean of samples k and k+1 (t_k + T/2 for a
     smooth reference) divided by g_tau; N samples give N - 1 ticks."""
-    from orthoglide_ident.model.base import random_states
+    from orthoglide_ident.model.orthoglide.base import random_states
 
     q, qd, qdd = random_states(6, seed=2)
     p = true_params()

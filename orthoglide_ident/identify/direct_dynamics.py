@@ -124,7 +124,7 @@ class OrthoglideForward:
 
     def lift(self, q: np.ndarray, qd: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Tree states exactly on the closed loop (kinematics.tree_state) of actuator states."""
-        from orthoglide_ident.model.kinematics import tree_state
+        from orthoglide_ident.model.orthoglide.kinematics import tree_state
 
         s = tree_state(q, qd, np.zeros_like(q))
         Q, V = np.zeros((q.shape[0], 15)), np.zeros((q.shape[0], 15))
@@ -197,8 +197,8 @@ def forward_model(robot: RobotModel, chi_st: np.ndarray, gains: Sequence[float],
                   payload: Payload | None):
     """(forward model, engine name) of the identified model, or (None, reason) when it cannot
     be simulated here (passive joints of a closed chain other than the Orthoglide's)."""
-    from orthoglide_ident.model.base import BaseModel
-    from orthoglide_ident.model.geometry import G0, GRAVITY
+    from orthoglide_ident.model.orthoglide.base import BaseModel
+    from orthoglide_ident.model.orthoglide.geometry import G0, GRAVITY
     from orthoglide_ident.model.urdf import PLATFORM_LINK, identified_urdf, joint_labels
 
     text = identified_urdf(robot, chi_st, gains)

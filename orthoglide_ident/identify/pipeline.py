@@ -32,7 +32,7 @@ from orthoglide_ident.identify.segments import Segment, SegmentReport, split_rec
 from orthoglide_ident.identify.solve import Solved, solve
 from orthoglide_ident.identify.stream import DecimatedRows, SegmentStream, lag_rows, model_block
 from orthoglide_ident.identify.validation import ValidationResult, cross_validate
-from orthoglide_ident.model.geometry import JOINT_NAMES as ORTHOGLIDE_JOINTS
+from orthoglide_ident.model.orthoglide.geometry import JOINT_NAMES as ORTHOGLIDE_JOINTS
 from orthoglide_ident.model.robot import Payload, RobotModel
 from orthoglide_ident.results import IdentificationResult
 

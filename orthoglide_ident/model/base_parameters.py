@@ -5,7 +5,7 @@ serial robot, so the wrist's parameters are the ones regrouped) and factored by 
 column whose |R_kk| is below ``QR_EPS`` max|R_jj| depends on the columns before it and is
 regrouped into them, W_D = W_B β, so every kept parameter carries the expression
 χ_b = χ_B + Σ β χ_D. The threshold and the coefficient cleaning are the closed form's
-(model/base.py). The singular values of the same matrix (those of R) give its numerical rank
+(model/orthoglide/base.py). The singular values of the same matrix (those of R) give its numerical rank
 independently of the column order; the two must agree, or the states do not excite the model
 clearly enough to tell which columns depend on which.
 """
@@ -18,7 +18,7 @@ import numpy as np
 import scipy.linalg
 
 from orthoglide_ident.errors import ModelError
-from orthoglide_ident.model.base import COEF_TOL, QR_EPS, BaseParameter
+from orthoglide_ident.model.orthoglide.base import COEF_TOL, QR_EPS, BaseParameter
 
 
 @dataclass(frozen=True)

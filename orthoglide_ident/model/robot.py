@@ -8,7 +8,7 @@ gains), the standard parameters per body, the base parameters with their regroup
 
 Two implementations:
 
-- the Orthoglide's closed form (``model/base.py``: the paper's virtual tree closed by
+- the Orthoglide's closed form (``model/orthoglide/base.py``: the paper's virtual tree closed by
   J_t = J_k⁻¹ J_tk J_p and its 61 symmetric base parameters);
 - the general model on Pinocchio (``model/pinocchio_model.py``): a URDF or MJCF tree, closed
   chains by loop constraints, base parameters by pivoted QR on random states.

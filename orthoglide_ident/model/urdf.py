@@ -192,7 +192,7 @@ def platform_in_body5(leg: int) -> tuple[np.ndarray, np.ndarray]:
     """(R, p) of the platform frame (base axes, origin P) in body 5 of ``leg`` (0..2) on the
     closed loop: body 5 has the axes R_1i Rot(x, −π/2) (q5 = −q2, q4 = −q3) and origin
     C_i = P − d6 e_i."""
-    from orthoglide_ident.model.geometry import D6, E_AXIS, R_LEG
+    from orthoglide_ident.model.orthoglide.geometry import D6, E_AXIS, R_LEG
 
     R5 = R_LEG[leg] @ _rx(-0.5 * math.pi)
     return R5.T, R5.T @ (D6 * E_AXIS[leg])
@@ -213,7 +213,7 @@ def _joint(root: ET.Element, name: str, kind: str, parent: str, child: str, xyz,
 
 def orthoglide_urdf(robot: RobotModel, chi_st: np.ndarray, gains: Sequence[float]) -> str:
     """The Orthoglide's open tree with the inertials and drive terms of ``chi_st`` (208)."""
-    from orthoglide_ident.model.geometry import D4, FOOT_OFFSET, G0, R_LEG
+    from orthoglide_ident.model.orthoglide.geometry import D4, FOOT_OFFSET, G0, R_LEG
 
     values = dict(zip(robot.standard_names, (float(x) for x in chi_st)))
     inertial = {b.frame: np.asarray(chi_st)[list(b.inertial)] for b in robot.bodies}
@@ -258,7 +258,7 @@ def orthoglide_urdf(robot: RobotModel, chi_st: np.ndarray, gains: Sequence[float
 def identified_urdf(robot: RobotModel, chi_st: np.ndarray, gains: Sequence[float]) -> str:
     """The URDF of the identified model: the Orthoglide's open tree, or a URDF robot's own file
     with its inertials replaced (module docstring)."""
-    from orthoglide_ident.model.base import BaseModel
+    from orthoglide_ident.model.orthoglide.base import BaseModel
 
     if isinstance(robot, BaseModel):
         return orthoglide_urdf(robot, chi_st, gains)
@@ -272,7 +272,7 @@ def identified_urdf(robot: RobotModel, chi_st: np.ndarray, gains: Sequence[float
 
 def joint_labels(robot: RobotModel, urdf_text: str) -> dict[str, str]:
     """URDF joint name -> the label of the drive terms of the body it moves (``fv_<label>``)."""
-    from orthoglide_ident.model.base import BaseModel
+    from orthoglide_ident.model.orthoglide.base import BaseModel
 
     if isinstance(robot, BaseModel):
         return {f"q{j}{i}": f"{j}{i}" for i in (1, 2, 3) for j in range(1, 6)}

@@ -23,7 +23,7 @@ def _gains(res):
 
 def test_model_data_noise_free_gives_true_gains_and_base_parameters():
     tp = pytest.importorskip("orthoglide_sim.true_parameters").default_parameters()
-    from orthoglide_ident.model.base import base_model
+    from orthoglide_ident.model.orthoglide.base import base_model
 
     bm = base_model()
     chi = bm.base_values(tp.standard_vector())

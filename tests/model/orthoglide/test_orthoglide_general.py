@@ -1,6 +1,6 @@
 """The Orthoglide described to the general model (robots/orthoglide_general.yaml: the MDH tree of
 Tables 1-2 in a URDF, legs 2 and 3 closed on the platform by 6D loops) against the paper's closed
-form (model/base.py): the same standard rows, the same 61 base parameters, the same identification
+form (model/orthoglide/base.py): the same standard rows, the same 61 base parameters, the same identification
 on the sample bags.
 
 The two share no kinematics: the closed form solves the loops by hand (eqs. 5-9, 41) and writes
@@ -15,11 +15,11 @@ import numpy as np
 import pytest
 
 from orthoglide_ident.errors import WorkspaceError
-from orthoglide_ident.model.base import base_model
+from orthoglide_ident.model.orthoglide.base import base_model
 from orthoglide_ident.model.pinocchio_model import PinocchioRobot
 from orthoglide_ident.model.robots import ROBOTS_DIR, load_robot, read_yaml
 
-BAGS = Path(__file__).resolve().parents[2] / "bags"
+BAGS = Path(__file__).resolve().parents[3] / "bags"
 ROW_TOL = 1e-9
 
 

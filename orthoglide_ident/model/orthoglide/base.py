@@ -16,10 +16,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from orthoglide_ident.errors import ConfigError
-from orthoglide_ident.model.geometry import A, G_TAU_MANUFACTURER, JOINT_NAMES, PAPER, Geometry
-from orthoglide_ident.model.idim import observation_block, observation_columns, standard_regressor
-from orthoglide_ident.model.kinematics import igm
-from orthoglide_ident.model.parameters import (
+from orthoglide_ident.model.orthoglide.geometry import A, G_TAU_MANUFACTURER, JOINT_NAMES, PAPER, Geometry
+from orthoglide_ident.model.orthoglide.idim import observation_block, observation_columns, standard_regressor
+from orthoglide_ident.model.orthoglide.kinematics import igm
+from orthoglide_ident.model.orthoglide.parameters import (
     INERTIAL,
     N_BODIES,
     N_LEGS,
