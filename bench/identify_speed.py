@@ -28,7 +28,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from orthoglide_ident.nodes import _processes as children  # children end with this process
+from orthoglide_ident.ros import processes as children  # children end with this process
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))

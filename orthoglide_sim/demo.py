@@ -24,7 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from orthoglide_ident.errors import OrthoglideError
-from orthoglide_ident.nodes._processes import Interrupted, interrupt_on_signals
+from orthoglide_ident.ros.processes import Interrupted, interrupt_on_signals
 from orthoglide_ident.ros_client import live_line
 from orthoglide_sim.graph import Graph, GraphError
 from orthoglide_ident.model.orthoglide.geometry import G_TAU_MANUFACTURER

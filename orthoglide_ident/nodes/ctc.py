@@ -18,10 +18,10 @@ from orthoglide_ident.control import CTCParameters, feedforward_currents
 from orthoglide_ident.errors import OrthoglideError
 from orthoglide_ident.model.robot import RobotModel
 from orthoglide_ident.model.robots import load_robot
-from orthoglide_ident.nodes._batch import BatchTaker, BatchTopic
+from orthoglide_ident.ros.batch import BatchTaker, BatchTopic
 from orthoglide_ident.nodes._jtc import TrajectoryOutlet
-from orthoglide_ident.nodes._params import Param, declare, usage
-from orthoglide_ident.nodes._spin import spin
+from orthoglide_ident.ros.params import Param, declare, usage
+from orthoglide_ident.ros.spin import spin
 from orthoglide_ident.ticks import TICK_NS
 from orthoglide_msgs.msg import CurrentReference, IdentifiedParameters, JointSetpoint
 
@@ -140,7 +140,7 @@ class CTCNode(Node):
                                f"{model.payload_mass:.4g} kg")
 
     def on_setpoints(self, batch: list) -> None:
-        """A batch of serialized setpoints (taken together, see nodes._batch)."""
+        """A batch of serialized setpoints (taken together, see ros.batch)."""
         for raw, _, _ in batch:
             msg = deserialize_message(raw, JointSetpoint)
             try:

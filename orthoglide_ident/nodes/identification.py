@@ -24,9 +24,9 @@ from orthoglide_ident.identify.live import LiveIdentification
 from orthoglide_ident.identify.options import IdentifyOptions
 from orthoglide_ident.identify.pipeline import identify
 from orthoglide_ident.model.robots import load_robot, load_robot_description
-from orthoglide_ident.nodes._core_log import CoreLog
-from orthoglide_ident.nodes._params import Param, declare, on_set, usage
-from orthoglide_ident.nodes._spin import spin
+from orthoglide_ident.ros.core_log import CoreLog
+from orthoglide_ident.ros.params import Param, declare, on_set, usage
+from orthoglide_ident.ros.spin import spin
 from orthoglide_ident.nodes.live_feed import LiveFeed
 from orthoglide_ident.nodes.live_sources import LiveTopics
 from orthoglide_ident.results import IdentificationResult, lag_text

@@ -2,7 +2,7 @@
 
 The recorder says what it records on orthoglide/recorder/status (condition, payload mass, bag,
 first and last tick written). The joint states and currents come in raw (serialized), taken in
-batches (nodes._batch), and wait in a short buffer; every FEED_PERIOD_S they are decoded in bulk
+batches (ros.batch), and wait in a short buffer; every FEED_PERIOD_S they are decoded in bulk
 and handed to ``LiveIdentification`` from the recording's first tick to its last, so that the
 live data are the ticks the bag holds, and the live result equals ``orthoglide-ident identify``
 on that bag. The topics are the Orthoglide's (orthoglide/joint_states + current_reference) or a
@@ -29,7 +29,7 @@ from orthoglide_ident.errors import OrthoglideError
 from orthoglide_ident.identify.live import LiveIdentification
 from orthoglide_ident.model.robot import Payload, RobotModel
 from orthoglide_ident.model.robots import load_robot
-from orthoglide_ident.nodes._batch import BatchTaker, BatchTopic
+from orthoglide_ident.ros.batch import BatchTaker, BatchTopic
 from orthoglide_ident.nodes.live_sources import DYNAMIC, EFFORT, REFERENCE, LiveTopics, choose_current
 from orthoglide_msgs.msg import CurrentReference, LiveIdentification as LiveMsg, RecorderStatus
 

@@ -26,9 +26,9 @@ from std_srvs.srv import Trigger
 from orthoglide_ident import bags
 from orthoglide_ident.bags.recording import Recording, open_bag
 from orthoglide_ident.errors import BagError, ConfigError, OrthoglideError
-from orthoglide_ident.nodes._batch import BatchTaker, BatchTopic
-from orthoglide_ident.nodes._params import Param, declare, on_set, usage
-from orthoglide_ident.nodes._spin import spin
+from orthoglide_ident.ros.batch import BatchTaker, BatchTopic
+from orthoglide_ident.ros.params import Param, declare, on_set, usage
+from orthoglide_ident.ros.spin import spin
 from orthoglide_msgs.msg import RecorderStatus
 from orthoglide_msgs.srv import StartRecording
 

@@ -19,9 +19,9 @@ from orthoglide_ident.bags import (CURRENT_REFERENCE_TYPE, DYNAMIC_JOINT_STATE_T
                                    decode_messages)
 from orthoglide_ident.errors import ConfigError, OrthoglideError
 from orthoglide_ident.model.robots import load_robot
-from orthoglide_ident.nodes._batch import BatchTaker, BatchTopic
-from orthoglide_ident.nodes._params import Param, declare, usage
-from orthoglide_ident.nodes._spin import spin
+from orthoglide_ident.ros.batch import BatchTaker, BatchTopic
+from orthoglide_ident.ros.params import Param, declare, usage
+from orthoglide_ident.ros.spin import spin
 from orthoglide_ident.view import schemas
 from orthoglide_ident.view.decimate import StampDecimator, cdr_stamps
 from orthoglide_ident.view.residual import ForceResidual

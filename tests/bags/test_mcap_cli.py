@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from orthoglide_ident import bags
-from orthoglide_ident.nodes import _processes as children  # children end with this process
+from orthoglide_ident.ros import processes as children  # children end with this process
 
 T0 = 1_700_000_000_000_000_000
 

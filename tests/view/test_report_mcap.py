@@ -10,7 +10,7 @@ from mcap.reader import make_reader
 
 from orthoglide_ident.cli import main
 from orthoglide_ident.identify.pipeline import identify
-from orthoglide_ident.report import _validation_for_plot
+from orthoglide_ident.report import validation_for_plot
 from orthoglide_ident.view.convergence import gain_convergence, record_seconds
 from orthoglide_ident.view.report_mcap import write_report_mcap
 
@@ -47,7 +47,7 @@ def test_the_mcap_holds_forces_residual_and_convergence_with_json_schemas(result
         assert json.loads(schema.data)["type"] == "object"
     counts = {topics[t][1].topic: n for t, n in
               ((summary.channels[i].topic, n) for i, n in summary.statistics.channel_message_counts.items())}
-    val, crossed = _validation_for_plot(result)
+    val, crossed = validation_for_plot(result)
     assert not crossed  # no validation bag: the last identification record, as torques.png
     assert counts["/orthoglide/report/forces"] == val.t.shape[0]  # every decimated row
     assert counts["/orthoglide/identified_parameters"] == 1
