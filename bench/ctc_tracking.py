@@ -27,7 +27,8 @@ import time
 import numpy as np
 
 from orthoglide_ident.control import CTCParameters, feedforward_currents
-from orthoglide_ident.identify.pipeline import G_TAU_MANUFACTURER, identify
+from orthoglide_ident.identify.pipeline import identify
+from orthoglide_ident.model.orthoglide.geometry import G_TAU_MANUFACTURER
 from orthoglide_sim.record import simulate
 from orthoglide_sim.trajectories import get_trajectory
 

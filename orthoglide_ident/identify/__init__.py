@@ -19,7 +19,8 @@ live_recording) while recording; options holds the tuning (config/identification
 """
 from orthoglide_ident.identify.live import LiveEstimate, LiveIdentification
 from orthoglide_ident.identify.options import IdentifyOptions
-from orthoglide_ident.identify.pipeline import Record, identify, identify_records, read_record
+from orthoglide_ident.identify.pipeline import identify, identify_records
+from orthoglide_ident.identify.records import Record, read_record
 
 __all__ = ["IdentifyOptions", "LiveEstimate", "LiveIdentification", "Record", "identify",
            "identify_records", "read_record"]

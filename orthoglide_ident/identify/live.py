@@ -13,7 +13,7 @@
 Each recording is one record (like one bag). Samples are paired by stamp once both topics are
 ``live_pairing_slack_s`` past them (pairing.py), split at real gaps, and every continuous segment
 runs through a :class:`~stream.SegmentStream` about every ``live_block_s`` of data: the same
-filtering, W, reversal bridging and FIR decimation as ``pipeline.observe``, exact across blocks.
+filtering, W, reversal bridging and FIR decimation as ``observe.observe``, exact across blocks.
 The decimated equations are folded into per-condition, per-joint R factors (factors.py), so
 memory and CPU per second of data stay constant; ``result()`` solves them with the offline
 solver (solve.py). Non-finite samples are dropped and split the record (offline
@@ -43,7 +43,9 @@ from orthoglide_ident.identify.drive_terms import observation_model, screw_mask
 from orthoglide_ident.identify.factors import RecordFactors
 from orthoglide_ident.identify.live_recording import LiveRecording
 from orthoglide_ident.identify.options import IdentifyOptions
-from orthoglide_ident.identify.pipeline import IdentificationModel, default_model, finish_result
+from orthoglide_ident.identify.diagnostics import finish_result
+from orthoglide_ident.identify.observe import IdentificationModel
+from orthoglide_ident.identify.records import default_model
 from orthoglide_ident.identify.solve import min_rows, solve, tls_model
 from orthoglide_ident.identify.stream import DecimatedRows
 from orthoglide_ident.identify.tls import check_excitation
