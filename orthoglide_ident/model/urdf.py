@@ -26,7 +26,7 @@ from typing import Mapping, Sequence
 import numpy as np
 
 from orthoglide_ident.errors import ConfigError
-from orthoglide_ident.identify.pseudo_inertia import at_com
+from orthoglide_ident.model.inertia import at_com
 from orthoglide_ident.model.robot import RobotModel
 
 MUJOCO_COMPILER = {"discardvisual": "true", "fusestatic": "false", "balanceinertia": "false"}

@@ -19,8 +19,8 @@ from orthoglide_ident.identify import consistency as C
 from orthoglide_ident.identify import lmi
 from orthoglide_ident.identify.options import IdentifyOptions
 from orthoglide_ident.identify.pipeline import identify, identify_records
-from orthoglide_ident.identify.pseudo_inertia import (MARGIN, at_com, from_com, layout,
-                                                      min_eigenvalues, pseudo_inertia)
+from orthoglide_ident.identify.pseudo_inertia import MARGIN, layout, min_eigenvalues
+from orthoglide_ident.model.inertia import at_com, from_com, pseudo_inertia
 from orthoglide_ident.model.robots import load_robot
 
 ROBOT = load_robot(None)
