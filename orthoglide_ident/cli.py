@@ -218,12 +218,11 @@ def _write_json(path: str, doc: dict) -> None:
 
 
 def _write_urdf(path: str, res, robot_spec: str) -> None:
-    """The consistent identified model as a URDF (model/urdf.py)."""
+    """The consistent identified model as a URDF (RobotModel.identified_urdf)."""
     from orthoglide_ident.model.robots import load_robot
-    from orthoglide_ident.model.urdf import identified_urdf
 
-    text = identified_urdf(load_robot(robot_spec), res.consistency.answer.chi_st,
-                           [g.value for g in res.drive_gains])
+    text = load_robot(robot_spec).identified_urdf(res.consistency.answer.chi_st,
+                                                  [g.value for g in res.drive_gains])
     try:
         Path(path).write_text(text)
     except OSError as exc:

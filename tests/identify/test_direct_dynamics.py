@@ -27,7 +27,7 @@ def truth() -> np.ndarray:
 
 
 def test_closed_tree_of_the_urdf_is_the_closed_form_model(truth):
-    fwd, engine = dd.forward_model(ROBOT, truth, G_TRUE, None)
+    fwd, engine = ROBOT.forward_model(truth, G_TRUE, None)
     q, qd, qdd = ROBOT.random_states(20, seed=3)
     tau = (ROBOT.standard_regressor(q, qd, qdd) @ truth).reshape(3, -1).T
     Q, V = fwd.lift(q, qd)

@@ -127,6 +127,29 @@ class BaseModel(RobotModel):
         ]
         self.rank_gap = float(d[keep].min() / max(d[~keep].max(), 1e-300)) if (~keep).any() else np.inf
 
+    # --- what callers asked by type before: the closed tree's URDF, labels, forward model ----
+    @property
+    def gravity(self) -> tuple[float, float, float]:
+        """m/s², along +y0 (Sect. 5.1): the robot file's g."""
+        return tuple(float(x) for x in self.geometry.gravity)
+
+    def identified_urdf(self, chi_st: np.ndarray, gains) -> str:
+        """The URDF of the open tree (urdf.py); the loops are closed by forward_model."""
+        from orthoglide_ident.model.orthoglide.urdf import orthoglide_urdf
+
+        return orthoglide_urdf(self, chi_st, gains)
+
+    def joint_labels(self, urdf_text: str) -> dict[str, str]:
+        from orthoglide_ident.model.orthoglide.urdf import joint_labels
+
+        return joint_labels()
+
+    def forward_model(self, chi_st: np.ndarray, gains, payload: Payload | None):
+        """The open tree closed by two welds, Pinocchio's constraint dynamics (forward.py)."""
+        from orthoglide_ident.model.orthoglide.forward import orthoglide_forward
+
+        return orthoglide_forward(self, chi_st, gains, payload)
+
     @staticmethod
     def _shared_legs(col, t, kept, terms) -> tuple[int, ...]:
         leg = _leg_of(STANDARD_NAMES[col])
