@@ -34,14 +34,13 @@ from typing import Sequence
 
 from orthoglide_ident import ros_client
 from orthoglide_ident.errors import ConfigError, OrthoglideError
-from orthoglide_ident.model.orthoglide.geometry import JOINT_NAMES as ORTHOGLIDE_JOINTS
 from orthoglide_ident.model.robots import bundled_robots
 
 PROG = "orthoglide-ident"
 EXIT_OK, EXIT_BUG, EXIT_BAD_INPUT, EXIT_INTERRUPTED, EXIT_BROKEN_PIPE = 0, 1, 2, 130, 141
 
 
-def parse_gains(text: str, joints: Sequence[str] = ORTHOGLIDE_JOINTS) -> list[float]:
+def parse_gains(text: str, joints: Sequence[str]) -> list[float]:
     """One drive gain per joint of ``joints`` (N/A or N·m/A) from ``G1,G2,...`` or a JSON file (an
     ``identify --json`` result, a list of numbers, or a mapping joint name -> gain)."""
     p = Path(text)

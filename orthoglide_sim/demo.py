@@ -28,7 +28,10 @@ from orthoglide_ident.ros.processes import Interrupted, interrupt_on_signals
 from orthoglide_ident.ros_client import live_line
 from orthoglide_sim.graph import Graph, GraphError
 from orthoglide_ident.model.orthoglide.geometry import G_TAU_MANUFACTURER
+from orthoglide_ident.model.robots import load_robot
 from orthoglide_sim.true_parameters import load_parameters
+
+ORTHOGLIDE = load_robot("orthoglide")  # the robot these records are of
 
 PAYLOAD = 1.983
 TABLE4 = ("simple PID", "PID + vel. ff", "CTC, manuf. gains", "CTC, identif. gains", "CTC, gains +25 %")
@@ -199,7 +202,8 @@ def in_process_ctc(tls_msg: object, seconds: float) -> dict:
     from orthoglide_sim.record import simulate
     from orthoglide_sim.trajectories import get_trajectory
 
-    model = CTCParameters.from_values(tls_msg.names, tls_msg.values, tls_msg.drive_gains, PAYLOAD)
+    model = CTCParameters.from_values(tls_msg.names, tls_msg.values, tls_msg.drive_gains, PAYLOAD,
+                                      model=ORTHOGLIDE)
     out = {}
     for traj in ("test1", "test2"):
         n = int(round((seconds + SETTLE_S) * 1000))
@@ -301,7 +305,7 @@ def report_plots(bags: list[str], out: Path) -> None:
     from orthoglide_ident.identify.pipeline import identify as identify_offline
     from orthoglide_ident.report import write_report
 
-    write_report(identify_offline(bags), out / "report")
+    write_report(identify_offline(bags, model=ORTHOGLIDE), out / "report")
 
 
 def main(argv: list[str] | None = None) -> int:

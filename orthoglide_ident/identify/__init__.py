@@ -1,7 +1,9 @@
 """Numerical identification pipeline (paper Sects. 3-4). Never imports rclpy.
 
     from orthoglide_ident.identify import identify, IdentifyOptions
-    res = identify(["bags/unloaded", "bags/loaded"])          # IDIM-TLS, payload from the tags
+    from orthoglide_ident.model.robots import load_robot
+    robot = load_robot("orthoglide")                           # or a URDF, a robot YAML
+    res = identify(["bags/unloaded", "bags/loaded"], model=robot)  # IDIM-TLS, payload from tags
     res.to_json(); res.to_text(); res.message_fields()         # docs/architecture.md §4 JSON, table, msg fields
 
 One module per step: segments (pairing, gaps) → filtering (derivative filter, zero-order hold)
@@ -14,7 +16,7 @@ by block, factors keeps the equations as per-joint R factors (and the residual m
 turns them into a result; pipeline ties them together for bags, live (with pairing and
 live_recording) while recording; options holds the tuning (config/identification.yaml).
 
-    live = LiveIdentification()                      # see identify/live.py
+    live = LiveIdentification(model=robot)           # see identify/live.py
     live.start_recording("run-1", "unloaded"); live.add_joint_states(...); ...
 """
 from orthoglide_ident.identify.live import LiveEstimate, LiveIdentification

@@ -1,6 +1,7 @@
 """Online identification: the offline pipeline fed while the recordings run (docs/architecture.md §1, §7).
 
-    live = LiveIdentification(IdentifyOptions.from_yaml("config/identification.yaml"))
+    live = LiveIdentification(IdentifyOptions.from_yaml("config/identification.yaml"),
+                              model=load_robot("orthoglide"))  # the robot: always passed
     live.start_recording("run-1", "unloaded", 0.0)
     live.add_joint_states(stamps_ns, ["q11", "q12", "q13"], q)           # any batch size
     live.add_current_reference(stamps_ns, ["q11", "q12", "q13"], v_tau)  # arrives independently
@@ -45,7 +46,6 @@ from orthoglide_ident.identify.live_recording import LiveRecording
 from orthoglide_ident.identify.options import IdentifyOptions
 from orthoglide_ident.identify.diagnostics import finish_result
 from orthoglide_ident.identify.observe import IdentificationModel
-from orthoglide_ident.identify.records import default_model
 from orthoglide_ident.identify.solve import min_rows, solve, tls_model
 from orthoglide_ident.identify.stream import DecimatedRows
 from orthoglide_ident.identify.tls import check_excitation
@@ -126,22 +126,21 @@ class _Version:
 class LiveIdentification:
     """IDIM-TLS identification fed topic by topic while the recordings run.
 
-    ``options`` as offline (``decimation_filter`` must be ``fir``); ``model`` the base model by
-    default. See the module docstring for the calls; every ``add_*`` returns the warnings it
+    ``options`` as offline (``decimation_filter`` must be ``fir``); ``model`` the robot (passed,
+    never defaulted). See the module docstring for the calls; every ``add_*`` returns the warnings it
     raised, and :meth:`drain_warnings` returns all warnings since its last call (use either).
     Not thread-safe: call it from one thread (a node with a multi-threaded executor holds a lock
     or puts the subscriptions in one mutually exclusive callback group).
     """
 
-    def __init__(self, options: IdentifyOptions | None = None,
-                 model: IdentificationModel | None = None):
+    def __init__(self, options: IdentifyOptions | None = None, *, model: IdentificationModel):
         self.opts = options or IdentifyOptions()
         self.opts.validate()
         if self.opts.decimation_filter != "fir":
             raise ConfigError("live identification needs decimation_filter: fir (cheby1's IIR "
                               "decimation depends on the whole segment)")
-        self.model = observation_model(model if model is not None else default_model(),
-                                       self.opts.screw_lead_m, self.opts.lag_model == "auto")
+        self.model = observation_model(model, self.opts.screw_lead_m,
+                                       self.opts.lag_model == "auto")
         self.n_b = len(self.model.names)
         self._factors: dict[tuple[str, float], RecordFactors] = {}
         self._seconds: dict[str, float] = {"loaded": 0.0, "unloaded": 0.0}

@@ -28,7 +28,7 @@ from orthoglide_ident.identify.factors import RecordFactors
 from orthoglide_ident.identify.observe import IdentificationModel, observe
 from orthoglide_ident.identify.observations import Observations
 from orthoglide_ident.identify.options import IdentifyOptions
-from orthoglide_ident.identify.records import Record, default_model, read_record
+from orthoglide_ident.identify.records import Record, read_record
 from orthoglide_ident.identify.solve import Solved, solve
 from orthoglide_ident.identify.validation import ValidationResult, cross_validate
 from orthoglide_ident.results import IdentificationResult
@@ -106,7 +106,8 @@ def identify_records(
     gains: Sequence[float] | None = None,
     essential: bool = False,
     options: IdentifyOptions | None = None,
-    model: IdentificationModel | None = None,
+    *,
+    model: IdentificationModel,
     validation: Iterable[Record] = (),
 ) -> IdentificationResult:
     """Identify from records; see :func:`identify`.
@@ -118,9 +119,6 @@ def identify_records(
     _check_request(opts, method, payload_mass)
     timings: dict[str, float] = {}
     t_all = time.perf_counter()
-    if model is None:
-        model = default_model()
-        timings["model"] = time.perf_counter() - t_all
     model = observation_model(model, opts.screw_lead_m, opts.lag_model == "auto")
 
     def add(ts: dict[str, float]) -> None:
@@ -199,13 +197,14 @@ def identify(
     gains: Sequence[float] | None = None,
     essential: bool = False,
     options: IdentifyOptions | None = None,
-    model: IdentificationModel | None = None,
+    *,
+    model: IdentificationModel,
     validation_bags: Sequence[str | Path] = (),
 ) -> IdentificationResult:
     """Identify drive gains and base parameters from tagged bags (docs/architecture.md).
 
-    ``model``: the robot (model/robots.load_robot; default the Orthoglide). ``payload_mass``
-    (kg) overrides/checks the loaded bags' tags; ``method`` "tls" (gains identified, payload
+    ``model``: the robot (model/robots.load_robot at the CLI or node edge; never defaulted).
+    ``payload_mass`` (kg) overrides/checks the loaded bags' tags; ``method`` "tls" (gains identified, payload
     known) or "wls" (``gains`` given in N/A or N·m/A, default the robot's nominal ones; payload
     mass of loaded bags estimated); ``essential`` adds the essential-parameter reduction
     (Sect. 5.2). ``validation_bags`` are cross-validated, not used for identification.
@@ -213,7 +212,6 @@ def identify(
     if not bag_paths:
         raise IdentificationError("no bag given")
     t_read = [0.0]
-    model = model if model is not None else default_model()
     opts = options or IdentifyOptions()
 
     def lazily(paths: Sequence[str | Path]) -> Iterator[Record]:
@@ -226,7 +224,7 @@ def identify(
             yield rec
 
     res = identify_records(lazily(bag_paths), payload_mass, method, gains, essential, opts,
-                           model, lazily(validation_bags))
+                           model=model, validation=lazily(validation_bags))
     # reading happens inside identify_records' loop: its total already includes it
     res.diagnostics["timings_s"]["read"] = round(t_read[0], 4)
     return res

@@ -14,7 +14,6 @@ from typing import Sequence
 import numpy as np
 
 from orthoglide_ident.identify.options import IdentifyOptions
-from orthoglide_ident.model.orthoglide.geometry import JOINT_NAMES as ORTHOGLIDE_JOINTS
 from orthoglide_ident.model.robot import Payload, RobotModel
 
 __all__ = ["Record", "read_record"]
@@ -44,26 +43,24 @@ class Record:
 
     @classmethod
     def from_arrays(cls, source: str, stamps_ns: np.ndarray, q: np.ndarray, v_tau: np.ndarray,
-                    condition: str, payload_mass: float,
-                    joint_names: Sequence[str] = ORTHOGLIDE_JOINTS,
+                    condition: str, payload_mass: float, joint_names: Sequence[str],
                     payload: Payload | None = None) -> "Record":
-        """A record whose positions and currents share stamps and ``joint_names`` (default the
-        Orthoglide's)."""
+        """A record whose positions and currents share stamps and ``joint_names`` (the robot's,
+        ``RobotModel.joint_names``)."""
         names = tuple(joint_names)
         return cls(source, stamps_ns, names, q, stamps_ns, names, v_tau, condition,
                    float(payload_mass), payload=payload)
 
 
-def read_record(path: str | Path, model: RobotModel | None = None,
+def read_record(path: str | Path, model: RobotModel,
                 opts: IdentifyOptions | None = None) -> Record:
     """Read a tagged bag (directory or lone .mcap) into a :class:`Record`: the robot's joints
-    (``model``, default the Orthoglide) by name from whichever topics hold them (bags.sources:
+    (``model``) by name from whichever topics hold them (bags.sources:
     a DynamicJointState interface, the JointState effort or the CurrentReference), the payload's
     frame, centre of mass and inertia from the tag. With ``effort_unit: torque`` an effort that is
     a torque or force is turned into a current with the nominal gains. BagError if unusable."""
     from orthoglide_ident import bags
 
-    model = model if model is not None else default_model()
     opts = opts or IdentifyOptions()
     data = bags.read_bag(path, joints=model.joint_names,
                          interface=opts.current_interface or None)
@@ -92,10 +89,3 @@ def _tagged_payload(tags) -> Payload | None:
     return Payload(float(tags.payload_mass), tags.payload_frame or "",
                    tuple(tags.payload_com or (0.0, 0.0, 0.0)),
                    tuple(tags.payload_inertia or (0.0,) * 6))
-
-
-def default_model() -> RobotModel:
-    """The robot when none is given: the Orthoglide's closed form (model/robots.py)."""
-    from orthoglide_ident.model.robots import load_robot
-
-    return load_robot(None)

@@ -127,7 +127,7 @@ class CTCNode(Node):
                   "payload_mass": msg.payload_mass}
         try:
             model = CTCParameters.from_message_fields(
-                fields, None if self.payload_mass < 0 else self.payload_mass, self.robot)
+                fields, None if self.payload_mass < 0 else self.payload_mass, model=self.robot)
         except OrthoglideError as e:
             state = "keeping the previous ones" if self.model else "still waiting"
             self.get_logger().error(f"identified parameters rejected, {state}: {e}")

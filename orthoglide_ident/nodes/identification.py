@@ -130,10 +130,11 @@ class IdentificationNode(Node):
         self.live_lock = threading.Lock()
         self.live = None
         if self.param("live"):
-            self.live = LiveIdentification(self.options(), self.robot)
+            self.live = LiveIdentification(self.options(), model=self.robot)
             topics = LiveTopics(self.param("joint_states_topic"), self.param("current_reference_topic"),
                                 self.param("dynamic_joint_states_topic"), self.options().current_interface)
-            self.feed = LiveFeed(self, self.live, self.live_lock, topics, self.robot, self.options().effort_unit)
+            self.feed = LiveFeed(self, self.live, self.live_lock, topics, robot=self.robot,
+                                 effort_unit=self.options().effort_unit)
         if not self.param("robot"):  # the URDF robot_state_publisher publishes, when there is one
             self.create_subscription(String, "robot_description", self._on_description, latched)
         self.create_service(Identify, "orthoglide/identify", self.on_identify, callback_group=ReentrantCallbackGroup())
@@ -159,7 +160,7 @@ class IdentificationNode(Node):
         with self.live_lock:  # an identification under way keeps the model it started with
             self.robot = robot
             if self.live is not None:
-                self.live = LiveIdentification(self.options(), robot)
+                self.live = LiveIdentification(self.options(), model=robot)
                 self.feed.replace(self.live, robot)
         self.get_logger().info(f"robot from robot_description: {robot.name}, {robot.n_joints} joints "
                                f"{', '.join(robot.joint_names)}, {robot.n_b} base parameters (nominal gains 1)")

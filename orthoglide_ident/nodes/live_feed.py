@@ -28,7 +28,6 @@ from orthoglide_ident.bags import (CURRENT_REFERENCE_TYPE, DYNAMIC_JOINT_STATE_T
 from orthoglide_ident.errors import OrthoglideError
 from orthoglide_ident.identify.live import LiveIdentification
 from orthoglide_ident.model.robot import Payload, RobotModel
-from orthoglide_ident.model.robots import load_robot
 from orthoglide_ident.ros.batch import BatchTaker, BatchTopic
 from orthoglide_ident.nodes.live_sources import DYNAMIC, EFFORT, REFERENCE, LiveTopics, choose_current
 from orthoglide_msgs.msg import CurrentReference, LiveIdentification as LiveMsg, RecorderStatus
@@ -77,16 +76,16 @@ def status_payload(msg: RecorderStatus) -> Payload | None:
 
 class LiveFeed:
     """Subscriptions, buffers and timers of live identification, on ``node`` (under ``lock``);
-    ``robot`` the model's joints and nominal gains (None: the Orthoglide); ``effort_unit``
+    ``robot`` the model's joints and nominal gains (the node's ``robot`` parameter); ``effort_unit``
     "torque": a JointState effort or DynamicJointState interface in N·m or N, turned into a current
     with the nominal gains, as offline."""
 
     def __init__(self, node: Node, live: LiveIdentification, lock: threading.Lock,
-                 topics: LiveTopics | None = None, robot: RobotModel | None = None,
+                 topics: LiveTopics | None = None, *, robot: RobotModel,
                  effort_unit: str = "A") -> None:
         self.node, self.live, self.lock = node, live, lock
         self.topics, self.effort_unit = topics or LiveTopics(), effort_unit
-        self.robot = robot if robot is not None else load_robot(None)
+        self.robot = robot
         self.TOPICS = _topics(self.topics)
         self.buffers = {k: collections.deque(maxlen=IDLE_BUFFER) for k in self.TOPICS}
         self.source: str | None = None  # where the recording's current comes from (live_sources)

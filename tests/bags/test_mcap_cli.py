@@ -14,6 +14,9 @@ import pytest
 
 from orthoglide_ident import bags
 from orthoglide_ident.ros import processes as children  # children end with this process
+from orthoglide_ident.model.robots import load_robot
+
+ORTHOGLIDE = load_robot("orthoglide")  # the robot these records are of
 
 T0 = 1_700_000_000_000_000_000
 
@@ -33,7 +36,7 @@ def bag(tmp_path_factory: pytest.TempPathFactory) -> Path:
     stamps = T0 + np.arange(n, dtype=np.int64) * 1_000_000
     rng = np.random.default_rng(5)
     return bags.write_bag(tmp_path_factory.mktemp("cli") / "b", stamps, rng.normal(size=(n, 3)),
-                          rng.normal(size=(n, 3)), "unloaded", 0.0)
+                          rng.normal(size=(n, 3)), "unloaded", 0.0, joint_names=ORTHOGLIDE.joint_names)
 
 
 def test_doctor_strict_message_order(bag: Path) -> None:

@@ -13,6 +13,9 @@ from orthoglide_ident.identify.pipeline import identify
 from orthoglide_ident.report import validation_for_plot
 from orthoglide_ident.view.convergence import gain_convergence, record_seconds
 from orthoglide_ident.view.report_mcap import write_report_mcap
+from orthoglide_ident.model.robots import load_robot
+
+ORTHOGLIDE = load_robot("orthoglide")  # the robot these records are of
 
 ROOT = Path(__file__).resolve().parents[2]
 BAGS = [str(ROOT / "bags" / "unloaded"), str(ROOT / "bags" / "loaded")]  # the simulator's, 10 s each
@@ -20,7 +23,7 @@ BAGS = [str(ROOT / "bags" / "unloaded"), str(ROOT / "bags" / "loaded")]  # the s
 
 @pytest.fixture(scope="module")
 def result():
-    return identify(BAGS)
+    return identify(BAGS, model=ORTHOGLIDE)
 
 
 def _read(path: Path):
@@ -86,7 +89,7 @@ def test_the_convergence_ends_on_the_identified_gains(result, tmp_path):
 
 def test_convergence_points_need_both_conditions():
     """TLS needs a loaded and an unloaded record (eq. 33): with one of them, no point at all."""
-    res = identify(BAGS)
+    res = identify(BAGS, model=ORTHOGLIDE)
     assert gain_convergence(res.observations[:1]) == []
 
 
