@@ -40,13 +40,14 @@ import numpy as np
 from orthoglide_ident.errors import (ConfigError, ExcitationError, IdentificationError,
                                      OrthoglideError)
 from orthoglide_ident.identify.current_lag import MAX_SEARCH_S
+from orthoglide_ident.identify.diagnostics import finish_result
 from orthoglide_ident.identify.drive_terms import observation_model, screw_mask
 from orthoglide_ident.identify.factors import RecordFactors
 from orthoglide_ident.identify.live_recording import LiveRecording
-from orthoglide_ident.identify.options import IdentifyOptions
-from orthoglide_ident.identify.diagnostics import finish_result
+from orthoglide_ident.identify.methods import DEFAULT_METHOD, solve
 from orthoglide_ident.identify.observe import IdentificationModel
-from orthoglide_ident.identify.solve import min_rows, solve, tls_model
+from orthoglide_ident.identify.options import IdentifyOptions
+from orthoglide_ident.identify.solve import min_rows, tls_model
 from orthoglide_ident.identify.stream import DecimatedRows
 from orthoglide_ident.identify.tls import check_excitation
 from orthoglide_ident.model.robot import Payload
@@ -273,7 +274,7 @@ class LiveIdentification:
         """Seconds of received data whose equations are not folded in yet."""
         return self._current.lag_s if self._current is not None else 0.0
 
-    def result(self, method: str = "tls", essential: bool = False,
+    def result(self, method: str = DEFAULT_METHOD, essential: bool = False,
                gains: Sequence[float] | None = None,
                payload_mass: float | None = None) -> IdentificationResult:
         """IDIM-TLS (or WLS with ``gains`` N/A) on everything folded in: the IdentificationResult

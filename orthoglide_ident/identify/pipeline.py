@@ -25,11 +25,12 @@ from orthoglide_ident.errors import IdentificationError
 from orthoglide_ident.identify.diagnostics import bag_report, finish_result
 from orthoglide_ident.identify.drive_terms import observation_model
 from orthoglide_ident.identify.factors import RecordFactors
-from orthoglide_ident.identify.observe import IdentificationModel, observe
+from orthoglide_ident.identify.methods import DEFAULT_METHOD, get, solve
 from orthoglide_ident.identify.observations import Observations
+from orthoglide_ident.identify.observe import IdentificationModel, observe
 from orthoglide_ident.identify.options import IdentifyOptions
 from orthoglide_ident.identify.records import Record, read_record
-from orthoglide_ident.identify.solve import Solved, solve
+from orthoglide_ident.identify.solve import Solved
 from orthoglide_ident.identify.validation import ValidationResult, cross_validate
 from orthoglide_ident.results import IdentificationResult
 
@@ -65,8 +66,7 @@ def resolve_payload(rec: Record, payload_mass: float | None, tol: float) -> floa
 
 def _check_request(opts: IdentifyOptions, method: str, payload_mass: float | None) -> None:
     opts.validate()
-    if method not in ("tls", "wls"):
-        raise IdentificationError(f"unknown method {method!r}: use tls or wls")
+    get(method)  # IdentificationError for an unknown method
     if payload_mass is not None and not (np.isfinite(payload_mass) and payload_mass > 0):
         raise IdentificationError(
             f"--payload-mass must be a positive mass in kg, not {payload_mass}")
@@ -102,7 +102,7 @@ def _observe_all(records: Iterable[Record], model: IdentificationModel, opts: Id
 def identify_records(
     records: Iterable[Record],
     payload_mass: float | None = None,
-    method: str = "tls",
+    method: str = DEFAULT_METHOD,
     gains: Sequence[float] | None = None,
     essential: bool = False,
     options: IdentifyOptions | None = None,
@@ -193,7 +193,7 @@ def _validate(records: Iterable[Record], solved: Solved, model: IdentificationMo
 def identify(
     bag_paths: Sequence[str | Path],
     payload_mass: float | None = None,
-    method: str = "tls",
+    method: str = DEFAULT_METHOD,
     gains: Sequence[float] | None = None,
     essential: bool = False,
     options: IdentifyOptions | None = None,

@@ -18,8 +18,8 @@ from orthoglide_ident.control import CTCParameters, feedforward_currents
 from orthoglide_ident.errors import OrthoglideError
 from orthoglide_ident.model.robot import RobotModel
 from orthoglide_ident.model.robots import load_robot
-from orthoglide_ident.ros.batch import BatchTaker, BatchTopic
 from orthoglide_ident.nodes._jtc import TrajectoryOutlet
+from orthoglide_ident.ros.batch import BatchTaker, BatchTopic
 from orthoglide_ident.ros.params import Param, declare, usage
 from orthoglide_ident.ros.spin import spin
 from orthoglide_ident.ticks import TICK_NS

@@ -28,8 +28,8 @@ from orthoglide_ident.bags import (CURRENT_REFERENCE_TYPE, DYNAMIC_JOINT_STATE_T
 from orthoglide_ident.errors import OrthoglideError
 from orthoglide_ident.identify.live import LiveIdentification
 from orthoglide_ident.model.robot import Payload, RobotModel
-from orthoglide_ident.ros.batch import BatchTaker, BatchTopic
 from orthoglide_ident.nodes.live_sources import DYNAMIC, EFFORT, REFERENCE, LiveTopics, choose_current
+from orthoglide_ident.ros.batch import BatchTaker, BatchTopic
 from orthoglide_msgs.msg import CurrentReference, LiveIdentification as LiveMsg, RecorderStatus
 
 FEED_PERIOD_S = 0.1
