@@ -25,6 +25,7 @@ from sensor_msgs.msg import JointState
 
 from orthoglide_ident.bags import (CURRENT_REFERENCE_TYPE, DYNAMIC_JOINT_STATE_TYPE, JOINT_STATE_TYPE,
                                    decode_messages)
+from orthoglide_ident.bags.sources import CURRENT_SOURCES
 from orthoglide_ident.errors import OrthoglideError
 from orthoglide_ident.identify.live import LiveIdentification
 from orthoglide_ident.model.robot import Payload, RobotModel
@@ -40,6 +41,7 @@ STREAM_DEPTH = 5000  # messages DDS holds for this node while it is stalled (5 s
 QOS_CHECK_PERIOD_S = 1.0  # how often the publishers' offered reliability is looked at
 HOLDBACK_NS = 250_000_000  # the newest 0.25 s wait: the recorder's stop may end the recording there
 _STAMP = struct.Struct("<iI")
+LABELS = {s.key: s.label for s in CURRENT_SOURCES}  # "the effort of" /joint_states, in the log
 
 
 def _stamp_ns(raw: bytes) -> int:
@@ -207,8 +209,8 @@ class LiveFeed:
             self._finish()
             return False
         if self.source is not None:
-            what = {DYNAMIC: f"interface {self.topics.iface!r} of", EFFORT: "the effort of",
-                    REFERENCE: "the current of"}[self.source]
+            what = (f"interface {self.topics.iface!r} of" if self.source == DYNAMIC
+                    else LABELS[self.source])
             key = "q" if self.source == EFFORT else self.source
             self.node.get_logger().info(f"live identification: {self.bag}: current from {what} "
                                         f"{resolved[key]}, q from {resolved['q']}")
