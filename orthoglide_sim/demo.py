@@ -31,6 +31,7 @@ from orthoglide_ident.model.orthoglide.geometry import G_TAU_MANUFACTURER
 from orthoglide_ident.model.robots import load_robot
 from orthoglide_sim.true_parameters import load_parameters
 
+ROOT = Path(__file__).resolve().parents[1]  # the project: config/ (installed beside the product)
 ORTHOGLIDE = load_robot("orthoglide")  # the robot these records are of
 
 PAYLOAD = 1.983
@@ -45,7 +46,6 @@ def say(msg: str = "") -> None:
 
 
 def start_graph(g: Graph, out: Path) -> None:
-    from orthoglide_ident._install_ament import ROOT
 
     config = ROOT / "config"
     g.start("orthoglide_driver", "driver", {"trajectory": "exciting", "controller": "pid", "payload": "none"},
@@ -148,7 +148,6 @@ def tracking_errors(bag: str) -> np.ndarray:
 
 def use_ctc(g: Graph, which: str) -> None:
     """One ctc node feeds the driver: the identified (TLS) model, or the last IDIM-WLS result."""
-    from orthoglide_ident._install_ament import ROOT
 
     for name in ("orthoglide_ctc", "orthoglide_ctc_wls"):
         g.stop(name)
