@@ -10,13 +10,12 @@ model/orthoglide/forward.py).
 """
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Mapping, Sequence
+from typing import Any, Mapping, Sequence
 
 import numpy as np
 import pinocchio as pin
 
-if TYPE_CHECKING:  # annotations only: RobotModel's methods call this module
-    from orthoglide_ident.model.robot import Payload, RobotModel
+RobotModel = Payload = Any  # model/robot.py's: its methods call this module, which does not import it
 
 __all__ = ["SerialForward", "TreeModel", "identified_tree", "pin_inertia", "simulate",
            "tree_forward"]

@@ -20,15 +20,14 @@ from __future__ import annotations
 import math
 import xml.etree.ElementTree as ET
 from pathlib import Path
-from typing import TYPE_CHECKING, Mapping, Sequence
+from typing import Any, Mapping, Sequence
 
 import numpy as np
 
 from orthoglide_ident.errors import ConfigError
 from orthoglide_ident.model.inertia import at_com
 
-if TYPE_CHECKING:  # annotations only: RobotModel's methods call this module
-    from orthoglide_ident.model.robot import RobotModel
+RobotModel = Any  # a model/robot.RobotModel: its methods call this module, which does not import it
 
 MUJOCO_COMPILER = {"discardvisual": "true", "fusestatic": "false", "balanceinertia": "false"}
 EFFORT_LIMIT, SPEED_LIMIT = "1e4", "100"  # URDF requires limits; the identification sets none
