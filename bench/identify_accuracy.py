@@ -38,8 +38,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from orthoglide_ident.errors import OrthoglideError  # noqa: E402
 from orthoglide_ident.identify.options import IdentifyOptions  # noqa: E402
-from orthoglide_ident.identify.pipeline import Record, default_model, identify_records  # noqa: E402
-from orthoglide_ident.model.robots import load_robot
+from orthoglide_ident.identify.pipeline import Record, identify_records  # noqa: E402
+from orthoglide_ident.model.robots import load_robot  # noqa: E402
 from gain_bound import gain_rel_std_bound  # noqa: E402
 
 ORTHOGLIDE = load_robot("orthoglide")  # the robot these records are of
@@ -75,7 +75,7 @@ def record(profile: str, seconds: float, payload: str, trajectory: str, seed: in
 def true_base_parameters() -> tuple[list[str], np.ndarray]:
     from orthoglide_sim.true_parameters import load_parameters
 
-    model = default_model()
+    model = ORTHOGLIDE
     return list(model.names), model.base_values(load_parameters().standard_vector())
 
 
@@ -129,7 +129,7 @@ def run_case(profile: str, seconds: float, seed: int, cache: Path | None, valida
         from orthoglide_sim.true_parameters import load_parameters
 
         noise = load_parameters().plant_profile(profile).current_noise_std  # config/plant.yaml
-        out["bound"] = 100 * gain_rel_std_bound([ru, rl], default_model(), chi_true, g_true,
+        out["bound"] = 100 * gain_rel_std_bound([ru, rl], ORTHOGLIDE, chi_true, g_true,
                                                 noise, opts)
     return out
 

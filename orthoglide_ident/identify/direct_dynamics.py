@@ -69,7 +69,7 @@ def figures(record_name: str, engine: str, errors: list, drifts: list, n_windows
 def validate(record, robot: RobotModel, chi_st: np.ndarray, gains: Sequence[float],
              payload_mass: float, opts, horizon_s: float = HORIZON_S,
              max_windows: int = 100) -> dict[str, Any]:
-    """The direct-dynamic validation of ``record`` (pipeline.Record, tagged payload mass in kg)
+    """The direct-dynamic validation of ``record`` (records.Record, tagged payload mass in kg)
     for the consistent standard parameters ``chi_st``: see the module docstring."""
     from orthoglide_ident.identify.segments import split_record
 
