@@ -129,3 +129,18 @@ def test_no_private_name_is_imported_across_packages():
             if _owner_package(dotted) != _package(p):
                 offenders.append(f"{_rel(p)}:{line} imports {'.'.join(dotted)}")
     assert not offenders, "\n".join(offenders)
+
+
+def test_offline_and_live_share_rooms_but_not_orchestration():
+    """pipeline.py (bags) and live.py / live_recording.py (topics) both use observation, solving
+    and diagnostics; neither imports the other."""
+    ident = PRODUCT / "identify"
+    offline = {m for m, _, _ in _imports(ident / "pipeline.py")}
+    live = {m for f in ("live.py", "live_recording.py") for m, _, _ in _imports(ident / f)}
+    assert not {m for m in offline if m.startswith("orthoglide_ident.identify.live")}
+    assert "orthoglide_ident.identify.pipeline" not in live
+    shared = {"orthoglide_ident.identify.methods", "orthoglide_ident.identify.diagnostics"}
+    assert shared <= offline and shared <= live
+    # the observation: observe.py (offline) and live_recording.py run the same SegmentStream
+    assert "orthoglide_ident.identify.stream" in {m for m, _, _ in _imports(ident / "observe.py")}
+    assert "orthoglide_ident.identify.stream" in live
