@@ -128,8 +128,9 @@ class LiveIdentification:
     """IDIM-TLS identification fed topic by topic while the recordings run.
 
     ``options`` as offline (``decimation_filter`` must be ``fir``); ``model`` the robot (passed,
-    never defaulted). See the module docstring for the calls; every ``add_*`` returns the warnings it
-    raised, and :meth:`drain_warnings` returns all warnings since its last call (use either).
+    never defaulted). See the module docstring for the calls; every ``add_*`` returns the
+    warnings it raised, and :meth:`drain_warnings` returns all warnings since its last call (use
+    either).
     Not thread-safe: call it from one thread (a node with a multi-threaded executor holds a lock
     or puts the subscriptions in one mutually exclusive callback group).
     """

@@ -204,10 +204,11 @@ def identify(
     """Identify drive gains and base parameters from tagged bags (docs/architecture.md).
 
     ``model``: the robot (model/robots.load_robot at the CLI or node edge; never defaulted).
-    ``payload_mass`` (kg) overrides/checks the loaded bags' tags; ``method`` "tls" (gains identified, payload
-    known) or "wls" (``gains`` given in N/A or N·m/A, default the robot's nominal ones; payload
-    mass of loaded bags estimated); ``essential`` adds the essential-parameter reduction
-    (Sect. 5.2). ``validation_bags`` are cross-validated, not used for identification.
+    ``payload_mass`` (kg) overrides/checks the loaded bags' tags; ``method`` a name of
+    methods.METHODS: "tls" (gains identified, payload known) or "wls" (``gains`` given in N/A or
+    N·m/A, default the robot's nominal ones; payload mass of loaded bags estimated);
+    ``essential`` adds the essential-parameter reduction (Sect. 5.2). ``validation_bags`` are
+    cross-validated, not used for identification.
     """
     if not bag_paths:
         raise IdentificationError("no bag given")

@@ -5,7 +5,8 @@ serial robot, so the wrist's parameters are the ones regrouped) and factored by 
 column whose |R_kk| is below ``QR_EPS`` max|R_jj| depends on the columns before it and is
 regrouped into them, W_D = W_B β, so every kept parameter carries the expression
 χ_b = χ_B + Σ β χ_D. The threshold, the coefficient cleaning and BaseParameter are every robot's
-(the Orthoglide's closed form, model/orthoglide/base.py, uses them too). The singular values of the same matrix (those of R) give its numerical rank
+(the Orthoglide's closed form, model/orthoglide/base.py, uses them too). The singular values of
+the same matrix (those of R) give its numerical rank
 independently of the column order; the two must agree, or the states do not excite the model
 clearly enough to tell which columns depend on which.
 """

@@ -15,7 +15,7 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 import pinocchio as pin
 
-RobotModel = Payload = Any  # model/robot.py's: its methods call this module, which does not import it
+RobotModel = Payload = Any  # model/robot.py's, whose methods call this module: not imported
 
 __all__ = ["SerialForward", "TreeModel", "identified_tree", "pin_inertia", "simulate",
            "tree_forward"]

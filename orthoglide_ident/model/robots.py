@@ -1,6 +1,7 @@
 """Which robot: ``--robot FILE`` (CLI) and the ``robot`` parameter (nodes) to a RobotModel.
 
-- empty / ``orthoglide``: the Orthoglide's closed form (``model/orthoglide/base.py``), as without ``--robot``;
+- empty / ``orthoglide``: the Orthoglide's closed form (``model/orthoglide/base.py``), as without
+  ``--robot``;
 - a bundled name (a file ``orthoglide_ident/robots/<name>.yaml``, e.g. ``ur5e``, ``five_bar``);
 - a URDF (``.urdf``): every movable joint actuated, the manufacturer's gains 1 per unit;
 - a robot YAML (``.yaml``/``.yml``, docs/architecture.md "Robot files"): ``model: orthoglide`` or

@@ -124,7 +124,8 @@ class IdentificationNode(Node):
                              reliability=ReliabilityPolicy.RELIABLE)
         topics = {m.name: m.topic for m in METHODS.values()}  # identify/methods.py's tables
         topics["consistent"] = REFINEMENTS["consistent"].topic
-        self.pub = {k: self.create_publisher(IdentifiedParameters, t, latched) for k, t in topics.items()}
+        self.pub = {k: self.create_publisher(IdentifiedParameters, t, latched)
+                    for k, t in topics.items()}
         self.busy = threading.Lock()
         self.live_lock = threading.Lock()
         self.live = None

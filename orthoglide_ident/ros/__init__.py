@@ -6,8 +6,8 @@
   declared from one table, checked and changed at run time;
 - ``batch``: ``BatchTaker``, ``BatchTopic``: serialized messages of busy topics taken in batches
   on a thread of their own;
-- ``processes``: ``popen``, ``run``, ``interrupt_on_signals``, ``Interrupted``: child processes that end
-  with their parent, signals turned into a clean stop;
+- ``processes``: ``popen``, ``run``, ``interrupt_on_signals``, ``Interrupted``: child processes
+  that end with their parent, signals turned into a clean stop;
 - ``guard``: ``CallbackGuard``, ``FailureLog``: a callback that raises is logged once and the
   node goes on; ``core_log``: ``CoreLog``, the numerical core's log lines forwarded to the node's.
 

@@ -16,8 +16,10 @@ import numpy as np
 
 from orthoglide_ident.errors import ConfigError
 from orthoglide_ident.model.base_parameters import COEF_TOL, QR_EPS, BaseParameter
-from orthoglide_ident.model.orthoglide.geometry import A, G_TAU_MANUFACTURER, JOINT_NAMES, PAPER, Geometry
-from orthoglide_ident.model.orthoglide.idim import observation_block, observation_columns, standard_regressor
+from orthoglide_ident.model.orthoglide.geometry import (A, G_TAU_MANUFACTURER, JOINT_NAMES, PAPER,
+                                                       Geometry)
+from orthoglide_ident.model.orthoglide.idim import (observation_block, observation_columns,
+                                                   standard_regressor)
 from orthoglide_ident.model.orthoglide.kinematics import igm
 from orthoglide_ident.model.orthoglide.parameters import (
     INERTIAL,

@@ -23,9 +23,10 @@ from typing import Callable, Iterable
 
 import numpy as np
 
-from orthoglide_ident.model.orthoglide.geometry import PAPER, PARALLEL_MARGIN, R_LEG, SERIAL_MARGIN, Geometry
-from orthoglide_ident.model.orthoglide.kinematics import (_TO_BASE, _TO_LEG, TreeState, check_regular, fgm,
-                                               to_leg)
+from orthoglide_ident.model.orthoglide.geometry import (PAPER, PARALLEL_MARGIN, R_LEG,
+                                                       SERIAL_MARGIN, Geometry)
+from orthoglide_ident.model.orthoglide.kinematics import (_TO_BASE, _TO_LEG, TreeState,
+                                                         check_regular, fgm, to_leg)
 from orthoglide_ident.model.orthoglide.parameters import LEG_PARAMETERS
 
 Column = Callable[["_Leg"], np.ndarray]
