@@ -13,8 +13,8 @@ import numpy as np
 import pytest
 
 from orthoglide_ident import bags
-from orthoglide_ident.ros import processes as children  # children end with this process
 from orthoglide_ident.model.robots import load_robot
+from orthoglide_ident.ros import processes as children  # children end with this process
 
 ORTHOGLIDE = load_robot("orthoglide")  # the robot these records are of
 
@@ -73,6 +73,6 @@ def test_doctor_ros2_control_bag(tmp_path: Path) -> None:
                          "unloaded", 0.0, names, layout="dynamic_joint_states",
                          joint_order=("c", "x", "a", "b"), extra_joints={"x": 0.0})
     (f,) = bag.glob("*.mcap")
-    done = subprocess.run([mcap, "doctor", "--strict-message-order", str(f)],
-                          capture_output=True, text=True, timeout=60)
+    done = children.run([mcap, "doctor", "--strict-message-order", str(f)],
+                        capture_output=True, text=True, timeout=60)
     assert done.returncode == 0, done.stderr
