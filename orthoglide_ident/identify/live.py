@@ -44,7 +44,7 @@ from orthoglide_ident.identify.factors import RecordFactors
 from orthoglide_ident.identify.live_recording import LiveRecording
 from orthoglide_ident.identify.options import IdentifyOptions
 from orthoglide_ident.identify.pipeline import IdentificationModel, default_model, finish_result
-from orthoglide_ident.identify.solve import min_rows, solve, tls_model
+from orthoglide_ident.identify.solve import limits, min_rows, solve, tls_model
 from orthoglide_ident.identify.stream import DecimatedRows
 from orthoglide_ident.identify.tls import check_excitation
 from orthoglide_ident.model.robot import Payload
@@ -374,7 +374,7 @@ class LiveIdentification:
                            residual_rms=tuple(float(x) for x in sol.residual_rms), **base)
         try:
             if opts.check_excitation:
-                check_excitation(sol, opts.limits(self.model.nominal_gains), m.names, names)
+                check_excitation(sol, limits(self.model, opts), m.names, names)
         except ExcitationError as exc:
             j = int(np.argmax(grel))
             if grel[j] > opts.max_gain_rel_std and str(exc).startswith("drive gain of"):

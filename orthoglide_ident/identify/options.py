@@ -88,8 +88,9 @@ class IdentifyOptions:
     warn_condition: float = 1.0e5
     max_singular_ratio: float = 0.5
     max_gain_rel_std: float = 0.05
-    # plausible drive gains: within [nominal / ratio, nominal x ratio] of the robot's nominal
-    # (manufacturer's) gains; gain_min / gain_max > 0 set absolute bounds instead (N/A, N·m/A)
+    # drive gains outside [nominal / ratio, nominal x ratio] of the robot file's nominal
+    # (manufacturer's) gains are a warning (no band when the file gives none: a bare URDF);
+    # gain_min / gain_max > 0 set absolute bounds instead, an error (N/A, N·m/A)
     gain_range_ratio: float = 10.0
     gain_min: float = 0.0
     gain_max: float = 0.0
@@ -108,13 +109,22 @@ class IdentifyOptions:
     # identify --json output with a consistency section; "": the robot description's / weak default
     consistency_prior: str = ""
 
-    def limits(self, nominal_gains: Sequence[float]) -> ExcitationLimits:
-        """The excitation checks' thresholds for a robot of these nominal gains (N/A, N·m/A)."""
+    def limits(self, nominal_gains: Sequence[float], given: bool = True) -> ExcitationLimits:
+        """The excitation checks' thresholds for a robot of these nominal gains (N/A, N·m/A).
+
+        The band around the nominal gains (a warning) exists only when the robot file gives
+        them (``given``); gain_min / gain_max > 0 are the user's own bounds (an error)."""
         g = np.asarray(nominal_gains, float)
-        lo = np.full_like(g, self.gain_min) if self.gain_min > 0 else g / self.gain_range_ratio
-        hi = np.full_like(g, self.gain_max) if self.gain_max > 0 else g * self.gain_range_ratio
+        absolute = self.gain_min > 0 or self.gain_max > 0
+        band = None
+        if given or absolute:
+            lo = np.full_like(g, self.gain_min) if self.gain_min > 0 else (
+                g / self.gain_range_ratio if given else np.zeros_like(g))
+            hi = np.full_like(g, self.gain_max) if self.gain_max > 0 else (
+                g * self.gain_range_ratio if given else np.full_like(g, np.inf))
+            band = (lo, hi)
         return ExcitationLimits(self.max_condition, self.max_singular_ratio,
-                                self.max_gain_rel_std, (lo, hi))
+                                self.max_gain_rel_std, band, band_is_error=absolute)
 
     def min_segment_samples(self, period_s: float = 1e-3) -> int:
         """Shortest segment worth keeping: both trims plus a few decimated samples."""

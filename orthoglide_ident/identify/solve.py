@@ -20,7 +20,7 @@ from orthoglide_ident.identify import drive_terms
 from orthoglide_ident.identify.essential import EssentialResult, essential_parameters
 from orthoglide_ident.identify.factors import RecordFactors
 from orthoglide_ident.identify.options import IdentifyOptions
-from orthoglide_ident.identify.tls import (TLSProblem, TLSSolution, check_excitation,
+from orthoglide_ident.identify.tls import (ExcitationLimits, TLSProblem, TLSSolution, check_excitation,
                                            require_loaded_and_unloaded)
 from orthoglide_ident.identify.uncertainty import diagnose, ripple_warning_start
 from orthoglide_ident.identify.wls import WLSSolution, idim_wls
@@ -43,6 +43,12 @@ class Solved:
     # the factors of the reported solve and its χ over all their columns (consistency.py)
     factors: list[RecordFactors] = field(default_factory=list)
     chi_rows: np.ndarray | None = None
+
+
+def limits(model, opts: IdentifyOptions) -> ExcitationLimits:
+    """The excitation checks' thresholds for ``model``: a gain band only when its robot file
+    gives nominal gains (a bare URDF's 1 per unit is no manufacturer's figure)."""
+    return opts.limits(model.nominal_gains, model.nominal_gains_given)
 
 
 def min_rows(n_b: int) -> int:
@@ -259,9 +265,11 @@ def solve_tls(factors: list[RecordFactors], model, opts: IdentifyOptions, essent
     m, base = tls_model(factors, model, opts)
     sol = m.full
     if opts.check_excitation:
-        check_excitation(sol, opts.limits(model.nominal_gains), m.names, model.joint_names)
+        band_warnings = check_excitation(sol, limits(model, opts), m.names, model.joint_names)
     view, ripples, lags = m.view(sol)
     result = tls_result(model, view, factors, opts, bags)
+    if opts.check_excitation:
+        result.warnings.extend(band_warnings)
     _uncertainty(result, base, model, opts, gains=True)
     _drive_notes(result, ripples, lags, m.terms, model.joint_names)
     solver = {"tls_noisy_columns": opts.tls_noisy_columns, "singular_ratio": sol.singular_ratio,

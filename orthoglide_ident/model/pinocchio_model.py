@@ -133,7 +133,8 @@ class PinocchioRobot(RobotModel):
         return tuple(by_name[n] for n in names)
 
     def _joints(self, desc: RobotDescription) -> tuple[ActuatedJoint, ...]:
-        gains = desc.nominal_gains
+        self.nominal_gains_given = desc.nominal_gains is not None
+        gains = 1.0 if desc.nominal_gains is None else desc.nominal_gains
         if isinstance(gains, float):
             gains = (gains,) * len(self.actuated)
         if len(gains) != len(self.actuated):
