@@ -212,7 +212,9 @@ def _run_identify(args: argparse.Namespace):
 
 def _write_json(path: str, doc: dict) -> None:
     try:
-        Path(path).write_text(json.dumps(doc, indent=2) + "\n")
+        from orthoglide_ident.results import json_text
+
+        Path(path).write_text(json_text(doc))
     except OSError as exc:
         raise ConfigError(f"cannot write {path}: {exc.strerror or exc}") from None
 

@@ -23,6 +23,27 @@ def _num(x: float) -> float | None:
     return x if math.isfinite(x) else None
 
 
+def finite_only(doc: Any) -> Any:
+    """``doc`` with every non-finite number (NaN, ±inf, numpy's too) as None: what strict JSON
+    can hold; the key beside it says what is missing (e.g. a validation's ``note``)."""
+    if isinstance(doc, dict):
+        return {str(k): finite_only(v) for k, v in doc.items()}
+    if isinstance(doc, (list, tuple)):
+        return [finite_only(v) for v in doc]
+    if isinstance(doc, bool) or doc is None or isinstance(doc, str):
+        return doc
+    if hasattr(doc, "tolist") and not isinstance(doc, (int, float)):  # numpy arrays, scalars
+        return finite_only(doc.tolist())
+    if isinstance(doc, float):
+        return doc if math.isfinite(doc) else None
+    return doc
+
+
+def json_text(doc: Any) -> str:
+    """Strict JSON (RFC 8259: no NaN/Infinity tokens) of a document the product writes."""
+    return json.dumps(finite_only(doc), indent=2, allow_nan=False) + "\n"
+
+
 def lag_text(current_lag: list[dict[str, Any]]) -> str:
     """The identified current-loop lags (``IdentificationResult.current_lag``) as one line:
     "q11 0.102 ms (σ 0.032), ..." (the text table, the log and the identify service's reply)."""
@@ -173,7 +194,7 @@ class IdentificationResult:
         return {"nominal": _num(g0), "ratio_to_nominal": _num(self.drive_gains[i].value / g0)}
 
     def write_json(self, path: str | Path) -> None:
-        Path(path).write_text(json.dumps(self.to_json(), indent=2) + "\n")
+        Path(path).write_text(json_text(self.to_json()))
 
     def message_fields(self) -> dict[str, Any]:
         """The fields of orthoglide_msgs/IdentifiedParameters (header and stamp excluded)."""
@@ -234,6 +255,8 @@ class IdentificationResult:
         for v in self.validation:
             lines.append(f"cross-validation on {v['bag']}: " + ", ".join(
                 f"{j['joint']} {j['residual_rms']:.3g} {u} rms ({100 * j['relative_error']:.1f} %)"
+                if j.get("residual_rms") is not None and j.get("relative_error") is not None
+                else f"{j['joint']} - ({j.get('note', 'no figure')})"
                 for j, u in zip(v["joints"], self.effort_units or ["N"] * len(v["joints"]))))
         d = self.diagnostics
         if d.get("samples_used") is not None:

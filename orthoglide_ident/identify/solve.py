@@ -9,6 +9,7 @@ and the payload masses estimated (eqs. 24-28), each optionally reduced to essent
 from __future__ import annotations
 
 import logging
+import math
 import time
 from dataclasses import dataclass, field
 from typing import Any, Sequence
@@ -99,6 +100,49 @@ def _uncertainty(result: IdentificationResult, sol: TLSSolution | WLSSolution, m
                            screws=drive_terms.screw_mask(model))
     result.diagnostics["uncertainty"] = d
     result.warnings.extend(warnings)
+
+
+FRICTION_PREFIXES = ("fv_", "fs_")  # viscous and Coulomb friction: never negative (Sect. 2.2)
+
+
+def friction_sign_warnings(result: IdentificationResult) -> list[str]:
+    """A friction coefficient negative beyond 3 σ: the sign of a drive gain is wrong (given, or
+    the current recorded opposite to the effort), not a physical answer."""
+    out = []
+    for p in result.parameters:
+        if p.name.startswith(FRICTION_PREFIXES) and p.value < 0 and \
+                math.isfinite(p.rel_std) and p.rel_std < 1.0 / 3.0:
+            out.append(f"{p.name} = {p.value:.4g} is a negative friction coefficient: the drive "
+                       "gain of the joint it belongs to has the wrong sign (a gain given with the "
+                       "wrong sign, or the current recorded opposite to the effort: a reversed "
+                       "motor or a negative reduction), or that joint's data are not the model's")
+    return out
+
+
+PAYLOAD_TAG_TOLERANCE = 0.10  # WLS payload estimate vs its tag beyond which the answer is doubted
+
+
+def payload_tag_warnings(result: IdentificationResult, model, gains_given: bool) -> list[str]:
+    """A WLS payload estimate far from its weighed tag (beyond 10 % and 3 honest σ): the answer
+    does not answer the question; the likely cause is the gains (eq. 28 scales with them)."""
+    out = []
+    for p in result.payloads:
+        if not p.tagged or not math.isfinite(p.value):
+            continue
+        dev = p.value / p.tagged - 1.0
+        if abs(dev) > PAYLOAD_TAG_TOLERANCE and abs(dev) > 3 * abs(p.rel_std * p.value / p.tagged):
+            if gains_given:
+                cause = ("the gains given are not the robot's (in another unit or side of the "
+                         "reduction), or the currents are not in A")
+            elif not model.nominal_gains_given:
+                cause = ("no gains were given and the robot file has no nominal gains (1 per "
+                         "unit stands in): give --gains, e.g. the --json of a TLS identification")
+            else:
+                cause = ("the robot file's nominal gains are not the drives' (give --gains from a "
+                         "TLS identification), or the currents are not in A")
+            out.append(f"payload mass estimated {p.value:.4g} kg by WLS, tagged {p.tagged:g} kg "
+                       f"({100 * dev:+.0f} %): {cause}")
+    return out
 
 
 def _sources(factors: list[RecordFactors], mass: float) -> list[str]:
@@ -334,6 +378,7 @@ def solve_wls(factors: list[RecordFactors], model, opts: IdentifyOptions,
     m = _set_up(factors, model, opts, base, make_solver, g)
     view, ripples, lags = m.view(m.full)
     result = wls_result(model, view, g, factors, bags)
+    result.warnings.extend(payload_tag_warnings(result, model, gains is not None))
     _uncertainty(result, base, model, opts, gains=False)
     _drive_notes(result, ripples, lags, m.terms, model.joint_names)
     out = Solved(result, _chi(m, m.full), g,
@@ -375,6 +420,7 @@ def solve(factors: list[RecordFactors], model, opts: IdentifyOptions, method: st
         out = solve_tls(factors, model, opts, essential, list(bags))
     else:
         out = solve_wls(factors, model, opts, gains, essential, list(bags))
+    out.result.warnings.extend(friction_sign_warnings(out.result))
     if opts.consistent:  # physically consistent standard parameters behind the answer
         from orthoglide_ident.identify.consistency import attach
 

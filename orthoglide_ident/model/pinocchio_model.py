@@ -86,9 +86,11 @@ class PinocchioRobot(RobotModel):
     """A robot described by a URDF/MJCF (and loops): see the module docstring."""
 
     @classmethod
-    def from_description(cls, data: dict[str, Any], base_dir: Path) -> "PinocchioRobot":
-        """The model a robot YAML's mapping describes (``description`` relative to base_dir)."""
-        where = f"robot {data.get('name') or data.get('description')}"
+    def from_description(cls, data: dict[str, Any], base_dir: Path,
+                         where: str | None = None) -> "PinocchioRobot":
+        """The model a robot YAML's mapping describes (``description`` relative to base_dir);
+        ``where`` names the file in its errors (default: the robot's name or description)."""
+        where = where or f"robot {data.get('name') or data.get('description')}"
         desc = read_description(data, Path(base_dir), where)
         return cls(desc)
 
