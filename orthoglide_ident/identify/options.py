@@ -88,6 +88,12 @@ class IdentifyOptions:
     warn_condition: float = 1.0e5
     max_singular_ratio: float = 0.5
     max_gain_rel_std: float = 0.05
+    # partial answers (identify/partial.py): a gain the data do not fix (its joint hardly moved,
+    # the payload adds less than min_payload_share of its torque, its honest σ above
+    # max_gain_rel_std) is reported "not determined" with the reason, the others identified
+    # without its rows; false: all or nothing (an error, as before)
+    partial_answers: bool = True
+    min_payload_share: float = 0.01  # fraction of a joint's rms torque
     # drive gains outside [nominal / ratio, nominal x ratio] of the robot file's nominal
     # (manufacturer's) gains are a warning (no band when the file gives none: a bare URDF);
     # gain_min / gain_max > 0 set absolute bounds instead, an error (N/A, N·m/A)
@@ -195,6 +201,9 @@ class IdentifyOptions:
         if not (self.gain_range_ratio > 1 and self.gain_min >= 0 and self.gain_max >= 0):
             raise ConfigError(f"{source}: gain_range_ratio must be > 1, gain_min and gain_max "
                               ">= 0 (0: from the nominal gains and the ratio)")
+        if not 0 <= self.min_payload_share < 1:
+            raise ConfigError(f"{source}: min_payload_share is a fraction of a joint's torque "
+                              f"(0.01 = 1 %), not {self.min_payload_share:g}")
         if not (self.consistency_prior_weight > 0 and math.isfinite(self.consistency_prior_weight)):
             raise ConfigError(f"{source}: consistency_prior_weight must be a positive number "
                               "(1e-4: the prior decides only what the data leave free)")

@@ -19,7 +19,7 @@ from typing import Any, Callable, Iterable, Iterator, Sequence
 
 import numpy as np
 
-from orthoglide_ident.errors import DataError, IdentificationError
+from orthoglide_ident.errors import ExcitationError, IdentificationError
 from orthoglide_ident.identify.current_lag import lag_instrument, without_instrument
 from orthoglide_ident.identify.decimation import decimate_chunked, decimated_count
 from orthoglide_ident.identify.drive_terms import observation_model, screw_mask
@@ -363,14 +363,15 @@ def fingerprint(rec: Record) -> str:
 
 def check_moves(obs: Observations, model: IdentificationModel, opts: IdentifyOptions,
                 what: str) -> None:
-    """DataError when no joint of a record moves: a robot holding still gives no equation of
+    """ExcitationError when no joint of a record moves: a robot holding still gives no equation of
     its dynamics (every row is below the velocity dead band), only the friction's sign noise."""
     rows = obs.rows_per_joint()
     if max(rows, default=0) < min_rows(obs.W.shape[2]):
-        raise DataError(
+        raise ExcitationError(
             f"{what} {obs.source}: the robot hardly moves in this record (at most {max(rows)} of "
             f"{obs.n_samples} decimated samples of any joint above the velocity dead band, "
-            f"velocity_deadband_mps {opts.velocity_deadband_mps:g}): it holds no equation of the dynamics; "
+            f"velocity_deadband_mps {opts.velocity_deadband_mps:g}): it holds no equation of the "
+            "dynamics; "
             "leave it out or record exciting motion")
 
 

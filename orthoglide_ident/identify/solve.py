@@ -17,11 +17,12 @@ from typing import Any, Sequence
 import numpy as np
 
 from orthoglide_ident.errors import ExcitationError, IdentificationError
-from orthoglide_ident.identify import drive_terms
+from orthoglide_ident.identify import drive_terms, partial
 from orthoglide_ident.identify.essential import EssentialResult, essential_parameters
 from orthoglide_ident.identify.factors import RecordFactors
 from orthoglide_ident.identify.options import IdentifyOptions
-from orthoglide_ident.identify.tls import (ExcitationLimits, TLSProblem, TLSSolution, check_excitation,
+from orthoglide_ident.identify.tls import (ExcitationLimits, TLSProblem, TLSSolution,
+                                           check_excitation, check_gains, check_subspace,
                                            require_loaded_and_unloaded)
 from orthoglide_ident.identify.uncertainty import diagnose, ripple_warning_start
 from orthoglide_ident.identify.wls import WLSSolution, idim_wls
@@ -302,13 +303,30 @@ def tls_model(factors: list[RecordFactors], model, opts: IdentifyOptions) -> tup
 
 def solve_tls(factors: list[RecordFactors], model, opts: IdentifyOptions, essential: bool,
               bags: list[str]) -> Solved:
-    """IDIM-TLS (eqs. 33-39), excitation checked, optionally the essential parameters."""
+    """IDIM-TLS (eqs. 33-39), excitation checked, optionally the essential parameters; a
+    partial answer (partial.py) when the data fix only some gains."""
     require_loaded_and_unloaded(factors, "IDIM-TLS")
     log.info("IDIM-TLS on %d equations × %d unknowns", sum(f.n_rows for f in factors),
              factors[0].n_b + model.n_joints + 1)
+    partial_ok = opts.partial_answers and opts.check_excitation and model.n_joints > 1
+    left_out = partial.hardly_moved(factors, model, opts, min_rows(factors[0].n_b)) \
+        if partial_ok else {}
+    if left_out:
+        return _solve_partial(factors, model, opts, bags, left_out, essential)
     m, base = tls_model(factors, model, opts)
     sol = m.full
     if opts.check_excitation:
+        if partial_ok:
+            left_out = partial.little_payload(factors, m.view(sol)[0].g_tau, model.joint_names,
+                                              opts.min_payload_share)
+            if not left_out:
+                lim = limits(model, opts)
+                check_subspace(sol, lim)
+                n = sol.chi.shape[0]
+                left_out = partial.weak_gain(sol.rel_std[n:n + model.n_joints],
+                                             model.joint_names, lim.max_gain_rel_std)
+            if left_out:
+                return _solve_partial(factors, model, opts, bags, left_out, essential)
         band_warnings = check_excitation(sol, limits(model, opts), m.names, model.joint_names)
     view, ripples, lags = m.view(sol)
     result = tls_result(model, view, factors, opts, bags)
@@ -332,6 +350,60 @@ def solve_tls(factors: list[RecordFactors], model, opts: IdentifyOptions, essent
         _note_essential(m.names, result, ess)
         out.timings["essential"] = time.perf_counter() - t0
     return out
+
+
+def _left_out_text(names: Sequence[str], left_out: dict[int, str]) -> list[str]:
+    return [r if r.startswith(names[j]) else f"{names[j]}: {r}"
+            for j, r in sorted(left_out.items())]
+
+
+def _solve_partial(factors: list[RecordFactors], model, opts: IdentifyOptions, bags: list[str],
+                   left_out: dict[int, str], essential: bool) -> Solved:
+    """IDIM-TLS on the joints whose gains the data fix (partial.py): their rows only, the
+    columns only the others' rows held left out; judged as a full answer is, on that
+    subsystem. The result lists every joint, those left out "not determined" with the reason."""
+    names = model.joint_names
+    for _ in range(model.n_joints):
+        if len(left_out) == model.n_joints:
+            raise ExcitationError("no drive gain is determined: "
+                                  + "; ".join(_left_out_text(names, left_out)))
+        log.info("partial answer: %s", "; ".join(f"{names[j]} left out" for j in left_out))
+        fs, sub = partial.reduce(factors, model, left_out)
+        m, base = tls_model(fs, sub, opts)
+        sol = m.full
+        new = partial.little_payload(fs, m.view(sol)[0].g_tau, sub.joint_names,
+                                     opts.min_payload_share)
+        if not new:
+            lim = limits(sub, opts)
+            try:
+                check_subspace(sol, lim)  # eq. (37) on the subsystem of the determined gains
+            except ExcitationError as exc:
+                raise ExcitationError("no drive gain is determined: " + "; ".join(
+                    _left_out_text(names, left_out)) + f"; and without them {exc}") from None
+            n = sol.chi.shape[0]
+            new = partial.weak_gain(sol.rel_std[n:n + sub.n_joints], sub.joint_names,
+                                    lim.max_gain_rel_std)
+        if not new:
+            break
+        left_out.update({int(sub.joint_idx[k]): r for k, r in new.items()})
+    band_warnings = check_gains(sol, limits(sub, opts), sub.joint_names)
+    view, ripples, lags = m.view(sol)
+    result = tls_result(sub, view, fs, opts, bags)
+    result.warnings.extend(band_warnings)
+    _uncertainty(result, base, sub, opts, gains=True)
+    _drive_notes(result, ripples, lags, m.terms, sub.joint_names)
+    partial.expand(result, model, sub, left_out)
+    if essential:
+        result.warnings.append("--essential is not run on a partial answer: the essential "
+                               "reduction protects every gain")
+    chi = np.zeros(factors[0].n_b)
+    chi[sub.col_idx] = _chi(m, sol)[:sub.col_idx.shape[0]]
+    g = np.full(model.n_joints, np.nan)
+    g[sub.joint_idx] = view.g_tau
+    solver = {"tls_noisy_columns": opts.tls_noisy_columns, "singular_ratio": sol.singular_ratio,
+              "smallest_singular_values": [float(x) for x in sol.singular_values[-3:]],
+              "joints_solved": list(sub.joint_names), "lambda": sol.lambda_scale}
+    return Solved(result, chi, g, solver, None, factors=[])
 
 
 def _chi(m: _Model, sol) -> np.ndarray:
@@ -415,13 +487,17 @@ def solve(factors: list[RecordFactors], model, opts: IdentifyOptions, method: st
         raise IdentificationError(f"unknown method {method!r}: use tls or wls")
     if not factors:
         raise IdentificationError("no bag given")
-    check_rows(factors, model, opts)
+    if method == "wls" or not opts.partial_answers:
+        check_rows(factors, model, opts)  # TLS: a joint that hardly moved is a partial answer
     if method == "tls":
         out = solve_tls(factors, model, opts, essential, list(bags))
     else:
         out = solve_wls(factors, model, opts, gains, essential, list(bags))
     out.result.warnings.extend(friction_sign_warnings(out.result))
-    if opts.consistent:  # physically consistent standard parameters behind the answer
+    if opts.consistent and not out.result.complete:
+        out.result.warnings.append("--consistent is not run on a partial answer: the standard "
+                                   "parameters need every gain")
+    elif opts.consistent:  # physically consistent standard parameters behind the answer
         from orthoglide_ident.identify.consistency import attach
 
         attach(out, model, opts)

@@ -341,9 +341,12 @@ def check_excitation(sol: TLSSolution, limits: ExcitationLimits, names: list[str
     answer far from the manufacturer's figure says more about the figure (a motor-side gain, a
     unit) than about the data. Returns the warnings.
     """
-    g = sol.g_tau
-    n = sol.chi.shape[0]
-    grel = sol.rel_std[n:n + g.shape[0]]
+    check_subspace(sol, limits)
+    return check_gains(sol, limits, joint_names)
+
+
+def check_subspace(sol: TLSSolution, limits: ExcitationLimits) -> None:
+    """Eq. (37): s_c apart from s_(c-1), and the scaled regressor's condition number."""
     if sol.singular_ratio > limits.max_singular_ratio:
         raise ExcitationError(
             f"the two smallest singular values of W_tot are not separated (s_c/s_c-1 = "
@@ -357,6 +360,14 @@ def check_excitation(sol: TLSSolution, limits: ExcitationLimits, names: list[str
             f"condition number of the scaled observation matrix is {sol.condition_number:.3g} "
             f"(> {limits.max_condition:.3g}): the trajectories are not exciting enough"
         )
+
+
+def check_gains(sol: TLSSolution, limits: ExcitationLimits,
+                joint_names: tuple[str, ...]) -> list[str]:
+    """The gains' honest σ and signs (errors), their band (warnings, see check_excitation)."""
+    g = sol.g_tau
+    n = sol.chi.shape[0]
+    grel = sol.rel_std[n:n + g.shape[0]]
     if np.any(grel > limits.max_gain_rel_std):
         j = int(np.argmax(grel))
         raise ExcitationError(

@@ -12,7 +12,7 @@ import pytest
 
 from orthoglide_ident import bags
 from orthoglide_ident.cli import main
-from orthoglide_ident.errors import ConfigError, DataError, ExcitationError
+from orthoglide_ident.errors import ConfigError, ExcitationError
 from orthoglide_ident.identify.options import IdentifyOptions
 from orthoglide_ident.identify.pipeline import identify, identify_records, read_record
 from orthoglide_ident.identify.tls import ExcitationLimits, gain_band_warnings
@@ -58,9 +58,9 @@ def test_a_gain_outside_the_nominal_band_is_a_warning_the_users_bounds_an_error(
 # --- static records, strict JSON, --essential with WLS ---------------------------------------
 def test_a_static_record_is_refused_in_one_line(tmp_path):
     still = _static_bag(tmp_path / "still")
-    with pytest.raises(DataError, match=r"bag .*still: the robot hardly moves"):
+    with pytest.raises(ExcitationError, match=r"bag .*still: the robot hardly moves"):
         identify([still, SAMPLE[1]])
-    with pytest.raises(DataError, match=r"validation bag .*still: the robot hardly moves"):
+    with pytest.raises(ExcitationError, match=r"validation bag .*still: the robot hardly moves"):
         identify(SAMPLE, validation_bags=[still])
 
 
