@@ -41,7 +41,8 @@ def add_parsers(sub: Any) -> None:
                    help="start loaded: its centre of mass in that frame, m (default its origin)")
     p.add_argument("--payload-inertia", default=None, metavar="IXX,IXY,IXZ,IYY,IYZ,IZZ",
                    help="start loaded: its inertia about the centre of mass, kg·m² (default 0: a point mass); "
-                        "the three set the recorder's payload_* parameters, tagged in the bag")
+                        "the three set the recorder's payload_* parameters for this start only (tagged "
+                        "in the bag; nothing carries over to the next start)")
     p.add_argument("--recorder", default="orthoglide_recorder", metavar="NODE",
                    help="the recorder node's name, for --payload-* (default orthoglide_recorder)")
     add_namespace(p)
