@@ -124,3 +124,23 @@ def test_ur5_given_as_a_plain_urdf_is_judged_without_a_gain_band(arm):
     wls = identify_records([recs["unloaded"], recs["1kg"]], method="wls", model=bare)
     said = [w for w in wls.warnings if w.startswith("payload mass estimated")]
     assert len(said) == 1 and "no nominal gains" in said[0]
+
+
+def test_consistent_masses_far_from_the_description_are_said_with_the_cause(arm):
+    """--consistent on an unloaded record by WLS: with the UR5's nominal gains the bodies stay
+    near the description's masses and the one the data do not determine (the base link's,
+    about the vertical axis) is named; with a bare URDF's gains 1 every mass is scaled by 1/g:
+    said, with the cause."""
+    from orthoglide_ident.model.robots import ROBOTS_DIR
+
+    _, recs, _ = arm
+    opts = IdentifyOptions(consistent=True)
+    res = identify_records([recs["unloaded"]], method="wls", model=load_robot("ur5"),
+                           options=opts)
+    assert not [w for w in res.warnings if "far from the description's masses" in w]
+    held = [w for w in res.warnings if "the data do not determine the mass of" in w]
+    assert held and "shoulder_link" in held[0] and "prior weight" in held[0]
+    bare = identify_records([recs["unloaded"]], method="wls",
+                            model=load_robot(ROBOTS_DIR / "ur5.urdf"), options=opts)
+    far = [w for w in bare.warnings if "far from the description's masses" in w]
+    assert len(far) == 1 and "forearm_link" in far[0] and "the gains are not known" in far[0]
