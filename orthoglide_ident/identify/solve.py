@@ -316,17 +316,9 @@ def solve_tls(factors: list[RecordFactors], model, opts: IdentifyOptions, essent
     m, base = tls_model(factors, model, opts)
     sol = m.full
     if opts.check_excitation:
-        if partial_ok:
-            left_out = partial.little_payload(factors, m.view(sol)[0].g_tau, model.joint_names,
-                                              opts.min_payload_share)
-            if not left_out:
-                lim = limits(model, opts)
-                check_subspace(sol, lim)
-                n = sol.chi.shape[0]
-                left_out = partial.weak_gain(sol.rel_std[n:n + model.n_joints],
-                                             model.joint_names, lim.max_gain_rel_std)
-            if left_out:
-                return _solve_partial(factors, model, opts, bags, left_out, essential)
+        left_out = _undetermined(factors, model, opts, m, sol) if partial_ok else {}
+        if left_out:
+            return _solve_partial(factors, model, opts, bags, left_out, essential)
         band_warnings = check_excitation(sol, limits(model, opts), m.names, model.joint_names)
     view, ripples, lags = m.view(sol)
     result = tls_result(model, view, factors, opts, bags)
@@ -352,6 +344,20 @@ def solve_tls(factors: list[RecordFactors], model, opts: IdentifyOptions, essent
     return out
 
 
+def _undetermined(factors: list[RecordFactors], model, opts: IdentifyOptions, m: _Model,
+                  sol: TLSSolution) -> dict[int, str]:
+    """Gains of a solve the data do not fix (partial.py), by joint index, with the reason: the
+    payload adds almost no torque on the axis; else, eq. (37) holding, a σ above the limit."""
+    names = model.joint_names
+    left_out = partial.little_payload(factors, m.view(sol)[0].g_tau, names, opts.min_payload_share)
+    if left_out:
+        return left_out
+    lim = limits(model, opts)
+    check_subspace(sol, lim)
+    n = sol.chi.shape[0]
+    return partial.weak_gain(sol.rel_std[n:n + model.n_joints], names, lim.max_gain_rel_std)
+
+
 def _left_out_text(names: Sequence[str], left_out: dict[int, str]) -> list[str]:
     return [r if r.startswith(names[j]) else f"{names[j]}: {r}"
             for j, r in sorted(left_out.items())]
@@ -371,18 +377,11 @@ def _solve_partial(factors: list[RecordFactors], model, opts: IdentifyOptions, b
         fs, sub = partial.reduce(factors, model, left_out)
         m, base = tls_model(fs, sub, opts)
         sol = m.full
-        new = partial.little_payload(fs, m.view(sol)[0].g_tau, sub.joint_names,
-                                     opts.min_payload_share)
-        if not new:
-            lim = limits(sub, opts)
-            try:
-                check_subspace(sol, lim)  # eq. (37) on the subsystem of the determined gains
-            except ExcitationError as exc:
-                raise ExcitationError("no drive gain is determined: " + "; ".join(
-                    _left_out_text(names, left_out)) + f"; and without them {exc}") from None
-            n = sol.chi.shape[0]
-            new = partial.weak_gain(sol.rel_std[n:n + sub.n_joints], sub.joint_names,
-                                    lim.max_gain_rel_std)
+        try:  # eq. (37) on the subsystem of the determined gains
+            new = _undetermined(fs, sub, opts, m, sol)
+        except ExcitationError as exc:
+            raise ExcitationError("no drive gain is determined: " + "; ".join(
+                _left_out_text(names, left_out)) + f"; and without them {exc}") from None
         if not new:
             break
         left_out.update({int(sub.joint_idx[k]): r for k, r in new.items()})
@@ -487,7 +486,7 @@ def solve(factors: list[RecordFactors], model, opts: IdentifyOptions, method: st
         raise IdentificationError(f"unknown method {method!r}: use tls or wls")
     if not factors:
         raise IdentificationError("no bag given")
-    if method == "wls" or not opts.partial_answers:
+    if method == "wls" or not (opts.partial_answers and opts.check_excitation):
         check_rows(factors, model, opts)  # TLS: a joint that hardly moved is a partial answer
     if method == "tls":
         out = solve_tls(factors, model, opts, essential, list(bags))
