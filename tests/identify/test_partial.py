@@ -87,3 +87,14 @@ def test_a_joint_that_hardly_moved_is_not_determined(axial):
     with pytest.raises(ExcitationError, match="no drive gain is determined: shoulder_lift_joint "
                                               "hardly moved"):
         identify_records(recs, model=model)
+
+
+def test_report_says_the_gain_not_determined(axial, tmp_path, capsys):
+    unloaded, loaded, _ = axial
+    out = tmp_path / "report"
+    assert main(["report", "-q", "--robot", "ur5", unloaded, loaded, "--validate", unloaded,
+                 "--out", str(out)]) == 0
+    summary = (out / "summary.md").read_text()
+    assert "| wrist_3_joint | not determined: the payload adds" in summary
+    assert "wrist_3_joint — (its drive gain is not determined" in summary
+    json.loads((out / "result.json").read_text())
