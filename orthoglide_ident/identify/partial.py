@@ -110,6 +110,21 @@ class Subsystem:
         exprs = list(getattr(self.full, "expressions", [""] * len(self.full.names)))
         self.expressions = [exprs[c] if c < len(exprs) else "" for c in self.col_idx]
         self.nominal_gains_given = self.full.nominal_gains_given
+        self.terms = self._lag_terms()
+
+    def _lag_terms(self) -> Any:
+        """The current-loop lag columns the equations still hold, as drive terms (one per kept
+        joint, last: the full model's layout without the left-out joints'); none otherwise
+        (a ripple at a given lead stays a plain column)."""
+        from orthoglide_ident.identify.drive_terms import Terms
+
+        full = getattr(self.full, "terms", None)
+        if not full or full.ripples or not full.lag:
+            return Terms()
+        n_b = len(self.full.names) - full.n_extra
+        lag_cols = [c for c in self.col_idx.tolist() if c >= n_b]
+        want = [n_b + int(j) for j in self.joint_idx]
+        return Terms(lag=len(want)) if lag_cols == want else Terms()
 
     @property
     def joint_names(self) -> tuple[str, ...]:

@@ -236,7 +236,8 @@ def _set_up(factors: list[RecordFactors], model, opts: IdentifyOptions, base, ma
     n_cols = factors[0].n_b
     names = tuple(model.joint_names)
     base_solve = make_solver(factors)
-    in_rows = model.terms if isinstance(model, drive_terms.DriveTermsModel) else drive_terms.Terms()
+    # the drive terms in the equations: a DriveTermsModel's, or a partial answer's (partial.py)
+    in_rows = getattr(model, "terms", None) or drive_terms.Terms()
     n_b = n_cols - in_rows.n_extra
     plain = _Model(lambda act: base_solve(act, False), base, n_b, in_rows, list(model.names),
                    n_cols, names, gains, factors)
