@@ -116,7 +116,9 @@ def _add_identify_options(p: argparse.ArgumentParser) -> None:
                    help="write the identified model as a URDF (consistent inertials, friction "
                         "in <dynamics>, rotor inertia and gains in comments) that Pinocchio and "
                         "MuJoCo load; implies --consistent")
-    p.add_argument("--json", metavar="FILE", help="write the result as JSON (docs/architecture.md §4) to FILE")
+    p.add_argument("--json", metavar="FILE", help="write the result as JSON (docs/architecture.md §4) to FILE "
+                   "(strict JSON: a number that is missing is null; drive_gains[i].determined, "
+                   "reason)")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress on stderr")
     _add_robot_option(p)
 
@@ -131,7 +133,12 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
     p = sub.add_parser("identify", help="identify gains and base parameters from bags",
                        description="Identify drive gains (N/A) and base dynamic parameters from "
-                                   "unloaded and loaded bags; prints a table, --json writes JSON.")
+                                   "unloaded and loaded bags; prints a table, --json writes JSON. "
+                                   "When the data fix only some gains (a joint that hardly moved, "
+                                   "a payload that adds no torque on an axis) the others are "
+                                   "given with their σ and those marked 'not determined' with "
+                                   "the reason and what to record (exit 0; option "
+                                   "partial_answers: false for all or nothing).")
     _add_identify_options(p)
     p.add_argument("--service", action="store_true",
                    help="ask the identification node instead (ROS 2 service orthoglide/identify): "
@@ -212,7 +219,9 @@ def _run_identify(args: argparse.Namespace):
 
 def _write_json(path: str, doc: dict) -> None:
     try:
-        Path(path).write_text(json.dumps(doc, indent=2) + "\n")
+        from orthoglide_ident.results import json_text
+
+        Path(path).write_text(json_text(doc))
     except OSError as exc:
         raise ConfigError(f"cannot write {path}: {exc.strerror or exc}") from None
 

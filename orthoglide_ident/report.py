@@ -57,8 +57,10 @@ def plot_torques(res: IdentificationResult, path: Path, window_s: float = 10.0) 
         ax.plot(val.t[w], val.tau_measured[j][w], lw=0.9, label="measured  g_τ·v_τ")
         ax.plot(val.t[w], val.tau_model[j][w], lw=0.9, ls="--", label="model  IDM·χ̂")
         ax.set_ylabel(f"{res.joint_names[j]} ({units[j]})")
-        ax.set_title(f"{res.joint_names[j]}: residual rms {val.residual_rms[j]:.3g} {units[j]} "
-                     f"({100 * val.relative_error[j]:.1f} %) over the record", fontsize=9)
+        note = val.notes[j] if val.notes else ""
+        ax.set_title(f"{res.joint_names[j]}: " + (note if note else
+                     f"residual rms {val.residual_rms[j]:.3g} {units[j]} "
+                     f"({100 * val.relative_error[j]:.1f} %) over the record"), fontsize=9)
         ax.grid(alpha=0.3)
     axes[0].legend(loc="upper right", fontsize=8)
     axes[-1].set_xlabel("time (s)")
@@ -113,6 +115,9 @@ def write_summary(res: IdentificationResult, path: Path, figures: list[str]) -> 
               "|---|---:|---:|" + ("---:|---:|" if res.essential else "")]
     eg = {g.name: g for g in res.essential.drive_gains} if res.essential else {}
     for g in res.drive_gains:
+        if not g.determined:
+            lines.append(f"| {g.name} | not determined: {g.reason} | |")
+            continue
         row = f"| {g.name} | {g.value:.6g} | {100 * g.rel_std:.3g} |"
         if res.essential:
             row += f" {eg[g.name].value:.6g} | {100 * eg[g.name].rel_std:.3g} |"
@@ -136,10 +141,13 @@ def write_summary(res: IdentificationResult, path: Path, figures: list[str]) -> 
                      f"{kind}")
     lines.append(f"- condition number of the scaled observation matrix: {res.condition_number:.4g}")
     lines.append(f"- residual rms per joint ({res._units(res.effort_units, 'N')}): " + ", ".join(
-        f"{j} {r:.4g}" for j, r in zip(res.joint_names, res.residual_rms)))
+        f"{j} {r:.4g}" if math.isfinite(r) else f"{j} —"
+        for j, r in zip(res.joint_names, res.residual_rms)))
     for v in res.validation:
         lines.append(f"- cross-validation on `{v['bag']}`: " + ", ".join(
             f"{j['joint']} {j['residual_rms']:.3g} {u} rms ({100 * j['relative_error']:.1f} %)"
+            if j.get("residual_rms") is not None and j.get("relative_error") is not None
+            else f"{j['joint']} — ({j.get('note', 'no figure')})"
             for j, u in zip(v["joints"], res.effort_units or ["N"] * len(v["joints"]))))
     for w in res.warnings:
         lines.append(f"- warning: {w}")

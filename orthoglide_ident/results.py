@@ -23,6 +23,27 @@ def _num(x: float) -> float | None:
     return x if math.isfinite(x) else None
 
 
+def finite_only(doc: Any) -> Any:
+    """``doc`` with every non-finite number (NaN, ±inf, numpy's too) as None: what strict JSON
+    can hold; the key beside it says what is missing (e.g. a validation's ``note``)."""
+    if isinstance(doc, dict):
+        return {str(k): finite_only(v) for k, v in doc.items()}
+    if isinstance(doc, (list, tuple)):
+        return [finite_only(v) for v in doc]
+    if isinstance(doc, bool) or doc is None or isinstance(doc, str):
+        return doc
+    if hasattr(doc, "tolist") and not isinstance(doc, (int, float)):  # numpy arrays, scalars
+        return finite_only(doc.tolist())
+    if isinstance(doc, float):
+        return doc if math.isfinite(doc) else None
+    return doc
+
+
+def json_text(doc: Any) -> str:
+    """Strict JSON (RFC 8259: no NaN/Infinity tokens) of a document the product writes."""
+    return json.dumps(finite_only(doc), indent=2, allow_nan=False) + "\n"
+
+
 def lag_text(current_lag: list[dict[str, Any]]) -> str:
     """The identified current-loop lags (``IdentificationResult.current_lag``) as one line:
     "q11 0.102 ms (σ 0.032), ..." (the text table, the log and the identify service's reply)."""
@@ -53,6 +74,9 @@ class Estimate:
     rel_std: float  # honest (covers correlated residuals)
     expression: str = ""
     rel_std_paper: float | None = None  # eqs. (38)-(39)
+    # a drive gain the data do not fix (a partial answer): value and σ NaN, and why / what to record
+    determined: bool = True
+    reason: str = ""
 
     def to_json(self) -> dict[str, Any]:
         return {"name": self.name, "value": _num(self.value), "rel_std": _num(self.rel_std),
@@ -120,7 +144,19 @@ class IdentificationResult:
 
     @property
     def residual_rms_total(self) -> float:
-        return math.sqrt(sum(r * r for r in self.residual_rms) / max(len(self.residual_rms), 1))
+        """Over the joints with a residual (not those whose gain is not determined)."""
+        rs = [r for r in self.residual_rms if math.isfinite(r)]
+        return math.sqrt(sum(r * r for r in rs) / max(len(rs), 1))
+
+    @property
+    def complete(self) -> bool:
+        """Every drive gain determined: what the CTC path takes (a partial answer is not)."""
+        return all(g.determined for g in self.drive_gains)
+
+    def not_determined_text(self) -> str:
+        """The gains a partial answer leaves out and why, one line (the reply, the log)."""
+        return "; ".join(f"{g.name} not determined: {g.reason}" for g in self.drive_gains
+                         if not g.determined)
 
     def to_json(self) -> dict[str, Any]:
         out: dict[str, Any] = {
@@ -129,8 +165,11 @@ class IdentificationResult:
             "joint_names": list(self.joint_names),
             "drive_gains": [{"joint": g.name, "value": _num(g.value), "rel_std": _num(g.rel_std),
                              "rel_std_paper": None if g.rel_std_paper is None
-                             else _num(g.rel_std_paper), **self._nominal(i)}
+                             else _num(g.rel_std_paper), **self._nominal(i),
+                             "determined": g.determined,
+                             **({} if g.determined else {"reason": g.reason})}
                             for i, g in enumerate(self.drive_gains)],
+            "complete": self.complete,
             "drive_gains_given": self.drive_gains_given,
             "parameters": [p.to_json() for p in self.parameters],
             "payload_mass": None if self.payload_mass is None else self.payload_mass.to_json(),
@@ -173,15 +212,17 @@ class IdentificationResult:
         return {"nominal": _num(g0), "ratio_to_nominal": _num(self.drive_gains[i].value / g0)}
 
     def write_json(self, path: str | Path) -> None:
-        Path(path).write_text(json.dumps(self.to_json(), indent=2) + "\n")
+        Path(path).write_text(json_text(self.to_json()))
 
     def message_fields(self) -> dict[str, Any]:
         """The fields of orthoglide_msgs/IdentifiedParameters (header and stamp excluded)."""
         return {
             "method": self.method,
             "joint_names": list(self.joint_names),
-            "drive_gains": [float(g.value) for g in self.drive_gains],
+            "drive_gains": [float(g.value) for g in self.drive_gains],  # NaN: not determined
             "drive_gains_rel_std": [float(g.rel_std) for g in self.drive_gains],
+            "drive_gains_determined": [bool(g.determined) for g in self.drive_gains],
+            "drive_gains_reason": [g.reason for g in self.drive_gains],
             "names": [p.name for p in self.parameters],
             "values": [float(p.value) for p in self.parameters],
             "rel_std": [float(p.rel_std) if math.isfinite(p.rel_std) else -1.0
@@ -210,7 +251,8 @@ class IdentificationResult:
                          f"({what}{tag})")
         lines.append(f"condition number (scaled W): {self.condition_number:.4g}")
         lines.append(f"residual rms ({self._units(self.effort_units, 'N')}): " + ", ".join(
-            f"{j} {r:.4g}" for j, r in zip(self.joint_names, self.residual_rms)))
+            f"{j} {r:.4g}" if math.isfinite(r) else f"{j} -"
+            for j, r in zip(self.joint_names, self.residual_rms)))
         if self.current_lag:
             lines.append("current-loop lag modelled: " + lag_text(self.current_lag))
         if self.diagnostics.get("options", {}).get("effort_unit") == "torque":
@@ -234,6 +276,8 @@ class IdentificationResult:
         for v in self.validation:
             lines.append(f"cross-validation on {v['bag']}: " + ", ".join(
                 f"{j['joint']} {j['residual_rms']:.3g} {u} rms ({100 * j['relative_error']:.1f} %)"
+                if j.get("residual_rms") is not None and j.get("relative_error") is not None
+                else f"{j['joint']} - ({j.get('note', 'no figure')})"
                 for j, u in zip(v["joints"], self.effort_units or ["N"] * len(v["joints"]))))
         d = self.diagnostics
         if d.get("samples_used") is not None:
@@ -276,6 +320,9 @@ class IdentificationResult:
                  + (" — given" if self.drive_gains_given else ""), hdr]
         eg = {g.name: g for g in ess.drive_gains} if ess else {}
         for g in self.drive_gains:
+            if not g.determined:
+                lines.append(f"  g_tau {g.name:<{w - 6}} not determined: {g.reason}")
+                continue
             row = f"  g_tau {g.name:<{w - 6}} {g.value:12.6g} {_pct(g.rel_std)} {_pct(g.rel_std_paper)}"
             if ess is not None:
                 e = eg[g.name]

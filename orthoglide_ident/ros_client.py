@@ -41,7 +41,8 @@ def add_parsers(sub: Any) -> None:
                    help="start loaded: its centre of mass in that frame, m (default its origin)")
     p.add_argument("--payload-inertia", default=None, metavar="IXX,IXY,IXZ,IYY,IYZ,IZZ",
                    help="start loaded: its inertia about the centre of mass, kg·m² (default 0: a point mass); "
-                        "the three set the recorder's payload_* parameters, tagged in the bag")
+                        "the three set the recorder's payload_* parameters for this start only (tagged "
+                        "in the bag; nothing carries over to the next start)")
     p.add_argument("--recorder", default="orthoglide_recorder", metavar="NODE",
                    help="the recorder node's name, for --payload-* (default orthoglide_recorder)")
     add_namespace(p)
@@ -138,9 +139,10 @@ def _numbers(text: str, n: int, option: str) -> list[float]:
 
 
 def set_payload_shape(c: Client, args: argparse.Namespace) -> None:
-    """--payload-frame/-com/-inertia into the recorder's payload_* parameters (given ones only)."""
+    """--payload-frame/-com/-inertia into the recorder's payload_* parameters (given ones only;
+    the recorder uses them for the next start only, then falls back to its launch values)."""
     from rcl_interfaces.msg import Parameter, ParameterType, ParameterValue
-    from rcl_interfaces.srv import SetParameters
+    from rcl_interfaces.srv import SetParametersAtomically
 
     params = []
     if args.payload_frame is not None:
@@ -154,10 +156,12 @@ def set_payload_shape(c: Client, args: argparse.Namespace) -> None:
                 double_array_value=_numbers(text, n, "--" + name.replace("_", "-")))))
     if not params:
         return
-    res = c.call(SetParameters, f"{args.recorder}/set_parameters", parameters=params)
-    for p, r in zip(params, res.results):
-        if not r.successful:
-            raise ServiceError(f"recorder refused {p.name}: {r.reason}")
+    # atomically: a refused one leaves none of them set (nothing half-given reaches a start)
+    res = c.call(SetParametersAtomically, f"{args.recorder}/set_parameters_atomically",
+                 parameters=params)
+    if not res.result.successful:
+        raise ServiceError(f"recorder refused the payload ({', '.join(p.name for p in params)}): "
+                           f"{res.result.reason}")
 
 
 def identify_service(args: argparse.Namespace) -> Any:

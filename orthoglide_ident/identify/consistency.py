@@ -460,6 +460,9 @@ def read_prior(path: str) -> dict[str, float] | None:
     return {str(k): float(v) for k, v in doc.items()}
 
 
+MASS_RATIO_WARN = 2.0  # a body's consistent mass this far from the description's is said
+
+
 def attach(solved, model, opts) -> None:
     """The consistency step on a :class:`~solve.Solved` (option ``consistent``): the result's
     ``consistency`` (projection and identification under the constraints)."""
@@ -468,6 +471,38 @@ def attach(solved, model, opts) -> None:
                               np.asarray(solved.solver["joint_sigma"], float), model,
                               opts.consistency_prior_weight,
                               prior=read_prior(opts.consistency_prior))
+    res.warnings.extend(mass_warnings(res.consistency, model, res))
+    held = [b["body"] for b in res.consistency.bodies_json() if b["at_prior"]
+            and any(n.startswith("m_") for n in b["at_prior"])]
+    if held:
+        res.warnings.append(
+            f"--consistent: the data do not determine the mass of {', '.join(held)}: it is "
+            f"{res.consistency.lay.prior_source}'s (prior weight "
+            f"{res.consistency.prior_weight:g}; consistency_prior gives another)")
+
+
+def mass_warnings(c: ConsistencyResult, model, res) -> list[str]:
+    """Bodies whose consistent mass is more than MASS_RATIO_WARN times off the description's
+    (the prior from the robot file): the data say so, and the likely cause with it."""
+    if c.lay.prior_source != "the robot's description":
+        return []
+    prior = c.lay.prior_values(c.answer.chi_st)
+    off = []
+    for body in c.lay.bodies:
+        k = body.inertial[-1]  # INERTIAL_KINDS ends with the mass
+        m, p = float(c.answer.chi_st[k]), float(prior[k])
+        if p > 0 and not 1 / MASS_RATIO_WARN <= m / p <= MASS_RATIO_WARN:
+            off.append(f"{body.name} {m:.3g} kg (description {p:.3g} kg)")
+    if not off:
+        return []
+    if res.method == "wls" and not model.nominal_gains_given:
+        cause = ("the gains are not known (WLS with a bare URDF's 1 per unit scales every mass "
+                 "by 1/g): give --gains, e.g. a TLS identification's")
+    elif res.method == "wls":
+        cause = "the gains given (or the nominal ones) are not the drives', or the description is wrong"
+    else:
+        cause = "the description's masses are not the robot's, or the payload tag is wrong"
+    return [f"--consistent: bodies far from the description's masses: {', '.join(off)}: {cause}"]
 
 
 def direct_dynamics_text(d: dict[str, Any]) -> str:

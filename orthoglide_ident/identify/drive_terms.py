@@ -154,6 +154,7 @@ class DriveTermsModel:
         self.joints, self.name = model.joints, model.name
         self.joint_names, self.n_joints = model.joint_names, model.n_joints
         self.nominal_gains = model.nominal_gains
+        self.nominal_gains_given = model.nominal_gains_given
         names = self.joint_names
         ripples = tuple(RippleTerm(j, self.lead_m, True) for j in screw_joints(model)) \
             if lead_m > 0 else ()

@@ -126,8 +126,9 @@ def _judge(new: Solution, idx: int, name: str, rel: float, budget: _Budget) -> E
                          [float(x) for x in shift])
     if not budget.enforce:
         return step
-    worst = int(np.argmax(np.abs(shift) / budget.tol))
-    if abs(shift[worst]) > budget.tol[worst]:
+    # nothing protected (WLS on unloaded records: no payload mass estimated): the residual only
+    worst = int(np.argmax(np.abs(shift) / budget.tol)) if shift.size else -1
+    if worst >= 0 and abs(shift[worst]) > budget.tol[worst]:
         step.accepted = False
         step.reason = (f"kept: cancelling it would move {budget.names[worst]} by "
                        f"{100 * shift[worst]:+.2f} % (tolerance {100 * budget.tol[worst]:.2f} %)")

@@ -130,6 +130,15 @@ class RecordFactors:
                              self.rows.copy(), self.n_samples,
                              {k: m.without_columns(keep) for k, m in self.moments.items()})
 
+    def only_joints(self, idx: np.ndarray) -> "RecordFactors":
+        """These factors with the equations of the joints ``idx`` only (a partial answer: the
+        rows of a joint whose gain the data do not fix are left out with that gain)."""
+        idx = np.asarray(idx, dtype=int)
+        return RecordFactors(self.condition, self.payload_mass, self.n_b, list(self.sources),
+                             [self.R[j] for j in idx], self.rows[idx].copy(), self.n_samples,
+                             {k: m.only_joints(idx) for k, m in self.moments.items()},
+                             n_joints=len(idx))
+
     def joint_r(self, j: int, T: np.ndarray) -> np.ndarray:
         """R_j·T: the triangular factor's rows mapped to another column layout (same Gram)."""
         return self.R[j] @ T

@@ -47,7 +47,7 @@ from orthoglide_ident.identify.live_recording import LiveRecording
 from orthoglide_ident.identify.methods import DEFAULT_METHOD, solve
 from orthoglide_ident.identify.observe import IdentificationModel
 from orthoglide_ident.identify.options import IdentifyOptions
-from orthoglide_ident.identify.solve import min_rows, tls_model
+from orthoglide_ident.identify.solve import limits, min_rows, tls_model
 from orthoglide_ident.identify.stream import DecimatedRows
 from orthoglide_ident.identify.tls import check_excitation
 from orthoglide_ident.model.robot import Payload
@@ -377,7 +377,7 @@ class LiveIdentification:
                            residual_rms=tuple(float(x) for x in sol.residual_rms), **base)
         try:
             if opts.check_excitation:
-                check_excitation(sol, opts.limits(self.model.nominal_gains), m.names, names)
+                check_excitation(sol, limits(self.model, opts), m.names, names)
         except ExcitationError as exc:
             j = int(np.argmax(grel))
             if grel[j] > opts.max_gain_rel_std and str(exc).startswith("drive gain of"):

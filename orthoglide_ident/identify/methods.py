@@ -19,7 +19,8 @@ from typing import Callable, Sequence
 from orthoglide_ident.errors import IdentificationError
 from orthoglide_ident.identify.factors import RecordFactors
 from orthoglide_ident.identify.options import IdentifyOptions
-from orthoglide_ident.identify.solve import Solved, check_rows, solve_tls, solve_wls
+from orthoglide_ident.identify.solve import (Solved, check_rows, friction_sign_warnings, solve_tls,
+                                             solve_wls)
 
 __all__ = ["DEFAULT_METHOD", "METHODS", "REFINEMENTS", "Method", "Refinement", "get", "solve"]
 
@@ -87,9 +88,14 @@ def solve(factors: list[RecordFactors], model, opts: IdentifyOptions,
     m = get(method)
     if not factors:
         raise IdentificationError("no bag given")
-    check_rows(factors, model, opts)
+    if m.gains_given or not (opts.partial_answers and opts.check_excitation):
+        check_rows(factors, model, opts)  # TLS: a joint that hardly moved is a partial answer
     out = m.solve(factors, model, opts, gains, essential, list(bags))
-    if opts.consistent:  # physically consistent standard parameters behind the answer
+    out.result.warnings.extend(friction_sign_warnings(out.result))
+    if opts.consistent and not out.result.complete:
+        out.result.warnings.append("--consistent is not run on a partial answer: the standard "
+                                   "parameters need every gain")
+    elif opts.consistent:  # physically consistent standard parameters behind the answer
         from orthoglide_ident.identify.consistency import attach
 
         attach(out, model, opts)

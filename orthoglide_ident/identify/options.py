@@ -29,8 +29,10 @@ class ExcitationLimits:
     max_condition: float = 1.0e7  # of the column-scaled regressor W
     max_singular_ratio: float = 0.5  # s_c / s_(c-1) of W_tot
     max_gain_rel_std: float = 0.05  # fraction
-    # plausible drive gains per joint (N/A or N·m/A): (lowest, highest) arrays or numbers
-    gain_range: tuple = (200.0, 20000.0)
+    # plausible drive gains per joint (N/A or N·m/A): (lowest, highest) arrays or numbers;
+    # None: no band (no nominal gains given); outside it a warning, an error when band_is_error
+    gain_range: tuple | None = (200.0, 20000.0)
+    band_is_error: bool = False
 
 
 @dataclass
@@ -98,8 +100,15 @@ class IdentifyOptions:
     warn_condition: float = 1.0e5
     max_singular_ratio: float = 0.5
     max_gain_rel_std: float = 0.05
-    # plausible drive gains: within [nominal / ratio, nominal x ratio] of the robot's nominal
-    # (manufacturer's) gains; gain_min / gain_max > 0 set absolute bounds instead (N/A, N·m/A)
+    # partial answers (identify/partial.py): a gain the data do not fix (its joint hardly moved,
+    # the payload adds less than min_payload_share of its torque, its honest σ above
+    # max_gain_rel_std) is reported "not determined" with the reason, the others identified
+    # without its rows; false: all or nothing (an error, as before)
+    partial_answers: bool = True
+    min_payload_share: float = 0.01  # fraction of a joint's rms torque
+    # drive gains outside [nominal / ratio, nominal x ratio] of the robot file's nominal
+    # (manufacturer's) gains are a warning (no band when the file gives none: a bare URDF);
+    # gain_min / gain_max > 0 set absolute bounds instead, an error (N/A, N·m/A)
     gain_range_ratio: float = 10.0
     gain_min: float = 0.0
     gain_max: float = 0.0
@@ -118,13 +127,22 @@ class IdentifyOptions:
     # identify --json output with a consistency section; "": the robot description's / weak default
     consistency_prior: str = ""
 
-    def limits(self, nominal_gains: Sequence[float]) -> ExcitationLimits:
-        """The excitation checks' thresholds for a robot of these nominal gains (N/A, N·m/A)."""
+    def limits(self, nominal_gains: Sequence[float], given: bool = True) -> ExcitationLimits:
+        """The excitation checks' thresholds for a robot of these nominal gains (N/A, N·m/A).
+
+        The band around the nominal gains (a warning) exists only when the robot file gives
+        them (``given``); gain_min / gain_max > 0 are the user's own bounds (an error)."""
         g = np.asarray(nominal_gains, float)
-        lo = np.full_like(g, self.gain_min) if self.gain_min > 0 else g / self.gain_range_ratio
-        hi = np.full_like(g, self.gain_max) if self.gain_max > 0 else g * self.gain_range_ratio
+        absolute = self.gain_min > 0 or self.gain_max > 0
+        band = None
+        if given or absolute:
+            lo = np.full_like(g, self.gain_min) if self.gain_min > 0 else (
+                g / self.gain_range_ratio if given else np.zeros_like(g))
+            hi = np.full_like(g, self.gain_max) if self.gain_max > 0 else (
+                g * self.gain_range_ratio if given else np.full_like(g, np.inf))
+            band = (lo, hi)
         return ExcitationLimits(self.max_condition, self.max_singular_ratio,
-                                self.max_gain_rel_std, (lo, hi))
+                                self.max_gain_rel_std, band, band_is_error=absolute)
 
     def min_segment_samples(self, period_s: float = 1e-3) -> int:
         """Shortest segment worth keeping: both trims plus a few decimated samples."""
@@ -195,6 +213,9 @@ class IdentifyOptions:
         if not (self.gain_range_ratio > 1 and self.gain_min >= 0 and self.gain_max >= 0):
             raise ConfigError(f"{source}: gain_range_ratio must be > 1, gain_min and gain_max "
                               ">= 0 (0: from the nominal gains and the ratio)")
+        if not 0 <= self.min_payload_share < 1:
+            raise ConfigError(f"{source}: min_payload_share is a fraction of a joint's torque "
+                              f"(0.01 = 1 %), not {self.min_payload_share:g}")
         if not (self.consistency_prior_weight > 0 and math.isfinite(self.consistency_prior_weight)):
             raise ConfigError(f"{source}: consistency_prior_weight must be a positive number "
                               "(1e-4: the prior decides only what the data leave free)")

@@ -21,7 +21,7 @@ from typing import Any, Callable, Iterable, Iterator, Sequence
 
 import numpy as np
 
-from orthoglide_ident.errors import IdentificationError
+from orthoglide_ident.errors import ExcitationError, IdentificationError
 from orthoglide_ident.identify.diagnostics import bag_report, finish_result
 from orthoglide_ident.identify.drive_terms import observation_model
 from orthoglide_ident.identify.factors import RecordFactors
@@ -30,7 +30,7 @@ from orthoglide_ident.identify.observations import Observations
 from orthoglide_ident.identify.observe import IdentificationModel, observe
 from orthoglide_ident.identify.options import IdentifyOptions
 from orthoglide_ident.identify.records import Record, read_record
-from orthoglide_ident.identify.solve import Solved
+from orthoglide_ident.identify.solve import Solved, min_rows
 from orthoglide_ident.identify.validation import ValidationResult, cross_validate
 from orthoglide_ident.results import IdentificationResult
 
@@ -84,12 +84,22 @@ def _observe_all(records: Iterable[Record], model: IdentificationModel, opts: Id
     reports: list[dict[str, Any]] = []
     warnings: list[str] = []
     bag_names: list[str] = []
+    seen: dict[str, str] = {}  # fingerprint -> source
     for rec in records:
+        key = fingerprint(rec)
+        if key in seen:  # the same data twice would count its equations twice (σ too small)
+            line = (f"{rec.source} is the same record as {seen[key]} (same stamps, positions "
+                    "and currents): counted once")
+            log.info("%s", line)
+            warnings.append(line)
+            continue
+        seen[key] = rec.source
         m = resolve_payload(rec, payload_mass, opts.payload_tolerance_kg)
         bag_names.append(rec.source)
         warnings.extend(rec.warnings)
         obs, rep, ts = observe(rec, model, opts, m)
         add_timings(ts)
+        check_moves(obs, model, opts, "bag")
         blocks.append(obs)
         reports.append(bag_report(rep, rec.source, rec.condition, m, obs.rows_per_joint(),
                                   rec.sources))
@@ -97,6 +107,31 @@ def _observe_all(records: Iterable[Record], model: IdentificationModel, opts: Id
     if not blocks:
         raise IdentificationError("no bag given")
     return blocks, reports, warnings, bag_names
+
+
+def fingerprint(rec: Record) -> str:
+    """What identifies a record's data whatever its path: a digest of its stamps, positions and
+    currents (the same bag given twice, or a copy of it)."""
+    import hashlib
+
+    h = hashlib.sha256()
+    for a in (rec.stamps_q_ns, rec.q, rec.stamps_v_ns, rec.v_tau):
+        h.update(np.ascontiguousarray(a).tobytes())
+    return h.hexdigest()
+
+
+def check_moves(obs: Observations, model: IdentificationModel, opts: IdentifyOptions,
+                what: str) -> None:
+    """ExcitationError when no joint of a record moves: a robot holding still gives no equation of
+    its dynamics (every row is below the velocity dead band), only the friction's sign noise."""
+    rows = obs.rows_per_joint()
+    if max(rows, default=0) < min_rows(obs.W.shape[2]):
+        raise ExcitationError(
+            f"{what} {obs.source}: the robot hardly moves in this record (at most {max(rows)} of "
+            f"{obs.n_samples} decimated samples of any joint above the velocity dead band, "
+            f"velocity_deadband_mps {opts.velocity_deadband_mps:g}): it holds no equation of the "
+            "dynamics; "
+            "leave it out or record exciting motion")
 
 
 def identify_records(
@@ -178,6 +213,7 @@ def _validate(records: Iterable[Record], solved: Solved, model: IdentificationMo
         if rec.condition == "loaded" and result.method == "wls" and result.payloads:
             m = next((p.value for p in result.payloads if p.tagged == m), m)
         obs, _, _ = observe(rec, model, opts, m)
+        check_moves(obs, model, opts, "validation bag")
         out.append(cross_validate(obs, solved.chi, solved.g_tau, m,
                                   np.asarray(result.residual_rms), joint_names=model.joint_names))
         if result.consistency is not None:  # the consistent model forward-simulated on it

@@ -9,6 +9,7 @@ and the payload masses estimated (eqs. 24-28), each optionally reduced to essent
 from __future__ import annotations
 
 import logging
+import math
 import time
 from dataclasses import dataclass, field
 from typing import Any, Sequence
@@ -16,11 +17,12 @@ from typing import Any, Sequence
 import numpy as np
 
 from orthoglide_ident.errors import ExcitationError, IdentificationError
-from orthoglide_ident.identify import drive_terms
+from orthoglide_ident.identify import drive_terms, partial
 from orthoglide_ident.identify.essential import EssentialResult, essential_parameters
 from orthoglide_ident.identify.factors import RecordFactors
 from orthoglide_ident.identify.options import IdentifyOptions
-from orthoglide_ident.identify.tls import (TLSProblem, TLSSolution, check_excitation,
+from orthoglide_ident.identify.tls import (ExcitationLimits, TLSProblem, TLSSolution,
+                                           check_excitation, check_gains, check_subspace,
                                            require_loaded_and_unloaded)
 from orthoglide_ident.identify.uncertainty import diagnose, ripple_warning_start
 from orthoglide_ident.identify.wls import WLSSolution, idim_wls
@@ -43,6 +45,12 @@ class Solved:
     # the factors of the reported solve and its χ over all their columns (consistency.py)
     factors: list[RecordFactors] = field(default_factory=list)
     chi_rows: np.ndarray | None = None
+
+
+def limits(model, opts: IdentifyOptions) -> ExcitationLimits:
+    """The excitation checks' thresholds for ``model``: a gain band only when its robot file
+    gives nominal gains (a bare URDF's 1 per unit is no manufacturer's figure)."""
+    return opts.limits(model.nominal_gains, model.nominal_gains_given)
 
 
 def min_rows(n_b: int) -> int:
@@ -93,6 +101,49 @@ def _uncertainty(result: IdentificationResult, sol: TLSSolution | WLSSolution, m
                            screws=drive_terms.screw_mask(model))
     result.diagnostics["uncertainty"] = d
     result.warnings.extend(warnings)
+
+
+FRICTION_PREFIXES = ("fv_", "fs_")  # viscous and Coulomb friction: never negative (Sect. 2.2)
+
+
+def friction_sign_warnings(result: IdentificationResult) -> list[str]:
+    """A friction coefficient negative beyond 3 σ: the sign of a drive gain is wrong (given, or
+    the current recorded opposite to the effort), not a physical answer."""
+    out = []
+    for p in result.parameters:
+        if p.name.startswith(FRICTION_PREFIXES) and p.value < 0 and \
+                math.isfinite(p.rel_std) and p.rel_std < 1.0 / 3.0:
+            out.append(f"{p.name} = {p.value:.4g} is a negative friction coefficient: the drive "
+                       "gain of the joint it belongs to has the wrong sign (a gain given with the "
+                       "wrong sign, or the current recorded opposite to the effort: a reversed "
+                       "motor or a negative reduction), or that joint's data are not the model's")
+    return out
+
+
+PAYLOAD_TAG_TOLERANCE = 0.10  # WLS payload estimate vs its tag beyond which the answer is doubted
+
+
+def payload_tag_warnings(result: IdentificationResult, model, gains_given: bool) -> list[str]:
+    """A WLS payload estimate far from its weighed tag (beyond 10 % and 3 honest σ): the answer
+    does not answer the question; the likely cause is the gains (eq. 28 scales with them)."""
+    out = []
+    for p in result.payloads:
+        if not p.tagged or not math.isfinite(p.value):
+            continue
+        dev = p.value / p.tagged - 1.0
+        if abs(dev) > PAYLOAD_TAG_TOLERANCE and abs(dev) > 3 * abs(p.rel_std * p.value / p.tagged):
+            if gains_given:
+                cause = ("the gains given are not the robot's (in another unit or side of the "
+                         "reduction), or the currents are not in A")
+            elif not model.nominal_gains_given:
+                cause = ("no gains were given and the robot file has no nominal gains (1 per "
+                         "unit stands in): give --gains, e.g. the --json of a TLS identification")
+            else:
+                cause = ("the robot file's nominal gains are not the drives' (give --gains from a "
+                         "TLS identification), or the currents are not in A")
+            out.append(f"payload mass estimated {p.value:.4g} kg by WLS, tagged {p.tagged:g} kg "
+                       f"({100 * dev:+.0f} %): {cause}")
+    return out
 
 
 def _sources(factors: list[RecordFactors], mass: float) -> list[str]:
@@ -185,7 +236,8 @@ def _set_up(factors: list[RecordFactors], model, opts: IdentifyOptions, base, ma
     n_cols = factors[0].n_b
     names = tuple(model.joint_names)
     base_solve = make_solver(factors)
-    in_rows = model.terms if isinstance(model, drive_terms.DriveTermsModel) else drive_terms.Terms()
+    # the drive terms in the equations: a DriveTermsModel's, or a partial answer's (partial.py)
+    in_rows = getattr(model, "terms", None) or drive_terms.Terms()
     n_b = n_cols - in_rows.n_extra
     plain = _Model(lambda act: base_solve(act, False), base, n_b, in_rows, list(model.names),
                    n_cols, names, gains, factors)
@@ -252,16 +304,27 @@ def tls_model(factors: list[RecordFactors], model, opts: IdentifyOptions) -> tup
 
 def solve_tls(factors: list[RecordFactors], model, opts: IdentifyOptions, essential: bool,
               bags: list[str]) -> Solved:
-    """IDIM-TLS (eqs. 33-39), excitation checked, optionally the essential parameters."""
+    """IDIM-TLS (eqs. 33-39), excitation checked, optionally the essential parameters; a
+    partial answer (partial.py) when the data fix only some gains."""
     require_loaded_and_unloaded(factors, "IDIM-TLS")
     log.info("IDIM-TLS on %d equations × %d unknowns", sum(f.n_rows for f in factors),
              factors[0].n_b + model.n_joints + 1)
+    partial_ok = opts.partial_answers and opts.check_excitation and model.n_joints > 1
+    left_out = partial.hardly_moved(factors, model, opts, min_rows(factors[0].n_b)) \
+        if partial_ok else {}
+    if left_out:
+        return _solve_partial(factors, model, opts, bags, left_out, essential)
     m, base = tls_model(factors, model, opts)
     sol = m.full
     if opts.check_excitation:
-        check_excitation(sol, opts.limits(model.nominal_gains), m.names, model.joint_names)
+        left_out = _undetermined(factors, model, opts, m, sol) if partial_ok else {}
+        if left_out:
+            return _solve_partial(factors, model, opts, bags, left_out, essential)
+        band_warnings = check_excitation(sol, limits(model, opts), m.names, model.joint_names)
     view, ripples, lags = m.view(sol)
     result = tls_result(model, view, factors, opts, bags)
+    if opts.check_excitation:
+        result.warnings.extend(band_warnings)
     _uncertainty(result, base, model, opts, gains=True)
     _drive_notes(result, ripples, lags, m.terms, model.joint_names)
     solver = {"tls_noisy_columns": opts.tls_noisy_columns, "singular_ratio": sol.singular_ratio,
@@ -280,6 +343,67 @@ def solve_tls(factors: list[RecordFactors], model, opts: IdentifyOptions, essent
         _note_essential(m.names, result, ess)
         out.timings["essential"] = time.perf_counter() - t0
     return out
+
+
+def _undetermined(factors: list[RecordFactors], model, opts: IdentifyOptions, m: _Model,
+                  sol: TLSSolution) -> dict[int, str]:
+    """Gains of a solve the data do not fix (partial.py), by joint index, with the reason: the
+    payload adds almost no torque on the axis; else, eq. (37) holding, a σ above the limit."""
+    names = model.joint_names
+    left_out = partial.little_payload(factors, m.view(sol)[0].g_tau, names, opts.min_payload_share)
+    if left_out:
+        return left_out
+    lim = limits(model, opts)
+    check_subspace(sol, lim)
+    n = sol.chi.shape[0]
+    return partial.weak_gain(sol.rel_std[n:n + model.n_joints], names, lim.max_gain_rel_std)
+
+
+def _left_out_text(names: Sequence[str], left_out: dict[int, str]) -> list[str]:
+    return [r if r.startswith(names[j]) else f"{names[j]}: {r}"
+            for j, r in sorted(left_out.items())]
+
+
+def _solve_partial(factors: list[RecordFactors], model, opts: IdentifyOptions, bags: list[str],
+                   left_out: dict[int, str], essential: bool) -> Solved:
+    """IDIM-TLS on the joints whose gains the data fix (partial.py): their rows only, the
+    columns only the others' rows held left out; judged as a full answer is, on that
+    subsystem. The result lists every joint, those left out "not determined" with the reason."""
+    names = model.joint_names
+    for _ in range(model.n_joints):
+        if len(left_out) == model.n_joints:
+            raise ExcitationError("no drive gain is determined: "
+                                  + "; ".join(_left_out_text(names, left_out)))
+        log.info("partial answer: %s", "; ".join(f"{names[j]} left out" for j in left_out))
+        fs, sub = partial.reduce(factors, model, left_out)
+        m, base = tls_model(fs, sub, opts)
+        sol = m.full
+        try:  # eq. (37) on the subsystem of the determined gains
+            new = _undetermined(fs, sub, opts, m, sol)
+        except ExcitationError as exc:
+            raise ExcitationError("no drive gain is determined: " + "; ".join(
+                _left_out_text(names, left_out)) + f"; and without them {exc}") from None
+        if not new:
+            break
+        left_out.update({int(sub.joint_idx[k]): r for k, r in new.items()})
+    band_warnings = check_gains(sol, limits(sub, opts), sub.joint_names)
+    view, ripples, lags = m.view(sol)
+    result = tls_result(sub, view, fs, opts, bags)
+    result.warnings.extend(band_warnings)
+    _uncertainty(result, base, sub, opts, gains=True)
+    _drive_notes(result, ripples, lags, m.terms, sub.joint_names)
+    partial.expand(result, model, sub, left_out)
+    if essential:
+        result.warnings.append("--essential is not run on a partial answer: the essential "
+                               "reduction protects every gain")
+    chi = np.zeros(factors[0].n_b)
+    chi[sub.col_idx] = _chi(m, sol)[:sub.col_idx.shape[0]]
+    g = np.full(model.n_joints, np.nan)
+    g[sub.joint_idx] = view.g_tau
+    solver = {"tls_noisy_columns": opts.tls_noisy_columns, "singular_ratio": sol.singular_ratio,
+              "smallest_singular_values": [float(x) for x in sol.singular_values[-3:]],
+              "joints_solved": list(sub.joint_names), "lambda": sol.lambda_scale}
+    return Solved(result, chi, g, solver, None, factors=[])
 
 
 def _chi(m: _Model, sol) -> np.ndarray:
@@ -326,6 +450,7 @@ def solve_wls(factors: list[RecordFactors], model, opts: IdentifyOptions,
     m = _set_up(factors, model, opts, base, make_solver, g)
     view, ripples, lags = m.view(m.full)
     result = wls_result(model, view, g, factors, bags)
+    result.warnings.extend(payload_tag_warnings(result, model, gains is not None))
     _uncertainty(result, base, model, opts, gains=False)
     _drive_notes(result, ripples, lags, m.terms, model.joint_names)
     out = Solved(result, _chi(m, m.full), g,

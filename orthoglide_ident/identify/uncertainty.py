@@ -116,6 +116,18 @@ class ResidualMoments:
             self.spectrum[..., keep], self.ripple_s0.copy(), self.ripple_s2.copy(),
             self.spectrum_rows.copy(), tail, self.screws)
 
+    def only_joints(self, idx: np.ndarray) -> "ResidualMoments":
+        """The moments of the joints ``idx`` only (RecordFactors.only_joints: a partial answer)."""
+        tail = None if self._tail is None else (self._tail[0][idx], self._tail[1],
+                                                self._tail[2][idx])
+        return ResidualMoments(
+            self.n_c, len(idx), self.row_period_s, self.decimation, self.block_s,
+            {b: g[idx] for b, g in self.blocks.items()},
+            {b: r[idx] for b, r in self.block_rows.items()},
+            self.lagged[idx], self.pairs[idx], self.spectrum[idx], self.ripple_s0[idx],
+            self.ripple_s2[idx], self.spectrum_rows[idx], tail,
+            None if self.screws is None else tuple(self.screws[i] for i in idx))
+
     def fold(self, X: np.ndarray, keep: np.ndarray | None, t: np.ndarray,
              q: np.ndarray | None = None, qd: np.ndarray | None = None) -> None:
         """Fold decimated rows ``X: (n_c, n_j, r)`` at instants ``t: (r,)`` s (in time order,

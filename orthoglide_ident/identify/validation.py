@@ -12,6 +12,13 @@ import numpy as np
 
 from orthoglide_ident.identify.observations import Observations
 
+MIN_ROWS = 20  # decimated samples of a joint above the velocity dead band worth a figure
+
+
+def _num(x: float) -> float | None:
+    x = float(x)
+    return x if np.isfinite(x) else None
+
 
 @dataclass
 class ValidationResult:
@@ -26,15 +33,17 @@ class ValidationResult:
     tau_measured: np.ndarray
     tau_model: np.ndarray
     warnings: list[str] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)  # per joint: why it has no figure ("" if it has)
 
     def to_json(self, joint_names: tuple[str, ...]) -> dict:
         out = {
             "bag": self.source,
             "joints": [
-                {"joint": j, "residual_rms": float(self.residual_rms[i]),
-                 "measured_rms": float(self.measured_rms[i]),
-                 "relative_error": float(self.relative_error[i]),
-                 "noise_ratio": None if self.noise_ratio is None else float(self.noise_ratio[i])}
+                {"joint": j, "residual_rms": _num(self.residual_rms[i]),
+                 "measured_rms": _num(self.measured_rms[i]),
+                 "relative_error": _num(self.relative_error[i]),
+                 "noise_ratio": None if self.noise_ratio is None else _num(self.noise_ratio[i]),
+                 **({"note": self.notes[i]} if self.notes and self.notes[i] else {})}
                 for i, j in enumerate(joint_names)
             ],
             "warnings": list(self.warnings),
@@ -54,13 +63,28 @@ def cross_validate(
     tau_meas = block.v_tau * np.asarray(g_tau, dtype=float)[:, None]
     res = tau_meas - tau_model
     keep = block.keep if block.keep is not None else np.ones(res.shape, dtype=bool)
-    # figures over the rows the identification would use (not at unbridged velocity reversals)
-    rms = np.array([np.sqrt(np.mean(res[j][keep[j]] ** 2)) for j in range(res.shape[0])])
-    mrms = np.array([np.sqrt(np.mean(tau_meas[j][keep[j]] ** 2)) for j in range(res.shape[0])])
-    rel = rms / np.where(mrms > 0, mrms, np.inf)
-    ratio = None if identification_rms is None else rms / np.asarray(identification_rms)
-    warns = []
-    for i, j in enumerate(joint_names or [f"joint {k + 1}" for k in range(res.shape[0])]):
+    # figures over the rows the identification would use (not at unbridged velocity reversals);
+    # none for a joint that hardly moves or whose gain is not determined (NaN): said in notes
+    n_j = res.shape[0]
+    names = joint_names or [f"joint {k + 1}" for k in range(n_j)]
+    g = np.asarray(g_tau, dtype=float)
+    counts = keep.sum(axis=1)
+    notes = ["its drive gain is not determined: no measured torque to compare with"
+             if not np.isfinite(g[i]) else
+             f"hardly moves in this record ({counts[i]} of {keep.shape[1]} samples above the "
+             "velocity dead band): nothing to validate on" if counts[i] < MIN_ROWS else ""
+             for i in range(n_j)]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        rms = np.array([np.sqrt(np.mean(res[j][keep[j]] ** 2)) if not notes[j] else np.nan
+                        for j in range(n_j)])
+        mrms = np.array([np.sqrt(np.mean(tau_meas[j][keep[j]] ** 2)) if not notes[j] else np.nan
+                         for j in range(n_j)])
+        rel = rms / np.where(mrms > 0, mrms, np.inf)
+        ratio = None if identification_rms is None else rms / np.asarray(identification_rms)
+    warns = [f"{block.source}: {j} {notes[i]}" for i, j in enumerate(names) if notes[i]]
+    for i, j in enumerate(names):
+        if notes[i]:
+            continue
         if rel[i] > max_relative_error:
             warns.append(f"{block.source}: {j} model torque misses the measured force by "
                          f"{100 * rel[i]:.0f} % rms: poor excitation or an unmodelled effect")
@@ -68,4 +92,5 @@ def cross_validate(
             warns.append(f"{block.source}: {j} validation residual is {ratio[i]:.1f}x the "
                          "identification residual: the model does not generalise well")
     t = block.t if block.t is not None else np.arange(block.n_samples, dtype=float)
-    return ValidationResult(block.source, rms, mrms, rel, ratio, t, tau_meas, tau_model, warns)
+    return ValidationResult(block.source, rms, mrms, rel, ratio, t, tau_meas, tau_model, warns,
+                            notes)

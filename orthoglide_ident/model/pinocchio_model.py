@@ -36,7 +36,8 @@ from orthoglide_ident.model.closure import Closure, TreeStates
 from orthoglide_ident.model.loop_constraints import LoopConstraints
 from orthoglide_ident.model.robot import INERTIAL_KINDS, ActuatedJoint, Body, Payload, RobotModel
 from orthoglide_ident.model.robot_file import RobotDescription, read_description
-from orthoglide_ident.model.tree import TreeJoint, fixed_link, load_tree, movable_joints
+from orthoglide_ident.model.tree import (TreeJoint, fixed_link, load_tree, movable_joints,
+                                        urdf_mimics)
 from orthoglide_ident.model.tree_regressor import (Column, TreeRegressor, kinds_parameters,
                                                    pin_parameters)
 
@@ -86,9 +87,11 @@ class PinocchioRobot(RobotModel):
     """A robot described by a URDF/MJCF (and loops): see the module docstring."""
 
     @classmethod
-    def from_description(cls, data: dict[str, Any], base_dir: Path) -> "PinocchioRobot":
-        """The model a robot YAML's mapping describes (``description`` relative to base_dir)."""
-        where = f"robot {data.get('name') or data.get('description')}"
+    def from_description(cls, data: dict[str, Any], base_dir: Path,
+                         where: str | None = None) -> "PinocchioRobot":
+        """The model a robot YAML's mapping describes (``description`` relative to base_dir);
+        ``where`` names the file in its errors (default: the robot's name or description)."""
+        where = where or f"robot {data.get('name') or data.get('description')}"
         desc = read_description(data, Path(base_dir), where)
         return cls(desc)
 
@@ -99,6 +102,7 @@ class PinocchioRobot(RobotModel):
         model.gravity = pin.Motion(np.array(desc.gravity, dtype=float), np.zeros(3))
         self.model = model
         self.tree_joints = movable_joints(model)
+        self.mimics = urdf_mimics(desc.path)  # joints that follow a leader (URDF <mimic>)
         self.actuated = self._actuated(desc)
         self.joints = self._joints(desc)
         self.closure = self._closure(desc, anchors)
@@ -119,8 +123,12 @@ class PinocchioRobot(RobotModel):
     # --- construction ---------------------------------------------------------------------
     def _actuated(self, desc: RobotDescription) -> tuple[TreeJoint, ...]:
         by_name = {j.name: j for j in self.tree_joints}
-        names = desc.actuated_joints or tuple(by_name)
+        names = desc.actuated_joints or tuple(n for n in by_name if n not in self.mimics)
         for n in names:
+            if n in self.mimics:
+                raise ConfigError(f"robot {self.name}: actuated joint {n!r} is a mimic joint of "
+                                  f"{desc.path.name} (it follows {self.mimics[n].leader!r}): "
+                                  "actuate its leader")
             if n not in by_name:
                 raise ConfigError(f"robot {self.name}: actuated joint {n!r} is not a movable joint "
                                   f"of {desc.path.name} (movable: {', '.join(by_name)})")
@@ -130,10 +138,31 @@ class PinocchioRobot(RobotModel):
         if len(set(names)) != len(names):
             raise ConfigError(f"robot {self.name}: actuated_joints lists a joint twice: "
                               f"{list(names)}")
-        return tuple(by_name[n] for n in names)
+        actuated = tuple(by_name[n] for n in names)
+        self._mimic_rows = self._followers(desc, by_name, actuated)
+        return actuated
+
+    def _followers(self, desc: RobotDescription, by_name: dict[str, TreeJoint],
+                   actuated: tuple[TreeJoint, ...]) -> tuple[tuple[TreeJoint, int, float, float], ...]:
+        """(mimic joint, its leader's actuated index, multiplier, offset) of each mimic joint:
+        only a 1-DOF mimic of an actuated leader, in an open tree, is supported (said)."""
+        out = []
+        index = {j.name: a for a, j in enumerate(actuated)}
+        for m in self.mimics.values():
+            if m.joint not in by_name:
+                continue  # a fixed joint Pinocchio dropped
+            if desc.loops or m.leader not in index or not by_name[m.joint].one_dof:
+                raise ConfigError(
+                    f"robot {self.name}: mimic joint {m.joint!r} of {desc.path.name} follows "
+                    f"{m.leader!r}: only a 1-DOF mimic of an actuated joint in an open tree is "
+                    "supported (its position r·q_leader + offset, its torque added r times to "
+                    "the leader's)")
+            out.append((by_name[m.joint], index[m.leader], m.multiplier, m.offset))
+        return tuple(out)
 
     def _joints(self, desc: RobotDescription) -> tuple[ActuatedJoint, ...]:
-        gains = desc.nominal_gains
+        self.nominal_gains_given = desc.nominal_gains is not None
+        gains = 1.0 if desc.nominal_gains is None else desc.nominal_gains
         if isinstance(gains, float):
             gains = (gains,) * len(self.actuated)
         if len(gains) != len(self.actuated):
@@ -156,7 +185,8 @@ class PinocchioRobot(RobotModel):
 
     def _closure(self, desc: RobotDescription, anchors: list) -> Closure | None:
         if not desc.loops and not anchors:
-            free = [j.name for j in self.tree_joints if j not in self.actuated]
+            free = [j.name for j in self.tree_joints
+                    if j not in self.actuated and j.name not in self.mimics]
             if free:
                 raise ConfigError(f"robot {self.name}: joints {free} move but are neither "
                                   "actuated nor closed by a loop: list them in actuated_joints, "
@@ -184,9 +214,9 @@ class PinocchioRobot(RobotModel):
         if len(set(label.values())) != len(label):
             raise ConfigError(f"robot {self.name}: two bodies share a label: {label}")
         out = []
-        for j in self.tree_joints:
+        for j in self.tree_joints:  # a mimic's friction is in its leader's columns (r², |r|)
             terms = ACTUATED_TERMS if j in self.actuated else \
-                (PASSIVE_TERMS if friction and j.one_dof else ())
+                (PASSIVE_TERMS if friction and j.one_dof and j.name not in self.mimics else ())
             out.append(_Body(label[j.link], j.link, INERTIAL_KINDS + terms, j))
         for slot, link in enumerate(desc.fixed_bodies):
             fixed_link(self.model, link)  # ConfigError unless a massive link on a moving body
@@ -244,7 +274,7 @@ class PinocchioRobot(RobotModel):
                          frame_.placement.act(shape).toDynamicParameters())
         if getattr(self, "_rows", None) is None:
             self._rows = TreeRegressor(self.model, self.actuated, self._fixed_frames,
-                                       self.closure)
+                                       self.closure, self._mimic_rows)
 
     # --- RobotModel -----------------------------------------------------------------------
     @property

@@ -137,6 +137,9 @@ class RobotModel(abc.ABC):
     expressions: list[str]  # each base parameter's regrouping of standard ones
     K: np.ndarray  # (n_b, n_st): chi_b = K chi_st (eq. 21)
     gravity: tuple[float, float, float] = DEFAULT_GRAVITY  # m/s², the acceleration vector
+    # False when the robot file gives no nominal gains (a bare URDF: 1 per unit stands in for
+    # the feed-forward): the identified gains are then judged by eq. (37) and their signs only
+    nominal_gains_given: bool = True
 
     @abc.abstractmethod
     def observation_block(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray,

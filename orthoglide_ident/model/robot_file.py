@@ -28,7 +28,9 @@ class RobotDescription:
     path: Path  # the URDF or MJCF, resolved
     name: str
     actuated_joints: tuple[str, ...] | None = None  # None: every movable joint
-    nominal_gains: tuple[float, ...] | float = 1.0  # N/A or N·m/A, per actuated joint or one
+    # N/A or N·m/A, per actuated joint or one; None: not given (a bare URDF): 1 per unit for the
+    # feed-forward, and the identified gains are judged without a magnitude band
+    nominal_gains: tuple[float, ...] | float | None = None
     payload_frame: str | None = None  # None: the link of the last movable joint
     gravity: tuple[float, float, float] = DEFAULT_GRAVITY  # m/s², the gravity acceleration
     loops: tuple[Loop, ...] = ()

@@ -77,7 +77,7 @@ def _load(path: str) -> RobotModel:
         return _orthoglide(data, p)
     if kind != "pinocchio":
         raise ConfigError(f"robot file {p}: model {kind!r} is not orthoglide or pinocchio")
-    return _pinocchio(data, p.parent)
+    return _pinocchio(data, p.parent, f"robot file {p}")
 
 
 ORTHOGLIDE_KEYS = ("name", "model", "geometry", "nominal_gains")
@@ -109,12 +109,13 @@ def _orthoglide(data: dict[str, Any], path: Path) -> RobotModel:
     return base_model(geometry, gains)
 
 
-def _pinocchio(data: dict[str, Any], base_dir: Path) -> RobotModel:
+def _pinocchio(data: dict[str, Any], base_dir: Path, where: str | None = None) -> RobotModel:
+    """The general model of a robot YAML's mapping (``where``: the file named in its errors)."""
     try:
         from orthoglide_ident.model.pinocchio_model import PinocchioRobot
     except ImportError as exc:  # the general model lands in its own step
         raise ConfigError(f"the general (Pinocchio) robot model is not available: {exc}") from None
-    return PinocchioRobot.from_description(data, base_dir)
+    return PinocchioRobot.from_description(data, base_dir, where)
 
 
 def description_cache() -> Path:

@@ -58,6 +58,37 @@ class TreeJoint:
         return "prismatic" if self.kind == "prismatic" else "revolute"
 
 
+@dataclass(frozen=True)
+class Mimic:
+    """A URDF ``<mimic>``: joint q = multiplier · q_leader + offset (m or rad)."""
+
+    joint: str
+    leader: str
+    multiplier: float = 1.0
+    offset: float = 0.0
+
+
+def urdf_mimics(path: Path) -> dict[str, Mimic]:
+    """The mimic joints of a URDF by name (none for an MJCF); ConfigError for a bad number."""
+    if path.suffix.lower() != ".urdf":
+        return {}
+    out = {}
+    for el in ET.parse(path).getroot().findall("joint"):
+        m = el.find("mimic")
+        if m is None:
+            continue
+        try:
+            mult, off = float(m.get("multiplier", 1.0)), float(m.get("offset", 0.0))
+        except ValueError:
+            raise ConfigError(f"robot description {path}: joint {el.get('name')}'s <mimic> "
+                              "multiplier and offset must be numbers") from None
+        if not (math.isfinite(mult) and math.isfinite(off) and m.get("joint")):
+            raise ConfigError(f"robot description {path}: joint {el.get('name')}'s <mimic> needs "
+                              "a joint and finite multiplier and offset")
+        out[str(el.get("name"))] = Mimic(str(el.get("name")), str(m.get("joint")), mult, off)
+    return out
+
+
 @contextlib.contextmanager
 def _captured_stderr() -> Iterator[list[str]]:
     """The C++ parsers print their reason on file descriptor 2: catch it for the message."""

@@ -9,7 +9,9 @@ column is that body's columns of Y times its parameters in the joint's frame. Ev
 picking the columns asked for, the drive columns (ia q̈ of an actuated joint — the regressor
 omits armature — and fv q̇, fs sign(q̇), tauoff of each joint with friction), and the
 projection onto the actuated joints, τ_a = Gᵀ τ_t (closure.py; a serial robot's G selects its
-rows).
+rows; a URDF's mimic joint follows its leader, q_m = r q_l + o, so G is constant: its column of
+the leader holds r at the mimic's row, and the mimic's torque is added, times r, to the
+leader's).
 
 Pinocchio orders a body's parameters [m, mx, my, mz, Ixx, Ixy, Iyy, Ixz, Iyz, Izz] (inertia
 at the body frame origin, ``Inertia.toDynamicParameters``); ``PIN_INDEX`` maps the product's
@@ -83,13 +85,23 @@ class TreeRegressor:
     """
 
     def __init__(self, model: pin.Model, actuated: Sequence[TreeJoint], frames: Sequence[int],
-                 closure: Closure | None):
+                 closure: Closure | None,
+                 mimics: Sequence[tuple[TreeJoint, int, float, float]] = ()):
         self.model, self.data = model, model.createData()
         self.actuated, self.frames, self.closure = tuple(actuated), tuple(frames), closure
         self.S_a = np.array([j.iv for j in actuated])
         self._row = {j.iv: a for a, j in enumerate(actuated)}  # actuated index of a v index
+        # mimic joints (joint, its leader's actuated index, multiplier, offset): constant G
+        self.mimics = tuple(mimics)
+        self._G0 = None
+        if self.mimics:
+            self._G0 = np.zeros((model.nv, len(self.actuated)))
+            self._G0[self.S_a, np.arange(len(self.actuated))] = 1.0
+            for j, a, r, _ in self.mimics:
+                self._G0[j.iv, a] = r
         # a serial robot whose velocity vector is its actuated joints in order: no selection
-        self._identity = closure is None and np.array_equal(self.S_a, np.arange(model.nv))
+        self._identity = closure is None and not self.mimics and \
+            np.array_equal(self.S_a, np.arange(model.nv))
 
     # --- per sample (Pinocchio) -----------------------------------------------------------
     def _states(self, c: _Chunk, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> None:
@@ -97,6 +109,9 @@ class TreeRegressor:
             for a, j in enumerate(self.actuated):
                 set_joint(c.Q, j, q[:, a])
             c.V[:, self.S_a], c.A[:, self.S_a] = qd, qdd
+            for j, a, r, o in self.mimics:  # q_m = r q_l + o, and its derivatives
+                set_joint(c.Q, j, r * q[:, a] + o)
+                c.V[:, j.iv], c.A[:, j.iv] = r * qd[:, a], r * qdd[:, a]
             return
         self.closure.states(q, qd, qdd, TreeStates(c.Q, c.V, c.A, c.G))
 
@@ -118,6 +133,8 @@ class TreeRegressor:
     def _project(self, c: _Chunk, T: np.ndarray) -> np.ndarray:
         """Tree forces (m, nv, n) -> actuated forces (m, n_a, n): Gᵀ T."""
         if c.G is None:
+            if self._G0 is not None:  # mimic joints: τ_l + r τ_m
+                return np.einsum("va,mvn->man", self._G0, T)
             return T if self._identity else T[:, self.S_a]
         return np.matmul(c.G.transpose(0, 2, 1), T)
 

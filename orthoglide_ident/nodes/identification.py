@@ -55,9 +55,11 @@ Service  orthoglide/identify (orthoglide_msgs/srv/Identify)
            payload_mass (kg; 0 = from the bag tags / the recordings),
            method (tls | wls; "" = the parameter), essential (reduce to essential parameters)
   reply:   success, message (one line, with the warnings), parameters (the essential ones when
-           essential is true)
+           essential is true); a partial answer (some gains not determined: their
+           drive_gains_determined false, drive_gains_reason why, value NaN) succeeds, says which
+           in the message, and is not latched
 Topics   orthoglide/identified_parameters (orthoglide_msgs/msg/IdentifiedParameters, transient
-         local, depth 1): the last successful IDIM-TLS result, what the ctc node uses;
+         local, depth 1): the last successful full IDIM-TLS result, what the ctc node uses;
          orthoglide/identified_parameters/wls: the last IDIM-WLS result (gains given, payload
          estimated), so that a validation run does not switch a running CTC to other gains;
          orthoglide/identified_parameters/consistent (with the option consistent): the base
@@ -248,10 +250,12 @@ class IdentificationNode(Node):
         """Publish (latched) and answer with the result; its warnings go to the log and the reply."""
         chosen = result.essential if essential and result.essential is not None else result
         msg = result_message(chosen, self.get_clock().now().to_msg())
-        self.pub[method].publish(msg)
+        if chosen.complete:  # a partial answer is not latched: the ctc takes only a full one
+            self.pub[method].publish(msg)
         for w in result.warnings:
             self.get_logger().warning(w)
-        gains = ", ".join(f"{g:.1f}" for g in msg.drive_gains)
+        gains = ", ".join(f"{g:.1f}" if ok else "not determined"
+                          for g, ok in zip(msg.drive_gains, msg.drive_gains_determined))
         response.success = True
         response.message = (f"{method}{' essential' if chosen is not result else ''}: drive gains [{gains}] "
                             f"{chosen._units(chosen.gain_units, 'N/A')}, {len(msg.names)} parameters, payload "
@@ -263,6 +267,9 @@ class IdentificationNode(Node):
             self.pub["consistent"].publish(result_message(result, msg.header.stamp,
                                                           result.consistency.message_fields))
             response.message += "; physical consistency: " + result.consistency.summary()
+        if not chosen.complete:
+            response.message += ("; partial answer, not latched for the ctc: "
+                                 + chosen.not_determined_text())
         response.message += f"; from {self.source}"
         if result.warnings:
             response.message += f"; {len(result.warnings)} warning(s): " + " | ".join(result.warnings)

@@ -49,14 +49,18 @@ Topic:
                              condition, payload mass, bag, ticks written and missing; on start,
                              on stop and every second while recording."""
 
+PAYLOAD_KEYS = ("payload_frame", "payload_com", "payload_inertia")
 PARAMETERS = (
     Param("payload_frame", "", "the link a loaded recording's payload is fixed to (\"\": the robot's "
-          "payload frame); with payload_com and payload_inertia in the bag's tag (orthoglide.payload_*)",
+          "payload frame); with payload_com and payload_inertia in the bag's tag (orthoglide.payload_*). "
+          "The payload_* parameters are used by the next start only, then back to their launch values",
           dynamic=True),
     Param("payload_com", [0.0, 0.0, 0.0], "m, the payload's centre of mass in payload_frame (zeros: at its "
           "origin); used by the next loaded start", dynamic=True),
     Param("payload_inertia", [0.0] * 6, "kg·m², Ixx Ixy Ixz Iyy Iyz Izz about the payload's centre of mass "
           "(zeros: a point mass); used by the next loaded start", dynamic=True),
+    Param("robot", "", "the robot (a URDF, robot YAML or bundled name, as the identification node's): a "
+          "loaded start's payload_frame must be one of its frames (\"\": not checked)"),
     Param("output_dir", "bags", "folder for the bag directories (this and the next ones: from the next start "
           "on when changed)", dynamic=True),
     Param("topics", ["orthoglide/joint_states", "orthoglide/current_reference"],
@@ -107,6 +111,17 @@ def _import_type(msgtype: str) -> Any:
     return getattr(importlib.import_module(f"{pkg}.{kind}"), name)
 
 
+def check_frame(robot: str, frame: str) -> None:
+    """ConfigError unless ``robot`` (a robot file; "" or the Orthoglide's: not checked beyond its
+    own rule) has the frame ``frame`` (the model is loaded once, at the first loaded start)."""
+    if not robot:
+        return
+    from orthoglide_ident.model.robot import Payload
+    from orthoglide_ident.model.robots import load_robot
+
+    load_robot(robot).with_payload(Payload(1.0, frame))
+
+
 class RecorderNode(Node):
     """Start/stop services around a :class:`Recording`; the recorder's state on a latched topic."""
 
@@ -115,6 +130,7 @@ class RecorderNode(Node):
         p = declare(self, PARAMETERS)
         _check(p)
         self.p = p
+        self.payload_defaults = {k: p[k] for k in PAYLOAD_KEYS}  # what each start falls back to
         on_set(self, PARAMETERS, self._changed)
         self.rec: Recording | None = None
         self.last = {"condition": "", "payload_mass": 0.0, "bag_path": "", "message": "idle"}
@@ -293,6 +309,8 @@ class RecorderNode(Node):
         except OrthoglideError as exc:
             res.message = str(exc)
             return res
+        finally:  # this start's payload, accepted or not, is not the next one's
+            self._reset_payload()
         self.discover()
         for topic in self.required:
             if topic not in self.subs:
@@ -318,14 +336,24 @@ class RecorderNode(Node):
         self.publish_status()
         return res
 
+    def _reset_payload(self) -> None:
+        """payload_* back to their launch values: what a start said is not carried over."""
+        from rclpy.parameter import Parameter
+
+        changed = [Parameter(k, value=v) for k, v in self.payload_defaults.items() if self.p[k] != v]
+        if changed:
+            self.set_parameters(changed)
+
     def _payload_shape(self, condition: str) -> dict[str, Any]:
         """The tag's payload frame, centre of mass and inertia (parameters) of a loaded start;
-        none for a point mass at the robot's payload frame, or unloaded."""
+        none for a point mass at the robot's payload frame, or unloaded. ConfigError for a frame
+        the ``robot`` lacks."""
         p = self.p
         if condition != "loaded":
             return {}
         out: dict[str, Any] = {}
         if p["payload_frame"]:
+            check_frame(p["robot"], p["payload_frame"])
             out["payload_frame"] = p["payload_frame"]
         if len(p["payload_com"]) != 3 or len(p["payload_inertia"]) != 6:
             raise ConfigError("parameters payload_com (3 numbers, m) and payload_inertia (6, kg·m²) "

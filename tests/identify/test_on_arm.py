@@ -104,3 +104,43 @@ def test_live_with_the_payload_shape_equals_offline(arm):
     records = [recs["unloaded"], recs["2kg"]]
     offline = identify_records(records, model=model, options=opts)
     assert max(rel_diff(offline, live_result(model, records, opts))) < 1e-6
+
+
+def test_ur5_given_as_a_plain_urdf_is_judged_without_a_gain_band(arm):
+    """The bare URDF gives no nominal gains (1 per unit stands in): gains 9-13 N·m/A are not
+    refused as implausible; the answer is judged by eq. (37) and the σ, and is the same one. WLS
+    without --gains then misses the 1 kg payload by ~90 %: said, with the cause."""
+    from orthoglide_ident.model.robots import ROBOTS_DIR
+
+    _, recs, truth = arm
+    bare = load_robot(ROBOTS_DIR / "ur5.urdf")
+    assert not bare.nominal_gains_given
+    res = identify_records([recs["unloaded"], recs["2kg"]], model=bare)
+    g = np.array([x.value for x in res.drive_gains])
+    err = g / np.array([truth.drives[j].g_tau for j in bare.joint_names]) - 1
+    assert np.abs(err).max() < 0.005, err
+    assert np.all(np.abs(err) <= 3 * np.array([x.rel_std for x in res.drive_gains]))
+    assert not [w for w in res.warnings if "outside" in w]
+    wls = identify_records([recs["unloaded"], recs["1kg"]], method="wls", model=bare)
+    said = [w for w in wls.warnings if w.startswith("payload mass estimated")]
+    assert len(said) == 1 and "no nominal gains" in said[0]
+
+
+def test_consistent_masses_far_from_the_description_are_said_with_the_cause(arm):
+    """--consistent on an unloaded record by WLS: with the UR5's nominal gains the bodies stay
+    near the description's masses and the one the data do not determine (the base link's,
+    about the vertical axis) is named; with a bare URDF's gains 1 every mass is scaled by 1/g:
+    said, with the cause."""
+    from orthoglide_ident.model.robots import ROBOTS_DIR
+
+    _, recs, _ = arm
+    opts = IdentifyOptions(consistent=True)
+    res = identify_records([recs["unloaded"]], method="wls", model=load_robot("ur5"),
+                           options=opts)
+    assert not [w for w in res.warnings if "far from the description's masses" in w]
+    held = [w for w in res.warnings if "the data do not determine the mass of" in w]
+    assert held and "shoulder_link" in held[0] and "prior weight" in held[0]
+    bare = identify_records([recs["unloaded"]], method="wls",
+                            model=load_robot(ROBOTS_DIR / "ur5.urdf"), options=opts)
+    far = [w for w in bare.warnings if "far from the description's masses" in w]
+    assert len(far) == 1 and "forearm_link" in far[0] and "the gains are not known" in far[0]

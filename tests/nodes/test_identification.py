@@ -278,3 +278,44 @@ def test_a_bag_deleted_before_it_is_read_and_a_restart_without_live_data(node, c
     res = call(n, cli)  # no bag named, no live data since this node started: bag_dir's recordings
     assert res.success and res.message.endswith("; from 2 bag(s) of bag_dir (no live data)"), res.message
     assert node.poll() is None
+
+
+def test_a_partial_answer_succeeds_says_which_and_is_not_latched(spawn_python, tmp_path):
+    """UR5 records whose payload does not load wrist_3 (tests/axial_payload.py): success, the
+    reply names the gain not determined and why, the message carries the flags, and the
+    latched topic (what the ctc takes) stays empty."""
+    import rclpy
+    from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+
+    from axial_payload import write_axial_bags
+    from orthoglide_msgs.msg import IdentifiedParameters
+    from orthoglide_msgs.srv import Identify
+
+    write_axial_bags(tmp_path, 20.0)
+    proc = spawn_python(NODE, "--ros-args", "-p", f"bag_dir:={tmp_path}", "-p", "robot:=ur5",
+                        "-p", "live:=false")
+    rclpy.init()
+    try:
+        n = rclpy.create_node("test_partial_client")
+        cli = n.create_client(Identify, "/orthoglide/identify")
+        assert cli.wait_for_service(timeout_sec=60), "service /orthoglide/identify did not appear"
+        res = call(n, cli)
+        assert res.success, res.message
+        p = res.parameters
+        assert list(p.drive_gains_determined) == [True] * 5 + [False]
+        assert p.drive_gains_reason[5].startswith("the payload adds almost no torque")
+        assert "not determined" in res.message and "partial answer, not latched" in res.message
+        assert "\n" not in res.message
+        got = []
+        qos = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL,
+                         reliability=ReliabilityPolicy.RELIABLE)
+        n.create_subscription(IdentifiedParameters, "/orthoglide/identified_parameters",
+                              got.append, qos)
+        t0 = time.time()
+        while time.time() - t0 < 3:
+            rclpy.spin_once(n, timeout_sec=0.2)
+        assert not got  # a late subscriber of the latched topic gets nothing: no full answer yet
+        n.destroy_node()
+    finally:
+        rclpy.shutdown()
+    assert proc.poll() is None, "the node died"

@@ -65,3 +65,43 @@ def test_the_payload_shape_goes_into_the_tag_and_the_status(tmp_path, ros_env):
     assert tags.payload_frame == "tool0"
     assert np.allclose(tags.payload_com, (0.03, -0.02, 0.06))
     assert np.allclose(tags.payload_inertia, (0.004, 0, 0, 0.004, 0, 0.002))
+
+
+def test_a_start_s_payload_is_not_carried_over_and_a_frame_the_robot_lacks_is_refused(
+        tmp_path, ros_env):
+    """Issue 32: a refused start with an inertia, then a mass-only start: its tag is a point mass
+    at the robot's payload frame (nothing of the refused call's frame or inertia); a frame the
+    robot (parameter robot) lacks is refused at start with its name."""
+    from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+    from std_srvs.srv import Trigger
+
+    from orthoglide_ident.nodes.live_feed import status_payload
+    from orthoglide_msgs.msg import RecorderStatus
+    from orthoglide_sim.graph import Graph
+
+    def record_start(*extra: str) -> subprocess.CompletedProcess:
+        return subprocess.run([sys.executable, "-m", "orthoglide_ident.cli", "record", "start",
+                               "--condition", "loaded", "--payload-mass", "2", *extra],
+                              env=ros_env, capture_output=True, text=True, timeout=120)
+
+    with Graph(tmp_path / "logs") as g:
+        g.start("orthoglide_recorder", "recorder", {"output_dir": str(tmp_path / "bags"),
+                                                   "topics": ["joint_states"], "robot": "ur5"})
+        g.wait_for_subscriber("joint_states", "orthoglide_recorder")
+        refused = record_start("--payload-frame", "tool0",
+                               "--payload-inertia=-0.004,0,0,0.004,0,0.002", "--name", "refused")
+        assert refused.returncode == 2 and "\n" not in refused.stderr.strip()
+        lacking = record_start("--payload-frame", "no_such_link", "--name", "lacking")
+        assert lacking.returncode == 2 and "no_such_link" in lacking.stderr, lacking.stderr
+        ok = record_start("--name", "mass_only")
+        assert ok.returncode == 0, ok.stderr
+        got: list = []
+        latched = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL,
+                             reliability=ReliabilityPolicy.RELIABLE)
+        g._listen(RecorderStatus, "orthoglide/recorder/status", latched, got.append,
+                  lambda: any(m.recording for m in got), 30, lambda: "no recording status")
+        status = next(m for m in got if m.recording)
+        g.call(Trigger, "orthoglide/recorder/stop")
+    assert status.bag_path.endswith("mass_only")
+    assert status_payload(status) is None  # a point mass at the robot's payload frame
+    assert status.payload_frame == "" and not list(status.payload_inertia)
