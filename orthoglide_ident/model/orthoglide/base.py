@@ -253,7 +253,8 @@ class BaseModel(RobotModel):
         }
 
     def dumps(self) -> str:
-        return json.dumps(self.to_json(), indent=2)
+        # strict JSON (RFC 8259): the structure's coefficients are finite, a NaN is a bug
+        return json.dumps(self.to_json(), indent=2, allow_nan=False)
 
 
 @functools.lru_cache(maxsize=4)
