@@ -23,6 +23,29 @@ def find_breaks(dt_ns: np.ndarray, period_ns: float) -> tuple[np.ndarray, int]:
     return brk, int(np.sum(np.maximum(np.rint(ratio[brk]) - 1, 0)))
 
 
+LOCAL_STEPS = 31  # steps in the window of the local step distribution (uneven clocks)
+ON_GRID = 0.02  # a step within 2 % of the period is on the grid
+
+
+def find_breaks_local(dt_ns: np.ndarray, period_ns: float) -> tuple[np.ndarray, int]:
+    """Breaks against the *local* step: a step outside (0.5, 1.5) x the median of the
+    LOCAL_STEPS steps around it, round(step / local median) - 1 ticks missing. A controller
+    that logs on its own clock (10/12 ms alternation, a 2 ms grid, jitter) is not a missing tick
+    at every long step. On a steady clock (every non-break step within ON_GRID of ``period_ns``)
+    it is :func:`find_breaks` itself."""
+    dt = np.asarray(dt_ns, float)
+    ratio = dt / period_ns
+    steady = (np.abs(ratio - 1.0) <= ON_GRID) | (ratio < BREAK_LOW) | (ratio > BREAK_HIGH)
+    if dt.size < LOCAL_STEPS or np.all(steady):
+        return find_breaks(dt, period_ns)
+    half = LOCAL_STEPS // 2
+    padded = np.concatenate([dt[half:0:-1], dt, dt[-2:-half - 2:-1]])
+    local = np.median(np.lib.stride_tricks.sliding_window_view(padded, LOCAL_STEPS), axis=1)
+    ratio = dt / local
+    brk = (ratio < BREAK_LOW) | (ratio > BREAK_HIGH)
+    return brk, int(np.sum(np.maximum(np.rint(ratio[brk]) - 1, 0)))
+
+
 def missing_in_step(dt_ns: int, period_ns: float) -> int:
     """Ticks missing in one step between consecutive stamps (the scalar form of find_breaks, for
     a callback that sees one message at a time)."""

@@ -31,6 +31,7 @@ from orthoglide_ident.identify.reversals import bridge, find_reversals, rows_cle
 from orthoglide_ident.identify.segments import Segment, SegmentReport, split_record
 from orthoglide_ident.identify.solve import Solved, solve
 from orthoglide_ident.identify.stream import DecimatedRows, SegmentStream, lag_rows, model_block
+from orthoglide_ident.identify.time_base import choose_velocity
 from orthoglide_ident.identify.validation import ValidationResult, cross_validate
 from orthoglide_ident.model.geometry import JOINT_NAMES as ORTHOGLIDE_JOINTS
 from orthoglide_ident.model.robot import Payload, RobotModel
@@ -67,6 +68,7 @@ class Record:
     warnings: list[str] = field(default_factory=list)
     payload: Payload | None = None
     sources: str = ""  # where q and the current were recorded (bags.BagSources.describe)
+    qd: np.ndarray | None = None  # (N_q, len(names_q)) rad/s or m/s: JointState.velocity, if read
 
     @classmethod
     def from_arrays(cls, source: str, stamps_ns: np.ndarray, q: np.ndarray, v_tau: np.ndarray,
@@ -95,6 +97,7 @@ def read_record(path: str | Path, model: RobotModel | None = None,
                          interface=opts.current_interface or None)
     tags, current = data.tags, data.current
     v_tau = current.current
+    qd = data.velocity if opts.velocity_source != "derived" else None
     if opts.effort_unit == "torque":
         v_tau = model.effort_as_current(current.names, v_tau)
     return Record(
@@ -105,7 +108,7 @@ def read_record(path: str | Path, model: RobotModel | None = None,
         condition=None if tags is None else tags.condition,
         payload_mass=0.0 if tags is None else float(tags.payload_mass),
         warnings=list(data.warnings), payload=_tagged_payload(tags),
-        sources=data.sources.describe(),
+        sources=data.sources.describe(), qd=qd,
     )
 
 
@@ -160,15 +163,19 @@ def observe(rec: Record, model: IdentificationModel, opts: IdentifyOptions,
     if rec.payload is not None and rec.condition == "loaded":
         model = model.with_payload(rec.payload)
     t0 = time.perf_counter()
-    period_guess = 1e-3
-    if len(rec.stamps_q_ns) > 2:
-        period_guess = float(np.median(np.diff(np.asarray(rec.stamps_q_ns)))) * 1e-9 or 1e-3
+    opts = opts.at_rate(1.0 / _mean_step_guess(rec.stamps_q_ns))
     segments, rep = split_record(
         rec.stamps_q_ns, rec.names_q, rec.q, rec.stamps_v_ns, rec.names_v, rec.v_tau,
-        min_samples=opts.min_segment_samples(period_guess), nonfinite=opts.nonfinite,
-        source=rec.source, joint_names=model.joint_names)
+        min_samples=opts.min_segment_samples(), nonfinite=opts.nonfinite,
+        source=rec.source, joint_names=model.joint_names, qd=rec.qd)
+    opts = opts.at_rate(1.0 / rep.period_s)
+    rep.filter_cutoff_hz, rep.decimation = opts.filter_cutoff_hz, opts.decimation
+    rep.decimation_cutoff_hz = opts.decimation_cutoff_hz
     times["segments"] = time.perf_counter() - t0
     log.info("%s: %s", rec.source, rep.summary())
+    log.info("%s: %s; %s", rec.source, rep.time_base(), opts.describe_rates())
+    segments, rep.velocity = choose_velocity(segments, opts, rep.period_s, rec.source)
+    log.info("%s: joint velocity %s", rec.source, rep.velocity)
     decimate = _segments_fir if opts.decimation_filter == "fir" else _segments_iir
     rows, n_bridged, n_unbridged = decimate(segments, model, opts, rep, times)
     n_b = len(model.names)
@@ -185,6 +192,20 @@ def observe(rec: Record, model: IdentificationModel, opts: IdentifyOptions,
              opts.decimation, "/".join(str(x) for x in obs.rows_per_joint()),
              times["regressor+decimation"], n_bridged, n_unbridged)
     return obs, rep, times
+
+
+def _mean_step_guess(stamps_ns: np.ndarray) -> float:
+    """Mean step of a record's stamps (s) before its gaps are known: the median step where it
+    is at least the mean over the record (a steady clock with gaps), else the mean (uneven)."""
+    st = np.asarray(stamps_ns, np.int64)
+    if st.shape[0] < 3:
+        return 1e-3
+    dt = np.diff(st)
+    med = float(np.median(dt)) * 1e-9
+    if med <= 0:
+        return 1e-3
+    ok = dt[(dt > 0.5 * med * 1e9) & (dt < 1.5 * med * 1e9)]
+    return float(np.mean(ok)) * 1e-9 if ok.size else med
 
 
 def _segments_fir(segments: list[Segment], model: IdentificationModel, opts: IdentifyOptions,
@@ -211,7 +232,7 @@ def _segments_fir(segments: list[Segment], model: IdentificationModel, opts: Ide
         t0 = time.perf_counter()
         states = states_at_half_tick(seg.q, _currents(seg, model, rep, t_start), T,
                                      opts.filter_cutoff_hz, opts.filter_order, trim,
-                                     opts.zoh_shift, opts.filter_currents)
+                                     opts.zoh_shift, opts.filter_currents, seg.stamps_ns, seg.qd)
         stamps = seg.stamps_ns[trim:trim + states[0].shape[0]]
         times["filtering"] = times.get("filtering", 0.0) + time.perf_counter() - t0
         for a in range(0, stamps.shape[0], opts.chunk_samples):
@@ -262,7 +283,7 @@ def _segments_iir(segments: list[Segment], model: IdentificationModel, opts: Ide
         qh, qdh, qddh, v = states_at_half_tick(seg.q, _currents(seg, model, rep, t_start), T,
                                                opts.filter_cutoff_hz,
                                                opts.filter_order, trim, opts.zoh_shift,
-                                               opts.filter_currents)
+                                               opts.filter_currents, seg.stamps_ns, seg.qd)
         ts = (seg.stamps_ns[trim:trim + qh.shape[0]] - t_start) * 1e-9
         if opts.zoh_shift:
             ts = ts + 0.5 * T
@@ -369,6 +390,10 @@ def identify_records(
             timings[k] = timings.get(k, 0.0) + v
 
     blocks, reports, warnings, bag_names = _observe_all(records, model, opts, payload_mass, add)
+    # the first record's rate fixes what the solve needs in samples (the σ's decimation gain)
+    opts = dataclasses.replace(opts, filter_cutoff_hz=reports[0]["filter_cutoff_hz"],
+                               decimation=reports[0]["decimation"],
+                               decimation_cutoff_hz=reports[0]["decimation_cutoff_hz"])
     model, blocks = _lag_or_paper(model, blocks, reports, opts)
     t_solve = time.perf_counter()
     factors = [RecordFactors.from_observations(b) for b in blocks]
@@ -437,6 +462,8 @@ def bag_report(rep: SegmentReport, source: str, condition: str | None, payload_m
     """One record's entry of ``diagnostics["bags"]``: pairing, gaps, reversals, equations, and
     which topics and fields carried q and the current."""
     d = dict(vars(rep))
+    if rep.steps is not None:
+        d["steps"] = dataclasses.asdict(rep.steps)
     d.update(bag=source, condition=condition, payload_mass=payload_mass,
              equations_per_joint=equations)
     if sources:
