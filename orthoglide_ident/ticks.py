@@ -6,6 +6,8 @@ is a break; a step of about k periods (k = round(step / period) ≥ 2) means k -
 """
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 TICK_NS = 1_000_000  # a 1 kHz controller's period (the Orthoglide's, a controller manager's update rate)
@@ -51,3 +53,44 @@ def missing_in_step(dt_ns: int, period_ns: float) -> int:
     a callback that sees one message at a time)."""
     ratio = dt_ns / period_ns
     return max(round(ratio) - 1, 0) if ratio > BREAK_HIGH else 0
+
+
+OFF_GRID_TOL = 0.02  # a step more than 2 % away from the median is "off the grid"
+UNEVEN_SHARE = 0.01  # a record with more than 1 % off-grid steps has uneven steps
+
+
+@dataclass(frozen=True)
+class StepStats:
+    """Distribution of a record's stamp steps (gaps included), in s."""
+
+    n_steps: int
+    median_s: float
+    mean_s: float
+    p05_s: float
+    p95_s: float
+    off_grid: float  # share of steps more than OFF_GRID_TOL from the median
+
+    @property
+    def uneven(self) -> bool:
+        return self.off_grid > UNEVEN_SHARE
+
+    def describe(self) -> str:
+        """One line: 'steps: median 11.000 ms, 5-95 % 10.000-12.000 ms, 50.0 % off the median
+        grid (mean 91.0 Hz)'."""
+        return (f"steps: median {self.median_s * 1e3:.3f} ms, 5-95 % {self.p05_s * 1e3:.3f}-"
+                f"{self.p95_s * 1e3:.3f} ms, {100 * self.off_grid:.1f} % off the median grid "
+                f"(mean {1.0 / self.mean_s:.1f} Hz)")
+
+
+def step_stats(stamps_ns: np.ndarray, mean_over: np.ndarray | None = None) -> StepStats:
+    """Step distribution of sorted stamps (ns). ``mean_over``: steps to take the mean over
+    (e.g. without the gaps); default all."""
+    dt = np.diff(np.asarray(stamps_ns, np.int64)).astype(float) * 1e-9
+    if dt.size == 0:
+        return StepStats(0, 0.0, 0.0, 0.0, 0.0, 0.0)
+    med = float(np.median(dt))
+    sel = dt if mean_over is None else dt[mean_over]
+    mean = float(np.mean(sel)) if sel.size else med
+    p05, p95 = (float(x) for x in np.percentile(dt, [5, 95]))
+    off = float(np.mean(np.abs(dt - med) > OFF_GRID_TOL * med)) if med > 0 else 1.0
+    return StepStats(int(dt.size), med, mean, p05, p95, off)

@@ -21,8 +21,7 @@ from typing import Sequence
 import numpy as np
 
 from orthoglide_ident.errors import DataError
-from orthoglide_ident.identify.time_base import StepStats, step_stats
-from orthoglide_ident.ticks import find_breaks_local
+from orthoglide_ident.ticks import StepStats, find_breaks_local, step_stats
 
 
 @dataclass

@@ -104,6 +104,7 @@ class SegmentStream:
         if opts.decimation_filter != "fir":
             raise DataError("block-by-block processing needs decimation_filter: fir (cheby1's "
                             "IIR depends on the whole segment)")
+        opts = opts.at_rate(1.0 / period_s)  # Hz and s to samples (idempotent)
         self.model, self.opts, self.T, self.t0_ns, self.n_b = model, opts, period_s, t0_ns, n_b
         self.n_j = n_j = model.n_joints
         self.zoh = 1 if opts.zoh_shift else 0

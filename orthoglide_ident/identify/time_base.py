@@ -25,53 +25,13 @@ bit-identical (an exactly uniform segment takes the uniform path unchanged).
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 
+from orthoglide_ident.ticks import OFF_GRID_TOL, UNEVEN_SHARE, StepStats, step_stats
 from orthoglide_ident.identify.filtering import filtered_states, half_tick, zero_phase_butterworth
 
-OFF_GRID_TOL = 0.02  # a step more than 2 % away from the median is "off the grid"
-UNEVEN_SHARE = 0.01  # a record with more than 1 % off-grid steps has uneven steps
 TIME_BASE_FRACTION = 0.2  # the time base's cut-off, a fraction of the derivative filter's
 RETIME_PASSES = 4  # Taylor re-timing passes onto the mean grid (each cuts the error ~100x)
-
-
-@dataclass(frozen=True)
-class StepStats:
-    """Distribution of a record's stamp steps (gaps included), in s."""
-
-    n_steps: int
-    median_s: float
-    mean_s: float
-    p05_s: float
-    p95_s: float
-    off_grid: float  # share of steps more than OFF_GRID_TOL from the median
-
-    @property
-    def uneven(self) -> bool:
-        return self.off_grid > UNEVEN_SHARE
-
-    def describe(self) -> str:
-        """One line: 'steps: median 11.000 ms, 5-95 % 10.000-12.000 ms, 50.0 % off the median
-        grid (mean 91.0 Hz)'."""
-        return (f"steps: median {self.median_s * 1e3:.3f} ms, 5-95 % {self.p05_s * 1e3:.3f}-"
-                f"{self.p95_s * 1e3:.3f} ms, {100 * self.off_grid:.1f} % off the median grid "
-                f"(mean {1.0 / self.mean_s:.1f} Hz)")
-
-
-def step_stats(stamps_ns: np.ndarray, mean_over: np.ndarray | None = None) -> StepStats:
-    """Step distribution of sorted stamps (ns). ``mean_over``: steps to take the mean over
-    (e.g. without the gaps); default all."""
-    dt = np.diff(np.asarray(stamps_ns, np.int64)).astype(float) * 1e-9
-    if dt.size == 0:
-        return StepStats(0, 0.0, 0.0, 0.0, 0.0, 0.0)
-    med = float(np.median(dt))
-    sel = dt if mean_over is None else dt[mean_over]
-    mean = float(np.mean(sel)) if sel.size else med
-    p05, p95 = (float(x) for x in np.percentile(dt, [5, 95]))
-    off = float(np.mean(np.abs(dt - med) > OFF_GRID_TOL * med)) if med > 0 else 1.0
-    return StepStats(int(dt.size), med, mean, p05, p95, off)
 
 
 def is_uniform(stamps_ns: np.ndarray) -> bool:
