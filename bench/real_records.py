@@ -37,12 +37,12 @@ def to_record(rec, name: str) -> Record:
 
 
 def _payload(rec):
+    """The mounted payload as the bag's tag gives it (frame, centre of mass, inertia)."""
     from orthoglide_ident.model.robot import Payload
 
     tag = rec.payload.tag()
-    com = tuple(float(x) for x in tag.get("orthoglide.payload_com", "0 0 0").split())
-    inertia = tuple(float(x) for x in tag.get("orthoglide.payload_inertia", "0 0 0 0 0 0").split())
-    return Payload(rec.payload_mass, tag.get("orthoglide.payload_frame", ""), com, inertia)
+    return Payload(rec.payload_mass, tag["payload_frame"], tuple(tag["payload_com"]),
+                   tuple(tag["payload_inertia"]))
 
 
 def velocity_errors(rec) -> tuple[np.ndarray, np.ndarray]:

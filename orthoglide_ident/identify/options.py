@@ -24,6 +24,8 @@ log = logging.getLogger("orthoglide_ident.identify")
 DEFAULT_FILTER_CUTOFF_HZ = 100.0  # the derivative filter's cut-off from 500 Hz up
 RATE_TO_FILTER = 5.0  # below, f_m / 5: the Butterworth (order 4) takes 1e-5 of q at f_m / 10
 DECIMATION_TO_FILTER = 0.4  # decimation cut-off / derivative filter cut-off (40 / 100 Hz)
+DEFAULT_BRIDGE_S = 0.02  # longest velocity-reversal run bridged (s), from 150 Hz up
+MIN_BRIDGE_SAMPLES = 3  # below: that many samples
 DEPRECATED = {"decimation": "decimation_cutoff_hz (Hz)", "chunk_samples": "chunk_s (s)"}
 
 # keys of config/identification.yaml that are the node's or a request's, not pipeline options
@@ -69,7 +71,9 @@ class IdentifyOptions:
     # Velocity reversals (reversals.py): samples of joint j with |q̂̇_j| below the dead band are
     # bridged by a straight line of the joint-j equation; longer runs are left out. 0: off.
     velocity_deadband_mps: float = 0.02
-    reversal_max_bridge_s: float = 0.02
+    # s; 0: max(20 ms, 3 samples): at a low rate a run left out costs every decimated row whose
+    # (3.2 / f_d s long) window it touches, so a few samples are bridged rather than left out
+    reversal_max_bridge_s: float = 0.0
     reversal_margin_s: float = 0.008  # bridges widened by this on both sides (filter smear)
     nonfinite: str = "error"  # NaN/inf in the data: "error" or "drop" (treated as gaps)
     # The current of a ros2_control robot: the DynamicJointState interface read first when a
@@ -150,7 +154,9 @@ class IdentifyOptions:
             f_d = self.decimation_cutoff_hz or DECIMATION_TO_FILTER * f_q
             n_d = max(1, int(round(0.8 * rate_hz / (2.0 * f_d))))
         chunk = self.chunk_samples or max(64, int(round(self.chunk_s * rate_hz)))
+        bridge = self.reversal_max_bridge_s or max(DEFAULT_BRIDGE_S, MIN_BRIDGE_SAMPLES / rate_hz)
         return dataclasses.replace(self, filter_cutoff_hz=f_q, decimation=n_d,
+                                   reversal_max_bridge_s=bridge,
                                    decimation_cutoff_hz=0.8 * rate_hz / (2.0 * n_d),
                                    chunk_samples=chunk)
 

@@ -255,6 +255,11 @@ def _currents(seg: Segment, model: IdentificationModel, rep: SegmentReport,
     ``rep``; identify_records then leaves the lag out). ``t_start``: the record's first stamp."""
     if getattr(model, "lag_column", None) is None:
         return seg.v_tau
+    if rep.steps is not None and rep.steps.uneven:  # a period is a number of ticks: none here
+        log.info("segment at %.1f s of the record: uneven steps, no lag instrument",
+                 (seg.stamps_ns[0] - t_start) * 1e-9)
+        rep.n_not_repeating += 1
+        return without_instrument(seg.v_tau)
     z = lag_instrument(seg.q, seg.v_tau, rep.period_s)
     if z is None:
         log.info("segment at %.1f s of the record does not repeat a trajectory (no lag "
