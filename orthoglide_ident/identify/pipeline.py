@@ -27,7 +27,7 @@ from orthoglide_ident.identify.factors import RecordFactors
 from orthoglide_ident.identify.filtering import states_at_half_tick
 from orthoglide_ident.identify.observations import Observations
 from orthoglide_ident.identify.options import IdentifyOptions
-from orthoglide_ident.identify.reversals import bridge, find_reversals, rows_clear
+from orthoglide_ident.identify.reversals import anchor_samples, bridge, find_reversals, rows_clear
 from orthoglide_ident.identify.segments import Segment, SegmentReport, split_record
 from orthoglide_ident.identify.solve import Solved, solve
 from orthoglide_ident.identify.stream import DecimatedRows, SegmentStream, lag_rows, model_block
@@ -299,6 +299,7 @@ def _segments_iir(segments: list[Segment], model: IdentificationModel, opts: Ide
             zones = find_reversals(qdh, opts.velocity_deadband_mps,
                                    max(1, int(round(opts.reversal_max_bridge_s / T))),
                                    int(round(opts.reversal_margin_s / T)))
+            zones.anchor = anchor_samples(T)
             n_bridged += zones.n_bridged
             n_unbridged += zones.n_dropped
 

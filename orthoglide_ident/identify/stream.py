@@ -27,7 +27,7 @@ from orthoglide_ident.errors import DataError
 from orthoglide_ident.identify.decimation import fir_decimate_last, fir_taps
 from orthoglide_ident.identify.filtering import filter_horizon, filtered_states, zero_phase_butterworth
 from orthoglide_ident.identify.options import IdentifyOptions
-from orthoglide_ident.identify.reversals import ANCHOR, ReversalTracker, bridge_weights
+from orthoglide_ident.identify.reversals import ReversalTracker, anchor_samples, bridge_weights
 
 
 @dataclass
@@ -113,6 +113,7 @@ class SegmentStream:
         self.n_d = opts.decimation
         self.L = 1 if self.n_d == 1 else fir_taps(self.n_d).shape[0]
         self.tracker = None
+        self.anchor = anchor_samples(period_s)  # samples averaged each side of a bridge
         if opts.velocity_deadband_mps > 0:
             self.tracker = ReversalTracker(
                 opts.velocity_deadband_mps,
@@ -249,7 +250,7 @@ class SegmentStream:
         keep = self._S
         if self.tracker is not None:
             for j in range(self.n_j):
-                keep = min(keep, self._final(j) - ANCHOR)
+                keep = min(keep, self._final(j) - self.anchor)
         keep = min(keep, self._i_out * self.n_d)
         k = keep - self._b0
         if k <= 0 or (k < self._X.shape[2] // 2 and self.n_states is None):
@@ -280,12 +281,12 @@ class SegmentStream:
             queue = self.pending[j]
             while queue:
                 d = queue[0]
-                hi = d.e + ANCHOR if n is None else min(d.e + ANCHOR, n)
+                hi = d.e + self.anchor if n is None else min(d.e + self.anchor, n)
                 if d.ok and hi > self._S or not d.ok and d.e > self._S:
                     break
                 queue.pop(0)
                 if d.ok:
-                    self._bridge(j, d.s, d.e, max(d.s - ANCHOR, 0), hi)
+                    self._bridge(j, d.s, d.e, max(d.s - self.anchor, 0), hi)
                 else:  # the part below the buffer was marked while the run was open
                     self._drop[j, max(d.s - self._b0, 0):d.e - self._b0] = True
             span = self.tracker.open_drop(j)
