@@ -22,7 +22,7 @@ from orthoglide_ident.yaml_files import load_yaml
 log = logging.getLogger("orthoglide_ident.identify")
 
 DEFAULT_FILTER_CUTOFF_HZ = 100.0  # the derivative filter's cut-off from 500 Hz up
-RATE_TO_FILTER = 5.0  # below, f_m / 5: the Butterworth (order 4) takes 1e-5 of q at f_m / 10
+RATE_TO_FILTER = 5.0  # below 500 Hz, f_m / 5 (0.4 of the Nyquist frequency)
 DECIMATION_TO_FILTER = 0.4  # decimation cut-off / derivative filter cut-off (40 / 100 Hz)
 DEFAULT_BRIDGE_S = 0.02  # longest velocity-reversal run bridged (s), from 150 Hz up
 MIN_BRIDGE_SAMPLES = 3  # below: that many samples
