@@ -287,3 +287,64 @@ def test_5_khz_and_the_same_decimated_to_1_khz_agree_within_their_sigma():
         assert abs(x.value - y.value) < x.value * max(x.rel_std, y.rel_std)
     for x, y in zip(a.parameters, b.parameters):
         assert abs(x.value - y.value) <= abs(x.value) * max(x.rel_std, y.rel_std) + 1e-9
+
+
+def _bag_with_velocity(path, with_velocity: bool):
+    from orthoglide_ident import bags
+
+    store = bags._types.typestore()
+    T, H = store.types["builtin_interfaces/msg/Time"], store.types["std_msgs/msg/Header"]
+    JS = store.types[bags.JOINT_STATE_TYPE]
+    CR = store.types[bags.CURRENT_REFERENCE_TYPE]
+    st = 10**18 + stamps_of(np.tile([10, 12], 50) * 1_000_000)
+    q, qd, _ = multisine((st - st[0]) * 1e-9)
+    names = ["q11", "q12", "q13"]
+    w = bags.BagWriter(path, bags.BagTags("unloaded", 0.0)).open()
+    a = w.add_topic(bags.JOINT_STATES_TOPIC, bags.JOINT_STATE_TYPE)
+    b = w.add_topic(bags.CURRENT_REFERENCE_TOPIC, bags.CURRENT_REFERENCE_TYPE)
+    for i, t in enumerate(st.tolist()):
+        hdr = H(stamp=T(sec=t // 10**9, nanosec=t % 10**9), frame_id="")
+        js = JS(header=hdr, name=names, position=np.repeat(q[i], 3),
+                velocity=np.repeat(qd[i], 3) if with_velocity else np.zeros(0), effort=np.zeros(0))
+        w.write(a, bytes(store.serialize_cdr(js, bags.JOINT_STATE_TYPE)), t)
+        cr = CR(header=hdr, name=names, current=np.zeros(3))
+        w.write(b, bytes(store.serialize_cdr(cr, bags.CURRENT_REFERENCE_TYPE)), t)
+    w.close()
+    return np.repeat(qd, 3, axis=1)
+
+
+def test_the_recorded_velocity_is_read_when_asked(tmp_path):
+    from orthoglide_ident import bags
+    from orthoglide_ident.identify.pipeline import read_record
+
+    qd = _bag_with_velocity(tmp_path / "v", True)
+    _bag_with_velocity(tmp_path / "n", False)
+    np.testing.assert_array_equal(bags.read_bag(tmp_path / "v").velocity, qd)
+    assert bags.read_bag(tmp_path / "n").velocity is None
+    assert read_record(tmp_path / "v").qd is None  # velocity_source: derived (default)
+    auto = read_record(tmp_path / "v", opts=IdentifyOptions(velocity_source="auto"))
+    np.testing.assert_array_equal(auto.qd, qd)
+
+
+def test_identification_with_the_recorded_velocity():
+    import dataclasses
+
+    from synthetic import SyntheticModel, trajectory
+
+    from orthoglide_ident.identify.pipeline import identify_records
+
+    recs = _synthetic_pair(duration_s=60.0, noise=False, amplitude=0.1, f_max=3.0,
+                           steps_ns=_clock(60.0))
+    with_qd = []
+    for r, seed in zip(recs, (1, 2)):
+        _, qd, _ = trajectory((r.stamps_q_ns - r.stamps_q_ns[0]) * 1e-9, seed, 0.1, 3.0)
+        with_qd.append(dataclasses.replace(r, qd=qd))
+    for source in ("recorded", "auto"):
+        res = identify_records(with_qd, model=SyntheticModel(), options=IdentifyOptions(
+            check_excitation=False, velocity_source=source))
+        assert res.diagnostics["bags"][0]["velocity"].startswith("recorded")
+        assert np.abs(_gain_errors(res)).max() < 2e-3
+    bad = [dataclasses.replace(r, qd=1.1 * r.qd) for r in with_qd]  # a velocity 10 % off
+    res = identify_records(bad, model=SyntheticModel(), options=IdentifyOptions(
+        check_excitation=False, velocity_source="auto"))
+    assert res.diagnostics["bags"][0]["velocity"].startswith("derived from q (velocity_source: auto")
