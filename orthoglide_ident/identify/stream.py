@@ -25,8 +25,9 @@ import numpy as np
 
 from orthoglide_ident.errors import DataError
 from orthoglide_ident.identify.decimation import fir_decimate_last, fir_taps
-from orthoglide_ident.identify.filtering import filter_horizon, filtered_states, zero_phase_butterworth
+from orthoglide_ident.identify.filtering import filter_horizon, zero_phase_butterworth
 from orthoglide_ident.identify.options import IdentifyOptions
+from orthoglide_ident.identify.time_base import states_on_stamps
 from orthoglide_ident.identify.reversals import ReversalTracker, anchor_samples, bridge_weights
 
 
@@ -197,9 +198,10 @@ class SegmentStream:
         t0 = time.perf_counter()
         w0 = max(0, trim + S - self.M)
         w1 = min(self.n_raw, trim + s_new + self.zoh + self.M)
-        qh, qdh, qddh = filtered_states(self._q[w0 - r0:w1 - r0], self.T,
-                                        self.opts.filter_cutoff_hz, self.opts.filter_order,
-                                        self.opts.zoh_shift)
+        # on the window's own stamps: an uneven clock's time base (exactly uniform: unchanged)
+        qh, qdh, qddh = states_on_stamps(self._q[w0 - r0:w1 - r0], self._st[w0 - r0:w1 - r0],
+                                         self.opts.filter_cutoff_hz, self.opts.filter_order,
+                                         self.opts.zoh_shift)
         a, b = trim + S - w0, trim + s_new - w0
         v = self._v[w0 - r0:w1 - r0]
         if self.opts.filter_currents:  # the same window and filter as q: rows as offline's
