@@ -179,7 +179,7 @@ def test_info_prints_the_step_distribution_and_warns_on_uneven_steps(tmp_path):
     st = stamps_of(np.tile([10, 12], 300) * 1_000_000)
     q, _, _ = multisine(st * 1e-9)
     q3 = np.hstack([q, q, q])
-    bags.write_bag(tmp_path / "b", st, q3, q3, "unloaded", 0.0)
+    bags.write_bag(tmp_path / "b", st, q3, q3, "unloaded", 0.0, ("q11", "q12", "q13"))
     text = bags.bag_info(tmp_path / "b").to_text()
     assert "steps: median" in text and "5-95 % 10.000-12.000 ms" in text
     assert "100.0 % off the median grid (mean 90.9 Hz)" in text
@@ -315,14 +315,16 @@ def _bag_with_velocity(path, with_velocity: bool):
 
 def test_the_recorded_velocity_is_read_when_asked(tmp_path):
     from orthoglide_ident import bags
-    from orthoglide_ident.identify.pipeline import read_record
+    from orthoglide_ident.identify.records import read_record
+    from orthoglide_ident.model.robots import load_robot
 
+    orthoglide = load_robot("orthoglide")
     qd = _bag_with_velocity(tmp_path / "v", True)
     _bag_with_velocity(tmp_path / "n", False)
     np.testing.assert_array_equal(bags.read_bag(tmp_path / "v").velocity, qd)
     assert bags.read_bag(tmp_path / "n").velocity is None
-    assert read_record(tmp_path / "v").qd is None  # velocity_source: derived (default)
-    auto = read_record(tmp_path / "v", opts=IdentifyOptions(velocity_source="auto"))
+    assert read_record(tmp_path / "v", orthoglide).qd is None  # velocity_source: derived (default)
+    auto = read_record(tmp_path / "v", orthoglide, IdentifyOptions(velocity_source="auto"))
     np.testing.assert_array_equal(auto.qd, qd)
 
 
