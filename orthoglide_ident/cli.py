@@ -102,8 +102,9 @@ def _add_identify_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--r-sigma", type=float, metavar="R",
                    help="stop ratio max %%σ / min %%σ of the essential reduction (default 10)")
     p.add_argument("--config", metavar="YAML",
-                   help="options file (config/identification.yaml format: filter cut-off in Hz, "
-                        "decimation, velocity dead band in m/s, excitation limits...)")
+                   help="options file (config/identification.yaml format: cut-offs in Hz and "
+                        "lengths in s, 0 = from the record's rate; velocity_source, velocity dead "
+                        "band in m/s, excitation limits...)")
     p.add_argument("--validate", nargs="+", default=[], metavar="BAG",
                    help="bags not used for identification, to cross-validate the model on")
     p.add_argument("--consistent", action="store_true",

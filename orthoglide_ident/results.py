@@ -16,6 +16,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from orthoglide_ident.ticks import UNEVEN_SHARE
+
 
 def _num(x: float) -> float | None:
     """JSON-safe float (inf/NaN become null)."""
@@ -285,6 +287,14 @@ class IdentificationResult:
                          f"{d.get('samples_dropped', 0)} dropped,"
                          f" {d.get('segments', 0)} segments, {d.get('rows', 0)} equations after "
                          f"decimation by {d.get('decimation', '')}")
+        for b in d.get("bags", []):  # what was done with an uneven clock or a recorded velocity
+            steps = b.get("steps") or {}
+            if steps.get("off_grid", 0.0) > UNEVEN_SHARE or b.get("velocity", "").startswith("rec"):
+                lines.append(f"time base {b['bag']}: {steps.get('mean_s', 0) and 1 / steps['mean_s']:.1f} "
+                             f"Hz mean, {100 * steps.get('off_grid', 0.0):.1f} % of the steps off "
+                             "the median grid: derivatives, filters and the zero-order hold on "
+                             f"each sample's stamp; filter {b['filter_cutoff_hz']:.4g} Hz, "
+                             f"decimation by {b['decimation']}; velocity {b['velocity']}")
         for wmsg in self.warnings:
             lines.append(f"warning: {wmsg}")
         return "\n".join(lines)

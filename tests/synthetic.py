@@ -138,13 +138,14 @@ def synthetic_record(
     g_tau: np.ndarray | None = None, chi: np.ndarray | None = None, rate_hz: float = 1000.0,
     current_noise_a: float = 0.002, quantum_m: float = 1e-6, amplitude: float = 0.06,
     f_max: float = 2.0, source: str | None = None, t0_ns: int = 1_700_000_000_000_000_000,
-    zoh: bool = True, model=None, traj=None,
+    zoh: bool = True, model=None, traj=None, steps_ns: np.ndarray | None = None,
 ) -> Record:
     """A tagged :class:`Record` under zero-order-hold current references.
 
     ``model`` (default :class:`SyntheticModel`) is a RobotModel (e.g. the Orthoglide base model,
     then ``chi`` are its base parameters; default χ and g_τ: the synthetic model's true ones);
-    ``traj(t) -> (q, q̇, q̈)`` overrides the sums of sines.
+    ``traj(t) -> (q, q̇, q̈)`` overrides the sums of sines. ``steps_ns``: the controller's own
+    (uneven) tick steps instead of ``rate_hz``, each current held over its own step.
     """
     model = model if model is not None else SyntheticModel()
     n_j = model.n_joints
@@ -164,21 +165,28 @@ def synthetic_record(
     T = 1.0 / rate_hz
     n = int(round(duration_s * rate_hz))
     k = np.arange(n)
+    if steps_ns is None:
+        t, h = k * T, np.full(n, T)
+    else:  # t_k and the step held from it
+        n = len(steps_ns)
+        offs = np.concatenate([[0], np.cumsum(steps_ns)[:-1]]).astype(np.int64)
+        t, h = offs * 1e-9, np.asarray(steps_ns) * 1e-9
     if zoh:
-        # 4-point Gauss-Legendre mean over [t_k, t_k + T)
+        # 4-point Gauss-Legendre mean over [t_k, t_k + h_k)
         xg, wg = np.polynomial.legendre.leggauss(4)
         tau = np.zeros((n, n_j))
         for x, w in zip(xg, wg):
-            tau += 0.5 * w * forces((k + 0.5 + 0.5 * x) * T)
+            tau += 0.5 * w * forces((k + 0.5 + 0.5 * x) * T if steps_ns is None
+                                    else t + (0.5 + 0.5 * x) * h)
     else:
-        tau = forces(k * T)
-    q, _, _ = traj(k * T)
+        tau = forces(t)
+    q, _, _ = traj(t)
     v = tau / np.asarray(g_tau)[None, :]
     if noise:
         rng = np.random.default_rng(10_000 + seed)
         v = v + current_noise_a * rng.standard_normal(v.shape)
         q = np.round(q / quantum_m) * quantum_m
-    stamps = t0_ns + (k * round(T * 1e9)).astype(np.int64)
+    stamps = t0_ns + (offs if steps_ns is not None else (k * round(T * 1e9)).astype(np.int64))
     cond = "loaded" if payload_mass > 0 else "unloaded"
     name = source or f"synthetic-{cond}-{seed}"
     return Record.from_arrays(name, stamps, q, v, cond, payload_mass, model.joint_names)

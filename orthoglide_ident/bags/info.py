@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from orthoglide_ident.ticks import find_breaks, missing_in_step
+from orthoglide_ident.ticks import StepStats, find_breaks_local, missing_in_step, step_stats
 
 from orthoglide_ident.errors import BagError
 
@@ -25,21 +25,24 @@ class Gaps:
     where: list[tuple[float, int]] = field(
         default_factory=list
     )  # (s after first stamp, ticks missing)
+    steps: StepStats | None = None  # the step distribution (uneven clocks)
 
 
 def find_gaps(stamps_ns: np.ndarray, period_ns: float | None = None, limit: int = 10) -> Gaps:
-    """Missing ticks against the median period (or ``period_ns``), by the rule of ticks.py."""
+    """Missing ticks against the local step (ticks.find_breaks_local; on a steady clock the
+    median period, or ``period_ns``), and the step distribution."""
     if len(stamps_ns) < 2:
         return Gaps(0.0, 0)
     d = np.diff(stamps_ns)
     period = float(period_ns or np.median(d))
     if period <= 0:
         return Gaps(0.0, 0)
-    brk, missing = find_breaks(d, period)
+    brk, missing = find_breaks_local(d, period)
     at = np.flatnonzero(brk & (d > period))
     k = np.rint(d[at] / period).astype(np.int64) - 1
     where = [(float((stamps_ns[i] - stamps_ns[0]) / 1e9), int(n)) for i, n in zip(at[:limit], k)]
-    return Gaps(period / 1e9, missing, where)
+    steps = step_stats(stamps_ns, mean_over=~brk)
+    return Gaps(period / 1e9, missing, where, steps)
 
 
 @dataclass
@@ -63,6 +66,18 @@ class BagInfo:
     warnings: list[str]
     sources: BagSources | None = None
     source_problem: str = ""
+
+    def step_warnings(self) -> list[str]:
+        """One warning per topic whose stamps are on an uneven clock."""
+        out = []
+        for t in self.topics:
+            s = None if t.gaps is None else t.gaps.steps
+            if s is not None and s.uneven:
+                out.append(f"{t.topic}: uneven steps ({100 * s.off_grid:.1f} % more than 2 % off "
+                           f"the median {s.median_s * 1e3:.3f} ms; mean rate {1 / s.mean_s:.1f} "
+                           "Hz): identification uses each sample's own stamp, never the median "
+                           "as the period")
+        return out
 
     @property
     def closed(self) -> bool:
@@ -93,6 +108,8 @@ class BagInfo:
             lines.append(f"  {t.topic:<36} {t.msgtype:<38} {t.count:9d} msgs {t.rate_hz:9.1f} Hz")
             if t.gaps is not None:
                 g = t.gaps
+                if g.steps is not None and g.steps.n_steps:
+                    lines.append(f"    {g.steps.describe()}")
                 if g.missing:
                     where = ", ".join(f"{n} at {s:.3f} s" for s, n in g.where)
                     more = " …" if len(g.where) < g.missing and len(g.where) >= 10 else ""
@@ -100,9 +117,11 @@ class BagInfo:
                         f"    {g.missing} missing ticks (period {g.period_s * 1e3:.3f} ms): "
                         f"{where}{more}"
                     )
+                elif g.steps is not None and g.steps.uneven:
+                    lines.append("    no missing ticks (against the local step)")
                 else:
                     lines.append(f"    no missing ticks (period {g.period_s * 1e3:.3f} ms)")
-        lines += [f"warning: {w}" for w in self.warnings]
+        lines += [f"warning: {w}" for w in self.warnings + self.step_warnings()]
         return "\n".join(lines)
 
 

@@ -59,6 +59,9 @@ class BagData:
     sources: BagSources
     tags: BagTags | None
     warnings: list[str] = field(default_factory=list)
+    # (N_q, len(positions.names)) rad/s or m/s: JointState.velocity on the positions' topic
+    # when every one of those joints has it, else None
+    velocity: np.ndarray | None = None
 
     @property
     def joint_states(self) -> JointStates:
@@ -319,5 +322,11 @@ def read_bag(path: str | Path, *, require_tags: bool = True, interface: str | No
         names, values = take_joints(s, one, joints, scan.path)
         out.append((s.stamps_ns, names, values))
     (q_t, q_n, q_v), (c_t, c_n, c_v) = out
+    velocity = None
+    s = scan.topics[src.position.topic]
+    if s.msgtype == JOINT_STATE_TYPE:
+        names, values = s.take("velocity", list(q_n))
+        if tuple(names) == tuple(q_n) and values.shape == q_v.shape:
+            velocity = values
     return BagData(scan.path, JointStates(q_t, q_n, q_v), CurrentReferences(c_t, c_n, c_v), src,
-                   scan.tags, warnings)
+                   scan.tags, warnings, velocity)

@@ -5,6 +5,7 @@ finish a solved identification into the same JSON ``diagnostics``.
 """
 from __future__ import annotations
 
+import dataclasses
 from typing import Any
 
 from orthoglide_ident.identify.options import IdentifyOptions
@@ -20,6 +21,8 @@ def bag_report(rep: SegmentReport, source: str, condition: str | None, payload_m
     """One record's entry of ``diagnostics["bags"]``: pairing, gaps, reversals, equations, and
     which topics and fields carried q and the current."""
     d = dict(vars(rep))
+    if rep.steps is not None:
+        d["steps"] = dataclasses.asdict(rep.steps)
     d.update(bag=source, condition=condition, payload_mass=payload_mass,
              equations_per_joint=equations)
     if sources:

@@ -33,9 +33,17 @@ from orthoglide_ident.model.robot import Payload, RobotModel
 HORIZON_S = 0.2  # s, window of open-loop simulation from the measured state
 
 
+def _rate(stamps_ns: np.ndarray) -> float:
+    """A record's sample rate (Hz) from its median step, 1 kHz when it cannot tell."""
+    dt = np.diff(np.asarray(stamps_ns, np.int64))
+    med = float(np.median(dt)) if dt.size else 0.0
+    return 1e9 / med if med > 0 else 1e3
+
+
 def _windows(fwd, q: np.ndarray, v_tau: np.ndarray, gains: np.ndarray, period_s: float,
              opts, horizon_s: float, max_windows: int) -> tuple[np.ndarray, np.ndarray, int]:
     """Squared position errors and drifts (n_samples, n_j) of the windows of one segment."""
+    opts = opts.at_rate(1.0 / period_s)
     qf, qdf, _ = derivative_filter(q, period_s, opts.filter_cutoff_hz, opts.filter_order)
     trim = int(round(opts.edge_trim_s / period_s))
     n_w = max(1, int(round(horizon_s / period_s)))
@@ -82,7 +90,7 @@ def validate(record, robot: RobotModel, chi_st: np.ndarray, gains: Sequence[floa
         return {"bag": record.source, "engine": engine, "windows": 0, "joints": []}
     segments, rep = split_record(
         record.stamps_q_ns, record.names_q, record.q, record.stamps_v_ns, record.names_v,
-        record.v_tau, min_samples=opts.min_segment_samples(), nonfinite="drop",
+        record.v_tau, min_samples=opts.at_rate(_rate(record.stamps_q_ns)).min_segment_samples(), nonfinite="drop",
         source=record.source, joint_names=robot.joint_names)
     errors, drifts, n = [], [], 0
     g = np.asarray(gains, float)

@@ -132,14 +132,23 @@ def states_at_half_tick(
     trim: int = 0,
     zoh_shift: bool = True,
     filter_currents: bool = False,
+    stamps_ns: np.ndarray | None = None,
+    qd_recorded: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Filtered states paired with the current references they act with.
 
     Returns ``(q̂, q̂̇, q̂̈, v_tau)`` with the states at t_k + T/2 (``zoh_shift``) or at t_k, and
     ``trim`` samples dropped at each end (filter edge transients). All ``(m, n_j)``. With
     ``filter_currents`` v_tau goes through the same zero-phase low-pass as q (parallel filtering).
+    ``stamps_ns`` (n,): the samples' stamps, the time base when they are uneven (time_base.py;
+    ``period_s`` is then their mean step); ``qd_recorded``: a recorded velocity used for q̂̇.
     """
-    qf, qd, qdd = filtered_states(q, period_s, cutoff_hz, order, zoh_shift)
+    if stamps_ns is not None:
+        from orthoglide_ident.identify.time_base import states_on_stamps
+
+        qf, qd, qdd = states_on_stamps(q, stamps_ns, cutoff_hz, order, zoh_shift, qd_recorded)
+    else:
+        qf, qd, qdd = filtered_states(q, period_s, cutoff_hz, order, zoh_shift)
     if filter_currents:
         v_tau = zero_phase_butterworth(np.asarray(v_tau, dtype=float), period_s, cutoff_hz, order)
     v = v_tau[:-1] if zoh_shift else v_tau

@@ -246,7 +246,7 @@ class LiveIdentification:
                                                    n_joints=self.model.n_joints)
         f.add_source(rec.source)
         f.fold(rows.X, rows.keep, rows.t, rec.source,
-               self.opts.decimation * rec.period_ns * 1e-9, rows.q, rows.qd, self.opts.decimation,
+               rec.opts.decimation * rec.period_ns * 1e-9, rows.q, rows.qd, rec.opts.decimation,
                screw_mask(self.model))
         self._seconds[rec.condition] += seconds
         self._version.n += 1

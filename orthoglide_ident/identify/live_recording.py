@@ -159,6 +159,7 @@ class LiveRecording:
             return None
         self.period_ns = step
         self.rep.period_s = step * 1e-9
+        self.opts = self.opts.at_rate(1e9 / step)  # cut-offs in Hz, lengths in s: to samples
         return Paired(stamps, cat[0], cat[1])
 
     def _feed(self, p: Paired, out: list[str]) -> None:

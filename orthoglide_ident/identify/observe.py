@@ -19,9 +19,10 @@ from orthoglide_ident.identify.filtering import states_at_half_tick
 from orthoglide_ident.identify.observations import Observations
 from orthoglide_ident.identify.options import IdentifyOptions
 from orthoglide_ident.identify.records import Record
-from orthoglide_ident.identify.reversals import bridge, find_reversals, rows_clear
+from orthoglide_ident.identify.reversals import anchor_samples, bridge, find_reversals, rows_clear
 from orthoglide_ident.identify.segments import Segment, SegmentReport, split_record
 from orthoglide_ident.identify.stream import DecimatedRows, SegmentStream, lag_rows, model_block
+from orthoglide_ident.identify.time_base import choose_velocity
 from orthoglide_ident.model.robot import RobotModel
 
 log = logging.getLogger("orthoglide_ident.identify")
@@ -43,15 +44,19 @@ def observe(rec: Record, model: IdentificationModel, opts: IdentifyOptions,
     if rec.payload is not None and rec.condition == "loaded":
         model = model.with_payload(rec.payload)
     t0 = time.perf_counter()
-    period_guess = 1e-3
-    if len(rec.stamps_q_ns) > 2:
-        period_guess = float(np.median(np.diff(np.asarray(rec.stamps_q_ns)))) * 1e-9 or 1e-3
+    opts = opts.at_rate(1.0 / _mean_step_guess(rec.stamps_q_ns))
     segments, rep = split_record(
         rec.stamps_q_ns, rec.names_q, rec.q, rec.stamps_v_ns, rec.names_v, rec.v_tau,
-        min_samples=opts.min_segment_samples(period_guess), nonfinite=opts.nonfinite,
-        source=rec.source, joint_names=model.joint_names)
+        min_samples=opts.min_segment_samples(), nonfinite=opts.nonfinite,
+        source=rec.source, joint_names=model.joint_names, qd=rec.qd)
+    opts = opts.at_rate(1.0 / rep.period_s)
+    rep.filter_cutoff_hz, rep.decimation = opts.filter_cutoff_hz, opts.decimation
+    rep.decimation_cutoff_hz = opts.decimation_cutoff_hz
     times["segments"] = time.perf_counter() - t0
     log.info("%s: %s", rec.source, rep.summary())
+    log.info("%s: %s; %s", rec.source, rep.time_base(), opts.describe_rates())
+    segments, rep.velocity = choose_velocity(segments, opts, rep.period_s, rec.source)
+    log.info("%s: joint velocity %s", rec.source, rep.velocity)
     decimate = _segments_fir if opts.decimation_filter == "fir" else _segments_iir
     rows, n_bridged, n_unbridged = decimate(segments, model, opts, rep, times)
     n_b = len(model.names)
@@ -68,6 +73,20 @@ def observe(rec: Record, model: IdentificationModel, opts: IdentifyOptions,
              opts.decimation, "/".join(str(x) for x in obs.rows_per_joint()),
              times["regressor+decimation"], n_bridged, n_unbridged)
     return obs, rep, times
+
+
+def _mean_step_guess(stamps_ns: np.ndarray) -> float:
+    """Mean step of a record's stamps (s) before its gaps are known: the median step where it
+    is at least the mean over the record (a steady clock with gaps), else the mean (uneven)."""
+    st = np.asarray(stamps_ns, np.int64)
+    if st.shape[0] < 3:
+        return 1e-3
+    dt = np.diff(st)
+    med = float(np.median(dt)) * 1e-9
+    if med <= 0:
+        return 1e-3
+    ok = dt[(dt > 0.5 * med * 1e9) & (dt < 1.5 * med * 1e9)]
+    return float(np.mean(ok)) * 1e-9 if ok.size else med
 
 
 def _segments_fir(segments: list[Segment], model: IdentificationModel, opts: IdentifyOptions,
@@ -94,7 +113,7 @@ def _segments_fir(segments: list[Segment], model: IdentificationModel, opts: Ide
         t0 = time.perf_counter()
         states = states_at_half_tick(seg.q, _currents(seg, model, rep, t_start), T,
                                      opts.filter_cutoff_hz, opts.filter_order, trim,
-                                     opts.zoh_shift, opts.filter_currents)
+                                     opts.zoh_shift, opts.filter_currents, seg.stamps_ns, seg.qd)
         stamps = seg.stamps_ns[trim:trim + states[0].shape[0]]
         times["filtering"] = times.get("filtering", 0.0) + time.perf_counter() - t0
         for a in range(0, stamps.shape[0], opts.chunk_samples):
@@ -117,6 +136,11 @@ def _currents(seg: Segment, model: IdentificationModel, rep: SegmentReport,
     ``rep``; identify_records then leaves the lag out). ``t_start``: the record's first stamp."""
     if getattr(model, "lag_column", None) is None:
         return seg.v_tau
+    if rep.steps is not None and rep.steps.uneven:  # a period is a number of ticks: none here
+        log.info("segment at %.1f s of the record: uneven steps, no lag instrument",
+                 (seg.stamps_ns[0] - t_start) * 1e-9)
+        rep.n_not_repeating += 1
+        return without_instrument(seg.v_tau)
     z = lag_instrument(seg.q, seg.v_tau, rep.period_s)
     if z is None:
         log.info("segment at %.1f s of the record does not repeat a trajectory (no lag "
@@ -145,7 +169,7 @@ def _segments_iir(segments: list[Segment], model: IdentificationModel, opts: Ide
         qh, qdh, qddh, v = states_at_half_tick(seg.q, _currents(seg, model, rep, t_start), T,
                                                opts.filter_cutoff_hz,
                                                opts.filter_order, trim, opts.zoh_shift,
-                                               opts.filter_currents)
+                                               opts.filter_currents, seg.stamps_ns, seg.qd)
         ts = (seg.stamps_ns[trim:trim + qh.shape[0]] - t_start) * 1e-9
         if opts.zoh_shift:
             ts = ts + 0.5 * T
@@ -156,6 +180,7 @@ def _segments_iir(segments: list[Segment], model: IdentificationModel, opts: Ide
             zones = find_reversals(qdh, opts.velocity_deadband_mps,
                                    max(1, int(round(opts.reversal_max_bridge_s / T))),
                                    int(round(opts.reversal_margin_s / T)))
+            zones.anchor = anchor_samples(T)
             n_bridged += zones.n_bridged
             n_unbridged += zones.n_dropped
 

@@ -6,6 +6,7 @@ plain mapping or a ROS 2 parameter file (``<node or /**>: ros__parameters: {...}
 from __future__ import annotations
 
 import dataclasses
+import logging
 import math
 from dataclasses import dataclass, fields
 from pathlib import Path
@@ -16,6 +17,15 @@ import numpy as np
 from orthoglide_ident.errors import ConfigError
 from orthoglide_ident.yaml_files import load_yaml
 
+
+log = logging.getLogger("orthoglide_ident.identify")
+
+DEFAULT_FILTER_CUTOFF_HZ = 100.0  # the derivative filter's cut-off from 500 Hz up
+RATE_TO_FILTER = 5.0  # below 500 Hz, f_m / 5 (0.4 of the Nyquist frequency)
+DECIMATION_TO_FILTER = 0.4  # decimation cut-off / derivative filter cut-off (40 / 100 Hz)
+DEFAULT_BRIDGE_S = 0.02  # longest velocity-reversal run bridged (s), from 150 Hz up
+MIN_BRIDGE_SAMPLES = 3  # below: that many samples
+DEPRECATED = {"decimation": "decimation_cutoff_hz (Hz)", "chunk_samples": "chunk_s (s)"}
 
 # keys of config/identification.yaml that are the node's or a request's, not pipeline options
 NODE_KEYS = ("method", "essential", "payload_mass", "gains", "bags", "robot", "joint_states_topic",
@@ -41,9 +51,12 @@ class IdentifyOptions:
     names the Orthoglide's prismatic one: for a revolute joint read rad for m (e.g.
     ``velocity_deadband_mps`` is rad/s there) and N·m/A for N/A."""
 
-    # Butterworth low-pass of q before differentiation, Hz: well above the decimation cut-off
-    # 0.8 f_m / (2 n_d) = 40 Hz so that W keeps the whole band Y keeps
-    filter_cutoff_hz: float = 100.0
+    # Every length is in s and every cut-off in Hz, so that the answer does not change with the
+    # sample rate (at_rate turns them into samples for one record). 0 = from the record's rate.
+    # Butterworth low-pass of q before differentiation, Hz: well above the dynamics (Sect. 3.2)
+    # and above the decimation cut-off so that W keeps the whole band Y keeps; 0: min(100 Hz,
+    # f_m / 5) (100 Hz from 500 Hz up; 18 Hz for a 91 Hz record)
+    filter_cutoff_hz: float = 0.0
     filter_order: int = 4
     zoh_shift: bool = True  # evaluate the model at t_k + T/2 (zero-order hold of v_tau)
     # v_tau low-passed by the same zero-phase Butterworth as q (parallel filtering: W and v_tau see
@@ -51,13 +64,28 @@ class IdentifyOptions:
     # 20-40 Hz content of a closed loop otherwise biases a gain by ~0.05 % (bench/identify_accuracy)
     filter_currents: bool = True
     edge_trim_s: float = 0.25  # dropped at both ends of each segment (filter transients)
-    decimation: int = 10  # n_d of the parallel decimation (eqs. 19-20)
+    # cut-off of the parallel decimation (eqs. 19-20), Hz: n_d = round(0.8 f_m / (2 f_d)), the
+    # paper's ω_fp = 2π 0.8 f_m / (2 n_d) matched to the derivative filter; 0: 0.4 x its cut-off
+    # (40 Hz: n_d = 10 at 1 kHz, 50 at 5 kHz, 5 at 91 Hz)
+    decimation_cutoff_hz: float = 0.0
     decimation_filter: str = "fir"  # zero-phase "fir" (fast, exact in chunks) or "cheby1" (MATLAB)
-    chunk_samples: int = 16384  # W is built and decimated in chunks of this many samples
+    chunk_s: float = 16.384  # s, W is built and decimated in chunks of this length (memory)
+    # Old names, in samples (their answer changed with the rate): obeyed for one release with a
+    # note when non-zero; at_rate sets them from the options above for one record
+    decimation: int = 0  # n_d; use decimation_cutoff_hz
+    chunk_samples: int = 0  # use chunk_s
+    # the joint velocity: "derived" from q (band-pass derivative filter); "recorded": the bag's
+    # JointState.velocity (low-passed like q); "auto": recorded when every sample has a finite
+    # one that agrees with the derivative of q within velocity_agreement (rms, relative, each
+    # joint), else derived. The choice is logged and in the diagnostics.
+    velocity_source: str = "derived"
+    velocity_agreement: float = 0.02
     # Velocity reversals (reversals.py): samples of joint j with |q̂̇_j| below the dead band are
     # bridged by a straight line of the joint-j equation; longer runs are left out. 0: off.
     velocity_deadband_mps: float = 0.02
-    reversal_max_bridge_s: float = 0.02
+    # s; 0: max(20 ms, 3 samples): at a low rate a run left out costs every decimated row whose
+    # (3.2 / f_d s long) window it touches, so a few samples are bridged rather than left out
+    reversal_max_bridge_s: float = 0.0
     reversal_margin_s: float = 0.008  # bridges widened by this on both sides (filter smear)
     nonfinite: str = "error"  # NaN/inf in the data: "error" or "drop" (treated as gaps)
     # The current of a ros2_control robot: the DynamicJointState interface read first when a
@@ -144,6 +172,27 @@ class IdentifyOptions:
         return ExcitationLimits(self.max_condition, self.max_singular_ratio,
                                 self.max_gain_rel_std, band, band_is_error=absolute)
 
+    def at_rate(self, rate_hz: float) -> "IdentifyOptions":
+        """These options for a record of mean sample rate ``rate_hz``: the cut-offs filled in
+        (0 = from the rate), ``decimation`` (n_d) and ``chunk_samples`` set from
+        ``decimation_cutoff_hz`` and ``chunk_s`` unless the old names were given."""
+        f_q = self.filter_cutoff_hz or min(DEFAULT_FILTER_CUTOFF_HZ, rate_hz / RATE_TO_FILTER)
+        n_d = self.decimation
+        if n_d <= 0:
+            f_d = self.decimation_cutoff_hz or DECIMATION_TO_FILTER * f_q
+            n_d = max(1, int(round(0.8 * rate_hz / (2.0 * f_d))))
+        chunk = self.chunk_samples or max(64, int(round(self.chunk_s * rate_hz)))
+        bridge = self.reversal_max_bridge_s or max(DEFAULT_BRIDGE_S, MIN_BRIDGE_SAMPLES / rate_hz)
+        return dataclasses.replace(self, filter_cutoff_hz=f_q, decimation=n_d,
+                                   reversal_max_bridge_s=bridge,
+                                   decimation_cutoff_hz=0.8 * rate_hz / (2.0 * n_d),
+                                   chunk_samples=chunk)
+
+    def describe_rates(self) -> str:
+        """One line of the cut-offs of options resolved by :meth:`at_rate`."""
+        return (f"derivative filter {self.filter_cutoff_hz:.4g} Hz, decimation by "
+                f"{self.decimation} (cut-off {self.decimation_cutoff_hz:.4g} Hz)")
+
     def min_segment_samples(self, period_s: float = 1e-3) -> int:
         """Shortest segment worth keeping: both trims plus a few decimated samples."""
         trim = int(round(self.edge_trim_s / period_s))
@@ -183,6 +232,10 @@ class IdentifyOptions:
                                   f"{type(default).__name__}") from None
         opts = cls(**out)
         opts.validate(source)
+        for old, new in DEPRECATED.items():
+            if old in out and out[old]:
+                log.warning("%s: option %s is in samples (deprecated, its answer changes with the "
+                            "sample rate): use %s; obeyed for this release", source, old, new)
         return opts
 
     def validate(self, source: str = "options") -> None:
@@ -192,8 +245,17 @@ class IdentifyOptions:
             raise ConfigError(f"{source}: tls_noisy_columns must be 'all' or 'currents'")
         if self.decimation_filter not in ("fir", "cheby1"):
             raise ConfigError(f"{source}: decimation_filter must be 'fir' or 'cheby1'")
-        if self.decimation < 1 or self.filter_order < 1 or self.chunk_samples < 64:
-            raise ConfigError(f"{source}: decimation, filter_order >= 1 and chunk_samples >= 64")
+        if self.decimation < 0 or self.filter_order < 1 or not (
+                self.chunk_samples == 0 or self.chunk_samples >= 64):
+            raise ConfigError(f"{source}: decimation >= 0 (0: from decimation_cutoff_hz), "
+                              "filter_order >= 1 and chunk_samples 0 or >= 64")
+        if not (self.chunk_s > 0 and self.decimation_cutoff_hz >= 0):
+            raise ConfigError(f"{source}: chunk_s must be > 0 s and decimation_cutoff_hz >= 0 Hz "
+                              "(0: from the derivative filter's cut-off)")
+        if self.velocity_source not in ("derived", "recorded", "auto"):
+            raise ConfigError(f"{source}: velocity_source must be derived, recorded or auto")
+        if not self.velocity_agreement > 0:
+            raise ConfigError(f"{source}: velocity_agreement must be > 0 (a fraction)")
         if self.r_sigma <= 1:
             raise ConfigError(f"{source}: r_sigma must be > 1 (the paper uses 10)")
         if self.ripple_model not in ("auto", "off"):
@@ -219,8 +281,8 @@ class IdentifyOptions:
         if not (self.consistency_prior_weight > 0 and math.isfinite(self.consistency_prior_weight)):
             raise ConfigError(f"{source}: consistency_prior_weight must be a positive number "
                               "(1e-4: the prior decides only what the data leave free)")
-        if self.filter_cutoff_hz <= 0:
-            raise ConfigError(f"{source}: filter_cutoff_hz must be > 0")
+        if self.filter_cutoff_hz < 0:
+            raise ConfigError(f"{source}: filter_cutoff_hz must be > 0 Hz, or 0: from the rate")
         if not (self.live_block_s > 0 and self.live_pairing_slack_s >= 0
                 and self.live_still_s > 0 and self.current_limit_a >= 0
                 and 0 < self.current_warn_fraction <= 1):

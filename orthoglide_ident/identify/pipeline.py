@@ -161,6 +161,10 @@ def identify_records(
             timings[k] = timings.get(k, 0.0) + v
 
     blocks, reports, warnings, bag_names = _observe_all(records, model, opts, payload_mass, add)
+    # the first record's rate fixes what the solve needs in samples (the σ's decimation gain)
+    opts = dataclasses.replace(opts, filter_cutoff_hz=reports[0]["filter_cutoff_hz"],
+                               decimation=reports[0]["decimation"],
+                               decimation_cutoff_hz=reports[0]["decimation_cutoff_hz"])
     model, blocks = _lag_or_paper(model, blocks, reports, opts)
     t_solve = time.perf_counter()
     factors = [RecordFactors.from_observations(b) for b in blocks]

@@ -40,6 +40,7 @@ class Record:
     warnings: list[str] = field(default_factory=list)
     payload: Payload | None = None
     sources: str = ""  # where q and the current were recorded (bags.BagSources.describe)
+    qd: np.ndarray | None = None  # (N_q, len(names_q)) rad/s or m/s: JointState.velocity, if read
 
     @classmethod
     def from_arrays(cls, source: str, stamps_ns: np.ndarray, q: np.ndarray, v_tau: np.ndarray,
@@ -66,6 +67,7 @@ def read_record(path: str | Path, model: RobotModel,
                          interface=opts.current_interface or None)
     tags, current = data.tags, data.current
     v_tau = current.current
+    qd = data.velocity if opts.velocity_source != "derived" else None
     if opts.effort_unit == "torque":
         v_tau = model.effort_as_current(current.names, v_tau)
     return Record(
@@ -76,7 +78,7 @@ def read_record(path: str | Path, model: RobotModel,
         condition=None if tags is None else tags.condition,
         payload_mass=0.0 if tags is None else float(tags.payload_mass),
         warnings=list(data.warnings), payload=_tagged_payload(tags),
-        sources=data.sources.describe(),
+        sources=data.sources.describe(), qd=qd,
     )
 
 

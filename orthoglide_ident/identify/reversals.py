@@ -34,6 +34,7 @@ class ReversalZones:
     ends: list[np.ndarray]
     drop: np.ndarray
     max_bridge: int
+    anchor: int = 30  # samples averaged on each side of a bridge (anchor_samples)
 
     @property
     def n(self) -> int:
@@ -42,7 +43,7 @@ class ReversalZones:
     @property
     def margin_needed(self) -> int:
         """Samples a chunk needs on each side so that its bridges have both anchors."""
-        return self.max_bridge + ANCHOR + 1
+        return self.max_bridge + self.anchor + 1
 
     @property
     def n_bridged(self) -> int:
@@ -91,11 +92,20 @@ def find_reversals(qd: np.ndarray, deadband: float, max_bridge: int, margin: int
 
 # Samples averaged on each side of a bridge (the per-sample equation is noisy). 30 rather than 10:
 # over 5 seeds x {nominal, realistic} x {30, 60 s} (bench/identify_accuracy.py) the rms gain error
-# fell from 0.20 to 0.17 % and the gains within 2 honest σ rose from 87 to 92 %.
+# fell from 0.20 to 0.17 % and the gains within 2 honest σ rose from 87 to 92 %. Above 1 kHz in
+# time, 30 ms (ANCHOR_S), so that a 5 kHz record and the same at 1 kHz bridge alike (the largest
+# base-parameter difference fell from 4.3 to 2.0 σ); never fewer than 30 samples, for the noise:
+# on the UR5 at 91 Hz, 3 samples (30 ms) put a gain 3.2 σ off, 10 samples 2.2 σ, 30 samples 1.9 σ.
 ANCHOR = 30
+ANCHOR_S = 0.03
 
 
-def bridge(zones: ReversalZones, a: int, arrays: dict[str, np.ndarray], anchor: int = ANCHOR
+def anchor_samples(period_s: float) -> int:
+    """Samples averaged on each side of a bridge: max(ANCHOR, ANCHOR_S / period_s)."""
+    return max(ANCHOR, int(round(ANCHOR_S / period_s)))
+
+
+def bridge(zones: ReversalZones, a: int, arrays: dict[str, np.ndarray], anchor: int | None = None
            ) -> None:
     """Bridge the runs in ``arrays`` (samples a.., time on axis 0, joints on axis 1), in place.
 
@@ -104,6 +114,7 @@ def bridge(zones: ReversalZones, a: int, arrays: dict[str, np.ndarray], anchor: 
     differentiation, which a two-point line would copy along the whole bridge. Only runs whose
     anchors lie inside the arrays are bridged; callers give ``margin_needed`` samples of margin.
     """
+    anchor = zones.anchor if anchor is None else anchor
     m = next(iter(arrays.values())).shape[0]
     for j, (s_all, e_all) in enumerate(zip(zones.starts, zones.ends)):
         lo_a = np.maximum(s_all - anchor, 0)

@@ -21,7 +21,7 @@ from typing import Sequence
 import numpy as np
 
 from orthoglide_ident.errors import DataError
-from orthoglide_ident.ticks import find_breaks
+from orthoglide_ident.ticks import StepStats, find_breaks_local, step_stats
 
 
 @dataclass
@@ -35,6 +35,7 @@ class Segment:
     stamps_ns: np.ndarray
     q: np.ndarray
     v_tau: np.ndarray
+    qd: np.ndarray | None = None  # (n, n_j) rad/s or m/s, a recorded joint velocity if used
 
     def __len__(self) -> int:
         return int(self.stamps_ns.shape[0])
@@ -44,7 +45,12 @@ class Segment:
 class SegmentReport:
     """What pairing and segmenting kept and dropped (counts of samples, i.e. controller ticks)."""
 
-    period_s: float = 0.0
+    period_s: float = 0.0  # mean step of the continuous runs (the median on a steady clock)
+    steps: StepStats | None = None  # the paired stamps' step distribution
+    velocity: str = "derived from q"  # where q̂̇ came from (time_base.choose_velocity)
+    filter_cutoff_hz: float = 0.0  # the cut-offs used at this record's rate (options.at_rate)
+    decimation: int = 0
+    decimation_cutoff_hz: float = 0.0
     n_joint_states: int = 0
     n_current_reference: int = 0
     n_paired: int = 0
@@ -62,6 +68,15 @@ class SegmentReport:
     n_reversal_unbridged: int = 0  # joint samples in runs too long to bridge (rows left out)
     n_not_repeating: int = 0  # segments used without a period: no current-loop lag instrument
     reordered: list[str] = field(default_factory=list)
+
+    def time_base(self) -> str:
+        """One line: the step distribution and what identification does with it."""
+        if self.steps is None:
+            return ""
+        if not self.steps.uneven:
+            return f"{self.steps.describe()}: a steady clock"
+        return (f"{self.steps.describe()}: uneven steps, so derivatives, filters and the "
+                "zero-order hold use each sample's own stamp (time_base.py), none is invented")
 
     def summary(self) -> str:
         """One line for the log."""
@@ -147,7 +162,8 @@ def nearest_pairs(sq: np.ndarray, sv: np.ndarray, tol_ns: int) -> tuple[np.ndarr
 def _pair(stamps_q: np.ndarray, q: np.ndarray, stamps_v: np.ndarray, v_tau: np.ndarray,
           rep: SegmentReport, source: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Samples of both topics paired by stamp (equal, or nearest within half a tick), in stamp
-    order, with the positions' stamps (duplicates keep the first)."""
+    order, with the positions' stamps (duplicates keep the first): the stamps and the indices
+    of the paired samples in q and in v_tau."""
     iq, dq = unique_sorted(stamps_q)
     iv, dv = unique_sorted(stamps_v)
     rep.n_duplicate_stamps = dq + dv
@@ -161,7 +177,7 @@ def _pair(stamps_q: np.ndarray, q: np.ndarray, stamps_v: np.ndarray, v_tau: np.n
         raise DataError(f"{source}: only {rep.n_paired} joint_states/current_reference samples "
                         "pair by header stamp (equal, or within half a tick); both topics must "
                         "carry the controller tick as stamp")
-    return stamps, q[iq[jq]], v_tau[iv[jv]]
+    return stamps, iq[jq], iv[jv]
 
 
 def _breaks(stamps: np.ndarray, finite: np.ndarray, rep: SegmentReport, source: str) -> np.ndarray:
@@ -170,8 +186,11 @@ def _breaks(stamps: np.ndarray, finite: np.ndarray, rep: SegmentReport, source: 
     period_ns = float(np.median(dt))
     if period_ns <= 0:
         raise DataError(f"{source}: cannot infer the sampling period from the stamps")
-    rep.period_s = period_ns * 1e-9
-    brk, rep.n_missing_ticks = find_breaks(dt, period_ns)
+    brk, rep.n_missing_ticks = find_breaks_local(dt, period_ns)
+    rep.steps = step_stats(stamps, mean_over=~brk)
+    # the mean step of the continuous runs: the time base's T̄ (the median on a steady clock,
+    # where it is kept exactly so that uniform records give the same numbers as before)
+    rep.period_s = period_ns * 1e-9 if not rep.steps.uneven else rep.steps.mean_s
     n_bad = int(finite.shape[0] - np.count_nonzero(finite))
     if n_bad:  # non-finite ticks are removed: they split the record where they sit
         brk = brk | ~finite[:-1] | ~finite[1:]
@@ -181,7 +200,7 @@ def _breaks(stamps: np.ndarray, finite: np.ndarray, rep: SegmentReport, source: 
 
 
 def _segments(stamps: np.ndarray, qp: np.ndarray, vp: np.ndarray, finite: np.ndarray, brk: np.ndarray,
-              min_samples: int, rep: SegmentReport) -> list[Segment]:
+              min_samples: int, rep: SegmentReport, qdp: np.ndarray | None = None) -> list[Segment]:
     starts = np.concatenate(([0], np.flatnonzero(brk) + 1))
     ends = np.concatenate((np.flatnonzero(brk) + 1, [stamps.shape[0]]))
     segments: list[Segment] = []
@@ -197,7 +216,8 @@ def _segments(stamps: np.ndarray, qp: np.ndarray, vp: np.ndarray, finite: np.nda
             rep.n_short_segments_dropped += 1
             rep.n_samples_in_short_segments += int(n)
             continue
-        segments.append(Segment(stamps[a:b].copy(), qp[a:b].copy(), vp[a:b].copy()))
+        segments.append(Segment(stamps[a:b].copy(), qp[a:b].copy(), vp[a:b].copy(),
+                                None if qdp is None else qdp[a:b].copy()))
     rep.n_segments = len(segments)
     rep.n_used = int(sum(len(s) for s in segments))
     return segments
@@ -214,6 +234,7 @@ def split_record(
     nonfinite: str = "error",
     source: str = "record",
     joint_names: Sequence[str] = (),
+    qd: np.ndarray | None = None,
 ) -> tuple[list[Segment], SegmentReport]:
     """Pair q and v_tau by exact stamp, find missing ticks and split into continuous segments.
 
@@ -223,7 +244,8 @@ def split_record(
     the median difference of the paired stamps; a stamp difference outside (0.5, 1.5) periods is a
     gap. Segments shorter than ``min_samples`` are dropped (counted in the report).
     Raises :class:`DataError` on mismatched joint names, non-finite data (``nonfinite="error"``),
-    or when fewer than two samples pair up.
+    or when fewer than two samples pair up. ``qd`` (like ``q``): a recorded joint velocity
+    carried into the segments beside q (its non-finite values are the caller's to check).
     """
     if nonfinite not in ("error", "drop"):
         raise DataError(f"nonfinite must be 'error' or 'drop', not {nonfinite!r}")
@@ -237,7 +259,12 @@ def split_record(
                          joint_names, rep)
     v_tau = _checked_columns(np.asarray(v_tau, dtype=float), stamps_v_ns, names_v,
                              f"{source}: current_reference", joint_names, rep)
-    stamps, qp, vp = _pair(stamps_q_ns, q, stamps_v_ns, v_tau, rep, source)
+    iq = None
+    if qd is not None:
+        qd = _checked_columns(np.asarray(qd, dtype=float), stamps_q_ns, names_q,
+                              f"{source}: joint_states velocity", joint_names, SegmentReport())
+    stamps, iq, iv = _pair(stamps_q_ns, q, stamps_v_ns, v_tau, rep, source)
+    qp, vp = q[iq], v_tau[iv]
     finite = np.isfinite(qp).all(axis=1) & np.isfinite(vp).all(axis=1)
     n_bad = int(finite.shape[0] - np.count_nonzero(finite))
     if n_bad and nonfinite == "error":
@@ -245,7 +272,8 @@ def split_record(
         raise DataError(f"{source}: {n_bad} samples hold NaN or inf (first at t = {first:.3f} s into the "
                         "record); fix the recording or set nonfinite: drop to treat them as gaps")
     rep.n_nonfinite_dropped = n_bad
-    segments = _segments(stamps, qp, vp, finite, _breaks(stamps, finite, rep, source), min_samples, rep)
+    segments = _segments(stamps, qp, vp, finite, _breaks(stamps, finite, rep, source), min_samples,
+                         rep, None if qd is None else qd[iq])
     if not segments:
         raise DataError(f"{source}: no continuous run of at least {min_samples} samples "
                         f"({min_samples * rep.period_s:.2f} s) without a gap; {rep.summary()}")

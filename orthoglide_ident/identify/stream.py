@@ -25,9 +25,10 @@ import numpy as np
 
 from orthoglide_ident.errors import DataError
 from orthoglide_ident.identify.decimation import fir_decimate_last, fir_taps
-from orthoglide_ident.identify.filtering import filter_horizon, filtered_states, zero_phase_butterworth
+from orthoglide_ident.identify.filtering import filter_horizon, zero_phase_butterworth
 from orthoglide_ident.identify.options import IdentifyOptions
-from orthoglide_ident.identify.reversals import ANCHOR, ReversalTracker, bridge_weights
+from orthoglide_ident.identify.time_base import states_on_stamps
+from orthoglide_ident.identify.reversals import ReversalTracker, anchor_samples, bridge_weights
 
 
 @dataclass
@@ -104,6 +105,7 @@ class SegmentStream:
         if opts.decimation_filter != "fir":
             raise DataError("block-by-block processing needs decimation_filter: fir (cheby1's "
                             "IIR depends on the whole segment)")
+        opts = opts.at_rate(1.0 / period_s)  # Hz and s to samples (idempotent)
         self.model, self.opts, self.T, self.t0_ns, self.n_b = model, opts, period_s, t0_ns, n_b
         self.n_j = n_j = model.n_joints
         self.zoh = 1 if opts.zoh_shift else 0
@@ -112,6 +114,7 @@ class SegmentStream:
         self.n_d = opts.decimation
         self.L = 1 if self.n_d == 1 else fir_taps(self.n_d).shape[0]
         self.tracker = None
+        self.anchor = anchor_samples(period_s)  # samples averaged each side of a bridge
         if opts.velocity_deadband_mps > 0:
             self.tracker = ReversalTracker(
                 opts.velocity_deadband_mps,
@@ -195,9 +198,10 @@ class SegmentStream:
         t0 = time.perf_counter()
         w0 = max(0, trim + S - self.M)
         w1 = min(self.n_raw, trim + s_new + self.zoh + self.M)
-        qh, qdh, qddh = filtered_states(self._q[w0 - r0:w1 - r0], self.T,
-                                        self.opts.filter_cutoff_hz, self.opts.filter_order,
-                                        self.opts.zoh_shift)
+        # on the window's own stamps: an uneven clock's time base (exactly uniform: unchanged)
+        qh, qdh, qddh = states_on_stamps(self._q[w0 - r0:w1 - r0], self._st[w0 - r0:w1 - r0],
+                                         self.opts.filter_cutoff_hz, self.opts.filter_order,
+                                         self.opts.zoh_shift)
         a, b = trim + S - w0, trim + s_new - w0
         v = self._v[w0 - r0:w1 - r0]
         if self.opts.filter_currents:  # the same window and filter as q: rows as offline's
@@ -248,7 +252,7 @@ class SegmentStream:
         keep = self._S
         if self.tracker is not None:
             for j in range(self.n_j):
-                keep = min(keep, self._final(j) - ANCHOR)
+                keep = min(keep, self._final(j) - self.anchor)
         keep = min(keep, self._i_out * self.n_d)
         k = keep - self._b0
         if k <= 0 or (k < self._X.shape[2] // 2 and self.n_states is None):
@@ -279,12 +283,12 @@ class SegmentStream:
             queue = self.pending[j]
             while queue:
                 d = queue[0]
-                hi = d.e + ANCHOR if n is None else min(d.e + ANCHOR, n)
+                hi = d.e + self.anchor if n is None else min(d.e + self.anchor, n)
                 if d.ok and hi > self._S or not d.ok and d.e > self._S:
                     break
                 queue.pop(0)
                 if d.ok:
-                    self._bridge(j, d.s, d.e, max(d.s - ANCHOR, 0), hi)
+                    self._bridge(j, d.s, d.e, max(d.s - self.anchor, 0), hi)
                 else:  # the part below the buffer was marked while the run was open
                     self._drop[j, max(d.s - self._b0, 0):d.e - self._b0] = True
             span = self.tracker.open_drop(j)

@@ -70,6 +70,7 @@ def test_fir_decimate_last_is_the_direct_convolution_at_the_kept_samples():
                                   IdentifyOptions(filter_currents=False)])
 def test_raw_blocks_give_the_rows_of_the_whole_segment(opts):
     """Ticks pushed in random blocks (live) = the whole segment filtered at once (offline)."""
+    opts = opts.at_rate(1e3)
     rec = synthetic_record(6.0, 0.0, seed=3, amplitude=0.1, f_max=4.0)
     model = SyntheticModel()
     T, n_b = 1e-3, len(model.names)
