@@ -20,6 +20,8 @@ import scipy.linalg
 from orthoglide_ident.errors import ModelError
 from orthoglide_ident.model.base import COEF_TOL, QR_EPS, BaseParameter
 
+ROUNDOFF = 1e-12  # a column this small relative to W_st's largest entry is zero but round-off
+
 
 @dataclass(frozen=True)
 class BaseSet:
@@ -42,6 +44,10 @@ def base_parameters(W_st: np.ndarray, names: Sequence[str], order: Sequence[int]
     ``order`` (every index once)."""
     order = list(order)
     W_r = np.asfortranarray(W_st[:, order])  # LAPACK's layout: no copy inside the QR
+    # A structurally zero column (a planar robot's out-of-plane terms) holds round-off only;
+    # left in, its Householder reflection (a direction of noise) would decide which later
+    # columns look dependent. Exactly zero, it is skipped and dropped.
+    W_r[:, np.abs(W_r).max(axis=0) <= ROUNDOFF * np.abs(W_r).max()] = 0.0
     R = scipy.linalg.qr(W_r, mode="r", check_finite=False)[0]  # eq. (22)
     d = np.abs(np.diag(R))
     keep = d > QR_EPS * d.max()
