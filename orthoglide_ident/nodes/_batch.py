@@ -7,9 +7,11 @@ ticks. ``BatchTaker`` waits on a few subscriptions of its own on one thread and,
 (at most every ``period_s``), takes every pending message of every topic and hands them over in
 one call per topic: the same 3 kHz cost ~4 % of a core instead of ~30 % (bench/ros_intake.py).
 
-The subscriptions live on a small private node (``<node>_rx``) that no executor spins; it
+The subscriptions live on a small private node (``_<node>_rx``) that no executor spins; it
 subscribes to the topic names as the owning node resolves them, so remapping and namespaces of the
-owner apply. Messages are handed over serialized (CDR bytes) with their receive and publish times.
+owner apply. Its name starts with an underscore, ROS 2's mark of a hidden node: ``ros2 node list``
+shows the four nodes a user started, ``ros2 node list -a`` the helpers too (and ``ros2 topic info
+-v`` names them as the subscribers of the 1 kHz topics). Messages are handed over serialized (CDR bytes) with their receive and publish times.
 
 ``drain()`` hands over, before it returns, every message the subscriptions held when it was
 called (the recorder's stop writes what had arrived). A callback that raises loses its batch, is
@@ -49,7 +51,7 @@ class BatchTaker:
     def __init__(self, owner: Node, topics: list[BatchTopic], period_s: float = 0.005):
         self.owner = owner
         self.period_s = period_s
-        self.node = rclpy.create_node(f"{owner.get_name()}_rx", namespace=owner.get_namespace(),
+        self.node = rclpy.create_node(f"_{owner.get_name()}_rx", namespace=owner.get_namespace(),
                                       context=owner.context, use_global_arguments=False,
                                       start_parameter_services=False)
         self.subs: list[tuple[Any, Callable[[Batch], None]]] = []

@@ -41,3 +41,32 @@ def test_a_failing_callback_is_logged_and_later_batches_still_arrive():
         pub_node.destroy_node()
         node.destroy_node()
         rclpy.shutdown()
+
+
+def test_the_intake_node_is_hidden_beside_its_owner():
+    """`ros2 node list` leaves out nodes whose name starts with "_" (ros2node's hidden nodes):
+    a user sees the node started, not its intake helper; `-a` shows both."""
+    from rclpy.qos import QoSProfile
+    from std_msgs.msg import String
+
+    from orthoglide_ident.nodes._batch import BatchTaker, BatchTopic
+
+    rclpy.init()
+    node = rclpy.create_node("test_hidden_owner", namespace="/robot2")
+    taker = BatchTaker(node, [BatchTopic(String, "hidden_test", QoSProfile(depth=10),
+                                         lambda batch: None)])
+    try:
+        deadline = time.monotonic() + 20.0
+        names: list[tuple[str, str]] = []
+        while time.monotonic() < deadline:
+            names = node.get_node_names_and_namespaces()
+            if ("_test_hidden_owner_rx", "/robot2") in names:
+                break
+            time.sleep(0.05)
+        assert ("_test_hidden_owner_rx", "/robot2") in names  # in the owner's namespace
+        visible = [n for n, ns in names if ns == "/robot2" and not n.startswith("_")]
+        assert visible == ["test_hidden_owner"]
+    finally:
+        taker.close()
+        node.destroy_node()
+        rclpy.shutdown()
