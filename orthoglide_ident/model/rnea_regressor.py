@@ -9,9 +9,10 @@ paper's eqs. 15 and 18 at every sample; the recursive regressor of Khalil & Domb
   velocity v_i = liMiᵀ v_λ(i) + S_i q̇_i and acceleration a_i = liMiᵀ a_λ(i) + S_i q̈_i +
   v_i × S_i q̇_i, with a_0 = -g (gravity as an acceleration of the base, as Pinocchio), and the
   body's LOCAL Jacobian J_i = liMiᵀ J_λ(i) + S_i (a column per joint on its path to the base);
-- per body, the 6 × 10 regressor Φ_i(v_i, a_i) with I a + v ×* I v = Φ_i π_i;
-- body i's columns of joint j's row: J_i[:, j]ᵀ Φ_i (the force Φ_i π_i carried back to joint
-  j and projected on its axis, i.e. S_jᵀ (jXi)* Φ_i, in one product).
+- per body, the 6 × 10 regressor Φ_i(v_i, a_i) with I a + v ×* I v = Φ_i π_i, and body i's
+  columns of joint j's row: J_i[:, j]ᵀ Φ_i (the force Φ_i π_i carried back to joint j and
+  projected on its axis, i.e. S_jᵀ (jXi)* Φ_i, in one product), computed from v_i, a_i and J_i
+  without forming Φ_i (:meth:`RneaRegressor._efforts`).
 
 Layout: samples last — a motion or force is (6, m) as [linear; angular] in the body frame, a
 rotation (3, 3, m) — so that every operation is elementwise over long contiguous rows. A body's
@@ -69,11 +70,6 @@ class Placement:
         lin = _rotate(self.R, v[:3] - _cross(p, v[3:]), transpose=True)
         return np.concatenate([lin, w])
 
-    def then(self, other: "Placement") -> "Placement":
-        """self · other (parent ← child ← grandchild)."""
-        R = np.stack([sum(self.R[i, k] * other.R[k] for k in range(3)) for i in range(3)])
-        return Placement(R, self.p + _rotate(self.R, other.p))
-
 
 def motion_cross(v: np.ndarray, u: np.ndarray) -> np.ndarray:
     """Spatial motion cross product v × u of (6, m) motions."""
@@ -123,11 +119,10 @@ class _Joint:
 
 @dataclass
 class Kinematics:
-    """Per Pinocchio joint j (list index j): liMi, body velocity and acceleration with gravity
+    """Per Pinocchio joint j (list index j): the body velocity and acceleration with gravity
     (6, m), the body's LOCAL Jacobian over its path's joints (6, len(path), m). Index 0 is the
     base (velocity 0, acceleration -g, no Jacobian)."""
 
-    liMi: list
     v: list
     a: list
     J: list
@@ -182,8 +177,7 @@ class RneaRegressor:
         """The forward pass for samples Q (m, nq), V, A (m, nv)."""
         Q, V, A = Q.T, V.T, A.T
         m = Q.shape[1]
-        kin = Kinematics([None], [np.zeros((6, m))], [np.repeat(-self.gravity[:, None], m, 1)],
-                         [None])
+        kin = Kinematics([np.zeros((6, m))], [np.repeat(-self.gravity[:, None], m, 1)], [None])
         for jt in self.joints[1:]:
             X = self._placement(jt, Q)
             S = jt.S[:, None]
@@ -198,7 +192,6 @@ class RneaRegressor:
             J = np.empty((6, len(jt.path), m))
             J[:, :-1] = moved[:, 2:]
             J[:, -1] = S
-            kin.liMi.append(X)
             kin.v.append(v)
             kin.a.append(a)
             kin.J.append(J)
