@@ -14,7 +14,9 @@ previous one). :class:`FeedforwardSchedule` decides which ticks are computed tog
 - every tick sent is accounted for: its lead (stamp − now at sending) and, for the first tick
   sent less than ``margin_ns`` ahead, one message with the cause — the setpoint itself arrived
   late (the controller's lead or the transport), or it waited in the ctc (its thread not
-  scheduled, or the model call slow) — said once, until the ctc is ahead again.
+  scheduled, or the model call slow) — said once; a later fall, after the ctc was ahead again,
+  at most every 10 s (on a busy machine it comes and goes; the node's periodic log counts every
+  tick sent late).
 
 Stamps are the controller's tick times on the system clock (the driver in real time, a
 ros2_control controller manager); ``now_ns`` is the same clock (time.time_ns()). Stamps far
@@ -30,6 +32,7 @@ import numpy as np
 from orthoglide_ident.ticks import TICK_NS
 
 WALL_CLOCK_NS = 3_600_000_000_000  # stamps further than 1 h from now are not the system clock
+REPEAT_NS = 10_000_000_000  # a new fall is said at most this often (the periodic log counts all)
 
 
 @dataclass
@@ -74,6 +77,7 @@ class FeedforwardSchedule:
         self.stats = LeadStats()
         self.total = LeadStats()  # since start
         self._behind = False  # a "falling behind" message was given and not yet cleared
+        self._said_ns: int | None = None  # when the last one was given
 
     def add(self, stamp_ns: int, ref: np.ndarray, received_ns: int) -> None:
         """The setpoint (3, n_j) of tick ``stamp_ns``, received at ``received_ns``."""
@@ -130,9 +134,9 @@ class FeedforwardSchedule:
         if not short.any():
             self._behind = False  # ahead again: a next fall is reported again
             return None
-        if self._behind:
+        if self._behind or (self._said_ns is not None and now_ns - self._said_ns < REPEAT_NS):
             return None
-        self._behind = True
+        self._behind, self._said_ns = True, now_ns
         k = int(np.argmax(short))
         return self._cause(int(stamps[k]), int(arrived[k]), now_ns)
 
