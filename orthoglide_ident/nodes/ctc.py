@@ -38,8 +38,12 @@ its tick by the controller) it publishes on orthoglide/feedforward the current
 drive gains g_tau of orthoglide/identified_parameters (transient local, the identification node's
 result). The controller (the driver with controller:=ctc) adds v_ff[k] to its PID with velocity
 feed-forward at tick k, so transport delay does not enter the loop: the feed-forward is computed
-setpoint_lead ticks before it is needed. Until parameters arrive nothing is published, and the log
-says so; new parameters replace the old ones at once. Feed-forward currents are clipped to
+as soon as batch ticks are ready, or at once when a tick is due within 2 x margin_ms
+(feedforward_schedule.py), tens of ms before it is needed. A tick sent less than margin_ms ahead
+makes the node say that it is falling behind and why (its setpoint came late, or it waited in
+this node: a busy machine), once, then at most every 10 s. Every 10 s the log states the ticks
+sent, their lead and the node's own CPU. Until parameters arrive nothing is published, and the
+log says so; new parameters replace the old ones at once. Feed-forward currents are clipped to
 current_limit; a non-finite one stops the output with an error until new parameters arrive.
 With monitor true it also pairs orthoglide/joint_states with the setpoints and logs the tracking
 error every 5 s. Names are relative: -r __ns:=/robot2 moves the whole interface.
