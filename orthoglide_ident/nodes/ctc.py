@@ -62,6 +62,9 @@ PARAMETERS = (
           "fewer when a tick is due within margin_ms"),
     Param("margin_ms", 10.0, "ms: ready ticks are computed at once when one is due within this; a "
           "feed-forward sent later than this before its tick is reported (falling behind)"),
+    Param("rt_priority", 30, "SCHED_FIFO priority (1-99) of the thread that takes the setpoints and "
+          "sends the feed-forward, below the controller's (the simulated driver's 40), so that a "
+          "busy machine does not make it late; 0: ordinary scheduling"),
     Param("current_limit", [1.0], "A per joint (one number: every joint): feed-forward currents "
           "are clipped to it"),
     Param("monitor", False, "log the tracking error (joint states vs setpoints) every 5 s (one more 1 kHz "
@@ -107,6 +110,8 @@ class CTCNode(Node):
             raise OrthoglideError(f"parameter batch: must be >= 1, got {v['batch']}")
         if not v["margin_ms"] >= 0:
             raise OrthoglideError(f"parameter margin_ms: must be >= 0, got {v['margin_ms']}")
+        if not 0 <= v["rt_priority"] <= 99:
+            raise OrthoglideError(f"parameter rt_priority: 0 (off) or 1-99, got {v['rt_priority']}")
         self.payload_mass = v["payload_mass"]
         self.schedule = FeedforwardSchedule(v["batch"], int(v["margin_ms"] * 1e6))
         self._report_at = (time.monotonic(), time.process_time())  # wall, this process's CPU
@@ -130,7 +135,8 @@ class CTCNode(Node):
                                            v["trajectory_overlap"])
             self.pub_traj = self.create_publisher(JointTrajectory, v["trajectory_topic"], 10)
         # last: the taker's thread calls on_setpoints at once, which needs everything above
-        self.taker = BatchTaker(self, [BatchTopic(JointSetpoint, "orthoglide/setpoints", stream, self.on_setpoints)])
+        self.taker = BatchTaker(self, [BatchTopic(JointSetpoint, "orthoglide/setpoints", stream, self.on_setpoints)],
+                                rt_priority=v["rt_priority"])
         self.get_logger().info(f"waiting for {self.resolve_topic_name(self.params_topic)} "
                                "(no feed-forward until they arrive)")
 
