@@ -74,14 +74,17 @@ def _bags(keep: Path) -> dict[str, list[Path]]:
     from identify_data import record
 
     from orthoglide_ident import bags
+    from orthoglide_ident.model.robots import load_robot
 
+    joints = load_robot("orthoglide").joint_names  # the robot these records are of
     out = {"ur5": arm_bags(keep / "ur5", "ur5", 60.0)[0]}
     og = keep / "orthoglide"
     paths = []
     for name, m, seed in (("unloaded", 0.0, 1), ("loaded", 1.983, 2)):
         if not (og / name).exists():
             rec, _ = record(60.0, m, seed)
-            bags.write_bag(og / name, rec.stamps_q_ns, rec.q, rec.v_tau, rec.condition, m)
+            bags.write_bag(og / name, rec.stamps_q_ns, rec.q, rec.v_tau, rec.condition, m,
+                           joint_names=joints)
         paths.append(og / name)
     out["orthoglide"] = paths
     return out

@@ -11,11 +11,12 @@ The subscriptions live on a small private node (``_<node>_rx``) that no executor
 subscribes to the topic names as the owning node resolves them, so remapping and namespaces of the
 owner apply. Its name starts with an underscore, ROS 2's mark of a hidden node: ``ros2 node list``
 shows the four nodes a user started, ``ros2 node list -a`` the helpers too (and ``ros2 topic info
--v`` names them as the subscribers of the 1 kHz topics). Messages are handed over serialized (CDR bytes) with their receive and publish times.
+-v`` names them as the subscribers of the 1 kHz topics). Messages are handed over serialized
+(CDR bytes) with their receive and publish times.
 
 ``drain()`` hands over, before it returns, every message the subscriptions held when it was
 called (the recorder's stop writes what had arrived). A callback that raises loses its batch, is
-logged (nodes._guard) and the thread goes on; if the thread itself cannot go on, the owner is
+logged (ros.guard) and the thread goes on; if the thread itself cannot go on, the owner is
 marked so (``cannot_go_on``) and the spin helper ends the node with exit code 1 rather than leave
 it up and deaf to its topics.
 """
@@ -33,7 +34,7 @@ from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
 from rclpy.node import Node
 from rclpy.qos import QoSProfile
 
-from orthoglide_ident.nodes._guard import FailureLog, cannot_go_on
+from orthoglide_ident.ros.guard import FailureLog, cannot_go_on
 
 Batch = list[tuple[bytes, int, int]]  # (serialized message, receive time ns, publish time ns)
 

@@ -1,4 +1,4 @@
-"""Batch intake (nodes/_batch.py): a callback that raises loses its batch, says why, and the
+"""Batch intake (ros/batch.py): a callback that raises loses its batch, says why, and the
 thread goes on taking the topic (it used to die silently: a node up but deaf)."""
 from __future__ import annotations
 
@@ -13,7 +13,7 @@ def test_a_failing_callback_is_logged_and_later_batches_still_arrive():
     from rclpy.qos import QoSProfile
     from std_msgs.msg import String
 
-    from orthoglide_ident.nodes._batch import BatchTaker, BatchTopic
+    from orthoglide_ident.ros.batch import BatchTaker, BatchTopic
 
     rclpy.init()
     node = rclpy.create_node("test_batch_owner")
@@ -49,7 +49,7 @@ def test_the_intake_node_is_hidden_beside_its_owner():
     from rclpy.qos import QoSProfile
     from std_msgs.msg import String
 
-    from orthoglide_ident.nodes._batch import BatchTaker, BatchTopic
+    from orthoglide_ident.ros.batch import BatchTaker, BatchTopic
 
     rclpy.init()
     node = rclpy.create_node("test_hidden_owner", namespace="/robot2")
@@ -99,7 +99,7 @@ def test_a_real_time_intake_thread_runs_sched_fifo_or_says_why_not():
     from rclpy.qos import QoSProfile
     from std_msgs.msg import String
 
-    from orthoglide_ident.nodes._batch import BatchTaker, BatchTopic
+    from orthoglide_ident.ros.batch import BatchTaker, BatchTopic
 
     rclpy.init()
     node = rclpy.create_node("test_rt_owner")
