@@ -302,16 +302,6 @@ def _main(args: argparse.Namespace) -> int:
     raise ConfigError(f"unknown command {args.command}")
 
 
-def _single_threaded_blas() -> None:
-    """One BLAS thread unless the user says otherwise (before numpy is imported).
-
-    The identification's matrices are narrow (≈ 65 columns): threads gain nothing, and on a
-    shared machine OpenBLAS's spinning threads made the TLS step 5-40x slower (measured).
-    """
-    for var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
-        os.environ.setdefault(var, "1")
-
-
 def _silence_stdout() -> None:
     """Point stdout at /dev/null so that the interpreter's last flush does not fail again."""
     try:
@@ -324,7 +314,6 @@ def _silence_stdout() -> None:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``orthoglide-ident`` console script; returns the exit code."""
-    _single_threaded_blas()
     parser = build_parser()
     args = parser.parse_args(argv)
     try:

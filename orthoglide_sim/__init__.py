@@ -10,3 +10,5 @@
 - ``record``: ``simulate(...) -> SimRecord`` for bags and benchmarks; ``session`` + ``driver_node``:
   the ROS 2 driver.
 """
+
+import orthoglide_ident  # noqa: E402,F401  one BLAS thread before numpy (orthoglide_ident/__init__.py)

@@ -205,11 +205,11 @@ class Graph:
 
     def wait_for_subscriber(self, topic: str, node_prefix: str, timeout: float = 30.0) -> float:
         """Seconds until a node whose name starts with ``node_prefix`` subscribes to ``topic`` (its
-        batch intake is the ``<node>_rx`` node), plus 0.5 s for DDS to match it with the
+        batch intake is the hidden ``_<node>_rx`` node), plus 0.5 s for DDS to match it with the
         publishers: a subscriber gets nothing published before that."""
         name = self.node.resolve_topic_name(topic)
         t0 = time.monotonic()
-        while not any(i.node_name.startswith(node_prefix)
+        while not any(i.node_name.lstrip("_").startswith(node_prefix)
                       for i in self.node.get_subscriptions_info_by_topic(name)):
             if time.monotonic() - t0 > timeout:
                 self.check_alive()

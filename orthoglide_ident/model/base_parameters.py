@@ -22,6 +22,7 @@ from orthoglide_ident.errors import ModelError
 
 QR_EPS = 1e-8  # exact model data: dependent columns sit at ~1e-13 relative
 COEF_TOL = 1e-7  # coefficients below this (relative to 1) are numerical noise
+ROUNDOFF = 1e-12  # a column this small relative to W_st's largest entry is zero but round-off
 
 
 def _fmt_coef(c: float) -> str:
@@ -68,6 +69,10 @@ def base_parameters(W_st: np.ndarray, names: Sequence[str], order: Sequence[int]
     ``order`` (every index once)."""
     order = list(order)
     W_r = np.asfortranarray(W_st[:, order])  # LAPACK's layout: no copy inside the QR
+    # A structurally zero column (a planar robot's out-of-plane terms) holds round-off only;
+    # left in, its Householder reflection (a direction of noise) would decide which later
+    # columns look dependent. Exactly zero, it is skipped and dropped.
+    W_r[:, np.abs(W_r).max(axis=0) <= ROUNDOFF * np.abs(W_r).max()] = 0.0
     R = scipy.linalg.qr(W_r, mode="r", check_finite=False)[0]  # eq. (22)
     d = np.abs(np.diag(R))
     keep = d > QR_EPS * d.max()

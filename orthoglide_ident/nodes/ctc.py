@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import sys
 import threading
+import time
 
 import numpy as np
 from rclpy.node import Node
@@ -16,13 +17,13 @@ from trajectory_msgs.msg import JointTrajectory
 
 from orthoglide_ident.control import CTCParameters, feedforward_currents
 from orthoglide_ident.errors import OrthoglideError
+from orthoglide_ident.feedforward_schedule import FeedforwardSchedule
 from orthoglide_ident.model.robot import RobotModel
 from orthoglide_ident.model.robots import load_robot
 from orthoglide_ident.nodes._jtc import TrajectoryOutlet
 from orthoglide_ident.ros.batch import BatchTaker, BatchTopic
 from orthoglide_ident.ros.params import Param, declare, usage
 from orthoglide_ident.ros.spin import spin
-from orthoglide_ident.ticks import TICK_NS
 from orthoglide_msgs.msg import CurrentReference, IdentifiedParameters, JointSetpoint
 
 DOC = """\
@@ -37,8 +38,12 @@ its tick by the controller) it publishes on orthoglide/feedforward the current
 drive gains g_tau of orthoglide/identified_parameters (transient local, the identification node's
 result). The controller (the driver with controller:=ctc) adds v_ff[k] to its PID with velocity
 feed-forward at tick k, so transport delay does not enter the loop: the feed-forward is computed
-setpoint_lead ticks before it is needed. Until parameters arrive nothing is published, and the log
-says so; new parameters replace the old ones at once. Feed-forward currents are clipped to
+as soon as batch ticks are ready, or at once when a tick is due within 2 x margin_ms
+(feedforward_schedule.py), tens of ms before it is needed. A tick sent less than margin_ms ahead
+makes the node say that it is falling behind and why (its setpoint came late, or it waited in
+this node: a busy machine), once, then at most every 10 s. Every 10 s the log states the ticks
+sent, their lead and the node's own CPU. Until parameters arrive nothing is published, and the
+log says so; new parameters replace the old ones at once. Feed-forward currents are clipped to
 current_limit; a non-finite one stops the output with an error until new parameters arrive.
 With monitor true it also pairs orthoglide/joint_states with the setpoints and logs the tracking
 error every 5 s. Names are relative: -r __ns:=/robot2 moves the whole interface.
@@ -53,7 +58,13 @@ PARAMETERS = (
           "identification node's; empty: the Orthoglide"),
     Param("payload_mass", -1.0, "kg put in the model (the paper: the nominal weighed mass); < 0: the "
           "identified parameters' payload_mass"),
-    Param("batch", 10, "setpoint ticks per feed-forward computation (one vectorised model call)"),
+    Param("batch", 10, "setpoint ticks per feed-forward computation (one vectorised model call); "
+          "fewer when a tick is due within margin_ms"),
+    Param("margin_ms", 10.0, "ms: ready ticks are computed at once when one is due within this; a "
+          "feed-forward sent later than this before its tick is reported (falling behind)"),
+    Param("rt_priority", 30, "SCHED_FIFO priority (1-99) of the thread that takes the setpoints and "
+          "sends the feed-forward, below the controller's (the simulated driver's 40), so that a "
+          "busy machine does not make it late; 0: ordinary scheduling"),
     Param("current_limit", [1.0], "A per joint (one number: every joint): feed-forward currents "
           "are clipped to it"),
     Param("monitor", False, "log the tracking error (joint states vs setpoints) every 5 s (one more 1 kHz "
@@ -71,6 +82,7 @@ PARAMETERS = (
           "so that it starts before the controller's now (more than setpoint_lead)"),
 )
 MONITOR_PERIOD_NS = 5_000_000_000
+REPORT_PERIOD_S = 10.0  # the feed-forward lead and the node's CPU are logged this often
 
 
 def _stamp_ns(msg) -> int:
@@ -96,13 +108,18 @@ class CTCNode(Node):
         v = declare(self, PARAMETERS)
         if v["batch"] < 1:
             raise OrthoglideError(f"parameter batch: must be >= 1, got {v['batch']}")
-        self.payload_mass, self.batch = v["payload_mass"], v["batch"]
+        if not v["margin_ms"] >= 0:
+            raise OrthoglideError(f"parameter margin_ms: must be >= 0, got {v['margin_ms']}")
+        if not 0 <= v["rt_priority"] <= 99:
+            raise OrthoglideError(f"parameter rt_priority: 0 (off) or 1-99, got {v['rt_priority']}")
+        self.payload_mass = v["payload_mass"]
+        self.schedule = FeedforwardSchedule(v["batch"], int(v["margin_ms"] * 1e6))
+        self._report_at = (time.monotonic(), time.process_time())  # wall, this process's CPU
         self.robot = load_robot(v["robot"])
         self.joints = list(self.robot.joint_names)
         self.current_limit = check_current_limit(v["current_limit"], self.robot)
         self.model: CTCParameters | None = None
         self.stopped: str | None = None
-        self.pending: dict[int, np.ndarray] = {}  # stamp -> (3, n_j): q_d, qd_d, qdd_d
         self.published = self.clipped = 0
         latched = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL,
                              reliability=ReliabilityPolicy.RELIABLE)
@@ -118,7 +135,8 @@ class CTCNode(Node):
                                            v["trajectory_overlap"])
             self.pub_traj = self.create_publisher(JointTrajectory, v["trajectory_topic"], 10)
         # last: the taker's thread calls on_setpoints at once, which needs everything above
-        self.taker = BatchTaker(self, [BatchTopic(JointSetpoint, "orthoglide/setpoints", stream, self.on_setpoints)])
+        self.taker = BatchTaker(self, [BatchTopic(JointSetpoint, "orthoglide/setpoints", stream, self.on_setpoints)],
+                                rt_priority=v["rt_priority"])
         self.get_logger().info(f"waiting for {self.resolve_topic_name(self.params_topic)} "
                                "(no feed-forward until they arrive)")
 
@@ -141,7 +159,7 @@ class CTCNode(Node):
 
     def on_setpoints(self, batch: list) -> None:
         """A batch of serialized setpoints (taken together, see ros.batch)."""
-        for raw, _, _ in batch:
+        for raw, received_ns, _ in batch:
             msg = deserialize_message(raw, JointSetpoint)
             try:
                 idx = [list(msg.name).index(j) for j in self.joints]
@@ -152,34 +170,50 @@ class CTCNode(Node):
             stamp = _stamp_ns(msg)
             sp = np.array([[msg.position[i] for i in idx], [msg.velocity[i] for i in idx],
                            [msg.acceleration[i] for i in idx]])
-            self.pending[stamp] = sp
+            self.schedule.add(stamp, sp, received_ns)
             if self.monitor is not None:
                 self.monitor.setpoint(stamp, sp[0])
-        if len(self.pending) > self.batch:
-            self.flush()
+        self.flush()
+        self._report()
 
     def close(self) -> None:
         self.taker.close()
 
     def flush(self) -> None:
-        """Feed-forward of every pending tick whose successor is in (runs of consecutive stamps);
-        the newest tick waits for its successor, a tick before a gap in the setpoints is dropped."""
-        stamps = np.array(sorted(self.pending), dtype=np.int64)
-        if self.model is None or self.stopped:
-            if self.model is None:
+        """Feed-forward of the runs of ticks the schedule says are due (feedforward_schedule.py),
+        each one vectorised model call; nothing while there are no (valid) parameters."""
+        runs = self.schedule.take(time.time_ns())
+        if self.model is None:
+            if runs:
                 self.get_logger().warning("no identified parameters yet: no feed-forward published",
                                           throttle_duration_sec=10.0)
-        else:
-            runs = np.split(stamps, np.flatnonzero(np.diff(stamps) != TICK_NS) + 1)
-            for run in (r for r in runs if len(r) > 1):
-                ref = np.stack([self.pending[int(t)] for t in run])  # (n, 3, n_j): q_d, qd_d, qdd_d
-                if not np.all(np.isfinite(ref)):  # the model refuses it; stop rather than guess
-                    bad = int(run[np.flatnonzero(~np.isfinite(ref).all(axis=(1, 2)))[0]])
-                    self._stop(f"non-finite feed-forward: setpoint at stamp {bad} is not finite")
-                    break
-                self._publish(run[:-1], feedforward_currents(ref[:, 0], ref[:, 1], ref[:, 2], self.model),
-                              ref[:-1])
-        self.pending = {int(stamps[-1]): self.pending[int(stamps[-1])]}
+            return
+        for run in runs:
+            if self.stopped:
+                return
+            ref = run.ref  # (n + 1, 3, n_j): q_d, qd_d, qdd_d
+            if not np.all(np.isfinite(ref)):  # the model refuses it; stop rather than guess
+                bad = np.flatnonzero(~np.isfinite(ref).all(axis=(1, 2)))[0]
+                self._stop(f"non-finite feed-forward: setpoint at stamp "
+                           f"{int(run.stamps[min(bad, len(run.stamps) - 1)])} is not finite")
+                return
+            self._publish(run.stamps, feedforward_currents(ref[:, 0], ref[:, 1], ref[:, 2], self.model),
+                          ref[:-1])
+            behind = self.schedule.sent(run.stamps, time.time_ns())
+            if behind:
+                self.get_logger().warning(behind)
+
+    def _report(self) -> None:
+        """Every REPORT_PERIOD_S: the feed-forward sent, its lead, and this process's CPU."""
+        wall, cpu = time.monotonic(), time.process_time()
+        if wall - self._report_at[0] < REPORT_PERIOD_S:
+            return
+        share = (cpu - self._report_at[1]) / (wall - self._report_at[0])
+        self._report_at = (wall, cpu)
+        stats = self.schedule.reset_stats()
+        if stats.sent or stats.dropped:
+            self.get_logger().info(f"feed-forward over {REPORT_PERIOD_S:.0f} s: {stats.summary()}; "
+                                   f"ctc CPU {100 * share:.0f} % of a core")
 
     def _stop(self, reason: str) -> None:
         self.stopped = reason

@@ -4,12 +4,8 @@
 """
 from __future__ import annotations
 
-import os
-
-os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # before numpy: small solves, threads only contend
-
-import sys  # noqa: E402
-import threading  # noqa: E402
+import sys
+import threading
 from dataclasses import fields
 from pathlib import Path
 from typing import Any

@@ -7,9 +7,12 @@ ticks. ``BatchTaker`` waits on a few subscriptions of its own on one thread and,
 (at most every ``period_s``), takes every pending message of every topic and hands them over in
 one call per topic: the same 3 kHz cost ~4 % of a core instead of ~30 % (bench/ros_intake.py).
 
-The subscriptions live on a small private node (``<node>_rx``) that no executor spins; it
+The subscriptions live on a small private node (``_<node>_rx``) that no executor spins; it
 subscribes to the topic names as the owning node resolves them, so remapping and namespaces of the
-owner apply. Messages are handed over serialized (CDR bytes) with their receive and publish times.
+owner apply. Its name starts with an underscore, ROS 2's mark of a hidden node: ``ros2 node list``
+shows the four nodes a user started, ``ros2 node list -a`` the helpers too (and ``ros2 topic info
+-v`` names them as the subscribers of the 1 kHz topics). Messages are handed over serialized
+(CDR bytes) with their receive and publish times.
 
 ``drain()`` hands over, before it returns, every message the subscriptions held when it was
 called (the recorder's stop writes what had arrived). A callback that raises loses its batch, is
@@ -19,6 +22,7 @@ it up and deaf to its topics.
 """
 from __future__ import annotations
 
+import os
 import threading
 import time
 from dataclasses import dataclass
@@ -46,10 +50,12 @@ class BatchTopic:
 class BatchTaker:
     """Take the messages of ``topics`` in batches on a thread of its own; ``close()`` to stop."""
 
-    def __init__(self, owner: Node, topics: list[BatchTopic], period_s: float = 0.005):
+    def __init__(self, owner: Node, topics: list[BatchTopic], period_s: float = 0.005,
+                 rt_priority: int = 0):
         self.owner = owner
         self.period_s = period_s
-        self.node = rclpy.create_node(f"{owner.get_name()}_rx", namespace=owner.get_namespace(),
+        self.rt_priority = rt_priority  # > 0: the thread runs SCHED_FIFO at this priority
+        self.node = rclpy.create_node(f"_{owner.get_name()}_rx", namespace=owner.get_namespace(),
                                       context=owner.context, use_global_arguments=False,
                                       start_parameter_services=False)
         self.subs: list[tuple[Any, Callable[[Batch], None]]] = []
@@ -90,8 +96,24 @@ class BatchTaker:
             self._drains.append(done)
         return self._thread.is_alive() and done.wait(timeout_s)
 
+    def _real_time(self) -> None:
+        """SCHED_FIFO for this thread (Linux: the calling thread), so that a busy machine does
+        not starve a deadline-bound intake (the ctc's); without the privilege, a warning."""
+        what = f"the intake of {', '.join(t.topic for t in self._new)}"
+        try:
+            os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(min(self.rt_priority, 99)))
+        except (OSError, AttributeError) as e:
+            self.owner.get_logger().warning(
+                f"no real-time priority for {what} ({e}): it may fall behind when the machine "
+                "is busy (rt_priority:=0 silences this)")
+            return
+        self.owner.get_logger().info(f"{what} at real-time priority {self.rt_priority} "
+                                     "(SCHED_FIFO)")
+
     def _run(self) -> None:
         ctx = self.node.context
+        if self.rt_priority > 0:
+            self._real_time()
         try:
             while not self._stop.is_set() and ctx.ok():
                 with self._lock:  # these calls are served by the take below, which starts after them
