@@ -258,6 +258,9 @@ def _resolve(cmap: ColumnMap, header: list[str], where: str) -> tuple[tuple[str,
     out = {"time": [find(cmap.time, "the time")]}
     for role in _ROLES:
         spec = _columns(getattr(cmap, role))
+        if not spec and role != "velocity":
+            raise ConfigError(f"{cmap.source}: give the {role} columns (a template with "
+                              f"{JOINT} or one column per joint)")
         if not spec:
             continue
         cols = ([spec.replace(JOINT, j) for j in joints] if isinstance(spec, str) else list(spec))
@@ -300,9 +303,11 @@ def read_csv(path: str | Path, cmap: ColumnMap) -> CsvRecord:
                 f.readline()
             data = np.loadtxt(f, delimiter=delim, usecols=usecols, dtype=dtype, comments="#",
                               quotechar='"', ndmin=1)
+        # every row as wide as the header (loadtxt reads only usecols); with spaces as the
+        # delimiter a row wider than the header goes unnoticed
         width_ok = delim is None or _count(path, header_line, delim) == len(data) * (
             len(header) - 1)
-    except ValueError:
+    except (ValueError, OverflowError):
         data, width_ok = None, False
     if not width_ok:  # a refused cell, or rows wider or narrower than the header somewhere
         _diagnose(path, header, header_line, delim, usecols, cmap.time_unit == "ns")

@@ -255,3 +255,10 @@ def test_column_map_errors_are_config_errors(tmp_path):
     with pytest.raises(ConfigError, match="have no effort column"):
         ColumnMap.from_mapping({"joints": {"a": {"position": "x", "effort": "y"},
                                            "b": {"position": "z"}}}, "m.yaml")
+
+
+def test_a_role_without_columns_is_refused(tmp_path):
+    good = tmp_path / "good.csv"
+    good.write_text(GOOD)
+    with pytest.raises(ConfigError, match="give the effort columns"):
+        read_csv(good, ColumnMap(effort="", effort_unit="A"))
