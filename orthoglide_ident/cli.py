@@ -8,6 +8,7 @@
     orthoglide-ident reindex BAG...
     orthoglide-ident model [--robot FILE] --base-parameters [--json FILE]
     orthoglide-ident report [--robot FILE] BAG... --out DIR [--mcap FILE] [identify options]
+    orthoglide-ident import CSV... --out BAG [--map YAML] [column flags]   (import_command.py)
 
 ``--robot``: a URDF, a robot YAML or a bundled robot's name (model/robots.py); without it, the
 Orthoglide exactly as before.
@@ -32,7 +33,7 @@ import traceback
 from pathlib import Path
 from typing import Sequence
 
-from orthoglide_ident import ros_client
+from orthoglide_ident import import_command, ros_client
 from orthoglide_ident.errors import ConfigError, OrthoglideError
 from orthoglide_ident.identify.methods import DEFAULT_METHOD, METHODS
 from orthoglide_ident.model.robots import bundled_robots
@@ -173,6 +174,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", required=True, metavar="DIR", help="output directory (created)")
     p.add_argument("--mcap", metavar="FILE", help="also write the plots as an MCAP file for Foxglove or "
                    "Lichtblick (forces, residual, the gains' convergence; orthoglide_ident/view/report_mcap.py)")
+    import_command.add_parser(sub)
     ros_client.add_parsers(sub)
     return parser
 
@@ -245,6 +247,8 @@ def _main(args: argparse.Namespace) -> int:
         return ros_client.record(args)
     if args.command == "watch":
         return ros_client.watch(args)
+    if args.command == "import":
+        return import_command.run(args)
     if args.command == "identify" and args.service:
         if args.consistent or args.urdf_out:
             raise ConfigError("--consistent and --urdf-out are for identifying from bags here; "

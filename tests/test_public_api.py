@@ -15,9 +15,9 @@ API = {
     "orthoglide_ident.bags": [
         "BagData", "BagInfo", "BagSources", "BagTags", "BagWriter", "COM_KEY", "CONDITIONS",
         "CONDITION_KEY", "CURRENT_REFERENCE_TOPIC", "CURRENT_REFERENCE_TYPE", "CURRENT_SOURCE_KEY",
-        "CurrentReferences", "DYNAMIC_JOINT_STATES_TOPIC", "DYNAMIC_JOINT_STATE_TYPE", "FRAME_KEY",
-        "FileReport", "FileStatus", "Gaps", "INERTIA_KEY", "JOINT_STATES_TOPIC", "JOINT_STATE_TYPE",
-        "JTC_STATE_TYPE", "JointStates", "LAYOUTS", "MASS_KEY", "METADATA_NAME", "MessageTemplate",
+        "CurrentReferences", "DYNAMIC_JOINT_STATES_TOPIC", "DYNAMIC_JOINT_STATE_TYPE",
+        "EFFORT_UNIT_KEY", "FRAME_KEY", "FileReport", "FileStatus", "Gaps", "INERTIA_KEY",
+        "JOINT_STATES_TOPIC", "JOINT_STATE_TYPE", "JTC_STATE_TYPE", "JointStates", "LAYOUTS", "MASS_KEY", "METADATA_NAME", "MessageTemplate",
         "POSITION_SOURCE_KEY", "ROS2_CONTROL_JOINT_STATES_TOPIC", "Recording", "ReindexResult",
         "Source", "TickCounter", "TopicInfo", "bag_files", "bag_info", "decode_messages",
         "default_qos", "encode_dynamic_joint_states", "encode_joint_states", "encode_messages",

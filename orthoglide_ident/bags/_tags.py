@@ -18,6 +18,11 @@ Stored as strings, the same keys in metadata.yaml ``custom_data`` and in each .m
                                 ``/dynamic_joint_states current`` (a DynamicJointState interface),
                                 ``/joint_states effort`` or ``/orthoglide/current_reference
                                 current`` (optional; absent: the reader's order of preference)
+``orthoglide.effort_unit``      ``A`` | ``torque``: what the current source holds, a current or a
+                                torque / force (N·m or N, e.g. a CSV log of joint torques,
+                                ``orthoglide-ident import``); identification turns a torque into a
+                                current with the nominal gains (optional; absent: the
+                                ``effort_unit`` option, default A)
 ==============================  ==================================================================
 
 The payload's com and inertia need ``loaded``; a source's topic is a ROS name (``/...``) and its
@@ -43,6 +48,8 @@ COM_KEY = "orthoglide.payload_com"
 INERTIA_KEY = "orthoglide.payload_inertia"
 POSITION_SOURCE_KEY = "orthoglide.position_source"
 CURRENT_SOURCE_KEY = "orthoglide.current_source"
+EFFORT_UNIT_KEY = "orthoglide.effort_unit"
+EFFORT_UNITS = ("A", "torque")
 METADATA_NAME = "orthoglide"
 CONDITIONS = ("loaded", "unloaded")
 _INERTIA_TOL = 1e-12  # kg·m², relative to the largest moment: round-off in a principal moment
@@ -61,6 +68,7 @@ class BagTags:
     payload_inertia: tuple[float, float, float, float, float, float] | None = None
     position_source: str | None = None
     current_source: str | None = None
+    effort_unit: str | None = None
 
     @classmethod
     def checked(
@@ -73,6 +81,7 @@ class BagTags:
         payload_inertia: Sequence[float] | None = None,
         position_source: str | None = None,
         current_source: str | None = None,
+        effort_unit: str | None = None,
     ) -> BagTags:
         """Validated tags; ConfigError with the reason otherwise (used for recorder requests)."""
         if condition not in CONDITIONS:
@@ -93,9 +102,12 @@ class BagTags:
             raise ConfigError("condition 'unloaded' takes no payload_com or payload_inertia")
         if inertia is not None:
             _check_inertia(inertia)
+        if effort_unit is not None and effort_unit not in EFFORT_UNITS:
+            raise ConfigError(f"effort_unit {effort_unit!r}: use 'A' (a current) or 'torque' "
+                              "(N·m or N)")
         return cls(condition, mass, _word(payload_frame, "payload_frame"), com, inertia,
                    _source(position_source, "position_source"),
-                   _source(current_source, "current_source"))
+                   _source(current_source, "current_source"), effort_unit)
 
     def to_dict(self) -> dict[str, str]:
         """The keys as stored in custom_data and in the MCAP metadata record (absent ones left
@@ -108,6 +120,7 @@ class BagTags:
             INERTIA_KEY: None if self.payload_inertia is None else _join(self.payload_inertia),
             POSITION_SOURCE_KEY: self.position_source,
             CURRENT_SOURCE_KEY: self.current_source,
+            EFFORT_UNIT_KEY: self.effort_unit,
         }
         out.update({k: v for k, v in optional.items() if v is not None})
         return out
@@ -121,6 +134,8 @@ class BagTags:
             out += f", CoM {' '.join(f'{x:g}' for x in self.payload_com)} m"
         if self.payload_inertia is not None:
             out += f", inertia {' '.join(f'{x:g}' for x in self.payload_inertia)} kg·m²"
+        if self.effort_unit == "torque":
+            out += ", effort a torque (N·m or N)"
         return out
 
     @classmethod
@@ -146,6 +161,7 @@ class BagTags:
                 payload_inertia=_split(items.get(INERTIA_KEY), INERTIA_KEY),
                 position_source=items.get(POSITION_SOURCE_KEY),
                 current_source=items.get(CURRENT_SOURCE_KEY),
+                effort_unit=items.get(EFFORT_UNIT_KEY),
             )
         except ConfigError as exc:
             raise BagError(f"{where}: invalid tag: {exc}") from None

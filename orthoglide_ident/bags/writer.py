@@ -351,6 +351,7 @@ def write_bag(
     extra_joints: Mapping[str, float] | None = None,
     payload: Mapping[str, Any] | None = None,
     tag_sources: bool = True,
+    effort_unit: str | None = None,
     compression: str = "zstd",
     chunk_duration_s: float = 0.5,
 ) -> Path:
@@ -372,6 +373,8 @@ def write_bag(
     ros2_control layouts may list the joints in ``joint_order`` and add ``extra_joints``
     (name -> constant position; no current, NaN effort), as real hardware does; with
     ``tag_sources`` their tag names the topics and fields that carry q and the current.
+    ``effort_unit`` (``A`` | ``torque``) tags what ``v_tau`` holds when it is not a current
+    (``orthoglide.effort_unit``; None: untagged, read as a current).
     Messages are encoded in bulk, block by block, and written tick by tick through
     :class:`BagWriter`, in chunks of ``chunk_duration_s`` s.
     """
@@ -391,7 +394,8 @@ def write_bag(
                    else f"{ROS2_CONTROL_JOINT_STATES_TOPIC} effort")
         sources = {"position_source": f"{ROS2_CONTROL_JOINT_STATES_TOPIC} position",
                    "current_source": current}
-    tags = BagTags.checked(condition, payload_mass, **dict(payload or {}), **sources)
+    tags = BagTags.checked(condition, payload_mass, **dict(payload or {}), **sources,
+                           effort_unit=effort_unit)
     w = BagWriter(Path(path), tags, compression=compression, chunk_duration_s=chunk_duration_s,
                   custom_data={key: str(val) for key, val in (extra or {}).items()})
     w.open()

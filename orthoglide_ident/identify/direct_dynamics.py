@@ -88,10 +88,11 @@ def validate(record, robot: RobotModel, chi_st: np.ndarray, gains: Sequence[floa
     fwd, engine = robot.forward_model(chi_st, gains, payload)
     if fwd is None:
         return {"bag": record.source, "engine": engine, "windows": 0, "joints": []}
+    rate = _rate(record.stamps_q_ns)
     segments, rep = split_record(
         record.stamps_q_ns, record.names_q, record.q, record.stamps_v_ns, record.names_v,
-        record.v_tau, min_samples=opts.at_rate(_rate(record.stamps_q_ns)).min_segment_samples(), nonfinite="drop",
-        source=record.source, joint_names=robot.joint_names)
+        record.v_tau, min_samples=opts.at_rate(rate).min_segment_samples(1.0 / rate),
+        nonfinite="drop", source=record.source, joint_names=robot.joint_names)
     errors, drifts, n = [], [], 0
     g = np.asarray(gains, float)
     for seg in segments:

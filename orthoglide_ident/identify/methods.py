@@ -19,8 +19,8 @@ from typing import Callable, Sequence
 from orthoglide_ident.errors import IdentificationError
 from orthoglide_ident.identify.factors import RecordFactors
 from orthoglide_ident.identify.options import IdentifyOptions
-from orthoglide_ident.identify.solve import (Solved, check_rows, friction_sign_warnings, solve_tls,
-                                             solve_wls)
+from orthoglide_ident.identify.solve import (Solved, check_length, check_rows,
+                                             friction_sign_warnings, solve_tls, solve_wls)
 
 __all__ = ["DEFAULT_METHOD", "METHODS", "REFINEMENTS", "Method", "Refinement", "get", "solve"]
 
@@ -89,7 +89,9 @@ def solve(factors: list[RecordFactors], model, opts: IdentifyOptions,
     if not factors:
         raise IdentificationError("no bag given")
     if m.gains_given or not (opts.partial_answers and opts.check_excitation):
-        check_rows(factors, model, opts)  # TLS: a joint that hardly moved is a partial answer
+        check_rows(factors, model, opts)
+    else:  # TLS: a joint that hardly moved is a partial answer, a short record is refused
+        check_length(factors, opts)
     out = m.solve(factors, model, opts, gains, essential, list(bags))
     out.result.warnings.extend(friction_sign_warnings(out.result))
     if opts.consistent and not out.result.complete:

@@ -44,10 +44,11 @@ def observe(rec: Record, model: IdentificationModel, opts: IdentifyOptions,
     if rec.payload is not None and rec.condition == "loaded":
         model = model.with_payload(rec.payload)
     t0 = time.perf_counter()
-    opts = opts.at_rate(1.0 / _mean_step_guess(rec.stamps_q_ns))
-    segments, rep = split_record(
+    step = _mean_step_guess(rec.stamps_q_ns)
+    opts = opts.at_rate(1.0 / step)
+    segments, rep = split_record(  # the shortest segment in samples at this record's step
         rec.stamps_q_ns, rec.names_q, rec.q, rec.stamps_v_ns, rec.names_v, rec.v_tau,
-        min_samples=opts.min_segment_samples(), nonfinite=opts.nonfinite,
+        min_samples=opts.min_segment_samples(step), nonfinite=opts.nonfinite,
         source=rec.source, joint_names=model.joint_names, qd=rec.qd)
     opts = opts.at_rate(1.0 / rep.period_s)
     rep.filter_cutoff_hz, rep.decimation = opts.filter_cutoff_hz, opts.decimation

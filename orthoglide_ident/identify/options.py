@@ -94,7 +94,8 @@ class IdentifyOptions:
     # what the current source holds: "A", a current (the drive's reference or measurement), or
     # "torque", a torque / force (N·m or N, e.g. JointState.effort without a current mapping),
     # turned into a current with the robot's nominal gains: the gains found are then the true
-    # ones, and their ratio to the nominal ones the calibration of that torque
+    # ones, and their ratio to the nominal ones the calibration of that torque. A bag tagged
+    # orthoglide.effort_unit (an imported CSV log's) is read as its tag says, whatever this is
     effort_unit: str = "A"
     weighting: bool = True  # per-joint row weighting (Sect. 4.2 / eq. 28)
     # "all": the paper's TLS (every column of W_tot noisy); "currents": mixed LS-TLS, W and W_kl

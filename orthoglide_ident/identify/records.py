@@ -58,18 +58,23 @@ def read_record(path: str | Path, model: RobotModel,
     """Read a tagged bag (directory or lone .mcap) into a :class:`Record`: the robot's joints
     (``model``) by name from whichever topics hold them (bags.sources:
     a DynamicJointState interface, the JointState effort or the CurrentReference), the payload's
-    frame, centre of mass and inertia from the tag. With ``effort_unit: torque`` an effort that is
-    a torque or force is turned into a current with the nominal gains. BagError if unusable."""
+    frame, centre of mass and inertia from the tag. An effort that is a torque or force (the
+    bag's tag ``orthoglide.effort_unit: torque``, or the option ``effort_unit: torque`` for a bag
+    whose tag does not say) is turned into a current with the nominal gains. BagError if
+    unusable."""
     from orthoglide_ident import bags
 
     opts = opts or IdentifyOptions()
     data = bags.read_bag(path, joints=model.joint_names,
                          interface=opts.current_interface or None)
     tags, current = data.tags, data.current
-    v_tau = current.current
+    v_tau, sources = current.current, data.sources.describe()
     qd = data.velocity if opts.velocity_source != "derived" else None
-    if opts.effort_unit == "torque":
+    tagged_unit = None if tags is None else tags.effort_unit
+    if (tagged_unit or opts.effort_unit) == "torque":
         v_tau = model.effort_as_current(current.names, v_tau)
+        if tagged_unit == "torque":
+            sources += " (a torque, as tagged: divided by the nominal gains)"
     return Record(
         source=str(path),
         stamps_q_ns=data.positions.stamps_ns, names_q=tuple(data.positions.names),
@@ -78,7 +83,7 @@ def read_record(path: str | Path, model: RobotModel,
         condition=None if tags is None else tags.condition,
         payload_mass=0.0 if tags is None else float(tags.payload_mass),
         warnings=list(data.warnings), payload=_tagged_payload(tags),
-        sources=data.sources.describe(), qd=qd,
+        sources=sources, qd=qd,
     )
 
 

@@ -58,18 +58,33 @@ def min_rows(n_b: int) -> int:
     return max(50, 2 * n_b)
 
 
+def check_length(factors: list[RecordFactors], opts: IdentifyOptions) -> None:
+    """ExcitationError when the records are too short: fewer decimated samples than needed,
+    whatever the dead band."""
+    need = min_rows(factors[0].n_b)
+    total = sum(f.n_samples for f in factors)
+    if total < need:
+        raise ExcitationError(
+            f"the records are too short: {total} equations per joint (decimated samples, 1 in "
+            f"{opts.decimation}) where {need} are needed (max(50, 2 n_b), n_b = "
+            f"{factors[0].n_b}); record longer trajectories")
+
+
 def check_rows(factors: list[RecordFactors], model, opts: IdentifyOptions) -> None:
-    """ExcitationError when a joint has too few equations left (below the dead band)."""
-    n_b = factors[0].n_b
+    """ExcitationError when a joint has too few equations left: the records are too short
+    (check_length), or the joint stays below the velocity dead band (reversals.py) almost all
+    the time."""
+    check_length(factors, opts)
+    need = min_rows(factors[0].n_b)
+    total = sum(f.n_samples for f in factors)
     for j, joint in enumerate(model.joints):
         rows = sum(int(f.rows[j]) for f in factors)
-        total = sum(f.n_samples for f in factors)
-        if rows < min_rows(n_b):
+        if rows < need:
             raise ExcitationError(
                 f"{joint.name} moves slower than the velocity dead band "
                 f"({opts.velocity_deadband_mps} {joint.unit}/s)"
-                f" almost all the time: {rows} of {total} equations left; the trajectories are "
-                "not exciting (or lower velocity_deadband_mps)")
+                f" almost all the time: {rows} of {total} equations left, {need} needed; the "
+                "trajectories are not exciting (or lower velocity_deadband_mps)")
 
 
 def _gains_estimates(joint_names: Sequence[str], g: np.ndarray, rel: np.ndarray | None,

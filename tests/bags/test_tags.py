@@ -112,3 +112,12 @@ def test_recorder_requests_are_checked() -> None:
         bags.BagTags.checked("unloaded", 0, payload_inertia=[0] * 6)
     # a frame alone is a fact about the robot: allowed unloaded
     assert bags.BagTags.checked("unloaded", 0, payload_frame="tool0").payload_frame == "tool0"
+
+
+def test_effort_unit_tag_round_trips_and_is_checked() -> None:
+    t = bags.BagTags.checked("unloaded", 0, effort_unit="torque")
+    assert t.to_dict()[bags.EFFORT_UNIT_KEY] == "torque"
+    assert bags.BagTags.from_dict(t.to_dict(), "x") == t
+    assert bags.EFFORT_UNIT_KEY not in bags.BagTags.checked("unloaded", 0).to_dict()
+    with pytest.raises(BagError, match="x: invalid tag: effort_unit 'Nm': use 'A'"):
+        bags.BagTags.from_dict({**t.to_dict(), bags.EFFORT_UNIT_KEY: "Nm"}, "x")

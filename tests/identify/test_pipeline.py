@@ -54,6 +54,21 @@ def test_gentle_trajectories_are_refused_with_a_reason():
         identify_records(recs, model=MODEL)
 
 
+def test_short_records_are_said_short_not_below_the_dead_band():
+    # 0.8 s each, well excited: 44 decimated samples in all where max(50, 2 n_b) = 50 are needed
+    recs = _pair(True, duration=0.8)
+    with pytest.raises(ExcitationError) as exc:
+        identify_records(recs, model=MODEL)
+    assert str(exc.value) == ("the records are too short: 44 equations per joint (decimated "
+                              "samples, 1 in 10) where 50 are needed (max(50, 2 n_b), n_b = 13); "
+                              "record longer trajectories")
+    # long enough but gentle: the dead band is the cause, and the reason says so (a record with
+    # no joint above it is refused as one that hardly moves, naming the record)
+    with pytest.raises(ExcitationError, match=r"hardly moves in this record \(at most 0 of \d+ "
+                                              r"decimated samples .* above the velocity dead band"):
+        identify_records(_pair(True, amplitude=0.001, f_max=0.5), model=MODEL)
+
+
 def test_bad_inputs_get_one_line_reasons():
     recs = _pair(False)
     with pytest.raises(IdentificationError, match="loaded"):
