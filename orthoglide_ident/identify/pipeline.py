@@ -27,6 +27,8 @@ from orthoglide_ident.identify.factors import RecordFactors
 from orthoglide_ident.identify.filtering import states_at_half_tick
 from orthoglide_ident.identify.observations import Observations
 from orthoglide_ident.identify.options import IdentifyOptions
+from orthoglide_ident.identify.payload_unknowns import (check_one_payload, unknowns_of,
+                                                        used_columns, with_payload_unknowns)
 from orthoglide_ident.identify.reversals import bridge, find_reversals, rows_clear
 from orthoglide_ident.identify.segments import Segment, SegmentReport, split_record
 from orthoglide_ident.identify.solve import Solved, solve
@@ -110,14 +112,37 @@ def read_record(path: str | Path, model: RobotModel | None = None,
 
 
 def _tagged_payload(tags) -> Payload | None:
-    """The payload of a loaded bag's tag when it is more than a point mass at the robot's payload
-    frame (orthoglide.payload_frame / _com / _inertia)."""
-    if tags is None or tags.condition != "loaded" or not (
-            tags.payload_frame or tags.payload_com or tags.payload_inertia):
+    """The payload of a loaded bag's tag: mass, frame, CoM and inertia as given, and what of
+    them is known (orthoglide.payload_known, else what the tag gives: paper Sect. 4.3)."""
+    if tags is None or tags.condition != "loaded":
         return None
     return Payload(float(tags.payload_mass), tags.payload_frame or "",
                    tuple(tags.payload_com or (0.0, 0.0, 0.0)),
-                   tuple(tags.payload_inertia or (0.0,) * 6))
+                   tuple(tags.payload_inertia or (0.0,) * 6), tags.knowledge)
+
+
+def record_payload(rec: Record, payload_mass: float, known: str = "") -> Payload | None:
+    """A loaded record's payload and what is known of it: ``known`` (payload_known option)
+    overrides the tag's; an in-memory record without one carries a mass known alone at the
+    robot's payload frame. IdentificationError when the knowledge asks for what is not given."""
+    if rec.condition != "loaded":
+        return None
+    p = rec.payload or Payload(payload_mass, known="mass")
+    if not known or known == p.known:
+        return p
+    if known in ("com", "all") and p.known in ("mass", "point") and not any(p.com):
+        raise IdentificationError(
+            f"{rec.source}: payload_known {known} needs the payload's centre of mass in the tag "
+            "(orthoglide.payload_com)")
+    if known == "all" and p.known != "all":
+        raise IdentificationError(
+            f"{rec.source}: payload_known all needs the payload's centre of mass and inertia in "
+            "the tag (orthoglide.payload_com, orthoglide.payload_inertia)")
+    if known == "point" and p.known == "all" and any(p.inertia):
+        raise IdentificationError(
+            f"{rec.source} is tagged with the payload's inertia: payload_known point would drop "
+            "it (use all, or com to identify the inertia)")
+    return dataclasses.replace(p, known=known)
 
 
 def default_model() -> RobotModel:
@@ -154,11 +179,13 @@ def observe(rec: Record, model: IdentificationModel, opts: IdentifyOptions,
             payload_mass: float) -> tuple[Observations, SegmentReport, dict[str, float]]:
     """Segments, derivative filtering, W and parallel decimation of one record (§6.1-3).
 
-    A loaded record's payload column is that of its payload (``rec.payload``: frame, centre of
-    mass and inertia per kg; eq. 33's W_kl generalised), through ``model.with_payload``."""
+    A loaded record's payload column is that of its payload's known part (``rec.payload``:
+    frame, centre of mass and inertia per kg; eq. 33's W_kl generalised), its unknown parameters'
+    columns W_ul beside W (payload_unknowns.py, Sect. 4.3), through ``model.with_payload``."""
     times: dict[str, float] = {}
-    if rec.payload is not None and rec.condition == "loaded":
-        model = model.with_payload(rec.payload)
+    payload = record_payload(rec, payload_mass, opts.payload_known)
+    if payload is not None:
+        model = with_known_payload(model, payload)
     t0 = time.perf_counter()
     period_guess = 1e-3
     if len(rec.stamps_q_ns) > 2:
@@ -185,6 +212,15 @@ def observe(rec: Record, model: IdentificationModel, opts: IdentifyOptions,
              opts.decimation, "/".join(str(x) for x in obs.rows_per_joint()),
              times["regressor+decimation"], n_bridged, n_unbridged)
     return obs, rep, times
+
+
+def with_known_payload(model, payload: Payload):
+    """``model`` bound to a loaded record's payload: the whole payload for a model with the
+    unknown payload columns (payload_unknowns.py), its known part for one without (the
+    Orthoglide's: only the mass acts, whatever else is known)."""
+    if unknowns_of(model) is not None:
+        return model.with_payload(payload)
+    return model.with_payload(payload.known_part())
 
 
 def _segments_fir(segments: list[Segment], model: IdentificationModel, opts: IdentifyOptions,
@@ -314,10 +350,12 @@ def _check_request(opts: IdentifyOptions, method: str, payload_mass: float | Non
 
 
 def _observe_all(records: Iterable[Record], model: IdentificationModel, opts: IdentifyOptions,
-                 payload_mass: float | None, add_timings: Callable[[dict[str, float]], None]
+                 payload_mass: float | None, add_timings: Callable[[dict[str, float]], None],
+                 partial: list[tuple[str, Payload]] | None = None
                  ) -> tuple[list[Observations], list[dict[str, Any]], list[str], list[str]]:
     """Each record to its observation rows (one record's raw samples in memory at a time):
-    the rows, the per-bag reports, the warnings and the bag names."""
+    the rows, the per-bag reports, the warnings and the bag names; the loaded records'
+    payloads appended to ``partial`` (one payload whose parameters are partly unknown)."""
     if isinstance(records, Sequence):  # in memory: check every tag before the long steps
         for r in records:
             resolve_payload(r, payload_mass, opts.payload_tolerance_kg)
@@ -325,8 +363,13 @@ def _observe_all(records: Iterable[Record], model: IdentificationModel, opts: Id
     reports: list[dict[str, Any]] = []
     warnings: list[str] = []
     bag_names: list[str] = []
+    partial = [] if partial is None else partial
     for rec in records:
         m = resolve_payload(rec, payload_mass, opts.payload_tolerance_kg)
+        p = record_payload(rec, m, opts.payload_known)
+        if p is not None:
+            partial.append((rec.source, p))
+            check_one_payload(partial)
         bag_names.append(rec.source)
         warnings.extend(rec.warnings)
         obs, rep, ts = observe(rec, model, opts, m)
@@ -362,13 +405,17 @@ def identify_records(
     if model is None:
         model = default_model()
         timings["model"] = time.perf_counter() - t_all
-    model = observation_model(model, opts.screw_lead_m, opts.lag_model == "auto")
+    model = observation_model(with_payload_unknowns(model), opts.screw_lead_m,
+                              opts.lag_model == "auto")
 
     def add(ts: dict[str, float]) -> None:
         for k, v in ts.items():
             timings[k] = timings.get(k, 0.0) + v
 
-    blocks, reports, warnings, bag_names = _observe_all(records, model, opts, payload_mass, add)
+    payloads: list[tuple[str, Payload]] = []
+    blocks, reports, warnings, bag_names = _observe_all(records, model, opts, payload_mass, add,
+                                                        payloads)
+    model, blocks = _payload_or_not(model, blocks, opts, payloads)
     model, blocks = _lag_or_paper(model, blocks, reports, opts)
     t_solve = time.perf_counter()
     factors = [RecordFactors.from_observations(b) for b in blocks]
@@ -390,6 +437,30 @@ def identify_records(
     result.observations = blocks
     result.observations_chi = solved.chi
     return result
+
+
+def _payload_or_not(model: IdentificationModel, blocks: list[Observations],
+                    opts: IdentifyOptions, payloads: list[tuple[str, Payload]]
+                    ) -> tuple[IdentificationModel, list[Observations]]:
+    """The model and rows with only the unknown payload columns some loaded record fills (a
+    payload known by its mass, Sect. 4.3), named at that payload's frame: with every payload
+    known, the rows are the robot's own (zero columns would make W_tot rank deficient)."""
+    pu = unknowns_of(model)
+    if pu is None:
+        return model, blocks
+    start, n = pu.payload_slice.start, len(pu.columns)
+    keep = used_columns([b.W for b in blocks], start, n)
+    frames = {p.frame for _, p in payloads if p.unknown}
+    reduced = pu.keeping(keep)
+    if keep and frames:
+        reduced = reduced.at_frame(frames.pop())
+    if len(keep) == n and reduced is pu:
+        return model, blocks
+    drop = [start + k for k in range(n) if k not in keep]
+    if drop:
+        blocks = [dataclasses.replace(b, W=np.delete(b.W, drop, axis=2)) for b in blocks]
+    lag = getattr(model, "lag_column", None) is not None
+    return observation_model(reduced, opts.screw_lead_m, lag), blocks
 
 
 def _lag_or_paper(model: IdentificationModel, blocks: list[Observations],

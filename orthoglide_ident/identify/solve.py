@@ -20,6 +20,8 @@ from orthoglide_ident.identify import drive_terms
 from orthoglide_ident.identify.essential import EssentialResult, essential_parameters
 from orthoglide_ident.identify.factors import RecordFactors
 from orthoglide_ident.identify.options import IdentifyOptions
+from orthoglide_ident.identify.payload_report import split_payload
+from orthoglide_ident.identify.payload_unknowns import unknowns_of
 from orthoglide_ident.identify.tls import (TLSProblem, TLSSolution, check_excitation,
                                            require_loaded_and_unloaded)
 from orthoglide_ident.identify.uncertainty import diagnose, ripple_warning_start
@@ -363,10 +365,15 @@ def solve(factors: list[RecordFactors], model, opts: IdentifyOptions, method: st
     if not factors:
         raise IdentificationError("no bag given")
     check_rows(factors, model, opts)
+    if opts.consistent and unknowns_of(model) is not None:
+        raise IdentificationError(
+            "--consistent needs the payload's CoM and inertia: with only its mass known they are "
+            "identified (Sect. 4.3); tag them or give --payload-known point")
     if method == "tls":
         out = solve_tls(factors, model, opts, essential, list(bags))
     else:
         out = solve_wls(factors, model, opts, gains, essential, list(bags))
+    split_payload(out.result, model)
     if opts.consistent:  # physically consistent standard parameters behind the answer
         from orthoglide_ident.identify.consistency import attach
 

@@ -142,8 +142,9 @@ class TreeRegressor:
     def block(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray, columns: Sequence[Column],
               payload: tuple[int, np.ndarray] | None, out: np.ndarray) -> np.ndarray:
         """Columns (and the payload column last when ``payload`` = (the Pinocchio joint it is
-        fixed to, its 10 Pinocchio parameters per kg in that joint's frame) is given) into
-        ``out`` (n, n_a, m); q, qd, qdd: (m, n_a)."""
+        fixed to, its 10 Pinocchio parameters per kg in that joint's frame) is given; k payload
+        columns last for a (10, k) matrix of parameter vectors) into ``out`` (n, n_a, m);
+        q, qd, qdd: (m, n_a)."""
         inertial = [n for n, c in enumerate(columns) if c.source != "drive"]
         drive = [(n, c) for n, c in enumerate(columns) if c.source == "drive"]
         want_y = any(c.source == "joint" for c in columns) or payload is not None
@@ -166,8 +167,14 @@ class TreeRegressor:
                 self._drive(buf, c, qdd[s:e], out[n, :, s:e])
             if payload is not None:
                 joint, chi = payload
-                f = buf.Y[:, :, 10 * (joint - 1):10 * joint] @ chi  # (m, nv): Y_j χ_l
-                out[len(columns), :, s:e] = self._project(buf, f[:, :, None])[:, :, 0].T
+                Y_j = buf.Y[:, :, 10 * (joint - 1):10 * joint]
+                if chi.ndim == 1:
+                    f = Y_j @ chi  # (m, nv): Y_j χ_l
+                    out[len(columns), :, s:e] = self._project(buf, f[:, :, None])[:, :, 0].T
+                else:  # (10, k): k payload columns, e.g. each of its parameters
+                    k = chi.shape[1]
+                    out[len(columns):len(columns) + k, :, s:e] = \
+                        self._project(buf, Y_j @ chi).transpose(2, 1, 0)
         return out
 
     def _inertial(self, c: _Chunk, columns: Sequence[Column]) -> np.ndarray:
