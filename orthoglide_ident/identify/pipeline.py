@@ -127,20 +127,28 @@ def record_payload(rec: Record, payload_mass: float, known: str = "") -> Payload
     robot's payload frame. IdentificationError when the knowledge asks for what is not given."""
     if rec.condition != "loaded":
         return None
-    p = rec.payload or Payload(payload_mass, known="mass")
+    return payload_knowledge(rec.source, rec.payload, payload_mass, known)
+
+
+def payload_knowledge(source: str, payload: Payload | None, payload_mass: float,
+                      known: str = "") -> Payload:
+    """A loaded record's payload (None: its mass known alone, at the robot's payload frame) with
+    the knowledge ``known`` asks for ("" : as it is); IdentificationError when it asks for what
+    the record does not give."""
+    p = payload or Payload(payload_mass, known="mass")
     if not known or known == p.known:
         return p
     if known in ("com", "all") and p.known in ("mass", "point") and not any(p.com):
         raise IdentificationError(
-            f"{rec.source}: payload_known {known} needs the payload's centre of mass in the tag "
+            f"{source}: payload_known {known} needs the payload's centre of mass in the tag "
             "(orthoglide.payload_com)")
     if known == "all" and p.known != "all":
         raise IdentificationError(
-            f"{rec.source}: payload_known all needs the payload's centre of mass and inertia in "
+            f"{source}: payload_known all needs the payload's centre of mass and inertia in "
             "the tag (orthoglide.payload_com, orthoglide.payload_inertia)")
     if known == "point" and p.known == "all" and any(p.inertia):
         raise IdentificationError(
-            f"{rec.source} is tagged with the payload's inertia: payload_known point would drop "
+            f"{source} is tagged with the payload's inertia: payload_known point would drop "
             "it (use all, or com to identify the inertia)")
     return dataclasses.replace(p, known=known)
 

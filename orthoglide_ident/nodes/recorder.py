@@ -56,6 +56,10 @@ PARAMETERS = (
           "origin); used by the next loaded start", dynamic=True),
     Param("payload_inertia", [0.0] * 6, "kg·m², Ixx Ixy Ixz Iyy Iyz Izz about the payload's centre of mass "
           "(zeros: a point mass); used by the next loaded start", dynamic=True),
+    Param("payload_known", "", "what is known of a loaded recording's payload, tagged "
+          "orthoglide.payload_known (paper Sect. 4.3): mass (weighed only: its CoM and inertia are "
+          "identified), com, all, point (a point mass at payload_frame / payload_com); \"\": what "
+          "payload_com and payload_inertia give (none: mass only)", dynamic=True),
     Param("output_dir", "bags", "folder for the bag directories (this and the next ones: from the next start "
           "on when changed)", dynamic=True),
     Param("topics", ["orthoglide/joint_states", "orthoglide/current_reference"],
@@ -312,14 +316,15 @@ class RecorderNode(Node):
                      "payload_frame": tags.payload_frame or "",
                      "payload_com": list(tags.payload_com or ()),
                      "payload_inertia": list(tags.payload_inertia or ()),
+                     "payload_known": tags.knowledge if tags.condition == "loaded" else "",
                      "bag_path": str(writer.path), "message": res.message}
         self.get_logger().info(res.message)
         self.publish_status()
         return res
 
     def _payload_shape(self, condition: str) -> dict[str, Any]:
-        """The tag's payload frame, centre of mass and inertia (parameters) of a loaded start;
-        none for a point mass at the robot's payload frame, or unloaded."""
+        """The tag's payload frame, centre of mass, inertia and what is known of them
+        (parameters) of a loaded start; none (its mass only) or unloaded."""
         p = self.p
         if condition != "loaded":
             return {}
@@ -329,8 +334,18 @@ class RecorderNode(Node):
         if len(p["payload_com"]) != 3 or len(p["payload_inertia"]) != 6:
             raise ConfigError("parameters payload_com (3 numbers, m) and payload_inertia (6, kg·m²) "
                               f"have {len(p['payload_com'])} and {len(p['payload_inertia'])}")
-        if any(p["payload_com"]) or any(p["payload_inertia"]):
+        known = p["payload_known"] or None
+        com, inertia = any(p["payload_com"]), any(p["payload_inertia"])
+        if known in ("com", "point"):  # a CoM (when given), no inertia
+            if com:
+                out["payload_com"] = p["payload_com"]
+            if inertia:
+                raise ConfigError(f"payload_known {known} takes no payload_inertia; set it to "
+                                  "zeros, or payload_known all")
+        elif com or inertia:
             out["payload_com"], out["payload_inertia"] = p["payload_com"], p["payload_inertia"]
+        if known is not None:
+            out["payload_known"] = known
         return out
 
     def on_stop(self, req: Any, res: Any) -> Any:
