@@ -104,6 +104,13 @@ class PayloadParameters:
                 "inertia_std": None if self.inertia_std is None
                 else [_num(x) for x in self.inertia_std]}
 
+    def summary(self) -> str:
+        """One line: the identified CoM (mm, σ) at the frame, "-" where not determined."""
+        com = ", ".join("-" if c is None else f"{1e3 * c:+.1f} ± {1e3 * s:.1f}"
+                        for c, s in zip(self.com, self.com_std))
+        what = f"CoM ({com}) mm" if self.known == "mass" else "inertia"
+        return f"payload at {self.frame}: {what} identified ({len(self.parameters)} parameters)"
+
     def text_lines(self) -> list[str]:
         what = {"mass": "its mass known, CoM and inertia identified",
                 "com": "its mass and CoM known, inertia identified"}[self.known]

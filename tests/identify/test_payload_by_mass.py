@@ -110,6 +110,7 @@ def test_mass_only_recovers_the_gains_and_the_centre_of_mass(ur5):
     doc = json.loads(json.dumps(res.to_json(), allow_nan=False))
     assert doc["payload"]["known"] == "mass" and len(doc["payload"]["com"]) == 3
     assert "payload at tool0 (its mass known, CoM and inertia identified" in res.to_text()
+    assert p.summary().startswith("payload at tool0: CoM (+30.0 ± 0.0, ")  # the service's reply
 
 
 def test_a_point_mass_at_the_flange_is_the_wrong_known_column(ur5):
