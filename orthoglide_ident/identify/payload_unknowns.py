@@ -28,6 +28,7 @@ An unknown column that depends on the mass column would bias the scale: refused.
 from __future__ import annotations
 
 import math
+import weakref
 from dataclasses import dataclass
 
 import numpy as np
@@ -185,17 +186,28 @@ class PayloadUnknownsModel:
         return getattr(self.base, name)
 
 
+_BASES: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()  # model -> its basis
+
+
 def with_payload_unknowns(model):
     """``model`` with the columns of a payload known by its mass (at its payload frame), when
-    any of its parameters other than the mass acts; else ``model`` unchanged."""
+    any of its parameters other than the mass acts; else ``model`` unchanged. The basis is
+    found once per model (a closed chain's random states take a while)."""
     if isinstance(model, PayloadUnknownsModel) or getattr(model, "payload_frame", None) is None:
         return model
-    probe = model.payload_standard_block(*model.random_states(2, STATES_SEED),
-                                         model.payload_frame)
-    if probe is None:
-        return model
-    basis = payload_basis(model, "")
-    return PayloadUnknownsModel(model, basis) if basis.n else model
+    try:
+        basis = _BASES.get(model, False)
+    except TypeError:  # a model that cannot be weakly referenced: found each time
+        basis = False
+    if basis is False:
+        probe = model.payload_standard_block(*model.random_states(2, STATES_SEED),
+                                             model.payload_frame)
+        basis = None if probe is None else payload_basis(model, "")
+        try:
+            _BASES[model] = basis
+        except TypeError:
+            pass
+    return PayloadUnknownsModel(model, basis) if basis is not None and basis.n else model
 
 
 def unknowns_of(model) -> PayloadUnknownsModel | None:

@@ -74,10 +74,14 @@ def test_the_payload_columns_are_the_payloads_shape(ur5):
     assert np.allclose(np.tensordot(p.shape(), X, axes=1), column, rtol=1e-12, atol=1e-12)
 
 
-def test_the_orthoglide_has_no_unknown_payload_columns():
-    """Its platform only translates: only the mass acts, the model is left as it is."""
-    model = load_robot(None)
-    assert with_payload_unknowns(model) is model
+def test_only_the_parameters_that_act_are_unknowns():
+    """The Orthoglide's platform only translates: only the mass acts, the model is left as it
+    is (closed form, and the generic Pinocchio model of it by its QR); the planar five-bar's
+    tip keeps the in-plane first moments and the inertia about the normal."""
+    for robot in (None, "orthoglide_general"):
+        model = load_robot(robot)
+        assert with_payload_unknowns(model) is model, robot
+    assert payload_basis(load_robot("five_bar"), "").kinds == ("mx", "my", "zz")
 
 
 def test_the_orthoglide_sample_bags_give_the_same_answer_whatever_is_known():
