@@ -123,9 +123,10 @@ class PayloadParameters:
             out.append("  inertia about it (kg·m²): " + ", ".join(
                 f"{n} {v:.4g} ± {e:.2g}" for n, v, e in
                 zip(("Ixx", "Ixy", "Ixz", "Iyy", "Iyz", "Izz"), self.inertia, self.inertia_std)))
+        out.append(f"  identified (first moments kg·m, inertia kg·m² at the origin of {self.frame}):")
         for p, sd in zip(self.parameters, self.std):
             expr = f" = {p.expression}" if p.expression and p.expression != p.name else ""
-            out.append(f"  {p.name:<8} {p.value:+.6g} ± {sd:.3g}{expr}")
+            out.append(f"    {p.name:<8} {p.value:+.6g} ± {sd:.3g}{expr}")
         return out
 
 
