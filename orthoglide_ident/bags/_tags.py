@@ -176,8 +176,8 @@ class BagTags:
             raise BagError(f"{where}: invalid tag: {exc}") from None
 
 
-_KNOWN_TEXT = {"mass": "mass known, CoM and inertia identified",
-               "com": "mass and CoM known, inertia identified",
+_KNOWN_TEXT = {"mass": "mass known, CoM and inertia not",
+               "com": "mass and CoM known, inertia not",
                "all": "mass, CoM and inertia known", "point": "a point mass"}
 
 

@@ -63,7 +63,7 @@ def test_absent_payload_keys_mean_the_mass_alone_is_known(tmp_path: Path) -> Non
     assert tags is not None
     assert (tags.payload_frame, tags.payload_com, tags.payload_inertia) == (None, None, None)
     assert tags.payload_known is None and tags.knowledge == "mass"
-    assert "(mass known, CoM and inertia identified)" in tags.describe()
+    assert "(mass known, CoM and inertia not)" in tags.describe()
     assert bags.BagTags("unloaded", 0.0).to_dict() == {"orthoglide.condition": "unloaded",
                                                        "orthoglide.payload_mass": "0"}
 
