@@ -125,15 +125,18 @@ class PayloadUnknownsModel:
         n, k, m = self.n_base, len(self.columns), np.shape(q)[0]
         if out is None:
             out = np.empty((n + k + 1, self.n_joints, m))
-        self.base.observation_block(q, qd, qdd, out=out[:n + 1])
-        out[n + k] = out[n]  # W_kl goes last
-        out[n:n + k] = 0.0
-        if self.payload is not None and self.payload.unknown and k:
-            X = self.base.payload_standard_block(q, qd, qdd, self.payload.frame)
-            for i, c in enumerate(self.columns):
-                kind = self.basis.kinds[c]
-                if kind in self.payload.unknown:
-                    out[n + i] = X[INERTIAL_KINDS.index(kind)]
+        if self.payload is None or not self.payload.unknown or not k:
+            self.base.observation_block(q, qd, qdd, out=out[:n + 1])
+            out[n + k] = out[n]  # W_kl goes last
+            out[n:n + k] = 0.0
+            return out
+        X = self.base.observation_and_payload_block(q, qd, qdd, self.payload.frame)
+        out[:n] = X[:n]
+        out[n + k] = X[n]
+        for i, c in enumerate(self.columns):
+            kind = self.basis.kinds[c]
+            out[n + i] = X[n + 1 + INERTIAL_KINDS.index(kind)] if kind in self.payload.unknown \
+                else 0.0
         return out
 
     def regressor(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> np.ndarray:

@@ -251,12 +251,30 @@ class PinocchioRobot(RobotModel):
         """(10, n, m): efforts of each payload parameter (INERTIAL_KINDS) at ``frame``: the
         columns of the frame's joint body for the parameters moved into that joint's frame
         (the move is linear in the ten parameters: one column per unit parameter)."""
-        frame_ = self._payload_frame(frame or self.payload_frame)
-        chi = np.column_stack([_moved(frame_.placement, e) for e in np.eye(10)])
+        joint, chi = self._unit_payloads(frame)
         q, qd, qdd = self._samples(q, qd, qdd)
         out = np.zeros((10, self.n_joints, q.shape[0]))
         with self._lock:
-            return self._rows.block(q, qd, qdd, [], (int(frame_.parentJoint), chi), out)
+            return self._rows.block(q, qd, qdd, [], (joint, chi), out)
+
+    def observation_and_payload_block(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray,
+                                      frame: str) -> np.ndarray:
+        """[W | W_payload | the ten payload columns at ``frame``] (n_b + 11, n, m) in one pass
+        of Pinocchio's regressor: both payloads' columns from the same joint-body columns."""
+        joint, chi = self._unit_payloads(frame)
+        if joint != self._payload[0]:  # on other bodies: two passes
+            return super().observation_and_payload_block(q, qd, qdd, frame)
+        q, qd, qdd = self._samples(q, qd, qdd)
+        out = np.zeros((self.n_b + 11, self.n_joints, q.shape[0]))
+        both = np.column_stack([self._payload[1], chi])
+        with self._lock:
+            return self._rows.block(q, qd, qdd, self._base_columns, (joint, both), out)
+
+    def _unit_payloads(self, frame: str) -> tuple[int, np.ndarray]:
+        """The joint a frame is on and its (10, 10) unit payload parameters moved there."""
+        frame_ = self._payload_frame(frame or self.payload_frame)
+        return int(frame_.parentJoint), np.column_stack(
+            [_moved(frame_.placement, e) for e in np.eye(10)])
 
     def _bind_payload(self, payload: Payload) -> None:
         frame = payload.frame or self.payload_frame

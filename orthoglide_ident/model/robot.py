@@ -180,6 +180,16 @@ class RobotModel(abc.ABC):
         only the mass column (the Orthoglide's closed form: its platform only translates)."""
         return None
 
+    def observation_and_payload_block(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray,
+                                      frame: str) -> np.ndarray:
+        """[W | W_payload | the ten payload columns at ``frame``] as (n_b + 11, n, m): what a
+        loaded record whose payload is partly unknown needs (one pass where the model can)."""
+        n = self.n_b
+        out = np.empty((n + 11, self.n_joints, np.shape(q)[0]))
+        self.observation_block(q, qd, qdd, out=out[:n + 1])
+        out[n + 1:] = self.payload_standard_block(q, qd, qdd, frame)
+        return out
+
     @abc.abstractmethod
     def standard_regressor(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> np.ndarray:
         """W_st (n m, n_st), rows joint by joint: tau = W_st chi_st (checks, consistency)."""

@@ -20,7 +20,7 @@ from orthoglide_ident.identify.options import IdentifyOptions
 from orthoglide_ident.identify.payload_unknowns import (payload_basis, unknowns_of,
                                                         with_payload_unknowns)
 from orthoglide_ident.identify.pipeline import Record, identify, identify_records
-from orthoglide_ident.model.robot import INERTIAL_KINDS, PAYLOAD_UNKNOWN, Payload
+from orthoglide_ident.model.robot import INERTIAL_KINDS, PAYLOAD_UNKNOWN, Payload, RobotModel
 from orthoglide_ident.model.robots import load_robot
 from orthoglide_sim.arm_record import simulate_arm
 from orthoglide_sim.arm_truth import OFFSET_COM, OFFSET_PAYLOAD, load_truth, with_offset_payload
@@ -70,8 +70,13 @@ def test_the_payload_columns_are_the_payloads_shape(ur5):
     q, qd, qdd = model.random_states(30, seed=4)
     p = Payload(2.0, "", (0.03, -0.02, 0.05), (4e-3, 1e-4, -2e-4, 3e-3, 1e-4, 2e-3))
     X = model.payload_standard_block(q, qd, qdd, "")
-    column = model.with_payload(p).observation_block(q, qd, qdd)[-1]
+    bound = model.with_payload(p)
+    column = bound.observation_block(q, qd, qdd)[-1]
     assert np.allclose(np.tensordot(p.shape(), X, axes=1), column, rtol=1e-12, atol=1e-12)
+    # one pass of Pinocchio's regressor for W, W_kl and the ten columns, as two passes give
+    both = bound.observation_and_payload_block(q, qd, qdd, "")
+    two = RobotModel.observation_and_payload_block(bound, q, qd, qdd, "")
+    assert np.allclose(both, two, rtol=1e-12, atol=1e-11)
 
 
 def test_only_the_parameters_that_act_are_unknowns():
