@@ -4,7 +4,7 @@ Shared by the offline pipeline (one :class:`~factors.RecordFactors` per bag) and
 identification (one per payload condition, folded while recording): IDIM-TLS with the gains
 identified and the scale from the known payload mass (eqs. 33-39), or IDIM-WLS with given gains
 and the payload masses estimated (eqs. 24-28), each optionally reduced to essential parameters
-(Sect. 5.2).
+(Sect. 5.2). Which method runs is methods.py's table (``methods.solve``).
 """
 from __future__ import annotations
 
@@ -20,8 +20,6 @@ from orthoglide_ident.identify import drive_terms
 from orthoglide_ident.identify.essential import EssentialResult, essential_parameters
 from orthoglide_ident.identify.factors import RecordFactors
 from orthoglide_ident.identify.options import IdentifyOptions
-from orthoglide_ident.identify.payload_report import split_payload
-from orthoglide_ident.identify.payload_unknowns import unknowns_of
 from orthoglide_ident.identify.tls import (TLSProblem, TLSSolution, check_excitation,
                                            require_loaded_and_unloaded)
 from orthoglide_ident.identify.uncertainty import diagnose, ripple_warning_start
@@ -354,28 +352,3 @@ def _note_essential(names: list[str], result: IdentificationResult, ess: Essenti
                                     "steps": [st.to_json() for st in ess.steps]}
     result.essential.essential_steps = list(ess.steps)
     result.removed = list(result.essential.removed)
-
-
-def solve(factors: list[RecordFactors], model, opts: IdentifyOptions, method: str = "tls",
-          gains: Sequence[float] | None = None, essential: bool = False,
-          bags: Sequence[str] = ()) -> Solved:
-    """IDIM-TLS or IDIM-WLS on the factors; raises the product's errors with a reason."""
-    if method not in ("tls", "wls"):
-        raise IdentificationError(f"unknown method {method!r}: use tls or wls")
-    if not factors:
-        raise IdentificationError("no bag given")
-    check_rows(factors, model, opts)
-    if opts.consistent and unknowns_of(model) is not None:
-        raise IdentificationError(
-            "--consistent needs the payload's CoM and inertia: with only its mass known they are "
-            "identified (Sect. 4.3); tag them or give --payload-known point")
-    if method == "tls":
-        out = solve_tls(factors, model, opts, essential, list(bags))
-    else:
-        out = solve_wls(factors, model, opts, gains, essential, list(bags))
-    split_payload(out.result, model)
-    if opts.consistent:  # physically consistent standard parameters behind the answer
-        from orthoglide_ident.identify.consistency import attach
-
-        attach(out, model, opts)
-    return out
