@@ -1,6 +1,7 @@
 """``orthoglide-ident``: offline identification, bag info, base model and reports (docs/architecture.md §4).
 
     orthoglide-ident identify [--robot FILE] BAG... [--payload-mass KG] [--method tls|wls]
+                     [--payload-known mass|com|all|point]
                      [--gains G1,G2,...|FILE.json] [--essential] [--json FILE]
                      [--r-sigma R] [--config YAML] [--validate BAG...]
                      [--consistent] [--urdf-out FILE]
@@ -91,6 +92,12 @@ def _add_identify_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--payload-mass", type=float, metavar="KG",
                    help="weighed payload mass of the loaded bags in kg (checked against their tags;"
                         " needed when a loaded bag carries no mass)")
+    p.add_argument("--payload-known", choices=("mass", "com", "all", "point"), default=None,
+                   help="what is known of the loaded bags' payload (paper Sect. 4.3; default: "
+                        "each bag's tag, orthoglide.payload_known, else what it gives): mass "
+                        "(weighed; its CoM and inertia are identified with the robot), com (mass "
+                        "and CoM; inertia identified), all (mass, CoM and inertia from the tag), "
+                        "point (a point mass at the payload frame, or at the tagged CoM)")
     p.add_argument("--method", choices=tuple(METHODS), default=None,
                    help="; ".join(f"{m.name}: {m.help}" + (" (default)" if m.name == DEFAULT_METHOD
                                                            else "") for m in METHODS.values()))
@@ -202,6 +209,8 @@ def _run_identify(args: argparse.Namespace):
         opts = opts.replace(r_sigma=args.r_sigma)
     if args.consistent or args.urdf_out:
         opts = opts.replace(consistent=True)
+    if getattr(args, "payload_known", None):
+        opts = opts.replace(payload_known=args.payload_known)
     method = args.method or DEFAULT_METHOD
     gains = parse_gains(args.gains, robot.joint_names) if args.gains else None
     if gains is not None and not METHODS[method].gains_given:

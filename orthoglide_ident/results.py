@@ -105,6 +105,58 @@ class PayloadMass:
 
 
 @dataclass
+class PayloadParameters:
+    """A payload whose CoM and inertia were identified with the robot (paper Sect. 4.3): its
+    identified combinations (σ in their units), and the CoM / inertia about it where the data
+    determine them (None where not), in ``frame``'s axes; ``known``: what was known of it."""
+
+    frame: str
+    mass: float  # kg, weighed (TLS) or estimated (WLS)
+    known: str  # "mass" | "com"
+    parameters: list[Estimate]  # χ_ul: name, value, rel_std, expression
+    std: list[float]  # σ of each parameter, in its unit
+    com: list[float | None]  # m
+    com_std: list[float | None]
+    inertia: list[float] | None = None  # Ixx Ixy Ixz Iyy Iyz Izz about the CoM, kg·m²
+    inertia_std: list[float] | None = None
+
+    def to_json(self) -> dict[str, Any]:
+        return {"frame": self.frame, "mass": _num(self.mass), "known": self.known,
+                "parameters": [dict(p.to_json(), std=_num(s))
+                               for p, s in zip(self.parameters, self.std)],
+                "com": [None if c is None else _num(c) for c in self.com],
+                "com_std": [None if c is None else _num(c) for c in self.com_std],
+                "inertia": None if self.inertia is None else [_num(x) for x in self.inertia],
+                "inertia_std": None if self.inertia_std is None
+                else [_num(x) for x in self.inertia_std]}
+
+    def summary(self) -> str:
+        """One line: the identified CoM (mm, σ) at the frame, "-" where not determined."""
+        com = ", ".join("-" if c is None else f"{1e3 * c:+.1f} ± {1e3 * s:.1f}"
+                        for c, s in zip(self.com, self.com_std))
+        what = f"CoM ({com}) mm" if self.known == "mass" else "inertia"
+        return f"payload at {self.frame}: {what} identified ({len(self.parameters)} parameters)"
+
+    def text_lines(self) -> list[str]:
+        what = {"mass": "its mass known, CoM and inertia identified",
+                "com": "its mass and CoM known, inertia identified"}[self.known]
+        out = [f"payload at {self.frame} ({what}, Sect. 4.3):"]
+        com = ", ".join(f"{a} {1e3 * c:+.2f} ± {1e3 * s:.2f}" if c is not None else f"{a} -"
+                        for a, c, s in zip("xyz", self.com, self.com_std))
+        if self.known == "mass":
+            out.append(f"  centre of mass (mm, not determined: -): {com}")
+        if self.inertia is not None and self.inertia_std is not None:
+            out.append("  inertia about it (kg·m²): " + ", ".join(
+                f"{n} {v:.4g} ± {e:.2g}" for n, v, e in
+                zip(("Ixx", "Ixy", "Ixz", "Iyy", "Iyz", "Izz"), self.inertia, self.inertia_std)))
+        out.append(f"  identified (first moments kg·m, inertia kg·m² at the origin of {self.frame}):")
+        for p, sd in zip(self.parameters, self.std):
+            expr = f" = {p.expression}" if p.expression and p.expression != p.name else ""
+            out.append(f"    {p.name:<8} {p.value:+.6g} ± {sd:.3g}{expr}")
+        return out
+
+
+@dataclass
 class IdentificationResult:
     """What ``identify`` found; ``to_json()`` is the document of docs/architecture.md §4."""
 
@@ -143,6 +195,8 @@ class IdentificationResult:
     covariance_paper: Any = field(default=None, repr=False, compare=False)  # eqs. (39), (27)
     # physically consistent standard parameters (identify/consistency.ConsistencyResult)
     consistency: Any = field(default=None, repr=False, compare=False)
+    # the payload's identified CoM and inertia when only its mass was known (Sect. 4.3)
+    payload: PayloadParameters | None = None
 
     @property
     def residual_rms_total(self) -> float:
@@ -176,6 +230,7 @@ class IdentificationResult:
             "parameters": [p.to_json() for p in self.parameters],
             "payload_mass": None if self.payload_mass is None else self.payload_mass.to_json(),
             "payloads": [p.to_json() for p in self.payloads],
+            **({"payload": self.payload.to_json()} if self.payload is not None else {}),
             "condition_number": _num(self.condition_number),
             "residual_rms": _num(self.residual_rms_total),
             "residual_rms_per_joint": [_num(r) for r in self.residual_rms],
@@ -251,6 +306,8 @@ class IdentificationResult:
             paper = "" if pm.rel_std_paper is None else f" (eq. 27: ± {_pct(pm.rel_std_paper).strip()} %)"
             lines.append(f"payload mass m_7: {pm.value:.5g} kg ± {_pct(pm.rel_std).strip()} %{paper} "
                          f"({what}{tag})")
+        if self.payload is not None:
+            lines.extend(self.payload.text_lines())
         lines.append(f"condition number (scaled W): {self.condition_number:.4g}")
         lines.append(f"residual rms ({self._units(self.effort_units, 'N')}): " + ", ".join(
             f"{j} {r:.4g}" if math.isfinite(r) else f"{j} -"

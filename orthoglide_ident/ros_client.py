@@ -1,6 +1,7 @@
 """The client side of the node set for ``orthoglide-ident``: one command per service, and a watch.
 
     orthoglide-ident record start --condition loaded --payload-mass 1.983 [--name run2]
+        [--payload-frame LINK --payload-com X,Y,Z --payload-inertia ... --payload-known point]
     orthoglide-ident record stop
     orthoglide-ident record status
     orthoglide-ident identify --service [BAG...] [--method tls|wls] [--essential] [--payload-mass KG]
@@ -43,6 +44,11 @@ def add_parsers(sub: Any) -> None:
                    help="start loaded: its inertia about the centre of mass, kg·m² (default 0: a point mass); "
                         "the three set the recorder's payload_* parameters for this start only (tagged "
                         "in the bag; nothing carries over to the next start)")
+    p.add_argument("--payload-known", choices=("mass", "com", "all", "point"), default=None,
+                   help="start loaded: what is known of the payload (paper Sect. 4.3), tagged "
+                        "orthoglide.payload_known: mass (weighed only: its CoM and inertia are "
+                        "identified), com, all, or point (a point mass at the frame); default: "
+                        "what --payload-com/--payload-inertia give")
     p.add_argument("--recorder", default="orthoglide_recorder", metavar="NODE",
                    help="the recorder node's name, for --payload-* (default orthoglide_recorder)")
     add_namespace(p)
@@ -140,7 +146,8 @@ def _numbers(text: str, n: int, option: str) -> list[float]:
 
 def set_payload_shape(c: Client, args: argparse.Namespace) -> None:
     """--payload-frame/-com/-inertia into the recorder's payload_* parameters (given ones only;
-    the recorder uses them for the next start only, then falls back to its launch values)."""
+    the recorder uses them for the next start only, then falls back to its launch values);
+    --payload-known into payload_known on every loaded start ("" when not given)."""
     from rcl_interfaces.msg import Parameter, ParameterType, ParameterValue
     from rcl_interfaces.srv import SetParametersAtomically
 
@@ -154,6 +161,9 @@ def set_payload_shape(c: Client, args: argparse.Namespace) -> None:
             params.append(Parameter(name=name, value=ParameterValue(
                 type=ParameterType.PARAMETER_DOUBLE_ARRAY,
                 double_array_value=_numbers(text, n, "--" + name.replace("_", "-")))))
+    if args.condition == "loaded":  # this start's knowledge, never an earlier start's
+        params.append(Parameter(name="payload_known", value=ParameterValue(
+            type=ParameterType.PARAMETER_STRING, string_value=args.payload_known or "")))
     if not params:
         return
     # atomically: a refused one leaves none of them set (nothing half-given reaches a start)

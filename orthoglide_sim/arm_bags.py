@@ -49,14 +49,16 @@ def bag_tags(rec: ArmRecord) -> dict[str, str]:
             "orthoglide.sim.seed": str(rec.seed)}
 
 
-def write_record(path: Path, rec: ArmRecord) -> Path:
-    """One record as a tagged bag at ``path`` (replaced if it exists)."""
+def write_record(path: Path, rec: ArmRecord, mass_only: bool = False) -> Path:
+    """One record as a tagged bag at ``path`` (replaced if it exists); ``mass_only``: the
+    payload tagged with its mass alone, as a weighed payload of unknown CoM is (Sect. 4.3)."""
     if path.exists():
         shutil.rmtree(path)
     condition = "unloaded" if rec.payload is None else "loaded"
+    payload = None if rec.payload is None or mass_only else rec.payload.tag()
     return bags.write_bag(path, rec.stamps_ns, rec.q, rec.v_tau, condition, rec.payload_mass,
                           joint_names=rec.joint_names, extra=bag_tags(rec), layout="joint_states",
-                          payload=None if rec.payload is None else rec.payload.tag())
+                          payload=payload)
 
 
 def main(argv: list[str] | None = None) -> int:

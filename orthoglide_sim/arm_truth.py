@@ -190,6 +190,22 @@ class ArmTruth:
         return self.payloads[key]
 
 
+OFFSET_PAYLOAD = "off"  # with_offset_payload's name
+OFFSET_COM = (0.03, 0.0, 0.04)  # m in the payload frame: 5 cm from the flange, 3 cm off its axis
+
+
+def with_offset_payload(truth: ArmTruth, mass: float = 2.0, com=OFFSET_COM,
+                        principal=(4.2e-3, 3.6e-3, 2.4e-3), tilt=(0.10, -0.15, 0.20),
+                        name: str = OFFSET_PAYLOAD) -> ArmTruth:
+    """``truth`` with one more payload ``name`` at the robot's payload frame: ``mass`` kg, its
+    centre of mass at ``com`` (m), principal moments (kg·m²) on axes tilted by ``tilt`` (rad):
+    a weighed payload whose CoM the identification is not told (paper Sect. 4.3)."""
+    body = RigidBody.from_principal(mass, com, principal, tilt)
+    body.check(f"payload {name}")
+    return replace(truth, payloads={**truth.payloads,
+                                    name: ArmPayload(name, truth.arm.payload_frame, body)})
+
+
 def _seeded_link(nominal: LinkInertial, rng: np.random.Generator) -> RigidBody:
     """An arm without a table: mass ±3-7 %, centre of mass ±3-12 mm per axis, moments ±3-8 %,
     tilt ±0.03-0.1 rad; the largest moment kept 2 % inside the triangle inequality."""

@@ -9,7 +9,9 @@ import numpy as np
 import pytest
 
 from orthoglide_sim.arm_bags import write_record
+from orthoglide_sim.arm_description import load_arm
 from orthoglide_sim.arm_record import simulate_arm
+from orthoglide_sim.arm_truth import OFFSET_COM, OFFSET_PAYLOAD, load_truth, with_offset_payload
 
 
 def cli(*args: str) -> subprocess.CompletedProcess:
@@ -43,6 +45,33 @@ def test_identify_a_ur5_from_its_ros2_control_bags(ur5_bags, tmp_path):
     assert np.abs(g / g_true - 1).max() < 0.005
     ratio = [x["ratio_to_nominal"] for x in doc["drive_gains"]]
     assert np.allclose(ratio, g / np.array([13.0, 13.0, 13.0, 9.3, 9.3, 9.3]))
+
+
+def test_a_payload_tagged_with_its_mass_only(tmp_path):
+    """Sect. 4.3 at the CLI: the bag says only the mass; the CoM is identified and reported
+    (text and JSON 'payload'); --payload-known point takes it for a point mass at the flange,
+    which cannot scale the gains (exit 2, one line)."""
+    truth = with_offset_payload(load_truth(load_arm("ur5")))
+    bags = [str(write_record(tmp_path / name, simulate_arm(
+        20.0, payload=payload, trajectory=traj, seed=seed, truth=truth), mass_only=True))
+        for name, payload, traj, seed in (("unloaded", None, "exciting1", 0),
+                                          ("loaded", OFFSET_PAYLOAD, "exciting2", 1))]
+    info = cli("info", bags[1])
+    assert "loaded, payload 2 kg (mass known, CoM and inertia not)" in info.stdout
+    js = tmp_path / "r.json"
+    p = cli("identify", "--robot", "ur5", *bags, "--json", str(js), "-q")
+    assert p.returncode == 0, p.stderr
+    assert "payload at tool0 (its mass known, CoM and inertia identified, Sect. 4.3)" in p.stdout
+    doc = json.loads(js.read_text())
+    assert np.abs(np.array(doc["payload"]["com"]) - OFFSET_COM).max() < 2e-3
+    assert all(s > 0 for s in doc["payload"]["com_std"])
+    g = np.array([x["value"] for x in doc["drive_gains"]])
+    assert np.abs(g / truth.drive_array("g_tau") - 1).max() < 0.005
+    point = cli("identify", "--robot", "ur5", *bags, "--payload-known", "point", "-q")
+    assert point.returncode == 2 and point.stderr.count("\n") == 1, point.stderr
+    bad = cli("identify", "--robot", "ur5", *bags, "--payload-known", "com", "-q")
+    assert bad.returncode == 2 and "payload_known com needs the payload's centre of mass" \
+        in bad.stderr
 
 
 def test_model_base_parameters_of_a_robot_file():

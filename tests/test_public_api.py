@@ -42,7 +42,7 @@ ROS = {
 }
 ROBOT_MODEL = ["forward_model", "identified_urdf", "joint_labels", "gravity", "observation_block",
                "with_payload", "standard_regressor", "random_states", "regressor", "joint_names",
-               "nominal_gains", "effort_as_current"]
+               "nominal_gains", "effort_as_current", "payload_standard_block"]
 
 
 @pytest.mark.parametrize("package", sorted(API))

@@ -12,6 +12,12 @@ Stored as strings, the same keys in metadata.yaml ``custom_data`` and in each .m
                                 absent: the frame origin)
 ``orthoglide.payload_inertia``  ``"Ixx Ixy Ixz Iyy Iyz Izz"``: its inertia about the centre of mass,
                                 kg·m², in that frame (optional; absent: a point mass)
+``orthoglide.payload_known``    what is known of the payload (paper Sect. 4.3, optional):
+                                ``mass`` (its CoM and inertia are identified), ``com`` (mass and
+                                CoM known, inertia identified), ``all`` (needs payload_com and
+                                payload_inertia), ``point`` (a point mass at the frame, or at
+                                payload_com). Absent: ``all`` with com and inertia, ``com`` with
+                                com only, else ``mass``
 ``orthoglide.position_source``  ``"TOPIC FIELD"``: where q was recorded, e.g.
                                 ``/joint_states position`` (optional)
 ``orthoglide.current_source``   ``"TOPIC FIELD"``: where the current (A) was recorded:
@@ -46,6 +52,8 @@ MASS_KEY = "orthoglide.payload_mass"
 FRAME_KEY = "orthoglide.payload_frame"
 COM_KEY = "orthoglide.payload_com"
 INERTIA_KEY = "orthoglide.payload_inertia"
+KNOWN_KEY = "orthoglide.payload_known"
+PAYLOAD_KNOWLEDGE = ("mass", "com", "all", "point")  # model/robot.py's, spelled out here too
 POSITION_SOURCE_KEY = "orthoglide.position_source"
 CURRENT_SOURCE_KEY = "orthoglide.current_source"
 EFFORT_UNIT_KEY = "orthoglide.effort_unit"
@@ -69,6 +77,17 @@ class BagTags:
     position_source: str | None = None
     current_source: str | None = None
     effort_unit: str | None = None
+    payload_known: str | None = None
+
+    @property
+    def knowledge(self) -> str:
+        """What is known of a loaded bag's payload: the tag's payload_known, else ``all`` with a
+        CoM and an inertia, ``com`` with a CoM only, ``mass`` otherwise (paper Sect. 4.3)."""
+        if self.payload_known is not None:
+            return self.payload_known
+        if self.payload_com is not None:
+            return "all" if self.payload_inertia is not None else "com"
+        return "mass"
 
     @classmethod
     def checked(
@@ -82,6 +101,7 @@ class BagTags:
         position_source: str | None = None,
         current_source: str | None = None,
         effort_unit: str | None = None,
+        payload_known: str | None = None,
     ) -> BagTags:
         """Validated tags; ConfigError with the reason otherwise (used for recorder requests)."""
         if condition not in CONDITIONS:
@@ -105,9 +125,10 @@ class BagTags:
         if effort_unit is not None and effort_unit not in EFFORT_UNITS:
             raise ConfigError(f"effort_unit {effort_unit!r}: use 'A' (a current) or 'torque' "
                               "(N·m or N)")
+        known = _knowledge(payload_known or None, condition, com, inertia)
         return cls(condition, mass, _word(payload_frame, "payload_frame"), com, inertia,
                    _source(position_source, "position_source"),
-                   _source(current_source, "current_source"), effort_unit)
+                   _source(current_source, "current_source"), effort_unit, known)
 
     def to_dict(self) -> dict[str, str]:
         """The keys as stored in custom_data and in the MCAP metadata record (absent ones left
@@ -118,6 +139,7 @@ class BagTags:
             FRAME_KEY: self.payload_frame,
             COM_KEY: None if self.payload_com is None else _join(self.payload_com),
             INERTIA_KEY: None if self.payload_inertia is None else _join(self.payload_inertia),
+            KNOWN_KEY: self.payload_known,
             POSITION_SOURCE_KEY: self.position_source,
             CURRENT_SOURCE_KEY: self.current_source,
             EFFORT_UNIT_KEY: self.effort_unit,
@@ -136,6 +158,8 @@ class BagTags:
             out += f", inertia {' '.join(f'{x:g}' for x in self.payload_inertia)} kg·m²"
         if self.effort_unit == "torque":
             out += ", effort a torque (N·m or N)"
+        if self.condition == "loaded":
+            out += f" ({_KNOWN_TEXT[self.knowledge]})"
         return out
 
     @classmethod
@@ -162,9 +186,32 @@ class BagTags:
                 position_source=items.get(POSITION_SOURCE_KEY),
                 current_source=items.get(CURRENT_SOURCE_KEY),
                 effort_unit=items.get(EFFORT_UNIT_KEY),
+                payload_known=items.get(KNOWN_KEY),
             )
         except ConfigError as exc:
             raise BagError(f"{where}: invalid tag: {exc}") from None
+
+
+_KNOWN_TEXT = {"mass": "mass known, CoM and inertia not",
+               "com": "mass and CoM known, inertia not",
+               "all": "mass, CoM and inertia known", "point": "a point mass"}
+
+
+def _knowledge(known: str | None, condition: str, com, inertia) -> str | None:
+    """The tag's payload_known, checked against the condition and what else the tag gives."""
+    if known is None:
+        return None
+    if known not in PAYLOAD_KNOWLEDGE:
+        raise ConfigError(f"payload_known {known!r} is not one of {', '.join(PAYLOAD_KNOWLEDGE)}")
+    if condition == "unloaded":
+        raise ConfigError("condition 'unloaded' takes no payload_known")
+    if known == "com" and com is None:
+        raise ConfigError("payload_known 'com' needs payload_com (the centre of mass, m)")
+    if known == "all" and (com is None or inertia is None):
+        raise ConfigError("payload_known 'all' needs payload_com and payload_inertia")
+    if known == "point" and inertia is not None:
+        raise ConfigError("payload_known 'point' takes no payload_inertia (a point mass has none)")
+    return known
 
 
 def _join(values: Sequence[float]) -> str:

@@ -45,8 +45,11 @@ from orthoglide_ident.identify.drive_terms import observation_model, screw_mask
 from orthoglide_ident.identify.factors import RecordFactors
 from orthoglide_ident.identify.live_recording import LiveRecording
 from orthoglide_ident.identify.methods import DEFAULT_METHOD, solve
-from orthoglide_ident.identify.observe import IdentificationModel
+from orthoglide_ident.identify.observe import IdentificationModel, with_known_payload
 from orthoglide_ident.identify.options import IdentifyOptions
+from orthoglide_ident.identify.payload_unknowns import (check_one_payload, unknowns_of,
+                                                        with_payload_unknowns)
+from orthoglide_ident.identify.records import payload_knowledge
 from orthoglide_ident.identify.solve import limits, min_rows, tls_model
 from orthoglide_ident.identify.stream import DecimatedRows
 from orthoglide_ident.identify.tls import check_excitation
@@ -141,8 +144,9 @@ class LiveIdentification:
         if self.opts.decimation_filter != "fir":
             raise ConfigError("live identification needs decimation_filter: fir (cheby1's IIR "
                               "decimation depends on the whole segment)")
-        self.model = observation_model(model, self.opts.screw_lead_m,
+        self.model = observation_model(with_payload_unknowns(model), self.opts.screw_lead_m,
                                        self.opts.lag_model == "auto")
+        self._payloads: list[tuple[str, Payload]] = []  # the loaded recordings' (Sect. 4.3)
         self.n_b = len(self.model.names)
         self._factors: dict[tuple[str, float], RecordFactors] = {}
         self._seconds: dict[str, float] = {"loaded": 0.0, "unloaded": 0.0}
@@ -179,8 +183,12 @@ class LiveIdentification:
                         "stopped"])
             self.stop_recording()
         lag = getattr(self.model, "lag_column", None) is not None and not self._lag_left_out()
-        model = self.model.with_payload(payload) if payload is not None and \
-            condition == "loaded" else self.model
+        model = self.model
+        if condition == "loaded":
+            p = payload_knowledge(source, payload, mass, self.opts.payload_known)
+            check_one_payload(self._payloads + [(source, p)])
+            self._payloads.append((source, p))
+            model = with_known_payload(model, p)
         self._current = LiveRecording(source, condition, mass, self.opts, model, self.n_b,
                                       self._fold, lag)
         self._recordings.append(self._current)
@@ -263,12 +271,32 @@ class LiveIdentification:
     def _solvable(self, factors: list[RecordFactors]) -> tuple[list[RecordFactors], object]:
         """The factors and model to solve: without the lag columns when a segment used has no
         instrument (pipeline._lag_or_paper: all or nothing, the paper's drive model)."""
-        col = getattr(self.model, "lag_column", None)
+        factors, model = self._payload_columns(factors)
+        col = getattr(model, "lag_column", None)
         if col is None or not self._lag_left_out():
-            return factors, self.model
-        cols = np.arange(col, col + self.model.n_joints)
+            return factors, model
+        cols = np.arange(col, col + model.n_joints)
         return ([f.without_columns(cols) for f in factors],
-                observation_model(self.model, self.opts.screw_lead_m, False))
+                observation_model(model, self.opts.screw_lead_m, False))
+
+    def _payload_columns(self, factors: list[RecordFactors]
+                         ) -> tuple[list[RecordFactors], object]:
+        """Without the unknown payload columns no recording fills (pipeline._payload_or_not)."""
+        pu = unknowns_of(self.model)
+        if pu is None:
+            return factors, self.model
+        start, n = pu.payload_slice.start, len(pu.columns)
+        keep = tuple(k for k in range(n)
+                     if any(np.any(R[:, start + k]) for f in factors for R in f.R))
+        reduced = pu.keeping(keep)
+        frames = {p.frame for _, p in self._payloads if p.unknown}
+        if keep and frames:
+            reduced = reduced.at_frame(frames.pop())
+        drop = np.array([start + k for k in range(n) if k not in keep], dtype=int)
+        if drop.size:
+            factors = [f.without_columns(drop) for f in factors]
+        lag = getattr(self.model, "lag_column", None) is not None
+        return factors, observation_model(reduced, self.opts.screw_lead_m, lag)
 
     @property
     def lag_s(self) -> float:

@@ -19,6 +19,8 @@ from typing import Callable, Sequence
 from orthoglide_ident.errors import IdentificationError
 from orthoglide_ident.identify.factors import RecordFactors
 from orthoglide_ident.identify.options import IdentifyOptions
+from orthoglide_ident.identify.payload_report import split_payload
+from orthoglide_ident.identify.payload_unknowns import unknowns_of
 from orthoglide_ident.identify.solve import (Solved, check_length, check_rows,
                                              friction_sign_warnings, solve_tls, solve_wls)
 
@@ -83,8 +85,9 @@ def get(name: str) -> Method:
 def solve(factors: list[RecordFactors], model, opts: IdentifyOptions,
           method: str = DEFAULT_METHOD, gains: Sequence[float] | None = None,
           essential: bool = False, bags: Sequence[str] = ()) -> Solved:
-    """The method on the factors, then the consistent set when ``opts.consistent``; raises the
-    product's errors with a reason."""
+    """The method on the factors, the payload's identified parameters split from the robot's
+    (a payload known by its mass, Sect. 4.3), then the consistent set when ``opts.consistent``;
+    raises the product's errors with a reason."""
     m = get(method)
     if not factors:
         raise IdentificationError("no bag given")
@@ -92,7 +95,12 @@ def solve(factors: list[RecordFactors], model, opts: IdentifyOptions,
         check_rows(factors, model, opts)
     else:  # TLS: a joint that hardly moved is a partial answer, a short record is refused
         check_length(factors, opts)
+    if opts.consistent and unknowns_of(model) is not None:
+        raise IdentificationError(
+            "--consistent needs the payload's CoM and inertia: with only its mass known they are "
+            "identified (Sect. 4.3); tag them or give --payload-known point")
     out = m.solve(factors, model, opts, gains, essential, list(bags))
+    split_payload(out.result, model)
     out.result.warnings.extend(friction_sign_warnings(out.result))
     if opts.consistent and not out.result.complete:
         out.result.warnings.append("--consistent is not run on a partial answer: the standard "

@@ -18,16 +18,17 @@ from orthoglide_ident.identify.drive_terms import screw_mask
 from orthoglide_ident.identify.filtering import states_at_half_tick
 from orthoglide_ident.identify.observations import Observations
 from orthoglide_ident.identify.options import IdentifyOptions
-from orthoglide_ident.identify.records import Record
+from orthoglide_ident.identify.payload_unknowns import unknowns_of
+from orthoglide_ident.identify.records import Record, record_payload
 from orthoglide_ident.identify.reversals import anchor_samples, bridge, find_reversals, rows_clear
 from orthoglide_ident.identify.segments import Segment, SegmentReport, split_record
 from orthoglide_ident.identify.stream import DecimatedRows, SegmentStream, lag_rows, model_block
 from orthoglide_ident.identify.time_base import choose_velocity
-from orthoglide_ident.model.robot import RobotModel
+from orthoglide_ident.model.robot import Payload, RobotModel
 
 log = logging.getLogger("orthoglide_ident.identify")
 
-__all__ = ["observe"]
+__all__ = ["observe", "with_known_payload"]
 
 # What the observation needs from the robot (model/robot.py): sizes, names, nominal gains, the
 # IDIM block [W | W_payload]; also a DriveTermsModel wrapping one (drive_terms.py).
@@ -38,11 +39,13 @@ def observe(rec: Record, model: IdentificationModel, opts: IdentifyOptions,
             payload_mass: float) -> tuple[Observations, SegmentReport, dict[str, float]]:
     """Segments, derivative filtering, W and parallel decimation of one record (§6.1-3).
 
-    A loaded record's payload column is that of its payload (``rec.payload``: frame, centre of
-    mass and inertia per kg; eq. 33's W_kl generalised), through ``model.with_payload``."""
+    A loaded record's payload column is that of its payload's known part (``rec.payload``:
+    frame, centre of mass and inertia per kg; eq. 33's W_kl generalised), its unknown parameters'
+    columns W_ul beside W (payload_unknowns.py, Sect. 4.3), through ``model.with_payload``."""
     times: dict[str, float] = {}
-    if rec.payload is not None and rec.condition == "loaded":
-        model = model.with_payload(rec.payload)
+    payload = record_payload(rec, payload_mass, opts.payload_known)
+    if payload is not None:
+        model = with_known_payload(model, payload)
     t0 = time.perf_counter()
     step = _mean_step_guess(rec.stamps_q_ns)
     opts = opts.at_rate(1.0 / step)
@@ -88,6 +91,15 @@ def _mean_step_guess(stamps_ns: np.ndarray) -> float:
         return 1e-3
     ok = dt[(dt > 0.5 * med * 1e9) & (dt < 1.5 * med * 1e9)]
     return float(np.mean(ok)) * 1e-9 if ok.size else med
+
+
+def with_known_payload(model, payload: Payload):
+    """``model`` bound to a loaded record's payload: the whole payload for a model with the
+    unknown payload columns (payload_unknowns.py), its known part for one without (the
+    Orthoglide's: only the mass acts, whatever else is known)."""
+    if unknowns_of(model) is not None:
+        return model.with_payload(payload)
+    return model.with_payload(payload.known_part())
 
 
 def _segments_fir(segments: list[Segment], model: IdentificationModel, opts: IdentifyOptions,

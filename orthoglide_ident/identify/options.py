@@ -124,6 +124,10 @@ class IdentifyOptions:
     essential_max_residual_increase: float = 0.05  # fraction of the weighted residual norm
     payload_mass_std_kg: float = 0.001  # std of the weighed payload mass (reported for m_7)
     payload_tolerance_kg: float = 0.0005  # bag tag vs --payload-mass disagreement allowed
+    # what is known of the loaded bags' payload (paper Sect. 4.3): "" from each bag's tag
+    # (orthoglide.payload_known, else what it gives: mass only, + CoM, + inertia), or for all of
+    # them: mass | com | all | point (a point mass at the frame, or at the tagged CoM)
+    payload_known: str = ""
     check_excitation: bool = True
     max_condition: float = 1.0e7  # error above; a warning above warn_condition
     warn_condition: float = 1.0e5
@@ -282,6 +286,9 @@ class IdentifyOptions:
         if not (self.consistency_prior_weight > 0 and math.isfinite(self.consistency_prior_weight)):
             raise ConfigError(f"{source}: consistency_prior_weight must be a positive number "
                               "(1e-4: the prior decides only what the data leave free)")
+        if self.payload_known not in ("", "mass", "com", "all", "point"):
+            raise ConfigError(f"{source}: payload_known must be mass, com, all or point (or "
+                              f"empty: from the bags' tags), not {self.payload_known!r}")
         if self.filter_cutoff_hz < 0:
             raise ConfigError(f"{source}: filter_cutoff_hz must be > 0 Hz, or 0: from the rate")
         if not (self.live_block_s > 0 and self.live_pairing_slack_s >= 0

@@ -42,9 +42,12 @@ def hardly_moved(factors: list[RecordFactors], model, opts, min_rows: int) -> di
     return out
 
 
-def payload_shares(factors: list[RecordFactors], g_tau: np.ndarray) -> np.ndarray:
+def payload_shares(factors: list[RecordFactors], g_tau: np.ndarray,
+                   unknown: tuple[slice, np.ndarray] | None = None) -> np.ndarray:
     """Per joint, rms payload torque / rms measured torque g_τ v_τ over the loaded records
-    (norms of the R factors' columns W_kl m_7 and v_τ: ‖R c‖ = ‖X c‖)."""
+    (norms of the R factors' columns W_kl m_7 and v_τ: ‖R c‖ = ‖X c‖). ``unknown``: the columns
+    of a payload known by its mass (Sect. 4.3) and their identified χ_ul, whose torque
+    W_ul χ_ul is the payload's too (its CoM off an axis loads that joint)."""
     n_b = factors[0].n_b
     n_j = len(g_tau)
     pay, cur = np.zeros(n_j), np.zeros(n_j)
@@ -52,16 +55,20 @@ def payload_shares(factors: list[RecordFactors], g_tau: np.ndarray) -> np.ndarra
         if not f.loaded:
             continue
         for j in range(n_j):
-            pay[j] += f.payload_mass ** 2 * float(np.sum(f.R[j][:, n_b] ** 2))
+            tau = f.payload_mass * f.R[j][:, n_b]
+            if unknown is not None:
+                tau = tau + f.R[j][:, unknown[0]] @ unknown[1]
+            pay[j] += float(np.sum(tau ** 2))
             cur[j] += float(np.sum(f.R[j][:, n_b + 1] ** 2))
     with np.errstate(divide="ignore", invalid="ignore"):
         return np.sqrt(pay) / (np.abs(g_tau) * np.sqrt(cur))
 
 
 def little_payload(factors: list[RecordFactors], g_tau: np.ndarray, names: Sequence[str],
-                   min_share: float) -> dict[int, str]:
+                   min_share: float, unknown: tuple[slice, np.ndarray] | None = None
+                   ) -> dict[int, str]:
     """Joints the payload adds less than ``min_share`` of their torque to."""
-    share = payload_shares(factors, g_tau)
+    share = payload_shares(factors, g_tau, unknown)
     return {j: (f"the payload adds almost no torque on that axis ({100 * share[j]:.2g} % of its "
                 f"torque, below min_payload_share {100 * min_share:g} %): record with the "
                 "payload offset from that axis (or heavier), so that it loads that joint")

@@ -29,9 +29,12 @@ from orthoglide_ident.identify.methods import DEFAULT_METHOD, get, solve
 from orthoglide_ident.identify.observations import Observations
 from orthoglide_ident.identify.observe import IdentificationModel, observe
 from orthoglide_ident.identify.options import IdentifyOptions
-from orthoglide_ident.identify.records import Record, read_record
+from orthoglide_ident.identify.payload_unknowns import (check_one_payload, unknowns_of,
+                                                        used_columns, with_payload_unknowns)
+from orthoglide_ident.identify.records import Record, read_record, record_payload
 from orthoglide_ident.identify.solve import Solved, min_rows
 from orthoglide_ident.identify.validation import ValidationResult, cross_validate
+from orthoglide_ident.model.robot import Payload
 from orthoglide_ident.results import IdentificationResult
 
 log = logging.getLogger("orthoglide_ident.identify")
@@ -73,10 +76,12 @@ def _check_request(opts: IdentifyOptions, method: str, payload_mass: float | Non
 
 
 def _observe_all(records: Iterable[Record], model: IdentificationModel, opts: IdentifyOptions,
-                 payload_mass: float | None, add_timings: Callable[[dict[str, float]], None]
+                 payload_mass: float | None, add_timings: Callable[[dict[str, float]], None],
+                 partial: list[tuple[str, Payload]] | None = None
                  ) -> tuple[list[Observations], list[dict[str, Any]], list[str], list[str]]:
     """Each record to its observation rows (one record's raw samples in memory at a time):
-    the rows, the per-bag reports, the warnings and the bag names."""
+    the rows, the per-bag reports, the warnings and the bag names; the loaded records'
+    payloads appended to ``partial`` (one payload whose parameters are partly unknown)."""
     if isinstance(records, Sequence):  # in memory: check every tag before the long steps
         for r in records:
             resolve_payload(r, payload_mass, opts.payload_tolerance_kg)
@@ -85,6 +90,7 @@ def _observe_all(records: Iterable[Record], model: IdentificationModel, opts: Id
     warnings: list[str] = []
     bag_names: list[str] = []
     seen: dict[str, str] = {}  # fingerprint -> source
+    partial = [] if partial is None else partial
     for rec in records:
         key = fingerprint(rec)
         if key in seen:  # the same data twice would count its equations twice (σ too small)
@@ -95,6 +101,10 @@ def _observe_all(records: Iterable[Record], model: IdentificationModel, opts: Id
             continue
         seen[key] = rec.source
         m = resolve_payload(rec, payload_mass, opts.payload_tolerance_kg)
+        p = record_payload(rec, m, opts.payload_known)
+        if p is not None:
+            partial.append((rec.source, p))
+            check_one_payload(partial)
         bag_names.append(rec.source)
         warnings.extend(rec.warnings)
         obs, rep, ts = observe(rec, model, opts, m)
@@ -111,10 +121,11 @@ def _observe_all(records: Iterable[Record], model: IdentificationModel, opts: Id
 
 def fingerprint(rec: Record) -> str:
     """What identifies a record's data whatever its path: a digest of its stamps, positions and
-    currents (the same bag given twice, or a copy of it)."""
+    currents (the same bag given twice, or a copy of it) and of its tag (the same data tagged
+    with another payload is not a copy: the payload checks judge it)."""
     import hashlib
 
-    h = hashlib.sha256()
+    h = hashlib.sha256(f"{rec.condition} {rec.payload_mass!r} {rec.payload!r}".encode())
     for a in (rec.stamps_q_ns, rec.q, rec.stamps_v_ns, rec.v_tau):
         h.update(np.ascontiguousarray(a).tobytes())
     return h.hexdigest()
@@ -156,13 +167,17 @@ def identify_records(
     _check_request(opts, method, payload_mass)
     timings: dict[str, float] = {}
     t_all = time.perf_counter()
-    model = observation_model(model, opts.screw_lead_m, opts.lag_model == "auto")
+    model = observation_model(with_payload_unknowns(model), opts.screw_lead_m,
+                              opts.lag_model == "auto")
 
     def add(ts: dict[str, float]) -> None:
         for k, v in ts.items():
             timings[k] = timings.get(k, 0.0) + v
 
-    blocks, reports, warnings, bag_names = _observe_all(records, model, opts, payload_mass, add)
+    payloads: list[tuple[str, Payload]] = []
+    blocks, reports, warnings, bag_names = _observe_all(records, model, opts, payload_mass, add,
+                                                        payloads)
+    model, blocks = _payload_or_not(model, blocks, opts, payloads)
     # the first record's rate fixes what the solve needs in samples (the σ's decimation gain)
     opts = dataclasses.replace(opts, filter_cutoff_hz=reports[0]["filter_cutoff_hz"],
                                decimation=reports[0]["decimation"],
@@ -188,6 +203,30 @@ def identify_records(
     result.observations = blocks
     result.observations_chi = solved.chi
     return result
+
+
+def _payload_or_not(model: IdentificationModel, blocks: list[Observations],
+                    opts: IdentifyOptions, payloads: list[tuple[str, Payload]]
+                    ) -> tuple[IdentificationModel, list[Observations]]:
+    """The model and rows with only the unknown payload columns some loaded record fills (a
+    payload known by its mass, Sect. 4.3), named at that payload's frame: with every payload
+    known, the rows are the robot's own (zero columns would make W_tot rank deficient)."""
+    pu = unknowns_of(model)
+    if pu is None:
+        return model, blocks
+    start, n = pu.payload_slice.start, len(pu.columns)
+    keep = used_columns([b.W for b in blocks], start, n)
+    frames = {p.frame for _, p in payloads if p.unknown}
+    reduced = pu.keeping(keep)
+    if keep and frames:
+        reduced = reduced.at_frame(frames.pop())
+    if len(keep) == n and reduced is pu:
+        return model, blocks
+    drop = [start + k for k in range(n) if k not in keep]
+    if drop:
+        blocks = [dataclasses.replace(b, W=np.delete(b.W, drop, axis=2)) for b in blocks]
+    lag = getattr(model, "lag_column", None) is not None
+    return observation_model(reduced, opts.screw_lead_m, lag), blocks
 
 
 def _lag_or_paper(model: IdentificationModel, blocks: list[Observations],

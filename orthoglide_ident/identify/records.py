@@ -1,22 +1,25 @@
 """Reading records: a tagged bag (or the simulator's arrays) to a :class:`Record` in memory.
 
 A record is one recording: positions and currents with their stamps, joints by name, and the
-bag's tag (loaded or unloaded, payload mass, frame, centre of mass and inertia). The offline path
-reads bags into records (``read_record``); the live path builds none (its samples go straight to
-the observation, live_recording.py). BagError if a bag is unusable.
+bag's tag (loaded or unloaded, payload mass, frame, centre of mass and inertia, and which of
+them are known: paper Sect. 4.3). The offline path reads bags into records (``read_record``);
+the live path builds none (its samples go straight to the observation, live_recording.py), but
+shares ``payload_knowledge``. BagError if a bag is unusable.
 """
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Sequence
 
 import numpy as np
 
+from orthoglide_ident.errors import IdentificationError
 from orthoglide_ident.identify.options import IdentifyOptions
 from orthoglide_ident.model.robot import Payload, RobotModel
 
-__all__ = ["Record", "read_record"]
+__all__ = ["Record", "payload_knowledge", "read_record", "record_payload"]
 
 
 @dataclass
@@ -88,11 +91,42 @@ def read_record(path: str | Path, model: RobotModel,
 
 
 def _tagged_payload(tags) -> Payload | None:
-    """The payload of a loaded bag's tag when it is more than a point mass at the robot's payload
-    frame (orthoglide.payload_frame / _com / _inertia)."""
-    if tags is None or tags.condition != "loaded" or not (
-            tags.payload_frame or tags.payload_com or tags.payload_inertia):
+    """The payload of a loaded bag's tag: mass, frame, CoM and inertia as given, and what of
+    them is known (orthoglide.payload_known, else what the tag gives: paper Sect. 4.3)."""
+    if tags is None or tags.condition != "loaded":
         return None
     return Payload(float(tags.payload_mass), tags.payload_frame or "",
                    tuple(tags.payload_com or (0.0, 0.0, 0.0)),
-                   tuple(tags.payload_inertia or (0.0,) * 6))
+                   tuple(tags.payload_inertia or (0.0,) * 6), tags.knowledge)
+
+
+def record_payload(rec: Record, payload_mass: float, known: str = "") -> Payload | None:
+    """A loaded record's payload and what is known of it: ``known`` (payload_known option)
+    overrides the tag's; an in-memory record without one carries a mass known alone at the
+    robot's payload frame. IdentificationError when the knowledge asks for what is not given."""
+    if rec.condition != "loaded":
+        return None
+    return payload_knowledge(rec.source, rec.payload, payload_mass, known)
+
+
+def payload_knowledge(source: str, payload: Payload | None, payload_mass: float,
+                      known: str = "") -> Payload:
+    """A loaded record's payload (None: its mass known alone, at the robot's payload frame) with
+    the knowledge ``known`` asks for ("" : as it is); IdentificationError when it asks for what
+    the record does not give. Shared by the offline records and the live recordings."""
+    p = payload or Payload(payload_mass, known="mass")
+    if not known or known == p.known:
+        return p
+    if known in ("com", "all") and p.known in ("mass", "point") and not any(p.com):
+        raise IdentificationError(
+            f"{source}: payload_known {known} needs the payload's centre of mass in the tag "
+            "(orthoglide.payload_com)")
+    if known == "all" and p.known != "all":
+        raise IdentificationError(
+            f"{source}: payload_known all needs the payload's centre of mass and inertia in "
+            "the tag (orthoglide.payload_com, orthoglide.payload_inertia)")
+    if known == "point" and p.known == "all" and any(p.inertia):
+        raise IdentificationError(
+            f"{source} is tagged with the payload's inertia: payload_known point would drop "
+            "it (use all, or com to identify the inertia)")
+    return dataclasses.replace(p, known=known)

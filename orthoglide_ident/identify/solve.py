@@ -21,6 +21,7 @@ from orthoglide_ident.identify import drive_terms, partial
 from orthoglide_ident.identify.essential import EssentialResult, essential_parameters
 from orthoglide_ident.identify.factors import RecordFactors
 from orthoglide_ident.identify.options import IdentifyOptions
+from orthoglide_ident.identify.payload_unknowns import unknowns_of
 from orthoglide_ident.identify.tls import (ExcitationLimits, TLSProblem, TLSSolution,
                                            check_excitation, check_gains, check_subspace,
                                            require_loaded_and_unloaded)
@@ -365,13 +366,24 @@ def _undetermined(factors: list[RecordFactors], model, opts: IdentifyOptions, m:
     """Gains of a solve the data do not fix (partial.py), by joint index, with the reason: the
     payload adds almost no torque on the axis; else, eq. (37) holding, a σ above the limit."""
     names = model.joint_names
-    left_out = partial.little_payload(factors, m.view(sol)[0].g_tau, names, opts.min_payload_share)
+    left_out = partial.little_payload(factors, m.view(sol)[0].g_tau, names, opts.min_payload_share,
+                                      _payload_unknowns(model, sol))
     if left_out:
         return left_out
     lim = limits(model, opts)
     check_subspace(sol, lim)
     n = sol.chi.shape[0]
     return partial.weak_gain(sol.rel_std[n:n + model.n_joints], names, lim.max_gain_rel_std)
+
+
+def _payload_unknowns(model, sol: TLSSolution) -> tuple[slice, np.ndarray] | None:
+    """The columns of a payload known by its mass and their identified χ_ul (none otherwise)."""
+    pu = unknowns_of(model)
+    if pu is None:
+        return None
+    chi = np.zeros(sol.active.shape[0])
+    chi[sol.active] = sol.chi
+    return pu.payload_slice, chi[pu.payload_slice]
 
 
 def _left_out_text(names: Sequence[str], left_out: dict[int, str]) -> list[str]:

@@ -79,6 +79,16 @@ def _nearest_first(points: np.ndarray, start: np.ndarray, scale: np.ndarray) -> 
     return order
 
 
+def _moved(placement: pin.SE3, chi: np.ndarray) -> np.ndarray:
+    """Ten inertial parameters (INERTIAL_KINDS) at a frame -> Pinocchio's, in the frame of the
+    joint it sits on (``placement``: the frame in that joint). The move is linear in the
+    parameters, so a unit parameter with no mass is moved as the difference of two bodies."""
+    unit = pin.Inertia.FromDynamicParameters(pin_parameters(np.r_[np.zeros(9), 1.0]))
+    body = pin.Inertia.FromDynamicParameters(pin_parameters(np.r_[np.zeros(9), 1.0] + chi))
+    return (placement.act(body).toDynamicParameters()
+            - placement.act(unit).toDynamicParameters())
+
+
 def _fmt(values: Sequence[float]) -> str:
     return "[" + ", ".join(f"{x:.6g}" for x in values) + "]"
 
@@ -254,6 +264,47 @@ class PinocchioRobot(RobotModel):
         n = max(100, math.ceil(ROWS_PER_PARAMETER * len(self.standard_names) / self.n_joints))
         W = self.standard_regressor(*self.random_states(n, seed))
         return base_parameters(W, self.standard_names, self.column_order())
+
+    def _payload_frame(self, frame: str) -> pin.Frame:
+        """The frame a payload is fixed to; ConfigError when the robot has no such movable frame."""
+        if not self.model.existFrame(frame):
+            raise ConfigError(f"robot {self.name}: the payload frame {frame!r} is not a frame of "
+                              f"{self.description.path.name}")
+        frame_ = self.model.frames[self.model.getFrameId(frame)]
+        if frame_.parentJoint == 0:
+            raise ConfigError(f"robot {self.name}: the payload frame {frame!r} is fixed to the "
+                              "world")
+        return frame_
+
+    def payload_standard_block(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray,
+                               frame: str) -> np.ndarray:
+        """(10, n, m): efforts of each payload parameter (INERTIAL_KINDS) at ``frame``: the
+        columns of the frame's joint body for the parameters moved into that joint's frame
+        (the move is linear in the ten parameters: one column per unit parameter)."""
+        joint, chi = self._unit_payloads(frame)
+        q, qd, qdd = self._samples(q, qd, qdd)
+        out = np.zeros((10, self.n_joints, q.shape[0]))
+        with self._lock:
+            return self._rows.block(q, qd, qdd, [], (joint, chi), out)
+
+    def observation_and_payload_block(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray,
+                                      frame: str) -> np.ndarray:
+        """[W | W_payload | the ten payload columns at ``frame``] (n_b + 11, n, m) in one pass
+        of Pinocchio's regressor: both payloads' columns from the same joint-body columns."""
+        joint, chi = self._unit_payloads(frame)
+        if joint != self._payload[0]:  # on other bodies: two passes
+            return super().observation_and_payload_block(q, qd, qdd, frame)
+        q, qd, qdd = self._samples(q, qd, qdd)
+        out = np.zeros((self.n_b + 11, self.n_joints, q.shape[0]))
+        both = np.column_stack([self._payload[1], chi])
+        with self._lock:
+            return self._rows.block(q, qd, qdd, self._base_columns, (joint, both), out)
+
+    def _unit_payloads(self, frame: str) -> tuple[int, np.ndarray]:
+        """The joint a frame is on and its (10, 10) unit payload parameters moved there."""
+        frame_ = self._payload_frame(frame or self.payload_frame)
+        return int(frame_.parentJoint), np.column_stack(
+            [_moved(frame_.placement, e) for e in np.eye(10)])
 
     def _bind_payload(self, payload: Payload) -> None:
         frame = payload.frame or self.payload_frame

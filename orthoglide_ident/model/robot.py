@@ -35,6 +35,13 @@ from orthoglide_ident.errors import ConfigError
 INERTIAL_KINDS = ("xx", "xy", "xz", "yy", "yz", "zz", "mx", "my", "mz", "m")
 # Drive and friction terms of a joint: rotor inertia (actuated joints), viscous, Coulomb, offset.
 DRIVE_KINDS = ("ia", "fv", "fs", "tauoff")
+# What is known of a loaded record's payload (paper Sect. 4.3): its mass only (first moments and
+# inertia identified), mass and centre of mass (inertia identified), all ten parameters, or a
+# point mass (no inertia about its centre of mass) because the user says so.
+PAYLOAD_KNOWLEDGE = ("mass", "com", "all", "point")
+# The payload parameters that stay unknown, per knowledge: χ_ul of eq. (29)
+PAYLOAD_UNKNOWN = {"mass": ("mx", "my", "mz", "xx", "xy", "xz", "yy", "yz", "zz"),
+                   "com": ("xx", "xy", "xz", "yy", "yz", "zz"), "all": (), "point": ()}
 JOINT_KINDS = ("prismatic", "revolute")
 G0 = 9.80665  # m/s², standard gravity
 DEFAULT_GRAVITY = (0.0, 0.0, -G0)  # z up, as URDF and MJCF robots are described
@@ -84,20 +91,27 @@ class Body:
 
 @dataclass(frozen=True)
 class Payload:
-    """The known payload of a loaded record: mass, centre of mass and inertia fixed to a frame.
+    """The payload of a loaded record: mass, centre of mass and inertia fixed to a frame, and
+    which of them are ``known`` (PAYLOAD_KNOWLEDGE, paper Sect. 4.3).
 
     ``com`` (m) in ``frame``; ``inertia`` (Ixx, Ixy, Ixz, Iyy, Iyz, Izz, kg·m²) about the centre
-    of mass, axes of ``frame``. ``frame`` "" is the model's ``payload_frame``. Without com and
-    inertia: a point mass at the frame origin (the Orthoglide's case: its platform only
-    translates, so only the mass acts).
+    of mass, axes of ``frame``. ``frame`` "" is the model's ``payload_frame``. ``known``: "all"
+    (the ten parameters as given), "point" (a point mass at ``com``), "com" (mass and centre of
+    mass; the inertia is identified) or "mass" (the first moments and inertia are identified;
+    ``com`` and ``inertia`` are then not used). The Orthoglide's platform only translates, so
+    only the mass acts whatever is known.
     """
 
     mass: float
     frame: str = ""
     com: tuple[float, float, float] = (0.0, 0.0, 0.0)
     inertia: tuple[float, float, float, float, float, float] = (0.0,) * 6
+    known: str = "all"
 
     def __post_init__(self) -> None:
+        if self.known not in PAYLOAD_KNOWLEDGE:
+            raise ConfigError(f"payload knowledge {self.known!r} is not one of "
+                              f"{', '.join(PAYLOAD_KNOWLEDGE)}")
         vals = (self.mass, *self.com, *self.inertia)
         if len(self.com) != 3 or len(self.inertia) != 6 or not all(map(math.isfinite, vals)):
             raise ConfigError(f"payload: com needs 3 and inertia 6 finite numbers, got "
@@ -108,6 +122,19 @@ class Payload:
     @property
     def is_point_mass(self) -> bool:
         return not any(self.com) and not any(self.inertia)
+
+    @property
+    def unknown(self) -> tuple[str, ...]:
+        """The inertial kinds identified with the robot's parameters (χ_ul of eq. 29)."""
+        return PAYLOAD_UNKNOWN[self.known]
+
+    def known_part(self) -> "Payload":
+        """The payload whose ten parameters are the known ones (W_kl of eq. 33 per kg): a point
+        mass at the frame origin (mass known), at the centre of mass (com, point), or all."""
+        if self.known == "all":
+            return self
+        com = (0.0, 0.0, 0.0) if self.known == "mass" else self.com
+        return Payload(self.mass, self.frame, com)
 
     def shape(self) -> np.ndarray:
         """(10,) inertial parameters per kg of mass at the frame origin, ``INERTIAL_KINDS`` order:
@@ -151,6 +178,23 @@ class RobotModel(abc.ABC):
     def with_payload(self, payload: Payload) -> "RobotModel":
         """The same model whose payload column is that of ``payload``'s shape (frame, com,
         inertia per kg); ConfigError for a frame the robot does not have."""
+
+    def payload_standard_block(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray,
+                               frame: str) -> np.ndarray | None:
+        """(10, n, m): the actuated efforts of each of a payload's ten inertial parameters
+        (INERTIAL_KINDS, at the origin and in the axes of ``frame``), or None when the model has
+        only the mass column (the Orthoglide's closed form: its platform only translates)."""
+        return None
+
+    def observation_and_payload_block(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray,
+                                      frame: str) -> np.ndarray:
+        """[W | W_payload | the ten payload columns at ``frame``] as (n_b + 11, n, m): what a
+        loaded record whose payload is partly unknown needs (one pass where the model can)."""
+        n = self.n_b
+        out = np.empty((n + 11, self.n_joints, np.shape(q)[0]))
+        self.observation_block(q, qd, qdd, out=out[:n + 1])
+        out[n + 1:] = self.payload_standard_block(q, qd, qdd, frame)
+        return out
 
     @abc.abstractmethod
     def standard_regressor(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> np.ndarray:

@@ -80,6 +80,13 @@ class _Chunk:
         self.G = np.zeros((m, nv, n_a)) if closed else None
 
 
+def _payload_matrix(payload: tuple[int, np.ndarray]) -> tuple[int, np.ndarray]:
+    """(joint, (10, k)): a payload's parameter vectors as columns (one vector: k = 1)."""
+    joint, chi = payload
+    chi = np.asarray(chi, float)
+    return joint, chi[:, None] if chi.ndim == 1 else chi
+
+
 class TreeRegressor:
     """Rows of the actuated joints for samples of (q_a, q̇_a, q̈_a) and asked-for columns.
 
@@ -168,8 +175,9 @@ class TreeRegressor:
     def block(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray, columns: Sequence[Column],
               payload: tuple[int, np.ndarray] | None, out: np.ndarray) -> np.ndarray:
         """Columns (and the payload column last when ``payload`` = (the Pinocchio joint it is
-        fixed to, its 10 Pinocchio parameters per kg in that joint's frame) is given) into
-        ``out`` (n, n_a, m); q, qd, qdd: (m, n_a)."""
+        fixed to, its 10 Pinocchio parameters per kg in that joint's frame) is given; k payload
+        columns last for a (10, k) matrix of parameter vectors) into ``out`` (n, n_a, m);
+        q, qd, qdd: (m, n_a)."""
         inertial = [n for n, c in enumerate(columns) if c.source != "drive"]
         drive = [(n, c) for n, c in enumerate(columns) if c.source == "drive"]
         want_y = any(c.source == "joint" for c in columns) or payload is not None
@@ -201,9 +209,10 @@ class TreeRegressor:
                 slice(inertial[0], inertial[-1] + 1)  # a slice writes 2-3x faster
             out[where] = self._project(buf, T).transpose(2, 1, 0)
         if payload is not None:
-            joint, chi = payload
-            f = buf.Y[:, :, 10 * (joint - 1):10 * joint] @ chi  # (m, nv): Y_j χ_l
-            out[len(columns)] = self._project(buf, f[:, :, None])[:, :, 0].T
+            joint, chi = _payload_matrix(payload)
+            f = buf.Y[:, :, 10 * (joint - 1):10 * joint] @ chi  # (m, nv, k): Y_j χ_l
+            out[len(columns):len(columns) + chi.shape[1]] = \
+                self._project(buf, f).transpose(2, 1, 0)
 
     def _vectorised(self, c: _Chunk, columns: Sequence[Column], inertial: list[int],
                     payload: tuple[int, np.ndarray] | None, out: np.ndarray) -> None:
@@ -216,10 +225,14 @@ class TreeRegressor:
         for n in inertial:
             col = columns[n]
             asks.setdefault((col.source, col.index), []).append((n, np.eye(10)[col.pin_column]))
-        if payload is not None:
-            asks.setdefault(("joint", payload[0]), []).append((len(columns), payload[1]))
+        k = 0
+        if payload is not None:  # its k columns: one per parameter vector
+            joint, chi = _payload_matrix(payload)
+            k = chi.shape[1]
+            asks.setdefault(("joint", joint), []).extend(
+                (len(columns) + i, chi[:, i]) for i in range(k))
         serial = c.G is None and self._identity
-        T = out if serial else np.empty((len(columns) + 1, self.model.nv, m))
+        T = out if serial else np.empty((len(columns) + k, self.model.nv, m))
         for (source, index), items in asks.items():
             P = np.stack([p for _, p in items], axis=1)
             path, E = rnea.body_efforts(kin, index, P) if source == "joint" else \
@@ -231,7 +244,7 @@ class TreeRegressor:
                 T[n, rows] = e
         if serial:
             return
-        wanted = inertial + ([len(columns)] if payload is not None else [])
+        wanted = inertial + list(range(len(columns), len(columns) + k))
         if c.G is None and self._G0 is not None:  # mimic joints: τ_l + r τ_m
             out[wanted] = np.einsum("va,wvm->wam", self._G0, T[wanted])
             return

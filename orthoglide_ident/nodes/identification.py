@@ -259,6 +259,8 @@ class IdentificationNode(Node):
                             f"{chosen._units(chosen.effort_units, 'N')}, cond {msg.condition_number:.3g}")
         if chosen.current_lag:  # a drive term, not a parameter of the message
             response.message += "; current-loop lag " + lag_text(chosen.current_lag)
+        if chosen.payload is not None:  # identified with the robot (Sect. 4.3): in the reply
+            response.message += "; " + chosen.payload.summary()
         if result.consistency is not None:  # parameter consistent: the set of real bodies, latched
             self.pub["consistent"].publish(result_message(result, msg.header.stamp,
                                                           result.consistency.message_fields))

@@ -68,13 +68,15 @@ def _topics(t: LiveTopics) -> dict[str, tuple[str, Any, str]]:
 
 
 def status_payload(msg: RecorderStatus) -> Payload | None:
-    """The payload's frame, centre of mass and inertia the recorder tags a loaded recording with
-    (RecorderStatus); None: a point mass at the robot's payload frame."""
-    com, inertia = list(msg.payload_com), list(msg.payload_inertia)
-    if msg.condition != "loaded" or not (msg.payload_frame or com or inertia):
+    """The payload the recorder tags a loaded recording with (RecorderStatus): its mass, frame,
+    centre of mass and inertia, and what is known of them (payload_known; paper Sect. 4.3)."""
+    if msg.condition != "loaded":
         return None
+    com, inertia = list(msg.payload_com), list(msg.payload_inertia)
+    known = getattr(msg, "payload_known", "") or ("all" if com and inertia else
+                                                  "com" if com else "mass")
     return Payload(float(msg.payload_mass), msg.payload_frame, tuple(com or (0.0,) * 3),
-                   tuple(inertia or (0.0,) * 6))
+                   tuple(inertia or (0.0,) * 6), known)
 
 class LiveFeed:
     """Subscriptions, buffers and timers of live identification, on ``node`` (under ``lock``);

@@ -61,6 +61,10 @@ PARAMETERS = (
           "(zeros: a point mass); used by the next loaded start", dynamic=True),
     Param("robot", "", "the robot (a URDF, robot YAML or bundled name, as the identification node's): a "
           "loaded start's payload_frame must be one of its frames (\"\": not checked)"),
+    Param("payload_known", "", "what is known of a loaded recording's payload, tagged "
+          "orthoglide.payload_known (paper Sect. 4.3): mass (weighed only: its CoM and inertia are "
+          "identified), com, all, point (a point mass at payload_frame / payload_com); \"\": what "
+          "payload_com and payload_inertia give (none: mass only)", dynamic=True),
     Param("output_dir", "bags", "folder for the bag directories (this and the next ones: from the next start "
           "on when changed)", dynamic=True),
     Param("topics", ["orthoglide/joint_states", "orthoglide/current_reference"],
@@ -331,6 +335,7 @@ class RecorderNode(Node):
                      "payload_frame": tags.payload_frame or "",
                      "payload_com": list(tags.payload_com or ()),
                      "payload_inertia": list(tags.payload_inertia or ()),
+                     "payload_known": tags.knowledge if tags.condition == "loaded" else "",
                      "bag_path": str(writer.path), "message": res.message}
         self.get_logger().info(res.message)
         self.publish_status()
@@ -345,9 +350,9 @@ class RecorderNode(Node):
             self.set_parameters(changed)
 
     def _payload_shape(self, condition: str) -> dict[str, Any]:
-        """The tag's payload frame, centre of mass and inertia (parameters) of a loaded start;
-        none for a point mass at the robot's payload frame, or unloaded. ConfigError for a frame
-        the ``robot`` lacks."""
+        """The tag's payload frame, centre of mass, inertia and what is known of them
+        (parameters) of a loaded start; none (its mass only) or unloaded. ConfigError for a
+        frame the ``robot`` lacks."""
         p = self.p
         if condition != "loaded":
             return {}
@@ -358,8 +363,18 @@ class RecorderNode(Node):
         if len(p["payload_com"]) != 3 or len(p["payload_inertia"]) != 6:
             raise ConfigError("parameters payload_com (3 numbers, m) and payload_inertia (6, kg·m²) "
                               f"have {len(p['payload_com'])} and {len(p['payload_inertia'])}")
-        if any(p["payload_com"]) or any(p["payload_inertia"]):
+        known = p["payload_known"] or None
+        com, inertia = any(p["payload_com"]), any(p["payload_inertia"])
+        if known in ("com", "point"):  # a CoM (when given), no inertia
+            if com:
+                out["payload_com"] = p["payload_com"]
+            if inertia:
+                raise ConfigError(f"payload_known {known} takes no payload_inertia; set it to "
+                                  "zeros, or payload_known all")
+        elif com or inertia:
             out["payload_com"], out["payload_inertia"] = p["payload_com"], p["payload_inertia"]
+        if known is not None:
+            out["payload_known"] = known
         return out
 
     def on_stop(self, req: Any, res: Any) -> Any:

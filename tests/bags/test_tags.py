@@ -56,12 +56,38 @@ def test_payload_tags_round_trip(tmp_path: Path) -> None:
     assert "loaded, payload 1.136 kg at tool0, CoM 0 -0.0125 0.0731 m, inertia" in info
 
 
-def test_absent_payload_keys_mean_a_point_mass_at_the_frame(tmp_path: Path) -> None:
+def test_absent_payload_keys_mean_the_mass_alone_is_known(tmp_path: Path) -> None:
+    """Sect. 4.3: a loaded bag tagged with its mass only (and a frame) knows the mass, not the
+    CoM and inertia; an unloaded tag keeps exactly its two keys."""
     tags = bags.read_bag(_write(tmp_path / "b")).tags
     assert tags is not None
     assert (tags.payload_frame, tags.payload_com, tags.payload_inertia) == (None, None, None)
+    assert tags.payload_known is None and tags.knowledge == "mass"
+    assert "(mass known, CoM and inertia not)" in tags.describe()
     assert bags.BagTags("unloaded", 0.0).to_dict() == {"orthoglide.condition": "unloaded",
                                                        "orthoglide.payload_mass": "0"}
+
+
+@pytest.mark.parametrize("payload, known", [
+    ({}, "mass"),
+    ({"payload_frame": "tool0", "payload_com": (0.0, 0.0, 0.05)}, "com"),
+    (PAYLOAD, "all"),
+    ({"payload_frame": "tool0", "payload_known": "point"}, "point"),
+    ({"payload_com": (0.0, 0.0, 0.05), "payload_known": "point"}, "point"),
+    ({**PAYLOAD, "payload_known": "mass"}, "mass"),  # CAD values kept, only the mass trusted
+    ({"payload_com": (0.0, 0.0, 0.05), "payload_known": "com"}, "com"),
+])
+def test_payload_knowledge_round_trips(tmp_path: Path, payload: dict, known: str) -> None:
+    p = _write(tmp_path / "b", **payload)
+    tags = bags.read_bag(p).tags
+    assert tags is not None and tags.knowledge == known
+    custom = yaml.safe_load((p / "metadata.yaml").read_text())[
+        "rosbag2_bagfile_information"]["custom_data"]
+    assert custom.get("orthoglide.payload_known") == payload.get("payload_known")
+    (f,) = p.glob("*.mcap")
+    assert _file_record(f).get("orthoglide.payload_known") == payload.get("payload_known")
+    assert bags.read_bag(f).tags == tags
+    assert bags.BagTags.from_dict(tags.to_dict(), "x") == tags
 
 
 BAD = [
@@ -79,6 +105,12 @@ BAD = [
     ({"orthoglide.position_source": "/joint_states"}, "position_source .* is not 'TOPIC FIELD'"),
     ({"orthoglide.condition": "unloaded", "orthoglide.payload_mass": "0",
       "orthoglide.payload_com": "0 0 0.1"}, "condition 'unloaded' takes no payload_com"),
+    ({"orthoglide.payload_known": "cad"}, "payload_known 'cad' is not one of mass, com, all"),
+    ({"orthoglide.payload_known": "point"}, "payload_known 'point' takes no payload_inertia"),
+    ({"orthoglide.payload_inertia": None, "orthoglide.payload_known": "all"},
+     "payload_known 'all' needs payload_com and payload_inertia"),
+    ({"orthoglide.payload_com": None, "orthoglide.payload_inertia": None,
+      "orthoglide.payload_known": "com"}, "payload_known 'com' needs payload_com"),
 ]
 
 
@@ -88,7 +120,10 @@ def test_bad_tags_in_a_bag_are_a_one_line_reason(tmp_path: Path, change: dict[st
     p = _write(tmp_path / "b", **PAYLOAD)
     meta = p / "metadata.yaml"
     doc = yaml.safe_load(meta.read_text())
-    doc["rosbag2_bagfile_information"]["custom_data"].update(change)
+    custom = doc["rosbag2_bagfile_information"]["custom_data"]
+    custom.update(change)
+    for key in [k for k, v in change.items() if v is None]:
+        del custom[key]
     meta.write_text(yaml.safe_dump(doc))
     with pytest.raises(BagError, match=reason) as exc:
         bags.read_bag(p)
@@ -110,6 +145,8 @@ def test_recorder_requests_are_checked() -> None:
         bags.BagTags.checked("loaded", 1.0, payload_com="0 0 1")  # type: ignore[arg-type]
     with pytest.raises(ConfigError, match="unloaded' takes no payload_com or payload_inertia"):
         bags.BagTags.checked("unloaded", 0, payload_inertia=[0] * 6)
+    with pytest.raises(ConfigError, match="unloaded' takes no payload_known"):
+        bags.BagTags.checked("unloaded", 0, payload_known="point")
     # a frame alone is a fact about the robot: allowed unloaded
     assert bags.BagTags.checked("unloaded", 0, payload_frame="tool0").payload_frame == "tool0"
 

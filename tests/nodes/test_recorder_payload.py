@@ -69,8 +69,8 @@ def test_the_payload_shape_goes_into_the_tag_and_the_status(tmp_path, ros_env):
 
 def test_a_start_s_payload_is_not_carried_over_and_a_frame_the_robot_lacks_is_refused(
         tmp_path, ros_env):
-    """Issue 32: a refused start with an inertia, then a mass-only start: its tag is a point mass
-    at the robot's payload frame (nothing of the refused call's frame or inertia); a frame the
+    """Issue 32: a refused start with an inertia, then a mass-only start: its tag is its mass
+    only (nothing of the refused call's frame or inertia); a frame the
     robot (parameter robot) lacks is refused at start with its name."""
     from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
     from std_srvs.srv import Trigger
@@ -103,5 +103,58 @@ def test_a_start_s_payload_is_not_carried_over_and_a_frame_the_robot_lacks_is_re
         status = next(m for m in got if m.recording)
         g.call(Trigger, "orthoglide/recorder/stop")
     assert status.bag_path.endswith("mass_only")
-    assert status_payload(status) is None  # a point mass at the robot's payload frame
+    shape = status_payload(status)  # its mass only (Sect. 4.3): nothing of the refused call's
+    assert shape.known == "mass" and shape.frame == "" and not any(shape.inertia)
     assert status.payload_frame == "" and not list(status.payload_inertia)
+
+
+def test_what_is_known_of_the_payload_is_tagged_per_start(tmp_path, ros_env):
+    """``record start --payload-known point``: tagged orthoglide.payload_known point and on the
+    status (the live identification reads it there); the next loaded start without the flag is
+    tagged with its mass only (Sect. 4.3: CoM and inertia unknown), nothing carried over."""
+    from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy, qos_profile_system_default
+    from sensor_msgs.msg import JointState
+    from std_srvs.srv import Trigger
+
+    from orthoglide_ident import bags
+    from orthoglide_ident._install_ament import ROOT
+    from orthoglide_ident.nodes.live_feed import status_payload
+    from orthoglide_msgs.msg import RecorderStatus
+    from orthoglide_sim.graph import Graph
+
+    t0 = 1_796_000_000 * 10**9
+    latched = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL,
+                         reliability=ReliabilityPolicy.RELIABLE)
+    statuses = {}
+    with Graph(tmp_path / "logs") as g:
+        js = g.node.create_publisher(JointState, "joint_states", qos_profile_system_default)
+        g.start("orthoglide_recorder", "recorder", {"output_dir": str(tmp_path / "bags")},
+                params_file=ROOT / "config" / "ros2_control.yaml")
+        g.wait_for_subscriber("joint_states", "orthoglide_recorder")
+        for name, extra in (("point", ["--payload-known", "point"]), ("mass", [])):
+            start = subprocess.run(
+                [sys.executable, "-m", "orthoglide_ident.cli", "record", "start", "--condition",
+                 "loaded", "--payload-mass", "2", "--name", name, *extra],
+                env=ros_env, capture_output=True, text=True, timeout=120)
+            assert start.returncode == 0, start.stderr
+            got: list = []
+            g._listen(RecorderStatus, "orthoglide/recorder/status", latched, got.append,
+                      lambda: any(m.recording and name in m.bag_path for m in got), 30,
+                      lambda: "no recording status")
+            statuses[name] = next(m for m in got if m.recording and name in m.bag_path)
+            time.sleep(0.5)
+            for k in range(100):
+                m = JointState(name=["j1", "j2"], position=[0.001 * k, 0.0], effort=[0.1, 0.2])
+                m.header.stamp.sec, m.header.stamp.nanosec = divmod(t0 + k * 1_000_000, 10**9)
+                js.publish(m)
+                time.sleep(0.001)
+            time.sleep(0.3)
+            assert g.call(Trigger, "orthoglide/recorder/stop").success
+            t0 += 10**9
+    assert statuses["point"].payload_known == "point"
+    assert status_payload(statuses["point"]).known == "point"
+    assert statuses["mass"].payload_known == "mass"
+    assert status_payload(statuses["mass"]).known == "mass"
+    assert bags.read_bag(tmp_path / "bags" / "point").tags.payload_known == "point"
+    tags = bags.read_bag(tmp_path / "bags" / "mass").tags
+    assert tags.payload_known is None and tags.knowledge == "mass"
