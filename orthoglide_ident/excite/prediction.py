@@ -31,6 +31,7 @@ from orthoglide_ident.model.robot import Payload
 
 RATE_HZ = 1000.0  # the records' sample rate the prediction is for
 DEFAULT_CURRENT_NOISE = 0.02  # A, per joint, when no record says otherwise
+DEFAULT_DECIMATION = 10  # n_d of a result that does not say (IdentifyOptions.decimation)
 
 
 @dataclass(frozen=True)
@@ -42,6 +43,7 @@ class RunSamples:
     qdd: np.ndarray
     seconds: float
     payload: Payload | None = None
+    noise_a: np.ndarray | None = None  # (n,) A for this run only (else predict's)
 
 
 @dataclass(frozen=True)
@@ -129,7 +131,8 @@ def predict(robot, runs: Sequence[RunSamples], noise_a: np.ndarray | float,
     chi_b = nominal_base_values(robot) if chi_b is None else np.asarray(chi_b, float)
     gains = robot.nominal_gains if gains is None else np.asarray(gains, float)
     noise = np.broadcast_to(np.asarray(noise_a, float), (robot.n_joints,)).copy()
-    F = sum(information(*run_rows(robot, chi_b, gains, r), gains, noise,
+    F = sum(information(*run_rows(robot, chi_b, gains, r), gains,
+                        noise if r.noise_a is None else np.asarray(r.noise_a, float),
                         RATE_HZ * r.seconds / r.q.shape[0]) for r in runs)
     return from_information(F, chi_b, gains, noise)
 
@@ -140,15 +143,20 @@ def periods_needed(pred: Prediction, periods: int, target: float) -> int:
 
 
 def noise_from_result(doc: Any, joints: Sequence[str], where: str) -> np.ndarray:
-    """(n,) A: a previous identification's residual rms per joint (``identify --json``) divided
-    by its gains: the current noise the equations actually had."""
+    """(n,) A: the current noise at 1 kHz that weighs like a previous identification's equation
+    error (``identify --json``): its residual rms per decimated row (N or N·m) divided by its
+    gains, times √n_d (eq. 39 takes σ_ρ per row of the n_d-times decimated equations: r/g at
+    rate f/n_d weighs as r/g·√n_d at rate f). The residual holds everything the IDIM does not
+    explain — current noise, friction and drive effects the model lacks, encoder steps — which
+    on the simulated UR5 outweighs the current noise itself (bench/excitation_design.py)."""
     from orthoglide_ident.errors import ConfigError
 
     try:
         names = list(doc["joint_names"])
         res = dict(zip(names, (float(r) for r in doc["residual_rms_per_joint"])))
         g = {d["joint"]: float(d["value"]) for d in doc["drive_gains"]}
-        return np.array([res[j] / g[j] for j in joints])
+        n_d = int((doc.get("diagnostics") or {}).get("decimation") or DEFAULT_DECIMATION)
+        return np.array([res[j] / g[j] for j in joints]) * math.sqrt(n_d)
     except (KeyError, TypeError, ValueError, ZeroDivisionError) as exc:
         raise ConfigError(f"{where}: not an identification result of these joints (needs "
                           f"joint_names, residual_rms_per_joint, drive_gains; {exc!r})") from None
