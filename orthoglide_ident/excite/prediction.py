@@ -31,6 +31,7 @@ from orthoglide_ident.model.robot import Payload
 
 RATE_HZ = 1000.0  # the records' sample rate the prediction is for
 DEFAULT_CURRENT_NOISE = 0.02  # A, per joint, when no record says otherwise
+MAX_CONDITION = 1e6  # κ (√ of the eigenvalue ratio) beyond which F is taken as singular
 DEFAULT_DECIMATION = 10  # n_d of a result that does not say (IdentifyOptions.decimation)
 
 
@@ -113,15 +114,19 @@ def scaled_condition(F: np.ndarray) -> float:
 def from_information(F: np.ndarray, chi_b: np.ndarray, gains: np.ndarray,
                      noise_a: np.ndarray) -> Prediction:
     n_b = chi_b.shape[0]
+    kappa = scaled_condition(F)
     try:
+        if not kappa < MAX_CONDITION:
+            raise np.linalg.LinAlgError
         cov = np.linalg.inv(F)
     except np.linalg.LinAlgError:
         raise ExcitationError("the runs do not determine the gains and base parameters (singular "
-                              "information matrix): a loaded run is needed") from None
+                              "information matrix): a loaded run is needed, and motion exciting "
+                              "every base parameter") from None
     std = np.sqrt(np.abs(np.diag(cov)))
     with np.errstate(divide="ignore", invalid="ignore"):
         base_rel = np.where(np.abs(chi_b) > 1e-12, std[:n_b] / np.abs(chi_b), np.inf)
-    return Prediction(std[n_b:] / gains, std[:n_b], base_rel, scaled_condition(F),
+    return Prediction(std[n_b:] / gains, std[:n_b], base_rel, kappa,
                       np.asarray(noise_a, float))
 
 
