@@ -27,7 +27,7 @@ import logging
 import math
 import time
 from dataclasses import dataclass, field
-from typing import Any, Callable
+from typing import Callable
 
 import numpy as np
 
@@ -183,7 +183,7 @@ class Problem:
     def slacks(self, q, qd, qdd, tau, run: str) -> list[Slack]:
         m = self.opt.margins
         out = joint_slacks(self.limits, self.kinds, m, q, qd, qdd, tau, self.t, run)
-        if self.collision is not None and self.collision.mode != "skip" or \
+        if (self.collision is not None and self.collision.mode != "skip") or \
                 self.tree.closure is not None:
             Q, G = self.tree.configurations(q)
             out += collision_slack(self.collision, Q, m, self.t, run)

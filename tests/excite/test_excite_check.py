@@ -6,7 +6,7 @@ import dataclasses
 import numpy as np
 import pytest
 
-from conftest import static_runs
+from excite_robots import static_runs
 from orthoglide_ident.errors import ConfigError
 from orthoglide_ident.excite.check import check_trajectory
 from orthoglide_ident.excite.collision import CollisionModel

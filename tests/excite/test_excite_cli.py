@@ -4,7 +4,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from conftest import two_link_urdf
+from excite_robots import two_link_urdf
 from orthoglide_ident.cli import main
 from orthoglide_ident.excite.trajectory import load_trajectory
 

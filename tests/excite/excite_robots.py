@@ -1,5 +1,5 @@
-"""Small robots written on the fly for the excite tests: a two-link arm whose URDF has (or
-lacks) limits and collision meshes."""
+"""Robots and trajectories written on the fly for the excite tests: a two-link arm whose URDF
+has (or lacks) limits and collision meshes, an STL cube, runs at a pose."""
 from __future__ import annotations
 
 from pathlib import Path
