@@ -117,10 +117,11 @@ def achieved(robot, truth, d, limits, collision, seeds: int) -> None:
         paper.append([x.rel_std_paper for x in res.drive_gains])
         runs = [RunSamples(*traj.evaluate(name, t), traj.duration, pl)
                 for name, pl in (("unloaded", None), ("loaded", load))]
-        pred.append(predict(robot, runs, prev).gain_rel_std)
+        pred.append(predict(robot, runs, prev, lag=True, period_s=traj.period_s).gain_rel_std)
         if same is None:  # a previous record on the designed trajectory itself: seed 0's
             same = predict(robot, runs, noise_from_result(res.to_json(), robot.joint_names,
-                                                          "seed 0")).gain_rel_std
+                                                          "seed 0"),
+                           lag=True, period_s=traj.period_s).gain_rel_std
         print(f"  seed {seed}: simulated and identified in {time.perf_counter() - t0:.0f} s; "
               f"saturated ticks {u.saturated_ticks + lo.saturated_ticks}", file=sys.stderr)
     errs, honest, paper, pred = map(np.array, (errs, honest, paper, pred))

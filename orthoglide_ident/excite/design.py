@@ -38,9 +38,10 @@ from orthoglide_ident.excite.constraints import (Margins, Slack, TreeStates, col
 from orthoglide_ident.excite.limits import JointLimits, home_pose
 from orthoglide_ident.excite.prediction import (RATE_HZ, Prediction, RunSamples,
                                                 from_information, information,
-                                                nominal_base_values, run_rows)
+                                                nominal_base_values, periodic_rate, run_rows)
 from orthoglide_ident.excite.trajectory import (ExcitationRun, ExcitationTrajectory,
                                                 rest_projection)
+from orthoglide_ident.identify.current_lag import MIN_PERIODS
 from orthoglide_ident.model.robot import Payload
 
 _log = logging.getLogger("orthoglide_ident")
@@ -172,13 +173,20 @@ class Problem:
             violation += sum(max(0.0, s.required - s.value) / VIOLATION_SCALE[s.kind]
                              for s in slacks)
             F = F + information(X, tau, self.gains, self.opt.noise_a,
-                                RATE_HZ * traj.duration / len(self.t))
+                                RATE_HZ * traj.duration / len(self.t), self.lag_rate(tau))
         try:
             pred = from_information(F, self.chi_b, self.gains, self.opt.noise_a)
         except ExcitationError:
             return Evaluation(math.inf, violation, None)
         crit = math.log(pred.worst_gain) + COND_WEIGHT * math.log(pred.condition)
         return Evaluation(crit if math.isfinite(crit) else math.inf, violation, pred)
+
+    def lag_rate(self, tau: np.ndarray) -> np.ndarray | None:
+        """τ̇ for the current-loop lag terms the identification adds on periodic records
+        (prediction.py), when the runs repeat often enough for it (current_lag.MIN_PERIODS)."""
+        if self.opt.periods < MIN_PERIODS:
+            return None
+        return periodic_rate(tau, self.opt.period_s / len(self.t))
 
     def slacks(self, q, qd, qdd, tau, run: str) -> list[Slack]:
         m = self.opt.margins
@@ -332,7 +340,7 @@ def payload_options(problem: Problem, traj: ExcitationTrajectory, masses: list[f
             ok &= bool(np.all(np.abs(tau.T) <= problem.limits.effort *
                               (1 - problem.opt.margins.effort)))
             F = F + information(X, tau, problem.gains, problem.opt.noise_a,
-                                RATE_HZ * traj.duration / len(problem.t))
+                                RATE_HZ * traj.duration / len(problem.t), problem.lag_rate(tau))
         out.append((m, from_information(F, problem.chi_b, problem.gains, problem.opt.noise_a)
                     if ok else None))
     return out

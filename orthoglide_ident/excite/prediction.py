@@ -14,6 +14,12 @@ gains, on samples of one period standing for the run's 1 kHz samples. The decima
 keeps the signal and drops noise outside its band, so the identification reaches about this σ
 (bench/excitation_design.py measures it on the simulated plants).
 
+The identification adds a current-loop lag column per joint on periodic records
+(``lag_model: auto``, identify/current_lag.py: g_j (v_τ − τ_j v̇_τ)): with ``lag`` the prediction
+carries those unknowns too (column −v̇_τ,j, v̇_τ from the nominal efforts by a periodic central
+difference: the samples must be one period on a uniform grid). On the simulated UR5 they are what
+sets the fastest wrist's gain σ.
+
 The condition number κ is that of the column-scaled weighted [W | V_τ] of both runs (the
 matrix whose smallest singular value sets every σ above): the design's second criterion, so that
 no base parameter is left unexcited while the gains are already good.
@@ -87,16 +93,25 @@ def run_rows(robot, chi_b: np.ndarray, gains: np.ndarray, run: RunSamples
     return X, tau
 
 
+def periodic_rate(tau: np.ndarray, seconds_per_sample: float) -> np.ndarray:
+    """τ̇ (n, m) of efforts sampled over one period on a uniform grid (central difference)."""
+    return (np.roll(tau, -1, axis=1) - np.roll(tau, 1, axis=1)) / (2.0 * seconds_per_sample)
+
+
 def information(X: np.ndarray, tau: np.ndarray, gains: np.ndarray, noise_a: np.ndarray,
-                weight: float) -> np.ndarray:
+                weight: float, tau_rate: np.ndarray | None = None) -> np.ndarray:
     """Σ a aᵀ / (g_j σ_j)² over a run's rows (module docstring), times ``weight`` (1 kHz
-    samples per sample given)."""
+    samples per sample given); unknowns [χ_b, g_τ] and, with ``tau_rate`` (τ̇, n × m), each
+    joint's lag term θ_j = g_j τ_j (column −v̇_τ,j)."""
     n_b, n_j = X.shape[0] - 1, X.shape[1]
-    F = np.zeros((n_b + n_j, n_b + n_j))
+    c = n_b + n_j * (1 if tau_rate is None else 2)
+    F = np.zeros((c, c))
     for j in range(n_j):
-        A = np.zeros((X.shape[2], n_b + n_j))
+        A = np.zeros((X.shape[2], c))
         A[:, :n_b] = X[:-1, j, :].T
         A[:, n_b + j] = -tau[j] / gains[j]
+        if tau_rate is not None:
+            A[:, n_b + n_j + j] = tau_rate[j] / gains[j]
         A /= gains[j] * noise_a[j]
         F += A.T @ A
     return weight * F
@@ -123,7 +138,7 @@ def from_information(F: np.ndarray, chi_b: np.ndarray, gains: np.ndarray,
         raise ExcitationError("the runs do not determine the gains and base parameters (singular "
                               "information matrix): a loaded run is needed, and motion exciting "
                               "every base parameter") from None
-    std = np.sqrt(np.abs(np.diag(cov)))
+    std = np.sqrt(np.abs(np.diag(cov)))[:n_b + gains.shape[0]]  # without the lag terms
     with np.errstate(divide="ignore", invalid="ignore"):
         base_rel = np.where(np.abs(chi_b) > 1e-12, std[:n_b] / np.abs(chi_b), np.inf)
     return Prediction(std[n_b:] / gains, std[:n_b], base_rel, kappa,
@@ -131,14 +146,19 @@ def from_information(F: np.ndarray, chi_b: np.ndarray, gains: np.ndarray,
 
 
 def predict(robot, runs: Sequence[RunSamples], noise_a: np.ndarray | float,
-            chi_b: np.ndarray | None = None, gains: np.ndarray | None = None) -> Prediction:
-    """σ of the gains and base parameters an IDIM-TLS of ``runs`` reaches (module docstring)."""
+            chi_b: np.ndarray | None = None, gains: np.ndarray | None = None,
+            lag: bool = False, period_s: float | None = None) -> Prediction:
+    """σ of the gains and base parameters an IDIM-TLS of ``runs`` reaches (module docstring);
+    ``lag``: with the current-loop lag terms, the runs sampled over one period ``period_s``."""
     chi_b = nominal_base_values(robot) if chi_b is None else np.asarray(chi_b, float)
     gains = robot.nominal_gains if gains is None else np.asarray(gains, float)
     noise = np.broadcast_to(np.asarray(noise_a, float), (robot.n_joints,)).copy()
-    F = sum(information(*run_rows(robot, chi_b, gains, r), gains,
-                        noise if r.noise_a is None else np.asarray(r.noise_a, float),
-                        RATE_HZ * r.seconds / r.q.shape[0]) for r in runs)
+    F = 0.0
+    for r in runs:
+        X, tau = run_rows(robot, chi_b, gains, r)
+        rate = periodic_rate(tau, period_s / r.q.shape[0]) if lag else None
+        F = F + information(X, tau, gains, noise if r.noise_a is None else
+                            np.asarray(r.noise_a, float), RATE_HZ * r.seconds / r.q.shape[0], rate)
     return from_information(F, chi_b, gains, noise)
 
 

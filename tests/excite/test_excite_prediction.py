@@ -84,3 +84,19 @@ def test_noise_from_a_previous_result_scales_the_residual_per_row():
                                [0.04, 0.1])
     with pytest.raises(ConfigError, match="r.json: not an identification result"):
         noise_from_result({"joint_names": ["x"]}, ("joint_1",), "r.json")
+
+
+def test_the_current_lag_terms_only_add_unknowns(five_bar_runs):
+    """With the lag terms the identification adds on periodic records, every σ is as large or
+    larger (more unknowns), and the periodic difference is the effort's derivative."""
+    robot, runs = five_bar_runs
+    plain = predict(robot, runs, 0.05)
+    lagged = predict(robot, runs, 0.05, lag=True, period_s=4.0)
+    assert np.all(lagged.gain_rel_std >= plain.gain_rel_std * (1 - 1e-9))
+    assert np.all(lagged.base_std >= plain.base_std * (1 - 1e-9))
+    from orthoglide_ident.excite.prediction import periodic_rate
+
+    t = np.linspace(0.0, 4.0, 400, endpoint=False)
+    x = np.sin(2 * np.pi * t / 4.0)[None]
+    np.testing.assert_allclose(periodic_rate(x, 0.01), (np.pi / 2) * np.cos(np.pi * t / 2)[None],
+                               atol=2e-4)
