@@ -84,6 +84,9 @@ class DesignOptions:
         if not self.payload.mass > 0:
             raise ConfigError(f"the loaded run needs a payload mass > 0 kg (--payload-mass), "
                               f"not {self.payload.mass:g}")
+        noise = np.asarray(self.noise_a, float)
+        if noise.ndim != 1 or not (np.all(np.isfinite(noise)) and np.all(noise > 0)):
+            raise ConfigError(f"the current noise must be positive amperes per joint, not {noise}")
         if not (0 < self.target < 1):
             raise ConfigError(f"target σ must be a fraction in (0, 1), not {self.target:g}")
 
