@@ -173,15 +173,28 @@ def noise_from_result(doc: Any, joints: Sequence[str], where: str) -> np.ndarray
     gains, times √n_d (eq. 39 takes σ_ρ per row of the n_d-times decimated equations: r/g at
     rate f/n_d weighs as r/g·√n_d at rate f). The residual holds everything the IDIM does not
     explain — current noise, friction and drive effects the model lacks, encoder steps — which
-    on the simulated UR5 outweighs the current noise itself (bench/excitation_design.py)."""
+    on the simulated UR5 outweighs the current noise itself (bench/excitation_design.py).
+
+    The identification weights each joint's rows by the σ of a first, unweighted TLS pass
+    (``diagnostics.solver.joint_sigma``, tls.py), which for a quiet joint is above its final
+    residual (the UR5's wrist 3: 0.0071 vs 0.0038 N·m), so eq. (39) reports its gain σ up to ~1.8
+    times the optimally weighted one. When the result gives those weights, the noise is taken
+    proportional to them (scaled to the residuals' pooled size): the prediction is then of what
+    ``identify`` reports."""
     from orthoglide_ident.errors import ConfigError
 
     try:
         names = list(doc["joint_names"])
-        res = dict(zip(names, (float(r) for r in doc["residual_rms_per_joint"])))
+        res = np.array([float(r) for r in doc["residual_rms_per_joint"]])
         g = {d["joint"]: float(d["value"]) for d in doc["drive_gains"]}
-        n_d = int((doc.get("diagnostics") or {}).get("decimation") or DEFAULT_DECIMATION)
-        return np.array([res[j] / g[j] for j in joints]) * math.sqrt(n_d)
+        diag = doc.get("diagnostics") or {}
+        n_d = int(diag.get("decimation") or DEFAULT_DECIMATION)
+        weights = (diag.get("solver") or {}).get("joint_sigma")
+        if weights is not None and len(weights) == len(res) and min(weights) > 0:
+            w = np.array([float(x) for x in weights])
+            res = w * math.sqrt(float(np.mean((res / w) ** 2)))
+        by_joint = dict(zip(names, res))
+        return np.array([by_joint[j] / g[j] for j in joints]) * math.sqrt(n_d)
     except (KeyError, TypeError, ValueError, ZeroDivisionError) as exc:
         raise ConfigError(f"{where}: not an identification result of these joints (needs "
                           f"joint_names, residual_rms_per_joint, drive_gains; {exc!r})") from None

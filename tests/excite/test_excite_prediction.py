@@ -82,6 +82,11 @@ def test_noise_from_a_previous_result_scales_the_residual_per_row():
            "diagnostics": {"decimation": 4}}
     np.testing.assert_allclose(noise_from_result(doc, ("joint_1", "joint_2"), "r.json"),
                                [0.04, 0.1])
+    doc["diagnostics"]["solver"] = {"joint_sigma": [0.01, 0.04]}  # the TLS's row weights
+    noise = noise_from_result(doc, ("joint_1", "joint_2"), "r.json")
+    assert noise[1] / noise[0] == pytest.approx(4 * 0.5 / 0.4)  # as the weights, per gain
+    pooled = np.sqrt(np.mean([1.0, 0.25]))  # residual / weight, pooled
+    assert noise[0] == pytest.approx(0.01 * pooled / 0.5 * 2)
     with pytest.raises(ConfigError, match="r.json: not an identification result"):
         noise_from_result({"joint_names": ["x"]}, ("joint_1",), "r.json")
 
