@@ -21,6 +21,7 @@ import numpy as np
 
 from orthoglide_ident.errors import ConfigError
 from orthoglide_ident.excite.collision import MODES
+from orthoglide_ident.model.robot import RobotModel
 
 _log = logging.getLogger("orthoglide_ident")
 
@@ -88,14 +89,13 @@ def _add_check(p: argparse.ArgumentParser) -> None:
     _add_robot_options(p)
 
 
-def _load(args: argparse.Namespace):
+def _load(args: argparse.Namespace, robot: RobotModel):
+    """The robot's limits and collision model (the robot itself is resolved by the CLI's edge)."""
     from orthoglide_ident.excite.collision import CollisionModel
     from orthoglide_ident.excite.limits import read_limits
-    from orthoglide_ident.model.robots import load_robot
 
-    robot = load_robot(args.robot)
     limits = read_limits(robot, args.joint_limits)
-    return robot, limits, CollisionModel(robot, args.collision, args.package_dir)
+    return limits, CollisionModel(robot, args.collision, args.package_dir)
 
 
 def _noise(args: argparse.Namespace, robot) -> tuple[np.ndarray, str]:
@@ -144,13 +144,13 @@ def _pose(text: str | None) -> dict[str, float] | None:
     return out
 
 
-def _design(args: argparse.Namespace) -> int:
+def _design(args: argparse.Namespace, robot: RobotModel) -> int:
     from orthoglide_ident.excite.design import DesignOptions, design
     from orthoglide_ident.excite.samples import write_samples
     from orthoglide_ident.excite.summary import prediction_text, with_extras
     from orthoglide_ident.excite.trajectory import save_trajectory
 
-    robot, limits, collision = _load(args)
+    limits, collision = _load(args, robot)
     noise, source = _noise(args, robot)
     payload = _payload(args)
     robot.with_payload(payload)  # ConfigError now for a frame the robot lacks
@@ -177,13 +177,13 @@ def _design(args: argparse.Namespace) -> int:
     return 0
 
 
-def _check(args: argparse.Namespace) -> int:
+def _check(args: argparse.Namespace, robot: RobotModel) -> int:
     from orthoglide_ident.excite.check import check_trajectory
     from orthoglide_ident.excite.constraints import Margins
     from orthoglide_ident.excite.trajectory import load_trajectory
 
     traj = load_trajectory(args.trajectory)
-    robot, limits, collision = _load(args)
+    limits, collision = _load(args, robot)
     margins = Margins.from_dict((traj.extra.get("margins") or {}).get("required"), args.trajectory)
     report = check_trajectory(traj, robot, limits, collision, margins, where=args.trajectory)
     print(f"{args.trajectory}: robot {robot.name}, {len(traj.runs)} runs of {traj.duration:g} s, "
@@ -196,7 +196,7 @@ def _check(args: argparse.Namespace) -> int:
 
 
 Action = tuple[str, Callable[[argparse.ArgumentParser], None],
-               Callable[[argparse.Namespace], int]]
+               Callable[[argparse.Namespace, RobotModel], int]]
 ACTIONS: dict[str, Action] = {
     "design": ("design exciting trajectories (unloaded and loaded runs) for the robot, within "
                "its limits, and predict the σ they give", _add_design, _design),
@@ -217,5 +217,6 @@ def add_excite_commands(subparsers) -> None:
         add(sub.add_parser(name, help=text, description=text[0].upper() + text[1:] + "."))
 
 
-def run_excite(args: argparse.Namespace) -> int:
-    return ACTIONS[args.excite_command][2](args)
+def run_excite(args: argparse.Namespace, robot: RobotModel) -> int:
+    """Run the excite action of ``args`` on ``robot`` (resolved from ``--robot`` by the CLI)."""
+    return ACTIONS[args.excite_command][2](args, robot)
