@@ -10,6 +10,7 @@
     orthoglide-ident model [--robot FILE] --base-parameters [--json FILE]
     orthoglide-ident report [--robot FILE] BAG... --out DIR [--mcap FILE] [identify options]
     orthoglide-ident import CSV... --out BAG [--map YAML] [column flags]   (import_command.py)
+    orthoglide-ident excite design|check --robot FILE ...   (exciting trajectories: excite/cli.py)
 
 ``--robot``: a URDF, a robot YAML or a bundled robot's name (model/robots.py); without it, the
 Orthoglide exactly as before.
@@ -183,6 +184,9 @@ def build_parser() -> argparse.ArgumentParser:
                    "Lichtblick (forces, residual, the gains' convergence; orthoglide_ident/view/report_mcap.py)")
     import_command.add_parser(sub)
     ros_client.add_parsers(sub)
+    from orthoglide_ident.excite.cli import add_excite_commands
+
+    add_excite_commands(sub)
     return parser
 
 
@@ -303,6 +307,12 @@ def _main(args: argparse.Namespace) -> int:
         for i, p in enumerate(args.bags):  # each bag's report as soon as it is repaired
             print(("\n" if i else "") + bags.reindex(p).to_text(), flush=True)
         return EXIT_OK
+    if args.command == "excite":
+        from orthoglide_ident.excite.cli import run_excite
+        from orthoglide_ident.model.robots import load_robot
+
+        _setup_logging(False)
+        return run_excite(args, load_robot(args.robot))
     if args.command == "model":
         _setup_logging(True)
         from orthoglide_ident.model.robots import load_robot

@@ -18,9 +18,10 @@ from orthoglide_ident.errors import ConfigError
 from orthoglide_sim import arm_simulator as asim
 from orthoglide_sim.arm_description import load_arm
 from orthoglide_sim.arm_excitation import designed_trajectory
-from orthoglide_sim.arm_limits import motion_limits
+from orthoglide_sim.arm_limits import MotionLimits, motion_limits
 from orthoglide_sim.arm_truth import ArmPayload, ArmTruth, load_truth
 from orthoglide_sim.mujoco_plant import MujocoPlant
+from orthoglide_sim.trajectories import FourierTrajectory
 
 NOISE_STRIDE = 10  # ticks between the reference samples the rms current is taken over
 
@@ -57,6 +58,15 @@ class ArmRecord:
         return np.sqrt(np.mean((self.q_true - self.q_ref) ** 2, axis=0))
 
 
+def reference_of(arm, trajectory: str | FourierTrajectory) -> FourierTrajectory:
+    """A trajectory given by name (designed_trajectory) or as a FourierTrajectory itself."""
+    return trajectory if isinstance(trajectory, FourierTrajectory) else designed_trajectory(arm, trajectory)
+
+
+def trajectory_name(trajectory: str | FourierTrajectory) -> str:
+    return trajectory if isinstance(trajectory, str) else "designed"
+
+
 def current_noise_std(plant: MujocoPlant, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> np.ndarray:
     """(n,) A: the truth's noise fraction of each joint's rms current along the reference."""
     tau = plant.inverse_dynamics(q, qd, qdd, friction=True)
@@ -65,21 +75,24 @@ def current_noise_std(plant: MujocoPlant, q: np.ndarray, qd: np.ndarray, qdd: np
 
 
 def simulate_arm(duration_s: float, robot: str = "ur5", payload: str | None = None,
-                 trajectory: str = "exciting1", seed: int = 0, truth: ArmTruth | None = None,
-                 noise: bool = True, start_ns: int = 0) -> ArmRecord:
+                 trajectory: str | FourierTrajectory = "exciting1", seed: int = 0,
+                 truth: ArmTruth | None = None, noise: bool = True, start_ns: int = 0,
+                 limits: MotionLimits | None = None) -> ArmRecord:
     """The arm tracking ``trajectory`` for ``duration_s`` s under the 1 kHz PID (arm_simulator).
 
     robot: a bundled name, robot YAML or URDF (ignored when ``truth`` is given); payload: None,
-    "2.0", "1.0" or another of ``truth.payloads``; trajectory: "exciting1", "exciting2" or a .json.
+    "2.0", "1.0" or another of ``truth.payloads``; trajectory: "exciting1", "exciting2", a .json
+    or a FourierTrajectory (designed_runs.py: a run the product designed); limits: the stop
+    limits (default arm_limits.motion_limits).
     Raises ConfigError on bad arguments, WorkspaceError if the arm leaves its stop limits.
     """
     if not duration_s > 0:
         raise ConfigError(f"duration must be positive, got {duration_s}")
     truth = truth or load_truth(load_arm(robot))
     arm, load = truth.arm, truth.payload(payload)
-    limits, plant = motion_limits(arm), MujocoPlant(truth, load)
+    limits, plant = limits or motion_limits(arm), MujocoPlant(truth, load)
     N = int(round(duration_s / asim.TICK))
-    q_ref, qd_ref, qdd_ref = designed_trajectory(arm, trajectory).evaluate(np.arange(N) * asim.TICK)
+    q_ref, qd_ref, qdd_ref = reference_of(arm, trajectory).evaluate(np.arange(N) * asim.TICK)
     std = current_noise_std(plant, q_ref[::NOISE_STRIDE], qd_ref[::NOISE_STRIDE], qdd_ref[::NOISE_STRIDE])
     noise_a = np.random.default_rng(seed).normal(0.0, 1.0, (N, arm.n)) * std if noise else np.zeros((N, arm.n))
     current_limit = np.array([j.effort for j in arm.joints]) / arm.nominal_gains
@@ -92,4 +105,4 @@ def simulate_arm(duration_s: float, robot: str = "ur5", payload: str | None = No
     res = asim.run_closed_loop(plant, pid, q_ref, qd_ref, noise_a, limits)
     stamps = start_ns + np.arange(N, dtype=np.int64) * int(round(asim.TICK * 1e9))
     return ArmRecord(stamps, res.q_meas, res.v_tau, truth, load, res.q, res.qd, q_ref, res.current,
-                     std if noise else np.zeros(arm.n), trajectory, seed, res.saturated)
+                     std if noise else np.zeros(arm.n), trajectory_name(trajectory), seed, res.saturated)

@@ -19,12 +19,13 @@ import numpy as np
 
 from orthoglide_ident.errors import ConfigError
 from orthoglide_sim import arm_simulator as asim
-from orthoglide_sim.arm_excitation import designed_trajectory
-from orthoglide_sim.arm_limits import motion_limits
-from orthoglide_sim.arm_record import NOISE_STRIDE, ArmRecord, current_noise_std
+from orthoglide_sim.arm_limits import MotionLimits, motion_limits
+from orthoglide_sim.arm_record import (NOISE_STRIDE, ArmRecord, current_noise_std, reference_of,
+                                       trajectory_name)
 from orthoglide_sim.chain_description import load_chain
 from orthoglide_sim.chain_plant import ChainPlant
 from orthoglide_sim.chain_truth import ChainTruth, load_chain_truth
+from orthoglide_sim.trajectories import FourierTrajectory
 
 
 @dataclass
@@ -49,22 +50,24 @@ def tuned_pid(plant: ChainPlant, q0: np.ndarray, qd0: np.ndarray, qdd0: np.ndarr
 
 
 def simulate_chain(duration_s: float, robot: str = "five_bar", payload: str | None = None,
-                   trajectory: str = "exciting1", seed: int = 0, truth: ChainTruth | None = None,
-                   noise: bool = True, start_ns: int = 0) -> ChainRecord:
+                   trajectory: str | FourierTrajectory = "exciting1", seed: int = 0,
+                   truth: ChainTruth | None = None, noise: bool = True, start_ns: int = 0,
+                   limits: MotionLimits | None = None) -> ChainRecord:
     """The chain tracking ``trajectory`` for ``duration_s`` s under the 1 kHz PID.
 
     robot: a bundled name or robot YAML with loops (ignored when ``truth`` is given); payload:
     None or one of ``truth.payloads`` ("1.0", "0.5" for the five-bar); trajectory: "exciting1",
-    "exciting2" (data/<robot>_exciting<k>.json) or a .json. Raises ConfigError on bad
+    "exciting2" (data/<robot>_exciting<k>.json), a .json or a FourierTrajectory; limits: the stop
+    limits (default arm_limits.motion_limits). Raises ConfigError on bad
     arguments, WorkspaceError if the robot leaves its limits or its loops break.
     """
     if not duration_s > 0:
         raise ConfigError(f"duration must be positive, got {duration_s}")
     truth = truth or load_chain_truth(load_chain(robot))
     chain, load = truth.arm, truth.payload(payload)
-    limits, plant = motion_limits(chain), ChainPlant(truth, load)
+    limits, plant = limits or motion_limits(chain), ChainPlant(truth, load)
     N = int(round(duration_s / asim.TICK))
-    q_ref, qd_ref, qdd_ref = designed_trajectory(chain, trajectory).evaluate(np.arange(N) * asim.TICK)
+    q_ref, qd_ref, qdd_ref = reference_of(chain, trajectory).evaluate(np.arange(N) * asim.TICK)
     s = slice(None, None, NOISE_STRIDE)
     std = current_noise_std(plant, q_ref[s], qd_ref[s], qdd_ref[s])
     white = np.random.default_rng(seed).normal(0.0, 1.0, (N, chain.n))
@@ -74,6 +77,6 @@ def simulate_chain(duration_s: float, robot: str = "five_bar", payload: str | No
     res = asim.run_closed_loop(plant, pid, q_ref, qd_ref, noise_a, limits)
     stamps = start_ns + np.arange(N, dtype=np.int64) * int(round(asim.TICK * 1e9))
     return ChainRecord(stamps, res.q_meas, res.v_tau, truth, load, res.q, res.qd, q_ref, res.current,
-                       std if noise else np.zeros(chain.n), trajectory, seed, res.saturated,
+                       std if noise else np.zeros(chain.n), trajectory_name(trajectory), seed, res.saturated,
                        np.array(plant.tree_log), np.array(plant.loop_errors))
 

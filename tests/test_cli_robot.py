@@ -50,7 +50,7 @@ def test_identify_a_ur5_from_its_ros2_control_bags(ur5_bags, tmp_path):
 def test_a_payload_tagged_with_its_mass_only(tmp_path):
     """Sect. 4.3 at the CLI: the bag says only the mass; the CoM is identified and reported
     (text and JSON 'payload'); --payload-known point takes it for a point mass at the flange,
-    which cannot scale the gains (exit 2, one line)."""
+    which cannot scale wrist_3's gain (a partial answer: not determined)."""
     truth = with_offset_payload(load_truth(load_arm("ur5")))
     bags = [str(write_record(tmp_path / name, simulate_arm(
         20.0, payload=payload, trajectory=traj, seed=seed, truth=truth), mass_only=True))
@@ -68,7 +68,9 @@ def test_a_payload_tagged_with_its_mass_only(tmp_path):
     g = np.array([x["value"] for x in doc["drive_gains"]])
     assert np.abs(g / truth.drive_array("g_tau") - 1).max() < 0.005
     point = cli("identify", "--robot", "ur5", *bags, "--payload-known", "point", "-q")
-    assert point.returncode == 2 and point.stderr.count("\n") == 1, point.stderr
+    assert point.returncode == 0, point.stderr  # a partial answer: no torque on the wrist_3 axis
+    assert "g_tau wrist_3_joint       not determined: the payload adds almost no torque" \
+        in point.stdout, point.stdout
     bad = cli("identify", "--robot", "ur5", *bags, "--payload-known", "com", "-q")
     assert bad.returncode == 2 and "payload_known com needs the payload's centre of mass" \
         in bad.stderr

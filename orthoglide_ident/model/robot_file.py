@@ -18,7 +18,7 @@ from orthoglide_ident.model.robot import DEFAULT_GRAVITY
 
 KEYS = ("name", "model", "description", "actuated_joints", "nominal_gains", "payload_frame",
         "gravity", "loops", "reference_configuration", "passive_friction", "column_order",
-        "body_labels", "fixed_bodies")
+        "body_labels", "fixed_bodies", "excitation")
 
 
 @dataclass(frozen=True)
@@ -39,6 +39,9 @@ class RobotDescription:
     column_order: tuple[tuple[str, ...], ...] = ()  # groups of body labels (eq. 23)
     body_labels: dict[str, str] = field(default_factory=dict)  # link: label
     fixed_bodies: tuple[str, ...] = ()  # links on fixed joints kept as bodies of their own
+    # limits, home pose and collision geometry for exciting trajectories (excite/limits.py and
+    # excite/collision.py read it; only its being a mapping is checked here)
+    excitation: dict[str, Any] = field(default_factory=dict)
 
 
 def _fail(where: str, key: str, what: str) -> ConfigError:
@@ -134,4 +137,6 @@ def read_description(data: dict[str, Any], base_dir: Path,
         kw["body_labels"] = {str(k): str(v) for k, v in labels.items()}
     if "fixed_bodies" in data:
         kw["fixed_bodies"] = _names(where, "fixed_bodies", data["fixed_bodies"])
+    if "excitation" in data:
+        kw["excitation"] = dict(_mapping(where, "excitation", data["excitation"]))
     return RobotDescription(**kw)

@@ -1,0 +1,350 @@
+"""Design of the exciting trajectories (paper Sect. 3.2) for the identification itself.
+
+One Fourier shape (trajectory.py: L harmonics per joint, at rest at every whole period by
+``rest_projection``) serves both runs; each run scales it by its own amplitude α (the loaded run
+may need less to keep the motors' torque limits with the payload). Per joint the shape is scaled
+so that its excursion from the start pose, its speed and its acceleration reach the joint's
+limits less their margins (all three are linear in the amplitude: met by construction); the
+efforts (nominal model with the payload), the distances between bodies and a closed chain's
+working mode are penalties of the criterion, and the check (check.py) verifies them all again
+on a 1 ms grid before anything is written.
+
+Criterion (minimised): J = log max_j σ(g_j)/g_j + COND_WEIGHT · log κ, with σ the predicted
+standard deviation of the gains (prediction.py: eq. 39 at the nominal model, both runs) — what
+the user wants from the records — and κ the condition number of the column-scaled weighted
+[W | V_τ], so that every base parameter stays excited too (the TLS needs W_tot's smallest
+singular value set apart from the next one: a badly conditioned rest would let a near-null
+regressor direction pass for the gains).
+
+Search: the best of ``restarts`` random shapes (each made feasible by lowering its α), then
+``steps`` of a seeded (1+1) evolution strategy (a Gaussian step kept when J drops; step ×1.5
+on success, ×0.9 on failure), which copes with the kinks of the scaling and the penalties.
+Repeatable for a seed on one machine.
+"""
+from __future__ import annotations
+
+import logging
+import math
+import time
+from dataclasses import dataclass, field
+from typing import Callable
+
+import numpy as np
+
+from orthoglide_ident.errors import ConfigError, ExcitationError, ModelError
+from orthoglide_ident.excite.check import CheckReport, check_trajectory, nominal_efforts
+from orthoglide_ident.excite.constraints import (Margins, Slack, TreeStates, collision_slack,
+                                                 joint_slacks, payload_dict)
+from orthoglide_ident.excite.limits import JointLimits, home_pose
+from orthoglide_ident.excite.prediction import (RATE_HZ, Prediction, RunSamples,
+                                                from_information, information,
+                                                nominal_base_values, periodic_rate, run_rows)
+from orthoglide_ident.excite.trajectory import (ExcitationRun, ExcitationTrajectory,
+                                                rest_projection)
+from orthoglide_ident.identify.current_lag import MIN_PERIODS
+from orthoglide_ident.model.robot import Payload
+
+_log = logging.getLogger("orthoglide_ident")
+
+COND_WEIGHT = 0.25
+PENALTY = 100.0  # criterion per unit of normalised violation (a feasible shape always wins)
+VIOLATION_SCALE = {"position": 0.05, "velocity": 0.1, "acceleration": 0.1, "effort": 0.1,
+                   "collision": 0.02, "working_mode": 0.05, "rate_growth": 0.1, "at_rest": 1.0}
+SCALE_GRID = 500  # samples per period the linear limits are met on
+ALPHA_START = 0.95  # a random shape's first amplitude, lowered by ALPHA_SHRINK until feasible
+ALPHA_SHRINK = 0.75
+REPAIR_SHRINK = 0.97  # amplitude factor per failed 1 ms check
+REPAIRS = 15
+
+
+@dataclass(frozen=True)
+class DesignOptions:
+    """What to design: the payload the user will mount, period, number of periods, harmonics,
+    the search's size and seed, the margins, the current noise (A per joint) of the prediction
+    and its target σ of the gains (fraction)."""
+
+    payload: Payload
+    noise_a: np.ndarray
+    period_s: float = 5.0
+    periods: int = 12
+    harmonics: int = 5
+    seed: int = 0
+    restarts: int = 20
+    steps: int = 400
+    samples: int = 100  # per period, for the criterion and the penalties
+    margins: Margins = field(default_factory=Margins)
+    target: float = 0.002
+    pose: dict[str, float] | None = None
+
+    def __post_init__(self) -> None:
+        if not (self.period_s > 0 and self.periods >= 1 and self.harmonics >= 1
+                and self.restarts >= 1 and self.steps >= 0 and self.samples >= 10):
+            raise ConfigError("period must be > 0 s, periods and harmonics >= 1, restarts >= 1, "
+                              "steps >= 0, samples >= 10")
+        if not self.payload.mass > 0:
+            raise ConfigError(f"the loaded run needs a payload mass > 0 kg (--payload-mass), "
+                              f"not {self.payload.mass:g}")
+        noise = np.asarray(self.noise_a, float)
+        if noise.ndim != 1 or not (np.all(np.isfinite(noise)) and np.all(noise > 0)):
+            raise ConfigError(f"the current noise must be positive amperes per joint, not {noise}")
+        if not (0 < self.target < 1):
+            raise ConfigError(f"target σ must be a fraction in (0, 1), not {self.target:g}")
+
+
+@dataclass
+class Evaluation:
+    criterion: float  # J without penalty (inf: the model cannot follow it)
+    violation: float  # normalised, 0 when feasible
+    prediction: Prediction | None
+
+    @property
+    def score(self) -> float:
+        return self.criterion + PENALTY * self.violation
+
+
+def _logit(a: float) -> float:
+    return math.log(a / (1.0 - a))
+
+
+class Problem:
+    """The search space (a shape and two amplitudes) and its criterion (module docstring)."""
+
+    def __init__(self, robot, limits: JointLimits, collision, options: DesignOptions):
+        self.robot, self.limits, self.collision, self.opt = robot, limits, collision, options
+        self.n, self.L = robot.n_joints, options.harmonics
+        self.w_f = 2.0 * math.pi / options.period_s
+        self.P = home_pose(robot, limits, options.pose)
+        self.kinds = [j.kind for j in robot.joints]
+        pm = options.margins.position_of(self.kinds)
+        self.lo, self.hi = limits.lower + pm, limits.upper - pm
+        if np.any(self.P < self.lo) | np.any(self.P > self.hi):
+            k = int(np.argmax((self.P < self.lo) | (self.P > self.hi)))
+            raise ConfigError(f"start pose of {robot.joint_names[k]} ({self.P[k]:g}) is within "
+                              f"{pm[k]:g} of its limits: choose another (--pose)")
+        self.t_scale = np.linspace(0.0, options.period_s, SCALE_GRID, endpoint=False)
+        self.t = np.linspace(0.0, options.period_s, options.samples, endpoint=False)
+        self.chi_b, self.gains = nominal_base_values(robot), robot.nominal_gains
+        self.tree = TreeStates(robot)
+        self.runs = (("unloaded", None), ("loaded", options.payload))
+        self.ell = np.arange(1, self.L + 1, dtype=float)
+
+    @property
+    def size(self) -> int:
+        return 2 * self.n * self.L + 2
+
+    def shape(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(a, b) of shape ``x`` at rest at the period's ends, scaled per joint to the limits."""
+        nl = self.n * self.L
+        a, b = rest_projection(x[:nl].reshape(self.n, self.L), x[nl:2 * nl].reshape(self.n, self.L))
+        kw = self.w_f * self.ell
+        s, c = np.sin(np.outer(self.t_scale, kw)), np.cos(np.outer(self.t_scale, kw))
+        d = s @ (a / kw).T - (c - 1.0) @ (b / kw).T  # q(t) - q(0)
+        qd, qdd = c @ a.T + s @ b.T, -s @ (a * kw).T + c @ (b * kw).T
+        with np.errstate(divide="ignore", invalid="ignore"):
+            room = np.where(d > 0, (self.hi - self.P) / d, np.where(d < 0, (self.lo - self.P) / d,
+                                                                    np.inf))
+            m = self.opt.margins
+            scale = np.min([room.min(axis=0),
+                            self.limits.velocity * (1 - m.velocity) / np.abs(qd).max(axis=0),
+                            self.limits.acceleration * (1 - m.acceleration) / np.abs(qdd).max(axis=0)],
+                           axis=0)
+        scale = np.where(np.isfinite(scale), scale, 0.0)
+        return a * scale[:, None], b * scale[:, None]
+
+    def trajectory(self, x: np.ndarray) -> ExcitationTrajectory:
+        a, b = self.shape(x)
+        runs = {}
+        for k, (name, payload) in enumerate(self.runs):
+            alpha = 1.0 / (1.0 + math.exp(-x[-2 + k]))
+            A, B = a * alpha, b * alpha
+            q0 = self.P + (B / (self.w_f * self.ell)).sum(axis=1)  # q(0) = P
+            runs[name] = ExcitationRun(name, q0, A, B, payload_dict(payload))
+        return ExcitationTrajectory(self.robot.name, self.robot.joint_names, self.opt.period_s,
+                                    self.opt.periods, runs)
+
+    def evaluate(self, x: np.ndarray) -> Evaluation:
+        traj = self.trajectory(x)
+        F, violation = 0.0, 0.0
+        for name, payload in self.runs:
+            q, qd, qdd = traj.evaluate(name, self.t)
+            try:
+                X, tau = run_rows(self.robot, self.chi_b, self.gains,
+                                  RunSamples(q, qd, qdd, traj.duration, payload))
+                slacks = self.slacks(q, qd, qdd, tau.T, name)
+            except ModelError:
+                return Evaluation(math.inf, math.inf, None)
+            violation += sum(max(0.0, s.required - s.value) / VIOLATION_SCALE[s.kind]
+                             for s in slacks)
+            F = F + information(X, tau, self.gains, self.opt.noise_a,
+                                RATE_HZ * traj.duration / len(self.t), self.lag_rate(tau))
+        try:
+            pred = from_information(F, self.chi_b, self.gains, self.opt.noise_a)
+        except ExcitationError:
+            return Evaluation(math.inf, violation, None)
+        crit = math.log(pred.worst_gain) + COND_WEIGHT * math.log(pred.condition)
+        return Evaluation(crit if math.isfinite(crit) else math.inf, violation, pred)
+
+    def lag_rate(self, tau: np.ndarray) -> np.ndarray | None:
+        """τ̇ for the current-loop lag terms the identification adds on periodic records
+        (prediction.py), when the runs repeat often enough for it (current_lag.MIN_PERIODS)."""
+        if self.opt.periods < MIN_PERIODS:
+            return None
+        return periodic_rate(tau, self.opt.period_s / len(self.t))
+
+    def slacks(self, q, qd, qdd, tau, run: str) -> list[Slack]:
+        m = self.opt.margins
+        out = joint_slacks(self.limits, self.kinds, m, q, qd, qdd, tau, self.t, run)
+        if (self.collision is not None and self.collision.mode != "skip") or \
+                self.tree.closure is not None:
+            Q, G = self.tree.configurations(q)
+            out += collision_slack(self.collision, Q, m, self.t, run)
+            out += self.tree.mode_slacks(Q, G, m, self.t, run)
+        return out
+
+    def with_alpha(self, x: np.ndarray, k: int, factor: float) -> np.ndarray:
+        """``x`` with run k's amplitude times ``factor``."""
+        y = x.copy()
+        alpha = 1.0 / (1.0 + math.exp(-y[-2 + k]))
+        y[-2 + k] = _logit(min(max(alpha * factor, 1e-6), 1 - 1e-9))
+        return y
+
+
+@dataclass
+class Design:
+    """A designed trajectory, its 1 ms check, its prediction, and the search's figures."""
+
+    trajectory: ExcitationTrajectory
+    check: CheckReport
+    prediction: Prediction
+    criterion: float
+    random: list[Evaluation]  # the random shapes made feasible (bench: median of these)
+    seconds: float
+    problem: Problem
+
+
+def static_payload_check(robot, limits: JointLimits, margins: Margins, P: np.ndarray,
+                         payload: Payload) -> None:
+    """ConfigError when holding the payload at rest at the start pose already needs more than
+    the effort limits allow (less their margin): no trajectory can carry it."""
+    z = np.zeros((1, robot.n_joints))
+    tau = nominal_efforts(robot, payload, P[None], z, z)[0]
+    allowed = limits.effort * (1 - margins.effort)
+    over = np.abs(tau) > allowed
+    if over.any():
+        j = int(np.argmax(np.abs(tau) / allowed))
+        raise ConfigError(f"a {payload.mass:g} kg payload needs {abs(tau[j]):.4g} "
+                          f"{robot.joints[j].effort_unit} on {robot.joint_names[j]} at rest at the "
+                          f"start pose, above {allowed[j]:.4g} (its effort limit "
+                          f"{limits.effort[j]:g} less {100 * margins.effort:g} %): mount a "
+                          "lighter payload")
+
+
+def _random_start(problem: Problem, rng: np.random.Generator) -> tuple[np.ndarray, Evaluation]:
+    x = np.concatenate([rng.normal(size=problem.size - 2), [_logit(ALPHA_START)] * 2])
+    ev = problem.evaluate(x)
+    for _ in range(10):
+        if ev.violation == 0:
+            break
+        x = problem.with_alpha(problem.with_alpha(x, 0, ALPHA_SHRINK), 1, ALPHA_SHRINK)
+        ev = problem.evaluate(x)
+    return x, ev
+
+
+def search(problem: Problem, progress: Callable[[str], None] | None = None
+           ) -> tuple[np.ndarray, Evaluation, list[Evaluation]]:
+    """The best x found (module docstring), its evaluation and the feasible random starts'."""
+    opt = problem.opt
+    rng = np.random.default_rng(opt.seed)
+    say = progress or (lambda _: None)
+    best_x, best, randoms = None, None, []
+    for r in range(opt.restarts):
+        x, ev = _random_start(problem, rng)
+        if ev.violation == 0 and math.isfinite(ev.criterion):
+            randoms.append(ev)
+        if best is None or ev.score < best.score:
+            best_x, best = x, ev
+    say(f"best of {opt.restarts} random shapes: {_describe(best)} "
+        f"({len(randoms)} feasible)")
+    step, n_shape = 0.05, problem.size - 2
+    for k in range(opt.steps):
+        scale = np.concatenate([np.full(n_shape, np.abs(best_x[:n_shape]).mean()), [1.0, 1.0]])
+        y = best_x + step * scale * rng.normal(size=best_x.size)
+        ev = problem.evaluate(y)
+        if ev.score < best.score:
+            best_x, best, step = y, ev, step * 1.5
+        else:
+            step *= 0.9
+        if (k + 1) % max(1, opt.steps // 8) == 0:
+            say(f"step {k + 1}/{opt.steps}: {_describe(best)}")
+    return best_x, best, randoms
+
+
+def _describe(ev: Evaluation) -> str:
+    if ev.prediction is None:
+        return "no feasible shape yet"
+    return (f"worst gain σ {100 * ev.prediction.worst_gain:.3g} %, κ {ev.prediction.condition:.3g}"
+            + ("" if ev.violation == 0 else f", violation {ev.violation:.3g}"))
+
+
+def repaired(problem: Problem, x: np.ndarray, say: Callable[[str], None]
+             ) -> tuple[np.ndarray, ExcitationTrajectory, CheckReport]:
+    """x whose trajectory passes the 1 ms check, lowering the amplitude of a failing run."""
+    for attempt in range(REPAIRS + 1):
+        traj = problem.trajectory(x)
+        report = check_trajectory(traj, problem.robot, problem.limits, problem.collision,
+                                  problem.opt.margins)
+        if report.ok:
+            return x, traj, report
+        if attempt == REPAIRS:
+            break
+        bad = {s.run for s in report.slacks if not s.ok}
+        say(f"1 ms check: {', '.join(s.kind for s in report.failures())} short of the margin; "
+            f"lowering the amplitude of the {' and '.join(sorted(bad))} run")
+        for k, (name, _) in enumerate(problem.runs):
+            if name in bad:
+                x = problem.with_alpha(x, k, REPAIR_SHRINK)
+    worst = "; ".join(f"{s.kind} {s.value:.4g} < {s.required:.4g} at {s.where}"
+                      for s in report.failures())
+    raise ExcitationError(f"no trajectory within the limits was found ({worst}): loosen the "
+                          "margins, choose another start pose (--pose) or a lighter payload")
+
+
+def design(robot, limits: JointLimits, collision, options: DesignOptions,
+           progress: Callable[[str], None] | None = None) -> Design:
+    """Design both runs for ``robot`` (module docstring); the 1 ms check passed."""
+    say = progress or _log.info
+    t0 = time.perf_counter()
+    problem = Problem(robot, limits, collision, options)
+    static_payload_check(robot, limits, options.margins, problem.P, options.payload)
+    x, best, randoms = search(problem, say)
+    if best.violation > 0 or best.prediction is None:
+        raise ExcitationError("no feasible trajectory found (every shape breaks a constraint "
+                              f"even at a small amplitude: {_describe(best)}): loosen the "
+                              "margins, choose another start pose (--pose) or a lighter payload")
+    x, traj, report = repaired(problem, x, say)
+    final = problem.evaluate(x)
+    seconds = time.perf_counter() - t0
+    return Design(traj, report, final.prediction, final.criterion, randoms, seconds, problem)
+
+
+def payload_options(problem: Problem, traj: ExcitationTrajectory, masses: list[float]
+                    ) -> list[tuple[float, Prediction | None]]:
+    """The prediction with each payload mass on the loaded run's motion (None where the effort
+    limits refuse it), the payload's CoM and inertia per kg kept."""
+    p = problem.opt.payload
+    out = []
+    for m in masses:
+        load = Payload(m, p.frame, p.com, tuple(x * m / p.mass for x in p.inertia))
+        runs, F, ok = [], 0.0, True
+        for name, payload in (("unloaded", None), ("loaded", load)):
+            q, qd, qdd = traj.evaluate(name, problem.t)
+            X, tau = run_rows(problem.robot, problem.chi_b, problem.gains,
+                              RunSamples(q, qd, qdd, traj.duration, payload))
+            ok &= bool(np.all(np.abs(tau.T) <= problem.limits.effort *
+                              (1 - problem.opt.margins.effort)))
+            F = F + information(X, tau, problem.gains, problem.opt.noise_a,
+                                RATE_HZ * traj.duration / len(problem.t), problem.lag_rate(tau))
+        out.append((m, from_information(F, problem.chi_b, problem.gains, problem.opt.noise_a)
+                    if ok else None))
+    return out
+

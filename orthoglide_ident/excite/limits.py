@@ -1,0 +1,235 @@
+"""The actuated joints' limits an exciting trajectory must keep, from the user's own description.
+
+Per actuated joint, the first source that gives a value wins:
+
+1. a ros2_control joint_limits YAML (``--joint-limits FILE``: ``joint_limits: {<joint>:
+   {has_position_limits, min_position, max_position, has_velocity_limits, max_velocity,
+   has_acceleration_limits, max_acceleration, has_effort_limits, max_effort}}``, also found
+   under a node's ``ros__parameters`` or MoveIt's ``robot_description_planning``);
+2. the robot YAML's ``excitation`` mapping (docs/robot_files.md): ``position_limits``,
+   ``velocity_limits``, ``acceleration_limits``, ``effort_limits`` or ``current_limits`` (A, times
+   the nominal gain: the torque at the joint through the transmission);
+3. the URDF's ``<limit lower upper velocity effort>`` (a URDF has no acceleration limit).
+
+A joint left without a finite position range, velocity, acceleration or effort is a ConfigError
+naming the joint and where to give it. Units: m or rad, per s, per s², N or N·m.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from orthoglide_ident.errors import ConfigError
+from orthoglide_ident.yaml_files import load_yaml
+
+KINDS = ("lower", "upper", "velocity", "acceleration", "effort")
+ROS2_KEYS = {"lower": ("has_position_limits", "min_position"),
+             "upper": ("has_position_limits", "max_position"),
+             "velocity": ("has_velocity_limits", "max_velocity"),
+             "acceleration": ("has_acceleration_limits", "max_acceleration"),
+             "effort": ("has_effort_limits", "max_effort")}
+EXCITATION_KEYS = ("position_limits", "velocity_limits", "acceleration_limits", "effort_limits",
+                   "current_limits", "home", "collision")
+
+
+@dataclass(frozen=True)
+class JointLimits:
+    """Limits of the actuated joints (n,) each, in the model's joint order, and where each kind
+    came from (``sources``: kind -> file)."""
+
+    joints: tuple[str, ...]
+    lower: np.ndarray
+    upper: np.ndarray
+    velocity: np.ndarray
+    acceleration: np.ndarray
+    effort: np.ndarray
+    sources: dict[str, str]
+
+    def to_dict(self) -> dict[str, Any]:
+        """``limits.joints`` of the trajectory file: joint -> {lower, upper, velocity, ...}."""
+        return {"joints": {j: {k: float(getattr(self, k)[i]) for k in KINDS}
+                           for i, j in enumerate(self.joints)},
+                "sources": dict(self.sources)}
+
+    @classmethod
+    def from_dict(cls, d: Any, joints: tuple[str, ...], where: str) -> "JointLimits":
+        try:
+            rows = d["joints"]
+            vals = {k: np.array([float(rows[j][k]) for j in joints]) for k in KINDS}
+        except (KeyError, TypeError, ValueError) as exc:
+            raise ConfigError(f"{where}: limits.joints needs {', '.join(KINDS)} for every joint "
+                              f"({exc})") from None
+        return cls(joints, sources=dict(d.get("sources") or {}), **vals)
+
+
+def excitation_section(model) -> tuple[dict[str, Any], Path]:
+    """The robot file's ``excitation`` mapping (checked for unknown keys) and its folder."""
+    desc = getattr(model, "description", None)
+    if desc is None or not hasattr(desc, "path"):
+        raise ConfigError(f"robot {model.name}: exciting trajectories need a robot described by a "
+                          "URDF (--robot FILE.urdf, a robot YAML or a bundled name such as ur5; "
+                          "for the Orthoglide: orthoglide_general)")
+    section = dict(getattr(desc, "excitation", {}) or {})
+    unknown = sorted(set(section) - set(EXCITATION_KEYS))
+    if unknown:
+        raise ConfigError(f"robot {model.name}: excitation: unknown keys {unknown} (known: "
+                          f"{', '.join(EXCITATION_KEYS)})")
+    return section, desc.path.parent
+
+
+def per_joint(value: Any, joints: tuple[str, ...], what: str, width: int = 1) -> dict[str, Any]:
+    """A robot-file value given as one number for all joints, a list in joint order, or a
+    mapping joint -> value (``width`` 2: [lower, upper] pairs) -> {joint: value}."""
+    def number(x: Any) -> Any:
+        xs = x if width > 1 else [x]
+        if not isinstance(xs, (list, tuple)) or len(xs) != width or not all(
+                isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+                for v in xs):
+            raise ConfigError(f"{what}: expected {'a number' if width == 1 else f'{width} numbers'}"
+                              f" per joint, got {x!r}")
+        return tuple(float(v) for v in xs) if width > 1 else float(x)
+
+    if isinstance(value, dict):
+        bad = sorted(set(value) - set(joints))
+        if bad:
+            raise ConfigError(f"{what}: {bad} are not actuated joints ({', '.join(joints)})")
+        return {str(k): number(v) for k, v in value.items()}
+    if isinstance(value, list) and (width == 1 or (value and isinstance(value[0], list))):
+        if len(value) != len(joints):
+            raise ConfigError(f"{what}: {len(value)} values for {len(joints)} joints")
+        return {j: number(v) for j, v in zip(joints, value)}
+    return {j: number(value) for j in joints}
+
+
+def ros2_joint_limits(path: str | Path, joints: tuple[str, ...]) -> dict[str, dict[str, float]]:
+    """kind -> {joint: value} from a ros2_control (or MoveIt) joint_limits YAML."""
+    doc = load_yaml(path, "joint limits file")
+    table = _find_joint_limits(doc)
+    if table is None:
+        raise ConfigError(f"joint limits file {path}: no joint_limits mapping (ros2_control's "
+                          "joint_limits: {<joint>: {has_velocity_limits: true, max_velocity: ...}})")
+    out: dict[str, dict[str, float]] = {k: {} for k in KINDS}
+    for joint, entry in table.items():
+        if joint not in joints or not isinstance(entry, dict):
+            continue
+        for kind, (flag, key) in ROS2_KEYS.items():
+            if entry.get(flag) and key in entry:
+                try:
+                    out[kind][joint] = float(entry[key])
+                except (TypeError, ValueError):
+                    raise ConfigError(f"joint limits file {path}: {joint}.{key} is not a number "
+                                      f"({entry[key]!r})") from None
+    return out
+
+
+def _find_joint_limits(doc: Any, depth: int = 0) -> dict | None:
+    if not isinstance(doc, dict) or depth > 3:
+        return None
+    if isinstance(doc.get("joint_limits"), dict):
+        return doc["joint_limits"]
+    for v in doc.values():
+        found = _find_joint_limits(v, depth + 1)
+        if found is not None:
+            return found
+    return None
+
+
+def _robot_file_limits(model, section: dict[str, Any]) -> dict[str, dict[str, float]]:
+    names = model.joint_names
+    out: dict[str, dict[str, float]] = {k: {} for k in KINDS}
+    where = f"robot {model.name}: excitation"
+    if "position_limits" in section:
+        for j, (lo, hi) in per_joint(section["position_limits"], names,
+                                     f"{where}.position_limits", 2).items():
+            out["lower"][j], out["upper"][j] = lo, hi
+    for kind in ("velocity", "acceleration", "effort"):
+        key = f"{kind}_limits"
+        if key in section:
+            out[kind].update(per_joint(section[key], names, f"{where}.{key}"))
+    if "current_limits" in section:
+        gains = dict(zip(names, model.nominal_gains))
+        for j, amps in per_joint(section["current_limits"], names,
+                                 f"{where}.current_limits").items():
+            out["effort"].setdefault(j, amps * gains[j])
+    return out
+
+
+def _urdf_limits(model) -> dict[str, dict[str, float]]:
+    """What the URDF's <limit> elements say (0 velocity or effort: not given)."""
+    out: dict[str, dict[str, float]] = {k: {} for k in KINDS}
+    by_name = {j.name: j for j in model.actuated}
+    for name in model.joint_names:
+        j = by_name[name]
+        out["lower"][name], out["upper"][name] = j.lower, j.upper
+        out["velocity"][name] = j.velocity if j.velocity > 0 else math.inf
+        effort = float(model.model.effortLimit[j.iv])
+        out["effort"][name] = effort if effort > 0 else math.inf
+    return out
+
+
+def read_limits(model, joint_limits_file: str | Path | None = None) -> JointLimits:
+    """The actuated joints' limits (module docstring: joint_limits YAML, robot file, URDF)."""
+    section, _ = excitation_section(model)
+    names = model.joint_names
+    layers = [(str(model.description.path.name), _urdf_limits(model)),
+              (f"robot file ({model.name})", _robot_file_limits(model, section))]
+    if joint_limits_file:
+        layers.append((str(joint_limits_file), ros2_joint_limits(joint_limits_file, names)))
+    values = {k: np.full(len(names), math.nan) for k in KINDS}
+    sources: dict[str, str] = {}
+    for where, layer in layers:  # later layers override earlier ones
+        for kind, by_joint in layer.items():
+            for j, v in by_joint.items():
+                if math.isfinite(v) or math.isnan(values[kind][names.index(j)]):
+                    values[kind][names.index(j)] = v
+                    if math.isfinite(v):
+                        sources[kind] = where
+    _require(model, values)
+    return JointLimits(names, sources=sources, **values)
+
+
+def _require(model, values: dict[str, np.ndarray]) -> None:
+    hint = {"lower": "a finite <limit lower upper> in the URDF or excitation.position_limits",
+            "velocity": "<limit velocity> in the URDF or excitation.velocity_limits",
+            "acceleration": "excitation.acceleration_limits in the robot file or --joint-limits "
+                            "FILE (ros2_control joint_limits: has_acceleration_limits, "
+                            "max_acceleration)",
+            "effort": "<limit effort> in the URDF, excitation.effort_limits or current_limits"}
+    for kind in ("lower", "upper", "velocity", "acceleration", "effort"):
+        v = values[kind]
+        bad = ~np.isfinite(v) if kind in ("lower", "upper") else ~(np.isfinite(v) & (v > 0))
+        if bad.any():
+            j = model.joint_names[int(np.argmax(bad))]
+            name = "position" if kind in ("lower", "upper") else kind
+            raise ConfigError(f"robot {model.name}: joint {j} has no {name} limit: give "
+                              f"{hint['lower' if kind == 'upper' else kind]}")
+    if np.any(values["lower"] >= values["upper"]):
+        j = model.joint_names[int(np.argmax(values["lower"] >= values["upper"]))]
+        raise ConfigError(f"robot {model.name}: joint {j}: lower position limit is not below "
+                          "the upper one")
+
+
+def home_pose(model, limits: JointLimits, pose: dict[str, float] | None = None) -> np.ndarray:
+    """(n,) where the runs start and end at rest: ``pose`` (joint -> value, the others from the
+    robot file's ``excitation.home``), else the middle of each joint's range; ConfigError
+    outside the limits."""
+    section, _ = excitation_section(model)
+    values = dict(per_joint(section["home"], model.joint_names,
+                            f"robot {model.name}: excitation.home")) if "home" in section else {}
+    for j, v in (pose or {}).items():
+        if j not in model.joint_names:
+            raise ConfigError(f"--pose names {j!r}, not an actuated joint of robot {model.name} "
+                              f"({', '.join(model.joint_names)})")
+        values[j] = float(v)
+    q = np.array([values.get(j, 0.5 * (lo + hi)) for j, lo, hi
+                  in zip(model.joint_names, limits.lower, limits.upper)])
+    out = (q < limits.lower) | (q > limits.upper)
+    if out.any():
+        k = int(np.argmax(out))
+        raise ConfigError(f"start pose of {model.joint_names[k]} ({q[k]:g}) is outside its limits "
+                          f"[{limits.lower[k]:g}, {limits.upper[k]:g}]")
+    return q

@@ -1,0 +1,200 @@
+"""The σ an identification will reach on a trajectory, before it is run: eq. (39) at the nominal
+model.
+
+IDIM-TLS (eqs. 33–36) solves W_tot χ_tot = 0 with W_tot = [−W | −W_kl m | V_τ] (unloaded rows:
+m = 0), χ_tot = [χ_b, 1, g_τ]; the loaded rows' known payload m fixes the scale. With the noise
+in the current references only (σ_j A on joint j, white at the 1 kHz sample rate), the
+linearised (Cramér–Rao) covariance of θ = [χ_b, g_τ] is
+
+    cov θ = (Σ_rows a aᵀ / (g_j σ_j)²)⁻¹,   a = [W_row, −v_τ,row e_j],   v_τ = (W χ_b + m W_kl) / g_j
+
+which is eq. (39) at small noise. Evaluated at the nominal model (the URDF's inertials,
+armature, damping and friction, regrouped into χ_b = K χ_st: eq. 21) and the manufacturer's
+gains, on samples of one period standing for the run's 1 kHz samples. The decimation's low-pass
+keeps the signal and drops noise outside its band, so the identification reaches about this σ
+(bench/excitation_design.py measures it on the simulated plants).
+
+The identification adds a current-loop lag column per joint on periodic records
+(``lag_model: auto``, identify/current_lag.py: g_j (v_τ − τ_j v̇_τ)): with ``lag`` the prediction
+carries those unknowns too (column −v̇_τ,j, v̇_τ from the nominal efforts by a periodic central
+difference: the samples must be one period on a uniform grid). On the simulated UR5 they are what
+sets the fastest wrist's gain σ.
+
+The condition number κ is that of the column-scaled weighted [W | V_τ] of both runs (the
+matrix whose smallest singular value sets every σ above): the design's second criterion, so that
+no base parameter is left unexcited while the gains are already good.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any, Sequence
+
+import numpy as np
+
+from orthoglide_ident.errors import ExcitationError
+from orthoglide_ident.model.robot import Payload
+
+RATE_HZ = 1000.0  # the records' sample rate the prediction is for
+DEFAULT_CURRENT_NOISE = 0.02  # A, per joint, when no record says otherwise
+MAX_CONDITION = 1e6  # κ (√ of the eigenvalue ratio) beyond which F is taken as singular
+DEFAULT_DECIMATION = 10  # n_d of a result that does not say (IdentifyOptions.decimation)
+
+
+@dataclass(frozen=True)
+class RunSamples:
+    """One run sampled over one period (m, n) each, standing for ``seconds`` s at RATE_HZ."""
+
+    q: np.ndarray
+    qd: np.ndarray
+    qdd: np.ndarray
+    seconds: float
+    payload: Payload | None = None
+    noise_a: np.ndarray | None = None  # (n,) A for this run only (else predict's)
+
+
+@dataclass(frozen=True)
+class Prediction:
+    """σ of the gains (relative) and base parameters (absolute and relative) and κ."""
+
+    gain_rel_std: np.ndarray  # (n_j,) fraction
+    base_std: np.ndarray  # (n_b,) in each parameter's unit
+    base_rel_std: np.ndarray  # (n_b,) fraction of the nominal value (inf where it is 0)
+    condition: float
+    noise_a: np.ndarray  # (n_j,) A
+
+    @property
+    def worst_gain(self) -> float:
+        return float(self.gain_rel_std.max())
+
+    def to_dict(self, joints: Sequence[str], names: Sequence[str]) -> dict[str, Any]:
+        def num(x: float) -> float | None:
+            return float(x) if math.isfinite(x) else None
+
+        return {"current_noise_a": {j: float(s) for j, s in zip(joints, self.noise_a)},
+                "gain_rel_std": {j: float(s) for j, s in zip(joints, self.gain_rel_std)},
+                "base_std": {n: float(s) for n, s in zip(names, self.base_std)},
+                "base_rel_std": {n: num(s) for n, s in zip(names, self.base_rel_std)},
+                "condition_number": num(self.condition)}
+
+
+def nominal_base_values(robot) -> np.ndarray:
+    """χ_b of the description's own standard parameters (eq. 21)."""
+    return robot.base_values(robot.standard_values())
+
+
+def run_rows(robot, chi_b: np.ndarray, gains: np.ndarray, run: RunSamples
+             ) -> tuple[np.ndarray, np.ndarray]:
+    """(X (n_b + 1, n, m) of the run's payload, nominal efforts τ (n, m) N or N·m)."""
+    model = robot.with_payload(run.payload) if run.payload is not None else robot
+    X = model.observation_block(run.q, run.qd, run.qdd)
+    mass = run.payload.mass if run.payload is not None else 0.0
+    tau = np.tensordot(chi_b, X[:-1], axes=(0, 0)) + mass * X[-1]
+    return X, tau
+
+
+def periodic_rate(tau: np.ndarray, seconds_per_sample: float) -> np.ndarray:
+    """τ̇ (n, m) of efforts sampled over one period on a uniform grid (central difference)."""
+    return (np.roll(tau, -1, axis=1) - np.roll(tau, 1, axis=1)) / (2.0 * seconds_per_sample)
+
+
+def information(X: np.ndarray, tau: np.ndarray, gains: np.ndarray, noise_a: np.ndarray,
+                weight: float, tau_rate: np.ndarray | None = None) -> np.ndarray:
+    """Σ a aᵀ / (g_j σ_j)² over a run's rows (module docstring), times ``weight`` (1 kHz
+    samples per sample given); unknowns [χ_b, g_τ] and, with ``tau_rate`` (τ̇, n × m), each
+    joint's lag term θ_j = g_j τ_j (column −v̇_τ,j)."""
+    n_b, n_j = X.shape[0] - 1, X.shape[1]
+    c = n_b + n_j * (1 if tau_rate is None else 2)
+    F = np.zeros((c, c))
+    for j in range(n_j):
+        A = np.zeros((X.shape[2], c))
+        A[:, :n_b] = X[:-1, j, :].T
+        A[:, n_b + j] = -tau[j] / gains[j]
+        if tau_rate is not None:
+            A[:, n_b + n_j + j] = tau_rate[j] / gains[j]
+        A /= gains[j] * noise_a[j]
+        F += A.T @ A
+    return weight * F
+
+
+def scaled_condition(F: np.ndarray) -> float:
+    """cond of the column-scaled matrix whose Gram matrix is F: √(λmax/λmin) of D F D."""
+    d = np.sqrt(np.diag(F))
+    if np.any(d <= 0):
+        return math.inf
+    lam = np.linalg.eigvalsh(F / np.outer(d, d))
+    return math.sqrt(lam[-1] / lam[0]) if lam[0] > 0 else math.inf
+
+
+def from_information(F: np.ndarray, chi_b: np.ndarray, gains: np.ndarray,
+                     noise_a: np.ndarray) -> Prediction:
+    n_b = chi_b.shape[0]
+    kappa = scaled_condition(F)
+    try:
+        if not kappa < MAX_CONDITION:
+            raise np.linalg.LinAlgError
+        cov = np.linalg.inv(F)
+    except np.linalg.LinAlgError:
+        raise ExcitationError("the runs do not determine the gains and base parameters (singular "
+                              "information matrix): a loaded run is needed, and motion exciting "
+                              "every base parameter") from None
+    std = np.sqrt(np.abs(np.diag(cov)))[:n_b + gains.shape[0]]  # without the lag terms
+    with np.errstate(divide="ignore", invalid="ignore"):
+        base_rel = np.where(np.abs(chi_b) > 1e-12, std[:n_b] / np.abs(chi_b), np.inf)
+    return Prediction(std[n_b:] / gains, std[:n_b], base_rel, kappa,
+                      np.asarray(noise_a, float))
+
+
+def predict(robot, runs: Sequence[RunSamples], noise_a: np.ndarray | float,
+            chi_b: np.ndarray | None = None, gains: np.ndarray | None = None,
+            lag: bool = False, period_s: float | None = None) -> Prediction:
+    """σ of the gains and base parameters an IDIM-TLS of ``runs`` reaches (module docstring);
+    ``lag``: with the current-loop lag terms, the runs sampled over one period ``period_s``."""
+    chi_b = nominal_base_values(robot) if chi_b is None else np.asarray(chi_b, float)
+    gains = robot.nominal_gains if gains is None else np.asarray(gains, float)
+    noise = np.broadcast_to(np.asarray(noise_a, float), (robot.n_joints,)).copy()
+    F = 0.0
+    for r in runs:
+        X, tau = run_rows(robot, chi_b, gains, r)
+        rate = periodic_rate(tau, period_s / r.q.shape[0]) if lag else None
+        F = F + information(X, tau, gains, noise if r.noise_a is None else
+                            np.asarray(r.noise_a, float), RATE_HZ * r.seconds / r.q.shape[0], rate)
+    return from_information(F, chi_b, gains, noise)
+
+
+def periods_needed(pred: Prediction, periods: int, target: float) -> int:
+    """Whole periods per run for every gain's σ to reach ``target`` (σ ∝ 1/√duration)."""
+    return max(1, math.ceil(periods * (pred.worst_gain / target) ** 2 - 1e-9))
+
+
+def noise_from_result(doc: Any, joints: Sequence[str], where: str) -> np.ndarray:
+    """(n,) A: the current noise at 1 kHz that weighs like a previous identification's equation
+    error (``identify --json``): its residual rms per decimated row (N or N·m) divided by its
+    gains, times √n_d (eq. 39 takes σ_ρ per row of the n_d-times decimated equations: r/g at
+    rate f/n_d weighs as r/g·√n_d at rate f). The residual holds everything the IDIM does not
+    explain — current noise, friction and drive effects the model lacks, encoder steps — which
+    on the simulated UR5 outweighs the current noise itself (bench/excitation_design.py).
+
+    The identification weights each joint's rows by the σ of a first, unweighted TLS pass
+    (``diagnostics.solver.joint_sigma``, tls.py), which for a quiet joint is above its final
+    residual (the UR5's wrist 3: 0.0071 vs 0.0038 N·m), so eq. (39) reports its gain σ up to ~1.8
+    times the optimally weighted one. When the result gives those weights, the noise is taken
+    proportional to them (scaled to the residuals' pooled size): the prediction is then of what
+    ``identify`` reports."""
+    from orthoglide_ident.errors import ConfigError
+
+    try:
+        names = list(doc["joint_names"])
+        res = np.array([float(r) for r in doc["residual_rms_per_joint"]])
+        g = {d["joint"]: float(d["value"]) for d in doc["drive_gains"]}
+        diag = doc.get("diagnostics") or {}
+        n_d = int(diag.get("decimation") or DEFAULT_DECIMATION)
+        weights = (diag.get("solver") or {}).get("joint_sigma")
+        if weights is not None and len(weights) == len(res) and min(weights) > 0:
+            w = np.array([float(x) for x in weights])
+            res = w * math.sqrt(float(np.mean((res / w) ** 2)))
+        by_joint = dict(zip(names, res))
+        return np.array([by_joint[j] / g[j] for j in joints]) * math.sqrt(n_d)
+    except (KeyError, TypeError, ValueError, ZeroDivisionError) as exc:
+        raise ConfigError(f"{where}: not an identification result of these joints (needs "
+                          f"joint_names, residual_rms_per_joint, drive_gains; {exc!r})") from None
