@@ -21,7 +21,8 @@ MSGS_SOURCES := $(wildcard $(MSGS_DIR)/msg/*.msg $(MSGS_DIR)/srv/*.srv) \
 	$(MSGS_DIR)/CMakeLists.txt $(MSGS_DIR)/package.xml $(MSGS_DIR)/pyproject.toml \
 	msg_defs/wheel_include_dirs.cmake
 CONTROL_MSGS_DIR := msg_defs/control_msgs
-CONTROL_MSGS_SOURCES := $(wildcard $(CONTROL_MSGS_DIR)/msg/*.msg) $(CONTROL_MSGS_DIR)/CMakeLists.txt \
+CONTROL_MSGS_SOURCES := $(wildcard $(CONTROL_MSGS_DIR)/msg/*.msg $(CONTROL_MSGS_DIR)/action/*.action) \
+	$(CONTROL_MSGS_DIR)/CMakeLists.txt \
 	$(CONTROL_MSGS_DIR)/package.xml $(CONTROL_MSGS_DIR)/pyproject.toml \
 	$(CONTROL_MSGS_DIR)/found_elsewhere.py msg_defs/wheel_include_dirs.cmake
 PROJECT_SOURCES := pyproject.toml setup.py setup.cfg package.xml orthoglide_ident/_install_ament.py \
@@ -76,8 +77,8 @@ $(STAMP_MSGS): $(STAMP_DEPS) $(MSGS_SOURCES)
 		$(PIP) install --quiet --no-build-isolation --no-deps --force-reinstall ./$(MSGS_DIR)
 	@touch $@
 
-# ros2_control's messages (DynamicJointState, InterfaceValue, JointTrajectoryControllerState) have
-# no PyPI wheel: an installed control_msgs is used as it is, otherwise the same rosidl step builds
+# ros2_control's messages (DynamicJointState, InterfaceValue, JointTrajectoryControllerState) and
+# its FollowJointTrajectory action have no PyPI wheel: an installed control_msgs is used as it is, otherwise the same rosidl step builds
 # them from msg_defs/control_msgs (Jazzy's fields, so the type hashes are a real install's).
 $(STAMP_CONTROL_MSGS): $(STAMP_DEPS) $(CONTROL_MSGS_SOURCES)
 	@command -v cmake >/dev/null && command -v c++ >/dev/null || { echo "setup: building control_msgs needs cmake and a C++ compiler (Debian 12: apt install cmake g++ python3-dev)" >&2; exit 1; }

@@ -168,6 +168,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--mcap", metavar="FILE", help="also write the plots as an MCAP file for Foxglove or "
                    "Lichtblick (forces, residual, the gains' convergence; orthoglide_ident/view/report_mcap.py)")
     ros_client.add_parsers(sub)
+    # --- excite run (issue 34, the Run part; `excite design/check` join this parser) ---
+    from orthoglide_ident.excite.run_cli import add_run_command
+
+    p = sub.add_parser("excite", help="exciting trajectories: run one on the robot (ROS 2)",
+                       description="Exciting trajectories (paper Sect. 3.2) for the robot.")
+    add_run_command(p.add_subparsers(dest="excite_command", metavar="STEP", required=True))
+    # --- end excite run ---
     return parser
 
 
@@ -236,6 +243,8 @@ def _main(args: argparse.Namespace) -> int:
         return ros_client.record(args)
     if args.command == "watch":
         return ros_client.watch(args)
+    if args.command == "excite":  # excite run (issue 34): its handler is set by its parser
+        return args.excite_handler(args)
     if args.command == "identify" and args.service:
         if args.consistent or args.urdf_out:
             raise ConfigError("--consistent and --urdf-out are for identifying from bags here; "

@@ -18,6 +18,11 @@ Stored as strings, the same keys in metadata.yaml ``custom_data`` and in each .m
                                 ``/dynamic_joint_states current`` (a DynamicJointState interface),
                                 ``/joint_states effort`` or ``/orthoglide/current_reference
                                 current`` (optional; absent: the reader's order of preference)
+``orthoglide.incomplete``       why the recording was stopped before its run ended (a cancelled,
+                                aborted or out-of-tolerance excitation run, ``excite run``);
+                                absent: complete. Written at the stop, in metadata.yaml and the
+                                closing ``rosbag2`` record's ``custom_data`` (not in the
+                                ``orthoglide`` record, written when each file opens)
 ==============================  ==================================================================
 
 The payload's com and inertia need ``loaded``; a source's topic is a ROS name (``/...``) and its
@@ -43,6 +48,7 @@ COM_KEY = "orthoglide.payload_com"
 INERTIA_KEY = "orthoglide.payload_inertia"
 POSITION_SOURCE_KEY = "orthoglide.position_source"
 CURRENT_SOURCE_KEY = "orthoglide.current_source"
+INCOMPLETE_KEY = "orthoglide.incomplete"
 METADATA_NAME = "orthoglide"
 CONDITIONS = ("loaded", "unloaded")
 _INERTIA_TOL = 1e-12  # kg·m², relative to the largest moment: round-off in a principal moment

@@ -1,0 +1,108 @@
+"""The ROS side of ``excite run``: a FollowJointTrajectory goal to a joint_trajectory_controller,
+followed to its end, cancelled on Ctrl-C (rclpy; the plan is ``excite.run``).
+
+``send_goal`` returns a :class:`GoalOutcome` (succeeded, aborted with the controller's error code
+and string, rejected, canceled, or interrupted by Ctrl-C after the cancel went out); progress
+from the action's feedback goes to a callback (``excite run`` prints it on stderr).
+"""
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from orthoglide_ident.excite.run import Points
+
+ACCEPT_TIMEOUT_S = 10.0  # the controller answers a goal within this
+END_MARGIN_S = 30.0  # after the last point's time, waiting for the result gives up after this
+CANCEL_TIMEOUT_S = 5.0
+ERROR_NAMES = {0: "SUCCESSFUL", -1: "INVALID_GOAL", -2: "INVALID_JOINTS", -3: "OLD_HEADER_TIMESTAMP",
+               -4: "PATH_TOLERANCE_VIOLATED", -5: "GOAL_TOLERANCE_VIOLATED"}
+
+
+@dataclass(frozen=True)
+class GoalOutcome:
+    """How a goal ended: ``status`` succeeded | aborted | rejected | canceled | interrupted |
+    timeout, and why (the controller's error code name and string)."""
+
+    status: str
+    reason: str = ""
+
+    @property
+    def ok(self) -> bool:
+        return self.status == "succeeded"
+
+
+def goal_message(points: Points, path_tolerance: float = 0.0, goal_tolerance: float = 0.0,
+                 goal_time: float = 0.0) -> Any:
+    """control_msgs/action/FollowJointTrajectory.Goal of ``points``; tolerances per joint (rad
+    or m; 0 leaves the controller's default), ``goal_time`` s."""
+    from builtin_interfaces.msg import Duration
+    from control_msgs.action import FollowJointTrajectory
+    from control_msgs.msg import JointTolerance
+    from trajectory_msgs.msg import JointTrajectoryPoint
+
+    goal = FollowJointTrajectory.Goal()
+    goal.trajectory.joint_names = list(points.joint_names)
+    sec = np.floor(points.times).astype(int)
+    nsec = np.round((points.times - sec) * 1e9).astype(int)
+    goal.trajectory.points = [
+        JointTrajectoryPoint(positions=points.q[k].tolist(), velocities=points.qd[k].tolist(),
+                             accelerations=points.qdd[k].tolist(),
+                             time_from_start=Duration(sec=int(sec[k]), nanosec=int(min(nsec[k], 999_999_999))))
+        for k in range(len(points.times))]
+    if path_tolerance:
+        goal.path_tolerance = [JointTolerance(name=j, position=path_tolerance) for j in points.joint_names]
+    if goal_tolerance:
+        goal.goal_tolerance = [JointTolerance(name=j, position=goal_tolerance) for j in points.joint_names]
+    goal.goal_time_tolerance = Duration(sec=int(goal_time), nanosec=int((goal_time % 1) * 1e9))
+    return goal
+
+
+def send_goal(node: Any, action_name: str, goal: Any, duration: float,
+              on_feedback: Callable[[Any], None] | None = None, spin: Callable[[float], None] | None = None,
+              on_interrupt: Callable[[], None] | None = None) -> GoalOutcome:
+    """Send ``goal`` to ``action_name`` and follow it until it ends; Ctrl-C cancels it (then the
+    outcome is ``interrupted``). ``spin(timeout)`` runs the node's callbacks (feedback, other
+    subscriptions)."""
+    import rclpy
+    from action_msgs.msg import GoalStatus
+    from control_msgs.action import FollowJointTrajectory
+    from rclpy.action import ActionClient
+
+    spin = spin or (lambda t: rclpy.spin_once(node, timeout_sec=t))
+    client = ActionClient(node, FollowJointTrajectory, action_name)
+    if not client.wait_for_server(timeout_sec=ACCEPT_TIMEOUT_S):
+        return GoalOutcome("rejected", f"no action server {action_name}: is the controller running?")
+    future = client.send_goal_async(goal, feedback_callback=(lambda m: on_feedback(m.feedback))
+                                    if on_feedback else None)
+    handle = _wait(future, spin, ACCEPT_TIMEOUT_S)
+    if handle is None or not handle.accepted:
+        return GoalOutcome("rejected", f"{action_name} rejected the goal (see the controller's log: "
+                                       "other joints, or a goal already running)")
+    result_future = handle.get_result_async()
+    try:
+        res = _wait(result_future, spin, duration + END_MARGIN_S)
+    except KeyboardInterrupt:
+        if on_interrupt:
+            on_interrupt()
+        _wait(handle.cancel_goal_async(), spin, CANCEL_TIMEOUT_S)
+        return GoalOutcome("interrupted", "interrupted (Ctrl-C): the goal was cancelled")
+    if res is None:
+        _wait(handle.cancel_goal_async(), spin, CANCEL_TIMEOUT_S)
+        return GoalOutcome("timeout", f"no result {END_MARGIN_S:g} s after the trajectory's end: cancelled")
+    code, text = res.result.error_code, res.result.error_string
+    status = {GoalStatus.STATUS_SUCCEEDED: "succeeded", GoalStatus.STATUS_CANCELED: "canceled"}.get(
+        res.status, "aborted")
+    reason = text if status == "succeeded" else f"{ERROR_NAMES.get(code, code)}: {text or 'no reason given'}"
+    return GoalOutcome(status, reason)
+
+
+def _wait(future: Any, spin: Callable[[float], None], timeout: float) -> Any:
+    t_end = time.monotonic() + timeout
+    while not future.done() and time.monotonic() < t_end:
+        spin(0.05)
+    return future.result() if future.done() else None
