@@ -13,7 +13,7 @@ from rclpy.serialization import deserialize_message, serialize_message
 
 from orthoglide_ident.bags import _types
 from orthoglide_msgs.msg import CurrentReference, IdentifiedParameters
-from orthoglide_msgs.srv import Identify, StartRecording
+from orthoglide_msgs.srv import Identify, StartRecording, StopRecording
 
 # docs/architecture.md §4, field for field; tools outside the project rely on these.
 EXPECTED_FIELDS = {
@@ -57,6 +57,12 @@ EXPECTED_FIELDS = {
         "message": "string",
         "bag_path": "string",
     },
+    StopRecording.Request: {"incomplete_reason": "string"},  # added: recorder/stop_incomplete
+    StopRecording.Response: {
+        "success": "boolean",
+        "message": "string",
+        "bag_path": "string",
+    },
 }
 
 
@@ -96,6 +102,7 @@ def _examples() -> list[object]:
         Identify.Response(success=True, message="ok", parameters=_identified_parameters()),
         StartRecording.Request(condition="loaded", payload_mass=1.136, name="loaded_01"),
         StartRecording.Response(success=False, message="already recording", bag_path="/tmp/x"),
+        StopRecording.Request(incomplete_reason="loaded run aborted: PATH_TOLERANCE_VIOLATED"),
     ]
 
 
