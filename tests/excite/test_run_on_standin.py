@@ -73,6 +73,8 @@ def test_a_tolerance_violation_aborts_and_tags_the_bag_incomplete(graph):
     assert "PATH_TOLERANCE_VIOLATED" in out.stderr and "Traceback" not in out.stderr
     reason = _tags(graph.tmp / "bags" / "bad")[bags.INCOMPLETE_KEY]
     assert reason.startswith("unloaded run aborted: PATH_TOLERANCE_VIOLATED") and "violated its path tolerance" in reason
+    assert bags.bag_info(graph.tmp / "bags" / "bad").incomplete == reason  # read back, kept
+    assert any("tagged incomplete" in w for w in bags.read_bag(graph.tmp / "bags" / "bad").warnings)
 
 
 def test_a_trajectory_for_another_robot_is_refused_before_anything_moves(graph):
