@@ -101,7 +101,7 @@ def tracking_rms(g: Graph, points, effort: np.ndarray | None) -> float:
 
     errors: list = []
     out = send_goal(g.node, ACTION, goal_message(points, goal_time=1.0, effort=effort), points.duration,
-                    on_feedback=lambda fb: errors.append(fb.error.positions))
+                    on_feedback=lambda fb: errors.append(fb.error.positions), spin=time.sleep)  # g spins it
     if not out.ok:
         raise OrthoglideError(f"feed-forward run {out.status}: {out.reason}")
     return float(np.sqrt(np.mean(np.square(errors))))

@@ -8,6 +8,7 @@ from the action's feedback goes to a callback (``excite run`` prints it on stder
 from __future__ import annotations
 
 import time
+import weakref
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
@@ -64,37 +65,60 @@ def goal_message(points: Points, path_tolerance: float = 0.0, goal_tolerance: fl
     return goal
 
 
+class _CancelRequested(Exception):
+    pass
+
+
+_CLIENTS: "weakref.WeakKeyDictionary[Any, dict[str, Any]]" = weakref.WeakKeyDictionary()  # node -> clients
+
+
 def send_goal(node: Any, action_name: str, goal: Any, duration: float,
               on_feedback: Callable[[Any], None] | None = None, spin: Callable[[float], None] | None = None,
-              on_interrupt: Callable[[], None] | None = None) -> GoalOutcome:
-    """Send ``goal`` to ``action_name`` and follow it until it ends; Ctrl-C cancels it (then the
-    outcome is ``interrupted``). ``spin(timeout)`` runs the node's callbacks (feedback, other
-    subscriptions)."""
+              on_interrupt: Callable[[], None] | None = None,
+              should_cancel: Callable[[], bool] | None = None) -> GoalOutcome:
+    """Send ``goal`` to ``action_name`` and follow it until it ends; Ctrl-C, or
+    ``should_cancel()`` turning true, cancels it (outcome ``interrupted``). ``spin(timeout)`` runs
+    the node's callbacks (feedback, other subscriptions)."""
     import rclpy
-    from action_msgs.msg import GoalStatus
     from control_msgs.action import FollowJointTrajectory
     from rclpy.action import ActionClient
 
     spin = spin or (lambda t: rclpy.spin_once(node, timeout_sec=t))
-    client = ActionClient(node, FollowJointTrajectory, action_name)
+    clients = _CLIENTS.setdefault(node, {})
+    if action_name not in clients:  # kept: destroying one while an executor waits on it races
+        clients[action_name] = ActionClient(node, FollowJointTrajectory, action_name)
+    return _follow(clients[action_name], action_name, goal, duration, on_feedback, spin, on_interrupt,
+                   should_cancel)
+
+
+def _follow(client: Any, action_name: str, goal: Any, duration: float, on_feedback: Any, spin: Any,
+            on_interrupt: Any, should_cancel: Any) -> GoalOutcome:
+    from action_msgs.msg import GoalStatus
+
+    def spin_or_cancel(t: float) -> None:
+        spin(t)
+        if should_cancel is not None and should_cancel():
+            raise _CancelRequested
+
     if not client.wait_for_server(timeout_sec=ACCEPT_TIMEOUT_S):
         return GoalOutcome("rejected", f"no action server {action_name}: is the controller running?")
     future = client.send_goal_async(goal, feedback_callback=(lambda m: on_feedback(m.feedback))
                                     if on_feedback else None)
-    handle = _wait(future, spin, ACCEPT_TIMEOUT_S)
+    try:
+        handle = wait_for(future, spin_or_cancel, ACCEPT_TIMEOUT_S)
+    except (KeyboardInterrupt, _CancelRequested) as exc:  # before the answer: cancel once accepted
+        handle = wait_for(future, spin, ACCEPT_TIMEOUT_S)
+        return _cancelled(handle if handle is not None and handle.accepted else None, spin, exc, on_interrupt)
     if handle is None or not handle.accepted:
         return GoalOutcome("rejected", f"{action_name} rejected the goal (see the controller's log: "
                                        "other joints, or a goal already running)")
     result_future = handle.get_result_async()
     try:
-        res = _wait(result_future, spin, duration + END_MARGIN_S)
-    except KeyboardInterrupt:
-        if on_interrupt:
-            on_interrupt()
-        _wait(handle.cancel_goal_async(), spin, CANCEL_TIMEOUT_S)
-        return GoalOutcome("interrupted", "interrupted (Ctrl-C): the goal was cancelled")
+        res = wait_for(result_future, spin_or_cancel, duration + END_MARGIN_S)
+    except (KeyboardInterrupt, _CancelRequested) as exc:
+        return _cancelled(handle, spin, exc, on_interrupt)
     if res is None:
-        _wait(handle.cancel_goal_async(), spin, CANCEL_TIMEOUT_S)
+        wait_for(handle.cancel_goal_async(), spin, CANCEL_TIMEOUT_S)
         return GoalOutcome("timeout", f"no result {END_MARGIN_S:g} s after the trajectory's end: cancelled")
     code, text = res.result.error_code, res.result.error_string
     status = {GoalStatus.STATUS_SUCCEEDED: "succeeded", GoalStatus.STATUS_CANCELED: "canceled"}.get(
@@ -103,7 +127,18 @@ def send_goal(node: Any, action_name: str, goal: Any, duration: float,
     return GoalOutcome(status, reason)
 
 
-def _wait(future: Any, spin: Callable[[float], None], timeout: float) -> Any:
+def _cancelled(handle: Any, spin: Any, exc: BaseException, on_interrupt: Any) -> GoalOutcome:
+    """Ctrl-C or a cancel request: cancel the goal (when it was accepted)."""
+    if on_interrupt:
+        on_interrupt()
+    if handle is not None:
+        wait_for(handle.cancel_goal_async(), spin, CANCEL_TIMEOUT_S)
+    why = "interrupted (Ctrl-C)" if isinstance(exc, KeyboardInterrupt) else "cancel requested"
+    return GoalOutcome("interrupted", f"{why}: the goal was cancelled")
+
+
+def wait_for(future: Any, spin: Callable[[float], None], timeout: float) -> Any:
+    """The future's result once done (``spin`` runs meanwhile), None after ``timeout`` s."""
     t_end = time.monotonic() + timeout
     while not future.done() and time.monotonic() < t_end:
         spin(0.05)

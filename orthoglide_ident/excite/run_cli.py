@@ -3,7 +3,7 @@
     orthoglide-ident excite run traj.yaml --condition unloaded
     orthoglide-ident excite run traj.yaml --condition loaded [--payload-mass KG] [--controller NAME]
 
-Steps (progress on stderr): check the run against the robot (excite.run.check_run); read where
+Steps (excite.runner; progress on stderr): check the run against the robot; read where
 the robot is (``joint_states``); move to the run's start pose slowly (its own goal); start the
 recorder with the run's tag; send the run to ``<controller>/follow_joint_trajectory``, showing
 the feedback and the live identification (its estimate and "enough data" status); stop the
@@ -15,17 +15,11 @@ from __future__ import annotations
 
 import argparse
 import sys
-import time
 from typing import Any
 
-import numpy as np
-
 from orthoglide_ident import ros_client
-from orthoglide_ident.errors import ConfigError
 from orthoglide_ident.excite import run as plan
 
-PROGRESS_PERIOD_S = 2.0  # a progress line this often
-JOINT_STATES_TIMEOUT_S = 10.0
 EXIT_INCOMPLETE = 1
 
 
@@ -60,115 +54,13 @@ def _say(text: str) -> None:
     print(f"excite run: {text}", file=sys.stderr, flush=True)
 
 
-def _current_position(c: Any, topic: str, joints: tuple[str, ...]) -> np.ndarray:
-    from sensor_msgs.msg import JointState
-
-    got: list = []
-    sub = c.node.create_subscription(JointState, topic, got.append, 10)
-    t_end = time.monotonic() + JOINT_STATES_TIMEOUT_S
-    while not got and time.monotonic() < t_end:
-        c.rclpy.spin_once(c.node, timeout_sec=0.1)
-    c.node.destroy_subscription(sub)
-    if not got:
-        raise ConfigError(f"no message on {topic} within {JOINT_STATES_TIMEOUT_S:g} s: is the robot running?")
-    msg = got[-1]
-    missing = [j for j in joints if j not in msg.name]
-    if missing:
-        raise ConfigError(f"the trajectory's joints {missing} are not on {topic} (it has "
-                          f"{', '.join(msg.name)}): a trajectory for another robot?")
-    return np.array([msg.position[list(msg.name).index(j)] for j in joints])
-
-
-class _Progress:
-    """Feedback and live-identification lines on stderr, at most every PROGRESS_PERIOD_S."""
-
-    def __init__(self, what: str, duration: float, joints: tuple[str, ...]) -> None:
-        self.what, self.duration, self.joints = what, duration, joints
-        self.next_line, self.live = 0.0, ""
-
-    def feedback(self, fb: Any) -> None:
-        if time.monotonic() < self.next_line:
-            return
-        self.next_line = time.monotonic() + PROGRESS_PERIOD_S
-        t = fb.desired.time_from_start.sec + 1e-9 * fb.desired.time_from_start.nanosec
-        _say(f"{self.what} {plan.progress_line(t, self.duration, np.array(fb.error.positions), self.joints)}"
-             + (f"\n  {self.live}" if self.live else ""))
-
-    def on_live(self, m: Any) -> None:
-        self.live = ros_client.live_line(m)
-
-
 def run_command(args: argparse.Namespace) -> int:
-    from orthoglide_ident.excite.trajectory import load_trajectory
-    from orthoglide_ident.model.robots import load_robot
+    from orthoglide_ident.excite.runner import ExcitationRunner, RunOptions
 
-    traj = load_trajectory(args.trajectory)
-    robot = load_robot(args.robot or traj.robot)
-    plan.check_run(traj, args.condition, robot, args.trajectory)
-    tag = plan.payload_tag(traj, args.condition, args.payload_mass, args.trajectory)
-    points = plan.excitation_points(traj, args.condition, args.rate)
+    options = RunOptions(args.controller, args.joint_states, args.rate, args.path_tolerance, args.goal_time,
+                         record=not args.no_record)
     with ros_client.Client(args.namespace) as c:
-        return _run(c, args, traj, robot, tag, points)
-
-
-def _run(c: Any, args: argparse.Namespace, traj: Any, robot: Any, tag: plan.PayloadTag,
-         points: plan.Points) -> int:
-    from orthoglide_msgs.msg import LiveIdentification
-
-    from orthoglide_ident.excite.action_client import goal_message, send_goal
-
-    action = f"{args.controller}/follow_joint_trajectory"
-    q_now = _current_position(c, args.joint_states, tuple(traj.joints))
-    approach = plan.approach_points(q_now, points.q[0], plan.approach_speed(robot), points.joint_names, args.rate)
-    _say(f"moving to the start pose of the {args.condition} run ({approach.duration:.1f} s)")
-    out = send_goal(c.node, action, goal_message(approach, goal_time=args.goal_time), approach.duration,
-                    _Progress("approach", approach.duration, points.joint_names).feedback)
-    if not out.ok:
-        raise ConfigError(f"the move to the start pose did not complete ({out.status}: {out.reason}); "
-                          "nothing was recorded")
-    progress = _Progress(args.condition, points.duration, points.joint_names)
-    c.node.create_subscription(LiveIdentification, "orthoglide/identification/live", progress.on_live, 10)
-    if not args.no_record:
-        _say(_start_recording(c, args, tag))
-    _say(f"running {args.condition}: {points.duration:.1f} s, {len(points.times)} points to {action}")
-    out = send_goal(c.node, action, goal_message(points, args.path_tolerance, goal_time=args.goal_time),
-                    points.duration, progress.feedback)
-    if progress.live:
-        _say(progress.live)
-    if out.ok:
-        _say(f"{args.condition} run complete")
-        if not args.no_record:
-            print(_stop_recording(c, ""))
-        return 0
-    _say(f"{args.condition} run {out.status}: {out.reason}")
-    if not args.no_record:
-        print(_stop_recording(c, f"{args.condition} run {out.status}: {out.reason}"))
-    return EXIT_INCOMPLETE
-
-
-def _start_recording(c: Any, args: argparse.Namespace, tag: plan.PayloadTag) -> str:
-    from orthoglide_msgs.srv import StartRecording
-
-    shape = argparse.Namespace(payload_frame=tag.frame, recorder=getattr(args, "recorder", "orthoglide_recorder"),
-                               payload_com=",".join(map(repr, tag.com)) if tag.com else None,
-                               payload_inertia=",".join(map(repr, tag.inertia)) if tag.inertia else None)
-    if tag.condition == "loaded":
-        ros_client.set_payload_shape(c, shape)
-    res = c.call(StartRecording, "orthoglide/recorder/start", condition=tag.condition,
-                 payload_mass=float(tag.mass), name=args.name)
-    if not res.success:
-        raise ros_client.ServiceError(f"the recorder did not start: {res.message}")
-    return res.message
-
-
-def _stop_recording(c: Any, incomplete: str) -> str:
-    """Stop the recorder; tagged incomplete with the reason when one is given."""
-    from std_srvs.srv import Trigger
-
-    from orthoglide_msgs.srv import StopRecording
-
-    res = (c.call(StopRecording, "orthoglide/recorder/stop_incomplete", incomplete_reason=incomplete)
-           if incomplete else c.call(Trigger, "orthoglide/recorder/stop"))
-    if not res.success:
-        raise ros_client.ServiceError(f"the recorder's stop failed: {res.message}")
-    return res.message
+        runner = ExcitationRunner(c.node, lambda t: c.rclpy.spin_once(c.node, timeout_sec=t), _say, options)
+        result = runner.run(args.trajectory, args.condition, args.payload_mass, args.robot, args.name)
+    print(result.message)
+    return 0 if result.success else EXIT_INCOMPLETE

@@ -88,24 +88,61 @@ def test_other_joints_are_rejected_and_ctrl_c_cancels(graph):
     from orthoglide_ident.excite.action_client import goal_message, send_goal
     from orthoglide_ident.excite.trajectory import load_trajectory
 
-    import rclpy
-
     traj = load_trajectory(write_small(graph.tmp / "t3.yaml"))
     pts = plan.excitation_points(traj, "unloaded")
     wrong = plan.Points(tuple(f"j{i}" for i in range(6)), pts.times, pts.q, pts.qd, pts.qdd)
-    out = send_goal(graph.node, ACTION, goal_message(wrong), pts.duration)
+    out = send_goal(graph.node, ACTION, goal_message(wrong), pts.duration, spin=time.sleep)  # graph spins it
     assert out.status == "rejected"
-    state = {"n": 0, "cancelled": False}
+    from orthoglide_ident.excite.runner import ExcitationRunner, RunOptions
 
-    def spin(t):  # Ctrl-C after ~0.5 s of the goal
-        rclpy.spin_once(graph.node, timeout_sec=t)
-        state["n"] += 1
-        if state["n"] == 10:
+    q_now = ExcitationRunner(graph.node, time.sleep, print, RunOptions()).current_position(pts.joint_names)
+    slow = plan.approach_points(q_now, pts.q[0], np.full(6, 0.01), pts.joint_names)  # a long, slow move
+    state = {"accepted": False, "cancelled": False, "pressed": False}
+
+    def spin(t):  # one Ctrl-C once the goal runs (its first feedback)
+        time.sleep(t)
+        if state["accepted"] and not state["pressed"]:
+            state["pressed"] = True
             raise KeyboardInterrupt
 
-    out = send_goal(graph.node, ACTION, goal_message(pts), pts.duration, spin=spin,
+    out = send_goal(graph.node, ACTION, goal_message(slow), slow.duration, spin=spin,
+                    on_feedback=lambda fb: state.update(accepted=True),
                     on_interrupt=lambda: state.update(cancelled=True))
     assert out.status == "interrupted" and state["cancelled"]
     time.sleep(0.5)
     log = (graph.tmp / "logs" / f"{STANDIN}.log").read_text()
     assert "goal rejected: goal joints" in log and "goal canceled" in log
+
+
+def test_the_excitation_node_runs_and_cancels_as_a_service(graph):
+    from std_srvs.srv import Trigger
+
+    from orthoglide_msgs.srv import RunExcitation
+
+    traj = write_small(graph.tmp / "t4.yaml", periods=3, seed=4)
+    graph.start("orthoglide_excitation", "excitation", {"robot": "ur5"})
+    res = graph.call(RunExcitation, "orthoglide/excitation/run", trajectory=str(traj), condition="unloaded",
+                     payload_mass=0.0, name="by_service")
+    assert res.success, res.message
+    assert res.bag_path.endswith("by_service") and bags.INCOMPLETE_KEY not in _tags(res.bag_path)
+    bad = graph.call(RunExcitation, "orthoglide/excitation/run", trajectory=str(graph.tmp / "none.yaml"),
+                     condition="unloaded", payload_mass=0.0, name="")
+    assert not bad.success and "none.yaml" in bad.message and "\n" not in bad.message
+    # a run cancelled by the service: started from a second client while the first waits
+    import threading
+
+    answers: list = []
+    t = threading.Thread(target=lambda: answers.append(graph.call(
+        RunExcitation, "orthoglide/excitation/run", trajectory=str(traj), condition="loaded",
+        payload_mass=1.0, name="cancelled")))
+    t.start()
+    bag = graph.tmp / "bags" / "cancelled"
+    for _ in range(600):  # until the recording has begun (after the move to the start pose)
+        if (bag / "metadata.yaml").exists():
+            break
+        time.sleep(0.1)
+    time.sleep(1.0)
+    assert graph.call(Trigger, "orthoglide/excitation/cancel").success
+    t.join(timeout=120)
+    assert answers and not answers[0].success and "cancel requested" in answers[0].message
+    assert _tags(bag)[bags.INCOMPLETE_KEY].startswith("loaded run interrupted: cancel requested")
