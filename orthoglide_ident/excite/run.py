@@ -70,15 +70,14 @@ def check_run(traj: ExcitationTrajectory, run: str, robot: RobotModel, where: st
     lo = np.array([j.lower for j in robot.joints])
     hi = np.array([j.upper for j in robot.joints])
     vmax = np.array([j.velocity_limit for j in robot.joints])
-    for label, over in (("below its lower limit", lo - q), ("above its upper limit", q - hi),
-                        ("faster than its velocity limit", np.abs(qd) - vmax)):
+    checks = (("below its lower limit", lo - q, q, lo, ""), ("above its upper limit", q - hi, q, hi, ""),
+              ("faster than its velocity limit", np.abs(qd) - vmax, qd, vmax, "/s"))
+    for what, over, value, limit, per_s in checks:
         if np.any(over > 0):
             k, j = np.unravel_index(int(np.argmax(over)), over.shape)
-            j_ = robot.joints[j]
-            value = qd[k, j] if "velocity" in label else q[k, j]
-            limit = {"below": j_.lower, "above": j_.upper}.get(label.split()[0], j_.velocity_limit)
-            raise ConfigError(f"{where}: run {run!r} takes {j_.name} {label} at t = {t[k]:.3f} s "
-                              f"({value:.4f} vs {limit:.4f} {j_.unit}{'/s' if 'velocity' in label else ''})")
+            joint = robot.joints[j]
+            raise ConfigError(f"{where}: run {run!r} takes {joint.name} {what} at t = {t[k]:.3f} s "
+                              f"({value[k, j]:.4f} vs {limit[j]:.4f} {joint.unit}{per_s})")
 
 
 def excitation_points(traj: ExcitationTrajectory, run: str, rate_hz: float = SAMPLE_RATE_HZ) -> Points:

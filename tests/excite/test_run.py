@@ -71,3 +71,26 @@ def test_payload_tag_from_the_file_or_the_flag():
         plan.payload_tag(no_mass, "loaded", where="t.yaml")
     with pytest.raises(ConfigError, match="for --condition loaded"):
         plan.payload_tag(t, "unloaded", 2.0)
+
+
+def test_the_command_refuses_a_nan_or_out_of_limit_file_in_one_line(tmp_path, ros_env):
+    """Before anything moves (no robot needed): exit 2, one line naming the file."""
+    import subprocess
+
+    import yaml
+
+    from trajectories import write_small
+
+    cli = Path(sys.prefix) / "bin" / "orthoglide-ident"
+    good = write_small(tmp_path / "good.yaml")
+    doc = yaml.safe_load(good.read_text())
+    doc["runs"]["unloaded"]["q0"][2] = float("nan")
+    (tmp_path / "nan.yaml").write_text(yaml.safe_dump(doc))
+    doc = yaml.safe_load(good.read_text())
+    doc["runs"]["unloaded"]["q0"][2] = 3.5  # the elbow beyond its ±π
+    (tmp_path / "far.yaml").write_text(yaml.safe_dump(doc))
+    for name, reason in (("nan.yaml", "non-finite"), ("far.yaml", "elbow_joint above its upper limit")):
+        out = subprocess.run([str(cli), "excite", "run", str(tmp_path / name), "--condition", "unloaded"],
+                             capture_output=True, text=True, timeout=120, env=ros_env)
+        assert out.returncode == 2 and reason in out.stderr and name in out.stderr, out.stderr
+        assert len(out.stderr.strip().splitlines()) == 1
