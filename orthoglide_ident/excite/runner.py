@@ -68,6 +68,8 @@ class ExcitationRunner:
         self.node, self.spin, self.say, self.o = node, spin, say, options
         self.should_cancel = should_cancel
         self._clients: dict[str, Any] = {}  # service clients, kept (a node runs many runs)
+        self._live_sub: Any = None
+        self._live_to: _Progress | None = None
 
     def run(self, trajectory: str, condition: str, payload_mass: float | None = None,
             robot_spec: str | None = None, name: str = "") -> RunResult:
@@ -82,15 +84,19 @@ class ExcitationRunner:
         points = plan.excitation_points(traj, condition, self.o.rate_hz)
         self._approach(points, robot, condition)
         progress = _Progress(self.say, condition, points.duration, points.joint_names)
-        live = self._subscribe_live(progress)
+        self._follow_live(progress)
+        bag = self._start_recording(tag, name) if self.o.record else ""
         try:
-            bag = self._start_recording(tag, name) if self.o.record else ""
             self.say(f"running {condition}: {points.duration:.1f} s, {len(points.times)} points to {self.o.action}")
             out = send_goal(self.node, self.o.action, goal_message(points, self.o.path_tolerance,
                                                                      goal_time=self.o.goal_time),
                             points.duration, progress.feedback, self.spin, should_cancel=self.should_cancel)
+        except BaseException as exc:  # the recording must not go on without its run
+            if self.o.record:
+                self._stop_recording(f"{condition} run failed: {type(exc).__name__}: {exc}".strip(": "))
+            raise
         finally:
-            self.node.destroy_subscription(live)
+            self._follow_live(None)
         if progress.live:
             self.say(progress.live)
         reason = "" if out.ok else f"{condition} run {out.status}: {out.reason}"
@@ -133,11 +139,16 @@ class ExcitationRunner:
                               "a trajectory for another robot?")
         return np.array([got[-1].position[names.index(j)] for j in joints])
 
-    def _subscribe_live(self, progress: "_Progress") -> Any:
+    def _follow_live(self, progress: "_Progress | None") -> None:
+        """The live identification's lines go to ``progress`` (None: nowhere); one subscription,
+        kept (destroying one under a node's waiting executor races)."""
         from orthoglide_msgs.msg import LiveIdentification
 
-        return self.node.create_subscription(LiveIdentification, "orthoglide/identification/live",
-                                             progress.on_live, 10)
+        self._live_to = progress
+        if self._live_sub is None:
+            self._live_sub = self.node.create_subscription(
+                LiveIdentification, "orthoglide/identification/live",
+                lambda m: self._live_to is not None and self._live_to.on_live(m), 10)
 
     def call(self, srv_type: Any, service: str, **fields: Any) -> Any:
         """Call ``service``; RunError when it is not there or does not answer."""
