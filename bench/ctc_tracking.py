@@ -27,30 +27,37 @@ import time
 import numpy as np
 
 from orthoglide_ident.control import CTCParameters, feedforward_currents
-from orthoglide_ident.identify.pipeline import G_TAU_MANUFACTURER, identify
+from orthoglide_ident.identify.pipeline import identify
+from orthoglide_ident.model.orthoglide.geometry import G_TAU_MANUFACTURER
+from orthoglide_ident.model.robots import load_robot
 from orthoglide_sim.record import simulate
 from orthoglide_sim.trajectories import get_trajectory
+
+ORTHOGLIDE = load_robot("orthoglide")  # the robot these records are of
 
 PAYLOAD = "1.983"
 
 
 def true_model(m7: float) -> CTCParameters:
     """Base parameters of the plant's true standard parameters, with its true drive gains."""
-    from orthoglide_ident.model.base import base_model
+    from orthoglide_ident.model.orthoglide.base import base_model
     from orthoglide_sim.true_parameters import load_parameters
 
     tp, bm = load_parameters(), base_model()
-    return CTCParameters.from_values(bm.names, bm.base_values(tp.standard_vector()), tp.g_tau, m7)
+    return CTCParameters.from_values(bm.names, bm.base_values(tp.standard_vector()), tp.g_tau, m7,
+                                     model=ORTHOGLIDE)
 
 
 def models(bags: list[str]) -> dict[str, CTCParameters]:
     m7 = float(PAYLOAD)
-    tls = identify(bags)
-    wls_m = identify(bags, method="wls", gains=[G_TAU_MANUFACTURER] * 3)
-    wls_e = identify(bags, method="wls", gains=[1.25 * G_TAU_MANUFACTURER] * 3)
-    return {"CTC, manuf. gains": CTCParameters.from_result(wls_m, payload_mass=m7),
-            "CTC, identif. gains": CTCParameters.from_result(tls, payload_mass=m7),
-            "CTC, gains +25 %": CTCParameters.from_result(wls_e, payload_mass=m7),
+    tls = identify(bags, model=ORTHOGLIDE)
+    wls_m = identify(bags, method="wls", gains=[G_TAU_MANUFACTURER] * 3, model=ORTHOGLIDE)
+    wls_e = identify(bags, method="wls", gains=[1.25 * G_TAU_MANUFACTURER] * 3, model=ORTHOGLIDE)
+    return {"CTC, manuf. gains": CTCParameters.from_result(wls_m, payload_mass=m7,
+                                                           model=ORTHOGLIDE),
+            "CTC, identif. gains": CTCParameters.from_result(tls, payload_mass=m7,
+                                                             model=ORTHOGLIDE),
+            "CTC, gains +25 %": CTCParameters.from_result(wls_e, payload_mass=m7, model=ORTHOGLIDE),
             "CTC, true model": true_model(m7)}
 
 

@@ -26,7 +26,7 @@ import time
 
 import numpy as np
 
-from orthoglide_ident.nodes import _processes as children  # children end with this process
+from orthoglide_ident.ros import processes as children  # children end with this process
 
 JOINTS = ["q11", "q12", "q13"]
 
@@ -99,7 +99,7 @@ class ExternalController:
         qos = QoSProfile(depth=5000, reliability=ReliabilityPolicy.RELIABLE)
         from rclpy.serialization import deserialize_message
 
-        from orthoglide_ident.nodes._batch import BatchTaker, BatchTopic
+        from orthoglide_ident.ros.batch import BatchTaker, BatchTopic
 
         self.pub = node.create_publisher(CurrentReference, "/orthoglide/current_command", qos)
 

@@ -38,8 +38,11 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from orthoglide_ident.errors import OrthoglideError  # noqa: E402
 from orthoglide_ident.identify.options import IdentifyOptions  # noqa: E402
-from orthoglide_ident.identify.pipeline import Record, default_model, identify_records  # noqa: E402
+from orthoglide_ident.identify.pipeline import Record, identify_records  # noqa: E402
+from orthoglide_ident.model.robots import load_robot  # noqa: E402
 from gain_bound import gain_rel_std_bound  # noqa: E402
+
+ORTHOGLIDE = load_robot("orthoglide")  # the robot these records are of
 
 PAYLOAD = 1.983
 SECOND_PAYLOAD = 1.136
@@ -65,13 +68,14 @@ def record(profile: str, seconds: float, payload: str, trajectory: str, seed: in
             f.parent.mkdir(parents=True, exist_ok=True)
             np.savez(f, stamps_ns=stamps, q=q, v_tau=v, g_tau=g)
     cond = "loaded" if mass > 0 else "unloaded"
-    return Record.from_arrays(name, stamps, q, v, cond, mass), np.asarray(g, float)
+    return Record.from_arrays(name, stamps, q, v, cond, mass,
+                              joint_names=ORTHOGLIDE.joint_names), np.asarray(g, float)
 
 
 def true_base_parameters() -> tuple[list[str], np.ndarray]:
     from orthoglide_sim.true_parameters import load_parameters
 
-    model = default_model()
+    model = ORTHOGLIDE
     return list(model.names), model.base_values(load_parameters().standard_vector())
 
 
@@ -86,7 +90,7 @@ def run_case(profile: str, seconds: float, seed: int, cache: Path | None, valida
     rv = [record(profile, seconds, f"{payload:g}", "test2", 4000 + seed, cache)[0]] \
         if validate else []
     t_sim = time.perf_counter() - t0
-    res = identify_records([ru, rl], options=opts, essential=True, validation=rv)
+    res = identify_records([ru, rl], options=opts, essential=True, validation=rv, model=ORTHOGLIDE)
     g = np.array([x.value for x in res.drive_gains])
     s_h = np.array([x.rel_std for x in res.drive_gains]) * g
     s_p = np.array([x.rel_std_paper for x in res.drive_gains]) * g
@@ -102,8 +106,8 @@ def run_case(profile: str, seconds: float, seed: int, cache: Path | None, valida
         pp.append(p.rel_std_paper * abs(p.value))
     ge = np.array([x.value for x in res.essential.drive_gains])
     tol = np.maximum(s_h / g, opts.essential_min_tolerance)
-    w_id = identify_records([ru, r2], method="wls", gains=g, options=opts)
-    w_man = identify_records([ru, r2], method="wls", options=opts)
+    w_id = identify_records([ru, r2], method="wls", gains=g, options=opts, model=ORTHOGLIDE)
+    w_man = identify_records([ru, r2], method="wls", options=opts, model=ORTHOGLIDE)
     pm = w_id.payload_mass
     out = {
         "gain_err": 100 * err / g_true, "z_paper": err / s_p, "z_honest": err / s_h,
@@ -125,7 +129,7 @@ def run_case(profile: str, seconds: float, seed: int, cache: Path | None, valida
         from orthoglide_sim.true_parameters import load_parameters
 
         noise = load_parameters().plant_profile(profile).current_noise_std  # config/plant.yaml
-        out["bound"] = 100 * gain_rel_std_bound([ru, rl], default_model(), chi_true, g_true,
+        out["bound"] = 100 * gain_rel_std_bound([ru, rl], ORTHOGLIDE, chi_true, g_true,
                                                 noise, opts)
     return out
 

@@ -10,7 +10,10 @@ from __future__ import annotations
 import numpy as np
 
 from orthoglide_ident.identify.pipeline import Record
+from orthoglide_ident.model.robots import load_robot
 from orthoglide_sim.record import simulate
+
+ORTHOGLIDE = load_robot("orthoglide")  # the robot these records are of
 
 
 def record(duration_s: float, payload_kg: float, seed: int, noise: bool = True,
@@ -24,4 +27,5 @@ def record(duration_s: float, payload_kg: float, seed: int, noise: bool = True,
     rec = simulate(duration_s, payload=payload, trajectory=trajectory, seed=seed, noise=noise,
                    profile=profile)
     truth = {"g_tau": np.asarray(rec.g_tau, float), "source": f"simulator ({trajectory})"}
-    return Record.from_arrays(name, rec.stamps_ns, rec.q, rec.v_tau, cond, payload_kg), truth
+    return Record.from_arrays(name, rec.stamps_ns, rec.q, rec.v_tau, cond, payload_kg,
+                              joint_names=ORTHOGLIDE.joint_names), truth

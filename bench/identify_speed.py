@@ -28,7 +28,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from orthoglide_ident.nodes import _processes as children  # children end with this process
+from orthoglide_ident.ros import processes as children  # children end with this process
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
@@ -37,6 +37,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from identify_data import record  # noqa: E402
 
 from orthoglide_ident import bags  # noqa: E402
+from orthoglide_ident.model.robots import load_robot  # noqa: E402
+
+ORTHOGLIDE = load_robot("orthoglide")  # the robot these records are of
 
 
 def rosbags_read(paths: list[Path]) -> tuple[float, int]:
@@ -94,7 +97,7 @@ def main() -> int:
                 continue
             rec, truth = record(args.seconds, m, seed)
             paths.append(bags.write_bag(d / name, rec.stamps_q_ns, rec.q, rec.v_tau,
-                                        rec.condition, m))
+                                        rec.condition, m, joint_names=ORTHOGLIDE.joint_names))
             source = truth["source"]
         print(f"wrote 2 x {args.seconds:g} s bags ({source}) in {time.perf_counter() - t0:.1f} s",
               file=sys.stderr)

@@ -41,6 +41,9 @@ from orthoglide_ident.identify.live import LiveIdentification  # noqa: E402
 from orthoglide_ident.identify.options import IdentifyOptions  # noqa: E402
 from orthoglide_ident.identify.pipeline import (Record, identify, identify_records,  # noqa: E402
                                                 read_record)
+from orthoglide_ident.model.robots import load_robot  # noqa: E402
+
+ORTHOGLIDE = load_robot("orthoglide")  # the robot these records are of
 
 G_TRUE = np.array([2170.0, 2100.0, 2070.0])  # N/A, the plant's drive gains (docs/architecture.md §5)
 
@@ -56,7 +59,8 @@ def get_bags(args, tmp: str) -> tuple[list[Path], str]:
         if not (d / name).exists():
             t0 = time.perf_counter()
             rec, truth = record(args.seconds, m, seed)
-            bags.write_bag(d / name, rec.stamps_q_ns, rec.q, rec.v_tau, rec.condition, m)
+            bags.write_bag(d / name, rec.stamps_q_ns, rec.q, rec.v_tau, rec.condition, m,
+                           joint_names=ORTHOGLIDE.joint_names)
             source = truth["source"]
             print(f"wrote {d / name} ({source}) in {time.perf_counter() - t0:.1f} s",
                   file=sys.stderr)
@@ -72,7 +76,8 @@ def split(records: list[Record], parts: int) -> list[Record]:
             n = len(r.stamps_q_ns)
             a, b = k * n // parts, (k + 1) * n // parts
             out.append(Record.from_arrays(f"{Path(r.source).name}-{k + 1}", r.stamps_q_ns[a:b],
-                                          r.q[a:b], r.v_tau[a:b], r.condition, r.payload_mass))
+                                          r.q[a:b], r.v_tau[a:b], r.condition, r.payload_mass,
+                                          joint_names=ORTHOGLIDE.joint_names))
     return out
 
 
@@ -171,14 +176,14 @@ def main() -> int:
 
 
 def run(args, paths: list[Path], source: str) -> int:
-    records = [read_record(p) for p in paths]
+    records = [read_record(p, model=ORTHOGLIDE) for p in paths]
     recs = split(records, args.split)
     secs = sum(len(r.stamps_q_ns) for r in records) * 1e-3
     print(f"\nlive identification — {secs:.0f} s at 1 kHz in {len(recs)} recordings ({source})")
     print(f"{'batch':>8} {'CPU s':>7} {'% of a core':>12} {'lag p50 s':>10} {'lag max s':>10}")
     trace10, live10 = [], None
     for batch in (1, 10, 100):
-        live = LiveIdentification()
+        live = LiveIdentification(model=ORTHOGLIDE)
         cpu, t_data, trace = play(live, recs, batch, realtime=args.realtime and batch == 10)
         lags = np.array([r["lag"] for r in trace])
         print(f"{batch:>6}ms {cpu:7.2f} {100 * cpu / t_data:11.2f}% {np.median(lags):10.2f} "
@@ -190,7 +195,8 @@ def run(args, paths: list[Path], source: str) -> int:
         plot(rows, Path(args.png))
         print(f"convergence plot: {args.png}")
 
-    res, off = live10.result(), identify_records(recs)  # lag_model: auto, the default
+    res, off = live10.result(), identify_records(recs,
+                                                 model=ORTHOGLIDE)  # lag_model: auto, the default
     print(f"\nlive result() vs identify_records on the same recordings (lag_model: auto, the "
           f"live lag instrument from the previous periods only): max difference "
           f"{in_sigma(res.drive_gains, off.drive_gains):.2f} σ on the gains, "
@@ -198,9 +204,9 @@ def run(args, paths: list[Path], source: str) -> int:
           "lag live " + ", ".join(f"{a['tau_ms']:.3f}" for a in res.current_lag) + " ms, offline "
           + ", ".join(f"{b['tau_ms']:.3f}" for b in off.current_lag) + " ms")
     paper = IdentifyOptions(lag_model="off")
-    live = LiveIdentification(paper)
+    live = LiveIdentification(paper, model=ORTHOGLIDE)
     play(live, recs, 100)
-    res, off = live.result(), identify_records(recs, options=paper)
+    res, off = live.result(), identify_records(recs, options=paper, model=ORTHOGLIDE)
     dg = max(abs(a.value / b.value - 1) for a, b in zip(res.drive_gains, off.drive_gains))
     dp = max(abs(a.value / b.value - 1) for a, b in zip(res.parameters, off.parameters))
     print(f"the same equations (lag_model: off): max relative difference {dg:.1e} on the "
@@ -208,7 +214,7 @@ def run(args, paths: list[Path], source: str) -> int:
 
     t_ros, n_msgs = rosbags_read(paths)
     t0 = time.perf_counter()
-    offline = identify(paths)
+    offline = identify(paths, model=ORTHOGLIDE)
     t_id = time.perf_counter() - t0
     steps = offline.diagnostics["timings_s"]
     print(f"\noffline, same run: identify {t_id:.2f} s in-process (regressor+decimation "

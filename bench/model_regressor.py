@@ -19,7 +19,7 @@ import time
 
 import numpy as np
 
-from orthoglide_ident.model.base import base_model, random_states
+from orthoglide_ident.model.orthoglide.base import base_model, random_states
 from orthoglide_ident.model.robots import load_robot
 
 GENERAL = ("ur5", "five_bar", "orthoglide_general")

@@ -81,7 +81,7 @@ def main(argv: list[str] | None = None) -> int:
     os.environ.pop("ROS_LOCALHOST_ONLY", None)
     from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 
-    from orthoglide_ident.nodes._processes import Interrupted, interrupt_on_signals
+    from orthoglide_ident.ros.processes import Interrupted, interrupt_on_signals
     from orthoglide_msgs.msg import RecorderStatus
     from orthoglide_sim.graph import Graph
 

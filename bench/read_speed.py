@@ -26,6 +26,9 @@ import time
 from pathlib import Path
 
 import numpy as np
+from orthoglide_ident.model.robots import load_robot
+
+ORTHOGLIDE = load_robot("orthoglide")  # the robot these records are of
 
 UR5 = ("shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint", "wrist_1_joint",
        "wrist_2_joint", "wrist_3_joint")
@@ -91,7 +94,8 @@ def _write(layout: str, path: Path, i: int, n: int, rng: np.random.Generator) ->
     stamps = 1_700_000_000_000_000_000 + np.arange(n, dtype=np.int64) * 1_000_000
     cond, mass = ("loaded", 1.136) if i else ("unloaded", 0.0)
     if layout == "orthoglide":
-        bags.write_bag(path, stamps, rng.normal(size=(n, 3)), rng.normal(size=(n, 3)), cond, mass)
+        bags.write_bag(path, stamps, rng.normal(size=(n, 3)), rng.normal(size=(n, 3)), cond, mass,
+                       joint_names=ORTHOGLIDE.joint_names)
         return 2 * n
     q, v = rng.normal(size=(n, 6)), rng.normal(size=(n, 6))
     if layout == "variable":

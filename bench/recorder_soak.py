@@ -28,7 +28,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from orthoglide_ident.nodes._processes import Interrupted, interrupt_on_signals, popen
+from orthoglide_ident.ros.processes import Interrupted, interrupt_on_signals, popen
 
 HERE = Path(__file__).resolve().parent
 DRIVER_START_S = 120.0  # the driver publishes within a second or two; far more under heavy load

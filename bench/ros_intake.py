@@ -1,4 +1,4 @@
-"""CPU a node spends taking the driver's 1 kHz topics: rclpy's executor vs batches (nodes/_batch.py).
+"""CPU a node spends taking the driver's 1 kHz topics: rclpy's executor vs batches (ros/batch.py).
 
     .venv/bin/python bench/ros_intake.py [--seconds 5]
 
@@ -15,7 +15,7 @@ import sys
 import threading
 import time
 
-from orthoglide_ident.nodes import _processes as children  # children end with this process
+from orthoglide_ident.ros import processes as children  # children end with this process
 
 
 def measure(node, seconds: float, counter: list[int]) -> tuple[float, float]:
@@ -35,7 +35,7 @@ def main(argv: list[str] | None = None) -> int:
     from rclpy.qos import QoSProfile, ReliabilityPolicy
     from sensor_msgs.msg import JointState
 
-    from orthoglide_ident.nodes._batch import BatchTaker, BatchTopic
+    from orthoglide_ident.ros.batch import BatchTaker, BatchTopic
     from orthoglide_msgs.msg import CurrentReference, JointSetpoint
 
     topics = [(JointState, "/orthoglide/joint_states"), (CurrentReference, "/orthoglide/current_reference"),
@@ -73,7 +73,7 @@ def main(argv: list[str] | None = None) -> int:
         driver.wait(30)
     print(f"{'intake':<34} {'msgs/s':>8} {'% of one core':>14}")
     print(f"{'rclpy executor, one callback each':<34} {rate_ex:8.0f} {cpu_ex:14.1f}")
-    print(f"{'BatchTaker (nodes/_batch.py)':<34} {rate_b:8.0f} {cpu_b:14.1f}")
+    print(f"{'BatchTaker (ros/batch.py)':<34} {rate_b:8.0f} {cpu_b:14.1f}")
     return 0
 
 

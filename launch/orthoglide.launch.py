@@ -11,7 +11,7 @@ relative, so namespace:=robot2 moves the whole graph to /robot2/orthoglide/... .
 use_sim:=false the driver is not started: the robot controller publishes orthoglide/joint_states,
 orthoglide/current_reference and orthoglide/setpoints, and takes orthoglide/feedforward.
 A recorder, identification or ctc node that exits (a node that cannot go on exits with code 1,
-see orthoglide_ident/nodes/_spin.py) is started again after RESPAWN_DELAY_S unless respawn:=false;
+see orthoglide_ident/ros/spin.py) is started again after RESPAWN_DELAY_S unless respawn:=false;
 a restarted recorder reindexes the bag it left open.
 
 ``NODES`` is plain data, so this file also loads where launch_ros is not installed (the tests read

@@ -34,14 +34,14 @@ from typing import Sequence
 
 from orthoglide_ident import ros_client
 from orthoglide_ident.errors import ConfigError, OrthoglideError
-from orthoglide_ident.model.geometry import JOINT_NAMES as ORTHOGLIDE_JOINTS
+from orthoglide_ident.identify.methods import DEFAULT_METHOD, METHODS
 from orthoglide_ident.model.robots import bundled_robots
 
 PROG = "orthoglide-ident"
 EXIT_OK, EXIT_BUG, EXIT_BAD_INPUT, EXIT_INTERRUPTED, EXIT_BROKEN_PIPE = 0, 1, 2, 130, 141
 
 
-def parse_gains(text: str, joints: Sequence[str] = ORTHOGLIDE_JOINTS) -> list[float]:
+def parse_gains(text: str, joints: Sequence[str]) -> list[float]:
     """One drive gain per joint of ``joints`` (N/A or N·m/A) from ``G1,G2,...`` or a JSON file (an
     ``identify --json`` result, a list of numbers, or a mapping joint name -> gain)."""
     p = Path(text)
@@ -90,11 +90,9 @@ def _add_identify_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--payload-mass", type=float, metavar="KG",
                    help="weighed payload mass of the loaded bags in kg (checked against their tags;"
                         " needed when a loaded bag carries no mass)")
-    p.add_argument("--method", choices=("tls", "wls"), default=None,
-                   help="tls: drive gains and base parameters at once, scaled by the payload mass "
-                        "(default); wls: gains given (--gains, default the robot's nominal ones: "
-                        "the Orthoglide's 637π ≈ 2001.2 N/A), payload mass of the loaded bags "
-                        "estimated")
+    p.add_argument("--method", choices=tuple(METHODS), default=None,
+                   help="; ".join(f"{m.name}: {m.help}" + (" (default)" if m.name == DEFAULT_METHOD
+                                                           else "") for m in METHODS.values()))
     p.add_argument("--gains", metavar="G1,G2,...|FILE.json",
                    help="drive gains (N/A, N·m/A for a revolute joint) for --method wls: one per "
                         "joint, or a JSON file (e.g. the --json output of a TLS identification)")
@@ -201,11 +199,13 @@ def _run_identify(args: argparse.Namespace):
         opts = opts.replace(r_sigma=args.r_sigma)
     if args.consistent or args.urdf_out:
         opts = opts.replace(consistent=True)
-    method = args.method or "tls"
+    method = args.method or DEFAULT_METHOD
     gains = parse_gains(args.gains, robot.joint_names) if args.gains else None
-    if gains is not None and method == "tls":
-        raise ConfigError("--gains is for --method wls: IDIM-TLS identifies the gains")
-    if method == "wls" and gains is None:
+    if gains is not None and not METHODS[method].gains_given:
+        given = " or ".join(m.name for m in METHODS.values() if m.gains_given)
+        raise ConfigError(f"--gains is for --method {given}: IDIM-{method.upper()} identifies "
+                          "the gains")
+    if METHODS[method].gains_given and gains is None:
         logging.getLogger("orthoglide_ident").info(
             "no --gains: using the manufacturer's (nominal) gains %s", ", ".join(
                 f"{j.name} {j.nominal_gain:.5g} {j.gain_unit}" for j in robot.joints))
@@ -225,12 +225,11 @@ def _write_json(path: str, doc: dict) -> None:
 
 
 def _write_urdf(path: str, res, robot_spec: str) -> None:
-    """The consistent identified model as a URDF (model/urdf.py)."""
+    """The consistent identified model as a URDF (RobotModel.identified_urdf)."""
     from orthoglide_ident.model.robots import load_robot
-    from orthoglide_ident.model.urdf import identified_urdf
 
-    text = identified_urdf(load_robot(robot_spec), res.consistency.answer.chi_st,
-                           [g.value for g in res.drive_gains])
+    text = load_robot(robot_spec).identified_urdf(res.consistency.answer.chi_st,
+                                                  [g.value for g in res.drive_gains])
     try:
         Path(path).write_text(text)
     except OSError as exc:

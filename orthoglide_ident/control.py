@@ -29,7 +29,6 @@ import numpy as np
 
 from orthoglide_ident.errors import ConfigError
 from orthoglide_ident.model.robot import RobotModel
-from orthoglide_ident.model.robots import load_robot
 
 if TYPE_CHECKING:
     from orthoglide_ident.results import IdentificationResult
@@ -46,18 +45,18 @@ class CTCParameters:
     chi_b: np.ndarray
     payload_mass: float
     names: tuple[str, ...] = field(default=())  # the names the values came with
-    model: RobotModel | None = field(default=None, compare=False)  # None: the Orthoglide
+    model: RobotModel = field(kw_only=True, compare=False)  # the robot (passed, never defaulted)
 
     @property
     def robot(self) -> RobotModel:
-        return self.model if self.model is not None else load_robot(None)
+        return self.model
 
     @classmethod
     def from_values(cls, names: Sequence[str], values: Sequence[float], drive_gains: Sequence[float],
-                    payload_mass: float, model: RobotModel | None = None) -> "CTCParameters":
+                    payload_mass: float, model: RobotModel) -> "CTCParameters":
         """Validate and order: unknown or repeated names, non-finite values, gains that are not
         one positive number per joint or a negative payload mass raise ConfigError."""
-        robot = model if model is not None else load_robot(None)
+        robot = model
         bm_names = robot.names
         index = {n: i for i, n in enumerate(bm_names)}
         names = [str(n) for n in names]
@@ -86,12 +85,12 @@ class CTCParameters:
             raise ConfigError(f"payload mass must be a finite mass >= 0 kg, got {payload_mass}")
         chi_b = np.zeros(len(bm_names))
         chi_b[[index[n] for n in names]] = values
-        return cls(g, chi_b, m7, tuple(names), model)
+        return cls(g, chi_b, m7, tuple(names), model=model)
 
     @classmethod
     def from_result(cls, result: IdentificationResult, payload_mass: float | None = None,
-                    drive_gains: Sequence[float] | None = None, essential: bool = False,
-                    model: RobotModel | None = None) -> "CTCParameters":
+                    drive_gains: Sequence[float] | None = None, essential: bool = False, *,
+                    model: RobotModel) -> "CTCParameters":
         """From an ``IdentificationResult``; ``payload_mass`` (kg) is the payload on the robot now
         (default: the result's, known or estimated), ``drive_gains`` override the result's (e.g. the
         manufacturer's); ``essential`` takes the essential-parameter result (Sect. 5.2)."""
@@ -106,8 +105,8 @@ class CTCParameters:
                                gains, payload_mass, model)
 
     @classmethod
-    def from_message_fields(cls, fields: Mapping[str, Any], payload_mass: float | None = None,
-                            model: RobotModel | None = None) -> "CTCParameters":
+    def from_message_fields(cls, fields: Mapping[str, Any], payload_mass: float | None = None, *,
+                            model: RobotModel) -> "CTCParameters":
         """From the fields of orthoglide_msgs/IdentifiedParameters (names, values, drive_gains,
         payload_mass; ``IdentificationResult.message_fields()`` or a received message's)."""
         try:

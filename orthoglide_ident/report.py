@@ -19,7 +19,7 @@ from orthoglide_ident.identify.validation import ValidationResult, cross_validat
 from orthoglide_ident.results import IdentificationResult
 
 
-def _validation_for_plot(res: IdentificationResult) -> tuple[ValidationResult | None, bool]:
+def validation_for_plot(res: IdentificationResult) -> tuple[ValidationResult | None, bool]:
     """The validation record to plot, and whether it is a true cross-validation."""
     if res.validation_details:
         return res.validation_details[0], True
@@ -44,7 +44,7 @@ def plot_torques(res: IdentificationResult, path: Path, window_s: float = 10.0) 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    val, crossed = _validation_for_plot(res)
+    val, crossed = validation_for_plot(res)
     if val is None:
         return False
     n_j = len(res.joint_names)

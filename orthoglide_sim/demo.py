@@ -24,11 +24,15 @@ from pathlib import Path
 import numpy as np
 
 from orthoglide_ident.errors import OrthoglideError
-from orthoglide_ident.nodes._processes import Interrupted, interrupt_on_signals
+from orthoglide_ident.ros.processes import Interrupted, interrupt_on_signals
 from orthoglide_ident.ros_client import live_line
 from orthoglide_sim.graph import Graph, GraphError
-from orthoglide_ident.model.geometry import G_TAU_MANUFACTURER
+from orthoglide_ident.model.orthoglide.geometry import G_TAU_MANUFACTURER
+from orthoglide_ident.model.robots import load_robot
 from orthoglide_sim.true_parameters import load_parameters
+
+ROOT = Path(__file__).resolve().parents[1]  # the project: config/ (installed beside the product)
+ORTHOGLIDE = load_robot("orthoglide")  # the robot these records are of
 
 PAYLOAD = 1.983
 TABLE4 = ("simple PID", "PID + vel. ff", "CTC, manuf. gains", "CTC, identif. gains", "CTC, gains +25 %")
@@ -42,7 +46,6 @@ def say(msg: str = "") -> None:
 
 
 def start_graph(g: Graph, out: Path) -> None:
-    from orthoglide_ident._install_ament import ROOT
 
     config = ROOT / "config"
     g.start("orthoglide_driver", "driver", {"trajectory": "exciting", "controller": "pid", "payload": "none"},
@@ -145,7 +148,6 @@ def tracking_errors(bag: str) -> np.ndarray:
 
 def use_ctc(g: Graph, which: str) -> None:
     """One ctc node feeds the driver: the identified (TLS) model, or the last IDIM-WLS result."""
-    from orthoglide_ident._install_ament import ROOT
 
     for name in ("orthoglide_ctc", "orthoglide_ctc_wls"):
         g.stop(name)
@@ -199,7 +201,8 @@ def in_process_ctc(tls_msg: object, seconds: float) -> dict:
     from orthoglide_sim.record import simulate
     from orthoglide_sim.trajectories import get_trajectory
 
-    model = CTCParameters.from_values(tls_msg.names, tls_msg.values, tls_msg.drive_gains, PAYLOAD)
+    model = CTCParameters.from_values(tls_msg.names, tls_msg.values, tls_msg.drive_gains, PAYLOAD,
+                                      model=ORTHOGLIDE)
     out = {}
     for traj in ("test1", "test2"):
         n = int(round((seconds + SETTLE_S) * 1000))
@@ -301,7 +304,7 @@ def report_plots(bags: list[str], out: Path) -> None:
     from orthoglide_ident.identify.pipeline import identify as identify_offline
     from orthoglide_ident.report import write_report
 
-    write_report(identify_offline(bags), out / "report")
+    write_report(identify_offline(bags, model=ORTHOGLIDE), out / "report")
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -27,7 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from orthoglide_ident.errors import OrthoglideError
-from orthoglide_sim.demo import say
+from orthoglide_sim.demo import ROOT, say
 from orthoglide_sim.graph import Graph
 
 ROBOT = "ur5_mount"  # the UR5 with a payload mount off the last axis (orthoglide_ident/robots)
@@ -39,8 +39,6 @@ CLI = Path(sys.prefix) / "bin" / "orthoglide-ident"
 
 def start_graph(g: Graph, out: Path) -> None:
     from sensor_msgs.msg import JointState
-
-    from orthoglide_ident._install_ament import ROOT
 
     config = ROOT / "config" / "ros2_control.yaml"
     g.start(STANDIN, "driver", {"robot": ROBOT, "payload": "none", "trajectory": "hold"}, params_file=config)

@@ -24,6 +24,9 @@ from pathlib import Path
 import numpy as np
 
 from orthoglide_ident.errors import OrthoglideError
+from orthoglide_ident.model.robots import load_robot
+
+ORTHOGLIDE = load_robot("orthoglide")  # the robot these records are of
 
 
 def _say(msg: str) -> None:
@@ -53,7 +56,8 @@ def _simulate_records(duration: float, out: Path, seed: int) -> tuple[dict[str, 
         path = out / name
         if path.exists():
             shutil.rmtree(path)
-        bags.write_bag(path, rec.stamps_ns, rec.q, rec.v_tau, cond, rec.payload_mass)
+        bags.write_bag(path, rec.stamps_ns, rec.q, rec.v_tau, cond, rec.payload_mass,
+                       joint_names=ORTHOGLIDE.joint_names)
         paths[name] = str(path)
         size = sum(f.stat().st_size for f in path.iterdir()) / 1e6
         _say(
@@ -64,7 +68,7 @@ def _simulate_records(duration: float, out: Path, seed: int) -> tuple[dict[str, 
 
 
 def _report_gains(res, g_true: np.ndarray) -> None:
-    from orthoglide_ident.model.geometry import G_TAU_MANUFACTURER
+    from orthoglide_ident.model.orthoglide.geometry import G_TAU_MANUFACTURER
 
     _say(f"   {'joint':<6} {'truth':>8} {'IDIM-TLS':>9} {'%sigma':>7} {'error':>8}   {'manufacturer':>12} {'error':>8}")
     for j, g in enumerate(res.drive_gains):
@@ -111,11 +115,12 @@ def _report_validation(res) -> None:
 
 def _report_payload(paths: dict[str, str], g_id: np.ndarray) -> None:
     from orthoglide_ident.identify.pipeline import identify
-    from orthoglide_ident.model.geometry import G_TAU_MANUFACTURER
+    from orthoglide_ident.model.orthoglide.geometry import G_TAU_MANUFACTURER
 
     _say("\n4. Payload check: IDIM-WLS re-identifies the 1.136 kg payload (paper: 1.09 vs 1.14 kg)")
     for label, gains in (("manufacturer 2001 N/A", [G_TAU_MANUFACTURER] * 3), ("IDIM-TLS gains", list(g_id))):
-        w = identify([paths["unloaded"], paths["loaded_1.136kg"]], method="wls", gains=gains)
+        w = identify([paths["unloaded"], paths["loaded_1.136kg"]], method="wls", gains=gains,
+                     model=ORTHOGLIDE)
         m = w.payloads[0] if w.payloads else w.payload_mass
         _say(
             f"   with {label:<22}: m_7 = {m.value:.4f} kg +- {100 * m.rel_std:.2f}%  "
@@ -125,14 +130,14 @@ def _report_payload(paths: dict[str, str], g_id: np.ndarray) -> None:
 
 def run(duration: float, out: Path, seed: int) -> int:
     from orthoglide_ident.identify.pipeline import identify
-    from orthoglide_ident.model.base import base_model
+    from orthoglide_ident.model.orthoglide.base import base_model
 
     paths, truth = _simulate_records(duration, out, seed)
     bm = base_model()
     _say("\n2. IDIM-TLS on the unloaded and 1.983 kg bags (payload mass from the bag tag)")
     t0 = time.perf_counter()
     res = identify([paths["unloaded"], paths["loaded_1.983kg"]], method="tls", essential=True,
-                   validation_bags=[paths["validation_1.983kg"]])
+                   validation_bags=[paths["validation_1.983kg"]], model=ORTHOGLIDE)
     t_id = time.perf_counter() - t0
     res.write_json(out / "tls.json")
     _say(f"   identified in {t_id:.2f} s; full result: {out / 'tls.json'}")

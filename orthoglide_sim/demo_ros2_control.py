@@ -27,6 +27,7 @@ from orthoglide_ident.errors import OrthoglideError
 from orthoglide_sim.demo import identify, live_vs_bags, record, say
 from orthoglide_sim.graph import Graph, GraphError
 
+ROOT = Path(__file__).resolve().parents[1]  # the project: config/ (installed beside the product)
 ROBOT = "ur5_mount"  # the UR5 with a payload mount off the last axis (orthoglide_ident/robots)
 PAYLOAD_KG = 2.5  # a point mass at the mount: what the recorder's mass-only tag describes
 TOPICS = ("joint_states", "dynamic_joint_states")
@@ -35,8 +36,6 @@ STANDIN = "ros2_control_standin"
 
 def start_graph(g: Graph, out: Path) -> None:
     from sensor_msgs.msg import JointState
-
-    from orthoglide_ident._install_ament import ROOT
 
     config = ROOT / "config"
     g.start(STANDIN, "driver", {"robot": ROBOT, "payload": "none", "trajectory": "exciting1"},

@@ -18,10 +18,10 @@ from std_msgs.msg import Header
 from std_srvs.srv import Trigger
 
 from orthoglide_ident.errors import OrthoglideError
-from orthoglide_ident.model.geometry import JOINT_NAMES
-from orthoglide_ident.nodes._batch import BatchTaker, BatchTopic
-from orthoglide_ident.nodes._params import Param, declare, from_command_line, on_set, usage
-from orthoglide_ident.nodes._spin import spin
+from orthoglide_ident.model.orthoglide.geometry import JOINT_NAMES
+from orthoglide_ident.ros.batch import BatchTaker, BatchTopic
+from orthoglide_ident.ros.params import Param, declare, from_command_line, on_set, usage
+from orthoglide_ident.ros.spin import spin
 from orthoglide_msgs.msg import CurrentReference, JointSetpoint
 from orthoglide_sim.session import DriverSession
 from orthoglide_sim.tick_clock import LATE_NS, TICK_NS, real_time_priority, sleep_until
@@ -104,7 +104,7 @@ class Driver(Node):
         self.pub_diag = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
         inputs = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE)
         # taken in batches on a thread of their own, not one executor callback per message: less
-        # CPU and GIL taken from the tick loop (orthoglide_ident.nodes._batch)
+        # CPU and GIL taken from the tick loop (orthoglide_ident.ros.batch)
         self.taker = BatchTaker(self, [BatchTopic(CurrentReference, "orthoglide/current_command", inputs,
                                                   lambda b: self._on_inputs(b, "command")),
                                        BatchTopic(CurrentReference, "orthoglide/feedforward", inputs,
@@ -289,7 +289,7 @@ class Driver(Node):
             self._publish_setpoint(sp_k, sp)
         except Exception:
             if self.context.ok():
-                raise  # a bug: the node ends with code 1 and the reason (nodes._spin)
+                raise  # a bug: the node ends with code 1 and the reason (ros.spin)
             return False  # Ctrl-C shut the context down between the check and the publish
         with self.lock:
             s.advance()

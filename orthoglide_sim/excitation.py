@@ -6,7 +6,7 @@ excursion, speed or acceleration sits exactly on the limit (all three are linear
 amplitude factor), so the optimiser works on the shape only.
 
 Criteria, on the base observation matrix W (3N, n_b) of the identification model sampled over
-one period (``orthoglide_ident.model.base``: trajectories are designed for it):
+one period (``orthoglide_ident.model.orthoglide.base``: trajectories are designed for it):
 
 - ``gains`` (default): the unloaded and the loaded trajectory are designed together for what
   IDIM-TLS is asked for, the drive gains, on a real drive. :func:`predicted_gain_std` is the σ of
@@ -57,7 +57,7 @@ DESIGN_DELAY_S = 1.5e-4  # s, current-loop lag the gains criterion guards agains
 
 
 def _base_regressor():
-    from orthoglide_ident.model.base import base_model
+    from orthoglide_ident.model.orthoglide.base import base_model
 
     return base_model().regressor
 
@@ -101,8 +101,8 @@ class Design:
 
     @classmethod
     def default(cls) -> "Design":
-        from orthoglide_ident.model.base import base_model
-        from orthoglide_ident.model.geometry import G_TAU_MANUFACTURER
+        from orthoglide_ident.model.orthoglide.base import base_model
+        from orthoglide_ident.model.orthoglide.geometry import G_TAU_MANUFACTURER
         from orthoglide_sim.true_parameters import load_parameters
 
         model = base_model()

@@ -26,7 +26,7 @@ from diagnostic_msgs.msg import DiagnosticArray
 from sensor_msgs.msg import JointState
 
 from orthoglide_ident.errors import OrthoglideError
-from orthoglide_ident.nodes._processes import popen
+from orthoglide_ident.ros.processes import popen
 from orthoglide_msgs.msg import CurrentReference, LiveIdentification
 
 LAUNCHERS = Path(sys.prefix) / "lib" / "orthoglide_ident"
@@ -52,7 +52,7 @@ class Graph:
 
     def __enter__(self) -> "Graph":
         # no rclpy signal handlers: SIGTERM shut the context down under the running calls (chained
-        # RCLError tracebacks); the caller's handlers (nodes._processes.interrupt_on_signals) or
+        # RCLError tracebacks); the caller's handlers (ros.processes.interrupt_on_signals) or
         # Python's default end the run, and __exit__ stops the nodes
         rclpy.init(signal_handler_options=SignalHandlerOptions.NO)
         self.node = rclpy.create_node("orthoglide_demo")

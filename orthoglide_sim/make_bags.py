@@ -15,8 +15,11 @@ from pathlib import Path
 
 from orthoglide_ident import bags
 from orthoglide_ident.errors import OrthoglideError
+from orthoglide_ident.model.robots import load_robot
 from orthoglide_sim.record import simulate
 from orthoglide_sim.true_parameters import load_parameters
+
+ORTHOGLIDE = load_robot("orthoglide")  # the robot these records are of
 
 RUNS = (  # name, payload, trajectory, seed offset
     ("unloaded", "none", "exciting", 0),
@@ -46,7 +49,7 @@ def main(argv: list[str] | None = None) -> int:
             cond = "unloaded" if payload == "none" else "loaded"
             bags.write_bag(path, rec.stamps_ns, rec.q, rec.v_tau, cond, rec.payload_mass,
                            extra={"orthoglide.sim.trajectory": trajectory, "orthoglide.sim.seed": str(args.seed + k),
-                                  "orthoglide.sim.profile": rec.profile})
+                                  "orthoglide.sim.profile": rec.profile}, joint_names=ORTHOGLIDE.joint_names)
             size = sum(f.stat().st_size for f in path.iterdir()) / 1e6
             print(f"{path}: {args.duration:g} s, {cond} {rec.payload_mass:g} kg, {trajectory}, "
                   f"profile {rec.profile}, {size:.1f} MB")

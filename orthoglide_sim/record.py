@@ -18,7 +18,7 @@ from typing import Callable
 import numpy as np
 
 from orthoglide_ident.errors import ConfigError, OrthoglideError
-from orthoglide_ident.model.geometry import JOINT_NAMES
+from orthoglide_ident.model.orthoglide.geometry import JOINT_NAMES
 from orthoglide_sim import simulator as sm
 from orthoglide_sim.plant import Plant
 from orthoglide_sim.trajectories import get_trajectory

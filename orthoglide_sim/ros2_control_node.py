@@ -18,8 +18,8 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import String
 from std_srvs.srv import Trigger
 
-from orthoglide_ident.nodes._params import Param, declare, on_set, usage
-from orthoglide_ident.nodes._spin import spin
+from orthoglide_ident.ros.params import Param, declare, on_set, usage
+from orthoglide_ident.ros.spin import spin
 from orthoglide_sim.arm_session import ArmSession
 from orthoglide_sim.broadcaster import TOPICS, BroadcasterLayout, TickDropper
 from orthoglide_sim.joint_trajectory import Tolerances

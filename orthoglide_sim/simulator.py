@@ -37,7 +37,7 @@ import numpy as np
 
 from orthoglide_ident.errors import WorkspaceError
 from orthoglide_sim.plant import ACTUATED, Plant
-from orthoglide_ident.model.geometry import G_TAU_MANUFACTURER
+from orthoglide_ident.model.orthoglide.geometry import G_TAU_MANUFACTURER
 from orthoglide_sim.true_parameters import PROFILES, PlantProfile, TrueParameters
 
 TICK = 1.0e-3  # s, controller period (1 kHz)

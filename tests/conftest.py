@@ -22,7 +22,7 @@ from collections.abc import Callable, Iterator
 
 import pytest
 
-from orthoglide_ident.nodes import _processes as children  # children end with this process
+from orthoglide_ident.ros import processes as children  # children end with this process
 
 ROS_ISOLATION = {
     # 1..100: domains above 101 can collide with ephemeral ports on Linux.

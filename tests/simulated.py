@@ -9,6 +9,9 @@ from __future__ import annotations
 import pytest
 
 from orthoglide_ident.identify.pipeline import Record
+from orthoglide_ident.model.robots import load_robot
+
+ORTHOGLIDE = load_robot("orthoglide")  # the robot these records are of
 
 
 def simulated_pair(seconds: float, seeds: tuple[int, int], name: str, **simulate_kwargs
@@ -23,5 +26,5 @@ def simulated_pair(seconds: float, seeds: tuple[int, int], name: str, **simulate
         r = simulate(seconds, payload=payload, trajectory=trajectory, seed=seed, **simulate_kwargs)
         cond = "loaded" if r.payload_mass > 0 else "unloaded"
         recs.append(Record.from_arrays(f"{name}-{cond}", r.stamps_ns, r.q, r.v_tau, cond,
-                                       r.payload_mass))
+                                       r.payload_mass, joint_names=ORTHOGLIDE.joint_names))
     return recs

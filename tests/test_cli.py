@@ -9,7 +9,10 @@ import pytest
 from orthoglide_ident import bags
 from orthoglide_ident.cli import main, parse_gains
 from orthoglide_ident.errors import ConfigError
+from orthoglide_ident.model.robots import load_robot
 from synthetic import synthetic_record
+
+ORTHOGLIDE = load_robot("orthoglide")  # the robot these records are of
 
 
 def _one_line_error(capsys, code, match=None):
@@ -27,7 +30,7 @@ def _one_line_error(capsys, code, match=None):
 def model_bags(tmp_path_factory):
     """Noise-free bags of the Orthoglide base model with the simulator's true parameters."""
     true_parameters = pytest.importorskip("orthoglide_sim.true_parameters")
-    from orthoglide_ident.model.base import base_model
+    from orthoglide_ident.model.orthoglide.base import base_model
 
     bm = base_model()
     tp = true_parameters.default_parameters()
@@ -38,7 +41,8 @@ def model_bags(tmp_path_factory):
     for name, m, seed in (("unloaded", 0.0, 1), ("loaded", 1.983, 2), ("check", 1.983, 3)):
         r = synthetic_record(15, m, seed=seed, noise=False, model=bm, chi=chi, g_tau=g,
                              amplitude=0.13, f_max=3.5)
-        out[name] = str(bags.write_bag(d / name, r.stamps_q_ns, r.q, r.v_tau, r.condition, m))
+        out[name] = str(bags.write_bag(d / name, r.stamps_q_ns, r.q, r.v_tau, r.condition, m,
+                                       joint_names=ORTHOGLIDE.joint_names))
     out["g"] = g
     return out
 
@@ -96,9 +100,11 @@ def test_nan_and_unexciting_bags(tmp_path, capsys):
     r = synthetic_record(5, 0.0, seed=1)
     v = r.v_tau.copy()
     v[100, 0] = np.nan
-    nan = bags.write_bag(tmp_path / "nan", r.stamps_q_ns, r.q, v, "unloaded", 0.0)
+    nan = bags.write_bag(tmp_path / "nan", r.stamps_q_ns, r.q, v, "unloaded", 0.0,
+                         joint_names=ORTHOGLIDE.joint_names)
     r2 = synthetic_record(5, 1.983, seed=2, amplitude=0.002, f_max=0.3)
-    still = bags.write_bag(tmp_path / "still", r2.stamps_q_ns, r2.q, r2.v_tau, "loaded", 1.983)
+    still = bags.write_bag(tmp_path / "still", r2.stamps_q_ns, r2.q, r2.v_tau, "loaded", 1.983,
+                           joint_names=ORTHOGLIDE.joint_names)
     _one_line_error(capsys, main(["identify", str(nan), str(still), "-q"]), "NaN")
 
 
@@ -119,14 +125,14 @@ def test_info_model_and_help(model_bags, tmp_path, capsys):
 
 
 def test_parse_gains(tmp_path):
-    assert parse_gains("2170,2100,2070") == [2170.0, 2100.0, 2070.0]
+    assert parse_gains("2170,2100,2070", joints=ORTHOGLIDE.joint_names) == [2170.0, 2100.0, 2070.0]
     f = tmp_path / "g.json"
     f.write_text(json.dumps({"drive_gains": [{"joint": "q11", "value": 1.0},
                                              {"joint": "q12", "value": 2.0},
                                              {"joint": "q13", "value": 3.0}]}))
-    assert parse_gains(str(f)) == [1.0, 2.0, 3.0]
+    assert parse_gains(str(f), joints=ORTHOGLIDE.joint_names) == [1.0, 2.0, 3.0]
     f.write_text(json.dumps({"q11": 1, "q12": 2, "q13": 3}))
-    assert parse_gains(str(f)) == [1.0, 2.0, 3.0]
+    assert parse_gains(str(f), joints=ORTHOGLIDE.joint_names) == [1.0, 2.0, 3.0]
     for bad in ("1,2", "a,b,c", "1,-2,3", str(tmp_path / "missing.json")):
         with pytest.raises(ConfigError):
-            parse_gains(bad)
+            parse_gains(bad, joints=ORTHOGLIDE.joint_names)

@@ -7,8 +7,11 @@ import pytest
 from orthoglide_ident import control as ctl
 from orthoglide_ident.control import CTCParameters, feedforward, feedforward_currents
 from orthoglide_ident.errors import ConfigError
-from orthoglide_ident.model.base import base_model
+from orthoglide_ident.model.orthoglide.base import base_model
 from orthoglide_ident.results import Estimate, IdentificationResult, PayloadMass
+from orthoglide_ident.model.robots import load_robot
+
+ORTHOGLIDE = load_robot("orthoglide")  # the robot these records are of
 
 
 def true_params(m7: float = 1.983) -> CTCParameters:
@@ -17,7 +20,8 @@ def true_params(m7: float = 1.983) -> CTCParameters:
 
     tp = load_parameters()
     bm = base_model()
-    return CTCParameters.from_values(bm.names, bm.base_values(tp.standard_vector()), tp.g_tau, m7)
+    return CTCParameters.from_values(bm.names, bm.base_values(tp.standard_vector()), tp.g_tau, m7,
+                                     model=ORTHOGLIDE)
 
 
 def fake_result(params: CTCParameters) -> IdentificationResult:
@@ -50,7 +54,7 @@ def test_feedforward_equals_plant_torque_on_exact_data(monkeypatch):
 def test_feedforward_matches_observation_and_ignores_absent_parameters():
     bm = base_model()
     rng = np.random.default_rng(0)
-    from orthoglide_ident.model.base import random_states
+    from orthoglide_ident.model.orthoglide.base import random_states
 
     q, qd, qdd = random_states(7, seed=5)
     p = true_params(1.0)
@@ -58,7 +62,8 @@ def test_feedforward_matches_observation_and_ignores_absent_parameters():
     expected = (W @ p.chi_b + w_m7 * 1.0).reshape(3, 7).T
     assert np.allclose(feedforward(q, qd, qdd, p), expected, rtol=1e-12, atol=1e-9)
     keep = sorted(rng.choice(bm.n_b, 20, replace=False))  # an essential-like subset
-    sub = CTCParameters.from_values([bm.names[i] for i in keep], p.chi_b[keep], p.drive_gains, 1.0)
+    sub = CTCParameters.from_values([bm.names[i] for i in keep], p.chi_b[keep], p.drive_gains, 1.0,
+                                    model=ORTHOGLIDE)
     chi = np.zeros(bm.n_b)
     chi[keep] = p.chi_b[keep]
     assert np.allclose(sub.chi_b, chi)
@@ -68,7 +73,7 @@ def test_feedforward_matches_observation_and_ignores_absent_parameters():
 def test_feedforward_currents_in_the_middle_of_each_hold_over_the_gains():
     """Tick k's current is the model force at the mean of samples k and k+1 (t_k + T/2 for a
     smooth reference) divided by g_tau; N samples give N - 1 ticks."""
-    from orthoglide_ident.model.base import random_states
+    from orthoglide_ident.model.orthoglide.base import random_states
 
     q, qd, qdd = random_states(6, seed=2)
     p = true_params()
@@ -93,18 +98,19 @@ def test_feedforward_currents_of_a_quintic_are_the_half_tick_model():
 def test_parameters_from_result_and_message_agree():
     p = true_params()
     res = fake_result(p)
-    a = CTCParameters.from_result(res)
-    b = CTCParameters.from_message_fields(res.message_fields())
+    a = CTCParameters.from_result(res, model=ORTHOGLIDE)
+    b = CTCParameters.from_message_fields(res.message_fields(), model=ORTHOGLIDE)
     for x in (a, b):
         np.testing.assert_array_equal(x.chi_b, p.chi_b)
         np.testing.assert_array_equal(x.drive_gains, p.drive_gains)
         assert x.payload_mass == p.payload_mass
-    c = CTCParameters.from_result(res, payload_mass=1.136, drive_gains=[2001.0] * 3)
+    c = CTCParameters.from_result(res, payload_mass=1.136, drive_gains=[2001.0] * 3,
+                                  model=ORTHOGLIDE)
     assert c.payload_mass == 1.136 and list(c.drive_gains) == [2001.0] * 3
     d = a.with_gains([1.0, 2.0, 3.0])
     np.testing.assert_array_equal(d.chi_b, a.chi_b)
     with pytest.raises(ConfigError, match="essential"):
-        CTCParameters.from_result(res, essential=True)
+        CTCParameters.from_result(res, essential=True, model=ORTHOGLIDE)
 
 
 @pytest.mark.parametrize("change, match", [
@@ -122,9 +128,9 @@ def test_bad_parameters_raise_config_error(change, match):
     fields = {"names": ["m_11R"], "values": [1.0], "drive_gains": [2001.0] * 3, "payload_mass": 1.983}
     fields.update(change)
     with pytest.raises(ConfigError, match=match):
-        CTCParameters.from_message_fields(fields)
+        CTCParameters.from_message_fields(fields, model=ORTHOGLIDE)
 
 
 def test_missing_field_raises_config_error():
     with pytest.raises(ConfigError, match="lack field"):
-        CTCParameters.from_message_fields({"names": ["m_11R"], "values": [1.0]})
+        CTCParameters.from_message_fields({"names": ["m_11R"], "values": [1.0]}, model=ORTHOGLIDE)

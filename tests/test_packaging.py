@@ -10,7 +10,7 @@ from pathlib import Path
 
 import pytest
 
-from orthoglide_ident.nodes import _processes as children  # children end with this process
+from orthoglide_ident.ros import processes as children  # children end with this process
 
 ROOT = Path(__file__).resolve().parent.parent
 PREFIX = Path(sys.prefix).resolve()

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-from orthoglide_ident.nodes import _processes as children  # children end with this process
+from orthoglide_ident.ros import processes as children  # children end with this process
 
 pytest.importorskip("rclpy")
 pytest.importorskip("orthoglide_msgs.msg")

@@ -6,7 +6,8 @@ A, as ``map_interface_to_joint_state: {effort: current}`` publishes it) or with
 ``/dynamic_joint_states`` (every state interface, ``current`` among them). Topics are recognised by
 type and by their last name (``joint_states``, ``dynamic_joint_states``, ``current_reference``)
 under any namespace. q is the ``position`` of the JointState; the current comes, in this order of
-preference when present:
+preference when present (``CURRENT_SOURCES``, the one table of inputs the recorder, the live
+identification and the viewer read too):
 
 1. a DynamicJointState interface (``interface``, default ``current``);
 2. the JointState ``effort`` field (when it holds a finite value);
@@ -32,13 +33,46 @@ from ._decode import TopicSeries
 from ._tags import BagTags
 from ._types import CURRENT_REFERENCE_TYPE, DYNAMIC_JOINT_STATE_TYPE, JOINT_STATE_TYPE
 
-DEFAULT_INTERFACE = "current"
-BASENAMES = {
-    JOINT_STATE_TYPE: "joint_states",
-    DYNAMIC_JOINT_STATE_TYPE: "dynamic_joint_states",
-    CURRENT_REFERENCE_TYPE: "current_reference",
-}
-_CURRENT_TYPES = (DYNAMIC_JOINT_STATE_TYPE, JOINT_STATE_TYPE, CURRENT_REFERENCE_TYPE)
+DEFAULT_INTERFACE = "current"  # the DynamicJointState interface of the current, unless told
+
+
+@dataclass(frozen=True)
+class InputSource:
+    """One kind of input the product reads q or the current from, offline (bags) and live (the
+    identification node, the viewer): the message type, the topic's last name (recognised under
+    any namespace), the field (a DynamicJointState's: the ``current_interface`` option), the
+    unit, the node parameter that names the topic and its default, and the key live buffers and
+    logs use."""
+
+    key: str
+    msgtype: str
+    basename: str
+    field: str  # "" for a DynamicJointState: the interface option (default DEFAULT_INTERFACE)
+    quantity: str  # "position" | "current"
+    unit: str
+    topic_parameter: str  # of the identification and viewer nodes
+    default_topic: str
+    label: str  # "the effort of" /joint_states, in logs
+
+    def field_for(self, interface: str | None) -> str:
+        return self.field or interface or DEFAULT_INTERFACE
+
+
+# The one table of inputs: q, then the current's sources in the order of preference.
+POSITION = InputSource("q", JOINT_STATE_TYPE, "joint_states", "position", "position", "m or rad",
+                       "joint_states_topic", "orthoglide/joint_states", "the position of")
+CURRENT_SOURCES = (
+    InputSource("d", DYNAMIC_JOINT_STATE_TYPE, "dynamic_joint_states", "", "current", "A",
+                "dynamic_joint_states_topic", "dynamic_joint_states", "the interface of"),
+    InputSource("effort", JOINT_STATE_TYPE, "joint_states", "effort", "current",
+                "A (N or N·m with effort_unit: torque)", "joint_states_topic",
+                "orthoglide/joint_states", "the effort of"),
+    InputSource("v", CURRENT_REFERENCE_TYPE, "current_reference", "current", "current", "A",
+                "current_reference_topic", "orthoglide/current_reference", "the current of"),
+)
+INPUT_SOURCES = (POSITION,) + CURRENT_SOURCES
+BASENAMES = {s.msgtype: s.basename for s in INPUT_SOURCES}
+_CURRENT_TYPES = tuple(dict.fromkeys(s.msgtype for s in CURRENT_SOURCES))
 
 
 @dataclass(frozen=True)
@@ -119,23 +153,32 @@ def _position(topics: Mapping[str, TopicSeries], tags: BagTags | None, path: Pat
     return Source(js.topic, JOINT_STATE_TYPE, "position")
 
 
+def _carries(s: TopicSeries, src: InputSource, field: str,
+             joints: Sequence[str] | None) -> bool:
+    """Whether ``s`` holds the current as ``src`` reads it: a DynamicJointState with the
+    interface, a JointState with a finite effort, a CurrentReference with messages."""
+    if src.msgtype == JOINT_STATE_TYPE:
+        return bool(np.isfinite(s.take(field, joints)[1]).any())
+    if not len(s.stamps_ns):
+        return False
+    return src.msgtype != DYNAMIC_JOINT_STATE_TYPE or bool(s.take(field, joints)[0])
+
+
 def _current(topics: Mapping[str, TopicSeries], position: Source, interface: str | None,
              joints: Sequence[str] | None, path: Path) -> Source:
-    """The preferred current source; ``interface`` given: that DynamicJointState interface only."""
+    """The first of CURRENT_SOURCES the bag holds; ``interface`` given: that DynamicJointState
+    interface only."""
     iface = interface or DEFAULT_INTERFACE
-    djs = find_topic(topics, DYNAMIC_JOINT_STATE_TYPE, path)
-    if djs is not None and len(djs.stamps_ns) and djs.take(iface, joints)[0]:
-        return Source(djs.topic, DYNAMIC_JOINT_STATE_TYPE, iface)
-    if interface is not None:
-        where = djs.topic if djs is not None else "no dynamic_joint_states topic"
-        raise BagError(f"{path}: interface {interface!r} is not in {where} "
-                       f"(found: {_found(topics)})")
-    js = topics[position.topic]
-    if np.isfinite(js.take("effort", joints)[1]).any():
-        return Source(js.topic, JOINT_STATE_TYPE, "effort")
-    cr = find_topic(topics, CURRENT_REFERENCE_TYPE, path)
-    if cr is not None and len(cr.stamps_ns):
-        return Source(cr.topic, CURRENT_REFERENCE_TYPE, "current")
+    for src in CURRENT_SOURCES:
+        s = (topics[position.topic] if src.msgtype == JOINT_STATE_TYPE
+             else find_topic(topics, src.msgtype, path))
+        field = src.field_for(interface)
+        if s is not None and _carries(s, src, field, joints):
+            return Source(s.topic, src.msgtype, field)
+        if interface is not None:  # asked for explicitly: no other source will do
+            where = s.topic if s is not None else "no dynamic_joint_states topic"
+            raise BagError(f"{path}: interface {interface!r} is not in {where} "
+                           f"(found: {_found(topics)})")
     cr_name = position.topic.rsplit("/", 1)[0] + "/current_reference"
     raise BagError(f"{path}: no current: {cr_name} is missing, {position.topic} carries no effort "
                    f"and no dynamic_joint_states topic has interface '{iface}' (found: "

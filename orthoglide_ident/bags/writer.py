@@ -345,7 +345,7 @@ def write_bag(
     v_tau: np.ndarray,
     condition: str,
     payload_mass: float,
-    joint_names: Sequence[str] = ("q11", "q12", "q13"),
+    joint_names: Sequence[str],
     extra: Mapping[str, str] | None = None,
     *,
     layout: str = "orthoglide",

@@ -56,11 +56,15 @@ def _say(text: str) -> None:
 
 def run_command(args: argparse.Namespace) -> int:
     from orthoglide_ident.excite.runner import ExcitationRunner, RunOptions
+    from orthoglide_ident.excite.trajectory import load_trajectory
+    from orthoglide_ident.model.robots import load_robot
 
+    traj = load_trajectory(args.trajectory)
+    robot = load_robot(args.robot or traj.robot)  # the robot is resolved here, at the command's edge
     options = RunOptions(args.controller, args.joint_states, args.rate, args.path_tolerance, args.goal_time,
                          record=not args.no_record)
     with ros_client.Client(args.namespace) as c:
         runner = ExcitationRunner(c.node, lambda t: c.rclpy.spin_once(c.node, timeout_sec=t), _say, options)
-        result = runner.run(args.trajectory, args.condition, args.payload_mass, args.robot, args.name)
+        result = runner.run(traj, args.trajectory, robot, args.condition, args.payload_mass, args.name)
     print(result.message)
     return 0 if result.success else EXIT_INCOMPLETE

@@ -2,7 +2,8 @@
 share (the plan and its checks are ``excite.run``; the goals ``excite.action_client``).
 
     runner = ExcitationRunner(node, spin, say, RunOptions(controller="joint_trajectory_controller"))
-    result = runner.run("traj.yaml", "loaded", payload_mass=None)     # RunResult
+    traj = load_trajectory("traj.yaml"); robot = load_robot(args.robot or traj.robot)  # at the edge
+    result = runner.run(traj, "traj.yaml", robot, "loaded", payload_mass=None)     # RunResult
 
 ``spin(timeout)`` lets the node's callbacks run while a step waits: ``rclpy.spin_once`` from a
 terminal, a sleep in a node whose executor serves them from other threads. ``say`` takes the
@@ -24,6 +25,8 @@ import numpy as np
 from orthoglide_ident.errors import ConfigError, OrthoglideError
 from orthoglide_ident.excite import run as plan
 from orthoglide_ident.excite.action_client import goal_message, send_goal, wait_for
+from orthoglide_ident.excite.trajectory import ExcitationTrajectory
+from orthoglide_ident.model.robot import RobotModel
 
 PROGRESS_PERIOD_S = 2.0  # a progress line this often
 JOINT_STATES_TIMEOUT_S = 30.0  # a node just started may take seconds to discover the robot
@@ -71,14 +74,11 @@ class ExcitationRunner:
         self._live_sub: Any = None
         self._live_to: _Progress | None = None
 
-    def run(self, trajectory: str, condition: str, payload_mass: float | None = None,
-            robot_spec: str | None = None, name: str = "") -> RunResult:
-        """Check, approach, record, run, stop. ConfigError/RunError before the recording starts."""
-        from orthoglide_ident.excite.trajectory import load_trajectory
-        from orthoglide_ident.model.robots import load_robot
-
-        traj = load_trajectory(trajectory)
-        robot = load_robot(robot_spec or traj.robot)
+    def run(self, traj: ExcitationTrajectory, trajectory: str, robot: RobotModel, condition: str,
+            payload_mass: float | None = None, name: str = "") -> RunResult:
+        """Check, approach, record, run, stop ``traj`` (read from the file ``trajectory``, named
+        in messages) on ``robot`` (resolved at the edge: the command, the node's parameter).
+        ConfigError/RunError before the recording starts."""
         plan.check_run(traj, condition, robot, trajectory)
         tag = plan.payload_tag(traj, condition, payload_mass, trajectory)
         points = plan.excitation_points(traj, condition, self.o.rate_hz)

@@ -45,8 +45,9 @@ import numpy as np
 
 from orthoglide_ident.errors import ConfigError, IdentificationError
 from orthoglide_ident.identify import lmi
-from orthoglide_ident.identify.pseudo_inertia import (MARGIN, Layout, at_com, clean, layout,
+from orthoglide_ident.identify.pseudo_inertia import (MARGIN, Layout, clean, layout,
                                                       min_eigenvalues)
+from orthoglide_ident.model.inertia import at_com
 
 log = logging.getLogger("orthoglide_ident.identify")
 

@@ -1,6 +1,7 @@
 """Online identification: the offline pipeline fed while the recordings run (docs/architecture.md §1, §7).
 
-    live = LiveIdentification(IdentifyOptions.from_yaml("config/identification.yaml"))
+    live = LiveIdentification(IdentifyOptions.from_yaml("config/identification.yaml"),
+                              model=load_robot("orthoglide"))  # the robot: always passed
     live.start_recording("run-1", "unloaded", 0.0)
     live.add_joint_states(stamps_ns, ["q11", "q12", "q13"], q)           # any batch size
     live.add_current_reference(stamps_ns, ["q11", "q12", "q13"], v_tau)  # arrives independently
@@ -13,7 +14,7 @@
 Each recording is one record (like one bag). Samples are paired by stamp once both topics are
 ``live_pairing_slack_s`` past them (pairing.py), split at real gaps, and every continuous segment
 runs through a :class:`~stream.SegmentStream` about every ``live_block_s`` of data: the same
-filtering, W, reversal bridging and FIR decimation as ``pipeline.observe``, exact across blocks.
+filtering, W, reversal bridging and FIR decimation as ``observe.observe``, exact across blocks.
 The decimated equations are folded into per-condition, per-joint R factors (factors.py), so
 memory and CPU per second of data stay constant; ``result()`` solves them with the offline
 solver (solve.py). Non-finite samples are dropped and split the record (offline
@@ -39,12 +40,14 @@ import numpy as np
 from orthoglide_ident.errors import (ConfigError, ExcitationError, IdentificationError,
                                      OrthoglideError)
 from orthoglide_ident.identify.current_lag import MAX_SEARCH_S
+from orthoglide_ident.identify.diagnostics import finish_result
 from orthoglide_ident.identify.drive_terms import observation_model, screw_mask
 from orthoglide_ident.identify.factors import RecordFactors
 from orthoglide_ident.identify.live_recording import LiveRecording
+from orthoglide_ident.identify.methods import DEFAULT_METHOD, solve
+from orthoglide_ident.identify.observe import IdentificationModel
 from orthoglide_ident.identify.options import IdentifyOptions
-from orthoglide_ident.identify.pipeline import IdentificationModel, default_model, finish_result
-from orthoglide_ident.identify.solve import min_rows, solve, tls_model
+from orthoglide_ident.identify.solve import min_rows, tls_model
 from orthoglide_ident.identify.stream import DecimatedRows
 from orthoglide_ident.identify.tls import check_excitation
 from orthoglide_ident.model.robot import Payload
@@ -124,22 +127,22 @@ class _Version:
 class LiveIdentification:
     """IDIM-TLS identification fed topic by topic while the recordings run.
 
-    ``options`` as offline (``decimation_filter`` must be ``fir``); ``model`` the base model by
-    default. See the module docstring for the calls; every ``add_*`` returns the warnings it
-    raised, and :meth:`drain_warnings` returns all warnings since its last call (use either).
+    ``options`` as offline (``decimation_filter`` must be ``fir``); ``model`` the robot (passed,
+    never defaulted). See the module docstring for the calls; every ``add_*`` returns the
+    warnings it raised, and :meth:`drain_warnings` returns all warnings since its last call (use
+    either).
     Not thread-safe: call it from one thread (a node with a multi-threaded executor holds a lock
     or puts the subscriptions in one mutually exclusive callback group).
     """
 
-    def __init__(self, options: IdentifyOptions | None = None,
-                 model: IdentificationModel | None = None):
+    def __init__(self, options: IdentifyOptions | None = None, *, model: IdentificationModel):
         self.opts = options or IdentifyOptions()
         self.opts.validate()
         if self.opts.decimation_filter != "fir":
             raise ConfigError("live identification needs decimation_filter: fir (cheby1's IIR "
                               "decimation depends on the whole segment)")
-        self.model = observation_model(model if model is not None else default_model(),
-                                       self.opts.screw_lead_m, self.opts.lag_model == "auto")
+        self.model = observation_model(model, self.opts.screw_lead_m,
+                                       self.opts.lag_model == "auto")
         self.n_b = len(self.model.names)
         self._factors: dict[tuple[str, float], RecordFactors] = {}
         self._seconds: dict[str, float] = {"loaded": 0.0, "unloaded": 0.0}
@@ -272,7 +275,7 @@ class LiveIdentification:
         """Seconds of received data whose equations are not folded in yet."""
         return self._current.lag_s if self._current is not None else 0.0
 
-    def result(self, method: str = "tls", essential: bool = False,
+    def result(self, method: str = DEFAULT_METHOD, essential: bool = False,
                gains: Sequence[float] | None = None,
                payload_mass: float | None = None) -> IdentificationResult:
         """IDIM-TLS (or WLS with ``gains`` N/A) on everything folded in: the IdentificationResult

@@ -19,7 +19,7 @@ from orthoglide_ident.errors import OrthoglideError
 from orthoglide_ident.identify.current_lag import LiveLagInstrument, without_instrument
 from orthoglide_ident.identify.options import IdentifyOptions
 from orthoglide_ident.identify.pairing import Paired, TopicBuffer, pair_upto
-from orthoglide_ident.identify.pipeline import bag_report
+from orthoglide_ident.identify.diagnostics import bag_report
 from orthoglide_ident.identify.segments import SegmentReport
 from orthoglide_ident.ticks import find_breaks
 from orthoglide_ident.identify.stream import DecimatedRows, SegmentStream

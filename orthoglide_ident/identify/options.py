@@ -14,13 +14,23 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 
 from orthoglide_ident.errors import ConfigError
-from orthoglide_ident.identify.tls import ExcitationLimits
 from orthoglide_ident.yaml_files import load_yaml
 
 
 # keys of config/identification.yaml that are the node's or a request's, not pipeline options
 NODE_KEYS = ("method", "essential", "payload_mass", "gains", "bags", "robot", "joint_states_topic",
              "dynamic_joint_states_topic", "current_reference_topic")
+
+
+@dataclass
+class ExcitationLimits:
+    """Thresholds of :func:`tls.check_excitation` (configurable in config/identification.yaml)."""
+
+    max_condition: float = 1.0e7  # of the column-scaled regressor W
+    max_singular_ratio: float = 0.5  # s_c / s_(c-1) of W_tot
+    max_gain_rel_std: float = 0.05  # fraction
+    # plausible drive gains per joint (N/A or N·m/A): (lowest, highest) arrays or numbers
+    gain_range: tuple = (200.0, 20000.0)
 
 
 @dataclass

@@ -4,7 +4,7 @@ Shared by the offline pipeline (one :class:`~factors.RecordFactors` per bag) and
 identification (one per payload condition, folded while recording): IDIM-TLS with the gains
 identified and the scale from the known payload mass (eqs. 33-39), or IDIM-WLS with given gains
 and the payload masses estimated (eqs. 24-28), each optionally reduced to essential parameters
-(Sect. 5.2).
+(Sect. 5.2). Which method runs is methods.py's table (``methods.solve``).
 """
 from __future__ import annotations
 
@@ -352,23 +352,3 @@ def _note_essential(names: list[str], result: IdentificationResult, ess: Essenti
                                     "steps": [st.to_json() for st in ess.steps]}
     result.essential.essential_steps = list(ess.steps)
     result.removed = list(result.essential.removed)
-
-
-def solve(factors: list[RecordFactors], model, opts: IdentifyOptions, method: str = "tls",
-          gains: Sequence[float] | None = None, essential: bool = False,
-          bags: Sequence[str] = ()) -> Solved:
-    """IDIM-TLS or IDIM-WLS on the factors; raises the product's errors with a reason."""
-    if method not in ("tls", "wls"):
-        raise IdentificationError(f"unknown method {method!r}: use tls or wls")
-    if not factors:
-        raise IdentificationError("no bag given")
-    check_rows(factors, model, opts)
-    if method == "tls":
-        out = solve_tls(factors, model, opts, essential, list(bags))
-    else:
-        out = solve_wls(factors, model, opts, gains, essential, list(bags))
-    if opts.consistent:  # physically consistent standard parameters behind the answer
-        from orthoglide_ident.identify.consistency import attach
-
-        attach(out, model, opts)
-    return out

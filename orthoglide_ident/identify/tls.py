@@ -25,18 +25,8 @@ import numpy as np
 from orthoglide_ident.errors import ExcitationError, IdentificationError
 from orthoglide_ident.identify.factors import RecordFactors, as_factors
 from orthoglide_ident.identify.observations import Observations
+from orthoglide_ident.identify.options import ExcitationLimits
 from orthoglide_ident.identify.uncertainty import Uncertainty, evaluate
-
-
-@dataclass
-class ExcitationLimits:
-    """Thresholds of :func:`check_excitation` (configurable in config/identification.yaml)."""
-
-    max_condition: float = 1.0e7  # of the column-scaled regressor W
-    max_singular_ratio: float = 0.5  # s_c / s_(c-1) of W_tot
-    max_gain_rel_std: float = 0.05  # fraction
-    # plausible drive gains per joint (N/A or N·m/A): (lowest, highest) arrays or numbers
-    gain_range: tuple = (200.0, 20000.0)
 
 
 @dataclass

@@ -4,8 +4,9 @@ The columns of W_st are ordered (eq. 23 for symmetric legs; bodies from the base
 serial robot, so the wrist's parameters are the ones regrouped) and factored by QR (eq. 22): a
 column whose |R_kk| is below ``QR_EPS`` max|R_jj| depends on the columns before it and is
 regrouped into them, W_D = W_B β, so every kept parameter carries the expression
-χ_b = χ_B + Σ β χ_D. The threshold and the coefficient cleaning are the closed form's
-(model/base.py). The singular values of the same matrix (those of R) give its numerical rank
+χ_b = χ_B + Σ β χ_D. The threshold, the coefficient cleaning and BaseParameter are every robot's
+(the Orthoglide's closed form, model/orthoglide/base.py, uses them too). The singular values of
+the same matrix (those of R) give its numerical rank
 independently of the column order; the two must agree, or the states do not excite the model
 clearly enough to tell which columns depend on which.
 """
@@ -18,7 +19,32 @@ import numpy as np
 import scipy.linalg
 
 from orthoglide_ident.errors import ModelError
-from orthoglide_ident.model.base import COEF_TOL, QR_EPS, BaseParameter
+
+QR_EPS = 1e-8  # exact model data: dependent columns sit at ~1e-13 relative
+COEF_TOL = 1e-7  # coefficients below this (relative to 1) are numerical noise
+
+
+def _fmt_coef(c: float) -> str:
+    return f"{c:.5g}"
+
+
+@dataclass(frozen=True)
+class BaseParameter:
+    """One base parameter: the standard parameter kept and the regrouping it stands for."""
+
+    name: str  # paper style, 'm_11R' when regrouped
+    standard: str  # kept standard parameter, e.g. 'm_11'
+    terms: tuple[tuple[str, float], ...]  # (standard name, coefficient), the kept one first with 1.0
+    legs: tuple[int, ...]  # legs whose base parameter of this kind has the same form
+
+    @property
+    def expression(self) -> str:
+        out = self.standard
+        for name, c in self.terms[1:]:
+            sign = "-" if c < 0 else "+"
+            mag = abs(c)
+            out += f" {sign} {name}" if abs(mag - 1.0) < 1e-9 else f" {sign} {_fmt_coef(mag)} {name}"
+        return out
 
 
 @dataclass(frozen=True)

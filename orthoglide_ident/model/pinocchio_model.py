@@ -304,6 +304,11 @@ class PinocchioRobot(RobotModel):
             self._rows.block(q, qd, qdd, self._columns, None, out)
         return out.reshape(out.shape[0], -1).T
 
+    @property
+    def gravity(self) -> tuple[float, float, float]:
+        """m/s², the description's (z up unless the robot file says otherwise)."""
+        return self.description.gravity
+
     def with_payload(self, payload: Payload) -> "PinocchioRobot":
         """The same robot whose payload column is ``payload``'s (its frame, or payload_frame)."""
         other = copy.copy(self)  # shares the tree, closure, base parameters and the lock

@@ -8,7 +8,7 @@ gains), the standard parameters per body, the base parameters with their regroup
 
 Two implementations:
 
-- the Orthoglide's closed form (``model/base.py``: the paper's virtual tree closed by
+- the Orthoglide's closed form (``model/orthoglide/base.py``: the paper's virtual tree closed by
   J_t = J_k⁻¹ J_tk J_p and its 61 symmetric base parameters);
 - the general model on Pinocchio (``model/pinocchio_model.py``): a URDF or MJCF tree, closed
   chains by loop constraints, base parameters by pivoted QR on random states.
@@ -36,6 +36,8 @@ INERTIAL_KINDS = ("xx", "xy", "xz", "yy", "yz", "zz", "mx", "my", "mz", "m")
 # Drive and friction terms of a joint: rotor inertia (actuated joints), viscous, Coulomb, offset.
 DRIVE_KINDS = ("ia", "fv", "fs", "tauoff")
 JOINT_KINDS = ("prismatic", "revolute")
+G0 = 9.80665  # m/s², standard gravity
+DEFAULT_GRAVITY = (0.0, 0.0, -G0)  # z up, as URDF and MJCF robots are described
 
 
 @dataclass(frozen=True)
@@ -134,6 +136,7 @@ class RobotModel(abc.ABC):
     names: list[str]  # base parameters
     expressions: list[str]  # each base parameter's regrouping of standard ones
     K: np.ndarray  # (n_b, n_st): chi_b = K chi_st (eq. 21)
+    gravity: tuple[float, float, float] = DEFAULT_GRAVITY  # m/s², the acceleration vector
 
     @abc.abstractmethod
     def observation_block(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray,
@@ -161,6 +164,28 @@ class RobotModel(abc.ABC):
     @abc.abstractmethod
     def to_json(self) -> dict:
         """The base parameters as data (``orthoglide-ident model --base-parameters --json``)."""
+
+    # --- the identified model, written by every robot the same way unless it has its own ----
+    def identified_urdf(self, chi_st: np.ndarray, gains: Sequence[float]) -> str:
+        """The URDF of the identified model (``identify --urdf-out``): a URDF robot's own file
+        with the inertials and drive terms of ``chi_st``; ConfigError for a robot without one."""
+        from orthoglide_ident.model.urdf import urdf_with_inertials
+
+        return urdf_with_inertials(self, chi_st, gains)
+
+    def joint_labels(self, urdf_text: str) -> dict[str, str]:
+        """URDF joint name -> the label of its drive terms (``fv_<label>``) in ``urdf_text``."""
+        from orthoglide_ident.model.urdf import joint_labels
+
+        return joint_labels(self, urdf_text)
+
+    def forward_model(self, chi_st: np.ndarray, gains: Sequence[float],
+                      payload: Payload | None):
+        """(forward model, engine name) of the identified model (model/forward.py), or (None,
+        reason) when it cannot be simulated here (the passive joints of a closed chain)."""
+        from orthoglide_ident.model.forward import tree_forward
+
+        return tree_forward(self, chi_st, gains, payload)
 
     # --- derived, written once -------------------------------------------------------------
     def regressor(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> np.ndarray:

@@ -13,9 +13,8 @@ from typing import Any
 
 from orthoglide_ident.errors import ConfigError
 from orthoglide_ident.model.loop_constraints import LOOP_KINDS, Loop
+from orthoglide_ident.model.robot import DEFAULT_GRAVITY
 
-G0 = 9.80665  # m/s², standard gravity
-DEFAULT_GRAVITY = (0.0, 0.0, -G0)  # z up, as URDF and MJCF robots are described
 
 KEYS = ("name", "model", "description", "actuated_joints", "nominal_gains", "payload_frame",
         "gravity", "loops", "reference_configuration", "passive_friction", "column_order",

@@ -1,6 +1,7 @@
 """Which robot: ``--robot FILE`` (CLI) and the ``robot`` parameter (nodes) to a RobotModel.
 
-- empty / ``orthoglide``: the Orthoglide's closed form (``model/base.py``), as without ``--robot``;
+- empty / ``orthoglide``: the Orthoglide's closed form (``model/orthoglide/base.py``), as without
+  ``--robot``;
 - a bundled name (a file ``orthoglide_ident/robots/<name>.yaml``, e.g. ``ur5e``, ``five_bar``);
 - a URDF (``.urdf``): every movable joint actuated, the manufacturer's gains 1 per unit;
 - a robot YAML (``.yaml``/``.yml``, docs/architecture.md "Robot files"): ``model: orthoglide`` or
@@ -62,7 +63,7 @@ def load_robot(spec: str | Path | None = None) -> RobotModel:
 @functools.lru_cache(maxsize=8)
 def _load(path: str) -> RobotModel:
     if not path:
-        from orthoglide_ident.model.base import base_model
+        from orthoglide_ident.model.orthoglide.base import base_model
 
         return base_model()
     p = Path(path)
@@ -85,8 +86,8 @@ ORTHOGLIDE_KEYS = ("name", "model", "geometry", "nominal_gains")
 def _orthoglide(data: dict[str, Any], path: Path) -> RobotModel:
     """The closed form with the file's geometry (a, d4, d6 in m; gravity in m/s² along y0) and
     nominal gains (N/A: three numbers or one for all)."""
-    from orthoglide_ident.model.base import base_model
-    from orthoglide_ident.model.geometry import PAPER, Geometry
+    from orthoglide_ident.model.orthoglide.base import base_model
+    from orthoglide_ident.model.orthoglide.geometry import PAPER, Geometry
 
     unknown = sorted(set(data) - set(ORTHOGLIDE_KEYS))
     if unknown:

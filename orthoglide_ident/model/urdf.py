@@ -6,11 +6,10 @@
   the identified body holds them — and each joint's ``<dynamics damping friction>`` set to its
   fv, fs; rotor inertia ia and offset tauoff, which URDF has no element for, in a comment at
   the joint; the drive gains in a comment at the top.
-- The Orthoglide: a URDF of its open tree, written from the MDH frames of docs/conventions.md:
-  per leg a prismatic foot (q1i) and four pivots (q2i..q5i), link ``body_<j><i>`` in frame j_i,
-  the platform fixed to body 5 of leg 1 at P; the loops are **not** in the file (URDF has no
-  closed chains): the product's model closes them (body 5 of legs 2 and 3 welded to the
-  platform: links ``platform_on_leg2``, ``platform_on_leg3`` mark where).
+- A robot that writes its own (the Orthoglide's open tree, model/orthoglide/urdf.py) uses the
+  elements here: ``inertial_element``, ``set_dynamics``, the comments, ``mujoco_compiler``.
+
+``RobotModel.identified_urdf`` is the one door: callers never ask which robot it is.
 
 A ``<mujoco><compiler .../></mujoco>`` element keeps MuJoCo from merging fixed links or
 rebalancing the inertias (Pinocchio ignores it). Every number is written with 17 significant
@@ -21,24 +20,25 @@ from __future__ import annotations
 import math
 import xml.etree.ElementTree as ET
 from pathlib import Path
-from typing import Mapping, Sequence
+from typing import Any, Mapping, Sequence
 
 import numpy as np
 
 from orthoglide_ident.errors import ConfigError
-from orthoglide_ident.identify.pseudo_inertia import at_com
-from orthoglide_ident.model.robot import RobotModel
+from orthoglide_ident.model.inertia import at_com
+
+RobotModel = Any  # a model/robot.RobotModel: its methods call this module, which does not import it
 
 MUJOCO_COMPILER = {"discardvisual": "true", "fusestatic": "false", "balanceinertia": "false"}
 EFFORT_LIMIT, SPEED_LIMIT = "1e4", "100"  # URDF requires limits; the identification sets none
 
 
-def _num(x: float) -> str:
+def fmt_num(x: float) -> str:
     return repr(float(x)) if math.isfinite(x) else "0"
 
 
-def _vec(v: Sequence[float]) -> str:
-    return " ".join(_num(x) for x in v)
+def fmt_vec(v: Sequence[float]) -> str:
+    return " ".join(fmt_num(x) for x in v)
 
 
 def rpy(R: np.ndarray) -> np.ndarray:
@@ -53,9 +53,9 @@ def inertial_element(chi10: np.ndarray) -> ET.Element:
     """``<inertial>`` of a body from its 10 parameters at the link origin (INERTIAL_KINDS)."""
     m, c, I = at_com(chi10)
     el = ET.Element("inertial")
-    ET.SubElement(el, "origin", xyz=_vec(c), rpy="0 0 0")
-    ET.SubElement(el, "mass", value=_num(m))
-    ET.SubElement(el, "inertia", **{k: _num(v) for k, v in
+    ET.SubElement(el, "origin", xyz=fmt_vec(c), rpy="0 0 0")
+    ET.SubElement(el, "mass", value=fmt_num(m))
+    ET.SubElement(el, "inertia", **{k: fmt_num(v) for k, v in
                                     zip(("ixx", "ixy", "ixz", "iyy", "iyz", "izz"), I)})
     return el
 
@@ -83,18 +83,18 @@ def header_comment(robot: RobotModel, gains: Sequence[float], what: str) -> str:
             f"Drive gains (actuator effort = g_tau x current reference): {g}. ")
 
 
-def _dynamics(joint: ET.Element, values: Mapping[str, float], label: str) -> None:
+def set_dynamics(joint: ET.Element, values: Mapping[str, float], label: str) -> None:
     fv, fs = values.get(f"fv_{label}"), values.get(f"fs_{label}")
     if fv is None and fs is None:
         return
     dyn = joint.find("dynamics")
     if dyn is None:
         dyn = ET.SubElement(joint, "dynamics")
-    dyn.set("damping", _num(fv or 0.0))
-    dyn.set("friction", _num(fs or 0.0))
+    dyn.set("damping", fmt_num(fv or 0.0))
+    dyn.set("friction", fmt_num(fs or 0.0))
 
 
-def _mujoco(root: ET.Element) -> None:
+def mujoco_compiler(root: ET.Element) -> None:
     mj = root.find("mujoco")
     if mj is None:
         mj = ET.Element("mujoco")
@@ -106,7 +106,7 @@ def _mujoco(root: ET.Element) -> None:
         comp.set(k, v)
 
 
-def _text(root: ET.Element) -> str:
+def xml_text(root: ET.Element) -> str:
     ET.indent(root, space="  ")
     return '<?xml version="1.0"?>\n' + ET.tostring(root, encoding="unicode") + "\n"
 
@@ -167,101 +167,19 @@ def replace_inertials(urdf_text: str, robot: RobotModel, chi_st: np.ndarray,
         joint = parent_joint.get(body.frame or body.name)
         label = body_label(robot, body)
         if joint is not None and joint.get("type") != "fixed":
-            _dynamics(joint, values, label)
+            set_dynamics(joint, values, label)
             joint.insert(0, ET.Comment(joint_comment(joint.get("name"), values, label,
                                                      _unit(robot, joint.get("name")))))
     root.insert(0, ET.Comment(header_comment(robot, gains, "The robot's own URDF with the "
                                              "identified inertials.")))
-    _mujoco(root)
-    return _text(root)
+    mujoco_compiler(root)
+    return xml_text(root)
 
 
-# ------------------------------------------------------------------ the Orthoglide's open tree
-# MDH α of the pivot frames 2..5 of every leg (docs/conventions.md, Table 2; θ = q_ji, d = d4
-# for frame 4, 0 otherwise)
-PIVOT_ALPHA = {2: -0.5 * math.pi, 3: -0.5 * math.pi, 4: 0.0, 5: 0.5 * math.pi}
-PLATFORM_LINK = "platform"
 
-
-def _rx(a: float) -> np.ndarray:
-    c, s = math.cos(a), math.sin(a)
-    return np.array([[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]])
-
-
-def platform_in_body5(leg: int) -> tuple[np.ndarray, np.ndarray]:
-    """(R, p) of the platform frame (base axes, origin P) in body 5 of ``leg`` (0..2) on the
-    closed loop: body 5 has the axes R_1i Rot(x, −π/2) (q5 = −q2, q4 = −q3) and origin
-    C_i = P − d6 e_i."""
-    from orthoglide_ident.model.geometry import D6, E_AXIS, R_LEG
-
-    R5 = R_LEG[leg] @ _rx(-0.5 * math.pi)
-    return R5.T, R5.T @ (D6 * E_AXIS[leg])
-
-
-def _joint(root: ET.Element, name: str, kind: str, parent: str, child: str, xyz, R) -> ET.Element:
-    j = ET.SubElement(root, "joint", name=name, type=kind)
-    ET.SubElement(j, "origin", xyz=_vec(xyz), rpy=_vec(rpy(R)))
-    ET.SubElement(j, "parent", link=parent)
-    ET.SubElement(j, "child", link=child)
-    if kind != "fixed":
-        ET.SubElement(j, "axis", xyz="0 0 1")
-        lim = 1.0 if kind == "prismatic" else math.pi
-        ET.SubElement(j, "limit", lower=_num(-lim), upper=_num(lim), effort=EFFORT_LIMIT,
-                      velocity=SPEED_LIMIT)
-    return j
-
-
-def orthoglide_urdf(robot: RobotModel, chi_st: np.ndarray, gains: Sequence[float]) -> str:
-    """The Orthoglide's open tree with the inertials and drive terms of ``chi_st`` (208)."""
-    from orthoglide_ident.model.geometry import D4, FOOT_OFFSET, G0, R_LEG
-
-    values = dict(zip(robot.standard_names, (float(x) for x in chi_st)))
-    inertial = {b.frame: np.asarray(chi_st)[list(b.inertial)] for b in robot.bodies}
-    root = ET.Element("robot", name="orthoglide_identified")
-    root.append(ET.Comment(header_comment(robot, gains, (
-        "Open tree of the Orthoglide: per leg i a prismatic foot q1i and pivots q2i..q5i in the "
-        "MDH frames of docs/conventions.md (link body_<j><i> = frame j_i), the platform fixed to "
-        "body 5 of leg 1 at P. The loops are closed by the product's model, not by this file: "
-        "body 5 of legs 2 and 3 is welded to the platform (links platform_on_leg2/3 coincide "
-        f"with platform on the robot). Gravity: {G0} m/s² along +y of base_link (y0 down)."))))
-    ET.SubElement(root, "link", name="base_link")
-    for i in range(3):
-        parent = "base_link"
-        for j in range(1, 6):
-            link, name = f"body_{j}{i + 1}", f"q{j}{i + 1}"
-            el = ET.SubElement(root, "link", name=link)
-            el.append(inertial_element(inertial[f"{j}_{i + 1}"]))
-            if j == 1:
-                jt = _joint(root, name, "prismatic", parent, link, R_LEG[i] @ FOOT_OFFSET[i],
-                            R_LEG[i])
-            else:
-                jt = _joint(root, name, "revolute", parent, link,
-                            (D4 if j == 4 else 0.0, 0.0, 0.0), _rx(PIVOT_ALPHA[j]))
-            label = f"{j}{i + 1}"
-            _dynamics(jt, values, label)
-            jt.insert(0, ET.Comment(joint_comment(name, values, label, "kg, N·s/m, N, N" if j == 1
-                                                  else "N·m·s/rad, N·m, N·m")))
-            parent = link
-    el = ET.SubElement(root, "link", name=PLATFORM_LINK)
-    el.append(inertial_element(inertial["platform"]))
-    R, p = platform_in_body5(0)
-    _joint(root, "platform_fixed", "fixed", "body_51", PLATFORM_LINK, p, R)
-    for leg in (1, 2):
-        ET.SubElement(root, "link", name=f"platform_on_leg{leg + 1}")
-        R, p = platform_in_body5(leg)
-        _joint(root, f"platform_on_leg{leg + 1}_fixed", "fixed", f"body_5{leg + 1}",
-               f"platform_on_leg{leg + 1}", p, R)
-    _mujoco(root)
-    return _text(root)
-
-
-def identified_urdf(robot: RobotModel, chi_st: np.ndarray, gains: Sequence[float]) -> str:
-    """The URDF of the identified model: the Orthoglide's open tree, or a URDF robot's own file
-    with its inertials replaced (module docstring)."""
-    from orthoglide_ident.model.base import BaseModel
-
-    if isinstance(robot, BaseModel):
-        return orthoglide_urdf(robot, chi_st, gains)
+def urdf_with_inertials(robot: RobotModel, chi_st: np.ndarray, gains: Sequence[float]) -> str:
+    """A URDF robot's own file with the identified inertials and drive terms (module docstring):
+    every robot's ``identified_urdf`` unless it writes its own (the Orthoglide's open tree)."""
     path = source_urdf(robot)
     try:
         text = path.read_text()
@@ -272,10 +190,6 @@ def identified_urdf(robot: RobotModel, chi_st: np.ndarray, gains: Sequence[float
 
 def joint_labels(robot: RobotModel, urdf_text: str) -> dict[str, str]:
     """URDF joint name -> the label of the drive terms of the body it moves (``fv_<label>``)."""
-    from orthoglide_ident.model.base import BaseModel
-
-    if isinstance(robot, BaseModel):
-        return {f"q{j}{i}": f"{j}{i}" for i in (1, 2, 3) for j in range(1, 6)}
     root = ET.fromstring(urdf_text)
     by_child = {j.find("child").get("link"): j.get("name") for j in root.findall("joint")
                 if j.get("type") != "fixed"}

@@ -18,10 +18,10 @@ from orthoglide_ident.control import CTCParameters, feedforward_currents
 from orthoglide_ident.errors import OrthoglideError
 from orthoglide_ident.model.robot import RobotModel
 from orthoglide_ident.model.robots import load_robot
-from orthoglide_ident.nodes._batch import BatchTaker, BatchTopic
 from orthoglide_ident.nodes._jtc import TrajectoryOutlet
-from orthoglide_ident.nodes._params import Param, declare, usage
-from orthoglide_ident.nodes._spin import spin
+from orthoglide_ident.ros.batch import BatchTaker, BatchTopic
+from orthoglide_ident.ros.params import Param, declare, usage
+from orthoglide_ident.ros.spin import spin
 from orthoglide_ident.ticks import TICK_NS
 from orthoglide_msgs.msg import CurrentReference, IdentifiedParameters, JointSetpoint
 
@@ -127,7 +127,7 @@ class CTCNode(Node):
                   "payload_mass": msg.payload_mass}
         try:
             model = CTCParameters.from_message_fields(
-                fields, None if self.payload_mass < 0 else self.payload_mass, self.robot)
+                fields, None if self.payload_mass < 0 else self.payload_mass, model=self.robot)
         except OrthoglideError as e:
             state = "keeping the previous ones" if self.model else "still waiting"
             self.get_logger().error(f"identified parameters rejected, {state}: {e}")
@@ -140,7 +140,7 @@ class CTCNode(Node):
                                f"{model.payload_mass:.4g} kg")
 
     def on_setpoints(self, batch: list) -> None:
-        """A batch of serialized setpoints (taken together, see nodes._batch)."""
+        """A batch of serialized setpoints (taken together, see ros.batch)."""
         for raw, _, _ in batch:
             msg = deserialize_message(raw, JointSetpoint)
             try:

@@ -15,8 +15,10 @@ from std_srvs.srv import Trigger
 from orthoglide_ident.errors import OrthoglideError
 from orthoglide_ident.excite import run as plan
 from orthoglide_ident.excite.runner import ExcitationRunner, RunOptions
-from orthoglide_ident.nodes._params import Param, declare, usage
-from orthoglide_ident.nodes._spin import spin
+from orthoglide_ident.excite.trajectory import load_trajectory
+from orthoglide_ident.model.robots import load_robot
+from orthoglide_ident.ros.params import Param, declare, usage
+from orthoglide_ident.ros.spin import spin
 from orthoglide_msgs.srv import RunExcitation
 
 DOC = """\
@@ -69,8 +71,10 @@ class ExcitationNode(Node):
             return res
         try:
             self.cancel.clear()
-            result = self.runner.run(req.trajectory, req.condition, req.payload_mass or None,
-                                     self.p["robot"] or None, req.name)
+            traj = load_trajectory(req.trajectory)
+            robot = load_robot(self.p["robot"] or traj.robot)
+            result = self.runner.run(traj, req.trajectory, robot, req.condition, req.payload_mass or None,
+                                     req.name)
             res.success, res.message, res.bag_path = result.success, result.message, result.bag_path
         except OrthoglideError as exc:
             res.success, res.message = False, " ".join(str(exc).split())

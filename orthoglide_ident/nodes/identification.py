@@ -21,15 +21,16 @@ from std_msgs.msg import String
 
 from orthoglide_ident.errors import ConfigError, OrthoglideError
 from orthoglide_ident.identify.live import LiveIdentification
+from orthoglide_ident.identify.methods import METHODS, REFINEMENTS, get
 from orthoglide_ident.identify.options import IdentifyOptions
 from orthoglide_ident.identify.pipeline import identify
 from orthoglide_ident.model.robots import load_robot, load_robot_description
-from orthoglide_ident.nodes._core_log import CoreLog
-from orthoglide_ident.nodes._params import Param, declare, on_set, usage
-from orthoglide_ident.nodes._spin import spin
 from orthoglide_ident.nodes.live_feed import LiveFeed
 from orthoglide_ident.nodes.live_sources import LiveTopics
 from orthoglide_ident.results import IdentificationResult, lag_text
+from orthoglide_ident.ros.core_log import CoreLog
+from orthoglide_ident.ros.params import Param, declare, on_set, usage
+from orthoglide_ident.ros.spin import spin
 from orthoglide_msgs.msg import IdentifiedParameters
 from orthoglide_msgs.srv import Identify
 
@@ -121,19 +122,19 @@ class IdentificationNode(Node):
         self._check_gains(self.param("wls_gains"))
         latched = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL,
                              reliability=ReliabilityPolicy.RELIABLE)
-        self.pub = {"tls": self.create_publisher(IdentifiedParameters, "orthoglide/identified_parameters", latched),
-                    "wls": self.create_publisher(IdentifiedParameters, "orthoglide/identified_parameters/wls",
-                                                 latched),
-                    "consistent": self.create_publisher(
-                        IdentifiedParameters, "orthoglide/identified_parameters/consistent", latched)}
+        topics = {m.name: m.topic for m in METHODS.values()}  # identify/methods.py's tables
+        topics["consistent"] = REFINEMENTS["consistent"].topic
+        self.pub = {k: self.create_publisher(IdentifiedParameters, t, latched)
+                    for k, t in topics.items()}
         self.busy = threading.Lock()
         self.live_lock = threading.Lock()
         self.live = None
         if self.param("live"):
-            self.live = LiveIdentification(self.options(), self.robot)
+            self.live = LiveIdentification(self.options(), model=self.robot)
             topics = LiveTopics(self.param("joint_states_topic"), self.param("current_reference_topic"),
                                 self.param("dynamic_joint_states_topic"), self.options().current_interface)
-            self.feed = LiveFeed(self, self.live, self.live_lock, topics, self.robot, self.options().effort_unit)
+            self.feed = LiveFeed(self, self.live, self.live_lock, topics, robot=self.robot,
+                                 effort_unit=self.options().effort_unit)
         if not self.param("robot"):  # the URDF robot_state_publisher publishes, when there is one
             self.create_subscription(String, "robot_description", self._on_description, latched)
         self.create_service(Identify, "orthoglide/identify", self.on_identify, callback_group=ReentrantCallbackGroup())
@@ -159,7 +160,7 @@ class IdentificationNode(Node):
         with self.live_lock:  # an identification under way keeps the model it started with
             self.robot = robot
             if self.live is not None:
-                self.live = LiveIdentification(self.options(), robot)
+                self.live = LiveIdentification(self.options(), model=robot)
                 self.feed.replace(self.live, robot)
         self.get_logger().info(f"robot from robot_description: {robot.name}, {robot.n_joints} joints "
                                f"{', '.join(robot.joint_names)}, {robot.n_b} base parameters (nominal gains 1)")
@@ -224,7 +225,7 @@ class IdentificationNode(Node):
     def identify(self, request: Identify.Request, method: str, essential: bool) -> IdentificationResult:
         """From the bags named, else the live data, else every bag of bag_dir."""
         payload_mass = request.payload_mass if request.payload_mass > 0 else None
-        gains = self.wls_gains() if method == "wls" else None
+        gains = self.wls_gains() if get(method).gains_given else None
         if not request.bags and self.live is not None:
             with self.live_lock:
                 est = self.live.estimate()
@@ -247,7 +248,7 @@ class IdentificationNode(Node):
         """Publish (latched) and answer with the result; its warnings go to the log and the reply."""
         chosen = result.essential if essential and result.essential is not None else result
         msg = result_message(chosen, self.get_clock().now().to_msg())
-        self.pub["wls" if method == "wls" else "tls"].publish(msg)
+        self.pub[method].publish(msg)
         for w in result.warnings:
             self.get_logger().warning(w)
         gains = ", ".join(f"{g:.1f}" for g in msg.drive_gains)

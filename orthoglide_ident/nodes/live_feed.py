@@ -2,7 +2,7 @@
 
 The recorder says what it records on orthoglide/recorder/status (condition, payload mass, bag,
 first and last tick written). The joint states and currents come in raw (serialized), taken in
-batches (nodes._batch), and wait in a short buffer; every FEED_PERIOD_S they are decoded in bulk
+batches (ros.batch), and wait in a short buffer; every FEED_PERIOD_S they are decoded in bulk
 and handed to ``LiveIdentification`` from the recording's first tick to its last, so that the
 live data are the ticks the bag holds, and the live result equals ``orthoglide-ident identify``
 on that bag. The topics are the Orthoglide's (orthoglide/joint_states + current_reference) or a
@@ -25,12 +25,12 @@ from sensor_msgs.msg import JointState
 
 from orthoglide_ident.bags import (CURRENT_REFERENCE_TYPE, DYNAMIC_JOINT_STATE_TYPE, JOINT_STATE_TYPE,
                                    decode_messages)
+from orthoglide_ident.bags.sources import CURRENT_SOURCES
 from orthoglide_ident.errors import OrthoglideError
 from orthoglide_ident.identify.live import LiveIdentification
 from orthoglide_ident.model.robot import Payload, RobotModel
-from orthoglide_ident.model.robots import load_robot
-from orthoglide_ident.nodes._batch import BatchTaker, BatchTopic
 from orthoglide_ident.nodes.live_sources import DYNAMIC, EFFORT, REFERENCE, LiveTopics, choose_current
+from orthoglide_ident.ros.batch import BatchTaker, BatchTopic
 from orthoglide_msgs.msg import CurrentReference, LiveIdentification as LiveMsg, RecorderStatus
 
 FEED_PERIOD_S = 0.1
@@ -41,6 +41,7 @@ STREAM_DEPTH = 5000  # messages DDS holds for this node while it is stalled (5 s
 QOS_CHECK_PERIOD_S = 1.0  # how often the publishers' offered reliability is looked at
 HOLDBACK_NS = 250_000_000  # the newest 0.25 s wait: the recorder's stop may end the recording there
 _STAMP = struct.Struct("<iI")
+LABELS = {s.key: s.label for s in CURRENT_SOURCES}  # "the effort of" /joint_states, in the log
 
 
 def _stamp_ns(raw: bytes) -> int:
@@ -77,16 +78,16 @@ def status_payload(msg: RecorderStatus) -> Payload | None:
 
 class LiveFeed:
     """Subscriptions, buffers and timers of live identification, on ``node`` (under ``lock``);
-    ``robot`` the model's joints and nominal gains (None: the Orthoglide); ``effort_unit``
+    ``robot`` the model's joints and nominal gains (the node's ``robot`` parameter); ``effort_unit``
     "torque": a JointState effort or DynamicJointState interface in N·m or N, turned into a current
     with the nominal gains, as offline."""
 
     def __init__(self, node: Node, live: LiveIdentification, lock: threading.Lock,
-                 topics: LiveTopics | None = None, robot: RobotModel | None = None,
+                 topics: LiveTopics | None = None, *, robot: RobotModel,
                  effort_unit: str = "A") -> None:
         self.node, self.live, self.lock = node, live, lock
         self.topics, self.effort_unit = topics or LiveTopics(), effort_unit
-        self.robot = robot if robot is not None else load_robot(None)
+        self.robot = robot
         self.TOPICS = _topics(self.topics)
         self.buffers = {k: collections.deque(maxlen=IDLE_BUFFER) for k in self.TOPICS}
         self.source: str | None = None  # where the recording's current comes from (live_sources)
@@ -208,8 +209,8 @@ class LiveFeed:
             self._finish()
             return False
         if self.source is not None:
-            what = {DYNAMIC: f"interface {self.topics.iface!r} of", EFFORT: "the effort of",
-                    REFERENCE: "the current of"}[self.source]
+            what = (f"interface {self.topics.iface!r} of" if self.source == DYNAMIC
+                    else LABELS[self.source])
             key = "q" if self.source == EFFORT else self.source
             self.node.get_logger().info(f"live identification: {self.bag}: current from {what} "
                                         f"{resolved[key]}, q from {resolved['q']}")

@@ -1,7 +1,8 @@
 """Which topics live identification reads, and where each recording's current comes from.
 
 Positions come from a JointState topic (``joint_states_topic``); the current, as offline
-(docs/bags.md), from the first of these that the recording has:
+(docs/bags.md), from the first of these that the recording has (bags.sources.CURRENT_SOURCES,
+the one table of inputs):
 
 1. a DynamicJointState interface (``current_interface``, default ``current``) on
    ``dynamic_joint_states_topic``, as ros2_control's joint_state_broadcaster publishes every state
@@ -22,11 +23,13 @@ from dataclasses import dataclass
 import numpy as np
 
 from orthoglide_ident.bags import DYNAMIC_JOINT_STATE_TYPE, JOINT_STATE_TYPE, decode_messages
+from orthoglide_ident.bags.sources import CURRENT_SOURCES, DEFAULT_INTERFACE, POSITION
 from orthoglide_ident.errors import DataError
 
 SOURCE_WAIT_S = 1.0  # s after the recording's first joint state, waiting for a preferred topic
-DEFAULT_INTERFACE = "current"
-DYNAMIC, EFFORT, REFERENCE = "d", "effort", "v"  # the three sources (buffer keys of LiveFeed)
+# the three sources in their order of preference (buffer keys of LiveFeed): bags.sources' table
+DYNAMIC, EFFORT, REFERENCE = (s.key for s in CURRENT_SOURCES)
+_DEFAULT_TOPIC = {s.key: s.default_topic for s in CURRENT_SOURCES}
 
 
 @dataclass(frozen=True)
@@ -34,9 +37,9 @@ class LiveTopics:
     """The topics (relative names resolve in the node's namespace; "" = not read) and the
     DynamicJointState interface ("" = ``current``, used when present)."""
 
-    joint_states: str = "orthoglide/joint_states"
-    current_reference: str = "orthoglide/current_reference"
-    dynamic_joint_states: str = "dynamic_joint_states"
+    joint_states: str = POSITION.default_topic
+    current_reference: str = _DEFAULT_TOPIC[REFERENCE]
+    dynamic_joint_states: str = _DEFAULT_TOPIC[DYNAMIC]
     interface: str = ""
 
     @property

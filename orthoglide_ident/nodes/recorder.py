@@ -25,10 +25,11 @@ from std_srvs.srv import Trigger
 
 from orthoglide_ident import bags
 from orthoglide_ident.bags.recording import Recording, open_bag
+from orthoglide_ident.bags.sources import INPUT_SOURCES
 from orthoglide_ident.errors import BagError, ConfigError, OrthoglideError
-from orthoglide_ident.nodes._batch import BatchTaker, BatchTopic
-from orthoglide_ident.nodes._params import Param, declare, on_set, usage
-from orthoglide_ident.nodes._spin import spin
+from orthoglide_ident.ros.batch import BatchTaker, BatchTopic
+from orthoglide_ident.ros.params import Param, declare, on_set, usage
+from orthoglide_ident.ros.spin import spin
 from orthoglide_msgs.msg import RecorderStatus
 from orthoglide_msgs.srv import StartRecording, StopRecording
 
@@ -84,7 +85,7 @@ TICK_TOPICS = (("orthoglide/joint_states", bags.JOINT_STATE_TYPE),
                ("orthoglide/current_reference", bags.CURRENT_REFERENCE_TYPE),
                ("joint_states", bags.JOINT_STATE_TYPE),
                ("dynamic_joint_states", bags.DYNAMIC_JOINT_STATE_TYPE))
-STAMPED_TYPES = (bags.JOINT_STATE_TYPE, bags.CURRENT_REFERENCE_TYPE, bags.DYNAMIC_JOINT_STATE_TYPE)
+STAMPED_TYPES = tuple(dict.fromkeys(s.msgtype for s in INPUT_SOURCES))  # bags.sources' table
 
 
 def _qos_dict(qos: Any) -> dict[str, Any]:

@@ -17,11 +17,12 @@ from sensor_msgs.msg import JointState
 
 from orthoglide_ident.bags import (CURRENT_REFERENCE_TYPE, DYNAMIC_JOINT_STATE_TYPE, JOINT_STATE_TYPE,
                                    decode_messages)
+from orthoglide_ident.bags.sources import CURRENT_SOURCES, DEFAULT_INTERFACE
 from orthoglide_ident.errors import ConfigError, OrthoglideError
 from orthoglide_ident.model.robots import load_robot
-from orthoglide_ident.nodes._batch import BatchTaker, BatchTopic
-from orthoglide_ident.nodes._params import Param, declare, usage
-from orthoglide_ident.nodes._spin import spin
+from orthoglide_ident.ros.batch import BatchTaker, BatchTopic
+from orthoglide_ident.ros.params import Param, declare, usage
+from orthoglide_ident.ros.spin import spin
 from orthoglide_ident.view import schemas
 from orthoglide_ident.view.decimate import StampDecimator, cdr_stamps
 from orthoglide_ident.view.residual import ForceResidual
@@ -71,7 +72,8 @@ PROCESS_PERIOD_S = 0.1  # the batches taken are decoded, decimated and sent this
 QOS_CHECK_PERIOD_S = 2.0
 BUFFER = 5000  # serialized messages kept per high-rate topic between two processings (5 s at 1 kHz)
 EFFORT, DYNAMIC = "effort", "dynamic"  # the ros2_control sources of the currents (kinds of their own)
-CURRENT_PREFERENCE = (DYNAMIC, EFFORT, schemas.CURRENT_REFERENCE)  # as live identification's sources
+_KIND = {"d": DYNAMIC, "effort": EFFORT, "v": schemas.CURRENT_REFERENCE}  # of bags.sources' keys
+CURRENT_PREFERENCE = tuple(_KIND[s.key] for s in CURRENT_SOURCES)  # the one order of preference
 
 
 def fields(msg: Any) -> dict[str, Any]:
@@ -186,7 +188,7 @@ class ViewerNode(Node):
                     stamp_ns(m))
             return
         msgtype = self.streams[kind][1]
-        iface = (self.p["current_interface"] or "current") if kind == DYNAMIC else None
+        iface = (self.p["current_interface"] or DEFAULT_INTERFACE) if kind == DYNAMIC else None
         stamps, names, values = decode_messages(raw, msgtype, iface)
         picked = self.decimators[kind].pick(stamps)
         if kind == schemas.JOINT_STATES:

@@ -25,7 +25,7 @@ import numpy as np
 from orthoglide_ident.errors import ConfigError
 from orthoglide_ident.identify.options import IdentifyOptions
 from orthoglide_ident.identify.tls import ExcitationLimits
-from orthoglide_ident.report import _validation_for_plot
+from orthoglide_ident.report import validation_for_plot
 from orthoglide_ident.results import IdentificationResult
 from orthoglide_ident.view import schemas
 from orthoglide_ident.view.convergence import gain_convergence, record_seconds
@@ -54,7 +54,7 @@ def report_messages(res: IdentificationResult) -> tuple[dict[str, list[tuple[int
             ns = round(p.seconds * NS)
             out[schemas.REPORT_CONVERGENCE].append((ns, schemas.convergence(
                 ns, p.seconds, p.unloaded_seconds, p.loaded_seconds, joints, p.gains, p.rel_std)))
-    val, crossed = _validation_for_plot(res)
+    val, crossed = validation_for_plot(res)
     meta = {"bags": ", ".join(res.bags), "method": res.method,
             "time_axis": "log time = seconds from the start of a record (convergence: of every record)",
             "records": "; ".join(f"{o.source} ({o.condition}) {record_seconds(o):.3f} s" for o in res.observations)}

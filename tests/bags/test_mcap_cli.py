@@ -13,7 +13,10 @@ import numpy as np
 import pytest
 
 from orthoglide_ident import bags
-from orthoglide_ident.nodes import _processes as children  # children end with this process
+from orthoglide_ident.model.robots import load_robot
+from orthoglide_ident.ros import processes as children  # children end with this process
+
+ORTHOGLIDE = load_robot("orthoglide")  # the robot these records are of
 
 T0 = 1_700_000_000_000_000_000
 
@@ -33,7 +36,7 @@ def bag(tmp_path_factory: pytest.TempPathFactory) -> Path:
     stamps = T0 + np.arange(n, dtype=np.int64) * 1_000_000
     rng = np.random.default_rng(5)
     return bags.write_bag(tmp_path_factory.mktemp("cli") / "b", stamps, rng.normal(size=(n, 3)),
-                          rng.normal(size=(n, 3)), "unloaded", 0.0)
+                          rng.normal(size=(n, 3)), "unloaded", 0.0, joint_names=ORTHOGLIDE.joint_names)
 
 
 def test_doctor_strict_message_order(bag: Path) -> None:
@@ -70,6 +73,6 @@ def test_doctor_ros2_control_bag(tmp_path: Path) -> None:
                          "unloaded", 0.0, names, layout="dynamic_joint_states",
                          joint_order=("c", "x", "a", "b"), extra_joints={"x": 0.0})
     (f,) = bag.glob("*.mcap")
-    done = subprocess.run([mcap, "doctor", "--strict-message-order", str(f)],
-                          capture_output=True, text=True, timeout=60)
+    done = children.run([mcap, "doctor", "--strict-message-order", str(f)],
+                        capture_output=True, text=True, timeout=60)
     assert done.returncode == 0, done.stderr

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import sys
 
-from orthoglide_ident.nodes import _processes as children  # children end with this process
+from orthoglide_ident.ros import processes as children  # children end with this process
 
 CODE = r"""
 import sys

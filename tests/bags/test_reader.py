@@ -10,6 +10,9 @@ import yaml
 
 from orthoglide_ident import bags
 from orthoglide_ident.errors import BagError, DataError
+from orthoglide_ident.model.robots import load_robot
+
+ORTHOGLIDE = load_robot("orthoglide")  # the robot these records are of
 
 NAMES = ("q11", "q12", "q13")
 T0 = 1_700_000_000_000_000_000
@@ -33,7 +36,7 @@ def loaded_bag(
         v,
         "loaded",
         1.136,
-        extra={"sim.seed": "0"},
+        extra={"sim.seed": "0"}, joint_names=ORTHOGLIDE.joint_names
     )
     return path, stamps, q, v
 
@@ -232,15 +235,18 @@ def test_untagged_and_contradictory(tmp_path: Path) -> None:
 def test_bad_tags_rejected(tmp_path: Path, condition: str, mass: float) -> None:
     stamps, q, v = _record(10)
     with pytest.raises(Exception, match="condition|payload_mass"):
-        bags.write_bag(tmp_path / "b", stamps, q, v, condition, mass)
+        bags.write_bag(tmp_path / "b", stamps, q, v, condition, mass,
+                       joint_names=ORTHOGLIDE.joint_names)
 
 
 def test_write_bag_checks_input(tmp_path: Path) -> None:
     stamps, q, v = _record(10)
     with pytest.raises(DataError):
-        bags.write_bag(tmp_path / "b", stamps[::-1], q, v, "unloaded", 0)
+        bags.write_bag(tmp_path / "b", stamps[::-1], q, v, "unloaded", 0,
+                       joint_names=ORTHOGLIDE.joint_names)
     with pytest.raises(DataError):
-        bags.write_bag(tmp_path / "b", stamps, q[:, :2], v, "unloaded", 0)
+        bags.write_bag(tmp_path / "b", stamps, q[:, :2], v, "unloaded", 0,
+                       joint_names=ORTHOGLIDE.joint_names)
 
 
 def test_split_loses_nothing(tmp_path: Path) -> None:
@@ -271,7 +277,8 @@ def test_gaps_reported(tmp_path: Path) -> None:
     stamps, q, v = _record(1000)
     keep = np.ones(1000, bool)
     keep[[100, 500, 501, 502]] = False
-    bags.write_bag(tmp_path / "g", stamps[keep], q[keep], v[keep], "unloaded", 0)
+    bags.write_bag(tmp_path / "g", stamps[keep], q[keep], v[keep], "unloaded", 0,
+                   joint_names=ORTHOGLIDE.joint_names)
     info = bags.bag_info(tmp_path / "g")
     js = next(t for t in info.topics if t.topic == bags.JOINT_STATES_TOPIC)
     assert js.gaps is not None and js.gaps.missing == 4

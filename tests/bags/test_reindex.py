@@ -19,7 +19,7 @@ from rosbags.highlevel import AnyReaderError
 
 from orthoglide_ident import bags
 from orthoglide_ident.errors import BagError
-from orthoglide_ident.nodes import _processes as children  # children end with this process
+from orthoglide_ident.ros import processes as children  # children end with this process
 
 NAMES = ("q11", "q12", "q13")
 T0 = 1_700_000_000_000_000_000

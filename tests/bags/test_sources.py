@@ -12,6 +12,9 @@ import pytest
 
 from orthoglide_ident import bags
 from orthoglide_ident.errors import BagError
+from orthoglide_ident.model.robots import load_robot
+
+ORTHOGLIDE = load_robot("orthoglide")  # the robot these records are of
 
 UR5 = ("shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint", "wrist_1_joint",
        "wrist_2_joint", "wrist_3_joint")
@@ -97,7 +100,8 @@ def test_interface_beats_effort_and_effort_beats_current_reference(tmp_path: Pat
     js = bags.read_bag(_write(tmp_path / "j", "joint_states", tag_sources=False), joints=UR5)
     assert str(js.sources.current) == "/joint_states effort"
     # the Orthoglide's bags: JointState without effort, so the CurrentReference
-    orth = bags.write_bag(tmp_path / "o", stamps, q[:, :3], v[:, :3], "unloaded", 0)
+    orth = bags.write_bag(tmp_path / "o", stamps, q[:, :3], v[:, :3], "unloaded", 0,
+                          joint_names=ORTHOGLIDE.joint_names)
     data = bags.read_bag(orth)
     assert str(data.sources.current) == "/orthoglide/current_reference current"
     assert data.current.names == ("q11", "q12", "q13")

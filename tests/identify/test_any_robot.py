@@ -48,7 +48,7 @@ def test_six_joints_identified_with_their_names_and_units(arm_result):
 
 
 def test_live_equals_offline_on_six_joints(arm_records, arm_result):
-    live = LiveIdentification(PAPER_DRIVE, ARM)
+    live = LiveIdentification(PAPER_DRIVE, model=ARM)
     for i, rec in enumerate(arm_records):
         assert feed(live, rec, (1, 37, 250), 3, seed=i) == []
     res = live.result()
@@ -75,7 +75,7 @@ def test_joints_matched_by_name_any_order_extra_joints_ignored(arm_records, arm_
     recs = [_reordered(r, order, extra=True) for r in arm_records]
     res = identify_records(recs, model=ARM, options=PAPER_DRIVE)
     assert max(rel_diff(arm_result, res)) < 1e-12
-    live = LiveIdentification(PAPER_DRIVE, ARM)
+    live = LiveIdentification(PAPER_DRIVE, model=ARM)
     for rec in recs:
         assert feed(live, rec, (100,)) == []
     assert max(rel_diff(arm_result, live.result())) < 1e-6
@@ -86,7 +86,7 @@ def test_a_missing_joint_is_a_one_line_reason(arm_records):
     with pytest.raises(DataError, match=r"lack \['joint_6'\]") as exc:
         identify_records([arm_records[0], bad], model=ARM, options=PAPER_DRIVE)
     assert "\n" not in str(exc.value)
-    live = LiveIdentification(PAPER_DRIVE, ARM)
+    live = LiveIdentification(PAPER_DRIVE, model=ARM)
     warnings = feed(live, bad, (100,))
     assert any("joint_6" in w and "dropped" in w for w in warnings)
 
@@ -100,7 +100,7 @@ def test_currents_stamped_by_another_publisher_pair_within_half_a_tick(arm_recor
             for r in arm_records]
     res = identify_records(recs, model=ARM, options=PAPER_DRIVE)
     assert max(rel_diff(arm_result, res)) < 1e-12
-    live = LiveIdentification(PAPER_DRIVE, ARM)
+    live = LiveIdentification(PAPER_DRIVE, model=ARM)
     for i, rec in enumerate(recs):
         assert feed(live, rec, (1, 37, 250), 3, seed=i) == []
     assert max(rel_diff(arm_result, live.result())) < 1e-6

@@ -19,9 +19,11 @@ from orthoglide_ident.identify import consistency as C
 from orthoglide_ident.identify import lmi
 from orthoglide_ident.identify.options import IdentifyOptions
 from orthoglide_ident.identify.pipeline import identify, identify_records
-from orthoglide_ident.identify.pseudo_inertia import (MARGIN, at_com, from_com, layout,
-                                                      min_eigenvalues, pseudo_inertia)
+from orthoglide_ident.identify.pseudo_inertia import MARGIN, layout, min_eigenvalues
+from orthoglide_ident.model.inertia import at_com, from_com, pseudo_inertia
 from orthoglide_ident.model.robots import load_robot
+
+ORTHOGLIDE = load_robot("orthoglide")  # the robot these records are of
 
 ROBOT = load_robot(None)
 K = ROBOT.K
@@ -36,7 +38,7 @@ def truth() -> np.ndarray:
 
 @pytest.fixture(scope="module")
 def bag_result():
-    return identify(BAGS, options=IdentifyOptions(consistent=True))
+    return identify(BAGS, options=IdentifyOptions(consistent=True), model=ORTHOGLIDE)
 
 
 def _sigma(chi_b: np.ndarray) -> np.ndarray:
@@ -167,7 +169,7 @@ def test_json_gains_standard_parameters_and_keeps_the_rest(bag_result):
         assert eig[0] > 0 and eig[0] + eig[1] >= eig[2] * (1 - 1e-9)  # triangle inequality
     assert set(doc["consistency"]["standard"]) == set(ROBOT.standard_names)
     assert doc["consistency"]["answer"] == "identification"
-    plain = identify(BAGS).to_json()
+    plain = identify(BAGS, model=ORTHOGLIDE).to_json()
     assert "standard_parameters" not in plain and "consistency" not in plain
     for key in ("drive_gains", "parameters", "payload_mass", "residual_rms", "condition_number"):
         assert json.dumps(doc[key]) == json.dumps(plain[key])  # the answer itself unchanged
@@ -196,7 +198,7 @@ def test_realistic_records_consistent_answer_within_sigma_and_nearer_the_truth(t
     from simulated import simulated_pair
 
     recs = simulated_pair(15.0, (5, 6), "real", profile="realistic")
-    res = identify_records(recs, options=IdentifyOptions(consistent=True))
+    res = identify_records(recs, options=IdentifyOptions(consistent=True), model=ORTHOGLIDE)
     c = res.consistency
     W = np.diag(1.0 / c.sigma_b)
     chi_b_true = K @ truth

@@ -8,7 +8,10 @@ from orthoglide_ident.identify.current_lag import (MAX_SEARCH_S, MIN_PERIODS, Li
                                                    find_period, lag_instrument)
 from orthoglide_ident.identify.options import IdentifyOptions
 from orthoglide_ident.identify.pipeline import Record, identify_records
+from orthoglide_ident.model.robots import load_robot
 from simulated import simulated_pair
+
+ORTHOGLIDE = load_robot("orthoglide")  # the robot these records are of
 
 T = 1e-3  # s, the driver's tick
 G_TRUE = np.array([2170.0, 2100.0, 2070.0])  # config/plant.yaml
@@ -68,7 +71,7 @@ def test_lag_of_the_realistic_drive_identified_despite_the_current_noise(realist
     v_τ as the column finds 0.22-0.31 ms here (the noise bias, drive_terms.py). The gains keep
     their σ (the lag costs three unknowns)."""
     opts = IdentifyOptions(screw_lead_m=0.01)  # lag_model: auto, the default
-    res = identify_records(realistic_pair, options=opts, essential=True)
+    res = identify_records(realistic_pair, options=opts, essential=True, model=ORTHOGLIDE)
     tau = np.array([x["tau_ms"] for x in res.current_lag]) * 1e-3
     sig = np.array([x["tau_std_ms"] for x in res.current_lag]) * 1e-3
     assert [x["joint"] for x in res.current_lag] == ["q11", "q12", "q13"]
@@ -83,14 +86,14 @@ def test_lag_of_the_realistic_drive_identified_despite_the_current_noise(realist
     g = np.array([x.value for x in res.drive_gains])
     s = np.array([x.rel_std for x in res.drive_gains])
     off = identify_records(realistic_pair, options=IdentifyOptions(screw_lead_m=0.01,
-                                                                   lag_model="off"))
+                                                                   lag_model="off"), model=ORTHOGLIDE)
     assert off.current_lag == []
     s_off = np.array([x.rel_std for x in off.drive_gains])
     assert np.all(s < 1.25 * s_off)
     assert np.all(np.abs(g / G_TRUE - 1) < 3 * s)
     # cross-validation multiplies the lag columns too (the records predict themselves)
     val = identify_records(realistic_pair[:1], options=opts, method="wls", gains=list(g),
-                           validation=realistic_pair[1:])
+                           validation=realistic_pair[1:], model=ORTHOGLIDE)
     assert val.current_lag and max(j["noise_ratio"] for j in val.validation[0]["joints"]) < 1.5
 
 
@@ -101,12 +104,13 @@ def test_records_that_do_not_repeat_keep_the_papers_model(realistic_pair):
     repeats or not."""
     def cut(r):
         return Record.from_arrays(r.source, r.stamps_q_ns[:5000], r.q[:5000], r.v_tau[:5000],
-                                  r.condition, r.payload_mass)
+                                  r.condition, r.payload_mass, joint_names=ORTHOGLIDE.joint_names)
 
     for recs in ([cut(r) for r in realistic_pair], [cut(realistic_pair[0]), realistic_pair[1]]):
-        on = identify_records(recs, options=IdentifyOptions(check_excitation=False))
+        on = identify_records(recs, options=IdentifyOptions(check_excitation=False),
+                              model=ORTHOGLIDE)
         off = identify_records(recs, options=IdentifyOptions(lag_model="off",
-                                                             check_excitation=False))
+                                                             check_excitation=False), model=ORTHOGLIDE)
         assert on.current_lag == []
         assert on.diagnostics["bags"][0]["n_not_repeating"] == 1
         assert [p.name for p in on.parameters] == [p.name for p in off.parameters]

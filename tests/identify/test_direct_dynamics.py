@@ -16,6 +16,8 @@ from orthoglide_ident.identify.options import IdentifyOptions
 from orthoglide_ident.identify.pipeline import Record, identify_records, read_record
 from orthoglide_ident.model.robots import load_robot
 
+ORTHOGLIDE = load_robot("orthoglide")  # the robot these records are of
+
 ROBOT = load_robot(None)
 G_TRUE = [2170.0, 2100.0, 2070.0]
 
@@ -27,7 +29,7 @@ def truth() -> np.ndarray:
 
 
 def test_closed_tree_of_the_urdf_is_the_closed_form_model(truth):
-    fwd, engine = dd.forward_model(ROBOT, truth, G_TRUE, None)
+    fwd, engine = ROBOT.forward_model(truth, G_TRUE, None)
     q, qd, qdd = ROBOT.random_states(20, seed=3)
     tau = (ROBOT.standard_regressor(q, qd, qdd) @ truth).reshape(3, -1).T
     Q, V = fwd.lift(q, qd)
@@ -39,7 +41,7 @@ def test_closed_tree_of_the_urdf_is_the_closed_form_model(truth):
 @pytest.fixture(scope="module")
 def sim_record() -> Record:
     """The sample loaded bag: 10 s of the simulator with the 1.983 kg payload."""
-    return read_record("bags/loaded")
+    return read_record("bags/loaded", model=ORTHOGLIDE)
 
 
 def test_true_model_tracks_a_simulated_record(truth, sim_record):

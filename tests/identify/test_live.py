@@ -10,7 +10,10 @@ from orthoglide_ident.errors import ExcitationError, IdentificationError
 from orthoglide_ident.identify.live import LiveIdentification
 from orthoglide_ident.identify.options import IdentifyOptions
 from orthoglide_ident.identify.pipeline import Record, identify_records, read_record
+from orthoglide_ident.model.robots import load_robot
 from simulated import simulated_pair
+
+ORTHOGLIDE = load_robot("orthoglide")  # the robot these records are of
 
 BAGS = Path(__file__).resolve().parents[2] / "bags"
 # live = offline to 1e-6 holds for the same equations: the paper's drive model here; with the
@@ -22,12 +25,13 @@ PAPER_DRIVE = IdentifyOptions(lag_model="off")
 @pytest.fixture(scope="module")
 def bag_records() -> list[Record]:
     """The sample bags: 10 s unloaded, 10 s loaded (1.983 kg), simulated plant at 1 kHz."""
-    return [read_record(BAGS / "unloaded"), read_record(BAGS / "loaded")]
+    return [read_record(BAGS / "unloaded", model=ORTHOGLIDE), read_record(BAGS / "loaded",
+                                                                          model=ORTHOGLIDE)]
 
 
 @pytest.fixture(scope="module")
 def offline(bag_records):
-    return identify_records(bag_records, options=PAPER_DRIVE)
+    return identify_records(bag_records, options=PAPER_DRIVE, model=ORTHOGLIDE)
 
 
 def feed(live: LiveIdentification, rec: Record, batches=(100,), offset: int = 0, seed: int = 0,
@@ -74,7 +78,7 @@ def rel_diff(a, b) -> tuple[float, float]:
 @pytest.mark.parametrize("batches, offset", [((1,), 0), ((7,), 3), ((100,), 5),
                                              ((1000,), 40), ((1, 7, 100, 1000), 4)])
 def test_live_result_equals_offline_whatever_the_batches(bag_records, offline, batches, offset):
-    live = LiveIdentification(PAPER_DRIVE)
+    live = LiveIdentification(PAPER_DRIVE, model=ORTHOGLIDE)
     warnings = []
     for i, rec in enumerate(bag_records):
         warnings += feed(live, rec, batches, offset, seed=i)
@@ -96,16 +100,18 @@ def test_live_result_equals_offline_whatever_the_batches(bag_records, offline, b
 
 
 def test_wls_and_essential_equal_offline(bag_records, offline):
-    live = LiveIdentification(PAPER_DRIVE)
+    live = LiveIdentification(PAPER_DRIVE, model=ORTHOGLIDE)
     for rec in bag_records:
         feed(live, rec, (250,))
     g = [2170.0, 2100.0, 2070.0]
-    assert max(rel_diff(identify_records(bag_records, method="wls", gains=g, options=PAPER_DRIVE),
+    assert max(rel_diff(identify_records(bag_records, method="wls", gains=g, options=PAPER_DRIVE,
+                                         model=ORTHOGLIDE),
                         live.result("wls", gains=g))) < 1e-6
     with pytest.raises(IdentificationError, match="1.983 kg but 1.136 kg"):
         live.result(payload_mass=1.136)
     assert live.result(payload_mass=1.9832).payload_mass.value == 1.9832
-    ess_off = identify_records(bag_records, essential=True, options=PAPER_DRIVE).essential
+    ess_off = identify_records(bag_records, essential=True, options=PAPER_DRIVE,
+                               model=ORTHOGLIDE).essential
     ess_live = live.result(essential=True).essential
     assert [p.name for p in ess_live.parameters] == [p.name for p in ess_off.parameters]
     assert max(rel_diff(ess_off, ess_live)) < 1e-6
@@ -129,8 +135,8 @@ def test_gaps_and_nan_split_the_record_like_offline_drop(bag_records):
     recs = [_with_gap_and_nan(bag_records[0], 4000, 4025, 7000),
             _with_gap_and_nan(bag_records[1], 5000, 5001, 2500)]
     opts = IdentifyOptions(nonfinite="drop", lag_model="off")
-    off = identify_records(recs, options=opts)
-    live = LiveIdentification(opts)
+    off = identify_records(recs, options=opts, model=ORTHOGLIDE)
+    live = LiveIdentification(opts, model=ORTHOGLIDE)
     warnings = [w for i, rec in enumerate(recs) for w in feed(live, rec, (1, 50, 333), 7, i)]
     res = live.result()
     assert max(rel_diff(off, res)) < 1e-6
@@ -142,7 +148,7 @@ def test_gaps_and_nan_split_the_record_like_offline_drop(bag_records):
 
 
 def test_status_says_what_is_missing_and_result_raises_with_the_reason(bag_records):
-    live = LiveIdentification(PAPER_DRIVE)
+    live = LiveIdentification(PAPER_DRIVE, model=ORTHOGLIDE)
     assert live.estimate().status.startswith("no data")
     unloaded, loaded = bag_records
     live.start_recording(unloaded.source, "unloaded")
@@ -166,7 +172,7 @@ def test_status_says_what_is_missing_and_result_raises_with_the_reason(bag_recor
     assert np.allclose(est.gains, [2170, 2100, 2070], rtol=0.01)
     assert 9 < est.seconds_loaded < 10 and est.singular_ratio < 0.5
 
-    only_loaded = LiveIdentification(PAPER_DRIVE)
+    only_loaded = LiveIdentification(PAPER_DRIVE, model=ORTHOGLIDE)
     feed(only_loaded, loaded)
     assert only_loaded.estimate().status == "loaded only: record without the payload"
     with pytest.raises(IdentificationError, match="unloaded"):
@@ -174,7 +180,7 @@ def test_status_says_what_is_missing_and_result_raises_with_the_reason(bag_recor
 
 
 def test_a_joint_that_does_not_move_is_said(bag_records):
-    live = LiveIdentification()
+    live = LiveIdentification(model=ORTHOGLIDE)
     warnings = []
     for rec in bag_records:
         still = Record(**{**vars(rec), "q": rec.q.copy()})
@@ -187,7 +193,8 @@ def test_a_joint_that_does_not_move_is_said(bag_records):
 
 
 def test_bad_samples_warn_and_the_rest_is_used(bag_records, offline):
-    live = LiveIdentification(IdentifyOptions(current_limit_a=0.5, lag_model="off"))
+    live = LiveIdentification(IdentifyOptions(current_limit_a=0.5, lag_model="off"),
+                              model=ORTHOGLIDE)
     unloaded, loaded = bag_records
     feed(live, unloaded)
     live.start_recording(loaded.source, "loaded", loaded.payload_mass)
@@ -220,9 +227,9 @@ def test_simulated_records_with_a_real_gap(sim_records):
     keep = np.ones(len(loaded.stamps_q_ns), bool)
     keep[6000:6200] = False  # 0.2 s lost on both topics in the middle of the loaded record
     gappy = Record.from_arrays(loaded.source, loaded.stamps_q_ns[keep], loaded.q[keep],
-                               loaded.v_tau[keep], "loaded", loaded.payload_mass)
-    off = identify_records([unloaded, gappy], options=PAPER_DRIVE)
-    live = LiveIdentification(PAPER_DRIVE)
+                               loaded.v_tau[keep], "loaded", loaded.payload_mass, joint_names=ORTHOGLIDE.joint_names)
+    off = identify_records([unloaded, gappy], options=PAPER_DRIVE, model=ORTHOGLIDE)
+    live = LiveIdentification(PAPER_DRIVE, model=ORTHOGLIDE)
     warnings = feed(live, unloaded, (10,), 2) + feed(live, gappy, (10, 37), 3, seed=1)
     assert sum("200 tick(s) lost" in w for w in warnings) == 2  # one per topic
     res = live.result()
@@ -246,7 +253,7 @@ def test_gentle_trajectories_are_said_not_returned_as_gains():
 
 
 def test_a_silent_topic_and_a_recording_too_short_are_said(bag_records):
-    live = LiveIdentification()
+    live = LiveIdentification(model=ORTHOGLIDE)
     rec = bag_records[0]
     live.start_recording("silent", "unloaded")
     w = live.add_current_reference(rec.stamps_v_ns[:10], rec.names_v, rec.v_tau[:10])
@@ -265,7 +272,7 @@ def realistic_records():
 
 
 def _live_result(recs, opts=None):
-    live = LiveIdentification(opts)
+    live = LiveIdentification(opts, model=ORTHOGLIDE)
     for i, rec in enumerate(recs):
         feed(live, rec, (333,), 2, seed=i)
     return live, live.result()
@@ -275,7 +282,7 @@ def test_realistic_drive_ripple_found_and_modelled_alike_live_and_offline(realis
     """The realistic drive's ripple is found in the residual and modelled, with the same result
     live as offline."""
     recs = realistic_records
-    off = identify_records(recs, options=PAPER_DRIVE)
+    off = identify_records(recs, options=PAPER_DRIVE, model=ORTHOGLIDE)
     assert "q12" in {r["joint"] for r in off.ripple}
     for r in off.ripple:
         assert abs(r["wavelength_m"] - 0.01) < 0.0005 and r["kind"].startswith("friction")
@@ -298,7 +305,7 @@ def test_screw_ripple_at_the_given_lead_alike_live_and_offline(realistic_records
     (measured 0.8-1.7 σ here; noise-free, within 2 %: the plant turns the ripple with
     tanh(q̇/v_s), the model with sign(q̂̇))."""
     opts = IdentifyOptions(screw_lead_m=0.01, lag_model="off")
-    off = identify_records(realistic_records, options=opts)
+    off = identify_records(realistic_records, options=opts, model=ORTHOGLIDE)
     _, res = _live_result(realistic_records, opts)
     assert max(rel_diff(off, res)) < 1e-6 and max(rel_sigma_diff(off, res)) < 1e-6
     assert [r["joint"] for r in res.ripple] == ["q11", "q12", "q13"]
@@ -325,7 +332,7 @@ def test_live_lag_within_a_fraction_of_sigma_of_offline_whatever_the_batches(rea
     and parameter within 0.25 σ of offline (measured: gains 0.03-0.05 σ, 0.0002 relative; 0.08 σ
     at most; σ within 1.6 %), the same whatever the batches."""
     unloaded = realistic_records[0]
-    live = LiveIdentification()
+    live = LiveIdentification(model=ORTHOGLIDE)
     live.start_recording(unloaded.source, "unloaded")
     assert live.estimate().status.startswith("collecting: the first equations come after")
     live.add_joint_states(unloaded.stamps_q_ns[:5000], unloaded.names_q, unloaded.q[:5000])
@@ -334,10 +341,10 @@ def test_live_lag_within_a_fraction_of_sigma_of_offline_whatever_the_batches(rea
     est = live.estimate()
     assert est.status.startswith("collecting: 5 s held until the trajectory has repeated 4 times")
     assert est.seconds_unloaded == 0.0 and est.lag_s > 4.5
-    off = identify_records(realistic_records)
+    off = identify_records(realistic_records, model=ORTHOGLIDE)
     results = []
     for batches in ((333,), (1, 7, 100, 1000)):
-        live = LiveIdentification()
+        live = LiveIdentification(model=ORTHOGLIDE)
         assert not [w for i, r in enumerate(realistic_records)
                     for w in feed(live, r, batches, 2, seed=i)]
         results.append(live.result())
@@ -356,19 +363,20 @@ def test_live_lag_left_out_when_a_segment_does_not_repeat(realistic_records):
     instrument, the user is told, and the identification is the paper's drive model's, as
     offline (pipeline._lag_or_paper) — also when an earlier recording had the instrument."""
     cut = [Record.from_arrays(r.source, r.stamps_q_ns[:5000], r.q[:5000], r.v_tau[:5000],
-                              r.condition, r.payload_mass) for r in realistic_records]
+                              r.condition, r.payload_mass, joint_names=ORTHOGLIDE.joint_names) for r in realistic_records]
     for recs in (cut, [realistic_records[0], cut[1]]):
         opts = IdentifyOptions(check_excitation=False)
-        live = LiveIdentification(opts)
+        live = LiveIdentification(opts, model=ORTHOGLIDE)
         warnings = [w for i, r in enumerate(recs) for w in feed(live, r, (250,), 2, seed=i)]
         assert sum("does not repeat a periodic trajectory" in w for w in warnings) == 1
         res = live.result()
-        paper = LiveIdentification(IdentifyOptions(check_excitation=False, lag_model="off"))
+        paper = LiveIdentification(IdentifyOptions(check_excitation=False, lag_model="off"),
+                                   model=ORTHOGLIDE)
         for i, r in enumerate(recs):
             feed(paper, r, (250,), 2, seed=i)
         bad = 0 if recs is cut else 1
         assert res.current_lag == [] and res.diagnostics["bags"][bad]["n_not_repeating"] == 1
         assert max(rel_diff(paper.result(), res)) < 1e-9
         off = identify_records(recs, options=IdentifyOptions(check_excitation=False,
-                                                             lag_model="off"))
+                                                             lag_model="off"), model=ORTHOGLIDE)
         assert max(rel_diff(off, res)) < 1e-6

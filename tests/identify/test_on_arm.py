@@ -84,7 +84,7 @@ def live_result(model, records, options: IdentifyOptions, batch: int = 500):
     its payload's shape as the recorder's status carries it."""
     from orthoglide_ident.identify.live import LiveIdentification
 
-    live = LiveIdentification(options, model)
+    live = LiveIdentification(options, model=model)
     for rec in records:
         live.start_recording(rec.source, rec.condition, rec.payload_mass, rec.payload)
         for a in range(0, len(rec.stamps_q_ns), batch):

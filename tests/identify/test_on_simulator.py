@@ -12,7 +12,10 @@ import pytest
 
 from orthoglide_ident.identify.options import IdentifyOptions
 from orthoglide_ident.identify.pipeline import Record, identify_records
+from orthoglide_ident.model.robots import load_robot
 from synthetic import synthetic_record
+
+ORTHOGLIDE = load_robot("orthoglide")  # the robot these records are of
 
 pytestmark = pytest.mark.slow
 
@@ -23,7 +26,7 @@ def _gains(res):
 
 def test_model_data_noise_free_gives_true_gains_and_base_parameters():
     tp = pytest.importorskip("orthoglide_sim.true_parameters").default_parameters()
-    from orthoglide_ident.model.base import base_model
+    from orthoglide_ident.model.orthoglide.base import base_model
 
     bm = base_model()
     chi = bm.base_values(tp.standard_vector())
@@ -57,14 +60,14 @@ def _record(simulate, duration, payload, seed, noise=True):
     mass = 0.0 if payload == "none" else float(payload)
     cond = "loaded" if mass > 0 else "unloaded"
     return Record.from_arrays(f"sim-{payload}-{seed}", rec.stamps_ns, rec.q, rec.v_tau, cond,
-                              mass), np.asarray(rec.g_tau, float)
+                              mass, joint_names=ORTHOGLIDE.joint_names), np.asarray(rec.g_tau, float)
 
 
 def test_simulator_noise_free_gains():
     simulate = _simulate()
     ru, g = _record(simulate, 60.0, "none", 1, noise=False)
     rl, _ = _record(simulate, 60.0, "1.983", 2, noise=False)
-    res = identify_records([ru, rl])
+    res = identify_records([ru, rl], model=ORTHOGLIDE)
     # not exact: the plant's smooth passive-joint friction is not the model's sign()
     assert np.abs(_gains(res) / g - 1).max() < 3e-3
 
@@ -74,10 +77,10 @@ def test_simulator_realistic_noise_gains_and_second_payload():
     ru, g = _record(simulate, 60.0, "none", 11)
     rl, _ = _record(simulate, 60.0, "1.983", 12)
     r2, _ = _record(simulate, 60.0, "1.136", 13)
-    res = identify_records([ru, rl])
+    res = identify_records([ru, rl], model=ORTHOGLIDE)
     assert np.abs(_gains(res) / g - 1).max() < 0.005
-    ident = identify_records([ru, r2], method="wls", gains=_gains(res))
-    manuf = identify_records([ru, r2], method="wls")
+    ident = identify_records([ru, r2], method="wls", gains=_gains(res), model=ORTHOGLIDE)
+    manuf = identify_records([ru, r2], method="wls", model=ORTHOGLIDE)
     err_id = abs(ident.payload_mass.value / 1.136 - 1)
     err_manuf = abs(manuf.payload_mass.value / 1.136 - 1)
     assert err_id < 0.01
@@ -90,7 +93,7 @@ def _profile_records(simulate, seconds, seed, profile):
         rec = simulate(seconds, payload=payload, trajectory=trajectory, seed=s, profile=profile)
         cond = "loaded" if rec.payload_mass > 0 else "unloaded"
         out.append(Record.from_arrays(f"{profile}-{cond}-{s}", rec.stamps_ns, rec.q, rec.v_tau, cond,
-                                      rec.payload_mass))
+                                      rec.payload_mass, joint_names=ORTHOGLIDE.joint_names))
     return out, np.asarray(rec.g_tau, float)
 
 
@@ -105,7 +108,7 @@ def test_realistic_drive_honest_sigma_covers_the_gain_errors_and_essential_keeps
     z_honest, z_paper = [], []
     for seed in range(4):
         recs, g_true = _profile_records(simulate, 30.0, seed, "realistic")
-        res = identify_records(recs, essential=True)
+        res = identify_records(recs, essential=True, model=ORTHOGLIDE)
         g = _gains(res)
         honest = np.array([x.rel_std for x in res.drive_gains]) * g
         paper = np.array([x.rel_std_paper for x in res.drive_gains]) * g

@@ -15,6 +15,9 @@ from orthoglide_ident.identify.tls import TLSProblem
 from orthoglide_ident.identify.uncertainty import (LAGS, ResidualMoments, diagnose,
                                                    fir_white_autocorrelation)
 from orthoglide_ident.identify.wls import idim_wls
+from orthoglide_ident.model.robots import load_robot
+
+ORTHOGLIDE = load_robot("orthoglide")  # the robot these records are of
 
 G = np.array([2170.0, 2100.0, 2070.0])
 CHI = np.array([9.0, 8.5, -3.0, 80.0])
@@ -169,8 +172,9 @@ def test_fir_white_autocorrelation():
 
 @pytest.fixture(scope="module")
 def bag_result():
-    recs = [read_record(BAGS / "unloaded"), read_record(BAGS / "loaded")]
-    return recs, identify_records(recs, essential=True)
+    recs = [read_record(BAGS / "unloaded", model=ORTHOGLIDE), read_record(BAGS / "loaded",
+                                                                          model=ORTHOGLIDE)]
+    return recs, identify_records(recs, essential=True, model=ORTHOGLIDE)
 
 
 def test_result_reports_both_sigmas(bag_result):
@@ -208,7 +212,7 @@ def test_essential_keeps_the_gains_and_says_what_each_cancellation_cost(bag_resu
     from orthoglide_ident.identify.options import IdentifyOptions
 
     paper = identify_records(recs, essential=True,
-                             options=IdentifyOptions(essential_method="paper")).essential
+                             options=IdentifyOptions(essential_method="paper"), model=ORTHOGLIDE).essential
     gp = np.array([x.value for x in paper.drive_gains])
     assert paper.diagnostics["method"] == "paper"
     assert np.abs(gp / g - 1).max() > np.abs(ge / g - 1).max()

@@ -9,7 +9,7 @@ import pytest
 import yaml
 
 from orthoglide_ident.errors import ConfigError
-from orthoglide_ident.model.base import BaseModel
+from orthoglide_ident.model.orthoglide.base import BaseModel
 from orthoglide_ident.model.pinocchio_model import PinocchioRobot
 from orthoglide_ident.model.robots import ROBOTS_DIR, bundled_robots, load_robot, read_yaml
 

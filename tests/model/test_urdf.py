@@ -15,9 +15,9 @@ import pinocchio as pin
 import pytest
 
 from orthoglide_ident.errors import ConfigError
-from orthoglide_ident.identify.direct_dynamics import _pin_inertia
+from orthoglide_ident.model.forward import pin_inertia
 from orthoglide_ident.model.robots import load_robot
-from orthoglide_ident.model.urdf import identified_urdf, rpy
+from orthoglide_ident.model.urdf import rpy
 from serial_arm import SerialArm
 
 ROBOT = load_robot(None)
@@ -36,12 +36,12 @@ def arm(tmp_path_factory) -> SerialArm:
 
 
 def _params(chi: np.ndarray, body) -> pin.Inertia:
-    return _pin_inertia(chi[list(body.inertial)])
+    return pin_inertia(chi[list(body.inertial)])
 
 
 def test_orthoglide_urdf_loads_in_pinocchio_with_the_same_inertials(truth, tmp_path):
     path = tmp_path / "orthoglide.urdf"
-    path.write_text(identified_urdf(ROBOT, truth, GAINS))
+    path.write_text(ROBOT.identified_urdf(truth, GAINS))
     model = pin.buildModelFromUrdf(str(path))
     assert model.nq == model.nv == 15
     platform = model.frames[model.getFrameId("platform")]
@@ -74,7 +74,7 @@ def test_urdf_robot_gets_its_own_file_with_the_inertials_replaced(arm):
     for body in arm.bodies:  # another consistent set: each body 20 % heavier, shifted
         idx = list(body.inertial)
         chi[idx] = chi[idx] * (1.2 + 0.1 * rng.uniform())
-    text = identified_urdf(arm, chi, [10.6, 9.7, 10.3])
+    text = arm.identified_urdf(chi, [10.6, 9.7, 10.3])
     model = pin.buildModelFromXML(text)
     for k, body in enumerate(arm.bodies, start=1):
         got = model.inertias[k].toDynamicParameters()
@@ -95,13 +95,13 @@ def test_robot_without_a_urdf_description_is_a_one_line_reason(arm):
     robot = object.__new__(NoFile)
     robot.__dict__.update({k: v for k, v in arm.__dict__.items() if k != "description"})
     with pytest.raises(ConfigError, match="not described by a URDF"):
-        identified_urdf(robot, arm.standard_values(), [1.0, 1.0, 1.0])
+        robot.identified_urdf(arm.standard_values(), [1.0, 1.0, 1.0])
 
 
 def test_mujoco_loads_the_orthoglide_urdf_with_the_same_masses(truth, tmp_path):
     mujoco = pytest.importorskip("mujoco")
     path = tmp_path / "orthoglide.urdf"
-    path.write_text(identified_urdf(ROBOT, truth, GAINS))
+    path.write_text(ROBOT.identified_urdf(truth, GAINS))
     m = mujoco.MjModel.from_xml_path(str(path))
     masses = {mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, b): m.body_mass[b]
               for b in range(m.nbody)}

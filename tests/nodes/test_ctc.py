@@ -10,7 +10,7 @@ import time
 import numpy as np
 import pytest
 
-from orthoglide_ident.nodes import _processes as children  # children end with this process
+from orthoglide_ident.ros import processes as children  # children end with this process
 
 
 def test_ctc_help_does_not_start_ros(capsys):

@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pytest
 
-from orthoglide_ident.nodes import _processes as children  # children end with this process
+from orthoglide_ident.ros import processes as children  # children end with this process
 
 ROOT = Path(__file__).resolve().parents[2]
 BAGS = ROOT / "bags"
@@ -85,7 +85,7 @@ def test_identify_service_answers_and_latches_the_result(node, client):
     assert res.parameters.method == "tls" and len(res.parameters.names) == 61
     assert "; current-loop lag q11 " in res.message  # lag_model: auto, the bags repeat a trajectory
     assert abs(res.parameters.payload_mass - 1.983) < 1e-9
-    # the core's lines of the call are in the node's log (nodes/_core_log.py)
+    # the core's lines of the call are in the node's log (ros/core_log.py)
     log = read_available(node.stderr, until="current-loop lag (lag_model: auto)")
     assert "IDIM-TLS on" in log and "current-loop lag (lag_model: auto)" in log, log[-2000:]
 

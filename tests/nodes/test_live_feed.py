@@ -6,6 +6,10 @@ import threading
 
 import pytest
 
+from orthoglide_ident.model.robots import load_robot
+
+ORTHOGLIDE = load_robot("orthoglide")  # the robot these records are of
+
 rclpy = pytest.importorskip("rclpy")
 pytest.importorskip("orthoglide_msgs.msg")
 
@@ -58,7 +62,7 @@ def test_recording_ends_when_every_topic_delivered_its_last_tick():
     node = rclpy.create_node("test_live_feed")
     try:
         spy = _Spy()
-        feed = LiveFeed(node, spy, threading.Lock())
+        feed = LiveFeed(node, spy, threading.Lock(), robot=ORTHOGLIDE)
         t0 = 10**12
         status = RecorderStatus(recording=True, condition="unloaded", bag_path="/bags/x")
         status.first_tick.sec, status.first_tick.nanosec = divmod(t0, 10**9)
@@ -97,7 +101,7 @@ def test_a_recorder_killed_and_restarted_ends_the_recording_it_left():
     node = rclpy.create_node("test_live_feed_restart")
     try:
         spy = _Spy()
-        feed = LiveFeed(node, spy, threading.Lock())
+        feed = LiveFeed(node, spy, threading.Lock(), robot=ORTHOGLIDE)
         t0 = 10**12
         status = RecorderStatus(recording=True, condition="unloaded", bag_path="/bags/killed")
         status.first_tick.sec, status.first_tick.nanosec = divmod(t0, 10**9)

@@ -55,8 +55,8 @@ def run_live(node, records, topics, opts):
     from orthoglide_ident.nodes.live_feed import LiveFeed
 
     model = load_robot(ROBOT)
-    live = LiveIdentification(opts, model)
-    feed = LiveFeed(node, live, threading.Lock(), topics, model)
+    live = LiveIdentification(opts, model=model)
+    feed = LiveFeed(node, live, threading.Lock(), topics, robot=model)
     try:
         for name, rec in records.items():
             feed.on_status(_status(name, rec, True))
@@ -151,7 +151,8 @@ def _spy_feed(node, records, topics=None):
     from orthoglide_ident.nodes.live_sources import LiveTopics
 
     spy = _Spy()
-    feed = LiveFeed(node, spy, threading.Lock(), topics or LiveTopics("joint_states"), load_robot(ROBOT))
+    feed = LiveFeed(node, spy, threading.Lock(), topics or LiveTopics("joint_states"),
+                    robot=load_robot(ROBOT))
     return spy, feed
 
 

@@ -23,7 +23,7 @@ import pytest
 from orthoglide_ident import bags
 from orthoglide_ident.bags import Recording
 from conftest import stop_processes
-from orthoglide_ident.nodes import _processes as children  # children end with this process
+from orthoglide_ident.ros import processes as children  # children end with this process
 
 ROOT = Path(__file__).resolve().parents[2]
 PUBLISHER = ROOT / "bench" / "recorder_publisher.py"

@@ -21,7 +21,7 @@ import numpy as np
 import pytest
 
 from orthoglide_ident import bags
-from orthoglide_ident.nodes import _processes as children  # children end with this process
+from orthoglide_ident.ros import processes as children  # children end with this process
 
 rclpy = pytest.importorskip("rclpy")
 pytest.importorskip("orthoglide_msgs.srv")
@@ -138,7 +138,8 @@ def test_a_callback_that_raises_is_answered_and_the_node_goes_on(client, spawn_p
 
 DEAF = """
 import sys
-from orthoglide_ident.nodes import _batch, recorder
+from orthoglide_ident.nodes import recorder
+from orthoglide_ident.ros import batch as _batch
 
 def broken_wait(self, ctx):
     raise ValueError("injected: the wait set cannot be built")

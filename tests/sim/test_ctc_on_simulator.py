@@ -7,8 +7,11 @@ import numpy as np
 import pytest
 
 from orthoglide_ident.control import CTCParameters, feedforward_currents
+from orthoglide_ident.model.robots import load_robot
 from orthoglide_sim.record import simulate
 from orthoglide_sim.trajectories import get_trajectory
+
+ORTHOGLIDE = load_robot("orthoglide")  # the robot these records are of
 
 BAGS = [Path(__file__).resolve().parents[2] / "bags" / c for c in ("unloaded", "loaded")]
 DURATION = 2.0  # s of test2 (one period is 2.15 s)
@@ -20,7 +23,8 @@ def identified() -> CTCParameters:
         pytest.skip("sample bags missing")
     from orthoglide_ident.identify.pipeline import identify
 
-    return CTCParameters.from_result(identify([str(b) for b in BAGS]), payload_mass=1.983)
+    return CTCParameters.from_result(identify([str(b) for b in BAGS], model=ORTHOGLIDE),
+                                     payload_mass=1.983, model=ORTHOGLIDE)
 
 
 def rms_um(rec) -> np.ndarray:

@@ -15,7 +15,7 @@ import pytest
 from orthoglide_ident.errors import ConfigError
 from orthoglide_sim.session import DriverSession
 from orthoglide_sim.trajectories import Q_CENTER, Q_HALF, get_trajectory
-from orthoglide_ident.nodes import _processes as children  # children end with this process
+from orthoglide_ident.ros import processes as children  # children end with this process
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "bench"))  # the bench's outside controller
 

@@ -10,7 +10,7 @@ from orthoglide_sim import kinematics as kin
 from orthoglide_sim.plant import Plant
 from orthoglide_sim.true_parameters import apply_overrides, load_parameters
 
-idim = pytest.importorskip("orthoglide_ident.model.idim")
+idim = pytest.importorskip("orthoglide_ident.model.orthoglide.idim")
 
 
 def _random_states(n: int, seed: int = 1):

@@ -10,9 +10,12 @@ from mcap.reader import make_reader
 
 from orthoglide_ident.cli import main
 from orthoglide_ident.identify.pipeline import identify
-from orthoglide_ident.report import _validation_for_plot
+from orthoglide_ident.report import validation_for_plot
 from orthoglide_ident.view.convergence import gain_convergence, record_seconds
 from orthoglide_ident.view.report_mcap import write_report_mcap
+from orthoglide_ident.model.robots import load_robot
+
+ORTHOGLIDE = load_robot("orthoglide")  # the robot these records are of
 
 ROOT = Path(__file__).resolve().parents[2]
 BAGS = [str(ROOT / "bags" / "unloaded"), str(ROOT / "bags" / "loaded")]  # the simulator's, 10 s each
@@ -20,7 +23,7 @@ BAGS = [str(ROOT / "bags" / "unloaded"), str(ROOT / "bags" / "loaded")]  # the s
 
 @pytest.fixture(scope="module")
 def result():
-    return identify(BAGS)
+    return identify(BAGS, model=ORTHOGLIDE)
 
 
 def _read(path: Path):
@@ -47,7 +50,7 @@ def test_the_mcap_holds_forces_residual_and_convergence_with_json_schemas(result
         assert json.loads(schema.data)["type"] == "object"
     counts = {topics[t][1].topic: n for t, n in
               ((summary.channels[i].topic, n) for i, n in summary.statistics.channel_message_counts.items())}
-    val, crossed = _validation_for_plot(result)
+    val, crossed = validation_for_plot(result)
     assert not crossed  # no validation bag: the last identification record, as torques.png
     assert counts["/orthoglide/report/forces"] == val.t.shape[0]  # every decimated row
     assert counts["/orthoglide/identified_parameters"] == 1
@@ -86,7 +89,7 @@ def test_the_convergence_ends_on_the_identified_gains(result, tmp_path):
 
 def test_convergence_points_need_both_conditions():
     """TLS needs a loaded and an unloaded record (eq. 33): with one of them, no point at all."""
-    res = identify(BAGS)
+    res = identify(BAGS, model=ORTHOGLIDE)
     assert gain_convergence(res.observations[:1]) == []
 
 

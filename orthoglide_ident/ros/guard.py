@@ -12,7 +12,7 @@ service, subscription and timer of a node, so that an exception
 - lets the node go on serving.
 
 A failure the node cannot go on from (a thread it needs has died) is ``cannot_go_on(node, reason)``:
-the spin helper (nodes._spin) sees it, logs the reason and exits non-zero, so that ``ros2 launch``
+the spin helper (ros.spin) sees it, logs the reason and exits non-zero, so that ``ros2 launch``
 (``respawn``) or a supervisor starts the node again.
 
 Each logging call below keeps one severity: rclpy refuses another severity from the same call site

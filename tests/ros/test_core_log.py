@@ -1,10 +1,10 @@
-"""The core's log lines of an identify call reach the node's log (nodes/_core_log.py)."""
+"""The core's log lines of an identify call reach the node's log (ros/core_log.py)."""
 from __future__ import annotations
 
 import logging
 import threading
 
-from orthoglide_ident.nodes._core_log import CoreLog
+from orthoglide_ident.ros.core_log import CoreLog
 
 
 class Lines:

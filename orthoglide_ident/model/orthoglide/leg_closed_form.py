@@ -23,10 +23,11 @@ from typing import Callable, Iterable
 
 import numpy as np
 
-from orthoglide_ident.model.geometry import PAPER, PARALLEL_MARGIN, R_LEG, SERIAL_MARGIN, Geometry
-from orthoglide_ident.model.kinematics import (_TO_BASE, _TO_LEG, TreeState, check_regular, fgm,
-                                               to_leg)
-from orthoglide_ident.model.parameters import LEG_PARAMETERS
+from orthoglide_ident.model.orthoglide.geometry import (PAPER, PARALLEL_MARGIN, R_LEG,
+                                                       SERIAL_MARGIN, Geometry)
+from orthoglide_ident.model.orthoglide.kinematics import (_TO_BASE, _TO_LEG, TreeState,
+                                                         check_regular, fgm, to_leg)
+from orthoglide_ident.model.orthoglide.parameters import LEG_PARAMETERS
 
 Column = Callable[["_Leg"], np.ndarray]
 _E = R_LEG[:, :, 2]  # actuator axis e_i in base coordinates (3 legs, 3)

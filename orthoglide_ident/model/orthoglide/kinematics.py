@@ -18,7 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from orthoglide_ident.errors import ModelError, SingularityError, WorkspaceError
-from orthoglide_ident.model.geometry import (
+from orthoglide_ident.model.orthoglide.geometry import (
     E_AXIS,
     PAPER,
     PARALLEL_MARGIN,

@@ -13,10 +13,10 @@ import numpy as np
 import pytest
 
 from orthoglide_ident.errors import ModelError, SingularityError, WorkspaceError
-from orthoglide_ident.model.base import base_model, random_states
-from orthoglide_ident.model.idim import standard_regressor
-from orthoglide_ident.model.kinematics import fgm, igm, loop_closure_residual, tree_state
-from orthoglide_ident.model.parameters import N_ST, STANDARD_NAMES
+from orthoglide_ident.model.orthoglide.base import base_model, random_states
+from orthoglide_ident.model.orthoglide.idim import standard_regressor
+from orthoglide_ident.model.orthoglide.kinematics import fgm, igm, loop_closure_residual, tree_state
+from orthoglide_ident.model.orthoglide.parameters import N_ST, STANDARD_NAMES
 
 jax.config.update("jax_enable_x64", True)
 

@@ -1,6 +1,6 @@
 """The Orthoglide described to the general model (robots/orthoglide_general.yaml: the MDH tree of
 Tables 1-2 in a URDF, legs 2 and 3 closed on the platform by 6D loops) against the paper's closed
-form (model/base.py): the same standard rows, the same 61 base parameters, the same identification
+form (model/orthoglide/base.py): the same standard rows, the same 61 base parameters, the same identification
 on the sample bags.
 
 The two share no kinematics: the closed form solves the loops by hand (eqs. 5-9, 41) and writes
@@ -15,11 +15,13 @@ import numpy as np
 import pytest
 
 from orthoglide_ident.errors import WorkspaceError
-from orthoglide_ident.model.base import base_model
+from orthoglide_ident.model.orthoglide.base import base_model
 from orthoglide_ident.model.pinocchio_model import PinocchioRobot
 from orthoglide_ident.model.robots import ROBOTS_DIR, load_robot, read_yaml
 
-BAGS = Path(__file__).resolve().parents[2] / "bags"
+ORTHOGLIDE = load_robot("orthoglide")  # the robot these records are of
+
+BAGS = Path(__file__).resolve().parents[3] / "bags"
 ROW_TOL = 1e-9
 
 
@@ -100,7 +102,7 @@ def test_identification_on_the_sample_bags_equals_the_closed_forms(general):
     from orthoglide_ident.identify.pipeline import identify
 
     bags = [str(BAGS / "unloaded"), str(BAGS / "loaded")]
-    ref, res = identify(bags), identify(bags, model=general)
+    ref, res = identify(bags, model=ORTHOGLIDE), identify(bags, model=general)
     for a, b in zip(ref.drive_gains, res.drive_gains, strict=True):
         assert b.value == pytest.approx(a.value, rel=1e-6)
         assert b.rel_std == pytest.approx(a.rel_std, rel=1e-6)

@@ -11,15 +11,17 @@ from __future__ import annotations
 import functools
 import json
 import re
-from dataclasses import dataclass
 
 import numpy as np
 
 from orthoglide_ident.errors import ConfigError
-from orthoglide_ident.model.geometry import A, G_TAU_MANUFACTURER, JOINT_NAMES, PAPER, Geometry
-from orthoglide_ident.model.idim import observation_block, observation_columns, standard_regressor
-from orthoglide_ident.model.kinematics import igm
-from orthoglide_ident.model.parameters import (
+from orthoglide_ident.model.base_parameters import COEF_TOL, QR_EPS, BaseParameter
+from orthoglide_ident.model.orthoglide.geometry import (A, G_TAU_MANUFACTURER, JOINT_NAMES, PAPER,
+                                                       Geometry)
+from orthoglide_ident.model.orthoglide.idim import (observation_block, observation_columns,
+                                                   standard_regressor)
+from orthoglide_ident.model.orthoglide.kinematics import igm
+from orthoglide_ident.model.orthoglide.parameters import (
     INERTIAL,
     N_BODIES,
     N_LEGS,
@@ -31,9 +33,6 @@ from orthoglide_ident.model.parameters import (
     leg_name,
 )
 from orthoglide_ident.model.robot import ActuatedJoint, Body, Payload, RobotModel
-
-QR_EPS = 1e-8  # exact model data: dependent columns sit at ~1e-13 relative
-COEF_TOL = 1e-7  # coefficients below this (relative to 1) are numerical noise
 
 
 def eq23_order() -> list[int]:
@@ -64,28 +63,6 @@ def _generic(name: str) -> str:
     m = re.fullmatch(r"([a-z]+)_(\d)(\d)", name)
     return f"{m.group(1)}_{m.group(2)}i" if m else name
 
-
-def _fmt_coef(c: float) -> str:
-    return f"{c:.5g}"
-
-
-@dataclass(frozen=True)
-class BaseParameter:
-    """One base parameter: the standard parameter kept and the regrouping it stands for."""
-
-    name: str  # paper style, 'm_11R' when regrouped
-    standard: str  # kept standard parameter, e.g. 'm_11'
-    terms: tuple[tuple[str, float], ...]  # (standard name, coefficient), the kept one first with 1.0
-    legs: tuple[int, ...]  # legs whose base parameter of this kind has the same form
-
-    @property
-    def expression(self) -> str:
-        out = self.standard
-        for name, c in self.terms[1:]:
-            sign = "-" if c < 0 else "+"
-            mag = abs(c)
-            out += f" {sign} {name}" if abs(mag - 1.0) < 1e-9 else f" {sign} {_fmt_coef(mag)} {name}"
-        return out
 
 
 PAYLOAD_FRAME = "platform"  # the payload (body 7) is fixed to the translating platform (body 6)
@@ -151,6 +128,29 @@ class BaseModel(RobotModel):
             for col, t in zip(kept, terms)
         ]
         self.rank_gap = float(d[keep].min() / max(d[~keep].max(), 1e-300)) if (~keep).any() else np.inf
+
+    # --- what callers asked by type before: the closed tree's URDF, labels, forward model ----
+    @property
+    def gravity(self) -> tuple[float, float, float]:
+        """m/s², along +y0 (Sect. 5.1): the robot file's g."""
+        return tuple(float(x) for x in self.geometry.gravity)
+
+    def identified_urdf(self, chi_st: np.ndarray, gains) -> str:
+        """The URDF of the open tree (urdf.py); the loops are closed by forward_model."""
+        from orthoglide_ident.model.orthoglide.urdf import orthoglide_urdf
+
+        return orthoglide_urdf(self, chi_st, gains)
+
+    def joint_labels(self, urdf_text: str) -> dict[str, str]:
+        from orthoglide_ident.model.orthoglide.urdf import joint_labels
+
+        return joint_labels()
+
+    def forward_model(self, chi_st: np.ndarray, gains, payload: Payload | None):
+        """The open tree closed by two welds, Pinocchio's constraint dynamics (forward.py)."""
+        from orthoglide_ident.model.orthoglide.forward import orthoglide_forward
+
+        return orthoglide_forward(self, chi_st, gains, payload)
 
     @staticmethod
     def _shared_legs(col, t, kept, terms) -> tuple[int, ...]:

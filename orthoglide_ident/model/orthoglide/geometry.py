@@ -15,11 +15,11 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from orthoglide_ident.errors import ConfigError
+from orthoglide_ident.model.robot import G0
 
 A = 0.34  # m, Fig. 3(b)
 D4 = 0.31  # m, length of the equivalent parallelogram bar
 D6 = 0.03  # m, offset of the bar end C_i from the platform point P along the actuator axis
-G0 = 9.80665  # m/s²
 GRAVITY = np.array([0.0, G0, 0.0])  # acceleration vector, "directed along y0" (Sect. 5.1)
 
 JOINT_NAMES = ("q11", "q12", "q13")

@@ -1,4 +1,4 @@
-"""nodes/_guard.py and the checks of nodes/_spin.py: a callback that raises is one log line, a
+"""ros/guard.py and the checks of ros/spin.py: a callback that raises is one log line, a
 service that raises still answers (success false, the reason), the executor goes on serving; a
 bad parameter file is a one-line reason before rcl sees it."""
 from __future__ import annotations
@@ -9,7 +9,7 @@ import time
 import pytest
 
 from orthoglide_ident.errors import ConfigError
-from orthoglide_ident.nodes._spin import check_params_files
+from orthoglide_ident.ros.spin import check_params_files
 
 rclpy = pytest.importorskip("rclpy")
 
@@ -19,7 +19,7 @@ def test_raising_callbacks_are_logged_once_answered_and_the_node_goes_on(capfd):
     from std_msgs.msg import String
     from std_srvs.srv import Trigger
 
-    from orthoglide_ident.nodes._guard import REPEAT_LOG_S, CallbackGuard
+    from orthoglide_ident.ros.guard import REPEAT_LOG_S, CallbackGuard
 
     t0 = time.monotonic()
     rclpy.init()

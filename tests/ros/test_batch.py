@@ -1,4 +1,4 @@
-"""Batch intake (nodes/_batch.py): a callback that raises loses its batch, says why, and the
+"""Batch intake (ros/batch.py): a callback that raises loses its batch, says why, and the
 thread goes on taking the topic (it used to die silently: a node up but deaf)."""
 from __future__ import annotations
 
@@ -13,7 +13,7 @@ def test_a_failing_callback_is_logged_and_later_batches_still_arrive():
     from rclpy.qos import QoSProfile
     from std_msgs.msg import String
 
-    from orthoglide_ident.nodes._batch import BatchTaker, BatchTopic
+    from orthoglide_ident.ros.batch import BatchTaker, BatchTopic
 
     rclpy.init()
     node = rclpy.create_node("test_batch_owner")

@@ -26,10 +26,11 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from orthoglide_ident.model.geometry import PAPER, Geometry
-from orthoglide_ident.model.kinematics import TreeState, as_samples, tree_state
-from orthoglide_ident.model.leg_closed_form import closed_form_columns, has_closed_form, leg_state
-from orthoglide_ident.model.parameters import LEG_PARAMETERS, N_LEGS, N_ST, N_ST_LEG
+from orthoglide_ident.model.orthoglide.geometry import PAPER, Geometry
+from orthoglide_ident.model.orthoglide.kinematics import TreeState, as_samples, tree_state
+from orthoglide_ident.model.orthoglide.leg_closed_form import (closed_form_columns, has_closed_form,
+                                                              leg_state)
+from orthoglide_ident.model.orthoglide.parameters import LEG_PARAMETERS, N_LEGS, N_ST, N_ST_LEG
 
 _ALPHA = {2: -np.pi / 2, 3: -np.pi / 2, 4: 0.0, 5: np.pi / 2}  # MDH alpha of frames 2..5 (Table 2)
 _INERTIA = ("xx", "xy", "xz", "yy", "yz", "zz")

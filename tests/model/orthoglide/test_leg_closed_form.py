@@ -1,4 +1,4 @@
-"""Closed-form leg columns and component-first kinematics (model/leg_closed_form.py) against
+"""Closed-form leg columns and component-first kinematics (model/orthoglide/leg_closed_form.py) against
 the generic Newton-Euler recursion (idim.leg_columns, kinematics.tree_state)."""
 from __future__ import annotations
 
@@ -6,10 +6,10 @@ import numpy as np
 import pytest
 
 from orthoglide_ident.errors import SingularityError
-from orthoglide_ident.model import idim
-from orthoglide_ident.model.base import base_model, random_states
-from orthoglide_ident.model.kinematics import tree_state
-from orthoglide_ident.model.leg_closed_form import CLOSED_FORM, closed_form_columns, leg_state
+from orthoglide_ident.model.orthoglide import idim
+from orthoglide_ident.model.orthoglide.base import base_model, random_states
+from orthoglide_ident.model.orthoglide.kinematics import tree_state
+from orthoglide_ident.model.orthoglide.leg_closed_form import CLOSED_FORM, closed_form_columns, leg_state
 
 
 def test_closed_forms_equal_the_generic_recursion():

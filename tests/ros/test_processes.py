@@ -15,8 +15,8 @@ import time
 
 import pytest
 
-from orthoglide_ident.nodes import _processes as children
-from orthoglide_ident.nodes._processes import _ros2_launcher
+from orthoglide_ident.ros import processes as children
+from orthoglide_ident.ros.processes import _ros2_launcher
 
 pytest.importorskip("rclpy")
 

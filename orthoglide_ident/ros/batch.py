@@ -13,7 +13,7 @@ owner apply. Messages are handed over serialized (CDR bytes) with their receive 
 
 ``drain()`` hands over, before it returns, every message the subscriptions held when it was
 called (the recorder's stop writes what had arrived). A callback that raises loses its batch, is
-logged (nodes._guard) and the thread goes on; if the thread itself cannot go on, the owner is
+logged (ros.guard) and the thread goes on; if the thread itself cannot go on, the owner is
 marked so (``cannot_go_on``) and the spin helper ends the node with exit code 1 rather than leave
 it up and deaf to its topics.
 """
@@ -30,7 +30,7 @@ from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
 from rclpy.node import Node
 from rclpy.qos import QoSProfile
 
-from orthoglide_ident.nodes._guard import FailureLog, cannot_go_on
+from orthoglide_ident.ros.guard import FailureLog, cannot_go_on
 
 Batch = list[tuple[bytes, int, int]]  # (serialized message, receive time ns, publish time ns)
 

@@ -5,7 +5,7 @@ recorder closed its bag); 2 with one line when the node cannot start with what i
 parameter or parameter file); 1 with one line when it cannot go on (a thread it needs died, its
 main loop failed, a bug at construction), so that ``ros2 launch`` (``respawn``) or a supervisor
 restarts it. Never a live process that serves nothing: a callback's exception is caught by
-nodes._guard and the node goes on serving.
+ros.guard and the node goes on serving.
 """
 from __future__ import annotations
 
@@ -18,8 +18,8 @@ from collections.abc import Callable
 from typing import Any
 
 from orthoglide_ident.errors import ConfigError, OrthoglideError
-from orthoglide_ident.nodes._guard import CallbackGuard, cannot_go_on, fatal_reason
-from orthoglide_ident.nodes._processes import end_with_ros2_launcher
+from orthoglide_ident.ros.guard import CallbackGuard, cannot_go_on, fatal_reason
+from orthoglide_ident.ros.processes import end_with_ros2_launcher
 
 STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
 IDLE_WAIT_S = 0.1  # the executor thread checks for a stop request this often

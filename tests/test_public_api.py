@@ -1,0 +1,73 @@
+"""The public faces: what each package's ``__init__`` hands on, pinned. A change here is a change
+of the product's API: make it on purpose (and say so in docs/architecture.md "Public faces")."""
+from __future__ import annotations
+
+import importlib
+
+import pytest
+
+API = {
+    "orthoglide_ident.identify": [
+        "IdentifyOptions", "LiveEstimate", "LiveIdentification", "Record", "identify",
+        "identify_records", "read_record"],
+    "orthoglide_ident.model": [
+        "ActuatedJoint", "Body", "Payload", "RobotModel", "bundled_robots", "load_robot"],
+    "orthoglide_ident.bags": [
+        "BagData", "BagInfo", "BagSources", "BagTags", "BagWriter", "COM_KEY", "CONDITIONS",
+        "CONDITION_KEY", "CURRENT_REFERENCE_TOPIC", "CURRENT_REFERENCE_TYPE", "CURRENT_SOURCE_KEY",
+        "CurrentReferences", "DYNAMIC_JOINT_STATES_TOPIC", "DYNAMIC_JOINT_STATE_TYPE", "FRAME_KEY",
+        "FileReport", "FileStatus", "Gaps", "INCOMPLETE_KEY", "INERTIA_KEY", "JOINT_STATES_TOPIC", "JOINT_STATE_TYPE",
+        "JTC_STATE_TYPE", "JointStates", "LAYOUTS", "MASS_KEY", "METADATA_NAME", "MessageTemplate",
+        "POSITION_SOURCE_KEY", "ROS2_CONTROL_JOINT_STATES_TOPIC", "Recording", "ReindexResult",
+        "Source", "TickCounter", "TopicInfo", "bag_files", "bag_info", "decode_messages",
+        "default_qos", "encode_dynamic_joint_states", "encode_joint_states", "encode_messages",
+        "find_gaps", "left_open", "msgdef_and_hash", "qos_profile", "read_bag", "reindex",
+        "write_bag"],
+}
+# the extension tables (docs/architecture.md "Extension points"): one place each
+TABLES = {
+    "orthoglide_ident.identify.methods": ["METHODS", "REFINEMENTS", "DEFAULT_METHOD", "get", "solve"],
+    "orthoglide_ident.bags.sources": ["INPUT_SOURCES", "CURRENT_SOURCES", "POSITION",
+                                      "DEFAULT_INTERFACE"],
+    "orthoglide_ident.model.robots": ["load_robot", "bundled_robots"],
+}
+# the node plumbing the nodes and the simulator share (rclpy: imported only where used)
+ROS = {
+    "orthoglide_ident.ros.spin": ["spin", "check_params_files"],
+    "orthoglide_ident.ros.params": ["Param", "declare", "on_set", "usage", "from_command_line"],
+    "orthoglide_ident.ros.batch": ["BatchTaker", "BatchTopic"],
+    "orthoglide_ident.ros.processes": ["popen", "run", "interrupt_on_signals", "Interrupted"],
+    "orthoglide_ident.ros.guard": ["CallbackGuard", "FailureLog", "cannot_go_on"],
+    "orthoglide_ident.ros.core_log": ["CoreLog"],
+}
+ROBOT_MODEL = ["forward_model", "identified_urdf", "joint_labels", "gravity", "observation_block",
+               "with_payload", "standard_regressor", "random_states", "regressor", "joint_names",
+               "nominal_gains", "effort_as_current"]
+
+
+@pytest.mark.parametrize("package", sorted(API))
+def test_each_package_hands_on_what_users_call(package):
+    mod = importlib.import_module(package)
+    assert sorted(mod.__all__) == sorted(API[package])
+    missing = [n for n in mod.__all__ if not hasattr(mod, n)]
+    assert not missing, f"{package}.__all__ names {missing}, which it does not define"
+
+
+@pytest.mark.parametrize("module", sorted(TABLES) + sorted(ROS))
+def test_the_extension_tables_and_the_node_plumbing_are_public(module):
+    if module in ROS:
+        pytest.importorskip("rclpy")
+    mod = importlib.import_module(module)
+    missing = [n for n in {**TABLES, **ROS}[module] if not hasattr(mod, n)]
+    assert not missing, f"{module} lacks {missing}"
+
+
+def test_the_robot_model_answers_what_callers_asked_by_type():
+    from orthoglide_ident.model import RobotModel, load_robot
+
+    assert all(hasattr(RobotModel, n) for n in ROBOT_MODEL)
+    for name in ("orthoglide", "ur5"):
+        robot = load_robot(name)
+        assert len(robot.gravity) == 3 and abs(sum(g * g for g in robot.gravity) - 9.80665 ** 2) < 1e-9
+    # the Orthoglide's gravity is along +y0 (paper Sect. 5.1), a URDF robot's along -z
+    assert load_robot("orthoglide").gravity[1] > 0 and load_robot("ur5").gravity[2] < 0
