@@ -21,7 +21,8 @@ MSGS_SOURCES := $(wildcard $(MSGS_DIR)/msg/*.msg $(MSGS_DIR)/srv/*.srv) \
 	$(MSGS_DIR)/CMakeLists.txt $(MSGS_DIR)/package.xml $(MSGS_DIR)/pyproject.toml \
 	msg_defs/wheel_include_dirs.cmake
 CONTROL_MSGS_DIR := msg_defs/control_msgs
-CONTROL_MSGS_SOURCES := $(wildcard $(CONTROL_MSGS_DIR)/msg/*.msg) $(CONTROL_MSGS_DIR)/CMakeLists.txt \
+CONTROL_MSGS_SOURCES := $(wildcard $(CONTROL_MSGS_DIR)/msg/*.msg $(CONTROL_MSGS_DIR)/action/*.action) \
+	$(CONTROL_MSGS_DIR)/CMakeLists.txt \
 	$(CONTROL_MSGS_DIR)/package.xml $(CONTROL_MSGS_DIR)/pyproject.toml \
 	$(CONTROL_MSGS_DIR)/found_elsewhere.py msg_defs/wheel_include_dirs.cmake
 PROJECT_SOURCES := pyproject.toml setup.py setup.cfg package.xml orthoglide_ident/_install_ament.py \
@@ -39,7 +40,7 @@ STAMP_MSGS := $(VENV)/.stamp-msgs
 STAMP_CONTROL_MSGS := $(VENV)/.stamp-control-msgs
 STAMP_PROJECT := $(VENV)/.stamp-project
 
-.PHONY: help setup setup-stamps test test-slow demo demo-offline demo-ros2-control bench bags lock clean distclean
+.PHONY: help setup setup-stamps test test-slow demo demo-offline demo-ros2-control demo-excite bench bags lock clean distclean
 
 help:
 	@echo "make setup      create $(VENV) (Python 3.11) with ROS 2 Jazzy wheels, build orthoglide_msgs (and control_msgs if missing), install the project"
@@ -48,6 +49,7 @@ help:
 	@echo "make demo       setup if needed, then the live node set end to end (record, identify, Table 4 over ROS 2)"
 	@echo "make demo-offline  setup if needed, then the offline pipeline (simulate, bags, identify, validate)"
 	@echo "make demo-ros2-control  setup if needed, then a ros2_control robot (the simulated UR5): record its topics, identify live and offline"
+	@echo "make demo-excite  setup if needed, then the simulated UR5 through its follow_joint_trajectory action: excite run unloaded, mount, loaded, identify, feed forward"
 	@echo "make bench      setup if needed, then every bench/*.py"
 	@echo "make bags       regenerate the sample bags (DURATION=10 s, OUT=bags); e.g. make bags DURATION=60 OUT=records"
 	@echo "make lock       rewrite constraints.txt from the current venv"
@@ -76,8 +78,8 @@ $(STAMP_MSGS): $(STAMP_DEPS) $(MSGS_SOURCES)
 		$(PIP) install --quiet --no-build-isolation --no-deps --force-reinstall ./$(MSGS_DIR)
 	@touch $@
 
-# ros2_control's messages (DynamicJointState, InterfaceValue, JointTrajectoryControllerState) have
-# no PyPI wheel: an installed control_msgs is used as it is, otherwise the same rosidl step builds
+# ros2_control's messages (DynamicJointState, InterfaceValue, JointTrajectoryControllerState) and
+# its FollowJointTrajectory action have no PyPI wheel: an installed control_msgs is used as it is, otherwise the same rosidl step builds
 # them from msg_defs/control_msgs (Jazzy's fields, so the type hashes are a real install's).
 $(STAMP_CONTROL_MSGS): $(STAMP_DEPS) $(CONTROL_MSGS_SOURCES)
 	@command -v cmake >/dev/null && command -v c++ >/dev/null || { echo "setup: building control_msgs needs cmake and a C++ compiler (Debian 12: apt install cmake g++ python3-dev)" >&2; exit 1; }
@@ -123,6 +125,9 @@ demo-offline: setup
 
 demo-ros2-control: setup
 	$(PY) -m orthoglide_sim.demo_ros2_control
+
+demo-excite: setup
+	$(PY) -m orthoglide_sim.demo_excite
 
 lock: $(STAMP_DEPS)
 	{ echo '# Every distribution of the venv, exact versions: `pip install -c constraints.txt`.'; \

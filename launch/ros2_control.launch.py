@@ -2,7 +2,7 @@
 topics joint_state_broadcaster publishes; the simulated robot (the ros2_control stand-in) optional.
 
     ros2 launch orthoglide_ident ros2_control.launch.py [use_sim:=true|false] [robot:=ur5_mount]
-        [namespace:=] [output_dir:=bags] [ctc:=false] [viewer:=false] [respawn:=true]
+        [namespace:=] [output_dir:=bags] [ctc:=false] [viewer:=false] [excitation:=false] [respawn:=true]
 
 Each node reads its own YAML from share/orthoglide_ident/config/ and then config/ros2_control.yaml
 (the broadcaster's topics: joint_states + dynamic_joint_states, relative to the namespace, which is
@@ -32,6 +32,8 @@ NODES = (
      "respawn": True},
     {"executable": "viewer", "name": "orthoglide_viewer", "config": "viewer.yaml", "arguments": ("robot",),
      "when": "viewer", "respawn": False},
+    {"executable": "excitation", "name": "orthoglide_excitation", "config": None, "arguments": ("robot",),
+     "when": "excitation", "respawn": False},
 )
 RESPAWN_DELAY_S = 2.0  # as orthoglide.launch.py: a node that exits is started again (not the stand-in)
 
@@ -44,6 +46,8 @@ ARGUMENTS = {
     "bag_dir": ("bags", "identification: where bags are found when a request names none"),
     "ctc": ("false", "start the ctc node: feed-forward to joint_trajectory_controller (config/ros2_control.yaml)"),
     "viewer": ("false", "serve the topics to Foxglove (ws://127.0.0.1:8765, config/viewer.yaml)"),
+    "excitation": ("false", "start the excitation node: orthoglide/excitation/run runs a trajectory file's run "
+                   "through <controller>/follow_joint_trajectory and records it (excite run as a service)"),
     "respawn": ("true", "start the recorder, identification and ctc again when one exits"),
 }
 

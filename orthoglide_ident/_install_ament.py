@@ -32,6 +32,7 @@ EXECUTABLES: dict[str, str] = {
     "identification": "orthoglide_ident.nodes.identification",
     "ctc": "orthoglide_ident.nodes.ctc",
     "viewer": "orthoglide_ident.nodes.viewer",
+    "excitation": "orthoglide_ident.nodes.excitation",
 }
 """`ros2 run orthoglide_ident <exec>` -> module whose ``main()`` it runs (resource/launchers/<exec>)."""
 

@@ -185,8 +185,9 @@ def build_parser() -> argparse.ArgumentParser:
     import_command.add_parser(sub)
     ros_client.add_parsers(sub)
     from orthoglide_ident.excite.cli import add_excite_commands
+    from orthoglide_ident.excite.run_cli import add_run_command
 
-    add_excite_commands(sub)
+    add_run_command(add_excite_commands(sub))  # design, check (ACTIONS), and run on the robot
     return parser
 
 
@@ -262,6 +263,8 @@ def _main(args: argparse.Namespace) -> int:
         return ros_client.watch(args)
     if args.command == "import":
         return import_command.run(args)
+    if args.command == "excite" and getattr(args, "excite_handler", None):
+        return args.excite_handler(args)  # excite run: the robot from its file, over ROS 2
     if args.command == "identify" and args.service:
         if args.consistent or args.urdf_out:
             raise ConfigError("--consistent and --urdf-out are for identifying from bags here; "

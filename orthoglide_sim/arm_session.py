@@ -7,6 +7,13 @@ node can publish each tick as it happens and change the payload or the trajector
     tick = s.tick()        # k, q_meas (encoder), velocity estimate, v_tau (A) held over [t_k, t_k+1)
     s.set_payload("2.0")   # mounted now: the motion goes on from the same state
     s.set_trajectory("exciting2", s.k)   # blends in over 2 s (session.BLEND_TIME)
+    goal = s.start_goal(times, q, qd, qdd, tolerances)   # a FollowJointTrajectory goal from now on
+    s.cancel_goal()                       # ... or let it run: goal.status, goal.reason
+
+``trajectory="hold"`` keeps the arm at rest at the centre of its box until a goal moves it (a
+joint_trajectory_controller's robot). A goal starts from the reference of the current tick
+(joint_trajectory.JointTrajectory); after it the arm holds its last point, or where it was
+when the goal was cancelled or aborted.
 
 Run from the start with one trajectory and payload, ``tick()`` reproduces ``simulate_arm`` of
 the same seed tick for tick when ``noise_window_s`` is that run's duration (the current noise's
@@ -31,12 +38,15 @@ from orthoglide_sim.arm_truth import ArmPayload, ArmTruth, RigidBody, load_truth
 from orthoglide_sim.chain_description import load_chain
 from orthoglide_sim.chain_plant import ChainPlant
 from orthoglide_sim.chain_truth import ChainTruth, load_chain_truth
+from orthoglide_sim.joint_trajectory import PATH_TOLERANCE_VIOLATED, GoalTracker, Hold, JointTrajectory, Tolerances
 from orthoglide_sim.mujoco_plant import MujocoPlant
 from orthoglide_sim.session import Reference
 
 NOISE_BLOCK = 1000  # ticks of current noise drawn at once (the same stream as one draw of all)
 POINT_RADIUS = 0.005  # m, a point-mass payload is a sphere this size (its inertia ~1e-3 of the noise)
 MAX_POINT_MASS = 20.0  # kg
+HOLD = "hold"  # the trajectory parameter: at rest at the box centre (until a goal moves the arm)
+NOISE_TRAJECTORY = "exciting1"  # the motion whose rms current sizes the noise when holding
 
 
 @dataclass(frozen=True)
@@ -59,8 +69,11 @@ class ArmSession:
         self.Plant = ChainPlant if isinstance(self.truth, ChainTruth) else MujocoPlant
         arm = self.truth.arm
         self.limits = motion_limits(arm)
-        self.reference = Reference(trajectory, lambda name: designed_trajectory(arm, name))
-        self.period = designed_trajectory(arm, trajectory).period  # s
+        self._internal: dict[str, object] = {HOLD: Hold(self.limits.centre)}  # goals, holds
+        self.reference = Reference(trajectory, self._trajectory)
+        self.period = designed_trajectory(arm, NOISE_TRAJECTORY if trajectory == HOLD else trajectory).period
+        self.goal: GoalTracker | None = None
+        self._goal_k0 = 0
         self.payload = resolve_payload(self.truth, payload)
         self.plant = self.Plant(self.truth, self.payload)
         self.g_tau = self.truth.drive_array("g_tau")
@@ -84,7 +97,9 @@ class ArmSession:
     def _noise_std(self, window_s: float | None) -> np.ndarray:
         """(n,) A: simulate_arm's rule over the first ``window_s`` s (one period by default)."""
         window = window_s if window_s else self.period
-        q, qd, qdd = self.reference.evaluate(np.arange(int(round(window / asim.TICK))))
+        reference = (Reference(NOISE_TRAJECTORY, self._trajectory) if self.reference.name == HOLD
+                     else self.reference)
+        q, qd, qdd = reference.evaluate(np.arange(int(round(window / asim.TICK))))
         return current_noise_std(self.plant, q[::NOISE_STRIDE], qd[::NOISE_STRIDE], qdd[::NOISE_STRIDE])
 
     def _start_on_reference(self) -> None:
@@ -105,10 +120,44 @@ class ArmSession:
         self.payload, self.plant = load, self.Plant(self.truth, load)
         self.plant.reset(q, qd)
 
+    def _trajectory(self, name: str):
+        """A reference by name: hold, a goal's (internal), or the arm's designed ones."""
+        return self._internal[name] if name in self._internal else designed_trajectory(self.truth.arm, name)
+
     def set_trajectory(self, name: str, k: int) -> None:
-        """Blend into trajectory ``name`` from tick ``k`` on. ConfigError if unknown or still
-        blending."""
+        """Blend into trajectory ``name`` from tick ``k`` on. ConfigError if unknown, still
+        blending, or while a goal runs."""
+        if self.goal is not None and self.goal.status == "active":
+            raise ConfigError("a FollowJointTrajectory goal is running: cancel it first")
         self.reference.switch(name, k)
+
+    # ---- FollowJointTrajectory goals ---------------------------------------------------------
+    def start_goal(self, times: np.ndarray, q: np.ndarray, qd: np.ndarray | None, qdd: np.ndarray | None,
+                   tolerances: Tolerances, effort: np.ndarray | None = None) -> GoalTracker:
+        """Follow points at ``times`` (s from the next tick; arrays (N, n) in the arm's joint
+        order) from the reference of the next tick on; ``effort`` (N, n) N·m, when given, is
+        fed forward (divided by the nominal gains, as the hardware does with an effort command).
+        ConfigError while a goal runs or in fault."""
+        if self.goal is not None and self.goal.status == "active":
+            raise ConfigError("a goal is already running")
+        if self.fault is not None:
+            raise ConfigError(f"the arm is stopped ({self.fault}): reset it first")
+        start = tuple(v[0] for v in self.reference.evaluate(self.k))
+        self._internal["goal"] = JointTrajectory(times, q, qd, qdd, start, effort)
+        self.reference = Reference("goal", self._trajectory, start_tick=self.k)
+        self._goal_k0 = self.k
+        self.goal = GoalTracker(self._internal["goal"], tolerances, self.joint_names)
+        return self.goal
+
+    def cancel_goal(self) -> None:
+        """End the running goal: the arm holds where it is."""
+        if self.goal is not None and self.goal.status == "active":
+            self.goal.cancel()
+            self._hold_here()
+
+    def _hold_here(self) -> None:
+        self._internal["held"] = Hold(self.plant.q)
+        self.reference = Reference("held", self._trajectory, start_tick=self.k)
 
     def reset(self) -> None:
         """Clear a fault: the arm back at rest on the reference of the current tick."""
@@ -130,14 +179,26 @@ class ArmSession:
             return None
         k = self.k
         q_meas = asim.quantise(self.plant.q, self.truth.encoder_resolution)
-        q_ref, qd_ref, _ = self.reference.at(k)
+        q_ref, qd_ref, qdd_ref = self.reference.at(k)
+        if self.goal is not None and self.goal.status == "active":
+            self.goal.update((k - self._goal_k0) * asim.TICK, q_meas, self.pid.v_filtered.copy(),
+                             (q_ref, qd_ref, qdd_ref))
+            if self.goal.status == "aborted":  # the JTC holds where the arm is
+                self._hold_here()
+                q_ref, qd_ref, _ = self.reference.at(k)
         v = self.pid.current(q_meas, q_ref, qd_ref)
+        if self.goal is not None and self.goal.status == "active":
+            effort = self.goal.trajectory.effort_at((k - self._goal_k0) * asim.TICK)
+            if effort is not None:  # the JTC's feed-forward: effort command / nominal gain
+                v = np.clip(v + effort / self.pid.nominal_gain, -self.current_limit, self.current_limit)
         self.saturated += bool(np.any(np.abs(v) >= self.pid.current_limit))
         self.plant.step(self.g_tau * (v + self._noise_at(k)), asim.SUBSTEPS)
         try:
             asim._check(self.plant, self.limits, k, v)
         except WorkspaceError as exc:
             self.fault = str(exc)
+            if self.goal is not None and self.goal.status == "active":
+                self.goal.status, self.goal.code, self.goal.reason = "aborted", PATH_TOLERANCE_VIOLATED, self.fault
         self.k += 1
         self.reference.settle(self.k)
         return ArmTick(k, q_meas, self.pid.v_filtered.copy(), v)

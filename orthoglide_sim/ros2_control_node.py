@@ -9,6 +9,7 @@ import sys
 import threading
 import time
 
+import numpy as np
 from control_msgs.msg import DynamicJointState
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rclpy.node import Node
@@ -21,7 +22,9 @@ from orthoglide_ident.ros.params import Param, declare, on_set, usage
 from orthoglide_ident.ros.spin import spin
 from orthoglide_sim.arm_session import ArmSession
 from orthoglide_sim.broadcaster import TOPICS, BroadcasterLayout, TickDropper
+from orthoglide_sim.joint_trajectory import Tolerances
 from orthoglide_sim.tick_clock import LATE_NS, TICK_NS, real_time_priority, sleep_until
+from orthoglide_sim.trajectory_action import TrajectoryActionServer
 
 DOC = """\
 A ros2_control robot as the product sees it, simulated: a serial arm (robot: a bundled name, a robot
@@ -39,7 +42,11 @@ counts are logged and on /diagnostics). robot_description (std_msgs/String, tran
 the arm's URDF, as robot_state_publisher publishes it. Names are relative: -r __ns:=/arm moves them.
 The current is the drive's current reference of the update (held over the next tick), reported with
 the position read in the same drive cycle. Leaving the stop limits stops the simulated arm (error in
-the log); call <node>/reset (std_srvs/Trigger) to put it back on its reference."""
+the log); call <node>/reset (std_srvs/Trigger) to put it back on its reference.
+The arm's joint_trajectory_controller: <controller>/follow_joint_trajectory
+(control_msgs/action/FollowJointTrajectory) runs a goal's points on the arm through its PID, with
+feedback, the path and goal tolerances (abort with the reason) and cancel; a goal with other
+joints, or while one runs, is rejected (orthoglide_sim.trajectory_action)."""
 
 PARAMETERS = (
     Param("robot", "ur5", "the arm: a bundled robot (ur5), a robot YAML or a URDF (serial arms only); "
@@ -47,7 +54,15 @@ PARAMETERS = (
     Param("payload", "none", "payload on the payload frame: none, 2.0 or 1.0 (the plant's payloads, kg; "
           "params_file adds others); set it while running to mount or remove one", dynamic=True, any_type=True),
     Param("trajectory", "exciting1", "reference: exciting1, exciting2 (the arm's designed exciting "
-          "trajectories) or a .json Fourier file; a change blends in over 2 s", dynamic=True),
+          "trajectories), a .json Fourier file, or hold (at rest at the box centre until a "
+          "follow_joint_trajectory goal moves it); a change blends in over 2 s", dynamic=True),
+    Param("controller", "joint_trajectory_controller", "the joint_trajectory_controller's name: its action "
+          "is <controller>/follow_joint_trajectory (control_msgs/action/FollowJointTrajectory)"),
+    Param("path_tolerance", 0.0, "rad (m): default position tolerance along a goal's path, per joint; "
+          "0: none (a goal's path_tolerance overrides it)"),
+    Param("goal_tolerance", 0.0, "rad (m): default position tolerance at a goal's end; 0: none"),
+    Param("goal_time", 0.0, "s: a goal aborts when its end is not within tolerance this long after "
+          "its last point's time; 0: waits (JTC's constraints.goal_time)"),
     Param("duration", 0.0, "s to run, 0 = until shut down"),
     Param("drop_rate", 1.0e-4, "probability that a topic drops a tick (each topic on its own), as the "
           "broadcaster's realtime publisher does when busy; 0: never"),
@@ -95,6 +110,10 @@ class Ros2ControlStandIn(Node):
             self.pub_desc = self.create_publisher(String, "robot_description", LATCHED)
             self.pub_desc.publish(String(data=self.session.truth.arm.urdf_text))
         self.create_service(Trigger, "~/reset", self._on_reset)
+        n = len(self.session.joint_names)
+        tol = Tolerances(*(np.full(n, float(v[k])) for k in ("path_tolerance", "goal_tolerance")),
+                         np.zeros(n), float(v["goal_time"]))
+        self.jtc = TrajectoryActionServer(self, self.session, self.lock, v["controller"], tol)
         on_set(self, PARAMETERS, self._apply)
         self.get_logger().info(
             f"{self.session.truth.arm.name}: joints {', '.join(self.layout.names)} (hardware order), "
@@ -197,7 +216,7 @@ def main(argv: list[str] | None = None) -> int:
         print(_usage())
         return 0
     sys.setswitchinterval(2e-4)  # the update loop gets the GIL back within 0.2 ms of a callback
-    return spin(Ros2ControlStandIn, argv, "driver")
+    return spin(Ros2ControlStandIn, argv, "driver", threads=3)  # a goal's execution waits in one
 
 
 if __name__ == "__main__":

@@ -61,6 +61,7 @@ def _blend_weight(s: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 class Reference:
     """The reference tracked by the controller, per tick, from a chain of trajectories.
 
+    The first trajectory's time 0 is tick ``start_tick``.
     ``switch(name, k)`` starts trajectory ``name`` (its time 0) at tick k and blends the old one
     into it over BLEND_TIME: r = (1 - w) r_old + w r_new with a quintic weight w. Both stay in the
     safe box, which is convex, so the blend does too; velocity and acceleration stay bounded.
@@ -68,9 +69,9 @@ class Reference:
 
     CACHE_TICKS = 256  # single ticks are served from blocks evaluated at once (a few us per tick)
 
-    def __init__(self, name: str, resolve=get_trajectory):
+    def __init__(self, name: str, resolve=get_trajectory, start_tick: int = 0):
         self._resolve = resolve  # name -> trajectory with .evaluate(t); another robot's designs
-        self._chain = [(0, resolve(name), name)]  # (first tick, trajectory, name)
+        self._chain = [(start_tick, resolve(name), name)]  # (first tick, trajectory, name)
         self._cache: dict[int, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
 
     @property

@@ -20,7 +20,8 @@ ROOT = Path(__file__).resolve().parents[1]
 PRODUCT = ROOT / "orthoglide_ident"
 ORTHOGLIDE_PACKAGE = "orthoglide_ident.model.orthoglide"
 REGISTRY = "orthoglide_ident/model/robots.py"
-EDGES = ("orthoglide_ident/cli.py", "orthoglide_ident/nodes/")  # where "which robot" is resolved
+EDGES = ("orthoglide_ident/cli.py", "orthoglide_ident/excite/run_cli.py",  # the excite run command's handler
+         "orthoglide_ident/nodes/")  # where "which robot" is resolved
 
 
 def _modules(*roots: Path) -> list[Path]:

@@ -13,7 +13,7 @@ from rclpy.serialization import deserialize_message, serialize_message
 
 from orthoglide_ident.bags import _types
 from orthoglide_msgs.msg import CurrentReference, IdentifiedParameters
-from orthoglide_msgs.srv import Identify, StartRecording
+from orthoglide_msgs.srv import Identify, StartRecording, StopRecording
 
 # docs/architecture.md §4, field for field; tools outside the project rely on these.
 EXPECTED_FIELDS = {
@@ -53,6 +53,12 @@ EXPECTED_FIELDS = {
         "name": "string",
     },
     StartRecording.Response: {
+        "success": "boolean",
+        "message": "string",
+        "bag_path": "string",
+    },
+    StopRecording.Request: {"incomplete_reason": "string"},  # added: recorder/stop_incomplete
+    StopRecording.Response: {
         "success": "boolean",
         "message": "string",
         "bag_path": "string",
@@ -107,6 +113,7 @@ def _examples() -> list[object]:
         Identify.Response(success=True, message="ok", parameters=_identified_parameters()),
         StartRecording.Request(condition="loaded", payload_mass=1.136, name="loaded_01"),
         StartRecording.Response(success=False, message="already recording", bag_path="/tmp/x"),
+        StopRecording.Request(incomplete_reason="loaded run aborted: PATH_TOLERANCE_VIOLATED"),
     ]
 
 
@@ -445,3 +452,51 @@ def test_control_msgs_between_two_processes(spawn_python) -> None:
     assert got["hashes"] == {
         "/dynamic_joint_states": REAL_INSTALL_HASHES["control_msgs/msg/DynamicJointState"],
         "/jtc/controller_state": JTC_STATE_HASH}
+
+
+# control_msgs/action/FollowJointTrajectory (excite run, the stand-in's JTC): the jazzy branch's
+# fields; rosidl's hashes of them (no real Jazzy install's found to compare: docs/bags.md).
+FOLLOW_JOINT_TRAJECTORY_HASHES = {
+    "control_msgs/action/FollowJointTrajectory":
+        "RIHS01_738ebcb7a2d7cfa42f9f1001cc99ce3a4383d1cfe508015d9be8485e4b1c66f6",
+    "control_msgs/action/FollowJointTrajectory_Goal":
+        "RIHS01_8a9060704b269608f5a340934cc26e66869dd14bdac29e2e7fd9ec8b9882d205",
+    "control_msgs/action/FollowJointTrajectory_Result":
+        "RIHS01_8002e99ed2c14c6faa522f2a93c26d744c5982f254f9e98ff9c6f19789bdb220",
+    "control_msgs/action/FollowJointTrajectory_Feedback":
+        "RIHS01_3fd0aaecf71725121ae1ff7f01098a5e0da581e672be18a6b2c286cb43d96b49",
+    "control_msgs/msg/JointTolerance":
+        "RIHS01_c254f9cece0f3b733017b6990fd46d1326e25242d6b8844398c97d9a88e7d648",
+    "control_msgs/msg/JointComponentTolerance":
+        "RIHS01_739ea7566931944d33830fa10f1bf5e7a7fbdc3172bce7a7eaac642bd6e3ffa4",
+}
+
+
+def test_follow_joint_trajectory_hashes_agree_in_rosidl_and_rosbags() -> None:
+    """The built action's hashes (rosidl) are the pinned ones, and rosbags' independent REP 2011
+    implementation hashes the .action/.msg files' goal, result, feedback and tolerances alike."""
+    from ament_index_python.packages import get_package_share_directory
+    from control_msgs.action import FollowJointTrajectory
+    from rosbags.typesys import Stores, get_types_from_msg, get_typestore
+
+    share = Path(get_package_share_directory("control_msgs"))
+    built = {}
+    for f in (share / "action/FollowJointTrajectory.json", share / "msg/JointTolerance.json",
+              share / "msg/JointComponentTolerance.json"):
+        built.update({h["type_name"]: h["hash_string"] for h in json.loads(f.read_text())["type_hashes"]})
+    assert {k: built[k] for k in FOLLOW_JOINT_TRAJECTORY_HASHES} == FOLLOW_JOINT_TRAJECTORY_HASHES
+    store = get_typestore(Stores.ROS2_JAZZY)
+    defs = ROOT / "msg_defs/control_msgs"
+    for name in ("JointTolerance", "JointComponentTolerance"):
+        store.register(get_types_from_msg((defs / f"msg/{name}.msg").read_text(), f"control_msgs/msg/{name}"))
+    text = (defs / "action/FollowJointTrajectory.action").read_text()
+    text = text.replace("JointTolerance[]", "control_msgs/msg/JointTolerance[]").replace(
+        "JointComponentTolerance[]", "control_msgs/msg/JointComponentTolerance[]")
+    for part, suffix in zip(text.split("\n---\n"), ("Goal", "Result", "Feedback")):
+        store.register(get_types_from_msg(part, f"control_msgs/action/FollowJointTrajectory_{suffix}"))
+    for name, h in FOLLOW_JOINT_TRAJECTORY_HASHES.items():
+        if name != "control_msgs/action/FollowJointTrajectory":  # rosbags has no actions
+            assert store.hash_rihs01(name) == h, name
+    assert set(FollowJointTrajectory.Feedback.get_fields_and_field_types()) == {
+        "header", "joint_names", "desired", "actual", "error", "multi_dof_joint_names",
+        "multi_dof_desired", "multi_dof_actual", "multi_dof_error"}  # jazzy: no `index` (6.x adds it)

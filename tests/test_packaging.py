@@ -22,6 +22,7 @@ EXECUTABLES = {
     "identification": "orthoglide_ident.nodes.identification",
     "ctc": "orthoglide_ident.nodes.ctc",
     "viewer": "orthoglide_ident.nodes.viewer",
+    "excitation": "orthoglide_ident.nodes.excitation",
 }
 
 

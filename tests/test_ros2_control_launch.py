@@ -31,8 +31,9 @@ def test_launch_file_lists_the_nodes_with_installed_configs():
         assert n["when"] is None or n["when"] in launch.ARGUMENTS
     assert [n["name"] for n in launch.NODES if n["when"] is None] == ["orthoglide_recorder",
                                                                         "orthoglide_identification"]
-    # a product node that exits is started again; the stand-in (a robot's controller) and the viewer not
-    assert [n["respawn"] for n in launch.NODES] == [False, True, True, True, False]
+    # a product node that exits is started again; the stand-in (a robot's controller), the viewer
+    # and the excitation node (a run it was doing is not resumed) not
+    assert [n["respawn"] for n in launch.NODES] == [False, True, True, True, False, False]
     assert "respawn" in launch.ARGUMENTS
 
 

@@ -29,6 +29,11 @@ Stored as strings, the same keys in metadata.yaml ``custom_data`` and in each .m
                                 ``orthoglide-ident import``); identification turns a torque into a
                                 current with the nominal gains (optional; absent: the
                                 ``effort_unit`` option, default A)
+``orthoglide.incomplete``       why the recording was stopped before its run ended (a cancelled,
+                                aborted or out-of-tolerance excitation run, ``excite run``);
+                                absent: complete. Written at the stop, in metadata.yaml and the
+                                closing ``rosbag2`` record's ``custom_data`` (not in the
+                                ``orthoglide`` record, written when each file opens)
 ==============================  ==================================================================
 
 The payload's com and inertia need ``loaded``; a source's topic is a ROS name (``/...``) and its
@@ -58,6 +63,7 @@ POSITION_SOURCE_KEY = "orthoglide.position_source"
 CURRENT_SOURCE_KEY = "orthoglide.current_source"
 EFFORT_UNIT_KEY = "orthoglide.effort_unit"
 EFFORT_UNITS = ("A", "torque")
+INCOMPLETE_KEY = "orthoglide.incomplete"
 METADATA_NAME = "orthoglide"
 CONDITIONS = ("loaded", "unloaded")
 _INERTIA_TOL = 1e-12  # kg·m², relative to the largest moment: round-off in a principal moment

@@ -66,6 +66,7 @@ class BagInfo:
     warnings: list[str]
     sources: BagSources | None = None
     source_problem: str = ""
+    incomplete: str = ""  # orthoglide.incomplete: why the recording stopped early ("" if complete)
 
     def step_warnings(self) -> list[str]:
         """One warning per topic whose stamps are on an uneven clock."""
@@ -90,6 +91,8 @@ class BagInfo:
             lines.append(f"tag:       {self.tags.describe()}")
         else:
             lines.append(f"tag:       NONE: {self.tag_problem}")
+        if self.incomplete:
+            lines.append(f"INCOMPLETE: {self.incomplete}")
         if self.sources is not None:
             lines.append(f"q:         {self.sources.position.describe()}")
             lines.append(f"current:   {self.sources.current.describe()}")
@@ -159,7 +162,7 @@ def bag_info(path: str | Path) -> BagInfo:
     start = min((a for a, _ in spans), default=0)
     duration = (max(b for _, b in spans) - start) / 1e9 if spans else 0.0
     return BagInfo(scan.path, scan.files, topics, start, duration, scan.tags, scan.tag_problem,
-                   scan.warnings, sources, source_problem)
+                   scan.warnings, sources, source_problem, scan.incomplete)
 
 
 class TickCounter:

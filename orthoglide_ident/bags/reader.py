@@ -19,7 +19,8 @@ from orthoglide_ident.errors import BagError
 
 from . import _cdr, _mcap
 from ._decode import Decoder, TopicSeries
-from ._tags import METADATA_NAME, BagTags
+from ._metadata import ROSBAG2_RECORD, parse_record
+from ._tags import INCOMPLETE_KEY, METADATA_NAME, BagTags
 from ._types import CURRENT_REFERENCE_TYPE, DYNAMIC_JOINT_STATE_TYPE, JOINT_STATE_TYPE
 from .sources import BagSources, choose_sources, take_joints
 
@@ -90,6 +91,7 @@ class _Scan:
     tags: BagTags | None
     tag_problem: str
     warnings: list[str]
+    incomplete: str = ""  # orthoglide.incomplete: why the recording stopped early ("" if complete)
 
 
 def bag_files(path: str | Path) -> tuple[Path, list[Path], dict | None, list[str]]:
@@ -150,8 +152,9 @@ def _scan_bag(path: str | Path, decode: bool) -> _Scan:
     statuses: list[FileStatus] = []
     file_tags: list[tuple[Path, BagTags | None]] = []
     tag_problem = ""
+    closing: list[str] = []  # orthoglide.incomplete of the files' closing rosbag2 records
     for fpath in files:
-        status, tag, problem = _scan_file(fpath, topics, decoders, decode, warnings)
+        status, tag, problem = _scan_file(fpath, topics, decoders, decode, warnings, closing)
         statuses.append(status)
         file_tags.append((fpath, tag))
         tag_problem = tag_problem or problem
@@ -160,7 +163,10 @@ def _scan_bag(path: str | Path, decode: bool) -> _Scan:
         for s in topics.values():
             if s.msgtype in _cdr.DECODABLE:
                 s.finish()
-    return _Scan(bag, statuses, topics, tags, tag_problem, warnings)
+    custom = (info or {}).get("custom_data") or {}
+    incomplete = str(custom.get(INCOMPLETE_KEY, "") if isinstance(custom, dict) else "") or \
+        next((c for c in reversed(closing) if c), "")
+    return _Scan(bag, statuses, topics, tags, tag_problem, warnings, incomplete)
 
 
 def _file_tag(
@@ -182,11 +188,18 @@ def _scan_file(
     decoders: dict[str, Decoder],
     decode: bool,
     warnings: list[str],
+    closing: list[str] | None = None,
 ) -> tuple[FileStatus, BagTags | None, str]:
-    """Read one .mcap into ``topics``: its status, its tag and the problem with its tag."""
+    """Read one .mcap into ``topics``: its status, its tag and the problem with its tag (and
+    appended to ``closing``: the ``orthoglide.incomplete`` of its rosbag2 records, "" if none)."""
     res = _mcap.scan(fpath)
     try:
         tag, problem = _file_tag(fpath, res.metadata)
+        if closing is not None:
+            docs = [parse_record(items) for name, items in res.metadata if name == ROSBAG2_RECORD]
+            closing.append(next((str(d["custom_data"][INCOMPLETE_KEY]) for d in reversed(docs)
+                                 if d and isinstance(d.get("custom_data"), dict)
+                                 and INCOMPLETE_KEY in d["custom_data"]), ""))
         status = FileStatus(fpath, res.size, res.closed, 0, 0)
         for arr, per, in_chunk in _mcap.iter_messages(res, warnings):
             status.chunks += in_chunk
@@ -314,6 +327,9 @@ def read_bag(path: str | Path, *, require_tags: bool = True, interface: str | No
     warnings = list(scan.warnings)
     if scan.tags is None:
         warnings.append(scan.tag_problem)
+    if scan.incomplete:
+        warnings.append(f"{scan.path}: tagged incomplete ({scan.incomplete}): its run stopped before "
+                        "the end of its trajectory, so it holds less excitation than designed")
     src = choose_sources(scan.topics, scan.path, tags=scan.tags, interface=interface,
                          joints=joints)
     out = []

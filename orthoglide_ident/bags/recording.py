@@ -182,12 +182,16 @@ class Recording:
         self._log.error(message)
         self.writer.abort()
 
-    def stop(self) -> str:
-        """Drain the queue, close the bag; returns the summary line (or the error)."""
+    def stop(self, incomplete: str = "") -> str:
+        """Drain the queue, close the bag (tagged incomplete with the reason when ``incomplete``
+        is given); returns the summary line (or the error)."""
+        if incomplete:
+            self.writer.mark_incomplete(incomplete)
         self.alive = False
         self._stop.set()
         self._thread.join()
         # by topic name: channels register in arrival order and ``stamped`` is a set
         counts = ", ".join(f"{n} {t}" for t, n in sorted(self.writer.counts.items()))
         missing = ", ".join(f"{c.missing} missing on {t}" for t, c in sorted(self.counters.items()))
-        return self.error or f"{self.writer.path}: wrote {counts}; samples missing: {missing}"
+        tail = f"; tagged incomplete: {incomplete}" if incomplete else ""
+        return self.error or f"{self.writer.path}: wrote {counts}; samples missing: {missing}{tail}"

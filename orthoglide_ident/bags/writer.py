@@ -21,7 +21,7 @@ from orthoglide_ident.errors import BagError, DataError
 from ._encode import encode_dynamic_joint_states, encode_joint_states, encode_messages
 from ._mcapfile import McapFile
 from ._metadata import ROSBAG2_RECORD, BagMetadata, FileStat, TopicStat
-from ._tags import METADATA_NAME, BagTags
+from ._tags import INCOMPLETE_KEY, METADATA_NAME, BagTags
 from ._types import (
     CURRENT_REFERENCE_TOPIC,
     CURRENT_REFERENCE_TYPE,
@@ -215,6 +215,10 @@ class BagWriter:
         f = self._file
         if f is not None and f.pending_bytes and now_ns - f.chunk_start_time >= self._chunk_ns:
             self._end_chunk(now_ns)
+
+    def mark_incomplete(self, reason: str) -> None:
+        """Tag the bag incomplete (``orthoglide.incomplete``: ``reason``) when it closes."""
+        self.custom_data[INCOMPLETE_KEY] = " ".join(str(reason).split()) or "stopped early"
 
     def close(self) -> None:
         """Write the last chunk, the closing ``rosbag2`` record, the summary and metadata.yaml."""

@@ -205,16 +205,19 @@ ACTIONS: dict[str, Action] = {
 }
 
 
-def add_excite_commands(subparsers) -> None:
-    """The ``excite`` subcommand and its actions (ACTIONS)."""
+def add_excite_commands(subparsers) -> argparse._SubParsersAction:
+    """The ``excite`` subcommand and its actions (ACTIONS); returns its actions' subparsers,
+    where the CLI adds ``run`` (excite/run_cli.py: the ROS 2 side, kept out of this module)."""
     p = subparsers.add_parser(
-        "excite", help="design and check exciting trajectories for the robot",
+        "excite", help="design, check and run exciting trajectories for the robot",
         description="Exciting trajectories (paper Sect. 3.2) for the robot of --robot: design "
                     "them within its limits (joints, torques, self-collision, a closed chain's "
-                    "working mode) for the identification's σ, and check a trajectory file.")
+                    "working mode) for the identification's σ, check a trajectory file, and run "
+                    "it through the robot's joint_trajectory_controller while recording.")
     sub = p.add_subparsers(dest="excite_command", metavar="ACTION", required=True)
     for name, (text, add, _) in ACTIONS.items():
         add(sub.add_parser(name, help=text, description=text[0].upper() + text[1:] + "."))
+    return sub
 
 
 def run_excite(args: argparse.Namespace, robot: RobotModel) -> int:

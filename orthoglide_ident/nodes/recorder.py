@@ -31,7 +31,7 @@ from orthoglide_ident.ros.batch import BatchTaker, BatchTopic
 from orthoglide_ident.ros.params import Param, declare, on_set, usage
 from orthoglide_ident.ros.spin import spin
 from orthoglide_msgs.msg import RecorderStatus
-from orthoglide_msgs.srv import StartRecording
+from orthoglide_msgs.srv import StartRecording, StopRecording
 
 DOC = """\
 Records tagged rosbag2 bags (metadata.yaml v9 + MCAP) of the Orthoglide's topics, or of a ros2_control
@@ -44,6 +44,9 @@ Services (relative names: /orthoglide/... in the root namespace, -r __ns:=/robot
                              <condition>_<date>_<time>) -> success, message, bag_path
   orthoglide/recorder/stop   std_srvs/srv/Trigger -> success (false when nothing was written),
                              message (messages written, missing ticks)
+  orthoglide/recorder/stop_incomplete  orthoglide_msgs/srv/StopRecording  incomplete_reason ->
+                             as stop, and the bag (kept) is tagged orthoglide.incomplete: the
+                             reason (a cancelled or aborted excitation run: excite run)
 Topic:
   orthoglide/recorder/status orthoglide_msgs/msg/RecorderStatus (transient local): recording?,
                              condition, payload mass, bag, ticks written and missing; on start,
@@ -156,6 +159,7 @@ class RecorderNode(Node):
         self.status_pub = self.create_publisher(RecorderStatus, "orthoglide/recorder/status", latched)
         self.create_service(StartRecording, "orthoglide/recorder/start", self.on_start)
         self.create_service(Trigger, "orthoglide/recorder/stop", self.on_stop)
+        self.create_service(StopRecording, "orthoglide/recorder/stop_incomplete", self.on_stop_incomplete)
         self.create_timer(1.0, self.discover)
         self.create_timer(STATUS_PERIOD_S, self.status_tick)
         self.publish_status()
@@ -385,13 +389,22 @@ class RecorderNode(Node):
         res.success, res.message = self._end()
         return res
 
-    def _end(self) -> tuple[bool, str]:
+    def on_stop_incomplete(self, req: Any, res: Any) -> Any:
+        """Stop, the bag tagged incomplete with the request's reason (kept as it is)."""
+        res.bag_path = str(self.rec.writer.path) if self.rec is not None else ""
+        if self.rec is None:
+            return self.on_stop(req, res)
+        res.success, res.message = self._end(req.incomplete_reason.strip())
+        return res
+
+    def _end(self, incomplete: str = "") -> tuple[bool, str]:
         """Finish the recording: everything the intake holds is handed over (at most STOP_DRAIN_S),
-        the writer writes its queue and closes the bag. (success, the summary or the reason)."""
+        the writer writes its queue and closes the bag (tagged incomplete with that reason when
+        given). (success, the summary or the reason)."""
         drained = self.taker.drain(STOP_DRAIN_S)
         rec, self.rec = self.rec, None
         assert rec is not None
-        message = rec.stop()
+        message = rec.stop(incomplete)
         js = self._ticks_topic()
         written = rec.writer.counts.get(js, 0)
         success = not rec.error and written > 0

@@ -138,3 +138,26 @@ def test_a_robot_namespace_is_read_like_the_root(tmp_path):
     write(tmp_path / "two", ["/robot2", "/robot3"])
     with pytest.raises(BagError, match="robots"):
         bags.read_bag(tmp_path / "two")
+
+
+def test_a_bag_stopped_early_is_kept_and_tagged_incomplete(tmp_path: Path) -> None:
+    """orthoglide.incomplete (excite run's cancel/abort): in metadata.yaml and in the closing
+    rosbag2 record, so the bag directory and its lone .mcap file both say it; the tag is kept."""
+    w, cid, stamps, msgs = _open(tmp_path / "cut", chunk_duration_s=0.2)
+    for i, t in enumerate(stamps.tolist()):
+        w.write(cid, msgs[i].tobytes(), t)
+    w.mark_incomplete("unloaded run aborted:\n PATH_TOLERANCE_VIOLATED: elbow_joint ...")
+    w.close()
+    reason = "unloaded run aborted: PATH_TOLERANCE_VIOLATED: elbow_joint ..."  # one line
+    import yaml
+
+    custom = yaml.safe_load((tmp_path / "cut" / "metadata.yaml").read_text())["rosbag2_bagfile_information"]["custom_data"]
+    assert custom[bags.INCOMPLETE_KEY] == reason and custom[bags.CONDITION_KEY] == "unloaded"
+    for where in (tmp_path / "cut", w.files[0].path):  # the directory, the lone file
+        info = bags.bag_info(where)
+        assert info.incomplete == reason and info.tags == bags.BagTags("unloaded", 0.0)
+        assert f"INCOMPLETE: {reason}" in info.to_text()
+    complete, cid2, stamps2, msgs2 = _open(tmp_path / "whole")
+    complete.write(cid2, msgs2[0].tobytes(), int(stamps2[0]))
+    complete.close()
+    assert bags.bag_info(tmp_path / "whole").incomplete == ""
