@@ -108,8 +108,8 @@ def run(work: Path, main) -> dict:
         code = main(["import", str(FIXTURE / f"{part}.csv.gz"), "--map",
                      str(FIXTURE / "map.yaml"), "--out", str(bag)])
         assert code == 0, f"import {part} exited {code}"
-    code = main(["identify", "--robot", str(URDF), "--method", "wls", "--config",
-                 str(FIXTURE / "identify.yaml"), str(a), "--validate", str(b), "--json",
+    code = main(["identify", "--robot", str(URDF), "--method", "wls", str(a),  # default options
+                 "--validate", str(b), "--json",
                  str(out), "-q"])
     assert code == 0, f"identify exited {code}"
     return json.loads(out.read_text())
