@@ -1,4 +1,4 @@
-"""`make demo-excite`: from a URDF and a trajectory file to the identified model feeding forward,
+"""`make demo-excite`: from a URDF to a designed trajectory and the identified model feeding forward,
 through the robot's joint_trajectory_controller action, as a user would on a ros2_control robot.
 
 1. `orthoglide-ident excite design --robot ur5_mount --joint-limits cell_joint_limits.yaml
@@ -54,7 +54,7 @@ def start_graph(g: Graph, out: Path) -> None:
 
 
 def cell_limits(path: Path) -> Path:
-    """The simulated cell's joint_limits YAML: the arm's box (arm_limits), 0.25 rad inside the
+    """The simulated cell's joint_limits YAML: the arm's box (arm_limits), STOP_MARGIN inside the
     stand-in's protective stop; the URDF's and the robot file's limits for the rest."""
     import yaml
 
