@@ -49,7 +49,7 @@ help:
 	@echo "make demo       setup if needed, then the live node set end to end (record, identify, Table 4 over ROS 2)"
 	@echo "make demo-offline  setup if needed, then the offline pipeline (simulate, bags, identify, validate)"
 	@echo "make demo-ros2-control  setup if needed, then a ros2_control robot (the simulated UR5): record its topics, identify live and offline"
-	@echo "make demo-excite  setup if needed, then the simulated UR5 through its follow_joint_trajectory action: excite run unloaded, mount, loaded, identify, feed forward"
+	@echo "make demo-excite  setup if needed, then the simulated UR5 through its follow_joint_trajectory action: excite design, run unloaded, mount, loaded, identify, feed forward"
 	@echo "make bench      setup if needed, then every bench/*.py"
 	@echo "make bags       regenerate the sample bags (DURATION=10 s, OUT=bags); e.g. make bags DURATION=60 OUT=records"
 	@echo "make lock       rewrite constraints.txt from the current venv"

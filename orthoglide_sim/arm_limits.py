@@ -80,3 +80,13 @@ def motion_limits(arm: ArmDescription) -> MotionLimits:
     return MotionLimits(table["centre"], table["half"], table["velocity"], table["acceleration"],
                         np.maximum(table["centre"] - table["half"] - margin, lo),
                         np.minimum(table["centre"] + table["half"] + margin, hi))
+
+
+def ros2_joint_limits(limits: MotionLimits, names: list[str] | tuple[str, ...]) -> dict:
+    """The box's positions as a ros2_control joint_limits mapping (what a user writes for the
+    range their cell allows): ``{"joint_limits": {<joint>: {has_position_limits, min_position,
+    max_position}}}``; inside the stop limits by STOP_MARGIN."""
+    lo, hi = limits.centre - limits.half, limits.centre + limits.half
+    return {"joint_limits": {str(n): {"has_position_limits": True, "min_position": float(a),
+                                      "max_position": float(b)}
+                             for n, a, b in zip(names, lo, hi)}}

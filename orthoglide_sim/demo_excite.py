@@ -1,8 +1,10 @@
-"""`make demo-excite`: from a URDF and a trajectory file to the identified model feeding forward,
+"""`make demo-excite`: from a URDF to a designed trajectory and the identified model feeding forward,
 through the robot's joint_trajectory_controller action, as a user would on a ros2_control robot.
 
-1. the trajectory file: the UR5's designed exciting trajectories at rest at both ends
-   (orthoglide_sim.excite_file; `orthoglide-ident excite design` writes one when it lands);
+1. `orthoglide-ident excite design --robot ur5_mount --joint-limits cell_joint_limits.yaml
+   --payload-mass 2.5 --periods N --seed 0`: the trajectory file, designed for this robot, the
+   range its cell allows (the simulated arm's box, inside its protective stop: a ros2_control
+   joint_limits YAML) and the payload the user will mount;
 2. start the ros2_control stand-in (the simulated UR5 with its payload mount, at rest: its
    joint_trajectory_controller's follow_joint_trajectory action moves it), the recorder and the
    identification (its live estimate shows during the runs), as ros2_control.launch.py would;
@@ -34,6 +36,8 @@ ROBOT = "ur5_mount"  # the UR5 with a payload mount off the last axis (orthoglid
 PAYLOAD_KG = 2.5  # a point mass at the mount, weighed: the file's loaded payload
 STANDIN = "ros2_control_standin"
 ACTION = "joint_trajectory_controller/follow_joint_trajectory"
+PERIOD_S = 5.0  # s, the designed trajectory's period (excite design's default)
+SEED = 0  # excite design's seed: the same file on every run
 CLI = Path(sys.prefix) / "bin" / "orthoglide-ident"
 
 
@@ -47,6 +51,31 @@ def start_graph(g: Graph, out: Path) -> None:
     g.wait_for_messages(JointState, "joint_states", 1, timeout=60.0)
     for node in ("orthoglide_identification", "orthoglide_recorder"):
         g.wait_for_subscriber("/joint_states", node)
+
+
+def cell_limits(path: Path) -> Path:
+    """The simulated cell's joint_limits YAML: the arm's box (arm_limits), STOP_MARGIN inside the
+    stand-in's protective stop; the URDF's and the robot file's limits for the rest."""
+    import yaml
+
+    from orthoglide_sim.arm_limits import motion_limits, ros2_joint_limits
+    from orthoglide_sim.arm_session import robot_truth
+
+    arm = robot_truth(ROBOT).arm
+    path.write_text(yaml.safe_dump(ros2_joint_limits(motion_limits(arm), arm.joint_names), sort_keys=False))
+    return path
+
+
+def excite_design(traj: Path, limits: Path, periods: int) -> None:
+    """`orthoglide-ident excite design` for the demo's robot, cell and payload (seeded: repeatable)."""
+    run = subprocess.run([str(CLI), "excite", "design", "--robot", ROBOT, "--joint-limits", str(limits),
+                          "--payload-mass", str(PAYLOAD_KG),
+                          "--periods", str(periods), "--period", str(PERIOD_S), "--seed", str(SEED),
+                          "--out", str(traj)], capture_output=True, text=True, timeout=900)
+    if run.returncode != 0:
+        raise OrthoglideError(f"excite design failed: {run.stderr.strip()}")
+    for line in run.stdout.splitlines():
+        say(f"   | {line}")
 
 
 def excite_run(traj: Path, condition: str, name: str) -> int:
@@ -107,16 +136,17 @@ def tracking_rms(g: Graph, points, effort: np.ndarray | None) -> float:
 
 def run(out: Path, periods: int) -> int:
     from orthoglide_ident.excite import run as plan
-    from orthoglide_sim.excite_file import designed_excitation
-    from orthoglide_ident.excite.trajectory import save_trajectory
+    from orthoglide_ident.excite.trajectory import load_trajectory
 
     t_start = time.monotonic()
     if out.exists():
         shutil.rmtree(out)
     out.mkdir(parents=True)
     traj = out / "ur5_excitation.yaml"
-    save_trajectory(designed_excitation(ROBOT, periods, PAYLOAD_KG), traj)
-    say(f"1. trajectory file {traj} ({periods} periods of 5 s per run)")
+    limits = cell_limits(out / "cell_joint_limits.yaml")
+    say(f"1. excite design --robot {ROBOT} --joint-limits {limits.name} --payload-mass {PAYLOAD_KG} "
+        f"--periods {periods} --seed {SEED}: {traj} ({periods} periods of {PERIOD_S:g} s per run)")
+    excite_design(traj, limits, periods)
     say(f"2. ros2_control stand-in ({ROBOT}, at rest), recorder and identification as processes")
     with Graph(out / "logs") as g:
         start_graph(g, out)
@@ -131,8 +161,6 @@ def run(out: Path, periods: int) -> int:
         doc = identify([out / "bags" / "unloaded", out / "bags" / "loaded"], out)
         worst_pct, worst_sigma = gains_table(doc)
         say("5. the loaded run again through the action, without and with the identified model's feed-forward")
-        from orthoglide_ident.excite.trajectory import load_trajectory
-
         points = plan.excitation_points(load_trajectory(traj), "loaded")
         rms_pid = tracking_rms(g, points, None)
         rms_ff = tracking_rms(g, points, feedforward_effort(doc, points))
@@ -147,7 +175,7 @@ def run(out: Path, periods: int) -> int:
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="python -m orthoglide_sim.demo_excite", description=__doc__.splitlines()[0])
-    ap.add_argument("--periods", type=int, default=6, help="periods of 5 s per run (default 6: 30 s)")
+    ap.add_argument("--periods", type=int, default=6, help=f"periods of {PERIOD_S:g} s per run (default 6: 30 s)")
     ap.add_argument("--out", type=Path, default=Path("demo_out/excite"), help="output folder")
     args = ap.parse_args(argv)
     try:

@@ -22,6 +22,14 @@ def test_ur5_limits_from_its_urdf_and_robot_file():
     assert home_pose(load_robot("ur5"), lim)[1] == pytest.approx(-2.0)
 
 
+def test_the_mounted_ur5_designs_within_the_ur5s_limits():
+    """ur5_mount.yaml carries ur5.yaml's excitation section (write_mounted_robot copies it)."""
+    a, b = read_limits(load_robot("ur5_mount")), read_limits(load_robot("ur5"))
+    for kind in ("lower", "upper", "velocity", "acceleration", "effort"):
+        np.testing.assert_array_equal(getattr(a, kind), getattr(b, kind))
+    assert home_pose(load_robot("ur5_mount"), a)[1] == pytest.approx(-2.0)
+
+
 def test_ros2_control_joint_limits_override(tmp_path):
     f = tmp_path / "joint_limits.yaml"
     f.write_text("joint_limits:\n  elbow_joint:\n    has_velocity_limits: true\n"

@@ -127,3 +127,23 @@ def test_redesign_command_writes_the_json(tmp_path, capsys):
 def test_missing_trajectory_says_how_to_design_it(arm):
     with pytest.raises(ConfigError, match="python -m orthoglide_sim.arm_excitation --robot ur5"):
         ax.designed_trajectory(arm, "exciting9")
+
+
+def test_the_box_as_a_ros2_control_joint_limits_file(tmp_path):
+    """The box written as a joint_limits YAML (make demo-excite's cell limits) is what the
+    product's excite design reads, inside the simulated arm's protective stop."""
+    import yaml
+
+    from orthoglide_ident.excite.limits import read_limits
+    from orthoglide_ident.model.robots import load_robot
+    from orthoglide_sim.arm_limits import ros2_joint_limits
+
+    arm = load_arm("ur5")
+    lim = motion_limits(arm)
+    f = tmp_path / "cell.yaml"
+    f.write_text(yaml.safe_dump(ros2_joint_limits(lim, arm.joint_names)))
+    read = read_limits(load_robot("ur5"), f)
+    np.testing.assert_allclose(read.lower, lim.centre - lim.half)
+    np.testing.assert_allclose(read.upper, lim.centre + lim.half)
+    assert np.all(read.lower > lim.stop_lower) and np.all(read.upper < lim.stop_upper)
+    np.testing.assert_allclose(read.velocity, [3.15, 3.15, 3.15, 3.2, 3.2, 3.2])  # the URDF's
