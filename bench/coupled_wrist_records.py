@@ -1,6 +1,7 @@
 """Records of the coupled-wrist UR5 (issue 33) for the identification: unloaded and loaded.
 
     PYTHONPATH=. .venv/bin/python bench/coupled_wrist_records.py --out DIR [--seconds 60] [--seed 0]
+        [--chain coupled|simple]
 
 The MuJoCo plant of orthoglide_sim.coupled_wrist (six motors behind N, gears of both signs,
 motor 6 turning with q5 + q6; rotor inertia, viscous and Coulomb friction on each motor's own
@@ -14,7 +15,10 @@ payload) on exciting2. Writes
                                                     robot files with the transmission key
     DIR/truth.json                                  per-motor gains, Ia, fv, fs, offsets, N
 
-(efforts: each motor's current reference, A, under the name of its row's joint) and prints, per
+(efforts: each motor's current reference, A, under the name of its row's joint). ``--chain
+simple``: the same motors one per joint behind diag(32, -32, 45, -48, 45, -32) (ros2_control
+SimpleTransmissions with negative reductions), the robot as DIR/ur5_simple_transmission.urdf
+(the ``<ros2_control>`` block) and .yaml instead of the transmission key. Prints, per
 run, the tracking, the saturation, the current noise as a joint torque, and the plant's checks:
 motor velocities against N q̇ and the torque balance against Pinocchio's RNEA (coupled_check).
 """
@@ -31,7 +35,8 @@ import numpy as np
 from orthoglide_ident.errors import OrthoglideError
 from orthoglide_sim.coupled_check import torque_balance
 from orthoglide_sim.coupled_record import simulate_coupled, write_coupled_bag, write_robot_files
-from orthoglide_sim.coupled_truth import default_coupled_truth, truth_summary
+from orthoglide_sim.coupled_truth import default_coupled_truth, simple_transmission_truth, truth_summary
+from orthoglide_sim.transmission_urdf import write_simple_transmission_robot
 
 RUNS = (("unloaded", None, "exciting1", 0), ("loaded_2kg", "2.0", "exciting2", 1))
 SLIDING = 0.5  # rad/s at the motor: outside the soft Coulomb friction's band (tests/sim)
@@ -70,8 +75,10 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--out", type=Path, required=True, help="output folder")
     ap.add_argument("--seconds", type=float, default=60.0, help="seconds per record (default 60)")
     ap.add_argument("--seed", type=int, default=0, help="current-noise seed of the first record")
+    ap.add_argument("--chain", choices=("coupled", "simple"), default="coupled",
+                    help="coupled wrist (default) or one SimpleTransmission per joint")
     args = ap.parse_args(argv)
-    truth = default_coupled_truth()
+    truth = default_coupled_truth() if args.chain == "coupled" else simple_transmission_truth()
     try:
         args.out.mkdir(parents=True, exist_ok=True)
         for name, payload, trajectory, k in RUNS:
@@ -79,7 +86,8 @@ def main(argv: list[str] | None = None) -> int:
     except OrthoglideError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
-    for path in write_robot_files(args.out, truth):
+    write = write_robot_files if args.chain == "coupled" else write_simple_transmission_robot
+    for path in write(args.out, truth):
         print(f"wrote {path}")
     summary = truth_summary(truth)
     (args.out / "truth.json").write_text(json.dumps(summary, indent=1, allow_nan=False) + "\n")

@@ -159,7 +159,7 @@ def write_coupled_bag(path: str | Path, rec: CoupledRecord, position_side: str =
     condition = "unloaded" if rec.payload is None else "loaded"
     payload = None if rec.payload is None else rec.payload.tag()
     extra = {POSITION_SIDE_KEY: position_side, EFFORT_SIDE_KEY: "actuator",
-             "orthoglide.sim.robot": "ur5_coupled_wrist", "orthoglide.sim.trajectory": rec.trajectory,
+             "orthoglide.sim.robot": rec.truth.name, "orthoglide.sim.trajectory": rec.trajectory,
              "orthoglide.sim.seed": str(rec.seed)}
     return bags.write_bag(path, rec.stamps_ns, q, rec.v_tau, condition, rec.payload_mass,
                           joint_names=rec.truth.actuators, extra=extra, layout="joint_states",

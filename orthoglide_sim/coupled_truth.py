@@ -38,6 +38,8 @@ REDUCTION = np.array([[32, 0, 0, 0, 0, 0],
                       [0, 0, 0, -48, 0, 0],
                       [0, 0, 0, 0, 45, 0],
                       [0, 0, 0, 0, 32, 32]], dtype=float)
+# A SimpleTransmission arm (ros2_control): one motor per joint, reductions of both signs
+SIMPLE_REDUCTION = np.diag([32.0, -32.0, 45.0, -48.0, 45.0, -32.0])
 # rad, motor side: where each motor's encoder reads zero (q_m = N q_j + offset)
 MOTOR_OFFSET = np.array([0.4, -1.1, 2.3, -0.7, 1.6, -2.9])
 MOTOR_ENCODER_COUNTS = 2**16  # counts per motor revolution (a 16-bit motor encoder)
@@ -78,6 +80,7 @@ class CoupledTruth:
     motors: tuple[MotorDrive, ...]
     current_noise_fraction: float = CURRENT_NOISE_FRACTION
     encoder_counts: int = MOTOR_ENCODER_COUNTS
+    name: str = "ur5_coupled_wrist"  # the simulated robot, in its bags' orthoglide.sim.robot
 
     @property
     def arm(self) -> ArmDescription:
@@ -123,13 +126,20 @@ def rigid_truth(truth: ArmTruth) -> ArmTruth:
     return replace(truth, drives={j: bare for j in truth.drives})
 
 
-def default_coupled_truth(arm: ArmDescription | None = None) -> CoupledTruth:
-    """The UR5 with the coupled-wrist drive chain (REDUCTION, MOTORS, MOTOR_OFFSET)."""
+def default_coupled_truth(arm: ArmDescription | None = None, reduction: np.ndarray = REDUCTION) -> CoupledTruth:
+    """The UR5 with the coupled-wrist drive chain (REDUCTION, MOTORS, MOTOR_OFFSET), or with
+    another ``reduction`` of the same motors (SIMPLE_REDUCTION: simple_transmission_truth)."""
     arm = arm or load_arm("ur5")
-    if arm.n != REDUCTION.shape[1]:
-        raise ValueError(f"the coupled-wrist drive chain has {REDUCTION.shape[1]} joints, {arm.name} {arm.n}")
+    if arm.n != reduction.shape[1]:
+        raise ValueError(f"the drive chain has {reduction.shape[1]} joints, {arm.name} {arm.n}")
     motors = tuple(MotorDrive(ia, fv, fs, off, g, g * f) for ia, fv, fs, off, g, f in MOTORS)
-    return CoupledTruth(rigid_truth(default_truth(arm)), REDUCTION.copy(), MOTOR_OFFSET.copy(), motors)
+    return CoupledTruth(rigid_truth(default_truth(arm)), np.array(reduction, float), MOTOR_OFFSET.copy(), motors)
+
+
+def simple_transmission_truth(arm: ArmDescription | None = None) -> CoupledTruth:
+    """The UR5 with one motor per joint behind SIMPLE_REDUCTION (negative reductions on
+    shoulder_lift, wrist_1 and wrist_3): ros2_control SimpleTransmissions (ros2_control_urdf)."""
+    return replace(default_coupled_truth(arm, SIMPLE_REDUCTION), name="ur5_simple_transmission")
 
 
 def truth_summary(truth: CoupledTruth) -> dict:

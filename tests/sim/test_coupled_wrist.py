@@ -3,6 +3,8 @@ q5 + q6), motor-side rotor inertia, friction and gains, integrated by MuJoCo; ch
 Pinocchio's RNEA of the same rigid bodies, and its records on both signal sides."""
 from __future__ import annotations
 
+import xml.etree.ElementTree as ET
+
 import mujoco
 import numpy as np
 import pinocchio as pin
@@ -14,9 +16,12 @@ from orthoglide_ident.errors import ConfigError
 from orthoglide_sim.coupled_record import (
     current_limits, simulate_coupled, write_coupled_bag, write_robot_files)
 from orthoglide_sim.coupled_check import torque_balance
-from orthoglide_sim.coupled_truth import REDUCTION, default_coupled_truth
+from orthoglide_sim.arm_description import load_arm
+from orthoglide_sim.coupled_truth import REDUCTION, default_coupled_truth, simple_transmission_truth
 from orthoglide_sim.coupled_wrist import CoupledPlant
 from orthoglide_sim.pinocchio_arm import truth_model
+from orthoglide_sim.transmission_urdf import (
+    SIMPLE, read_simple_transmissions, write_simple_transmission_robot)
 
 # rad/s at the motor: outside this band every motor's soft Coulomb friction (mujoco_plant's
 # FRICTION_TIMECONST on the tendon) has reached fs; measured: it turns through zero within
@@ -143,3 +148,37 @@ def test_robot_files_carry_the_transmission(truth, tmp_path):
         assert tr["position_side"] == side and tr["effort_side"] == "actuator"
         assert np.array_equal(data["nominal_gains"], truth.motor_array("nominal_gain"))
         assert (tmp_path / data["description"]).is_file()
+
+
+def test_simple_transmissions_with_negative_reductions(tmp_path):
+    """One motor per joint behind diag(32, -32, 45, -48, 45, -32), written as ros2_control
+    SimpleTransmissions in the URDF: read back, q_j = q_a / n + x holds on the bags of both sides."""
+    truth = simple_transmission_truth()
+    urdf, robot_yaml = write_simple_transmission_robot(tmp_path, truth)
+    text = urdf.read_text()
+    assert text.count(SIMPLE) == 6 and "<mechanical_reduction>-48.0</mechanical_reduction>" in text
+    N, offset = read_simple_transmissions(text, truth.arm.joint_names)
+    assert np.array_equal(N, truth.reduction) and np.allclose(offset, truth.motor_offset, rtol=0, atol=1e-15)
+    arm = load_arm(str(robot_yaml))  # the URDF still loads as the same serial arm
+    assert arm.joint_names == truth.arm.joint_names
+    pin.buildModelFromXML(text)
+    rec = simulate_coupled(0.3, trajectory="exciting2", seed=5, truth=truth)
+    joint = read_bag(write_coupled_bag(tmp_path / "joint", rec, "joint")).positions.position
+    motor = read_bag(write_coupled_bag(tmp_path / "actuator", rec, "actuator")).positions.position
+    n = np.diag(N)
+    x = np.array([float(e.findtext("offset")) for e in ET.fromstring(text).iter("joint") if e.get("role")])
+    assert np.abs(joint - (motor / n + x)).max() < 1e-12
+    for k in np.flatnonzero(n < 0):  # those motors turn against their joints
+        assert np.corrcoef(np.diff(joint[:, k]), np.diff(motor[:, k]))[0, 1] < -0.999
+    assert np.abs(torque_balance(rec).sliding_error(SLIDING)[0]) <= BALANCE_TOL
+    with pytest.raises(ConfigError, match="diagonal"):
+        write_simple_transmission_robot(tmp_path, default_coupled_truth())
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("make_truth", [default_coupled_truth, simple_transmission_truth])
+def test_the_60_s_records_stay_in_the_workspace_unsaturated(make_truth):
+    truth = make_truth()
+    for payload, trajectory in ((None, "exciting1"), ("2.0", "exciting2")):
+        rec = simulate_coupled(60.0, payload=payload, trajectory=trajectory, seed=1, truth=truth)
+        assert rec.saturated_ticks == 0 and np.all(rec.tracking_rms < 1e-3)
