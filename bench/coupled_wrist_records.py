@@ -11,6 +11,8 @@ payload) on exciting2. Writes
 
     DIR/joint/unloaded, DIR/joint/loaded_2kg        /joint_states positions joint-side (q_j)
     DIR/actuator/unloaded, DIR/actuator/loaded_2kg  the same runs, positions motor-side (q_m)
+    DIR/joint_torque/...                            positions joint-side, efforts the joint
+                                                    torques Nᵀ g_nominal v (N·m, tagged torque)
     DIR/ur5_coupled_wrist.yaml, DIR/ur5_coupled_wrist_actuator.yaml, DIR/ur5.urdf
                                                     robot files with the transmission key
     DIR/truth.json                                  per-motor gains, Ia, fv, fs, offsets, N
@@ -39,6 +41,9 @@ from orthoglide_sim.coupled_truth import default_coupled_truth, simple_transmiss
 from orthoglide_sim.transmission_urdf import write_simple_transmission_robot
 
 RUNS = (("unloaded", None, "exciting1", 0), ("loaded_2kg", "2.0", "exciting2", 1))
+# folder, position side, effort side (actuator: each motor's current, A; joint: Nᵀ g_nominal v, N·m)
+LAYOUTS = (("joint", "joint", "actuator"), ("actuator", "actuator", "actuator"),
+           ("joint_torque", "joint", "joint"))
 SLIDING = 0.5  # rad/s at the motor: outside the soft Coulomb friction's band (tests/sim)
 
 
@@ -50,10 +55,10 @@ def one_run(out: Path, name: str, payload, trajectory: str, seed: int, seconds: 
     t0 = time.perf_counter()
     rec = simulate_coupled(seconds, payload=payload, trajectory=trajectory, seed=seed, truth=truth)
     sim_s = time.perf_counter() - t0
-    for side in ("joint", "actuator"):
-        path = write_coupled_bag(out / side / name, rec, position_side=side)
+    for folder, position_side, effort_side in LAYOUTS:
+        path = write_coupled_bag(out / folder / name, rec, position_side, effort_side)
         print(f"wrote {path}: {seconds:g} s at 1 kHz, {rec.payload_mass:g} kg, {trajectory}, seed {seed}, "
-              f"positions {side}-side")
+              f"positions {position_side}-side, efforts {effort_side}-side")
     N = truth.reduction
     g = truth.motor_array("gain")
     noise_tau = np.sqrt((N.T ** 2) @ (g * rec.current_noise_std) ** 2)  # σ of Nᵀ g ε per joint

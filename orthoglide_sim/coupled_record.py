@@ -144,26 +144,36 @@ def simulate_coupled(duration_s: float, payload: str | None = None,
                          trajectory_name(trajectory), seed, out["saturated"])
 
 
-def write_coupled_bag(path: str | Path, rec: CoupledRecord, position_side: str = "joint") -> Path:
+def joint_efforts(rec: CoupledRecord) -> np.ndarray:
+    """(K, n) N·m: the joint torques a drive reports when it publishes joint-side efforts,
+    Nᵀ (g_nominal ⊙ v) (its configured gains: it does not know the true ones)."""
+    return (rec.v_tau * rec.truth.motor_array("nominal_gain")) @ rec.truth.reduction
+
+
+def write_coupled_bag(path: str | Path, rec: CoupledRecord, position_side: str = "joint",
+                      effort_side: str = "actuator") -> Path:
     """One record as a tagged bag in the ros2_control layout (/joint_states: position, velocity,
-    effort = the motor current, A), replaced if it exists. ``position_side``: ``joint`` (q_j, as
-    a hardware interface with the transmission publishes) or ``actuator`` (the motor encoders,
-    offset included). Channels carry the joints' names (the actuators repeat them); the tag
-    says which side (orthoglide.position_side, orthoglide.effort_side = actuator)."""
-    if position_side not in SIDES:
-        raise ConfigError(f"position_side must be one of {', '.join(SIDES)}, got {position_side!r}")
+    effort), replaced if it exists. ``position_side``: ``joint`` (q_j, as a hardware interface
+    with the transmission publishes) or ``actuator`` (the motor encoders, offset included);
+    ``effort_side``: ``actuator`` (each motor's current, A) or ``joint`` (joint_efforts, N·m,
+    tagged orthoglide.effort_unit torque). Channels carry the joints' names (the actuators
+    repeat them); the tag says which side (orthoglide.position_side, orthoglide.effort_side)."""
+    for key, side in (("position_side", position_side), ("effort_side", effort_side)):
+        if side not in SIDES:
+            raise ConfigError(f"{key} must be one of {', '.join(SIDES)}, got {side!r}")
     path = Path(path)
     if path.exists():
         shutil.rmtree(path)
     q = rec.q_joint if position_side == "joint" else rec.q_motor
+    effort = rec.v_tau if effort_side == "actuator" else joint_efforts(rec)
     condition = "unloaded" if rec.payload is None else "loaded"
     payload = None if rec.payload is None else rec.payload.tag()
-    extra = {POSITION_SIDE_KEY: position_side, EFFORT_SIDE_KEY: "actuator",
+    extra = {POSITION_SIDE_KEY: position_side, EFFORT_SIDE_KEY: effort_side,
              "orthoglide.sim.robot": rec.truth.name, "orthoglide.sim.trajectory": rec.trajectory,
              "orthoglide.sim.seed": str(rec.seed)}
-    return bags.write_bag(path, rec.stamps_ns, q, rec.v_tau, condition, rec.payload_mass,
+    return bags.write_bag(path, rec.stamps_ns, q, effort, condition, rec.payload_mass,
                           joint_names=rec.truth.actuators, extra=extra, layout="joint_states",
-                          payload=payload)
+                          payload=payload, effort_unit=None if effort_side == "actuator" else "torque")
 
 
 def write_robot_files(folder: str | Path, truth: CoupledTruth) -> tuple[Path, Path]:

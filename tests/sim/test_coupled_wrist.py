@@ -135,6 +135,11 @@ def test_bags_on_both_sides_agree_through_n(rec, tmp_path):
     assert custom["orthoglide.position_side"] == "actuator" and custom["orthoglide.effort_side"] == "actuator"
     with pytest.raises(ConfigError, match="position_side"):
         write_coupled_bag(tmp_path / "x", rec, "motor")
+    # joint-side efforts: Nᵀ (g_nominal v), N·m, tagged as torques; back to the currents exactly
+    torque = read_bag(write_coupled_bag(tmp_path / "torque", rec, "joint", effort_side="joint"))
+    assert torque.tags.effort_unit == "torque"
+    back = np.linalg.solve(N.T, torque.current.current.T).T / t.motor_array("nominal_gain")
+    assert np.abs(back - rec.v_tau).max() < 1e-12 * np.abs(rec.v_tau).max()
 
 
 def test_robot_files_carry_the_transmission(truth, tmp_path):
