@@ -18,6 +18,7 @@ import numpy as np
 from orthoglide_ident.errors import IdentificationError
 from orthoglide_ident.identify.options import IdentifyOptions
 from orthoglide_ident.model.robot import Payload, RobotModel
+from orthoglide_ident.model.transmission import Transmission
 
 __all__ = ["Record", "payload_knowledge", "read_record", "record_payload"]
 
@@ -68,26 +69,59 @@ def read_record(path: str | Path, model: RobotModel,
     from orthoglide_ident import bags
 
     opts = opts or IdentifyOptions()
-    data = bags.read_bag(path, joints=model.joint_names,
+    t = model.transmission
+    data = bags.read_bag(path, joints=_channels(model, "effort"),
+                         position_joints=_channels(model, "position"),
                          interface=opts.current_interface or None)
     tags, current = data.tags, data.current
     v_tau, sources = current.current, data.sources.describe()
     qd = data.velocity if opts.velocity_source != "derived" else None
+    q, names_q, names_v = data.positions.position, tuple(data.positions.names), tuple(current.names)
+    if t is not None:
+        q, qd, v_tau, how = _to_motors(t, q, qd, v_tau)
+        names_q = names_v = model.joint_names
+        sources += how
     tagged_unit = None if tags is None else tags.effort_unit
     if (tagged_unit or opts.effort_unit) == "torque":
-        v_tau = model.effort_as_current(current.names, v_tau)
+        v_tau = model.effort_as_current(names_v, v_tau)
         if tagged_unit == "torque":
             sources += " (a torque, as tagged: divided by the nominal gains)"
     return Record(
         source=str(path),
-        stamps_q_ns=data.positions.stamps_ns, names_q=tuple(data.positions.names),
-        q=data.positions.position,
-        stamps_v_ns=current.stamps_ns, names_v=tuple(current.names), v_tau=v_tau,
+        stamps_q_ns=data.positions.stamps_ns, names_q=names_q, q=q,
+        stamps_v_ns=current.stamps_ns, names_v=names_v, v_tau=v_tau,
         condition=None if tags is None else tags.condition,
         payload_mass=0.0 if tags is None else float(tags.payload_mass),
         warnings=list(data.warnings), payload=_tagged_payload(tags),
         sources=sources, qd=qd,
     )
+
+
+def _channels(model: RobotModel, signal: str) -> tuple[str, ...]:
+    """The channel names a bag holds ``signal`` ("position" or "effort") under: the model's
+    joints, or a transmission's joints when that side is the joints' (model/transmission.py;
+    a channel named after a joint carries that index's motor when the actuators repeat the
+    joints' names)."""
+    t = model.transmission
+    if t is None:
+        return model.joint_names
+    side = t.position_side if signal == "position" else t.effort_side
+    return tuple(t.joints) if side == "joint" else tuple(t.actuators)
+
+
+def _to_motors(t: Transmission, q: np.ndarray, qd: np.ndarray | None,
+               v: np.ndarray) -> tuple[np.ndarray, np.ndarray | None, np.ndarray, str]:
+    """Positions, velocities and currents of a bag seen from the motors (the model's
+    samples): q_m = N q_j + offset, q̇_m = N q̇_j, v_m = N⁻ᵀ v_j for joint-side channels."""
+    how = ""
+    if t.position_side == "joint":
+        q = t.to_actuator_position(q)
+        qd = None if qd is None else t.to_actuator_rate(qd)
+        how += " (joint-side positions mapped to the motors: q_m = N q_j + offset)"
+    if t.effort_side == "joint":
+        v = t.to_actuator_effort(v)
+        how += " (joint-side efforts divided through: N⁻ᵀ, per motor)"
+    return q, qd, v, how
 
 
 def _tagged_payload(tags) -> Payload | None:
