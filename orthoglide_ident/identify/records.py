@@ -15,12 +15,11 @@ from typing import Sequence
 
 import numpy as np
 
-from orthoglide_ident.errors import IdentificationError
+from orthoglide_ident.errors import BagError, IdentificationError
 from orthoglide_ident.identify.options import IdentifyOptions
 from orthoglide_ident.model.robot import Payload, RobotModel
-from orthoglide_ident.model.transmission import Transmission
 
-__all__ = ["Record", "payload_knowledge", "read_record", "record_payload"]
+__all__ = ["Record", "motor_side", "payload_knowledge", "read_record", "record_payload"]
 
 
 @dataclass
@@ -69,32 +68,28 @@ def read_record(path: str | Path, model: RobotModel,
     from orthoglide_ident import bags
 
     opts = opts or IdentifyOptions()
-    t = model.transmission
     data = bags.read_bag(path, joints=_channels(model, "effort"),
                          position_joints=_channels(model, "position"),
                          interface=opts.current_interface or None)
     tags, current = data.tags, data.current
     v_tau, sources = current.current, data.sources.describe()
     qd = data.velocity if opts.velocity_source != "derived" else None
-    q, names_q, names_v = data.positions.position, tuple(data.positions.names), tuple(current.names)
-    if t is not None:
-        q, qd, v_tau, how = _to_motors(t, q, qd, v_tau)
-        names_q = names_v = model.joint_names
-        sources += how
-    tagged_unit = None if tags is None else tags.effort_unit
-    if (tagged_unit or opts.effort_unit) == "torque":
-        v_tau = model.effort_as_current(names_v, v_tau)
-        if tagged_unit == "torque":
-            sources += " (a torque, as tagged: divided by the nominal gains)"
-    return Record(
+    rec = motor_side(Record(
         source=str(path),
-        stamps_q_ns=data.positions.stamps_ns, names_q=names_q, q=q,
-        stamps_v_ns=current.stamps_ns, names_v=names_v, v_tau=v_tau,
+        stamps_q_ns=data.positions.stamps_ns, names_q=tuple(data.positions.names),
+        q=data.positions.position,
+        stamps_v_ns=current.stamps_ns, names_v=tuple(current.names), v_tau=v_tau,
         condition=None if tags is None else tags.condition,
         payload_mass=0.0 if tags is None else float(tags.payload_mass),
         warnings=list(data.warnings), payload=_tagged_payload(tags),
         sources=sources, qd=qd,
-    )
+    ), model)
+    tagged_unit = None if tags is None else tags.effort_unit
+    if (tagged_unit or opts.effort_unit) == "torque":
+        rec.v_tau = model.effort_as_current(rec.names_v, rec.v_tau)
+        if tagged_unit == "torque":
+            rec.sources += " (a torque, as tagged: divided by the nominal gains)"
+    return rec
 
 
 def _channels(model: RobotModel, signal: str) -> tuple[str, ...]:
@@ -109,19 +104,36 @@ def _channels(model: RobotModel, signal: str) -> tuple[str, ...]:
     return tuple(t.joints) if side == "joint" else tuple(t.actuators)
 
 
-def _to_motors(t: Transmission, q: np.ndarray, qd: np.ndarray | None,
-               v: np.ndarray) -> tuple[np.ndarray, np.ndarray | None, np.ndarray, str]:
-    """Positions, velocities and currents of a bag seen from the motors (the model's
-    samples): q_m = N q_j + offset, q̇_m = N q̇_j, v_m = N⁻ᵀ v_j for joint-side channels."""
-    how = ""
+def _columns(rec: Record, names: Sequence[str], have: Sequence[str], what: str) -> list[int]:
+    missing = [n for n in names if n not in have]
+    if missing:
+        raise BagError(f"{rec.source}: the {what} of {missing} are not in the record (it has "
+                       f"{list(have)}): check the robot file's transmission (actuators, "
+                       "position_side, effort_side)")
+    return [list(have).index(n) for n in names]
+
+
+def motor_side(rec: Record, model: RobotModel) -> Record:
+    """A record of a robot with a transmission (model/transmission.py) seen from its motors, the
+    model's "joints": q_m = N q_j + offset and q̇_m = N q̇_j for joint-side positions, v_m = N⁻ᵀ
+    v_j for joint-side efforts (divided through, said in ``sources``); the record itself when
+    the model has no transmission. BagError naming the channels a record lacks."""
+    t = model.transmission
+    if t is None:
+        return rec
+    q_names = t.joints if t.position_side == "joint" else t.actuators
+    v_names = t.joints if t.effort_side == "joint" else t.actuators
+    cq = _columns(rec, q_names, rec.names_q, f"{t.position_side}-side positions")
+    cv = _columns(rec, v_names, rec.names_v, f"{t.effort_side}-side currents")
+    q, qd, v, how = rec.q[:, cq], None if rec.qd is None else rec.qd[:, cq], rec.v_tau[:, cv], ""
     if t.position_side == "joint":
-        q = t.to_actuator_position(q)
-        qd = None if qd is None else t.to_actuator_rate(qd)
-        how += " (joint-side positions mapped to the motors: q_m = N q_j + offset)"
+        q, qd = t.to_actuator_position(q), None if qd is None else t.to_actuator_rate(qd)
+        how += "; joint-side positions mapped to the motors (q_m = N q_j + offset)"
     if t.effort_side == "joint":
         v = t.to_actuator_effort(v)
-        how += " (joint-side efforts divided through: N⁻ᵀ, per motor)"
-    return q, qd, v, how
+        how += "; joint-side efforts divided through to the motors (N⁻ᵀ)"
+    return dataclasses.replace(rec, names_q=model.joint_names, q=q, qd=qd,
+                               names_v=model.joint_names, v_tau=v, sources=rec.sources + how)
 
 
 def _tagged_payload(tags) -> Payload | None:
