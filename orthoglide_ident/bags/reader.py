@@ -308,13 +308,16 @@ def decode_messages(raw: Sequence[bytes], msgtype: str, field: str | None = None
 
 
 def read_bag(path: str | Path, *, require_tags: bool = True, interface: str | None = None,
-             joints: Sequence[str] | None = None) -> BagData:
+             joints: Sequence[str] | None = None,
+             position_joints: Sequence[str] | None = None) -> BagData:
     """Read q and the current of one bag (a rosbag2 directory or a lone .mcap file).
 
     The sources follow the bag's tag, else the order of preference of :mod:`.sources`: a
     DynamicJointState ``interface`` (default ``current``; given explicitly, it must be there),
     the JointState ``effort``, the CurrentReference. ``joints``: those joints in that order
     (BagError naming one that is missing); default: every joint of each source, in its order.
+    ``position_joints``: other names for q than for the current (a transmission's positions
+    published joint-side, its currents per motor: model/transmission.py); default ``joints``.
 
     Raises BagError when the bag is unreadable, has no joint states or no current, or (with
     ``require_tags``) is untagged or carries contradictory tags; DataError when joint names
@@ -333,9 +336,9 @@ def read_bag(path: str | Path, *, require_tags: bool = True, interface: str | No
     src = choose_sources(scan.topics, scan.path, tags=scan.tags, interface=interface,
                          joints=joints)
     out = []
-    for one in (src.position, src.current):
+    for one, want in ((src.position, position_joints or joints), (src.current, joints)):
         s = scan.topics[one.topic]
-        names, values = take_joints(s, one, joints, scan.path)
+        names, values = take_joints(s, one, want, scan.path)
         out.append((s.stamps_ns, names, values))
     (q_t, q_n, q_v), (c_t, c_n, c_v) = out
     velocity = None

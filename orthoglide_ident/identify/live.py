@@ -144,6 +144,9 @@ class LiveIdentification:
         if self.opts.decimation_filter != "fir":
             raise ConfigError("live identification needs decimation_filter: fir (cheby1's IIR "
                               "decimation depends on the whole segment)")
+        if getattr(model, "transmission", None) is not None:  # its samples are not mapped yet
+            raise ConfigError(f"robot {model.name} has a transmission: identify its bags offline "
+                              "(the live path does not map joint-side positions to the motors yet)")
         self.model = observation_model(with_payload_unknowns(model), self.opts.screw_lead_m,
                                        self.opts.lag_model == "auto")
         self._payloads: list[tuple[str, Payload]] = []  # the loaded recordings' (Sect. 4.3)

@@ -20,7 +20,8 @@ from orthoglide_ident.identify.observations import Observations
 from orthoglide_ident.identify.options import IdentifyOptions
 from orthoglide_ident.identify.payload_unknowns import unknowns_of
 from orthoglide_ident.identify.records import Record, record_payload
-from orthoglide_ident.identify.reversals import anchor_samples, bridge, find_reversals, rows_clear
+from orthoglide_ident.identify.reversals import (anchor_samples, bridge, find_reversals,
+                                                 rows_clear, velocity_deadband)
 from orthoglide_ident.identify.segments import Segment, SegmentReport, split_record
 from orthoglide_ident.identify.stream import DecimatedRows, SegmentStream, lag_rows, model_block
 from orthoglide_ident.identify.time_base import choose_velocity
@@ -190,7 +191,7 @@ def _segments_iir(segments: list[Segment], model: IdentificationModel, opts: Ide
         times["filtering"] += t2 - t1
         zones = None
         if opts.velocity_deadband_mps > 0:
-            zones = find_reversals(qdh, opts.velocity_deadband_mps,
+            zones = find_reversals(qdh, velocity_deadband(model, opts.velocity_deadband_mps),
                                    max(1, int(round(opts.reversal_max_bridge_s / T))),
                                    int(round(opts.reversal_margin_s / T)))
             zones.anchor = anchor_samples(T)

@@ -15,11 +15,11 @@ from typing import Sequence
 
 import numpy as np
 
-from orthoglide_ident.errors import IdentificationError
+from orthoglide_ident.errors import BagError, IdentificationError
 from orthoglide_ident.identify.options import IdentifyOptions
 from orthoglide_ident.model.robot import Payload, RobotModel
 
-__all__ = ["Record", "payload_knowledge", "read_record", "record_payload"]
+__all__ = ["Record", "motor_side", "payload_knowledge", "read_record", "record_payload"]
 
 
 @dataclass
@@ -68,17 +68,13 @@ def read_record(path: str | Path, model: RobotModel,
     from orthoglide_ident import bags
 
     opts = opts or IdentifyOptions()
-    data = bags.read_bag(path, joints=model.joint_names,
+    data = bags.read_bag(path, joints=_channels(model, "effort"),
+                         position_joints=_channels(model, "position"),
                          interface=opts.current_interface or None)
     tags, current = data.tags, data.current
     v_tau, sources = current.current, data.sources.describe()
     qd = data.velocity if opts.velocity_source != "derived" else None
-    tagged_unit = None if tags is None else tags.effort_unit
-    if (tagged_unit or opts.effort_unit) == "torque":
-        v_tau = model.effort_as_current(current.names, v_tau)
-        if tagged_unit == "torque":
-            sources += " (a torque, as tagged: divided by the nominal gains)"
-    return Record(
+    rec = motor_side(Record(
         source=str(path),
         stamps_q_ns=data.positions.stamps_ns, names_q=tuple(data.positions.names),
         q=data.positions.position,
@@ -87,7 +83,57 @@ def read_record(path: str | Path, model: RobotModel,
         payload_mass=0.0 if tags is None else float(tags.payload_mass),
         warnings=list(data.warnings), payload=_tagged_payload(tags),
         sources=sources, qd=qd,
-    )
+    ), model)
+    tagged_unit = None if tags is None else tags.effort_unit
+    if (tagged_unit or opts.effort_unit) == "torque":
+        rec.v_tau = model.effort_as_current(rec.names_v, rec.v_tau)
+        if tagged_unit == "torque":
+            rec.sources += " (a torque, as tagged: divided by the nominal gains)"
+    return rec
+
+
+def _channels(model: RobotModel, signal: str) -> tuple[str, ...]:
+    """The channel names a bag holds ``signal`` ("position" or "effort") under: the model's
+    joints, or a transmission's joints when that side is the joints' (model/transmission.py;
+    a channel named after a joint carries that index's motor when the actuators repeat the
+    joints' names)."""
+    t = model.transmission
+    if t is None:
+        return model.joint_names
+    side = t.position_side if signal == "position" else t.effort_side
+    return tuple(t.joints) if side == "joint" else tuple(t.actuators)
+
+
+def _columns(rec: Record, names: Sequence[str], have: Sequence[str], what: str) -> list[int]:
+    missing = [n for n in names if n not in have]
+    if missing:
+        raise BagError(f"{rec.source}: the {what} of {missing} are not in the record (it has "
+                       f"{list(have)}): check the robot file's transmission (actuators, "
+                       "position_side, effort_side)")
+    return [list(have).index(n) for n in names]
+
+
+def motor_side(rec: Record, model: RobotModel) -> Record:
+    """A record of a robot with a transmission (model/transmission.py) seen from its motors, the
+    model's "joints": q_m = N q_j + offset and q̇_m = N q̇_j for joint-side positions, v_m = N⁻ᵀ
+    v_j for joint-side efforts (divided through, said in ``sources``); the record itself when
+    the model has no transmission. BagError naming the channels a record lacks."""
+    t = model.transmission
+    if t is None:
+        return rec
+    q_names = t.joints if t.position_side == "joint" else t.actuators
+    v_names = t.joints if t.effort_side == "joint" else t.actuators
+    cq = _columns(rec, q_names, rec.names_q, f"{t.position_side}-side positions")
+    cv = _columns(rec, v_names, rec.names_v, f"{t.effort_side}-side currents")
+    q, qd, v, how = rec.q[:, cq], None if rec.qd is None else rec.qd[:, cq], rec.v_tau[:, cv], ""
+    if t.position_side == "joint":
+        q, qd = t.to_actuator_position(q), None if qd is None else t.to_actuator_rate(qd)
+        how += "; joint-side positions mapped to the motors (q_m = N q_j + offset)"
+    if t.effort_side == "joint":
+        v = t.to_actuator_effort(v)
+        how += "; joint-side efforts divided through to the motors (N⁻ᵀ)"
+    return dataclasses.replace(rec, names_q=model.joint_names, q=q, qd=qd,
+                               names_v=model.joint_names, v_tau=v, sources=rec.sources + how)
 
 
 def _tagged_payload(tags) -> Payload | None:

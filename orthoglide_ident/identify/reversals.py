@@ -25,6 +25,21 @@ from dataclasses import dataclass
 import numpy as np
 
 
+def velocity_deadband(model, deadband: float) -> float | np.ndarray:
+    """The dead band of ``model``'s velocities: ``deadband`` (m/s or rad/s of a joint), or per
+    motor of a robot identified in actuator space (model/actuator_space.py) that joint band
+    times the motor's largest reduction |N_aj|, so a motor's reversals are bridged as its
+    joint's would be. ``model`` may be wrapped (drive terms, payload unknowns: ``base``)."""
+    for _ in range(4):
+        t = getattr(model, "transmission", None)
+        if t is not None:
+            return deadband * np.max(np.abs(t.N), axis=1)
+        model = vars(model).get("base") if hasattr(model, "__dict__") else None
+        if model is None:
+            break
+    return deadband
+
+
 @dataclass
 class ReversalZones:
     """Per joint, bridgeable runs ``starts[j], ends[j]`` (samples s..e-1, clean s-1 and e) and

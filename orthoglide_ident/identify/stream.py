@@ -28,7 +28,8 @@ from orthoglide_ident.identify.decimation import fir_decimate_last, fir_taps
 from orthoglide_ident.identify.filtering import filter_horizon, zero_phase_butterworth
 from orthoglide_ident.identify.options import IdentifyOptions
 from orthoglide_ident.identify.time_base import states_on_stamps
-from orthoglide_ident.identify.reversals import ReversalTracker, anchor_samples, bridge_weights
+from orthoglide_ident.identify.reversals import (ReversalTracker, anchor_samples, bridge_weights,
+                                                 velocity_deadband)
 
 
 @dataclass
@@ -117,7 +118,7 @@ class SegmentStream:
         self.anchor = anchor_samples(period_s)  # samples averaged each side of a bridge
         if opts.velocity_deadband_mps > 0:
             self.tracker = ReversalTracker(
-                opts.velocity_deadband_mps,
+                velocity_deadband(model, opts.velocity_deadband_mps),
                 max(1, int(round(opts.reversal_max_bridge_s / period_s))),
                 int(round(opts.reversal_margin_s / period_s)), n_j)
         self.pending: list[list] = [[] for _ in range(n_j)]  # decisions waiting for anchors

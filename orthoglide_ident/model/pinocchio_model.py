@@ -377,6 +377,22 @@ class PinocchioRobot(RobotModel):
         with self._lock:
             return self._rows.block(q, qd, qdd, self._base_columns, self._payload, out)
 
+    def standard_block(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray,
+                       columns: Sequence[int], payload: bool = False) -> np.ndarray:
+        """(len(columns) [+ 1], n, m): the standard ``columns`` (indices into standard_names),
+        then the bound payload's column when ``payload`` (a transmission's wrapper,
+        model/actuator_space.py, takes its base columns from here)."""
+        q, qd, qdd = self._samples(q, qd, qdd)
+        out = np.zeros((len(columns) + int(payload), self.n_joints, q.shape[0]))
+        with self._lock:
+            return self._rows.block(q, qd, qdd, [self._columns[c] for c in columns],
+                                    self._payload if payload else None, out)
+
+    def actuated_drive_columns(self) -> list[int]:
+        """Indices in standard_names of the actuated joints' drive terms (ia, fv, fs, tauoff)."""
+        return [k for k, c in enumerate(self._columns) if c.source == "drive"
+                and any(j.iv == c.index for j in self.actuated)]
+
     def standard_regressor(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> np.ndarray:
         """W_st (n m, n_st), rows joint by joint (eq. 20), columns in ``standard_names`` order."""
         q, qd, qdd = self._samples(q, qd, qdd)

@@ -167,6 +167,9 @@ class RobotModel(abc.ABC):
     # False when the robot file gives no nominal gains (a bare URDF: 1 per unit stands in for
     # the feed-forward): the identified gains are then judged by eq. (37) and their signs only
     nominal_gains_given: bool = True
+    # the drive chains when the robot is identified in actuator space (model/actuator_space.py,
+    # whose "joints" are the motors); None: each motor drives its joint directly
+    transmission = None  # model.transmission.Transmission | None
 
     @abc.abstractmethod
     def observation_block(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray,

@@ -18,7 +18,7 @@ from orthoglide_ident.model.robot import DEFAULT_GRAVITY
 
 KEYS = ("name", "model", "description", "actuated_joints", "nominal_gains", "payload_frame",
         "gravity", "loops", "reference_configuration", "passive_friction", "column_order",
-        "body_labels", "fixed_bodies", "excitation")
+        "body_labels", "fixed_bodies", "excitation", "transmission")
 
 
 @dataclass(frozen=True)
@@ -42,6 +42,9 @@ class RobotDescription:
     # limits, home pose and collision geometry for exciting trajectories (excite/limits.py and
     # excite/collision.py read it; only its being a mapping is checked here)
     excitation: dict[str, Any] = field(default_factory=dict)
+    # the drive chains (model/transmission.py reads it once the actuated joints are known);
+    # None: the URDF's <ros2_control> transmissions, else none (each motor drives its joint)
+    transmission: dict[str, Any] | None = None
 
 
 def _fail(where: str, key: str, what: str) -> ConfigError:
@@ -139,4 +142,6 @@ def read_description(data: dict[str, Any], base_dir: Path,
         kw["fixed_bodies"] = _names(where, "fixed_bodies", data["fixed_bodies"])
     if "excitation" in data:
         kw["excitation"] = dict(_mapping(where, "excitation", data["excitation"]))
+    if "transmission" in data:
+        kw["transmission"] = dict(_mapping(where, "transmission", data["transmission"]))
     return RobotDescription(**kw)

@@ -115,7 +115,24 @@ def _pinocchio(data: dict[str, Any], base_dir: Path, where: str | None = None) -
         from orthoglide_ident.model.pinocchio_model import PinocchioRobot
     except ImportError as exc:  # the general model lands in its own step
         raise ConfigError(f"the general (Pinocchio) robot model is not available: {exc}") from None
-    return PinocchioRobot.from_description(data, base_dir, where)
+    robot = PinocchioRobot.from_description(data, base_dir, where)
+    return _with_transmission(robot, where or f"robot {robot.name}")
+
+
+def _with_transmission(robot, where: str) -> RobotModel:
+    """``robot`` seen from its motors (model/actuator_space.py) when its file has a
+    ``transmission`` or its URDF ``<ros2_control>`` transmissions; else ``robot`` itself."""
+    from orthoglide_ident.model.actuator_space import ActuatorSpaceRobot
+    from orthoglide_ident.model.transmission import read_transmission, urdf_transmission
+
+    desc = robot.description
+    if desc.transmission is not None:
+        t = read_transmission(desc.transmission, robot.joint_names, where)
+    elif desc.path.suffix.lower() == ".urdf":
+        t = urdf_transmission(desc.path, robot.joint_names)
+    else:
+        t = None
+    return robot if t is None else ActuatorSpaceRobot(robot, t)
 
 
 def description_cache() -> Path:

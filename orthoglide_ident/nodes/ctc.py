@@ -116,6 +116,9 @@ class CTCNode(Node):
         self.schedule = FeedforwardSchedule(v["batch"], int(v["margin_ms"] * 1e6))
         self._report_at = (time.monotonic(), time.process_time())  # wall, this process's CPU
         self.robot = load_robot(v["robot"])
+        if self.robot.transmission is not None:  # issue 33: τ_m = N⁻ᵀ τ_j not in the outlet yet
+            raise OrthoglideError(f"robot {self.robot.name} has a transmission: the feed-forward "
+                                  "through N is not written yet")
         self.joints = list(self.robot.joint_names)
         self.current_limit = check_current_limit(v["current_limit"], self.robot)
         self.model: CTCParameters | None = None
