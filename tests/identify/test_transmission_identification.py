@@ -334,3 +334,29 @@ def test_the_live_feed_lacking_a_transmission_channel_is_said(tmp_path):
     live.start_recording("run", "unloaded")
     out = live.add_joint_states([0, 1_000_000], ["a", "b", "c", "d", "e", "f"], np.zeros((2, 6)))
     assert len(out) == 1 and "do not hold the robot's" in out[0] and UR5_JOINTS[0] in out[0]
+
+
+def test_joint_side_torques_of_a_live_feed_become_the_motors_currents(coupled):
+    """effort_unit torque with joint-side efforts (the live node's feed): divided by the nominal
+    gains on the motors' side, as read_record does (motor_side, then effort_as_current), not by
+    channel name (the joints' names find no motor's gain), the channels staying the joints' for the live
+    mapping v_m = N⁻ᵀ v_j; a feed with an extra channel keeps it as it is."""
+    from orthoglide_ident.identify.records import effort_channels, torque_as_current
+
+    _, _, tx, tmp, _ = coupled
+    model = load_robot(_robot_file(tmp, dict(tx, effort_side="joint"), "torque_feed"))
+    joints = model.transmission.joints
+    assert effort_channels(model) == joints
+    rng = np.random.default_rng(7)
+    tau_j = rng.normal(0, 20, (5, 7))
+    names = list(reversed(joints)) + ["gripper"]
+    v = torque_as_current(model, names, tau_j)
+    assert np.array_equal(v[:, 6], tau_j[:, 6])
+    order = [names.index(j) for j in joints]
+    rec = Record("r", np.arange(5), joints, np.zeros((5, 6)), np.arange(5), joints,
+                 tau_j[:, order], "unloaded", 0.0)
+    offline = model.effort_as_current(MOTORS, motor_side(rec, model).v_tau)
+    live = model.transmission.to_actuator_effort(v[:, order])
+    np.testing.assert_allclose(live, offline, rtol=1e-12, atol=1e-12 * np.abs(offline).max())
+    # by the channels' names alone the joints' torques found no motor's gain: left unconverted
+    assert np.array_equal(model.effort_as_current(names, tau_j), tau_j)
