@@ -82,7 +82,8 @@ def test_the_live_identification_of_the_plant_equals_its_bags_offline(simulated)
     """The plant's joint-side positions and motor currents fed live as a hardware publishes them
     (joint names, batches of 500 ticks, the currents 3 ticks behind): mapped to the motors on
     arrival, the live result is the offline identification of the same runs' bags (read_record
-    maps them), the same equations: to 1e-6 (measured 1.5e-9) with the paper's drive model (lag_model: off)."""
+    maps them), the same equations: to 1e-6 (measured 1.5e-9) with the paper's drive model
+    (lag_model: off)."""
     from orthoglide_ident.identify.live import LiveIdentification
     from orthoglide_ident.identify.options import IdentifyOptions
     from orthoglide_ident.identify.pipeline import identify_records, read_record

@@ -295,7 +295,8 @@ def test_live_identification_through_the_transmission_equals_offline(coupled):
     """The live feed of a hardware that publishes joint-side positions and joint-side efforts
     (the coupled wrist): mapped to the motors on arrival (q_m = N q_j + offset, v_m = N⁻ᵀ v_j)
     as motor_side() maps a bag, the live result is the offline one: the same equations, so
-    to 1e-6 (measured: 5e-9 on the values, 1e-8 on the σ) with the paper's drive model (lag_model: off)."""
+    to 1e-6 (measured: 5e-9 on the values, 1e-8 on the σ) with the paper's drive model
+    (lag_model: off)."""
     from orthoglide_ident.identify.live import LiveIdentification
     from orthoglide_ident.identify.options import IdentifyOptions
 
@@ -339,8 +340,8 @@ def test_the_live_feed_lacking_a_transmission_channel_is_said(tmp_path):
 def test_joint_side_torques_of_a_live_feed_become_the_motors_currents(coupled):
     """effort_unit torque with joint-side efforts (the live node's feed): divided by the nominal
     gains on the motors' side, as read_record does (motor_side, then effort_as_current), not by
-    channel name (the joints' names find no motor's gain), the channels staying the joints' for the live
-    mapping v_m = N⁻ᵀ v_j; a feed with an extra channel keeps it as it is."""
+    channel name (the joints' names find no motor's gain), the channels staying the joints'
+    for the live mapping v_m = N⁻ᵀ v_j; a feed with an extra channel keeps it as it is."""
     from orthoglide_ident.identify.records import effort_channels, torque_as_current
 
     _, _, tx, tmp, _ = coupled
