@@ -16,6 +16,10 @@ paper uses the nominal weighed mass), g_tau the drive gains (identified, the man
 the Orthoglide's 2001 N/A — or any others). The robot is any RobotModel (default the
 Orthoglide); every size comes from it.
 
+A robot with a transmission (issue 33) is identified in actuator space: ``feedforward_currents``
+maps the joint-side reference to the motors (``model_reference``) and returns one current per
+motor, v_m = diag(g)⁻¹ N⁻ᵀ τ_j plus the motors' own inertia and friction.
+
 Pure numpy, no ROS: ``feedforward`` is vectorised over samples; the ctc node calls
 ``feedforward_currents`` on batches of setpoints.
 """
@@ -146,12 +150,30 @@ def feedforward(q_d: np.ndarray, qd_d: np.ndarray, qdd_d: np.ndarray, params: CT
     return tau
 
 
+def model_reference(q_d: np.ndarray, qd_d: np.ndarray, qdd_d: np.ndarray,
+                    robot: RobotModel) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A joint-side reference in the model's coordinates: for a robot with a transmission
+    (model/transmission.py, identified in actuator space) the motors' q_m = N q_j + offset,
+    q̇_m = N q̇_j, q̈_m = N q̈_j; else the reference as it is."""
+    ref = tuple(np.atleast_2d(np.asarray(x, dtype=float)) for x in (q_d, qd_d, qdd_d))
+    t = robot.transmission
+    if t is None:
+        return ref
+    return t.to_actuator_position(ref[0]), t.to_actuator_rate(ref[1]), t.to_actuator_rate(ref[2])
+
+
 def feedforward_currents(q_d: np.ndarray, qd_d: np.ndarray, qdd_d: np.ndarray,
                          params: CTCParameters) -> np.ndarray:
-    """Model feed-forward currents v_ff (N - 1, n_j) A for ticks 0..N-2 of a reference sampled at N
-    consecutive ticks: the IDIM force (eq. 29) in the middle of each tick's zero-order hold (the
-    mean of two consecutive samples, as the identification evaluates the model at t_k + T/2),
-    divided by the drive gains (eq. 17). This is the model part of the paper's CTC; the linear
-    part (PID with velocity feed-forward, 100 rad/s) is the robot controller's own."""
-    mid = [0.5 * (a[:-1] + a[1:]) for a in (np.atleast_2d(np.asarray(x, dtype=float)) for x in (q_d, qd_d, qdd_d))]
+    """Model feed-forward currents v_ff (N - 1, n_j) A for ticks 0..N-2 of a joint-side reference
+    sampled at N consecutive ticks: the IDIM force (eq. 29) in the middle of each tick's
+    zero-order hold (the mean of two consecutive samples, as the identification evaluates the
+    model at t_k + T/2), divided by the drive gains (eq. 17). This is the model part of the
+    paper's CTC; the linear part (PID with velocity feed-forward, 100 rad/s) is the robot
+    controller's own.
+
+    With a transmission the columns are the motors': the actuator-space model's rows are
+    N⁻ᵀ τ_j plus each motor's own terms (model/actuator_space.py), so this is
+    v_m = diag(g)⁻¹ (N⁻ᵀ τ_j + ia q̈_m + fv q̇_m + fs sign(q̇_m) + off) per motor."""
+    ref = model_reference(q_d, qd_d, qdd_d, params.robot)
+    mid = [0.5 * (a[:-1] + a[1:]) for a in ref]
     return feedforward(*mid, params) / params.drive_gains

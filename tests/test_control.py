@@ -134,3 +134,58 @@ def test_bad_parameters_raise_config_error(change, match):
 def test_missing_field_raises_config_error():
     with pytest.raises(ConfigError, match="lack field"):
         CTCParameters.from_message_fields({"names": ["m_11R"], "values": [1.0]}, model=ORTHOGLIDE)
+
+
+COUPLED_N = np.array([[32, 0, 0, 0, 0, 0], [0, 32, 0, 0, 0, 0], [0, 0, 45, 0, 0, 0],
+                      [0, 0, 0, -48, 0, 0], [0, 0, 0, 0, 45, 0], [0, 0, 0, 0, 32, 32]], float)
+
+
+def _coupled_ur5(tmp_path):
+    """The UR5 behind the issue's coupled wrist (the last motor turns with q5 + q6)."""
+    import yaml
+
+    from orthoglide_ident.model.robots import ROBOTS_DIR
+
+    data = yaml.safe_load((ROBOTS_DIR / "ur5.yaml").read_text())
+    data.pop("excitation")
+    data.update(name="ur5_coupled_ctc", description=str(ROBOTS_DIR / "ur5.urdf"),
+                nominal_gains=[0.13, 0.13, 0.1, 0.1, 0.1, 0.1],
+                transmission={"actuators": [f"m{k}" for k in range(1, 7)],
+                              "reduction": COUPLED_N.tolist(),
+                              "offset": [0.0, 0.0, 0.0, 1.0, 0.0, -2.0]})
+    path = tmp_path / "ur5_coupled_ctc.yaml"
+    path.write_text(yaml.safe_dump(data))
+    return load_robot(path)
+
+
+def test_feedforward_currents_through_a_coupled_transmission_are_per_motor(tmp_path):
+    """The identified actuator-space model fed a joint-side reference gives each motor's current
+    v_m = diag(g)⁻¹ (N⁻ᵀ τ_j + ia q̈_m + fv q̇_m + fs sign(q̇_m) + off), τ_j from Pinocchio's
+    RNEA of the URDF (not the regressor), the motor states q̇_m = N q̇_j at mid-hold."""
+    import pinocchio as pin
+
+    from orthoglide_ident.model.robots import ROBOTS_DIR
+
+    robot = _coupled_ur5(tmp_path)
+    assert robot.joint_names == tuple(f"m{k}" for k in range(1, 7))
+    ia, fv = np.full(6, 2e-5), np.linspace(1e-4, 3e-4, 6)
+    fs, off = np.linspace(0.02, 0.05, 6), np.linspace(-0.003, 0.003, 6)
+    chi_st = robot.standard_values()
+    index = {n: k for k, n in enumerate(robot.standard_names)}
+    for a, m in enumerate(robot.joint_names):
+        for kind, val in (("ia", ia), ("fv", fv), ("fs", fs), ("tauoff", off)):
+            chi_st[index[f"{kind}_{m}"]] = val[a]
+    g = np.array([0.134, 0.126, 0.102, 0.096, 0.104, 0.097])
+    params = CTCParameters.from_values(robot.names, robot.K @ chi_st, g, 0.0, model=robot)
+    rng = np.random.default_rng(4)
+    q, qd, qdd = rng.uniform(-1, 1, (9, 6)), rng.uniform(-2, 2, (9, 6)), rng.uniform(-5, 5, (9, 6))
+    v = feedforward_currents(q, qd, qdd, params)
+    assert v.shape == (8, 6)
+    pm = pin.buildModelFromUrdf(str(ROBOTS_DIR / "ur5.urdf"))
+    pm.gravity = pin.Motion(np.array(robot.gravity), np.zeros(3))  # the robot file's
+    pd = pm.createData()
+    mid = [0.5 * (a[:-1] + a[1:]) for a in (q, qd, qdd)]
+    tau_j = np.array([pin.rnea(pm, pd, *s) for s in zip(*mid)])
+    qd_m, qdd_m = mid[1] @ COUPLED_N.T, mid[2] @ COUPLED_N.T
+    tau_m = tau_j @ np.linalg.inv(COUPLED_N) + ia * qdd_m + fv * qd_m + fs * np.sign(qd_m) + off
+    np.testing.assert_allclose(v, tau_m / g, rtol=1e-9, atol=1e-9 * np.abs(tau_m / g).max())

@@ -144,9 +144,8 @@ class LiveIdentification:
         if self.opts.decimation_filter != "fir":
             raise ConfigError("live identification needs decimation_filter: fir (cheby1's IIR "
                               "decimation depends on the whole segment)")
-        if getattr(model, "transmission", None) is not None:  # its samples are not mapped yet
-            raise ConfigError(f"robot {model.name} has a transmission: identify its bags offline "
-                              "(the live path does not map joint-side positions to the motors yet)")
+        # a transmission's joint-side channels are mapped to its motors on arrival (issue 33)
+        self.transmission = getattr(model, "transmission", None)
         self.model = observation_model(with_payload_unknowns(model), self.opts.screw_lead_m,
                                        self.opts.lag_model == "auto")
         self._payloads: list[tuple[str, Payload]] = []  # the loaded recordings' (Sect. 4.3)
@@ -193,7 +192,7 @@ class LiveIdentification:
             self._payloads.append((source, p))
             model = with_known_payload(model, p)
         self._current = LiveRecording(source, condition, mass, self.opts, model, self.n_b,
-                                      self._fold, lag)
+                                      self._fold, lag, self.transmission)
         self._recordings.append(self._current)
 
     def stop_recording(self) -> list[str]:

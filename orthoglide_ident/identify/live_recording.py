@@ -23,26 +23,41 @@ from orthoglide_ident.identify.diagnostics import bag_report
 from orthoglide_ident.identify.segments import SegmentReport
 from orthoglide_ident.ticks import find_breaks
 from orthoglide_ident.identify.stream import DecimatedRows, SegmentStream
+from orthoglide_ident.model.transmission import Transmission
 
 PERIOD_SAMPLES = 200  # paired ticks whose median step sets the period
 MAX_STEP_VALUES = 10_000  # distinct stamp steps kept to recompute the record's median
 SILENT_TOPIC_S = 2.0  # one topic this far behind the other: say so
 
 Fold = Callable[["LiveRecording", DecimatedRows, float], None]
+Channels = tuple[tuple[str, ...], Callable[[np.ndarray], np.ndarray] | None]
+
+
+def channel_maps(names: tuple[str, ...], t: Transmission | None) -> tuple[Channels, Channels]:
+    """The channels the positions and the currents arrive on and their map to the model's
+    ``names`` (the motors, for a transmission): q_m = N q_j + offset for joint-side positions,
+    v_m = N⁻ᵀ v_j for joint-side efforts, as records.motor_side does offline."""
+    if t is None:
+        return (names, None), (names, None)
+    q = (t.joints, t.to_actuator_position) if t.position_side == "joint" else (t.actuators, None)
+    v = (t.joints, t.to_actuator_effort) if t.effort_side == "joint" else (t.actuators, None)
+    return q, v
 
 
 class LiveRecording:
     """A record under way: two topic buffers, the segment being built, its report."""
 
     def __init__(self, source: str, condition: str, payload_mass: float, opts: IdentifyOptions,
-                 model, n_b: int, fold: Fold, lag: bool = False):
+                 model, n_b: int, fold: Fold, lag: bool = False,
+                 transmission: Transmission | None = None):
         self.source, self.condition, self.payload_mass = source, condition, payload_mass
         self.opts, self.model, self.n_b, self._fold = opts, model, n_b, fold
         limit = opts.current_warn_fraction * opts.current_limit_a
         self.joint_names = names = tuple(model.joint_names)
         n_j = len(names)
-        self.q = TopicBuffer("joint_states", names)
-        self.v = TopicBuffer("current_reference", names, limit=limit)
+        (q_names, q_map), (v_names, v_map) = channel_maps(names, transmission)
+        self.q = TopicBuffer("joint_states", q_names, to_model=q_map)
+        self.v = TopicBuffer("current_reference", v_names, limit=limit, to_model=v_map)
         self.rep = SegmentReport()
         self.period_ns: float | None = None
         self.equations = np.zeros(n_j, dtype=int)  # per joint, folded in

@@ -12,7 +12,7 @@ NaN/inf, lost ticks, samples out of order or too late, currents near saturation.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Sequence
+from typing import Callable, Sequence
 
 import numpy as np
 
@@ -34,11 +34,16 @@ class TopicCounts:
 @dataclass
 class TopicBuffer:
     """Samples of one topic waiting to be paired: stamps (ns) and values (n, n_j), the robot's
-    ``joint_names`` in order (a topic's columns are matched by name: any order, extras ignored)."""
+    ``joint_names`` in order (a topic's columns are matched by name: any order, extras ignored).
+
+    ``to_model``: maps the ordered columns to the model's (a transmission's joint-side channels
+    to its motors, ``live_recording.channel_maps``), sample by sample; stamps, NaN and
+    saturation are checked on the mapped values."""
 
     topic: str
     joint_names: tuple[str, ...]
     limit: float = 0.0  # |value| that warns of saturation (0: no check)
+    to_model: Callable[[np.ndarray], np.ndarray] | None = None
     counts: TopicCounts = field(default_factory=TopicCounts)
     max_ns: int | None = None  # newest stamp received
     horizon_ns: int | None = None  # stamps up to this one have been paired
@@ -73,6 +78,8 @@ class TopicBuffer:
             return out
         if perm is not None:
             x = x[:, perm]
+        if self.to_model is not None:
+            x = self.to_model(x)
         stamps, x = self._drop_nonfinite(stamps, x, out)
         stamps, x = self._drop_late(stamps, x, out)
         self._check_ticks(stamps, out)

@@ -19,7 +19,8 @@ from orthoglide_ident.errors import BagError, IdentificationError
 from orthoglide_ident.identify.options import IdentifyOptions
 from orthoglide_ident.model.robot import Payload, RobotModel
 
-__all__ = ["Record", "motor_side", "payload_knowledge", "read_record", "record_payload"]
+__all__ = ["Record", "effort_channels", "motor_side", "payload_knowledge", "read_record",
+           "record_payload", "torque_as_current"]
 
 
 @dataclass
@@ -134,6 +135,27 @@ def motor_side(rec: Record, model: RobotModel) -> Record:
         how += "; joint-side efforts divided through to the motors (N⁻ᵀ)"
     return dataclasses.replace(rec, names_q=model.joint_names, q=q, qd=qd,
                                names_v=model.joint_names, v_tau=v, sources=rec.sources + how)
+
+
+def effort_channels(model: RobotModel) -> tuple[str, ...]:
+    """The channel names a feed holds the currents (or efforts) under: the model's joints, or a
+    transmission's joints or actuators as its ``effort_side`` says."""
+    return _channels(model, "effort")
+
+
+def torque_as_current(model: RobotModel, names: Sequence[str], effort: np.ndarray) -> np.ndarray:
+    """Efforts (N·m or N) under the channels ``names`` -> currents (A), divided by the nominal
+    gains on the motors' side as read_record does. Joint-side efforts of a transmission stay in
+    the joints' channels: v_j' = Nᵀ diag(g)⁻¹ N⁻ᵀ τ_j, which the live path's v_m = N⁻ᵀ v_j'
+    (live_recording.channel_maps) turns into each motor's current; a channel the feed lacks is
+    left as it is (the live identification says so)."""
+    t = model.transmission
+    if t is None or t.effort_side != "joint" or not set(t.joints) <= set(names):
+        return model.effort_as_current(names, effort)
+    out = np.array(effort, dtype=float)
+    cols = [list(names).index(j) for j in t.joints]
+    out[:, cols] = t.to_joint_effort(t.to_actuator_effort(out[:, cols]) / model.nominal_gains)
+    return out
 
 
 def _tagged_payload(tags) -> Payload | None:

@@ -28,7 +28,7 @@ from __future__ import annotations
 
 import struct
 from collections import deque
-from typing import Sequence
+from typing import Callable, Sequence
 
 import numpy as np
 
@@ -78,21 +78,28 @@ class TrajectoryOutlet:
     """Setpoints + feed-forward -> JointTrajectory messages (see the module docstring)."""
 
     def __init__(self, joint_names: Sequence[str], effort: str, nominal_gains: np.ndarray,
-                 overlap: int = 100) -> None:
+                 overlap: int = 100,
+                 to_joint_effort: Callable[[np.ndarray], np.ndarray] | None = None) -> None:
+        """``to_joint_effort``: a transmission's τ_j = Nᵀ τ_m (model/transmission.py) when the
+        feed-forward is per motor and the points per joint; None: motors are joints."""
         if effort not in EFFORTS:
             raise ConfigError(f"parameter trajectory_effort: {' | '.join(EFFORTS)}, got {effort!r}")
         if overlap < 1:
             raise ConfigError(f"parameter trajectory_overlap: at least 1 tick, got {overlap}")
         self.joint_names, self.effort = tuple(joint_names), effort
         self.nominal_gains = np.asarray(nominal_gains, float)
+        self.to_joint_effort = to_joint_effort
         self.history: deque = deque(maxlen=overlap)  # (stamp, q_d, qd_d, qdd_d, effort) sent
         self.v_prev: tuple[int, np.ndarray] | None = None  # the last tick's feed-forward (A)
 
     def efforts(self, v_ff: np.ndarray, gains: np.ndarray) -> np.ndarray:
-        """(N, n) the effort of each tick's feed-forward ``v_ff`` (A), identified ``gains``."""
+        """(N, n) the effort of each tick's feed-forward ``v_ff`` (A), identified ``gains``; with
+        a transmission the motors' efforts mapped to the joints (Nᵀ), which the hardware's
+        transmission maps back to each motor."""
         scale = {"nominal": self.nominal_gains, "torque": np.asarray(gains, float),
                  "current": np.ones_like(self.nominal_gains)}[self.effort]
-        return np.asarray(v_ff, float) * scale
+        e = np.asarray(v_ff, float) * scale
+        return e if self.to_joint_effort is None else self.to_joint_effort(e)
 
     def message(self, stamps_ns: np.ndarray, ref: np.ndarray, v_ff: np.ndarray,
                 gains: np.ndarray) -> bytes | None:

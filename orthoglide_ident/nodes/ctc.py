@@ -51,7 +51,14 @@ error every 5 s. Names are relative: -r __ns:=/robot2 moves the whole interface.
 Next to ros2_control (trajectory_topic, e.g. joint_trajectory_controller/joint_trajectory): the
 setpoints also go to a joint_trajectory_controller whose only command interface is effort, as
 trajectory_msgs/JointTrajectory points (q_d, qd_d, qdd_d) whose effort is the feed-forward in the
-controller's units (trajectory_effort); the JTC adds it to its PID (README "Next to ros2_control")."""
+controller's units (trajectory_effort); the JTC adds it to its PID (README "Next to ros2_control").
+
+A robot with a transmission (docs/robot_files.md "Transmissions": identified in actuator space):
+the setpoints are the joints', the feed-forward one current per motor, v_m = diag(g)⁻¹ N⁻ᵀ τ_j
+plus the motors' own inertia and friction, clipped to current_limit per motor and published
+under the motors' names; the trajectory points' efforts are joint-side, Nᵀ (scale x v_m), which
+the hardware's transmission turns back into the motors' (the four-bar linkage: see
+model/transmission.py)."""
 
 PARAMETERS = (
     Param("robot", "", "the robot: a URDF, a robot YAML or a bundled robot's name, as the "
@@ -65,8 +72,8 @@ PARAMETERS = (
     Param("rt_priority", 30, "SCHED_FIFO priority (1-99) of the thread that takes the setpoints and "
           "sends the feed-forward, below the controller's (the simulated driver's 40), so that a "
           "busy machine does not make it late; 0: ordinary scheduling"),
-    Param("current_limit", [1.0], "A per joint (one number: every joint): feed-forward currents "
-          "are clipped to it"),
+    Param("current_limit", [1.0], "A per joint, per motor for a robot with a transmission (one "
+          "number: every one): feed-forward currents are clipped to it"),
     Param("monitor", False, "log the tracking error (joint states vs setpoints) every 5 s (one more 1 kHz "
           "subscription)"),
     Param("consistent", False, "use the physically consistent set (orthoglide/identified_parameters/"
@@ -116,10 +123,9 @@ class CTCNode(Node):
         self.schedule = FeedforwardSchedule(v["batch"], int(v["margin_ms"] * 1e6))
         self._report_at = (time.monotonic(), time.process_time())  # wall, this process's CPU
         self.robot = load_robot(v["robot"])
-        if self.robot.transmission is not None:  # issue 33: τ_m = N⁻ᵀ τ_j not in the outlet yet
-            raise OrthoglideError(f"robot {self.robot.name} has a transmission: the feed-forward "
-                                  "through N is not written yet")
-        self.joints = list(self.robot.joint_names)
+        t = self.robot.transmission  # setpoints are the joints', currents the motors' (issue 33)
+        self.joints = list(self.robot.joint_names if t is None else t.joints)
+        self.motors = list(self.robot.joint_names)
         self.current_limit = check_current_limit(v["current_limit"], self.robot)
         self.model: CTCParameters | None = None
         self.stopped: str | None = None
@@ -135,7 +141,8 @@ class CTCNode(Node):
         self.outlet = None  # to a joint_trajectory_controller (nodes._jtc)
         if v["trajectory_topic"]:
             self.outlet = TrajectoryOutlet(self.joints, v["trajectory_effort"], self.robot.nominal_gains,
-                                           v["trajectory_overlap"])
+                                           v["trajectory_overlap"],
+                                           None if t is None else t.to_joint_effort)
             self.pub_traj = self.create_publisher(JointTrajectory, v["trajectory_topic"], 10)
         # last: the taker's thread calls on_setpoints at once, which needs everything above
         self.taker = BatchTaker(self, [BatchTopic(JointSetpoint, "orthoglide/setpoints", stream, self.on_setpoints)],
@@ -233,7 +240,7 @@ class CTCNode(Node):
             self.get_logger().warning(f"feed-forward beyond current_limit clipped ({self.clipped} ticks so far)",
                                       throttle_duration_sec=5.0)
         for stamp, v in zip(stamps, clipped):
-            msg = CurrentReference(name=self.joints, current=[float(x) for x in v])
+            msg = CurrentReference(name=self.motors, current=[float(x) for x in v])
             msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(int(stamp), 1_000_000_000)
             self.pub.publish(msg)
         self.published += len(stamps)

@@ -28,6 +28,7 @@ from orthoglide_ident.bags import (CURRENT_REFERENCE_TYPE, DYNAMIC_JOINT_STATE_T
 from orthoglide_ident.bags.sources import CURRENT_SOURCES
 from orthoglide_ident.errors import OrthoglideError
 from orthoglide_ident.identify.live import LiveIdentification
+from orthoglide_ident.identify.records import effort_channels, torque_as_current
 from orthoglide_ident.model.robot import Payload, RobotModel
 from orthoglide_ident.nodes.live_sources import DYNAMIC, EFFORT, REFERENCE, LiveTopics, choose_current
 from orthoglide_ident.ros.batch import BatchTaker, BatchTopic
@@ -219,7 +220,8 @@ class LiveFeed:
         return self.source is not None
 
     def _joints(self) -> tuple[str, ...]:
-        return tuple(self.robot.joint_names)
+        """The current's channels (a transmission's joints or motors: its effort_side)."""
+        return effort_channels(self.robot)
 
     def _take(self, buf: collections.deque) -> list[bytes]:
         """Messages of the recording's ticks, oldest first; earlier ones dropped, later ones kept."""
@@ -251,7 +253,7 @@ class LiveFeed:
             self._say([f"{topic}: {e}; {len(raw)} messages not used"])
             return
         if self.effort_unit == "torque":  # N·m or N -> A with the nominal gains, as offline
-            values = self.robot.effort_as_current(names, values)
+            values = torque_as_current(self.robot, names, values)
         self._say(self.live.add_current_reference(stamps, list(names), values))
 
     def replace(self, live: LiveIdentification, robot: RobotModel) -> None:

@@ -23,7 +23,8 @@ JOINTS = ("shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint", "wrist_1_j
 
 
 @pytest.fixture(scope="module")
-def identified(tmp_path_factory):
+def simulated(tmp_path_factory):
+    """(truth, the two CoupledRecords, their bags by position side, the two robot YAMLs)."""
     from orthoglide_sim.coupled_record import simulate_coupled, write_coupled_bag, write_robot_files
     from orthoglide_sim.coupled_truth import default_coupled_truth
 
@@ -31,12 +32,18 @@ def identified(tmp_path_factory):
     truth = default_coupled_truth()
     runs = [("unloaded", None, "exciting1", 0), ("loaded", "2.0", "exciting2", 1)]
     paths: dict[str, list[str]] = {"joint": [], "actuator": []}
+    recs = []
     for name, payload, trajectory, seed in runs:
-        rec = simulate_coupled(SECONDS, payload=payload, trajectory=trajectory, seed=seed,
-                               truth=truth)
+        recs.append(simulate_coupled(SECONDS, payload=payload, trajectory=trajectory, seed=seed,
+                                     truth=truth))
         for side in paths:
-            paths[side].append(str(write_coupled_bag(out / side / name, rec, side)))
-    joint_yaml, actuator_yaml = write_robot_files(out, truth)
+            paths[side].append(str(write_coupled_bag(out / side / name, recs[-1], side)))
+    return truth, recs, paths, write_robot_files(out, truth)
+
+
+@pytest.fixture(scope="module")
+def identified(simulated):
+    truth, _, paths, (joint_yaml, actuator_yaml) = simulated
     res = {"joint": identify(paths["joint"], model=load_robot(str(joint_yaml))),
            "actuator": identify(paths["actuator"], model=load_robot(str(actuator_yaml)))}
     return truth, res
@@ -69,3 +76,39 @@ def test_motor_side_positions_give_the_same_answer(identified):
     va = np.array([x.value for x in a.parameters] + [x.value for x in a.drive_gains])
     vb = np.array([x.value for x in b.parameters] + [x.value for x in b.drive_gains])
     assert np.max(np.abs(va - vb) / np.maximum(np.abs(va), 1e-12)) < 1e-8
+
+
+def test_the_live_identification_of_the_plant_equals_its_bags_offline(simulated):
+    """The plant's joint-side positions and motor currents fed live as a hardware publishes them
+    (joint names, batches of 500 ticks, the currents 3 ticks behind): mapped to the motors on
+    arrival, the live result is the offline identification of the same runs' bags (read_record
+    maps them), the same equations: to 1e-6 (measured 1.5e-9) with the paper's drive model
+    (lag_model: off)."""
+    from orthoglide_ident.identify.live import LiveIdentification
+    from orthoglide_ident.identify.options import IdentifyOptions
+    from orthoglide_ident.identify.pipeline import identify_records, read_record
+
+    truth, recs, paths, (joint_yaml, _) = simulated
+    model = load_robot(str(joint_yaml))
+    opts = IdentifyOptions(lag_model="off")
+    bags = [read_record(p, model, opts) for p in paths["joint"]]
+    off = identify_records(bags, options=opts, model=model)
+    live = LiveIdentification(opts, model=model)
+    names = list(truth.actuators)
+    for rec, bag in zip(recs, bags):
+        live.start_recording(bag.source, bag.condition, bag.payload_mass, bag.payload)
+        n, b = len(rec.stamps_ns), 0
+        for a in range(0, n, 500):
+            assert live.add_joint_states(rec.stamps_ns[a:a + 500], names,
+                                         rec.q_joint[a:a + 500]) == []
+            end = n if a + 500 >= n else a + 497
+            assert live.add_current_reference(rec.stamps_ns[b:end], names,
+                                              rec.v_tau[b:end]) == []
+            b = end
+        assert live.stop_recording() == []
+    res = live.result()
+    va = np.array([x.value for x in res.drive_gains + res.parameters])
+    vb = np.array([x.value for x in off.drive_gains + off.parameters])
+    assert np.max(np.abs(va / vb - 1)) < 1e-6
+    g = np.array([x.value for x in res.drive_gains])
+    assert np.all(np.abs(g / truth.motor_array("gain") - 1) < 0.005)

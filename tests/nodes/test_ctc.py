@@ -281,3 +281,51 @@ def test_ctc_node_refuses_a_model_that_does_not_fit_and_keeps_the_old_one(ros_en
     for k in ticks:
         np.testing.assert_allclose(got[t0 + k * 10**6], expected[k], rtol=1e-9)
     assert run.proc.returncode == 0
+
+
+def test_ctc_node_through_a_coupled_transmission_feeds_each_motor(ros_env, tmp_path):
+    """The coupled-wrist UR5 (identified in actuator space): joint-side setpoints in, one
+    current per motor out under the motors' names, the law's v_m = diag(g)⁻¹ N⁻ᵀ τ_j + motor
+    terms (test_control), clipped to current_limit per motor."""
+    pytest.importorskip("rclpy")
+    pytest.importorskip("orthoglide_msgs.msg")
+    from orthoglide_ident.control import CTCParameters, feedforward_currents
+    from orthoglide_msgs.msg import IdentifiedParameters, JointSetpoint
+    from test_control import _coupled_ur5
+
+    robot = _coupled_ur5(tmp_path)
+    joints = robot.transmission.joints
+    p = CTCParameters.from_values(robot.names, robot.K @ robot.standard_values(),
+                                  [0.13, 0.13, 0.1, 0.1, 0.1, 0.1], 0.0, model=robot)
+    got: dict[int, tuple[list[str], list[float]]] = {}
+    limit = [5.0, 5.0, 5.0, 5.0, 5.0, 0.02]  # the coupled motor's clips
+    run = _CTCRun(ros_env, ["-p", f"robot:={tmp_path / 'ur5_coupled_ctc.yaml'}", "-p", "batch:=4",
+                            "-p", f"current_limit:={limit}", "-p", "payload_mass:=0.0"],
+                  "test_ctc_coupled", lambda m: got.__setitem__(_stamp(m), (list(m.name),
+                                                                               list(m.current))))
+    t = np.arange(30) * 1e-3
+    q = 0.3 * np.sin(np.outer(t, np.arange(1, 7)) * 3)
+    qd = 0.9 * np.cos(np.outer(t, np.arange(1, 7)) * 3) * np.arange(1, 7)
+    qdd = -2.7 * np.sin(np.outer(t, np.arange(1, 7)) * 3) * np.arange(1, 7) ** 2
+    t0 = 100 * 10**9
+    try:
+        run.start()
+        run.pub_par.publish(IdentifiedParameters(
+            names=list(p.names), values=[float(v) for v in p.chi_b],
+            drive_gains=[float(g) for g in p.drive_gains], payload_mass=0.0))
+        run.wait_for("parameters in", 30)
+        for k in range(30):
+            m = JointSetpoint(name=list(joints), position=list(q[k]), velocity=list(qd[k]),
+                              acceleration=list(qdd[k]))
+            m.header.stamp.sec, m.header.stamp.nanosec = divmod(t0 + k * 10**6, 10**9)
+            run.pub_sp.publish(m)
+            run.spin(0.003)
+        run.spin_until(lambda: set(range(0, 25)) <= {(s - t0) // 10**6 for s in got}, 30,
+                       "not fed")
+    finally:
+        run.close()
+    expected = np.clip(feedforward_currents(q, qd, qdd, p), -np.array(limit), limit)
+    for s, (names, v) in got.items():
+        assert names == list(robot.joint_names)
+        np.testing.assert_allclose(v, expected[(s - t0) // 10**6], rtol=1e-9, atol=1e-12)
+    assert any(abs(v[5]) == pytest.approx(0.02) for _, v in got.values())

@@ -63,6 +63,24 @@ def test_effort_units_and_the_one_update_shift():
         np.testing.assert_array_equal(np.array([p.accelerations for p in msg.points]), ref[:, 2])
 
 
+def test_a_transmission_sends_the_motors_efforts_as_joint_efforts():
+    """Per-motor feed-forward, per-joint points: e_j = Nᵀ (scale x v_m), which a hardware's
+    transmission (τ_m = N⁻ᵀ τ_j) turns back into each motor's effort; the coupled wrist."""
+    from orthoglide_ident.model.transmission import Transmission
+
+    N = np.array([[32, 0, 0, 0, 0, 0], [0, 32, 0, 0, 0, 0], [0, 0, 45, 0, 0, 0],
+                  [0, 0, 0, -48, 0, 0], [0, 0, 0, 0, 45, 0], [0, 0, 0, 0, 32, 32]], float)
+    t = Transmission(NAMES, tuple(f"m{k}" for k in range(6)), N, np.zeros(6))
+    nominal, gains = np.array([0.13, 0.13, 0.1, 0.1, 0.1, 0.1]), np.full(6, 0.11)
+    outlet = TrajectoryOutlet(NAMES, "nominal", nominal, overlap=100,
+                              to_joint_effort=t.to_joint_effort)
+    raw, _, _, v_ff = _feed(outlet, 0, 10, gains)
+    eff = np.array([p.effort for p in _deserialize(raw).points])
+    np.testing.assert_allclose(eff[1:], (v_ff[:-1] * nominal) @ N, rtol=1e-12)
+    np.testing.assert_allclose(t.to_actuator_effort(eff[1:]) / nominal, v_ff[:-1], rtol=1e-12)
+    assert eff[1, 4] == pytest.approx(45 * v_ff[0, 4] * 0.1 + 32 * v_ff[0, 5] * 0.1)
+
+
 def test_messages_repeat_what_was_sent_so_they_start_in_the_past():
     outlet = TrajectoryOutlet(NAMES, "nominal", np.ones(6), overlap=25)
     _feed(outlet, 0, 10, np.ones(6))
