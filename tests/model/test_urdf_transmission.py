@@ -103,3 +103,29 @@ def test_blocks_and_forms():
     assert ros2_control_form(np.array([[0.0, 45.0], [32.0, 32.0]]))[0] == \
         "FourBarLinkageTransmission"  # rows or joints swapped
     assert ros2_control_form(np.array([[1.0, 2.0], [3.0, 4.0]])) is None
+
+
+def test_a_urdf_s_own_ros2_control_block_keeps_its_hardware_and_gets_the_new_transmissions(
+        tmp_path):
+    """A bare URDF robot whose <ros2_control> has a <hardware> and its transmissions: written
+    back with the same hardware and one identified transmission per motor, not two sets."""
+    import xml.etree.ElementTree as ET
+
+    blocks_xml = "".join(
+        f"<transmission name='t{k}'><plugin>transmission_interface/SimpleTransmission</plugin>"
+        f"<actuator name='{j}_motor' role='actuator1'/><joint name='{j}' role='joint1'>"
+        f"<mechanical_reduction>{n}</mechanical_reduction><offset>0.1</offset></joint>"
+        f"</transmission>" for k, (j, n) in enumerate(zip(UR5_JOINTS, SIMPLE)))
+    source = tmp_path / "ur5_hw.urdf"
+    source.write_text((ROBOTS_DIR / "ur5.urdf").read_text().replace(
+        "</robot>", "<ros2_control name='hw' type='system'><hardware><plugin>my/Hardware"
+        f"</plugin></hardware>{blocks_xml}</ros2_control></robot>"))
+    robot = load_robot(source)
+    path, _, _ = _identified(robot, tmp_path, "hw")
+    root = ET.parse(path).getroot()
+    (rc,) = root.findall("ros2_control")
+    assert rc.findtext("hardware/plugin") == "my/Hardware"
+    assert len(rc.findall("transmission")) == 6
+    back = urdf_transmission(path, UR5_JOINTS)
+    np.testing.assert_allclose(back.N, np.diag(SIMPLE), rtol=1e-15)
+    np.testing.assert_allclose(back.offset, robot.transmission.offset, rtol=1e-14)
