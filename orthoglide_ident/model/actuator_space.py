@@ -86,6 +86,11 @@ class ActuatorSpaceRobot(RobotModel):
                                order + list(range(len(self._rigid), len(self.standard_names))))
 
     @property
+    def rigid_columns(self) -> tuple[int, ...]:
+        """The joint model's standard indices of this model's first (rigid-body) columns."""
+        return tuple(self._rigid)
+
+    @property
     def names(self) -> list[str]:  # type: ignore[override]
         return [p.name for p in self.parameters]
 
@@ -175,10 +180,14 @@ class ActuatorSpaceRobot(RobotModel):
         jm = self.joint_model.standard_values()
         return np.r_[jm[self._rigid], np.zeros(len(self.standard_names) - len(self._rigid))]
 
-    # --- out of scope for now: said, not silently wrong --------------------------------------
     def identified_urdf(self, chi_st, gains) -> str:
-        raise ConfigError(f"robot {self.name}: the identified URDF with a transmission is not "
-                          "written yet (issue 33)")
+        """The joint model's identified URDF plus the motors' ``<ros2_control>`` transmissions
+        (model/urdf_transmission.py)."""
+        from orthoglide_ident.model.urdf_transmission import identified_urdf
+
+        return identified_urdf(self, chi_st, gains)
+
+    # --- out of scope for now: said, not silently wrong --------------------------------------
 
     def forward_model(self, chi_st, gains, payload):
         return None, "a robot with a transmission is not simulated here yet (issue 33)"

@@ -393,6 +393,13 @@ class PinocchioRobot(RobotModel):
         return [k for k, c in enumerate(self._columns) if c.source == "drive"
                 and any(j.iv == c.index for j in self.actuated)]
 
+    def drive_columns(self, joint: int) -> dict[str, int]:
+        """Kind (ia, fv, fs, tauoff) -> index in standard_names of actuated joint ``joint``'s
+        drive terms."""
+        iv = self.actuated[joint].iv
+        return {c.kind: k for k, c in enumerate(self._columns)
+                if c.source == "drive" and c.index == iv}
+
     def standard_regressor(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> np.ndarray:
         """W_st (n m, n_st), rows joint by joint (eq. 20), columns in ``standard_names`` order."""
         q, qd, qdd = self._samples(q, qd, qdd)

@@ -112,3 +112,26 @@ def test_the_live_identification_of_the_plant_equals_its_bags_offline(simulated)
     assert np.max(np.abs(va / vb - 1)) < 1e-6
     g = np.array([x.value for x in res.drive_gains])
     assert np.all(np.abs(g / truth.motor_array("gain") - 1) < 0.005)
+
+
+def test_urdf_out_carries_the_plant_s_transmission(simulated, tmp_path, capsys):
+    """``identify --urdf-out`` on the plant's bags: the URDF's <ros2_control> reads back as the
+    robot's N and offsets (the coupled wrist as a FourBarLinkageTransmission, with its warning
+    line), the motors' identified terms at their <actuator>s, and Pinocchio loads it."""
+    import pinocchio as pin
+
+    from orthoglide_ident import cli
+    from orthoglide_ident.model.transmission import urdf_transmission
+
+    _, _, paths, (joint_yaml, _) = simulated
+    urdf = tmp_path / "identified.urdf"
+    assert cli.main(["identify", *paths["joint"], "--robot", str(joint_yaml),
+                     "--urdf-out", str(urdf)]) == 0
+    assert "FourBarLinkageTransmission" in capsys.readouterr().err
+    t = load_robot(str(joint_yaml)).transmission
+    back = urdf_transmission(urdf, JOINTS)
+    np.testing.assert_allclose(back.N, t.N, rtol=1e-14)
+    np.testing.assert_allclose(back.offset, t.offset, rtol=1e-14, atol=1e-14)
+    assert back.actuators == t.actuators
+    assert all(f"motor {a} (identified, motor side)" in urdf.read_text() for a in t.actuators)
+    assert pin.buildModelFromUrdf(str(urdf)).nq == len(JOINTS)
