@@ -73,6 +73,8 @@ class ExcitationRunner:
         self._clients: dict[str, Any] = {}  # service clients, kept (a node runs many runs)
         self._live_sub: Any = None
         self._live_to: _Progress | None = None
+        self._states_sub: Any = None  # joint states, kept as _live_sub is
+        self._states: list = []
 
     def run(self, traj: ExcitationTrajectory, trajectory: str, robot: RobotModel, condition: str,
             payload_mass: float | None = None, name: str = "") -> RunResult:
@@ -121,14 +123,16 @@ class ExcitationRunner:
     def current_position(self, joints: tuple[str, ...]) -> np.ndarray:
         from sensor_msgs.msg import JointState
 
-        got: list = []
-        sub = self.node.create_subscription(JointState, self.o.joint_states, got.append, 10)
-        try:
-            t_end = time.monotonic() + JOINT_STATES_TIMEOUT_S
-            while not got and time.monotonic() < t_end:
-                self.spin(0.05)
-        finally:
-            self.node.destroy_subscription(sub)
+        # one subscription, kept: destroying one while another thread's executor waits on the
+        # node kills that executor (InvalidHandle), and with it every callback of the node
+        if self._states_sub is None:
+            self._states_sub = self.node.create_subscription(
+                JointState, self.o.joint_states, self._on_states, 10)
+        self._states.clear()  # a fresh message only
+        t_end = time.monotonic() + JOINT_STATES_TIMEOUT_S
+        while not self._states and time.monotonic() < t_end:
+            self.spin(0.05)
+        got = list(self._states)
         topic = self.o.joint_states
         if not got:
             raise RunError(f"no message on {topic} within {JOINT_STATES_TIMEOUT_S:g} s: is the robot running?")
@@ -138,6 +142,9 @@ class ExcitationRunner:
             raise ConfigError(f"the trajectory's joints {missing} are not on {topic} (it has {', '.join(names)}): "
                               "a trajectory for another robot?")
         return np.array([got[-1].position[names.index(j)] for j in joints])
+
+    def _on_states(self, msg: Any) -> None:
+        self._states[:] = [msg]  # the newest only
 
     def _follow_live(self, progress: "_Progress | None") -> None:
         """The live identification's lines go to ``progress`` (None: nowhere); one subscription,
