@@ -109,7 +109,11 @@ def _follow(client: Any, action_name: str, goal: Any, duration: float, on_feedba
     except (KeyboardInterrupt, _CancelRequested) as exc:  # before the answer: cancel once accepted
         handle = wait_for(future, spin, ACCEPT_TIMEOUT_S)
         return _cancelled(handle if handle is not None and handle.accepted else None, spin, exc, on_interrupt)
-    if handle is None or not handle.accepted:
+    if handle is None:  # no answer in time: a goal accepted later must not run unattended
+        future.add_done_callback(_cancel_if_accepted)
+        return GoalOutcome("rejected", f"{action_name} did not answer the goal within "
+                                       f"{ACCEPT_TIMEOUT_S:g} s (cancelled if it accepts it later)")
+    if not handle.accepted:
         return GoalOutcome("rejected", f"{action_name} rejected the goal (see the controller's log: "
                                        "other joints, or a goal already running)")
     result_future = handle.get_result_async()
@@ -125,6 +129,12 @@ def _follow(client: Any, action_name: str, goal: Any, duration: float, on_feedba
         res.status, "aborted")
     reason = text if status == "succeeded" else f"{ERROR_NAMES.get(code, code)}: {text or 'no reason given'}"
     return GoalOutcome(status, reason)
+
+
+def _cancel_if_accepted(future: Any) -> None:
+    handle = future.result()
+    if handle is not None and handle.accepted:
+        handle.cancel_goal_async()
 
 
 def _cancelled(handle: Any, spin: Any, exc: BaseException, on_interrupt: Any) -> GoalOutcome:
