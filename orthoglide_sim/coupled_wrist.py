@@ -28,7 +28,8 @@ import numpy as np
 from orthoglide_ident.errors import ConfigError
 from orthoglide_sim.arm_truth import ArmPayload
 from orthoglide_sim.coupled_truth import CoupledTruth
-from orthoglide_sim.mujoco_plant import FRICTION_TIMECONST, _route_warnings, build_spec
+from orthoglide_sim.mujoco_plant import (FRICTION_TIMECONST, JointStates, _route_warnings,
+                                         build_spec)
 
 
 def motor_name(truth: CoupledTruth, m: int) -> str:
@@ -55,7 +56,7 @@ def build_coupled_spec(truth: CoupledTruth, payload: ArmPayload | None = None) -
     return spec
 
 
-class CoupledPlant:
+class CoupledPlant(JointStates):
     """One MuJoCo model and data of the coupled-wrist arm: joint and motor states, a step under
     held motor currents, inverse dynamics. Joint order ``truth.arm.joint_names``, motor order the
     rows of N."""
@@ -72,21 +73,7 @@ class CoupledPlant:
                               f"{m.ntendon} tendons, {m.nu} actuators for {n} joints and motors")
         self.dof = np.array([m.jnt_dofadr[i] for i in ids])
 
-    # state -----------------------------------------------------------------------------------
-    def reset(self, q: np.ndarray, qd: np.ndarray) -> None:
-        mujoco.mj_resetData(self.model, self.data)
-        self.data.qpos[self.dof] = q
-        self.data.qvel[self.dof] = qd
-        mujoco.mj_forward(self.model, self.data)
-
-    @property
-    def q(self) -> np.ndarray:
-        return self.data.qpos[self.dof].copy()
-
-    @property
-    def qd(self) -> np.ndarray:
-        return self.data.qvel[self.dof].copy()
-
+    # state (reset, q, qd: JointStates) -------------------------------------------------------
     @property
     def q_motor(self) -> np.ndarray:
         """(n,) motor positions: MuJoCo's tendon lengths + the encoder offsets, rad."""

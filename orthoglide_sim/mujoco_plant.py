@@ -100,7 +100,30 @@ def build_spec(truth: ArmTruth, payload: ArmPayload | None = None) -> mujoco.MjS
     return spec
 
 
-class MujocoPlant:
+class JointStates:
+    """The joint state of a MuJoCo plant (``model``, ``data``, ``dof``: its joints' velocity
+    addresses, one DOF each), shared by the arm's and the coupled wrist's plants."""
+
+    model: "mujoco.MjModel"
+    data: "mujoco.MjData"
+    dof: np.ndarray
+
+    def reset(self, q: np.ndarray, qd: np.ndarray) -> None:
+        mujoco.mj_resetData(self.model, self.data)
+        self.data.qpos[self.dof] = q
+        self.data.qvel[self.dof] = qd
+        mujoco.mj_forward(self.model, self.data)
+
+    @property
+    def q(self) -> np.ndarray:
+        return self.data.qpos[self.dof].copy()
+
+    @property
+    def qd(self) -> np.ndarray:
+        return self.data.qvel[self.dof].copy()
+
+
+class MujocoPlant(JointStates):
     """One MuJoCo model and data of the arm: the state, a step under held joint torques, inverse
     dynamics. Joint order: ``truth.arm.joint_names``; torques N·m (N), positions rad (m)."""
 
@@ -121,20 +144,6 @@ class MujocoPlant:
             raise ConfigError(f"MuJoCo changed the inertial of body {worst[0]} by {worst[1]:.1e} "
                               "(relative) while loading it")
 
-    # state -----------------------------------------------------------------------------------
-    def reset(self, q: np.ndarray, qd: np.ndarray) -> None:
-        mujoco.mj_resetData(self.model, self.data)
-        self.data.qpos[self.dof] = q
-        self.data.qvel[self.dof] = qd
-        mujoco.mj_forward(self.model, self.data)
-
-    @property
-    def q(self) -> np.ndarray:
-        return self.data.qpos[self.dof].copy()
-
-    @property
-    def qd(self) -> np.ndarray:
-        return self.data.qvel[self.dof].copy()
 
     @property
     def time(self) -> float:
