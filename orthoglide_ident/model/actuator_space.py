@@ -23,7 +23,7 @@ import math
 import numpy as np
 
 from orthoglide_ident.errors import ConfigError
-from orthoglide_ident.model.base_parameters import BaseSet, base_parameters
+from orthoglide_ident.model.base_parameters import BaseSet, NamedByParameters, base_parameters
 from orthoglide_ident.model.pinocchio_model import ROWS_PER_PARAMETER, PinocchioRobot
 from orthoglide_ident.model.robot import (DRIVE_KINDS, ActuatedJoint, Body, Payload,
                                           RobotModel)
@@ -51,7 +51,7 @@ def _motor_joints(jm: PinocchioRobot, t: Transmission) -> tuple[ActuatedJoint, .
     return tuple(out)
 
 
-class ActuatorSpaceRobot(RobotModel):
+class ActuatorSpaceRobot(NamedByParameters, RobotModel):
     """A :class:`PinocchioRobot` behind a transmission: samples, rows and gains per motor."""
 
     def __init__(self, joint_model: PinocchioRobot, transmission: Transmission, seed: int = 0):
@@ -89,14 +89,6 @@ class ActuatorSpaceRobot(RobotModel):
     def rigid_columns(self) -> tuple[int, ...]:
         """The joint model's standard indices of this model's first (rigid-body) columns."""
         return tuple(self._rigid)
-
-    @property
-    def names(self) -> list[str]:  # type: ignore[override]
-        return [p.name for p in self.parameters]
-
-    @property
-    def expressions(self) -> list[str]:  # type: ignore[override]
-        return [p.expression for p in self.parameters]
 
     @property
     def gravity(self) -> tuple[float, float, float]:  # type: ignore[override]

@@ -96,3 +96,18 @@ def base_parameters(W_st: np.ndarray, names: Sequence[str], order: Sequence[int]
                                     tuple(terms), ()))
     gap = float(d[keep].min() / max(d[~keep].max(), 1e-300)) if (~keep).any() else np.inf
     return BaseSet(tuple(kept), K, tuple(params), gap)
+
+
+class NamedByParameters:
+    """``names`` and ``expressions`` of a robot model from its ``parameters`` (BaseParameter
+    list, in column order): one source for the models that keep such a list."""
+
+    parameters: list[BaseParameter]
+
+    @property
+    def names(self) -> list[str]:  # type: ignore[override]
+        return [p.name for p in self.parameters]
+
+    @property
+    def expressions(self) -> list[str]:  # type: ignore[override]
+        return [p.expression for p in self.parameters]

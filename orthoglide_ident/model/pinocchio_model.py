@@ -31,7 +31,7 @@ import numpy as np
 import pinocchio as pin
 
 from orthoglide_ident.errors import ConfigError, ModelError, OrthoglideError, WorkspaceError
-from orthoglide_ident.model.base_parameters import BaseSet, base_parameters
+from orthoglide_ident.model.base_parameters import BaseSet, NamedByParameters, base_parameters
 from orthoglide_ident.model.closure import Closure, TreeStates
 from orthoglide_ident.model.loop_constraints import LoopConstraints
 from orthoglide_ident.model.robot import INERTIAL_KINDS, ActuatedJoint, Body, Payload, RobotModel
@@ -93,7 +93,7 @@ def _fmt(values: Sequence[float]) -> str:
     return "[" + ", ".join(f"{x:.6g}" for x in values) + "]"
 
 
-class PinocchioRobot(RobotModel):
+class PinocchioRobot(NamedByParameters, RobotModel):
     """A robot described by a URDF/MJCF (and loops): see the module docstring."""
 
     @classmethod
@@ -327,15 +327,7 @@ class PinocchioRobot(RobotModel):
             self._rows = TreeRegressor(self.model, self.actuated, self._fixed_frames,
                                        self.closure, self._mimic_rows)
 
-    # --- RobotModel -----------------------------------------------------------------------
-    @property
-    def names(self) -> list[str]:  # type: ignore[override]
-        return [p.name for p in self.parameters]
-
-    @property
-    def expressions(self) -> list[str]:  # type: ignore[override]
-        return [p.expression for p in self.parameters]
-
+    # --- RobotModel (names, expressions: NamedByParameters) -------------------------------
     def _samples(self, *arrays: np.ndarray) -> list[np.ndarray]:
         out = []
         for x, name in zip(arrays, ("q", "qd", "qdd")):

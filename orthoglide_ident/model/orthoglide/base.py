@@ -15,7 +15,8 @@ import re
 import numpy as np
 
 from orthoglide_ident.errors import ConfigError
-from orthoglide_ident.model.base_parameters import COEF_TOL, QR_EPS, BaseParameter
+from orthoglide_ident.model.base_parameters import (COEF_TOL, QR_EPS, BaseParameter,
+                                                    NamedByParameters)
 from orthoglide_ident.model.orthoglide.geometry import (A, G_TAU_MANUFACTURER, JOINT_NAMES, PAPER,
                                                        Geometry)
 from orthoglide_ident.model.orthoglide.idim import (observation_block, observation_columns,
@@ -84,7 +85,7 @@ def orthoglide_bodies() -> tuple[Body, ...]:
     return legs + (Body("platform", tuple(PLATFORM_COLUMNS), PAYLOAD_FRAME),)
 
 
-class BaseModel(RobotModel):
+class BaseModel(NamedByParameters, RobotModel):
     """The Orthoglide's base-parameter IDIM in closed form: W (3 N, n_b) with tau = W chi_b,
     chi_b = K chi_st (eq. 21); the robot model the product uses without ``--robot``."""
 
@@ -169,15 +170,7 @@ class BaseModel(RobotModel):
             if _generic(STANDARD_NAMES[c]) == generic and form(tt) == mine
         )
 
-    # --- what identification uses -------------------------------------------------------------
-    @property
-    def names(self) -> list[str]:  # type: ignore[override]
-        return [p.name for p in self.parameters]
-
-    @property
-    def expressions(self) -> list[str]:  # type: ignore[override]
-        return [p.expression for p in self.parameters]
-
+    # --- what identification uses (names, expressions: NamedByParameters) -------------
     @property
     def legs(self) -> list[tuple[int, ...]]:
         return [p.legs for p in self.parameters]
