@@ -97,6 +97,9 @@ $(STAMP_PROJECT): $(STAMP_DEPS) $(PROJECT_SOURCES)
 	@# an editable install writes no bytecode, and PYTHONDONTWRITEBYTECODE=1 (CI images,
 	@# containers) keeps it that way: compiling ~50 modules on every `identify` costs 0.3 s
 	$(PY) -m compileall -q orthoglide_ident orthoglide_sim > /dev/null
+	@# the simulated Orthoglide driver's compiled tick (numba, cached beside the module): compiled
+	@# here once (~10 s), so that no driver start or test compiles it
+	$(PY) -m orthoglide_sim.reduced_plant
 	@touch $@
 
 DURATION ?= 10

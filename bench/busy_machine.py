@@ -10,9 +10,11 @@ with the hog, and the two are printed side by side with the bar (issue 35):
 
   identify   2 x 60 s at 1 kHz of the UR5 (MuJoCo, 2 kg payload) and of the Orthoglide: the
              median of ``--repeat`` runs of a plain rosbags read of both bags (AnyReader +
-             deserialize, in this process) and of `orthoglide-ident identify` (a subprocess, end
-             to end, as a user runs it: one BLAS thread unless the environment says otherwise),
-             and their ratio (bars: UR5 <= 0.6, Orthoglide <= 0.5);
+             deserialize) and of `orthoglide-ident identify`, like for like: both in this process
+             (the CLI's main, imported once before; the ratio the bars apply to: UR5 <= 0.6,
+             Orthoglide <= 0.5) and both as programs of their own (interpreter start and imports
+             included: what a user waits for), and, as first printed, the program against the
+             in-process read;
   demo       `python -m orthoglide_sim.demo` (the graph started as the launch file does, 2 x
              --record-seconds recorded, identified, Table 4 over ROS); read from its FIXED lines
              (DESIGN §9): per Table 4 run "driver: N of M ticks late, K without a fresh
@@ -21,13 +23,16 @@ with the hog, and the two are printed side by side with the bar (issue 35):
 
 Table layout (one row per figure):
     figure                                         quiet     hog N      bar
-    identify ur5: rosbags read (s)                  1.25      1.90
-    identify ur5: identify (s)                      1.84      2.30
-    identify ur5: identify / rosbags read           1.47      1.21     <= 0.6
+    identify ur5: rosbags read, in-process (s)      1.25      1.90
+    identify ur5: identify, in-process (s)          0.70      1.00
+    identify ur5: identify / rosbags read           0.56      0.53     <= 0.6
+    identify ur5: ... a program (s), programs, program / in-process read
     ...
     demo test1: CTC over ROS / in-process (worst)   1.02      1.40     <= 1.5
     demo: CTC ticks without a fresh ff (worst run)  0.02 %    0.80 %   <= 1 %
     demo: CTC ticks late (worst run)                0.0 %     2.1 %
+    demo: ctc lead at sending, min (worst run, ms)  38.2      12.5
+    demo: ctc CPU (worst run, % of a core)          9         12
     demo: recorder missing ticks                    0         0        0
 
 Timing figures depend on everything else the machine runs: say its load with them.
@@ -91,25 +96,35 @@ def _bags(keep: Path) -> dict[str, list[Path]]:
 
 
 def identify_figures(bag_sets: dict[str, list[Path]], repeat: int) -> dict[str, float]:
-    from identify_speed import rosbags_read
+    """Medians of ``repeat`` interleaved runs, like for like: identify and the rosbags read both
+    in this process (the bar's ratio) and both as programs of their own (what a user waits for:
+    interpreter start and imports included)."""
+    from identify_speed import identify_in_process, rosbags_read, rosbags_read_subprocess
 
     out = {}
     for robot, paths in bag_sets.items():
-        cmd = [sys.executable, "-m", "orthoglide_ident.cli", "identify", *map(str, paths), "-q"]
-        if robot != "orthoglide":
-            cmd += ["--robot", robot]
+        argv = ["identify", *map(str, paths), "-q"] + (
+            ["--robot", robot] if robot != "orthoglide" else [])
+        cmd = [sys.executable, "-m", "orthoglide_ident.cli", *argv]
         env = {k: v for k, v in os.environ.items()
                if k not in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")}
-        reads, runs = [], []
-        for _ in range(repeat):  # interleaved: both see the same load
-            reads.append(rosbags_read(paths)[0])
+        identify_in_process(argv)  # imports, once
+        runs: dict[str, list[float]] = {k: [] for k in ("read", "identify", "read_p", "identify_p")}
+        for _ in range(repeat):  # interleaved: all four see the same load
+            runs["read"].append(rosbags_read(paths)[0])
+            runs["identify"].append(identify_in_process(argv))
+            runs["read_p"].append(rosbags_read_subprocess(paths))
             t0 = time.perf_counter()
             subprocess.run(cmd, env=env, cwd=ROOT, check=True, stdout=subprocess.DEVNULL)
-            runs.append(time.perf_counter() - t0)
-        r, i = statistics.median(reads), statistics.median(runs)
-        out[f"identify {robot}: rosbags read (s)"] = r
-        out[f"identify {robot}: identify (s)"] = i
-        out[f"identify {robot}: identify / rosbags read"] = i / r
+            runs["identify_p"].append(time.perf_counter() - t0)
+        m = {k: statistics.median(v) for k, v in runs.items()}
+        out[f"identify {robot}: rosbags read, in-process (s)"] = m["read"]
+        out[f"identify {robot}: identify, in-process (s)"] = m["identify"]
+        out[f"identify {robot}: identify / rosbags read"] = m["identify"] / m["read"]
+        out[f"identify {robot}: rosbags read, a program (s)"] = m["read_p"]
+        out[f"identify {robot}: identify, a program (s)"] = m["identify_p"]
+        out[f"identify {robot}: identify / rosbags read, programs"] = m["identify_p"] / m["read_p"]
+        out[f"identify {robot}: identify program / in-process read"] = m["identify_p"] / m["read"]
     return out
 
 
@@ -119,16 +134,26 @@ def parse_demo(text: str) -> dict[str, float]:
     for test, values in re.findall(r"(test\d): .*CTC over ROS / in-process ([\d., ]+)", text):
         out[f"demo {test}: CTC over ROS / in-process (worst)"] = max(
             float(x) for x in values.replace(" ", "").strip(",").split(","))
-    held, late = [], []
+    held, late, expired = [], [], []
     for n_late, n_ticks, rest in re.findall(r"driver: (\d+) of (\d+) ticks late(.*)", text):
         late.append(100 * int(n_late) / max(int(n_ticks), 1))
-        m = re.match(r", (\d+) without a fresh feed-forward", rest)
+        m = re.match(r", (\d+) without a fresh feed-forward \(previous one held\)(?:, (\d+) of them past)?", rest)
         if m:
             held.append(100 * int(m.group(1)) / max(int(n_ticks), 1))
+            expired.append(100 * int(m.group(2) or 0) / max(int(n_ticks), 1))
     if held:
         out["demo: CTC ticks without a fresh ff (worst run, %)"] = max(held)
+        out["demo: CTC ticks on PID + vel. ff alone (worst run, %)"] = max(expired)
     if late:
         out["demo: driver ticks late (worst run, %)"] = max(late)
+    ctc = re.findall(r"ctc: lead min (-?[\d.]+) / median (-?[\d.]+) ms, CPU (\d+) %", text)
+    if ctc:
+        out["demo: ctc lead at sending, min (worst run, ms)"] = min(float(a) for a, _, _ in ctc)
+        out["demo: ctc lead at sending, median (median run, ms)"] = statistics.median(float(b) for _, b, _ in ctc)
+        out["demo: ctc CPU (worst run, % of a core)"] = max(float(c) for _, _, c in ctc)
+    for line in re.findall(r"CPU while recording \(% of one core\): (.*)", text):
+        for node, pct in re.findall(r"(\w+) (\d+)", line):
+            out[f"demo: {node} CPU while recording (% of a core)"] = float(pct)
     missing = [int(x) for x in re.findall(r"(\d+) (?:ticks )?missing", text)]
     if missing:
         out["demo: recorder missing ticks"] = sum(missing)
@@ -146,9 +171,9 @@ def demo_figures(record_s: float, out_dir: Path) -> dict[str, float]:
 
 
 def bar(name: str) -> str:
-    if "identify / rosbags" in name:
+    if name.endswith("identify / rosbags read"):  # the bar's ratio: both in-process
         return f"<= {BARS[name.split()[1].rstrip(':')]}"
-    if "in-process" in name:
+    if "CTC over ROS / in-process" in name:
         return "<= 1.5"
     if "without a fresh ff" in name:
         return "<= 1 %"

@@ -8,15 +8,18 @@ in the same run:
   1. rosbags: AnyReader + deserialize_cdr of every message of both bags (read only);
   2. `orthoglide-ident identify` as a subprocess, end to end (start-up, reading, filtering, W,
      decimation, TLS, printing), wall time and peak RSS;
-  3. the pipeline's own per-step timings (from --json).
-Prints a table and the ratio identify / rosbags-read (the bar: below 1 for the Orthoglide, below
-1.5 for a 6-DOF arm, issue 24).
+  3. the pipeline's own per-step timings (from --json);
+  4. identify in this process (the CLI's main, imported before) and the rosbags read as a
+     program of its own: the ratios like for like (issue 35's bars, both in-process: 0.5 for
+     the Orthoglide, 0.6 for a 6-DOF arm; issue 24's were 1 and 1.5, program / in-process).
 
 Latest figures (2 cores shared with another load): rosbags 1.7-2.0 s; identify 0.57-0.83 s
 end to end, ratio 0.34-0.48 (0.65-0.68 before the closed-form regressor and the block-wise
 FIR decimation); regressor+decimation 0.23-0.41 s (0.76-0.82 s before); peak RSS 127 MiB.
 2 x 10 min: identify 5.0 s, 402 MiB (12.3 s, 403 MiB before). bench/live_identification.py
-gives the live figures on the same bags (--keep DIR).
+gives the live figures on the same bags (--keep DIR). Issue 35's like-for-like figures
+(bench/busy_machine.py, README "On a busy machine"): UR5 in-process 0.69-0.71 (0.85-0.92 before
+W's smooth columns at the decimated rows), Orthoglide 0.42.
 """
 from __future__ import annotations
 
@@ -40,6 +43,39 @@ from orthoglide_ident import bags  # noqa: E402
 from orthoglide_ident.model.robots import load_robot  # noqa: E402
 
 ORTHOGLIDE = load_robot("orthoglide")  # the robot these records are of
+
+
+# the same read as a program of its own (what a user runs: interpreter and imports included)
+ROSBAGS_PROGRAM = (
+    "import sys\nfrom pathlib import Path\nfrom rosbags.highlevel import AnyReader\n"
+    "with AnyReader([Path(p) for p in sys.argv[1:]]) as reader:\n"
+    "    for conn, _, raw in reader.messages():\n"
+    "        reader.deserialize(raw, conn.msgtype)\n")
+
+
+def rosbags_read_subprocess(paths: list[Path]) -> float:
+    """Wall time of :data:`ROSBAGS_PROGRAM` on ``paths`` run as a subprocess (s)."""
+    t0 = time.perf_counter()
+    children.run([sys.executable, "-c", ROSBAGS_PROGRAM, *map(str, paths)], check=True)
+    return time.perf_counter() - t0
+
+
+def identify_in_process(argv: list[str]) -> float:
+    """Wall time of the CLI's ``main(argv)`` in this process (s): no interpreter start or
+    imports (call once before, to import), the robot model loaded again (its cache cleared)."""
+    import contextlib
+    import io
+
+    from orthoglide_ident.cli import main as cli_main
+    from orthoglide_ident.model import robots
+
+    robots._load.cache_clear()
+    t0 = time.perf_counter()
+    with contextlib.redirect_stdout(io.StringIO()):
+        rc = cli_main(argv)
+    if rc != 0:
+        raise RuntimeError(f"identify {' '.join(argv)} exited {rc}")
+    return time.perf_counter() - t0
 
 
 def rosbags_read(paths: list[Path]) -> tuple[float, int]:
@@ -138,8 +174,17 @@ def main() -> int:
             print(f"{'  ' + k:<34}{steps[k]:>10.2f}{aim}")
     startup = t_cli - steps.get("total", 0.0)
     print(f"{'  start-up (imports) and output':<34}{startup:>10.2f}")
-    bar = "1.5 (6-DOF arm)" if args.robot else "1"
-    print(f"ratio identify / rosbags read: {t_cli / t_rosbags:.2f}  (bar: < {bar})")
+    argv = ["identify", *map(str, paths), "-q"] + (["--robot", args.robot] if args.robot else [])
+    identify_in_process(argv)  # imports
+    t_in = identify_in_process(argv)
+    t_rosbags_p = rosbags_read_subprocess(paths)
+    bar = "0.6 (6-DOF arm)" if args.robot else "0.5"
+    print(f"{'identify in this process':<34}{t_in:>10.2f}")
+    print(f"{'rosbags read as a program':<34}{t_rosbags_p:>10.2f}")
+    print(f"ratio identify / rosbags read, both in-process: {t_in / t_rosbags:.2f}  (bar: <= {bar}, "
+          "issue 35)")
+    print(f"ratio identify / rosbags read, both programs: {t_cli / t_rosbags_p:.2f}; identify "
+          f"program / in-process read: {t_cli / t_rosbags:.2f}")
     print(f"peak RSS of identify: {rss_mb:.0f} MiB  (bar: < 1024 MiB)")
     g = [x["value"] for x in doc["drive_gains"]]
     print(f"gains ({doc['units']['drive_gains']}): " + ", ".join(f"{v:.4g}" for v in g))

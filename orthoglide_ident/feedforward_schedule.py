@@ -44,23 +44,59 @@ class Run:
     ref: np.ndarray
 
 
+LEAD_BIN_NS = 100_000  # the leads are counted in 0.1 ms bins (a bounded memory however long it runs)
+LEAD_BINS = 5_000  # 0 .. 0.5 s ahead; a late tick counts in the first bin, a longer lead in the last
+
+
 @dataclass
 class LeadStats:
-    """Feed-forward ticks sent, their lead at sending (ns) and the late ones, since ``reset``."""
+    """Feed-forward ticks sent, their lead at sending (stamp − now) and the late ones, since
+    ``reset``; the leads as their exact minimum and a histogram of 0.1 ms bins (the median)."""
 
     sent: int = 0
     late: int = 0  # sent after their tick had started (useless to the controller)
     short: int = 0  # sent less than the margin ahead
     dropped: int = 0  # never computed: the next tick's setpoint never came
-    leads: list[np.ndarray] = field(default_factory=list)
+    lead_min_ns: int | None = None
+    histogram: np.ndarray = field(default_factory=lambda: np.zeros(LEAD_BINS, np.int64))
+
+    def add(self, lead_ns: np.ndarray, short: np.ndarray) -> None:
+        self.sent += int(lead_ns.size)
+        self.late += int(np.sum(lead_ns <= 0))
+        self.short += int(np.sum(short))
+        if lead_ns.size:
+            low = int(lead_ns.min())
+            self.lead_min_ns = low if self.lead_min_ns is None else min(self.lead_min_ns, low)
+            bins = np.clip(lead_ns // LEAD_BIN_NS, 0, LEAD_BINS - 1)
+            self.histogram += np.bincount(bins, minlength=LEAD_BINS)
+
+    def merge(self, other: "LeadStats") -> None:
+        """Add ``other``'s counts (a longer window from shorter ones)."""
+        self.sent += other.sent
+        self.late += other.late
+        self.short += other.short
+        self.dropped += other.dropped
+        if other.lead_min_ns is not None:
+            self.lead_min_ns = other.lead_min_ns if self.lead_min_ns is None else min(
+                self.lead_min_ns, other.lead_min_ns)
+        self.histogram += other.histogram
+
+    def lead_ms(self) -> tuple[float, float] | None:
+        """(min, median) lead in ms of the ticks sent on the system clock, None if none: the
+        median to the 0.1 ms bin (its middle)."""
+        n = int(self.histogram.sum())
+        if not n:
+            return None
+        k = int(np.searchsorted(np.cumsum(self.histogram), (n + 1) / 2))
+        return self.lead_min_ns * 1e-6, (k + 0.5) * LEAD_BIN_NS * 1e-6
 
     def summary(self) -> str:
         if not self.sent:
             return "no feed-forward sent"
-        lead = np.concatenate(self.leads) * 1e-6 if self.leads else np.zeros(0)
         text = f"{self.sent} ticks sent"
-        if lead.size:
-            text += (f", lead at sending min {lead.min():.1f} / median {np.median(lead):.1f} ms")
+        lead = self.lead_ms()
+        if lead is not None:
+            text += f", lead at sending min {lead[0]:.1f} / median {lead[1]:.1f} ms"
         return text + f", {self.short} less than the margin ahead, {self.late} late" + (
             f", {self.dropped} dropped (no next setpoint)" if self.dropped else "")
 
@@ -127,10 +163,7 @@ class FeedforwardSchedule:
         lead = stamps - now_ns
         short = lead < self.margin_ns
         for s in (self.stats, self.total):
-            s.sent += int(stamps.size)
-            s.late += int(np.sum(lead <= 0))
-            s.short += int(np.sum(short))
-            s.leads.append(lead)
+            s.add(lead, short)
         if not short.any():
             self._behind = False  # ahead again: a next fall is reported again
             return None

@@ -199,7 +199,7 @@ def live_line(m: Any) -> str:
     """orthoglide/identification/live in one line."""
     units = list(getattr(m, "gain_units", [])) or ["N/A"] * len(m.drive_gains)
     gains = "gains -" if not m.drive_gains else "  ".join(
-        f"{n} {g:7.1f} {u} ±{100 * s:.2f}%"
+        f"{n} {g:8.5g} {u} ±{100 * s:.2f}%"  # a motor's 0.41704 N·m/A too
         for n, g, s, u in zip(m.joint_names, m.drive_gains, m.drive_gains_rel_std, units))
     line = f"live: {m.unloaded_seconds:.0f} s unloaded, {m.loaded_seconds:.0f} s loaded | {gains} | {m.status}"
     return line + "".join(f"\n  warning: {w}" for w in m.warnings)

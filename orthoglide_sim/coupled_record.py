@@ -39,9 +39,7 @@ from orthoglide_sim.coupled_truth import CoupledTruth, default_coupled_truth
 from orthoglide_sim.coupled_wrist import CoupledPlant
 from orthoglide_sim.trajectories import FourierTrajectory
 
-SIDES = ("joint", "actuator")
-POSITION_SIDE_KEY = "orthoglide.position_side"  # the bag's tag: which side its positions are
-EFFORT_SIDE_KEY = "orthoglide.effort_side"
+SIDES = bags.SIDES
 
 
 @dataclass
@@ -168,12 +166,12 @@ def write_coupled_bag(path: str | Path, rec: CoupledRecord, position_side: str =
     effort = rec.v_tau if effort_side == "actuator" else joint_efforts(rec)
     condition = "unloaded" if rec.payload is None else "loaded"
     payload = None if rec.payload is None else rec.payload.tag()
-    extra = {POSITION_SIDE_KEY: position_side, EFFORT_SIDE_KEY: effort_side,
-             "orthoglide.sim.robot": rec.truth.name, "orthoglide.sim.trajectory": rec.trajectory,
+    extra = {"orthoglide.sim.robot": rec.truth.name, "orthoglide.sim.trajectory": rec.trajectory,
              "orthoglide.sim.seed": str(rec.seed)}
     return bags.write_bag(path, rec.stamps_ns, q, effort, condition, rec.payload_mass,
                           joint_names=rec.truth.actuators, extra=extra, layout="joint_states",
-                          payload=payload, effort_unit=None if effort_side == "actuator" else "torque")
+                          payload=payload, effort_unit=None if effort_side == "actuator" else "torque",
+                          position_side=position_side, effort_side=effort_side)
 
 
 def write_robot_files(folder: str | Path, truth: CoupledTruth) -> tuple[Path, Path]:

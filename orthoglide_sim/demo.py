@@ -29,6 +29,7 @@ from orthoglide_ident.ros_client import live_line
 from orthoglide_sim.graph import Graph, GraphError
 from orthoglide_ident.model.orthoglide.geometry import G_TAU_MANUFACTURER
 from orthoglide_ident.model.robots import load_robot
+from orthoglide_sim.session import FF_HOLD_TICKS
 from orthoglide_sim.true_parameters import load_parameters
 
 ROOT = Path(__file__).resolve().parents[1]  # the project: config/ (installed beside the product)
@@ -113,18 +114,27 @@ def print_gains(res: object, seconds: float) -> None:
             f"   {G_TAU_MANUFACTURER:12.1f} {100 * (G_TAU_MANUFACTURER / g_true - 1):+7.2f}%")
 
 
-COUNTERS = ("ticks", "late", "feedforward_fresh", "feedforward_missing")
+COUNTERS = ("ticks", "late", "feedforward_fresh", "feedforward_missing", "feedforward_expired")
 
 
 def run_strategy(g: Graph, controller: str, name: str, seconds: float) -> tuple[np.ndarray, dict]:
-    """Switch the driver's controller, let it settle, record the run: its tracking errors and what
-    the driver counted meanwhile (from /diagnostics, to the second)."""
+    """Switch the driver's controller, let it settle, record the run: its tracking errors, what
+    the driver counted meanwhile (from /diagnostics, to the second) and, for a CTC run, the ctc
+    node's CPU (from /proc) and the lead of its feed-forward (its own /diagnostics)."""
     g.set_params("orthoglide_driver", controller=controller)
     time.sleep(SETTLE_S)
-    before = g.driver_counters()
+    before, cpu0, t0 = g.driver_counters(), g.cpu_seconds(), time.monotonic()
     errors = tracking_errors(record(g, name, "loaded", PAYLOAD, seconds, quiet=True))
-    after = g.driver_counters()
-    return errors, {k: int(after[k]) - int(before[k]) for k in COUNTERS}
+    after, cpu1, t1 = g.driver_counters(), g.cpu_seconds(), time.monotonic()
+    counts = {k: int(after.get(k, 0)) - int(before.get(k, 0)) for k in COUNTERS}
+    if controller == "ctc":
+        ctc = next(n for n in ("orthoglide_ctc", "orthoglide_ctc_wls") if n in cpu1)
+        counts["ctc_cpu_percent"] = 100 * (cpu1[ctc] - cpu0.get(ctc, 0.0)) / (t1 - t0)
+        figures = [f for f in g.ctc_figures_between(t0, t1) if f.get("lead_min_ms")]
+        if figures:  # the worst second's minimum, the median of the seconds' medians
+            counts["ctc_lead_min_ms"] = min(float(f["lead_min_ms"]) for f in figures)
+            counts["ctc_lead_median_ms"] = float(np.median([float(f["lead_median_ms"]) for f in figures]))
+    return errors, counts
 
 
 def tracking_errors(bag: str) -> np.ndarray:
@@ -160,6 +170,14 @@ def _health(c: dict) -> str:
     text = f"; driver: {c['late']} of {c['ticks']} ticks late"
     if c["feedforward_fresh"] or c["feedforward_missing"]:
         text += f", {c['feedforward_missing']} without a fresh feed-forward (previous one held)"
+        if c["feedforward_expired"]:
+            text += f", {c['feedforward_expired']} of them past {FF_HOLD_TICKS} ticks: PID + vel. ff alone"
+    if "ctc_cpu_percent" in c:
+        if "ctc_lead_min_ms" in c:
+            text += f"; ctc: lead min {c['ctc_lead_min_ms']:.1f} / median {c['ctc_lead_median_ms']:.1f} ms,"
+        else:
+            text += "; ctc:"
+        text += f" CPU {c['ctc_cpu_percent']:.0f} % of a core"
     return text
 
 
@@ -232,6 +250,15 @@ def print_table4(rows: dict, inproc: dict, counts: dict) -> None:
                          _rms_um(inproc[traj]))
         say(f"   {traj}: PID / CTC rms " + ", ".join(f"{r:.0f}x" for r in pid / ctc)
             + "; CTC over ROS / in-process " + ", ".join(f"{r:.2f}" for r in ctc / ref))
+    ctc_runs = [c for c in counts.values() if "ctc_cpu_percent" in c]
+    if ctc_runs:
+        cpu = [c["ctc_cpu_percent"] for c in ctc_runs]
+        text = f"   ctc node over its {len(ctc_runs)} runs: CPU {min(cpu):.0f}-{max(cpu):.0f} % of a core"
+        leads = [c for c in ctc_runs if "ctc_lead_min_ms" in c]
+        if leads:
+            text += (f"; feed-forward sent ahead of its tick by min {min(c['ctc_lead_min_ms'] for c in leads):.1f} ms"
+                     f" (worst run), median {np.median([c['ctc_lead_median_ms'] for c in leads]):.1f} ms")
+        say(text)
 
 
 def plot_table4(rows: dict, path: Path) -> None:

@@ -14,7 +14,6 @@ from rclpy.qos import QoSProfile, ReliabilityPolicy
 from rclpy.serialization import deserialize_message
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
-from std_msgs.msg import Header
 from std_srvs.srv import Trigger
 
 from orthoglide_ident.errors import OrthoglideError
@@ -23,7 +22,8 @@ from orthoglide_ident.ros.batch import BatchTaker, BatchTopic
 from orthoglide_ident.ros.params import Param, declare, from_command_line, on_set, usage
 from orthoglide_ident.ros.spin import spin
 from orthoglide_msgs.msg import CurrentReference, JointSetpoint
-from orthoglide_sim.session import DriverSession
+from orthoglide_sim.packed_messages import PackedMessage
+from orthoglide_sim.session import FF_HOLD_TICKS, DriverSession
 from orthoglide_sim.tick_clock import LATE_NS, TICK_NS, real_time_priority, sleep_until
 from orthoglide_sim.true_parameters import load_parameters
 
@@ -43,7 +43,9 @@ stops the simulated robot with an error in the log; call orthoglide_driver/reset
 to put it back on its reference. Names are relative: -r __ns:=/robot2 moves the whole interface.
 Once a second it publishes its counters on /diagnostics (diagnostic_msgs/DiagnosticArray, as
 robot drivers do): ticks, late ticks, current-limited ticks, fresh and missing feed-forwards,
-commands applied and ticks without one, the fault if any."""
+commands applied and ticks without one, the fault if any. A ctc tick whose own feed-forward has
+not arrived holds the last one for 20 ticks at most, then runs on PID + velocity feed-forward
+alone (feedforward_expired) until a fresh one comes."""
 
 PARAMETERS = (
     Param("robot", "", "empty or orthoglide: this driver; another robot (ur5, a robot YAML or a URDF): the "
@@ -61,6 +63,9 @@ PARAMETERS = (
     Param("realtime", True, "false: simulated time as fast as the plant runs, /clock published; ctc and "
           "external then wait for their input of each tick (lockstep)"),
     Param("params_file", "", "YAML overriding the true plant parameters (config/plant.yaml)"),
+    Param("plant", "reduced", "the plant's integration: reduced (Pinocchio reduced to the 3 actuators once per "
+          "tick, RK4 compiled: ~1/8 of the CPU) or tree (the reference: Pinocchio's constraint dynamics on the "
+          "15-joint tree at every RK4 stage); they agree to 0.04 um and 0.02 mA (tests/sim/test_plant_cheap.py)"),
     Param("rt_priority", 40, "SCHED_FIFO priority of the tick loop (1-99), as robot controllers run; 0: "
           "normal scheduling. Needs CAP_SYS_NICE or an rtprio limit; without it the driver says so and goes on"),
     Param("seed", 0, "seed of the current noise"),
@@ -89,7 +94,7 @@ class Driver(Node):
         self.realtime, self.duration, self.rt_priority = v["realtime"], v["duration"], v["rt_priority"]
         self.session = DriverSession(v["payload"], v["trajectory"], v["controller"],
                                      load_parameters(v["params_file"] or None), v["seed"], v["noise"],
-                                     v["current_limit"], v["setpoint_lead"])
+                                     v["current_limit"], v["setpoint_lead"], v["plant"])
         self.lock = threading.Condition()
         self.finished = False
         self.late = 0
@@ -102,18 +107,25 @@ class Driver(Node):
         self.pub_sp = self.create_publisher(JointSetpoint, "orthoglide/setpoints", HISTORY_TICKS)
         self.pub_clock = None if self.realtime else self.create_publisher(Clock, "/clock", 10)
         self.pub_diag = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
+        # the per-tick messages serialised once, their stamps and values patched in each tick
+        self.packed_js = PackedMessage(JointState, JOINTS, ["position"])
+        self.packed_cr = PackedMessage(CurrentReference, JOINTS, ["current"])
+        self.packed_sp = PackedMessage(JointSetpoint, JOINTS, ["position", "velocity", "acceleration"])
         inputs = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE)
         # taken in batches on a thread of their own, not one executor callback per message: less
         # CPU and GIL taken from the tick loop (orthoglide_ident.ros.batch)
         self.taker = BatchTaker(self, [BatchTopic(CurrentReference, "orthoglide/current_command", inputs,
                                                   lambda b: self._on_inputs(b, "command")),
                                        BatchTopic(CurrentReference, "orthoglide/feedforward", inputs,
-                                                  lambda b: self._on_inputs(b, "feed-forward"))], period_s=0.0)
+                                                  lambda b: self._on_inputs(b, "feed-forward"))], period_s=0.0,
+                                # just below the tick loop: a feed-forward sent in time must not
+                                # wait for this thread behind the busy machine's processes
+                                rt_priority=self.rt_priority - 1 if self.realtime and self.rt_priority > 1 else 0)
         self.create_service(Trigger, "~/reset", self._on_reset)
         on_set(self, PARAMETERS, self._apply)
         self.get_logger().info(
             f"controller {v['controller']}, payload {v['payload']}, trajectory {v['trajectory']}, "
-            f"{'real time' if self.realtime else 'simulated time'}; publishing "
+            f"plant {v['plant']}, {'real time' if self.realtime else 'simulated time'}; publishing "
             f"{self.resolve_topic_name('orthoglide/joint_states')} at 1 kHz")
 
     # ---- inputs (executor thread) --------------------------------------------------------------
@@ -179,11 +191,8 @@ class Driver(Node):
         return response
 
     # ---- the tick loop (main thread) -----------------------------------------------------------
-    def _header(self, k: int) -> Header:
-        return Header(stamp=self._stamp(k))
-
     def _publish_js(self, k: int, q) -> None:
-        self.pub_js.publish(JointState(header=self._header(k), name=JOINTS, position=[float(x) for x in q]))
+        self.pub_js.publish(self.packed_js.pack(*self._sec_nsec(k), q))
 
     def _wait_for_input_publisher(self, stop: threading.Event) -> None:
         """Simulated time: the first tick waits (SUBSCRIBER_WAIT_S at most) until the joint
@@ -211,13 +220,13 @@ class Driver(Node):
                                       f"{SUBSCRIBER_WAIT_S:g} s: simulating anyway")
 
     def _publish_setpoint(self, k: int, sp) -> None:
-        msg = JointSetpoint(name=JOINTS, position=[float(x) for x in sp[0]],
-                            velocity=[float(x) for x in sp[1]], acceleration=[float(x) for x in sp[2]])
-        msg.header.stamp = self._stamp(k)
-        self.pub_sp.publish(msg)
+        self.pub_sp.publish(self.packed_sp.pack(*self._sec_nsec(k), *sp))
+
+    def _sec_nsec(self, k: int) -> tuple[int, int]:
+        return divmod(self.start_ns + k * TICK_NS, 1_000_000_000)
 
     def _stamp(self, k: int) -> Time:
-        sec, nsec = divmod(self.start_ns + k * TICK_NS, 1_000_000_000)
+        sec, nsec = self._sec_nsec(k)
         return Time(sec=sec, nanosec=nsec)
 
     def _wait_input(self, k: int) -> None:
@@ -284,8 +293,7 @@ class Driver(Node):
                 self.late += 1
             if not lockstep_external:
                 self._publish_js(k, q)
-            self.pub_cr.publish(CurrentReference(header=self._header(k), name=JOINTS,
-                                                 current=[float(x) for x in v_tau]))
+            self.pub_cr.publish(self.packed_cr.pack(*self._sec_nsec(k), v_tau))
             self._publish_setpoint(sp_k, sp)
         except Exception:
             if self.context.ok():
@@ -307,6 +315,7 @@ class Driver(Node):
         s, st = self.session, self.session.stats
         values = {"ticks": s.k, "late": self.late, "current_limited": st.saturated,
                   "feedforward_fresh": st.ff_used, "feedforward_missing": st.ff_missing,
+                  "feedforward_expired": st.ff_expired,
                   "commands_applied": sum(st.command_ages.values()), "no_command": st.no_command,
                   "controller": s.controller, "fault": s.fault or ""}
         level = DiagnosticStatus.ERROR if s.fault else (
@@ -333,6 +342,9 @@ class Driver(Node):
         text = f"{self.session.k} ticks, {self.late} late (> 0.5 ms), {st.saturated} current-limited"
         if st.ff_used or st.ff_missing:
             text += f", feed-forward: {st.ff_used} fresh, {st.ff_missing} missing (held)"
+            if st.ff_expired:
+                text += (f", {st.ff_expired} of them more than {FF_HOLD_TICKS} ticks after the last "
+                         "fresh one (PID + velocity feed-forward alone)")
         if self.session.controller == "external" or st.command_ages:
             text += f"; {st.age_summary()}; {st.no_command} ticks held by the PID without a fresh command"
         return text

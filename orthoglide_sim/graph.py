@@ -62,6 +62,8 @@ class Graph:
         self.live: list[Any] = []  # orthoglide/identification/live messages (about 1 Hz)
         self.node.create_subscription(LiveIdentification, "orthoglide/identification/live",
                                       lambda m: self.live.append(m), 10)
+        self.ctc_figures: list[tuple[float, dict[str, str]]] = []  # (monotonic s, the ctc's /diagnostics values)
+        self.node.create_subscription(DiagnosticArray, "/diagnostics", self._on_diagnostics, 10)
         self.executor = MultiThreadedExecutor(num_threads=2)
         self.executor.add_node(self.node)
         self._spinner = threading.Thread(target=self.executor.spin, daemon=True)
@@ -202,6 +204,16 @@ class Graph:
         self._listen(DiagnosticArray, "/diagnostics", 10, on_diagnostics, lambda: bool(got), timeout,
                      lambda: f"no driver counters on /diagnostics within {timeout:.0f} s")
         return got
+
+    def _on_diagnostics(self, msg: DiagnosticArray) -> None:
+        for st in msg.status:
+            if st.hardware_id == "orthoglide_ctc":
+                self.ctc_figures.append((time.monotonic(), {kv.key: kv.value for kv in st.values}))
+
+    def ctc_figures_between(self, t0: float, t1: float) -> list[dict[str, str]]:
+        """The ctc's once-a-second figures (lead, CPU; nodes/ctc.py) received between ``t0`` and
+        ``t1`` (time.monotonic())."""
+        return [v for t, v in self.ctc_figures if t0 <= t <= t1]
 
     def wait_for_subscriber(self, topic: str, node_prefix: str, timeout: float = 30.0) -> float:
         """Seconds until a node whose name starts with ``node_prefix`` subscribes to ``topic`` (its

@@ -4,10 +4,13 @@ One controller tick k has three phases, so that the node can publish between the
 
     q_meas = session.measure()          encoder reading at t_k (1 um)
     v_tau  = session.control()          the controller's current for [t_k, t_k+1), limited
-    session.advance()                   the plant integrated over the tick (Pinocchio, RK4)
+    session.advance()                   the plant integrated over the tick (Pinocchio, RK4; ``plant``)
 
 Controllers ("pid", "pid_ff", "ctc", "external", see orthoglide_sim.simulator): "ctc" adds the
 model feed-forward current offered for tick k (``offer_feedforward``) to the "pid_ff" law;
+A tick whose own feed-forward has not arrived holds the last one for at most FF_HOLD_TICKS (the
+model current of the reference 20 ms earlier: 4-5x closer than none), then runs on PID + velocity
+feed-forward alone until a fresh one comes: never a model current of a tick long past.
 "external" applies the latest current command (``offer_command``, zero-order hold) and holds the
 robot with its PID until the first command and whenever commands stop for INPUT_TIMEOUT_TICKS. The reference
 (``Reference``) is known ``lead`` ticks ahead, so a controller outside the driver can compute its
@@ -28,12 +31,23 @@ import numpy as np
 from orthoglide_ident.errors import ConfigError, OrthoglideError
 from orthoglide_sim import simulator as sm
 from orthoglide_sim.plant import Plant
+from orthoglide_sim.reduced_plant import ReducedIntegrator
 from orthoglide_sim.trajectories import get_trajectory
 from orthoglide_sim.true_parameters import TrueParameters, load_parameters
 
 BLEND_TIME = 2.0  # s, a new trajectory blends in over this time (quintic weight)
 DEFAULT_CURRENT_LIMIT = 1.0  # A per joint (~2 kN, 5x the peak force of the exciting motions)
-INPUT_TIMEOUT_TICKS = 100  # an outside command or feed-forward older than this is not used
+INPUT_TIMEOUT_TICKS = 100  # an outside command older than this is not used
+# a tick without its own feed-forward holds the last one this many ticks at most: on test1/test2
+# the model current held 20 ticks is off by 0.007-0.008 A rms (max 0.045-0.051 A) where none at all
+# is off by 0.033-0.035 A rms (max 0.056-0.080 A); from 30-50 ticks on the held one's worst error
+# passes that of none (velocity reversals flip the friction), and at 100 (the bound before) it is
+# 0.070-0.073 A; then PID + velocity feed-forward alone
+FF_HOLD_TICKS = 20
+# The plant's integration: "reduced" (Pinocchio reduced to the actuators once per tick, the RK4 steps
+# compiled: reduced_plant, the driver's default) or "tree" (the reference: Pinocchio's constraint
+# dynamics on the 15-joint tree at every RK4 stage, simulator.Integrator, ~8x the CPU)
+INTEGRATORS = {"reduced": ReducedIntegrator, "tree": sm.Integrator}
 
 
 def parse_payload(value: object) -> str | float:
@@ -121,11 +135,13 @@ class Reference:
 
 @dataclass
 class DriverStats:
-    """What the driver counts: saturated ticks, ticks without a fresh feed-forward, applied
-    command ages in ticks (external mode: age 1 = the command computed from the previous tick)."""
+    """What the driver counts: saturated ticks, ticks without a fresh feed-forward (``ff_missing``:
+    the last one held, ``ff_expired`` of them past FF_HOLD_TICKS: none), applied command ages in
+    ticks (external mode: age 1 = the command computed from the previous tick)."""
 
     saturated: int = 0
     ff_missing: int = 0
+    ff_expired: int = 0
     ff_used: int = 0
     command_ages: dict[int, int] = field(default_factory=dict)
     no_command: int = 0
@@ -145,8 +161,12 @@ class DriverSession:
 
     def __init__(self, payload: str | float = "none", trajectory: str = "exciting", controller: str = "pid",
                  params: TrueParameters | None = None, seed: int = 0, noise: bool = True,
-                 current_limit: float | list[float] = DEFAULT_CURRENT_LIMIT, lead: int = 50):
+                 current_limit: float | list[float] = DEFAULT_CURRENT_LIMIT, lead: int = 50,
+                 plant: str = "reduced"):
         self.params = params or load_parameters()
+        if plant not in INTEGRATORS:
+            raise ConfigError(f"plant must be one of {', '.join(INTEGRATORS)}, got {plant!r}")
+        self.integrator = INTEGRATORS[plant]
         self.controller = self._checked_controller(controller)
         self.payload = parse_payload(payload)
         self.reference = Reference(trajectory)
@@ -161,7 +181,7 @@ class DriverSession:
         self.k = 0
         self.fault: str | None = None
         self._feedforward: dict[int, np.ndarray] = {}
-        self._ff_last: tuple[int, np.ndarray] = (0, np.zeros(3))
+        self._ff_last: tuple[int, np.ndarray] = (-FF_HOLD_TICKS - 1, np.zeros(3))  # none yet
         self._command: tuple[int, np.ndarray] | None = None
         self._v_tau = np.zeros(3)
         self._start_at_rest_on_reference()
@@ -191,7 +211,7 @@ class DriverSession:
         self.payload = parse_payload(payload)
         q, qd = self.sim.q, self.sim.qd
         self.plant = Plant(self.params, self.payload)
-        self.sim = sm.Integrator(self.plant, self.drive, q, qd)
+        self.sim = self.integrator(self.plant, self.drive, q, qd)
 
     def set_trajectory(self, name: str) -> int:
         """Blend into trajectory ``name`` after the setpoints already published; returns its first tick."""
@@ -202,7 +222,7 @@ class DriverSession:
     def _start_at_rest_on_reference(self) -> None:
         q0, qd0, qdd0 = (v[0] for v in self.reference.evaluate(self.k))
         self.plant = Plant(self.params, self.payload)
-        self.sim = sm.Integrator(self.plant, self.drive, q0, qd0)
+        self.sim = self.integrator(self.plant, self.drive, q0, qd0)
         self.pid = sm.PID.preloaded(self.plant, q0, qd0, qdd0, velocity_ff=self.controller != "pid")
 
     def reset(self) -> None:
@@ -268,9 +288,12 @@ class DriverSession:
         ff = self._feedforward.pop(self.k, None)
         for stale in [k for k in self._feedforward if k < self.k]:
             del self._feedforward[stale]
-        if ff is None:  # hold the last one for a while: a tick late beats no model at all
+        if ff is None:  # hold the last one a few ticks: a tick late beats no model at all
             self.stats.ff_missing += 1
-            return self._ff_last[1] if self.k - self._ff_last[0] <= INPUT_TIMEOUT_TICKS else np.zeros(3)
+            if self.k - self._ff_last[0] <= FF_HOLD_TICKS:
+                return self._ff_last[1]
+            self.stats.ff_expired += 1  # too old: PID + velocity feed-forward alone
+            return np.zeros(3)
         self.stats.ff_used += 1
         self._ff_last = (self.k, ff)
         return ff

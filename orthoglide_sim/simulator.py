@@ -278,12 +278,14 @@ class ClosedLoopResult:
 def simulate_closed_loop(q_ref, qd_ref, qdd_ref, plant: Plant, drive: DriveModel, controller: str = "pid",
                          noise: np.ndarray | None = None, feedforward: np.ndarray | None = None,
                          resolution: float = ENCODER_RESOLUTION,
-                         encoder_noise: np.ndarray | None = None) -> ClosedLoopResult:
+                         encoder_noise: np.ndarray | None = None,
+                         integrator: type[Integrator] = Integrator) -> ClosedLoopResult:
     """Run the plant under "pid", "pid_ff" or "ctc" along a sampled reference (N, 3) at 1 kHz.
 
     ``noise`` (N, 3) A: current noise held with each tick's reference; ``feedforward`` (N, 3) A:
     the model feed-forward current of "ctc" for each tick; ``resolution`` (m) and
-    ``encoder_noise`` (N, 3) m: the encoder (position + noise, then quantised). The plant starts
+    ``encoder_noise`` (N, 3) m: the encoder (position + noise, then quantised); ``integrator``:
+    the plant's integration (Integrator, or reduced_plant.ReducedIntegrator). The plant starts
     on the reference (q, qd at t_0) with the controller's integrator pre-loaded.
     """
     if controller not in ("pid", "pid_ff", "ctc"):
@@ -293,7 +295,7 @@ def simulate_closed_loop(q_ref, qd_ref, qdd_ref, plant: Plant, drive: DriveModel
     noise = np.zeros((N, 3)) if noise is None else np.asarray(noise, float)
     ff = np.zeros((N, 3)) if feedforward is None else np.asarray(feedforward, float)
     enc = None if encoder_noise is None else np.asarray(encoder_noise, float)
-    sim = Integrator(plant, drive, q_ref[0], qd_ref[0])
+    sim = integrator(plant, drive, q_ref[0], qd_ref[0])
     pid = PID.preloaded(plant, q_ref[0], qd_ref[0], qdd_ref[0], velocity_ff=controller != "pid")
     pid.integral = pid.integral - ff[0] * G_TAU_MANUFACTURER / KI  # the feed-forward brings its share
     out = ClosedLoopResult(*(np.empty((N, 3)) for _ in range(5)))

@@ -9,7 +9,10 @@ from typing import Any
 from orthoglide_ident.ticks import TICK_NS  # noqa: F401  (the clock's period, for its users)
 
 LATE_NS = 500_000  # a tick published more than 0.5 ms after its deadline is late
-WAKE_EARLY_NS = 100_000  # time.sleep overshoots by ~0.08 ms here: wake this much before, then spin
+# time.sleep overshoots by ~0.04 ms (median) at SCHED_FIFO, ~0.1 ms without: wake this much before, then
+# spin. Every microsecond of it is the node's CPU (0.1 ms spun was 6-8 % of a core at 1 kHz): a tick
+# published up to a few tens of microseconds after its deadline costs nobody anything (late: 0.5 ms)
+WAKE_EARLY_NS = 50_000
 
 
 def sleep_until(deadline_ns: int) -> None:

@@ -104,6 +104,37 @@ def test_a_simulated_clock_batches_without_deadlines():
     assert len(run.stamps) == 11 and sched.sent(run.stamps, T0) is None
 
 
+def test_the_last_ticks_of_a_stream_go_out_as_they_near_without_more_setpoints():
+    """Fewer than a batch ready and no setpoint after them (the controller stopped, or a pause):
+    the wake-ups alone (the ctc's intake wakes every margin) send them ahead of their tick."""
+    sched = FeedforwardSchedule(batch=20, margin_ns=10 * MS)
+    for k in range(7):
+        sched.add(T0 + k * TICK_NS, _ref(k), received_ns=T0 - 50 * MS)
+    sent = []
+    for now in range(T0 - 50 * MS, T0 + 1, 10 * MS):  # wake-ups every margin, nothing new
+        for run in sched.take(now):
+            sent.append((now, run.stamps))
+    (now, stamps), = sent
+    assert np.array_equal(stamps, T0 + np.arange(6) * TICK_NS)  # 6 has no successor yet
+    assert T0 - now >= 10 * MS  # still ahead by the margin
+
+
+def test_the_lead_statistics_min_and_median_in_bounded_memory():
+    sched = FeedforwardSchedule(batch=10, margin_ns=10 * MS)
+    _drive(sched, n=2000, lead=50, wake=5)  # taken every 5 ms, 50 ms ahead: leads 40..50 ms
+    lead_min, lead_median = sched.total.lead_ms()
+    runs, _ = _drive(FeedforwardSchedule(batch=10, margin_ns=10 * MS), n=2000, lead=50, wake=5)
+    leads = np.concatenate([r.stamps - now for now, r in runs]) * 1e-6
+    assert lead_min == leads.min() and abs(lead_median - np.median(leads)) <= 0.05  # 0.1 ms bins
+    assert f"lead at sending min {leads.min():.1f} / median {lead_median:.1f} ms" in sched.total.summary()
+    size = sched.total.histogram.nbytes
+    _drive(sched, n=20_000, lead=50, wake=5, t0=T0 + 10**10)
+    assert sched.total.histogram.nbytes == size and sched.total.sent == 1999 + 19_999
+    window = FeedforwardSchedule(batch=10, margin_ns=10 * MS).stats
+    window.merge(sched.total)
+    assert window.lead_ms() == sched.total.lead_ms() and window.sent == sched.total.sent
+
+
 def test_bad_settings_are_refused():
     with pytest.raises(ValueError):
         FeedforwardSchedule(batch=0, margin_ns=0)

@@ -29,6 +29,12 @@ Stored as strings, the same keys in metadata.yaml ``custom_data`` and in each .m
                                 ``orthoglide-ident import``); identification turns a torque into a
                                 current with the nominal gains (optional; absent: the
                                 ``effort_unit`` option, default A)
+``orthoglide.position_side``    ``joint`` | ``actuator``: the positions are the joints' or the motors'
+                                (encoders, offset included) for a robot with a transmission
+                                (optional; absent: the robot file's ``position_side``; identify
+                                reads the bag as tagged, docs/bags.md)
+``orthoglide.effort_side``      ``actuator`` | ``joint``: the currents (efforts) are the motors' or
+                                the joints' (optional; absent: the robot file's ``effort_side``)
 ``orthoglide.incomplete``       why the recording was stopped before its run ended (a cancelled,
                                 aborted or out-of-tolerance excitation run, ``excite run``);
                                 absent: complete. Written at the stop, in metadata.yaml and the
@@ -63,6 +69,9 @@ POSITION_SOURCE_KEY = "orthoglide.position_source"
 CURRENT_SOURCE_KEY = "orthoglide.current_source"
 EFFORT_UNIT_KEY = "orthoglide.effort_unit"
 EFFORT_UNITS = ("A", "torque")
+POSITION_SIDE_KEY = "orthoglide.position_side"
+EFFORT_SIDE_KEY = "orthoglide.effort_side"
+SIDES = ("joint", "actuator")  # model/transmission.py's POSITION_SIDES, EFFORT_SIDES
 INCOMPLETE_KEY = "orthoglide.incomplete"
 METADATA_NAME = "orthoglide"
 CONDITIONS = ("loaded", "unloaded")
@@ -84,6 +93,8 @@ class BagTags:
     current_source: str | None = None
     effort_unit: str | None = None
     payload_known: str | None = None
+    position_side: str | None = None  # "joint" | "actuator": whose positions the bag holds
+    effort_side: str | None = None  # "actuator" | "joint": whose currents (efforts)
 
     @property
     def knowledge(self) -> str:
@@ -108,6 +119,8 @@ class BagTags:
         current_source: str | None = None,
         effort_unit: str | None = None,
         payload_known: str | None = None,
+        position_side: str | None = None,
+        effort_side: str | None = None,
     ) -> BagTags:
         """Validated tags; ConfigError with the reason otherwise (used for recorder requests)."""
         if condition not in CONDITIONS:
@@ -131,10 +144,14 @@ class BagTags:
         if effort_unit is not None and effort_unit not in EFFORT_UNITS:
             raise ConfigError(f"effort_unit {effort_unit!r}: use 'A' (a current) or 'torque' "
                               "(N·m or N)")
+        for name, side in (("position_side", position_side), ("effort_side", effort_side)):
+            if side is not None and side not in SIDES:
+                raise ConfigError(f"{name} {side!r}: use 'joint' or 'actuator' (the motors')")
         known = _knowledge(payload_known or None, condition, com, inertia)
         return cls(condition, mass, _word(payload_frame, "payload_frame"), com, inertia,
                    _source(position_source, "position_source"),
-                   _source(current_source, "current_source"), effort_unit, known)
+                   _source(current_source, "current_source"), effort_unit, known,
+                   position_side, effort_side)
 
     def to_dict(self) -> dict[str, str]:
         """The keys as stored in custom_data and in the MCAP metadata record (absent ones left
@@ -149,6 +166,8 @@ class BagTags:
             POSITION_SOURCE_KEY: self.position_source,
             CURRENT_SOURCE_KEY: self.current_source,
             EFFORT_UNIT_KEY: self.effort_unit,
+            POSITION_SIDE_KEY: self.position_side,
+            EFFORT_SIDE_KEY: self.effort_side,
         }
         out.update({k: v for k, v in optional.items() if v is not None})
         return out
@@ -164,6 +183,9 @@ class BagTags:
             out += f", inertia {' '.join(f'{x:g}' for x in self.payload_inertia)} kg·m²"
         if self.effort_unit == "torque":
             out += ", effort a torque (N·m or N)"
+        for what, side in (("positions", self.position_side), ("efforts", self.effort_side)):
+            if side is not None:
+                out += f", {what} {side}-side"
         if self.condition == "loaded":
             out += f" ({_KNOWN_TEXT[self.knowledge]})"
         return out
@@ -193,6 +215,8 @@ class BagTags:
                 current_source=items.get(CURRENT_SOURCE_KEY),
                 effort_unit=items.get(EFFORT_UNIT_KEY),
                 payload_known=items.get(KNOWN_KEY),
+                position_side=items.get(POSITION_SIDE_KEY),
+                effort_side=items.get(EFFORT_SIDE_KEY),
             )
         except ConfigError as exc:
             raise BagError(f"{where}: invalid tag: {exc}") from None

@@ -8,7 +8,9 @@ message types are decoded from the bag's own schemas, so no compiled type is nee
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+import dataclasses
+
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -225,6 +227,14 @@ def _scan_file(
         del res
 
 
+def _sides_shared(a: BagTags, b: BagTags) -> tuple[BagTags, BagTags]:
+    """Two places of a tag with the signal sides one of them lacks taken from the other (a bag
+    written with the sides in metadata.yaml's custom_data only); a conflict stays one."""
+    sides = {k: getattr(a, k) or getattr(b, k) for k in ("position_side", "effort_side")}
+    return dataclasses.replace(a, **sides), dataclasses.replace(b, **{
+        k: getattr(b, k) or v for k, v in sides.items()})
+
+
 def _agree_tags(
     bag: Path, info: dict | None, file_tags: list[tuple[Path, BagTags | None]], tag_problem: str
 ) -> tuple[BagTags | None, str]:
@@ -246,10 +256,11 @@ def _agree_tags(
         )
     tags = found[0][1]
     for where, t in found[1:]:
+        tags, t = _sides_shared(tags, t)
         if t != tags:
             return None, (
-                f"{bag}: contradictory tags: {found[0][0]} says {tags.condition} "
-                f"{tags.payload_mass:g} kg, {where} says {t.condition} {t.payload_mass:g} kg"
+                f"{bag}: contradictory tags: {found[0][0]} says {tags.describe()}, {where} "
+                f"says {t.describe()}"
             )
     return (None, tag_problem) if tag_problem else (tags, "")
 
@@ -309,7 +320,9 @@ def decode_messages(raw: Sequence[bytes], msgtype: str, field: str | None = None
 
 def read_bag(path: str | Path, *, require_tags: bool = True, interface: str | None = None,
              joints: Sequence[str] | None = None,
-             position_joints: Sequence[str] | None = None) -> BagData:
+             position_joints: Sequence[str] | None = None,
+             channels: Callable[[BagTags | None], tuple[Sequence[str], Sequence[str]]] | None = None
+             ) -> BagData:
     """Read q and the current of one bag (a rosbag2 directory or a lone .mcap file).
 
     The sources follow the bag's tag, else the order of preference of :mod:`.sources`: a
@@ -318,6 +331,8 @@ def read_bag(path: str | Path, *, require_tags: bool = True, interface: str | No
     (BagError naming one that is missing); default: every joint of each source, in its order.
     ``position_joints``: other names for q than for the current (a transmission's positions
     published joint-side, its currents per motor: model/transmission.py); default ``joints``.
+    ``channels``: (position_joints, joints) from the bag's tag, in place of those two (the
+    tag says whose signals the bag holds: orthoglide.position_side, orthoglide.effort_side).
 
     Raises BagError when the bag is unreadable, has no joint states or no current, or (with
     ``require_tags``) is untagged or carries contradictory tags; DataError when joint names
@@ -330,6 +345,8 @@ def read_bag(path: str | Path, *, require_tags: bool = True, interface: str | No
     warnings = list(scan.warnings)
     if scan.tags is None:
         warnings.append(scan.tag_problem)
+    if channels is not None:
+        position_joints, joints = channels(scan.tags)
     if scan.incomplete:
         warnings.append(f"{scan.path}: tagged incomplete ({scan.incomplete}): its run stopped before "
                         "the end of its trajectory, so it holds less excitation than designed")

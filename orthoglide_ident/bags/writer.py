@@ -356,6 +356,8 @@ def write_bag(
     payload: Mapping[str, Any] | None = None,
     tag_sources: bool = True,
     effort_unit: str | None = None,
+    position_side: str | None = None,
+    effort_side: str | None = None,
     compression: str = "zstd",
     chunk_duration_s: float = 0.5,
 ) -> Path:
@@ -378,7 +380,9 @@ def write_bag(
     (name -> constant position; no current, NaN effort), as real hardware does; with
     ``tag_sources`` their tag names the topics and fields that carry q and the current.
     ``effort_unit`` (``A`` | ``torque``) tags what ``v_tau`` holds when it is not a current
-    (``orthoglide.effort_unit``; None: untagged, read as a current).
+    (``orthoglide.effort_unit``; None: untagged, read as a current). ``position_side``,
+    ``effort_side`` (``joint`` | ``actuator``) tag whose positions and currents they are for a
+    robot with a transmission (``orthoglide.position_side``, ``orthoglide.effort_side``).
     Messages are encoded in bulk, block by block, and written tick by tick through
     :class:`BagWriter`, in chunks of ``chunk_duration_s`` s.
     """
@@ -399,7 +403,8 @@ def write_bag(
         sources = {"position_source": f"{ROS2_CONTROL_JOINT_STATES_TOPIC} position",
                    "current_source": current}
     tags = BagTags.checked(condition, payload_mass, **dict(payload or {}), **sources,
-                           effort_unit=effort_unit)
+                           effort_unit=effort_unit, position_side=position_side,
+                           effort_side=effort_side)
     w = BagWriter(Path(path), tags, compression=compression, chunk_duration_s=chunk_duration_s,
                   custom_data={key: str(val) for key, val in (extra or {}).items()})
     w.open()

@@ -20,7 +20,7 @@ from typing import Callable
 import numpy as np
 
 from orthoglide_ident.errors import ConfigError
-from orthoglide_ident.excite.collision import MODES
+from orthoglide_ident.excite.limits import COLLISION_MODES  # not collision.py: Pinocchio
 from orthoglide_ident.model.robot import RobotModel
 
 _log = logging.getLogger("orthoglide_ident")
@@ -44,7 +44,7 @@ def _add_robot_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--joint-limits", metavar="YAML",
                    help="a ros2_control joint_limits YAML (position, velocity, acceleration, "
                         "effort per joint); overrides the robot file and the URDF")
-    p.add_argument("--collision", choices=MODES, default="mesh",
+    p.add_argument("--collision", choices=COLLISION_MODES, default="mesh",
                    help="self-collision bodies: the URDF's <collision> elements and the robot "
                         "file's primitives (mesh, default), the primitives only, or skip the check")
     p.add_argument("--package-dir", action="append", default=[], metavar="DIR",

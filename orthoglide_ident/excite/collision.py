@@ -25,9 +25,9 @@ import numpy as np
 import pinocchio as pin
 
 from orthoglide_ident.errors import ConfigError
+from orthoglide_ident.excite.limits import COLLISION_MODES as MODES
 from orthoglide_ident.excite.limits import excitation_section
 
-MODES = ("mesh", "primitives", "skip")
 COLLISION_KEYS = ("primitives", "disabled_pairs", "srdf", "floor", "boxes")
 SHAPES = ("capsule", "cylinder", "sphere", "box")
 

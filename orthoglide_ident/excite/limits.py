@@ -26,6 +26,10 @@ import numpy as np
 from orthoglide_ident.errors import ConfigError
 from orthoglide_ident.yaml_files import load_yaml
 
+# self-collision bodies of a design (excite/collision.py): here, so that the CLI's parser needs
+# no Pinocchio
+COLLISION_MODES = ("mesh", "primitives", "skip")
+
 KINDS = ("lower", "upper", "velocity", "acceleration", "effort")
 ROS2_KEYS = {"lower": ("has_position_limits", "min_position"),
              "upper": ("has_position_limits", "max_position"),

@@ -111,7 +111,8 @@ def _fir_block(x: np.ndarray, taps: np.ndarray, n_d: int, r: int) -> np.ndarray:
     return y.reshape((r,) + x.shape[1:])
 
 
-def fir_decimate_last(x: np.ndarray, n_d: int, r: int) -> np.ndarray:
+def fir_decimate_last(x: np.ndarray, n_d: int, r: int, taps: np.ndarray | None = None
+                      ) -> np.ndarray:
     """y[..., i] = Σ_l taps[l] x[..., i n_d + l], i < r: the FIR outputs along the last axis.
 
     Polyphase: ``x`` (..., m) with m ≥ (r - 1) n_d + 8 n_d + 1 is viewed as blocks of n_d
@@ -120,7 +121,7 @@ def fir_decimate_last(x: np.ndarray, n_d: int, r: int) -> np.ndarray:
     samples are computed (~9 multiply-adds per input sample and column). Each row of ``x``
     must be contiguous in time (a slice of a (rows, capacity) buffer is); no copy is made.
     """
-    taps = fir_taps(n_d)
+    taps = fir_taps(n_d) if taps is None else taps  # another filter of the same length
     nb = (taps.shape[0] - 1) // n_d  # full blocks: 8
     lead = x.shape[:-1]
     x2 = x.reshape(-1, x.shape[-1])

@@ -176,12 +176,40 @@ class DriveTermsModel:
         out[n + k] = out[n]  # W_kl goes last
         out[n:n + k] = 0.0
         r0 = n + self.terms.lag
+        self._ripples(q, qd, out[r0:])
+        return out
+
+    def _ripples(self, q: np.ndarray, qd: np.ndarray, out: np.ndarray) -> None:
+        """The ripple columns sign(q̂̇_j) cos, sin(2π q̂_j/λ) into ``out`` (2 per term, n_j, m),
+        each in its joint's rows (the others left as they are: zero)."""
         phi = (2.0 * np.pi / self.lead_m) * np.asarray(q) if self.terms.ripples else None
         s = np.sign(qd)
         for i, t in enumerate(self.terms.ripples):
             j = t.joint
-            out[r0 + 2 * i, j] = s[:, j] * np.cos(phi[:, j])
-            out[r0 + 2 * i + 1, j] = s[:, j] * np.sin(phi[:, j])
+            out[2 * i, j] = s[:, j] * np.cos(phi[:, j])
+            out[2 * i + 1, j] = s[:, j] * np.sin(phi[:, j])
+
+    @property
+    def rough_columns(self) -> tuple[int, ...] | None:
+        """Columns that are not smooth functions of the filtered states (identify/stream.py):
+        the robot's, the lag's (the currents' instrument) and the ripple's (sign(q̂̇)); None
+        when the robot does not say."""
+        base = getattr(self.base, "rough_columns", None)
+        if base is None:
+            return None
+        return tuple(base) + tuple(range(self.n_base, self.n_base + self.terms.n_extra))
+
+    def rough_block(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray,
+                    out: np.ndarray | None = None) -> np.ndarray:
+        """The :attr:`rough_columns` (lag zero: the stream fills it) as (k, n_j, m)."""
+        n_r = len(self.base.rough_columns)
+        k, m = self.terms.n_extra, np.shape(q)[0]
+        if out is None:
+            out = np.empty((n_r + k, self.n_joints, m))
+        self.base.rough_block(q, qd, qdd, out[:n_r])
+        out[n_r:] = 0.0
+        r0 = n_r + self.terms.lag
+        self._ripples(q, qd, out[r0:])
         return out
 
     def regressor(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> np.ndarray:

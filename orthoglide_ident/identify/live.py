@@ -114,7 +114,7 @@ class LiveEstimate:
         """The estimate in one line (a log or a terminal)."""
         units = self.gain_units or ("N/A",) * len(self.gains)
         g = "gains —" if not self.known else "  ".join(
-            f"{n} {v:7.1f} {u} ±{100 * s:.2f} %"
+            f"{n} {v:8.5g} {u} ±{100 * s:.2f} %"  # a motor's 0.41704 N·m/A too
             for n, v, s, u in zip(self.joint_names, self.gains, self.gains_rel_std, units))
         return (f"{g} | {self.seconds_unloaded:.0f} s unloaded, {self.seconds_loaded:.0f} s "
                 f"loaded, lag {self.lag_s:.1f} s | {self.status}")

@@ -69,6 +69,12 @@ class IdentifyOptions:
     # (40 Hz: n_d = 10 at 1 kHz, 50 at 5 kHz, 5 at 91 Hz)
     decimation_cutoff_hz: float = 0.0
     decimation_filter: str = "fir"  # zero-phase "fir" (fast, exact in chunks) or "cheby1" (MATLAB)
+    # where W is built (stream.py, fir only): "rows", a robot model that names its rough columns
+    # (the general one: sign(q̇) friction; the lag and ripple columns) has its other, smooth
+    # columns built at the decimated rows only, from the states through the same decimation
+    # filter, the rough ones and v_tau filtered at the sample rate (eqs. 19-20); "samples":
+    # every column at every sample, then decimated (the Orthoglide's closed form always)
+    regressor_at: str = "rows"
     chunk_s: float = 16.384  # s, W is built and decimated in chunks of this length (memory)
     # Old names, in samples (their answer changed with the rate): obeyed for one release with a
     # note when non-zero; at_rate sets them from the options above for one record
@@ -250,6 +256,9 @@ class IdentifyOptions:
             raise ConfigError(f"{source}: tls_noisy_columns must be 'all' or 'currents'")
         if self.decimation_filter not in ("fir", "cheby1"):
             raise ConfigError(f"{source}: decimation_filter must be 'fir' or 'cheby1'")
+        if self.regressor_at not in ("rows", "samples"):
+            raise ConfigError(f"{source}: regressor_at must be 'rows' (W's smooth columns at the "
+                              "decimated rows) or 'samples' (every column at every sample)")
         if self.decimation < 0 or self.filter_order < 1 or not (
                 self.chunk_samples == 0 or self.chunk_samples >= 64):
             raise ConfigError(f"{source}: decimation >= 0 (0: from decimation_cutoff_hz), "

@@ -139,6 +139,16 @@ class PayloadUnknownsModel:
                 else 0.0
         return out
 
+    @property
+    def rough_columns(self) -> tuple[int, ...] | None:
+        """The robot's rough columns (identify/stream.py): among W's, the same indices; the
+        payload's columns W_ul, W_kl are smooth. None when the robot does not say."""
+        return getattr(self.base, "rough_columns", None)
+
+    def rough_block(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray,
+                    out: np.ndarray | None = None) -> np.ndarray:
+        return self.base.rough_block(q, qd, qdd, out)
+
     def regressor(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> np.ndarray:
         X = self.observation_block(q, qd, qdd)[:-1]
         return X.reshape(X.shape[0], -1).T

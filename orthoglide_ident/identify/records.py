@@ -9,6 +9,7 @@ shares ``payload_knowledge``. BagError if a bag is unusable.
 from __future__ import annotations
 
 import dataclasses
+import logging
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Sequence
@@ -20,7 +21,9 @@ from orthoglide_ident.identify.options import IdentifyOptions
 from orthoglide_ident.model.robot import Payload, RobotModel
 
 __all__ = ["Record", "effort_channels", "motor_side", "payload_knowledge", "read_record",
-           "record_payload", "torque_as_current"]
+           "record_payload", "tagged_sides", "torque_as_current"]
+
+log = logging.getLogger("orthoglide_ident.identify")
 
 
 @dataclass
@@ -45,6 +48,10 @@ class Record:
     payload: Payload | None = None
     sources: str = ""  # where q and the current were recorded (bags.BagSources.describe)
     qd: np.ndarray | None = None  # (N_q, len(names_q)) rad/s or m/s: JointState.velocity, if read
+    # whose positions and currents the record holds, as its bag's tag says ("joint" |
+    # "actuator"); None: as the robot file's transmission says (tagged_sides)
+    position_side: str | None = None
+    effort_side: str | None = None
 
     @classmethod
     def from_arrays(cls, source: str, stamps_ns: np.ndarray, q: np.ndarray, v_tau: np.ndarray,
@@ -69,9 +76,13 @@ def read_record(path: str | Path, model: RobotModel,
     from orthoglide_ident import bags
 
     opts = opts or IdentifyOptions()
-    data = bags.read_bag(path, joints=_channels(model, "effort"),
-                         position_joints=_channels(model, "position"),
-                         interface=opts.current_interface or None)
+    sides: list[str | None] = [None, None]
+
+    def channels(tags):  # the tag says whose signals the bag holds (tagged_sides)
+        sides[:] = tagged_sides(model, tags, str(path))
+        return _channels(model, "position", sides[0]), _channels(model, "effort", sides[1])
+
+    data = bags.read_bag(path, channels=channels, interface=opts.current_interface or None)
     tags, current = data.tags, data.current
     v_tau, sources = current.current, data.sources.describe()
     qd = data.velocity if opts.velocity_source != "derived" else None
@@ -83,7 +94,7 @@ def read_record(path: str | Path, model: RobotModel,
         condition=None if tags is None else tags.condition,
         payload_mass=0.0 if tags is None else float(tags.payload_mass),
         warnings=list(data.warnings), payload=_tagged_payload(tags),
-        sources=sources, qd=qd,
+        sources=sources, qd=qd, position_side=sides[0], effort_side=sides[1],
     ), model)
     tagged_unit = None if tags is None else tags.effort_unit
     if (tagged_unit or opts.effort_unit) == "torque":
@@ -93,15 +104,39 @@ def read_record(path: str | Path, model: RobotModel,
     return rec
 
 
-def _channels(model: RobotModel, signal: str) -> tuple[str, ...]:
+def tagged_sides(model: RobotModel, tags, source: str) -> tuple[str | None, str | None]:
+    """Whose positions and currents a bag holds: its tag's ``orthoglide.position_side`` and
+    ``orthoglide.effort_side`` where it says (None where not: the robot file's transmission
+    decides, as before). The tag wins over the robot file: it was written with the signals, by
+    what recorded them, while the file says what a hardware publishes by default; a
+    disagreement is read as tagged and said in the log. BagError for motor-side positions of
+    a robot without a transmission (nothing maps them to its joints)."""
+    if tags is None:
+        return None, None
+    t = model.transmission
+    if t is None:
+        if tags.position_side == "actuator":
+            raise BagError(f"{source}: tagged orthoglide.position_side actuator (the motors' "
+                           f"positions) but robot {model.name} has no transmission to map them "
+                           "to its joints: give the robot file one (docs/robot_files.md)")
+        return None, None
+    for what, tagged, filed in (("positions", tags.position_side, t.position_side),
+                                ("efforts", tags.effort_side, t.effort_side)):
+        if tagged is not None and tagged != filed:
+            log.info("%s: %s read %s-side as the bag's tag says (the robot file %s says "
+                     "%s-side)", source, what, tagged, t.where, filed)
+    return tags.position_side, tags.effort_side
+
+
+def _channels(model: RobotModel, signal: str, side: str | None = None) -> tuple[str, ...]:
     """The channel names a bag holds ``signal`` ("position" or "effort") under: the model's
-    joints, or a transmission's joints when that side is the joints' (model/transmission.py;
-    a channel named after a joint carries that index's motor when the actuators repeat the
-    joints' names)."""
+    joints, or a transmission's joints when that side (``side``, else the transmission's) is
+    the joints' (model/transmission.py; a channel named after a joint carries that index's
+    motor when the actuators repeat the joints' names)."""
     t = model.transmission
     if t is None:
         return model.joint_names
-    side = t.position_side if signal == "position" else t.effort_side
+    side = side or (t.position_side if signal == "position" else t.effort_side)
     return tuple(t.joints) if side == "joint" else tuple(t.actuators)
 
 
@@ -122,17 +157,23 @@ def motor_side(rec: Record, model: RobotModel) -> Record:
     t = model.transmission
     if t is None:
         return rec
-    q_names = t.joints if t.position_side == "joint" else t.actuators
-    v_names = t.joints if t.effort_side == "joint" else t.actuators
-    cq = _columns(rec, q_names, rec.names_q, f"{t.position_side}-side positions")
-    cv = _columns(rec, v_names, rec.names_v, f"{t.effort_side}-side currents")
+    q_side = rec.position_side or t.position_side
+    v_side = rec.effort_side or t.effort_side
+    q_names = t.joints if q_side == "joint" else t.actuators
+    v_names = t.joints if v_side == "joint" else t.actuators
+    cq = _columns(rec, q_names, rec.names_q, f"{q_side}-side positions")
+    cv = _columns(rec, v_names, rec.names_v, f"{v_side}-side currents")
     q, qd, v, how = rec.q[:, cq], None if rec.qd is None else rec.qd[:, cq], rec.v_tau[:, cv], ""
-    if t.position_side == "joint":
+    if q_side == "joint":
         q, qd = t.to_actuator_position(q), None if qd is None else t.to_actuator_rate(qd)
         how += "; joint-side positions mapped to the motors (q_m = N q_j + offset)"
-    if t.effort_side == "joint":
+    if v_side == "joint":
         v = t.to_actuator_effort(v)
         how += "; joint-side efforts divided through to the motors (N⁻ᵀ)"
+    for what, side, filed in (("positions", rec.position_side, t.position_side),
+                              ("efforts", rec.effort_side, t.effort_side)):
+        if side is not None and side != filed:
+            how += f"; {what} {side}-side as the bag is tagged (the robot file says {filed})"
     return dataclasses.replace(rec, names_q=model.joint_names, q=q, qd=qd,
                                names_v=model.joint_names, v_tau=v, sources=rec.sources + how)
 

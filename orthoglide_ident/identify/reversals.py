@@ -24,20 +24,16 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from orthoglide_ident.identify.joint_units import transmission_scale
+
 
 def velocity_deadband(model, deadband: float) -> float | np.ndarray:
     """The dead band of ``model``'s velocities: ``deadband`` (m/s or rad/s of a joint), or per
     motor of a robot identified in actuator space (model/actuator_space.py) that joint band
-    times the motor's largest reduction |N_aj|, so a motor's reversals are bridged as its
-    joint's would be. ``model`` may be wrapped (drive terms, payload unknowns: ``base``)."""
-    for _ in range(4):
-        t = getattr(model, "transmission", None)
-        if t is not None:
-            return deadband * np.max(np.abs(t.N), axis=1)
-        model = vars(model).get("base") if hasattr(model, "__dict__") else None
-        if model is None:
-            break
-    return deadband
+    times the motor's largest reduction s_a = max_j |N_aj| (joint_units.transmission_scale),
+    so a motor's reversals are bridged as its joint's would be."""
+    s = transmission_scale(model)
+    return deadband if s is None else deadband * s
 
 
 @dataclass

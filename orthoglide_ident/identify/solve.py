@@ -17,7 +17,7 @@ from typing import Any, Sequence
 import numpy as np
 
 from orthoglide_ident.errors import ExcitationError, IdentificationError
-from orthoglide_ident.identify import drive_terms, partial
+from orthoglide_ident.identify import drive_terms, joint_units, partial
 from orthoglide_ident.identify.essential import EssentialResult, essential_parameters
 from orthoglide_ident.identify.factors import RecordFactors
 from orthoglide_ident.identify.options import IdentifyOptions
@@ -307,13 +307,16 @@ def tls_model(factors: list[RecordFactors], model, opts: IdentifyOptions) -> tup
     """The IDIM-TLS solve a result reports (with the ripple columns the residual calls for), not
     checked for excitation; and the base model's solution (whose residual the diagnostics
     describe). Shared by :func:`solve_tls` and the live estimate."""
-    problem = TLSProblem(factors, opts.weighting, noisy_columns=opts.tls_noisy_columns)
+    def problem_of(fs):  # a motor's equations in joint-side units (joint_units.py)
+        return TLSProblem(fs, opts.weighting, noisy_columns=opts.tls_noisy_columns,
+                          row_scale=joint_units.equation_scale(model),
+                          column_scale=joint_units.column_scale(model, fs[0].n_b))
+
+    problem = problem_of(factors)
     base = problem.solve()
 
     def make_solver(fs):
-        pr = problem if fs is factors else TLSProblem(fs, opts.weighting,
-                                                      noisy_columns=opts.tls_noisy_columns)
-        return pr.solve
+        return (problem if fs is factors else problem_of(fs)).solve
 
     return _set_up(factors, model, opts, base, make_solver), base
 
@@ -467,11 +470,12 @@ def solve_wls(factors: list[RecordFactors], model, opts: IdentifyOptions,
     """IDIM-WLS (eqs. 24-28) with given gains, payload masses estimated."""
     g = manufacturer_or_given(gains, model)
     log.info("IDIM-WLS on %d equations", sum(f.n_rows for f in factors))
-    base = idim_wls(factors, g, weighting=opts.weighting)
+    rows = joint_units.equation_scale(model)
+    base = idim_wls(factors, g, weighting=opts.weighting, row_scale=rows)
 
     def make_solver(fs):
         def solve_active(act, reweight):
-            return idim_wls(fs, g, active=act, weighting=opts.weighting)
+            return idim_wls(fs, g, active=act, weighting=opts.weighting, row_scale=rows)
         return solve_active
 
     m = _set_up(factors, model, opts, base, make_solver, g)

@@ -14,7 +14,10 @@ identification (1 kHz samples pushed about once a second) both run a segment thr
   bridges and dropped runs as ``find_reversals`` on the whole segment; bridges are applied in
   order, each reading the anchors left by the previous one;
 - parallel decimation (eqs. 19-20): FIR output i (state i n_d + 4 n_d) is computed once the
-  8 n_d + 1 states of its window are final, from the kept samples only.
+  8 n_d + 1 states of its window are final, from the kept samples only;
+- ``regressor_at: rows`` with a model that names its rough columns (a serial/tree robot): only
+  those and v_tau are held at the sample rate; W's smooth columns are built at the decimated
+  rows from the filtered states, the bridges' part on them added (smooth_rows.py).
 """
 from __future__ import annotations
 
@@ -27,6 +30,7 @@ from orthoglide_ident.errors import DataError
 from orthoglide_ident.identify.decimation import fir_decimate_last, fir_taps
 from orthoglide_ident.identify.filtering import filter_horizon, zero_phase_butterworth
 from orthoglide_ident.identify.options import IdentifyOptions
+from orthoglide_ident.identify.smooth_rows import BridgeCorrections, smooth_columns_at_rows
 from orthoglide_ident.identify.time_base import states_on_stamps
 from orthoglide_ident.identify.reversals import (ReversalTracker, anchor_samples, bridge_weights,
                                                  velocity_deadband)
@@ -90,6 +94,36 @@ def lag_rows(model, block: np.ndarray, currents: np.ndarray) -> np.ndarray:
     return currents[:, :n_j]
 
 
+def _rough_columns(model, opts: IdentifyOptions) -> np.ndarray | None:
+    """The columns the stream builds at the sample rate when the others are built at the
+    decimated rows (``regressor_at: rows``, a model that names them, n_d > 1); else None."""
+    if opts.regressor_at != "rows" or opts.decimation <= 1:
+        return None
+    rough = getattr(model, "rough_columns", None)
+    return None if rough is None else np.asarray(rough, int)
+
+
+def _fir_nonzero_rows(x: np.ndarray, n_d: int, r: int) -> np.ndarray:
+    """fir_decimate_last of ``x`` (k, n_j, m) computed on its rows that hold a non-zero value
+    only: a serial robot's friction and lag columns fill their own joint's rows, the other
+    five sixths of a 6-DOF arm's rough buffer are zero."""
+    x2 = x.reshape(-1, x.shape[-1])
+    nz = np.flatnonzero(np.any(x2 != 0.0, axis=1))
+    out = np.zeros((x2.shape[0], r))
+    out[nz] = fir_decimate_last(x2[nz], n_d, r)
+    return out.reshape(x.shape[:-1] + (r,))
+
+
+def _lag_rows_at(model, rough: np.ndarray | None) -> list[int]:
+    """Where joint j's lag instrument goes in the rough buffer (``rough``'s position of the
+    model's lag column j); none without the lag or the rough buffer."""
+    col = getattr(model, "lag_column", None)
+    if col is None or rough is None:
+        return []
+    where = {int(c): i for i, c in enumerate(rough)}
+    return [where[col + j] for j in range(model.n_joints)]
+
+
 class SegmentStream:
     """Samples of one continuous segment in, its decimated equations out, block by block.
 
@@ -121,6 +155,10 @@ class SegmentStream:
                 velocity_deadband(model, opts.velocity_deadband_mps),
                 max(1, int(round(opts.reversal_max_bridge_s / period_s))),
                 int(round(opts.reversal_margin_s / period_s)), n_j)
+        self.rough = _rough_columns(model, opts)  # None: every column at every sample
+        self._lag_at = _lag_rows_at(model, self.rough)
+        self._corr = None if self.rough is None else BridgeCorrections(
+            lambda q, qd, qdd, out: model_block(model, q, qd, qdd, out), n_b + 1, self.rough, n_j)
         self.pending: list[list] = [[] for _ in range(n_j)]  # decisions waiting for anchors
         self.n_raw = 0  # ticks received
         self.n_states: int | None = None  # known once the segment has ended
@@ -132,10 +170,11 @@ class SegmentStream:
         self._v = np.zeros((0, n_j))
         self._b0 = 0  # state index of buffer column 0
         self._S = 0  # states computed
-        self._X = np.zeros((n_b + 2, n_j, 0))
+        # the sample-rate buffer: columns [W | W_kl | v_tau], or [rough columns | v_tau]
+        self._X = np.zeros((n_b + 2 if self.rough is None else len(self.rough) + 1, n_j, 0))
         self._drop = np.zeros((n_j, 0), bool)
         self._ts = np.zeros(0, np.int64)
-        self._qs = np.zeros((0, 2 * n_j))  # q̂, q̂̇ of the states: the rows' positions
+        self._qs = np.zeros((0, 3 * n_j))  # q̂, q̂̇, q̂̈ of the states
         self._i_out = 0  # next decimated output
         self.times = {"filtering": 0.0, "regressor": 0.0, "decimation": 0.0}  # s, wall clock
 
@@ -218,16 +257,24 @@ class SegmentStream:
 
     def _add_states(self, stamps_ns: np.ndarray, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray,
                     v_tau: np.ndarray) -> None:
-        """W and W_kl of new states into the buffer, with their v_tau, stamps and q̂, q̂̇."""
+        """W and W_kl (or the rough columns) of new states into the buffer, with their v_tau,
+        stamps and q̂, q̂̇, q̂̈."""
         t0 = time.perf_counter()
-        m = q.shape[0]
+        m, n_j = q.shape[0], self.n_j
         X, pos = self._reserve(m)
-        block = X[:self.n_b + 1, :, pos:pos + m]
-        model_block(self.model, q, qd, qdd, block)
-        X[self.n_b + 1, :, pos:pos + m] = lag_rows(self.model, block, np.asarray(v_tau)).T
+        k = X.shape[0] - 1  # v_tau's row
+        if self.rough is None:
+            block = X[:k, :, pos:pos + m]
+            model_block(self.model, q, qd, qdd, block)
+            X[k, :, pos:pos + m] = lag_rows(self.model, block, np.asarray(v_tau)).T
+        else:  # the rough columns only: the others are built at the decimated rows
+            self.model.rough_block(q, qd, qdd, out=X[:k, :, pos:pos + m])
+            X[k, :, pos:pos + m] = v_tau[:, :n_j].T
+            if v_tau.shape[1] == 2 * n_j:  # the lag instrument in joint j's rows
+                for j, row in enumerate(self._lag_at):
+                    X[row, j, pos:pos + m] = v_tau[:, n_j + j]
         self._ts[pos:pos + m] = stamps_ns
-        self._qs[pos:pos + m, :self.n_j] = q
-        self._qs[pos:pos + m, self.n_j:] = qd
+        self._qs[pos:pos + m] = np.hstack([q, qd, qdd])
         self._drop[:, pos:pos + m] = False
         self._S += m
         self.times["regressor"] += time.perf_counter() - t0
@@ -243,7 +290,7 @@ class SegmentStream:
             drop[:, :used] = self._drop[:, :used]
             ts = np.zeros(cap, np.int64)
             ts[:used] = self._ts[:used]
-            qs = np.zeros((cap, 2 * self.n_j))
+            qs = np.zeros((cap, self._qs.shape[1]))
             qs[:used] = self._qs[:used]
             self._X, self._drop, self._ts, self._qs = X, drop, ts, qs
         return self._X, used
@@ -265,6 +312,8 @@ class SegmentStream:
         self._ts[:used - k] = self._ts[k:used]
         self._qs[:used - k] = self._qs[k:used]
         self._b0 = keep
+        if self._corr is not None:
+            self._corr.forget(keep)
 
     # --- velocity reversals -------------------------------------------------------------------
     def _final(self, j: int) -> int:
@@ -280,6 +329,7 @@ class SegmentStream:
             self.pending[d.j].append(d)
         self.tracker.decisions.clear()
         n = self.n_states
+        bridges = []
         for j in range(self.n_j):
             queue = self.pending[j]
             while queue:
@@ -289,12 +339,21 @@ class SegmentStream:
                     break
                 queue.pop(0)
                 if d.ok:
-                    self._bridge(j, d.s, d.e, max(d.s - self.anchor, 0), hi)
+                    bridges.append((j, d.s, d.e, max(d.s - self.anchor, 0), hi))
+                    self._bridge(*bridges[-1])
                 else:  # the part below the buffer was marked while the run was open
                     self._drop[j, max(d.s - self._b0, 0):d.e - self._b0] = True
             span = self.tracker.open_drop(j)
             if span is not None:
                 self._drop[j, max(span[0] - self._b0, 0):min(span[1], self._S) - self._b0] = True
+        if self._corr is not None and bridges:  # the smooth columns' part of the bridges
+            self._corr.bridge(bridges, self._states)
+
+    def _states(self, idx: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """q̂, q̂̇, q̂̈ (m, n_j) of states idx (held in the buffer)."""
+        x = self._qs[idx - self._b0]
+        n_j = self.n_j
+        return x[:, :n_j], x[:, n_j:2 * n_j], x[:, 2 * n_j:]
 
     def _bridge(self, j: int, s: int, e: int, lo: int, hi: int) -> None:
         """The straight line of reversals.bridge across states s..e-1 of joint j, every column."""
@@ -325,7 +384,10 @@ class SegmentStream:
         a = self._i_out * n_d - b0
         b = a + (r - 1) * n_d + L
         x = self._X[:, :, a:b]
-        Xd = x[:, :, ::n_d].copy() if n_d == 1 else fir_decimate_last(x, n_d, r)
+        if self.rough is not None:
+            Xd = self._smooth_at_rows(_fir_nonzero_rows(x, n_d, r), a, b, r)
+        else:
+            Xd = x[:, :, ::n_d].copy() if n_d == 1 else fir_decimate_last(x, n_d, r)
         keep = None
         if with_keep:
             cs = np.concatenate([np.zeros((self.n_j, 1), np.int64),
@@ -336,4 +398,20 @@ class SegmentStream:
         t = (self._ts[centre] - self.t0_ns) * 1e-9 + (0.5 * self.T if self.zoh else 0.0)
         self._i_out += r
         qs = self._qs[centre]
-        return DecimatedRows(Xd, keep, t, qs[:, :self.n_j], qs[:, self.n_j:])
+        return DecimatedRows(Xd, keep, t, qs[:, :self.n_j], qs[:, self.n_j:2 * self.n_j])
+
+    def _smooth_at_rows(self, Xr: np.ndarray, a: int, b: int, r: int) -> np.ndarray:
+        """The decimated rows (n_b + 2, n_j, r) from the decimated rough columns and v_tau
+        ``Xr`` and W's smooth columns at the rows' instants, built from the states of buffer
+        columns a..b through the same decimation filter: a smooth column is a smooth function of
+        states whose band lies below the filter's pass band edge, so the filtered column is the
+        column of the filtered states (to the product of the content above it, ~1e-6)."""
+        n_j = self.n_j
+        x = np.ascontiguousarray(self._qs[a:b].T)
+        out = np.empty((self.n_b + 2, n_j, r))
+        smooth_columns_at_rows(lambda q, qd, qdd, o: model_block(self.model, q, qd, qdd, o),
+                               x, self.n_d, r, self.T, out[:self.n_b + 1])
+        self._corr.add_to(out, self._i_out, self.n_d, fir_taps(self.n_d))
+        out[self.rough] = Xr[:-1]
+        out[self.n_b + 1] = Xr[-1]
+        return out

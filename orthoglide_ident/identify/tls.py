@@ -18,6 +18,7 @@ singular vector of W_tot is a near-null direction of the regressor, not the gain
 """
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -112,7 +113,12 @@ class TLSProblem:
     """
 
     def __init__(self, blocks: list[Observations | RecordFactors], weighting: bool = True,
-                 noisy_columns: str = "all"):
+                 noisy_columns: str = "all", row_scale: np.ndarray | None = None,
+                 column_scale: np.ndarray | None = None):
+        """``row_scale`` (n_j,): the first pass's row weights (None: 1, the paper's);
+        ``column_scale`` (n_b + n_j + 1,) C: the SVD is taken of W_tot C and the answer given
+        back in W_tot's units (None: C = I). Both put a motor's equations in joint-side units
+        (joint_units.py)."""
         if noisy_columns not in ("all", "currents"):
             raise IdentificationError(
                 f"noisy_columns must be 'all' or 'currents', not {noisy_columns!r}")
@@ -120,19 +126,23 @@ class TLSProblem:
         self.blocks = as_factors(blocks)
         self.n_joints = n_joints = self.blocks[0].n_joints
         self.n_b = self.blocks[0].n_b
-        self.R_joint: list[np.ndarray] = []
+        self.scale = np.ones(self.n_b + n_joints + 1) if column_scale is None \
+            else np.asarray(column_scale, float)
+        self.first_sigma = np.ones(n_joints) if row_scale is None \
+            else 1.0 / np.asarray(row_scale, float)
+        self.R_joint: list[np.ndarray] = []  # of W_tot C
         self.rows_joint = np.zeros(n_joints, dtype=int)
         for j in range(n_joints):
             # R of joint j's rows of W_tot from each record's R of [W | W_kl | v_τ]
             Rs = [b.joint_r(j, tls_columns(b, j)) for b in self.blocks]
             self.rows_joint[j] = sum(int(b.rows[j]) for b in self.blocks)
-            self.R_joint.append(np.linalg.qr(np.vstack(Rs), mode="r"))
+            self.R_joint.append(np.linalg.qr(np.vstack(Rs), mode="r") * self.scale)
             if self.rows_joint[j] == 0:
                 raise ExcitationError(f"no equation left for joint {j + 1}: record longer or "
                                       "more exciting trajectories")
         self.n_rows = int(self.rows_joint.sum())
         self.weighting = weighting
-        self._set_weights(np.ones(n_joints))
+        self._set_weights(self.first_sigma)
 
     def _set_weights(self, sigma: np.ndarray) -> None:
         self.joint_sigma = np.asarray(sigma, dtype=float)
@@ -161,7 +171,7 @@ class TLSProblem:
         active = np.asarray(active, dtype=bool)
         reweight = self.weighting if reweight is None else reweight
         if reweight:
-            self._set_weights(np.ones(self.n_joints))
+            self._set_weights(self.first_sigma)
             first = self._solve_weighted(active)
             _, sig = self.joint_rms(self._full(first, active), first.shape[0] - 1)
             if np.all(sig > 0):
@@ -269,15 +279,20 @@ class TLSProblem:
                 "Ŵ_tot is singular: some base parameter has no effect on the recorded forces"
             ) from exc
         cov_paper = sigma_rho2 * G_inv  # eq. (39): σ_W² (1 + ‖χ̂‖²) (Ŵᵀ Ŵ)⁻¹
-        unc = evaluate(self.blocks, lambda b, j: tls_columns(b, j)[:, cols],
+        d = self.scale[cols]
+        unc = evaluate(self.blocks, lambda b, j: tls_columns(b, j)[:, cols] * d,
                        chi_tot, self.joint_sigma, G_inv, cov_paper, r)
+        rms, _ = self.joint_rms(self._full(chi_tot, active), c - 1)
+        if np.any(d != 1.0):  # back to W_tot's units: χ = C χ', cov = C cov' C
+            chi_tot, unc, cov_paper = chi_tot * d, _rescaled(unc, d[:-1]), \
+                cov_paper * np.outer(d[:-1], d[:-1])
+            x = chi_tot[:c - 1]
         cov = unc.cov
         std = np.sqrt(np.abs(np.diag(cov)))
         std_paper = np.sqrt(np.abs(np.diag(cov_paper)))
         with np.errstate(divide="ignore", invalid="ignore"):
             rel = np.where(x != 0, std / np.abs(x), np.inf)
             rel_paper = np.where(x != 0, std_paper / np.abs(x), np.inf)
-        rms, _ = self.joint_rms(self._full(chi_tot, active), c - 1)
         Wa = A[:, :n]
         norms = np.linalg.norm(Wa, axis=0)
         if n and np.all(norms > 0):
@@ -305,6 +320,14 @@ class TLSProblem:
             uncertainty=unc,
             rows_per_joint=self.rows_joint.copy(),
         )
+
+
+def _rescaled(unc: Uncertainty, d: np.ndarray) -> Uncertainty:
+    """``unc`` of unknowns x' given for x = d ⊙ x' (covariances D cov D, variances d² var)."""
+    D = np.outer(d, d)
+    return dataclasses.replace(unc, cov=unc.cov * D, cov_paper=unc.cov_paper * D,
+                               var_stationary=unc.var_stationary * d * d,
+                               var_block=unc.var_block * d * d)
 
 
 def idim_tls(blocks: list[Observations | RecordFactors], weighting: bool = True,

@@ -98,14 +98,17 @@ def _joint_ss(Rj: list[np.ndarray], x: np.ndarray) -> np.ndarray:
     return np.array([float(np.sum((R @ xe) ** 2)) for R in Rj])
 
 
-def _weighted_ls(Rj: list[np.ndarray], nrows: list[int], c: int, weighting: bool
+def _weighted_ls(Rj: list[np.ndarray], nrows: list[int], c: int, weighting: bool,
+                 row_scale: np.ndarray | None = None
                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Ordinary LS (eq. 24), then the rows of joint j weighted by 1/σ_j (eq. 28) and solved again:
-    the unweighted stacked R factor, x, the weighted triangular R11 and σ_j."""
+    the first pass's stacked R factor, x, the weighted triangular R11 and σ_j. ``row_scale``:
+    the first pass's row weights (None: 1; joint_units.py)."""
     r = int(sum(nrows))
-    R0 = np.linalg.qr(np.vstack(Rj), mode="r")
+    first = np.ones(len(Rj)) if row_scale is None else np.asarray(row_scale, float)
+    R0 = np.linalg.qr(np.vstack([R * w for R, w in zip(Rj, first)]), mode="r")
     x, _ = _solve_r(R0, c)
-    sig = np.ones(len(Rj))
+    sig = 1.0 / first
     if not weighting:
         return R0, x, _solve_r(R0, c)[1], sig
     ss = _joint_ss(Rj, x)
@@ -118,8 +121,10 @@ def _weighted_ls(Rj: list[np.ndarray], nrows: list[int], c: int, weighting: bool
 
 def idim_wls(blocks: list[Observations | RecordFactors], g_tau: np.ndarray,
              active: np.ndarray | None = None,
-             estimate_payload: bool = True, weighting: bool = True) -> WLSSolution:
-    """IDIM-WLS (eqs. 24-28) with the given drive gains ``g_tau (n_j,)`` N/A or N·m/A.
+             estimate_payload: bool = True, weighting: bool = True,
+             row_scale: np.ndarray | None = None) -> WLSSolution:
+    """IDIM-WLS (eqs. 24-28) with the given drive gains ``g_tau (n_j,)`` N/A or N·m/A; the
+    first pass's rows weighted by ``row_scale`` (None: 1, the paper's; joint_units.py).
 
     Works on one R factor of [A_j | Y_j] per joint: weighting scales them, residual norms per
     joint are ‖R_j [x; -1]‖, and no (r × c) matrix of all records is ever formed.
@@ -148,7 +153,7 @@ def idim_wls(blocks: list[Observations | RecordFactors], g_tau: np.ndarray,
     if r <= c:
         raise IdentificationError(f"only {r} equations for {c} unknowns: record longer")
 
-    R0, x, R11, sig = _weighted_ls(Rj, nrows, c, weighting)
+    R0, x, R11, sig = _weighted_ls(Rj, nrows, c, weighting, row_scale)
     ss = _joint_ss(Rj, x)
     sigma_rho2 = float(np.sum(ss / sig**2)) / (r - c)  # eq. (26), weighted rows
     Rinv = np.linalg.inv(R11)

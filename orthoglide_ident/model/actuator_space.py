@@ -11,6 +11,10 @@ on that motor). Row a is motor a's equation, so the per-motor drive gains g_a co
 IDIM-TLS (eqs. 33–36) and WLS unchanged, one row block per motor: the gain reported is the
 motor's (current → motor torque), and the whole pipeline runs on this model as on any other.
 
+A closed chain works the same way: the joint model's rows are already the actuated joints'
+(the loop solved and projected, model/closure.py), and N maps the actuated joints to the motors
+(tests/identify/test_on_five_bar.py).
+
 Base parameters are regrouped again numerically (eqs. 21–23 by QR on random states of this
 mixed regressor: a motor's ia can regroup with a link's inertia), rigid columns from the base
 outwards, the motors' terms after them.
@@ -56,8 +60,6 @@ class ActuatorSpaceRobot(NamedByParameters, RobotModel):
 
     def __init__(self, joint_model: PinocchioRobot, transmission: Transmission, seed: int = 0):
         jm, t = joint_model, transmission
-        if jm.closure is not None:
-            raise ConfigError(f"robot {jm.name}: a transmission on a closed chain is not supported")
         if tuple(t.joints) != jm.joint_names:
             raise ConfigError(f"{t.where}: transmission joints {list(t.joints)} are not the "
                               f"actuated joints {list(jm.joint_names)}")
@@ -142,6 +144,23 @@ class ActuatorSpaceRobot(NamedByParameters, RobotModel):
     def observation_block(self, q, qd, qdd, out=None) -> np.ndarray:
         """[W | W_payload] (n_b + 1, n_a, m) in motor rows (eqs. 18, 20, 33 through N⁻ᵀ)."""
         X = self._block(q, qd, qdd, list(self._base.columns), True)
+        if out is None:
+            return X
+        out[...] = X
+        return out
+
+    @property
+    def rough_columns(self) -> tuple[int, ...]:
+        """Columns of [W | W_payload] that are not smooth functions of the filtered states:
+        the motors' Coulomb friction, sign(q̇_m) (PinocchioRobot.rough_columns)."""
+        first = len(self._rigid)
+        return tuple(r for r, c in enumerate(self._base.columns) if c >= first and
+                     DRIVE_KINDS[(c - first) % len(DRIVE_KINDS)] == "fs")
+
+    def rough_block(self, q, qd, qdd, out=None) -> np.ndarray:
+        """The :attr:`rough_columns` of states (m, n_a) as (len(rough_columns), n_a, m)."""
+        cols = [self._base.columns[r] for r in self.rough_columns]
+        X = self._block(q, qd, qdd, cols, False)
         if out is None:
             return X
         out[...] = X

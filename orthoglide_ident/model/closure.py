@@ -24,7 +24,6 @@ from typing import Sequence
 
 import numpy as np
 import pinocchio as pin
-from scipy.linalg import lapack
 
 from orthoglide_ident.errors import ConfigError, SingularityError, WorkspaceError
 from orthoglide_ident.model.loop_constraints import LoopConstraints
@@ -116,6 +115,8 @@ class Closure:
     def _newton(self, q: np.ndarray) -> tuple[bool, float]:
         """Close the loops over the passive joints in place; (converged, final residual). On
         success ``loops.J`` holds J_c at the closed q."""
+        from scipy.linalg import lapack  # on demand: a serial robot's model never needs it
+
         res = math.inf
         P = self.passive
         for _ in range(MAX_NEWTON):

@@ -369,6 +369,28 @@ class PinocchioRobot(NamedByParameters, RobotModel):
         with self._lock:
             return self._rows.block(q, qd, qdd, self._base_columns, self._payload, out)
 
+    @property
+    def rough_columns(self) -> tuple[int, ...] | None:
+        """Columns of [W | W_payload] that are not smooth functions of the filtered states:
+        the Coulomb friction ones, sign(q̇). The stream (identify/stream.py) decimates them at
+        the sample rate and builds the others at the decimated rows only. None for a closed
+        chain: its friction columns need the loops closed at every sample anyway (Gᵀ sign(q̇_t)),
+        so nothing is saved, and the five-bar's mx_2R moved by 0.11 σ."""
+        if self.closure is not None:
+            return None
+        return tuple(k for k, c in enumerate(self._base_columns)
+                     if c.source == "drive" and c.kind == "fs")
+
+    def rough_block(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray,
+                    out: np.ndarray | None = None) -> np.ndarray:
+        """The :attr:`rough_columns` of states (m, n) as (len(rough_columns), n, m)."""
+        q, qd, qdd = self._samples(q, qd, qdd)
+        cols = [self._base_columns[k] for k in self.rough_columns]
+        if out is None:
+            out = np.zeros((len(cols), self.n_joints, q.shape[0]))
+        with self._lock:
+            return self._rows.block(q, qd, qdd, cols, None, out)
+
     def standard_block(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray,
                        columns: Sequence[int], payload: bool = False) -> np.ndarray:
         """(len(columns) [+ 1], n, m): the standard ``columns`` (indices into standard_names),

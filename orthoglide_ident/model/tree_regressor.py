@@ -190,7 +190,9 @@ class TreeRegressor:
                 buf = _Chunk(e - s, self.model.nq, self.model.nv, n_y, len(self.frames),
                              len(self.actuated), self.closure is not None)
             self._states(buf, q[s:e], qd[s:e], qdd[s:e])
-            if self._rnea is not None:
+            if not inertial and payload is None:
+                pass  # drive columns only (e.g. the rough ones, identify/stream.py): no regressor
+            elif self._rnea is not None:
                 self._vectorised(buf, columns, inertial, payload, out[:, :, s:e])
             else:
                 self._per_sample(buf, columns, inertial, payload, slots, want_y, out[:, :, s:e])

@@ -9,6 +9,7 @@ import threading
 import time
 
 import numpy as np
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.serialization import deserialize_message
@@ -17,11 +18,11 @@ from trajectory_msgs.msg import JointTrajectory
 
 from orthoglide_ident.control import CTCParameters, feedforward_currents
 from orthoglide_ident.errors import OrthoglideError
-from orthoglide_ident.feedforward_schedule import FeedforwardSchedule
+from orthoglide_ident.feedforward_schedule import FeedforwardSchedule, LeadStats
 from orthoglide_ident.model.robot import RobotModel
 from orthoglide_ident.model.robots import load_robot
 from orthoglide_ident.nodes._jtc import TrajectoryOutlet
-from orthoglide_ident.ros.batch import BatchTaker, BatchTopic
+from orthoglide_ident.ros.batch import BatchTaker, BatchTopic, real_time_thread
 from orthoglide_ident.ros.params import Param, declare, usage
 from orthoglide_ident.ros.spin import spin
 from orthoglide_msgs.msg import CurrentReference, IdentifiedParameters, JointSetpoint
@@ -42,8 +43,12 @@ as soon as batch ticks are ready, or at once when a tick is due within 2 x margi
 (feedforward_schedule.py), tens of ms before it is needed. A tick sent less than margin_ms ahead
 makes the node say that it is falling behind and why (its setpoint came late, or it waited in
 this node: a busy machine), once, then at most every 10 s. Every 10 s the log states the ticks
-sent, their lead and the node's own CPU. Until parameters arrive nothing is published, and the
-log says so; new parameters replace the old ones at once. Feed-forward currents are clipped to
+sent, their lead and the node's own CPU, and once a second /diagnostics (diagnostic_msgs, as the
+driver's) carries the same: ticks_sent, short, late, dropped since start, lead_min_ms,
+lead_median_ms and cpu_percent over the last second; on the way out one line sums up the run.
+The intake wakes at least every margin_ms, so ready ticks go out as they near even when no
+setpoint follows them. Until parameters arrive nothing is published (the setpoints are not
+even decoded), and the log says so; new parameters replace the old ones at once. Feed-forward currents are clipped to
 current_limit; a non-finite one stops the output with an error until new parameters arrive.
 With monitor true it also pairs orthoglide/joint_states with the setpoints and logs the tracking
 error every 5 s. Names are relative: -r __ns:=/robot2 moves the whole interface.
@@ -66,12 +71,15 @@ PARAMETERS = (
     Param("payload_mass", -1.0, "kg put in the model (the paper: the nominal weighed mass); < 0: the "
           "identified parameters' payload_mass"),
     Param("batch", 10, "setpoint ticks per feed-forward computation (one vectorised model call); "
-          "fewer when a tick is due within margin_ms"),
-    Param("margin_ms", 10.0, "ms: ready ticks are computed at once when one is due within this; a "
+          "fewer when a tick is due within 2 x margin_ms. More ticks share the call's fixed cost "
+          "but wait longer: 20 cut the node's CPU from 20-22 to 17-18 % of a core in make demo, "
+          "and its first tick's lead from ~40 to ~30 ms (less room for a busy machine)"),
+    Param("margin_ms", 10.0, "ms: ready ticks are computed at once when one is due within twice this; a "
           "feed-forward sent later than this before its tick is reported (falling behind)"),
     Param("rt_priority", 30, "SCHED_FIFO priority (1-99) of the thread that takes the setpoints and "
           "sends the feed-forward, below the controller's (the simulated driver's 40), so that a "
-          "busy machine does not make it late; 0: ordinary scheduling"),
+          "busy machine does not make it late; the node's other Python threads run one below it "
+          "(none holds Python's lock off a core while the intake waits for it); 0: ordinary scheduling"),
     Param("current_limit", [1.0], "A per joint, per motor for a robot with a transmission (one "
           "number: every one): feed-forward currents are clipped to it"),
     Param("monitor", False, "log the tracking error (joint states vs setpoints) every 5 s (one more 1 kHz "
@@ -90,6 +98,7 @@ PARAMETERS = (
 )
 MONITOR_PERIOD_NS = 5_000_000_000
 REPORT_PERIOD_S = 10.0  # the feed-forward lead and the node's CPU are logged this often
+DIAGNOSTICS_PERIOD_S = 1.0  # ... and published on /diagnostics this often
 
 
 def _stamp_ns(msg) -> int:
@@ -121,7 +130,8 @@ class CTCNode(Node):
             raise OrthoglideError(f"parameter rt_priority: 0 (off) or 1-99, got {v['rt_priority']}")
         self.payload_mass = v["payload_mass"]
         self.schedule = FeedforwardSchedule(v["batch"], int(v["margin_ms"] * 1e6))
-        self._report_at = (time.monotonic(), time.process_time())  # wall, this process's CPU
+        self._started = self._report_at = self._diag_at = (time.monotonic(), time.process_time())  # wall, CPU
+        self._window = LeadStats()  # the seconds since the last log line
         self.robot = load_robot(v["robot"])
         t = self.robot.transmission  # setpoints are the joints', currents the motors' (issue 33)
         self.joints = list(self.robot.joint_names if t is None else t.joints)
@@ -137,16 +147,23 @@ class CTCNode(Node):
             "/consistent" if v["consistent"] else "")
         self.create_subscription(IdentifiedParameters, self.params_topic, self.on_params, latched)
         self.pub = self.create_publisher(CurrentReference, "orthoglide/feedforward", stream)
-        self.monitor = TrackingMonitor(self) if v["monitor"] else None
+        self.pub_diag = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
+        self.monitor = TrackingMonitor(self, self.robot) if v["monitor"] else None
         self.outlet = None  # to a joint_trajectory_controller (nodes._jtc)
         if v["trajectory_topic"]:
             self.outlet = TrajectoryOutlet(self.joints, v["trajectory_effort"], self.robot.nominal_gains,
                                            v["trajectory_overlap"],
                                            None if t is None else t.to_joint_effort)
             self.pub_traj = self.create_publisher(JointTrajectory, v["trajectory_topic"], 10)
+        if v["rt_priority"] > 1:  # this thread's later ones too (the executor's, ros.spin)
+            # every Python thread of the node just below the intake: a thread holding Python's
+            # lock (the GIL) while the busy machine keeps it off a core held the intake waiting
+            # 48-73 ms in make demo beside a hog (priority inversion); its refusal is said below
+            real_time_thread(v["rt_priority"] - 1)
         # last: the taker's thread calls on_setpoints at once, which needs everything above
         self.taker = BatchTaker(self, [BatchTopic(JointSetpoint, "orthoglide/setpoints", stream, self.on_setpoints)],
-                                rt_priority=v["rt_priority"])
+                                rt_priority=v["rt_priority"], on_wake=self.on_wake,
+                                wake_s=max(v["margin_ms"], 1.0) * 1e-3)
         self.get_logger().info(f"waiting for {self.resolve_topic_name(self.params_topic)} "
                                "(no feed-forward until they arrive)")
 
@@ -161,7 +178,7 @@ class CTCNode(Node):
             self.get_logger().error(f"identified parameters rejected, {state}: {e}")
             return
         self.model, self.stopped = model, None
-        gains = ", ".join(f"{g:.1f}" for g in model.drive_gains)
+        gains = ", ".join(f"{n} {g:.5g}" for n, g in zip(self.motors, model.drive_gains))
         units = "/".join(dict.fromkeys(self.robot.gain_units))
         self.get_logger().info(f"parameters in ({msg.method}): drive gains [{gains}] {units}, "
                                f"{len(model.names)} base parameters, payload "
@@ -169,6 +186,10 @@ class CTCNode(Node):
 
     def on_setpoints(self, batch: list) -> None:
         """A batch of serialized setpoints (taken together, see ros.batch)."""
+        if self.model is None and self.monitor is None:  # nothing to compute: not even decoded
+            self.get_logger().warning("no identified parameters yet: no feed-forward published",
+                                      throttle_duration_sec=10.0)
+            return
         for raw, received_ns, _ in batch:
             msg = deserialize_message(raw, JointSetpoint)
             try:
@@ -183,11 +204,17 @@ class CTCNode(Node):
             self.schedule.add(stamp, sp, received_ns)
             if self.monitor is not None:
                 self.monitor.setpoint(stamp, sp[0])
-        self.flush()
+
+    def on_wake(self) -> None:
+        """After every wake-up of the intake (at least every margin_ms): the ticks now due
+        (a tick nearing with fewer than batch ready still goes out, setpoints or not)."""
+        if self.schedule.pending() > 1:
+            self.flush()
         self._report()
 
     def close(self) -> None:
         self.taker.close()
+        self.get_logger().info(self.summary())
 
     def flush(self) -> None:
         """Feed-forward of the runs of ticks the schedule says are due (feedforward_schedule.py),
@@ -214,16 +241,45 @@ class CTCNode(Node):
                 self.get_logger().warning(behind)
 
     def _report(self) -> None:
-        """Every REPORT_PERIOD_S: the feed-forward sent, its lead, and this process's CPU."""
+        """Every DIAGNOSTICS_PERIOD_S the figures on /diagnostics; every REPORT_PERIOD_S a log
+        line: the feed-forward sent, its lead, and this process's CPU."""
         wall, cpu = time.monotonic(), time.process_time()
+        if wall - self._diag_at[0] < DIAGNOSTICS_PERIOD_S:
+            return
+        share = (cpu - self._diag_at[1]) / (wall - self._diag_at[0])
+        self._diag_at = (wall, cpu)
+        stats = self.schedule.reset_stats()
+        self._window.merge(stats)
+        self._publish_diagnostics(stats, share)
         if wall - self._report_at[0] < REPORT_PERIOD_S:
             return
         share = (cpu - self._report_at[1]) / (wall - self._report_at[0])
-        self._report_at = (wall, cpu)
-        stats = self.schedule.reset_stats()
-        if stats.sent or stats.dropped:
-            self.get_logger().info(f"feed-forward over {REPORT_PERIOD_S:.0f} s: {stats.summary()}; "
+        self._report_at, window, self._window = (wall, cpu), self._window, LeadStats()
+        if window.sent or window.dropped:
+            self.get_logger().info(f"feed-forward over {REPORT_PERIOD_S:.0f} s: {window.summary()}; "
                                    f"ctc CPU {100 * share:.0f} % of a core")
+
+    def _publish_diagnostics(self, stats: LeadStats, cpu_share: float) -> None:
+        """The last second's figures (lead, CPU) and the counts since start, as robot drivers
+        publish theirs (rqt_robot_monitor, Foxglove; the demo reads them)."""
+        total, lead = self.schedule.total, stats.lead_ms()
+        values = {"ticks_sent": total.sent, "short": total.short, "late": total.late,
+                  "dropped": total.dropped, "cpu_percent": f"{100 * cpu_share:.1f}",
+                  "lead_min_ms": "" if lead is None else f"{lead[0]:.2f}",
+                  "lead_median_ms": "" if lead is None else f"{lead[1]:.2f}"}
+        status = DiagnosticStatus(
+            level=DiagnosticStatus.WARN if stats.short else DiagnosticStatus.OK,
+            name=f"{self.get_fully_qualified_name()}: feed-forward", hardware_id="orthoglide_ctc",
+            message=stats.summary(), values=[KeyValue(key=k, value=str(v)) for k, v in values.items()])
+        msg = DiagnosticArray(status=[status])
+        msg.header.stamp = self.get_clock().now().to_msg()
+        self.pub_diag.publish(msg)
+
+    def summary(self) -> str:
+        """The whole run: what was sent, its lead, and the node's CPU."""
+        wall, cpu = time.monotonic() - self._started[0], time.process_time() - self._started[1]
+        return (f"ctc: {self.schedule.total.summary()} in {wall:.0f} s; ctc CPU {100 * cpu / max(wall, 1e-9):.0f} % "
+                "of a core")
 
     def _stop(self, reason: str) -> None:
         self.stopped = reason
@@ -251,10 +307,18 @@ class CTCNode(Node):
 
 
 class TrackingMonitor:
-    """Joint states vs setpoints of the same stamp: rms and max error per joint every 5 s."""
+    """Joint states vs setpoints of the same stamp: rms and max error per joint every 5 s.
 
-    def __init__(self, node: Node) -> None:
+    The joint states are taken by name, on the side the robot's transmission publishes them
+    (position_side actuator: the motors' positions, brought to the joints, q_j = N⁻¹ (q_m −
+    offset); model/transmission.py)."""
+
+    def __init__(self, node: Node, robot: RobotModel) -> None:
         self.node = node
+        t = robot.transmission
+        motors = t is not None and t.position_side == "actuator"
+        self.channels = list(robot.joint_names if t is None else t.actuators if motors else t.joints)
+        self.to_joint = t.to_joint_position if motors else None
         self.lock = threading.Lock()  # setpoints come from the batch thread, joint states from the executor
         self.setpoints: dict[int, np.ndarray] = {}
         self.errors: list[np.ndarray] = []
@@ -273,9 +337,15 @@ class TrackingMonitor:
         stamp = _stamp_ns(msg)
         with self.lock:
             q_d = self.setpoints.pop(stamp, None)
-        if q_d is None or len(msg.position) != len(q_d):
+        if q_d is None:
             return
-        self.errors.append(np.asarray(msg.position) - q_d)
+        try:
+            q = np.array([msg.position[list(msg.name).index(c)] for c in self.channels])
+        except (ValueError, IndexError):
+            self.node.get_logger().warning(f"joint states without {', '.join(self.channels)}: "
+                                           f"{list(msg.name)}", throttle_duration_sec=5.0)
+            return
+        self.errors.append((q if self.to_joint is None else self.to_joint(q)) - q_d)
         self.t_last = self.t_last or stamp
         if stamp - self.t_last >= MONITOR_PERIOD_NS:
             e = np.array(self.errors) * 1e6

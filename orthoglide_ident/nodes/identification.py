@@ -110,7 +110,10 @@ def result_message(result: IdentificationResult, stamp: Any,
 
 
 class IdentificationNode(Node):
-    """The service, the latched results; the work runs on its own thread (a call while busy is refused)."""
+    """The service, the latched results. Threads (README "Threads"): the executor has two; the
+    identify service is in a reentrant group of its own (a second call while one runs is refused
+    at once by the other thread), everything else in the default group only hands over; the live
+    update runs on LiveFeed's worker and the 1 kHz topics on its intake thread."""
 
     def __init__(self) -> None:
         super().__init__("orthoglide_identification")
@@ -155,11 +158,15 @@ class IdentificationNode(Node):
             return
         if robot is self.robot:
             return  # published again, the same URDF
-        with self.live_lock:  # an identification under way keeps the model it started with
-            self.robot = robot
-            if self.live is not None:
-                self.live = LiveIdentification(self.options(), model=robot)
+        self.robot = robot  # for the next identification from bags (one under way keeps its own)
+        if self.live is not None:  # the live side changes on its worker, between two updates
+            options = self.options()
+
+            def replace() -> None:
+                self.live = LiveIdentification(options, model=robot)
                 self.feed.replace(self.live, robot)
+
+            self.feed.submit(replace)
         self.get_logger().info(f"robot from robot_description: {robot.name}, {robot.n_joints} joints "
                                f"{', '.join(robot.joint_names)}, {robot.n_b} base parameters (nominal gains 1)")
 
@@ -250,8 +257,8 @@ class IdentificationNode(Node):
             self.pub[method].publish(msg)
         for w in result.warnings:
             self.get_logger().warning(w)
-        gains = ", ".join(f"{g:.1f}" if ok else "not determined"
-                          for g, ok in zip(msg.drive_gains, msg.drive_gains_determined))
+        gains = ", ".join(f"{n} {g:.5g}" if ok else f"{n} not determined"  # a motor's: 0.41704
+                          for n, g, ok in zip(msg.joint_names, msg.drive_gains, msg.drive_gains_determined))
         response.success = True
         response.message = (f"{method}{' essential' if chosen is not result else ''}: drive gains [{gains}] "
                             f"{chosen._units(chosen.gain_units, 'N/A')}, {len(msg.names)} parameters, payload "

@@ -10,10 +10,20 @@ ros2_control robot's (joint_states + dynamic_joint_states, or the JointState eff
 ``live_sources`` says which, per recording. About once a second the estimate goes out on
 orthoglide/identification/live with the warnings of the last second; the same warnings go to the
 log as they happen.
+
+Real time: the identification itself (a live update can take seconds: a big model, a slow
+machine) runs on a worker thread of its own (``<node>-live``), never on the node's executor.
+The executor's callbacks only hand over: the recorder's status goes to the worker's queue and is
+applied there in order, so the node's services (orthoglide/identify, the parameter services)
+and timers answer at once whatever the worker is doing; the 1 kHz topics are taken by the batch
+intake's own thread (ros.batch) into buffers that keep every message of a recording however long
+an update takes (up to BACKLOG_S of data), so that a slow update delays the estimate, never loses
+a tick.
 """
 from __future__ import annotations
 
 import collections
+import queue
 import struct
 import threading
 import time
@@ -32,15 +42,18 @@ from orthoglide_ident.identify.records import effort_channels, torque_as_current
 from orthoglide_ident.model.robot import Payload, RobotModel
 from orthoglide_ident.nodes.live_sources import DYNAMIC, EFFORT, REFERENCE, LiveTopics, choose_current
 from orthoglide_ident.ros.batch import BatchTaker, BatchTopic
+from orthoglide_ident.ros.guard import FailureLog
 from orthoglide_msgs.msg import CurrentReference, LiveIdentification as LiveMsg, RecorderStatus
 
 FEED_PERIOD_S = 0.1
 ESTIMATE_PERIOD_S = 1.0
 IDLE_BUFFER = 5000  # messages kept per topic while nothing records: the recorder may start first
+BACKLOG_S = 300.0  # s of a recording's messages kept per topic while the worker is busy (at 1 kHz)
 STOP_WAIT_S = 1.0  # after the recorder stopped, wait this long at most for its last ticks here
 STREAM_DEPTH = 5000  # messages DDS holds for this node while it is stalled (5 s at 1 kHz), as the recorder
 QOS_CHECK_PERIOD_S = 1.0  # how often the publishers' offered reliability is looked at
 HOLDBACK_NS = 250_000_000  # the newest 0.25 s wait: the recorder's stop may end the recording there
+STATUS_DEPTH = 10  # recorder statuses queued here (a stop and the next start may come together)
 _STAMP = struct.Struct("<iI")
 LABELS = {s.key: s.label for s in CURRENT_SOURCES}  # "the effort of" /joint_states, in the log
 
@@ -83,16 +96,18 @@ class LiveFeed:
     """Subscriptions, buffers and timers of live identification, on ``node`` (under ``lock``);
     ``robot`` the model's joints and nominal gains (the node's ``robot`` parameter); ``effort_unit``
     "torque": a JointState effort or DynamicJointState interface in N·m or N, turned into a current
-    with the nominal gains, as offline."""
+    with the nominal gains, as offline. ``worker`` False: no worker thread, the caller calls
+    :meth:`turn` (tests: each step when they say)."""
 
     def __init__(self, node: Node, live: LiveIdentification, lock: threading.Lock,
                  topics: LiveTopics | None = None, *, robot: RobotModel,
-                 effort_unit: str = "A") -> None:
+                 effort_unit: str = "A", worker: bool = True) -> None:
         self.node, self.live, self.lock = node, live, lock
         self.topics, self.effort_unit = topics or LiveTopics(), effort_unit
         self.robot = robot
         self.TOPICS = _topics(self.topics)
-        self.buffers = {k: collections.deque(maxlen=IDLE_BUFFER) for k in self.TOPICS}
+        # what the intake thread has taken and the worker not yet fed (deque: thread-safe appends)
+        self.buffers = {k: collections.deque(maxlen=int(BACKLOG_S * 1000)) for k in self.TOPICS}
         self.source: str | None = None  # where the recording's current comes from (live_sources)
         self.left_out: set[str] = set()  # recordings live identification gave up (the reason was said)
         self.waiting_since: float | None = None  # first joint state of the recording seen here
@@ -109,11 +124,20 @@ class LiveFeed:
                              reliability=ReliabilityPolicy.RELIABLE)
         self.reliability = dict.fromkeys(self.TOPICS, ReliabilityPolicy.RELIABLE)  # subscribed with
         self.taker = BatchTaker(node, [self._intake(key, stream) for key in self.TOPICS], period_s=0.01)
-        node.create_subscription(RecorderStatus, "orthoglide/recorder/status", self.on_status, latched)
+        # deeper than the recorder's latched 1: a stop followed at once by the next start must not
+        # be coalesced into the start (the stop carries the recording's last tick)
+        statuses = QoSProfile(depth=STATUS_DEPTH, durability=DurabilityPolicy.TRANSIENT_LOCAL,
+                              reliability=ReliabilityPolicy.RELIABLE)
+        node.create_subscription(RecorderStatus, "orthoglide/recorder/status", self.on_status, statuses)
         self.pub = node.create_publisher(LiveMsg, "orthoglide/identification/live", 10)
-        node.create_timer(FEED_PERIOD_S, self.feed)
-        node.create_timer(ESTIMATE_PERIOD_S, self.publish_estimate)
         node.create_timer(QOS_CHECK_PERIOD_S, self.follow_publishers)
+        self._jobs: queue.SimpleQueue = queue.SimpleQueue()  # from the executor, run by the worker
+        self._stop = threading.Event()
+        self._failures = FailureLog(node.get_logger())
+        self._next_estimate = time.monotonic() + ESTIMATE_PERIOD_S
+        self._worker = threading.Thread(target=self._work, name=f"{node.get_name()}-live", daemon=True)
+        if worker:
+            self._worker.start()
 
     def _intake(self, key: str, qos: QoSProfile) -> BatchTopic:
         topic, cls, _ = self.TOPICS[key]
@@ -133,28 +157,60 @@ class LiveFeed:
                 self.node.get_logger().info(f"live identification: {topic} taken {want.name.lower()}, as its "
                                             "publishers offer")
 
+    # ---- the worker ----------------------------------------------------------------------------
+    def submit(self, job) -> None:
+        """Run ``job()`` on the worker, under the lock, in the order submitted (from any thread)."""
+        self._jobs.put(job)
+
+    def _work(self) -> None:
+        """A turn every FEED_PERIOD_S; a failure is logged and the worker goes on (the next turn
+        retries)."""
+        while not self._stop.wait(FEED_PERIOD_S):
+            try:
+                self.turn()
+            except Exception as exc:  # noqa: BLE001 - the live side must not die silently
+                self._failures.failed("live identification", exc, "the worker goes on")
+
+    def turn(self) -> None:
+        """The jobs submitted, in order; the buffered ticks fed; about once a second the estimate."""
+        while True:
+            try:
+                job = self._jobs.get_nowait()
+            except queue.Empty:
+                break
+            with self.lock:
+                job()
+        self.feed()
+        if time.monotonic() >= self._next_estimate:
+            self._next_estimate = time.monotonic() + ESTIMATE_PERIOD_S
+            self.publish_estimate()
+
     # ---- the recorder's state ----------------------------------------------------------------
     def on_status(self, msg: RecorderStatus) -> None:
-        with self.lock:
-            if msg.recording and msg.bag_path != self.bag and msg.bag_path not in self.left_out:
-                self._finish()
-                self.bag, self.first, self.last, self.seen, self.started = msg.bag_path, None, None, {}, {}
-                self.source, self.waiting_since = None, None
-                try:
-                    self.live.start_recording(msg.bag_path, msg.condition, msg.payload_mass,
-                                              status_payload(msg))
-                except OrthoglideError as e:
-                    self._say([f"live identification ignores {msg.bag_path}: {e}"])
-                    self.bag = None
-                    return
-                self.node.get_logger().info(f"live identification: {msg.condition} recording {msg.bag_path}")
-            if self.bag is not None and msg.bag_path == self.bag:
-                self.first = self.first or _tick(msg.first_tick)
-                if not msg.recording:
-                    self.last = _tick(msg.last_tick) or 0
-                    self.stopped_at = time.monotonic()
-            elif self.bag is not None and not msg.recording and self.last is None:
-                self._recorder_restarted()
+        """(executor) The recorder's status, applied by the worker in order: never waits."""
+        self.submit(lambda: self._apply_status(msg))
+
+    def _apply_status(self, msg: RecorderStatus) -> None:
+        """(worker, under the lock) A new recording, its first tick, its end."""
+        if msg.recording and msg.bag_path != self.bag and msg.bag_path not in self.left_out:
+            self._end_previous()
+            self.bag, self.first, self.last, self.seen, self.started = msg.bag_path, None, None, {}, {}
+            self.source, self.waiting_since = None, None
+            try:
+                self.live.start_recording(msg.bag_path, msg.condition, msg.payload_mass,
+                                          status_payload(msg))
+            except OrthoglideError as e:
+                self._say([f"live identification ignores {msg.bag_path}: {e}"])
+                self.bag = None
+                return
+            self.node.get_logger().info(f"live identification: {msg.condition} recording {msg.bag_path}")
+        if self.bag is not None and msg.bag_path == self.bag:
+            self.first = self.first or _tick(msg.first_tick)
+            if not msg.recording:
+                self.last = _tick(msg.last_tick) or 0
+                self.stopped_at = time.monotonic()
+        elif self.bag is not None and not msg.recording and self.last is None:
+            self._recorder_restarted()
 
     def _recorder_restarted(self) -> None:
         """An idle recorder that is not the one recording ``self.bag``: that one was killed (and
@@ -165,32 +221,53 @@ class LiveFeed:
         self._say([f"the recorder of {self.bag} restarted without stopping it (killed?): its live data end at "
                    "the last tick received here"])
 
+    def _end_previous(self) -> None:
+        """A new recording starts: the one under way first gets its ticks already here (the
+        recorder's stop and next start may come within one feed period), then ends."""
+        if self.bag is not None and self.last is not None:
+            self._feed()
+        if self.bag is not None and self.last is not None and self.source is not None:
+            late = [self.TOPICS[k][0] for k in self._used() if self.seen.get(k, 0) < self.last]
+            if late:
+                self._say([f"{self.bag} ended with the next recording's start before its last ticks "
+                           f"on {', '.join(late)} reached live identification: its live data end "
+                           "earlier than its bag (identify the bag for the exact result)"])
+        self._finish()
+
     # ---- data --------------------------------------------------------------------------------
     def feed(self) -> None:
         """Hand the buffered ticks of the recording to LiveIdentification (bulk-decoded)."""
         with self.lock:
-            if self.bag is None or self.first is None:
-                return
-            for key, buf in self.buffers.items():
-                while buf and _stamp_ns(buf[0]) < self.first:
-                    buf.popleft()  # before the recording
-                if buf:
-                    self.seen[key] = max(self.seen.get(key, 0), _stamp_ns(buf[-1]))
-            if self.source is None and not self._choose():
-                if self.last is not None and time.monotonic() - self.stopped_at > STOP_WAIT_S:
-                    self._finish()
-                return
-            used = self._used()
-            for key in used:
-                raw = self._take(self.buffers[key])
-                if raw:
-                    self._add(key, raw)
-                    self.dirty = True
-            # done when every topic used has delivered the last recorded tick here (an empty
-            # buffer only means its last messages may still be on their way)
-            done = all(self.seen.get(key, 0) >= (self.last or 0) for key in used)
-            if self.last is not None and (done or time.monotonic() - self.stopped_at > STOP_WAIT_S):
+            self._feed()
+
+    def _feed(self) -> None:
+        """:meth:`feed` under the lock."""
+        if self.bag is None:
+            for buf in self.buffers.values():  # nothing records: the newest IDLE_BUFFER wait
+                while len(buf) > IDLE_BUFFER:
+                    buf.popleft()
+        if self.bag is None or self.first is None:
+            return
+        for key, buf in self.buffers.items():
+            while buf and _stamp_ns(buf[0]) < self.first:
+                buf.popleft()  # before the recording
+            if buf:
+                self.seen[key] = max(self.seen.get(key, 0), _stamp_ns(buf[-1]))
+        if self.source is None and not self._choose():
+            if self.last is not None and time.monotonic() - self.stopped_at > STOP_WAIT_S:
                 self._finish()
+            return
+        used = self._used()
+        for key in used:
+            raw = self._take(self.buffers[key])
+            if raw:
+                self._add(key, raw)
+                self.dirty = True
+        # done when every topic used has delivered the last recorded tick here (an empty
+        # buffer only means its last messages may still be on their way)
+        done = all(self.seen.get(key, 0) >= (self.last or 0) for key in used)
+        if self.last is not None and (done or time.monotonic() - self.stopped_at > STOP_WAIT_S):
+            self._finish()
 
     def _used(self) -> tuple[str, ...]:
         return ("q",) if self.source == EFFORT else ("q", self.source)
@@ -291,4 +368,7 @@ class LiveFeed:
         self.pub.publish(msg)
 
     def close(self) -> None:
+        self._stop.set()
+        if self._worker.is_alive():
+            self._worker.join(timeout=10.0)
         self.taker.close()

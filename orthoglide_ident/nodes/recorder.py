@@ -129,6 +129,15 @@ def check_frame(robot: str, frame: str) -> None:
     load_robot(robot).with_payload(Payload(1.0, frame))
 
 
+def robot_sides(robot: str) -> dict[str, str]:
+    """The tag's orthoglide.position_side / effort_side: the ``robot`` file's transmission's
+    (what its hardware publishes); none without a transmission (docs/bags.md)."""
+    from orthoglide_ident.model.robots import load_robot
+
+    t = load_robot(robot).transmission if robot else None
+    return {} if t is None else {"position_side": t.position_side, "effort_side": t.effort_side}
+
+
 class RecorderNode(Node):
     """Start/stop services around a :class:`Recording`; the recorder's state on a latched topic."""
 
@@ -311,7 +320,8 @@ class RecorderNode(Node):
         self.recover_left_open(p["output_dir"])
         try:
             tags = bags.BagTags.checked(req.condition, req.payload_mass,
-                                        **self._payload_shape(req.condition))
+                                        **self._payload_shape(req.condition),
+                                        **robot_sides(p["robot"]))
             writer = open_bag(p["output_dir"], req.name, tags, p["compression"], p["chunk_duration"],
                               p["split_duration"], p["split_size"])
         except OrthoglideError as exc:

@@ -19,6 +19,7 @@ from orthoglide_ident.bags import (CURRENT_REFERENCE_TYPE, DYNAMIC_JOINT_STATE_T
                                    decode_messages)
 from orthoglide_ident.bags.sources import CURRENT_SOURCES, DEFAULT_INTERFACE
 from orthoglide_ident.errors import ConfigError, OrthoglideError
+from orthoglide_ident.identify.records import torque_as_current
 from orthoglide_ident.model.robots import load_robot
 from orthoglide_ident.ros.batch import BatchTaker, BatchTopic
 from orthoglide_ident.ros.params import Param, declare, usage
@@ -48,6 +49,10 @@ JSON channels, named after the topics (resolved: /orthoglide/..., or under the n
   orthoglide/forces                 per joint the measured force g_tau v_tau, the identified
       model's W chi + W_kl m_7 (positions differentiated by the identification's filter, the
       payload the recorder says is on) and their difference, means over 1/rate s, ~0.2 s late
+A robot with a transmission (its robot file's transmission:, docs/robot_files.md) is viewed as it
+is identified: the gains are the motors', named by actuator; positions and currents are read on
+the channels of their side and mapped to the motors; orthoglide/forces is per motor, with the
+joints' residual N^T (measured - model) beside it (joint_name, joint_residual).
 Joint names and counts come from the messages. Browsers that do not keep up lose frames, never the
 node: the topics are taken in batches on a thread of their own, and the server drops a slow
 client's oldest messages."""
@@ -197,8 +202,8 @@ class ViewerNode(Node):
             stamps, names, values = decode_messages(raw, msgtype, "effort")  # the joints that have one
             if not names:
                 return
-            if self.p["effort_unit"] == "torque":  # N·m or N -> A with the nominal gains
-                values = self.residual.model.effort_as_current(names, values)
+            if self.p["effort_unit"] == "torque":  # N·m or N -> A with the nominal gains (as live)
+                values = torque_as_current(self.residual.model, names, values)
             kind = EFFORT
         self._log(kind, picked, stamps, names, "current", values)
         self._current(kind, stamps, tuple(names), values)
@@ -215,7 +220,7 @@ class ViewerNode(Node):
         rank = CURRENT_PREFERENCE.index(source)
         if self.current_source is not None and rank > CURRENT_PREFERENCE.index(self.current_source):
             return
-        joints = self.residual.model.joint_names
+        joints = self.residual.channels["v"][0]  # the model's joints, or a transmission's side
         if source == EFFORT and not (set(joints) <= set(names)
                                      and np.isfinite(values[:, [names.index(j) for j in joints]]).all()):
             return  # an effort without the robot's currents: not a current source
@@ -225,10 +230,13 @@ class ViewerNode(Node):
         self.residual.add("v", stamps, names, values)
 
     def _forces_out(self) -> None:
-        names = self.residual.model.joint_names
+        names = self.residual.model.joint_names  # a transmission's motors, its joints beside them
+        t = self.residual.transmission
+        joints = () if t is None else t.joints
         for b in self.residual.take():
+            joint = () if b.joint_residual is None else b.joint_residual
             self.server.log(self.topic[schemas.FORCES], schemas.forces(b.stamp_ns, names, b.measured, b.model,
-                                                                      b.ticks), b.stamp_ns)
+                                                                      b.ticks, joints, joint), b.stamp_ns)
 
     # ---- low-rate topics ---------------------------------------------------------------------------
     def _send(self, kind: str, msg: dict, ns: int, latch: bool = False) -> None:

@@ -47,13 +47,27 @@ class BatchTopic:
     on_batch: Callable[[Batch], None]
 
 
+def real_time_thread(priority: int) -> str | None:
+    """SCHED_FIFO at ``priority`` for the calling thread (Linux: pid 0 is the calling thread;
+    threads it starts afterwards inherit it); the reason when the system refuses, else None."""
+    try:
+        os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(min(priority, 99)))
+    except (OSError, AttributeError) as e:
+        return str(e)
+    return None
+
+
 class BatchTaker:
     """Take the messages of ``topics`` in batches on a thread of its own; ``close()`` to stop."""
 
     def __init__(self, owner: Node, topics: list[BatchTopic], period_s: float = 0.005,
-                 rt_priority: int = 0):
+                 rt_priority: int = 0, on_wake: Callable[[], None] | None = None,
+                 wake_s: float = 0.1):
         self.owner = owner
         self.period_s = period_s
+        # called after every wake-up, messages or not: at least every wake_s while none come
+        # (the ctc sends ready feed-forward when a tick nears, whether or not setpoints arrive)
+        self.on_wake, self.wake_ns = on_wake, int(wake_s * 1e9)
         self.rt_priority = rt_priority  # > 0: the thread runs SCHED_FIFO at this priority
         self.node = rclpy.create_node(f"_{owner.get_name()}_rx", namespace=owner.get_namespace(),
                                       context=owner.context, use_global_arguments=False,
@@ -100,9 +114,8 @@ class BatchTaker:
         """SCHED_FIFO for this thread (Linux: the calling thread), so that a busy machine does
         not starve a deadline-bound intake (the ctc's); without the privilege, a warning."""
         what = f"the intake of {', '.join(t.topic for t in self._new)}"
-        try:
-            os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(min(self.rt_priority, 99)))
-        except (OSError, AttributeError) as e:
+        e = real_time_thread(self.rt_priority)
+        if e is not None:
             self.owner.get_logger().warning(
                 f"no real-time priority for {what} ({e}): it may fall behind when the machine "
                 "is busy (rt_priority:=0 silences this)")
@@ -127,6 +140,8 @@ class BatchTaker:
                         batch = self._take_all(sub)
                         if batch:
                             self._hand_over(on_batch, batch, topic)
+                    if self.on_wake is not None:
+                        self._hand_over(lambda _: self.on_wake(), [], "wake-up")
                 for d in drains:
                     d.set()
                 if not self.subs:
@@ -156,7 +171,7 @@ class BatchTaker:
             wait_set.clear_entities()
             for sub, _ in self.subs:
                 wait_set.add_subscription(sub.handle)
-            wait_set.wait(100_000_000)  # 0.1 s at most, so that close() is seen
+            wait_set.wait(self.wake_ns)  # 0.1 s at most by default, so that close() is seen
 
     @staticmethod
     def _take_all(sub: Any) -> Batch:

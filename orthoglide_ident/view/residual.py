@@ -16,6 +16,13 @@ together; a gap (lost ticks) restarts the filter.
 Rows are averaged over blocks of ``block_s`` (the view's period, 20 ms: 20 ticks at 1 kHz): one
 value per joint a browser can plot at 50 Hz, with the noise of 20 ticks averaged away. Joints are those of the robot model, in
 its order; the messages may carry them in any order, with others beside them.
+
+A robot with a transmission (model/transmission.py) is identified in actuator space, and so is
+its residual: the positions and currents arrive on the channels of their side (joint-side
+positions under the joints' names, currents under the motors'), are mapped to the motors on
+arrival as the live identification maps them (q_m = N q_j + offset, v_m = N⁻ᵀ v_j), and the
+forces are each motor's, g_a v_a against motor a's row (N⁻ᵀ W χ_b plus its own ia, fv, fs); the
+joints' residual Nᵀ (τ_meas − τ_model) comes beside them (``ForceBlock.joint_residual``).
 """
 from __future__ import annotations
 
@@ -25,6 +32,7 @@ import numpy as np
 
 from orthoglide_ident.errors import ConfigError
 from orthoglide_ident.identify.filtering import filter_horizon, filtered_states, zero_phase_butterworth
+from orthoglide_ident.identify.live_recording import channel_maps
 from orthoglide_ident.identify.options import IdentifyOptions
 from orthoglide_ident.model.robot import RobotModel
 
@@ -33,12 +41,15 @@ MAX_PENDING = 5000  # unpaired ticks kept per topic (5 s at 1 kHz): one topic ma
 
 @dataclass
 class ForceBlock:
-    """Means over one block of ticks: stamp (ns, the block's middle tick), forces (n_joints,)."""
+    """Means over one block of ticks: stamp (ns, the block's middle tick), forces (n_joints,):
+    the motors' for a robot with a transmission, whose joints' residual is ``joint_residual``
+    (Nᵀ (measured − model), None without a transmission)."""
 
     stamp_ns: int
     measured: np.ndarray
     model: np.ndarray
     ticks: int
+    joint_residual: np.ndarray | None = None
 
 
 class ForceResidual:
@@ -47,6 +58,9 @@ class ForceResidual:
     def __init__(self, model: RobotModel, block_s: float = 0.02, options: IdentifyOptions | None = None) -> None:
         opts = options or IdentifyOptions()
         self.model, self.block_s, self.block = model, float(block_s), 1  # ticks per block, once the period is known
+        self.transmission = model.transmission
+        # the channels q and v arrive on, and their map to the model's (a transmission's motors)
+        self.channels = dict(zip(("q", "v"), channel_maps(tuple(model.joint_names), self.transmission)))
         self.opts = opts  # cut-offs resolved at the record's rate (IdentifyOptions.at_rate)
         self.cutoff_hz, self.order = opts.filter_cutoff_hz, opts.filter_order
         self.zoh_shift, self.filter_currents = opts.zoh_shift, opts.filter_currents
@@ -92,13 +106,16 @@ class ForceResidual:
 
     def add(self, topic: str, stamps_ns: np.ndarray, names: tuple[str, ...], values: np.ndarray) -> None:
         """Decoded ticks of ``topic`` "q" (positions) or "v" (current references), values (m, len(names))."""
-        missing = [j for j in self.model.joint_names if j not in names]
+        wanted, to_model = self.channels[topic]
+        missing = [j for j in wanted if j not in names]
         if missing:
             raise ConfigError(f"{'positions' if topic == 'q' else 'currents'} lack joints {', '.join(missing)} "
                               f"of robot {self.model.name} (have {', '.join(names)})")
-        cols = [names.index(j) for j in self.model.joint_names]
+        values = np.asarray(values, float)[:, [names.index(j) for j in wanted]]
+        if to_model is not None:  # a transmission's joint-side channels, to its motors
+            values = to_model(values)
         pend = self.pending[topic]
-        pend.update(zip(np.asarray(stamps_ns).tolist(), np.asarray(values, float)[:, cols]))
+        pend.update(zip(np.asarray(stamps_ns).tolist(), values))
         if len(pend) > MAX_PENDING:
             for s in sorted(pend)[:len(pend) - MAX_PENDING]:
                 del pend[s]
@@ -191,4 +208,6 @@ class ForceResidual:
         tau_meas = v * self.g_tau
         means = [a.reshape(k, B, n).mean(axis=1) for a in (tau_meas, tau_model)]
         mid = t[rows].reshape(k, B)[:, B // 2]
-        return [ForceBlock(int(s), me, mo, B) for s, me, mo in zip(mid, *means)]
+        tr = self.transmission
+        joint = [None] * k if tr is None else tr.to_joint_effort(means[0] - means[1])
+        return [ForceBlock(int(s), me, mo, B, j) for s, me, mo, j in zip(mid, *means, joint)]

@@ -81,9 +81,13 @@ SCHEMAS: dict[str, dict[str, Any]] = {
                             "source_bags": _STRINGS, "summary": {"type": "string"}}),
 }
 _FORCES = _schema("orthoglide_view/Forces", "measured force g_tau v_tau against the identified model's "
-                  "W chi + W_kl m_7 per joint, and their difference (N or N·m), means over the period", {
+                  "W chi + W_kl m_7 per joint (per motor for a robot with a transmission), and their "
+                  "difference (N or N·m), means over the period", {
                       "name": _STRINGS, "measured": _NUMBERS, "model": _NUMBERS, "residual": _NUMBERS,
-                      "ticks": {"type": "integer", "description": "controller ticks averaged"}})
+                      "ticks": {"type": "integer", "description": "controller ticks averaged"},
+                      "joint_name": {**_STRINGS, "description": "a transmission's joints (else empty)"},
+                      "joint_residual": {**_NUMBERS, "description": "the joints' residual N^T (measured - "
+                                         "model), N·m or N (a transmission's; else empty)"}})
 SCHEMAS[FORCES] = _FORCES
 SCHEMAS[REPORT_FORCES] = _FORCES
 SCHEMAS[REPORT_CONVERGENCE] = _schema(
@@ -171,11 +175,15 @@ def identified(ns: int, f: Mapping[str, Any]) -> dict[str, Any]:
 
 
 def forces(ns: int, names: Sequence[str], measured: Sequence[float], model: Sequence[float],
-           ticks: int) -> dict[str, Any]:
-    """Measured and model force per joint (N or N·m) and the residual measured − model."""
+           ticks: int, joint_names: Sequence[str] = (),
+           joint_residual: Sequence[float] = ()) -> dict[str, Any]:
+    """Measured and model force per joint (N or N·m) and the residual measured − model; for a
+    robot with a transmission ``names`` are its motors and ``joint_residual`` the joints'
+    Nᵀ (measured − model) under ``joint_names``."""
     residual = [m - p for m, p in zip(measured, model)]
     return {"header": header(ns), "name": [str(n) for n in names], "measured": nums(measured),
-            "model": nums(model), "residual": nums(residual), "ticks": int(ticks)}
+            "model": nums(model), "residual": nums(residual), "ticks": int(ticks),
+            "joint_name": [str(n) for n in joint_names], "joint_residual": nums(joint_residual)}
 
 
 def convergence(ns: int, seconds: float, unloaded_s: float, loaded_s: float, joints: Sequence[str],

@@ -111,6 +111,8 @@ BAD = [
      "payload_known 'all' needs payload_com and payload_inertia"),
     ({"orthoglide.payload_com": None, "orthoglide.payload_inertia": None,
       "orthoglide.payload_known": "com"}, "payload_known 'com' needs payload_com"),
+    ({"orthoglide.position_side": "motor"}, "position_side 'motor': use 'joint' or 'actuator'"),
+    ({"orthoglide.effort_side": "Joint"}, "effort_side 'Joint': use 'joint' or 'actuator'"),
 ]
 
 
@@ -158,3 +160,50 @@ def test_effort_unit_tag_round_trips_and_is_checked() -> None:
     assert bags.EFFORT_UNIT_KEY not in bags.BagTags.checked("unloaded", 0).to_dict()
     with pytest.raises(BagError, match="x: invalid tag: effort_unit 'Nm': use 'A'"):
         bags.BagTags.from_dict({**t.to_dict(), bags.EFFORT_UNIT_KEY: "Nm"}, "x")
+
+
+def test_signal_sides_round_trip_in_both_places(tmp_path: Path) -> None:
+    """orthoglide.position_side / effort_side (whose signals a bag of a robot with a
+    transmission holds): written by write_bag in metadata.yaml and each file's record, read
+    back, said in describe(); absent when not given (an Orthoglide bag keeps its two keys)."""
+    n = 50
+    stamps = T0 + np.arange(n, dtype=np.int64) * 1_000_000
+    p = bags.write_bag(tmp_path / "b", stamps, np.zeros((n, 2)), np.ones((n, 2)), "unloaded",
+                       0.0, ("j1", "j2"), layout="joint_states", position_side="actuator",
+                       effort_side="joint")
+    custom = yaml.safe_load((p / "metadata.yaml").read_text())[
+        "rosbag2_bagfile_information"]["custom_data"]
+    record = _file_record(next(p.glob("*.mcap")))
+    for where in (custom, record):
+        assert where[bags.POSITION_SIDE_KEY] == "actuator"
+        assert where[bags.EFFORT_SIDE_KEY] == "joint"
+    tags = bags.read_bag(p).tags
+    assert (tags.position_side, tags.effort_side) == ("actuator", "joint")
+    assert "positions actuator-side, efforts joint-side" in tags.describe()
+    plain = bags.BagTags.checked("unloaded", 0).to_dict()
+    assert bags.POSITION_SIDE_KEY not in plain and bags.EFFORT_SIDE_KEY not in plain
+    with pytest.raises(ConfigError, match="position_side 'motor': use 'joint' or 'actuator'"):
+        bags.BagTags.checked("unloaded", 0, position_side="motor")
+
+
+def test_sides_given_in_custom_data_only_agree_with_the_files(tmp_path: Path) -> None:
+    """A bag written before the sides were part of the tag (the coupled-wrist bench put them in
+    metadata.yaml's custom_data only): the files' records lack them, which is no contradiction;
+    the sides are read. Two places that say different sides are one."""
+    p = _write(tmp_path / "b", **PAYLOAD)
+    meta = p / "metadata.yaml"
+    doc = yaml.safe_load(meta.read_text())
+    custom = doc["rosbag2_bagfile_information"]["custom_data"]
+    custom[bags.POSITION_SIDE_KEY] = "actuator"
+    meta.write_text(yaml.safe_dump(doc))
+    assert bags.read_bag(p).tags.position_side == "actuator"
+    q = bags.write_bag(tmp_path / "c", T0 + np.arange(50, dtype=np.int64) * 1_000_000,
+                       np.zeros((50, 2)), np.ones((50, 2)), "unloaded", 0.0, ("j1", "j2"),
+                       position_side="joint")
+    meta = q / "metadata.yaml"
+    doc = yaml.safe_load(meta.read_text())
+    doc["rosbag2_bagfile_information"]["custom_data"][bags.POSITION_SIDE_KEY] = "actuator"
+    meta.write_text(yaml.safe_dump(doc))
+    with pytest.raises(BagError, match="contradictory tags: .* positions actuator-side, .* "
+                                       "positions joint-side"):
+        bags.read_bag(q)

@@ -132,3 +132,57 @@ def test_five_bar_60_s_bags_through_the_cli(tmp_path, capsys):
     mass = json.loads(wls_json.read_text())["payload_mass"]
     print("WLS 0.5 kg:", mass)
     assert abs(mass["value"] / 0.5 - 1) < 0.002
+
+
+def test_a_transmission_on_the_closed_chain_gives_the_motors_gains(five_bar, tls, tmp_path):
+    """The five-bar's base motors behind gears of 10 and −12 (robot YAML ``transmission``; the
+    second motor turns the other way, so its current has the other sign): identified in
+    actuator space (the loop solved on the joint side, the rows through N⁻ᵀ), each motor's gain
+    times |n| is the joint-side gain within one σ of it, and its friction times n² (fs: |n|) the
+    joint's within two (measured: 0.48 and 0.14 σ on the gains, 4e-5 and 1.4e-5 relative, fv_1
+    1.2 σ, with the
+    solvers in joint-side units (identify/joint_units.py), which make a serial arm's two
+    descriptions agree to 1e-12; on the closed chain a difference of that size is left,
+    not yet explained; it meets the plant's gains as the joint-side answer does); the CTC
+    feed-forward through N is the joint-side one's."""
+    import dataclasses
+
+    import yaml
+
+    from orthoglide_ident.control import CTCParameters, feedforward_currents
+    from orthoglide_ident.identify.records import motor_side
+    from orthoglide_ident.model.robots import ROBOTS_DIR
+
+    model, recs, truth = five_bar
+    n = np.array([10.0, -12.0])
+    data = yaml.safe_load((ROBOTS_DIR / "five_bar.yaml").read_text())
+    data.update(description=str(ROBOTS_DIR / "five_bar.urdf"), nominal_gains=[0.05, 0.05],
+                transmission={"actuators": ["ma", "mb"], "reduction": np.diag(n).tolist()})
+    (tmp_path / "five_bar_geared.yaml").write_text(yaml.safe_dump(data))
+    geared = load_robot(str(tmp_path / "five_bar_geared.yaml"))
+    assert geared.joint_names == ("ma", "mb") and geared.transmission.joints == ("joint_1", "joint_2")
+    records = [motor_side(dataclasses.replace(recs[k], names_v=("ma", "mb"),
+                                              v_tau=recs[k].v_tau * np.sign(n)), geared)
+               for k in ("unloaded", "1kg")]
+    res = identify_records(records, model=geared)
+    assert res.joint_names == ["ma", "mb"]
+    g_m = np.array([x.value for x in res.drive_gains])
+    g_j = np.array([x.value for x in tls.drive_gains])
+    sigma = np.array([x.rel_std for x in tls.drive_gains])
+    assert np.all(np.abs(g_m * np.abs(n) / g_j - 1) < sigma), (g_m * np.abs(n) / g_j - 1) / sigma
+    g_true = np.array([truth.drives[j].g_tau for j in ("joint_1", "joint_2")]) / np.abs(n)
+    assert np.all(np.abs(g_m / g_true - 1) < 0.001)
+    motor = {p.name: p.value for p in res.parameters}
+    joint = {p.name: p for p in tls.parameters}
+    for a, (name, nn) in enumerate(zip(("ma", "mb"), n)):
+        for kind, power in (("fv", 2), ("fs", 1)):
+            p = joint[model.standard_names[model.drive_columns(a)[kind]]]
+            assert abs(motor[f"{kind}_{name}"] * abs(nn) ** power - p.value) < 2 * abs(p.value) * p.rel_std
+    # the feed-forward through N (one current per motor) is the joint-side model's
+    t = np.arange(50) * 1e-3
+    q = np.array([1.8708, 1.2708]) + 0.1 * np.sin(np.outer(t, [3.0, 4.0]))
+    qd, qdd = 0.1 * np.cos(np.outer(t, [3.0, 4.0])) * [3.0, 4.0], -0.1 * np.sin(np.outer(t, [3.0, 4.0])) * [9.0, 16.0]
+    v_j = feedforward_currents(q, qd, qdd, CTCParameters.from_result(tls, 0.0, model=model))
+    v_m = feedforward_currents(q, qd, qdd, CTCParameters.from_result(res, 0.0, model=geared))
+    np.testing.assert_allclose((v_m * g_m) * n, v_j * g_j, rtol=2e-3)  # τ_j = Nᵀ τ_m
+

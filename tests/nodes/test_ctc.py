@@ -329,3 +329,101 @@ def test_ctc_node_through_a_coupled_transmission_feeds_each_motor(ros_env, tmp_p
         assert names == list(robot.joint_names)
         np.testing.assert_allclose(v, expected[(s - t0) // 10**6], rtol=1e-9, atol=1e-12)
     assert any(abs(v[5]) == pytest.approx(0.02) for _, v in got.values())
+
+
+def test_ctc_monitor_brings_motor_side_positions_to_the_joints(ros_env, tmp_path):
+    """position_side actuator (the hardware publishes its motors' encoders, under m1 .. m6, in its
+    own order, a gripper beside them): the tracking monitor compares q_j = N⁻¹ (q_m − offset)
+    with the joint-side setpoints, so a joint error of 10 / −20 µrad on the coupled wrist is
+    logged as that, not as the 320 .. 960 µrad it makes on the motors."""
+    pytest.importorskip("rclpy")
+    pytest.importorskip("orthoglide_msgs.msg")
+    import yaml
+    from sensor_msgs.msg import JointState
+
+    from orthoglide_msgs.msg import JointSetpoint
+    from test_control import _coupled_ur5
+
+    robot = _coupled_ur5(tmp_path)
+    path = tmp_path / "ur5_coupled_ctc.yaml"
+    data = yaml.safe_load(path.read_text())
+    data["transmission"]["position_side"] = "actuator"
+    path.write_text(yaml.safe_dump(data))
+    t = robot.transmission
+    run = _CTCRun(ros_env, ["-p", f"robot:={path}", "-p", "monitor:=true"], "test_ctc_monitor",
+                  lambda m: None)
+    pub_js = run.node.create_publisher(JointState, "/orthoglide/joint_states", 100)
+    error = np.array([0.0, 0.0, 0.0, 0.0, 10e-6, -20e-6])  # rad, joint side
+    order = [5, 2, 0, 4, 1, 3]  # the hardware's order
+    t0, step = 100 * 10**9, 10**8  # a setpoint every 0.1 s of stamps: 5 s in 51 ticks
+    q_d = 0.2 * np.sin(np.outer(np.arange(60) * 0.1, np.arange(1, 7)))
+    q_m = t.to_actuator_position(q_d + error)
+    try:
+        run.start()
+        t_end = time.monotonic() + 30
+        while pub_js.get_subscription_count() < 1:
+            assert time.monotonic() < t_end, "the monitor never subscribed"
+            run.spin(0.05)
+        for k in range(60):
+            m = JointSetpoint(name=list(t.joints), position=list(q_d[k]), velocity=[0.0] * 6,
+                              acceleration=[0.0] * 6)
+            m.header.stamp.sec, m.header.stamp.nanosec = divmod(t0 + k * step, 10**9)
+            run.pub_sp.publish(m)
+        run.spin(1.0)  # the setpoints are in before their joint states
+        for k in range(60):
+            js = JointState(name=[t.actuators[i] for i in order] + ["gripper"],
+                            position=[float(q_m[k, i]) for i in order] + [0.01])
+            js.header.stamp.sec, js.header.stamp.nanosec = divmod(t0 + k * step, 10**9)
+            pub_js.publish(js)
+            run.spin(0.003)
+        run.wait_for("tracking error over", 30)
+    finally:
+        run.close()
+    line = next(x for x in run.lines if "tracking error over" in x)
+    assert "rms 0.0 / 0.0 / 0.0 / 0.0 / 10.0 / 20.0 um, max 0.0 / 0.0 / 0.0 / 0.0 / 10.0 / 20.0 um" in line, line
+
+
+def test_ctc_node_states_its_lead_and_cpu_on_diagnostics_and_sums_up_at_exit(ros_env):
+    """Setpoints on the system clock, published in bursts ahead of their ticks: every tick gets
+    its feed-forward, /diagnostics carries the ctc's lead and CPU once a second, and the node's
+    last line sums up the run (ticks sent, lead, CPU). No timing is asserted."""
+    pytest.importorskip("rclpy")
+    from diagnostic_msgs.msg import DiagnosticArray
+
+    from orthoglide_msgs.msg import JointSetpoint
+    from orthoglide_sim.trajectories import get_trajectory
+    from test_control import true_params
+
+    p = true_params()
+    got: set[int] = set()
+    run = _CTCRun(ros_env, [], "test_ctc_diag_client", lambda m: got.add(_stamp(m)))
+    figures: list[dict[str, str]] = []
+    run.node.create_subscription(DiagnosticArray, "/diagnostics", lambda m: figures.extend(
+        {kv.key: kv.value for kv in st.values} for st in m.status if st.hardware_id == "orthoglide_ctc"), 10)
+    n = 2500
+    ref = get_trajectory("test2").evaluate(np.arange(n) * 1e-3)
+    try:
+        run.start()
+        run.publish_parameters(p, [float(v) for v in p.chi_b])
+        run.wait_for("parameters in", 30)
+        t0 = time.time_ns() + 300 * 10**6  # tick k at t0 + k ms, published ~0.2 s ahead
+        for first in range(0, n, 100):
+            run.spin(max(0.0, (t0 + (first - 200) * 10**6 - time.time_ns()) * 1e-9))
+            for k in range(first, first + 100):
+                m = JointSetpoint(name=["q11", "q12", "q13"], position=list(ref[0][k]),
+                                  velocity=list(ref[1][k]), acceleration=list(ref[2][k]))
+                m.header.stamp.sec, m.header.stamp.nanosec = divmod(t0 + k * 10**6, 10**9)
+                run.pub_sp.publish(m)
+        # the last ticks, fewer than a batch, go out as they near: no setpoint comes after them
+        run.spin_until(lambda: len(got) >= n - 1 and figures, 30, "not every tick fed, or no diagnostics")
+    finally:
+        run.close()
+    assert got == {t0 + k * 10**6 for k in range(n - 1)}  # each tick once; the last has no successor
+    sent = [f for f in figures if f["lead_min_ms"]]  # a second with ticks sent
+    assert sent and all(int(f["ticks_sent"]) > 0 and float(f["cpu_percent"]) >= 0 for f in sent)
+    assert all(float(f["lead_min_ms"]) <= float(f["lead_median_ms"]) for f in sent)
+    t_end = time.monotonic() + 10  # the reader thread may still be on the last lines
+    while not (summary := [ln for ln in run.lines if "ctc: " in ln and "ticks sent" in ln]):
+        assert time.monotonic() < t_end, "".join(run.lines[-5:])
+        time.sleep(0.05)
+    assert summary and "lead at sending min" in summary[-1] and "ctc CPU" in summary[-1], "".join(run.lines[-5:])

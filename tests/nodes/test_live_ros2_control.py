@@ -56,19 +56,21 @@ def run_live(node, records, topics, opts):
 
     model = load_robot(ROBOT)
     live = LiveIdentification(opts, model=model)
-    feed = LiveFeed(node, live, threading.Lock(), topics, robot=model)
+    feed = LiveFeed(node, live, threading.Lock(), topics, robot=model, worker=False)
     try:
         for name, rec in records.items():
             feed.on_status(_status(name, rec, True))
+            feed.turn()  # the worker applies it (here: when the test says)
             for k in range(0, len(rec.messages), FEED_TICKS):
                 for _, js, djs in rec.messages[k:k + FEED_TICKS]:
                     if js is not None:
                         feed.buffers["q"].append(js)
                     if djs is not None and "d" in feed.buffers:
                         feed.buffers["d"].append(djs)
-                feed.feed()
+                feed.turn()
             feed.on_status(_status(name, rec, False))
-            feed.feed()
+            feed.turn()  # the worker applies it (here: when the test says)
+            feed.turn()
             assert feed.bag is None, f"{name}: the recording did not end"
         return live.result(), feed.warnings
     finally:
@@ -152,7 +154,7 @@ def _spy_feed(node, records, topics=None):
 
     spy = _Spy()
     feed = LiveFeed(node, spy, threading.Lock(), topics or LiveTopics("joint_states"),
-                    robot=load_robot(ROBOT))
+                    robot=load_robot(ROBOT), worker=False)
     return spy, feed
 
 
@@ -166,17 +168,20 @@ def test_a_new_robot_model_during_a_recording_leaves_it_out(node, short_records)
     spy, feed = _spy_feed(node, short_records)
     try:
         feed.on_status(_status("run-1", rec, True))
+        feed.turn()  # the worker applies it (here: when the test says)
         for _, js, djs in rec.messages[:500]:
             feed.buffers["q"].append(js)
             feed.buffers["d"].append(djs)
-        feed.feed()
+        feed.turn()
         assert spy.started == ["run-1"] and spy.q and spy.v  # DJS chosen, fed
         spy2 = _Spy()
         feed.replace(spy2, load_robot(ROBOT))
         assert any("the robot model changed to ur5 during run-1" in w for w in feed.warnings), feed.warnings
         feed.on_status(_status("run-1", rec, True))  # the recorder's next status of the same run
+        feed.turn()  # the worker applies it (here: when the test says)
         assert spy2.started == []  # left out: not restarted half-way through
         feed.on_status(_status("run-2", rec, True))
+        feed.turn()  # the worker applies it (here: when the test says)
         assert spy2.started == ["run-2"]
     finally:
         feed.close()
@@ -190,19 +195,21 @@ def test_a_recording_without_a_current_is_left_out_with_the_reason(node, short_r
     spy, feed = _spy_feed(node, short_records, LiveTopics("joint_states", "", ""))
     try:
         feed.on_status(_status("run-1", rec, True))
+        feed.turn()  # the worker applies it (here: when the test says)
         names = rec.layout.names
         for stamp, _, _ in rec.messages[:300]:  # positions only: no effort, no other topic
             feed.buffers["q"].append(bags.encode_joint_states(names, np.array([stamp]),
                                                               np.zeros((1, len(names))))[0].tobytes())
-        feed.feed()
+        feed.turn()
         assert feed.bag == "run-1" and not feed.warnings  # waiting for a current a moment
         feed.waiting_since = time.monotonic() - 2.0
-        feed.feed()
+        feed.turn()
         assert feed.bag is None and spy.v == []
         assert feed.warnings == ["live identification leaves run-1 out: no current for shoulder_pan_joint, "
                                  "shoulder_lift_joint, elbow_joint, wrist_1_joint, wrist_2_joint, "
                                  "wrist_3_joint: /joint_states carries no effort"]
         feed.on_status(_status("run-1", rec, True))  # not tried again every second
+        feed.turn()  # the worker applies it (here: when the test says)
         assert spy.started == ["run-1"]
     finally:
         feed.close()

@@ -158,3 +158,30 @@ def test_what_is_known_of_the_payload_is_tagged_per_start(tmp_path, ros_env):
     assert bags.read_bag(tmp_path / "bags" / "point").tags.payload_known == "point"
     tags = bags.read_bag(tmp_path / "bags" / "mass").tags
     assert tags.payload_known is None and tags.knowledge == "mass"
+
+
+def test_the_robot_file_s_signal_sides_go_into_the_tag(tmp_path):
+    """A robot file with a transmission: the recorder tags its bags with the file's
+    position_side and effort_side (orthoglide.position_side, orthoglide.effort_side); without
+    one (or the Orthoglide's ""), no side keys."""
+    from orthoglide_ident import bags
+    from orthoglide_ident.model.robots import ROBOTS_DIR
+    from orthoglide_ident.nodes.recorder import robot_sides
+
+    urdf = (ROBOTS_DIR / "ur5.urdf").read_text()
+    block = "".join(
+        f"<transmission name='t{k}'><plugin>transmission_interface/SimpleTransmission</plugin>"
+        f"<actuator name='{j}'/><joint name='{j}'><mechanical_reduction>-32"
+        "</mechanical_reduction></joint></transmission>"
+        for k, j in enumerate(("shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint",
+                               "wrist_1_joint", "wrist_2_joint", "wrist_3_joint")))
+    path = tmp_path / "ur5_tx.urdf"
+    path.write_text(urdf.replace("</robot>", f"<ros2_control name='hw' type='system'>{block}"
+                                             "</ros2_control></robot>"))
+    sides = robot_sides(str(path))
+    assert sides == {"position_side": "joint", "effort_side": "actuator"}
+    tag = bags.BagTags.checked("unloaded", 0.0, **sides).to_dict()
+    assert tag[bags.POSITION_SIDE_KEY] == "joint" and tag[bags.EFFORT_SIDE_KEY] == "actuator"
+    plain = tmp_path / "ur5.urdf"
+    plain.write_text(urdf)
+    assert robot_sides(str(plain)) == {} and robot_sides("") == {}

@@ -182,6 +182,57 @@ def test_the_forces_channel_compares_the_measured_and_the_model_force(viewer):
     client.close()
 
 
+def test_a_robot_with_a_transmission_is_viewed_by_motor(ros_env, tmp_path):
+    """The coupled-wrist UR5 (tests/coupled_view.py): positions joint-side under the joints'
+    names, currents under the motors' m1 .. m6. The identified gains and the live estimate come
+    named by motor; the forces channel is per motor (measured = model for a model-consistent
+    record) with the joints' residual Nᵀ (measured − model) beside it."""
+    from coupled_view import G_MOTORS, MOTORS, N_WRIST, coupled_model, coupled_record
+    from orthoglide_msgs.msg import IdentifiedParameters, LiveIdentification
+
+    model, chi = coupled_model(tmp_path)
+    stamps, q_j, v = coupled_record(model, chi, 2.0, T0)
+    joints = list(model.transmission.joints)
+    run = ViewerRun(ros_env, ["-p", f"robot:={tmp_path / 'ur5_coupled_view.yaml'}"])
+    try:
+        client = FoxgloveClient(run.url)
+        client.subscribe(["/orthoglide/forces", "/orthoglide/identified_parameters",
+                          "/orthoglide/identification/live"])
+        run.wait_matched(("q", "v", "ident", "live"))
+        run.pub["ident"].publish(IdentifiedParameters(
+            method="tls", joint_names=list(MOTORS), drive_gains=G_MOTORS.tolist(),
+            drive_gains_rel_std=[0.001] * 6, names=list(model.names), values=[float(x) for x in chi],
+            rel_std=[0.01] * model.n_b))
+        t_end = time.monotonic() + 30
+        while not any("model force from the identified parameters" in line for line in run.lines):
+            assert time.monotonic() < t_end, "".join(run.lines)
+            time.sleep(0.05)
+        live = LiveIdentification(status="ok", joint_names=list(MOTORS), drive_gains=G_MOTORS.tolist(),
+                                  drive_gains_rel_std=[0.002] * 6, residual_rms=[0.001] * 6)
+        run.pub["live"].publish(live)
+        run.publish_ticks(stamps, joints, q_j, MOTORS, v)
+        frames = client.frames(20, until=lambda fs: sum(f.topic == "/orthoglide/forces" for f in fs) >= 80
+                               and any(f.topic == "/orthoglide/identification/live" for f in fs))
+        forces = [f.message for f in frames if f.topic == "/orthoglide/forces"]
+        assert len(forces) >= 80  # (2000 ticks - the filter's 2 x 164) / 20
+        assert all(m["name"] == list(MOTORS) and m["joint_name"] == joints for m in forces)
+        meas = np.array([m["measured"] for m in forces])
+        resid = np.array([m["residual"] for m in forces])
+        rms = np.sqrt(np.mean(meas ** 2, axis=0))
+        assert np.all(rms > 0.01)  # N·m at the motors
+        assert np.all(np.sqrt(np.mean(resid ** 2, axis=0)) < 1e-6 * rms)  # tests/view/test_residual.py
+        np.testing.assert_allclose([m["joint_residual"] for m in forces], resid @ N_WRIST, atol=1e-12)
+        for topic in ("/orthoglide/identified_parameters", "/orthoglide/identification/live"):
+            msg = next(f.message for f in frames if f.topic == topic)
+            assert [g["joint"] for g in msg["gains"]] == list(MOTORS), msg
+            assert [g["value"] for g in msg["gains"]] == pytest.approx(G_MOTORS.tolist())
+        client.close()
+    finally:
+        log = run.close()
+    assert "model force: currents from /orthoglide/current_reference" in log, log
+    assert "Traceback" not in log and "internal error" not in log, log
+
+
 def test_a_ros2_control_robot_is_viewed_from_its_broadcaster_topics(ros_env):
     """joint_states (positions, and the effort as currents) and dynamic_joint_states (the current
     interface) as config/ros2_control.yaml sets them: each on its channel, a gripper without a

@@ -93,6 +93,46 @@ def test_external_commands_limits_and_faults():
         DriverSession(current_limit=[-1.0])
 
 
+def test_session_plant_option_reduced_by_default_or_the_tree_reference():
+    """plant:=reduced (default) and plant:=tree run the same session to within the encoder's count."""
+    from orthoglide_sim.reduced_plant import ReducedIntegrator
+    from orthoglide_sim.simulator import Integrator
+
+    runs = {}
+    for plant in ("reduced", "tree"):
+        s = DriverSession(payload="1.983", trajectory="exciting", noise=False, plant=plant)
+        assert type(s.sim) is (ReducedIntegrator if plant == "reduced" else Integrator)
+        _run(s, 300)
+        runs[plant] = s.sim.q
+    assert np.abs(runs["reduced"] - runs["tree"]).max() < 1e-6
+    with pytest.raises(ConfigError, match="plant must be one of reduced, tree"):
+        DriverSession(plant="mujoco")
+
+
+def test_packed_messages_are_rclpys_serialisation():
+    """The driver publishes its per-tick messages as bytes patched in a template: the same message
+    and length as rclpy's serialisation (whose last padding bytes are not initialised: compared
+    deserialised)."""
+    from builtin_interfaces.msg import Time
+    from rclpy.serialization import deserialize_message, serialize_message
+    from sensor_msgs.msg import JointState
+
+    from orthoglide_msgs.msg import CurrentReference, JointSetpoint
+    from orthoglide_sim.packed_messages import PackedMessage
+
+    rng = np.random.default_rng(0)
+    joints = ["q11", "q12", "q13"]
+    for msg_type, fields in ((JointState, ["position"]), (CurrentReference, ["current"]),
+                             (JointSetpoint, ["position", "velocity", "acceleration"])):
+        packed = PackedMessage(msg_type, joints, fields)
+        for sec, nsec in ((0, 0), (1_764_700_000, 999_000_000), (7, 1_000)):
+            values = rng.normal(size=(len(fields), 3)) * 10.0 ** rng.integers(-6, 3)
+            msg = msg_type(name=joints, **{f: list(v) for f, v in zip(fields, values)})
+            msg.header.stamp = Time(sec=sec, nanosec=nsec)
+            raw = packed.pack(sec, nsec, *values)
+            assert len(raw) == len(serialize_message(msg)) and deserialize_message(raw, msg_type) == msg
+
+
 def _stamp(m) -> int:
     return m.header.stamp.sec * 10**9 + m.header.stamp.nanosec
 
@@ -226,3 +266,28 @@ def test_external_mode_real_time_applies_commands_from_the_next_tick(ros_env):
         assert all("left the actuator stroke" in line for line in stopped), stopped
     else:
         assert ext["ticks"] >= 2900, ext["log_tail"]
+
+
+def test_a_missing_feed_forward_is_held_a_few_ticks_then_the_pid_runs_alone():
+    """ctc: a tick's own feed-forward when it came (even long ahead, in a batch), else the last
+    one for FF_HOLD_TICKS ticks at most, then none (PID + velocity feed-forward alone), each
+    case counted; never the model current of a tick long past."""
+    from orthoglide_sim.session import FF_HOLD_TICKS
+
+    s = DriverSession(trajectory="test1", controller="ctc", noise=False)
+    s.pid.current = lambda *args: np.zeros(3)  # the PID's share out: control() is the model's
+    ff = {k: np.array([0.001, 0.002, 0.003]) * (1 + k) for k in range(2 * FF_HOLD_TICKS + 20)}
+    for k in range(10):  # one batch of 10 ticks, all ahead of their tick
+        s.offer_feedforward(k, ff[k])
+    n = 10 + FF_HOLD_TICKS + 3
+    got = []
+    for _ in range(n):
+        got.append(s.control(s.measure()))
+        s.advance()
+    want = [ff[k] for k in range(10)] + [ff[9]] * FF_HOLD_TICKS + [np.zeros(3)] * 3
+    np.testing.assert_array_equal(np.array(got), np.array(want))
+    assert (s.stats.ff_used, s.stats.ff_missing, s.stats.ff_expired) == (10, FF_HOLD_TICKS + 3, 3)
+    s.offer_feedforward(n - 5, ff[0])  # for a tick already past: never used
+    s.offer_feedforward(n, ff[n])  # a fresh one: used at its tick
+    np.testing.assert_array_equal(s.control(s.measure()), ff[n])
+    assert (s.stats.ff_used, s.stats.ff_missing) == (11, FF_HOLD_TICKS + 3)
