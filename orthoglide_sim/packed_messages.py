@@ -5,19 +5,37 @@ A JointState, CurrentReference or JointSetpoint of the driver has the same layou
 change. ``PackedMessage`` serialises one with rclpy (CDR, as ``publish(msg)`` would), finds where
 its stamp and float64 values sit, and each tick writes the new ones there (struct.pack_into) and
 hands the bytes to ``Publisher.publish`` (rclpy publishes bytes as a serialised message). The
-subscribers receive the same message as from ``publish(msg)``, byte for byte but for the
-serialiser's trailing padding, which rclpy leaves uninitialised (tests/sim/test_driver.py); the
-driver saves the Python message objects and their conversion, ~10 us per message.
+subscribers receive the same bytes as rosbags' CDR serialisation of the message
+(tests/sim/test_driver.py); the driver saves the Python message objects and their conversion,
+~10 us per message.
+
+``rclpy.serialization.serialize_message`` returns a buffer up to 8 bytes longer than the message
+(its size estimate; the tail is not initialised). Published as they are, those bytes reach the
+bag, where rosbags refuses them ("CDR message size mismatch"): the template is cut to the
+message's own length, the shortest prefix that still deserialises.
 """
 from __future__ import annotations
 
 import struct
 from typing import Any, Sequence
 
-from rclpy.serialization import serialize_message
+from rclpy.serialization import deserialize_message, serialize_message
 
 _STAMP = struct.Struct("<iI")
 _SENTINEL_SEC, _SENTINEL_NSEC = 0x5EC5EC5E, 0x0A5EC0DE  # found once in the serialised template
+
+
+def _exact(raw: bytes, msg_type: Any) -> bytes:
+    """``raw`` without the serialiser's trailing bytes: its shortest prefix that deserialises
+    (a CDR message's end is where its last field ends; no more than 8 bytes are cut)."""
+    n = len(raw)
+    while n > max(len(raw) - 8, 4):
+        try:
+            deserialize_message(raw[:n - 1], msg_type)
+        except Exception:  # too short: n is the message's length
+            break
+        n -= 1
+    return raw[:n]
 
 
 class PackedMessage:
@@ -31,7 +49,7 @@ class PackedMessage:
         sentinels = [[1.0e300 + (i * n + j) * 1.0e285 for j in range(n)] for i in range(len(fields))]
         for field, values in zip(fields, sentinels):
             setattr(msg, field, values)
-        raw = serialize_message(msg)
+        raw = _exact(serialize_message(msg), msg_type)
         self._stamp_at = self._find(raw, _STAMP.pack(_SENTINEL_SEC, _SENTINEL_NSEC), "header.stamp")
         self._values = struct.Struct(f"<{n}d")
         self._at = [self._find(raw, self._values.pack(*v), f) for f, v in zip(fields, sentinels)]

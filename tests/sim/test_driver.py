@@ -109,28 +109,42 @@ def test_session_plant_option_reduced_by_default_or_the_tree_reference():
         DriverSession(plant="mujoco")
 
 
-def test_packed_messages_are_rclpys_serialisation():
-    """The driver publishes its per-tick messages as bytes patched in a template: the same message
-    and length as rclpy's serialisation (whose last padding bytes are not initialised: compared
-    deserialised)."""
+def test_packed_messages_read_back_by_rclpy_and_rosbags():
+    """The driver publishes its per-tick messages as bytes patched in a template: rclpy reads them
+    as the message, and rosbags (strict about a message's length: the recorder writes the bytes
+    as they come) reads the same stamp and values, from as many bytes as its own serialisation
+    (rclpy's serialize_message gave JointState 8 trailing bytes more, which rosbags refused).
+    Padding bytes may differ: CDR leaves them free."""
     from builtin_interfaces.msg import Time
-    from rclpy.serialization import deserialize_message, serialize_message
+    from rclpy.serialization import deserialize_message
     from sensor_msgs.msg import JointState
 
     from orthoglide_msgs.msg import CurrentReference, JointSetpoint
     from orthoglide_sim.packed_messages import PackedMessage
 
+    from rosbags.typesys import Stores, get_types_from_msg, get_typestore
+
+    store = get_typestore(Stores.ROS2_JAZZY)  # rosbags' own, the project's two types from their files
+    for name in ("CurrentReference", "JointSetpoint"):
+        text = (Path(__file__).parents[2] / f"msg_defs/orthoglide_msgs/msg/{name}.msg").read_text()
+        store.register(get_types_from_msg(text, f"orthoglide_msgs/msg/{name}"))
     rng = np.random.default_rng(0)
     joints = ["q11", "q12", "q13"]
     for msg_type, fields in ((JointState, ["position"]), (CurrentReference, ["current"]),
                              (JointSetpoint, ["position", "velocity", "acceleration"])):
+        typename = msg_type.__module__.split(".")[0] + "/msg/" + msg_type.__name__
         packed = PackedMessage(msg_type, joints, fields)
         for sec, nsec in ((0, 0), (1_764_700_000, 999_000_000), (7, 1_000)):
             values = rng.normal(size=(len(fields), 3)) * 10.0 ** rng.integers(-6, 3)
             msg = msg_type(name=joints, **{f: list(v) for f, v in zip(fields, values)})
             msg.header.stamp = Time(sec=sec, nanosec=nsec)
             raw = packed.pack(sec, nsec, *values)
-            assert len(raw) == len(serialize_message(msg)) and deserialize_message(raw, msg_type) == msg
+            assert deserialize_message(raw, msg_type) == msg
+            back = store.deserialize_cdr(raw, typename)  # strict: refuses a wrong length
+            assert len(raw) == len(store.serialize_cdr(back, typename))
+            assert (back.header.stamp.sec, back.header.stamp.nanosec) == (sec, nsec)
+            for f, v in zip(fields, values):
+                np.testing.assert_array_equal(getattr(back, f), v)
 
 
 def _stamp(m) -> int:
