@@ -18,8 +18,9 @@ end to end, ratio 0.34-0.48 (0.65-0.68 before the closed-form regressor and the 
 FIR decimation); regressor+decimation 0.23-0.41 s (0.76-0.82 s before); peak RSS 127 MiB.
 2 x 10 min: identify 5.0 s, 402 MiB (12.3 s, 403 MiB before). bench/live_identification.py
 gives the live figures on the same bags (--keep DIR). Issue 35's like-for-like figures
-(bench/busy_machine.py, README "On a busy machine"): UR5 in-process 0.69-0.71 (0.85-0.92 before
-W's smooth columns at the decimated rows), Orthoglide 0.42.
+(bench/busy_machine.py, README "On a busy machine"), 2026-12-04: UR5 in-process 0.55-0.58
+(0.65-0.77 the same day before on the same machine; 0.85-0.92 before W's smooth columns at the
+decimated rows), Orthoglide 0.39-0.45.
 """
 from __future__ import annotations
 

@@ -11,6 +11,14 @@ from typing import Any, Mapping
 from orthoglide_ident.errors import ConfigError
 
 
+def safe_load(text: str) -> Any:
+    """``yaml.safe_load`` by libyaml's parser when PyYAML has it (10x faster: a robot file and
+    a bag's metadata are ~1 ms instead of ~8 ms of an identification), else the Python one."""
+    import yaml
+
+    return yaml.load(text, Loader=getattr(yaml, "CSafeLoader", yaml.SafeLoader))
+
+
 def load_yaml(path: str | Path, what: str) -> Any:
     """The content of the YAML file ``path`` (None when empty); ConfigError "cannot read
     {what} {path}: …" or "{what} {path} is not valid YAML: …" (first line of the reason)."""
@@ -22,7 +30,7 @@ def load_yaml(path: str | Path, what: str) -> Any:
     except OSError as exc:
         raise ConfigError(f"cannot read {what} {p}: {exc.strerror or exc}") from None
     try:
-        return yaml.safe_load(text)
+        return safe_load(text)
     except yaml.YAMLError as exc:
         raise ConfigError(f"{what} {p} is not valid YAML: {str(exc).splitlines()[0]}") from None
 

@@ -18,6 +18,8 @@ from typing import Any
 
 import yaml
 
+from orthoglide_ident.yaml_files import safe_load
+
 METADATA_VERSION = 9
 ROSBAG2_RECORD = "rosbag2"
 SERIALIZED_KEY = "serialized_metadata"
@@ -138,6 +140,6 @@ def _yaml(text: str | None) -> Any:
     if not text:
         return None
     try:
-        return yaml.safe_load(text)
+        return safe_load(text)
     except yaml.YAMLError:
         return None

@@ -18,6 +18,7 @@ import numpy as np
 import yaml
 
 from orthoglide_ident.errors import BagError
+from orthoglide_ident.yaml_files import safe_load
 
 from . import _cdr, _mcap
 from ._decode import Decoder, TopicSeries
@@ -109,7 +110,7 @@ def bag_files(path: str | Path) -> tuple[Path, list[Path], dict | None, list[str
     files: list[Path] = []
     if meta_path.is_file():
         try:
-            doc = yaml.safe_load(meta_path.read_text())
+            doc = safe_load(meta_path.read_text())
             info = doc["rosbag2_bagfile_information"]
             if info.get("storage_identifier", "mcap") != "mcap":
                 raise BagError(

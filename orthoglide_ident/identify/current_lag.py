@@ -55,8 +55,9 @@ def find_period(q: np.ndarray, period_s: float) -> int | None:
     p_min = max(2, int(round(MIN_PERIOD_S / period_s)))
     if p_max <= p_min:
         return None
-    f = np.fft.rfft(x, 2 * n, axis=0)
-    corr = np.fft.irfft(f * np.conj(f), 2 * n, axis=0)[:p_max + 1].sum(axis=1)  # Σ_k x_k·x_k+P
+    f = np.fft.rfft(np.ascontiguousarray(x.T), 2 * n, axis=1)
+    power = (f.real ** 2 + f.imag ** 2).sum(axis=0)  # the joints summed before the inverse
+    corr = np.fft.irfft(power, 2 * n)[:p_max + 1]  # Σ_k x_k·x_k+P
     sq = np.cumsum(np.concatenate([[0.0], (x * x).sum(axis=1)]))
     lags = np.arange(p_max + 1)
     head = sq[n - lags]  # Σ_{k < n-P} |x_k|²

@@ -48,6 +48,10 @@ def zero_phase_butterworth(x: np.ndarray, period_s: float, cutoff_hz: float,
     ratio = np.tan(np.pi * f * period_s) / np.tan(np.pi * cutoff_hz * period_s)
     with np.errstate(over="ignore"):
         h2 = 1.0 / (1.0 + ratio ** (2 * order))  # |H|², zero phase
+    if ext.ndim == 2:  # along contiguous rows: the FFTs run ~1.6x faster than down columns
+        X = np.fft.rfft(np.ascontiguousarray(ext.T), nfft, axis=1)
+        X *= h2
+        return np.ascontiguousarray(np.fft.irfft(X, nfft, axis=1)[:, pad:pad + n].T)
     X = np.fft.rfft(ext, nfft, axis=0)
     X *= h2.reshape((-1,) + (1,) * (x.ndim - 1))
     y = np.fft.irfft(X, nfft, axis=0)[:m]

@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 
 from orthoglide_ident.identify.essential import essential_parameters
-from orthoglide_ident.identify.factors import RecordFactors
+from orthoglide_ident.identify import uncertainty
+from orthoglide_ident.identify.factors import RecordFactors, qr_r
 from orthoglide_ident.identify.observations import Observations
 from orthoglide_ident.identify.pipeline import identify_records, read_record
 from orthoglide_ident.identify.tls import TLSProblem
@@ -109,6 +110,54 @@ def test_wls_payload_sigma_covers_correlated_errors():
     assert np.std(est) / np.mean(paper) > 2.0
     assert 0.7 < np.std(est) / np.mean(honest) < 1.3
 
+
+def _serial_rows(rng, r, n_c=12, n_j=3):
+    """Rows of a serial arm's shape (n_c, n_j, r): joint j without the columns of the bodies
+    before it nor the other joints' drive column (the last n_j before v_tau)."""
+    X = rng.standard_normal((n_c, n_j, r))
+    for j in range(n_j):
+        X[:3 * j, j] = 0.0
+        X[[n_c - 1 - n_j + k for k in range(n_j) if k != j], j] = 0.0
+    return X
+
+
+def test_moments_on_the_non_zero_columns_are_those_of_every_column(monkeypatch):
+    """Blocks and lagged products computed on each joint's non-zero columns only (a serial
+    arm's rows) are the products of every column, in pieces, across a gap and with rows
+    left out."""
+    rng = np.random.default_rng(5)
+    r, n_c = 700, 12
+    X = _serial_rows(rng, r, n_c)
+    t = np.arange(r) * DT
+    t[400:] += 0.5
+    keep = rng.random((3, r)) > 0.1
+    assert uncertainty._nonzero_columns(X.transpose(1, 2, 0), None) is not None  # compact here
+    folded = {}
+    for name in ("compact", "full"):
+        if name == "full":
+            monkeypatch.setattr(uncertainty, "_nonzero_columns", lambda Z, tail: None)
+        mom = ResidualMoments(n_c, 3, DT)
+        for a, b in ((0, 3), (3, 399), (399, 402), (402, 700)):
+            mom.fold(X[:, :, a:b], keep[:, a:b], t[a:b])
+        folded[name] = mom
+    c, f = folded["compact"], folded["full"]
+    for k in f.blocks:
+        np.testing.assert_allclose(c.blocks[k], f.blocks[k], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(c.lagged, f.lagged, rtol=0, atol=1e-12)
+    assert np.array_equal(c.pairs, f.pairs)
+
+
+def test_the_r_factor_on_the_non_zero_columns():
+    """qr_r: the Gram of every column, upper triangular; with most columns non-zero it is
+    numpy's R itself."""
+    rng = np.random.default_rng(6)
+    X = _serial_rows(rng, 200)[:, 2].T  # joint 2's rows: 4 of 12 columns non-zero
+    R = qr_r(X)
+    assert R.shape == (4, 12)
+    np.testing.assert_allclose(R.T @ R, X.T @ X, rtol=0, atol=1e-10)
+    assert np.all(np.tril(R, -1) == 0.0)
+    dense = rng.standard_normal((200, 12))
+    assert np.array_equal(qr_r(dense), np.linalg.qr(dense, mode="r"))
 
 def test_moments_fold_in_pieces_as_at_once():
     """Blocks, lagged products and the position spectrum do not depend on how rows arrive;
