@@ -2,10 +2,10 @@
 stand-in): the tick period, when a tick counts as late, and how the loop keeps its deadlines."""
 from __future__ import annotations
 
-import os
 import time
 from typing import Any
 
+from orthoglide_ident.ros.batch import real_time_thread
 from orthoglide_ident.ticks import TICK_NS  # noqa: F401  (the clock's period, for its users)
 
 LATE_NS = 500_000  # a tick published more than 0.5 ms after its deadline is late
@@ -28,9 +28,9 @@ def sleep_until(deadline_ns: int) -> None:
 def real_time_priority(priority: int, logger: Any, loop: str) -> None:
     """SCHED_FIFO at ``priority`` for this thread, so that ``loop`` keeps its deadlines while other
     nodes run; without the privilege, a warning that says what it costs."""
-    try:
-        os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(min(priority, 99)))
+    refused = real_time_thread(priority)
+    if refused is None:
         logger.info(f"{loop} at real-time priority {priority} (SCHED_FIFO)")
-    except (OSError, AttributeError) as e:
-        logger.warning(f"no real-time priority for the {loop} ({e}); ticks may be late when the machine "
-                       "is busy (set rt_priority:=0 to silence this)")
+    else:
+        logger.warning(f"no real-time priority for the {loop} ({refused}); ticks may be late when the "
+                       "machine is busy (set rt_priority:=0 to silence this)")

@@ -276,6 +276,15 @@ def _checked_record(
 
 
 _BLOCK = 4096  # ticks encoded at once by write_bag (memory O(block))
+# write_bag's layouts:
+# - orthoglide: /orthoglide/joint_states (position) and /orthoglide/current_reference;
+# - joint_states: what a ros2_control joint_state_broadcaster with
+#   map_interface_to_joint_state: {effort: current} publishes: /joint_states with position,
+#   velocity (qd, default the derivative of q) and effort = v_tau;
+# - dynamic_joint_states: the same /joint_states (effort: `effort`, default v_tau) and
+#   /dynamic_joint_states with interfaces position, velocity and current per joint.
+# The ros2_control layouts may list the joints in joint_order and add extra_joints (name ->
+# constant position; no current, NaN effort), as real hardware does.
 LAYOUTS = ("orthoglide", "joint_states", "dynamic_joint_states")
 DJS_INTERFACES = ("position", "velocity", "current")  # of an actuated joint in the sample bags
 EXTRA_INTERFACES = ("position", "velocity")  # of an extra joint (a gripper without current)
@@ -367,18 +376,10 @@ def write_bag(
     ``q`` (N, n) actuated joint positions [m or rad], ``v_tau`` (N, n) currents [A], columns in
     ``joint_names`` order. ``extra``: additional string entries for metadata.yaml custom_data
     (e.g. the simulator's seed); ``payload``: ``payload_frame``, ``payload_com``,
-    ``payload_inertia`` for the tag (:class:`BagTags`). ``layout``:
-
-    - ``orthoglide``: /orthoglide/joint_states (position) and /orthoglide/current_reference;
-    - ``joint_states``: what a ros2_control joint_state_broadcaster with
-      ``map_interface_to_joint_state: {effort: current}`` publishes: /joint_states with
-      position, velocity (``qd``, default the derivative of q) and effort = ``v_tau``;
-    - ``dynamic_joint_states``: the same /joint_states (effort: ``effort``, default ``v_tau``)
-      and /dynamic_joint_states with interfaces position, velocity and current per joint.
-
-    ros2_control layouts may list the joints in ``joint_order`` and add ``extra_joints``
-    (name -> constant position; no current, NaN effort), as real hardware does; with
-    ``tag_sources`` their tag names the topics and fields that carry q and the current.
+    ``payload_inertia`` for the tag (:class:`BagTags`). ``layout``: one of :data:`LAYOUTS`
+    (the topics each writes, ``qd``, ``effort``, ``joint_order`` and ``extra_joints`` there);
+    with ``tag_sources`` a ros2_control layout's tag names the topics and fields that carry q
+    and the current.
     ``effort_unit`` (``A`` | ``torque``) tags what ``v_tau`` holds when it is not a current
     (``orthoglide.effort_unit``; None: untagged, read as a current). ``position_side``,
     ``effort_side`` (``joint`` | ``actuator``) tag whose positions and currents they are for a
@@ -396,12 +397,7 @@ def write_bag(
     elif any(x is not None for x in (qd, effort, joint_order, extra_joints)):
         raise DataError("layout 'orthoglide' publishes q and v_tau only: qd, effort, joint_order "
                         "and extra_joints are for the ros2_control layouts")
-    sources = {}
-    if robot is not None and tag_sources:
-        current = (f"{DYNAMIC_JOINT_STATES_TOPIC} current" if layout == "dynamic_joint_states"
-                   else f"{ROS2_CONTROL_JOINT_STATES_TOPIC} effort")
-        sources = {"position_source": f"{ROS2_CONTROL_JOINT_STATES_TOPIC} position",
-                   "current_source": current}
+    sources = _source_tags(layout) if robot is not None and tag_sources else {}
     tags = BagTags.checked(condition, payload_mass, **dict(payload or {}), **sources,
                            effort_unit=effort_unit, position_side=position_side,
                            effort_side=effort_side)
@@ -413,15 +409,29 @@ def write_bag(
             topics = _orthoglide_topics(w, names, q, v_tau)
         else:
             topics = _ros2_control_topics(w, robot, layout == "dynamic_joint_states")
-        for i in range(0, len(stamps), _BLOCK):
-            k = slice(i, i + _BLOCK)
-            rows = tuple(encode(k, stamps[k]) for _, encode in topics)
-            _write_ticks(w, tuple(c for c, _ in topics), rows, stamps[k])
+        _write_blocks(w, topics, stamps)
         w.close()
     except BaseException:
         w.abort()
         raise
     return Path(path)
+
+
+def _source_tags(layout: str) -> dict[str, str]:
+    """The tag's position and current sources of a ros2_control layout (the topics and fields)."""
+    current = (f"{DYNAMIC_JOINT_STATES_TOPIC} current" if layout == "dynamic_joint_states"
+               else f"{ROS2_CONTROL_JOINT_STATES_TOPIC} effort")
+    return {"position_source": f"{ROS2_CONTROL_JOINT_STATES_TOPIC} position",
+            "current_source": current}
+
+
+def _write_blocks(w: BagWriter, topics: list[tuple[int, Callable[[slice, np.ndarray], np.ndarray]]],
+                  stamps: np.ndarray) -> None:
+    """Every tick of ``topics`` (channel, encoder of a tick block), encoded _BLOCK ticks at a time."""
+    for i in range(0, len(stamps), _BLOCK):
+        k = slice(i, i + _BLOCK)
+        rows = tuple(encode(k, stamps[k]) for _, encode in topics)
+        _write_ticks(w, tuple(c for c, _ in topics), rows, stamps[k])
 
 
 def _orthoglide_topics(w: BagWriter, names: tuple[str, ...], q: np.ndarray, v_tau: np.ndarray
