@@ -24,6 +24,7 @@ from orthoglide_ident.ros.spin import spin
 from orthoglide_msgs.msg import CurrentReference, JointSetpoint
 from orthoglide_sim.packed_messages import PackedMessage
 from orthoglide_sim.session import FF_HOLD_TICKS, DriverSession
+from orthoglide_sim.ticks_ahead import TicksAhead
 from orthoglide_sim.tick_clock import LATE_NS, TICK_NS, real_time_priority, sleep_until
 from orthoglide_sim.true_parameters import load_parameters
 
@@ -45,7 +46,12 @@ Once a second it publishes its counters on /diagnostics (diagnostic_msgs/Diagnos
 robot drivers do): ticks, late ticks, current-limited ticks, fresh and missing feed-forwards,
 commands applied and ticks without one, the fault if any. A ctc tick whose own feed-forward has
 not arrived holds the last one for 20 ticks at most, then runs on PID + velocity feed-forward
-alone (feedforward_expired) until a fresh one comes."""
+alone (feedforward_expired) until a fresh one comes.
+In real time the simulated robot computes its ticks up to 10 at a time ahead of their deadlines
+wherever their inputs are known (pid, pid_ff; ctc once the tick's feed-forward is in; never
+external) and publishes each at its deadline: a parameter change or a reset reaches the plant at
+the first tick not yet computed, within 10 ms, and setpoints go out setpoint_lead to
+setpoint_lead + 10 ticks ahead (orthoglide_sim/ticks_ahead.py)."""
 
 PARAMETERS = (
     Param("robot", "", "empty or orthoglide: this driver; another robot (ur5, a robot YAML or a URDF): the "
@@ -95,10 +101,14 @@ class Driver(Node):
         self.session = DriverSession(v["payload"], v["trajectory"], v["controller"],
                                      load_parameters(v["params_file"] or None), v["seed"], v["noise"],
                                      v["current_limit"], v["setpoint_lead"], v["plant"])
+        self.ahead = TicksAhead(self.session)
         self.lock = threading.Condition()
         self.finished = False
         self.late = 0
         self.start_ns = 0
+        self.k = 0  # the next tick to publish (the session may have computed further: self.ahead)
+        self._said_fault = False
+        self._periodic_at = 0  # self.k at the last status line / diagnostics check
         # reliable, keep last HISTORY_TICKS: a subscriber starved of CPU (or stopped) for a moment
         # gets the ticks its DDS reader missed resent from this history (depth 100 lost ~280 on a
         # 0.5 s stall; a history shorter than the stall loses the oldest ticks of it)
@@ -184,6 +194,11 @@ class Driver(Node):
     def _on_reset(self, request, response):
         with self.lock:
             was = self.session.fault
+            if was and self.ahead.ticks:  # computed ahead: the ticks before it are not out yet
+                response.success = False
+                response.message = (f"the robot stops at a tick {len(self.ahead.ticks)} ms from now ({was}): "
+                                    "call reset again once it has")
+                return response
             self.session.reset()
         response.success = True
         response.message = f"robot back on its reference (was stopped: {was})" if was else "no fault to clear"
@@ -256,18 +271,57 @@ class Driver(Node):
         gc.collect()
         gc.freeze()  # what exists now is never scanned again: no collection pause in the loop
         t_end = None if n_ticks is None else self.t0 + n_ticks * TICK_NS
-        while not stop.is_set() and (n_ticks is None or s.k < n_ticks):
-            if s.fault and t_end is not None and (not self.realtime or time.monotonic_ns() > t_end):
+        while not stop.is_set() and (n_ticks is None or self.k < n_ticks):
+            stopped = s.fault and not self.ahead.ticks  # the tick that stopped the plant is out
+            if stopped and t_end is not None and (not self.realtime or time.monotonic_ns() > t_end):
                 break  # a run of given duration ends when its time is up, or stopped in simulated time
-            if s.fault:
+            if stopped:
+                self._periodic()
                 self._idle_in_fault(stop)
                 continue
             if self.realtime:
-                sleep_until(self.t0 + s.k * TICK_NS)
-            if not self._tick():
+                self._refill(n_ticks)
+                sleep_until(self.t0 + self.k * TICK_NS)
+            if not (self._tick_ahead() if self.realtime else self._tick()):
                 break
         self.finished = True
         self._summary()
+
+    def _refill(self, n_ticks: int | None) -> None:
+        """Real time, once every tick computed is out: the next ticks whose inputs are in,
+        computed now (TicksAhead), their setpoints published. The counters are exactly those of
+        the published ticks here, so the periodic log and /diagnostics go out here."""
+        if self.ahead.ticks:
+            return
+        self._periodic()
+        with self.lock:
+            self.ahead.refill(n_ticks)
+        try:
+            for k, sp in self.ahead.take_setpoints():
+                self._publish_setpoint(k, sp)
+        except Exception:
+            if self.context.ok():
+                raise  # a bug: the node ends with code 1 and the reason (ros.spin)
+
+    def _tick_ahead(self) -> bool:
+        """Real time: publish tick k at its deadline, computed ahead (or now, if its input came
+        late: ctc and external)."""
+        with self.lock:
+            tick = self.ahead.take()
+            setpoints = self.ahead.take_setpoints()
+        if time.monotonic_ns() - (self.t0 + tick.k * TICK_NS) > LATE_NS:
+            self.late += 1
+        try:
+            self._publish_js(tick.k, tick.q_meas)
+            self.pub_cr.publish(self.packed_cr.pack(*self._sec_nsec(tick.k), tick.v_tau))
+            for k, sp in setpoints:
+                self._publish_setpoint(k, sp)
+        except Exception:
+            if self.context.ok():
+                raise  # a bug: the node ends with code 1 and the reason (ros.spin)
+            return False  # Ctrl-C shut the context down between the check and the publish
+        self.k = tick.k + 1
+        return True
 
     def _tick(self) -> bool:
         """One tick: measure, control, publish, integrate. In simulated time with an outside
@@ -301,25 +355,35 @@ class Driver(Node):
             return False  # Ctrl-C shut the context down between the check and the publish
         with self.lock:
             s.advance()
-        if s.fault:
-            self.get_logger().error(f"stopped: {s.fault}; call {self.get_name()}/reset to put the robot "
-                                    "back on its reference")
-        elif s.k % STATUS_PERIOD_TICKS == 0:
-            self.get_logger().info(self._status())
-        if s.k % DIAGNOSTICS_PERIOD_TICKS == 0 or s.fault:
-            self._publish_diagnostics()
+        self.k = s.k if not s.fault else k + 1
+        self._periodic()
         return True
+
+    def _periodic(self) -> None:
+        """The status line every STATUS_PERIOD_TICKS, /diagnostics every DIAGNOSTICS_PERIOD_TICKS
+        published ticks, and the fault once, when the tick that stopped the plant is out."""
+        k, last = self.k, self._periodic_at
+        self._periodic_at = k
+        stopped = self.session.fault is not None and not self.ahead.ticks
+        if stopped and not self._said_fault:
+            self._said_fault = True
+            self.get_logger().error(f"stopped: {self.session.fault}; call {self.get_name()}/reset to put "
+                                    "the robot back on its reference")
+        elif k // STATUS_PERIOD_TICKS > last // STATUS_PERIOD_TICKS:
+            self.get_logger().info(self._status())
+        if k // DIAGNOSTICS_PERIOD_TICKS > last // DIAGNOSTICS_PERIOD_TICKS or (stopped and k != last):
+            self._publish_diagnostics()
 
     def _publish_diagnostics(self) -> None:
         """The counters on /diagnostics (rqt_robot_monitor, Foxglove and the demo read them)."""
         s, st = self.session, self.session.stats
-        values = {"ticks": s.k, "late": self.late, "current_limited": st.saturated,
+        values = {"ticks": self.k, "late": self.late, "current_limited": st.saturated,
                   "feedforward_fresh": st.ff_used, "feedforward_missing": st.ff_missing,
                   "feedforward_expired": st.ff_expired,
                   "commands_applied": sum(st.command_ages.values()), "no_command": st.no_command,
                   "controller": s.controller, "fault": s.fault or ""}
         level = DiagnosticStatus.ERROR if s.fault else (
-            DiagnosticStatus.WARN if self.late > 0.01 * max(s.k, 1) else DiagnosticStatus.OK)
+            DiagnosticStatus.WARN if self.late > 0.01 * max(self.k, 1) else DiagnosticStatus.OK)
         status = DiagnosticStatus(level=level, name=f"{self.get_fully_qualified_name()}: tick loop", hardware_id="orthoglide_sim",
                                   message=s.fault or self._status(),
                                   values=[KeyValue(key=k, value=str(v)) for k, v in values.items()])
@@ -333,13 +397,14 @@ class Driver(Node):
     def _idle_in_fault(self, stop: threading.Event) -> None:
         """The robot is stopped: wait for a reset, then go on from now (stamps keep their grid)."""
         stop.wait(0.05)
-        if not self.session.fault:
-            self.t0 = time.monotonic_ns() - self.session.k * TICK_NS
-            self.start_ns = time.time_ns() - self.session.k * TICK_NS
+        if not self.session.fault:  # reset: the session goes on from the tick that stopped it
+            self.k, self._said_fault = self.session.k, False
+            self.t0 = time.monotonic_ns() - self.k * TICK_NS
+            self.start_ns = time.time_ns() - self.k * TICK_NS
 
     def _status(self) -> str:
         st = self.session.stats
-        text = f"{self.session.k} ticks, {self.late} late (> 0.5 ms), {st.saturated} current-limited"
+        text = f"{self.k} ticks, {self.late} late (> 0.5 ms), {st.saturated} current-limited"
         if st.ff_used or st.ff_missing:
             text += f", feed-forward: {st.ff_used} fresh, {st.ff_missing} missing (held)"
             if st.ff_expired:

@@ -258,7 +258,28 @@ class DriverSession:
     def has_command_from(self, k: int) -> bool:
         return self._command is not None and self._command[0] >= k
 
+    def ready_ahead(self, limit: int) -> int:
+        """How many ticks from k on can be computed now without waiting for an input (``limit``
+        at most): under pid and pid_ff every one, under ctc those whose feed-forward is in (one
+        after another), under external none (its command comes from the tick's own state)."""
+        if self.fault or self.controller == "external":
+            return 0
+        if self.controller != "ctc":
+            return max(limit, 0)
+        n = 0
+        while n < limit and self.k + n in self._feedforward:
+            n += 1
+        return n
+
     # ---- one tick --------------------------------------------------------------------------------
+    def step(self) -> tuple[np.ndarray, np.ndarray]:
+        """Tick k whole: its encoder reading and current (q_meas, v_tau), the plant advanced to
+        k + 1 (or stopped: ``fault``)."""
+        q = self.measure()
+        v = self.control(q)
+        self.advance()
+        return q, v
+
     def measure(self) -> np.ndarray:
         """q_meas (3,) m of tick k: the 1 um encoder reading."""
         return sm.quantise(self.sim.q)
