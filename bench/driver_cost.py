@@ -1,22 +1,26 @@
 """Where the simulated Orthoglide driver's CPU goes, tick by tick, with the node set running.
 
-    PYTHONPATH=. .venv/bin/python bench/driver_cost.py [--seconds 10] [--plant reduced|pinocchio]
-                                                      [--payload 1.983] [--controller pid]
+    PYTHONPATH=. .venv/bin/python bench/driver_cost.py [--seconds 10] [--plant reduced|tree]
+                                                      [--payload 1.983] [--controller pid] [--hog N]
 
 Starts the recorder, the live identification and the ctc as `make demo` does (they subscribe to
 the driver's topics, so its publishing does the DDS work it does in the demo), then the driver in a
 child process of this script, instrumented: the CPU time of its tick-loop thread
 (time.thread_time_ns) spent in each part of a tick is summed over the run and printed per tick:
 
-  plant       DriverSession.advance (the plant integrated over the tick, the current noise)
+  plant       DriverSession.advance (the plant integrated over the tick, the current noise), in
+              blocks of ticks computed ahead of their deadlines (orthoglide_sim.ticks_ahead)
   controller  DriverSession.measure + control (encoder, PID, setpoint, limit)
-  publish     JointState, CurrentReference and JointSetpoint built and published (3 per tick)
+  publish     JointState and CurrentReference built and published at every tick, the JointSetpoints
+              of the ticks computed ahead (ticks_ahead: up to 10 at a time)
   wait        tick_clock.sleep_until's spin to the deadline (the loop's own busy wait)
   rest        the rest of the tick loop (locks, stamps, counters, /diagnostics once a second)
   threads     every other thread of the process (executor, inputs' batch taker, DDS)
 and the whole process's CPU over the run in % of one core, in that run and in a run without the
 timers before it (the figure `make demo` prints as "CPU while recording: driver ..."; the timers'
-clock reads cost CPU of their own). Timing figures depend on what else the machine runs.
+clock reads cost CPU of their own). Each is measured quiet, then with ``--hog N`` busy processes
+beside it (default one per core minus one), side by side. Timing figures depend on what else the
+machine runs: the load average is printed with them.
 """
 from __future__ import annotations
 
@@ -85,23 +89,14 @@ def split(r: dict) -> dict[str, float]:
     return {k: v / n / 1e3 for k, v in parts.items()}
 
 
-def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--seconds", type=float, default=10.0, help="s of real-time ticks (default 10)")
-    ap.add_argument("--plant", default=None, help="the driver's plant parameter (default: the driver's own)")
-    ap.add_argument("--payload", default="1.983")
-    ap.add_argument("--controller", default="pid")
-    ap.add_argument("--child", default=None, help=argparse.SUPPRESS)
-    ap.add_argument("--plain", action="store_true", help=argparse.SUPPRESS)
-    args, rest = ap.parse_known_args(argv)
-    if args.child:
-        return child(args.child, rest, args.plain)
+def measure(seconds: float, params: list[str]) -> tuple[dict, dict]:
+    """The driver's timed and untimed runs beside the recorder, identification and ctc."""
     from orthoglide_ident._install_ament import ROOT
     from orthoglide_sim.graph import Graph
 
     config = ROOT / "config"
     with tempfile.TemporaryDirectory() as tmp:
-        out, result = Path(tmp), Path(tmp) / "split.json"
+        out = Path(tmp)
         with Graph(out / "logs") as g:
             g.start("orthoglide_recorder", "recorder", {"output_dir": str(out / "bags")},
                     params_file=config / "recorder.yaml")
@@ -109,30 +104,59 @@ def main(argv: list[str] | None = None) -> int:
                     params_file=config / "identification.yaml")
             g.start("orthoglide_ctc", "ctc", params_file=config / "ctc.yaml")
             time.sleep(3.0)  # the subscribers are up before the first tick
-            params = [f"duration:={args.seconds}", f"payload:={args.payload}", f"controller:={args.controller}",
-                      "trajectory:=exciting"] + ([f"plant:={args.plant}"] if args.plant else [])
             runs = {}
-            for mode, path in (("plain", out / "plain.json"), ("timed", result)):
+            for mode in ("plain", "timed"):
+                path = out / f"{mode}.json"
                 cmd = [sys.executable, __file__, "--child", str(path)] + (["--plain"] if mode == "plain" else [])
                 for p in params:
                     cmd += ["-p", p]
                 proc = subprocess.run(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
-                                      timeout=args.seconds + 120, env=dict(os.environ, PYTHONPATH=str(ROOT)))
+                                      timeout=seconds + 120, env=dict(os.environ, PYTHONPATH=str(ROOT)))
                 if not path.exists():
-                    print(f"driver_cost: the driver did not finish: {proc.stderr.strip().splitlines()[-3:]}",
-                          file=sys.stderr)
-                    return 1
+                    raise RuntimeError(f"the driver did not finish: {proc.stderr.strip().splitlines()[-3:]}")
                 runs[mode] = json.loads(path.read_text())
-        r, plain = runs["timed"], runs["plain"]
-    per_tick = split(r)
-    total = sum(per_tick.values())
-    print(f"driver, {r['ticks']} ticks at 1 kHz ({args.controller}, payload {args.payload}, plant "
-          f"{args.plant or 'default'}), {r['late']} late; CPU per tick (us) with recorder, "
-          f"identification, ctc running; load average {os.getloadavg()[0]:.1f}:")
-    for k in PARTS:
-        print(f"  {k:<11} {per_tick[k]:7.1f}  ({100 * per_tick[k] / total:4.1f} %)")
-    print(f"  {'total':<11} {total:7.1f}; process CPU {100 * r['process_ns'] / r['wall_ns']:.0f} % of one core "
-          f"(timed), {100 * plain['process_ns'] / plain['wall_ns']:.0f} % in a run without the timers")
+    return runs["timed"], runs["plain"]
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--seconds", type=float, default=10.0, help="s of real-time ticks (default 10)")
+    ap.add_argument("--plant", default=None, help="the driver's plant parameter (default: the driver's own)")
+    ap.add_argument("--payload", default="1.983")
+    ap.add_argument("--controller", default="pid")
+    ap.add_argument("--hog", type=int, default=max((os.cpu_count() or 2) - 1, 1),
+                    help="busy processes beside the second run (default: one per core minus one; 0: quiet only)")
+    ap.add_argument("--child", default=None, help=argparse.SUPPRESS)
+    ap.add_argument("--plain", action="store_true", help=argparse.SUPPRESS)
+    args, rest = ap.parse_known_args(argv)
+    if args.child:
+        return child(args.child, rest, args.plain)
+    from busy_machine import cpu_hog  # bench/ is on the path: this script's folder
+
+    params = [f"duration:={args.seconds}", f"payload:={args.payload}", f"controller:={args.controller}",
+              "trajectory:=exciting"] + ([f"plant:={args.plant}"] if args.plant else [])
+    columns = {}
+    for hog in sorted({0, args.hog}):
+        with cpu_hog(hog):
+            try:
+                columns["quiet" if not hog else f"hog {hog}"] = measure(args.seconds, params) + (os.getloadavg()[0],)
+            except RuntimeError as e:
+                print(f"driver_cost: {e}", file=sys.stderr)
+                return 1
+    print(f"driver at 1 kHz for {args.seconds:g} s ({args.controller}, payload {args.payload}, plant "
+          f"{args.plant or 'default'}) with recorder, identification, ctc running; CPU per tick (us):")
+    print(f"  {'':<11}" + "".join(f"{name:>16}" for name in columns))
+    splits = {name: split(r) for name, (r, _, _) in columns.items()}
+    for k in PARTS + ("total",):
+        cells = [sum(sp.values()) if k == "total" else sp[k] for sp in splits.values()]
+        print(f"  {k:<11}" + "".join(f"{c:16.1f}" for c in cells))
+    rows = {"process CPU, % of a core (timed)": lambda r, p: 100 * r["process_ns"] / r["wall_ns"],
+            "process CPU, % of a core (untimed)": lambda r, p: 100 * p["process_ns"] / p["wall_ns"],
+            "late ticks (untimed run)": lambda r, p: p["late"]}
+    for label, f in rows.items():
+        print(f"  {label:<36}" + "".join(f"{f(r, p):8.0f}" for r, p, _ in columns.values()))
+    print("  load average: " + ", ".join(f"{name} {load:.1f}" for name, (_, _, load) in columns.items())
+          + "; bar (issue 35): the untimed run <= 25 % of a core, also beside the hog")
     return 0
 
 
