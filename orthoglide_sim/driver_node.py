@@ -309,6 +309,8 @@ class Driver(Node):
         with self.lock:
             tick = self.ahead.take()
             setpoints = self.ahead.take_setpoints()
+        if tick is None:  # an input refused since the loop looked: the robot is stopped
+            return True
         if time.monotonic_ns() - (self.t0 + tick.k * TICK_NS) > LATE_NS:
             self.late += 1
         try:

@@ -48,11 +48,12 @@ class TicksAhead:
         self.ticks: deque[Tick] = deque()
         self.setpoints: list[tuple[int, tuple]] = []  # (tick, (q_d, qd_d, qdd_d)) not yet published
 
-    def take(self) -> Tick:
-        """The next tick: computed ahead, or now (at its deadline) if its input had not come."""
+    def take(self) -> Tick | None:
+        """The next tick: computed ahead, or now (at its deadline) if its input had not come;
+        None once the plant has stopped (``session.fault``, also set by a refused input)."""
         if not self.ticks:
             self._compute(1)
-        return self.ticks.popleft()
+        return self.ticks.popleft() if self.ticks else None
 
     def refill(self, until: int | None = None) -> None:
         """Once every computed tick is out: compute the ticks whose inputs are in, ``block`` at

@@ -305,3 +305,68 @@ def test_a_missing_feed_forward_is_held_a_few_ticks_then_the_pid_runs_alone():
     s.offer_feedforward(n, ff[n])  # a fresh one: used at its tick
     np.testing.assert_array_equal(s.control(s.measure()), ff[n])
     assert (s.stats.ff_used, s.stats.ff_missing) == (11, FF_HOLD_TICKS + 3)
+
+
+def test_real_time_fault_then_reset_then_on_again(ros_env):
+    """Real time, ctc, ticks computed ahead: a NaN feed-forward stops the robot (said once, no
+    tick published after the stop), reset puts it back and the ticks go on with later stamps; a
+    second reset with no fault says so."""
+    rclpy = pytest.importorskip("rclpy")
+    from rclpy.qos import QoSProfile, ReliabilityPolicy
+    from sensor_msgs.msg import JointState
+    from std_srvs.srv import Trigger
+
+    from orthoglide_msgs.msg import CurrentReference
+
+    rclpy.init()
+    node = rclpy.create_node("test_driver_fault")
+    js: list[int] = []
+    qos = QoSProfile(depth=5000, reliability=ReliabilityPolicy.RELIABLE)
+    node.create_subscription(JointState, "/orthoglide/joint_states", lambda m: js.append(_stamp(m)), qos)
+    pub = node.create_publisher(CurrentReference, "/orthoglide/feedforward", qos)
+    reset = node.create_client(Trigger, "/orthoglide_driver/reset")
+    proc = children.popen([sys.executable, "-m", "orthoglide_sim.driver_node", "--ros-args", "-p", "duration:=30.0",
+                           "-p", "controller:=ctc", "-p", "trajectory:=test1", "-p", "rt_priority:=0"],
+                          env=ros_env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+
+    def spin_until(ready, timeout):
+        t_end = time.monotonic() + timeout
+        while not ready() and time.monotonic() < t_end and proc.poll() is None:
+            rclpy.spin_once(node, timeout_sec=0.01)
+        return ready()
+
+    def quiet_for(seconds):  # no joint state for ``seconds`` (within 20 s)
+        t_end, n, t_last = time.monotonic() + 20.0, len(js), time.monotonic()
+        while time.monotonic() < t_end and proc.poll() is None:
+            rclpy.spin_once(node, timeout_sec=0.01)
+            if len(js) != n:
+                n, t_last = len(js), time.monotonic()
+            elif time.monotonic() - t_last > seconds:
+                return True
+        return False
+
+    def call_reset():
+        future = reset.call_async(Trigger.Request())
+        assert spin_until(future.done, 10.0)
+        return future.result()
+
+    try:
+        assert spin_until(lambda: len(js) > 300, 60.0)
+        msg = CurrentReference(name=["q11", "q12", "q13"], current=[float("nan"), 0.0, 0.0])
+        msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(js[-1] + 100_000_000, 1_000_000_000)
+        pub.publish(msg)
+        assert quiet_for(0.5)  # the ticks computed before the stop, then none
+        n_stopped = len(js)
+        assert reset.wait_for_service(timeout_sec=10.0)
+        first = call_reset()
+        assert first.success and "was stopped: refused feed-forward" in first.message, first.message
+        assert spin_until(lambda: len(js) > n_stopped + 300, 10.0)
+        again = call_reset()
+        assert again.success and again.message == "no fault to clear"
+    finally:
+        proc.terminate()
+        out = proc.communicate(timeout=30)[0]
+        node.destroy_node()
+        rclpy.shutdown()
+    assert np.all(np.diff(js) > 0)  # the stamps go on after the stop: later, never repeated
+    assert out.count("]: stopped: refused feed-forward") == 1, out

@@ -121,3 +121,16 @@ def test_a_fault_ends_the_ticks_at_the_one_that_caused_it():
         ks.append(ahead.take().k)
     assert s.fault and "stroke" in s.fault
     assert ks == list(range(len(ks))) and s.k == ks[-1]  # the last one out is the tick that stopped it
+
+
+def test_a_refused_input_stops_the_plant_after_the_ticks_already_computed():
+    s = DriverSession(trajectory="test1", controller="ctc", noise=False)
+    ahead = TicksAhead(s, 10)
+    for k in range(10):
+        s.offer_feedforward(k, np.zeros(3))
+    ahead.refill()
+    s.offer_feedforward(12, [float("nan"), 0.0, 0.0])  # refused: the robot stops
+    assert s.fault and "not three finite currents" in s.fault
+    assert [ahead.take().k for _ in range(10)] == list(range(10))  # computed before: still out
+    ahead.refill()
+    assert ahead.take() is None and not ahead.ticks
