@@ -60,14 +60,14 @@ def smooth_columns_at_rows(model_block: Callable, x: np.ndarray, n_d: int, r: in
     spread of the states over it, to second order ½ tr(∇²W C), C = Σ h_l (x_l - x̃)(x_l - x̃)ᵀ.
     Two points x̃ ± d averaged add ½ dᵀ∇²W d (the unscented transform of the window):
     d_q = √M2 T q̂̇ and d_q̇ = √M2 T q̂̈, the states' slopes over the window (M2 = Σ h_l l²,
-    2.3 samples² at n_d = 10). W is linear in q̈ with coefficients in q, so q̈'s only term is
-    C_qq̈ = T q̂̇ Σ h_l l q̈_l (q a straight line over the window): d_q̈ = Σ h_l l q̈_l / √M2,
-    q̈'s first moment, gives it whatever q̈'s spectrum. Its slope √M2 T q̈̇ (the moment of a
-    Gaussian filter) did not: this FIR's pass band is flat, and a closed loop's 20-50 Hz in q̈
-    have 2-40 times that moment (0.137 σ on the coupled-wrist plant's yz_3R). q̇'s slope is
-    kept: W is quadratic in q̇, whose content above the pass band counts in C_q̇q̇, and the
-    slope gives C_q̇q̇'s mean within 20 % on the MuJoCo records, the first moment 1.2-3.4 times
-    it (its 20-50 Hz made too much of)."""
+    2.3 samples² at n_d = 10). W is linear in q̈ with coefficients in q, so q̈'s only
+    second-order term is C_qq̈ = T q̂̇ Σ h_l l q̈_l (q a straight line over the window):
+    d_q̈ = Σ h_l l q̈_l / √M2, q̈'s first moment, gives it whatever q̈'s spectrum. Its slope
+    √M2 T q⃛ (the moment of a Gaussian filter) did not: this FIR's pass band is flat, and at
+    20-50 Hz, where a closed loop puts a few % of q̈'s power, the first moment is 2-40 times
+    the slope's (0.137 σ on the coupled-wrist plant's yz_3R). q̇'s slope is kept: W is
+    quadratic in q̇, whose content above the pass band counts in C_q̇q̇; the slope gives
+    C_q̇q̇'s mean within 20 % on the MuJoCo records, the first moment 1.2-3.4 times it."""
     n_j = x.shape[0] // 3
     s, k = spread_taps(n_d)
     xt = fir_decimate_last(x, n_d, r)  # x̃: (3 n_j, r)
