@@ -3,17 +3,23 @@
 The paper's parallel decimation (eqs. 19-20) filters Y and every column of W by the same
 low-pass, then keeps one sample in n_d. A column that is a smooth function of the filtered
 states q̂, q̂̇, q̂̈ — every rigid-body and payload column, ia q̈, fv q̇, tauoff — commutes with that
-filter to second order: the states' content above the filter's pass band is small (noise), so
-the filtered column is the column of the filtered states, w(h * x) ≈ h * w(x). What differs is
-the spread of the states over the filter's window (second order, the FIR's droop in its pass
-band: :func:`smooth_columns_at_rows` restores it with two points) and products of the content
+filter to second order: the filtered column is the column of the filtered states,
+w(h * x) ≈ h * w(x), plus the spread of the states over the filter's window, which
+:func:`smooth_columns_at_rows` restores with two points (q's and q̇'s slopes, q̈'s first moment
+over the window: a closed loop's 20-50 Hz in q̈ are not a slope), and products of the content
 above the pass band. Such columns are therefore built at the kept instants only, from the
 states passed through the same FIR: n_d / 2 times fewer regressor evaluations and none of W's
-columns filtered. Measured on the UR5's 2 x 60 s bags: gains within 0.016 σ, base parameters
-within 0.035 σ of the sample-rate path (0.0157 σ, 0.0349 σ with the anchors below) (0.054 σ and 0.097 σ from one point, x̃; eq. 39's σ);
-the Panda record 0.028 σ (0.040 σ). The rough columns, which jump where a velocity
-reverses — sign(q̂̇) Coulomb friction, the lag instrument, the ripple — and v_τ stay on the
-sample-rate path (the model names them: ``rough_columns``, ``rough_block``).
+columns filtered. Measured 2026-12-05 against the sample-rate path (bench/rows_vs_samples.py,
+in the reported σ; eqs. 38-39's where it differs): the UR5's 2 x 60 s bags, gains within
+0.0022 σ, base parameters within 0.0028 σ; the MuJoCo coupled-wrist plant's 2 x 60 s records
+0.0042 σ and 0.0071 σ (0.0081 σ), through simple transmissions 0.0032 σ and 0.0079 σ; the
+Panda record 0.0088 σ (0.0115 σ). With q̈'s spread taken as √M2 T times its jerk (2026-12-04):
+0.016 σ and 0.035 σ, 0.090 σ and 0.137 σ (yz_3R: over issue 35's 0.1 σ; the plant's records
+are ~3 times quieter than the UR5's for the same error of the rows), 0.074 σ and 0.117 σ,
+0.015 σ (0.029 σ); from one point, x̃, 0.054 σ and 0.097 σ on the UR5. The rough columns,
+which jump where a velocity reverses — sign(q̂̇) Coulomb friction, the lag instrument, the
+ripple — and v_τ stay on the sample-rate path (the model names them: ``rough_columns``,
+``rough_block``).
 
 A reversal bridge (reversals.py) replaces joint j's whole equation on states s..e-1 by the line
 between the means of its anchors [lo, s) and [e, hi). :class:`BridgeCorrections` builds the
@@ -37,14 +43,12 @@ from orthoglide_ident.identify.reversals import bridge_weights
 
 @lru_cache(maxsize=16)
 def spread_taps(n_d: int) -> tuple[float, np.ndarray]:
-    """√M2 of the decimation FIR (its taps' second moment about the centre, in samples) and
-    the taps of its output's time derivative (× the period: per sample), the same length."""
+    """√M2 of the decimation FIR h (its taps' second moment about the centre, in samples) and
+    the taps l h_l / √M2 of its first moment (l from the centre), the same length."""
     h = fir_taps(n_d)
     lag = np.arange(h.shape[0]) - 0.5 * (h.shape[0] - 1)
-    g = np.zeros_like(h)
-    g[1:-1] = 0.5 * (h[:-2] - h[2:])  # d/dt Σ h_l x(t + l) by a central difference of h
-    g[0], g[-1] = -0.5 * h[1], 0.5 * h[-2]
-    return float(np.sqrt(np.sum(h * lag ** 2))), g
+    root_m2 = float(np.sqrt(np.sum(h * lag ** 2)))
+    return root_m2, h * lag / root_m2
 
 
 def smooth_columns_at_rows(model_block: Callable, x: np.ndarray, n_d: int, r: int,
@@ -52,16 +56,23 @@ def smooth_columns_at_rows(model_block: Callable, x: np.ndarray, n_d: int, r: in
     """The filtered smooth columns at r decimated rows into ``out`` (n_cols, n_j, r), from the
     states ``x`` (3 n_j, m): q̂, q̂̇, q̂̈ of the rows' windows.
 
-    The filter h averages W(x(t + l)) over its window; W of the averaged states misses the
-    spread of the states over it, to second order ½ M2 T² ẋᵀ ∇²W ẋ (M2 = Σ h_l l², 2.3 samples²
-    at n_d = 10: the FIR's droop in its pass band, 1.8e-4 at 2 Hz). Two points x̃ ± √M2 T ẋ
-    (x̃ the filtered states, ẋ their derivative: q̂̇, q̂̈, and the jerk through the derivative's
-    taps) averaged restore that term (the unscented transform of the window)."""
+    The filter h averages W(x(t + l)) over its window; W of the averaged states x̃ misses the
+    spread of the states over it, to second order ½ tr(∇²W C), C = Σ h_l (x_l - x̃)(x_l - x̃)ᵀ.
+    Two points x̃ ± d averaged add ½ dᵀ∇²W d (the unscented transform of the window):
+    d_q = √M2 T q̂̇ and d_q̇ = √M2 T q̂̈, the states' slopes over the window (M2 = Σ h_l l²,
+    2.3 samples² at n_d = 10). W is linear in q̈ with coefficients in q, so q̈'s only
+    second-order term is C_qq̈ = T q̂̇ Σ h_l l q̈_l (q a straight line over the window):
+    d_q̈ = Σ h_l l q̈_l / √M2, q̈'s first moment, gives it whatever q̈'s spectrum. Its slope
+    √M2 T q⃛ (the moment of a Gaussian filter) did not: this FIR's pass band is flat, and at
+    20-50 Hz, where a closed loop puts a few % of q̈'s power, the first moment is 2-40 times
+    the slope's (0.137 σ on the coupled-wrist plant's yz_3R). q̇'s slope is kept: W is
+    quadratic in q̇, whose content above the pass band counts in C_q̇q̇; the slope gives
+    C_q̇q̇'s mean within 20 % on the MuJoCo records, the first moment 1.2-3.4 times it."""
     n_j = x.shape[0] // 3
-    s, g = spread_taps(n_d)
+    s, k = spread_taps(n_d)
     xt = fir_decimate_last(x, n_d, r)  # x̃: (3 n_j, r)
-    jerk = fir_decimate_last(x[2 * n_j:], n_d, r, g) / period_s
-    d = s * period_s * np.concatenate([xt[n_j:], jerk])  # √M2 T ẋ
+    moment = fir_decimate_last(x[2 * n_j:], n_d, r, k)  # Σ h_l l q̈_l / √M2
+    d = np.concatenate([s * period_s * xt[n_j:], moment])
     both = np.concatenate([xt - d, xt + d], axis=1)  # (3 n_j, 2 r): one model call
     W = np.empty((out.shape[0], out.shape[1], 2 * r))
     model_block(both[:n_j].T, both[n_j:2 * n_j].T, both[2 * n_j:].T, W)

@@ -404,8 +404,8 @@ class SegmentStream:
         """The decimated rows (n_b + 2, n_j, r) from the decimated rough columns and v_tau
         ``Xr`` and W's smooth columns at the rows' instants, built from the states of buffer
         columns a..b through the same decimation filter: a smooth column is a smooth function of
-        states whose band lies below the filter's pass band edge, so the filtered column is the
-        column of the filtered states (to the product of the content above it, ~1e-6)."""
+        the states, so the filtered column is the column of the filtered states and of their
+        spread over the filter's window (smooth_rows.smooth_columns_at_rows)."""
         n_j = self.n_j
         x = np.ascontiguousarray(self._qs[a:b].T)
         out = np.empty((self.n_b + 2, n_j, r))

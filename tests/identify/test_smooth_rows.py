@@ -2,9 +2,10 @@
 against every column at every sample (``samples``, eqs. 19-20 as written), on the simulated UR5.
 
 Tolerances: the answers within 0.1 σ (the paper's eq. 39 σ, the smaller one) is the bar of the
-approximation (issue 35); the bridges' part on the smooth columns is exact, so built from the
-sample-rate columns it gives the sample-rate path's rows to round-off (1e-12); block by block
-(live) and whole segments (offline) give the same rows to the filtering's windowing (1e-9).
+approximation (issue 35) on 2 x 60 s records; on these 8 s ones see
+test_rows_keep_the_margin_of_the_bar; the bridges' part on the smooth columns is exact, so built
+from the sample-rate columns it gives the sample-rate path's rows to round-off (1e-12); block by
+block (live) and whole segments (offline) give the same rows to the filtering's windowing (1e-9).
 """
 from __future__ import annotations
 
@@ -41,14 +42,31 @@ def _worst_sigma(a, b) -> float:
                for x, y in zip(a, b))
 
 
-def test_rows_give_the_answer_of_every_sample_within_a_tenth_of_sigma(ur5):
+@pytest.fixture(scope="module")
+def answers(ur5):
     model, recs = ur5
-    res = {m: identify_records(recs, options=IdentifyOptions(regressor_at=m), model=model)
-           for m in ("samples", "rows")}
+    return {m: identify_records(recs, options=IdentifyOptions(regressor_at=m), model=model)
+            for m in ("samples", "rows")}
+
+
+def test_rows_give_the_answer_of_every_sample_within_a_tenth_of_sigma(answers):
+    res = answers
     assert _worst_sigma(res["samples"].drive_gains, res["rows"].drive_gains) < 0.1
     assert _worst_sigma(res["samples"].parameters, res["rows"].parameters) < 0.1
     assert res["rows"].to_json()["diagnostics"]["options"]["regressor_at"] == "rows"
     assert res["samples"].to_json()["diagnostics"]["options"]["regressor_at"] == "samples"
+
+
+def test_rows_keep_the_margin_of_the_bar(answers):
+    """The bar, 0.1 σ on 2 x 60 s records, with the margin issue 35 asks (0.07 σ), carried to
+    these records: the rows' error is a bias, fixed while σ shrinks as 1/√N, so in σ it grows
+    by √(60 / 8) = 2.7 to 2 x 60 s; and the MuJoCo coupled-wrist plant's records, quieter,
+    count it 3-4 times more σ than this simulator's (bench/rows_vs_samples.py): 0.07 / (2.7 x 4)
+    = 0.0065 σ here. Measured 0.0007 σ gains, 0.0009 σ parameters (0.0012 σ, 0.0096 σ when q̈'s
+    spread over the window was taken as √M2 T times its jerk: 0.137 σ on the plant's records)."""
+    res = answers
+    assert _worst_sigma(res["samples"].drive_gains, res["rows"].drive_gains) < 0.0065
+    assert _worst_sigma(res["samples"].parameters, res["rows"].parameters) < 0.0065
 
 
 def _full_rate_smooth(self, Xr, a, b, r):
@@ -201,15 +219,85 @@ def test_two_anchor_points_are_exact_for_a_quadratic_along_a_line():
         assert abs(0.5 * (f(pts[:, i]) + f(pts[:, 2 + i])) - mean) < 1e-14
 
 
-def test_two_anchor_points_keep_the_answer_of_exact_anchors(ur5, monkeypatch):
+# --- a decimated row's two points against the filtered column -----------------------------------
+T_S = 1e-3  # the states' period (s)
+
+
+def _ringing_states(m: int, f_hz: float, amp: float = 0.5):
+    """Slow states of 2 joints (|q̇| <= 2 rad/s, |q̈| <= 4 rad/s²) with a ringing of ``amp``
+    rad/s² in q̈ near ``f_hz`` (the joints' 0.91 and 1.13 f_hz), q̇ and q its integrals: a
+    closed loop's 20-50 Hz, 12 % of q̈ as on the MuJoCo plants' records (1-3 % of its power)."""
+    t = np.arange(m)[:, None] * T_S
+    w = np.array([[1.0, 2.0]])
+    wf = 2.0 * np.pi * f_hz * np.array([[0.91, 1.13]])
+    a = amp / wf ** 2
+    slow, ring = w * t + 0.3, wf * t
+    return (np.sin(slow) + a * np.sin(ring), w * np.cos(slow) + a * wf * np.cos(ring),
+            -w * w * np.sin(slow) - amp * np.sin(ring))
+
+
+def _arm_like_block(q, qd, qdd, out):
+    """Columns of a 2-joint arm's kind (5, 2, m): inertia sin(q_k) q̈_j and cos(q_j - q_k) q̈_k,
+    gravity sin(q_j + q_k), Coriolis sin(q_j - q_k) q̇_j q̇_k, friction and rotor q̇_j + q̈_j."""
+    for j, k in ((0, 1), (1, 0)):
+        out[0, j] = np.sin(q[:, k]) * qdd[:, j]
+        out[1, j] = np.cos(q[:, j] - q[:, k]) * qdd[:, k]
+        out[2, j] = np.sin(q[:, j] + q[:, k])
+        out[3, j] = np.sin(q[:, j] - q[:, k]) * qd[:, j] * qd[:, k]
+        out[4, j] = qd[:, j] + qdd[:, j]
+    return out
+
+
+def _rows_and_filtered(block, x, n_cols):
+    """smooth_columns_at_rows of states ``x`` against the sample-rate path (the column at every
+    state through the FIR), and W of the filtered states x̃ (the rows without the spread)."""
+    X = np.vstack([v.T for v in x])
+    r = (X.shape[1] - fir_taps(N_D).shape[0]) // N_D + 1
+    rows = np.empty((n_cols, 2, r))
+    smooth_rows.smooth_columns_at_rows(block, X, N_D, r, T_S, rows)
+    exact = fir_decimate_last(block(*x, np.empty((n_cols, 2, X.shape[1]))), N_D, r)
+    xt = fir_decimate_last(X, N_D, r)
+    return rows, exact, block(xt[:2].T, xt[2:4].T, xt[4:].T, np.empty((n_cols, 2, r)))
+
+
+@pytest.mark.parametrize("f_hz", [25.0, 30.0, 40.0])
+def test_two_points_restore_the_spread_of_a_ringing_acceleration(f_hz):
+    """A closed loop's ringing in q̈ across the FIR's transition band (20-50 Hz at n_d = 10):
+    the rows miss 1.6-4.7 % of the spread's term (exact - W(x̃)): the third order, q's
+    curvature over the window (8.5 % at 20 Hz, where the term is 0.2 of 40 Hz's); 88-95 %
+    with q̈'s spread taken as √M2 T times its jerk (the moment of a Gaussian filter, not of
+    this flat-band FIR)."""
+    rows, exact, at_mean = _rows_and_filtered(_arm_like_block, _ringing_states(3000, f_hz), 5)
+    term = np.abs(exact - at_mean).max()
+    assert term > 1e-4 * np.abs(exact).max()  # a spread to restore
+    assert np.abs(rows - exact).max() < 0.1 * term
+
+
+def test_two_points_are_exact_for_a_position_times_any_acceleration():
+    """q on a straight line over the window, q̈ anything (white noise): a column q_k q̈_j's
+    filtered value is x̃'s plus T q̇ Σ h_l l q̈_l, which the two points give to round-off."""
+    m = 2000
+    t = np.arange(m)[:, None] * T_S
+    vel = np.array([[0.7, -1.3]]) * np.ones((m, 1))
+    acc = np.random.default_rng(3).normal(0.0, 5.0, (m, 2))
+
+    def block(q, qd, qdd, out):
+        out[0] = q[:, ::-1].T * qdd.T
+        out[1] = q.T * qdd.T
+        return out
+
+    rows, exact, _ = _rows_and_filtered(block, (0.2 + vel * t, vel, acc), 2)
+    assert np.abs(rows - exact).max() < 1e-12 * np.abs(exact).max()
+
+
+def test_two_anchor_points_keep_the_answer_of_exact_anchors(ur5, answers, monkeypatch):
     """On the simulated UR5 (encoder noise, 1 kHz): the answers with the anchors' means at two
     points and at every state within 0.002 σ (0.00014 σ gains, 0.00035 σ parameters here; on
-    the 2 x 60 s bags 0.0157 σ and 0.0349 σ from the sample-rate path, 0.0158 σ and 0.0350 σ
-    with exact anchors)."""
+    the 2 x 60 s bags 0.0022 σ and 0.0028 σ from the sample-rate path, 0.0020 σ and 0.0026 σ
+    with exact anchors, 2026-12-05)."""
     model, recs = ur5
-    opts = IdentifyOptions(regressor_at="rows")
-    two = identify_records(recs, options=opts, model=model)
+    two = answers["rows"]
     monkeypatch.setattr(BridgeCorrections, "exact_anchors", True)
-    exact = identify_records(recs, options=opts, model=model)
+    exact = identify_records(recs, options=IdentifyOptions(regressor_at="rows"), model=model)
     assert _worst_sigma(exact.drive_gains, two.drive_gains) < 0.002
     assert _worst_sigma(exact.parameters, two.parameters) < 0.002
