@@ -366,14 +366,15 @@ class Driver(Node):
         published ticks, and the fault once, when the tick that stopped the plant is out."""
         k, last = self.k, self._periodic_at
         self._periodic_at = k
-        stopped = self.session.fault is not None and not self.ahead.ticks
-        if stopped and not self._said_fault:
+        if self.session.fault is not None and not self.ahead.ticks and not self._said_fault:
             self._said_fault = True
             self.get_logger().error(f"stopped: {self.session.fault}; call {self.get_name()}/reset to put "
                                     "the robot back on its reference")
-        elif k // STATUS_PERIOD_TICKS > last // STATUS_PERIOD_TICKS:
+            self._publish_diagnostics()
+            return
+        if k // STATUS_PERIOD_TICKS > last // STATUS_PERIOD_TICKS:
             self.get_logger().info(self._status())
-        if k // DIAGNOSTICS_PERIOD_TICKS > last // DIAGNOSTICS_PERIOD_TICKS or (stopped and k != last):
+        if k // DIAGNOSTICS_PERIOD_TICKS > last // DIAGNOSTICS_PERIOD_TICKS:
             self._publish_diagnostics()
 
     def _publish_diagnostics(self) -> None:
