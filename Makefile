@@ -99,13 +99,13 @@ $(STAMP_PROJECT): $(STAMP_DEPS) $(PROJECT_SOURCES)
 	$(PY) -m compileall -q orthoglide_ident orthoglide_sim > /dev/null
 	@# the simulated Orthoglide driver's compiled tick (numba, cached beside the module): compiled
 	@# here once (~10 s), so that no driver start or test compiles it
-	$(PY) -m orthoglide_sim.reduced_plant
+	$(PY) -m orthoglide_sim.orthoglide.reduced_plant
 	@touch $@
 
 DURATION ?= 10
 OUT ?= bags
 bags: setup
-	$(PY) -m orthoglide_sim.make_bags --duration $(DURATION) --out $(OUT)
+	$(PY) -m orthoglide_sim.orthoglide.make_bags --duration $(DURATION) --out $(OUT)
 
 test: setup
 	$(PY) -m pytest -m "not slow" $(PYTEST_ARGS)
@@ -121,16 +121,16 @@ bench: setup
 	@for b in $(BENCHES); do if [ -f bench/$$b.py ]; then echo "== bench/$$b.py"; $(PY) bench/$$b.py; fi; done
 
 demo: setup
-	$(PY) -m orthoglide_sim.demo
+	$(PY) -m orthoglide_sim.demos.node_set
 
 demo-offline: setup
-	$(PY) -m orthoglide_sim.demo_offline
+	$(PY) -m orthoglide_sim.demos.offline
 
 demo-ros2-control: setup
-	$(PY) -m orthoglide_sim.demo_ros2_control
+	$(PY) -m orthoglide_sim.demos.ros2_control
 
 demo-excite: setup
-	$(PY) -m orthoglide_sim.demo_excite
+	$(PY) -m orthoglide_sim.demos.excite
 
 lock: $(STAMP_DEPS)
 	{ echo '# Every distribution of the venv, exact versions: `pip install -c constraints.txt`.'; \

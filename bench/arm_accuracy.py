@@ -30,7 +30,7 @@ from identify.test_on_arm import as_record  # noqa: E402
 
 from orthoglide_ident.identify.pipeline import identify_records  # noqa: E402
 from orthoglide_ident.model.robots import load_robot  # noqa: E402
-from orthoglide_sim.arm_record import simulate_arm  # noqa: E402
+from orthoglide_sim.arms.record import simulate_arm  # noqa: E402
 
 
 def one_seed(robot: str, seconds: float, seed: int, model) -> dict:

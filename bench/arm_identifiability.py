@@ -1,5 +1,5 @@
 """Do the simulated UR5's records carry its drive gains? A plain IDIM-TLS on them (paper eqs.
-(33)-(36)) with the simulator's own regressor (orthoglide_sim.pinocchio_arm), not the product's
+(33)-(36)) with the simulator's own regressor (orthoglide_sim.arms.pinocchio_truth), not the product's
 pipeline: a check of the plant and its records, figures for the identification to compare with.
 
     .venv/bin/python bench/arm_identifiability.py [--seconds 60]
@@ -19,10 +19,10 @@ import numpy as np
 from scipy.ndimage import minimum_filter1d
 from scipy.signal import butter, filtfilt
 
-from orthoglide_sim.arm_description import load_arm
-from orthoglide_sim.arm_record import ArmRecord, simulate_arm
-from orthoglide_sim.arm_truth import default_truth
-from orthoglide_sim.pinocchio_arm import ArmRegressor, TruthDynamics
+from orthoglide_sim.arms.description import load_arm
+from orthoglide_sim.arms.record import ArmRecord, simulate_arm
+from orthoglide_sim.arms.truth import default_truth
+from orthoglide_sim.arms.pinocchio_truth import ArmRegressor, TruthDynamics
 
 TICK = 1.0e-3  # s
 CUTOFF = 25.0  # Hz, low-pass of q and v_tau

@@ -16,12 +16,12 @@ import time
 
 import numpy as np
 
-from orthoglide_sim import arm_excitation as ax
-from orthoglide_sim.arm_description import load_arm
-from orthoglide_sim.arm_limits import motion_limits
-from orthoglide_sim.arm_record import simulate_arm
-from orthoglide_sim.arm_truth import default_truth
-from orthoglide_sim.pinocchio_arm import ArmRegressor, TruthDynamics
+from orthoglide_sim.arms import excitation as ax
+from orthoglide_sim.arms.description import load_arm
+from orthoglide_sim.arms.limits import motion_limits
+from orthoglide_sim.arms.record import simulate_arm
+from orthoglide_sim.arms.truth import default_truth
+from orthoglide_sim.arms.pinocchio_truth import ArmRegressor, TruthDynamics
 
 RECORD_S = 60.0  # s per record the σ is predicted for
 N_PERIOD = 500  # samples per period for the σ

@@ -15,7 +15,7 @@ with the hog, and the two are printed side by side with the bar (issue 35):
              Orthoglide <= 0.5) and both as programs of their own (interpreter start and imports
              included: what a user waits for), and, as first printed, the program against the
              in-process read;
-  demo       `python -m orthoglide_sim.demo` (the graph started as the launch file does, 2 x
+  demo       `python -m orthoglide_sim.demos.node_set` (the graph started as the launch file does, 2 x
              --record-seconds recorded, identified, Table 4 over ROS); read from its FIXED lines
              (DESIGN §9): per Table 4 run "driver: N of M ticks late, K without a fresh
              feed-forward", per test "CTC over ROS / in-process a, b, c" (bar <= 1.5), and the
@@ -161,7 +161,7 @@ def parse_demo(text: str) -> dict[str, float]:
 
 
 def demo_figures(record_s: float, out_dir: Path) -> dict[str, float]:
-    proc = subprocess.run([sys.executable, "-m", "orthoglide_sim.demo", "--record-seconds",
+    proc = subprocess.run([sys.executable, "-m", "orthoglide_sim.demos.node_set", "--record-seconds",
                            str(record_s), "--out", str(out_dir)], cwd=ROOT, capture_output=True,
                           text=True)
     (out_dir.parent / (out_dir.name + ".txt")).write_text(proc.stdout + proc.stderr)

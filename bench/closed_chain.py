@@ -25,15 +25,15 @@ import numpy as np
 
 from orthoglide_ident.identify.pipeline import identify_records
 from orthoglide_ident.model.robots import load_robot
-from orthoglide_sim import arm_excitation as ax
-from orthoglide_sim import arm_simulator as asim
-from orthoglide_sim.arm_limits import motion_limits
-from orthoglide_sim.chain_description import load_chain
-from orthoglide_sim.chain_plant import ChainPlant
-from orthoglide_sim.chain_record import simulate_chain
-from orthoglide_sim.chain_truth import apply_chain_overrides, default_chain_truth
-from orthoglide_sim.mujoco_plant import TIMESTEP
-from orthoglide_sim.pinocchio_chain import ChainDynamics, rigid_loop_currents
+from orthoglide_sim.arms import excitation as ax
+from orthoglide_sim.arms import simulator as asim
+from orthoglide_sim.arms.limits import motion_limits
+from orthoglide_sim.chains.description import load_chain
+from orthoglide_sim.chains.plant import ChainPlant
+from orthoglide_sim.chains.record import simulate_chain
+from orthoglide_sim.chains.truth import apply_chain_overrides, default_chain_truth
+from orthoglide_sim.arms.plant import TIMESTEP
+from orthoglide_sim.chains.pinocchio_truth import ChainDynamics, rigid_loop_currents
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests" / "identify"))
 from test_on_arm import as_record  # noqa: E402  (the record a bag of the run holds)

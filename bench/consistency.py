@@ -35,10 +35,10 @@ sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from orthoglide_ident.errors import OrthoglideError  # noqa: E402
-from orthoglide_ident.identify.direct_dynamics import validate as direct_validate  # noqa: E402
+from orthoglide_ident.identify.validate.direct_dynamics import validate as direct_validate  # noqa: E402
 from orthoglide_ident.identify.options import IdentifyOptions  # noqa: E402
 from orthoglide_ident.identify.pipeline import identify_records  # noqa: E402
-from orthoglide_ident.identify.pseudo_inertia import INERTIAL_KINDS  # noqa: E402
+from orthoglide_ident.identify.consistency.pseudo_inertia import INERTIAL_KINDS  # noqa: E402
 from orthoglide_ident.model.robots import load_robot  # noqa: E402
 
 PAYLOAD = 1.983
@@ -57,7 +57,7 @@ def orthoglide_case(profile: str, seconds: float, seed: int, cache: Path | None,
                     prior: str) -> dict:
     from identify_accuracy import record
 
-    from orthoglide_sim.true_parameters import load_parameters
+    from orthoglide_sim.orthoglide.truth import load_parameters
 
     truth = load_parameters()
     ru, g_true = record(profile, seconds, "none", "exciting", 1000 + seed, cache)

@@ -3,7 +3,7 @@
     PYTHONPATH=. .venv/bin/python bench/coupled_wrist_records.py --out DIR [--seconds 60] [--seed 0]
         [--chain coupled|simple]
 
-The MuJoCo plant of orthoglide_sim.coupled_wrist (six motors behind N, gears of both signs,
+The MuJoCo plant of orthoglide_sim.coupled.plant (six motors behind N, gears of both signs,
 motor 6 turning with q5 + q6; rotor inertia, viscous and Coulomb friction on each motor's own
 velocity; per-motor current → torque gains) under a 1 kHz PID per motor: --seconds unloaded on
 exciting1 and --seconds with arm_truth's 2 kg payload (CoM and inertia in the tag: a known
@@ -35,10 +35,10 @@ from pathlib import Path
 import numpy as np
 
 from orthoglide_ident.errors import OrthoglideError
-from orthoglide_sim.coupled_check import torque_balance
-from orthoglide_sim.coupled_record import simulate_coupled, write_coupled_bag, write_robot_files
-from orthoglide_sim.coupled_truth import default_coupled_truth, simple_transmission_truth, truth_summary
-from orthoglide_sim.transmission_urdf import write_simple_transmission_robot
+from orthoglide_sim.coupled.check import torque_balance
+from orthoglide_sim.coupled.record import simulate_coupled, write_coupled_bag, write_robot_files
+from orthoglide_sim.coupled.truth import default_coupled_truth, simple_transmission_truth, truth_summary
+from orthoglide_sim.arms.transmission_urdf import write_simple_transmission_robot
 
 RUNS = (("unloaded", None, "exciting1", 0), ("loaded_2kg", "2.0", "exciting2", 1))
 # folder, position side, effort side (actuator: each motor's current, A; joint: Nᵀ g_nominal v, N·m)

@@ -3,7 +3,7 @@ against the TRUE model's and against the naive description (the wrist as indepen
 
     PYTHONPATH=. .venv/bin/python bench/coupled_wrist_residual.py --out DIR [--seconds 60]
 
-Simulates (orthoglide_sim.coupled_record) --seconds unloaded on exciting1 and --seconds with the
+Simulates (orthoglide_sim.coupled.record) --seconds unloaded on exciting1 and --seconds with the
 2 kg payload (known: its CoM and inertia in the tag) on exciting2, bags with joint-side positions
 and per-motor currents, and identifies them (IDIM-TLS, default options) with the robot file that
 has the transmission. On the identification's own decimated, parallel-filtered rows
@@ -34,9 +34,9 @@ from orthoglide_ident.errors import OrthoglideError
 from orthoglide_ident.identify.pipeline import identify
 from orthoglide_ident.model import robots
 from orthoglide_ident.model.robots import load_robot
-from orthoglide_sim.coupled_record import simulate_coupled, write_coupled_bag, write_robot_files
-from orthoglide_sim.coupled_truth import default_coupled_truth
-from orthoglide_sim.pinocchio_arm import TruthDynamics
+from orthoglide_sim.coupled.record import simulate_coupled, write_coupled_bag, write_robot_files
+from orthoglide_sim.coupled.truth import default_coupled_truth
+from orthoglide_sim.arms.pinocchio_truth import TruthDynamics
 
 RUNS = (("unloaded", None, "exciting1", 0), ("loaded_2kg", "2.0", "exciting2", 1))
 COUPLED = (4, 5)  # wrist_2, wrist_3 and motors 5, 6 (0-based)

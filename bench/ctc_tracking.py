@@ -15,7 +15,7 @@ current of each tick (orthoglide_ident.control.feedforward_currents), here witho
 (in-process). The payload mass in every CTC model is the nominal 1.983 kg (as in the paper). The
 error is the true actuator position minus the reference, in um, rms and max per joint, averaged
 over ``--runs`` noise seeds. Also the feed-forward's compute time per tick (the ctc node's batches
-of 10 setpoints). ``--ros`` then runs the same table through the live node set (orthoglide_sim.demo:
+of 10 setpoints). ``--ros`` then runs the same table through the live node set (orthoglide_sim.demos.node_set:
 driver in real time, ctc node, DDS) and prints both side by side.
 """
 from __future__ import annotations
@@ -30,8 +30,8 @@ from orthoglide_ident.control import CTCParameters, feedforward_currents
 from orthoglide_ident.identify.pipeline import identify
 from orthoglide_ident.model.orthoglide.geometry import G_TAU_MANUFACTURER
 from orthoglide_ident.model.robots import load_robot
-from orthoglide_sim.record import simulate
-from orthoglide_sim.trajectories import get_trajectory
+from orthoglide_sim.orthoglide.record import simulate
+from orthoglide_sim.common.trajectories import get_trajectory
 
 ORTHOGLIDE = load_robot("orthoglide")  # the robot these records are of
 
@@ -41,7 +41,7 @@ PAYLOAD = "1.983"
 def true_model(m7: float) -> CTCParameters:
     """Base parameters of the plant's true standard parameters, with its true drive gains."""
     from orthoglide_ident.model.orthoglide.base import base_model
-    from orthoglide_sim.true_parameters import load_parameters
+    from orthoglide_sim.orthoglide.truth import load_parameters
 
     tp, bm = load_parameters(), base_model()
     return CTCParameters.from_values(bm.names, bm.base_values(tp.standard_vector()), tp.g_tau, m7,
@@ -131,8 +131,8 @@ def ros_table(bags: list[str], duration: float, inproc: dict) -> None:
     import tempfile
     from pathlib import Path
 
-    from orthoglide_sim import demo
-    from orthoglide_sim.graph import Graph
+    from orthoglide_sim.demos import node_set as demo
+    from orthoglide_sim.demos.graph import Graph
 
     out = Path(tempfile.mkdtemp(prefix="ctc_ros_"))
     with Graph(out / "logs") as g:

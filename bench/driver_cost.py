@@ -9,7 +9,7 @@ child process of this script, instrumented: the CPU time of its tick-loop thread
 (time.thread_time_ns) spent in each part of a tick is summed over the run and printed per tick:
 
   plant       DriverSession.advance (the plant integrated over the tick, the current noise), in
-              blocks of ticks computed ahead of their deadlines (orthoglide_sim.ticks_ahead)
+              blocks of ticks computed ahead of their deadlines (orthoglide_sim.common.ticks_ahead)
   controller  DriverSession.measure + control (encoder, PID, setpoint, limit)
   publish     JointState and CurrentReference built and published at every tick, the JointSetpoints
               of the ticks computed ahead (ticks_ahead: up to 10 at a time)
@@ -50,7 +50,8 @@ def _timed(fn, totals: dict, key: str):
 def child(out: str, ros_args: list[str], plain: bool) -> int:
     """The driver node with its tick loop's parts timed (``plain``: not timed, its CPU only); the
     sums written to ``out`` (JSON)."""
-    from orthoglide_sim import driver_node, session
+    from orthoglide_sim.nodes import driver as driver_node
+    from orthoglide_sim.orthoglide import session
 
     totals: dict[str, int] = {}
     for name, key in () if plain else (("advance", "plant"), ("measure", "controller"), ("control", "controller")):
@@ -92,7 +93,7 @@ def split(r: dict) -> dict[str, float]:
 def measure(seconds: float, params: list[str]) -> tuple[dict, dict]:
     """The driver's timed and untimed runs beside the recorder, identification and ctc."""
     from orthoglide_ident._install_ament import ROOT
-    from orthoglide_sim.graph import Graph
+    from orthoglide_sim.demos.graph import Graph
 
     config = ROOT / "config"
     with tempfile.TemporaryDirectory() as tmp:

@@ -2,11 +2,11 @@
 
     .venv/bin/python bench/driver_realtime.py [--duration 60] [--starts 5]
 
-1. time to first tick: `python -m orthoglide_sim.driver_node` spawned, until a subscriber in this
+1. time to first tick: `python -m orthoglide_sim.nodes.driver` spawned, until a subscriber in this
    process has received the first message on both orthoglide/joint_states and
    orthoglide/current_reference (median and worst of --starts starts);
 2. plant step per tick (Pinocchio closed-loop dynamics, RK4, PID) p50/p99, in-process;
-3. real-time factor of a batch record (orthoglide_sim.record.simulate, 10 s);
+3. real-time factor of a batch record (orthoglide_sim.orthoglide.record.simulate, 10 s);
 4. controller:=external for --duration s in real time, this process being the outside
    controller (PID with velocity feed-forward on orthoglide/setpoints, 40 rad/s): ticks
    published more than 0.5 ms after their deadline (the driver's count), arrival latency here, and
@@ -36,7 +36,7 @@ def _stamp(msg) -> int:
 
 
 def _spawn(params: list[str]) -> subprocess.Popen:
-    args = [sys.executable, "-m", "orthoglide_sim.driver_node", "--ros-args"]
+    args = [sys.executable, "-m", "orthoglide_sim.nodes.driver", "--ros-args"]
     for p in params:
         args += ["-p", p]
     return children.popen(args, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
@@ -67,8 +67,8 @@ def time_to_first_tick(node, starts: int) -> list[float]:
 
 
 def plant_step_and_batch() -> tuple[np.ndarray, float]:
-    from orthoglide_sim.record import simulate
-    from orthoglide_sim.session import DriverSession
+    from orthoglide_sim.orthoglide.record import simulate
+    from orthoglide_sim.orthoglide.session import DriverSession
 
     s = DriverSession(controller="pid", payload="1.983")
     dt = []
@@ -93,7 +93,7 @@ class ExternalController:
         from sensor_msgs.msg import JointState
 
         from orthoglide_msgs.msg import CurrentReference, JointSetpoint
-        from orthoglide_sim import simulator as sm
+        from orthoglide_sim.orthoglide import simulator as sm
 
         self.sm, self.CurrentReference = sm, CurrentReference
         qos = QoSProfile(depth=5000, reliability=ReliabilityPolicy.RELIABLE)

@@ -11,7 +11,7 @@ payload with its known CoM and inertia: UR5 2 kg, five-bar 1 kg) and:
 - the worst slack to each limit on the 1 ms grid of ``excite check`` less the margin it keeps
   (≥ 0), and the smallest distance between checked bodies (> 0);
 - predicted vs achieved σ of the gains: the designed runs simulated on the MuJoCo plants
-  (orthoglide_sim.designed_runs: the plants' own parameters, gains off nominal, 0.5 % current
+  (orthoglide_sim.demos.designed_runs: the plants' own parameters, gains off nominal, 0.5 % current
   noise, encoders) for ``--seeds`` seeds and identified by the product's TLS; the prediction is
   eq. (39) at the nominal model with each run's simulated current noise. Printed per joint:
   predicted σ, the identification's eq. (39) σ and its honest σ (means over seeds), and the sd of
@@ -44,10 +44,10 @@ from orthoglide_ident.excite.summary import with_extras  # noqa: E402
 from orthoglide_ident.identify.pipeline import identify_records  # noqa: E402
 from orthoglide_ident.model.robot import Payload  # noqa: E402
 from orthoglide_ident.model.robots import load_robot  # noqa: E402
-from orthoglide_sim.arm_record import simulate_arm  # noqa: E402
-from orthoglide_sim.arm_session import robot_truth  # noqa: E402
-from orthoglide_sim.chain_record import simulate_chain  # noqa: E402
-from orthoglide_sim.designed_runs import simulate_designed  # noqa: E402
+from orthoglide_sim.arms.record import simulate_arm  # noqa: E402
+from orthoglide_sim.arms.session import robot_truth  # noqa: E402
+from orthoglide_sim.chains.record import simulate_chain  # noqa: E402
+from orthoglide_sim.demos.designed_runs import simulate_designed  # noqa: E402
 
 PAYLOADS = {"ur5": "2.0", "five_bar": "1.0"}  # the plants' off-centre payload bodies
 

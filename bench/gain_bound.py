@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from orthoglide_ident.identify.filtering import states_at_half_tick
+from orthoglide_ident.identify.observe.time_base import states_at_half_tick
 from orthoglide_ident.identify.options import IdentifyOptions
 from orthoglide_ident.identify.pipeline import Record
 

@@ -60,7 +60,7 @@ def record(profile: str, seconds: float, payload: str, trajectory: str, seed: in
         d = np.load(f)
         stamps, q, v, g = d["stamps_ns"], d["q"], d["v_tau"], d["g_tau"]
     else:
-        from orthoglide_sim.record import simulate
+        from orthoglide_sim.orthoglide.record import simulate
 
         r = simulate(seconds, payload=payload, trajectory=trajectory, seed=seed, profile=profile)
         stamps, q, v, g = r.stamps_ns, r.q, r.v_tau, r.g_tau
@@ -73,7 +73,7 @@ def record(profile: str, seconds: float, payload: str, trajectory: str, seed: in
 
 
 def true_base_parameters() -> tuple[list[str], np.ndarray]:
-    from orthoglide_sim.true_parameters import load_parameters
+    from orthoglide_sim.orthoglide.truth import load_parameters
 
     model = ORTHOGLIDE
     return list(model.names), model.base_values(load_parameters().standard_vector())
@@ -126,7 +126,7 @@ def run_case(profile: str, seconds: float, seed: int, cache: Path | None, valida
         "t_sim": t_sim, "t_id": time.perf_counter() - t0 - t_sim,
     }
     if bound:
-        from orthoglide_sim.true_parameters import load_parameters
+        from orthoglide_sim.orthoglide.truth import load_parameters
 
         noise = load_parameters().plant_profile(profile).current_noise_std  # config/plant.yaml
         out["bound"] = 100 * gain_rel_std_bound([ru, rl], ORTHOGLIDE, chi_true, g_true,

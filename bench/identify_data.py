@@ -11,7 +11,7 @@ import numpy as np
 
 from orthoglide_ident.identify.pipeline import Record
 from orthoglide_ident.model.robots import load_robot
-from orthoglide_sim.record import simulate
+from orthoglide_sim.orthoglide.record import simulate
 
 ORTHOGLIDE = load_robot("orthoglide")  # the robot these records are of
 

@@ -37,7 +37,7 @@ from identify_data import record  # noqa: E402
 from identify_speed import rosbags_read  # noqa: E402
 
 from orthoglide_ident import bags  # noqa: E402
-from orthoglide_ident.identify.live import LiveIdentification  # noqa: E402
+from orthoglide_ident.identify.live.session import LiveIdentification  # noqa: E402
 from orthoglide_ident.identify.options import IdentifyOptions  # noqa: E402
 from orthoglide_ident.identify.pipeline import (Record, identify, identify_records,  # noqa: E402
                                                 read_record)

@@ -25,7 +25,7 @@ NODES = ("orthoglide_driver", "orthoglide_recorder", "orthoglide_identification"
 
 def start(g, out: Path) -> None:
     from orthoglide_ident._install_ament import ROOT
-    from orthoglide_sim.demo import identify
+    from orthoglide_sim.demos.node_set import identify
 
     g.start("orthoglide_driver", "driver", {"trajectory": "exciting", "controller": "pid"})
     g.start("orthoglide_recorder", "recorder", {"output_dir": str(out / "bags")},
@@ -83,7 +83,7 @@ def main(argv: list[str] | None = None) -> int:
 
     from orthoglide_ident.ros.processes import Interrupted, interrupt_on_signals
     from orthoglide_msgs.msg import RecorderStatus
-    from orthoglide_sim.graph import Graph
+    from orthoglide_sim.demos.graph import Graph
 
     interrupt_on_signals()
     rows = []

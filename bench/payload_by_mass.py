@@ -25,9 +25,9 @@ from orthoglide_ident.errors import OrthoglideError
 from orthoglide_ident.identify.options import IdentifyOptions
 from orthoglide_ident.identify.pipeline import Record, identify_records
 from orthoglide_ident.model.robots import load_robot
-from orthoglide_sim.arm_description import load_arm
-from orthoglide_sim.arm_record import simulate_arm
-from orthoglide_sim.arm_truth import OFFSET_COM, OFFSET_PAYLOAD, load_truth, with_offset_payload
+from orthoglide_sim.arms.description import load_arm
+from orthoglide_sim.arms.record import simulate_arm
+from orthoglide_sim.arms.truth import OFFSET_COM, OFFSET_PAYLOAD, load_truth, with_offset_payload
 
 
 def _record(sim, name: str) -> Record:

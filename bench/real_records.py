@@ -23,12 +23,12 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 import numpy as np  # noqa: E402
 
 from orthoglide_ident.identify import IdentifyOptions  # noqa: E402
-from orthoglide_ident.identify.filtering import derivative_filter  # noqa: E402
+from orthoglide_ident.identify.observe.filtering import derivative_filter  # noqa: E402
 from orthoglide_ident.identify.pipeline import identify_records  # noqa: E402
-from orthoglide_ident.identify.records import Record  # noqa: E402
-from orthoglide_ident.identify.time_base import states_on_stamps  # noqa: E402
+from orthoglide_ident.identify.records.record import Record  # noqa: E402
+from orthoglide_ident.identify.observe.time_base import states_on_stamps  # noqa: E402
 from orthoglide_ident.model.robots import load_robot  # noqa: E402
-from orthoglide_sim.arm_log import clock_10_12, clock_uniform, simulate_arm_log  # noqa: E402
+from orthoglide_sim.arms.log import clock_10_12, clock_uniform, simulate_arm_log  # noqa: E402
 
 
 def to_record(rec, name: str) -> Record:

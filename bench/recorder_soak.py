@@ -61,7 +61,7 @@ def start_driver(env: dict[str, str], log: Path, node) -> subprocess.Popen:
         [
             sys.executable,
             "-m",
-            "orthoglide_sim.driver_node",
+            "orthoglide_sim.nodes.driver",
             "--ros-args",
             *("-p", "realtime:=true", "-p", "duration:=0.0", "-p", "trajectory:=exciting"),
             *("-p", "controller:=pid", "-p", "payload:=none"),

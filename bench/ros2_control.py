@@ -34,8 +34,8 @@ HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE.parent))
 
 from orthoglide_ident import bags  # noqa: E402
-from orthoglide_sim.demo import record  # noqa: E402
-from orthoglide_sim.graph import Graph  # noqa: E402
+from orthoglide_sim.demos.node_set import record  # noqa: E402
+from orthoglide_sim.demos.graph import Graph  # noqa: E402
 
 STANDIN = "ros2_control_standin"
 SEED = 5
@@ -75,7 +75,7 @@ def start(g: Graph, out: Path, drop_rate: float) -> None:
 
 
 def replayed_drops(start_ns: int, last_ns: int, rate: float) -> dict[str, set[int]]:
-    from orthoglide_sim.broadcaster import TICK_NS, TOPICS, TickDropper
+    from orthoglide_sim.common.broadcaster import TICK_NS, TOPICS, TickDropper
 
     d, out = TickDropper(rate, SEED), {t: set() for t in TOPICS}
     for k in range((last_ns - start_ns) // TICK_NS + 1):
@@ -159,8 +159,8 @@ def sources_figures(out: Path, r: dict) -> None:
     from orthoglide_ident.identify.options import IdentifyOptions
     from orthoglide_ident.identify.pipeline import identify
     from orthoglide_ident.model.robots import load_robot
-    from orthoglide_sim.arm_description import load_arm
-    from orthoglide_sim.arm_truth import load_truth
+    from orthoglide_sim.arms.description import load_arm
+    from orthoglide_sim.arms.truth import load_truth
 
     paths, results = r["paths"], r["results"]
     copies = [effort_only_copy(p, out / "effort_only" / Path(p).name) for p in paths]

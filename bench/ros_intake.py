@@ -41,7 +41,7 @@ def main(argv: list[str] | None = None) -> int:
     topics = [(JointState, "/orthoglide/joint_states"), (CurrentReference, "/orthoglide/current_reference"),
               (JointSetpoint, "/orthoglide/setpoints")]
     qos = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE)
-    driver = children.popen([sys.executable, "-m", "orthoglide_sim.driver_node", "--ros-args", "-p",
+    driver = children.popen([sys.executable, "-m", "orthoglide_sim.nodes.driver", "--ros-args", "-p",
                                f"duration:={2 * args.seconds + 6}"], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     children.interrupt_on_signals()  # SIGTERM (timeout, CI) like Ctrl-C: one line, the driver stopped
     rclpy.init(signal_handler_options=SignalHandlerOptions.NO)

@@ -26,8 +26,8 @@ sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "tests"))
 
 from foxglove_ws import FoxgloveClient  # noqa: E402
-from orthoglide_sim.demo import identify  # noqa: E402
-from orthoglide_sim.graph import Graph  # noqa: E402
+from orthoglide_sim.demos.node_set import identify  # noqa: E402
+from orthoglide_sim.demos.graph import Graph  # noqa: E402
 
 
 def recording(g: Graph, name: str, condition: str, mass: float, seconds: float) -> dict:

@@ -27,7 +27,7 @@ ROOT = Path(__file__).resolve().parent.parent
 """The source tree (repository root) this file belongs to."""
 
 EXECUTABLES: dict[str, str] = {
-    "driver": "orthoglide_sim.driver_node",
+    "driver": "orthoglide_sim.nodes.driver",
     "recorder": "orthoglide_ident.nodes.recorder",
     "identification": "orthoglide_ident.nodes.identification",
     "ctc": "orthoglide_ident.nodes.ctc",

@@ -37,7 +37,7 @@ from typing import Sequence
 
 from orthoglide_ident import import_command, ros_client
 from orthoglide_ident.errors import ConfigError, OrthoglideError
-from orthoglide_ident.identify.methods import DEFAULT_METHOD, METHODS
+from orthoglide_ident.identify.solve.methods import DEFAULT_METHOD, METHODS
 from orthoglide_ident.model.robots import bundled_robots
 
 PROG = "orthoglide-ident"

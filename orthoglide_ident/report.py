@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from orthoglide_ident.identify.validation import ValidationResult, cross_validate
+from orthoglide_ident.identify.validate.cross_validation import ValidationResult, cross_validate
 from orthoglide_ident.results import IdentificationResult
 
 

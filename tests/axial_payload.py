@@ -2,7 +2,7 @@
 
 The 2 kg payload's centre of mass is on the wrist_3 axis (tool0's z, 6 cm out) and its inertia
 about that axis is tiny: the loaded record fixes the scale of five gains, not wrist_3's. Written
-as bags the way ``python -m orthoglide_sim.arm_bags --params`` writes them.
+as bags the way ``python -m orthoglide_sim.arms.bags --params`` writes them.
 """
 from __future__ import annotations
 
@@ -10,10 +10,10 @@ from pathlib import Path
 
 import numpy as np
 
-from orthoglide_sim.arm_bags import write_record
-from orthoglide_sim.arm_description import load_arm
-from orthoglide_sim.arm_record import simulate_arm
-from orthoglide_sim.arm_truth import apply_overrides, load_truth
+from orthoglide_sim.arms.bags import write_record
+from orthoglide_sim.arms.description import load_arm
+from orthoglide_sim.arms.record import simulate_arm
+from orthoglide_sim.arms.truth import apply_overrides, load_truth
 
 AXIAL = {"payloads": {"2.0": {"mass": 2.0, "com": [0.0, 0.0, 0.06],
                               "inertia": [2.0e-3, 0.0, 0.0, 2.0e-3, 0.0, 1.0e-6]}}}

@@ -12,8 +12,8 @@ from pathlib import Path
 import numpy as np
 
 from orthoglide_ident import bags
-from orthoglide_sim.arm_session import ArmSession
-from orthoglide_sim.broadcaster import BroadcasterLayout, TickDropper, broadcast
+from orthoglide_sim.arms.session import ArmSession
+from orthoglide_sim.common.broadcaster import BroadcasterLayout, TickDropper, broadcast
 
 ROBOT = "ur5_mount"
 PAYLOAD_KG = 2.5

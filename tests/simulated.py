@@ -18,8 +18,8 @@ def simulated_pair(seconds: float, seeds: tuple[int, int], name: str, **simulate
                    ) -> list[Record]:
     """An unloaded record on the "exciting" trajectory and a 1.983 kg one on "exciting2", each
     ``seconds`` long with its seed, named ``<name>-unloaded`` and ``<name>-loaded``;
-    ``simulate_kwargs`` go to orthoglide_sim.record.simulate (profile, controller...)."""
-    simulate = pytest.importorskip("orthoglide_sim.record").simulate
+    ``simulate_kwargs`` go to orthoglide_sim.orthoglide.record.simulate (profile, controller...)."""
+    simulate = pytest.importorskip("orthoglide_sim.orthoglide.record").simulate
     recs = []
     for payload, seed, trajectory in (("none", seeds[0], "exciting"),
                                       ("1.983", seeds[1], "exciting2")):

@@ -138,10 +138,10 @@ def test_offline_and_live_share_rooms_but_not_orchestration():
     ident = PRODUCT / "identify"
     offline = {m for m, _, _ in _imports(ident / "pipeline.py")}
     live = {m for f in ("live.py", "live_recording.py") for m, _, _ in _imports(ident / f)}
-    assert not {m for m in offline if m.startswith("orthoglide_ident.identify.live")}
+    assert not {m for m in offline if m.startswith("orthoglide_ident.identify.live.session")}
     assert "orthoglide_ident.identify.pipeline" not in live
-    shared = {"orthoglide_ident.identify.methods", "orthoglide_ident.identify.diagnostics"}
+    shared = {"orthoglide_ident.identify.solve.methods", "orthoglide_ident.identify.diagnostics"}
     assert shared <= offline and shared <= live
     # the observation: observe.py (offline) and live_recording.py run the same SegmentStream
-    assert "orthoglide_ident.identify.stream" in {m for m, _, _ in _imports(ident / "observe.py")}
-    assert "orthoglide_ident.identify.stream" in live
+    assert "orthoglide_ident.identify.observe.stream" in {m for m, _, _ in _imports(ident / "observe.py")}
+    assert "orthoglide_ident.identify.observe.stream" in live

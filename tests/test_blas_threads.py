@@ -55,7 +55,7 @@ def _threads(module: str, **env: str) -> str:
 
 
 def test_every_entry_point_is_covered():
-    assert {"orthoglide_ident.nodes.ctc", "orthoglide_sim.driver_node"} <= set(_modules())
+    assert {"orthoglide_ident.nodes.ctc", "orthoglide_sim.nodes.driver"} <= set(_modules())
 
 
 @pytest.mark.parametrize("module", _modules())

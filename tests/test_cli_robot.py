@@ -8,10 +8,10 @@ import sys
 import numpy as np
 import pytest
 
-from orthoglide_sim.arm_bags import write_record
-from orthoglide_sim.arm_description import load_arm
-from orthoglide_sim.arm_record import simulate_arm
-from orthoglide_sim.arm_truth import OFFSET_COM, OFFSET_PAYLOAD, load_truth, with_offset_payload
+from orthoglide_sim.arms.bags import write_record
+from orthoglide_sim.arms.description import load_arm
+from orthoglide_sim.arms.record import simulate_arm
+from orthoglide_sim.arms.truth import OFFSET_COM, OFFSET_PAYLOAD, load_truth, with_offset_payload
 
 
 def cli(*args: str) -> subprocess.CompletedProcess:

@@ -16,7 +16,7 @@ ORTHOGLIDE = load_robot("orthoglide")  # the robot these records are of
 
 def true_params(m7: float = 1.983) -> CTCParameters:
     """Base parameters of the simulator's true standard parameters, true drive gains."""
-    from orthoglide_sim.true_parameters import load_parameters
+    from orthoglide_sim.orthoglide.truth import load_parameters
 
     tp = load_parameters()
     bm = base_model()
@@ -38,8 +38,8 @@ def fake_result(params: CTCParameters) -> IdentificationResult:
 def test_feedforward_equals_plant_torque_on_exact_data(monkeypatch):
     """Plant forward dynamics (Pinocchio, independent of the model; sign() friction like the model)
     under random forces, then the feed-forward at the resulting (q, qd, qdd) gives the forces back."""
-    from orthoglide_sim.plant import Plant
-    from orthoglide_sim.true_parameters import load_parameters
+    from orthoglide_sim.orthoglide.plant import Plant
+    from orthoglide_sim.orthoglide.truth import load_parameters
 
     rng = np.random.default_rng(1)
     n = 12
@@ -85,7 +85,7 @@ def test_feedforward_currents_in_the_middle_of_each_hold_over_the_gains():
 
 def test_feedforward_currents_of_a_quintic_are_the_half_tick_model():
     """On a smooth test trajectory the mean of two ticks is the reference at t_k + T/2 to ~1e-6 m."""
-    from orthoglide_sim.trajectories import get_trajectory
+    from orthoglide_sim.common.trajectories import get_trajectory
 
     traj = get_trajectory("test2")
     t = np.arange(0.0, 0.5, 1e-3)

@@ -10,8 +10,8 @@ import pytest
 pytest.importorskip("rclpy")
 pytest.importorskip("orthoglide_msgs.msg")
 
-from orthoglide_sim.demo import identify, record, tracking_errors  # noqa: E402
-from orthoglide_sim.graph import Graph  # noqa: E402
+from orthoglide_sim.demos.node_set import identify, record, tracking_errors  # noqa: E402
+from orthoglide_sim.demos.graph import Graph  # noqa: E402
 
 G_TRUE = np.array([2170.0, 2100.0, 2070.0])
 
@@ -30,7 +30,7 @@ def test_record_identify_live_and_control_over_ros(tmp_path):
         g.start("orthoglide_recorder", "recorder", {"output_dir": str(tmp_path / "bags")},
                 params_file=ROOT / "config/recorder.yaml")
         # live = offline to 1e-6 for the same equations: without the lag columns, whose live
-        # instrument averages only the previous periods (tests/identify/test_live.py: within σ)
+        # instrument averages only the previous periods (tests/identify/live/test_live.py: within σ)
         g.start("orthoglide_identification", "identification",
                 {"bag_dir": str(tmp_path / "bags"), "lag_model": "off"})
         assert g.wait_for_ticks() < 30
@@ -81,7 +81,7 @@ def test_record_identify_live_and_control_over_ros(tmp_path):
 
 def test_ctc_without_parameters_publishes_nothing_and_says_so(tmp_path):
     from orthoglide_ident.nodes.ctc import CTCNode  # noqa: F401  (importable: a module-level class)
-    from orthoglide_sim.graph import GraphError
+    from orthoglide_sim.demos.graph import GraphError
 
     with Graph(tmp_path / "logs") as g:
         g.start("orthoglide_driver", "driver", {"trajectory": "test1"})

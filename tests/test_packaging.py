@@ -17,7 +17,7 @@ PREFIX = Path(sys.prefix).resolve()
 
 # `ros2 run orthoglide_ident <exec>` -> module whose main() it runs; fixed by the lead.
 EXECUTABLES = {
-    "driver": "orthoglide_sim.driver_node",
+    "driver": "orthoglide_sim.nodes.driver",
     "recorder": "orthoglide_ident.nodes.recorder",
     "identification": "orthoglide_ident.nodes.identification",
     "ctc": "orthoglide_ident.nodes.ctc",
@@ -155,7 +155,7 @@ def test_config_files_are_the_nodes_parameter_files():
     import yaml
 
     from orthoglide_ident.nodes import ctc, identification, recorder, viewer
-    from orthoglide_sim import driver_node
+    from orthoglide_sim.nodes import driver as driver_node
 
     for module, name in ((driver_node, "driver"), (recorder, "recorder"), (identification, "identification"),
                          (ctc, "ctc"), (viewer, "viewer")):

@@ -27,7 +27,7 @@ API = {
 }
 # the extension tables (docs/architecture.md "Extension points"): one place each
 TABLES = {
-    "orthoglide_ident.identify.methods": ["METHODS", "REFINEMENTS", "DEFAULT_METHOD", "get", "solve"],
+    "orthoglide_ident.identify.solve.methods": ["METHODS", "REFINEMENTS", "DEFAULT_METHOD", "get", "solve"],
     "orthoglide_ident.bags.sources": ["INPUT_SOURCES", "CURRENT_SOURCES", "POSITION",
                                       "DEFAULT_INTERFACE"],
     "orthoglide_ident.model.robots": ["load_robot", "bundled_robots"],

@@ -13,8 +13,8 @@ import yaml
 pytest.importorskip("rclpy")
 pytest.importorskip("control_msgs.msg")
 
-from orthoglide_sim.demo import identify, record  # noqa: E402
-from orthoglide_sim.graph import Graph  # noqa: E402
+from orthoglide_sim.demos.node_set import identify, record  # noqa: E402
+from orthoglide_sim.demos.graph import Graph  # noqa: E402
 
 STANDIN = "ros2_control_standin"
 DROP_RATE, SEED = 3e-4, 4
@@ -28,7 +28,7 @@ def _rel(a, b) -> float:
 
 def _dropped_stamps(start_ns: int, n_ticks: int) -> dict[str, set[int]]:
     """The stamps the stand-in's seeded drops leave out, per topic (its TickDropper replayed)."""
-    from orthoglide_sim.broadcaster import TICK_NS, TickDropper
+    from orthoglide_sim.common.broadcaster import TICK_NS, TickDropper
 
     d = TickDropper(DROP_RATE, SEED)
     out: dict[str, set[int]] = {t: set() for t in TOPICS}
@@ -62,8 +62,8 @@ def test_record_and_identify_a_ros2_control_robot(tmp_path):
 
     from orthoglide_ident import bags as bagio
     from orthoglide_ident._install_ament import ROOT
-    from orthoglide_sim.arm_description import load_arm
-    from orthoglide_sim.arm_truth import load_truth
+    from orthoglide_sim.arms.description import load_arm
+    from orthoglide_sim.arms.truth import load_truth
 
     config = ROOT / "config" / "ros2_control.yaml"
     with Graph(tmp_path / "logs") as g:

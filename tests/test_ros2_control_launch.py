@@ -39,7 +39,7 @@ def test_launch_file_lists_the_nodes_with_installed_configs():
 
 def test_ros2_control_yaml_sets_declared_parameters_of_each_node():
     from orthoglide_ident.nodes import ctc, identification, recorder, viewer
-    from orthoglide_sim import ros2_control_node
+    from orthoglide_sim.nodes import ros2_control as ros2_control_node
 
     data = yaml.safe_load((ROOT / "config" / "ros2_control.yaml").read_text())
     declared = {"orthoglide_recorder": recorder.PARAMETERS, "orthoglide_identification": identification.PARAMETERS,

@@ -41,7 +41,7 @@ from orthoglide_ident.excite.prediction import (RATE_HZ, Prediction, RunSamples,
                                                 nominal_base_values, periodic_rate, run_rows)
 from orthoglide_ident.excite.trajectory import (ExcitationRun, ExcitationTrajectory,
                                                 rest_projection)
-from orthoglide_ident.identify.current_lag import MIN_PERIODS
+from orthoglide_ident.identify.columns.current_lag import MIN_PERIODS
 from orthoglide_ident.model.robot import Payload
 
 _log = logging.getLogger("orthoglide_ident")

@@ -17,10 +17,10 @@ rooms; neither imports the other. options holds the tuning (config/identificatio
     live = LiveIdentification(model=robot)           # see identify/live.py
     live.start_recording("run-1", "unloaded"); live.add_joint_states(...); ...
 """
-from orthoglide_ident.identify.live import LiveEstimate, LiveIdentification
+from orthoglide_ident.identify.live.session import LiveEstimate, LiveIdentification
 from orthoglide_ident.identify.options import IdentifyOptions
 from orthoglide_ident.identify.pipeline import identify, identify_records
-from orthoglide_ident.identify.records import Record, read_record
+from orthoglide_ident.identify.records.record import Record, read_record
 
 __all__ = ["IdentifyOptions", "LiveEstimate", "LiveIdentification", "Record", "identify",
            "identify_records", "read_record"]

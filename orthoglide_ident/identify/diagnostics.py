@@ -9,8 +9,8 @@ import dataclasses
 from typing import Any
 
 from orthoglide_ident.identify.options import IdentifyOptions
-from orthoglide_ident.identify.segments import SegmentReport
-from orthoglide_ident.identify.solve import Solved
+from orthoglide_ident.identify.records.segments import SegmentReport
+from orthoglide_ident.identify.solve.answer import Solved
 from orthoglide_ident.results import IdentificationResult
 
 __all__ = ["bag_report", "finish_result"]

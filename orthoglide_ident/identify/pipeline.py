@@ -23,17 +23,17 @@ import numpy as np
 
 from orthoglide_ident.errors import ExcitationError, IdentificationError
 from orthoglide_ident.identify.diagnostics import bag_report, finish_result
-from orthoglide_ident.identify.drive_terms import observation_model
-from orthoglide_ident.identify.factors import RecordFactors
-from orthoglide_ident.identify.methods import DEFAULT_METHOD, get, solve
-from orthoglide_ident.identify.observations import Observations
-from orthoglide_ident.identify.observe import IdentificationModel, observe
+from orthoglide_ident.identify.columns.drive_terms import observation_model
+from orthoglide_ident.identify.solve.factors import RecordFactors
+from orthoglide_ident.identify.solve.methods import DEFAULT_METHOD, get, solve
+from orthoglide_ident.identify.observe.equations import Observations
+from orthoglide_ident.identify.observe.rows import IdentificationModel, observe
 from orthoglide_ident.identify.options import IdentifyOptions
-from orthoglide_ident.identify.payload_unknowns import (check_one_payload, unknowns_of,
+from orthoglide_ident.identify.columns.payload_unknowns import (check_one_payload, unknowns_of,
                                                         used_columns, with_payload_unknowns)
-from orthoglide_ident.identify.records import Record, read_record, record_payload
-from orthoglide_ident.identify.solve import Solved, min_rows
-from orthoglide_ident.identify.validation import ValidationResult, cross_validate
+from orthoglide_ident.identify.records.record import Record, read_record, record_payload
+from orthoglide_ident.identify.solve.answer import Solved, min_rows
+from orthoglide_ident.identify.validate.cross_validation import ValidationResult, cross_validate
 from orthoglide_ident.model.robot import Payload
 from orthoglide_ident.results import IdentificationResult
 
@@ -262,7 +262,7 @@ def _validate(records: Iterable[Record], solved: Solved, model: IdentificationMo
         out.append(cross_validate(obs, solved.chi, solved.g_tau, m,
                                   np.asarray(result.residual_rms), joint_names=model.joint_names))
         if result.consistency is not None:  # the consistent model forward-simulated on it
-            from orthoglide_ident.identify.direct_dynamics import validate
+            from orthoglide_ident.identify.validate.direct_dynamics import validate
 
             result.consistency.direct_dynamics.append(validate(
                 rec, getattr(model, "base", model), result.consistency.answer.chi_st,

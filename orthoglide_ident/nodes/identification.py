@@ -16,8 +16,8 @@ from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from std_msgs.msg import String
 
 from orthoglide_ident.errors import ConfigError, OrthoglideError
-from orthoglide_ident.identify.live import LiveIdentification
-from orthoglide_ident.identify.methods import METHODS, REFINEMENTS, get
+from orthoglide_ident.identify.live.session import LiveIdentification
+from orthoglide_ident.identify.solve.methods import METHODS, REFINEMENTS, get
 from orthoglide_ident.identify.options import IdentifyOptions
 from orthoglide_ident.identify.pipeline import identify
 from orthoglide_ident.model.robots import load_robot, load_robot_description

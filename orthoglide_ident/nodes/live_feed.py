@@ -37,8 +37,8 @@ from orthoglide_ident.bags import (CURRENT_REFERENCE_TYPE, DYNAMIC_JOINT_STATE_T
                                    decode_messages)
 from orthoglide_ident.bags.sources import CURRENT_SOURCES
 from orthoglide_ident.errors import OrthoglideError
-from orthoglide_ident.identify.live import LiveIdentification
-from orthoglide_ident.identify.records import effort_channels, torque_as_current
+from orthoglide_ident.identify.live.session import LiveIdentification
+from orthoglide_ident.identify.records.record import effort_channels, torque_as_current
 from orthoglide_ident.model.robot import Payload, RobotModel
 from orthoglide_ident.nodes.live_sources import DYNAMIC, EFFORT, REFERENCE, LiveTopics, choose_current
 from orthoglide_ident.ros.batch import BatchTaker, BatchTopic

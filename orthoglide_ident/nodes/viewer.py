@@ -19,7 +19,7 @@ from orthoglide_ident.bags import (CURRENT_REFERENCE_TYPE, DYNAMIC_JOINT_STATE_T
                                    decode_messages)
 from orthoglide_ident.bags.sources import CURRENT_SOURCES, DEFAULT_INTERFACE
 from orthoglide_ident.errors import ConfigError, OrthoglideError
-from orthoglide_ident.identify.records import torque_as_current
+from orthoglide_ident.identify.records.record import torque_as_current
 from orthoglide_ident.model.robots import load_robot
 from orthoglide_ident.ros.batch import BatchTaker, BatchTopic
 from orthoglide_ident.ros.params import Param, declare, usage

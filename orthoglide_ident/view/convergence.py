@@ -22,9 +22,9 @@ from typing import Sequence
 import numpy as np
 
 from orthoglide_ident.errors import OrthoglideError
-from orthoglide_ident.identify.factors import RecordFactors
-from orthoglide_ident.identify.observations import Observations
-from orthoglide_ident.identify.tls import ExcitationLimits, check_excitation, idim_tls
+from orthoglide_ident.identify.solve.factors import RecordFactors
+from orthoglide_ident.identify.observe.equations import Observations
+from orthoglide_ident.identify.solve.tls import ExcitationLimits, check_excitation, idim_tls
 
 MAX_POINTS = 60  # steps at most (longer records: longer steps; each costs a solve)
 

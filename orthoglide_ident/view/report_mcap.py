@@ -24,7 +24,7 @@ import numpy as np
 
 from orthoglide_ident.errors import ConfigError
 from orthoglide_ident.identify.options import IdentifyOptions
-from orthoglide_ident.identify.tls import ExcitationLimits
+from orthoglide_ident.identify.solve.tls import ExcitationLimits
 from orthoglide_ident.report import validation_for_plot
 from orthoglide_ident.results import IdentificationResult
 from orthoglide_ident.view import schemas

@@ -31,8 +31,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from orthoglide_ident.errors import ConfigError
-from orthoglide_ident.identify.filtering import filter_horizon, filtered_states, zero_phase_butterworth
-from orthoglide_ident.identify.live_recording import channel_maps
+from orthoglide_ident.identify.observe.filtering import filter_horizon, filtered_states, zero_phase_butterworth
+from orthoglide_ident.identify.live.recording import channel_maps
 from orthoglide_ident.identify.options import IdentifyOptions
 from orthoglide_ident.model.robot import RobotModel
 

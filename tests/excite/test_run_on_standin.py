@@ -22,7 +22,7 @@ from trajectories import write_small  # noqa: E402
 from orthoglide_ident import bags  # noqa: E402
 from orthoglide_ident._install_ament import ROOT  # noqa: E402
 from orthoglide_ident.excite import run as plan  # noqa: E402
-from orthoglide_sim.graph import Graph  # noqa: E402
+from orthoglide_sim.demos.graph import Graph  # noqa: E402
 
 STANDIN = "ros2_control_standin"
 CLI = Path(sys.prefix) / "bin" / "orthoglide-ident"

@@ -1,5 +1,5 @@
 """Small exciting-trajectory files for the run's tests: a few seconds, small amplitudes inside
-the simulated arms' boxes (orthoglide_sim/arm_limits.py), at rest at both ends."""
+the simulated arms' boxes (orthoglide_sim/arms/limits.py), at rest at both ends."""
 from __future__ import annotations
 
 from pathlib import Path

@@ -12,11 +12,11 @@ import numpy as np
 import pytest
 
 from orthoglide_ident.errors import DataError
-from orthoglide_ident.identify.live import LiveIdentification
+from orthoglide_ident.identify.live.session import LiveIdentification
 from orthoglide_ident.identify.options import IdentifyOptions
 from orthoglide_ident.identify.pipeline import Record, identify_records
 from synthetic import SyntheticModel, synthetic_record, true_gains
-from test_live import feed, rel_diff, rel_sigma_diff
+from live_helpers import feed, rel_diff, rel_sigma_diff
 
 ARM = SyntheticModel(n_joints=6, kind="revolute")
 STRONG = dict(amplitude=0.1, f_max=4.0)

@@ -1,6 +1,6 @@
 """Issue 33 on the independent plant: the coupled-wrist UR5 simulated by MuJoCo (motor tendons
 with their own rotor inertia, viscous and Coulomb friction, gear ratios of both signs; the last
-motor turns with q5 + q6: orthoglide_sim/coupled_wrist.py), recorded through its PID per motor,
+motor turns with q5 + q6: orthoglide_sim/coupled/plant.py), recorded through its PID per motor,
 identified by the product's IDIM-TLS in actuator space (model/actuator_space.py).
 
 Tolerances: the issue's figures (every per-motor gain within 0.5 % and 3 honest σ; the motors'
@@ -25,8 +25,8 @@ JOINTS = ("shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint", "wrist_1_j
 @pytest.fixture(scope="module")
 def simulated(tmp_path_factory):
     """(truth, the two CoupledRecords, their bags by position side, the two robot YAMLs)."""
-    from orthoglide_sim.coupled_record import simulate_coupled, write_coupled_bag, write_robot_files
-    from orthoglide_sim.coupled_truth import default_coupled_truth
+    from orthoglide_sim.coupled.record import simulate_coupled, write_coupled_bag, write_robot_files
+    from orthoglide_sim.coupled.truth import default_coupled_truth
 
     out = tmp_path_factory.mktemp("coupled")
     truth = default_coupled_truth()
@@ -98,7 +98,7 @@ def test_the_live_identification_of_the_plant_equals_its_bags_offline(simulated)
     arrival, the live result is the offline identification of the same runs' bags (read_record
     maps them), the same equations: to 1e-6 (measured 1.5e-9) with the paper's drive model
     (lag_model: off)."""
-    from orthoglide_ident.identify.live import LiveIdentification
+    from orthoglide_ident.identify.live.session import LiveIdentification
     from orthoglide_ident.identify.options import IdentifyOptions
     from orthoglide_ident.identify.pipeline import identify_records, read_record
 

@@ -16,19 +16,11 @@ from orthoglide_ident.identify.options import IdentifyOptions
 from orthoglide_ident.identify.pipeline import Record, identify_records
 from orthoglide_ident.model.robot import Payload
 from orthoglide_ident.model.robots import load_robot
-from orthoglide_sim.arm_record import ArmRecord, simulate_arm
+from orthoglide_sim.arms.record import ArmRecord, simulate_arm
+
+from live_helpers import as_record, live_result
 
 
-def as_record(rec: ArmRecord, name: str) -> Record:
-    """What a bag of the run holds, in memory: the payload's shape as its tag gives it."""
-    payload = None
-    if rec.payload is not None:
-        I = rec.payload.body.inertia
-        payload = Payload(rec.payload.mass, rec.payload.frame, tuple(rec.payload.body.com),
-                          (I[0, 0], I[0, 1], I[0, 2], I[1, 1], I[1, 2], I[2, 2]))
-    cond = "loaded" if payload else "unloaded"
-    return Record.from_arrays(name, rec.stamps_ns, rec.q, rec.v_tau, cond, rec.payload_mass,
-                              rec.joint_names, payload)
 
 
 @pytest.fixture(scope="module")
@@ -79,25 +71,12 @@ def test_the_payload_shape_matters(arm):
     assert e_point > 5 * e_exact
 
 
-def live_result(model, records, options: IdentifyOptions, batch: int = 500):
-    """The live identification fed ``records`` in batches of ``batch`` ticks, each recording with
-    its payload's shape as the recorder's status carries it."""
-    from orthoglide_ident.identify.live import LiveIdentification
-
-    live = LiveIdentification(options, model=model)
-    for rec in records:
-        live.start_recording(rec.source, rec.condition, rec.payload_mass, rec.payload)
-        for a in range(0, len(rec.stamps_q_ns), batch):
-            live.add_joint_states(rec.stamps_q_ns[a:a + batch], rec.names_q, rec.q[a:a + batch])
-            live.add_current_reference(rec.stamps_v_ns[a:a + batch], rec.names_v, rec.v_tau[a:a + batch])
-        live.stop_recording()
-    return live.result()
 
 
 def test_live_with_the_payload_shape_equals_offline(arm):
     """The live identification given the payload's frame, CoM and inertia (as the recorder's
     status carries them) folds the same equations as the bag's tag gives offline."""
-    from test_live import rel_diff
+    from live_helpers import rel_diff
 
     model, recs, _ = arm
     opts = IdentifyOptions(lag_model="off")

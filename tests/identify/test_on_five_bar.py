@@ -21,11 +21,11 @@ from orthoglide_ident.identify.options import IdentifyOptions
 from orthoglide_ident.identify.pipeline import Record, identify_records
 from orthoglide_ident.model.robot import Payload
 from orthoglide_ident.model.robots import load_robot
-from orthoglide_sim.arm_bags import main as bags_main
-from orthoglide_sim.chain_description import load_chain
-from orthoglide_sim.chain_record import simulate_chain
-from orthoglide_sim.chain_truth import default_chain_truth
-from test_on_arm import as_record, live_result
+from orthoglide_sim.arms.bags import main as bags_main
+from orthoglide_sim.chains.description import load_chain
+from orthoglide_sim.chains.record import simulate_chain
+from orthoglide_sim.chains.truth import default_chain_truth
+from live_helpers import as_record, live_result
 
 
 def gain_errors(result, truth) -> tuple[np.ndarray, np.ndarray]:
@@ -95,7 +95,7 @@ def test_live_equals_offline_on_the_closed_chain(five_bar):
     """The live identification of the closed chain (the loop solved per tick inside the model,
     batches of 500 ticks, the payload's shape as the recorder's status carries it) folds the
     same equations as offline: the same answer to 1e-6."""
-    from test_live import rel_diff
+    from live_helpers import rel_diff
 
     model, recs, _ = five_bar
     opts = IdentifyOptions(lag_model="off")
@@ -150,7 +150,7 @@ def test_a_transmission_on_the_closed_chain_gives_the_motors_gains(five_bar, tls
     import yaml
 
     from orthoglide_ident.control import CTCParameters, feedforward_currents
-    from orthoglide_ident.identify.records import motor_side
+    from orthoglide_ident.identify.records.record import motor_side
     from orthoglide_ident.model.robots import ROBOTS_DIR
 
     model, recs, truth = five_bar

@@ -30,13 +30,13 @@ import pytest
 import yaml
 
 from orthoglide_ident.identify.pipeline import Record, identify_records
-from orthoglide_ident.identify.records import motor_side
+from orthoglide_ident.identify.records.record import motor_side
 from orthoglide_ident.model.robot import Payload
 from orthoglide_ident.model.robots import ROBOTS_DIR, load_robot
-from orthoglide_sim.arm_description import load_arm
-from orthoglide_sim.arm_excitation import designed_trajectory
-from orthoglide_sim.arm_truth import load_truth
-from orthoglide_sim.pinocchio_arm import truth_model
+from orthoglide_sim.arms.description import load_arm
+from orthoglide_sim.arms.excitation import designed_trajectory
+from orthoglide_sim.arms.truth import load_truth
+from orthoglide_sim.arms.pinocchio_truth import truth_model
 
 RATE_HZ, DURATION_S = 1000.0, 60.0
 MOTORS = ("m1", "m2", "m3", "m4", "m5", "m6")
@@ -299,7 +299,7 @@ def test_a_bag_with_joint_side_positions_is_read_from_the_motors(tmp_path):
     motor's current under its joint's name: read_record maps q to the motors (q_m = n (q_j − o)),
     takes the currents as they are, and says so."""
     from orthoglide_ident.bags import write_bag
-    from orthoglide_ident.identify.records import read_record
+    from orthoglide_ident.identify.records.record import read_record
 
     motors = load_robot(_simple_urdf(tmp_path))
     t = np.arange(200) * 1e-3
@@ -334,7 +334,7 @@ def test_live_identification_through_the_transmission_equals_offline(coupled):
     as motor_side() maps a bag, the live result is the offline one: the same equations, so
     to 1e-6 (measured: 5e-9 on the values, 1e-8 on the σ) with the paper's drive model
     (lag_model: off)."""
-    from orthoglide_ident.identify.live import LiveIdentification
+    from orthoglide_ident.identify.live.session import LiveIdentification
     from orthoglide_ident.identify.options import IdentifyOptions
 
     runs, payload, tx, tmp, _ = coupled
@@ -365,7 +365,7 @@ def test_live_identification_through_the_transmission_equals_offline(coupled):
 def test_the_live_feed_lacking_a_transmission_channel_is_said(tmp_path):
     """Positions under other names than the transmission's joint-side channels: dropped with a
     one-line warning naming the channels expected, not misread."""
-    from orthoglide_ident.identify.live import LiveIdentification
+    from orthoglide_ident.identify.live.session import LiveIdentification
 
     model = load_robot(_simple_urdf(tmp_path))
     live = LiveIdentification(model=model)
@@ -379,7 +379,7 @@ def test_joint_side_torques_of_a_live_feed_become_the_motors_currents(coupled):
     gains on the motors' side, as read_record does (motor_side, then effort_as_current), not by
     channel name (the joints' names find no motor's gain), the channels staying the joints'
     for the live mapping v_m = N⁻ᵀ v_j; a feed with an extra channel keeps it as it is."""
-    from orthoglide_ident.identify.records import effort_channels, torque_as_current
+    from orthoglide_ident.identify.records.record import effort_channels, torque_as_current
 
     _, _, tx, tmp, _ = coupled
     model = load_robot(_robot_file(tmp, dict(tx, effort_side="joint"), "torque_feed"))

@@ -2,7 +2,7 @@
 
 The Orthoglide's open tree carries every body's 10 parameters in its MDH frame (the platform
 merged into body 5 of leg 1 by Pinocchio); closed by two welds it is the closed-form model
-(tests/identify/test_direct_dynamics.py). A URDF robot's own file gets its inertials replaced,
+(tests/identify/validate/test_direct_dynamics.py). A URDF robot's own file gets its inertials replaced,
 the links merged into a body emptied, friction in <dynamics>.
 """
 from __future__ import annotations
@@ -26,7 +26,7 @@ GAINS = [2170.0, 2100.0, 2070.0]
 
 @pytest.fixture(scope="module")
 def truth() -> np.ndarray:
-    return pytest.importorskip("orthoglide_sim.true_parameters").default_parameters() \
+    return pytest.importorskip("orthoglide_sim.orthoglide.truth").default_parameters() \
         .standard_vector()
 
 

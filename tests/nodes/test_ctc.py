@@ -124,7 +124,7 @@ def test_ctc_node_waits_for_parameters_then_feeds_forward(ros_env):
     pytest.importorskip("rclpy")
     pytest.importorskip("orthoglide_msgs.msg")
     from orthoglide_ident.control import feedforward_currents
-    from orthoglide_sim.trajectories import get_trajectory
+    from orthoglide_sim.common.trajectories import get_trajectory
     from test_control import true_params
 
     p = true_params()
@@ -176,7 +176,7 @@ def test_ctc_node_clips_to_the_current_limit_and_stops_on_nan(ros_env):
     with the reason, and nothing more is published."""
     pytest.importorskip("rclpy")
     pytest.importorskip("orthoglide_msgs.msg")
-    from orthoglide_sim.trajectories import get_trajectory
+    from orthoglide_sim.common.trajectories import get_trajectory
     from test_control import true_params
 
     p = true_params()
@@ -245,7 +245,7 @@ def test_ctc_node_refuses_a_model_that_does_not_fit_and_keeps_the_old_one(ros_en
     pytest.importorskip("orthoglide_msgs.msg")
     from orthoglide_ident.control import feedforward_currents
     from orthoglide_msgs.msg import IdentifiedParameters
-    from orthoglide_sim.trajectories import get_trajectory
+    from orthoglide_sim.common.trajectories import get_trajectory
     from test_control import true_params
 
     p = true_params()
@@ -391,7 +391,7 @@ def test_ctc_node_states_its_lead_and_cpu_on_diagnostics_and_sums_up_at_exit(ros
     from diagnostic_msgs.msg import DiagnosticArray
 
     from orthoglide_msgs.msg import JointSetpoint
-    from orthoglide_sim.trajectories import get_trajectory
+    from orthoglide_sim.common.trajectories import get_trajectory
     from test_control import true_params
 
     p = true_params()

@@ -29,8 +29,8 @@ def test_trajectory_points_carry_the_feed_forward(ros_env):
     from orthoglide_ident.control import CTCParameters, feedforward_currents
     from orthoglide_ident.model.robots import load_robot
     from orthoglide_msgs.msg import CurrentReference, IdentifiedParameters, JointSetpoint
-    from orthoglide_sim.arm_description import load_arm
-    from orthoglide_sim.arm_excitation import designed_trajectory
+    from orthoglide_sim.arms.description import load_arm
+    from orthoglide_sim.arms.excitation import designed_trajectory
 
     model = load_robot(ROBOT)
     rng = np.random.default_rng(0)

@@ -173,7 +173,7 @@ def test_live_identification_warns_and_survives_nan_and_wrong_names(spawn_python
 
     from orthoglide_msgs.msg import CurrentReference, LiveIdentification, RecorderStatus
     from orthoglide_msgs.srv import Identify, StartRecording
-    from orthoglide_sim.record import simulate
+    from orthoglide_sim.orthoglide.record import simulate
 
     rec = simulate(5.0, payload="none", trajectory="exciting", seed=3)
     spawn_python(NODE, "--ros-args", "-p", f"bag_dir:={tmp_path}")

@@ -31,7 +31,7 @@ T0 = 10**12  # the recording's stamps (ns): the sample bag's, shifted off zero
 HOOKED_NODE = """
 import os, sys
 entered, release = sys.argv.pop(1), sys.argv.pop(1)
-from orthoglide_ident.identify import live
+from orthoglide_ident.identify.live import session as live
 fed = {"q": 0, "v": 0}
 
 def hooked(name, key):
@@ -79,7 +79,7 @@ def test_a_slow_live_update_delays_neither_services_nor_intake_nor_the_ctc(spawn
     from orthoglide_ident.bags import read_bag
     from orthoglide_msgs.msg import CurrentReference, IdentifiedParameters, JointSetpoint, RecorderStatus
     from orthoglide_msgs.srv import Identify
-    from orthoglide_sim.trajectories import get_trajectory
+    from orthoglide_sim.common.trajectories import get_trajectory
     from test_control import true_params
 
     entered, release = tmp_path / "entered", tmp_path / "release"

@@ -1,7 +1,7 @@
 """The identification node end to end with a transmission (issue 33): a coupled-wrist arm's
 topics over DDS, recorded by the recorder node, identified live and from its bags.
 
-The independent plant (orthoglide_sim/coupled_wrist.py: MuJoCo, motor tendons with their own
+The independent plant (orthoglide_sim/coupled/plant.py: MuJoCo, motor tendons with their own
 rotor inertia and friction, the last motor turning with q5 + q6, gear ratios of both signs)
 publishes as a ros2_control hardware with that transmission would: /joint_states carries the
 joint-side positions under the joints' names, /dynamic_joint_states each motor's position and
@@ -40,8 +40,8 @@ def _rel(a, b) -> float:
 def plant(tmp_path_factory):
     """The robot YAML (motors m1 .. m6, positions joint-side) and the two runs' messages."""
     from orthoglide_ident import bags
-    from orthoglide_sim.coupled_record import simulate_coupled, write_robot_files
-    from orthoglide_sim.coupled_truth import default_coupled_truth
+    from orthoglide_sim.coupled.record import simulate_coupled, write_robot_files
+    from orthoglide_sim.coupled.truth import default_coupled_truth
 
     out = tmp_path_factory.mktemp("coupled_topics")
     truth = default_coupled_truth()
@@ -93,8 +93,8 @@ def test_identified_live_and_from_bags_named_by_motor(plant, tmp_path):
     from orthoglide_ident.identify.options import IdentifyOptions
     from orthoglide_ident.identify.pipeline import identify as identify_offline
     from orthoglide_ident.model.robots import load_robot
-    from orthoglide_sim.demo import identify
-    from orthoglide_sim.graph import Graph
+    from orthoglide_sim.demos.node_set import identify
+    from orthoglide_sim.demos.graph import Graph
 
     robot, truth, runs = plant
     out = tmp_path / "bags"

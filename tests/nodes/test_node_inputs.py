@@ -82,13 +82,13 @@ def test_parameter_types_are_lenient_and_bad_values_are_one_line(ros_env):
             args += ["-p", p]
         return children.run(args, env=ros_env, capture_output=True, text=True, timeout=60)
 
-    ok = run("orthoglide_sim.driver_node", "duration:=1", "realtime:=false", "payload:=2")  # ints for floats
+    ok = run("orthoglide_sim.nodes.driver", "duration:=1", "realtime:=false", "payload:=2")  # ints for floats
     assert ok.returncode == 0 and "1000 ticks" in ok.stderr, ok.stderr
     bad = run("orthoglide_ident.nodes.recorder", "queue_depth:=-5")
     assert bad.returncode == 2 and "queue_depth" in bad.stderr and "Traceback" not in bad.stderr
-    bad = run("orthoglide_sim.driver_node", "duration:=soon")
+    bad = run("orthoglide_sim.nodes.driver", "duration:=soon")
     assert bad.returncode == 2 and "parameter duration: expected float" in bad.stderr
-    bad = run("orthoglide_sim.driver_node", "controller:=turbo")
+    bad = run("orthoglide_sim.nodes.driver", "controller:=turbo")
     assert bad.returncode == 2 and "controller must be one of" in bad.stderr
 
 

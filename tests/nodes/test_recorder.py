@@ -357,7 +357,7 @@ def driver_bag(client, tmp_path_factory, request):
 
         drv_log = tmp / "driver.log"
         driver = children.popen(
-            [sys.executable, "-m", "orthoglide_sim.driver_node", "--ros-args",
+            [sys.executable, "-m", "orthoglide_sim.nodes.driver", "--ros-args",
              "-p", "realtime:=true", "-p", f"duration:={DRIVER_SECONDS}",
              "-p", "trajectory:=exciting", "-p", "controller:=pid", "-p", "payload:=none"],
             env=env, stdout=drv_log.open("w"), stderr=subprocess.STDOUT, cwd=tmp)

@@ -22,7 +22,7 @@ def test_the_payload_shape_goes_into_the_tag_and_the_status(tmp_path, ros_env):
     from orthoglide_ident._install_ament import ROOT
     from orthoglide_ident.nodes.live_feed import status_payload
     from orthoglide_msgs.msg import RecorderStatus
-    from orthoglide_sim.graph import Graph
+    from orthoglide_sim.demos.graph import Graph
 
     names = ["j1", "j2"]
     t0 = 1_796_000_000 * 10**9
@@ -77,7 +77,7 @@ def test_a_start_s_payload_is_not_carried_over_and_a_frame_the_robot_lacks_is_re
 
     from orthoglide_ident.nodes.live_feed import status_payload
     from orthoglide_msgs.msg import RecorderStatus
-    from orthoglide_sim.graph import Graph
+    from orthoglide_sim.demos.graph import Graph
 
     def record_start(*extra: str) -> subprocess.CompletedProcess:
         return subprocess.run([sys.executable, "-m", "orthoglide_ident.cli", "record", "start",
@@ -120,7 +120,7 @@ def test_what_is_known_of_the_payload_is_tagged_per_start(tmp_path, ros_env):
     from orthoglide_ident._install_ament import ROOT
     from orthoglide_ident.nodes.live_feed import status_payload
     from orthoglide_msgs.msg import RecorderStatus
-    from orthoglide_sim.graph import Graph
+    from orthoglide_sim.demos.graph import Graph
 
     t0 = 1_796_000_000 * 10**9
     latched = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL,

@@ -23,9 +23,9 @@ def test_records_the_broadcasters_topics(tmp_path):
     from orthoglide_ident import bags
     from orthoglide_ident._install_ament import ROOT
     from orthoglide_msgs.srv import StartRecording
-    from orthoglide_sim.arm_session import ArmTick
-    from orthoglide_sim.broadcaster import BroadcasterLayout
-    from orthoglide_sim.graph import Graph
+    from orthoglide_sim.arms.session import ArmTick
+    from orthoglide_sim.common.broadcaster import BroadcasterLayout
+    from orthoglide_sim.demos.graph import Graph
 
     arm = ("shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint", "wrist_1_joint", "wrist_2_joint",
            "wrist_3_joint")

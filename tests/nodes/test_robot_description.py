@@ -93,8 +93,8 @@ def test_identifies_a_ur5_from_the_published_urdf(ros_env, tmp_path):
     shape in the tag), identified with the URDF from robot_description, which has no nominal gains
     (1 N·m/A: gain_range_ratio widened to admit 13.5): every gain within 0.5 % of the plant's."""
     pytest.importorskip("rclpy")
-    from orthoglide_sim.arm_bags import write_record
-    from orthoglide_sim.arm_record import simulate_arm
+    from orthoglide_sim.arms.bags import write_record
+    from orthoglide_sim.arms.record import simulate_arm
 
     recs = [simulate_arm(20.0, "ur5_mount", payload=None, trajectory="exciting1", seed=0),
             simulate_arm(20.0, "ur5_mount", payload="2.0", trajectory="exciting2", seed=1)]

@@ -40,8 +40,8 @@ def test_a_browser_page_receives_the_live_gains_during_a_recording(tmp_path):
     if binary is None:
         pytest.skip("chromium-headless-shell is not installed (apt-get install -y chromium-headless-shell; "
                     ".ci/run installs it when apt can reach Debian's packages)")
-    from orthoglide_sim.demo import record
-    from orthoglide_sim.graph import Graph
+    from orthoglide_sim.demos.node_set import record
+    from orthoglide_sim.demos.graph import Graph
 
     with Graph(tmp_path / "logs") as g:
         g.start("orthoglide_driver", "driver", {"trajectory": "exciting", "controller": "pid"})

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from orthoglide_ident.errors import ConfigError, OrthoglideError
-from orthoglide_ident.identify.filtering import filter_horizon
+from orthoglide_ident.identify.observe.filtering import filter_horizon
 from orthoglide_ident.model.robots import load_robot
 from orthoglide_ident.view.residual import ForceResidual
 from coupled_view import G_MOTORS, MOTORS, N_WRIST, coupled_model, coupled_record
@@ -17,7 +17,7 @@ AMPLITUDE = 0.04  # m: the Orthoglide's safe box
 
 @pytest.fixture(scope="module")
 def orthoglide():
-    true_parameters = pytest.importorskip("orthoglide_sim.true_parameters")
+    true_parameters = pytest.importorskip("orthoglide_sim.orthoglide.truth")
     bm = load_robot(None)
     tp = true_parameters.default_parameters()
     return bm, bm.base_values(tp.standard_vector()), np.array(tp.g_tau)

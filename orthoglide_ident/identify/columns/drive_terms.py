@@ -1,0 +1,371 @@
+"""Terms of a real drive the paper's IDIM lacks, added to the model: a position-periodic force,
+such as a ball screw's friction ripple at its lead (when the residual calls for it, or at a given
+lead), and the current loop's lag (current_lag.py).
+
+The IDIM has no term for a force that varies periodically with an actuator's position, yet a
+ball-screw drive has one. Unmodelled, ±1.5 % of fs at a 10 mm lead moved a gain by ~0.5 % on
+the simulated realistic drive. The residual says when it is there: its spectrum over position
+(uncertainty.py) has a peak at the wavelength λ (uncertainty.spectrum_peaks). Joint j's
+equations then get two columns, w cos(2π q_j/λ) and w sin(2π q_j/λ), w = sign(q̇_j) H (a
+friction ripple, turning with the velocity) or H (a force ripple), H the decimation filter's gain
+at the ripple's frequency in time (|q̇_j| / λ), whose amplitude and phase are identified with
+everything else (TLS or WLS): no magnitude is assumed, the wavelength comes from the data.
+
+The augmented normal equations are built from the R factors and the position moments folded
+with the records (Σ x w e^(-iφ), Σ w², Σ w² e^(-2iφ)), so the augmented solve is the same offline
+and live. Its σ are eq. (39)'s, scaled unknown by unknown by the base model's honest / eq. (39)
+variance ratio (the block moments hold no ripple columns).
+
+When the lead is known (``screw_lead_m``, a datasheet value), :class:`DriveTermsModel` computes
+the columns sign(q̂̇_j) cos(2π q̂_j/λ), sign(q̂̇_j) sin(2π q̂_j/λ) at the sample rate, beside W, and
+the decimation filters them with W (the paper's parallel filtering, eqs. 19-20, applied to the
+drive term too) instead of weighting the decimated rows by H: no approximation where |q̇|/λ
+nears the decimation's cut-off. Measured on a simulated drive whose only departure from the
+IDIM is a ±1.5 % fs ripple at 10 mm (noise-free 30 s + 30 s): gain errors +0.11/+0.12/+0.07 %
+without a ripple model, -0.03/+0.07/+0.01 % with the columns from the moments, +0.01/-0.02/
+-0.02 % with these; README has the noisy figures over 20 seeds.
+
+The current loop's lag is the other drive term in the equations (``lag_model: auto``): one
+column per joint, the mean of v̇_τ over the record's other periods (current_lag.py), which the
+stream carries beside v_τ and writes into the joint's own rows. (As a column of v_τ's backward
+difference it took up friction errors at the velocity reversals instead — 0.3 ms found for a
+0.12 ms lag, 0.05 ms on a drive without any; as the derivative filtered and decimated like v_τ,
+in a mixed LS-TLS with its noise scaled to v_τ's, it finds 0.117-0.133 ms noise-free but
+0.22-0.31 ms with 2 mA: the noise is in the applied current and the controller answers it
+within a tick, so the zero-phase derivative of the reference correlates with the equation error.
+The other periods' mean is free of the row's own noise.)
+"""
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+from typing import Sequence
+
+import numpy as np
+
+from orthoglide_ident.identify.solve.factors import RecordFactors
+from orthoglide_ident.identify.observe.stream import model_block
+from orthoglide_ident.identify.solve.uncertainty import WAVELENGTHS_M, Uncertainty, spectrum_peaks
+
+
+@dataclass(frozen=True)
+class RippleTerm:
+    """Two columns of joint ``joint`` (its index): a ripple of wavelength ``wavelength_m``; ``index``
+    is its wavelength in the residual's position spectrum (WAVELENGTHS_M) when the columns are
+    built from the moments, None when they are in the equations (DriveTermsModel)."""
+
+    joint: int
+    wavelength_m: float
+    friction: bool  # turns with the velocity (sign(q̇) weight) rather than a plain force
+    index: int | None = None
+
+
+@dataclass(frozen=True)
+class Terms:
+    """The drive terms of a model, in their column order: each joint's current-loop lag (one
+    column per joint: ``lag`` is their number, n_j or 0; current_lag.py), then the ripple terms
+    (two columns each, at most one per joint). A ripple whose ``index`` is None has its columns
+    in the decimated equations (a given lead); the others are built from the moments
+    (augmented_factors)."""
+
+    ripples: tuple[RippleTerm, ...] = ()
+    lag: int = 0
+
+    @property
+    def n_extra(self) -> int:
+        return self.lag + 2 * len(self.ripples)
+
+    def __bool__(self) -> bool:
+        return self.n_extra > 0
+
+    def names(self, joint_names: Sequence[str]) -> list[str]:
+        lag = [f"lag_{j}" for j in joint_names] if self.lag else []
+        return lag + [f"ripple_{c}_{joint_names[t.joint]}" for t in self.ripples
+                      for c in ("c", "s")]
+
+
+@dataclass
+class LagEstimate:
+    """An identified current-loop lag: the drive applies g_τ (v_τ - τ v̇_τ)."""
+
+    joint: str
+    tau_s: float
+    tau_std_s: float
+
+    def to_json(self) -> dict:
+        return {"joint": self.joint, "tau_ms": 1e3 * self.tau_s, "tau_std_ms": 1e3 * self.tau_std_s}
+
+
+@dataclass
+class RippleEstimate:
+    """An identified ripple: a cos(2π q / λ + phase), amplitude a in N."""
+
+    joint: str
+    wavelength_m: float
+    friction: bool
+    amplitude_n: float
+    amplitude_std_n: float
+    phase_rad: float
+
+    def to_json(self) -> dict:
+        return {"joint": self.joint, "wavelength_m": self.wavelength_m,
+                "kind": "friction (sign of velocity)" if self.friction else "force",
+                "amplitude_n": self.amplitude_n, "amplitude_std_n": self.amplitude_std_n,
+                "phase_rad": self.phase_rad}
+
+
+def detect_ripples(unc: Uncertainty | None, joint_names: tuple[str, ...],
+                   screws: Sequence[bool] | None = None) -> tuple[RippleTerm, ...]:
+    """The ripple terms the residual calls for: one per joint with a position-spectrum peak
+    (``screws``: the joints looked at, uncertainty.spectrum_peaks)."""
+    if unc is None or unc.spectrum is None:
+        return ()
+    out = []
+    for p in spectrum_peaks(unc, joint_names, screws):
+        i = int(np.argmin(np.abs(WAVELENGTHS_M - p.wavelength_m)))
+        out.append(RippleTerm(joint_names.index(p.joint), float(WAVELENGTHS_M[i]),
+                              p.sign_modulated, i))
+    return tuple(out)
+
+
+def screw_joints(model) -> list[int]:
+    """The joints a screw's lead applies to: the prismatic ones (ball-screw drives)."""
+    return [j for j, joint in enumerate(model.joints) if joint.kind == "prismatic"]
+
+
+def screw_mask(model) -> tuple[bool, ...]:
+    """Per joint, whether its position spectrum is looked at for a screw ripple."""
+    return tuple(joint.kind == "prismatic" for joint in model.joints)
+
+
+class DriveTermsModel:
+    """The pipeline's model with drive terms in the equations: columns [W | lag | ripple | W_kl].
+
+    ``lag``: each joint's current-loop lag, one column in its own rows (zero in the others'),
+    which the stream fills with the lag instrument (current_lag.py) at ``lag_column`` + j.
+    ``lead_m`` > 0: each prismatic joint's screw friction ripple at that lead, the columns
+    sign(q̂̇_j) cos(2π q̂_j/λ) and sign(q̂̇_j) sin(2π q̂_j/λ) in its own rows. Both are built at the
+    sample rate with W, so the stream decimates (and bridges at reversals) them as it does W.
+    The robot's joints, gains and payload frame are the base model's (``model.joints`` ...)."""
+
+    def __init__(self, model, lead_m: float = 0.0, lag: bool = False):
+        self.base, self.lead_m = model, float(lead_m)
+        self.n_base = len(model.names)
+        self.joints, self.name = model.joints, model.name
+        self.joint_names, self.n_joints = model.joint_names, model.n_joints
+        self.nominal_gains = model.nominal_gains
+        self.nominal_gains_given = model.nominal_gains_given
+        names = self.joint_names
+        ripples = tuple(RippleTerm(j, self.lead_m, True) for j in screw_joints(model)) \
+            if lead_m > 0 else ()
+        self.terms = Terms(ripples, self.n_joints if lag else 0)
+        self.lag_column = self.n_base if lag else None
+        self.names = list(model.names) + self.terms.names(names)
+        self.expressions = list(getattr(model, "expressions", [""] * self.n_base)) + [
+            f"τ g_τ {j}: v̇τ {j} averaged over the other periods" for j in names if lag] + [
+            f"sign(q̇ {names[t.joint]}) {f}(2π {names[t.joint]} / {self.lead_m:g} m)"
+            for t in self.terms.ripples for f in ("cos", "sin")]
+
+    def observation_block(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray,
+                          out: np.ndarray | None = None) -> np.ndarray:
+        """[W | lag (zero) | ripple | W_kl] of states (m, n_j) as (n_b + k + 1, n_j, m)."""
+        n, m, k = self.n_base, q.shape[0], self.terms.n_extra
+        if out is None:
+            out = np.empty((n + k + 1, self.n_joints, m))
+        model_block(self.base, q, qd, qdd, out[:n + 1])
+        out[n + k] = out[n]  # W_kl goes last
+        out[n:n + k] = 0.0
+        r0 = n + self.terms.lag
+        self._ripples(q, qd, out[r0:])
+        return out
+
+    def _ripples(self, q: np.ndarray, qd: np.ndarray, out: np.ndarray) -> None:
+        """The ripple columns sign(q̂̇_j) cos, sin(2π q̂_j/λ) into ``out`` (2 per term, n_j, m),
+        each in its joint's rows (the others left as they are: zero)."""
+        phi = (2.0 * np.pi / self.lead_m) * np.asarray(q) if self.terms.ripples else None
+        s = np.sign(qd)
+        for i, t in enumerate(self.terms.ripples):
+            j = t.joint
+            out[2 * i, j] = s[:, j] * np.cos(phi[:, j])
+            out[2 * i + 1, j] = s[:, j] * np.sin(phi[:, j])
+
+    @property
+    def rough_columns(self) -> tuple[int, ...] | None:
+        """Columns that are not smooth functions of the filtered states (identify/stream.py):
+        the robot's, the lag's (the currents' instrument) and the ripple's (sign(q̂̇)); None
+        when the robot does not say."""
+        base = getattr(self.base, "rough_columns", None)
+        if base is None:
+            return None
+        return tuple(base) + tuple(range(self.n_base, self.n_base + self.terms.n_extra))
+
+    def rough_block(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray,
+                    out: np.ndarray | None = None) -> np.ndarray:
+        """The :attr:`rough_columns` (lag zero: the stream fills it) as (k, n_j, m)."""
+        n_r = len(self.base.rough_columns)
+        k, m = self.terms.n_extra, np.shape(q)[0]
+        if out is None:
+            out = np.empty((n_r + k, self.n_joints, m))
+        self.base.rough_block(q, qd, qdd, out[:n_r])
+        out[n_r:] = 0.0
+        r0 = n_r + self.terms.lag
+        self._ripples(q, qd, out[r0:])
+        return out
+
+    def regressor(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> np.ndarray:
+        """[W | lag (zero: it needs the currents) | ripple] (n_j N, n_b + k), rows joint by joint."""
+        X = self.observation_block(q, qd, qdd)[:-1]
+        return X.transpose(1, 2, 0).reshape(-1, X.shape[0])
+
+    def payload_mass_column(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> np.ndarray:
+        return self.base.payload_mass_column(q, qd, qdd)
+
+    def with_payload(self, payload) -> "DriveTermsModel":
+        """The same drive terms on the base model bound to ``payload`` (RobotModel.with_payload)."""
+        base = self.base.with_payload(payload)
+        return self if base is self.base else DriveTermsModel(base, self.lead_m,
+                                                              bool(self.terms.lag))
+
+
+def observation_model(model, lead_m: float, lag: bool = False):
+    """``model`` with the drive terms in the equations: the screw ripple columns when the lead
+    is known (``lead_m`` > 0), the current-loop lag columns when ``lag``."""
+    if isinstance(model, DriveTermsModel):
+        if model.lead_m == float(lead_m) and bool(model.terms.lag) == bool(lag):
+            return model
+        model = model.base
+    if lead_m > 0 or lag:
+        return DriveTermsModel(model, lead_m, lag)
+    return model
+
+
+def can_model(factors: list[RecordFactors], terms: Terms) -> bool:
+    """Every record holds the moments the terms need (rows with instants and positions)."""
+    return all(f.moments and all(np.any(m.spectrum_rows) for m in f.moments.values())
+               for f in factors)
+
+
+def _sum(f: RecordFactors, attr: str, index) -> np.ndarray:
+    return sum(np.asarray(getattr(mom, attr))[index] for mom in f.moments.values())
+
+
+def augmented_factors(factors: list[RecordFactors], terms: Terms) -> list[RecordFactors]:
+    """The records' factors for the model with the drive terms' columns, in the order
+    [W | ripple (2 per term) | W_kl | v_τ]; each column is non-zero in its own joint's rows
+    only. Built from the R factors and the folded moments (no rows needed)."""
+    n_b = factors[0].n_b
+    k = terms.n_extra
+    n_new = n_b + k + 2
+    old_to_new = np.concatenate([np.arange(n_b), [n_b + k, n_b + k + 1]])
+    out = []
+    for f in factors:
+        R_new = []
+        for j in range(f.n_joints):
+            G = np.zeros((n_new, n_new))
+            G[np.ix_(old_to_new, old_to_new)] = f.R[j].T @ f.R[j]
+            ripple = [(i, t) for i, t in enumerate(terms.ripples) if t.joint == j]
+            for i, t in ripple:
+                kind = 1 if t.friction else 0
+                F = _sum(f, "spectrum", (j, kind, t.index))  # Σ x w e^(-iφ)
+                s0 = float(_sum(f, "ripple_s0", (j, kind, t.index)))
+                s2 = complex(_sum(f, "ripple_s2", (j, kind, t.index)))
+                a, b = n_b + 2 * i, n_b + 2 * i + 1
+                cross = np.column_stack([F.real, -F.imag])  # Σ x w cos φ, Σ x w sin φ
+                G[old_to_new, a:b + 1] = cross
+                G[a:b + 1, old_to_new] = cross.T
+                G[a, a] = 0.5 * (s0 + s2.real)
+                G[b, b] = 0.5 * (s0 - s2.real)
+                G[a, b] = G[b, a] = -0.5 * s2.imag
+            R_new.append(_upper_factor(G))
+        out.append(RecordFactors(f.condition, f.payload_mass, n_b + k, list(f.sources), R_new,
+                                 f.rows.copy(), f.n_samples))
+    return out
+
+
+def _upper_factor(G: np.ndarray) -> np.ndarray:
+    """Upper-triangular R with RᵀR = G (G symmetric positive semi-definite)."""
+    G = 0.5 * (G + G.T)
+    scale = max(float(np.max(np.abs(np.diag(G)))), 1e-300)
+    try:
+        return np.linalg.cholesky(G + 1e-13 * scale * np.eye(G.shape[0])).T
+    except np.linalg.LinAlgError:
+        w, V = np.linalg.eigh(G)
+        return np.linalg.qr((V * np.sqrt(np.clip(w, 0.0, None))).T, mode="r")
+
+
+def transfer_inflation(sol, base, n_b: int, n_extra: int):
+    """``sol`` (augmented: unknowns [active base parameters | drive terms | gains or payload
+    masses]) with eq. (39)'s covariance scaled by the base solution's honest / eq. (39) variance
+    ratio of the same unknown; the drive terms take the largest ratio of the gains (masses)."""
+    n_a = int(np.count_nonzero(sol.active[:n_b]))
+    cp = sol.cov_paper
+    vp = np.diag(base.cov_paper)
+    ratio_base = np.diag(base.cov) / np.where(vp > 0, vp, np.inf)
+    pos = {int(k): i for i, k in enumerate(np.flatnonzero(base.active))}
+    n_base = base.chi.shape[0]
+    ratio = np.ones(cp.shape[0])
+    for i, k in enumerate(np.flatnonzero(sol.active[:n_b])):
+        ratio[i] = ratio_base[pos[int(k)]] if int(k) in pos else float(np.max(ratio_base))
+    ratio[n_a:n_a + n_extra] = float(np.max(ratio_base[n_base:]))
+    ratio[n_a + n_extra:] = ratio_base[n_base:]
+    d = np.sqrt(np.maximum(ratio, 1.0))
+    cov = cp * np.outer(d, d)
+    std = np.sqrt(np.abs(np.diag(cov)))
+    x = np.concatenate([sol.chi, _rest(sol)])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        rel = np.where(x != 0, std / np.abs(x), np.inf)
+    return dataclasses.replace(sol, cov=cov, std=std, rel_std=rel)
+
+
+def _rest(sol) -> np.ndarray:
+    return np.asarray(sol.g_tau if hasattr(sol, "g_tau") else sol.payload_masses, float)
+
+
+def split(sol, n_b: int, terms: Terms, joint_names: Sequence[str], gains: np.ndarray | None = None
+          ) -> tuple[object, list[RippleEstimate], list[LagEstimate]]:
+    """The base-model view of an augmented solution (``active``, χ, covariances over the base
+    parameters and the gains / payload masses), its identified ripples and lags (τ = θ / g_τ,
+    ``gains`` given to a WLS solve, else the solution's own with their covariance)."""
+    k = terms.n_extra
+    n_a = int(np.count_nonzero(sol.active[:n_b]))
+    keep = np.concatenate([np.arange(n_a), np.arange(n_a + k, sol.cov.shape[0])])
+    sub = np.ix_(keep, keep)
+    view = dataclasses.replace(
+        sol, active=sol.active[:n_b].copy(), chi=sol.chi[:n_a].copy(), cov=sol.cov[sub],
+        std=sol.std[keep], rel_std=sol.rel_std[keep],
+        cov_paper=None if sol.cov_paper is None else sol.cov_paper[sub],
+        rel_std_paper=None if sol.rel_std_paper is None else sol.rel_std_paper[keep])
+    lags = _lags(sol, n_a, n_a + k, joint_names, gains) if terms.lag else []
+    ripples = []
+    r0 = n_a + terms.lag
+    for i, t in enumerate(terms.ripples):
+        a, b = r0 + 2 * i, r0 + 2 * i + 1
+        c, s = float(sol.chi[a]), float(sol.chi[b])
+        amp = float(np.hypot(c, s))
+        C = sol.cov[np.ix_([a, b], [a, b])]
+        u = np.array([c, s]) / amp if amp > 0 else np.array([1.0, 0.0])
+        # c cos φ + s sin φ = amp cos(φ + phase)
+        ripples.append(RippleEstimate(joint_names[t.joint], t.wavelength_m, t.friction, amp,
+                                      float(np.sqrt(max(u @ C @ u, 0.0))),
+                                      float(np.arctan2(-s, c))))
+    return view, ripples, lags
+
+
+def _lags(sol, a: int, g0: int, joint_names: Sequence[str], gains: np.ndarray | None
+          ) -> list[LagEstimate]:
+    """τ_j = θ_j / g_τj of the lag coefficients θ at a.. (gains at g0.. when identified), σ to
+    first order."""
+    out = []
+    for j, name in enumerate(joint_names):
+        theta = float(sol.chi[a + j])
+        if gains is None:
+            g = float(sol.g_tau[j])
+            idx = [a + j, g0 + j]
+            grad = np.array([1.0 / g, -theta / g ** 2])
+        else:
+            g = float(gains[j])
+            idx = [a + j]
+            grad = np.array([1.0 / g])
+        C = sol.cov[np.ix_(idx, idx)]
+        out.append(LagEstimate(name, theta / g, float(np.sqrt(max(grad @ C @ grad, 0.0)))))
+    return out

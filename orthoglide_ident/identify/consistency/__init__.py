@@ -1,0 +1,1 @@
+"""Physically consistent standard parameters behind an identification (pseudo-inertia LMI)."""

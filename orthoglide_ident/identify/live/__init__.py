@@ -1,0 +1,1 @@
+"""Online identification: the offline pipeline fed while the recordings run."""

@@ -1,0 +1,428 @@
+"""Online identification: the offline pipeline fed while the recordings run (docs/architecture.md §1, §7).
+
+    live = LiveIdentification(IdentifyOptions.from_yaml("config/identification.yaml"),
+                              model=load_robot("orthoglide"))  # the robot: always passed
+    live.start_recording("run-1", "unloaded", 0.0)
+    live.add_joint_states(stamps_ns, ["q11", "q12", "q13"], q)           # any batch size
+    live.add_current_reference(stamps_ns, ["q11", "q12", "q13"], v_tau)  # arrives independently
+    live.stop_recording()
+    live.start_recording("run-2", "loaded", 1.983) ...
+    live.estimate()   # about once a second: gains ± σ, seconds used, lag, one-line status
+    live.result()     # the IdentificationResult identify_records gives on the same records
+                      # (to 1e-6 with lag_model: off; within σ with the lag, below)
+
+Each recording is one record (like one bag). Samples are paired by stamp once both topics are
+``live_pairing_slack_s`` past them (pairing.py), split at real gaps, and every continuous segment
+runs through a :class:`~stream.SegmentStream` about every ``live_block_s`` of data: the same
+filtering, W, reversal bridging and FIR decimation as ``observe.observe``, exact across blocks.
+The decimated equations are folded into per-condition, per-joint R factors (factors.py), so
+memory and CPU per second of data stay constant; ``result()`` solves them with the offline
+solver (solve.py). Non-finite samples are dropped and split the record (offline
+``nonfinite: drop``); nothing here raises on bad or insufficient data: warnings and ``status``
+say what is wrong. Never imports rclpy.
+
+The current-loop lag (``lag_model: auto``, current_lag.py) needs the record's periods: offline a
+row's instrument is the mean of v̇_τ over all the other periods, live over the previous ones
+(current_lag.LiveLagInstrument), so each segment's first ticks are held until its trajectory has
+repeated 4 times (6 s for the simulator's 1.5 s period) and the two answers differ by the
+instruments' noise, within the gains' σ. A segment used that does not repeat leaves the lag out
+of the whole identification, as offline.
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+from typing import Sequence
+
+import numpy as np
+
+from orthoglide_ident.errors import (ConfigError, ExcitationError, IdentificationError,
+                                     OrthoglideError)
+from orthoglide_ident.identify.columns.current_lag import MAX_SEARCH_S
+from orthoglide_ident.identify.diagnostics import finish_result
+from orthoglide_ident.identify.columns.drive_terms import observation_model, screw_mask
+from orthoglide_ident.identify.solve.factors import RecordFactors
+from orthoglide_ident.identify.live.recording import LiveRecording
+from orthoglide_ident.identify.solve.methods import DEFAULT_METHOD, solve
+from orthoglide_ident.identify.observe.rows import IdentificationModel, with_known_payload
+from orthoglide_ident.identify.options import IdentifyOptions
+from orthoglide_ident.identify.columns.payload_unknowns import (check_one_payload, unknowns_of,
+                                                        with_payload_unknowns)
+from orthoglide_ident.identify.records.record import payload_knowledge
+from orthoglide_ident.identify.solve.answer import limits, min_rows, tls_model
+from orthoglide_ident.identify.observe.stream import DecimatedRows
+from orthoglide_ident.identify.solve.tls import check_excitation
+from orthoglide_ident.model.robot import Payload
+from orthoglide_ident.results import IdentificationResult
+
+MAX_LOGGED_WARNINGS = 200  # the first ones, kept for result().warnings
+MAX_PENDING_WARNINGS = 1000  # waiting for drain_warnings()
+
+
+@dataclass
+class LiveEstimate:
+    """What a user watches about once a second while recording.
+
+    Gains in N/A (N·m/A for a revolute joint) with their relative standard deviation (fraction;
+    empty until identified), seconds of data folded in per condition, s_c/s_(c-1) of W_tot
+    (``singular_ratio``), the condition number of the scaled W, residual rms per joint (N or
+    N·m), the lag (s of received data not
+    yet folded in) and a one-line ``status``; ``ok`` when the gains pass every excitation check,
+    ``enough_data`` when moreover every gain's σ is below ``live_enough_gain_rel_std``.
+    """
+
+    status: str
+    joint_names: tuple[str, ...] = ()
+    ok: bool = False
+    enough_data: bool = False
+    gains: tuple[float, ...] = ()  # empty until identified
+    gains_rel_std: tuple[float, ...] = ()
+    seconds_loaded: float = 0.0
+    seconds_unloaded: float = 0.0
+    singular_ratio: float = math.nan
+    condition_number: float = math.nan
+    residual_rms: tuple[float, ...] = ()
+    lag_s: float = 0.0
+    equations: tuple[int, ...] = ()
+    recording: str | None = None  # condition of the recording under way
+    gain_units: tuple[str, ...] = ()
+
+    @property
+    def known(self) -> bool:
+        """The gains have been identified (TLS could be solved)."""
+        return bool(self.gains)
+
+    def message_fields(self, warnings: Sequence[str] = ()) -> dict:
+        """Fields of orthoglide_msgs/LiveIdentification (header excluded)."""
+        known = self.known
+        return {
+            "status": self.status, "enough_data": self.enough_data,
+            "joint_names": list(self.joint_names),
+            "gain_units": list(self.gain_units),
+            "drive_gains": [float(g) for g in self.gains] if known else [],
+            "drive_gains_rel_std": [float(s) for s in self.gains_rel_std] if known else [],
+            "unloaded_seconds": float(self.seconds_unloaded),
+            "loaded_seconds": float(self.seconds_loaded),
+            "singular_ratio": float(self.singular_ratio),
+            "condition_number": float(self.condition_number),
+            "residual_rms": [float(r) for r in self.residual_rms] if known else [],
+            "lag": float(self.lag_s), "warnings": list(warnings),
+        }
+
+    def line(self) -> str:
+        """The estimate in one line (a log or a terminal)."""
+        units = self.gain_units or ("N/A",) * len(self.gains)
+        g = "gains —" if not self.known else "  ".join(
+            f"{n} {v:8.5g} {u} ±{100 * s:.2f} %"  # a motor's 0.41704 N·m/A too
+            for n, v, s, u in zip(self.joint_names, self.gains, self.gains_rel_std, units))
+        return (f"{g} | {self.seconds_unloaded:.0f} s unloaded, {self.seconds_loaded:.0f} s "
+                f"loaded, lag {self.lag_s:.1f} s | {self.status}")
+
+
+@dataclass
+class _Version:
+    n: int = 0  # folds so far
+    estimate: LiveEstimate | None = None
+    at: tuple = ()  # (folds, condition recorded) the estimate was made at
+
+
+class LiveIdentification:
+    """IDIM-TLS identification fed topic by topic while the recordings run.
+
+    ``options`` as offline (``decimation_filter`` must be ``fir``); ``model`` the robot (passed,
+    never defaulted). See the module docstring for the calls; every ``add_*`` returns the
+    warnings it raised, and :meth:`drain_warnings` returns all warnings since its last call (use
+    either).
+    Not thread-safe: call it from one thread (a node with a multi-threaded executor holds a lock
+    or puts the subscriptions in one mutually exclusive callback group).
+    """
+
+    def __init__(self, options: IdentifyOptions | None = None, *, model: IdentificationModel):
+        self.opts = options or IdentifyOptions()
+        self.opts.validate()
+        if self.opts.decimation_filter != "fir":
+            raise ConfigError("live identification needs decimation_filter: fir (cheby1's IIR "
+                              "decimation depends on the whole segment)")
+        # a transmission's joint-side channels are mapped to its motors on arrival (issue 33)
+        self.transmission = getattr(model, "transmission", None)
+        self.model = observation_model(with_payload_unknowns(model), self.opts.screw_lead_m,
+                                       self.opts.lag_model == "auto")
+        self._payloads: list[tuple[str, Payload]] = []  # the loaded recordings' (Sect. 4.3)
+        self.n_b = len(self.model.names)
+        self._factors: dict[tuple[str, float], RecordFactors] = {}
+        self._seconds: dict[str, float] = {"loaded": 0.0, "unloaded": 0.0}
+        self._recordings: list[LiveRecording] = []
+        self._current: LiveRecording | None = None
+        self._pending_warnings: list[str] = []
+        self._n_undrained_lost = 0
+        self._log: list[str] = []
+        self._n_ignored = 0
+        self._version = _Version()
+
+    # --- recordings ---------------------------------------------------------------------------
+    @property
+    def recording(self) -> bool:
+        return self._current is not None
+
+    def start_recording(self, source: str, condition: str, payload_mass: float = 0.0,
+                        payload: Payload | None = None) -> None:
+        """Start a record: ``condition`` "loaded" (payload of ``payload_mass`` kg) or "unloaded";
+        ``payload``: its frame, centre of mass and inertia (the bag tag's), None for a point mass
+        at the robot's payload frame.
+
+        Raises IdentificationError on a wrong condition or a loaded record without a mass; a
+        recording still running is stopped first (with a warning).
+        """
+        if condition not in ("loaded", "unloaded"):
+            raise IdentificationError(f"condition must be loaded or unloaded, not {condition!r}")
+        mass = 0.0 if condition == "unloaded" else float(payload_mass)
+        if condition == "loaded" and not (math.isfinite(mass) and mass > 0):
+            raise IdentificationError(
+                f"{source} is loaded without a payload mass: give the weighed mass in kg")
+        if self._current is not None:
+            self._warn([f"{self._current.source}: still recording when {source} started: "
+                        "stopped"])
+            self.stop_recording()
+        lag = getattr(self.model, "lag_column", None) is not None and not self._lag_left_out()
+        model = self.model
+        if condition == "loaded":
+            p = payload_knowledge(source, payload, mass, self.opts.payload_known)
+            check_one_payload(self._payloads + [(source, p)])
+            self._payloads.append((source, p))
+            model = with_known_payload(model, p)
+        self._current = LiveRecording(source, condition, mass, self.opts, model, self.n_b,
+                                      self._fold, lag, self.transmission)
+        self._recordings.append(self._current)
+
+    def stop_recording(self) -> list[str]:
+        """End the record under way: pair and process everything received; its warnings."""
+        rec, self._current = self._current, None
+        if rec is None:
+            return []
+        return self._warn(rec.close())
+
+    def add_joint_states(self, stamps_ns: Sequence[int] | np.ndarray, names: Sequence[str],
+                         positions: np.ndarray) -> list[str]:
+        """Samples of /orthoglide/joint_states: stamps (ns), joint names, positions (n, 3) m."""
+        return self._add("q", stamps_ns, names, positions)
+
+    def add_current_reference(self, stamps_ns: Sequence[int] | np.ndarray,
+                              names: Sequence[str], currents: np.ndarray) -> list[str]:
+        """Samples of /orthoglide/current_reference: stamps (ns), names, v_tau (n, 3) A."""
+        return self._add("v", stamps_ns, names, currents)
+
+    def _add(self, topic: str, stamps_ns, names, values) -> list[str]:
+        rec = self._current
+        if rec is None:
+            self._n_ignored += int(np.size(stamps_ns))
+            if self._n_ignored == int(np.size(stamps_ns)):
+                return self._warn(["samples received while not recording: ignored "
+                                   "(call start_recording first)"])
+            return []
+        out = rec.add(topic, stamps_ns, names, values)
+        if rec.due():
+            out += rec.process()
+        return self._warn(out)
+
+    def process(self) -> list[str]:
+        """Pair and process what has arrived (the add_* calls do it every live_block_s)."""
+        return self._warn(self._current.process() if self._current is not None else [])
+
+    def drain_warnings(self) -> list[str]:
+        """Every warning since the last call (lost ticks, NaN, names, excitation, saturation);
+        the newest MAX_PENDING_WARNINGS when more have piled up undrained."""
+        out, self._pending_warnings = self._pending_warnings, []
+        if self._n_undrained_lost:
+            out.insert(0, f"{self._n_undrained_lost} older warnings were not drained in time")
+            self._n_undrained_lost = 0
+        return out
+
+    def _warn(self, messages: list[str]) -> list[str]:
+        self._pending_warnings.extend(messages)
+        extra = len(self._pending_warnings) - MAX_PENDING_WARNINGS
+        if extra > 0:
+            del self._pending_warnings[:extra]
+            self._n_undrained_lost += extra
+        room = MAX_LOGGED_WARNINGS - len(self._log)
+        self._log.extend(messages[:max(room, 0)])
+        return messages
+
+    def _fold(self, rec: LiveRecording, rows: DecimatedRows, seconds: float) -> None:
+        key = (rec.condition, rec.payload_mass)
+        f = self._factors.get(key)
+        if f is None:
+            f = self._factors[key] = RecordFactors(rec.condition, rec.payload_mass, self.n_b,
+                                                   n_joints=self.model.n_joints)
+        f.add_source(rec.source)
+        f.fold(rows.X, rows.keep, rows.t, rec.source,
+               rec.opts.decimation * rec.period_ns * 1e-9, rows.q, rows.qd, rec.opts.decimation,
+               screw_mask(self.model))
+        self._seconds[rec.condition] += seconds
+        self._version.n += 1
+
+    # --- answers ------------------------------------------------------------------------------
+    def _folded(self) -> list[RecordFactors]:
+        """Factors of every condition with decimated samples (equations kept or not)."""
+        return [f for f in self._factors.values() if f.n_samples > 0]
+
+    def _lag_left_out(self) -> bool:
+        """A segment used did not repeat a periodic trajectory: no lag instrument for its rows."""
+        return any(r.rep.n_not_repeating for r in self._recordings)
+
+    def _solvable(self, factors: list[RecordFactors]) -> tuple[list[RecordFactors], object]:
+        """The factors and model to solve: without the lag columns when a segment used has no
+        instrument (pipeline._lag_or_paper: all or nothing, the paper's drive model)."""
+        factors, model = self._payload_columns(factors)
+        col = getattr(model, "lag_column", None)
+        if col is None or not self._lag_left_out():
+            return factors, model
+        cols = np.arange(col, col + model.n_joints)
+        return ([f.without_columns(cols) for f in factors],
+                observation_model(model, self.opts.screw_lead_m, False))
+
+    def _payload_columns(self, factors: list[RecordFactors]
+                         ) -> tuple[list[RecordFactors], object]:
+        """Without the unknown payload columns no recording fills (pipeline._payload_or_not)."""
+        pu = unknowns_of(self.model)
+        if pu is None:
+            return factors, self.model
+        start, n = pu.payload_slice.start, len(pu.columns)
+        keep = tuple(k for k in range(n)
+                     if any(np.any(R[:, start + k]) for f in factors for R in f.R))
+        reduced = pu.keeping(keep)
+        frames = {p.frame for _, p in self._payloads if p.unknown}
+        if keep and frames:
+            reduced = reduced.at_frame(frames.pop())
+        drop = np.array([start + k for k in range(n) if k not in keep], dtype=int)
+        if drop.size:
+            factors = [f.without_columns(drop) for f in factors]
+        lag = getattr(self.model, "lag_column", None) is not None
+        return factors, observation_model(reduced, self.opts.screw_lead_m, lag)
+
+    @property
+    def lag_s(self) -> float:
+        """Seconds of received data whose equations are not folded in yet."""
+        return self._current.lag_s if self._current is not None else 0.0
+
+    def result(self, method: str = DEFAULT_METHOD, essential: bool = False,
+               gains: Sequence[float] | None = None,
+               payload_mass: float | None = None) -> IdentificationResult:
+        """IDIM-TLS (or WLS with ``gains`` N/A) on everything folded in: the IdentificationResult
+        ``identify_records`` gives on the same records (once they are stopped). ``payload_mass``
+        (kg) checks the masses given to start_recording, as ``--payload-mass`` checks bag tags.
+        Raises the product's errors with a one-line reason (e.g. no loaded data)."""
+        factors = self._folded()
+        if not factors:
+            raise IdentificationError("no equations yet: record the trajectories unloaded and "
+                                      "loaded with the weighed payload")
+        if payload_mass is not None:
+            factors = self._with_payload(factors, payload_mass)
+        factors, model = self._solvable(factors)
+        solved = solve(factors, model, self.opts, method, gains, essential,
+                       [r.source for r in self._recordings if r.n_decimated])
+        reports = [r.report() for r in self._recordings]
+        finish_result(solved.result, solved, reports, list(self._log), self.opts,
+                      dict(solved.timings))
+        return solved.result
+
+    def _with_payload(self, factors: list[RecordFactors], mass: float) -> list[RecordFactors]:
+        if not (math.isfinite(mass) and mass > 0):
+            raise IdentificationError(f"payload mass must be a positive mass in kg, not {mass}")
+        for f in factors:
+            if f.loaded and abs(f.payload_mass - mass) > self.opts.payload_tolerance_kg:
+                raise IdentificationError(
+                    f"{f.source} was recorded with a payload of {f.payload_mass:g} kg but "
+                    f"{mass:g} kg is asked; check which payload was mounted")
+        return [dataclasses.replace(f, payload_mass=mass) if f.loaded else f for f in factors]
+
+    def estimate(self) -> LiveEstimate:
+        """Gains ± σ and a one-line status from the data folded in so far (never raises)."""
+        v = self._version
+        rec = self._current
+        key = (v.n, rec.condition if rec is not None else None,
+               int(rec.held_s) if rec is not None else 0)  # a hold says how long it has held
+        if v.estimate is None or v.at != key:
+            v.estimate, v.at = self._estimate(), key
+        est = v.estimate
+        est.lag_s = self.lag_s
+        est.recording = self._current.condition if self._current is not None else None
+        return est
+
+    def _estimate(self) -> LiveEstimate:
+        factors = self._folded()
+        model = self.model
+        rows = tuple(int(sum(f.rows[j] for f in factors)) for j in range(model.n_joints))
+        base = dict(seconds_loaded=self._seconds["loaded"],
+                    seconds_unloaded=self._seconds["unloaded"], equations=rows,
+                    joint_names=tuple(model.joint_names),
+                    gain_units=tuple(j.gain_unit for j in model.joints))
+        loaded = any(f.loaded for f in factors)
+        unloaded = any(not f.loaded for f in factors)
+        if not factors:
+            return LiveEstimate(self._collecting(), **base)
+        now = self._current.condition if self._current is not None else None
+        if not loaded:
+            what = "loaded recording under way" if now == "loaded" else "record with the payload"
+            return LiveEstimate(f"unloaded only: {what}", **base)
+        if not unloaded:
+            what = "unloaded recording under way" if now == "unloaded" else \
+                "record without the payload"
+            return LiveEstimate(f"loaded only: {what}", **base)
+        need = min_rows(self.n_b)
+        for joint, n in zip(model.joints, rows):
+            if n < need:
+                return LiveEstimate(
+                    f"excitation too weak on {joint.name}: {n} equations above the velocity "
+                    f"dead band ({self.opts.velocity_deadband_mps} {joint.unit}/s), {need} "
+                    "needed", **base)
+        return self._solve_status(factors, base)
+
+    def _collecting(self) -> str:
+        rec = self._current
+        if rec is None:
+            return "no data: start a recording"
+        if rec.held_s > 0:
+            return (f"collecting: {rec.held_s:.0f} s held until the trajectory has repeated 4 "
+                    "times (the current-loop lag's instrument, lag_model: auto; at most "
+                    f"{MAX_SEARCH_S:g} s)")
+        return ("collecting: the first equations come after about 1 s of data, or once the "
+                "trajectory has repeated 4 times (lag_model: auto)")
+
+    def _solve_status(self, factors: list[RecordFactors], base: dict) -> LiveEstimate:
+        """TLS on the factors; status from the excitation checks (IdentifyOptions limits)."""
+        opts = self.opts
+        try:
+            factors, model = self._solvable(factors)
+            m, _ = tls_model(factors, model, opts)  # as result() solves it
+            sol = m.full
+        except (OrthoglideError, np.linalg.LinAlgError) as exc:
+            return LiveEstimate(f"not identifiable yet: {exc}", **base)
+        n, names = sol.chi.shape[0], self.model.joint_names
+        grel = sol.rel_std[n:n + self.model.n_joints]
+        est = LiveEstimate("", gains=tuple(float(x) for x in sol.g_tau),
+                           gains_rel_std=tuple(float(x) for x in grel),
+                           singular_ratio=sol.singular_ratio,
+                           condition_number=sol.condition_number,
+                           residual_rms=tuple(float(x) for x in sol.residual_rms), **base)
+        try:
+            if opts.check_excitation:
+                check_excitation(sol, limits(self.model, opts), m.names, names)
+        except ExcitationError as exc:
+            j = int(np.argmax(grel))
+            if grel[j] > opts.max_gain_rel_std and str(exc).startswith("drive gain of"):
+                est.status = (f"excitation too weak on {names[j]}: its gain is known to "
+                              f"{100 * grel[j]:.1f} % (> {100 * opts.max_gain_rel_std:g} %); "
+                              "record longer or more exciting trajectories")
+            else:
+                est.status = f"excitation too weak: {exc}"
+            return est
+        worst = float(np.max(grel))
+        est.ok = True
+        if worst <= opts.live_enough_gain_rel_std:
+            est.enough_data = True
+            est.status = f"gains known to {100 * worst:.2f} %: enough data"
+        else:
+            est.status = (f"gains known to {100 * worst:.2f} %: keep recording (enough below "
+                          f"{100 * opts.live_enough_gain_rel_std:g} %)")
+        return est

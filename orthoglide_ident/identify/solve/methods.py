@@ -1,0 +1,112 @@
+"""The identification methods, registered once (as rosbags registers its storage plugins).
+
+Each method is a row of :data:`METHODS`: its name (``--method``, the service's ``method``, the
+result's ``method``), what it identifies, whether it takes the drive gains or identifies them,
+the result fields it fills, the topic the identification node latches its answer on, and the
+function that solves it. The refinements every method can add (the essential parameters, the
+physically consistent set) are rows of :data:`REFINEMENTS`, with the option that asks for them
+and the result field that holds them. The CLI, the node, the offline and the live paths read
+these tables; a new method (instrumental variables, say) is its own module plus one row here.
+
+    method = get("tls")                     # IdentificationError for an unknown name
+    solved = solve(factors, model, opts, "wls", gains=[2001.2] * 3)
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Callable, Sequence
+
+from orthoglide_ident.errors import IdentificationError
+from orthoglide_ident.identify.solve.factors import RecordFactors
+from orthoglide_ident.identify.options import IdentifyOptions
+from orthoglide_ident.identify.solve.payload_report import split_payload
+from orthoglide_ident.identify.columns.payload_unknowns import unknowns_of
+from orthoglide_ident.identify.solve.answer import (Solved, check_length, check_rows,
+                                             friction_sign_warnings, solve_tls, solve_wls)
+
+__all__ = ["DEFAULT_METHOD", "METHODS", "REFINEMENTS", "Method", "Refinement", "get", "solve"]
+
+
+@dataclass(frozen=True)
+class Method:
+    """One identification method: see the module docstring."""
+
+    name: str
+    help: str  # one line for --help and the node's parameter
+    gains_given: bool  # True: the drive gains are an input (--gains), the payload mass estimated
+    result_fields: tuple[str, ...]  # what IdentificationResult fields it fills beyond the common
+    topic: str  # where the identification node latches its answer (orthoglide_msgs)
+    solve: Callable[..., Solved]  # (factors, model, opts, gains, essential, bags) -> Solved
+
+
+@dataclass(frozen=True)
+class Refinement:
+    """A step any method can add to its answer: the option that asks for it, the result field."""
+
+    name: str
+    help: str
+    option: str  # IdentifyOptions field or flag that asks for it
+    result_field: str  # IdentificationResult field that holds it
+    topic: str = ""  # where the identification node latches it, if on a topic of its own
+
+
+def _tls(factors, model, opts, gains, essential, bags) -> Solved:
+    return solve_tls(factors, model, opts, essential, bags)
+
+
+METHODS: dict[str, Method] = {m.name: m for m in (
+    Method("tls", "IDIM-TLS (eqs. 33-39): drive gains and base parameters at once, scaled by the "
+                  "known payload mass", False,
+           ("drive_gains", "payload_mass"), "orthoglide/identified_parameters", _tls),
+    Method("wls", "IDIM-WLS (eqs. 24-28): drive gains given (default the robot's nominal ones), "
+                  "payload mass of the loaded records estimated", True,
+           ("payloads",), "orthoglide/identified_parameters/wls", solve_wls),
+)}
+DEFAULT_METHOD = "tls"
+
+REFINEMENTS: dict[str, Refinement] = {r.name: r for r in (
+    Refinement("essential", "essential parameters (Sect. 5.2): the base parameters whose %σ the "
+                            "data bound, the others cancelled", "essential", "essential"),
+    Refinement("consistent", "physically consistent standard parameters (pseudo-inertias ⪰ 0, "
+                             "ia, fv, fs ≥ 0) behind the answer", "consistent", "consistency",
+               "orthoglide/identified_parameters/consistent"),
+)}
+
+
+def get(name: str) -> Method:
+    """The method called ``name``; IdentificationError naming the known ones otherwise."""
+    try:
+        return METHODS[name]
+    except KeyError:
+        raise IdentificationError(f"unknown method {name!r}: use "
+                                  f"{' or '.join(METHODS)}") from None
+
+
+def solve(factors: list[RecordFactors], model, opts: IdentifyOptions,
+          method: str = DEFAULT_METHOD, gains: Sequence[float] | None = None,
+          essential: bool = False, bags: Sequence[str] = ()) -> Solved:
+    """The method on the factors, the payload's identified parameters split from the robot's
+    (a payload known by its mass, Sect. 4.3), then the consistent set when ``opts.consistent``;
+    raises the product's errors with a reason."""
+    m = get(method)
+    if not factors:
+        raise IdentificationError("no bag given")
+    if m.gains_given or not (opts.partial_answers and opts.check_excitation):
+        check_rows(factors, model, opts)
+    else:  # TLS: a joint that hardly moved is a partial answer, a short record is refused
+        check_length(factors, opts)
+    if opts.consistent and unknowns_of(model) is not None:
+        raise IdentificationError(
+            "--consistent needs the payload's CoM and inertia: with only its mass known they are "
+            "identified (Sect. 4.3); tag them or give --payload-known point")
+    out = m.solve(factors, model, opts, gains, essential, list(bags))
+    split_payload(out.result, model)
+    out.result.warnings.extend(friction_sign_warnings(out.result))
+    if opts.consistent and not out.result.complete:
+        out.result.warnings.append("--consistent is not run on a partial answer: the standard "
+                                   "parameters need every gain")
+    elif opts.consistent:  # physically consistent standard parameters behind the answer
+        from orthoglide_ident.identify.consistency.fit import attach
+
+        attach(out, model, opts)
+    return out

@@ -1,0 +1,188 @@
+"""Partial answers: the drive gains the data fix, and why the others are not determined.
+
+In W_tot (eq. 33) the scale of a joint's gain comes from the known payload's torque on that joint
+(its rows of -W_kl χ_kl) and, through the base parameters its rows share with the other joints,
+from theirs. A joint that hardly moves has no rows; a joint the payload adds (almost) no torque to
+has rows its own parameters (friction, rotor inertia, its last body) fit at any scale together
+with its gain: the TLS then returns a number with a small σ that is not the gain (a UR5 wrist
+axis with a payload on it: 22 % off at 0.6 %σ). Such a joint's rows and gain are left out and
+IDIM-TLS solves the rest (the base-parameter columns only those rows held go with them); the
+answer is then judged on that subsystem as a full one is (eq. 37's separation, the condition,
+the honest σ, the signs). A gain whose honest σ stays above ``max_gain_rel_std`` is left out the
+same way, one at a time, the worst first, as long as another one is left.
+
+Not determined, with the reason and what to record:
+- the joint hardly moved: fewer equations above the velocity dead band than min_rows;
+- the payload adds little torque on its axis: the rms payload torque of the loaded records below
+  ``min_payload_share`` of the joint's measured torque;
+- its honest σ is above ``max_gain_rel_std`` in the subsystem.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any, Sequence
+
+import numpy as np
+
+from orthoglide_ident.identify.solve.factors import RecordFactors
+
+RANK_TOL = 1e-9  # column-scaled R: a diagonal below this times the largest is a lost column
+
+
+def hardly_moved(factors: list[RecordFactors], model, opts, min_rows: int) -> dict[int, str]:
+    """Joints with fewer than ``min_rows`` equations above the velocity dead band."""
+    total = sum(f.n_samples for f in factors)
+    out = {}
+    for j, joint in enumerate(model.joints):
+        rows = sum(int(f.rows[j]) for f in factors)
+        if rows < min_rows:
+            out[j] = (f"{joint.name} hardly moved ({rows} of {total} equations above the "
+                      f"velocity dead band, {opts.velocity_deadband_mps:g} {joint.unit}/s): "
+                      "record more motion of that joint")
+    return out
+
+
+def payload_shares(factors: list[RecordFactors], g_tau: np.ndarray,
+                   unknown: tuple[slice, np.ndarray] | None = None) -> np.ndarray:
+    """Per joint, rms payload torque / rms measured torque g_τ v_τ over the loaded records
+    (norms of the R factors' columns W_kl m_7 and v_τ: ‖R c‖ = ‖X c‖). ``unknown``: the columns
+    of a payload known by its mass (Sect. 4.3) and their identified χ_ul, whose torque
+    W_ul χ_ul is the payload's too (its CoM off an axis loads that joint)."""
+    n_b = factors[0].n_b
+    n_j = len(g_tau)
+    pay, cur = np.zeros(n_j), np.zeros(n_j)
+    for f in factors:
+        if not f.loaded:
+            continue
+        for j in range(n_j):
+            tau = f.payload_mass * f.R[j][:, n_b]
+            if unknown is not None:
+                tau = tau + f.R[j][:, unknown[0]] @ unknown[1]
+            pay[j] += float(np.sum(tau ** 2))
+            cur[j] += float(np.sum(f.R[j][:, n_b + 1] ** 2))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.sqrt(pay) / (np.abs(g_tau) * np.sqrt(cur))
+
+
+def little_payload(factors: list[RecordFactors], g_tau: np.ndarray, names: Sequence[str],
+                   min_share: float, unknown: tuple[slice, np.ndarray] | None = None
+                   ) -> dict[int, str]:
+    """Joints the payload adds less than ``min_share`` of their torque to."""
+    share = payload_shares(factors, g_tau, unknown)
+    return {j: (f"the payload adds almost no torque on that axis ({100 * share[j]:.2g} % of its "
+                f"torque, below min_payload_share {100 * min_share:g} %): record with the "
+                "payload offset from that axis (or heavier), so that it loads that joint")
+            for j, name in enumerate(names) if not share[j] >= min_share}
+
+
+def weak_gain(rel_std: np.ndarray, names: Sequence[str], limit: float) -> dict[int, str]:
+    """The worst gain whose honest σ is above ``limit`` (one at a time: the rest re-solved)."""
+    if not np.any(rel_std > limit):
+        return {}
+    j = int(np.argmax(np.where(np.isfinite(rel_std), rel_std, np.inf)))
+    return {j: (f"its honest σ is {100 * rel_std[j]:.2g} % (> max_gain_rel_std "
+                f"{100 * limit:g} %): the records do not separate its gain from its own "
+                "parameters; record longer or more exciting motion of that joint")}
+
+
+def lost_columns(factors: list[RecordFactors]) -> np.ndarray:
+    """Base-parameter columns the kept rows no longer determine (pivoted QR of the stacked,
+    column-scaled W factors): those only the left-out joints' rows held."""
+    from scipy.linalg import qr
+
+    n_b = factors[0].n_b
+    R = np.vstack([f.R[j][:, :n_b] for f in factors for j in range(f.n_joints)])
+    norms = np.linalg.norm(R, axis=0)
+    scaled = R / np.where(norms > 0, norms, 1.0)
+    _, r, piv = qr(scaled, mode="economic", pivoting=True)
+    d = np.abs(np.diag(r))
+    rank = int(np.sum(d > RANK_TOL * d[0])) if d.size and d[0] > 0 else 0
+    lost = set(int(c) for c in piv[rank:]) | set(int(c) for c in np.flatnonzero(norms == 0))
+    return np.array(sorted(lost), dtype=int)
+
+
+@dataclass
+class Subsystem:
+    """The model seen through the kept joints and base-parameter columns (what tls_result and
+    the solve read from a model: names, joints, units, nominal gains)."""
+
+    full: Any
+    joint_idx: np.ndarray
+    col_idx: np.ndarray
+
+    def __post_init__(self) -> None:
+        self.name = self.full.name
+        self.joints = tuple(self.full.joints[j] for j in self.joint_idx)
+        self.names = [self.full.names[c] for c in self.col_idx]
+        exprs = list(getattr(self.full, "expressions", [""] * len(self.full.names)))
+        self.expressions = [exprs[c] if c < len(exprs) else "" for c in self.col_idx]
+        self.nominal_gains_given = self.full.nominal_gains_given
+        self.terms = self._lag_terms()
+
+    def _lag_terms(self) -> Any:
+        """The current-loop lag columns the equations still hold, as drive terms (one per kept
+        joint, last: the full model's layout without the left-out joints'); none otherwise
+        (a ripple at a given lead stays a plain column)."""
+        from orthoglide_ident.identify.columns.drive_terms import Terms
+
+        full = getattr(self.full, "terms", None)
+        if not full or full.ripples or not full.lag:
+            return Terms()
+        n_b = len(self.full.names) - full.n_extra
+        lag_cols = [c for c in self.col_idx.tolist() if c >= n_b]
+        want = [n_b + int(j) for j in self.joint_idx]
+        return Terms(lag=len(want)) if lag_cols == want else Terms()
+
+    @property
+    def joint_names(self) -> tuple[str, ...]:
+        return tuple(j.name for j in self.joints)
+
+    @property
+    def n_joints(self) -> int:
+        return len(self.joints)
+
+    @property
+    def nominal_gains(self) -> np.ndarray:
+        return np.asarray(self.full.nominal_gains, float)[self.joint_idx]
+
+
+def reduce(factors: list[RecordFactors], model, left_out: dict[int, str]
+           ) -> tuple[list[RecordFactors], Subsystem]:
+    """The factors and model of the joints not ``left_out``, without the columns they lose."""
+    kept = np.array([j for j in range(model.n_joints) if j not in left_out], dtype=int)
+    fs = [f.only_joints(kept) for f in factors]
+    lost = lost_columns(fs)
+    if lost.size:
+        fs = [f.without_columns(lost) for f in fs]
+    cols = np.setdiff1d(np.arange(factors[0].n_b), lost)
+    return fs, Subsystem(model, kept, cols)
+
+
+def expand(result, model, sub: Subsystem, left_out: dict[int, str]) -> None:
+    """``result`` (of the subsystem) in place over every joint of ``model``: the gains left out
+    "not determined" with their reason (value and σ NaN: null in the JSON), residuals likewise;
+    the base parameters only their rows held named in a warning."""
+    from orthoglide_ident.results import Estimate
+
+    solved = dict(zip(sub.joint_idx.tolist(), zip(result.drive_gains, result.residual_rms)))
+    gains, rms = [], []
+    for j, joint in enumerate(model.joints):
+        if j in solved:
+            gains.append(solved[j][0])
+            rms.append(solved[j][1])
+        else:
+            gains.append(Estimate(joint.name, float("nan"), float("nan"), rel_std_paper=None,
+                                  determined=False, reason=left_out[j]))
+            rms.append(float("nan"))
+    result.joint_names = list(model.joint_names)
+    result.drive_gains, result.residual_rms = gains, rms
+    result.gain_units = [j.gain_unit for j in model.joints]
+    result.effort_units = [j.effort_unit for j in model.joints]
+    result.nominal_gains = [float(j.nominal_gain) for j in model.joints]
+    result.warnings.insert(0, "partial answer: " + result.not_determined_text()
+                           + "; the other gains are identified without their rows (not latched "
+                           "for the ctc: it takes only a full answer)")
+    lost = [n for c, n in enumerate(model.names) if c not in set(sub.col_idx.tolist())]
+    if lost:
+        result.warnings.insert(1, "base parameters not determined without those rows (not "
+                               "reported): " + ", ".join(lost))

@@ -1,0 +1,1 @@
+"""Simulated serial arms on MuJoCo: description, truth, plant, controller, records and logs."""

@@ -1,0 +1,103 @@
+"""Simulated arm records as real controllers log them: their own clock, printed positions.
+
+A controller on a non-real-time clock ticks at uneven instants (10/12 ms alternation, a 2 ms
+grid, jitter); at each tick it reads the encoder, computes its current and *holds it until its
+next tick*, and logs q (printed to ``print_resolution``, e.g. 1e-4 rad), the joint velocity and
+the current it sent, stamped with the tick. So the plant-side current is exactly the logged
+one held over [t_k, t_k+1) and the plant's state is sampled at the logged instants.
+
+    rec = simulate_arm_log(60.0, clock_10_12(60.0), payload="2.0", trajectory="exciting2")
+
+The PID is arm_simulator's, retuned for the slower tick (its bandwidth ω at most
+``OMEGA_T / T̄``: a discrete loop at ω T̄ ≈ 1 rings); the plant's RK4 step divides every tick
+(``timestep``: 0.25 ms by default, finer for a 5 kHz controller). Nothing of the
+identification model is used.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from orthoglide_ident.errors import ConfigError
+from orthoglide_sim.arms import simulator as asim
+from orthoglide_sim.arms.description import load_arm
+from orthoglide_sim.arms.excitation import designed_trajectory
+from orthoglide_sim.arms.limits import motion_limits
+from orthoglide_sim.arms.record import NOISE_STRIDE, ArmRecord, current_noise_std
+from orthoglide_sim.arms.truth import ArmTruth, load_truth
+from orthoglide_sim.arms.plant import MujocoPlant
+
+OMEGA_T = 0.1  # the PID's bandwidth x the mean tick, at most (0.1 at 1 kHz: 100 rad/s)
+
+
+def clock_10_12(duration_s: float) -> np.ndarray:
+    """Tick steps (ns) of a controller alternating 10 ms and 12 ms (mean 11 ms, 90.9 Hz)."""
+    n = int(duration_s / 0.011)
+    return np.tile(np.array([10_000_000, 12_000_000], np.int64), n // 2 + 1)[:n]
+
+
+def clock_uniform(duration_s: float, rate_hz: float) -> np.ndarray:
+    """Steps (ns) of a steady clock at ``rate_hz``."""
+    step = int(round(1e9 / rate_hz))
+    return np.full(int(round(duration_s * rate_hz)), step, np.int64)
+
+
+class _VariablePID(asim.ArmPID):
+    """arm_simulator's PID with the tick length as an argument."""
+
+    def step(self, q_meas: np.ndarray, q_ref: np.ndarray, qd_ref: np.ndarray, dt: float,
+             tau_v: float) -> np.ndarray:
+        e = q_ref - q_meas
+        self.integral = self.integral + e * dt
+        v_est = (q_meas - self.q_prev) / dt
+        self.q_prev = q_meas
+        self.v_filtered = self.v_filtered + dt / (dt + tau_v) * (v_est - self.v_filtered)
+        torque = self.kp * e + self.ki * self.integral + self.kd * (qd_ref - self.v_filtered)
+        return np.clip(torque / self.nominal_gain, -self.current_limit, self.current_limit)
+
+
+def simulate_arm_log(duration_s: float, steps_ns: np.ndarray, robot: str = "ur5",
+                     payload: str | None = None, trajectory: str = "exciting1", seed: int = 0,
+                     print_resolution: float = 1e-4, timestep: float = 2.5e-4,
+                     truth: ArmTruth | None = None) -> ArmRecord:
+    """The arm under a PID that ticks at ``steps_ns`` (each a multiple of ``timestep``); the
+    returned record's ``q`` is printed to ``print_resolution`` (0: the encoder's), ``qd_true``
+    the plant's velocity at the stamps (what a drive's velocity estimate would log)."""
+    if not duration_s > 0:
+        raise ConfigError(f"duration must be positive, got {duration_s}")
+    truth = truth or load_truth(load_arm(robot))
+    arm, load = truth.arm, truth.payload(payload)
+    limits, plant = motion_limits(arm), MujocoPlant(truth, load)
+    plant.model.opt.timestep = timestep
+    sub = np.rint(np.asarray(steps_ns, float) * 1e-9 / timestep).astype(np.int64)
+    if np.any(sub < 1) or np.any(np.abs(sub * timestep - steps_ns * 1e-9) > 1e-12):
+        raise ConfigError(f"every tick must be a multiple of the plant's {timestep} s step")
+    stamps = np.concatenate([[0], np.cumsum(steps_ns)])[:-1].astype(np.int64)
+    t = stamps * 1e-9
+    N, T = t.shape[0], float(np.mean(steps_ns)) * 1e-9
+    q_ref, qd_ref, qdd_ref = designed_trajectory(arm, trajectory).evaluate(t)
+    stride = max(1, int(round(NOISE_STRIDE * 1e-3 / T)))
+    std = current_noise_std(plant, q_ref[::stride], qd_ref[::stride], qdd_ref[::stride])
+    noise = np.random.default_rng(seed).normal(0.0, 1.0, (N, arm.n)) * std
+    current_limit = np.array([j.effort for j in arm.joints]) / arm.nominal_gains
+    torque0 = plant.inverse_dynamics(q_ref[:1], qd_ref[:1], qdd_ref[:1], friction=True)[0]
+    inertia = asim.joint_inertia(MujocoPlant(truth), limits.centre)
+    omega = min(asim.OMEGA, OMEGA_T / T)
+    pid = _VariablePID.tuned(inertia, arm.nominal_gains, current_limit, q_ref[0], qd_ref[0],
+                             torque0, omega=omega)
+    tau_v = asim.VELOCITY_FILTER * asim.OMEGA / omega
+    plant.reset(q_ref[0], qd_ref[0])
+    g_tau = truth.drive_array("g_tau")
+    out = {k: np.empty((N, arm.n)) for k in ("q", "qd", "q_meas", "v", "cur")}
+    saturated = 0
+    for k in range(N):
+        out["q"][k], out["qd"][k] = plant.q, plant.qd
+        out["q_meas"][k] = asim.quantise(plant.q, truth.encoder_resolution)
+        dt = steps_ns[k - 1] * 1e-9 if k else T
+        v = pid.step(out["q_meas"][k], q_ref[k], qd_ref[k], dt, tau_v)
+        out["v"][k], out["cur"][k] = v, v + noise[k]
+        saturated += bool(np.any(np.abs(v) >= pid.current_limit))
+        plant.step(g_tau * out["cur"][k], int(sub[k]))  # held until the next tick
+        asim._check(plant, limits, k, v)
+    printed = out["q_meas"] if not print_resolution else np.round(out["q_meas"] / print_resolution) * print_resolution
+    return ArmRecord(stamps, printed, out["v"], truth, load, out["q"], out["qd"], q_ref,
+                     out["cur"], std, trajectory, seed, saturated)

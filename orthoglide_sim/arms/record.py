@@ -1,0 +1,108 @@
+"""Simulated records of a serial arm: what its controller would log (q, v_tau at 1 kHz) and the
+truth, in memory.
+
+    rec = simulate_arm(60.0, "ur5", payload="2.0", trajectory="exciting2", seed=1)
+    rec.stamps_ns, rec.q, rec.v_tau, rec.truth      # what a bag holds, and the plant's truth
+
+The current noise is white, ``truth.current_noise_fraction`` (0.5 %) of each joint's rms current
+along the reference (the truth's inverse dynamics with friction, divided by g_tau), drawn from
+``seed`` before the run; the encoder rounds to ``truth.encoder_counts`` counts per revolution.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from orthoglide_ident.errors import ConfigError
+from orthoglide_sim.arms import simulator as asim
+from orthoglide_sim.arms.description import load_arm
+from orthoglide_sim.arms.excitation import designed_trajectory
+from orthoglide_sim.arms.limits import MotionLimits, motion_limits
+from orthoglide_sim.arms.truth import ArmPayload, ArmTruth, load_truth
+from orthoglide_sim.arms.plant import MujocoPlant
+from orthoglide_sim.common.trajectories import FourierTrajectory
+
+NOISE_STRIDE = 10  # ticks between the reference samples the rms current is taken over
+
+
+@dataclass
+class ArmRecord:
+    """One simulated run; arrays per controller tick (N, n), columns in ``joint_names`` order."""
+
+    stamps_ns: np.ndarray  # (N,) int64, t_k in ns from start_ns
+    q: np.ndarray  # (N, n) rad, encoder readings the controller saw
+    v_tau: np.ndarray  # (N, n) A, current references held over [t_k, t_k+1)
+    truth: ArmTruth
+    payload: ArmPayload | None
+    q_true: np.ndarray  # (N, n) rad
+    qd_true: np.ndarray  # (N, n) rad/s
+    q_ref: np.ndarray  # (N, n) rad, the reference
+    current: np.ndarray  # (N, n) A, the motors' currents: v_tau + noise
+    current_noise_std: np.ndarray  # (n,) A
+    trajectory: str
+    seed: int
+    saturated_ticks: int
+
+    @property
+    def joint_names(self) -> tuple[str, ...]:
+        return self.truth.arm.joint_names
+
+    @property
+    def payload_mass(self) -> float:
+        return 0.0 if self.payload is None else self.payload.mass
+
+    @property
+    def tracking_rms(self) -> np.ndarray:
+        """(n,) rms of q_true - q_ref, rad."""
+        return np.sqrt(np.mean((self.q_true - self.q_ref) ** 2, axis=0))
+
+
+def reference_of(arm, trajectory: str | FourierTrajectory) -> FourierTrajectory:
+    """A trajectory given by name (designed_trajectory) or as a FourierTrajectory itself."""
+    return trajectory if isinstance(trajectory, FourierTrajectory) else designed_trajectory(arm, trajectory)
+
+
+def trajectory_name(trajectory: str | FourierTrajectory) -> str:
+    return trajectory if isinstance(trajectory, str) else "designed"
+
+
+def current_noise_std(plant: MujocoPlant, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> np.ndarray:
+    """(n,) A: the truth's noise fraction of each joint's rms current along the reference."""
+    tau = plant.inverse_dynamics(q, qd, qdd, friction=True)
+    i_ref = tau / plant.truth.drive_array("g_tau")
+    return plant.truth.current_noise_fraction * np.sqrt(np.mean(i_ref**2, axis=0))
+
+
+def simulate_arm(duration_s: float, robot: str = "ur5", payload: str | None = None,
+                 trajectory: str | FourierTrajectory = "exciting1", seed: int = 0,
+                 truth: ArmTruth | None = None, noise: bool = True, start_ns: int = 0,
+                 limits: MotionLimits | None = None) -> ArmRecord:
+    """The arm tracking ``trajectory`` for ``duration_s`` s under the 1 kHz PID (arm_simulator).
+
+    robot: a bundled name, robot YAML or URDF (ignored when ``truth`` is given); payload: None,
+    "2.0", "1.0" or another of ``truth.payloads``; trajectory: "exciting1", "exciting2", a .json
+    or a FourierTrajectory (designed_runs.py: a run the product designed); limits: the stop
+    limits (default arm_limits.motion_limits).
+    Raises ConfigError on bad arguments, WorkspaceError if the arm leaves its stop limits.
+    """
+    if not duration_s > 0:
+        raise ConfigError(f"duration must be positive, got {duration_s}")
+    truth = truth or load_truth(load_arm(robot))
+    arm, load = truth.arm, truth.payload(payload)
+    limits, plant = limits or motion_limits(arm), MujocoPlant(truth, load)
+    N = int(round(duration_s / asim.TICK))
+    q_ref, qd_ref, qdd_ref = reference_of(arm, trajectory).evaluate(np.arange(N) * asim.TICK)
+    std = current_noise_std(plant, q_ref[::NOISE_STRIDE], qd_ref[::NOISE_STRIDE], qdd_ref[::NOISE_STRIDE])
+    noise_a = np.random.default_rng(seed).normal(0.0, 1.0, (N, arm.n)) * std if noise else np.zeros((N, arm.n))
+    current_limit = np.array([j.effort for j in arm.joints]) / arm.nominal_gains
+    torque0 = plant.inverse_dynamics(q_ref[:1], qd_ref[:1], qdd_ref[:1], friction=True)[0]
+    inertia = asim.joint_inertia(MujocoPlant(truth), limits.centre)  # tuned once, unloaded
+    pid = asim.ArmPID.tuned(inertia, arm.nominal_gains, current_limit,
+                            asim.quantise(q_ref[0] - qd_ref[0] * asim.TICK, truth.encoder_resolution),
+                            qd_ref[0], torque0)
+    plant.reset(q_ref[0], qd_ref[0])
+    res = asim.run_closed_loop(plant, pid, q_ref, qd_ref, noise_a, limits)
+    stamps = start_ns + np.arange(N, dtype=np.int64) * int(round(asim.TICK * 1e9))
+    return ArmRecord(stamps, res.q_meas, res.v_tau, truth, load, res.q, res.qd, q_ref, res.current,
+                     std if noise else np.zeros(arm.n), trajectory_name(trajectory), seed, res.saturated)

@@ -1,0 +1,1 @@
+"""Simulated closed chains on MuJoCo: description, truth, plant and records."""

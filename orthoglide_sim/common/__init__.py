@@ -1,0 +1,1 @@
+"""What every simulated robot shares: the 1 kHz clock, ticks ahead, packed messages, trajectories."""

@@ -1,0 +1,44 @@
+"""Trajectories stay inside the safe box, within limits, and away from singularities."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from orthoglide_sim.orthoglide import kinematics as kin
+from orthoglide_sim.common.trajectories import Q_CENTER, Q_HALF, TEST_TRAJECTORIES, get_trajectory
+
+NAMES = ["exciting1", "exciting2", "test1", "test2"]
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_inside_workspace_and_away_from_singularities(name):
+    try:
+        traj = get_trajectory(name)
+    except Exception:
+        if name.startswith("exciting"):
+            pytest.skip(f"{name} not generated (python -m orthoglide_sim.orthoglide.excitation)")
+        raise
+    t = np.linspace(0.0, traj.period, 2001)
+    q, qd, qdd = traj.evaluate(t)
+    assert np.all(q >= Q_CENTER - Q_HALF - 1e-12) and np.all(q <= Q_CENTER + Q_HALF + 1e-12)
+    assert np.abs(qd).max() <= 1.5 and np.abs(qdd).max() <= 25.0
+    serial, parallel, inv_cond = kin.singularity_margins(q[::10])
+    assert serial.min() > 0.8 and parallel.min() > 0.5 and (1 / inv_cond).max() < 3.0
+
+
+def test_exciting_trajectory_is_strongly_exciting():
+    try:
+        traj = get_trajectory("exciting")
+    except Exception:
+        pytest.skip("exciting trajectory not generated")
+    from orthoglide_sim.orthoglide.excitation import platform_peaks
+
+    v, a = platform_peaks(traj, n=1000)
+    assert v > 0.7 and a > 8.0
+
+
+def test_test_trajectories_are_smooth_and_periodic():
+    for traj in TEST_TRAJECTORIES.values():
+        q0, qd0, _ = traj.evaluate(0.0)
+        q1, qd1, _ = traj.evaluate(traj.period - 1e-9)
+        assert np.allclose(q0, q1, atol=1e-9) and np.allclose(qd0, 0) and np.abs(qd1).max() < 1e-6
