@@ -1,4 +1,4 @@
-"""``orthoglide-ident``: offline identification, bag info, base model and reports (docs/architecture.md §4).
+"""``orthoglide-ident``: offline identification, bag info, base model and reports (docs/design/architecture.md §4).
 
     orthoglide-ident identify [--robot FILE] BAG... [--payload-mass KG] [--method tls|wls]
                      [--payload-known mass|com|all|point]
@@ -82,7 +82,7 @@ def parse_gains(text: str, joints: Sequence[str]) -> list[float]:
 
 def _add_robot_option(p: argparse.ArgumentParser) -> None:
     p.add_argument("--robot", metavar="FILE", default="",
-                   help="the robot: a URDF, a robot YAML (docs/robot_files.md) or a bundled "
+                   help="the robot: a URDF, a robot YAML (docs/guide/robot_files.md) or a bundled "
                         f"robot ({', '.join(bundled_robots())}); default "
                         "the Orthoglide (the paper's closed form)")
 
@@ -126,7 +126,7 @@ def _add_identify_options(p: argparse.ArgumentParser) -> None:
                    help="write the identified model as a URDF (consistent inertials, friction "
                         "in <dynamics>, rotor inertia and gains in comments) that Pinocchio and "
                         "MuJoCo load; implies --consistent")
-    p.add_argument("--json", metavar="FILE", help="write the result as JSON (docs/architecture.md §4) to FILE "
+    p.add_argument("--json", metavar="FILE", help="write the result as JSON (docs/design/architecture.md §4) to FILE "
                    "(strict JSON: a number that is missing is null; drive_gains[i].determined, "
                    "reason)")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress on stderr")

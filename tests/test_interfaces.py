@@ -1,6 +1,6 @@
-"""The orthoglide_msgs interfaces (docs/architecture.md §4): exact fields, CDR round trip, and real exchange
+"""The orthoglide_msgs interfaces (docs/design/architecture.md §4): exact fields, CDR round trip, and real exchange
 between processes over Fast DDS -- a publisher and a subscriber, a service server and a client.
-The control_msgs messages of ros2_control (docs/architecture.md §8): Jazzy's fields, a real install's type
+The control_msgs messages of ros2_control (docs/design/architecture.md §8): Jazzy's fields, a real install's type
 hashes, and the same exchange between processes."""
 from __future__ import annotations
 
@@ -15,7 +15,7 @@ from orthoglide_ident.bags import _types
 from orthoglide_msgs.msg import CurrentReference, IdentifiedParameters
 from orthoglide_msgs.srv import Identify, StartRecording, StopRecording
 
-# docs/architecture.md §4, field for field; tools outside the project rely on these.
+# docs/design/architecture.md §4, field for field; tools outside the project rely on these.
 EXPECTED_FIELDS = {
     CurrentReference: {
         "header": "std_msgs/Header",
@@ -455,7 +455,7 @@ def test_control_msgs_between_two_processes(spawn_python) -> None:
 
 
 # control_msgs/action/FollowJointTrajectory (excite run, the stand-in's JTC): the jazzy branch's
-# fields; rosidl's hashes of them (no real Jazzy install's found to compare: docs/bags.md).
+# fields; rosidl's hashes of them (no real Jazzy install's found to compare: docs/design/bags.md).
 FOLLOW_JOINT_TRAJECTORY_HASHES = {
     "control_msgs/action/FollowJointTrajectory":
         "RIHS01_738ebcb7a2d7cfa42f9f1001cc99ce3a4383d1cfe508015d9be8485e4b1c66f6",

@@ -1,5 +1,5 @@
 """The public faces: what each package's ``__init__`` hands on, pinned. A change here is a change
-of the product's API: make it on purpose (and say so in docs/architecture.md "Public faces")."""
+of the product's API: make it on purpose (and say so in docs/design/architecture.md "Public faces")."""
 from __future__ import annotations
 
 import importlib
@@ -25,7 +25,7 @@ API = {
         "find_gaps", "left_open", "msgdef_and_hash", "qos_profile", "read_bag", "reindex",
         "write_bag"],
 }
-# the extension tables (docs/architecture.md "Extension points"): one place each
+# the extension tables (docs/design/architecture.md "Extension points"): one place each
 TABLES = {
     "orthoglide_ident.identify.solve.methods": ["METHODS", "REFINEMENTS", "DEFAULT_METHOD", "get", "solve"],
     "orthoglide_ident.bags.sources": ["INPUT_SOURCES", "CURRENT_SOURCES", "POSITION",

@@ -1,6 +1,6 @@
 """Write orthoglide_ident/robots/orthoglide_general.urdf: the Orthoglide's open tree for the general
 (Pinocchio) model, from the MDH tables of the paper (Briot & Gautier 2013, Tables 1-2, as
-corrected in docs/conventions.md).
+corrected in docs/design/conventions.md).
 
 The tree: per leg i = 1..3 a prismatic foot joint q1i and four revolute pivots q2i..q5i, links
 ``b<j><i>`` whose frames are the MDH frames j_i (so the description's standard parameters are

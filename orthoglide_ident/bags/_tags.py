@@ -1,7 +1,7 @@
 """The tag of a bag: loaded/unloaded, the payload, and where q and the current were recorded.
 
 Stored as strings, the same keys in metadata.yaml ``custom_data`` and in each .mcap file's
-``orthoglide`` metadata record (docs/architecture.md §4, §8):
+``orthoglide`` metadata record (docs/design/architecture.md §4, §8):
 
 ==============================  ==================================================================
 ``orthoglide.condition``        ``loaded`` | ``unloaded``
@@ -32,7 +32,7 @@ Stored as strings, the same keys in metadata.yaml ``custom_data`` and in each .m
 ``orthoglide.position_side``    ``joint`` | ``actuator``: the positions are the joints' or the motors'
                                 (encoders, offset included) for a robot with a transmission
                                 (optional; absent: the robot file's ``position_side``; identify
-                                reads the bag as tagged, docs/bags.md)
+                                reads the bag as tagged, docs/design/bags.md)
 ``orthoglide.effort_side``      ``actuator`` | ``joint``: the currents (efforts) are the motors' or
                                 the joints' (optional; absent: the robot file's ``effort_side``)
 ``orthoglide.incomplete``       why the recording was stopped before its run ended (a cancelled,
@@ -155,7 +155,7 @@ class BagTags:
 
     def to_dict(self) -> dict[str, str]:
         """The keys as stored in custom_data and in the MCAP metadata record (absent ones left
-        out, so an Orthoglide bag keeps exactly the two keys of docs/architecture.md §4)."""
+        out, so an Orthoglide bag keeps exactly the two keys of docs/design/architecture.md §4)."""
         mass = "0" if self.payload_mass == 0 else format(self.payload_mass, ".12g")
         out = {CONDITION_KEY: self.condition, MASS_KEY: mass}
         optional = {

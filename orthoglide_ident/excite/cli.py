@@ -38,7 +38,7 @@ def _floats(text: str, n: int | None, what: str) -> list[float]:
 
 def _add_robot_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--robot", required=True, metavar="FILE",
-                   help="the robot: a URDF, a robot YAML (docs/robot_files.md: its `excitation` "
+                   help="the robot: a URDF, a robot YAML (docs/guide/robot_files.md: its `excitation` "
                         "key holds acceleration limits, home pose, collision primitives) or a "
                         "bundled name (ur5, five_bar)")
     p.add_argument("--joint-limits", metavar="YAML",

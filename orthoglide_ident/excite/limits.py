@@ -6,7 +6,7 @@ Per actuated joint, the first source that gives a value wins:
    {has_position_limits, min_position, max_position, has_velocity_limits, max_velocity,
    has_acceleration_limits, max_acceleration, has_effort_limits, max_effort}}``, also found
    under a node's ``ros__parameters`` or MoveIt's ``robot_description_planning``);
-2. the robot YAML's ``excitation`` mapping (docs/robot_files.md): ``position_limits``,
+2. the robot YAML's ``excitation`` mapping (docs/guide/robot_files.md): ``position_limits``,
    ``velocity_limits``, ``acceleration_limits``, ``effort_limits`` or ``current_limits`` (A, times
    the nominal gain: the torque at the joint through the transmission);
 3. the URDF's ``<limit lower upper velocity effort>`` (a URDF has no acceleration limit).

@@ -9,7 +9,7 @@ recorder with the run's tag; send the run to ``<controller>/follow_joint_traject
 the feedback and the live identification (its estimate and "enough data" status); stop the
 recorder when the goal succeeds. On Ctrl-C, an aborted goal or a tolerance violation, the goal
 is cancelled and the recording stopped with the reason: the bag is kept, tagged
-``orthoglide.incomplete`` (docs/bags.md), and the command exits 1.
+``orthoglide.incomplete`` (docs/design/bags.md), and the command exits 1.
 """
 from __future__ import annotations
 

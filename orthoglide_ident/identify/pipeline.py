@@ -282,7 +282,7 @@ def identify(
     model: IdentificationModel,
     validation_bags: Sequence[str | Path] = (),
 ) -> IdentificationResult:
-    """Identify drive gains and base parameters from tagged bags (docs/architecture.md).
+    """Identify drive gains and base parameters from tagged bags (docs/design/architecture.md).
 
     ``model``: the robot (model/robots.load_robot at the CLI or node edge; never defaulted).
     ``payload_mass`` (kg) overrides/checks the loaded bags' tags; ``method`` a name of

@@ -1,7 +1,7 @@
 """The general robot model on Pinocchio: any URDF or MJCF tree, closed chains by loop constraints.
 
 A :class:`PinocchioRobot` is a RobotModel (model/robot.py) built from a robot YAML
-(docs/robot_files.md) or a bare URDF:
+(docs/guide/robot_files.md) or a bare URDF:
 
 - bodies: the link of every movable joint (Pinocchio merges the links fixed to it), and the
   links named in ``fixed_bodies`` (kept apart: the Orthoglide's platform), each with the 10

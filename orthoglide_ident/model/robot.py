@@ -13,7 +13,7 @@ Two implementations:
 - the general model on Pinocchio (``model/pinocchio_model.py``): a URDF or MJCF tree, closed
   chains by loop constraints, base parameters by pivoted QR on random states.
 
-Layouts (docs/architecture.md): samples ``q, qd, qdd: (m, n)`` with n = ``n_joints`` columns in
+Layouts (docs/design/architecture.md): samples ``q, qd, qdd: (m, n)`` with n = ``n_joints`` columns in
 ``joint_names`` order; ``observation_block`` is ``(n_b + 1, n, m)`` — column, joint, sample, each
 column of each joint contiguous in time (what the parallel decimation filters); ``regressor`` is
 ``(n m, n_b)`` with rows stacked joint by joint (eq. 20). SI units: m or rad, N or N·m, A,

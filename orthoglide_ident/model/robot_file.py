@@ -1,6 +1,6 @@
 """The robot YAML of a general (Pinocchio) robot, read and checked key by key.
 
-docs/robot_files.md documents every key; :class:`RobotDescription` holds them with their
+docs/guide/robot_files.md documents every key; :class:`RobotDescription` holds them with their
 defaults. Every mistake is a ConfigError naming the file, the key and what was expected: an
 unknown key (a typo would otherwise be ignored), a wrong type, a missing description.
 """
@@ -23,7 +23,7 @@ KEYS = ("name", "model", "description", "actuated_joints", "nominal_gains", "pay
 
 @dataclass(frozen=True)
 class RobotDescription:
-    """What a robot YAML says, defaults filled in (see docs/robot_files.md)."""
+    """What a robot YAML says, defaults filled in (see docs/guide/robot_files.md)."""
 
     path: Path  # the URDF or MJCF, resolved
     name: str

@@ -4,7 +4,7 @@
   ``--robot``;
 - a bundled name (a file ``orthoglide_ident/robots/<name>.yaml``, e.g. ``ur5e``, ``five_bar``);
 - a URDF (``.urdf``): every movable joint actuated, the manufacturer's gains 1 per unit;
-- a robot YAML (``.yaml``/``.yml``, docs/architecture.md "Robot files"): ``model: orthoglide`` or
+- a robot YAML (``.yaml``/``.yml``, docs/design/architecture.md "Robot files"): ``model: orthoglide`` or
   ``model: pinocchio`` with the description (URDF or MJCF), actuated joints, loop closures,
   nominal gains and payload frame.
 

@@ -5,7 +5,7 @@ motor-side position offset and which side the hardware publishes positions and e
 
     q_m = N q_j + offset,   q̇_m = N q̇_j,   q̈_m = N q̈_j,   τ_j = Nᵀ τ_m   (virtual work)
 
-It is read from a robot YAML's ``transmission:`` key (docs/robot_files.md) or from the
+It is read from a robot YAML's ``transmission:`` key (docs/guide/robot_files.md) or from the
 ``<transmission>`` elements of a URDF's ``<ros2_control>`` blocks, with ros2_control's
 transmission_interface formulas (joint → actuator):
 

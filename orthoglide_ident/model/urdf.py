@@ -62,7 +62,7 @@ def inertial_element(chi10: np.ndarray) -> ET.Element:
 
 def body_label(robot: RobotModel, body) -> str:
     """The suffix of a body's parameter names (``m_21`` → ``21``): its joint's drive terms are
-    ``fv_<label>``... (docs/conventions.md; the general model names them the same way)."""
+    ``fv_<label>``... (docs/design/conventions.md; the general model names them the same way)."""
     return robot.standard_names[body.inertial[-1]].split("_", 1)[1]
 
 

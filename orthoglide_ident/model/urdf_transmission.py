@@ -157,7 +157,7 @@ def ros2_control_block(root: ET.Element, robot: RobotModel, chi_st: np.ndarray,
         if form[0] == "FourBarLinkageTransmission":
             LOG.warning("--urdf-out: motors %s are written as a FourBarLinkageTransmission: its "
                         "velocities are N's, but ros2_control's own four-bar effort formula is "
-                        "not τ_j = Nᵀ τ_m (docs/robot_files.md)", [t.actuators[a] for a in rows])
+                        "not τ_j = Nᵀ τ_m (docs/guide/robot_files.md)", [t.actuators[a] for a in rows])
         rc.append(_transmission(robot, rows, cols, form, values, gains))
 
 

@@ -58,7 +58,7 @@ setpoints also go to a joint_trajectory_controller whose only command interface 
 trajectory_msgs/JointTrajectory points (q_d, qd_d, qdd_d) whose effort is the feed-forward in the
 controller's units (trajectory_effort); the JTC adds it to its PID (README "Next to ros2_control").
 
-A robot with a transmission (docs/robot_files.md "Transmissions": identified in actuator space):
+A robot with a transmission (docs/guide/robot_files.md "Transmissions": identified in actuator space):
 the setpoints are the joints', the feed-forward one current per motor, v_m = diag(g)⁻¹ N⁻ᵀ τ_j
 plus the motors' own inertia and friction, clipped to current_limit per motor and published
 under the motors' names; the trajectory points' efforts are joint-side, Nᵀ (scale x v_m), which

@@ -64,7 +64,7 @@ Topics   orthoglide/identified_parameters (orthoglide_msgs/msg/IdentifiedParamet
 Every identification option is a ROS parameter (the keys of config/identification.yaml)."""
 
 NODE_PARAMETERS = (
-    Param("robot", "", "the robot: a URDF, a robot YAML (docs/robot_files.md) or a bundled robot "
+    Param("robot", "", "the robot: a URDF, a robot YAML (docs/guide/robot_files.md) or a bundled robot "
           "(orthoglide, ur5, ...); empty: the Orthoglide"),
     Param("bag_dir", "bags", "where to look for bags when a request names none"),
     Param("method", "tls", "tls: gains identified, payload mass known; wls: gains given (wls_gains), "

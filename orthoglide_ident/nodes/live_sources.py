@@ -1,7 +1,7 @@
 """Which topics live identification reads, and where each recording's current comes from.
 
 Positions come from a JointState topic (``joint_states_topic``); the current, as offline
-(docs/bags.md), from the first of these that the recording has (bags.sources.CURRENT_SOURCES,
+(docs/design/bags.md), from the first of these that the recording has (bags.sources.CURRENT_SOURCES,
 the one table of inputs):
 
 1. a DynamicJointState interface (``current_interface``, default ``current``) on

@@ -131,7 +131,7 @@ def check_frame(robot: str, frame: str) -> None:
 
 def robot_sides(robot: str) -> dict[str, str]:
     """The tag's orthoglide.position_side / effort_side: the ``robot`` file's transmission's
-    (what its hardware publishes); none without a transmission (docs/bags.md)."""
+    (what its hardware publishes); none without a transmission (docs/design/bags.md)."""
     from orthoglide_ident.model.robots import load_robot
 
     t = load_robot(robot).transmission if robot else None

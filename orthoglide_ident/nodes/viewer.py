@@ -49,7 +49,7 @@ JSON channels, named after the topics (resolved: /orthoglide/..., or under the n
   orthoglide/forces                 per joint the measured force g_tau v_tau, the identified
       model's W chi + W_kl m_7 (positions differentiated by the identification's filter, the
       payload the recorder says is on) and their difference, means over 1/rate s, ~0.2 s late
-A robot with a transmission (its robot file's transmission:, docs/robot_files.md) is viewed as it
+A robot with a transmission (its robot file's transmission:, docs/guide/robot_files.md) is viewed as it
 is identified: the gains are the motors', named by actuator; positions and currents are read on
 the channels of their side and mapped to the motors; orthoglide/forces is per motor, with the
 joints' residual N^T (measured - model) beside it (joint_name, joint_residual).

@@ -128,7 +128,7 @@ def parse_urdf(text: str, where: str) -> tuple[list[tuple[str, str, str, str, ET
     return joints, inertials
 
 
-def _arm_joint(el: ET.Element, kind: str, child: str, gain: float) -> ArmJoint:
+def arm_joint(el: ET.Element, kind: str, child: str, gain: float) -> ArmJoint:
     lim = el.find("limit")
     get = (lambda k, d: float(lim.get(k, d))) if lim is not None else (lambda k, d: float(d))
     lower, upper = (get("lower", "-inf"), get("upper", "inf")) if kind != "continuous" else (-math.inf, math.inf)
@@ -159,7 +159,7 @@ def _serial_joints(joints, actuated: list[str], gains: list[float], where: str) 
             raise ConfigError(f"{where}: joint {n1} does not follow {n0} in one serial chain "
                               "(the arm simulator takes serial arms only)")
     gain_of = dict(zip(actuated, gains))
-    return tuple(_arm_joint(el, kind, child, gain_of[name]) for _, name, kind, child, el in order)
+    return tuple(arm_joint(el, kind, child, gain_of[name]) for _, name, kind, child, el in order)
 
 
 def load_arm(spec: str | Path = "ur5") -> ArmDescription:

@@ -37,7 +37,7 @@ def urdf_model(arm: ArmDescription, gravity: float) -> tuple[pin.Model, np.ndarr
     return model, idx
 
 
-def _inertia(rb: RigidBody) -> pin.Inertia:
+def pin_inertia(rb: RigidBody) -> pin.Inertia:
     return pin.Inertia(rb.mass, np.asarray(rb.com, float), np.asarray(rb.inertia, float))
 
 
@@ -53,7 +53,7 @@ def truth_model(truth: ArmTruth, payload: ArmPayload | None = None) -> tuple[pin
         if not model.existFrame(link):
             raise ConfigError(f"{truth.arm.name}: no frame {link!r} in the Pinocchio model")
         f = model.frames[model.getFrameId(link)]
-        inertias[f.parentJoint] = inertias[f.parentJoint] + f.placement.act(_inertia(rb))
+        inertias[f.parentJoint] = inertias[f.parentJoint] + f.placement.act(pin_inertia(rb))
     for i in range(1, model.njoints):
         model.inertias[i] = inertias[i]
     model.armature[idx] = truth.drive_array("armature")

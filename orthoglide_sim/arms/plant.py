@@ -39,7 +39,7 @@ INERTIAL_TOLERANCE = 1e-12  # relative: what MuJoCo's principal-axes storage los
 _log = logging.getLogger("orthoglide_sim.mujoco")
 
 
-def _route_warnings() -> None:
+def route_warnings() -> None:
     """MuJoCo's warnings to this logger (by default it prints them and writes MUJOCO_LOG.TXT in
     the working directory); a diverged state is the simulator's WorkspaceError anyway."""
     if mujoco.get_mju_user_warning() is None:
@@ -129,7 +129,7 @@ class MujocoPlant(JointStates):
 
     def __init__(self, truth: ArmTruth, payload: ArmPayload | None = None):
         self.truth, self.payload = truth, payload
-        _route_warnings()
+        route_warnings()
         self.model = build_spec(truth, payload).compile()
         self.data = mujoco.MjData(self.model)
         m = self.model

@@ -150,7 +150,7 @@ class ArmPayload:
 
     def tag(self) -> dict[str, Any]:
         """The payload's frame, centre of mass (m) and inertia about it (kg·m², Ixx Ixy Ixz Iyy
-        Iyz Izz): write_bag's ``payload``, which tags the bag with them (docs/architecture.md §4)."""
+        Iyz Izz): write_bag's ``payload``, which tags the bag with them (docs/design/architecture.md §4)."""
         I = self.body.inertia
         return {"payload_frame": self.frame,
                 "payload_com": tuple(float(v) for v in self.body.com),
@@ -206,7 +206,7 @@ def with_offset_payload(truth: ArmTruth, mass: float = 2.0, com=OFFSET_COM,
                                     name: ArmPayload(name, truth.arm.payload_frame, body)})
 
 
-def _seeded_link(nominal: LinkInertial, rng: np.random.Generator) -> RigidBody:
+def seeded_link(nominal: LinkInertial, rng: np.random.Generator) -> RigidBody:
     """An arm without a table: mass ±3-7 %, centre of mass ±3-12 mm per axis, moments ±3-8 %,
     tilt ±0.03-0.1 rad; the largest moment kept 2 % inside the triangle inequality."""
     sign = lambda k: rng.choice([-1.0, 1.0], k)  # noqa: E731
@@ -217,7 +217,7 @@ def _seeded_link(nominal: LinkInertial, rng: np.random.Generator) -> RigidBody:
     return replace(body, inertia=_symmetric(axes @ np.diag(lam) @ axes.T))
 
 
-def _seeded_joint(effort: float, nominal_gain: float, rng: np.random.Generator) -> JointDrive:
+def seeded_joint(effort: float, nominal_gain: float, rng: np.random.Generator) -> JointDrive:
     """An arm without a table: sizes of the UR5's per N·m of the joint's effort limit."""
     sign = rng.choice([-1.0, 1.0], 2)
     return JointDrive(2.2e-3 * effort, 0.016 * effort, 0.035 * effort, sign[0] * 0.0025 * effort,
@@ -227,7 +227,7 @@ def _seeded_joint(effort: float, nominal_gain: float, rng: np.random.Generator) 
 def default_truth(arm: ArmDescription, seed: int = DEFAULT_SEED) -> ArmTruth:
     """The arm's truth: the UR5 table for the UR5's links and joints, the seeded rule otherwise."""
     rng = np.random.default_rng(seed)
-    bodies = {link: (perturbed(nom, *UR5_LINKS[link]) if link in UR5_LINKS else _seeded_link(nom, rng))
+    bodies = {link: (perturbed(nom, *UR5_LINKS[link]) if link in UR5_LINKS else seeded_link(nom, rng))
               for link, nom in arm.inertials.items() if nom.mass > 0}
     drives = {}
     for j in arm.joints:
@@ -235,7 +235,7 @@ def default_truth(arm: ArmDescription, seed: int = DEFAULT_SEED) -> ArmTruth:
             ia, fv, fs, off, factor = UR5_JOINTS[j.name]
             drives[j.name] = JointDrive(ia, fv, fs, off, j.nominal_gain * factor)
         else:
-            drives[j.name] = _seeded_joint(j.effort if math.isfinite(j.effort) else 100.0, j.nominal_gain, rng)
+            drives[j.name] = seeded_joint(j.effort if math.isfinite(j.effort) else 100.0, j.nominal_gain, rng)
     payloads = {k: ArmPayload(k, arm.payload_frame, RigidBody.from_principal(*v)) for k, v in PAYLOADS.items()}
     truth = ArmTruth(arm, bodies, drives, payloads)
     for link, body in bodies.items():
@@ -248,7 +248,7 @@ _TOP_KEYS = {"robot", "seed", "joints", "bodies", "payloads", "current_noise", "
 _DRIVE_KEYS = ("armature", "damping", "frictionloss", "offset", "g_tau")
 
 
-def _number(v: Any, where: str, lo: float = -math.inf, hi: float = math.inf) -> float:
+def checked_number(v: Any, where: str, lo: float = -math.inf, hi: float = math.inf) -> float:
     if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
         raise ConfigError(f"{where}: expected a finite number, got {v!r}")
     if not lo <= v <= hi:
@@ -259,7 +259,7 @@ def _number(v: Any, where: str, lo: float = -math.inf, hi: float = math.inf) -> 
 def _vector(v: Any, n: int, where: str) -> np.ndarray:
     if not isinstance(v, (list, tuple)) or len(v) != n:
         raise ConfigError(f"{where}: expected a list of {n} numbers, got {v!r}")
-    return np.array([_number(x, f"{where}[{k}]") for k, x in enumerate(v)])
+    return np.array([checked_number(x, f"{where}[{k}]") for k, x in enumerate(v)])
 
 
 def _rigid_body(data: Any, base: RigidBody | None, where: str) -> RigidBody:
@@ -269,7 +269,7 @@ def _rigid_body(data: Any, base: RigidBody | None, where: str) -> RigidBody:
                           "inertia [Ixx, Ixy, Ixz, Iyy, Iyz, Izz] (kg·m² about the centre of mass)")
     if base is None and set(data) != {"mass", "com", "inertia"}:
         raise ConfigError(f"{where}: a new body needs mass, com and inertia")
-    mass = _number(data["mass"], f"{where}.mass", 0.0) if "mass" in data else base.mass
+    mass = checked_number(data["mass"], f"{where}.mass", 0.0) if "mass" in data else base.mass
     com = _vector(data["com"], 3, f"{where}.com") if "com" in data else base.com
     if "inertia" in data:
         xx, xy, xz, yy, yz, zz = _vector(data["inertia"], 6, f"{where}.inertia")
@@ -296,7 +296,7 @@ def apply_overrides(truth: ArmTruth, data: Mapping[str, Any], source: str = "ove
             raise ConfigError(f"{source}: joints.{joint}: not an actuated joint ({', '.join(drives)})")
         if not isinstance(d, Mapping) or set(d) - set(_DRIVE_KEYS):
             raise ConfigError(f"{source}: joints.{joint}: expected a mapping of {', '.join(_DRIVE_KEYS)}")
-        values = {k: _number(v, f"{source}: joints.{joint}.{k}", -math.inf if k == "offset" else 0.0)
+        values = {k: checked_number(v, f"{source}: joints.{joint}.{k}", -math.inf if k == "offset" else 0.0)
                   for k, v in d.items()}
         if values.get("g_tau", 1.0) <= 0:
             raise ConfigError(f"{source}: joints.{joint}.g_tau must be positive")
@@ -307,7 +307,7 @@ def apply_overrides(truth: ArmTruth, data: Mapping[str, Any], source: str = "ove
         frame = str(d.pop("frame", old.frame if old else truth.arm.payload_frame))
         payloads[name] = ArmPayload(name, frame, _rigid_body(d, old.body if old else None,
                                                              f"{source}: payloads.{name}"))
-    noise = _number(data.get("current_noise", truth.current_noise_fraction), f"{source}: current_noise", 0.0, 1.0)
+    noise = checked_number(data.get("current_noise", truth.current_noise_fraction), f"{source}: current_noise", 0.0, 1.0)
     counts = data.get("encoder_counts", truth.encoder_counts)
     if isinstance(counts, bool) or not isinstance(counts, int) or counts < 2:
         raise ConfigError(f"{source}: encoder_counts must be an integer >= 2, got {counts!r}")

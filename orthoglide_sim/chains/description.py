@@ -22,7 +22,7 @@ import numpy as np
 
 from orthoglide_ident.errors import ConfigError
 from orthoglide_ident.model import robots
-from orthoglide_sim.arms.description import MOVABLE, ArmDescription, ArmJoint, _arm_joint, parse_urdf
+from orthoglide_sim.arms.description import MOVABLE, ArmDescription, ArmJoint, arm_joint, parse_urdf
 
 LOOP_KINDS = ("point", "frame")  # point: the frames' origins held together; frame: welded
 DEFAULT_GRAVITY = (0.0, 0.0, -9.80665)  # m/s², as the product's robot files
@@ -112,8 +112,8 @@ def load_chain(spec: str | Path = "five_bar") -> ChainDescription:
     gains = [float(g) for g in (gains if isinstance(gains, list) else [gains] * len(actuated))]
     if len(gains) != len(actuated):
         raise ConfigError(f"robot file {path}: {len(gains)} nominal gains for {len(actuated)} joints")
-    act = tuple(_arm_joint(by_name[a][4], by_name[a][1], by_name[a][3], g) for a, g in zip(actuated, gains))
-    passive = tuple(_arm_joint(el, kind, child, 0.0) for name, kind, _, child, el in movable
+    act = tuple(arm_joint(by_name[a][4], by_name[a][1], by_name[a][3], g) for a, g in zip(actuated, gains))
+    passive = tuple(arm_joint(el, kind, child, 0.0) for name, kind, _, child, el in movable
                     if name not in actuated)
     reference = tuple((str(k), float(v)) for k, v in (data.get("reference_configuration") or {}).items())
     gravity = tuple(float(g) for g in data.get("gravity", DEFAULT_GRAVITY))

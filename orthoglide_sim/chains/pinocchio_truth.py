@@ -22,7 +22,7 @@ import pinocchio as pin
 from orthoglide_ident.errors import ConfigError
 from orthoglide_sim.arms.truth import ArmPayload
 from orthoglide_sim.chains.truth import ChainTruth
-from orthoglide_sim.arms.pinocchio_truth import _inertia
+from orthoglide_sim.arms.pinocchio_truth import pin_inertia
 
 PROXIMAL = (1e-13, 1e-10, 50)  # accuracy, mu, iterations of constraintDynamics' proximal solver
 
@@ -42,7 +42,7 @@ def chain_model(truth: ChainTruth, payload: ArmPayload | None = None) -> pin.Mod
     attached = list(truth.bodies.items()) + ([(payload.frame, payload.body)] if payload else [])
     for link, rb in attached:
         f = model.frames[model.getFrameId(link)]
-        inertias[f.parentJoint] = inertias[f.parentJoint] + f.placement.act(_inertia(rb))
+        inertias[f.parentJoint] = inertias[f.parentJoint] + f.placement.act(pin_inertia(rb))
     for i in range(1, model.njoints):
         model.inertias[i] = inertias[i]
     for j in arm.joint_names:

@@ -40,7 +40,7 @@ from orthoglide_ident.errors import ConfigError, WorkspaceError
 from orthoglide_sim.arms.truth import ArmPayload
 from orthoglide_sim.chains.truth import ChainTruth
 from orthoglide_sim.arms.plant import (FRICTION_TIMECONST, INERTIAL_TOLERANCE, TIMESTEP, MujocoPlant,
-                                         _route_warnings, build_spec)
+                                         route_warnings, build_spec)
 
 LOOP_TIMECONST = 2.0 * TIMESTEP  # s, solref of the loops: the stiffest MuJoCo keeps stable
 LOOP_SOLIMP = (0.9999, 0.9999, 0.001, 0.5, 2.0)  # impedance d at MuJoCo's maximum (mjMAXIMP)
@@ -97,7 +97,7 @@ class ChainPlant(MujocoPlant):
 
     def __init__(self, truth: ChainTruth, payload: ArmPayload | None = None):
         self.truth, self.payload = truth, payload
-        _route_warnings()
+        route_warnings()
         self.model = build_chain_spec(truth, payload).compile()
         self.data = mujoco.MjData(self.model)
         self._work = mujoco.MjData(self.model)  # assemble() and inverse_dynamics()

@@ -31,7 +31,7 @@ import numpy as np
 from orthoglide_ident.errors import ConfigError
 from orthoglide_ident.yaml_files import load_yaml, unwrap_section
 from orthoglide_sim.arms.truth import (DEFAULT_SEED, ArmPayload, ArmTruth, JointDrive, RigidBody,
-                                      _number, _seeded_joint, _seeded_link, apply_overrides, perturbed)
+                                      checked_number, seeded_joint, seeded_link, apply_overrides, perturbed)
 from orthoglide_sim.chains.description import ChainDescription
 
 # Five-bar links: (mass factor, centre-of-mass shift (3,) m, principal-moment factors (3,) in
@@ -91,7 +91,7 @@ class ChainTruth(ArmTruth):
 
 
 def _seeded_passive(effort: float, rng: np.random.Generator) -> JointFriction:
-    d = _seeded_joint(effort, 1.0, rng)
+    d = seeded_joint(effort, 1.0, rng)
     return JointFriction(PASSIVE_FRACTION * d.damping, PASSIVE_FRACTION * d.frictionloss,
                          PASSIVE_FRACTION * d.offset)
 
@@ -100,7 +100,7 @@ def default_chain_truth(chain: ChainDescription, seed: int = DEFAULT_SEED) -> Ch
     """The chain's truth: the five-bar's tables for its links and joints, the seeded rule else."""
     rng = np.random.default_rng(seed)
     bodies = {link: (perturbed(nom, *FIVE_BAR_LINKS[link]) if link in FIVE_BAR_LINKS
-                     else _seeded_link(nom, rng))
+                     else seeded_link(nom, rng))
               for link, nom in chain.inertials.items() if nom.mass > 0}
     drives = {}
     for j in chain.joints:
@@ -109,7 +109,7 @@ def default_chain_truth(chain: ChainDescription, seed: int = DEFAULT_SEED) -> Ch
             ia, fv, fs, off, factor = FIVE_BAR_JOINTS[j.name]
             drives[j.name] = JointDrive(ia, fv, fs, off, j.nominal_gain * factor)
         else:
-            drives[j.name] = _seeded_joint(effort, j.nominal_gain, rng)
+            drives[j.name] = seeded_joint(effort, j.nominal_gain, rng)
     passive = {j.name: (JointFriction(*FIVE_BAR_PASSIVE[j.name]) if j.name in FIVE_BAR_PASSIVE
                         else _seeded_passive(j.effort if math.isfinite(j.effort) else 100.0, rng))
                for j in chain.passive}
@@ -138,7 +138,7 @@ def apply_chain_overrides(truth: ChainTruth, data: Mapping[str, Any], source: st
         if not isinstance(d, Mapping) or set(d) - set(_PASSIVE_KEYS):
             raise ConfigError(f"{source}: passive_joints.{joint}: expected a mapping of "
                               f"{', '.join(_PASSIVE_KEYS)}")
-        values = {k: _number(v, f"{source}: passive_joints.{joint}.{k}",
+        values = {k: checked_number(v, f"{source}: passive_joints.{joint}.{k}",
                              -math.inf if k == "offset" else 0.0) for k, v in d.items()}
         passive[joint] = replace(passive[joint], **values)
     return replace(apply_overrides(truth, rest, source), passive=passive)

@@ -28,7 +28,7 @@ import numpy as np
 from orthoglide_ident.errors import ConfigError
 from orthoglide_sim.arms.truth import ArmPayload
 from orthoglide_sim.coupled.truth import CoupledTruth
-from orthoglide_sim.arms.plant import (FRICTION_TIMECONST, JointStates, _route_warnings,
+from orthoglide_sim.arms.plant import (FRICTION_TIMECONST, JointStates, route_warnings,
                                          build_spec)
 
 
@@ -63,7 +63,7 @@ class CoupledPlant(JointStates):
 
     def __init__(self, truth: CoupledTruth, payload: ArmPayload | None = None):
         self.truth, self.payload = truth, payload
-        _route_warnings()
+        route_warnings()
         self.model = build_coupled_spec(truth, payload).compile()
         self.data = mujoco.MjData(self.model)
         m, n = self.model, truth.arm.n

@@ -30,7 +30,8 @@ import numpy as np
 
 from orthoglide_ident.errors import OrthoglideError
 from orthoglide_sim.demos.node_set import ROOT, say
-from orthoglide_sim.demos.graph import Graph
+from orthoglide_sim.demos.graph import Graph, own_ros_domain
+from orthoglide_sim.demos.verdict import GAIN_BAR, SIGMA_BAR, gain_causes, verdict_line
 
 ROBOT = "ur5_mount"  # the UR5 with a payload mount off the last axis (orthoglide_ident/robots)
 PAYLOAD_KG = 2.5  # a point mass at the mount, weighed: the file's loaded payload
@@ -96,11 +97,15 @@ def identify(bags: list[Path], out: Path) -> dict:
     return json.loads(path.read_text())
 
 
-def gains_table(doc: dict) -> tuple[float, float]:
-    """Print identified vs true gains; (largest |error| %, largest |error| / σ)."""
+def truth_gains():
     from orthoglide_sim.arms.session import robot_truth
 
-    truth = robot_truth(ROBOT).drive_array("g_tau")
+    return robot_truth(ROBOT).drive_array("g_tau")
+
+
+def gains_table(doc: dict) -> tuple[float, float]:
+    """Print identified vs true gains; (largest |error| %, largest |error| / σ)."""
+    truth = truth_gains()
     worst_pct, worst_sigma = 0.0, 0.0
     say(f"   {'joint':<20} {'truth':>8} {'identified':>11} {'σ':>7} {'error':>8}")
     for g_true, g in zip(truth, doc["drive_gains"]):
@@ -160,6 +165,9 @@ def run(out: Path, periods: int) -> int:
         say(f"4. identify --robot {ROBOT} on the two bags")
         doc = identify([out / "bags" / "unloaded", out / "bags" / "loaded"], out)
         worst_pct, worst_sigma = gains_table(doc)
+        causes = gain_causes([g["joint"] for g in doc["drive_gains"]],
+                             [g["value"] for g in doc["drive_gains"]],
+                             [g["rel_std"] for g in doc["drive_gains"]], truth_gains())
         say("5. the loaded run again through the action, without and with the identified model's feed-forward")
         points = plan.excitation_points(load_trajectory(traj), "loaded")
         rms_pid = tracking_rms(g, points, None)
@@ -170,7 +178,15 @@ def run(out: Path, periods: int) -> int:
     say(f"gains within {worst_pct:.3f} % and {worst_sigma:.2f} σ of the plant's; stand-in fault: "
         f"{c.get('fault') or 'none'}, {c.get('current_limited')} current-limited updates; wall time {wall:.0f} s")
     say(f"bags, logs in {out}/")
-    return 0
+    if not rms_ff < rms_pid:
+        causes.append(f"the identified feed-forward did not lower the tracking error ({1e3 * rms_ff:.3f} "
+                      f"vs {1e3 * rms_pid:.3f} mrad rms)")
+    if c.get("fault"):
+        causes.append(f"the stand-in stopped on a fault: {c['fault']}")
+    line, code = verdict_line(causes, f"gains within {100 * GAIN_BAR:.1f} % and {SIGMA_BAR:.0f} σ of "
+                              "the plant's, the feed-forward lowers the tracking error, no fault")
+    say(line)
+    return code
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -178,6 +194,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--periods", type=int, default=6, help=f"periods of {PERIOD_S:g} s per run (default 6: 30 s)")
     ap.add_argument("--out", type=Path, default=Path("demo_out/excite"), help="output folder")
     args = ap.parse_args(argv)
+    say(own_ros_domain())
     try:
         return run(args.out, args.periods)
     except (OrthoglideError, KeyboardInterrupt) as e:

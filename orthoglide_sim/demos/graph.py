@@ -32,6 +32,19 @@ from orthoglide_msgs.msg import CurrentReference, LiveIdentification
 LAUNCHERS = Path(sys.prefix) / "lib" / "orthoglide_ident"
 
 
+def own_ros_domain() -> str:
+    """A demo talks on a ROS domain of its own unless ``ROS_DOMAIN_ID`` is set: a second graph on
+    the machine (another demo, a test run) would otherwise cross into it. Returns the line that
+    says which domain, for the demo to print."""
+    if os.environ.get("ROS_DOMAIN_ID"):
+        return f"ROS domain {os.environ['ROS_DOMAIN_ID']} (from ROS_DOMAIN_ID)"
+    domain = 1 + os.getpid() % 100  # 1..100: above 101 domains can collide with ephemeral ports
+    os.environ["ROS_DOMAIN_ID"] = str(domain)
+    os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
+    return (f"ROS domain {domain}, localhost only: a domain of its own (set ROS_DOMAIN_ID to run "
+            "on another)")
+
+
 class GraphError(OrthoglideError):
     """A node of the graph did not start, died, or did not answer."""
 

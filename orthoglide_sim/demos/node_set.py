@@ -11,7 +11,7 @@
    joint, with the same CTC run without transport (in-process) for reference;
 5. plots (Fig. 5, 7, 8-like) and the logs of every node in the output folder.
 
-    python -m orthoglide_sim.demos.node_set [--record-seconds 45] [--out demo_out]
+    python -m orthoglide_sim.demos.node_set [--record-seconds 45] [--out demo_out/node_set]
 """
 from __future__ import annotations
 
@@ -26,7 +26,8 @@ import numpy as np
 from orthoglide_ident.errors import OrthoglideError
 from orthoglide_ident.ros.processes import Interrupted, interrupt_on_signals
 from orthoglide_ident.ros_client import live_line
-from orthoglide_sim.demos.graph import Graph, GraphError
+from orthoglide_sim.demos.graph import Graph, GraphError, own_ros_domain
+from orthoglide_sim.demos.verdict import GAIN_BAR, SIGMA_BAR, gain_causes, verdict_line
 from orthoglide_ident.model.orthoglide.geometry import G_TAU_MANUFACTURER
 from orthoglide_ident.model.robots import load_robot
 from orthoglide_sim.orthoglide.session import FF_HOLD_TICKS
@@ -261,6 +262,29 @@ def print_table4(rows: dict, inproc: dict, counts: dict) -> None:
         say(text)
 
 
+# The demo's bars beside the gains' (verdict.py): CTC over ROS within 1.5x of the in-process CTC's
+# rms (docs/design/architecture.md §7); no CTC tick past the feed-forward hold (there the driver's
+# PID + vel. ff runs alone: the model's current never came).
+OVER_ROS_BAR = 1.5
+
+
+def verdict(tls: object, rows: dict, inproc: dict, counts: dict) -> list[str]:
+    """The causes of a failed demo, one line each (none: it passed)."""
+    p = tls.parameters
+    causes = gain_causes(p.joint_names, p.drive_gains, p.drive_gains_rel_std,
+                         load_parameters().g_tau)
+    for traj in ("test1", "test2"):
+        ratio = _rms_um(rows[traj, "CTC, identif. gains"]) / _rms_um(inproc[traj])
+        if not np.all(ratio <= OVER_ROS_BAR):
+            causes.append(f"{traj}: CTC over ROS / in-process rms "
+                          + ", ".join(f"{r:.2f}" for r in ratio) + f" (bar {OVER_ROS_BAR})")
+    for (traj, case), c in sorted(counts.items()):
+        if case.startswith("CTC") and c.get("feedforward_expired"):
+            causes.append(f"{traj} {case}: {c['feedforward_expired']} ticks past the "
+                          f"{FF_HOLD_TICKS}-tick feed-forward hold (the model's current never came)")
+    return causes
+
+
 def plot_table4(rows: dict, path: Path) -> None:
     import matplotlib
 
@@ -323,7 +347,12 @@ def run(out: Path, record_s: float, measure_s: float) -> int:
     plot_table4(rows, out / "tracking_errors.png")
     report_plots(bags, out)
     say(f"\nDone in {time.perf_counter() - t_start:.0f} s. Bags, plots ({out}/*.png) and node logs are in {out}/")
-    return 0
+    line, code = verdict_line(verdict(tls, rows, inproc, counts),
+                              f"gains within {100 * GAIN_BAR:.1f} % and {SIGMA_BAR:.0f} σ of the "
+                              f"plant's, CTC over ROS within {OVER_ROS_BAR}x of in-process, no tick "
+                              "past the feed-forward hold")
+    say(line)
+    return code
 
 
 def report_plots(bags: list[str], out: Path) -> None:
@@ -338,8 +367,10 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="python -m orthoglide_sim.demos.node_set", description=__doc__.splitlines()[0])
     ap.add_argument("--record-seconds", type=float, default=45.0, help="s per recording (default 45)")
     ap.add_argument("--measure-seconds", type=float, default=4.0, help="s per Table 4 run (default 4: two periods)")
-    ap.add_argument("--out", type=Path, default=Path("demo_out"), help="output folder (default demo_out)")
+    ap.add_argument("--out", type=Path, default=Path("demo_out/node_set"),
+                    help="output folder, emptied first (default demo_out/node_set)")
     args = ap.parse_args(argv)
+    say(own_ros_domain())
     interrupt_on_signals()  # Ctrl-C, SIGTERM (timeout, CI), SIGHUP: the nodes are stopped, one line
     try:
         return run(args.out, args.record_seconds, args.measure_seconds)

@@ -25,7 +25,8 @@ import numpy as np
 
 from orthoglide_ident.errors import OrthoglideError
 from orthoglide_sim.demos.node_set import identify, live_vs_bags, record, say
-from orthoglide_sim.demos.graph import Graph, GraphError
+from orthoglide_sim.demos.graph import Graph, GraphError, own_ros_domain
+from orthoglide_sim.demos.verdict import GAIN_BAR, SIGMA_BAR, gain_causes, verdict_line
 
 ROOT = Path(__file__).resolve().parents[2]  # the project: config/ (installed beside the product)
 ROBOT = "ur5_mount"  # the UR5 with a payload mount off the last axis (orthoglide_ident/robots)
@@ -92,13 +93,21 @@ def run(out: Path, seconds: float) -> int:
         live = identify(g, []).parameters
         offline = identify(g, bag_paths).parameters
         print_gains(live, offline, truth_gains())
+        causes = gain_causes(offline.joint_names, offline.drive_gains, offline.drive_gains_rel_std,
+                             truth_gains())
         say(f"   live vs bags: {live_vs_bags(live, offline)}")
         c = g.driver_counters()  # the stand-in's /diagnostics
         say(f"   stand-in so far: {c['ticks']} updates, dropped {c['dropped_joint_states']} joint_states and "
             f"{c['dropped_dynamic_joint_states']} dynamic_joint_states over the whole run, {c['late']} late")
-    say(f"   offline CLI on the same bags: {offline_cli(bag_paths)}")
+    cli = offline_cli(bag_paths)
+    say(f"   offline CLI on the same bags: {cli}")
+    if not cli.startswith("exit 0"):
+        causes.append(f"the offline CLI on the recorded bags: {cli.splitlines()[0]}")
     say(f"bags, logs in {out}/")
-    return 0
+    line, code = verdict_line(causes, f"gains within {100 * GAIN_BAR:.1f} % and {SIGMA_BAR:.0f} σ of "
+                              "the plant's, the offline CLI answers on the recorded bags")
+    say(line)
+    return code
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -107,6 +116,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--record-seconds", type=float, default=30.0, help="s per recording (default 30)")
     ap.add_argument("--out", type=Path, default=Path("demo_out/ros2_control"), help="output folder")
     args = ap.parse_args(argv)
+    say(own_ros_domain())
     try:
         return run(args.out, args.record_seconds)
     except (OrthoglideError, KeyboardInterrupt) as e:

@@ -5,7 +5,7 @@ loop closure by J_t = J_k^-1 J_tk J_p, regressor): here Pinocchio's spatial-alge
 solve the constrained forward dynamics of the real topology.
 
 - The tree: per leg i, a prismatic joint q1i (body 1, the foot) and four revolute pivots q2i..q5i
-  (bodies 2..5), placed with the MDH transforms of Tables 1-2 (docs/conventions.md). The platform
+  (bodies 2..5), placed with the MDH transforms of Tables 1-2 (docs/design/conventions.md). The platform
   (body 6) and payload (body 7) are fixed to body 5 of leg 1 at P; the rotor inertia ia is each
   actuator's armature. Gravity g = +9.80665 m/s² along y0.
 - The loops: body 5 of legs 2 and 3 is welded to the platform by two 6D Pinocchio constraint

@@ -12,12 +12,12 @@ current loop, Stribeck breakaway friction, ball-screw friction ripple at the scr
 the current and encoder noise. "nominal" (the default) has none of the unmodelled effects;
 "realistic" switches them on. Both are overridable, and more can be named, in YAML.
 
-This table is the plant's own truth, kept apart from the identification model on purpose (docs/architecture.md
+This table is the plant's own truth, kept apart from the identification model on purpose (docs/design/architecture.md
 §5): nothing here is derived from orthoglide_ident's regressor. Only interface facts are imported
 from it: joint names and the manufacturer's gain 637π N/A that a controller is configured with.
 
 Units: kg, m, kg·m²; prismatic joints N, N·s/m, kg (ia); revolute joints N·m, N·m·s/rad.
-Names follow docs/conventions.md: ``<p>_<j><i>`` for body j of leg i, ``<p>_6`` platform,
+Names follow docs/design/conventions.md: ``<p>_<j><i>`` for body j of leg i, ``<p>_6`` platform,
 ``<p>_7`` payload.
 """
 from __future__ import annotations
@@ -99,7 +99,7 @@ COULOMB_VELOCITY = {"prismatic": 1.0e-3, "revolute": 5.0e-3}  # m/s, rad/s
 
 @dataclass(frozen=True)
 class PlantProfile:
-    """What lies between the controller and the ideal plant, beyond the IDIM (docs/architecture.md §5).
+    """What lies between the controller and the ideal plant, beyond the IDIM (docs/design/architecture.md §5).
 
     Units: s, A, m, m/s; friction terms are fractions of each actuator's Coulomb level fs_1i.
     """
@@ -207,7 +207,7 @@ class TrueParameters:
         return STANDARD_NAMES
 
     def standard_vector(self) -> np.ndarray:
-        """The 208 robot standard parameters in canonical order (docs/conventions.md)."""
+        """The 208 robot standard parameters in canonical order (docs/design/conventions.md)."""
         return np.array([self.values[n] for n in STANDARD_NAMES])
 
     def payload_vector(self, payload: str | float | None) -> np.ndarray:

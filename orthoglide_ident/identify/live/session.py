@@ -1,4 +1,4 @@
-"""Online identification: the offline pipeline fed while the recordings run (docs/architecture.md §1, §7).
+"""Online identification: the offline pipeline fed while the recordings run (docs/design/architecture.md §1, §7).
 
     live = LiveIdentification(IdentifyOptions.from_yaml("config/identification.yaml"),
                               model=load_robot("orthoglide"))  # the robot: always passed

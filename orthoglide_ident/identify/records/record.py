@@ -118,7 +118,7 @@ def tagged_sides(model: RobotModel, tags, source: str) -> tuple[str | None, str 
         if tags.position_side == "actuator":
             raise BagError(f"{source}: tagged orthoglide.position_side actuator (the motors' "
                            f"positions) but robot {model.name} has no transmission to map them "
-                           "to its joints: give the robot file one (docs/robot_files.md)")
+                           "to its joints: give the robot file one (docs/guide/robot_files.md)")
         return None, None
     for what, tagged, filed in (("positions", tags.position_side, t.position_side),
                                 ("efforts", tags.effort_side, t.effort_side)):

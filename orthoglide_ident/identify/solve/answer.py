@@ -18,7 +18,7 @@ import numpy as np
 
 from orthoglide_ident.errors import ExcitationError, IdentificationError
 from orthoglide_ident.identify.columns import drive_terms
-from orthoglide_ident.identify.columns import joint_units
+from orthoglide_ident.identify.observe import joint_units
 from orthoglide_ident.identify.solve import partial
 from orthoglide_ident.identify.solve.essential import EssentialResult, essential_parameters
 from orthoglide_ident.identify.solve.factors import RecordFactors

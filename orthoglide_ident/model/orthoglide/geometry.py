@@ -3,7 +3,7 @@
 Each leg i is described in its own *leg frame*, the MDH frame of its foot (frame 1_i): its axes are a
 cyclic permutation of the base axes, so the three legs have identical equations in leg coordinates
 and differ only by the rotation ``R_LEG[i]``, the foot offset ``FOOT_OFFSET[i]`` and the gravity
-direction. See docs/conventions.md.
+direction. See docs/design/conventions.md.
 
 The dimensions are a value (:class:`Geometry`, from the robot file's ``geometry``: a, d4, d6 and
 g); ``PAPER`` is the paper's prototype, whose numbers the module constants below name.

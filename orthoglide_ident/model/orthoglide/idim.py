@@ -89,7 +89,7 @@ def _wrench(kind: str, w: np.ndarray, wd: np.ndarray, vd: np.ndarray):
 def leg_columns(state: TreeState, wanted: Sequence[int]) -> dict[int, np.ndarray]:
     """Actuated-effort columns (3 actuators, 3 legs, N) of the leg parameters ``wanted`` (0..65).
 
-    The three legs obey the same equations in their own frames (docs/conventions.md), so they are
+    The three legs obey the same equations in their own frames (docs/design/conventions.md), so they are
     computed side by side along a leg axis: a third of the array operations of a leg-by-leg loop.
     """
     qt, qdt, qddt = (np.transpose(x, (2, 1, 0)) for x in (state.qt, state.qdt, state.qddt))  # (5, 3 legs, N)

@@ -1,4 +1,4 @@
-"""Names and order of the standard dynamic parameters (paper Sect. 2.2, docs/conventions.md).
+"""Names and order of the standard dynamic parameters (paper Sect. 2.2, docs/design/conventions.md).
 
 Canonical order of the 208 robot parameters: leg 1 bodies 1..5, leg 2 bodies 1..5, leg 3 bodies 1..5,
 then the platform (body 6). Each leg body has the inertia at its frame origin (6), first moments (3),

@@ -1,6 +1,6 @@
 """The Orthoglide's identified model as a URDF of its open tree (``identify --urdf-out``).
 
-Written from the MDH frames of docs/conventions.md: per leg a prismatic foot (q1i) and four
+Written from the MDH frames of docs/design/conventions.md: per leg a prismatic foot (q1i) and four
 pivots (q2i..q5i), link ``body_<j><i>`` in frame j_i, the platform fixed to body 5 of leg 1 at
 P; the loops are **not** in the file (URDF has no closed chains): the product's model closes
 them (body 5 of legs 2 and 3 welded to the platform: links ``platform_on_leg2``,
@@ -24,7 +24,7 @@ __all__ = ["PLATFORM_LINK", "joint_labels", "orthoglide_urdf", "platform_in_body
 
 
 # ------------------------------------------------------------------ the Orthoglide's open tree
-# MDH α of the pivot frames 2..5 of every leg (docs/conventions.md, Table 2; θ = q_ji, d = d4
+# MDH α of the pivot frames 2..5 of every leg (docs/design/conventions.md, Table 2; θ = q_ji, d = d4
 # for frame 4, 0 otherwise)
 PIVOT_ALPHA = {2: -0.5 * math.pi, 3: -0.5 * math.pi, 4: 0.0, 5: 0.5 * math.pi}
 
@@ -69,7 +69,7 @@ def orthoglide_urdf(robot: RobotModel, chi_st: np.ndarray, gains: Sequence[float
     root = ET.Element("robot", name="orthoglide_identified")
     root.append(ET.Comment(header_comment(robot, gains, (
         "Open tree of the Orthoglide: per leg i a prismatic foot q1i and pivots q2i..q5i in the "
-        "MDH frames of docs/conventions.md (link body_<j><i> = frame j_i), the platform fixed to "
+        "MDH frames of docs/design/conventions.md (link body_<j><i> = frame j_i), the platform fixed to "
         "body 5 of leg 1 at P. The loops are closed by the product's model, not by this file: "
         "body 5 of legs 2 and 3 is welded to the platform (links platform_on_leg2/3 coincide "
         f"with platform on the robot). Gravity: {G0} m/s² along +y of base_link (y0 down)."))))
