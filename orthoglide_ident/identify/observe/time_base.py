@@ -31,6 +31,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from orthoglide_ident.errors import DataError
 from orthoglide_ident.identify.observe.filtering import filtered_states, zero_phase_butterworth
 from orthoglide_ident.ticks import OFF_GRID_TOL, UNEVEN_SHARE, StepStats, step_stats
 
