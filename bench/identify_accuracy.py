@@ -1,4 +1,4 @@
-"""Accuracy of the identification and honesty of its σ over seeds, both plant profiles (docs/design/architecture.md §7).
+"""Accuracy of the identification and honesty of its σ over seeds, both plant profiles (docs/benchmarks.md).
 
     PYTHONPATH=. .venv/bin/python bench/identify_accuracy.py [--profiles nominal,realistic]
         [--seconds 30,60] [--seeds 5] [--first-seed 0] [--payload KG] [--cache DIR] [--validate]

@@ -1,4 +1,4 @@
-"""Records for the identification benchmarks, from the simulator (docs/design/architecture.md §5).
+"""Records for the identification benchmarks, from the simulator (docs/design/simulator.md).
 
 ``record(duration_s, payload_kg, seed, noise, profile=...)`` returns (Record, truth) where truth
 holds the plant's true drive gains (``g_tau``): the Pinocchio plant of ``orthoglide_sim``, closed

@@ -45,7 +45,7 @@ from orthoglide_ident.model.robots import load_robot  # noqa: E402
 
 ORTHOGLIDE = load_robot("orthoglide")  # the robot these records are of
 
-G_TRUE = np.array([2170.0, 2100.0, 2070.0])  # N/A, the plant's drive gains (docs/design/architecture.md §5)
+G_TRUE = np.array([2170.0, 2100.0, 2070.0])  # N/A, the plant's drive gains (docs/design/simulator.md)
 
 
 def get_bags(args, tmp: str) -> tuple[list[Path], str]:

@@ -5,7 +5,7 @@
 For each layout, a small table: write_bag time and msg/s (the official MCAP writer underneath),
 read_bag time and msg/s, the official MCAP reader merely iterating the same messages (what our
 scanner must beat to earn its place), rosbags AnyReader + deserialise time on the same bags (the
-docs/design/architecture.md §7 yardstick), the ratio, and peak RSS. Layouts:
+docs/benchmarks.md yardstick), the ratio, and peak RSS. Layouts:
 
 - ``orthoglide``: /orthoglide/joint_states + /orthoglide/current_reference, 3 joints;
 - ``joint_states``: a ros2_control /joint_states (position, velocity, effort = current), 6 joints

@@ -14,7 +14,7 @@ the recording starts once it publishes (after its jax compilation) and stops whi
 so ``sent`` is the number of ticks in the recorded span (first to last stamp that both topics hold
 in the bag) and any sample the bag lacks in that span is a loss. ``--max-rate-search`` (stand-in
 only) repeats short runs at rising rates and prints the highest rate with zero loss. The 10-minute
-figure of docs/design/architecture.md §7: ``--duration 600``.
+figure of docs/benchmarks.md: ``--duration 600``.
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""``orthoglide-ident``: offline identification, bag info, base model and reports (docs/design/architecture.md §4).
+"""``orthoglide-ident``: offline identification, bag info, base model and reports (docs/design/interfaces.md).
 
     orthoglide-ident identify [--robot FILE] BAG... [--payload-mass KG] [--method tls|wls]
                      [--payload-known mass|com|all|point]
@@ -126,7 +126,7 @@ def _add_identify_options(p: argparse.ArgumentParser) -> None:
                    help="write the identified model as a URDF (consistent inertials, friction "
                         "in <dynamics>, rotor inertia and gains in comments) that Pinocchio and "
                         "MuJoCo load; implies --consistent")
-    p.add_argument("--json", metavar="FILE", help="write the result as JSON (docs/design/architecture.md §4) to FILE "
+    p.add_argument("--json", metavar="FILE", help="write the result as JSON (docs/design/interfaces.md) to FILE "
                    "(strict JSON: a number that is missing is null; drive_gains[i].determined, "
                    "reason)")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress on stderr")

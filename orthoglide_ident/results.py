@@ -1,4 +1,4 @@
-"""Identification results: one dataclass, serialised once to the JSON of docs/design/architecture.md §4 and to a table.
+"""Identification results: one dataclass, serialised once to the JSON of docs/design/interfaces.md and to a table.
 
 Relative standard deviations are fractions (0.002 = 0.2 %σ); the table prints %σ. Two are given:
 ``rel_std`` the honest one, which also covers residuals correlated from row to row (the forces
@@ -158,7 +158,7 @@ class PayloadParameters:
 
 @dataclass
 class IdentificationResult:
-    """What ``identify`` found; ``to_json()`` is the document of docs/design/architecture.md §4."""
+    """What ``identify`` found; ``to_json()`` is the document of docs/design/interfaces.md."""
 
     method: str  # "tls" | "wls"
     joint_names: list[str]

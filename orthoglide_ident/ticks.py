@@ -1,5 +1,5 @@
 """Missing controller ticks: the one rule used by the pipeline, the live identification, the
-recorder's loss count and ``orthoglide-ident info`` (docs/design/architecture.md §6.1).
+recorder's loss count and ``orthoglide-ident info`` (docs/design/method.md).
 
 Consecutive stamps of a 1 kHz controller are one period apart. A step outside (0.5, 1.5) periods
 is a break; a step of about k periods (k = round(step / period) ≥ 2) means k - 1 ticks are missing.

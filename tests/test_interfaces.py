@@ -1,6 +1,6 @@
-"""The orthoglide_msgs interfaces (docs/design/architecture.md §4): exact fields, CDR round trip, and real exchange
+"""The orthoglide_msgs interfaces (docs/design/interfaces.md): exact fields, CDR round trip, and real exchange
 between processes over Fast DDS -- a publisher and a subscriber, a service server and a client.
-The control_msgs messages of ros2_control (docs/design/architecture.md §8): Jazzy's fields, a real install's type
+The control_msgs messages of ros2_control (docs/design/architecture.md §3): Jazzy's fields, a real install's type
 hashes, and the same exchange between processes."""
 from __future__ import annotations
 
@@ -15,7 +15,7 @@ from orthoglide_ident.bags import _types
 from orthoglide_msgs.msg import CurrentReference, IdentifiedParameters
 from orthoglide_msgs.srv import Identify, StartRecording, StopRecording
 
-# docs/design/architecture.md §4, field for field; tools outside the project rely on these.
+# docs/design/interfaces.md, field for field; tools outside the project rely on these.
 EXPECTED_FIELDS = {
     CurrentReference: {
         "header": "std_msgs/Header",

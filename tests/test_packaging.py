@@ -1,5 +1,5 @@
 """What `make setup` leaves in the venv prefix: a ROS 2 layout that `ros2 run` and ament lookups
-use without sourcing anything (docs/design/architecture.md §3)."""
+use without sourcing anything (docs/design/interfaces.md)."""
 from __future__ import annotations
 
 import importlib.util

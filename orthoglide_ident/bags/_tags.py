@@ -1,7 +1,7 @@
 """The tag of a bag: loaded/unloaded, the payload, and where q and the current were recorded.
 
 Stored as strings, the same keys in metadata.yaml ``custom_data`` and in each .mcap file's
-``orthoglide`` metadata record (docs/design/architecture.md §4, §8):
+``orthoglide`` metadata record (docs/design/interfaces.md, §8):
 
 ==============================  ==================================================================
 ``orthoglide.condition``        ``loaded`` | ``unloaded``
@@ -155,7 +155,7 @@ class BagTags:
 
     def to_dict(self) -> dict[str, str]:
         """The keys as stored in custom_data and in the MCAP metadata record (absent ones left
-        out, so an Orthoglide bag keeps exactly the two keys of docs/design/architecture.md §4)."""
+        out, so an Orthoglide bag keeps exactly the two keys of docs/design/interfaces.md)."""
         mass = "0" if self.payload_mass == 0 else format(self.payload_mass, ".12g")
         out = {CONDITION_KEY: self.condition, MASS_KEY: mass}
         optional = {

@@ -1,4 +1,4 @@
-"""Which topic and field of a bag carry q and the current (docs/design/architecture.md §8).
+"""Which topic and field of a bag carry q and the current (docs/design/architecture.md §3).
 
 A bag of the Orthoglide holds ``/orthoglide/joint_states`` (q) and ``/orthoglide/current_reference``
 (v_tau); a bag of a ros2_control robot holds ``/joint_states`` alone (``effort`` = the current, in

@@ -4,7 +4,7 @@
     from orthoglide_ident.model.robots import load_robot
     robot = load_robot("orthoglide")                           # or a URDF, a robot YAML
     res = identify(["bags/unloaded", "bags/loaded"], model=robot)  # IDIM-TLS, payload from tags
-    res.to_json(); res.to_text(); res.message_fields()         # docs/design/architecture.md §4 JSON, table, msg fields
+    res.to_json(); res.to_text(); res.message_fields()         # docs/design/interfaces.md JSON, table, msg fields
 
 Rooms by concern (docs/design/architecture.md §1): reading records (records: bags → Record), observation
 (observe, with segments, filtering, reversals, decimation, stream, drive_terms, current_lag: a

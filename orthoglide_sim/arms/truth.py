@@ -150,7 +150,7 @@ class ArmPayload:
 
     def tag(self) -> dict[str, Any]:
         """The payload's frame, centre of mass (m) and inertia about it (kg·m², Ixx Ixy Ixz Iyy
-        Iyz Izz): write_bag's ``payload``, which tags the bag with them (docs/design/architecture.md §4)."""
+        Iyz Izz): write_bag's ``payload``, which tags the bag with them (docs/design/interfaces.md)."""
         I = self.body.inertia
         return {"payload_frame": self.frame,
                 "payload_com": tuple(float(v) for v in self.body.com),

@@ -263,7 +263,7 @@ def print_table4(rows: dict, inproc: dict, counts: dict) -> None:
 
 
 # The demo's bars beside the gains' (verdict.py): CTC over ROS within 1.5x of the in-process CTC's
-# rms (docs/design/architecture.md §7); no CTC tick past the feed-forward hold (there the driver's
+# rms (docs/benchmarks.md); no CTC tick past the feed-forward hold (there the driver's
 # PID + vel. ff runs alone: the model's current never came).
 OVER_ROS_BAR = 1.5
 

@@ -114,7 +114,7 @@ def _report_validation(res) -> None:
             )
 
 
-# docs/design/architecture.md §7: the second payload re-identified by WLS within 1 % with the
+# docs/benchmarks.md: the second payload re-identified by WLS within 1 % with the
 # identified gains
 PAYLOAD_BAR = 0.01
 

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
-# An identified gain's bars (docs/design/architecture.md §7, and the product's honest σ): within
+# An identified gain's bars (docs/benchmarks.md, and the product's honest σ): within
 # 0.5 % of the plant's truth and within 3 of its own σ.
 GAIN_BAR = 0.005
 SIGMA_BAR = 3.0

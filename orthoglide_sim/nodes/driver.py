@@ -77,7 +77,7 @@ PARAMETERS = (
     Param("seed", 0, "seed of the current noise"),
     Param("noise", True, "current noise on/off"),
 )
-JOINTS = list(JOINT_NAMES)  # the interface (docs/design/architecture.md §4); the plant keeps its own truth
+JOINTS = list(JOINT_NAMES)  # the interface (docs/design/interfaces.md); the plant keeps its own truth
 LOCKSTEP_TIMEOUT_S = 2.0
 STATUS_PERIOD_TICKS = 10_000  # a log line
 HISTORY_TICKS = 5000  # 5 s of ticks kept for resending to a subscriber that fell behind

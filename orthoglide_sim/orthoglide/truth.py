@@ -99,7 +99,7 @@ COULOMB_VELOCITY = {"prismatic": 1.0e-3, "revolute": 5.0e-3}  # m/s, rad/s
 
 @dataclass(frozen=True)
 class PlantProfile:
-    """What lies between the controller and the ideal plant, beyond the IDIM (docs/design/architecture.md §5).
+    """What lies between the controller and the ideal plant, beyond the IDIM (docs/design/simulator.md).
 
     Units: s, A, m, m/s; friction terms are fractions of each actuator's Coulomb level fs_1i.
     """

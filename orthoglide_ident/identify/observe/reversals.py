@@ -3,7 +3,7 @@
 At a reversal of joint j the model switches fs_j·sign(q̇_j) in one sample, while the drive's
 friction turns smoothly (and the zero-order hold averages the switch over a tick). The mismatch
 is up to 2·fs (tens of N) on one or two samples — tens of times the current noise — and the
-decimation filter would spread it over its window. docs/design/architecture.md §6: it biases the payload mass by
+decimation filter would spread it over its window. docs/design/method.md: it biases the payload mass by
 ~1.5 % when ignored.
 
 Cure without losing the high-acceleration samples that sit at reversals: for each joint, the

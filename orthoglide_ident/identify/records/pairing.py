@@ -1,4 +1,4 @@
-"""The two recorded topics as they arrive, checked on arrival and paired by stamp (docs/design/architecture.md §6.1).
+"""The two recorded topics as they arrive, checked on arrival and paired by stamp (docs/design/method.md).
 
 ``/orthoglide/joint_states`` (q) and ``/orthoglide/current_reference`` (v_tau) carry the same
 header stamp for the same controller tick but arrive independently, a few ticks apart, in

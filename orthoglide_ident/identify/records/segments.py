@@ -1,4 +1,4 @@
-"""Pair joint positions with current references by stamp and split the record at gaps (docs/design/architecture.md §6.1).
+"""Pair joint positions with current references by stamp and split the record at gaps (docs/design/method.md).
 
 The controller publishes q (``/orthoglide/joint_states``) and v_tau
 (``/orthoglide/current_reference``) with the same header stamp for the same tick, as ros2_control's

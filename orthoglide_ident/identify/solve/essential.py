@@ -6,7 +6,7 @@ parameter at a time (never a drive gain or a payload mass):
 - ``"paper"``: the paper's rule. The parameter with the largest relative standard deviation (of
   eqs. 38-39) is cancelled and the model identified again, until max(%σ)/min(%σ) < r_σ (the paper
   uses 10; the gains' and payload's %σ take part in the ratio). On the Orthoglide this rule can
-  cancel parameters the gains lean on: 13 parameters kept moved two gains by 3-6 % (docs/design/architecture.md §6).
+  cancel parameters the gains lean on: 13 parameters kept moved two gains by 3-6 % (docs/design/method.md).
 - ``"keep_gains"`` (the default): the same order (largest honest %σ first) and the same stopping
   ratio, but a cancellation is accepted only if the protected quantities — the drive gains (TLS)
   or the estimated payload masses (WLS) — stay within their tolerance of the base model's values
