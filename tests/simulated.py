@@ -6,7 +6,8 @@ The test is skipped when the simulator is not importable.
 """
 from __future__ import annotations
 
-import pytest
+import importlib
+
 
 from orthoglide_ident.identify.pipeline import Record
 from orthoglide_ident.model.robots import load_robot
@@ -19,7 +20,7 @@ def simulated_pair(seconds: float, seeds: tuple[int, int], name: str, **simulate
     """An unloaded record on the "exciting" trajectory and a 1.983 kg one on "exciting2", each
     ``seconds`` long with its seed, named ``<name>-unloaded`` and ``<name>-loaded``;
     ``simulate_kwargs`` go to orthoglide_sim.orthoglide.record.simulate (profile, controller...)."""
-    simulate = pytest.importorskip("orthoglide_sim.orthoglide.record").simulate
+    simulate = importlib.import_module("orthoglide_sim.orthoglide.record").simulate
     recs = []
     for payload, seed, trajectory in (("none", seeds[0], "exciting"),
                                       ("1.983", seeds[1], "exciting2")):

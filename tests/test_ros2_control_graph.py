@@ -10,8 +10,6 @@ import numpy as np
 import pytest
 import yaml
 
-pytest.importorskip("rclpy")
-pytest.importorskip("control_msgs.msg")
 
 from orthoglide_sim.demos.node_set import identify, record  # noqa: E402
 from orthoglide_sim.demos.graph import Graph  # noqa: E402

@@ -13,8 +13,6 @@ import numpy as np
 import pytest
 import yaml
 
-pytest.importorskip("rclpy")
-pytest.importorskip("control_msgs.action")
 
 sys.path.insert(0, str(Path(__file__).parent))
 from trajectories import write_small  # noqa: E402

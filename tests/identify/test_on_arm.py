@@ -16,7 +16,7 @@ from orthoglide_ident.identify.options import IdentifyOptions
 from orthoglide_ident.identify.pipeline import Record, identify_records
 from orthoglide_ident.model.robot import Payload
 from orthoglide_ident.model.robots import load_robot
-from orthoglide_sim.arms.record import ArmRecord, simulate_arm
+from orthoglide_sim.arms.record import simulate_arm
 
 from live_helpers import as_record, live_result
 

@@ -7,6 +7,8 @@
 """
 from __future__ import annotations
 
+import importlib
+
 import numpy as np
 import pytest
 
@@ -25,7 +27,7 @@ def _gains(res):
 
 
 def test_model_data_noise_free_gives_true_gains_and_base_parameters():
-    tp = pytest.importorskip("orthoglide_sim.orthoglide.truth").default_parameters()
+    tp = importlib.import_module("orthoglide_sim.orthoglide.truth").default_parameters()
     from orthoglide_ident.model.orthoglide.base import base_model
 
     bm = base_model()
@@ -45,13 +47,10 @@ def test_model_data_noise_free_gives_true_gains_and_base_parameters():
 
 
 def _simulate():
-    try:
-        from orthoglide_sim.orthoglide.record import simulate
-        from orthoglide_sim.common.trajectories import get_trajectory
+    from orthoglide_sim.common.trajectories import get_trajectory
+    from orthoglide_sim.orthoglide.record import simulate
 
-        get_trajectory("exciting")
-    except Exception as exc:  # not there yet, or no optimised trajectory
-        pytest.skip(f"simulator with an exciting trajectory not available: {exc}")
+    get_trajectory("exciting")  # the optimised trajectory ships in orthoglide_sim/data
     return simulate
 
 

@@ -22,15 +22,15 @@ import pytest
 from orthoglide_ident.cli import main
 from orthoglide_ident.model.robots import load_robot
 
-P = pytest.importorskip("panda_gaz2019")
+import panda_gaz2019 as P
 GRAVITY_JOINTS = slice(1, 6)  # panda_joint2..6: gravity torques of 0.8-17 N·m rms held out
 
 
 @pytest.fixture(scope="module")
 def identified(tmp_path_factory):
-    if not (P.FIXTURE / "traj1_a.csv.gz").exists():
-        pytest.skip("the Panda record is not here: python tools/panda_gaz2019_fixture.py "
-                    "<clone of marcocognetti/FrankaEmikaPandaDynModel>")
+    assert (P.FIXTURE / "traj1_a.csv.gz").exists(), (
+        "the Panda record is not here: python tools/panda_gaz2019_fixture.py "
+        "<clone of marcocognetti/FrankaEmikaPandaDynModel>")
     doc = P.run(tmp_path_factory.mktemp("panda"), main)
     robot = load_robot(str(P.URDF))
     return robot, doc, np.array([p["value"] for p in doc["parameters"]])

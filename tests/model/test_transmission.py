@@ -15,7 +15,7 @@ import yaml
 
 from orthoglide_ident.errors import ConfigError
 from orthoglide_ident.model.robots import ROBOTS_DIR, load_robot
-from orthoglide_ident.model.transmission import Transmission, read_transmission, urdf_transmission
+from orthoglide_ident.model.transmission import Transmission, urdf_transmission
 
 RNG = np.random.default_rng(7)
 UR5_JOINTS = ("shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint", "wrist_1_joint",

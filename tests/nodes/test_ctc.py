@@ -121,8 +121,8 @@ class _CTCRun:
 
 
 def test_ctc_node_waits_for_parameters_then_feeds_forward(ros_env):
-    pytest.importorskip("rclpy")
-    pytest.importorskip("orthoglide_msgs.msg")
+    import rclpy  # noqa: F401
+    import orthoglide_msgs.msg  # noqa: F401
     from orthoglide_ident.control import feedforward_currents
     from orthoglide_sim.common.trajectories import get_trajectory
     from test_control import true_params
@@ -163,7 +163,7 @@ def test_ctc_node_waits_for_parameters_then_feeds_forward(ros_env):
 @pytest.mark.parametrize("args, reason", [(["-p", "batch:=0"], "parameter batch: must be >= 1"),
                                           (["-p", "payload_mass:=heavy"], "parameter payload_mass: expected float")])
 def test_ctc_node_bad_parameter_is_a_one_line_error(ros_env, args, reason):
-    pytest.importorskip("rclpy")
+    import rclpy  # noqa: F401
     out = children.run([sys.executable, "-m", "orthoglide_ident.nodes.ctc", "--ros-args", *args],
                          env=ros_env, capture_output=True, text=True, timeout=60)
     assert out.returncode == 2, out.stderr
@@ -174,8 +174,8 @@ def test_ctc_node_clips_to_the_current_limit_and_stops_on_nan(ros_env):
     """Safety: parameters 1000x too large give currents clipped to current_limit (and a warning);
     NaN parameters are refused (the previous ones stay); a NaN setpoint stops the feed-forward
     with the reason, and nothing more is published."""
-    pytest.importorskip("rclpy")
-    pytest.importorskip("orthoglide_msgs.msg")
+    import rclpy  # noqa: F401
+    import orthoglide_msgs.msg  # noqa: F401
     from orthoglide_sim.common.trajectories import get_trajectory
     from test_control import true_params
 
@@ -211,7 +211,7 @@ def test_ctc_node_clips_to_the_current_limit_and_stops_on_nan(ros_env):
 
 
 def test_ctc_node_with_consistent_uses_the_consistent_set_only(ros_env):
-    pytest.importorskip("rclpy")
+    import rclpy  # noqa: F401
     from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 
     from orthoglide_msgs.msg import IdentifiedParameters
@@ -241,8 +241,8 @@ def test_ctc_node_refuses_a_model_that_does_not_fit_and_keeps_the_old_one(ros_en
     """Parameters of another robot's model (names the Orthoglide's base model does not have), then
     drive gains for two joints: each refused with the reason in the log, and the feed-forward
     goes on from the model in use, to the last digit."""
-    pytest.importorskip("rclpy")
-    pytest.importorskip("orthoglide_msgs.msg")
+    import rclpy  # noqa: F401
+    import orthoglide_msgs.msg  # noqa: F401
     from orthoglide_ident.control import feedforward_currents
     from orthoglide_msgs.msg import IdentifiedParameters
     from orthoglide_sim.common.trajectories import get_trajectory
@@ -287,8 +287,8 @@ def test_ctc_node_through_a_coupled_transmission_feeds_each_motor(ros_env, tmp_p
     """The coupled-wrist UR5 (identified in actuator space): joint-side setpoints in, one
     current per motor out under the motors' names, the law's v_m = diag(g)⁻¹ N⁻ᵀ τ_j + motor
     terms (test_control), clipped to current_limit per motor."""
-    pytest.importorskip("rclpy")
-    pytest.importorskip("orthoglide_msgs.msg")
+    import rclpy  # noqa: F401
+    import orthoglide_msgs.msg  # noqa: F401
     from orthoglide_ident.control import CTCParameters, feedforward_currents
     from orthoglide_msgs.msg import IdentifiedParameters, JointSetpoint
     from test_control import _coupled_ur5
@@ -336,8 +336,8 @@ def test_ctc_monitor_brings_motor_side_positions_to_the_joints(ros_env, tmp_path
     own order, a gripper beside them): the tracking monitor compares q_j = N⁻¹ (q_m − offset)
     with the joint-side setpoints, so a joint error of 10 / −20 µrad on the coupled wrist is
     logged as that, not as the 320 .. 960 µrad it makes on the motors."""
-    pytest.importorskip("rclpy")
-    pytest.importorskip("orthoglide_msgs.msg")
+    import rclpy  # noqa: F401
+    import orthoglide_msgs.msg  # noqa: F401
     import yaml
     from sensor_msgs.msg import JointState
 
@@ -387,7 +387,7 @@ def test_ctc_node_states_its_lead_and_cpu_on_diagnostics_and_sums_up_at_exit(ros
     """Setpoints on the system clock, published in bursts ahead of their ticks: every tick gets
     its feed-forward, /diagnostics carries the ctc's lead and CPU once a second, and the node's
     last line sums up the run (ticks sent, lead, CPU). No timing is asserted."""
-    pytest.importorskip("rclpy")
+    import rclpy  # noqa: F401
     from diagnostic_msgs.msg import DiagnosticArray
 
     from orthoglide_msgs.msg import JointSetpoint

@@ -9,10 +9,8 @@ import threading
 import time
 
 import numpy as np
-import pytest
 
-rclpy = pytest.importorskip("rclpy")
-pytest.importorskip("orthoglide_msgs.msg")
+import rclpy
 
 ROBOT = "ur5_mount"
 T0 = 500 * 10**9

@@ -3,7 +3,6 @@ from __future__ import annotations
 
 import os
 import sys
-import threading
 import time
 from pathlib import Path
 
@@ -165,7 +164,6 @@ def test_help_needs_no_ros():
 def test_live_identification_warns_and_survives_nan_and_wrong_names(spawn_python, tmp_path):
     """A recording fed with NaN positions, a burst with other joint names and lost ticks: the live
     estimate goes on, says what happened in its warnings, and the node keeps answering."""
-    import numpy as np
     import rclpy
     from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
     from sensor_msgs.msg import JointState

@@ -11,12 +11,9 @@ import time
 from pathlib import Path
 
 import numpy as np
-import pytest
 
 from orthoglide_ident.ros import processes as children  # children end with this process
 
-pytest.importorskip("rclpy")
-pytest.importorskip("orthoglide_msgs.msg")
 
 ROOT = Path(__file__).resolve().parents[2]
 BAGS = ROOT / "bags"

@@ -13,14 +13,11 @@ those bags (the issue's 1e-6 with ``lag_model: off``: the same equations), gains
 from __future__ import annotations
 
 import time
-from pathlib import Path
 
 import numpy as np
 import pytest
 import yaml
 
-pytest.importorskip("rclpy")
-pytest.importorskip("control_msgs.msg")
 
 pytestmark = pytest.mark.slow
 

@@ -8,7 +8,6 @@ import pytest
 from orthoglide_ident.errors import ConfigError
 from orthoglide_ident.nodes._jtc import TrajectoryOutlet, encode_joint_trajectory
 
-pytest.importorskip("rclpy")
 
 NAMES = ("shoulder_pan_joint", "b", "elbow", "wrist_1", "w2", "wrist_3_joint")
 T0 = 1_796_000_000 * 10**9 + 123_456_000

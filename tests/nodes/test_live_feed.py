@@ -4,14 +4,12 @@ from __future__ import annotations
 
 import threading
 
-import pytest
 
 from orthoglide_ident.model.robots import load_robot
 
 ORTHOGLIDE = load_robot("orthoglide")  # the robot these records are of
 
-rclpy = pytest.importorskip("rclpy")
-pytest.importorskip("orthoglide_msgs.msg")
+import rclpy
 
 
 class _Spy:

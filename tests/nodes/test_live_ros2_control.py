@@ -20,8 +20,7 @@ from orthoglide_ident.identify.options import IdentifyOptions
 from orthoglide_ident.identify.pipeline import identify
 from orthoglide_ident.model.robots import load_robot
 
-rclpy = pytest.importorskip("rclpy")
-pytest.importorskip("control_msgs.msg")
+import rclpy
 from ros2_control_records import ROBOT, standin_records, write_record_bag  # noqa: E402
 
 FEED_TICKS = 250  # messages handed to the feed between two feed() calls (a BatchTaker wake-up)

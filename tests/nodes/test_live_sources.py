@@ -10,7 +10,6 @@ from orthoglide_ident.errors import DataError
 from orthoglide_ident.nodes.live_sources import (DYNAMIC, EFFORT, REFERENCE, SOURCE_WAIT_S, LiveTopics,
                                                  choose_current)
 
-pytest.importorskip("control_msgs.msg")
 
 JOINTS = ("shoulder_pan_joint", "elbow_joint")
 HW = ("elbow_joint", "gripper", "shoulder_pan_joint")  # the hardware's order, an extra joint

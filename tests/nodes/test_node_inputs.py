@@ -17,8 +17,7 @@ import pytest
 
 from orthoglide_ident.ros import processes as children  # children end with this process
 
-rclpy = pytest.importorskip("rclpy")
-pytest.importorskip("orthoglide_msgs.msg")
+import rclpy
 
 ROOT = Path(__file__).resolve().parents[2]
 RECORDER = "from orthoglide_ident.nodes.recorder import main; import sys; sys.exit(main())"

@@ -102,8 +102,7 @@ def test_disk_full_ends_recording_and_keeps_data(
 
 
 # -- across processes ----------------------------------------------------------------------------
-rclpy = pytest.importorskip("rclpy")
-pytest.importorskip("orthoglide_msgs.srv")
+import rclpy
 
 
 @pytest.fixture(scope="module")
@@ -477,10 +476,6 @@ def test_record_from_driver_loses_nothing(driver_bag) -> None:
 
 @pytest.mark.slow
 def test_info_cli_on_driver_bag(driver_bag) -> None:
-    try:
-        import orthoglide_ident.cli  # noqa: F401
-    except ImportError as exc:
-        pytest.skip(f"orthoglide_ident.cli not importable yet: {exc}")
     exe = Path(sys.executable).parent / "orthoglide-ident"
     cmd = [str(exe)] if exe.exists() else [sys.executable, "-m", "orthoglide_ident.cli"]
     bag = driver_bag[0]

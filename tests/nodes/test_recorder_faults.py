@@ -13,18 +13,14 @@ from __future__ import annotations
 
 import resource
 import signal
-import sys
 import time
 from pathlib import Path
 
 import numpy as np
-import pytest
 
 from orthoglide_ident import bags
-from orthoglide_ident.ros import processes as children  # children end with this process
 
-rclpy = pytest.importorskip("rclpy")
-pytest.importorskip("orthoglide_msgs.srv")
+import rclpy
 
 from test_recorder import _publish, _sent, client, spawn_recorder  # noqa: E402,F401  (fixtures)
 

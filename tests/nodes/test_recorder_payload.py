@@ -8,9 +8,7 @@ import sys
 import time
 
 import numpy as np
-import pytest
 
-rclpy = pytest.importorskip("rclpy")
 
 
 def test_the_payload_shape_goes_into_the_tag_and_the_status(tmp_path, ros_env):

@@ -6,10 +6,7 @@ from __future__ import annotations
 import time
 
 import numpy as np
-import pytest
 
-rclpy = pytest.importorskip("rclpy")
-pytest.importorskip("control_msgs.msg")
 
 TICKS, DROPPED_JS, DROPPED_DJS = 600, (100, 101, 350), (200,)
 

@@ -77,7 +77,7 @@ class _Node:
 
 
 def test_the_node_takes_the_published_urdf(ros_env, tmp_path):
-    pytest.importorskip("rclpy")
+    import rclpy  # noqa: F401
     n = _Node(ros_env, tmp_path)
     try:
         n.wait_log("robot from robot_description: ur5, 6 joints shoulder_pan_joint")
@@ -92,7 +92,7 @@ def test_identifies_a_ur5_from_the_published_urdf(ros_env, tmp_path):
     """20 s + 20 s of the simulated UR5 (currents in A, gains 8.9-13.5 N·m/A, the 2 kg payload's
     shape in the tag), identified with the URDF from robot_description, which has no nominal gains
     (1 N·m/A: gain_range_ratio widened to admit 13.5): every gain within 0.5 % of the plant's."""
-    pytest.importorskip("rclpy")
+    import rclpy  # noqa: F401
     from orthoglide_sim.arms.bags import write_record
     from orthoglide_sim.arms.record import simulate_arm
 

@@ -149,7 +149,7 @@ def test_a_client_subscribes_and_receives_decimated_frames_of_any_joints(viewer)
 
 def test_the_forces_channel_compares_the_measured_and_the_model_force(viewer):
     """Ticks of a model-consistent record and its parameters: measured and model force agree."""
-    true_parameters = pytest.importorskip("orthoglide_sim.orthoglide.truth")
+    from orthoglide_sim.orthoglide import truth as true_parameters
     from orthoglide_ident.model.robots import load_robot
     from orthoglide_msgs.msg import IdentifiedParameters
 

@@ -11,7 +11,7 @@ import pytest
 from orthoglide_ident.errors import ConfigError
 from orthoglide_ident.ros.spin import check_params_files
 
-rclpy = pytest.importorskip("rclpy")
+import rclpy
 
 
 def test_raising_callbacks_are_logged_once_answered_and_the_node_goes_on(capfd):

@@ -18,7 +18,6 @@ import pytest
 from orthoglide_ident.ros import processes as children
 from orthoglide_ident.ros.processes import _ros2_launcher
 
-pytest.importorskip("rclpy")
 
 
 def test_a_ros2_launcher_is_recognised_and_nothing_else():

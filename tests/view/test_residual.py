@@ -17,7 +17,7 @@ AMPLITUDE = 0.04  # m: the Orthoglide's safe box
 
 @pytest.fixture(scope="module")
 def orthoglide():
-    true_parameters = pytest.importorskip("orthoglide_sim.orthoglide.truth")
+    from orthoglide_sim.orthoglide import truth as true_parameters
     bm = load_robot(None)
     tp = true_parameters.default_parameters()
     return bm, bm.base_values(tp.standard_vector()), np.array(tp.g_tau)

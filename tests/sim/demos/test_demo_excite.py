@@ -10,7 +10,6 @@ import re
 
 import pytest
 
-pytest.importorskip("control_msgs.action")
 
 ROW = re.compile(r"^\s+(\w+_joint)\s+([\d.]+)\s+([\d.]+)\s+([\d.]+)%\s+([+-][\d.]+)%$", re.M)
 

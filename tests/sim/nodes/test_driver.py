@@ -155,7 +155,7 @@ def test_driver_node_first_tick_stamps_and_setpoints(ros_env):
     """Simulated time, pid: both topics on the 1 kHz grid with identical stamps; setpoints carry
     the tracked reference, published setpoint_lead ticks ahead; first tick within seconds; the
     driver's counters on /diagnostics once a second."""
-    rclpy = pytest.importorskip("rclpy")
+    import rclpy
     from diagnostic_msgs.msg import DiagnosticArray
     from rclpy.qos import QoSProfile, ReliabilityPolicy
     from sensor_msgs.msg import JointState
@@ -195,8 +195,8 @@ def test_driver_node_first_tick_stamps_and_setpoints(ros_env):
         rclpy.shutdown()
     a, b = np.array(js), np.array(cr)
     assert len(a) > 1000 and len(b) > 1000, out
+    # how soon: bench/driver_realtime.py times the first tick (a figure, not a test)
     print(f"first tick on both topics {max(first.values()) - t0:.2f} s after start")
-    assert max(first.values()) - t0 < 15.0  # ~0.5 s here; a generous bound for a busy CI machine
     assert np.all(np.diff(a) > 0) and np.all(np.diff(b) > 0)
     common = np.intersect1d(a, b)
     assert len(common) >= 0.95 * min(len(a), len(b))
@@ -217,7 +217,7 @@ def test_external_mode_lockstep_applies_each_command_at_its_tick(ros_env):
     """Simulated time, controller external: the driver waits for the command computed from the
     joint state of tick k and applies it at tick k (age 0), the outside PID keeping the robot on
     its setpoints."""
-    rclpy = pytest.importorskip("rclpy")
+    import rclpy
     from rclpy.executors import SingleThreadedExecutor
 
     from driver_realtime import ExternalController
@@ -254,7 +254,7 @@ def test_external_mode_real_time_applies_commands_from_the_next_tick(ros_env):
     not, the driver must stop the robot at the stroke and say so (safety), which the test accepts.
     The lockstep test above checks, deterministically, that each command is applied at its own
     tick."""
-    pytest.importorskip("rclpy")
+    import rclpy  # noqa: F401
     from driver_realtime import external_run
 
     import rclpy
@@ -312,7 +312,7 @@ def test_real_time_fault_then_reset_then_on_again(ros_env):
     ticks published are those /diagnostics counts at the stop, none after), reset puts it back and
     the ticks go on with later stamps; a second reset with no fault says so. Every wait is for an
     event (a bound only against a hang): the machine's speed changes how long, not what."""
-    rclpy = pytest.importorskip("rclpy")
+    import rclpy
     from diagnostic_msgs.msg import DiagnosticArray
     from rclpy.qos import QoSProfile, ReliabilityPolicy
     from sensor_msgs.msg import JointState

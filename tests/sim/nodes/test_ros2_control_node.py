@@ -11,8 +11,6 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-rclpy = pytest.importorskip("rclpy")
-pytest.importorskip("control_msgs.msg")
 
 LAUNCHER = Path(sys.prefix) / "lib" / "orthoglide_ident" / "driver"
 NAME = "ros2_control_standin"

@@ -10,7 +10,7 @@ from orthoglide_sim.orthoglide import kinematics as kin
 from orthoglide_sim.orthoglide.plant import Plant
 from orthoglide_sim.orthoglide.truth import apply_overrides, load_parameters
 
-idim = pytest.importorskip("orthoglide_ident.model.orthoglide.idim")
+from orthoglide_ident.model.orthoglide import idim
 
 
 def _random_states(n: int, seed: int = 1):
