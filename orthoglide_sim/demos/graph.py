@@ -21,13 +21,13 @@ from rclpy.executors import MultiThreadedExecutor
 from rclpy.signals import SignalHandlerOptions
 from rclpy.parameter import Parameter
 from rclpy.parameter_client import AsyncParameterClient
-from rclpy.qos import QoSProfile, ReliabilityPolicy
+from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from diagnostic_msgs.msg import DiagnosticArray
 from sensor_msgs.msg import JointState
 
 from orthoglide_ident.errors import OrthoglideError
 from orthoglide_ident.ros.processes import popen
-from orthoglide_msgs.msg import CurrentReference, LiveIdentification
+from orthoglide_msgs.msg import CurrentReference, LiveIdentification, RecorderStatus
 
 LAUNCHERS = Path(sys.prefix) / "lib" / "orthoglide_ident"
 
@@ -203,6 +203,27 @@ class Graph:
         return self._listen(msg_type, topic, QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE),
                             lambda m: got.__setitem__(0, got[0] + 1), lambda: got[0] >= count, timeout,
                             lambda: f"{got[0]} of {count} messages on {topic} within {timeout:.0f} s")
+
+    def wait_for_status(self, done: Any, timeout: float = 60.0, topic: str = "orthoglide/recorder/status") -> Any:
+        """The first recorder status (latched) for which ``done(status)`` holds; GraphError with the
+        last one seen after ``timeout`` s (a bound on a hang, not a figure)."""
+        seen: list[Any] = []
+        latched = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
+                             durability=DurabilityPolicy.TRANSIENT_LOCAL)
+        self._listen(RecorderStatus, topic, latched, seen.append, lambda: bool(seen) and done(seen[-1]),
+                     timeout, lambda: f"recorder status not as awaited within {timeout:.0f} s: "
+                                      f"{seen[-1] if seen else 'none received'}")
+        return seen[-1]
+
+    def wait_for_match(self, publisher: Any, timeout: float = 30.0) -> None:
+        """Until ``publisher`` (of this graph's node) is matched with a subscription: what it
+        publishes from then on reaches a subscriber (DDS matching is not instant after discovery)."""
+        t_end = time.monotonic() + timeout
+        while publisher.get_subscription_count() < 1:
+            if time.monotonic() > t_end:
+                self.check_alive()
+                raise GraphError(f"nothing subscribed to {publisher.topic_name} within {timeout:.0f} s")
+            time.sleep(0.02)
 
     def driver_counters(self, timeout: float = 5.0) -> dict[str, str]:
         """The driver's counters (ticks, late, feedforward_fresh, ...) from its next /diagnostics

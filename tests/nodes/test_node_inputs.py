@@ -32,6 +32,14 @@ def _call(node, cli, request, timeout=60.0):
     return fut.result()
 
 
+def _spin_until(node, done, what: str, timeout: float = 60.0) -> None:
+    """Spin ``node`` until ``done()``; the deadline only bounds a hang."""
+    t_end = time.monotonic() + timeout
+    while not done():
+        assert time.monotonic() < t_end, f"not within {timeout:.0f} s: {what}"
+        rclpy.spin_once(node, timeout_sec=0.05)
+
+
 @pytest.fixture
 def node():
     rclpy.init()
@@ -42,12 +50,12 @@ def node():
 
 
 def test_best_effort_publisher_is_recorded(spawn_python, node, tmp_path):
-    from rclpy.qos import QoSProfile, ReliabilityPolicy
+    from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
     from sensor_msgs.msg import JointState
     from std_srvs.srv import Trigger
 
     from orthoglide_ident import bags
-    from orthoglide_msgs.msg import CurrentReference
+    from orthoglide_msgs.msg import CurrentReference, RecorderStatus
     from orthoglide_msgs.srv import StartRecording
 
     best_effort = QoSProfile(depth=100, reliability=ReliabilityPolicy.BEST_EFFORT)
@@ -56,7 +64,9 @@ def test_best_effort_publisher_is_recorded(spawn_python, node, tmp_path):
     rec = spawn_python(RECORDER, "--ros-args", "-p", f"output_dir:={tmp_path}")
     start = node.create_client(StartRecording, "/orthoglide/recorder/start")
     stop = node.create_client(Trigger, "/orthoglide/recorder/stop")
-    time.sleep(2.5)  # the recorder's discovery (every second) re-subscribes best effort
+    # the recorder's discovery (every second) subscribes as the publishers offer: best effort
+    _spin_until(node, lambda: pub_js.get_subscription_count() and pub_cr.get_subscription_count(),
+                "the recorder matched with the best-effort publishers")
     res = _call(node, start, StartRecording.Request(condition="unloaded", name="be"))
     assert res.success, res.message
     names = ["q11", "q12", "q13"]
@@ -66,7 +76,13 @@ def test_best_effort_publisher_is_recorded(spawn_python, node, tmp_path):
         pub_js.publish(js)
         pub_cr.publish(CurrentReference(header=js.header, name=names, current=[0.1, 0.0, 0.0]))
         time.sleep(0.002)
-    time.sleep(0.5)
+    # best effort on loopback: nearly everything arrives; stop once the recorder wrote that much
+    status = []
+    latched = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
+                         durability=DurabilityPolicy.TRANSIENT_LOCAL)
+    node.create_subscription(RecorderStatus, "/orthoglide/recorder/status", status.append, latched)
+    _spin_until(node, lambda: status and status[-1].ticks_written >= 250,
+                "the recorder's status counts 250 ticks written")
     res = _call(node, stop, Trigger.Request())
     assert res.success, res.message
     data = bags.read_bag(tmp_path / "be")

@@ -33,11 +33,11 @@ def test_records_the_broadcasters_topics(tmp_path):
         djs = g.node.create_publisher(DynamicJointState, "dynamic_joint_states", qos_profile_system_default)
         g.start("orthoglide_recorder", "recorder", {"output_dir": str(tmp_path / "bags")},
                 params_file=ROOT / "config" / "ros2_control.yaml")
-        g.wait_for_subscriber("joint_states", "orthoglide_recorder")
-        g.wait_for_subscriber("dynamic_joint_states", "orthoglide_recorder")
+        g.wait_for_match(js)  # the recorder's subscriptions, matched with these publishers
+        g.wait_for_match(djs)
         res = g.call(StartRecording, "orthoglide/recorder/start", condition="unloaded", payload_mass=0.0, name="r")
         assert res.success, res.message
-        time.sleep(0.3)
+        g.wait_for_status(lambda s: s.recording and s.bag_path == res.bag_path)
         for k in range(TICKS):
             x = np.full(6, 0.001 * k)
             a, b = layout.encode(t0 + k * 1_000_000, ArmTick(k, x, x, x))
@@ -45,8 +45,9 @@ def test_records_the_broadcasters_topics(tmp_path):
                 js.publish(a)
             if k not in DROPPED_DJS:
                 djs.publish(b)
-            time.sleep(0.001)
-        time.sleep(0.5)
+            time.sleep(0.001)  # about 1 kHz, as the broadcaster publishes
+        last = (TICKS - 1) if TICKS - 1 not in DROPPED_JS else max(set(range(TICKS)) - set(DROPPED_JS))
+        g.wait_for_status(lambda s: s.last_tick.sec * 10**9 + s.last_tick.nanosec == t0 + last * 1_000_000)
         stop = g.call(Trigger, "orthoglide/recorder/stop")
     assert stop.success, stop.message
     # ticks written and missing are the joint_states' (the first JointState topic of `topics`)
