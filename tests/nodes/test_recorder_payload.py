@@ -46,13 +46,13 @@ def test_the_payload_shape_goes_into_the_tag_and_the_status(tmp_path, ros_env):
         g._listen(RecorderStatus, "orthoglide/recorder/status", latched, got.append,
                   lambda: any(m.recording for m in got), 30, lambda: "no recording status")
         status = next(m for m in got if m.recording)
-        time.sleep(0.5)  # the recording's subscriptions matched (as test_recorder_ros2_control)
+        g.wait_for_match(js)  # the recorder's subscription, matched with this publisher
         for k in range(300):
             m = JointState(name=names, position=[0.001 * k, 0.0], effort=[0.1, 0.2])
             m.header.stamp.sec, m.header.stamp.nanosec = divmod(t0 + k * 1_000_000, 10**9)
             js.publish(m)
             time.sleep(0.001)
-        time.sleep(0.5)
+        g.wait_for_status(lambda s: s.ticks_written == 300)
         stop = g.call(Trigger, "orthoglide/recorder/stop")
     assert stop.success, stop.message
     payload = status_payload(status)
@@ -140,13 +140,13 @@ def test_what_is_known_of_the_payload_is_tagged_per_start(tmp_path, ros_env):
                       lambda: any(m.recording and name in m.bag_path for m in got), 30,
                       lambda: "no recording status")
             statuses[name] = next(m for m in got if m.recording and name in m.bag_path)
-            time.sleep(0.5)
+            g.wait_for_match(js)
             for k in range(100):
                 m = JointState(name=["j1", "j2"], position=[0.001 * k, 0.0], effort=[0.1, 0.2])
                 m.header.stamp.sec, m.header.stamp.nanosec = divmod(t0 + k * 1_000_000, 10**9)
                 js.publish(m)
                 time.sleep(0.001)
-            time.sleep(0.3)
+            g.wait_for_status(lambda s: s.ticks_written == 100 and name in s.bag_path)
             assert g.call(Trigger, "orthoglide/recorder/stop").success
             t0 += 10**9
     assert statuses["point"].payload_known == "point"
