@@ -112,7 +112,10 @@ def test_a_slow_live_update_delays_neither_services_nor_intake_nor_the_ctc(spawn
         p = true_params()  # the ctc fed with a model, as after an identification
         pub_par.publish(IdentifiedParameters(names=list(p.names), values=[float(x) for x in p.chi_b],
                                              drive_gains=[float(g) for g in p.drive_gains], payload_mass=1.983))
-        time.sleep(0.5)  # DDS matching of the publishers just created
+        pubs = (pub_status, pub_js, pub_cr, pub_par, pub_sp)  # DDS matching after discovery
+        _spin_until(rclpy, client, lambda: all(
+            p.get_subscription_count() >= max(1, client.count_subscribers(p.topic_name)) for p in pubs),
+            60, "the publishers never matched their subscribers")
 
         def publish_ticks(a: int, b: int) -> None:
             for k in range(a, b):
