@@ -23,7 +23,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from orthoglide_ident.identify.pipeline import identify_records
+from orthoglide_ident.identify import identify_records
 from orthoglide_ident.model.robots import load_robot
 from orthoglide_sim.arms import excitation as ax
 from orthoglide_sim.arms import simulator as asim

@@ -31,7 +31,7 @@ import yaml
 
 from orthoglide_ident import bags
 from orthoglide_ident.errors import OrthoglideError
-from orthoglide_ident.identify.pipeline import identify
+from orthoglide_ident.identify import identify
 from orthoglide_ident.model import robots
 from orthoglide_ident.model.robots import load_robot
 from orthoglide_sim.coupled.record import simulate_coupled, write_coupled_bag, write_robot_files

@@ -27,7 +27,7 @@ import time
 import numpy as np
 
 from orthoglide_ident.control import CTCParameters, feedforward_currents
-from orthoglide_ident.identify.pipeline import identify
+from orthoglide_ident.identify import identify
 from orthoglide_ident.model.orthoglide.geometry import G_TAU_MANUFACTURER
 from orthoglide_ident.model.robots import load_robot
 from orthoglide_sim.orthoglide.record import simulate

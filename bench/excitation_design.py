@@ -41,7 +41,7 @@ from orthoglide_ident.excite.limits import read_limits  # noqa: E402
 from orthoglide_ident.excite.prediction import (DEFAULT_CURRENT_NOISE, RunSamples,  # noqa: E402
                                                 noise_from_result, predict)
 from orthoglide_ident.excite.summary import with_extras  # noqa: E402
-from orthoglide_ident.identify.pipeline import identify_records  # noqa: E402
+from orthoglide_ident.identify import identify_records  # noqa: E402
 from orthoglide_ident.model.robot import Payload  # noqa: E402
 from orthoglide_ident.model.robots import load_robot  # noqa: E402
 from orthoglide_sim.arms.record import simulate_arm  # noqa: E402

@@ -37,8 +37,8 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from orthoglide_ident.errors import OrthoglideError  # noqa: E402
-from orthoglide_ident.identify.options import IdentifyOptions  # noqa: E402
-from orthoglide_ident.identify.pipeline import Record, identify_records  # noqa: E402
+from orthoglide_ident.identify import IdentifyOptions  # noqa: E402
+from orthoglide_ident.identify import Record, identify_records  # noqa: E402
 from orthoglide_ident.model.robots import load_robot  # noqa: E402
 from gain_bound import gain_rel_std_bound  # noqa: E402
 

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from orthoglide_ident.identify.pipeline import Record
+from orthoglide_ident.identify import Record
 from orthoglide_ident.model.robots import load_robot
 from orthoglide_sim.orthoglide.record import simulate
 

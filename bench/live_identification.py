@@ -37,10 +37,10 @@ from identify_data import record  # noqa: E402
 from identify_speed import rosbags_read  # noqa: E402
 
 from orthoglide_ident import bags  # noqa: E402
-from orthoglide_ident.identify.live.session import LiveIdentification  # noqa: E402
-from orthoglide_ident.identify.options import IdentifyOptions  # noqa: E402
-from orthoglide_ident.identify.pipeline import (Record, identify, identify_records,  # noqa: E402
-                                                read_record)
+from orthoglide_ident.identify import LiveIdentification  # noqa: E402
+from orthoglide_ident.identify import IdentifyOptions  # noqa: E402
+from orthoglide_ident.identify import (Record, identify, identify_records,  # noqa: E402
+                                       read_record)
 from orthoglide_ident.model.robots import load_robot  # noqa: E402
 
 ORTHOGLIDE = load_robot("orthoglide")  # the robot these records are of

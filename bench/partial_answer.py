@@ -19,7 +19,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 
 from axial_payload import write_axial_bags  # noqa: E402
 
-from orthoglide_ident.identify.pipeline import identify  # noqa: E402
+from orthoglide_ident.identify import identify  # noqa: E402
 from orthoglide_ident.model.robots import load_robot  # noqa: E402
 
 

@@ -22,8 +22,8 @@ import time
 import numpy as np
 
 from orthoglide_ident.errors import OrthoglideError
-from orthoglide_ident.identify.options import IdentifyOptions
-from orthoglide_ident.identify.pipeline import Record, identify_records
+from orthoglide_ident.identify import IdentifyOptions
+from orthoglide_ident.identify import Record, identify_records
 from orthoglide_ident.model.robots import load_robot
 from orthoglide_sim.arms.description import load_arm
 from orthoglide_sim.arms.record import simulate_arm

@@ -24,8 +24,8 @@ import numpy as np  # noqa: E402
 
 from orthoglide_ident.identify import IdentifyOptions  # noqa: E402
 from orthoglide_ident.identify.observe.filtering import derivative_filter  # noqa: E402
-from orthoglide_ident.identify.pipeline import identify_records  # noqa: E402
-from orthoglide_ident.identify.records.record import Record  # noqa: E402
+from orthoglide_ident.identify import identify_records  # noqa: E402
+from orthoglide_ident.identify import Record  # noqa: E402
 from orthoglide_ident.identify.observe.time_base import states_on_stamps  # noqa: E402
 from orthoglide_ident.model.robots import load_robot  # noqa: E402
 from orthoglide_sim.arms.log import clock_10_12, clock_uniform, simulate_arm_log  # noqa: E402

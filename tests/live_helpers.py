@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from orthoglide_ident.identify.live.session import LiveIdentification
-from orthoglide_ident.identify.options import IdentifyOptions
-from orthoglide_ident.identify.pipeline import Record
+from orthoglide_ident.identify import LiveIdentification
+from orthoglide_ident.identify import IdentifyOptions
+from orthoglide_ident.identify import Record
 from orthoglide_ident.model.robot import Payload
 from orthoglide_sim.arms.record import ArmRecord
 
@@ -67,7 +67,7 @@ def as_record(rec: ArmRecord, name: str) -> Record:
 def live_result(model, records, options: IdentifyOptions, batch: int = 500):
     """The live identification fed ``records`` in batches of ``batch`` ticks, each recording with
     its payload's shape as the recorder's status carries it."""
-    from orthoglide_ident.identify.live.session import LiveIdentification
+    from orthoglide_ident.identify import LiveIdentification
 
     live = LiveIdentification(options, model=model)
     for rec in records:

@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from orthoglide_ident.identify.pipeline import Record
+from orthoglide_ident.identify import Record
 from orthoglide_ident.model.robot import ActuatedJoint, Payload, RobotModel
 
 M0 = np.array([[1.0, 0.3, -0.2], [0.3, 1.2, 0.25], [-0.2, 0.25, 0.9]])

@@ -8,7 +8,7 @@ import pytest
 
 from orthoglide_ident import bags
 from orthoglide_ident.bags.csv_import import ColumnMap, import_csv
-from orthoglide_ident.identify.pipeline import identify
+from orthoglide_ident.identify import identify
 from orthoglide_ident.model.robots import load_robot
 from orthoglide_sim.arms.bags import write_record
 from orthoglide_sim.arms.record import simulate_arm

@@ -12,9 +12,9 @@ import numpy as np
 import pytest
 
 from orthoglide_ident.errors import DataError
-from orthoglide_ident.identify.live.session import LiveIdentification
-from orthoglide_ident.identify.options import IdentifyOptions
-from orthoglide_ident.identify.pipeline import Record, identify_records
+from orthoglide_ident.identify import LiveIdentification
+from orthoglide_ident.identify import IdentifyOptions
+from orthoglide_ident.identify import Record, identify_records
 from synthetic import SyntheticModel, synthetic_record, true_gains
 from live_helpers import feed, rel_diff, rel_sigma_diff
 

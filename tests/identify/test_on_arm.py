@@ -12,8 +12,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from orthoglide_ident.identify.options import IdentifyOptions
-from orthoglide_ident.identify.pipeline import Record, identify_records
+from orthoglide_ident.identify import IdentifyOptions
+from orthoglide_ident.identify import Record, identify_records
 from orthoglide_ident.model.robot import Payload
 from orthoglide_ident.model.robots import load_robot
 from orthoglide_sim.arms.record import simulate_arm

@@ -17,8 +17,8 @@ import numpy as np
 import pytest
 
 from orthoglide_ident.cli import main as cli_main
-from orthoglide_ident.identify.options import IdentifyOptions
-from orthoglide_ident.identify.pipeline import Record, identify_records
+from orthoglide_ident.identify import IdentifyOptions
+from orthoglide_ident.identify import Record, identify_records
 from orthoglide_ident.model.robot import Payload
 from orthoglide_ident.model.robots import load_robot
 from orthoglide_sim.arms.bags import main as bags_main

@@ -12,8 +12,8 @@ import importlib
 import numpy as np
 import pytest
 
-from orthoglide_ident.identify.options import IdentifyOptions
-from orthoglide_ident.identify.pipeline import Record, identify_records
+from orthoglide_ident.identify import IdentifyOptions
+from orthoglide_ident.identify import Record, identify_records
 from orthoglide_ident.model.robots import load_robot
 from synthetic import synthetic_record
 

@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 
 from orthoglide_ident.errors import ConfigError, DataError, ExcitationError, IdentificationError
-from orthoglide_ident.identify.options import IdentifyOptions
-from orthoglide_ident.identify.pipeline import Record, identify_records
+from orthoglide_ident.identify import IdentifyOptions
+from orthoglide_ident.identify import Record, identify_records
 from synthetic import (TRUE_CHI, TRUE_GAINS, SyntheticModel,
                                                  synthetic_record)
 

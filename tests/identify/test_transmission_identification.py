@@ -29,7 +29,7 @@ import pinocchio as pin
 import pytest
 import yaml
 
-from orthoglide_ident.identify.pipeline import Record, identify_records
+from orthoglide_ident.identify import Record, identify_records
 from orthoglide_ident.identify.records.record import motor_side
 from orthoglide_ident.model.robot import Payload
 from orthoglide_ident.model.robots import ROBOTS_DIR, load_robot
@@ -299,7 +299,7 @@ def test_a_bag_with_joint_side_positions_is_read_from_the_motors(tmp_path):
     motor's current under its joint's name: read_record maps q to the motors (q_m = n (q_j − o)),
     takes the currents as they are, and says so."""
     from orthoglide_ident.bags import write_bag
-    from orthoglide_ident.identify.records.record import read_record
+    from orthoglide_ident.identify import read_record
 
     motors = load_robot(_simple_urdf(tmp_path))
     t = np.arange(200) * 1e-3
@@ -334,8 +334,8 @@ def test_live_identification_through_the_transmission_equals_offline(coupled):
     as motor_side() maps a bag, the live result is the offline one: the same equations, so
     to 1e-6 (measured: 5e-9 on the values, 1e-8 on the σ) with the paper's drive model
     (lag_model: off)."""
-    from orthoglide_ident.identify.live.session import LiveIdentification
-    from orthoglide_ident.identify.options import IdentifyOptions
+    from orthoglide_ident.identify import LiveIdentification
+    from orthoglide_ident.identify import IdentifyOptions
 
     runs, payload, tx, tmp, _ = coupled
     model = load_robot(_robot_file(tmp, dict(tx, effort_side="joint"), "live_joint_side"))
@@ -365,7 +365,7 @@ def test_live_identification_through_the_transmission_equals_offline(coupled):
 def test_the_live_feed_lacking_a_transmission_channel_is_said(tmp_path):
     """Positions under other names than the transmission's joint-side channels: dropped with a
     one-line warning naming the channels expected, not misread."""
-    from orthoglide_ident.identify.live.session import LiveIdentification
+    from orthoglide_ident.identify import LiveIdentification
 
     model = load_robot(_simple_urdf(tmp_path))
     live = LiveIdentification(model=model)

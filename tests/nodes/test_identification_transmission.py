@@ -87,8 +87,8 @@ def test_identified_live_and_from_bags_named_by_motor(plant, tmp_path):
     from sensor_msgs.msg import JointState
 
     from orthoglide_ident import bags as bagio
-    from orthoglide_ident.identify.options import IdentifyOptions
-    from orthoglide_ident.identify.pipeline import identify as identify_offline
+    from orthoglide_ident.identify import IdentifyOptions
+    from orthoglide_ident.identify import identify as identify_offline
     from orthoglide_ident.model.robots import load_robot
     from orthoglide_sim.demos.node_set import identify
     from orthoglide_sim.demos.graph import Graph

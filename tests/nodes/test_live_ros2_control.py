@@ -15,9 +15,9 @@ import time
 import numpy as np
 import pytest
 
-from orthoglide_ident.identify.live.session import LiveIdentification
-from orthoglide_ident.identify.options import IdentifyOptions
-from orthoglide_ident.identify.pipeline import identify
+from orthoglide_ident.identify import LiveIdentification
+from orthoglide_ident.identify import IdentifyOptions
+from orthoglide_ident.identify import identify
 from orthoglide_ident.model.robots import load_robot
 
 import rclpy

@@ -6,8 +6,8 @@ import pytest
 from orthoglide_ident.errors import ConfigError
 from orthoglide_ident.identify.columns.current_lag import (MAX_SEARCH_S, MIN_PERIODS, LiveLagInstrument,
                                                    find_period, lag_instrument)
-from orthoglide_ident.identify.options import IdentifyOptions
-from orthoglide_ident.identify.pipeline import Record, identify_records
+from orthoglide_ident.identify import IdentifyOptions
+from orthoglide_ident.identify import Record, identify_records
 from orthoglide_ident.model.robots import load_robot
 from simulated import simulated_pair
 

@@ -5,8 +5,8 @@ import numpy as np
 import pytest
 
 from orthoglide_ident.identify.columns.drive_terms import DriveTermsModel, observation_model
-from orthoglide_ident.identify.options import IdentifyOptions
-from orthoglide_ident.identify.pipeline import identify_records
+from orthoglide_ident.identify import IdentifyOptions
+from orthoglide_ident.identify import identify_records
 from synthetic import TRUE_CHI, TRUE_GAINS, SyntheticModel, synthetic_record, trajectory
 
 LEAD = 0.010  # m

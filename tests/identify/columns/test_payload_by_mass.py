@@ -16,10 +16,10 @@ import numpy as np
 import pytest
 
 from orthoglide_ident.errors import IdentificationError, ModelError
-from orthoglide_ident.identify.options import IdentifyOptions
+from orthoglide_ident.identify import IdentifyOptions
 from orthoglide_ident.identify.columns.payload_unknowns import (payload_basis, unknowns_of,
                                                         with_payload_unknowns)
-from orthoglide_ident.identify.pipeline import Record, identify, identify_records
+from orthoglide_ident.identify import Record, identify, identify_records
 from orthoglide_ident.model.robot import INERTIAL_KINDS, PAYLOAD_UNKNOWN, Payload, RobotModel
 from orthoglide_ident.model.robots import load_robot
 from orthoglide_sim.arms.record import simulate_arm

@@ -7,9 +7,9 @@ import numpy as np
 import pytest
 
 from orthoglide_ident.errors import ExcitationError, IdentificationError
-from orthoglide_ident.identify.live.session import LiveIdentification
-from orthoglide_ident.identify.options import IdentifyOptions
-from orthoglide_ident.identify.pipeline import Record, identify_records, read_record
+from orthoglide_ident.identify import LiveIdentification
+from orthoglide_ident.identify import IdentifyOptions
+from orthoglide_ident.identify import Record, identify_records, read_record
 from orthoglide_ident.model.robots import load_robot
 from live_helpers import feed, rel_diff, rel_sigma_diff
 from simulated import simulated_pair

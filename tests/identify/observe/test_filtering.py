@@ -41,7 +41,7 @@ def test_half_tick_interpolates_forward_by_half_a_sample():
 def test_filter_currents_puts_v_tau_through_the_filter_of_q():
     # parallel filtering: a current with the same samples as q comes out as q̂ (same filter, same
     # instants), 150 Hz content is taken out of both, and the default options ask for it
-    from orthoglide_ident.identify.options import IdentifyOptions
+    from orthoglide_ident.identify import IdentifyOptions
 
     t = np.arange(4000) * T
     q = _sines(t)[0] + 1e-4 * np.sin(2 * np.pi * 150.0 * t)[:, None]

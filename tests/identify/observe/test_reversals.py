@@ -3,8 +3,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from orthoglide_ident.identify.options import IdentifyOptions
-from orthoglide_ident.identify.pipeline import identify_records
+from orthoglide_ident.identify import IdentifyOptions
+from orthoglide_ident.identify import identify_records
 from orthoglide_ident.identify.observe.reversals import bridge, find_reversals, rows_clear
 from synthetic import SyntheticModel, synthetic_record
 

@@ -19,9 +19,9 @@ from orthoglide_ident.identify.observe.decimation import fir_decimate_last, fir_
 from orthoglide_ident.identify.columns.drive_terms import observation_model
 from orthoglide_ident.identify.observe.time_base import states_at_half_tick
 from orthoglide_ident.identify.observe.rows import observe
-from orthoglide_ident.identify.options import IdentifyOptions
+from orthoglide_ident.identify import IdentifyOptions
 from orthoglide_ident.identify.columns.payload_unknowns import with_payload_unknowns
-from orthoglide_ident.identify.pipeline import identify_records
+from orthoglide_ident.identify import identify_records
 from orthoglide_ident.identify.observe.reversals import bridge_weights
 from orthoglide_ident.identify.observe.smooth_rows import BridgeCorrections, anchor_points
 from orthoglide_ident.identify.observe.stream import SegmentStream

@@ -6,7 +6,7 @@ import pytest
 
 from orthoglide_ident.identify.observe.decimation import fir_decimate_last, fir_taps
 from orthoglide_ident.identify.observe.time_base import states_at_half_tick
-from orthoglide_ident.identify.options import IdentifyOptions
+from orthoglide_ident.identify import IdentifyOptions
 from orthoglide_ident.identify.observe.reversals import ReversalTracker, find_reversals
 from orthoglide_ident.identify.observe.stream import SegmentStream
 from synthetic import SyntheticModel, synthetic_record

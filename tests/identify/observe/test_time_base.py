@@ -216,7 +216,7 @@ def _clock(duration_s: float) -> np.ndarray:
 def test_an_uneven_91_hz_record_gives_the_true_gains_with_default_options():
     from synthetic import SyntheticModel
 
-    from orthoglide_ident.identify.pipeline import identify_records
+    from orthoglide_ident.identify import identify_records
 
     model = SyntheticModel()
     recs = _synthetic_pair(duration_s=60.0, noise=False, amplitude=0.1, f_max=3.0,
@@ -240,7 +240,7 @@ def test_an_uneven_91_hz_record_gives_the_true_gains_with_default_options():
 def test_a_gap_in_an_uneven_record_splits_it():
     from synthetic import SyntheticModel
 
-    from orthoglide_ident.identify.pipeline import identify_records
+    from orthoglide_ident.identify import identify_records
 
     steps = _clock(40.0)
     steps[1800] = 45_000_000  # ~3 ticks missing
@@ -254,7 +254,7 @@ def test_a_gap_in_an_uneven_record_splits_it():
 def test_a_steady_50_hz_record_identifies_without_an_options_file():
     from synthetic import SyntheticModel
 
-    from orthoglide_ident.identify.pipeline import identify_records
+    from orthoglide_ident.identify import identify_records
 
     recs = _synthetic_pair(duration_s=60.0, noise=False, amplitude=0.1, f_max=2.0, rate_hz=50.0)
     res = identify_records(recs, model=SyntheticModel(),
@@ -268,7 +268,7 @@ def test_5_khz_and_the_same_decimated_to_1_khz_agree_within_their_sigma():
 
     from synthetic import SyntheticModel
 
-    from orthoglide_ident.identify.pipeline import identify_records
+    from orthoglide_ident.identify import identify_records
 
     model = SyntheticModel()
     fast = _synthetic_pair(duration_s=20.0, amplitude=0.1, f_max=4.0, rate_hz=5000.0,
@@ -315,7 +315,7 @@ def _bag_with_velocity(path, with_velocity: bool):
 
 def test_the_recorded_velocity_is_read_when_asked(tmp_path):
     from orthoglide_ident import bags
-    from orthoglide_ident.identify.records.record import read_record
+    from orthoglide_ident.identify import read_record
     from orthoglide_ident.model.robots import load_robot
 
     orthoglide = load_robot("orthoglide")
@@ -333,7 +333,7 @@ def test_identification_with_the_recorded_velocity():
 
     from synthetic import SyntheticModel, trajectory
 
-    from orthoglide_ident.identify.pipeline import identify_records
+    from orthoglide_ident.identify import identify_records
 
     recs = _synthetic_pair(duration_s=60.0, noise=False, amplitude=0.1, f_max=3.0,
                            steps_ns=_clock(60.0))

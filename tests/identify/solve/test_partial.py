@@ -11,8 +11,8 @@ import pytest
 from axial_payload import write_axial_bags
 from orthoglide_ident.cli import main
 from orthoglide_ident.errors import ExcitationError
-from orthoglide_ident.identify.options import IdentifyOptions
-from orthoglide_ident.identify.pipeline import identify
+from orthoglide_ident.identify import IdentifyOptions
+from orthoglide_ident.identify import identify
 from orthoglide_ident.model.robots import load_robot
 
 
@@ -73,7 +73,7 @@ def test_cli_exits_0_with_the_flags_in_the_json(axial, tmp_path, capsys):
 def test_a_joint_that_hardly_moved_is_not_determined(axial):
     """wrist_3 frozen in both records (its rows below the dead band): said as such; and with
     every joint frozen but one the one left is not separated: an error naming them all."""
-    from orthoglide_ident.identify.pipeline import identify_records, read_record
+    from orthoglide_ident.identify import identify_records, read_record
 
     unloaded, loaded, _ = axial
     model = load_robot("ur5")

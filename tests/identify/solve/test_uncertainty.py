@@ -11,7 +11,7 @@ from orthoglide_ident.identify.solve.essential import essential_parameters
 from orthoglide_ident.identify.solve import uncertainty
 from orthoglide_ident.identify.solve.factors import RecordFactors, qr_r
 from orthoglide_ident.identify.observe.equations import Observations
-from orthoglide_ident.identify.pipeline import identify_records, read_record
+from orthoglide_ident.identify import identify_records, read_record
 from orthoglide_ident.identify.solve.tls import TLSProblem
 from orthoglide_ident.identify.solve.uncertainty import (LAGS, ResidualMoments, diagnose,
                                                    fir_white_autocorrelation)
@@ -258,7 +258,7 @@ def test_essential_keeps_the_gains_and_says_what_each_cancellation_cost(bag_resu
     assert kept and all(s["reason"].startswith("kept:") for s in kept)
     assert "what each cancellation cost" in res.to_text()
     # the paper's rule, still available, moves the gains further on the same data
-    from orthoglide_ident.identify.options import IdentifyOptions
+    from orthoglide_ident.identify import IdentifyOptions
 
     paper = identify_records(recs, essential=True,
                              options=IdentifyOptions(essential_method="paper"), model=ORTHOGLIDE).essential

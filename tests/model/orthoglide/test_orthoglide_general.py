@@ -99,7 +99,7 @@ def test_beyond_the_limits_is_a_workspace_error(general):
 
 def test_identification_on_the_sample_bags_equals_the_closed_forms(general):
     """Gains, base parameters and their σ to 1e-6 relative (measured: ~1e-9)."""
-    from orthoglide_ident.identify.pipeline import identify
+    from orthoglide_ident.identify import identify
 
     bags = [str(BAGS / "unloaded"), str(BAGS / "loaded")]
     ref, res = identify(bags, model=ORTHOGLIDE), identify(bags, model=general)

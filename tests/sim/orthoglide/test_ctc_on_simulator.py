@@ -20,7 +20,7 @@ DURATION = 2.0  # s of test2 (one period is 2.15 s)
 @pytest.fixture(scope="module")
 def identified() -> CTCParameters:
     assert all(b.exists() for b in BAGS), f"sample bags missing: {BAGS} (make bags)"
-    from orthoglide_ident.identify.pipeline import identify
+    from orthoglide_ident.identify import identify
 
     return CTCParameters.from_result(identify([str(b) for b in BAGS], model=ORTHOGLIDE),
                                      payload_mass=1.983, model=ORTHOGLIDE)
