@@ -32,7 +32,13 @@ TRUE_GAINS = NOMINAL_GAIN * np.array([1.04, 0.97, 1.02, 0.95, 1.06, 0.98, 1.03])
 ARMATURE = np.array([0.3, 0.3, 0.3, 0.3, 0.1, 0.1, 0.1])  # kg·m², reflected rotor inertia
 FV = np.array([0.6, 0.5, 0.5, 0.4, 0.2, 0.2, 0.15])  # N·m·s/rad
 FS = np.array([0.8, 0.9, 0.7, 0.8, 0.4, 0.35, 0.3])  # N·m
+ACCELERATION = (15.0, 7.5, 10.0, 12.5, 15.0, 20.0, 20.0)  # rad/s², Franka's datasheet
 G = np.array([0.0, 0.0, -9.80665])  # m/s², the product's default
+
+
+def share_dir() -> Path:
+    """The folder holding example-robot-data (its package:// meshes: ``--package-dir``)."""
+    return urdf_path().parents[4]
 
 
 def urdf_path() -> Path:
@@ -42,14 +48,23 @@ def urdf_path() -> Path:
                                  "panda_description/urdf/panda.urdf"))
 
 
-def robot_file(folder: Path, locked: bool = True) -> Path:
-    """A robot YAML for the Panda: the 7 arm joints, the fingers locked (or left out)."""
+def installed() -> bool:
+    try:
+        return urdf_path().is_file()
+    except importlib.metadata.PackageNotFoundError:
+        return False
+
+
+def robot_file(folder: Path, locked: bool = True, finger: float = FINGER) -> Path:
+    """A robot YAML for the Panda: the 7 arm joints, the fingers locked at ``finger`` (or left
+    out), the acceleration limits of Franka's datasheet for exciting trajectories."""
     lines = [f"name: panda_locked\ndescription: {urdf_path()}",
              f"actuated_joints: [{', '.join(ARM)}]", f"nominal_gains: {NOMINAL_GAIN}",
-             f"payload_frame: {PAYLOAD_FRAME}"]
+             f"payload_frame: {PAYLOAD_FRAME}",
+             f"excitation: {{acceleration_limits: [{', '.join(map(str, ACCELERATION))}]}}"]
     if locked:
-        lines.append(f"locked_joints: {{{FINGERS[0]}: {FINGER}}}")
-    path = folder / ("panda_locked.yaml" if locked else "panda_unlisted.yaml")
+        lines.append(f"locked_joints: {{{FINGERS[0]}: {finger}}}")
+    path = folder / (f"panda_locked_{finger:g}.yaml" if locked else "panda_unlisted.yaml")
     path.write_text("\n".join(lines) + "\n")
     return path
 
@@ -99,8 +114,9 @@ def torques(model: pin.Model, tail: np.ndarray, t: np.ndarray, seed: int) -> np.
 
 
 def record(duration_s: float, payload_kg: float, seed: int, current_noise_a: float,
-           finger: float = FINGER, rate_hz: float = 1000.0) -> Record:
-    """A record of the 7 arm joints (module docstring)."""
+           finger: float = FINGER, rate_hz: float = 1000.0, noise_seed: int = 0) -> Record:
+    """A record of the 7 arm joints (module docstring); ``seed`` draws the trajectory,
+    ``noise_seed`` the current noise."""
     model, tail = full_model(payload_kg, finger)
     T = 1.0 / rate_hz
     n = int(round(duration_s * rate_hz))
@@ -109,7 +125,7 @@ def record(duration_s: float, payload_kg: float, seed: int, current_noise_a: flo
     tau = sum(0.5 * w * torques(model, tail, t + (0.5 + 0.5 * x) * T, seed)
               for x, w in zip(xg, wg))
     q = trajectory(t, seed)[0]
-    rng = np.random.default_rng(1000 + seed)
+    rng = np.random.default_rng([1000 + seed, noise_seed])
     v = tau / TRUE_GAINS + current_noise_a * rng.standard_normal(tau.shape)
     stamps = 1_700_000_000_000_000_000 + (np.arange(n) * round(T * 1e9)).astype(np.int64)
     cond = "loaded" if payload_kg else "unloaded"
@@ -120,7 +136,7 @@ def record(duration_s: float, payload_kg: float, seed: int, current_noise_a: flo
 
 
 def records(duration_s: float = 20.0, current_noise_a: float = 0.002,
-            finger: float = FINGER) -> list[Record]:
+            finger: float = FINGER, noise_seed: int = 0) -> list[Record]:
     """An unloaded and a loaded record (different trajectories)."""
-    return [record(duration_s, 0.0, 1, current_noise_a, finger),
-            record(duration_s, PAYLOAD_KG, 2, current_noise_a, finger)]
+    return [record(duration_s, 0.0, 1, current_noise_a, finger, noise_seed=noise_seed),
+            record(duration_s, PAYLOAD_KG, 2, current_noise_a, finger, noise_seed=noise_seed)]

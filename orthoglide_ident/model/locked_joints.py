@@ -2,9 +2,11 @@
 
 A robot file's ``locked_joints: {joint: value}`` (m or rad) fixes those joints; a URDF mimic
 joint that follows a locked joint is locked with it, at r·value + o; in a robot file that lists
-its ``actuated_joints`` and has no loops, a movable joint that is neither listed, locked nor a
-mimic (a gripper's finger, a tool changer) is locked too, at its ``reference_configuration``
-value or at the value in its limits nearest 0, and the model says so. Pinocchio's
+its ``actuated_joints`` and has no loops, a joint left out of them that a mimic joint follows (a
+gripper's finger, as the Panda's) is locked too, at its ``reference_configuration`` value or at
+the value in its limits nearest 0, and the model says so. Any other joint left out is still
+refused (a forgotten joint, or a closed chain without its loops, would be a silently wrong
+model). Pinocchio's
 ``buildReducedModel`` then turns every locked joint into a fixed one at that value: its link's
 inertia is merged into the body it is fixed to, and the rest of the product (identification,
 exciting trajectories, the identified URDF) only ever sees the reduced tree.
@@ -32,7 +34,8 @@ MIMIC_TOL = 1e-9  # m or rad: a mimic locked beside its leader must agree to thi
 @dataclass(frozen=True)
 class LockedJoint:
     """A joint fixed at ``value`` (m or rad) and why: LISTED in the robot file, FOLLOWS its
-    locked leader (``leader``: a URDF mimic), or UNLISTED (not in ``actuated_joints``)."""
+    locked leader (``leader``: a URDF mimic), or UNLISTED (not in ``actuated_joints``, the
+    leader of a mimic joint)."""
 
     name: str
     value: float
@@ -47,7 +50,7 @@ class LockedJoint:
     def reason(self) -> str:
         return {LISTED: "locked_joints of the robot file",
                 FOLLOWS: f"mimic joint of {self.leader}, locked with it",
-                UNLISTED: "not in actuated_joints"}[self.why]
+                UNLISTED: "not in actuated_joints, a mimic joint follows it"}[self.why]
 
     def to_json(self) -> dict:
         return {"joint": self.name, "value": self.value, "unit": self.unit,
@@ -92,13 +95,18 @@ def _listed(desc: RobotDescription, by_name: Mapping[str, TreeJoint],
 def _unlisted(desc: RobotDescription, by_name: Mapping[str, TreeJoint],
               mimics: Mapping[str, Mimic], locked: Mapping[str, LockedJoint],
               open_tree: bool, where: str) -> dict[str, LockedJoint]:
-    """Joints an open tree's robot file leaves out of actuated_joints (and that are neither
-    locked nor mimics): locked at their reference value, else the value in limits nearest 0."""
+    """Joints an open tree's robot file leaves out of actuated_joints that a mimic joint
+    follows (a gripper's): locked at their reference value, else the value in limits nearest
+    0."""
     if desc.actuated_joints is None or not open_tree:
         return {}
+    # a mimic named actuated: its leader stays, for the model to say "actuate its leader"
+    led = {mimics[n].leader for n in desc.actuated_joints if n in mimics}
+    leaders = {m.leader for m in mimics.values()}
     out = {}
     for name, j in by_name.items():
-        if name in desc.actuated_joints or name in locked or name in mimics or not j.one_dof:
+        if name in desc.actuated_joints or name in locked or name in mimics or name in led \
+                or name not in leaders or not j.one_dof:
             continue
         value = desc.reference_configuration.get(name, min(max(0.0, j.lower), j.upper))
         if not _in_limits(j, value):

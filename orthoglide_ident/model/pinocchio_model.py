@@ -219,7 +219,7 @@ class PinocchioRobot(NamedByParameters, RobotModel):
             if free:
                 raise ConfigError(f"robot {self.name}: joints {free} move but are neither "
                                   "actuated nor closed by a loop: list them in actuated_joints, "
-                                  "or add the loops")
+                                  "lock them (locked_joints: {joint: value}), or add the loops")
             return None
         loops = LoopConstraints(self.model, desc.loops, anchors)
         try:
