@@ -6,9 +6,9 @@ Simulates an unloaded and a loaded record (2 kg at the TCP, off joint 7's axis) 
 joints with tests/locked_panda.py's generator (Pinocchio's RNEA on the full URDF, the fingers
 held at 0.03 m, rotor inertia, viscous and Coulomb friction, currents held over 1 ms), at
 several current noise levels, identifies them by IDIM-TLS through the robot file (fingers
-locked) and prints, per joint, the gain's error in % over its σ in %, then the error in σ (three draws of the
-noise per level). Then what the Panda as it comes
-gave before locked joints: the bare URDF and a robot file naming the 7 arm joints.
+locked) and prints, per joint, the gain's error in % over its σ in %, then the error in σ
+(three draws of the noise per level). Then what the Panda as it comes
+gives without locked_joints: the bare URDF and a robot file naming the 7 arm joints only.
 """
 from __future__ import annotations
 
@@ -58,7 +58,7 @@ def main_bench(seconds: float) -> None:
         for noise in NOISES_A:
             for seed in NOISE_SEEDS:
                 row(robot, seconds, noise, seed)
-        print("before (the Panda as it comes):")
+        print("the Panda as it comes, without locked_joints:")
         bare = load_robot(L.urdf_path())
         print(f"  bare URDF: actuated {', '.join(bare.joint_names)}")
         arm = Path(d) / "arm.yaml"

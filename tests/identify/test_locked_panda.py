@@ -59,7 +59,7 @@ def test_the_gains_come_out_within_3_sigma(identified):
     err = g / L.TRUE_GAINS - 1
     assert all(x["determined"] for x in doc["drive_gains"])
     assert np.all(np.abs(err) < 3 * sigma), (err, sigma)
-    assert np.all(np.abs(err) < 1e-3), err  # measured: ≤ 0.02 % (docs/guide/locked.md)
+    assert np.all(np.abs(err) < 1e-3), err  # measured: ≤ 0.02 % (docs/guide/locked_joints.md)
     assert doc["locked_joints"] == [
         {"joint": L.FINGERS[0], "value": L.FINGER, "unit": "m",
          "reason": "locked_joints of the robot file"},

@@ -21,11 +21,14 @@ LINKS = """
   <link name="a"><inertial><origin xyz="0.02 0.01 0.1"/><mass value="2.0"/>
     <inertia ixx="0.02" ixy="0.001" ixz="0.0" iyy="0.03" iyz="0.0" izz="0.01"/></inertial></link>
   <link name="b"><inertial><origin xyz="0.1 0.0 0.01"/><mass value="1.0"/>
-    <inertia ixx="0.003" ixy="0.0" ixz="0.0002" iyy="0.01" iyz="0.0" izz="0.01"/></inertial></link>
+    <inertia ixx="0.003" ixy="0.0" ixz="0.0002" iyy="0.01" iyz="0.0" izz="0.01"/>
+  </inertial></link>
   <link name="c"><inertial><origin xyz="0.03 0.01 0.0"/><mass value="0.6"/>
-    <inertia ixx="0.001" ixy="0.0" ixz="0.0" iyy="0.002" iyz="0.0001" izz="0.002"/></inertial></link>
+    <inertia ixx="0.001" ixy="0.0" ixz="0.0" iyy="0.002" iyz="0.0001" izz="0.002"/>
+  </inertial></link>
   <link name="hand"><inertial><origin xyz="0.02 0.0 0.01"/><mass value="0.4"/>
-    <inertia ixx="0.0005" ixy="0.0" ixz="0.0" iyy="0.0006" iyz="0.0" izz="0.0004"/></inertial></link>
+    <inertia ixx="0.0005" ixy="0.0" ixz="0.0" iyy="0.0006" iyz="0.0" izz="0.0004"/>
+  </inertial></link>
   <link name="fl"><inertial><origin xyz="0.01 0.005 0.0"/><mass value="0.08"/>
     <inertia ixx="2e-5" ixy="0.0" ixz="0.0" iyy="3e-5" iyz="0.0" izz="2e-5"/></inertial></link>
   <link name="fr"><inertial><origin xyz="0.01 -0.004 0.002"/><mass value="0.07"/>
