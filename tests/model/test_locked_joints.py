@@ -153,3 +153,11 @@ def test_a_wrong_lock_is_refused_naming_the_file_and_the_joint(tmp_path, body, r
     with pytest.raises(ConfigError, match=reason) as exc:
         load_robot(path)
     assert str(exc.value).startswith(f"robot file {path}: ") and "\n" not in str(exc.value)
+
+
+def test_a_joint_left_out_that_no_mimic_follows_is_still_refused(tmp_path):
+    """Only a gripper's joint (a mimic's leader) is locked when left out: a forgotten arm joint
+    would be a silently wrong model."""
+    with pytest.raises(ConfigError, match=r"joints \['j3'\] move but are neither actuated nor "
+                                          r"closed by a loop: .*lock them \(locked_joints"):
+        load_robot(robot_file(tmp_path, "actuated_joints: [j1, j2]\n"))
