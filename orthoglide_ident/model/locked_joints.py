@@ -29,6 +29,7 @@ from orthoglide_ident.model.tree import Mimic, TreeJoint, set_joint
 
 LISTED, FOLLOWS, UNLISTED = "locked_joints", "mimic", "unlisted"  # why a joint is locked
 MIMIC_TOL = 1e-9  # m or rad: a mimic locked beside its leader must agree to this
+LIMIT_TOL = 1e-12  # m or rad: a value on a limit (written with round-off) is within it
 
 
 @dataclass(frozen=True)
@@ -58,7 +59,7 @@ class LockedJoint:
 
 
 def _in_limits(j: TreeJoint, value: float) -> bool:
-    return j.lower - 1e-12 <= value <= j.upper + 1e-12
+    return j.lower - LIMIT_TOL <= value <= j.upper + LIMIT_TOL
 
 
 def _limits_text(j: TreeJoint) -> str:
@@ -131,14 +132,12 @@ def _followers(desc: RobotDescription, by_name: Mapping[str, TreeJoint],
             lead = locked[m.leader]
             value = m.multiplier * lead.value + m.offset
             own = locked.get(m.joint)
-            if own is not None and own.why != FOLLOWS:
-                if abs(own.value - value) > MIMIC_TOL:
+            if own is not None:  # locked already: in the file, it must agree with its leader
+                if own.why != FOLLOWS and abs(own.value - value) > MIMIC_TOL:
                     raise ConfigError(f"{where}: locked_joints: {m.joint} = {own.value:g}, but "
                                       f"it follows {m.leader} = {lead.value:g} "
                                       f"({m.multiplier:g}·{lead.value:g} + {m.offset:g} = "
                                       f"{value:g}) in {desc.path.name}")
-                continue
-            if own is not None:
                 continue
             j = by_name[m.joint]
             if not j.one_dof or not _in_limits(j, value):
