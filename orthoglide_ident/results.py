@@ -317,6 +317,10 @@ class IdentificationResult:
             for j, r in zip(self.joint_names, self.residual_rms)))
         if self.current_lag:
             lines.append("current-loop lag modelled: " + lag_text(self.current_lag))
+        if self.locked_joints:  # model/locked_joints.py
+            lines.append("locked joints: " + ", ".join(
+                f"{lj['joint']} = {lj['value']:.6g} {lj['unit']} ({lj['reason']})"
+                for lj in self.locked_joints))
         if self.diagnostics.get("options", {}).get("effort_unit") == "torque":
             lines.append("the recorded effort is a torque/force, turned into a current with the "
                          "nominal gains: the gains' ratio to them (the effort's calibration) is "

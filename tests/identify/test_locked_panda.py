@@ -7,6 +7,8 @@ locked joints in its JSON, and writes an identified URDF whose fingers are fixed
 opening."""
 from __future__ import annotations
 
+import contextlib
+import io
 import json
 
 import numpy as np
@@ -45,15 +47,17 @@ def identified(tmp_path_factory):
         paths.append(str(bags.write_bag(d / rec.source, rec.stamps_q_ns, rec.q, rec.v_tau,
                                         rec.condition, rec.payload_mass, L.ARM, payload=p)))
     (d / "options.yaml").write_text("lag_model: off\n")
-    code = main(["identify", *paths, "--robot", str(L.robot_file(d)), "--config",
-                 str(d / "options.yaml"), "--json", str(d / "r.json"), "--urdf-out",
-                 str(d / "identified.urdf")])
+    text = io.StringIO()
+    with contextlib.redirect_stdout(text):
+        code = main(["identify", *paths, "--robot", str(L.robot_file(d)), "--config",
+                     str(d / "options.yaml"), "--json", str(d / "r.json"), "--urdf-out",
+                     str(d / "identified.urdf")])
     assert code == 0
-    return json.loads((d / "r.json").read_text()), d / "identified.urdf"
+    return json.loads((d / "r.json").read_text()), d / "identified.urdf", text.getvalue()
 
 
 def test_the_gains_come_out_within_3_sigma(identified):
-    doc, _ = identified
+    doc, _, text = identified
     g = np.array([x["value"] for x in doc["drive_gains"]])
     sigma = np.array([x["rel_std"] for x in doc["drive_gains"]])
     err = g / L.TRUE_GAINS - 1
@@ -65,10 +69,11 @@ def test_the_gains_come_out_within_3_sigma(identified):
          "reason": "locked_joints of the robot file"},
         {"joint": L.FINGERS[1], "value": L.FINGER, "unit": "m",
          "reason": f"mimic joint of {L.FINGERS[0]}, locked with it"}]
+    assert f"locked joints: {L.FINGERS[0]} = 0.03 m (locked_joints of the robot file)" in text
 
 
 def test_the_identified_urdf_holds_the_fingers_at_their_lock(identified):
-    _, urdf = identified
+    _, urdf, _ = identified
     out = pin.buildModelFromUrdf(str(urdf))  # the fingers fixed: 7 joints
     full = pin.buildModelFromUrdf(str(L.urdf_path()))
     assert out.nq == 7 and [out.names[k] for k in range(1, 8)] == list(L.ARM)
