@@ -174,6 +174,8 @@ class IdentificationResult:
     gain_units: list[str] = field(default_factory=list)  # per joint: N/A or N·m/A (empty: N/A)
     effort_units: list[str] = field(default_factory=list)  # per joint: N or N·m (empty: N)
     nominal_gains: list[float] = field(default_factory=list)  # the manufacturer's, per joint
+    # joints of the description fixed before anything else (model/locked_joints.py), as JSON
+    locked_joints: list[dict[str, Any]] = field(default_factory=list)
     diagnostics: dict[str, Any] = field(default_factory=dict)
     essential: "IdentificationResult | None" = None
     removed: list[str] = field(default_factory=list)  # cancelled base parameters (essential)
@@ -219,6 +221,7 @@ class IdentificationResult:
             "method": self.method,
             "robot": self.robot,
             "joint_names": list(self.joint_names),
+            **({"locked_joints": list(self.locked_joints)} if self.locked_joints else {}),
             "drive_gains": [{"joint": g.name, "value": _num(g.value), "rel_std": _num(g.rel_std),
                              "rel_std_paper": None if g.rel_std_paper is None
                              else _num(g.rel_std_paper), **self._nominal(i),
@@ -314,6 +317,10 @@ class IdentificationResult:
             for j, r in zip(self.joint_names, self.residual_rms)))
         if self.current_lag:
             lines.append("current-loop lag modelled: " + lag_text(self.current_lag))
+        if self.locked_joints:  # model/locked_joints.py
+            lines.append("locked joints: " + ", ".join(
+                f"{lj['joint']} = {lj['value']:.6g} {lj['unit']} ({lj['reason']})"
+                for lj in self.locked_joints))
         if self.diagnostics.get("options", {}).get("effort_unit") == "torque":
             lines.append("the recorded effort is a torque/force, turned into a current with the "
                          "nominal gains: the gains' ratio to them (the effort's calibration) is "

@@ -63,6 +63,16 @@ def verify_robot(traj: ExcitationTrajectory, robot, where: str) -> None:
         raise ConfigError(f"{where} is a trajectory for robot {traj.robot} (joints "
                           f"{', '.join(traj.joints)}), not for robot {robot.name} (joints "
                           f"{', '.join(robot.joint_names)})")
+    designed, now = traj.extra.get("locked_joints") or {}, locked_values(robot)
+    if "design" in traj.extra and designed != now:  # a file the design wrote
+        raise ConfigError(f"{where} was designed with locked joints {designed or 'none'}; robot "
+                          f"{robot.name} locks {now or 'none'} (model/locked_joints.py): its "
+                          "efforts and collisions differ, design it again")
+
+
+def locked_values(robot) -> dict[str, float]:
+    """The robot's locked joints as the trajectory file keeps them: joint -> m or rad."""
+    return {lj.name: float(lj.value) for lj in getattr(robot, "locked_joints", ())}
 
 
 def nominal_efforts(robot, payload, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> np.ndarray:

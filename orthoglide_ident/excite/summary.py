@@ -9,6 +9,7 @@ from typing import Any
 
 import numpy as np
 
+from orthoglide_ident.excite.check import locked_values
 from orthoglide_ident.excite.design import COND_WEIGHT, Design, payload_options
 from orthoglide_ident.excite.prediction import periods_needed
 
@@ -55,9 +56,11 @@ def prediction_dict(d: Design, noise_source: str) -> dict[str, Any]:
 
 
 def extras(d: Design, limits, collision, noise_source: str) -> dict[str, Any]:
-    """The trajectory file's ``design``, ``limits``, ``margins`` and ``prediction`` keys."""
+    """The trajectory file's ``design``, ``limits``, ``locked_joints`` (if any), ``margins`` and
+    ``prediction`` keys."""
     opt = d.problem.opt
     rand = [e.criterion for e in d.random]
+    locked = locked_values(d.problem.robot)
     return {
         "design": {"seed": opt.seed, "harmonics": opt.harmonics, "restarts": opt.restarts,
                    "steps": opt.steps, "samples_per_period": opt.samples,
@@ -67,6 +70,8 @@ def extras(d: Design, limits, collision, noise_source: str) -> dict[str, Any]:
                    "random_feasible_median": float(np.median(rand)) if rand else None,
                    "seconds": round(d.seconds, 2)},
         "limits": {**limits.to_dict(), "collision": collision.describe()},
+        # joints the robot file fixes (their bodies' efforts and collisions are at these values)
+        **({"locked_joints": locked} if locked else {}),
         "margins": {"required": opt.margins.to_dict(), "worst": d.check.to_dict()},
         "prediction": prediction_dict(d, noise_source),
     }

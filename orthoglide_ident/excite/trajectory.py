@@ -12,9 +12,9 @@ q(0) = q0 − Σ_l b_l / (l ω_f), also its end pose. Outside [0, duration] a ru
 
 File (YAML, ``orthoglide-ident excite design --out FILE``): ``format``, ``robot``, ``joints`` (the
 actuated joints, rows of ``a`` and ``b``), ``period_s``, ``periods``, ``runs: {unloaded: {q0, a, b},
-loaded: {q0, a, b, payload: {mass, frame, com, inertia}}}``; ``design``, ``limits``, ``margins`` and
-``prediction`` are written by the design and the check and kept as they are. SI units: rad or m,
-s, kg.
+loaded: {q0, a, b, payload: {mass, frame, com, inertia}}}``; ``design``, ``limits``, ``margins``,
+``prediction`` and ``locked_joints`` (the robot's, model/locked_joints.py) are written by the
+design and the check and kept as they are. SI units: rad or m, s, kg.
 """
 from __future__ import annotations
 

@@ -68,6 +68,7 @@ class ActuatorSpaceRobot(NamedByParameters, RobotModel):
         self.joints = _motor_joints(jm, t)
         self.nominal_gains_given = jm.nominal_gains_given
         self.payload_frame = jm.payload_frame
+        self.locked_joints = jm.locked_joints
         drive = set(jm.actuated_drive_columns())
         self._rigid = [k for k in range(len(jm.standard_names)) if k not in drive]
         self.standard_names = tuple(jm.standard_names[k] for k in self._rigid) + tuple(

@@ -33,6 +33,8 @@ import pinocchio as pin
 from orthoglide_ident.errors import ConfigError, ModelError, OrthoglideError, WorkspaceError
 from orthoglide_ident.model.base_parameters import BaseSet, NamedByParameters, base_parameters
 from orthoglide_ident.model.closure import Closure, TreeStates
+from orthoglide_ident.model.locked_joints import (LockedJoint, lock_text, locked_joints,
+                                                 reduced_model)
 from orthoglide_ident.model.loop_constraints import LoopConstraints
 from orthoglide_ident.model.robot import INERTIAL_KINDS, ActuatedJoint, Body, Payload, RobotModel
 from orthoglide_ident.model.robot_file import RobotDescription, read_description
@@ -103,16 +105,20 @@ class PinocchioRobot(NamedByParameters, RobotModel):
         ``where`` names the file in its errors (default: the robot's name or description)."""
         where = where or f"robot {data.get('name') or data.get('description')}"
         desc = read_description(data, Path(base_dir), where)
-        return cls(desc)
+        return cls(desc, where=where)
 
-    def __init__(self, desc: RobotDescription, seed: int = 0):
+    def __init__(self, desc: RobotDescription, seed: int = 0, where: str | None = None):
         self.description = desc
         self.name = desc.name
         model, anchors = load_tree(desc.path)
         model.gravity = pin.Motion(np.array(desc.gravity, dtype=float), np.zeros(3))
-        self.model = model
+        mimics = urdf_mimics(desc.path)
+        self.locked_joints = self._locked(model, mimics, desc, anchors, where)
+        self.model = model = reduced_model(model, movable_joints(model), self.locked_joints)
         self.tree_joints = movable_joints(model)
-        self.mimics = urdf_mimics(desc.path)  # joints that follow a leader (URDF <mimic>)
+        locked = {lj.name for lj in self.locked_joints}
+        # joints that follow a leader (URDF <mimic>), those locked with it left out
+        self.mimics = {n: m for n, m in mimics.items() if n not in locked}
         self.actuated = self._actuated(desc)
         self.joints = self._joints(desc)
         self.closure = self._closure(desc, anchors)
@@ -131,6 +137,16 @@ class PinocchioRobot(NamedByParameters, RobotModel):
         self._base_columns = [self._columns[c] for c in self._base.columns]
 
     # --- construction ---------------------------------------------------------------------
+    def _locked(self, model: pin.Model, mimics: dict, desc: RobotDescription, anchors: list,
+                where: str | None) -> tuple[LockedJoint, ...]:
+        """The joints fixed before anything else (model/locked_joints.py)."""
+        where = where or f"robot {self.name}"
+        if anchors and desc.locked_joints:
+            raise ConfigError(f"{where}: locked_joints with the loops of an MJCF's <equality> "
+                              "is not supported (give the loops in the robot file)")
+        return locked_joints(movable_joints(model), mimics, desc,
+                             not desc.loops and not anchors, where)
+
     def _actuated(self, desc: RobotDescription) -> tuple[TreeJoint, ...]:
         by_name = {j.name: j for j in self.tree_joints}
         names = desc.actuated_joints or tuple(n for n in by_name if n not in self.mimics)
@@ -184,7 +200,10 @@ class PinocchioRobot(NamedByParameters, RobotModel):
     def _reference(self, desc: RobotDescription) -> np.ndarray:
         q = pin.neutral(self.model)
         by_name = {j.name: j for j in self.tree_joints}
+        locked = {lj.name for lj in self.locked_joints}
         for name, value in desc.reference_configuration.items():
+            if name in locked:
+                continue  # fixed at its locked value already
             if name not in by_name or not by_name[name].one_dof:
                 raise ConfigError(f"robot {self.name}: reference_configuration names {name!r}, "
                                   "not a 1-DOF movable joint of the description")
@@ -200,7 +219,7 @@ class PinocchioRobot(NamedByParameters, RobotModel):
             if free:
                 raise ConfigError(f"robot {self.name}: joints {free} move but are neither "
                                   "actuated nor closed by a loop: list them in actuated_joints, "
-                                  "or add the loops")
+                                  "lock them (locked_joints: {joint: value}), or add the loops")
             return None
         loops = LoopConstraints(self.model, desc.loops, anchors)
         try:
@@ -522,6 +541,8 @@ class PinocchioRobot(NamedByParameters, RobotModel):
         gains = ", ".join(f"{j.name} {j.nominal_gain:g} {j.gain_unit}" for j in self.joints)
         lines.append(f"Actuated joints (nominal gains): {gains}. "
                      f"Payload frame: {self.payload_frame}.")
+        if self.locked_joints:
+            lines.append(lock_text(self.locked_joints))
         return "\n".join(lines)
 
     def _order_text(self) -> str:
@@ -538,6 +559,7 @@ class PinocchioRobot(NamedByParameters, RobotModel):
             "column_order": [list(g) for g in self.description.column_order] or "from the base",
             "joints": [{"name": j.name, "kind": j.kind, "nominal_gain": j.nominal_gain,
                         "unit": j.gain_unit} for j in self.joints],
+            "locked_joints": [lj.to_json() for lj in self.locked_joints],
             "bodies": [{"label": b.label, "link": b.link,
                         "joint": b.joint.name if b.joint else None} for b in self._bodies],
             "parameters": [{"name": p.name, "standard": p.standard, "expression": p.expression,

@@ -170,6 +170,9 @@ class RobotModel(abc.ABC):
     # the drive chains when the robot is identified in actuator space (model/actuator_space.py,
     # whose "joints" are the motors); None: each motor drives its joint directly
     transmission = None  # model.transmission.Transmission | None
+    # joints of the description fixed before anything else (robot file ``locked_joints``, their
+    # mimics, joints left out of actuated_joints): model/locked_joints.LockedJoint
+    locked_joints: tuple = ()
 
     @abc.abstractmethod
     def observation_block(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray,

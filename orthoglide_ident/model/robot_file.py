@@ -18,7 +18,7 @@ from orthoglide_ident.model.robot import DEFAULT_GRAVITY
 
 KEYS = ("name", "model", "description", "actuated_joints", "nominal_gains", "payload_frame",
         "gravity", "loops", "reference_configuration", "passive_friction", "column_order",
-        "body_labels", "fixed_bodies", "excitation", "transmission")
+        "body_labels", "fixed_bodies", "excitation", "transmission", "locked_joints")
 
 
 @dataclass(frozen=True)
@@ -45,6 +45,9 @@ class RobotDescription:
     # the drive chains (model/transmission.py reads it once the actuated joints are known);
     # None: the URDF's <ros2_control> transmissions, else none (each motor drives its joint)
     transmission: dict[str, Any] | None = None
+    # joint: m or rad, fixed before anything else with the mimic joints that follow them
+    # (model/locked_joints.py: Pinocchio's reduced model)
+    locked_joints: dict[str, float] = field(default_factory=dict)
 
 
 def _fail(where: str, key: str, what: str) -> ConfigError:
@@ -142,6 +145,10 @@ def read_description(data: dict[str, Any], base_dir: Path,
         kw["fixed_bodies"] = _names(where, "fixed_bodies", data["fixed_bodies"])
     if "excitation" in data:
         kw["excitation"] = dict(_mapping(where, "excitation", data["excitation"]))
+    if "locked_joints" in data:
+        locked = _mapping(where, "locked_joints", data["locked_joints"])
+        kw["locked_joints"] = {str(k): _number(where, f"locked_joints.{k}", v)
+                               for k, v in locked.items()}
     if "transmission" in data:
         kw["transmission"] = dict(_mapping(where, "transmission", data["transmission"]))
     return RobotDescription(**kw)

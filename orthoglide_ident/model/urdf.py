@@ -23,6 +23,7 @@ from pathlib import Path
 from typing import Any, Mapping, Sequence
 
 import numpy as np
+import pinocchio as pin
 
 from orthoglide_ident.errors import ConfigError
 from orthoglide_ident.model.inertia import at_com
@@ -144,11 +145,46 @@ def _merged_links(root: ET.Element, bodies: set[str]) -> set[str]:
     return out
 
 
+def _vec(el: ET.Element | None, key: str, default: str) -> np.ndarray:
+    return np.array([float(x) for x in (el.get(key, default) if el is not None
+                                        else default).split()])
+
+
+def lock_joints(root: ET.Element, locked) -> None:
+    """Each locked joint (model/locked_joints.LockedJoint) made a fixed joint at its value: its
+    origin moved by the joint's motion there (a rotation about its axis, or a translation along
+    it), its axis, limits, mimic and dynamics removed, a comment saying so."""
+    joints = {j.get("name"): j for j in root.findall("joint")}
+    for lj in locked:
+        joint = joints[lj.name]
+        origin = joint.find("origin")
+        M = pin.SE3(pin.rpy.rpyToMatrix(*_vec(origin, "rpy", "0 0 0")),
+                    _vec(origin, "xyz", "0 0 0"))
+        axis = _vec(joint.find("axis"), "xyz", "1 0 0")
+        axis = axis / np.linalg.norm(axis)
+        if joint.get("type") == "prismatic":
+            M = M * pin.SE3(np.eye(3), lj.value * axis)
+        else:
+            M = M * pin.SE3(pin.exp3(lj.value * axis), np.zeros(3))
+        for tag in ("origin", "axis", "limit", "mimic", "dynamics", "safety_controller",
+                    "calibration"):
+            for el in joint.findall(tag):
+                joint.remove(el)
+        joint.set("type", "fixed")
+        ET.SubElement(joint, "origin", xyz=fmt_vec(M.translation),
+                      rpy=fmt_vec(pin.rpy.matrixToRpy(M.rotation)))
+        joint.insert(0, ET.Comment(f" locked at {lj.value:.17g} {lj.unit} ({lj.reason()}): "
+                                   f"a {lj.kind} joint of the description, fixed here "))
+
+
 def replace_inertials(urdf_text: str, robot: RobotModel, chi_st: np.ndarray,
                       gains: Sequence[float]) -> str:
-    """``urdf_text`` with the bodies' inertials and the joints' drive terms of ``chi_st``."""
+    """``urdf_text`` with the bodies' inertials and the joints' drive terms of ``chi_st``; the
+    robot's locked joints fixed at their values (their links' inertia is in the identified
+    body they are fixed to)."""
     root = ET.fromstring(urdf_text, parser=ET.XMLParser(target=ET.TreeBuilder(
         insert_comments=True)))
+    lock_joints(root, getattr(robot, "locked_joints", ()))
     links = {el.get("name"): el for el in root.findall("link")}
     values = dict(zip(robot.standard_names, (float(x) for x in chi_st)))
     frames = {b.frame or b.name for b in robot.bodies}

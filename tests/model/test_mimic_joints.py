@@ -69,6 +69,14 @@ def test_a_mimic_joint_named_actuated_is_refused_naming_it(urdf, tmp_path):
     with pytest.raises(ConfigError, match=r"'j3' is a mimic joint .* \(it follows 'j2'\): "
                                           "actuate its leader"):
         load_robot(yaml)
-    yaml.write_text(f"description: {urdf}\nactuated_joints: [j1]\n")  # its leader passive
-    with pytest.raises(ConfigError, match="only a 1-DOF mimic of an actuated joint"):
-        load_robot(yaml)
+
+
+def test_a_mimic_of_a_joint_left_out_is_locked_with_it(urdf, tmp_path):
+    """Issue 43: its leader left out of actuated_joints (an open tree), both are locked, the
+    leader at 0 (within its limits), the mimic at r·0 + offset: no hand edit of the URDF."""
+    yaml = tmp_path / "pinch.yaml"
+    yaml.write_text(f"description: {urdf}\nactuated_joints: [j1]\n")
+    robot = load_robot(yaml)
+    assert robot.joint_names == ("j1",)
+    assert [(lj.name, lj.value, lj.why) for lj in robot.locked_joints] == \
+        [("j2", 0.0, "unlisted"), ("j3", OFFSET, "mimic")]

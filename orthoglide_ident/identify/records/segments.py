@@ -101,9 +101,13 @@ def column_order(names: Sequence[str], topic: str, expected: Sequence[str]) -> n
     repeated = sorted({j for j in expected if names.count(j) > 1})
     if missing or repeated:
         what = f"lack {missing}" if missing else f"repeat {repeated}"
+        # a gripper's joint in a bare URDF is taken as actuated: say how to leave it out
+        fix = " (a robot file whose actuated_joints leave out the joints the controller does " \
+            "not drive, or whose locked_joints fix them)" if missing else ""
         raise DataError(
             f"{topic} joint names {names} {what} of the robot's actuated joints "
-            f"{list(expected)}; record the topics of this robot's controller, or give --robot")
+            f"{list(expected)}; record the topics of this robot's controller, or give "
+            f"--robot{fix}")
     return np.array([names.index(n) for n in expected])
 
 

@@ -193,7 +193,8 @@ def _robot_fields(model) -> dict[str, Any]:
     return {"robot": str(getattr(model, "name", "")),
             "gain_units": [j.gain_unit for j in model.joints],
             "effort_units": [j.effort_unit for j in model.joints],
-            "nominal_gains": [float(j.nominal_gain) for j in model.joints]}
+            "nominal_gains": [float(j.nominal_gain) for j in model.joints],
+            "locked_joints": [lj.to_json() for lj in getattr(model, "locked_joints", ())]}
 
 
 def wls_result(model, sol: WLSSolution, g_tau: np.ndarray, factors: list[RecordFactors],
