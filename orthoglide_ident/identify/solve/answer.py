@@ -338,7 +338,12 @@ def solve_tls(factors: list[RecordFactors], model, opts: IdentifyOptions, essent
     m, base = tls_model(factors, model, opts)
     sol = m.full
     if opts.check_excitation:
-        left_out = _undetermined(factors, model, opts, m, sol) if partial_ok else {}
+        try:
+            left_out = _undetermined(factors, model, opts, m, sol) if partial_ok else {}
+        except ExcitationError as exc:
+            if not _not_separated(sol, limits(model, opts)):
+                raise
+            left_out = _search(factors, model, opts, {}, str(exc))
         if left_out:
             return _solve_partial(factors, model, opts, bags, left_out, essential)
         band_warnings = check_excitation(sol, limits(model, opts), m.names, model.joint_names)
@@ -369,16 +374,82 @@ def solve_tls(factors: list[RecordFactors], model, opts: IdentifyOptions, essent
 def _undetermined(factors: list[RecordFactors], model, opts: IdentifyOptions, m: _Model,
                   sol: TLSSolution) -> dict[int, str]:
     """Gains of a solve the data do not fix (partial.py), by joint index, with the reason: the
-    payload adds almost no torque on the axis; else, eq. (37) holding, a σ above the limit."""
+    payload adds almost no torque on the axis; else a σ above the limit. Eq. (37) first (an
+    ExcitationError): the gains of a solve that is not separated mean nothing, nor do the
+    payload shares measured with them."""
     names = model.joint_names
+    lim = limits(model, opts)
+    check_subspace(sol, lim)
     left_out = partial.little_payload(factors, m.view(sol)[0].g_tau, names, opts.min_payload_share,
                                       _payload_unknowns(model, sol))
     if left_out:
         return left_out
-    lim = limits(model, opts)
-    check_subspace(sol, lim)
     n = sol.chi.shape[0]
     return partial.weak_gain(sol.rel_std[n:n + model.n_joints], names, lim.max_gain_rel_std)
+
+
+def _not_separated(sol: TLSSolution, lim: ExcitationLimits) -> bool:
+    """Eq. (37) or the condition fails: a subset of the gains may still be fixed (partial.py)."""
+    return sol.singular_ratio > lim.max_singular_ratio or sol.condition_number > lim.max_condition
+
+
+def _failure(factors: list[RecordFactors], model, opts: IdentifyOptions) -> partial.Trial:
+    """``model``'s (a subsystem's) solve on ``factors`` judged as a full answer is: why it is
+    not one (eq. 37, condition, payload share, honest σ, sign), or None."""
+    m, _ = tls_model(factors, model, opts)
+    sol, names = m.full, model.joint_names
+    lim = limits(model, opts)
+    kept = frozenset(int(j) for j in model.joint_idx)
+    if sol.singular_ratio > lim.max_singular_ratio:
+        return partial.Trial(kept, sol.singular_ratio, "the two smallest singular values of W_tot "
+                             f"are not separated (s_c/s_c-1 = {sol.singular_ratio:.2f} > "
+                             f"{lim.max_singular_ratio:g}, eq. 37)")
+    if sol.condition_number > lim.max_condition:
+        return partial.Trial(kept, sol.singular_ratio, "the scaled regressor's condition number "
+                             f"is {sol.condition_number:.3g} (> {lim.max_condition:.3g})")
+    g = m.view(sol)[0].g_tau
+    little = partial.little_payload(factors, g, names, opts.min_payload_share,
+                                    _payload_unknowns(model, sol))
+    n = sol.chi.shape[0]
+    rel = sol.rel_std[n:n + model.n_joints]
+    if little:
+        j = min(little)
+        why = f"the payload adds almost no torque on {names[j]}"
+    elif np.any(rel > lim.max_gain_rel_std):
+        j = int(np.argmax(rel))
+        why = (f"the honest σ of {names[j]}'s gain is {100 * rel[j]:.2g} % (> max_gain_rel_std "
+               f"{100 * lim.max_gain_rel_std:g} %)")
+    elif np.any(g <= 0):
+        why = f"{names[int(np.argmin(g))]}'s gain comes out negative"
+    else:
+        why = None
+    idx = sorted(kept)
+    return partial.Trial(kept, sol.singular_ratio, why, dict(zip(idx, g.tolist())),
+                         dict(zip(idx, (rel * np.abs(g)).tolist())))
+
+
+def _search(factors: list[RecordFactors], model, opts: IdentifyOptions, left_out: dict[int, str],
+            why: str) -> dict[int, str]:
+    """The gains to leave out beside ``left_out`` (joint index -> reason) so that the rest is an
+    answer: the largest such subset of the free gains (partial.search_subsets). ExcitationError
+    with ``why`` (the full set's failure) when no subset is one."""
+    free = [j for j in range(model.n_joints) if j not in left_out]
+
+    def trial(kept: frozenset[int]) -> partial.Trial:
+        out = dict(left_out)
+        out.update({j: "" for j in free if j not in kept})
+        return _failure(*partial.reduce(factors, model, out), opts)
+
+    best, tried = partial.search_subsets(free, trial, model.joint_names)
+    if best is None:
+        raise ExcitationError(
+            ("no drive gain is determined: " if left_out else "") + why + "; nor is any subset "
+            f"of the gains of {', '.join(model.joint_names[j] for j in free)} ({len(tried)} "
+            "tried, eq. 37, honest σ)")
+    log.info("partial answer: %s of %s separated (s_c/s_c-1 = %.2f, %d subsets tried)",
+             ", ".join(model.joint_names[j] for j in sorted(best.kept)), len(free), best.ratio,
+             len(tried))
+    return partial.search_reasons(best, free, trial, tried, model.joint_names)
 
 
 def _payload_unknowns(model, sol: TLSSolution) -> tuple[slice, np.ndarray] | None:
@@ -413,8 +484,11 @@ def _solve_partial(factors: list[RecordFactors], model, opts: IdentifyOptions, b
         try:  # eq. (37) on the subsystem of the determined gains
             new = _undetermined(fs, sub, opts, m, sol)
         except ExcitationError as exc:
-            raise ExcitationError("no drive gain is determined: " + "; ".join(
-                _left_out_text(names, left_out)) + f"; and without them {exc}") from None
+            why = "; ".join(_left_out_text(names, left_out)) + f"; and without them {exc}"
+            if not _not_separated(sol, limits(sub, opts)):
+                raise ExcitationError("no drive gain is determined: " + why) from None
+            left_out.update(_search(factors, model, opts, left_out, why))
+            continue
         if not new:
             break
         left_out.update({int(sub.joint_idx[k]): r for k, r in new.items()})
