@@ -54,12 +54,16 @@ def gentle_trajectory(truth: ArmTruth, seed: int, reach: float = REACH) -> Fouri
 
 
 def simulate_pair(seed: int, duration_s: float = 60.0, reach: float = REACH,
-                  truth: ArmTruth | None = None) -> Pair:
-    """Unloaded (trajectory and noise ``2 seed``) and loaded (``2 seed + 1``) records."""
+                  truth: ArmTruth | None = None, timestep: float = 2.5e-4,
+                  loaded: str | None = PAYLOAD) -> Pair:
+    """Unloaded (trajectory and noise ``2 seed``) and loaded (``2 seed + 1``) records; the
+    plant's step ``timestep`` (s, dividing 10 ms); ``loaded=None``: the payload left off (the
+    record still tagged with its mass: a wrong tag)."""
     truth = truth or big_arm_truth()
     recs = [simulate_arm_log(duration_s, clock_10_12(duration_s), payload=p,
-                             trajectory=gentle_trajectory(truth, s, reach), seed=s, truth=truth)
-            for p, s in ((None, 2 * seed), (PAYLOAD, 2 * seed + 1))]
+                             trajectory=gentle_trajectory(truth, s, reach), seed=s, truth=truth,
+                             timestep=timestep)
+            for p, s in ((None, 2 * seed), (loaded, 2 * seed + 1))]
     return Pair(recs[0], recs[1], truth, seed)
 
 
@@ -67,6 +71,7 @@ def pair_records(pair: Pair) -> list:
     """The pair as the product's records, the loaded one tagged with its mass only."""
     from orthoglide_ident.identify.records.record import Record
 
-    return [Record.from_arrays(f"{cond}-{pair.seed}", r.stamps_ns, r.q, r.v_tau, cond,
-                               r.payload_mass, r.joint_names)
-            for cond, r in (("unloaded", pair.unloaded), ("loaded", pair.loaded))]
+    return [Record.from_arrays(f"{cond}-{pair.seed}", r.stamps_ns, r.q, r.v_tau, cond, mass,
+                               r.joint_names)
+            for cond, r, mass in (("unloaded", pair.unloaded, 0.0),
+                                  ("loaded", pair.loaded, PAYLOAD_MASS))]

@@ -8,6 +8,7 @@ and the payload masses estimated (eqs. 24-28), each optionally reduced to essent
 """
 from __future__ import annotations
 
+import dataclasses
 import logging
 import math
 import time
@@ -396,10 +397,13 @@ def _not_separated(sol: TLSSolution, lim: ExcitationLimits) -> bool:
 def _failure(factors: list[RecordFactors], model, opts: IdentifyOptions) -> partial.Trial:
     """``model``'s (a subsystem's) solve on ``factors`` judged as a full answer is: why it is
     not one (eq. 37, condition, payload share, honest σ, sign), or None."""
-    m, _ = tls_model(factors, model, opts)
+    kept = frozenset(int(j) for j in model.joint_idx)
+    try:
+        m, _ = tls_model(factors, model, opts)
+    except ExcitationError as exc:  # a direction without the payload, a singular Ŵ_tot
+        return partial.Trial(kept, math.inf, str(exc))
     sol, names = m.full, model.joint_names
     lim = limits(model, opts)
-    kept = frozenset(int(j) for j in model.joint_idx)
     if sol.singular_ratio > lim.max_singular_ratio:
         return partial.Trial(kept, sol.singular_ratio, "the two smallest singular values of W_tot "
                              f"are not separated (s_c/s_c-1 = {sol.singular_ratio:.2f} > "
@@ -424,8 +428,35 @@ def _failure(factors: list[RecordFactors], model, opts: IdentifyOptions) -> part
     else:
         why = None
     idx = sorted(kept)
-    return partial.Trial(kept, sol.singular_ratio, why, dict(zip(idx, g.tolist())),
-                         dict(zip(idx, (rel * np.abs(g)).tolist())))
+    t = partial.Trial(kept, sol.singular_ratio, why, dict(zip(idx, g.tolist())),
+                      dict(zip(idx, (rel * np.abs(g)).tolist())))
+    return t if why or not opts.weighting else _weights_shift(t, factors, model, opts)
+
+
+def _weights_shift(t: partial.Trial, factors: list[RecordFactors], model,
+                   opts: IdentifyOptions) -> partial.Trial:
+    """``t`` (rows weighted by 1/σ_j, Sect. 4.2) failed if the same subsystem with unweighted
+    rows moves a gain beyond noise (partial.shift_beyond_noise): both are consistent when the
+    model fits the records; a shift beyond noise is a model error (e.g. the regressor of
+    coarsely printed positions at a low rate) that biases the answer beyond its σ."""
+    try:
+        m, _ = tls_model(factors, model, dataclasses.replace(opts, weighting=False))
+    except ExcitationError:
+        return t
+    sol = m.full
+    n, g = sol.chi.shape[0], m.view(sol)[0].g_tau
+    std = sol.rel_std[n:n + model.n_joints] * np.abs(g)
+    idx = sorted(t.kept)
+    moved = partial.shift_beyond_noise(t, partial.Trial(t.kept, sol.singular_ratio, None,
+                                                        dict(zip(idx, g.tolist())),
+                                                        dict(zip(idx, std.tolist()))))
+    if moved is None:
+        return t
+    i, z = moved
+    return dataclasses.replace(t, failure=(
+        f"{model.full.joint_names[i]}'s gain moves by {z:.1f} of its σ between weighted and "
+        f"unweighted rows (beyond what noise explains, > {partial.NESTED_Z:g}): the model does "
+        "not fit these records to within their noise"))
 
 
 def _search(factors: list[RecordFactors], model, opts: IdentifyOptions, left_out: dict[int, str],

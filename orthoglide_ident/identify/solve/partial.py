@@ -212,22 +212,30 @@ class Trial:
     std: dict[int, float] = field(default_factory=dict)
 
 
+def shift_beyond_noise(t: Trial, other: Trial) -> tuple[int, float] | None:
+    """The first gain of both ``t`` and ``other`` (another consistent estimate of the same
+    gains, less precise: fewer rows, or other row weights) that moves by more than NESTED_Z
+    times what noise explains, and its shift in σ of ``t``. If the model fits, both estimates
+    are consistent and their difference has the variance σ_other² - σ_t² (Hausman 1978), taken
+    at least σ_t²; a larger shift is a bias that ``t``'s σ does not cover."""
+    for i in sorted(t.kept & other.kept):
+        sd = max(np.sqrt(max(other.std[i] ** 2 - t.std[i] ** 2, 0.0)), t.std[i])
+        shift = abs(t.gains[i] - other.gains[i])
+        if not shift <= NESTED_Z * sd:
+            return i, shift / t.std[i]
+    return None
+
+
 def nested_shift(t: Trial, smaller: Trial, names: Sequence[str]) -> str | None:
     """Why ``t`` is not honest beside ``smaller`` (its subset without one gain, an answer too):
-    a gain of both that moves by more than NESTED_Z times what noise explains. Both estimates
-    are consistent if the model is; the larger set's is the more precise, so their difference
-    has the variance σ_small² - σ_t² (Hausman), taken at least σ_t². A larger shift is a bias
-    that the left-out gain's rows bring in (TLS's, where W_tot's columns carry unequal noise)
-    and that t's σ does not cover."""
-    for i in sorted(smaller.kept):
-        sd = max(np.sqrt(max(smaller.std[i] ** 2 - t.std[i] ** 2, 0.0)), t.std[i])
-        shift = abs(t.gains[i] - smaller.gains[i])
-        if shift > NESTED_Z * sd:
-            (j,) = t.kept - smaller.kept
-            return (f"{names[i]}'s gain moves by {shift / t.std[i]:.1f} of its σ when "
-                    f"{names[j]} is left out (> {NESTED_Z:g}, beyond what noise explains): "
-                    f"{names[j]}'s rows bias it")
-    return None
+    a gain moves beyond noise (:func:`shift_beyond_noise`): the left-out gain's rows bias it."""
+    moved = shift_beyond_noise(t, smaller)
+    if moved is None:
+        return None
+    (j,) = t.kept - smaller.kept
+    i, z = moved
+    return (f"{names[i]}'s gain moves by {z:.1f} of its σ when {names[j]} is left out (beyond "
+            f"what noise explains, > {NESTED_Z:g}): {names[j]}'s rows bias it")
 
 
 def search_subsets(free: Sequence[int], trial: Callable[[frozenset[int]], Trial],
