@@ -469,7 +469,8 @@ def _search(factors: list[RecordFactors], model, opts: IdentifyOptions, left_out
     def trial(kept: frozenset[int]) -> partial.Trial:
         out = dict(left_out)
         out.update({j: "" for j in free if j not in kept})
-        return _failure(*partial.reduce(factors, model, out), opts)
+        with np.errstate(over="ignore", divide="ignore", invalid="ignore"):  # failed trials' σ
+            return _failure(*partial.reduce(factors, model, out), opts)
 
     best, tried = partial.search_subsets(free, trial, model.joint_names)
     if best is None:
