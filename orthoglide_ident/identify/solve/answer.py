@@ -375,16 +375,14 @@ def solve_tls(factors: list[RecordFactors], model, opts: IdentifyOptions, essent
 def _undetermined(factors: list[RecordFactors], model, opts: IdentifyOptions, m: _Model,
                   sol: TLSSolution) -> dict[int, str]:
     """Gains of a solve the data do not fix (partial.py), by joint index, with the reason: the
-    payload adds almost no torque on the axis; else a σ above the limit. Eq. (37) first (an
-    ExcitationError): the gains of a solve that is not separated mean nothing, nor do the
-    payload shares measured with them."""
+    payload adds almost no torque on the axis; else, eq. (37) holding, a σ above the limit."""
     names = model.joint_names
-    lim = limits(model, opts)
-    check_subspace(sol, lim)
     left_out = partial.little_payload(factors, m.view(sol)[0].g_tau, names, opts.min_payload_share,
                                       _payload_unknowns(model, sol))
     if left_out:
         return left_out
+    lim = limits(model, opts)
+    check_subspace(sol, lim)
     n = sol.chi.shape[0]
     return partial.weak_gain(sol.rel_std[n:n + model.n_joints], names, lim.max_gain_rel_std)
 
