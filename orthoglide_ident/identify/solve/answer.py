@@ -454,7 +454,8 @@ def _weights_shift(t: partial.Trial, factors: list[RecordFactors], model,
     return dataclasses.replace(t, failure=(
         f"{model.full.joint_names[i]}'s gain moves by {z:.1f} of its σ between weighted and "
         f"unweighted rows (beyond what noise explains, > {partial.NESTED_Z:g}): the model does "
-        "not fit these records to within their noise"))
+        "not fit these records to within their noise"),
+        advice="log positions finer than their print, or at a higher rate")
 
 
 def _search(factors: list[RecordFactors], model, opts: IdentifyOptions, left_out: dict[int, str],

@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import dataclasses
 
-import numpy as np
 import pytest
 
 from orthoglide_ident.errors import ExcitationError
@@ -117,7 +116,13 @@ def test_the_left_out_gains_say_why(big_arm):
     # the last axis: the payload's CoM 2.5 cm off it
     assert "with it, the payload adds almost no torque on wrist_3_joint" in \
         why["wrist_3_joint"]
-    assert all("record more motion of that joint with the payload on" in r for r in why.values())
+    # the elbow: with it, the answer depends on the rows' weights beyond noise (the 1e-4 rad
+    # print at 90.9 Hz: a model error a smaller system amplifies)
+    assert "gain moves by" in why["elbow_joint"] and \
+        "between weighted and unweighted rows" in why["elbow_joint"]
+    assert why["elbow_joint"].endswith("log positions finer than their print, or at a higher rate")
+    assert why["wrist_3_joint"].endswith("record more motion of that joint with the payload on, "
+                                         "or a heavier payload off its axis")
     assert res.warnings[0].startswith("partial answer: ")
 
 
