@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import dataclasses
 
+import numpy as np
 import pytest
 
 from orthoglide_ident.errors import ExcitationError
@@ -82,6 +83,12 @@ def big_arm():
                                                             timestep=STEP)
 
 
+@pytest.fixture(scope="module")
+def answered(big_arm):
+    model, _, pair = big_arm
+    return identify_records(pair_records(pair), model=model)
+
+
 def test_before_the_full_set_is_not_separated(big_arm):
     """The case: today's all-or-nothing answer exits 2 (eq. 37)."""
     model, _, pair = big_arm
@@ -90,9 +97,9 @@ def test_before_the_full_set_is_not_separated(big_arm):
                          options=IdentifyOptions(partial_answers=False))
 
 
-def test_the_subset_is_answered_within_3_sigma(big_arm):
-    model, truth, pair = big_arm
-    res = identify_records(pair_records(pair), model=model)
+def test_the_subset_is_answered_within_3_sigma(big_arm, answered):
+    _, truth, _ = big_arm
+    res = answered
     g_true = truth.drive_array("g_tau")
     assert not res.complete
     determined = [(g, t) for g, t in zip(res.drive_gains, g_true) if g.determined]
@@ -105,9 +112,8 @@ def test_the_subset_is_answered_within_3_sigma(big_arm):
         assert g["determined"] or g["reason"]
 
 
-def test_the_left_out_gains_say_why(big_arm):
-    model, _, pair = big_arm
-    res = identify_records(pair_records(pair), model=model)
+def test_the_left_out_gains_say_why(answered):
+    res = answered
     why = {g.name: g.reason for g in res.drive_gains if not g.determined}
     # the base axis: no gravity, the payload's inertia too small beside the arm's
     assert why["shoulder_pan_joint"].startswith(
@@ -138,3 +144,16 @@ def test_nothing_separated_exits_with_the_real_reason(big_arm):
     assert msg.startswith("no drive gain is determined: ") and "\n" not in msg
     assert "not separated (s_c/s_c-1 = " in msg and "eq. 37" in msg
     assert "; nor is any subset of the gains of " in msg
+
+
+def test_repeated_records_of_the_same_robot_agree_within_their_sigma(big_arm, answered):
+    """Another pair (other trajectories and noise): the gains both answers determine agree
+    within 3 σ of their difference."""
+    model, truth, _ = big_arm
+    other = simulate_pair(2, SECONDS, truth=truth, timestep=STEP)
+    a, b = answered, identify_records(pair_records(other), model=model)
+    both = [(x, y) for x, y in zip(a.drive_gains, b.drive_gains) if x.determined and y.determined]
+    assert both
+    for x, y in both:
+        sigma = np.hypot(x.value * x.rel_std, y.value * y.rel_std)
+        assert abs(x.value - y.value) <= 3 * sigma, (x.name, x.value, y.value, sigma)
