@@ -58,7 +58,10 @@ FIVE_BAR = {
     "velocity": (3.0, 3.0),
     "acceleration": (25.0, 25.0),
 }
-TABLES = {"ur5": UR5, "five_bar": FIVE_BAR}
+# The UR10 (orthoglide_sim/data/ur10): the UR5's box, its shoulders' lower speed limit (2.16 rad/s)
+UR10 = {**UR5, "velocity": (1.2, 1.2, 2.0, 2.5, 2.5, 2.5),
+        "acceleration": (5.0, 5.0, 8.0, 12.0, 12.0, 12.0)}
+TABLES = {"ur5": UR5, "ur10": UR10, "five_bar": FIVE_BAR}
 
 
 def motion_limits(arm: ArmDescription) -> MotionLimits:

@@ -20,11 +20,12 @@ import numpy as np
 from orthoglide_ident.errors import ConfigError
 from orthoglide_sim.arms import simulator as asim
 from orthoglide_sim.arms.description import load_arm
-from orthoglide_sim.arms.excitation import designed_trajectory
 from orthoglide_sim.arms.limits import motion_limits
-from orthoglide_sim.arms.record import NOISE_STRIDE, ArmRecord, current_noise_std
+from orthoglide_sim.arms.record import (NOISE_STRIDE, ArmRecord, current_noise_std, reference_of,
+                                        trajectory_name)
 from orthoglide_sim.arms.truth import ArmTruth, load_truth
 from orthoglide_sim.arms.plant import MujocoPlant
+from orthoglide_sim.common.trajectories import FourierTrajectory
 
 OMEGA_T = 0.1  # the PID's bandwidth x the mean tick, at most (0.1 at 1 kHz: 100 rad/s)
 
@@ -56,8 +57,8 @@ class _VariablePID(asim.ArmPID):
 
 
 def simulate_arm_log(duration_s: float, steps_ns: np.ndarray, robot: str = "ur5",
-                     payload: str | None = None, trajectory: str = "exciting1", seed: int = 0,
-                     print_resolution: float = 1e-4, timestep: float = 2.5e-4,
+                     payload: str | None = None, trajectory: str | FourierTrajectory = "exciting1",
+                     seed: int = 0, print_resolution: float = 1e-4, timestep: float = 2.5e-4,
                      truth: ArmTruth | None = None) -> ArmRecord:
     """The arm under a PID that ticks at ``steps_ns`` (each a multiple of ``timestep``); the
     returned record's ``q`` is printed to ``print_resolution`` (0: the encoder's), ``qd_true``
@@ -74,7 +75,7 @@ def simulate_arm_log(duration_s: float, steps_ns: np.ndarray, robot: str = "ur5"
     stamps = np.concatenate([[0], np.cumsum(steps_ns)])[:-1].astype(np.int64)
     t = stamps * 1e-9
     N, T = t.shape[0], float(np.mean(steps_ns)) * 1e-9
-    q_ref, qd_ref, qdd_ref = designed_trajectory(arm, trajectory).evaluate(t)
+    q_ref, qd_ref, qdd_ref = reference_of(arm, trajectory).evaluate(t)
     stride = max(1, int(round(NOISE_STRIDE * 1e-3 / T)))
     std = current_noise_std(plant, q_ref[::stride], qd_ref[::stride], qdd_ref[::stride])
     noise = np.random.default_rng(seed).normal(0.0, 1.0, (N, arm.n)) * std
@@ -100,4 +101,4 @@ def simulate_arm_log(duration_s: float, steps_ns: np.ndarray, robot: str = "ur5"
         asim._check(plant, limits, k, v)
     printed = out["q_meas"] if not print_resolution else np.round(out["q_meas"] / print_resolution) * print_resolution
     return ArmRecord(stamps, printed, out["v"], truth, load, out["q"], out["qd"], q_ref,
-                     out["cur"], std, trajectory, seed, saturated)
+                     out["cur"], std, trajectory_name(trajectory), seed, saturated)

@@ -8,6 +8,7 @@ and the payload masses estimated (eqs. 24-28), each optionally reduced to essent
 """
 from __future__ import annotations
 
+import dataclasses
 import logging
 import math
 import time
@@ -339,7 +340,12 @@ def solve_tls(factors: list[RecordFactors], model, opts: IdentifyOptions, essent
     m, base = tls_model(factors, model, opts)
     sol = m.full
     if opts.check_excitation:
-        left_out = _undetermined(factors, model, opts, m, sol) if partial_ok else {}
+        try:
+            left_out = _undetermined(factors, model, opts, m, sol) if partial_ok else {}
+        except ExcitationError as exc:
+            if not _not_separated(sol, limits(model, opts)):
+                raise
+            left_out = _search(factors, model, opts, {}, str(exc))
         if left_out:
             return _solve_partial(factors, model, opts, bags, left_out, essential)
         band_warnings = check_excitation(sol, limits(model, opts), m.names, model.joint_names)
@@ -382,6 +388,102 @@ def _undetermined(factors: list[RecordFactors], model, opts: IdentifyOptions, m:
     return partial.weak_gain(sol.rel_std[n:n + model.n_joints], names, lim.max_gain_rel_std)
 
 
+def _not_separated(sol: TLSSolution, lim: ExcitationLimits) -> bool:
+    """Eq. (37) or the condition fails: a subset of the gains may still be fixed (partial.py)."""
+    return sol.singular_ratio > lim.max_singular_ratio or sol.condition_number > lim.max_condition
+
+
+def _failure(factors: list[RecordFactors], model, opts: IdentifyOptions) -> partial.Trial:
+    """``model``'s (a subsystem's) solve on ``factors`` judged as a full answer is: why it is
+    not one (eq. 37, condition, payload share, honest σ, sign), or None."""
+    kept = frozenset(int(j) for j in model.joint_idx)
+    try:
+        m, _ = tls_model(factors, model, opts)
+    except ExcitationError as exc:  # a direction without the payload, a singular Ŵ_tot
+        return partial.Trial(kept, math.inf, str(exc))
+    sol, names = m.full, model.joint_names
+    lim = limits(model, opts)
+    if sol.singular_ratio > lim.max_singular_ratio:
+        return partial.Trial(kept, sol.singular_ratio, "the two smallest singular values of W_tot "
+                             f"are not separated (s_c/s_c-1 = {sol.singular_ratio:.2f} > "
+                             f"{lim.max_singular_ratio:g}, eq. 37)")
+    if sol.condition_number > lim.max_condition:
+        return partial.Trial(kept, sol.singular_ratio, "the scaled regressor's condition number "
+                             f"is {sol.condition_number:.3g} (> {lim.max_condition:.3g})")
+    g = m.view(sol)[0].g_tau
+    little = partial.little_payload(factors, g, names, opts.min_payload_share,
+                                    _payload_unknowns(model, sol))
+    n = sol.chi.shape[0]
+    rel = sol.rel_std[n:n + model.n_joints]
+    if little:
+        j = min(little)
+        why = f"the payload adds almost no torque on {names[j]}"
+    elif np.any(rel > lim.max_gain_rel_std):
+        j = int(np.argmax(rel))
+        why = (f"the honest σ of {names[j]}'s gain is {100 * rel[j]:.2g} % (> max_gain_rel_std "
+               f"{100 * lim.max_gain_rel_std:g} %)")
+    elif np.any(g <= 0):
+        why = f"{names[int(np.argmin(g))]}'s gain comes out negative"
+    else:
+        why = None
+    idx = sorted(kept)
+    t = partial.Trial(kept, sol.singular_ratio, why, dict(zip(idx, g.tolist())),
+                      dict(zip(idx, (rel * np.abs(g)).tolist())))
+    return t if why or not opts.weighting else _weights_shift(t, factors, model, opts)
+
+
+def _weights_shift(t: partial.Trial, factors: list[RecordFactors], model,
+                   opts: IdentifyOptions) -> partial.Trial:
+    """``t`` (rows weighted by 1/σ_j, Sect. 4.2) failed if the same subsystem with unweighted
+    rows moves a gain beyond noise (partial.shift_beyond_noise): both are consistent when the
+    model fits the records; a shift beyond noise is a model error (e.g. the regressor of
+    coarsely printed positions at a low rate) that biases the answer beyond its σ."""
+    try:
+        m, _ = tls_model(factors, model, dataclasses.replace(opts, weighting=False))
+    except ExcitationError:
+        return t
+    sol = m.full
+    n, g = sol.chi.shape[0], m.view(sol)[0].g_tau
+    std = sol.rel_std[n:n + model.n_joints] * np.abs(g)
+    idx = sorted(t.kept)
+    moved = partial.shift_beyond_noise(t, partial.Trial(t.kept, sol.singular_ratio, None,
+                                                        dict(zip(idx, g.tolist())),
+                                                        dict(zip(idx, std.tolist()))))
+    if moved is None:
+        return t
+    i, z = moved
+    return dataclasses.replace(t, failure=(
+        f"{model.full.joint_names[i]}'s gain moves by {z:.1f} of its σ between weighted and "
+        f"unweighted rows (beyond what noise explains, > {partial.NESTED_Z:g}): the model does "
+        "not fit these records to within their noise"),
+        advice="log positions finer than their print, or at a higher rate")
+
+
+def _search(factors: list[RecordFactors], model, opts: IdentifyOptions, left_out: dict[int, str],
+            why: str) -> dict[int, str]:
+    """The gains to leave out beside ``left_out`` (joint index -> reason) so that the rest is an
+    answer: the largest such subset of the free gains (partial.search_subsets). ExcitationError
+    with ``why`` (the full set's failure) when no subset is one."""
+    free = [j for j in range(model.n_joints) if j not in left_out]
+
+    def trial(kept: frozenset[int]) -> partial.Trial:
+        out = dict(left_out)
+        out.update({j: "" for j in free if j not in kept})
+        with np.errstate(over="ignore", divide="ignore", invalid="ignore"):  # failed trials' σ
+            return _failure(*partial.reduce(factors, model, out), opts)
+
+    best, tried = partial.search_subsets(free, trial, model.joint_names)
+    if best is None:
+        raise ExcitationError(
+            ("no drive gain is determined: " if left_out else "") + why + "; nor is any subset "
+            f"of the gains of {', '.join(model.joint_names[j] for j in free)} ({len(tried)} "
+            "tried, eq. 37, honest σ)")
+    log.info("partial answer: %s of %s separated (s_c/s_c-1 = %.2f, %d subsets tried)",
+             ", ".join(model.joint_names[j] for j in sorted(best.kept)), len(free), best.ratio,
+             len(tried))
+    return partial.search_reasons(best, free, trial, tried, model.joint_names)
+
+
 def _payload_unknowns(model, sol: TLSSolution) -> tuple[slice, np.ndarray] | None:
     """The columns of a payload known by its mass and their identified χ_ul (none otherwise)."""
     pu = unknowns_of(model)
@@ -414,8 +516,11 @@ def _solve_partial(factors: list[RecordFactors], model, opts: IdentifyOptions, b
         try:  # eq. (37) on the subsystem of the determined gains
             new = _undetermined(fs, sub, opts, m, sol)
         except ExcitationError as exc:
-            raise ExcitationError("no drive gain is determined: " + "; ".join(
-                _left_out_text(names, left_out)) + f"; and without them {exc}") from None
+            why = "; ".join(_left_out_text(names, left_out)) + f"; and without them {exc}"
+            if not _not_separated(sol, limits(sub, opts)):
+                raise ExcitationError("no drive gain is determined: " + why) from None
+            left_out.update(_search(factors, model, opts, left_out, why))
+            continue
         if not new:
             break
         left_out.update({int(sub.joint_idx[k]): r for k, r in new.items()})

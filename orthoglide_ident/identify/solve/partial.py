@@ -15,18 +15,31 @@ Not determined, with the reason and what to record:
 - the joint hardly moved: fewer equations above the velocity dead band than min_rows;
 - the payload adds little torque on its axis: the rms payload torque of the loaded records below
   ``min_payload_share`` of the joint's measured torque;
-- its honest σ is above ``max_gain_rel_std`` in the subsystem.
+- its honest σ is above ``max_gain_rel_std`` in the subsystem;
+- the full set of gains is not separated (eq. 37: s_c/s_(c-1) above ``max_singular_ratio``, or
+  the scaled regressor's condition too large): the largest subset of the gains whose subsystem
+  is separated and passes every check above is answered (:func:`search_subsets`: every subset
+  for up to ``EXACT_SEARCH_MAX`` free gains, largest first; beyond, the gain whose removal most
+  lowers s_c/s_(c-1) dropped one at a time); each gain left out says what goes wrong with it
+  added to the answered ones. A subset's σ is honest only if its gains stay within noise of
+  two other consistent estimates of them (:func:`shift_beyond_noise`): the subset without one
+  more gain, and the same rows unweighted. A smaller system amplifies what the model misses
+  (e.g. positions printed to 1e-4 rad at ~90 Hz: UR10 subsets 3-5 σ off before this check).
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
-from typing import Any, Sequence
+import dataclasses
+from dataclasses import dataclass, field
+from itertools import combinations
+from typing import Any, Callable, Sequence
 
 import numpy as np
 
 from orthoglide_ident.identify.solve.factors import RecordFactors
 
 RANK_TOL = 1e-9  # column-scaled R: a diagonal below this times the largest is a lost column
+EXACT_SEARCH_MAX = 7  # free gains up to which every subset is tried (at most 2^7 - 2 solves)
+NESTED_Z = 3.0  # a gain's shift between nested answers, in σ of their difference, beyond noise
 
 
 def hardly_moved(factors: list[RecordFactors], model, opts, min_rows: int) -> dict[int, str]:
@@ -186,3 +199,102 @@ def expand(result, model, sub: Subsystem, left_out: dict[int, str]) -> None:
     if lost:
         result.warnings.insert(1, "base parameters not determined without those rows (not "
                                "reported): " + ", ".join(lost))
+
+
+@dataclass(frozen=True)
+class Trial:
+    """One subset of the free gains solved on its own rows and judged as a full answer is:
+    ``ratio`` s_c/s_(c-1) of its W_tot (eq. 37), ``failure`` why it is not an answer (None: an
+    answer: separated, conditioned, loaded by the payload, honest σ within bounds, positive);
+    ``gains`` and ``std`` (honest σ) by joint index."""
+
+    kept: frozenset[int]
+    ratio: float
+    failure: str | None
+    gains: dict[int, float] = field(default_factory=dict)
+    std: dict[int, float] = field(default_factory=dict)
+    advice: str = ("record more motion of that joint with the payload on, or a heavier "
+                   "payload off its axis")  # what would fix it (search_reasons)
+
+
+def shift_beyond_noise(t: Trial, other: Trial) -> tuple[int, float] | None:
+    """The first gain of both ``t`` and ``other`` (another consistent estimate of the same
+    gains, less precise: fewer rows, or other row weights) that moves by more than NESTED_Z
+    times what noise explains, and its shift in σ of ``t``. If the model fits, both estimates
+    are consistent and their difference has the variance σ_other² - σ_t² (Hausman 1978), taken
+    at least σ_t²; a larger shift is a bias that ``t``'s σ does not cover."""
+    for i in sorted(t.kept & other.kept):
+        sd = max(np.sqrt(max(other.std[i] ** 2 - t.std[i] ** 2, 0.0)), t.std[i])
+        shift = abs(t.gains[i] - other.gains[i])
+        if not shift <= NESTED_Z * sd:
+            return i, shift / t.std[i]
+    return None
+
+
+def nested_shift(t: Trial, smaller: Trial, names: Sequence[str]) -> str | None:
+    """Why ``t`` is not honest beside ``smaller`` (its subset without one gain, an answer too):
+    a gain moves beyond noise (:func:`shift_beyond_noise`): the left-out gain's rows bias it."""
+    moved = shift_beyond_noise(t, smaller)
+    if moved is None:
+        return None
+    (j,) = t.kept - smaller.kept
+    i, z = moved
+    return (f"{names[i]}'s gain moves by {z:.1f} of its σ when {names[j]} is left out (beyond "
+            f"what noise explains, > {NESTED_Z:g}): {names[j]}'s rows bias it")
+
+
+def search_subsets(free: Sequence[int], trial: Callable[[frozenset[int]], Trial],
+                   names: Sequence[str], exact_max: int = EXACT_SEARCH_MAX
+                   ) -> tuple[Trial | None, dict]:
+    """The largest subset of ``free`` (the full set already failed) whose trial is an answer
+    and honest beside its own subsets (:func:`nested_shift`), the least s_c/s_(c-1) among
+    those of that size; None if no subset is. Every subset, largest first, up to ``exact_max``
+    free gains; beyond, greedy: the gain whose removal lowers s_c/s_(c-1) most is dropped, one
+    at a time. Also returns every trial made, by subset."""
+    tried: dict[frozenset[int], Trial] = {}
+
+    def run(kept: frozenset[int]) -> Trial:
+        if kept not in tried:
+            tried[kept] = trial(kept)
+        return tried[kept]
+
+    def answer(trials: list[Trial]) -> Trial | None:
+        for t in sorted((t for t in trials if not t.failure), key=lambda t: t.ratio):
+            for j in sorted(t.kept) if len(t.kept) > 1 else ():
+                smaller = run(t.kept - {j})
+                why = None if smaller.failure else nested_shift(t, smaller, names)
+                if why:
+                    tried[t.kept] = t = dataclasses.replace(t, failure=why)
+                    break
+            if not t.failure:
+                return t
+        return None
+
+    free = [int(j) for j in free]
+    if len(free) <= exact_max:
+        for k in range(len(free) - 1, 0, -1):
+            best = answer([run(frozenset(c)) for c in combinations(free, k)])
+            if best:
+                return best, tried
+        return None, tried
+    current = frozenset(free)
+    while len(current) > 1:
+        trials = [run(current - {j}) for j in current]
+        best = answer(trials)
+        if best:
+            return best, tried
+        current = min(trials, key=lambda t: t.ratio).kept
+    return None, tried
+
+
+def search_reasons(best: Trial, free: Sequence[int], trial: Callable[[frozenset[int]], Trial],
+                   tried: dict, names: Sequence[str]) -> dict[int, str]:
+    """Each free gain the answer ``best`` leaves out, with what goes wrong when it is added to
+    the answered ones (that subset's trial)."""
+    out = {}
+    for j in sorted(set(free) - best.kept):
+        with_j = tried.get(best.kept | {j}) or trial(best.kept | {j})
+        out[j] = (f"{names[j]} not fixed beside the determined gains: with it, "
+                  f"{with_j.failure} (without it s_c/s_c-1 = {best.ratio:.2f}); "
+                  f"{with_j.advice}")
+    return out
