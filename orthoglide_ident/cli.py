@@ -37,6 +37,7 @@ from typing import Sequence
 
 from orthoglide_ident import import_command, ros_client
 from orthoglide_ident.errors import ConfigError, OrthoglideError
+from orthoglide_ident.flags import prepare_outputs
 from orthoglide_ident.identify.solve.methods import DEFAULT_METHOD, METHODS
 from orthoglide_ident.model.robots import bundled_robots
 
@@ -257,6 +258,7 @@ def _write_urdf(path: str, res, robot_spec: str) -> None:
 
 
 def _main(args: argparse.Namespace) -> int:
+    prepare_outputs(args)  # a bad --out now, not after the work
     if args.command == "record":
         return ros_client.record(args)
     if args.command == "watch":

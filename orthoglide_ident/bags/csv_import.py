@@ -42,6 +42,7 @@ from typing import IO, Any
 import numpy as np
 
 from orthoglide_ident.errors import ConfigError, DataError
+from orthoglide_ident.flags import parse_vector
 from orthoglide_ident.yaml_files import load_yaml
 
 TIME_UNITS = {"s": 10**9, "ms": 10**6, "us": 10**3, "ns": 1}  # ns per unit
@@ -109,10 +110,9 @@ class ColumnMap:
             for role in _ROLES:
                 if role in v:
                     v[role] = _columns(v[role])
-            for k in ("payload_com", "payload_inertia"):
+            for k, n in (("payload_com", 3), ("payload_inertia", 6)):
                 if k in v:
-                    v[k] = tuple(float(x) for x in (v[k].split() if isinstance(v[k], str)
-                                                     else v[k]))
+                    v[k] = parse_vector(v[k], n, f"{self.source}: {k}")
             if "payload_mass" in v:
                 v["payload_mass"] = float(v["payload_mass"])
             for k in ("time", "time_unit", "effort_unit", "angle_unit", "delimiter",
