@@ -23,6 +23,7 @@ from orthoglide_ident.errors import ConfigError
 from orthoglide_ident.excite.limits import COLLISION_MODES  # not collision.py: Pinocchio
 from orthoglide_ident.flags import parse_vector
 from orthoglide_ident.model.robot import RobotModel
+from orthoglide_ident.model.robots import add_description_options
 
 _log = logging.getLogger("orthoglide_ident")
 
@@ -43,8 +44,9 @@ def _add_robot_options(p: argparse.ArgumentParser) -> None:
                    help="self-collision bodies: the URDF's <collision> elements and the robot "
                         "file's primitives (mesh, default), the primitives only, or skip the check")
     p.add_argument("--package-dir", action="append", default=[], metavar="DIR",
-                   help="where package:// collision meshes are found (repeatable; "
-                        "ROS_PACKAGE_PATH is searched too)")
+                   help="where package:// collision meshes and a xacro's $(find pkg) are found "
+                        "(repeatable; ROS_PACKAGE_PATH and the ament index are searched too)")
+    add_description_options(p, package_dir=False)
 
 
 def _add_design(p: argparse.ArgumentParser) -> None:
