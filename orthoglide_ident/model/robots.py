@@ -104,6 +104,7 @@ def _load(path: str, xacro_args: tuple = (), package_dirs: tuple = ()) -> RobotM
     elif p.suffix.lower() in (".urdf", ".xml"):
         if xacro_args:
             raise ConfigError(f"--xacro-arg is for a .xacro robot description, not {p}")
+        data.update(_mjcf_gravity(p) if p.suffix.lower() == ".xml" else {})
     elif p.suffix.lower() in (".yaml", ".yml"):
         data = read_yaml(p)
         if xacro_args:
@@ -157,7 +158,33 @@ def _pinocchio(data: dict[str, Any], base_dir: Path, where: str | None = None,
     except ImportError as exc:  # the general model lands in its own step
         raise ConfigError(f"the general (Pinocchio) robot model is not available: {exc}") from None
     robot = PinocchioRobot.from_description(data, base_dir, where, package_dirs)
+    if robot.description.path.suffix.lower() == ".xml":
+        _say_mjcf_nominals(robot)
     return _with_transmission(robot, where or f"robot {robot.name}")
+
+
+def _mjcf_gravity(path: Path) -> dict[str, Any]:
+    """``{"gravity": [x, y, z]}`` of an MJCF's ``<option gravity>`` (none: the default)."""
+    import xml.etree.ElementTree as ET
+
+    try:
+        option = ET.parse(path).getroot().find("option")
+        text = None if option is None else option.get("gravity")
+        return {} if text is None else {"gravity": [float(x) for x in text.split()]}
+    except (ET.ParseError, OSError, ValueError):
+        return {}  # the description's own reader says what is wrong with it
+
+
+def _say_mjcf_nominals(robot) -> None:
+    """An MJCF's joint armature, damping and frictionloss are the nominal ia, fv, fs: said."""
+    import logging
+
+    terms = [f"{j.name} {robot.model.armature[j.iv]:.4g}/{j.damping:.4g}/{j.friction:.4g}"
+             for j in robot.actuated if robot.model.armature[j.iv] or j.damping or j.friction]
+    if terms:
+        logging.getLogger("orthoglide_ident").info(
+            "robot %s (MJCF): the joints' armature/damping/frictionloss taken as the nominal "
+            "ia/fv/fs: %s", robot.name, ", ".join(terms))
 
 
 def _with_transmission(robot, where: str) -> RobotModel:

@@ -154,10 +154,10 @@ def expand(path: Path, args: Mapping[str, str] | None = None,
     if unused:
         raise ConfigError(f"robot description {path}: xacro argument(s) {unused} are not "
                           f"declared by it (its arguments: {', '.join(sorted(given.declared))})")
-    return _with_absolute_meshes(text, path, package_dirs)
+    return with_absolute_meshes(text, path, package_dirs)
 
 
-def _with_absolute_meshes(urdf: str, source: Path, package_dirs: Sequence[str | Path]) -> str:
+def with_absolute_meshes(urdf: str, source: Path, package_dirs: Sequence[str | Path]) -> str:
     """Mesh references (``package://``, relative) as absolute paths where the files are found:
     the expanded URDF lives in the cache, away from its package."""
     root = ET.fromstring(urdf)
