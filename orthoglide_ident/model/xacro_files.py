@@ -94,7 +94,7 @@ def _reason(exc: BaseException) -> str:
         if type(seen).__name__ == "ArgException":
             return (f"xacro argument {seen.args[0]!r} is not given and has no default: give "
                     f"--xacro-arg {seen.args[0]}:=VALUE or xacro_args: {{{seen.args[0]}: "
-                    "VALUE}} in the robot file")
+                    "VALUE} in the robot file")
         if isinstance(seen, FileNotFoundError):
             return f"no such file {seen.filename}"
         seen = getattr(seen, "exc", None) or seen.__cause__ or seen.__context__
