@@ -38,6 +38,7 @@ from typing import Sequence
 from orthoglide_ident import import_command, ros_client
 from orthoglide_ident.errors import ConfigError, OrthoglideError
 from orthoglide_ident.flags import prepare_outputs
+from orthoglide_ident.progress import set_quiet
 from orthoglide_ident.identify.solve.methods import DEFAULT_METHOD, METHODS
 from orthoglide_ident.model.robots import (add_description_options, bundled_robots,
                                            load_robot_from_args)
@@ -207,6 +208,7 @@ def _setup_logging(quiet: bool) -> None:
     log.addHandler(h)
     log.setLevel(logging.WARNING if quiet else logging.INFO)
     log.propagate = False
+    set_quiet(quiet)  # and no progress line (progress.py)
 
 
 def _run_identify(args: argparse.Namespace):
