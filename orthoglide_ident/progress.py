@@ -39,6 +39,10 @@ def duration_text(seconds: float) -> str:
     return f"{s // 3600} h {(s % 3600) // 60:02d} min"
 
 
+def _number(x: float) -> str:
+    return f"{x:.0f}" if abs(x) >= 100 else f"{x:.3g}"
+
+
 class ProgressLine:
     """``what: 42 % (done/total unit), 1 min 05 s left`` on a terminal; see the module docstring.
 
@@ -73,7 +77,8 @@ class ProgressLine:
         if 0 < self.done < self.total:
             left = f", {duration_text((now - self.t0) / self.done * (self.total - self.done))} left"
         unit = f" {self.unit}" if self.unit else ""
-        return (f"{self.what}: {100 * frac:.0f} % ({self.done:.3g}/{self.total:.3g}{unit})"
+        return (f"{self.what}: {100 * frac:.0f} % ({_number(self.done)}/{_number(self.total)}"
+                f"{unit})"
                 f"{left}")
 
     def _draw(self, text: str) -> None:
