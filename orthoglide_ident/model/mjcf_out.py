@@ -14,7 +14,8 @@ A coupled transmission (q̇_m = N q̇_j, a block of N with several joints) becom
 per motor (length N[a]·q): the motor's armature, damping and frictionloss on the tendon (MuJoCo
 adds them as Nᵀ diag(ia) N q̈ and Nᵀ diag(fv) N q̇ to the joints, what eq. 20's reflected terms
 are) and its actuator on the tendon with gear g_τ. Joints keep the URDF's names; the constant
-offset tauoff has no MJCF element and is said in a comment.
+offset tauoff has no MJCF element and is said in a comment. A robot described by an MJCF comes
+back as its own file, every body's inertial replaced (and its actuators).
 """
 from __future__ import annotations
 
@@ -115,6 +116,70 @@ def _quiet_urdf_out() -> Iterator[None]:
         log.removeFilter(drop)
 
 
+def _from_identified_urdf(robot, jm, chi_st, gains, notes: list[str]):
+    """MuJoCo's specification of the identified URDF (consistent inertials, geometry)."""
+    import mujoco
+
+    with _quiet_urdf_out():
+        urdf = robot.identified_urdf(chi_st, gains)
+    text = re.sub(r"<!--.*?-->", "", _urdf_for_mujoco(urdf, jm.description.path, notes),
+                  flags=re.S)
+    try:
+        return mujoco.MjSpec.from_string(text)
+    except ValueError as exc:
+        raise ConfigError(f"--mjcf-out: MuJoCo cannot load the identified URDF of {robot.name}: "
+                          f"{' '.join(str(exc).split())}") from None
+
+
+def _mjcf_with_inertials(robot, jm, chi_st):
+    """An MJCF robot's own file with every body's identified inertial (at the body frame, as
+    Pinocchio reads it) and the bodies welded to one (merged into its parameters) emptied."""
+    import mujoco
+
+    from orthoglide_ident.model.inertia import at_com
+
+    spec = mujoco.MjSpec.from_file(str(jm.description.path))
+    for a in list(spec.actuators):  # the file's own actuators: replaced by the identified ones
+        spec.delete(a)
+    named = {(b.frame or b.name): b for b in robot.bodies}
+    chi = np.asarray(chi_st, float)[:len(jm.standard_names)] if robot is jm else \
+        _joint_side(robot, chi_st)
+    for body in spec.bodies:
+        if body.name in named:
+            m, c, inertia = at_com(chi[list(named[body.name].inertial)])
+            _set_inertial(body, m, c, inertia)
+        elif body.name != "world" and not body.joints and _moving(body, named):
+            _set_inertial(body, 0.0, np.zeros(3), np.zeros(6))  # merged into its parent's
+    return spec
+
+
+def _joint_side(robot, chi_st):
+    from orthoglide_ident.model.urdf_transmission import joint_side_values
+
+    return joint_side_values(robot, chi_st)
+
+
+def _moving(body, named: dict) -> bool:
+    """Whether a body without joints is welded to an identified body (above it)."""
+    parent = body.parent
+    while parent is not None and parent.name != "world":
+        if parent.name in named:
+            return True
+        if parent.joints:
+            return False
+        parent = parent.parent
+    return False
+
+
+def _set_inertial(body, mass: float, com: np.ndarray, inertia: np.ndarray) -> None:
+    """``inertia``: about the centre of mass, (xx, xy, xz, yy, yz, zz) as at_com gives it."""
+    xx, xy, xz, yy, yz, zz = (float(v) for v in inertia)
+    body.explicitinertial = True
+    body.mass, body.ipos, body.iquat = mass, com, [1, 0, 0, 0]
+    body.inertia = [0.0, 0.0, 0.0]  # unset: the full tensor below is the one
+    body.fullinertia = [xx, yy, zz, xy, xz, yz]  # MuJoCo's order
+
+
 def identified_spec(robot, chi_st: np.ndarray, gains: Sequence[float]):
     """(MjSpec of the identified robot, notes for the user); module docstring."""
     import mujoco
@@ -124,15 +189,10 @@ def identified_spec(robot, chi_st: np.ndarray, gains: Sequence[float]):
                           "equality constraints) is not written yet: use --urdf-out or the JSON")
     notes: list[str] = []
     jm = getattr(robot, "joint_model", robot)
-    with _quiet_urdf_out():
-        urdf = robot.identified_urdf(chi_st, gains)
-    text = _urdf_for_mujoco(urdf, jm.description.path, notes)
-    text = re.sub(r"<!--.*?-->", "", text, flags=re.S)
-    try:
-        spec = mujoco.MjSpec.from_string(text)
-    except ValueError as exc:
-        raise ConfigError(f"--mjcf-out: MuJoCo cannot load the identified URDF of {robot.name}: "
-                          f"{' '.join(str(exc).split())}") from None
+    if jm.description.path.suffix.lower() == ".xml":
+        spec = _mjcf_with_inertials(robot, jm, chi_st)
+    else:
+        spec = _from_identified_urdf(robot, jm, chi_st, gains, notes)
     spec.modelname = robot.name
     spec.option.gravity = list(robot.gravity)
     drives, limits = _drives(robot, chi_st), _current_limits(robot)

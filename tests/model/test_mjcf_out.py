@@ -159,3 +159,18 @@ def test_identify_writes_an_mjcf_that_reproduces_the_identified_ur5(tmp_path):
     qdd = np.gradient(runs[0].qd_true, 1e-3, axis=0)[k]
     ref = _model_torques(robot, chi, q, qd, qdd)
     assert np.all(_rms_error(ref, _mujoco_torques(out.read_text(), JOINTS, q, qd, qdd)) < 0.01)
+
+
+def test_an_mjcf_robot_comes_back_as_its_own_mjcf():
+    mjcf = Path(__file__).resolve().parents[1] / "fixtures" / "mjcf" / "three_link.xml"
+    robot = load_robot(mjcf)
+    chi, gains = _identified_like(robot, seed=5)
+    named = dict(zip(robot.standard_names, chi))
+    named["m_2"] *= 1.1  # an identified body differs from the file's
+    chi = np.array([named[n] for n in robot.standard_names])
+    text, _ = identified_mjcf(robot, chi, gains)
+    q, qd, qdd = robot.random_states(30, seed=6)
+    ref = _model_torques(robot, chi, q, qd, qdd)
+    got = _mujoco_torques(text, list(robot.joint_names), q, qd, qdd)
+    assert np.all(_rms_error(ref, got) < RTOL)
+    assert mujoco.MjModel.from_xml_string(text).body("link2").mass[0] == pytest.approx(2.75)
