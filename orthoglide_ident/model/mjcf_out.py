@@ -31,6 +31,10 @@ import numpy as np
 from orthoglide_ident.errors import ConfigError
 from orthoglide_ident.model.xacro_files import with_absolute_meshes
 
+# s, the friction-loss constraint's time constant: the identified Coulomb law fs·sign(q̇) turns
+# within ~0.01 rad/s (MuJoCo's default 0.02 s spreads it over ~0.15 rad/s on an exciting motion;
+# MuJoCo keeps it at least two time steps)
+FRICTION_TIMECONST = 2.0e-3
 MESH_FORMATS = (".stl", ".obj", ".msh")  # what MuJoCo reads (not .dae)
 MJCF_COMPILER = ('<mujoco><compiler balanceinertia="false" inertiafromgeom="false" '
                  'fusestatic="false" discardvisual="false" autolimits="true"/></mujoco>')
@@ -89,6 +93,7 @@ def _set_joint(joint, ia: float, fv: float, fs: float) -> None:
     joint.armature = ia
     joint.damping = [fv] + [0.0] * (len(joint.damping) - 1)
     joint.frictionloss = fs
+    joint.solref_friction = [FRICTION_TIMECONST, 1.0]
 
 
 def _drives(robot, chi_st: np.ndarray) -> list[dict[str, float]]:
@@ -211,6 +216,7 @@ def identified_spec(robot, chi_st: np.ndarray, gains: Sequence[float]):
             continue
         tendon = spec.add_tendon(name=f"{names[a]}_drive")
         tendon.armature, tendon.frictionloss = d["ia"], d["fs"]
+        tendon.solref_friction = [FRICTION_TIMECONST, 1.0]
         tendon.damping = [d["fv"]] + [0.0] * (len(tendon.damping) - 1)
         for c in cols:
             tendon.wrap_joint(joints[c], float(N[a, c]))

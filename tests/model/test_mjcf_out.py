@@ -82,6 +82,8 @@ def test_ur5_mjcf_reproduces_the_model(tmp_path):
         assert m.dof_armature[jnt.dofadr[0]] == pytest.approx(named[f"ia_{label}"], rel=1e-5)
         assert m.dof_damping[jnt.dofadr[0]] == pytest.approx(named[f"fv_{label}"], rel=1e-5)
         assert m.dof_frictionloss[jnt.dofadr[0]] == pytest.approx(named[f"fs_{label}"], rel=1e-5)
+        # a stiff friction loss: Coulomb's law turns within ~0.01 rad/s, not MuJoCo's 0.15
+        assert m.dof_solref[jnt.dofadr[0]].tolist() == pytest.approx([2e-3, 1.0])
         assert act.ctrlrange.tolist() == [-doc["excitation"]["current_limits"][a],
                                           doc["excitation"]["current_limits"][a]]
     q, qd, qdd = robot.random_states(40, seed=1)
