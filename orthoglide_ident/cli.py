@@ -288,8 +288,9 @@ def _main(args: argparse.Namespace) -> int:
         return args.excite_handler(args)  # excite run: the robot from its file, over ROS 2
     if args.command == "identify" and args.service:
         if args.consistent or args.urdf_out or args.mjcf_out:
-            raise ConfigError("--consistent, --urdf-out and --mjcf-out are for identifying from bags here; "
-                              "for the node, set its parameter consistent (the consistent set is "
+            raise ConfigError("--consistent, --urdf-out and --mjcf-out are for identifying from "
+                              "bags here; for the node, set its parameter consistent (the "
+                              "consistent set is "
                               "latched on orthoglide/identified_parameters/consistent)")
         ros_client.identify_service(args)
         return EXIT_OK
