@@ -37,8 +37,11 @@ from typing import Sequence
 
 from orthoglide_ident import import_command, ros_client
 from orthoglide_ident.errors import ConfigError, OrthoglideError
+from orthoglide_ident.flags import prepare_outputs
+from orthoglide_ident.progress import set_quiet
 from orthoglide_ident.identify.solve.methods import DEFAULT_METHOD, METHODS
-from orthoglide_ident.model.robots import bundled_robots
+from orthoglide_ident.model.robots import (add_description_options, bundled_robots,
+                                           load_robot_from_args)
 
 PROG = "orthoglide-ident"
 EXIT_OK, EXIT_BUG, EXIT_BAD_INPUT, EXIT_INTERRUPTED, EXIT_BROKEN_PIPE = 0, 1, 2, 130, 141
@@ -82,9 +85,10 @@ def parse_gains(text: str, joints: Sequence[str]) -> list[float]:
 
 def _add_robot_option(p: argparse.ArgumentParser) -> None:
     p.add_argument("--robot", metavar="FILE", default="",
-                   help="the robot: a URDF, a robot YAML (docs/guide/robot_files.md) or a bundled "
-                        f"robot ({', '.join(bundled_robots())}); default "
-                        "the Orthoglide (the paper's closed form)")
+                   help="the robot: a URDF, a .urdf.xacro, an MJCF .xml, a robot YAML "
+                        f"(docs/guide/robot_files.md) or a bundled robot ({', '.join(bundled_robots())})"
+                        "; default the Orthoglide (the paper's closed form)")
+    add_description_options(p)
 
 
 def _add_identify_options(p: argparse.ArgumentParser) -> None:
@@ -126,6 +130,11 @@ def _add_identify_options(p: argparse.ArgumentParser) -> None:
                    help="write the identified model as a URDF (consistent inertials, friction "
                         "in <dynamics>, rotor inertia and gains in comments) that Pinocchio and "
                         "MuJoCo load; implies --consistent")
+    p.add_argument("--mjcf-out", metavar="FILE",
+                   help="write the identified robot as an MJCF for MuJoCo (consistent inertials; "
+                        "joint armature = rotor inertia, damping = viscous, frictionloss = "
+                        "Coulomb friction; a motor actuator per actuator, control in A, gear = "
+                        "drive gain); implies --consistent")
     p.add_argument("--json", metavar="FILE", help="write the result as JSON (docs/design/interfaces.md) to FILE "
                    "(strict JSON: a number that is missing is null; drive_gains[i].determined, "
                    "reason)")
@@ -199,20 +208,23 @@ def _setup_logging(quiet: bool) -> None:
     log.addHandler(h)
     log.setLevel(logging.WARNING if quiet else logging.INFO)
     log.propagate = False
+    set_quiet(quiet)  # and no progress line (progress.py)
 
 
 def _run_identify(args: argparse.Namespace):
     from orthoglide_ident.identify.options import IdentifyOptions
     from orthoglide_ident.identify.pipeline import identify
-    from orthoglide_ident.model.robots import load_robot
-
-    robot = load_robot(args.robot)
+    robot = load_robot_from_args(args)
     opts = IdentifyOptions.from_yaml(args.config) if args.config else IdentifyOptions()
     if args.r_sigma is not None:
         if not args.r_sigma > 1:
             raise ConfigError(f"--r-sigma must be > 1 (the paper uses 10), not {args.r_sigma}")
         opts = opts.replace(r_sigma=args.r_sigma)
-    if args.consistent or args.urdf_out:
+    if args.consistent or args.urdf_out or args.mjcf_out:
+        if args.mjcf_out and not args.consistent:
+            logging.getLogger("orthoglide_ident").info(
+                "--mjcf-out: running the consistency step (MuJoCo needs physically consistent "
+                "inertials)")
         opts = opts.replace(consistent=True)
     if getattr(args, "payload_known", None):
         opts = opts.replace(payload_known=args.payload_known)
@@ -243,12 +255,10 @@ def _write_json(path: str, doc: dict) -> None:
         raise ConfigError(f"cannot write {path}: {exc.strerror or exc}") from None
 
 
-def _write_urdf(path: str, res, robot_spec: str) -> None:
+def _write_urdf(path: str, res, args: argparse.Namespace) -> None:
     """The consistent identified model as a URDF (RobotModel.identified_urdf)."""
-    from orthoglide_ident.model.robots import load_robot
-
-    text = load_robot(robot_spec).identified_urdf(res.consistency.answer.chi_st,
-                                                  [g.value for g in res.drive_gains])
+    text = load_robot_from_args(args).identified_urdf(res.consistency.answer.chi_st,
+                                                      [g.value for g in res.drive_gains])
     try:
         Path(path).write_text(text)
     except OSError as exc:
@@ -256,7 +266,18 @@ def _write_urdf(path: str, res, robot_spec: str) -> None:
     logging.getLogger("orthoglide_ident").info("wrote %s", path)
 
 
+def _write_mjcf(path: str, res, args: argparse.Namespace) -> None:
+    """The consistent identified robot as an MJCF (model/mjcf_out.py)."""
+    from orthoglide_ident.model.mjcf_out import write_mjcf
+
+    notes = write_mjcf(path, load_robot_from_args(args), res.consistency.answer.chi_st,
+                       [g.value for g in res.drive_gains])
+    log = logging.getLogger("orthoglide_ident")
+    log.info("wrote %s (the consistent parameters)%s", path, "".join(f"; {n}" for n in notes))
+
+
 def _main(args: argparse.Namespace) -> int:
+    prepare_outputs(args)  # a bad --out now, not after the work
     if args.command == "record":
         return ros_client.record(args)
     if args.command == "watch":
@@ -266,9 +287,10 @@ def _main(args: argparse.Namespace) -> int:
     if args.command == "excite" and getattr(args, "excite_handler", None):
         return args.excite_handler(args)  # excite run: the robot from its file, over ROS 2
     if args.command == "identify" and args.service:
-        if args.consistent or args.urdf_out:
-            raise ConfigError("--consistent and --urdf-out are for identifying from bags here; "
-                              "for the node, set its parameter consistent (the consistent set is "
+        if args.consistent or args.urdf_out or args.mjcf_out:
+            raise ConfigError("--consistent, --urdf-out and --mjcf-out are for identifying from "
+                              "bags here; for the node, set its parameter consistent (the "
+                              "consistent set is "
                               "latched on orthoglide/identified_parameters/consistent)")
         ros_client.identify_service(args)
         return EXIT_OK
@@ -296,7 +318,9 @@ def _main(args: argparse.Namespace) -> int:
         if args.json:
             _write_json(args.json, res.to_json())
         if args.urdf_out:
-            _write_urdf(args.urdf_out, res, args.robot)
+            _write_urdf(args.urdf_out, res, args)
+        if args.mjcf_out:
+            _write_mjcf(args.mjcf_out, res, args)
         return EXIT_OK
     if args.command == "info":
         from orthoglide_ident import bags
@@ -312,15 +336,12 @@ def _main(args: argparse.Namespace) -> int:
         return EXIT_OK
     if args.command == "excite":
         from orthoglide_ident.excite.cli import run_excite
-        from orthoglide_ident.model.robots import load_robot
 
         _setup_logging(False)
-        return run_excite(args, load_robot(args.robot))
+        return run_excite(args, load_robot_from_args(args))
     if args.command == "model":
         _setup_logging(True)
-        from orthoglide_ident.model.robots import load_robot
-
-        bm = load_robot(args.robot)
+        bm = load_robot_from_args(args)
         print(bm.table())
         if args.json:
             _write_json(args.json, bm.to_json())

@@ -69,14 +69,16 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--condition", choices=("unloaded", "loaded"), help="the tag (default unloaded)")
     p.add_argument("--payload-mass", type=float, metavar="KG", help="the weighed payload (loaded)")
     p.add_argument("--payload-frame", metavar="LINK", help="the link the payload is fixed to")
-    p.add_argument("--payload-com", metavar="'X Y Z'", help="its centre of mass in that frame, m")
-    p.add_argument("--payload-inertia", metavar="'IXX IXY IXZ IYY IYZ IZZ'",
-                   help="its inertia about the centre of mass, kg·m²")
+    p.add_argument("--payload-com", metavar="X,Y,Z",
+                   help="its centre of mass in that frame, m (or 'X Y Z')")
+    p.add_argument("--payload-inertia", metavar="IXX,IXY,IXZ,IYY,IYZ,IZZ",
+                   help="its inertia about the centre of mass, kg·m² (or space-separated)")
 
 
 def run(args: argparse.Namespace) -> int:
     """Import; print what was written (stdout). Errors propagate as OrthoglideError."""
     from orthoglide_ident.bags.csv_import import ColumnMap, import_csv
+    from orthoglide_ident.flags import parse_vector
 
     cmap = ColumnMap.from_yaml(args.map) if args.map else ColumnMap()
     flags = {k: getattr(args, k) for k in (
@@ -84,6 +86,9 @@ def run(args: argparse.Namespace) -> int:
         "angle_unit", "delimiter", "condition", "payload_mass", "payload_frame", "payload_com",
         "payload_inertia")}
     given = {k: v for k, v in flags.items() if v is not None}
+    for key, n in (("payload_com", 3), ("payload_inertia", 6)):
+        if key in given:  # the flag named in its error
+            given[key] = parse_vector(given[key], n, "--" + key.replace("_", "-"))
     if given:
         cmap = cmap.with_source(f"{args.map} and the flags" if args.map else "the flags"
                                 ).with_values(**given)

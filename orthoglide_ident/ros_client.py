@@ -14,7 +14,6 @@ The same services and topics as `ros2 service call` / `ros2 topic echo` (names r
 from __future__ import annotations
 
 import argparse
-import math
 import time
 from typing import Any
 
@@ -135,13 +134,9 @@ def record(args: argparse.Namespace) -> int:
 
 
 def _numbers(text: str, n: int, option: str) -> list[float]:
-    try:
-        vals = [float(x) for x in text.replace(" ", ",").split(",") if x]
-    except ValueError:
-        vals = []
-    if len(vals) != n or not all(math.isfinite(v) for v in vals):
-        raise ServiceError(f"{option} needs {n} numbers separated by commas, not {text!r}")
-    return vals
+    from orthoglide_ident.flags import parse_vector  # the one grammar of vector flags
+
+    return list(parse_vector(text, n, option))
 
 
 def set_payload_shape(c: Client, args: argparse.Namespace) -> None:

@@ -34,7 +34,7 @@ import lzma
 import math
 import re
 import warnings
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
 from typing import IO, Any
@@ -42,6 +42,8 @@ from typing import IO, Any
 import numpy as np
 
 from orthoglide_ident.errors import ConfigError, DataError
+from orthoglide_ident.flags import parse_vector
+from orthoglide_ident.progress import ProgressLine, shown
 from orthoglide_ident.yaml_files import load_yaml
 
 TIME_UNITS = {"s": 10**9, "ms": 10**6, "us": 10**3, "ns": 1}  # ns per unit
@@ -109,10 +111,9 @@ class ColumnMap:
             for role in _ROLES:
                 if role in v:
                     v[role] = _columns(v[role])
-            for k in ("payload_com", "payload_inertia"):
+            for k, n in (("payload_com", 3), ("payload_inertia", 6)):
                 if k in v:
-                    v[k] = tuple(float(x) for x in (v[k].split() if isinstance(v[k], str)
-                                                     else v[k]))
+                    v[k] = parse_vector(v[k], n, f"{self.source}: {k}")
             if "payload_mass" in v:
                 v["payload_mass"] = float(v["payload_mass"])
             for k in ("time", "time_unit", "effort_unit", "angle_unit", "delimiter",
@@ -198,6 +199,31 @@ def _open(path: Path) -> IO[str]:
     """The file as text: plain, or compressed by its suffix (.gz, .xz); BOMs dropped."""
     opener = {".gz": gzip.open, ".xz": lzma.open}.get(path.suffix, open)
     return opener(path, "rt", encoding="utf-8-sig", newline="")  # type: ignore[operator]
+
+
+def _raw_position(f: IO[str]):
+    """A function giving how many bytes of the file on disk ``f`` has read (compressed files:
+    of the compressed stream), or None where the opener does not tell."""
+    buffer = getattr(f, "buffer", None)
+    raw = getattr(buffer, "fileobj", None) or getattr(buffer, "_fp", None) or \
+        getattr(buffer, "raw", None)
+    return getattr(raw, "tell", None)
+
+
+def _with_progress(f: IO[str], path: Path, every: int = 4096) -> Iterable[str]:
+    """``f``'s lines; on a terminal a progress line by the bytes read (progress.py)."""
+    position = _raw_position(f)
+    if not shown() or position is None:
+        return f
+
+    def lines() -> Iterator[str]:
+        size = max(1, path.stat().st_size)
+        with ProgressLine(f"reading {path.name}", size / 1e6, "MB") as line:
+            for k, text in enumerate(f):
+                if k % every == 0:
+                    line.update(position() / 1e6)
+                yield text
+    return lines()
 
 
 def _is_data(line: str) -> bool:
@@ -301,8 +327,8 @@ def read_csv(path: str | Path, cmap: ColumnMap) -> CsvRecord:
             warnings.simplefilter("ignore", UserWarning)  # "no data": said below, in one line
             for _ in range(header_line):
                 f.readline()
-            data = np.loadtxt(f, delimiter=delim, usecols=usecols, dtype=dtype, comments="#",
-                              quotechar='"', ndmin=1)
+            data = np.loadtxt(_with_progress(f, path), delimiter=delim, usecols=usecols,
+                              dtype=dtype, comments="#", quotechar='"', ndmin=1)
         # every row as wide as the header (loadtxt reads only usecols); with spaces as the
         # delimiter a row wider than the header goes unnoticed
         width_ok = delim is None or _count(path, header_line, delim) == len(data) * (

@@ -17,6 +17,7 @@ import numpy as np
 import yaml
 
 from orthoglide_ident.errors import BagError, DataError
+from orthoglide_ident.progress import ProgressLine
 
 from ._encode import encode_dynamic_joint_states, encode_joint_states, encode_messages
 from ._mcapfile import McapFile
@@ -427,11 +428,14 @@ def _source_tags(layout: str) -> dict[str, str]:
 
 def _write_blocks(w: BagWriter, topics: list[tuple[int, Callable[[slice, np.ndarray], np.ndarray]]],
                   stamps: np.ndarray) -> None:
-    """Every tick of ``topics`` (channel, encoder of a tick block), encoded _BLOCK ticks at a time."""
-    for i in range(0, len(stamps), _BLOCK):
-        k = slice(i, i + _BLOCK)
-        rows = tuple(encode(k, stamps[k]) for _, encode in topics)
-        _write_ticks(w, tuple(c for c, _ in topics), rows, stamps[k])
+    """Every tick of ``topics`` (channel, encoder of a tick block), encoded _BLOCK ticks at a time;
+    a progress line on a terminal (progress.py)."""
+    with ProgressLine("writing the bag", len(stamps), "ticks") as line:
+        for i in range(0, len(stamps), _BLOCK):
+            k = slice(i, i + _BLOCK)
+            rows = tuple(encode(k, stamps[k]) for _, encode in topics)
+            _write_ticks(w, tuple(c for c, _ in topics), rows, stamps[k])
+            line.update(min(i + _BLOCK, len(stamps)))
 
 
 def _orthoglide_topics(w: BagWriter, names: tuple[str, ...], q: np.ndarray, v_tau: np.ndarray

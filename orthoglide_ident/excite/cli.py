@@ -21,19 +21,15 @@ import numpy as np
 
 from orthoglide_ident.errors import ConfigError
 from orthoglide_ident.excite.limits import COLLISION_MODES  # not collision.py: Pinocchio
+from orthoglide_ident.flags import parse_vector
 from orthoglide_ident.model.robot import RobotModel
+from orthoglide_ident.model.robots import add_description_options
 
 _log = logging.getLogger("orthoglide_ident")
 
 
 def _floats(text: str, n: int | None, what: str) -> list[float]:
-    try:
-        vals = [float(x) for x in str(text).split(",")]
-    except ValueError:
-        raise ConfigError(f"{what}: expected numbers separated by commas, not {text!r}") from None
-    if (n is not None and len(vals) != n) or not all(map(math.isfinite, vals)):
-        raise ConfigError(f"{what}: expected {n} finite numbers, got {text!r}")
-    return vals
+    return list(parse_vector(text, n, what))  # the one grammar of vector flags (flags.py)
 
 
 def _add_robot_options(p: argparse.ArgumentParser) -> None:
@@ -48,8 +44,9 @@ def _add_robot_options(p: argparse.ArgumentParser) -> None:
                    help="self-collision bodies: the URDF's <collision> elements and the robot "
                         "file's primitives (mesh, default), the primitives only, or skip the check")
     p.add_argument("--package-dir", action="append", default=[], metavar="DIR",
-                   help="where package:// collision meshes are found (repeatable; "
-                        "ROS_PACKAGE_PATH is searched too)")
+                   help="where package:// collision meshes and a xacro's $(find pkg) are found "
+                        "(repeatable; ROS_PACKAGE_PATH and the ament index are searched too)")
+    add_description_options(p, package_dir=False)
 
 
 def _add_design(p: argparse.ArgumentParser) -> None:
@@ -89,12 +86,20 @@ def _add_check(p: argparse.ArgumentParser) -> None:
     _add_robot_options(p)
 
 
-def _load(args: argparse.Namespace, robot: RobotModel):
-    """The robot's limits and collision model (the robot itself is resolved by the CLI's edge)."""
+def _load(args: argparse.Namespace, robot: RobotModel, traj=None):
+    """The robot's limits and collision model (the robot itself is resolved by the CLI's edge):
+    a trajectory's own recorded limits (``limits.joints``, what it was designed for) unless
+    ``--joint-limits`` gives others."""
     from orthoglide_ident.excite.collision import CollisionModel
-    from orthoglide_ident.excite.limits import read_limits
+    from orthoglide_ident.excite.limits import JointLimits, read_limits
 
-    limits = read_limits(robot, args.joint_limits)
+    recorded = (traj.extra.get("limits") or {}) if traj is not None else {}
+    if recorded.get("joints") and not args.joint_limits:
+        limits = JointLimits.from_dict(recorded, tuple(robot.joint_names), args.trajectory)
+        _log.info("limits: those recorded in %s (--joint-limits FILE to check against others)",
+                  args.trajectory)
+    else:
+        limits = read_limits(robot, args.joint_limits)
     return limits, CollisionModel(robot, args.collision, args.package_dir)
 
 
@@ -178,12 +183,13 @@ def _design(args: argparse.Namespace, robot: RobotModel) -> int:
 
 
 def _check(args: argparse.Namespace, robot: RobotModel) -> int:
-    from orthoglide_ident.excite.check import check_trajectory
+    from orthoglide_ident.excite.check import check_trajectory, verify_robot
     from orthoglide_ident.excite.constraints import Margins
     from orthoglide_ident.excite.trajectory import load_trajectory
 
     traj = load_trajectory(args.trajectory)
-    limits, collision = _load(args, robot)
+    verify_robot(traj, robot, args.trajectory)  # its recorded limits are per joint of its robot
+    limits, collision = _load(args, robot, traj)
     margins = Margins.from_dict((traj.extra.get("margins") or {}).get("required"), args.trajectory)
     report = check_trajectory(traj, robot, limits, collision, margins, where=args.trajectory)
     print(f"{args.trajectory}: robot {robot.name}, {len(traj.runs)} runs of {traj.duration:g} s, "

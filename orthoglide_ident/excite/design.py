@@ -43,6 +43,7 @@ from orthoglide_ident.excite.trajectory import (ExcitationRun, ExcitationTraject
                                                 rest_projection)
 from orthoglide_ident.identify.columns.current_lag import MIN_PERIODS
 from orthoglide_ident.model.robot import Payload
+from orthoglide_ident.progress import ProgressLine, duration_text
 
 _log = logging.getLogger("orthoglide_ident")
 
@@ -239,15 +240,25 @@ def static_payload_check(robot, limits: JointLimits, margins: Margins, P: np.nda
                           "lighter payload")
 
 
-def _random_start(problem: Problem, rng: np.random.Generator) -> tuple[np.ndarray, Evaluation]:
+def _random_start(problem: Problem, rng: np.random.Generator
+                  ) -> tuple[np.ndarray, Evaluation, int]:
+    """(x, its evaluation, the evaluations it took)."""
     x = np.concatenate([rng.normal(size=problem.size - 2), [_logit(ALPHA_START)] * 2])
-    ev = problem.evaluate(x)
+    ev, n = problem.evaluate(x), 1
     for _ in range(10):
         if ev.violation == 0:
             break
         x = problem.with_alpha(problem.with_alpha(x, 0, ALPHA_SHRINK), 1, ALPHA_SHRINK)
-        ev = problem.evaluate(x)
-    return x, ev
+        ev, n = problem.evaluate(x), n + 1
+    return x, ev, n
+
+
+def _expected(opt: DesignOptions, seconds: float, evals: int) -> str:
+    """The search's expected duration from its first random shape (``evals`` evaluations in
+    ``seconds``): the same per shape for every shape, then one evaluation per step."""
+    total = seconds * opt.restarts + seconds / evals * opt.steps
+    return (f"expected duration ~{duration_text(total)} ({opt.restarts} random shapes, "
+            f"{opt.steps} steps, {1e3 * seconds / evals:.0f} ms per evaluation)")
 
 
 def search(problem: Problem, progress: Callable[[str], None] | None = None
@@ -255,10 +266,20 @@ def search(problem: Problem, progress: Callable[[str], None] | None = None
     """The best x found (module docstring), its evaluation and the feasible random starts'."""
     opt = problem.opt
     rng = np.random.default_rng(opt.seed)
-    say = progress or (lambda _: None)
-    best_x, best, randoms = None, None, []
+    line = ProgressLine("designing", opt.restarts + opt.steps, "evaluations")
+    said = progress or (lambda _: None)
+
+    def say(text: str) -> None:  # a message on a line of its own, the progress line after it
+        line.close()
+        said(text)
+
+    best_x, best, randoms, evals, t0 = None, None, [], 0, time.perf_counter()
     for r in range(opt.restarts):
-        x, ev = _random_start(problem, rng)
+        x, ev, n = _random_start(problem, rng)
+        evals += n
+        if r == 0:
+            say(_expected(opt, time.perf_counter() - t0, n))
+        line.update(evals, evals / (r + 1) * opt.restarts + opt.steps)
         if ev.violation == 0 and math.isfinite(ev.criterion):
             randoms.append(ev)
         if best is None or ev.score < best.score:
@@ -274,8 +295,10 @@ def search(problem: Problem, progress: Callable[[str], None] | None = None
             best_x, best, step = y, ev, step * 1.5
         else:
             step *= 0.9
+        line.update(evals + k + 1)
         if (k + 1) % max(1, opt.steps // 8) == 0:
             say(f"step {k + 1}/{opt.steps}: {_describe(best)}")
+    line.close()
     return best_x, best, randoms
 
 

@@ -99,12 +99,13 @@ class PinocchioRobot(NamedByParameters, RobotModel):
     """A robot described by a URDF/MJCF (and loops): see the module docstring."""
 
     @classmethod
-    def from_description(cls, data: dict[str, Any], base_dir: Path,
-                         where: str | None = None) -> "PinocchioRobot":
+    def from_description(cls, data: dict[str, Any], base_dir: Path, where: str | None = None,
+                         package_dirs: Sequence[str | Path] = ()) -> "PinocchioRobot":
         """The model a robot YAML's mapping describes (``description`` relative to base_dir);
-        ``where`` names the file in its errors (default: the robot's name or description)."""
+        ``where`` names the file in its errors (default: the robot's name or description);
+        ``package_dirs``: where a xacro description's packages are found."""
         where = where or f"robot {data.get('name') or data.get('description')}"
-        desc = read_description(data, Path(base_dir), where)
+        desc = read_description(data, Path(base_dir), where, package_dirs)
         return cls(desc, where=where)
 
     def __init__(self, desc: RobotDescription, seed: int = 0, where: str | None = None):

@@ -9,16 +9,18 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, Sequence
 
 from orthoglide_ident.errors import ConfigError
 from orthoglide_ident.model.loop_constraints import LOOP_KINDS, Loop
 from orthoglide_ident.model.robot import DEFAULT_GRAVITY
+from orthoglide_ident.model.xacro_files import expanded_file, is_xacro
 
 
 KEYS = ("name", "model", "description", "actuated_joints", "nominal_gains", "payload_frame",
         "gravity", "loops", "reference_configuration", "passive_friction", "column_order",
-        "body_labels", "fixed_bodies", "excitation", "transmission", "locked_joints")
+        "body_labels", "fixed_bodies", "excitation", "transmission", "locked_joints",
+        "xacro_args")
 
 
 @dataclass(frozen=True)
@@ -106,10 +108,27 @@ def _column_order(where: str, value: Any) -> tuple[tuple[str, ...], ...]:
     return tuple(tuple(str(x) for x in g) if isinstance(g, list) else (str(g),) for g in value)
 
 
-def read_description(data: dict[str, Any], base_dir: Path,
-                     where: str = "robot file") -> RobotDescription:
+def _expanded(where: str, path: Path, args: Any,
+              package_dirs: Sequence[str | Path]) -> tuple[Path, str]:
+    """(the cached URDF, the robot's name) of a xacro description (model/xacro_files.py)."""
+    if not is_xacro(path):
+        raise _fail(where, "xacro_args", f"given for {path.name}, which is not a .xacro")
+    args = _mapping(where, "xacro_args", {} if args is None else args)
+    name = path.name[:-len(".xacro")].removesuffix(".urdf")
+    return expanded_file(path, {str(k): _xacro_value(v) for k, v in args.items()},
+                         package_dirs), name
+
+
+def _xacro_value(value: Any) -> str:
+    """A YAML scalar as xacro's command line would give it (true -> "true")."""
+    return str(value).lower() if isinstance(value, bool) else str(value)
+
+
+def read_description(data: dict[str, Any], base_dir: Path, where: str = "robot file",
+                     package_dirs: Sequence[str | Path] = ()) -> RobotDescription:
     """A :class:`RobotDescription` from a robot YAML's mapping; ``description`` is relative to
-    ``base_dir`` (the YAML's folder)."""
+    ``base_dir`` (the YAML's folder); a xacro one is expanded with ``xacro_args``, its packages
+    found through ``package_dirs`` (model/xacro_files.py)."""
     unknown = sorted(set(data) - set(KEYS))
     if unknown:
         raise ConfigError(f"{where}: unknown keys {unknown} (known: {', '.join(KEYS)})")
@@ -117,6 +136,9 @@ def read_description(data: dict[str, Any], base_dir: Path,
         raise _fail(where, "description", "the URDF or MJCF file of the robot is missing")
     path = (base_dir / data["description"]).resolve()
     kw: dict[str, Any] = {"path": path, "name": str(data.get("name") or path.stem)}
+    if is_xacro(path) or "xacro_args" in data:
+        kw["path"], name = _expanded(where, path, data.get("xacro_args"), package_dirs)
+        kw["name"] = str(data.get("name") or name)
     if "actuated_joints" in data:
         kw["actuated_joints"] = _names(where, "actuated_joints", data["actuated_joints"])
     if "nominal_gains" in data:

@@ -4,7 +4,11 @@
   ``--robot``;
 - a bundled name (a file ``orthoglide_ident/robots/<name>.yaml``, e.g. ``ur5e``, ``five_bar``);
 - a URDF (``.urdf``): every movable joint actuated, the manufacturer's gains 1 per unit;
-- a robot YAML (``.yaml``/``.yml``, docs/design/architecture.md "Robot files"): ``model: orthoglide`` or
+- a xacro (``.urdf.xacro``, ``.xacro``): expanded in-process with its arguments, then as a URDF
+  (model/xacro_files.py);
+- an MJCF (``.xml``): as a URDF, its joints' armature, damping and frictionloss the nominal
+  ia, fv, fs;
+- a robot YAML (``.yaml``/``.yml``, docs/guide/robot_files.md): ``model: orthoglide`` or
   ``model: pinocchio`` with the description (URDF or MJCF), actuated joints, loop closures,
   nominal gains and payload frame.
 
@@ -15,10 +19,11 @@ from __future__ import annotations
 
 import functools
 from pathlib import Path
-from typing import Any
+from typing import Any, Mapping, Sequence
 
 from orthoglide_ident.errors import ConfigError
 from orthoglide_ident.model.robot import RobotModel
+from orthoglide_ident.model.xacro_files import is_xacro, parse_xacro_args
 from orthoglide_ident.yaml_files import load_yaml
 
 ROBOTS_DIR = Path(__file__).resolve().parent.parent / "robots"  # bundled descriptions
@@ -54,30 +59,66 @@ def read_yaml(path: Path) -> dict[str, Any]:
     return data
 
 
-def load_robot(spec: str | Path | None = None) -> RobotModel:
-    """The RobotModel of ``spec`` (see the module docstring); computed once per file."""
+def load_robot(spec: str | Path | None = None, xacro_args: Mapping[str, str] | None = None,
+               package_dirs: Sequence[str | Path] = ()) -> RobotModel:
+    """The RobotModel of ``spec`` (see the module docstring); computed once per file and
+    arguments. ``xacro_args`` (``--xacro-arg``) override a robot file's ``xacro_args``;
+    ``package_dirs`` (``--package-dir``) are searched for a xacro's packages first."""
     path = resolve(spec)
-    return _load(str(path) if path else "")
+    args = tuple(sorted((str(k), str(v)) for k, v in (xacro_args or {}).items()))
+    dirs = tuple(str(Path(d).expanduser().resolve()) for d in package_dirs)
+    return _load(str(path) if path else "", args, dirs)
+
+
+def add_description_options(p, package_dir: bool = True) -> None:
+    """``--xacro-arg`` and ``--package-dir`` of a command that takes ``--robot``."""
+    p.add_argument("--xacro-arg", action="append", default=[], metavar="NAME:=VALUE",
+                   help="an argument of a .xacro robot description (repeatable; overrides the "
+                        "robot file's xacro_args)")
+    if package_dir:
+        p.add_argument("--package-dir", action="append", default=[], metavar="DIR",
+                       help="where $(find pkg) and package:// packages are found: the package "
+                            "folder or one holding it (repeatable; before ROS_PACKAGE_PATH and "
+                            "the ament index)")
+
+
+def load_robot_from_args(args, spec: str | Path | None = None) -> RobotModel:
+    """load_robot of a command's ``--robot`` (or ``spec``), ``--xacro-arg``, ``--package-dir``."""
+    items = getattr(args, "xacro_arg", None) or []
+    return load_robot(spec if spec is not None else args.robot, parse_xacro_args(items),
+                      getattr(args, "package_dir", None) or ())
 
 
 @functools.lru_cache(maxsize=8)
-def _load(path: str) -> RobotModel:
+def _load(path: str, xacro_args: tuple = (), package_dirs: tuple = ()) -> RobotModel:
     if not path:
+        if xacro_args:
+            raise ConfigError("--xacro-arg is for a .xacro robot description (--robot)")
         from orthoglide_ident.model.orthoglide.base import base_model
 
         return base_model()
     p = Path(path)
-    if p.suffix.lower() == ".urdf":
-        return _pinocchio({"description": p.name}, p.parent)
-    if p.suffix.lower() not in (".yaml", ".yml"):
-        raise ConfigError(f"robot file {p}: expected a .urdf or a robot .yaml")
-    data = read_yaml(p)
+    data: dict[str, Any] = {"description": p.name}
+    if is_xacro(p):
+        data["xacro_args"] = dict(xacro_args)
+    elif p.suffix.lower() in (".urdf", ".xml"):
+        if xacro_args:
+            raise ConfigError(f"--xacro-arg is for a .xacro robot description, not {p}")
+        data.update(_mjcf_gravity(p) if p.suffix.lower() == ".xml" else {})
+    elif p.suffix.lower() in (".yaml", ".yml"):
+        data = read_yaml(p)
+        if xacro_args:
+            data["xacro_args"] = {**(data.get("xacro_args") or {}), **dict(xacro_args)}
+    else:
+        raise ConfigError(f"robot file {p}: expected a .urdf, a .urdf.xacro, an MJCF .xml or a "
+                          "robot .yaml")
     kind = str(data.get("model", "pinocchio"))
     if kind == "orthoglide":
         return _orthoglide(data, p)
     if kind != "pinocchio":
         raise ConfigError(f"robot file {p}: model {kind!r} is not orthoglide or pinocchio")
-    return _pinocchio(data, p.parent, f"robot file {p}")
+    where = f"robot file {p}" if p.suffix.lower() in (".yaml", ".yml") else None
+    return _pinocchio(data, p.parent, where, package_dirs)
 
 
 ORTHOGLIDE_KEYS = ("name", "model", "geometry", "nominal_gains")
@@ -109,14 +150,41 @@ def _orthoglide(data: dict[str, Any], path: Path) -> RobotModel:
     return base_model(geometry, gains)
 
 
-def _pinocchio(data: dict[str, Any], base_dir: Path, where: str | None = None) -> RobotModel:
+def _pinocchio(data: dict[str, Any], base_dir: Path, where: str | None = None,
+               package_dirs: Sequence[str] = ()) -> RobotModel:
     """The general model of a robot YAML's mapping (``where``: the file named in its errors)."""
     try:
         from orthoglide_ident.model.pinocchio_model import PinocchioRobot
     except ImportError as exc:  # the general model lands in its own step
         raise ConfigError(f"the general (Pinocchio) robot model is not available: {exc}") from None
-    robot = PinocchioRobot.from_description(data, base_dir, where)
+    robot = PinocchioRobot.from_description(data, base_dir, where, package_dirs)
+    if robot.description.path.suffix.lower() == ".xml":
+        _say_mjcf_nominals(robot)
     return _with_transmission(robot, where or f"robot {robot.name}")
+
+
+def _mjcf_gravity(path: Path) -> dict[str, Any]:
+    """``{"gravity": [x, y, z]}`` of an MJCF's ``<option gravity>`` (none: the default)."""
+    import xml.etree.ElementTree as ET
+
+    try:
+        option = ET.parse(path).getroot().find("option")
+        text = None if option is None else option.get("gravity")
+        return {} if text is None else {"gravity": [float(x) for x in text.split()]}
+    except (ET.ParseError, OSError, ValueError):
+        return {}  # the description's own reader says what is wrong with it
+
+
+def _say_mjcf_nominals(robot) -> None:
+    """An MJCF's joint armature, damping and frictionloss are the nominal ia, fv, fs: said."""
+    import logging
+
+    terms = [f"{j.name} {robot.model.armature[j.iv]:.4g}/{j.damping:.4g}/{j.friction:.4g}"
+             for j in robot.actuated if robot.model.armature[j.iv] or j.damping or j.friction]
+    if terms:
+        logging.getLogger("orthoglide_ident").info(
+            "robot %s (MJCF): the joints' armature/damping/frictionloss taken as the nominal "
+            "ia/fv/fs: %s", robot.name, ", ".join(terms))
 
 
 def _with_transmission(robot, where: str) -> RobotModel:
