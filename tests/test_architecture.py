@@ -158,7 +158,7 @@ def test_offline_and_live_share_rooms_but_not_orchestration():
 # above ``identify.columns``, the rest of ``identify.observe`` below it).
 LAYERS = [
     ["orthoglide_ident.__init__", "orthoglide_ident.errors", "orthoglide_ident.ticks",
-     "orthoglide_ident.yaml_files"],
+     "orthoglide_ident.yaml_files", "orthoglide_ident.flags", "orthoglide_ident.progress"],
     ["orthoglide_ident.model"],
     ["orthoglide_ident.bags", "orthoglide_ident.results"],
     ["orthoglide_ident.identify.options"],
@@ -174,7 +174,8 @@ LAYERS = [
     ["orthoglide_ident.identify.__init__"],  # the identify face
     ["orthoglide_ident.report", "orthoglide_ident.control", "orthoglide_ident.excite",
      "orthoglide_ident.feedforward_schedule", "orthoglide_ident.import_command",
-     "orthoglide_ident.ros", "orthoglide_ident.ros_client"],
+     "orthoglide_ident.ros", "orthoglide_ident.ros_client",
+     "orthoglide_ident.model.mjcf_out"],  # the identified robot for MuJoCo: reads excite's limits
     ["orthoglide_ident.view"],
     ["orthoglide_ident.nodes", "orthoglide_ident.cli", "orthoglide_ident._install_ament"],
 ]

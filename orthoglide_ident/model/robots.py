@@ -23,7 +23,7 @@ from typing import Any, Mapping, Sequence
 
 from orthoglide_ident.errors import ConfigError
 from orthoglide_ident.model.robot import RobotModel
-from orthoglide_ident.model.xacro_files import is_xacro, parse_xacro_args
+from orthoglide_ident.model.xacro_files import description_cache, is_xacro, parse_xacro_args
 from orthoglide_ident.yaml_files import load_yaml
 
 ROBOTS_DIR = Path(__file__).resolve().parent.parent / "robots"  # bundled descriptions
@@ -201,14 +201,6 @@ def _with_transmission(robot, where: str) -> RobotModel:
     else:
         t = None
     return robot if t is None else ActuatorSpaceRobot(robot, t)
-
-
-def description_cache() -> Path:
-    """Where URDFs received as text are kept as files ($XDG_CACHE_HOME/orthoglide_ident)."""
-    import os
-
-    root = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
-    return Path(root) / "orthoglide_ident" / "robot_description"
 
 
 def load_robot_description(urdf: str, cache_dir: Path | None = None) -> RobotModel:

@@ -178,13 +178,18 @@ def with_absolute_meshes(urdf: str, source: Path, package_dirs: Sequence[str | P
     return ET.tostring(root, encoding="unicode")
 
 
+def description_cache() -> Path:
+    """Where robot descriptions made or received as text (an expanded xacro, the
+    ``robot_description`` topic's URDF) are kept as files ($XDG_CACHE_HOME/orthoglide_ident)."""
+    root = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
+    return Path(root) / "orthoglide_ident" / "robot_description"
+
+
 def expanded_file(path: Path, args: Mapping[str, str] | None = None,
                   package_dirs: Sequence[str | Path] = (), cache_dir: Path | None = None) -> Path:
     """The expanded URDF of ``path`` as a file ``<cache>/<name>-<sha256>.urdf`` (written once,
     whole or not at all): what the URDF readers (Pinocchio, the mimic and transmission readers,
     the collision model) open."""
-    from orthoglide_ident.model.robots import description_cache
-
     text = expand(path, args, package_dirs)
     folder = cache_dir or description_cache()
     stem = path.name[:-len(XACRO_SUFFIX)].removesuffix(".urdf")
