@@ -32,6 +32,7 @@ from orthoglide_ident.identify.options import IdentifyOptions
 from orthoglide_ident.identify.columns.payload_unknowns import (check_one_payload, unknowns_of,
                                                         used_columns, with_payload_unknowns)
 from orthoglide_ident.identify.records.record import Record, read_record, record_payload
+from orthoglide_ident.identify.records.robot_checks import check_positions, motion_warnings
 from orthoglide_ident.identify.solve.answer import Solved, min_rows
 from orthoglide_ident.identify.validate.cross_validation import ValidationResult, cross_validate
 from orthoglide_ident.model.robot import Payload
@@ -89,24 +90,23 @@ def _observe_all(records: Iterable[Record], model: IdentificationModel, opts: Id
     reports: list[dict[str, Any]] = []
     warnings: list[str] = []
     bag_names: list[str] = []
-    seen: dict[str, str] = {}  # fingerprint -> source
+    seen: dict[str, tuple[str, int]] = {}  # fingerprint -> source, first stamp
     partial = [] if partial is None else partial
     for rec in records:
         key = fingerprint(rec)
         if key in seen:  # the same data twice would count its equations twice (σ too small)
-            line = (f"{rec.source} is the same record as {seen[key]} (same stamps, positions "
-                    "and currents): counted once")
-            log.info("%s", line)
-            warnings.append(line)
+            warnings.append(_copy_line(rec, *seen[key]))
+            log.info("%s", warnings[-1])
             continue
-        seen[key] = rec.source
+        seen[key] = (rec.source, _first_stamp(rec))
         m = resolve_payload(rec, payload_mass, opts.payload_tolerance_kg)
         p = record_payload(rec, m, opts.payload_known)
         if p is not None:
             partial.append((rec.source, p))
             check_one_payload(partial)
+        check_positions(rec, model)  # degrees read as radians, another robot: refused
         bag_names.append(rec.source)
-        warnings.extend(rec.warnings)
+        warnings.extend(rec.warnings + motion_warnings(rec, model))
         obs, rep, ts = observe(rec, model, opts, m)
         add_timings(ts)
         check_moves(obs, model, opts, "bag")
@@ -119,16 +119,31 @@ def _observe_all(records: Iterable[Record], model: IdentificationModel, opts: Id
     return blocks, reports, warnings, bag_names
 
 
+def _first_stamp(rec: Record) -> int:
+    return int(min(rec.stamps_q_ns[0], rec.stamps_v_ns[0]))
+
+
 def fingerprint(rec: Record) -> str:
-    """What identifies a record's data whatever its path: a digest of its stamps, positions and
-    currents (the same bag given twice, or a copy of it) and of its tag (the same data tagged
-    with another payload is not a copy: the payload checks judge it)."""
+    """What identifies a record's data whatever its path and clock: a digest of its positions,
+    currents and stamps counted from its first one (the same bag given twice, a copy of it,
+    the same log exported again with another clock origin) and of its tag (the same data
+    tagged with another payload is not a copy: the payload checks judge it)."""
     import hashlib
 
     h = hashlib.sha256(f"{rec.condition} {rec.payload_mass!r} {rec.payload!r}".encode())
-    for a in (rec.stamps_q_ns, rec.q, rec.stamps_v_ns, rec.v_tau):
+    t0 = _first_stamp(rec)
+    for a in (np.asarray(rec.stamps_q_ns) - t0, rec.q, np.asarray(rec.stamps_v_ns) - t0,
+              rec.v_tau):
         h.update(np.ascontiguousarray(a).tobytes())
     return h.hexdigest()
+
+
+def _copy_line(rec: Record, first: str, first_t0: int) -> str:
+    """The warning of a record that holds the same data as ``first`` (counted once)."""
+    shift = (_first_stamp(rec) - first_t0) * 1e-9
+    clock = f"; its clock starts {shift:+.6g} s from that one's" if shift else ""
+    return (f"{rec.source} is the same record as {first} (the same positions and currents at "
+            f"the same steps{clock}): counted once")
 
 
 def check_moves(obs: Observations, model: IdentificationModel, opts: IdentifyOptions,
