@@ -32,9 +32,12 @@ from orthoglide_ident.identify.options import IdentifyOptions
 from orthoglide_ident.identify.columns.payload_unknowns import (check_one_payload, unknowns_of,
                                                         used_columns, with_payload_unknowns)
 from orthoglide_ident.identify.records.record import Record, read_record, record_payload
-from orthoglide_ident.identify.records.robot_checks import check_positions, motion_warnings
+from orthoglide_ident.identify.records.robot_checks import (check_positions, motion_warnings,
+                                                            robot_of)
 from orthoglide_ident.identify.solve.answer import Solved, min_rows
 from orthoglide_ident.identify.validate.cross_validation import ValidationResult, cross_validate
+from orthoglide_ident.identify.validate.joint_side import (LONGER, current_noise, joint_side_rms,
+                                                           misfit, misfit_lines)
 from orthoglide_ident.model.robot import Payload
 from orthoglide_ident.results import IdentificationResult
 
@@ -113,6 +116,7 @@ def _observe_all(records: Iterable[Record], model: IdentificationModel, opts: Id
         blocks.append(obs)
         reports.append(bag_report(rep, rec.source, rec.condition, m, obs.rows_per_joint(),
                                   rec.sources))
+        reports[-1]["_current_noise"] = _noise_by_joint(rec, model)  # popped after the solve
         del rec  # a lazily read bag's raw samples can go now
     if not blocks:
         raise IdentificationError("no bag given")
@@ -204,6 +208,7 @@ def identify_records(
     add(solved.timings)
     timings["solve"] = time.perf_counter() - t_solve - timings.get("essential", 0.0)
     result = solved.result
+    _joint_side_residual(result, blocks, solved, model, reports, opts)
 
     t_v = time.perf_counter()
     vals = _validate(validation, solved, model, opts, payload_mass)
@@ -262,6 +267,38 @@ def _lag_or_paper(model: IdentificationModel, blocks: list[Observations],
     cols = np.r_[col:col + model.n_joints]
     out = [dataclasses.replace(b, W=np.delete(b.W, cols, axis=2)) for b in blocks]
     return observation_model(model, opts.screw_lead_m, False), out
+
+
+def _noise_by_joint(rec: Record, model: IdentificationModel) -> tuple[np.ndarray, float]:
+    """(white-noise σ of the record's current per model joint, A, NaN if absent; log rate)."""
+    sigma, rate = current_noise(rec.v_tau, rec.stamps_v_ns)
+    col = {n: k for k, n in enumerate(rec.names_v)}
+    return np.array([sigma[col[n]] if n in col else np.nan for n in model.joint_names]), rate
+
+
+def _joint_side_residual(result: IdentificationResult, blocks: list[Observations],
+                         solved: Solved, model: IdentificationModel,
+                         reports: list[dict[str, Any]], opts: IdentifyOptions) -> None:
+    """Behind a transmission, the residual per joint, joint-side (Nᵀ ε), into ``result``, and
+    the motors fitted far worse than their current noise said (a reduction typed wrong)."""
+    noises = [r.pop("_current_noise") for r in reports]
+    t = getattr(robot_of(model), "transmission", None)
+    if t is None or solved.chi.shape[0] != blocks[0].W.shape[2]:
+        return
+    noise = np.sqrt(np.nanmean([n ** 2 for n, _ in noises], axis=0))
+    ratio = misfit(result.residual_rms, solved.g_tau, noise, float(np.median(
+        [r for _, r in noises])), opts.decimation_cutoff_hz)
+    lines, advice = misfit_lines(ratio, list(model.joint_names))
+    result.warnings.extend(lines)
+    if advice:  # an undetermined gain's cause is then the drive chain, not the motion
+        for g in result.drive_gains:
+            g.reason = g.reason.replace(LONGER, advice)
+        result.warnings = [w.replace(LONGER, advice) for w in result.warnings]
+    masses = [next((p.value for p in result.payloads if b.source in p.bags), b.payload_mass)
+              if result.method == "wls" else b.payload_mass for b in blocks]
+    rms, _ = joint_side_rms(blocks, solved.chi, solved.g_tau, masses, t.N)
+    result.residual_rms_joint_side = rms
+    result.residual_joint_names = list(t.joints)
 
 
 def _validate(records: Iterable[Record], solved: Solved, model: IdentificationModel,
