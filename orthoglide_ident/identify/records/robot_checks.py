@@ -66,7 +66,28 @@ def check_positions(rec, model) -> None:
         raise DataError(
             f"{rec.source}: joint {j.name} goes over [{lo:.4g}, {hi:.4g}] {j.unit}, beyond its "
             f"limits [{j.lower:.4g}, {j.upper:.4g}] {j.unit} by more than "
-            f"{100 * POSITION_MARGIN:g} % of its range: {_likely_cause(rec, by_name, j, lo, hi)}")
+            f"{100 * POSITION_MARGIN:g} % of its range: "
+            f"{_motor_side_twice(rec, model, by_name) or _likely_cause(rec, by_name, j, lo, hi)}")
+
+
+MAPPED = "joint-side positions mapped to the motors"  # record.motor_side's note in ``sources``
+
+
+def _motor_side_twice(rec, model, by_name) -> str:
+    """The cause when a record's positions were motor-side already but read as joint-side (the
+    robot file or the bag's tag says joint): mapped back through the reduction, every motor is
+    inside its box. "" otherwise."""
+    t = getattr(robot_of(model), "transmission", None)
+    if t is None or MAPPED not in (rec.sources or ""):
+        return ""
+    raw = t.to_joint_position(np.asarray(rec.q, float))  # the values the record held
+    cols = _columns(rec.names_q, by_name)
+    if not cols or not all(_fits(raw[:, k], j) for k, j in cols):
+        return ""
+    return ("this record's positions are motor-side already (N⁻¹ of them is inside every "
+            "motor's range) but were read as joint-side and mapped through the reduction again: "
+            "the records disagree on their drive chain; tag this bag orthoglide.position_side: "
+            "actuator (or set the transmission's position_side)")
 
 
 def _likely_cause(rec, by_name, j, lo: float, hi: float) -> str:

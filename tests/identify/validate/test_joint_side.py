@@ -52,3 +52,24 @@ def test_a_reduction_row_typed_wrong_is_said(records, tmp_path):
 def test_the_right_reduction_says_nothing_of_it(records, tmp_path):
     res = _identify(records, tmp_path, N, "right_again")
     assert not [w for w in res.warnings if "transmission's reduction" in w]
+
+
+@pytest.mark.parametrize("method", ["tls", "wls"])
+def test_a_motor_side_record_beside_a_joint_side_one_is_said(records, tmp_path, method):
+    """The loaded record's hardware published its motors' encoders under the joints' names
+    (untagged): read as joint-side, mapped through N a second time. Before: TLS "the loaded
+    records do not excite the payload mass" or "no drive gain is determined", WLS an answer
+    with a payload of -0.61 kg."""
+    import dataclasses
+
+    from orthoglide_ident.errors import DataError
+
+    unloaded, loaded = records
+    motors = dataclasses.replace(loaded, source="loaded_motor_encoders", q=loaded.q @ N.T)
+    model = load_robot(robot_file(tmp_path, N, f"chain_{method}"))
+    with pytest.raises(DataError) as err:
+        identify_records([motor_side(r, model) for r in (unloaded, motors)], model=model,
+                         method=method)
+    msg = str(err.value)
+    assert msg.startswith("loaded_motor_encoders:") and "motor-side" in msg
+    assert "drive chain" in msg and "position_side" in msg and "degrees" not in msg
