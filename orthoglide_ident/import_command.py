@@ -83,8 +83,8 @@ def run(args: argparse.Namespace) -> int:
     cmap = ColumnMap.from_yaml(args.map) if args.map else ColumnMap()
     flags = {k: getattr(args, k) for k in (
         "time", "time_unit", "joints", "position", "velocity", "effort", "effort_unit",
-        "angle_unit", "prismatic", "delimiter", "condition", "payload_mass", "payload_frame", "payload_com",
-        "payload_inertia")}
+        "angle_unit", "delimiter", "condition", "payload_mass", "payload_frame", "payload_com",
+        "payload_inertia", "prismatic")}
     given = {k: v for k, v in flags.items() if v is not None}
     if given:
         cmap = cmap.with_source(f"{args.map} and the flags" if args.map else "the flags"
