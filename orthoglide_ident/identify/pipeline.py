@@ -36,6 +36,7 @@ from orthoglide_ident.identify.records.robot_checks import (check_positions, mot
                                                             robot_of)
 from orthoglide_ident.identify.solve.answer import Solved, min_rows
 from orthoglide_ident.identify.validate.cross_validation import ValidationResult, cross_validate
+from orthoglide_ident.identify.validate.agreement import disagreement
 from orthoglide_ident.identify.validate.joint_side import (LONGER, current_noise, joint_side_rms,
                                                            misfit, misfit_lines)
 from orthoglide_ident.model.robot import Payload
@@ -204,10 +205,18 @@ def identify_records(
     model, blocks = _lag_or_paper(model, blocks, reports, opts)
     t_solve = time.perf_counter()
     factors = [RecordFactors.from_observations(b) for b in blocks]
-    solved = solve(factors, model, opts, method, gains, essential, bag_names)
+    chain = disagreement(blocks, model.nominal_gains, list(model.joint_names))
+    try:
+        solved = solve(factors, model, opts, method, gains, essential, bag_names)
+    except (ExcitationError, IdentificationError) as exc:  # two drive chains: the cause
+        if chain:
+            raise type(exc)(f"{chain} (the solve then says: {exc})") from None
+        raise
     add(solved.timings)
     timings["solve"] = time.perf_counter() - t_solve - timings.get("essential", 0.0)
     result = solved.result
+    if chain:
+        result.warnings.append(chain)
     _joint_side_residual(result, blocks, solved, model, reports, opts)
 
     t_v = time.perf_counter()

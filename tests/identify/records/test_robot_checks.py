@@ -7,12 +7,13 @@ are the UR5 URDF's own (±2π rad, elbow ±π; 3.15-3.2 rad/s; 150 / 28 N·m).""
 from __future__ import annotations
 
 import dataclasses
+import re
 
 import numpy as np
 import pytest
 
 from orthoglide_ident.cli import main
-from orthoglide_ident.errors import DataError, IdentificationError
+from orthoglide_ident.errors import DataError, ExcitationError, IdentificationError
 from orthoglide_ident.identify.pipeline import identify_records
 from orthoglide_ident.model.robots import load_robot
 from orthoglide_sim.arms.record import simulate_arm
@@ -122,3 +123,29 @@ def test_the_cli_refuses_a_degree_bag_in_one_line_naming_it(runs, tmp_path, caps
     assert main(["identify", "--robot", "ur5", "--method", "wls", "-q", *bags]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "unloaded_deg" in err[0] and "degrees" in err[0]
+
+
+@pytest.mark.parametrize("method", ["tls", "wls"])
+def test_records_of_another_gain_scale_are_said(recs, method):
+    """The loaded record's currents 1.3 times the unloaded one's for the same dynamics (another
+    gain or unit). Before: TLS "no drive gain is determined … record longer", WLS an answer
+    with a 3.3 kg payload for the 2 kg mounted and nothing about the records."""
+    unloaded, loaded = recs
+    other = _with(loaded, "ur5/loaded_other_gain", v_tau=loaded.v_tau * 1.3)
+    said = ""
+    try:
+        res = identify_records([unloaded, other], model=UR5, method=method)
+        said = " ".join(res.warnings)
+    except (ExcitationError, IdentificationError) as exc:
+        said = str(exc)
+    assert "the records disagree on their drive chain" in said
+    factors = [float(x) for x in re.findall(r"×([0-9.]+)", said)]
+    assert len(factors) == 6 and all(abs(f / 1.3 - 1) < 0.05 for f in factors), factors
+
+
+def test_a_payload_tagged_wrong_is_not_taken_for_a_drive_chain(recs):
+    unloaded, loaded = recs
+    wrong = _with(loaded, "ur5/loaded_tagged_1kg", payload_mass=1.0,
+                  payload=dataclasses.replace(loaded.payload, mass=1.0))
+    res = identify_records([unloaded, wrong], model=UR5, method="wls")
+    assert not [w for w in res.warnings if "drive chain" in w]
