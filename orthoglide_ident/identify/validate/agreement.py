@@ -32,9 +32,11 @@ def current_scales(blocks: list[Observations], g_tau: np.ndarray) -> np.ndarray:
     g = np.asarray(g_tau, float)
     n_r, n_j = len(blocks), blocks[0].v_tau.shape[0]
     s = np.ones((n_r, n_j))
-    w2 = 1.0 / np.maximum([np.mean(np.concatenate([(g[j] * b.v_tau[j][_rows(b, j)]) ** 2
-                                                   for b in blocks])) for j in range(n_j)],
-                          1e-300)  # each joint's rows weighted by its rms torque
+    w2 = np.zeros(n_j)  # each joint's rows weighted by 1 / its mean square torque (0: none)
+    for j in range(n_j):
+        y = np.concatenate([g[j] * b.v_tau[j][_rows(b, j)] for b in blocks])
+        ms = float(np.mean(y ** 2)) if y.size else 0.0
+        w2[j] = 1.0 / ms if np.isfinite(ms) and ms > 0 else 0.0
     for _ in range(ITERATIONS):
         x = _solve(blocks, g, s, w2)
         for r, b in enumerate(blocks):
@@ -78,7 +80,10 @@ def disagreement(blocks: list[Observations], g_tau: np.ndarray, joints: list[str
     by more than ``SCALE_TOLERANCE`` for the same dynamics; "" when they agree."""
     if len(blocks) < 2:
         return ""
-    s = current_scales(blocks, g_tau)
+    try:
+        s = current_scales(blocks, g_tau)
+    except np.linalg.LinAlgError:  # no usable rows (a robot held still): nothing to compare
+        return ""
     parts = []
     for r, b in enumerate(blocks[1:], start=1):
         off = [f"{joints[j]} ×{s[r, j]:.3g}" for j in range(s.shape[1])
