@@ -64,6 +64,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                    help="A or mA (a current); N·m, Nm or N (a torque or force): required")
     p.add_argument("--angle-unit", metavar="UNIT",
                    help="rad (default; a prismatic joint's m as they are) or deg")
+    p.add_argument("--prismatic", metavar="J1,J2,...",
+                   help="joints whose positions are lengths (m): --angle-unit deg leaves them")
     p.add_argument("--delimiter", metavar="D",
                    help="',', ';', tab or space (default: from the header line)")
     p.add_argument("--condition", choices=("unloaded", "loaded"), help="the tag (default unloaded)")
@@ -84,7 +86,7 @@ def run(args: argparse.Namespace) -> int:
     flags = {k: getattr(args, k) for k in (
         "time", "time_unit", "joints", "position", "velocity", "effort", "effort_unit",
         "angle_unit", "delimiter", "condition", "payload_mass", "payload_frame", "payload_com",
-        "payload_inertia")}
+        "payload_inertia", "prismatic")}
     given = {k: v for k, v in flags.items() if v is not None}
     for key, n in (("payload_com", 3), ("payload_inertia", 6)):
         if key in given:  # the flag named in its error

@@ -168,7 +168,7 @@ class IdentificationResult:
     payload_mass: PayloadMass | None
     payloads: list[PayloadMass]
     condition_number: float
-    residual_rms: list[float]  # per joint, N or N·m
+    residual_rms: list[float]  # per joint (per motor behind a transmission), N or N·m
     bags: list[str]
     robot: str = "orthoglide"  # RobotModel.name
     gain_units: list[str] = field(default_factory=list)  # per joint: N/A or N·m/A (empty: N/A)
@@ -195,6 +195,9 @@ class IdentificationResult:
     # covariance over [base parameters, gains (TLS) or payload masses (WLS)], honest (in memory)
     covariance: Any = field(default=None, repr=False, compare=False)
     covariance_paper: Any = field(default=None, repr=False, compare=False)  # eqs. (39), (27)
+    # behind a transmission: the residual of each joint, joint-side (Nᵀ ε), and their names
+    residual_rms_joint_side: list[float] | None = None
+    residual_joint_names: list[str] = field(default_factory=list)
     # physically consistent standard parameters (identify/consistency.ConsistencyResult)
     consistency: Any = field(default=None, repr=False, compare=False)
     # the payload's identified CoM and inertia when only its mass was known (Sect. 4.3)
@@ -236,7 +239,13 @@ class IdentificationResult:
             **({"payload": self.payload.to_json()} if self.payload is not None else {}),
             "condition_number": _num(self.condition_number),
             "residual_rms": _num(self.residual_rms_total),
-            "residual_rms_per_joint": [_num(r) for r in self.residual_rms],
+            # joint-side (Nᵀ ε behind a transmission), motor-side beside it (DESIGN §10)
+            "residual_rms_per_joint": [_num(r) for r in (self.residual_rms
+                                                         if self.residual_rms_joint_side is None
+                                                         else self.residual_rms_joint_side)],
+            "residual_rms_per_actuator": [_num(r) for r in self.residual_rms],
+            **({"residual_joint_names": self.residual_joint_names}
+               if self.residual_joint_names else {}),
             "bags": list(self.bags),
             "units": {"drive_gains": _unit(self.gain_units, "N/A"), "payload_mass": "kg",
                       "residual_rms": _unit(self.effort_units, "N"),

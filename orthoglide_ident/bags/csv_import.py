@@ -13,7 +13,8 @@ the same keys::
     velocity: "{joint}.qd"  # optional ("" or absent: no recorded velocity, NaN in the bag)
     effort: "{joint}.tau"
     effort_unit: N·m        # A | mA (a current) or N·m | N (a torque / force)
-    angle_unit: rad         # deg: positions and velocities in degrees
+    angle_unit: rad         # deg: positions and velocities in degrees (revolute joints only)
+    prismatic: [j3]         # joints whose positions are lengths (m): never scaled by angle_unit
     condition: loaded       # and payload_mass, payload_frame, payload_com, payload_inertia
 
 Columns are named by the header line (the first line that is not blank or a ``#`` comment);
@@ -47,7 +48,7 @@ from orthoglide_ident.progress import ProgressLine, shown
 from orthoglide_ident.yaml_files import load_yaml
 
 TIME_UNITS = {"s": 10**9, "ms": 10**6, "us": 10**3, "ns": 1}  # ns per unit
-ANGLE_UNITS = {"rad": 1.0, "deg": math.pi / 180.0}  # rad per unit (a prismatic joint: m, "rad")
+ANGLE_UNITS = {"rad": 1.0, "deg": math.pi / 180.0}  # rad per unit (revolute joints only)
 # effort unit -> (what the bag's effort then is, SI factor)
 EFFORT_UNITS = {"A": ("A", 1.0), "mA": ("A", 1e-3), "N·m": ("torque", 1.0),
                 "Nm": ("torque", 1.0), "N.m": ("torque", 1.0), "N": ("torque", 1.0)}
@@ -71,6 +72,7 @@ class ColumnMap:
     effort: str | tuple[str, ...] = "{joint}.effort"
     effort_unit: str = ""
     angle_unit: str = "rad"
+    prismatic: tuple[str, ...] = ()  # joints in m, m/s: angle_unit leaves them as they are
     delimiter: str = ""  # "" = from the header: the most frequent of , ; tab, else spaces
     condition: str = "unloaded"
     payload_mass: float = 0.0
@@ -106,8 +108,9 @@ class ColumnMap:
         """This map with the given keys replaced (None: left as it is), each checked."""
         v = {k: x for k, x in values.items() if x is not None}
         try:
-            if "joints" in v:
-                v["joints"] = _names(v["joints"])
+            for k in ("joints", "prismatic"):
+                if k in v:
+                    v[k] = _names(v[k])
             for role in _ROLES:
                 if role in v:
                     v[role] = _columns(v[role])
@@ -343,7 +346,13 @@ def read_csv(path: str | Path, cmap: ColumnMap) -> CsvRecord:
     if not len(data):
         raise DataError(f"{where}: a header but no rows")
     stamps = _stamps_ns(data["time"], cmap.time_unit, path, header_line)
-    angle = ANGLE_UNITS[cmap.angle_unit]
+    unknown = sorted(set(cmap.prismatic) - set(joints))
+    if unknown:
+        raise ConfigError(f"{cmap.source}: prismatic joints {unknown} are not among the "
+                          f"joints {list(joints)}")
+    # per column: a revolute joint's angle unit, a prismatic joint's m as they are
+    angle = np.array([1.0 if j in cmap.prismatic else ANGLE_UNITS[cmap.angle_unit]
+                      for j in joints])
     effort_factor = EFFORT_UNITS[cmap.effort_unit][1] if cmap.effort_unit else 1.0
     return CsvRecord(path, joints, stamps, data["position"] * angle,
                      data["velocity"] * angle if "velocity" in idx else None,

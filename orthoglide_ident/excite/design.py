@@ -240,6 +240,27 @@ def static_payload_check(robot, limits: JointLimits, margins: Margins, P: np.nda
                           "lighter payload")
 
 
+def short_period(limits: JointLimits, options: DesignOptions) -> str:
+    """The reason when the period, not the margins nor the payload, leaves too little motion:
+    at the first harmonic ω₁ = 2π/T a joint's acceleration limit caps its velocity at
+    q̈_max/ω₁; when that is below its velocity limit on every joint, a longer period allows
+    more motion of each (up to T = 2π q̇_max/q̈_max, where the velocity limit binds). ""
+    otherwise."""
+    w1 = 2.0 * math.pi / options.period_s
+    acc, vel = np.asarray(limits.acceleration, float), np.asarray(limits.velocity, float)
+    ok = np.isfinite(acc) & np.isfinite(vel) & (acc > 0)
+    if not ok.any() or np.any(acc[ok] / w1 >= vel[ok]):
+        return ""
+    longest = float(np.max(2.0 * math.pi * vel[ok] / acc[ok]))
+    return (f"the period {options.period_s:g} s is too short: at its first harmonic "
+            f"({1 / options.period_s:.3g} Hz) the acceleration limits cap every joint's motion at "
+            f"±{float(np.max(acc[ok] / w1 ** 2)):.2g} (its velocity at "
+            f"{float(np.max(acc[ok] / w1)):.2g}, against velocity limits of "
+            f"{float(np.min(vel[ok])):.3g} and more; rad or m), too little to identify the "
+            f"model; use --period {longest:.2g} s or longer (the acceleration limits then allow "
+            "the velocity limits; default 5 s)")
+
+
 def _random_start(problem: Problem, rng: np.random.Generator
                   ) -> tuple[np.ndarray, Evaluation, int]:
     """(x, its evaluation, the evaluations it took)."""
@@ -341,9 +362,12 @@ def design(robot, limits: JointLimits, collision, options: DesignOptions,
     static_payload_check(robot, limits, options.margins, problem.P, options.payload)
     x, best, randoms = search(problem, say)
     if best.violation > 0 or best.prediction is None:
-        raise ExcitationError("no feasible trajectory found (every shape breaks a constraint "
-                              f"even at a small amplitude: {_describe(best)}): loosen the "
-                              "margins, choose another start pose (--pose) or a lighter payload")
+        short = short_period(limits, options)
+        found = ("no trajectory found that determines the model (the runs' information is "
+                 "singular)" if best.violation == 0 else "no feasible trajectory found (every "
+                 f"shape breaks a constraint even at a small amplitude: {_describe(best)})")
+        raise ExcitationError(f"{found}: " + (short or "loosen the margins, choose another start "
+                                              "pose (--pose) or a lighter payload"))
     x, traj, report = repaired(problem, x, say)
     final = problem.evaluate(x)
     seconds = time.perf_counter() - t0

@@ -185,7 +185,8 @@ def noise_from_result(doc: Any, joints: Sequence[str], where: str) -> np.ndarray
 
     try:
         names = list(doc["joint_names"])
-        res = np.array([float(r) for r in doc["residual_rms_per_joint"]])
+        res = np.array([float(r) for r in doc.get("residual_rms_per_actuator",  # the motors'
+                                                  doc["residual_rms_per_joint"])])
         g = {d["joint"]: float(d["value"]) for d in doc["drive_gains"]}
         diag = doc.get("diagnostics") or {}
         n_d = int(diag.get("decimation") or DEFAULT_DECIMATION)

@@ -32,8 +32,13 @@ from orthoglide_ident.identify.options import IdentifyOptions
 from orthoglide_ident.identify.columns.payload_unknowns import (check_one_payload, unknowns_of,
                                                         used_columns, with_payload_unknowns)
 from orthoglide_ident.identify.records.record import Record, read_record, record_payload
+from orthoglide_ident.identify.records.robot_checks import (check_positions, motion_warnings,
+                                                            robot_of)
 from orthoglide_ident.identify.solve.answer import Solved, min_rows
 from orthoglide_ident.identify.validate.cross_validation import ValidationResult, cross_validate
+from orthoglide_ident.identify.validate.agreement import disagreement
+from orthoglide_ident.identify.validate.joint_side import (LONGER, current_noise, joint_side_rms,
+                                                           misfit, misfit_lines)
 from orthoglide_ident.model.robot import Payload
 from orthoglide_ident.results import IdentificationResult
 
@@ -89,46 +94,61 @@ def _observe_all(records: Iterable[Record], model: IdentificationModel, opts: Id
     reports: list[dict[str, Any]] = []
     warnings: list[str] = []
     bag_names: list[str] = []
-    seen: dict[str, str] = {}  # fingerprint -> source
+    seen: dict[str, tuple[str, int]] = {}  # fingerprint -> source, first stamp
     partial = [] if partial is None else partial
     for rec in records:
         key = fingerprint(rec)
         if key in seen:  # the same data twice would count its equations twice (σ too small)
-            line = (f"{rec.source} is the same record as {seen[key]} (same stamps, positions "
-                    "and currents): counted once")
-            log.info("%s", line)
-            warnings.append(line)
+            warnings.append(_copy_line(rec, *seen[key]))
+            log.info("%s", warnings[-1])
             continue
-        seen[key] = rec.source
+        seen[key] = (rec.source, _first_stamp(rec))
         m = resolve_payload(rec, payload_mass, opts.payload_tolerance_kg)
         p = record_payload(rec, m, opts.payload_known)
         if p is not None:
             partial.append((rec.source, p))
             check_one_payload(partial)
+        check_positions(rec, model)  # degrees read as radians, another robot: refused
         bag_names.append(rec.source)
-        warnings.extend(rec.warnings)
+        warnings.extend(rec.warnings + motion_warnings(rec, model))
         obs, rep, ts = observe(rec, model, opts, m)
         add_timings(ts)
         check_moves(obs, model, opts, "bag")
         blocks.append(obs)
         reports.append(bag_report(rep, rec.source, rec.condition, m, obs.rows_per_joint(),
                                   rec.sources))
+        reports[-1]["_current_noise"] = _noise_by_joint(rec, model)  # popped after the solve
         del rec  # a lazily read bag's raw samples can go now
     if not blocks:
         raise IdentificationError("no bag given")
     return blocks, reports, warnings, bag_names
 
 
+def _first_stamp(rec: Record) -> int:
+    return int(min(rec.stamps_q_ns[0], rec.stamps_v_ns[0]))
+
+
 def fingerprint(rec: Record) -> str:
-    """What identifies a record's data whatever its path: a digest of its stamps, positions and
-    currents (the same bag given twice, or a copy of it) and of its tag (the same data tagged
-    with another payload is not a copy: the payload checks judge it)."""
+    """What identifies a record's data whatever its path and clock: a digest of its positions,
+    currents and stamps counted from its first one (the same bag given twice, a copy of it,
+    the same log exported again with another clock origin) and of its tag (the same data
+    tagged with another payload is not a copy: the payload checks judge it)."""
     import hashlib
 
     h = hashlib.sha256(f"{rec.condition} {rec.payload_mass!r} {rec.payload!r}".encode())
-    for a in (rec.stamps_q_ns, rec.q, rec.stamps_v_ns, rec.v_tau):
+    t0 = _first_stamp(rec)
+    for a in (np.asarray(rec.stamps_q_ns) - t0, rec.q, np.asarray(rec.stamps_v_ns) - t0,
+              rec.v_tau):
         h.update(np.ascontiguousarray(a).tobytes())
     return h.hexdigest()
+
+
+def _copy_line(rec: Record, first: str, first_t0: int) -> str:
+    """The warning of a record that holds the same data as ``first`` (counted once)."""
+    shift = (_first_stamp(rec) - first_t0) * 1e-9
+    clock = f"; its clock starts {shift:+.6g} s from that one's" if shift else ""
+    return (f"{rec.source} is the same record as {first} (the same positions and currents at "
+            f"the same steps{clock}): counted once")
 
 
 def check_moves(obs: Observations, model: IdentificationModel, opts: IdentifyOptions,
@@ -185,10 +205,19 @@ def identify_records(
     model, blocks = _lag_or_paper(model, blocks, reports, opts)
     t_solve = time.perf_counter()
     factors = [RecordFactors.from_observations(b) for b in blocks]
-    solved = solve(factors, model, opts, method, gains, essential, bag_names)
+    chain = disagreement(blocks, model.nominal_gains, list(model.joint_names))
+    try:
+        solved = solve(factors, model, opts, method, gains, essential, bag_names)
+    except (ExcitationError, IdentificationError) as exc:  # two drive chains: the cause
+        if chain:
+            raise type(exc)(f"{chain} (the solve then says: {exc})") from None
+        raise
     add(solved.timings)
     timings["solve"] = time.perf_counter() - t_solve - timings.get("essential", 0.0)
     result = solved.result
+    if chain:
+        result.warnings.append(chain)
+    _joint_side_residual(result, blocks, solved, model, reports, opts)
 
     t_v = time.perf_counter()
     vals = _validate(validation, solved, model, opts, payload_mass)
@@ -247,6 +276,38 @@ def _lag_or_paper(model: IdentificationModel, blocks: list[Observations],
     cols = np.r_[col:col + model.n_joints]
     out = [dataclasses.replace(b, W=np.delete(b.W, cols, axis=2)) for b in blocks]
     return observation_model(model, opts.screw_lead_m, False), out
+
+
+def _noise_by_joint(rec: Record, model: IdentificationModel) -> tuple[np.ndarray, float]:
+    """(white-noise σ of the record's current per model joint, A, NaN if absent; log rate)."""
+    sigma, rate = current_noise(rec.v_tau, rec.stamps_v_ns)
+    col = {n: k for k, n in enumerate(rec.names_v)}
+    return np.array([sigma[col[n]] if n in col else np.nan for n in model.joint_names]), rate
+
+
+def _joint_side_residual(result: IdentificationResult, blocks: list[Observations],
+                         solved: Solved, model: IdentificationModel,
+                         reports: list[dict[str, Any]], opts: IdentifyOptions) -> None:
+    """Behind a transmission, the residual per joint, joint-side (Nᵀ ε), into ``result``, and
+    the motors fitted far worse than their current noise said (a reduction typed wrong)."""
+    noises = [r.pop("_current_noise") for r in reports]
+    t = getattr(robot_of(model), "transmission", None)
+    if t is None or solved.chi.shape[0] != blocks[0].W.shape[2]:
+        return
+    noise = np.sqrt(np.nanmean([n ** 2 for n, _ in noises], axis=0))
+    ratio = misfit(result.residual_rms, solved.g_tau, noise, float(np.median(
+        [r for _, r in noises])), opts.decimation_cutoff_hz)
+    lines, advice = misfit_lines(ratio, list(model.joint_names))
+    result.warnings.extend(lines)
+    if advice:  # an undetermined gain's cause is then the drive chain, not the motion
+        for g in result.drive_gains:
+            g.reason = g.reason.replace(LONGER, advice)
+        result.warnings = [w.replace(LONGER, advice) for w in result.warnings]
+    masses = [next((p.value for p in result.payloads if b.source in p.bags), b.payload_mass)
+              if result.method == "wls" else b.payload_mass for b in blocks]
+    rms, _ = joint_side_rms(blocks, solved.chi, solved.g_tau, masses, t.N)
+    result.residual_rms_joint_side = rms
+    result.residual_joint_names = list(t.joints)
 
 
 def _validate(records: Iterable[Record], solved: Solved, model: IdentificationModel,

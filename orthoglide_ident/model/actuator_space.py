@@ -85,8 +85,11 @@ class ActuatorSpaceRobot(NamedByParameters, RobotModel):
         W = self.standard_regressor(*self.random_states(n, seed))
         rigid = {k: r for r, k in enumerate(self._rigid)}
         order = [rigid[k] for k in self.joint_model.column_order() if k in rigid]
-        return base_parameters(W, self.standard_names,
-                               order + list(range(len(self._rigid), len(self.standard_names))))
+        drive = list(range(len(self._rigid), len(self.standard_names)))
+        # the links' columns scale with N⁻ᵀ, each motor's own with N: round-off is told within
+        # the links' columns only (a motor's column is never structurally zero)
+        return base_parameters(W, self.standard_names, order + drive,
+                               [range(len(self._rigid))] + [[c] for c in drive])
 
     @property
     def rigid_columns(self) -> tuple[int, ...]:

@@ -63,15 +63,24 @@ def svd_rank(R: np.ndarray, eps: float = QR_EPS) -> int:
     return int(np.sum(s > eps * s[0])) if s.size and s[0] > 0 else 0
 
 
-def base_parameters(W_st: np.ndarray, names: Sequence[str], order: Sequence[int]) -> BaseSet:
+def base_parameters(W_st: np.ndarray, names: Sequence[str], order: Sequence[int],
+                    groups: Sequence[Sequence[int]] | None = None) -> BaseSet:
     """Base parameters of ``W_st`` (rows, n_st) with standard ``names``, columns taken in
-    ``order`` (every index once)."""
+    ``order`` (every index once); ``groups``: standard columns of one scale, within which a
+    column that is round-off is told (None: all of them)."""
     order = list(order)
     W_r = np.asfortranarray(W_st[:, order])  # LAPACK's layout: no copy inside the QR
     # A structurally zero column (a planar robot's out-of-plane terms) holds round-off only;
     # left in, its Householder reflection (a direction of noise) would decide which later
     # columns look dependent. Exactly zero, it is skipped and dropped.
-    W_r[:, np.abs(W_r).max(axis=0) <= ROUNDOFF * np.abs(W_r).max()] = 0.0
+    W_r[:, _roundoff_columns(W_r, None if groups is None else
+                             [[order.index(c) for c in g] for g in groups])] = 0.0
+    # Each column scaled to unit norm (W_r = W_s S): the rank of W_st does not depend on the
+    # units of its parameters, nor on a transmission's scale (N 1e-12 I scales the links'
+    # columns by 1e12 and the motors' by 1e-24: 58 base parameters became 36 unscaled).
+    S = np.linalg.norm(W_r, axis=0)
+    S[S == 0.0] = 1.0
+    W_r /= S
     # eq. (22); numpy's QR (LAPACK's, as scipy's): the 0.15-0.25 s of importing scipy.linalg
     # are then not spent by `identify` of a general robot (R decides the kept columns only)
     R = np.linalg.qr(W_r, mode="r")
@@ -84,8 +93,9 @@ def base_parameters(W_st: np.ndarray, names: Sequence[str], order: Sequence[int]
         raise ModelError(f"the base parameters are ambiguous: QR in the column order keeps "
                          f"{len(kept)} columns but the regressor's singular values give rank "
                          f"{rank}; excite the model on more or wider random states")
-    beta = np.linalg.lstsq(W_r[:, keep], W_r[:, ~keep], rcond=None)[0]  # W_D = W_B β
-    beta[np.abs(beta) < COEF_TOL] = 0.0
+    beta = np.linalg.lstsq(W_r[:, keep], W_r[:, ~keep], rcond=None)[0]  # W_sD = W_sB β_s
+    beta[np.abs(beta) < COEF_TOL] = 0.0  # noise relative to the scaled columns
+    beta *= S[~keep][None, :] / S[keep][:, None]  # W_D = W_B β: β = S_B⁻¹ β_s S_D
     K = np.zeros((len(kept), W_st.shape[1]))
     K[np.arange(len(kept)), kept] = 1.0
     K[:, dropped] = beta
@@ -97,6 +107,18 @@ def base_parameters(W_st: np.ndarray, names: Sequence[str], order: Sequence[int]
                                     tuple(terms), ()))
     gap = float(d[keep].min() / max(d[~keep].max(), 1e-300)) if (~keep).any() else np.inf
     return BaseSet(tuple(kept), K, tuple(params), gap)
+
+
+def _roundoff_columns(W: np.ndarray, groups: Sequence[Sequence[int]] | None) -> np.ndarray:
+    """Columns that hold round-off only: below ``ROUNDOFF`` of the largest entry of their group
+    (columns of one scale; None: all of W). A group apart keeps a column of small but exact
+    numbers (a motor's, behind a 1e-12 reduction) from being taken for round-off."""
+    top = np.abs(W).max(axis=0)
+    out = np.zeros(top.shape, bool)
+    for g in ([range(W.shape[1])] if groups is None else groups):
+        g = np.asarray(list(g), int)
+        out[g] = top[g] <= ROUNDOFF * top[g].max() if g.size else False
+    return out
 
 
 class NamedByParameters:

@@ -18,6 +18,7 @@ does not exist, a loop that does not close).
 from __future__ import annotations
 
 import functools
+import logging
 from pathlib import Path
 from typing import Any, Mapping, Sequence
 
@@ -42,11 +43,16 @@ def resolve(spec: str | Path | None) -> Path | None:
     if text in ("", DEFAULT_ROBOT):
         return None
     path = Path(text).expanduser()
+    bundled = ROBOTS_DIR / f"{text}.yaml"
+    if bundled.exists() and path.suffix == "" and Path(text).name == text:
+        if path.exists():  # a local ./ur5 (a folder of bags, a file without suffix): say so
+            logging.getLogger("orthoglide_ident").warning(
+                "robot %r: took the bundled robot %s, not the local %s %s (write ./%s/FILE.yaml "
+                "for a file in it)", text, bundled, "folder" if path.is_dir() else "file",
+                path.resolve(), text)
+        return bundled
     if path.exists():
         return path.resolve()
-    bundled = ROBOTS_DIR / f"{text}.yaml"
-    if bundled.exists() and path.suffix == "":
-        return bundled
     raise ConfigError(f"robot {text!r}: no such file, and not a bundled robot "
                       f"({', '.join(bundled_robots())})")
 

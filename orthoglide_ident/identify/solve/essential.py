@@ -78,9 +78,11 @@ def protected_rel_std(sol: Solution) -> np.ndarray:
     return np.abs(np.asarray(sol.rel_std[n:n + k], float))
 
 
-def _weighted_ss(sol: Solution) -> float:
-    """Σ_j ‖ρ_j‖² / σ_j² with the solve's row weights (the same in every trial)."""
-    return float(np.sum(np.asarray(sol.residual_rms) ** 2 * _rows(sol) / sol.joint_sigma ** 2))
+def _weighted_ss(sol: Solution, sigma: np.ndarray) -> float:
+    """Σ_j ‖ρ_j‖² / σ_j² with the base model's row weights ``sigma``. Not the trial's own σ_j:
+    WLS estimates them again from each trial's residual (eq. 26), so a joint whose residual
+    grows 100-fold gets a 100-fold σ_j and its weighted residual would not move at all."""
+    return float(np.sum(np.asarray(sol.residual_rms) ** 2 * _rows(sol) / sigma ** 2))
 
 
 def _rows(sol: Solution) -> np.ndarray:
@@ -110,6 +112,7 @@ class _Budget:
 
     p0: np.ndarray
     tol: np.ndarray
+    sigma0: np.ndarray  # (n_j,) the base model's σ_j: every trial's residual weighted by them
     ss0: float
     names: list[str]
     max_residual_increase: float
@@ -121,7 +124,7 @@ def _judge(new: Solution, idx: int, name: str, rel: float, budget: _Budget) -> E
     enforced) if it moves a protected quantity beyond its tolerance or raises the residual."""
     shift = protected(new) / budget.p0 - 1.0
     ss0 = budget.ss0
-    dres = float(np.sqrt(_weighted_ss(new) / ss0) - 1.0) if ss0 > 0 else 0.0
+    dres = float(np.sqrt(_weighted_ss(new, budget.sigma0) / ss0) - 1.0) if ss0 > 0 else 0.0
     step = EssentialStep(idx, name, rel, True, dres, [float(x) for x in new.residual_rms],
                          [float(x) for x in shift])
     if not budget.enforce:
@@ -196,7 +199,9 @@ def essential_parameters(
     tol = np.maximum(protected_rel_std(base), min_tolerance)
     pnames = list(protected_names) if protected_names is not None else [
         f"#{k + 1}" for k in range(p0.shape[0])]
-    budget = _Budget(p0, tol, _weighted_ss(base), pnames, max_residual_increase, not paper)
+    sigma0 = np.asarray(base.joint_sigma, float)
+    budget = _Budget(p0, tol, sigma0, _weighted_ss(base, sigma0), pnames, max_residual_increase,
+                     not paper)
     res = EssentialResult(solution=base, method=method, tolerance=[float(x) for x in tol])
     rejected: set[int] = set()
     fixed = np.zeros(n_b, bool) if fixed is None else np.asarray(fixed, bool)
@@ -213,9 +218,11 @@ def essential_parameters(
         rel = sol.rel_std_paper if paper and sol.rel_std_paper is not None else sol.rel_std
         new, failed = _cancel_one(solve, sol, active, order, rel, names, budget, rejected, res)
         if new is None:
+            moves = f"move {', '.join(pnames)} beyond its tolerance or " if pnames else ""
             res.stopped_because = failed or (
                 f"max %σ / min %σ = {ratio:.2f} ≥ r_σ = {r_sigma:g}, but cancelling any further "
-                "parameter would move the gains beyond their tolerance (or raise the residual)")
+                f"parameter would {moves}raise the residual by more than "
+                f"{100 * max_residual_increase:g} %")
             break
         sol = new
     res.solution = sol

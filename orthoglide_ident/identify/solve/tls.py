@@ -82,7 +82,7 @@ def require_loaded_and_unloaded(blocks: list[Observations | RecordFactors], what
     if n_loaded == len(blocks):
         raise IdentificationError(
             f"{what} needs at least one unloaded bag: with the payload always on, its mass "
-            "cannot be told apart from the platform mass m_6R"
+            "cannot be told apart from the mass of the link that carries it"
         )
     for b in blocks:
         if b.loaded and not b.payload_mass > 0:

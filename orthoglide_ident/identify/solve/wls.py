@@ -139,7 +139,7 @@ def idim_wls(blocks: list[Observations | RecordFactors], g_tau: np.ndarray,
     if estimate_payload and any(b.loaded for b in blocks) and all(b.loaded for b in blocks):
         raise IdentificationError(
             "estimating the payload mass needs an unloaded bag too: with the payload always on, "
-            "its mass cannot be told apart from the platform mass m_6R"
+            "its mass cannot be told apart from the mass of the link that carries it"
         )
     groups = payload_groups(blocks) if estimate_payload else []
     cols = np.concatenate([np.flatnonzero(active), n_b + np.arange(len(groups))])
