@@ -28,6 +28,8 @@ from orthoglide_ident.identify.solve.factors import RecordFactors
 from orthoglide_ident.identify.solve.methods import DEFAULT_METHOD, get, solve
 from orthoglide_ident.identify.observe.equations import Observations
 from orthoglide_ident.identify.observe.rows import IdentificationModel, observe
+from orthoglide_ident.identify.observe.sampling import (AUTO_HELD, SLOW_STEP_S, lag_says_sampled,
+                                                        slow_untagged_line)
 from orthoglide_ident.identify.options import IdentifyOptions
 from orthoglide_ident.identify.columns.payload_unknowns import (check_one_payload, unknowns_of,
                                                         used_columns, with_payload_unknowns)
@@ -165,6 +167,48 @@ def identify_records(
     """
     opts = options or IdentifyOptions()
     _check_request(opts, method, payload_mass)
+    if isinstance(records, Sequence):  # auto may read them again, as sampled
+        kw = dict(payload_mass=payload_mass, method=method, gains=gains, essential=essential,
+                  model=model)
+        result = _identify_once(records, options=opts, validation=list(validation), **kw)
+        why = sampling_rerun(result, opts)
+        if why is None:
+            return result
+        log.info("%s", why)
+        again = _identify_once(records, options=opts.replace(current_sampling="sampled"),
+                               validation=list(validation), **kw)
+        again.warnings.insert(0, why)
+        return again
+    return _identify_once(records, payload_mass, method, gains, essential, opts, model=model,
+                          validation=validation)
+
+
+def sampling_rerun(result: IdentificationResult, opts: IdentifyOptions) -> str | None:
+    """Why a result read with ``current_sampling: auto`` must be read again as sampled (its
+    identified lag is negative: observe/sampling.lag_says_sampled), or None. Only when every
+    record was read held by auto's default (none tagged or set held by the robot file)."""
+    if opts.current_sampling != "auto":
+        return None
+    bags = result.diagnostics.get("bags", [])
+    if not bags or any(not str(b.get("current_sampling_why", "")).startswith(AUTO_HELD)
+                       for b in bags):
+        return None
+    return lag_says_sampled(result.current_lag)
+
+
+def _identify_once(
+    records: Iterable[Record],
+    payload_mass: float | None = None,
+    method: str = DEFAULT_METHOD,
+    gains: Sequence[float] | None = None,
+    essential: bool = False,
+    options: IdentifyOptions | None = None,
+    *,
+    model: IdentificationModel,
+    validation: Iterable[Record] = (),
+) -> IdentificationResult:
+    """:func:`identify_records` with each record's current sampling as resolved once."""
+    opts = options or IdentifyOptions()
     timings: dict[str, float] = {}
     t_all = time.perf_counter()
     model = observation_model(with_payload_unknowns(model), opts.screw_lead_m,
@@ -199,6 +243,9 @@ def identify_records(
     result.validation = [v.to_json(model.joint_names) for v in vals]
     result.validation_details = vals
     timings["total"] = time.perf_counter() - t_all
+    warnings.extend(slow_untagged_line(r["bag"], r["period_s"]) for r in reports
+                    if r["current_sampling_why"].startswith(AUTO_HELD)
+                    and r["period_s"] > SLOW_STEP_S)
     finish_result(result, solved, reports, warnings, opts, timings)
     result.observations = blocks
     result.observations_chi = solved.chi
@@ -307,6 +354,15 @@ def identify(
 
     res = identify_records(lazily(bag_paths), payload_mass, method, gains, essential, opts,
                            model=model, validation=lazily(validation_bags))
+    why = sampling_rerun(res, opts)
+    if why is not None:  # read the bags again, as sampled at their stamps
+        log.info("%s", why)
+        t_first = res.diagnostics["timings_s"].get("total", 0.0)
+        res = identify_records(lazily(bag_paths), payload_mass, method, gains, essential,
+                               opts.replace(current_sampling="sampled"), model=model,
+                               validation=lazily(validation_bags))
+        res.warnings.insert(0, why)
+        res.diagnostics["timings_s"]["first_reading_held"] = round(t_first, 4)
     # reading happens inside identify_records' loop: its total already includes it
     res.diagnostics["timings_s"]["read"] = round(t_read[0], 4)
     return res

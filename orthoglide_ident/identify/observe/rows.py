@@ -24,6 +24,8 @@ from orthoglide_ident.identify.observe.reversals import (anchor_samples, bridge,
                                                  rows_clear, velocity_deadband)
 from orthoglide_ident.identify.records.segments import Segment, SegmentReport, split_record
 from orthoglide_ident.identify.observe.stream import DecimatedRows, SegmentStream, lag_rows, model_block
+from orthoglide_ident.identify.observe.sampling import (at_sampling, record_sampling,
+                                                        robot_file_sampling)
 from orthoglide_ident.identify.observe.time_base import choose_velocity
 from orthoglide_ident.model.robot import Payload, RobotModel
 
@@ -55,6 +57,9 @@ def observe(rec: Record, model: IdentificationModel, opts: IdentifyOptions,
         min_samples=opts.min_segment_samples(step), nonfinite=opts.nonfinite,
         source=rec.source, joint_names=model.joint_names, qd=rec.qd)
     opts = opts.at_rate(1.0 / rep.period_s)
+    rep.current_sampling, rep.current_sampling_why = record_sampling(
+        rec.current_sampling, opts.current_sampling, robot_file_sampling(model))
+    opts = at_sampling(opts, rep.current_sampling)  # sampled: the states at the stamps
     rep.filter_cutoff_hz, rep.decimation = opts.filter_cutoff_hz, opts.decimation
     rep.decimation_cutoff_hz = opts.decimation_cutoff_hz
     times["segments"] = time.perf_counter() - t0
@@ -62,6 +67,7 @@ def observe(rec: Record, model: IdentificationModel, opts: IdentifyOptions,
     log.info("%s: %s; %s", rec.source, rep.time_base(), opts.describe_rates())
     segments, rep.velocity = choose_velocity(segments, opts, rep.period_s, rec.source)
     log.info("%s: joint velocity %s", rec.source, rep.velocity)
+    log.info("%s: current %s (%s)", rec.source, rep.current_sampling, rep.current_sampling_why)
     decimate = _segments_fir if opts.decimation_filter == "fir" else _segments_iir
     rows, n_bridged, n_unbridged = decimate(segments, model, opts, rep, times)
     n_b = len(model.names)

@@ -1,0 +1,85 @@
+"""How a record's current relates to its stamps: held over the step or sampled at the stamp.
+
+The IDIM (paper eq. 17) pairs each current with the states it acts with. Two loggers exist:
+
+- ``held``: the controller runs at the log rate and holds v_τ[k] over [t_k, t_k+1) (zero-order
+  hold): the states are taken at the middle of that step, (t_k + t_k+1) / 2 (time_base.py,
+  filtering.half_tick; the paper's Sect. 3 and DESIGN §6.2). Today's assumption.
+- ``sampled``: a faster loop (a 1 kHz controller) logged every 10th-14th tick (a ROS node
+  subscribed to it): the logged current is the loop's own at the stamp, a point sample of a
+  current that moves within the log step, so the states are taken at the stamp t_k. The loop's
+  content above the log's Nyquist frequency is aliased into the band: noise in v_τ that the
+  honest σ covers (solve/uncertainty.py takes it from the residual) or, when it drowns the
+  gains, the separation test (eq. 37) refuses them.
+
+Treating a sampled current as held puts the states half a log step late: at 1 kHz the
+identified current-loop lag comes out negative (-0.45 ... -0.49 ms, impossible), at ~90 Hz the
+gains are biased several σ (DESIGN §10). Who says which: the bag's tag
+``orthoglide.current_sampling`` first (written with the signals), then the option
+``current_sampling`` (held | sampled), then the robot file's key ``current_sampling``; with
+``auto`` and nothing said, the record is read as held and :func:`lag_says_sampled` states the
+rule that turns it to sampled.
+"""
+from __future__ import annotations
+
+import dataclasses
+from typing import Any, Sequence
+
+CURRENT_SAMPLING = ("held", "sampled", "auto")  # the option's values (a tag: held | sampled)
+AUTO_HELD = "current_sampling: auto, nothing said"  # the start of auto's first reading's why
+SLOW_STEP_S = 2.0e-3  # s: a log step above this, untagged, may be a slower logger's
+NEGATIVE_LAG_SIGMAS = 3.0  # τ below -this x its σ on most joints: no current loop leads
+
+
+def robot_file_sampling(model: Any) -> str | None:
+    """The robot file's ``current_sampling`` (held | sampled), None when it says nothing."""
+    for m in (model, getattr(model, "joint_model", None)):
+        desc = getattr(m, "description", None)
+        value = getattr(desc, "current_sampling", None)
+        if value is not None:
+            return value
+    return None
+
+
+def record_sampling(tagged: str | None, option: str, robot_file: str | None = None
+                    ) -> tuple[str, str]:
+    """(held | sampled, who said it) for a record: its tag, else the option unless auto, else
+    the robot file, else held (auto's first reading)."""
+    if tagged is not None:
+        return tagged, "the bag's tag orthoglide.current_sampling"
+    if option != "auto":
+        return option, f"current_sampling: {option}"
+    if robot_file is not None:
+        return robot_file, "the robot file's current_sampling"
+    return "held", f"{AUTO_HELD}: held until the lag says otherwise"
+
+
+def at_sampling(opts, sampling: str):
+    """``opts`` for a record whose current is ``sampling``: the states at the stamps for a
+    sampled current (no half-step shift), as they are for a held one."""
+    if sampling == "sampled" and opts.zoh_shift:
+        return dataclasses.replace(opts, zoh_shift=False)
+    return opts
+
+
+def lag_says_sampled(current_lag: Sequence[dict]) -> str | None:
+    """Why the identified lags (``IdentificationResult.current_lag``, τ in ms) say the current
+    is a point sample at the stamp, or None: a current loop cannot act before its reference,
+    so τ below -NEGATIVE_LAG_SIGMAS σ on more than half the joints is a current read as held
+    that was sampled (the states half a step late)."""
+    neg = [x for x in current_lag
+           if x["tau_ms"] < -NEGATIVE_LAG_SIGMAS * max(x["tau_std_ms"], 1e-9)]
+    if not current_lag or 2 * len(neg) <= len(current_lag):
+        return None
+    taus = ", ".join(f"{x['tau_ms']:+.3f}" for x in current_lag)
+    return (f"the identified current-loop lag is negative on {len(neg)} of {len(current_lag)} "
+            f"joints ({taus} ms), impossible for a current held over its step: read as sampled "
+            "at the stamps (current_sampling: auto)")
+
+
+def slow_untagged_line(source: str, step_s: float) -> str:
+    """One line for a record of a slow step whose sampling nobody said (auto read it held)."""
+    return (f"{source}: current read as held over each {1e3 * step_s:.3g} ms step "
+            "(current_sampling: auto, no tag; no lag can tell at this rate): if a faster "
+            "controller's current was logged at the stamps, tag orthoglide.current_sampling: "
+            "sampled or give current_sampling: sampled")
