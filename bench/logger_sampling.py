@@ -88,11 +88,12 @@ def shapes(duration: float, fast: float, cache: Path | None) -> list[tuple[str, 
             ("91 Hz held", held)]
 
 
-def row(name: str, mode: str, recs: list, model) -> list[str]:
+def row(name: str, mode: str, recs: list, model, loop_hz: float = 0.0) -> list[str]:
     t0 = time.perf_counter()
     try:
         res = identify_records([to_record(r, f"{name} {i}") for i, r in enumerate(recs)],
-                               model=model, options=IdentifyOptions(current_sampling=mode))
+                               model=model, options=IdentifyOptions(current_sampling=mode,
+                                                                    current_loop_hz=loop_hz))
     except OrthoglideError as exc:
         return [f"{name:<27} {mode:<7} refused: {str(exc)[:160]}"]
     truth = recs[0].truth.drive_array("g_tau")
@@ -106,6 +107,7 @@ def row(name: str, mode: str, recs: list, model) -> list[str]:
         cells.append(f"{100 * e:+7.3f}%{abs(e) / g.rel_std:5.1f}σ")
     lag = ",".join(f"{x['tau_ms']:+.2f}" for x in res.current_lag) or "-"
     chosen = "/".join(sorted({b["current_sampling"] for b in res.diagnostics["bags"]}))
+    mode = mode + (f" {loop_hz / 1e3:g}k" if loop_hz else "")
     out = [f"{name:<27} {mode:<7}→{chosen:<7} " + " ".join(cells)
            + f"  lag {lag} ms  ({time.perf_counter() - t0:.0f} s)"]
     out += [f"{'':<37}{w}" for w in why]
@@ -134,6 +136,9 @@ def main(argv: list[str] | None = None) -> int:
         print(f"\n{name} (mean step {step:.3g} ms)", flush=True)
         for mode in ("held", "sampled", "auto"):
             print("\n".join(row(name, mode, recs, model)), flush=True)
+        if "pt" in name:  # the loop's rate known: its own half tick
+            loop = 1e4 if "10 kHz" in name else 1e3
+            print("\n".join(row(name, "sampled", recs, model, loop)), flush=True)
     return 0
 
 

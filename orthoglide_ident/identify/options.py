@@ -65,6 +65,10 @@ class IdentifyOptions:
     # orthoglide.current_sampling, else the robot file's key, else held unless the identified
     # current-loop lag comes out negative (impossible: then sampled). A tag wins over this
     current_sampling: str = "auto"
+    # Hz, the rate of the faster loop a sampled record's current comes from (a 1 kHz
+    # controller): the states at t_k + 1 / (2 x this), the middle of that loop's own hold;
+    # 0: unknown, the states at the stamp
+    current_loop_hz: float = 0.0
     # v_tau low-passed by the same zero-phase Butterworth as q (parallel filtering: W and v_tau see
     # one filter up to the decimation's 40 Hz, where the Butterworth already takes 0.07 %): the
     # 20-40 Hz content of a closed loop otherwise biases a gain by ~0.05 % (bench/identify_accuracy)
@@ -275,6 +279,9 @@ class IdentifyOptions:
         if self.current_sampling not in ("held", "sampled", "auto"):
             raise ConfigError(f"{source}: current_sampling must be held (over the step that "
                               "follows), sampled (at the stamp, from a faster loop) or auto")
+        if not (self.current_loop_hz >= 0 and math.isfinite(self.current_loop_hz)):
+            raise ConfigError(f"{source}: current_loop_hz is the faster loop's rate in Hz (0: "
+                              f"unknown), not {self.current_loop_hz:g}")
         if self.velocity_source not in ("derived", "recorded", "auto"):
             raise ConfigError(f"{source}: velocity_source must be derived, recorded or auto")
         if not self.velocity_agreement > 0:

@@ -18,7 +18,7 @@ from orthoglide_ident.model.robot import DEFAULT_GRAVITY
 
 KEYS = ("name", "model", "description", "actuated_joints", "nominal_gains", "payload_frame",
         "gravity", "loops", "reference_configuration", "passive_friction", "column_order",
-        "body_labels", "fixed_bodies", "excitation", "transmission")
+        "body_labels", "fixed_bodies", "excitation", "transmission", "current_sampling")
 
 
 @dataclass(frozen=True)
@@ -45,6 +45,9 @@ class RobotDescription:
     # the drive chains (model/transmission.py reads it once the actuated joints are known);
     # None: the URDF's <ros2_control> transmissions, else none (each motor drives its joint)
     transmission: dict[str, Any] | None = None
+    # how its records' currents relate to their stamps (held | sampled), for records whose tag
+    # does not say, under current_sampling: auto (identify/observe/sampling.py); None: not said
+    current_sampling: str | None = None
 
 
 def _fail(where: str, key: str, what: str) -> ConfigError:
@@ -144,4 +147,9 @@ def read_description(data: dict[str, Any], base_dir: Path,
         kw["excitation"] = dict(_mapping(where, "excitation", data["excitation"]))
     if "transmission" in data:
         kw["transmission"] = dict(_mapping(where, "transmission", data["transmission"]))
+    if "current_sampling" in data:
+        if data["current_sampling"] not in ("held", "sampled"):
+            raise _fail(where, "current_sampling", "held (over the step that follows) or sampled "
+                        f"(at the stamp, from a faster loop), not {data['current_sampling']!r}")
+        kw["current_sampling"] = data["current_sampling"]
     return RobotDescription(**kw)

@@ -25,7 +25,7 @@ from orthoglide_ident.identify.observe.reversals import (anchor_samples, bridge,
 from orthoglide_ident.identify.records.segments import Segment, SegmentReport, split_record
 from orthoglide_ident.identify.observe.stream import DecimatedRows, SegmentStream, lag_rows, model_block
 from orthoglide_ident.identify.observe.sampling import (at_sampling, record_sampling,
-                                                        robot_file_sampling)
+                                                        robot_file_sampling, sampled_shift_s)
 from orthoglide_ident.identify.observe.time_base import choose_velocity
 from orthoglide_ident.model.robot import Payload, RobotModel
 
@@ -133,7 +133,8 @@ def _segments_fir(segments: list[Segment], model: IdentificationModel, opts: Ide
         t0 = time.perf_counter()
         states = states_at_half_tick(seg.q, _currents(seg, model, rep, t_start), T,
                                      opts.filter_cutoff_hz, opts.filter_order, trim,
-                                     opts.zoh_shift, opts.filter_currents, seg.stamps_ns, seg.qd)
+                                     opts.zoh_shift, opts.filter_currents, seg.stamps_ns, seg.qd,
+                                     sampled_shift_s(opts))
         stamps = seg.stamps_ns[trim:trim + states[0].shape[0]]
         times["filtering"] = times.get("filtering", 0.0) + time.perf_counter() - t0
         for a in range(0, stamps.shape[0], opts.chunk_samples):
@@ -189,7 +190,8 @@ def _segments_iir(segments: list[Segment], model: IdentificationModel, opts: Ide
         qh, qdh, qddh, v = states_at_half_tick(seg.q, _currents(seg, model, rep, t_start), T,
                                                opts.filter_cutoff_hz,
                                                opts.filter_order, trim, opts.zoh_shift,
-                                               opts.filter_currents, seg.stamps_ns, seg.qd)
+                                               opts.filter_currents, seg.stamps_ns, seg.qd,
+                                               sampled_shift_s(opts))
         ts = (seg.stamps_ns[trim:trim + qh.shape[0]] - t_start) * 1e-9
         if opts.zoh_shift:
             ts = ts + 0.5 * T

@@ -7,7 +7,10 @@ The IDIM (paper eq. 17) pairs each current with the states it acts with. Two log
   filtering.half_tick; the paper's Sect. 3 and DESIGN §6.2). Today's assumption.
 - ``sampled``: a faster loop (a 1 kHz controller) logged every 10th-14th tick (a ROS node
   subscribed to it): the logged current is the loop's own at the stamp, a point sample of a
-  current that moves within the log step, so the states are taken at the stamp t_k. The loop's
+  current that moves within the log step, so the states are taken at the stamp t_k, or at
+  t_k + 1 / (2 f_loop) when the loop's rate is known (``current_loop_hz``: the loop holds its
+  current over its own tick; unmodelled, that half tick biased the UR5's wrist gains ~5 σ at
+  ~83 Hz, bench/logger_sampling.py). The loop's
   content above the log's Nyquist frequency is aliased into the band: noise in v_τ that the
   honest σ covers (solve/uncertainty.py takes it from the residual) or, when it drowns the
   gains, the separation test (eq. 37) refuses them.
@@ -60,6 +63,15 @@ def at_sampling(opts, sampling: str):
     if sampling == "sampled" and opts.zoh_shift:
         return dataclasses.replace(opts, zoh_shift=False)
     return opts
+
+
+def sampled_shift_s(opts) -> float:
+    """Where a sampled current acts after its stamp, s: the loop that made it holds it over
+    its own tick, so at the middle of that tick, 1 / (2 current_loop_hz); 0 when that rate is
+    not known (the states at the stamp) or the current is held (zoh_shift)."""
+    if opts.zoh_shift or not opts.current_loop_hz > 0:
+        return 0.0
+    return 0.5 / opts.current_loop_hz
 
 
 def lag_says_sampled(current_lag: Sequence[dict]) -> str | None:
