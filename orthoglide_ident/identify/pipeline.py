@@ -28,8 +28,8 @@ from orthoglide_ident.identify.solve.factors import RecordFactors
 from orthoglide_ident.identify.solve.methods import DEFAULT_METHOD, get, solve
 from orthoglide_ident.identify.observe.equations import Observations
 from orthoglide_ident.identify.observe.rows import IdentificationModel, observe
-from orthoglide_ident.identify.observe.sampling import (AUTO_HELD, SLOW_STEP_S, lag_says_sampled,
-                                                        slow_untagged_line)
+from orthoglide_ident.identify.observe.sampling import (AUTO_HELD, SLOW_STEP_S, held_or_sampled,
+                                                        lag_says_sampled)
 from orthoglide_ident.identify.options import IdentifyOptions
 from orthoglide_ident.identify.columns.payload_unknowns import (check_one_payload, unknowns_of,
                                                         used_columns, with_payload_unknowns)
@@ -79,11 +79,13 @@ def _check_request(opts: IdentifyOptions, method: str, payload_mass: float | Non
 
 def _observe_all(records: Iterable[Record], model: IdentificationModel, opts: IdentifyOptions,
                  payload_mass: float | None, add_timings: Callable[[dict[str, float]], None],
-                 partial: list[tuple[str, Payload]] | None = None
+                 partial: list[tuple[str, Payload]] | None = None, alts: list | None = None
                  ) -> tuple[list[Observations], list[dict[str, Any]], list[str], list[str]]:
     """Each record to its observation rows (one record's raw samples in memory at a time):
     the rows, the per-bag reports, the warnings and the bag names; the loaded records'
-    payloads appended to ``partial`` (one payload whose parameters are partly unknown)."""
+    payloads appended to ``partial`` (one payload whose parameters are partly unknown); to
+    ``alts``, per record, its rows and report read as sampled when auto read it held on a slow
+    step (observe/sampling.py), else None."""
     if isinstance(records, Sequence):  # in memory: check every tag before the long steps
         for r in records:
             resolve_payload(r, payload_mass, opts.payload_tolerance_kg)
@@ -115,6 +117,12 @@ def _observe_all(records: Iterable[Record], model: IdentificationModel, opts: Id
         blocks.append(obs)
         reports.append(bag_report(rep, rec.source, rec.condition, m, obs.rows_per_joint(),
                                   rec.sources))
+        if alts is not None:
+            alts.append(None)
+            if rep.current_sampling_why.startswith(AUTO_HELD) and rep.period_s > SLOW_STEP_S:
+                o2, r2, _ = observe(rec, model, opts.replace(current_sampling="sampled"), m)
+                alts[-1] = (o2, bag_report(r2, rec.source, rec.condition, m,
+                                           o2.rows_per_joint(), rec.sources))
         del rec  # a lazily read bag's raw samples can go now
     if not blocks:
         raise IdentificationError("no bag given")
@@ -219,23 +227,35 @@ def _identify_once(
             timings[k] = timings.get(k, 0.0) + v
 
     payloads: list[tuple[str, Payload]] = []
+    alts: list = []  # a slow untagged record read as sampled too (current_sampling: auto)
     blocks, reports, warnings, bag_names = _observe_all(records, model, opts, payload_mass, add,
-                                                        payloads)
-    model, blocks = _payload_or_not(model, blocks, opts, payloads)
-    # the first record's rate fixes what the solve needs in samples (the σ's decimation gain)
-    opts = dataclasses.replace(opts, filter_cutoff_hz=reports[0]["filter_cutoff_hz"],
-                               decimation=reports[0]["decimation"],
-                               decimation_cutoff_hz=reports[0]["decimation_cutoff_hz"])
-    model, blocks = _lag_or_paper(model, blocks, reports, opts)
+                                                        payloads, alts)
     t_solve = time.perf_counter()
-    factors = [RecordFactors.from_observations(b) for b in blocks]
-    solved = solve(factors, model, opts, method, gains, essential, bag_names)
+
+    def solve_rows(blocks, reports):
+        m, b = _payload_or_not(model, blocks, opts, payloads)
+        # the first record's rate fixes what the solve needs in samples (the σ's decimation gain)
+        o = dataclasses.replace(opts, filter_cutoff_hz=reports[0]["filter_cutoff_hz"],
+                                decimation=reports[0]["decimation"],
+                                decimation_cutoff_hz=reports[0]["decimation_cutoff_hz"])
+        m, b = _lag_or_paper(m, b, reports, o)
+        factors = [RecordFactors.from_observations(x) for x in b]
+        return m, b, o, solve(factors, m, o, method, gains, essential, bag_names)
+
+    if any(a is not None for a in alts):  # auto on a slow untagged log: held or sampled
+        (model, blocks, opts, solved), reports, line = held_or_sampled(
+            solve_rows, blocks, reports, alts)
+        warnings.append(line)
+    else:
+        model, blocks, opts, solved = solve_rows(blocks, reports)
     add(solved.timings)
     timings["solve"] = time.perf_counter() - t_solve - timings.get("essential", 0.0)
     result = solved.result
 
     t_v = time.perf_counter()
-    vals = _validate(validation, solved, model, opts, payload_mass)
+    chosen = {r["current_sampling"] for r in reports}
+    vals = _validate(validation, solved, model, opts.replace(current_sampling="sampled")
+                     if chosen == {"sampled"} else opts, payload_mass)
     if vals:
         timings["validation"] = time.perf_counter() - t_v
     for v in vals:
@@ -243,9 +263,6 @@ def _identify_once(
     result.validation = [v.to_json(model.joint_names) for v in vals]
     result.validation_details = vals
     timings["total"] = time.perf_counter() - t_all
-    warnings.extend(slow_untagged_line(r["bag"], r["period_s"]) for r in reports
-                    if r["current_sampling_why"].startswith(AUTO_HELD)
-                    and r["period_s"] > SLOW_STEP_S)
     finish_result(result, solved, reports, warnings, opts, timings)
     result.observations = blocks
     result.observations_chi = solved.chi

@@ -26,11 +26,20 @@ rule that turns it to sampled.
 from __future__ import annotations
 
 import dataclasses
-from typing import Any, Sequence
+from typing import Any, Callable, Sequence
+
+import numpy as np
+
+from orthoglide_ident.errors import OrthoglideError
 
 CURRENT_SAMPLING = ("held", "sampled", "auto")  # the option's values (a tag: held | sampled)
 AUTO_HELD = "current_sampling: auto, nothing said"  # the start of auto's first reading's why
 SLOW_STEP_S = 2.0e-3  # s: a log step above this, untagged, may be a slower logger's
+# sampled chosen for a slow untagged log when its residual is smaller than held's by this
+# factor at least (geometric mean over the joints): a current read with the wrong timing leaves
+# a force half a step out of place (measured: 2.7x on a point-sampled ~83 Hz log, 5x the other
+# way on a held 91 Hz one, bench/logger_sampling.py)
+RESIDUAL_MARGIN = 0.95
 NEGATIVE_LAG_SIGMAS = 3.0  # τ below -this x its σ on most joints: no current loop leads
 
 
@@ -89,9 +98,38 @@ def lag_says_sampled(current_lag: Sequence[dict]) -> str | None:
             "at the stamps (current_sampling: auto)")
 
 
-def slow_untagged_line(source: str, step_s: float) -> str:
-    """One line for a record of a slow step whose sampling nobody said (auto read it held)."""
-    return (f"{source}: current read as held over each {1e3 * step_s:.3g} ms step "
-            "(current_sampling: auto, no tag; no lag can tell at this rate): if a faster "
-            "controller's current was logged at the stamps, tag orthoglide.current_sampling: "
-            "sampled or give current_sampling: sampled")
+def held_or_sampled(solve_rows: Callable, blocks: list, reports: list, alts: list
+                    ) -> tuple[Any, list, str]:
+    """auto on slow untagged logs (``alts[i]``: record i's rows and report read as sampled, or
+    None): both readings solved by ``solve_rows(blocks, reports)``, the one whose residual is
+    smaller (sampled only below RESIDUAL_MARGIN x held's), or the one that solves; both
+    refused: held's error. Returns (what solve_rows returned, the reports, one line why)."""
+    alt_blocks = [b if a is None else a[0] for a, b in zip(alts, blocks)]
+    alt_reports = [r if a is None else a[1] for a, r in zip(alts, reports)]
+    which = ", ".join(r["bag"] for a, r in zip(alts, reports) if a is not None)
+    step = max(r["period_s"] for a, r in zip(alts, reports) if a is not None)
+    held = sampled = None
+    try:
+        held = solve_rows(blocks, reports)
+    except OrthoglideError as exc:
+        held_error = exc
+    try:
+        sampled = solve_rows(alt_blocks, alt_reports)
+    except OrthoglideError as exc:
+        sampled_error = exc
+    head = (f"current_sampling: auto on {which} (no tag, steps up to {1e3 * step:.3g} ms, no "
+            "lag to tell by): read")
+    if held is None and sampled is None:
+        raise held_error
+    if sampled is None:
+        return held, reports, f"{head} held, sampled is refused ({str(sampled_error)[:80]}...)"
+    if held is None:
+        return sampled, alt_reports, f"{head} sampled, held is refused ({str(held_error)[:80]}...)"
+    rh = np.asarray(held[3].result.residual_rms, float)
+    rs = np.asarray(sampled[3].result.residual_rms, float)
+    ok = np.isfinite(rh) & np.isfinite(rs) & (rh > 0) & (rs > 0)
+    ratio = float(np.exp(np.mean(np.log(rs[ok] / rh[ok])))) if ok.any() else 1.0
+    pick = "sampled" if ratio < RESIDUAL_MARGIN else "held"
+    line = (f"{head} {pick}: the residual read as sampled is {ratio:.2f} x held's (geometric "
+            f"mean over the joints; sampled below {RESIDUAL_MARGIN:g})")
+    return (sampled, alt_reports, line) if pick == "sampled" else (held, reports, line)

@@ -1,0 +1,150 @@
+"""current_sampling: the tag, the import flag, the option and the robot file say how a record's
+current relates to its stamps (held over the step, or sampled at the stamp from a faster loop);
+``auto`` reads a negative identified lag as sampled; a point-sampled log of a 1 kHz loop is
+identified without bias only as sampled (observe/sampling.py)."""
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from orthoglide_ident.bags import read_bag
+from orthoglide_ident.bags._tags import BagTags
+from orthoglide_ident.bags.csv_import import ColumnMap, import_csv
+from orthoglide_ident.errors import BagError, ConfigError
+from orthoglide_ident.identify import IdentifyOptions
+from orthoglide_ident.identify.observe.sampling import (lag_says_sampled, record_sampling,
+                                                        sampled_shift_s)
+from orthoglide_ident.identify.observe.time_base import states_on_stamps
+from orthoglide_ident.identify.pipeline import sampling_rerun
+from orthoglide_ident.model.robot_file import read_description
+
+
+def test_the_tag_round_trips_and_a_wrong_value_is_refused():
+    tags = BagTags.checked("unloaded", 0.0, current_sampling="sampled")
+    d = tags.to_dict()
+    assert d["orthoglide.current_sampling"] == "sampled"
+    assert BagTags.from_dict(d, "x").current_sampling == "sampled"
+    assert "orthoglide.current_sampling" not in BagTags.checked("unloaded", 0.0).to_dict()
+    with pytest.raises(BagError, match="current_sampling"):
+        BagTags.from_dict({**d, "orthoglide.current_sampling": "avg"}, "x.mcap")
+
+
+def test_import_flag_tags_the_bag(tmp_path):
+    csv = tmp_path / "log.csv"
+    t = np.arange(200) * 0.012
+    csv.write_text("t,j1.q,j1.effort\n" + "".join(f"{x:.3f},{np.sin(x):.6f},{np.cos(x):.6f}\n"
+                                                   for x in t))
+    cmap = ColumnMap().with_values(effort_unit="A", current_sampling="sampled")
+    res = import_csv([csv], tmp_path / "bag", cmap)
+    assert "current sampled" in res.tag
+    assert read_bag(tmp_path / "bag").tags.current_sampling == "sampled"
+    plain = import_csv([csv], tmp_path / "bag2", ColumnMap().with_values(effort_unit="A"))
+    assert read_bag(plain.bag).tags.current_sampling is None  # auto: untagged
+    with pytest.raises(ConfigError, match="current_sampling"):
+        ColumnMap().with_values(current_sampling="mean")
+
+
+def test_option_and_robot_file_key(tmp_path):
+    assert IdentifyOptions.from_mapping({"current_sampling": "sampled"}).current_sampling == \
+        "sampled"
+    assert IdentifyOptions().current_sampling == "auto"
+    with pytest.raises(ConfigError, match="current_sampling"):
+        IdentifyOptions.from_mapping({"current_sampling": "point"})
+    (tmp_path / "r.urdf").write_text("<robot name='r'/>")
+    desc = read_description({"description": "r.urdf", "current_sampling": "sampled"}, tmp_path)
+    assert desc.current_sampling == "sampled"
+    with pytest.raises(ConfigError, match="current_sampling"):
+        read_description({"description": "r.urdf", "current_sampling": "auto"}, tmp_path)
+
+
+def test_who_says_the_sampling():
+    assert record_sampling("sampled", "held", "held")[0] == "sampled"  # the tag first
+    assert record_sampling(None, "sampled", "held")[0] == "sampled"  # then the option
+    assert record_sampling(None, "auto", "sampled")[0] == "sampled"  # then the robot file
+    assert record_sampling(None, "auto", None)[0] == "held"  # auto's first reading
+
+
+def _lags(taus_ms, std_ms=0.02):
+    return [{"joint": f"j{i}", "tau_ms": t, "tau_std_ms": std_ms} for i, t in enumerate(taus_ms)]
+
+
+def test_auto_reads_a_negative_lag_as_sampled():
+    neg = _lags([-0.47, -0.45, -0.49, -0.46])
+    assert "negative on 4 of 4" in lag_says_sampled(neg)
+    assert lag_says_sampled(_lags([0.05, 0.02, -0.01, 0.03])) is None  # noise around 0
+    assert lag_says_sampled(_lags([-0.47, 0.05, 0.02, 0.01])) is None  # one joint only
+    from types import SimpleNamespace
+
+    res = SimpleNamespace(current_lag=neg)
+    why = "current_sampling: auto, nothing said: held until the lag says otherwise"
+    res.diagnostics = {"bags": [{"current_sampling_why": why}]}
+    assert sampling_rerun(res, IdentifyOptions()) is not None
+    assert sampling_rerun(res, IdentifyOptions(current_sampling="held")) is None  # as told
+    res.diagnostics = {"bags": [{"current_sampling_why": "the bag's tag"}]}
+    assert sampling_rerun(res, IdentifyOptions()) is None  # a tagged record is as tagged
+
+
+def test_sampled_states_sit_at_the_stamp_plus_the_loops_half_tick():
+    """Closed form: q = sin(2π f t) on a 10/12/14 ms clock; the states of a sampled record are
+    those at t_k (+ 1 / (2 f_loop) with the loop's rate), a held record's at the step middles."""
+    st = np.cumsum(np.r_[0, np.resize([10, 12, 14], 999)]).astype(np.int64) * 1_000_000
+    t = st * 1e-9
+    f = 0.5
+    q = np.sin(2 * np.pi * f * t)[:, None]
+    opts = IdentifyOptions(current_sampling="sampled", zoh_shift=False, current_loop_hz=1000.0)
+    shift = sampled_shift_s(opts)
+    assert shift == pytest.approx(5e-4)
+    assert sampled_shift_s(IdentifyOptions()) == 0.0  # held: the half step of the log instead
+    sl = slice(100, -100)
+    for zoh, want in ((False, t + shift), (True, 0.5 * (t[:-1] + t[1:]))):
+        qh, qd, _ = states_on_stamps(q, st, 15.0, zoh_shift=zoh, shift_s=shift)
+        assert np.abs(qh[sl, 0] - np.sin(2 * np.pi * f * want[sl])).max() < 1e-5
+        assert np.abs(qd[sl, 0] - 2 * np.pi * f * np.cos(2 * np.pi * f * want[sl])).max() < 1e-4
+
+
+@pytest.mark.slow
+def test_a_point_sampled_250_hz_log_is_unbiased_only_as_sampled():
+    """UR5 under its 1 kHz PID, logged every 3/4/5 ticks, the loop's current band-limited below
+    the log's Nyquist frequency (bench/logger_sampling.py's '~250 Hz pt, smooth'): held puts
+    the states 2 ms late and wrist_2 comes out biased beyond 3 σ; sampled (the loop's rate
+    known) puts every gain within 3 σ of the plant's."""
+    from orthoglide_ident.identify.observe.filtering import zero_phase_butterworth
+    from orthoglide_ident.identify.pipeline import identify_records
+    from orthoglide_ident.identify.records.record import Record
+    from orthoglide_ident.model.robots import load_robot
+    from orthoglide_sim.arms.log import KEEP_3_4_5, clock_uniform, point_sampled, simulate_arm_log
+
+    model = load_robot("ur5")
+    recs = []
+    for p, tr, s in ((None, "exciting1", 0), ("2.0", "exciting2", 1)):
+        r = simulate_arm_log(60.0, clock_uniform(60.0, 1000.0), payload=p, trajectory=tr,
+                             seed=s, print_resolution=0.0)
+        r = dataclasses.replace(r, v_tau=zero_phase_butterworth(r.v_tau, 1e-3, 87.5, 4))
+        recs.append(point_sampled(r, KEEP_3_4_5, 0.0))
+
+    def records():
+        out = []
+        for i, r in enumerate(recs):
+            tag = r.payload.tag() if r.payload is not None else None
+            from orthoglide_ident.model.robot import Payload
+            pl = None if tag is None else Payload(r.payload_mass, tag["payload_frame"],
+                                                  tuple(tag["payload_com"]),
+                                                  tuple(tag["payload_inertia"]))
+            out.append(Record.from_arrays(f"r{i}", r.stamps_ns, r.q, r.v_tau,
+                                          "loaded" if pl else "unloaded", r.payload_mass,
+                                          r.joint_names, pl))
+        return out
+
+    truth = recs[0].truth.drive_array("g_tau")
+
+    def sigmas(opts):
+        res = identify_records(records(), model=model, options=opts)
+        return np.array([abs(g.value / t - 1) / g.rel_std for g, t in zip(res.drive_gains, truth)
+                         if getattr(g, "determined", True)])
+
+    held = sigmas(IdentifyOptions(current_sampling="held"))
+    sampled = sigmas(IdentifyOptions(current_sampling="sampled", current_loop_hz=1000.0))
+    assert held.max() > 3.0
+    assert sampled.size == 6 and sampled.max() < 3.0
