@@ -193,8 +193,7 @@ def _segments_iir(segments: list[Segment], model: IdentificationModel, opts: Ide
                                                opts.filter_currents, seg.stamps_ns, seg.qd,
                                                sampled_shift_s(opts))
         ts = (seg.stamps_ns[trim:trim + qh.shape[0]] - t_start) * 1e-9
-        if opts.zoh_shift:
-            ts = ts + 0.5 * T
+        ts = ts + (0.5 * T if opts.zoh_shift else sampled_shift_s(opts))
         t2 = time.perf_counter()
         times["filtering"] += t2 - t1
         zones = None

@@ -67,11 +67,12 @@ def record_sampling(tagged: str | None, option: str, robot_file: str | None = No
 
 
 def at_sampling(opts, sampling: str):
-    """``opts`` for a record whose current is ``sampling``: the states at the stamps for a
-    sampled current (no half-step shift), as they are for a held one."""
-    if sampling == "sampled" and opts.zoh_shift:
-        return dataclasses.replace(opts, zoh_shift=False)
-    return opts
+    """``opts`` for a record whose current is ``sampling`` (resolved: held | sampled): the
+    states at the stamps for a sampled current (no half-step shift), as they are for a held
+    one."""
+    if sampling == "sampled":
+        return dataclasses.replace(opts, zoh_shift=False, current_sampling=sampling)
+    return dataclasses.replace(opts, current_sampling=sampling)
 
 
 def sampled_shift_s(opts) -> float:

@@ -148,3 +148,37 @@ def test_a_point_sampled_250_hz_log_is_unbiased_only_as_sampled():
     sampled = sigmas(IdentifyOptions(current_sampling="sampled", current_loop_hz=1000.0))
     assert held.max() > 3.0
     assert sampled.size == 6 and sampled.max() < 3.0
+
+
+def test_live_blocks_of_a_sampled_current_give_the_offline_rows():
+    """The live stream (ticks pushed in blocks) reads the option as offline does: the states at
+    t_k + 1 / (2 current_loop_hz), not at the half tick; its rows equal the offline ones."""
+    from orthoglide_ident.identify.observe.stream import SegmentStream
+    from orthoglide_ident.identify.observe.time_base import states_at_half_tick
+    from synthetic import SyntheticModel, synthetic_record
+
+    opts = IdentifyOptions(current_sampling="sampled", current_loop_hz=4000.0).at_rate(1e3)
+    rec = synthetic_record(4.0, 0.0, seed=3, amplitude=0.1, f_max=4.0)
+    model, T = SyntheticModel(), 1e-3
+    n_b, trim = len(model.names), int(round(opts.edge_trim_s / T))
+    states = states_at_half_tick(rec.q, rec.v_tau, T, opts.filter_cutoff_hz, opts.filter_order,
+                                 trim, False, opts.filter_currents, rec.stamps_q_ns,
+                                 shift_s=1.25e-4)
+    stamps = rec.stamps_q_ns[trim:trim + states[0].shape[0]]
+    t0 = int(rec.stamps_q_ns[0])
+    whole = SegmentStream(model, opts, T, t0, n_b)
+    ref = [whole.push_states(stamps, *states), whole.finish()]
+    held = states_at_half_tick(rec.q, rec.v_tau, T, opts.filter_cutoff_hz, opts.filter_order,
+                               trim, True, opts.filter_currents)
+    assert held[0].shape[0] == states[0].shape[0] - 1  # the held reading's rows differ
+    blocks = SegmentStream(model, opts, T, t0, n_b)
+    got = [blocks.push(rec.stamps_q_ns[a:a + 700], rec.q[a:a + 700], rec.v_tau[a:a + 700])
+           for a in range(0, rec.q.shape[0], 700)] + [blocks.finish()]
+    X0 = np.concatenate([r.X for r in ref], axis=2)
+    X1 = np.concatenate([r.X for r in got], axis=2)
+    assert X0.shape == X1.shape and X0.shape[2] > 0
+    scale = np.abs(X0).max(axis=2, keepdims=True) + 1e-300
+    assert np.abs((X1 - X0) / scale).max() < 1e-9
+    t = np.concatenate([r.t for r in got])
+    assert np.allclose(t, np.concatenate([r.t for r in ref]))
+    assert np.allclose((t - 1.25e-4) * 1e3, np.round((t - 1.25e-4) * 1e3), atol=1e-6)  # stamp + ½ tick
