@@ -8,7 +8,8 @@ seed 1), identified with current_sampling held, sampled and auto. Record shapes:
 - ``1 kHz``: the 1 kHz loop's own log (its current held over each 1 ms tick);
 - ``~83 Hz pt`` / ``~250 Hz pt``: the same loop logged every 10/12/14 or 3/4/5 ticks, each kept
   sample the loop's own q and current at that tick (orthoglide_sim.arms.log.point_sampled);
-- ``..., smooth``: the same with the loop's current low-passed at 0.35 x the log rate before it is logged
+- ``..., smooth``: the same with the loop's current low-passed at 0.35 x the log rate before
+  it is logged
   (a drive whose current reference has no content the log aliases): the timing alone;
 - ``1 kHz pt of 10 kHz``: a 10 kHz loop logged every 10th tick (plant step 0.1 ms; smooth too);
 - ``91 Hz held``: a controller at the log rate on a 10/12 ms clock (bench/real_records.py).
@@ -36,8 +37,14 @@ from orthoglide_ident.identify import IdentifyOptions  # noqa: E402
 from orthoglide_ident.identify.observe.filtering import zero_phase_butterworth  # noqa: E402
 from orthoglide_ident.identify.pipeline import identify_records  # noqa: E402
 from orthoglide_ident.model.robots import load_robot  # noqa: E402
-from orthoglide_sim.arms.log import (KEEP_3_4_5, KEEP_10_12_14, clock_10_12,  # noqa: E402
-                                     clock_uniform, point_sampled, simulate_arm_log)
+from orthoglide_sim.arms.log import (  # noqa: E402
+    KEEP_3_4_5,
+    KEEP_10_12_14,
+    clock_10_12,
+    clock_uniform,
+    point_sampled,
+    simulate_arm_log,
+)
 
 sys.path.insert(0, str(Path(__file__).parent))
 from real_records import to_record  # noqa: E402
@@ -84,7 +91,8 @@ def shapes(duration: float, fast: float, cache: Path | None) -> list[tuple[str, 
             ("~83 Hz pt, smooth", [point_sampled(smooth(r, 83.3), KEEP_10_12_14, 0.0) for r in k1]),
             ("~250 Hz pt, smooth", [point_sampled(smooth(r, 250.0), KEEP_3_4_5, 0.0) for r in k1]),
             ("1 kHz pt of 10 kHz", [point_sampled(r, 10, 0.0) for r in k10]),
-            ("1 kHz pt of 10 kHz, smooth", [point_sampled(smooth(r, 1000.0), 10, 0.0) for r in k10]),
+            ("1 kHz pt of 10 kHz, smooth",
+             [point_sampled(smooth(r, 1000.0), 10, 0.0) for r in k10]),
             ("91 Hz held", held)]
 
 
@@ -95,7 +103,9 @@ def row(name: str, mode: str, recs: list, model, loop_hz: float = 0.0) -> list[s
                                model=model, options=IdentifyOptions(current_sampling=mode,
                                                                     current_loop_hz=loop_hz))
     except OrthoglideError as exc:
-        return [f"{name:<27} {mode:<7} refused: {str(exc)[:160]}"]
+        text = str(exc)
+        text = text if len(text) < 240 else f"{text[:110]} … {text[-120:]}"
+        return [f"{name:<27} {mode:<7} refused: {text}"]
     truth = recs[0].truth.drive_array("g_tau")
     cells, why = [], []
     for g, t in zip(res.drive_gains, truth):

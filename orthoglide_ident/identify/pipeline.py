@@ -28,8 +28,8 @@ from orthoglide_ident.identify.solve.factors import RecordFactors
 from orthoglide_ident.identify.solve.methods import DEFAULT_METHOD, get, solve
 from orthoglide_ident.identify.observe.equations import Observations
 from orthoglide_ident.identify.observe.rows import IdentificationModel, observe
-from orthoglide_ident.identify.observe.sampling import (AUTO_HELD, SLOW_STEP_S, held_or_sampled,
-                                                        lag_says_sampled)
+from orthoglide_ident.identify.observe.sampling import (ALIASED, AUTO_HELD, SLOW_STEP_S,
+                                                        held_or_sampled, lag_says_sampled)
 from orthoglide_ident.identify.options import IdentifyOptions
 from orthoglide_ident.identify.columns.payload_unknowns import (check_one_payload, unknowns_of,
                                                         used_columns, with_payload_unknowns)
@@ -242,12 +242,19 @@ def _identify_once(
         factors = [RecordFactors.from_observations(x) for x in b]
         return m, b, o, solve(factors, m, o, method, gains, essential, bag_names)
 
-    if any(a is not None for a in alts):  # auto on a slow untagged log: held or sampled
-        (model, blocks, opts, solved), reports, line = held_or_sampled(
-            solve_rows, blocks, reports, alts)
-        warnings.append(line)
-    else:
-        model, blocks, opts, solved = solve_rows(blocks, reports)
+    try:
+        if any(a is not None for a in alts):  # auto on a slow untagged log: held or sampled
+            (model, blocks, opts, solved), reports, line = held_or_sampled(
+                solve_rows, blocks, reports, alts)
+            warnings.append(line)
+        else:
+            model, blocks, opts, solved = solve_rows(blocks, reports)
+    except ExcitationError as exc:
+        if any(a is not None for a in alts) or any(r["current_sampling"] == "sampled"
+                                                   and r["period_s"] > SLOW_STEP_S
+                                                   for r in reports):
+            raise ExcitationError(f"{exc}; {ALIASED}") from None
+        raise
     add(solved.timings)
     timings["solve"] = time.perf_counter() - t_solve - timings.get("essential", 0.0)
     result = solved.result

@@ -40,6 +40,10 @@ SLOW_STEP_S = 2.0e-3  # s: a log step above this, untagged, may be a slower logg
 # a force half a step out of place (measured: 2.7x on a point-sampled ~83 Hz log, 5x the other
 # way on a held 91 Hz one, bench/logger_sampling.py)
 RESIDUAL_MARGIN = 0.95
+# said with a refusal of a slow log read as sampled: what a point-sampled log cannot undo
+ALIASED = ("or, a current point-sampled from a faster loop, that loop's content above the "
+           "log's Nyquist frequency aliased into the band as noise: log the current averaged "
+           "over each step (then it is held) or at the loop's own rate")
 NEGATIVE_LAG_SIGMAS = 3.0  # τ below -this x its σ on most joints: no current loop leads
 
 

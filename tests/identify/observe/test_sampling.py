@@ -14,8 +14,11 @@ from orthoglide_ident.bags._tags import BagTags
 from orthoglide_ident.bags.csv_import import ColumnMap, import_csv
 from orthoglide_ident.errors import BagError, ConfigError
 from orthoglide_ident.identify import IdentifyOptions
-from orthoglide_ident.identify.observe.sampling import (lag_says_sampled, record_sampling,
-                                                        sampled_shift_s)
+from orthoglide_ident.identify.observe.sampling import (
+    lag_says_sampled,
+    record_sampling,
+    sampled_shift_s,
+)
 from orthoglide_ident.identify.observe.time_base import states_on_stamps
 from orthoglide_ident.identify.pipeline import sampling_rerun
 from orthoglide_ident.model.robot_file import read_description
@@ -142,20 +145,50 @@ def test_a_point_sampled_250_hz_log_is_unbiased_only_as_sampled():
     def sigmas(opts):
         res = identify_records(records(), model=model, options=opts)
         return np.array([abs(g.value / t - 1) / g.rel_std for g, t in zip(res.drive_gains, truth)
-                         if getattr(g, "determined", True)])
+                         if getattr(g, "determined", True)]), res
 
-    held = sigmas(IdentifyOptions(current_sampling="held"))
-    sampled = sigmas(IdentifyOptions(current_sampling="sampled", current_loop_hz=1000.0))
+    held, _ = sigmas(IdentifyOptions(current_sampling="held"))
+    sampled, _ = sigmas(IdentifyOptions(current_sampling="sampled", current_loop_hz=1000.0))
     assert held.max() > 3.0
     assert sampled.size == 6 and sampled.max() < 3.0
+    # auto, nothing said, a 4 ms step: the reading whose residual is smaller, said in one line
+    _, auto = sigmas(IdentifyOptions(current_loop_hz=1000.0))
+    assert {b["current_sampling"] for b in auto.diagnostics["bags"]} == {"sampled"}
+    assert any(w.startswith("current_sampling: auto on") and "read sampled" in w
+               for w in auto.warnings)
+
+
+@pytest.mark.slow
+def test_auto_reads_a_log_held_at_its_own_rate_as_held():
+    """A controller at the log rate on a 10/12 ms clock (bench/real_records.py): auto keeps
+    held (sampled leaves a larger residual or is refused), the answer today's."""
+    import sys
+    from pathlib import Path
+
+    from orthoglide_ident.identify.pipeline import identify_records
+    from orthoglide_ident.model.robots import load_robot
+    from orthoglide_sim.arms.log import clock_10_12, simulate_arm_log
+    sys.path.insert(0, str(Path(__file__).parents[3] / "bench"))
+    from real_records import to_record
+
+    model = load_robot("ur5")
+    recs = [to_record(simulate_arm_log(60.0, clock_10_12(60.0), payload=p, trajectory=tr,
+                                       seed=s), f"r{s}")
+            for p, tr, s in ((None, "exciting1", 0), ("2.0", "exciting2", 1))]
+    auto = identify_records(recs, model=model)
+    held = identify_records(recs, model=model, options=IdentifyOptions(current_sampling="held"))
+    assert {b["current_sampling"] for b in auto.diagnostics["bags"]} == {"held"}
+    assert [g.value for g in auto.drive_gains] == [g.value for g in held.drive_gains]
+    assert any("read held" in w for w in auto.warnings)
 
 
 def test_live_blocks_of_a_sampled_current_give_the_offline_rows():
     """The live stream (ticks pushed in blocks) reads the option as offline does: the states at
     t_k + 1 / (2 current_loop_hz), not at the half tick; its rows equal the offline ones."""
+    from synthetic import SyntheticModel, synthetic_record
+
     from orthoglide_ident.identify.observe.stream import SegmentStream
     from orthoglide_ident.identify.observe.time_base import states_at_half_tick
-    from synthetic import SyntheticModel, synthetic_record
 
     opts = IdentifyOptions(current_sampling="sampled", current_loop_hz=4000.0).at_rate(1e3)
     rec = synthetic_record(4.0, 0.0, seed=3, amplitude=0.1, f_max=4.0)
@@ -181,4 +214,5 @@ def test_live_blocks_of_a_sampled_current_give_the_offline_rows():
     assert np.abs((X1 - X0) / scale).max() < 1e-9
     t = np.concatenate([r.t for r in got])
     assert np.allclose(t, np.concatenate([r.t for r in ref]))
-    assert np.allclose((t - 1.25e-4) * 1e3, np.round((t - 1.25e-4) * 1e3), atol=1e-6)  # stamp + ½ tick
+    k = (t - 1.25e-4) * 1e3  # ms since the first stamp, less the loop's half tick: whole
+    assert np.allclose(k, np.round(k), atol=1e-6)
