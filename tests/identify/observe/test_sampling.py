@@ -62,6 +62,18 @@ def test_option_and_robot_file_key(tmp_path):
         read_description({"description": "r.urdf", "current_sampling": "auto"}, tmp_path)
 
 
+def test_a_robot_file_key_reaches_the_model(tmp_path):
+    """A robot YAML with current_sampling: its model says it (also through a transmission)."""
+    from orthoglide_ident.identify.observe.sampling import robot_file_sampling
+    from orthoglide_ident.model.robots import ROBOTS_DIR, load_robot
+
+    text = (ROBOTS_DIR / "ur5.yaml").read_text()
+    (tmp_path / "ur5.urdf").write_text((ROBOTS_DIR / "ur5.urdf").read_text())
+    (tmp_path / "ur5.yaml").write_text(text + "\ncurrent_sampling: sampled\n")
+    assert robot_file_sampling(load_robot(str(tmp_path / "ur5.yaml"))) == "sampled"
+    assert robot_file_sampling(load_robot("ur5")) is None
+
+
 def test_who_says_the_sampling():
     assert record_sampling("sampled", "held", "held")[0] == "sampled"  # the tag first
     assert record_sampling(None, "sampled", "held")[0] == "sampled"  # then the option
