@@ -228,3 +228,37 @@ def test_live_blocks_of_a_sampled_current_give_the_offline_rows():
     assert np.allclose(t, np.concatenate([r.t for r in ref]))
     k = (t - 1.25e-4) * 1e3  # ms since the first stamp, less the loop's half tick: whole
     assert np.allclose(k, np.round(k), atol=1e-6)
+
+
+@pytest.mark.slow
+def test_auto_reads_a_1khz_log_of_a_4khz_loop_as_sampled_by_its_negative_lag():
+    """A 4 kHz loop (its current band-limited at 350 Hz) logged every 4th tick: read held, the
+    lag is negative on every joint (the log's half tick less the loop's, 0.375 ms, the wrong
+    way); auto reads it again as sampled, says why, and the lag comes out positive."""
+    from orthoglide_ident.identify.observe.filtering import zero_phase_butterworth
+    from orthoglide_ident.identify.pipeline import identify_records
+    from orthoglide_ident.identify.records.record import Record
+    from orthoglide_ident.model.robot import Payload
+    from orthoglide_ident.model.robots import load_robot
+    from orthoglide_sim.arms.log import clock_uniform, point_sampled, simulate_arm_log
+
+    recs = []
+    for p, tr, s in ((None, "exciting1", 0), ("2.0", "exciting2", 1)):
+        r = simulate_arm_log(25.0, clock_uniform(25.0, 4000.0), payload=p, trajectory=tr, seed=s,
+                             print_resolution=0.0)
+        r = dataclasses.replace(r, v_tau=zero_phase_butterworth(r.v_tau, 2.5e-4, 350.0, 4))
+        r = point_sampled(r, 4, 0.0)
+        tag = None if r.payload is None else r.payload.tag()
+        pl = None if tag is None else Payload(r.payload_mass, tag["payload_frame"],
+                                              tuple(tag["payload_com"]),
+                                              tuple(tag["payload_inertia"]))
+        recs.append(Record.from_arrays(f"r{s}", r.stamps_ns, r.q, r.v_tau,
+                                       "loaded" if pl else "unloaded", r.payload_mass,
+                                       r.joint_names, pl))
+    model = load_robot("ur5")
+    held = identify_records(recs, model=model, options=IdentifyOptions(current_sampling="held"))
+    assert all(x["tau_ms"] < -0.2 for x in held.current_lag)  # measured -0.27 ... -0.44
+    auto = identify_records(recs, model=model)
+    assert {b["current_sampling"] for b in auto.diagnostics["bags"]} == {"sampled"}
+    assert auto.warnings[0].startswith("the identified current-loop lag is negative")
+    assert all(x["tau_ms"] > -3 * x["tau_std_ms"] for x in auto.current_lag)
