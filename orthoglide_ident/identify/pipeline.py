@@ -29,7 +29,8 @@ from orthoglide_ident.identify.solve.methods import DEFAULT_METHOD, get, solve
 from orthoglide_ident.identify.observe.equations import Observations
 from orthoglide_ident.identify.observe.rows import IdentificationModel, observe
 from orthoglide_ident.identify.observe.sampling import (ALIASED, AUTO_HELD, SLOW_STEP_S,
-                                                        held_or_sampled, lag_says_sampled)
+                                                        best_reading, lag_says_sampled,
+                                                        loop_half_ticks)
 from orthoglide_ident.identify.options import IdentifyOptions
 from orthoglide_ident.identify.columns.payload_unknowns import (check_one_payload, unknowns_of,
                                                         used_columns, with_payload_unknowns)
@@ -118,15 +119,32 @@ def _observe_all(records: Iterable[Record], model: IdentificationModel, opts: Id
         reports.append(bag_report(rep, rec.source, rec.condition, m, obs.rows_per_joint(),
                                   rec.sources))
         if alts is not None:
-            alts.append(None)
-            if rep.current_sampling_why.startswith(AUTO_HELD) and rep.period_s > SLOW_STEP_S:
-                o2, r2, _ = observe(rec, model, opts.replace(current_sampling="sampled"), m)
-                alts[-1] = (o2, bag_report(r2, rec.source, rec.condition, m,
-                                           o2.rows_per_joint(), rec.sources))
+            alts.append(_other_readings(rec, model, opts, m, rep))
         del rec  # a lazily read bag's raw samples can go now
     if not blocks:
         raise IdentificationError("no bag given")
     return blocks, reports, warnings, bag_names
+
+
+def _other_readings(rec: Record, model: IdentificationModel, opts: IdentifyOptions, m: float,
+                    rep) -> list | None:
+    """A slow record's other readings as sampled (half tick s, rows, report) when its reading
+    is open: auto read it held (then sampled at the stamp and at the loop's possible half
+    ticks), or it is sampled with its loop's rate unknown (the half ticks); else None."""
+    if rep.period_s <= SLOW_STEP_S:
+        return None
+    auto_held = rep.current_sampling_why.startswith(AUTO_HELD)
+    if not auto_held and not (rep.current_sampling == "sampled" and opts.current_loop_hz <= 0):
+        return None
+    shifts = loop_half_ticks(rep.period_s, opts.current_loop_hz)
+    shifts = ((0.0,) if auto_held and opts.current_loop_hz <= 0 else ()) + shifts
+    out = []
+    for d in shifts:
+        o, r, _ = observe(rec, model, opts.replace(current_sampling="sampled",
+                                                   current_loop_hz=0.5 / d if d else 0.0), m)
+        out.append((d, o, bag_report(r, rec.source, rec.condition, m, o.rows_per_joint(),
+                                     rec.sources)))
+    return out
 
 
 def fingerprint(rec: Record) -> str:
@@ -244,7 +262,7 @@ def _identify_once(
 
     try:
         if any(a is not None for a in alts):  # auto on a slow untagged log: held or sampled
-            (model, blocks, opts, solved), reports, line = held_or_sampled(
+            (model, blocks, opts, solved), reports, line = best_reading(
                 solve_rows, blocks, reports, alts)
             warnings.append(line)
         else:
@@ -260,9 +278,7 @@ def _identify_once(
     result = solved.result
 
     t_v = time.perf_counter()
-    chosen = {r["current_sampling"] for r in reports}
-    vals = _validate(validation, solved, model, opts.replace(current_sampling="sampled")
-                     if chosen == {"sampled"} else opts, payload_mass)
+    vals = _validate(validation, solved, model, _as_read(opts, reports), payload_mass)
     if vals:
         timings["validation"] = time.perf_counter() - t_v
     for v in vals:
@@ -274,6 +290,16 @@ def _identify_once(
     result.observations = blocks
     result.observations_chi = solved.chi
     return result
+
+
+def _as_read(opts: IdentifyOptions, reports: list[dict[str, Any]]) -> IdentifyOptions:
+    """The options that read other records (validation) as these were read: sampled, at the
+    half tick chosen, when all were read sampled."""
+    if {r["current_sampling"] for r in reports} != {"sampled"}:
+        return opts
+    shift_ms = max(r["current_shift_ms"] for r in reports)
+    return opts.replace(current_sampling="sampled",
+                        current_loop_hz=0.5e3 / shift_ms if shift_ms > 0 else opts.current_loop_hz)
 
 
 def _payload_or_not(model: IdentificationModel, blocks: list[Observations],

@@ -60,6 +60,7 @@ def observe(rec: Record, model: IdentificationModel, opts: IdentifyOptions,
     rep.current_sampling, rep.current_sampling_why = record_sampling(
         rec.current_sampling, opts.current_sampling, robot_file_sampling(model))
     opts = at_sampling(opts, rep.current_sampling)  # sampled: the states at the stamps
+    rep.current_shift_ms = 1e3 * sampled_shift_s(opts)  # (+ its loop's half tick, if known)
     rep.filter_cutoff_hz, rep.decimation = opts.filter_cutoff_hz, opts.decimation
     rep.decimation_cutoff_hz = opts.decimation_cutoff_hz
     times["segments"] = time.perf_counter() - t0

@@ -42,6 +42,12 @@ SLOW_STEP_S = 2.0e-3  # s: a log step above this, untagged, may be a slower logg
 # tests/identify/test_real_panda.py (every 10th sample of a 1 kHz torque log: its held-out
 # torques 0.150 -> 0.138 N·m rms read as sampled)
 RESIDUAL_MARGIN = 0.98
+# a sampled current acts half its loop's tick after the stamp: with that loop's rate unknown on a
+# slow log, the half tick is fitted among these (loops of 4, 2, 1 kHz and 500 Hz) by the residual,
+# kept when below SHIFT_MARGIN x the stamp's (measured on the ~250 Hz UR5 log of a 1 kHz loop:
+# 0.92 / 0.87 / 0.87 at 0.25 / 0.5 / 1 ms, wrist_2 4.5 σ -> 1.2 σ at 0.5 ms)
+LOOP_HALF_TICKS_S = (1.25e-4, 2.5e-4, 5.0e-4, 1.0e-3)
+SHIFT_MARGIN = 0.995
 # said with a refusal of a slow log read as sampled: what a point-sampled log cannot undo
 ALIASED = ("or, a current point-sampled from a faster loop, that loop's content above the "
            "log's Nyquist frequency aliased into the band as noise: log the current averaged "
@@ -105,38 +111,71 @@ def lag_says_sampled(current_lag: Sequence[dict]) -> str | None:
             "at the stamps (current_sampling: auto)")
 
 
-def held_or_sampled(solve_rows: Callable, blocks: list, reports: list, alts: list
-                    ) -> tuple[Any, list, str]:
-    """auto on slow untagged logs (``alts[i]``: record i's rows and report read as sampled, or
-    None): both readings solved by ``solve_rows(blocks, reports)``, the one whose residual is
-    smaller (sampled only below RESIDUAL_MARGIN x held's), or the one that solves; both
-    refused: held's error. Returns (what solve_rows returned, the reports, one line why)."""
-    alt_blocks = [b if a is None else a[0] for a, b in zip(alts, blocks)]
-    alt_reports = [r if a is None else a[1] for a, r in zip(alts, reports)]
-    which = ", ".join(r["bag"] for a, r in zip(alts, reports) if a is not None)
-    step = max(r["period_s"] for a, r in zip(alts, reports) if a is not None)
-    held = sampled = None
-    try:
-        held = solve_rows(blocks, reports)
-    except OrthoglideError as exc:
-        held_error = exc
-    try:
-        sampled = solve_rows(alt_blocks, alt_reports)
-    except OrthoglideError as exc:
-        sampled_error = exc
-    head = (f"current_sampling: auto on {which} (no tag, steps up to {1e3 * step:.3g} ms, no "
-            "lag to tell by): read")
-    if held is None and sampled is None:
-        raise held_error
-    if sampled is None:
-        return held, reports, f"{head} held, sampled is refused ({str(sampled_error)[:80]}...)"
-    if held is None:
-        return sampled, alt_reports, f"{head} sampled, held is refused ({str(held_error)[:80]}...)"
-    rh = np.asarray(held[3].result.residual_rms, float)
-    rs = np.asarray(sampled[3].result.residual_rms, float)
-    ok = np.isfinite(rh) & np.isfinite(rs) & (rh > 0) & (rs > 0)
-    ratio = float(np.exp(np.mean(np.log(rs[ok] / rh[ok])))) if ok.any() else 1.0
-    pick = "sampled" if ratio < RESIDUAL_MARGIN else "held"
-    line = (f"{head} {pick}: the residual read as sampled is {ratio:.3g} x held's (geometric "
-            f"mean over the joints; sampled below {RESIDUAL_MARGIN:g})")
-    return (sampled, alt_reports, line) if pick == "sampled" else (held, reports, line)
+def loop_half_ticks(step_s: float, loop_hz: float) -> tuple[float, ...]:
+    """Where a sampled current may act after its stamp, s: the known loop's half tick, else
+    LOOP_HALF_TICKS_S below half the log step (the loop is faster than the log)."""
+    if loop_hz > 0:
+        return (0.5 / loop_hz,)
+    return tuple(d for d in LOOP_HALF_TICKS_S if d < 0.5 * step_s)
+
+
+def _residual_ratio(a, b) -> float:
+    """Geometric mean over the joints of the residual rms of solve ``a`` over ``b``'s."""
+    ra = np.asarray(a.result.residual_rms, float)
+    rb = np.asarray(b.result.residual_rms, float)
+    ok = np.isfinite(ra) & np.isfinite(rb) & (ra > 0) & (rb > 0)
+    return float(np.exp(np.mean(np.log(ra[ok] / rb[ok])))) if ok.any() else 1.0
+
+
+def best_reading(solve_rows: Callable, blocks: list, reports: list, alts: list
+                 ) -> tuple[Any, list, str]:
+    """Slow logs whose reading is open (``alts[i]``: record i's other readings, a list of
+    (half tick s, rows, report) read as sampled, or None): every reading solved by
+    ``solve_rows(blocks, reports)``. The first reading is auto's held (then sampled is kept
+    when its best residual is below RESIDUAL_MARGIN x held's, or when held is refused) or
+    sampled at the stamp with the loop's rate unknown (then the half tick whose residual is
+    least, below SHIFT_MARGIN x the stamp's). All refused: the first one's error. Returns
+    (what solve_rows returned, the reports, one line why)."""
+    which = [i for i, a in enumerate(alts) if a]
+    names = ", ".join(reports[i]["bag"] for i in which)
+    step = max(reports[i]["period_s"] for i in which)
+    held = reports[which[0]]["current_sampling"] == "held"
+    tries = [(None, blocks, reports)] + [
+        (alts[which[0]][j][0], [b if not a else a[j][1] for a, b in zip(alts, blocks)],
+         [r if not a else a[j][2] for a, r in zip(alts, reports)])
+        for j in range(len(alts[which[0]]))]
+    out, first_error = [], None
+    for shift, b, r in tries:
+        try:
+            out.append((shift, solve_rows(b, r), r))
+        except OrthoglideError as exc:
+            first_error = first_error or exc
+    if not out:
+        raise first_error
+    main = out[0] if out[0][0] is None else None
+    ref = (main or out[0])[1][3]
+    shifts = [x for x in out if x[0] is not None]
+    best = min(shifts, key=lambda x: _residual_ratio(x[1][3], ref)) if shifts else None
+    head = (f"current_sampling: auto on {names} (no tag, steps up to {1e3 * step:.3g} ms, no "
+            "lag to tell by): read" if held else
+            f"{names}: current sampled at steps up to {1e3 * step:.3g} ms, its loop's rate "
+            "unknown (current_loop_hz 0):")
+    tick = "" if best is None else (" at the stamp" if best[0] == 0 else
+                                    f" {1e3 * best[0]:.3g} ms after the stamp")
+    if main is None:
+        return best[1], best[2], (f"{head} sampled{tick} (held is refused: "
+                                  f"{str(first_error)[:80]}...)" if held else
+                                  f"{head} read{tick} (at the stamp it is refused)")
+    if best is None:
+        return main[1], main[2], (f"{head} held, sampled is refused ({str(first_error)[:80]}...)"
+                                  if held else f"{head} read at the stamp")
+    ratio = _residual_ratio(best[1][3], ref)
+    margin = RESIDUAL_MARGIN if held else SHIFT_MARGIN
+    what = "held's" if held else "at the stamp"
+    if ratio < margin:
+        return best[1], best[2], (f"{head} {'sampled' if held else 'read'}{tick}: its residual "
+                                  f"is {ratio:.3g} x {what} (geometric mean over the joints; "
+                                  f"below {margin:g} wins)")
+    return main[1], main[2], (f"{head} {'held' if held else 'read at the stamp'}: the best "
+                              f"other reading's residual ({tick.strip()}) is {ratio:.3g} x "
+                              f"{what} (below {margin:g} wins)")

@@ -50,6 +50,7 @@ class SegmentReport:
     velocity: str = "derived from q"  # where q̂̇ came from (time_base.choose_velocity)
     current_sampling: str = "held"  # the current against its stamps (observe/sampling.py)
     current_sampling_why: str = ""  # who said it
+    current_shift_ms: float = 0.0  # sampled: the states this long after the stamps
     filter_cutoff_hz: float = 0.0  # the cut-offs used at this record's rate (options.at_rate)
     decimation: int = 0
     decimation_cutoff_hz: float = 0.0

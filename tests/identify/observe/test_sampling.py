@@ -163,6 +163,10 @@ def test_a_point_sampled_250_hz_log_is_unbiased_only_as_sampled():
     sampled, _ = sigmas(IdentifyOptions(current_sampling="sampled", current_loop_hz=1000.0))
     assert held.max() > 3.0
     assert sampled.size == 6 and sampled.max() < 3.0
+    # the loop's rate unknown: its half tick fitted by the residual (0.5 ms found)
+    fitted, res = sigmas(IdentifyOptions(current_sampling="sampled"))
+    assert fitted.size == 6 and fitted.max() < 3.0
+    assert {b["current_shift_ms"] for b in res.diagnostics["bags"]} == {0.5}
     # auto, nothing said, a 4 ms step: the reading whose residual is smaller, said in one line
     _, auto = sigmas(IdentifyOptions(current_loop_hz=1000.0))
     assert {b["current_sampling"] for b in auto.diagnostics["bags"]} == {"sampled"}
