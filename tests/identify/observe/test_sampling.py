@@ -266,3 +266,36 @@ def test_auto_reads_a_1khz_log_of_a_4khz_loop_as_sampled_by_its_negative_lag():
     assert {b["current_sampling"] for b in auto.diagnostics["bags"]} == {"sampled"}
     assert auto.warnings[0].startswith("the identified current-loop lag is negative")
     assert all(x["tau_ms"] > -3 * x["tau_std_ms"] for x in auto.current_lag)
+
+
+def test_the_reading_kept_is_the_one_whose_residual_is_least():
+    """best_reading's rule on stand-in solves: auto keeps held on a tie, takes sampled at its
+    best half tick below 0.98 x held's residual, and falls back to what solves."""
+    from types import SimpleNamespace
+
+    from orthoglide_ident.errors import ExcitationError
+    from orthoglide_ident.identify.observe.sampling import best_reading, loop_half_ticks
+
+    assert loop_half_ticks(4e-3, 0.0) == (1.25e-4, 2.5e-4, 5e-4, 1e-3)
+    assert loop_half_ticks(1.5e-3, 0.0) == (1.25e-4, 2.5e-4, 5e-4)
+    assert loop_half_ticks(12e-3, 1000.0) == (5e-4,)
+
+    def case(residuals, refused=()):
+        def solve_rows(blocks, reports):
+            if blocks[0] in refused:
+                raise ExcitationError(f"{blocks[0]} refused")
+            res = SimpleNamespace(residual_rms=[residuals[blocks[0]]] * 2)
+            return (None, None, None, SimpleNamespace(result=res))
+        rep = {"bag": "b", "period_s": 4e-3, "current_sampling": "held"}
+        alts = [[(d, k, dict(rep, current_sampling="sampled", k=k))
+                 for d, k in ((0.0, "s0"), (5e-4, "s5"))]]
+        out, reports, line = best_reading(solve_rows, ["held"], [rep], alts)
+        return reports[0].get("k", "held"), line
+
+    assert case({"held": 1.0, "s0": 0.99, "s5": 0.985})[0] == "held"  # a tie stays held
+    pick, line = case({"held": 1.0, "s0": 0.9, "s5": 0.5})
+    assert pick == "s5" and "0.5 ms after the stamp" in line and "0.5 x held's" in line
+    assert case({"held": 1.0, "s0": 0.9, "s5": 0.5}, refused={"held"})[0] == "s5"
+    assert case({"held": 1.0, "s0": 0.9, "s5": 0.5}, refused={"s0", "s5"})[0] == "held"
+    with pytest.raises(ExcitationError, match="held refused"):
+        case({}, refused={"held", "s0", "s5"})
