@@ -85,8 +85,8 @@ def _observe_all(records: Iterable[Record], model: IdentificationModel, opts: Id
     """Each record to its observation rows (one record's raw samples in memory at a time):
     the rows, the per-bag reports, the warnings and the bag names; the loaded records'
     payloads appended to ``partial`` (one payload whose parameters are partly unknown); to
-    ``alts``, per record, its rows and report read as sampled when auto read it held on a slow
-    step (observe/sampling.py), else None."""
+    ``alts``, per record, its other readings of a slow step whose reading is open
+    (:func:`_other_readings`), else None."""
     if isinstance(records, Sequence):  # in memory: check every tag before the long steps
         for r in records:
             resolve_payload(r, payload_mass, opts.payload_tolerance_kg)
@@ -186,7 +186,9 @@ def identify_records(
     model: IdentificationModel,
     validation: Iterable[Record] = (),
 ) -> IdentificationResult:
-    """Identify from records; see :func:`identify`.
+    """Identify from records; see :func:`identify`. With ``current_sampling: auto`` records
+    in memory whose identified lag comes out negative are read again as sampled
+    (observe/sampling.py; ``identify`` reads the bags again).
 
     ``records`` may be a generator (``identify`` reads bags lazily, one at a time, so that only
     one record's raw samples are in memory at once).
@@ -245,7 +247,7 @@ def _identify_once(
             timings[k] = timings.get(k, 0.0) + v
 
     payloads: list[tuple[str, Payload]] = []
-    alts: list = []  # a slow untagged record read as sampled too (current_sampling: auto)
+    alts: list = []  # per record, its other readings when open (observe/sampling.py)
     blocks, reports, warnings, bag_names = _observe_all(records, model, opts, payload_mass, add,
                                                         payloads, alts)
     t_solve = time.perf_counter()
@@ -260,19 +262,8 @@ def _identify_once(
         factors = [RecordFactors.from_observations(x) for x in b]
         return m, b, o, solve(factors, m, o, method, gains, essential, bag_names)
 
-    try:
-        if any(a is not None for a in alts):  # auto on a slow untagged log: held or sampled
-            (model, blocks, opts, solved), reports, line = best_reading(
-                solve_rows, blocks, reports, alts)
-            warnings.append(line)
-        else:
-            model, blocks, opts, solved = solve_rows(blocks, reports)
-    except ExcitationError as exc:
-        if any(a is not None for a in alts) or any(r["current_sampling"] == "sampled"
-                                                   and r["period_s"] > SLOW_STEP_S
-                                                   for r in reports):
-            raise ExcitationError(f"{exc}; {ALIASED}") from None
-        raise
+    (model, blocks, opts, solved), reports = _solve_reading(solve_rows, blocks, reports, alts,
+                                                            warnings)
     add(solved.timings)
     timings["solve"] = time.perf_counter() - t_solve - timings.get("essential", 0.0)
     result = solved.result
@@ -290,6 +281,26 @@ def _identify_once(
     result.observations = blocks
     result.observations_chi = solved.chi
     return result
+
+
+def _solve_reading(solve_rows: Callable, blocks: list[Observations],
+                   reports: list[dict[str, Any]], alts: list, warnings: list[str]
+                   ) -> tuple[tuple, list[dict[str, Any]]]:
+    """``solve_rows`` on the records' reading, or the best of their open readings
+    (observe/sampling.best_reading, its line into ``warnings``); a refusal of a slow log read
+    as sampled also names what a point-sampled log cannot undo (sampling.ALIASED)."""
+    try:
+        if any(a is not None for a in alts):
+            out, reports, line = best_reading(solve_rows, blocks, reports, alts)
+            warnings.append(line)
+            return out, reports
+        return solve_rows(blocks, reports), reports
+    except ExcitationError as exc:
+        if any(a is not None for a in alts) or any(r["current_sampling"] == "sampled"
+                                                   and r["period_s"] > SLOW_STEP_S
+                                                   for r in reports):
+            raise ExcitationError(f"{exc}; {ALIASED}") from None
+        raise
 
 
 def _as_read(opts: IdentifyOptions, reports: list[dict[str, Any]]) -> IdentifyOptions:
