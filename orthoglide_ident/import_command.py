@@ -75,6 +75,11 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                    help="its centre of mass in that frame, m (or 'X Y Z')")
     p.add_argument("--payload-inertia", metavar="IXX,IXY,IXZ,IYY,IYZ,IZZ",
                    help="its inertia about the centre of mass, kg·m² (or space-separated)")
+    p.add_argument("--current-sampling", choices=("held", "sampled", "auto"),
+                   help="how the current relates to its time: held over the step that follows "
+                        "(a controller at the log rate), sampled at the time from a faster loop "
+                        "(a logger slower than its controller), auto (default: untagged, "
+                        "identify's current_sampling option decides)")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -86,7 +91,7 @@ def run(args: argparse.Namespace) -> int:
     flags = {k: getattr(args, k) for k in (
         "time", "time_unit", "joints", "position", "velocity", "effort", "effort_unit",
         "angle_unit", "delimiter", "condition", "payload_mass", "payload_frame", "payload_com",
-        "payload_inertia", "prismatic")}
+        "payload_inertia", "prismatic", "current_sampling")}
     given = {k: v for k, v in flags.items() if v is not None}
     for key, n in (("payload_com", 3), ("payload_inertia", 6)):
         if key in given:  # the flag named in its error

@@ -35,6 +35,11 @@ Stored as strings, the same keys in metadata.yaml ``custom_data`` and in each .m
                                 reads the bag as tagged, docs/design/bags.md)
 ``orthoglide.effort_side``      ``actuator`` | ``joint``: the currents (efforts) are the motors' or
                                 the joints' (optional; absent: the robot file's ``effort_side``)
+``orthoglide.current_sampling`` ``held`` | ``sampled``: how the current relates to its stamps: held
+                                over the step that follows (a controller at the log rate) or a
+                                point sample at the stamp from a faster loop (a logger slower
+                                than its controller); optional, absent: the ``current_sampling``
+                                option (identify/observe/sampling.py)
 ``orthoglide.incomplete``       why the recording was stopped before its run ended (a cancelled,
                                 aborted or out-of-tolerance excitation run, ``excite run``);
                                 absent: complete. Written at the stop, in metadata.yaml and the
@@ -71,6 +76,8 @@ EFFORT_UNIT_KEY = "orthoglide.effort_unit"
 EFFORT_UNITS = ("A", "torque")
 POSITION_SIDE_KEY = "orthoglide.position_side"
 EFFORT_SIDE_KEY = "orthoglide.effort_side"
+CURRENT_SAMPLING_KEY = "orthoglide.current_sampling"
+CURRENT_SAMPLINGS = ("held", "sampled")  # a record's own; options.CURRENT_SAMPLING adds auto
 SIDES = ("joint", "actuator")  # model/transmission.py's POSITION_SIDES, EFFORT_SIDES
 INCOMPLETE_KEY = "orthoglide.incomplete"
 METADATA_NAME = "orthoglide"
@@ -95,6 +102,7 @@ class BagTags:
     payload_known: str | None = None
     position_side: str | None = None  # "joint" | "actuator": whose positions the bag holds
     effort_side: str | None = None  # "actuator" | "joint": whose currents (efforts)
+    current_sampling: str | None = None  # "held" | "sampled": the current against its stamps
 
     @property
     def knowledge(self) -> str:
@@ -121,6 +129,7 @@ class BagTags:
         payload_known: str | None = None,
         position_side: str | None = None,
         effort_side: str | None = None,
+        current_sampling: str | None = None,
     ) -> BagTags:
         """Validated tags; ConfigError with the reason otherwise (used for recorder requests)."""
         if condition not in CONDITIONS:
@@ -147,11 +156,14 @@ class BagTags:
         for name, side in (("position_side", position_side), ("effort_side", effort_side)):
             if side is not None and side not in SIDES:
                 raise ConfigError(f"{name} {side!r}: use 'joint' or 'actuator' (the motors')")
+        if current_sampling is not None and current_sampling not in CURRENT_SAMPLINGS:
+            raise ConfigError(f"current_sampling {current_sampling!r}: use 'held' (over the step "
+                              "that follows) or 'sampled' (at the stamp, from a faster loop)")
         known = _knowledge(payload_known or None, condition, com, inertia)
         return cls(condition, mass, _word(payload_frame, "payload_frame"), com, inertia,
                    _source(position_source, "position_source"),
                    _source(current_source, "current_source"), effort_unit, known,
-                   position_side, effort_side)
+                   position_side, effort_side, current_sampling)
 
     def to_dict(self) -> dict[str, str]:
         """The keys as stored in custom_data and in the MCAP metadata record (absent ones left
@@ -168,6 +180,7 @@ class BagTags:
             EFFORT_UNIT_KEY: self.effort_unit,
             POSITION_SIDE_KEY: self.position_side,
             EFFORT_SIDE_KEY: self.effort_side,
+            CURRENT_SAMPLING_KEY: self.current_sampling,
         }
         out.update({k: v for k, v in optional.items() if v is not None})
         return out
@@ -186,6 +199,8 @@ class BagTags:
         for what, side in (("positions", self.position_side), ("efforts", self.effort_side)):
             if side is not None:
                 out += f", {what} {side}-side"
+        if self.current_sampling is not None:
+            out += f", current {self.current_sampling}"
         if self.condition == "loaded":
             out += f" ({_KNOWN_TEXT[self.knowledge]})"
         return out
@@ -217,6 +232,7 @@ class BagTags:
                 payload_known=items.get(KNOWN_KEY),
                 position_side=items.get(POSITION_SIDE_KEY),
                 effort_side=items.get(EFFORT_SIDE_KEY),
+                current_sampling=items.get(CURRENT_SAMPLING_KEY),
             )
         except ConfigError as exc:
             raise BagError(f"{where}: invalid tag: {exc}") from None

@@ -79,6 +79,7 @@ class ColumnMap:
     payload_frame: str | None = None
     payload_com: tuple[float, ...] | None = None
     payload_inertia: tuple[float, ...] | None = None
+    current_sampling: str = "auto"  # held | sampled: tagged orthoglide.current_sampling; auto: not
     source: str = field(default="flags", compare=False)  # where the map came from, for errors
 
     @classmethod
@@ -120,7 +121,7 @@ class ColumnMap:
             if "payload_mass" in v:
                 v["payload_mass"] = float(v["payload_mass"])
             for k in ("time", "time_unit", "effort_unit", "angle_unit", "delimiter",
-                      "condition", "payload_frame"):
+                      "condition", "payload_frame", "current_sampling"):
                 if k in v:
                     v[k] = str(v[k])
         except (TypeError, ValueError) as exc:
@@ -141,6 +142,9 @@ class ColumnMap:
             if unit and unit not in table:
                 raise ConfigError(f"{self.source}: unknown {what} {unit!r}; use one of "
                                   f"{', '.join(table)}")
+        if self.current_sampling not in ("held", "sampled", "auto"):
+            raise ConfigError(f"{self.source}: current_sampling {self.current_sampling!r}: use "
+                              "held, sampled or auto")
         if self.effort_unit and self.effort_unit not in EFFORT_UNITS:
             raise ConfigError(f"{self.source}: unknown effort_unit {self.effort_unit!r}; use A or "
                               "mA (a current), N·m (Nm) or N (a torque or force)")
@@ -512,11 +516,13 @@ def import_csv(paths: Sequence[str | Path], out: str | Path, cmap: ColumnMap) ->
     from orthoglide_ident.bags._tags import BagTags
     from orthoglide_ident.bags.writer import write_bag
 
+    sampling = None if cmap.current_sampling == "auto" else cmap.current_sampling
     payload = {k: v for k, v in (("payload_frame", cmap.payload_frame),
                                  ("payload_com", cmap.payload_com),
                                  ("payload_inertia", cmap.payload_inertia)) if v is not None}
     try:  # the tag before the files: a typo costs no parsing
-        tag = BagTags.checked(cmap.condition, cmap.payload_mass, **payload).describe()
+        tag = BagTags.checked(cmap.condition, cmap.payload_mass, **payload,
+                              current_sampling=sampling).describe()
     except ConfigError as exc:
         raise ConfigError(f"{cmap.source}: {exc}") from None
     if Path(out).exists():
@@ -532,6 +538,6 @@ def import_csv(paths: Sequence[str | Path], out: str | Path, cmap: ColumnMap) ->
     origin = {"orthoglide.imported_from": ", ".join(r.path.name for r in records)}
     bag = write_bag(out, stamps, q, effort, cmap.condition, cmap.payload_mass,
                     joint_names=joints, extra=origin, layout="joint_states", qd=qd,
-                    payload=payload, effort_unit=unit)
+                    payload=payload, effort_unit=unit, current_sampling=sampling)
     return ImportResult(Path(bag), [(r.path, len(r.stamps_ns)) for r in records], joints,
                         stamps, unit, records[0].qd is not None, tag)

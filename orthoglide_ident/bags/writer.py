@@ -368,6 +368,7 @@ def write_bag(
     effort_unit: str | None = None,
     position_side: str | None = None,
     effort_side: str | None = None,
+    current_sampling: str | None = None,
     compression: str = "zstd",
     chunk_duration_s: float = 0.5,
 ) -> Path:
@@ -385,6 +386,8 @@ def write_bag(
     (``orthoglide.effort_unit``; None: untagged, read as a current). ``position_side``,
     ``effort_side`` (``joint`` | ``actuator``) tag whose positions and currents they are for a
     robot with a transmission (``orthoglide.position_side``, ``orthoglide.effort_side``).
+    ``current_sampling`` (``held`` | ``sampled``) tags how the current relates to its stamps
+    (``orthoglide.current_sampling``; None: untagged, the ``current_sampling`` option decides).
     Messages are encoded in bulk, block by block, and written tick by tick through
     :class:`BagWriter`, in chunks of ``chunk_duration_s`` s.
     """
@@ -401,7 +404,7 @@ def write_bag(
     sources = _source_tags(layout) if robot is not None and tag_sources else {}
     tags = BagTags.checked(condition, payload_mass, **dict(payload or {}), **sources,
                            effort_unit=effort_unit, position_side=position_side,
-                           effort_side=effort_side)
+                           effort_side=effort_side, current_sampling=current_sampling)
     w = BagWriter(Path(path), tags, compression=compression, chunk_duration_s=chunk_duration_s,
                   custom_data={key: str(val) for key, val in (extra or {}).items()})
     w.open()

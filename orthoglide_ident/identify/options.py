@@ -59,6 +59,16 @@ class IdentifyOptions:
     filter_cutoff_hz: float = 0.0
     filter_order: int = 4
     zoh_shift: bool = True  # evaluate the model at t_k + T/2 (zero-order hold of v_tau)
+    # how a record's current relates to its stamps (observe/sampling.py): "held" over the step
+    # that follows (a controller at the log rate: the states at the step's middle), "sampled" at
+    # the stamp from a faster loop (the states at the stamp), "auto": a bag's tag
+    # orthoglide.current_sampling, else the robot file's key, else held unless the identified
+    # current-loop lag comes out negative (impossible: then sampled). A tag wins over this
+    current_sampling: str = "auto"
+    # Hz, the rate of the faster loop a sampled record's current comes from (a 1 kHz
+    # controller): the states at t_k + 1 / (2 x this), the middle of that loop's own hold;
+    # 0: unknown, the states at the stamp
+    current_loop_hz: float = 0.0
     # v_tau low-passed by the same zero-phase Butterworth as q (parallel filtering: W and v_tau see
     # one filter up to the decimation's 40 Hz, where the Butterworth already takes 0.07 %): the
     # 20-40 Hz content of a closed loop otherwise biases a gain by ~0.05 % (bench/identify_accuracy)
@@ -266,6 +276,12 @@ class IdentifyOptions:
         if not (self.chunk_s > 0 and self.decimation_cutoff_hz >= 0):
             raise ConfigError(f"{source}: chunk_s must be > 0 s and decimation_cutoff_hz >= 0 Hz "
                               "(0: from the derivative filter's cut-off)")
+        if self.current_sampling not in ("held", "sampled", "auto"):
+            raise ConfigError(f"{source}: current_sampling must be held (over the step that "
+                              "follows), sampled (at the stamp, from a faster loop) or auto")
+        if not (self.current_loop_hz >= 0 and math.isfinite(self.current_loop_hz)):
+            raise ConfigError(f"{source}: current_loop_hz is the faster loop's rate in Hz (0: "
+                              f"unknown), not {self.current_loop_hz:g}")
         if self.velocity_source not in ("derived", "recorded", "auto"):
             raise ConfigError(f"{source}: velocity_source must be derived, recorded or auto")
         if not self.velocity_agreement > 0:

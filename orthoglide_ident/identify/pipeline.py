@@ -28,6 +28,9 @@ from orthoglide_ident.identify.solve.factors import RecordFactors
 from orthoglide_ident.identify.solve.methods import DEFAULT_METHOD, get, solve
 from orthoglide_ident.identify.observe.equations import Observations
 from orthoglide_ident.identify.observe.rows import IdentificationModel, observe
+from orthoglide_ident.identify.observe.sampling import (ALIASED, AUTO_HELD, SLOW_STEP_S,
+                                                        best_reading, lag_says_sampled,
+                                                        loop_half_ticks)
 from orthoglide_ident.identify.options import IdentifyOptions
 from orthoglide_ident.identify.columns.payload_unknowns import (check_one_payload, unknowns_of,
                                                         used_columns, with_payload_unknowns)
@@ -82,11 +85,13 @@ def _check_request(opts: IdentifyOptions, method: str, payload_mass: float | Non
 
 def _observe_all(records: Iterable[Record], model: IdentificationModel, opts: IdentifyOptions,
                  payload_mass: float | None, add_timings: Callable[[dict[str, float]], None],
-                 partial: list[tuple[str, Payload]] | None = None
+                 partial: list[tuple[str, Payload]] | None = None, alts: list | None = None
                  ) -> tuple[list[Observations], list[dict[str, Any]], list[str], list[str]]:
     """Each record to its observation rows (one record's raw samples in memory at a time):
     the rows, the per-bag reports, the warnings and the bag names; the loaded records'
-    payloads appended to ``partial`` (one payload whose parameters are partly unknown)."""
+    payloads appended to ``partial`` (one payload whose parameters are partly unknown); to
+    ``alts``, per record, its other readings of a slow step whose reading is open
+    (:func:`_other_readings`), else None."""
     if isinstance(records, Sequence):  # in memory: check every tag before the long steps
         for r in records:
             resolve_payload(r, payload_mass, opts.payload_tolerance_kg)
@@ -117,7 +122,12 @@ def _observe_all(records: Iterable[Record], model: IdentificationModel, opts: Id
         blocks.append(obs)
         reports.append(bag_report(rep, rec.source, rec.condition, m, obs.rows_per_joint(),
                                   rec.sources))
-        reports[-1]["_current_noise"] = _noise_by_joint(rec, model)  # popped after the solve
+        noise = _noise_by_joint(rec, model)
+        reports[-1]["_current_noise"] = noise  # popped after the solve
+        if alts is not None:
+            alts.append(_other_readings(rec, model, opts, m, rep))
+            for _, _, other in alts[-1] or ():  # the same record read otherwise: the same noise
+                other["_current_noise"] = noise
         del rec  # a lazily read bag's raw samples can go now
     if not blocks:
         raise IdentificationError("no bag given")
@@ -126,6 +136,27 @@ def _observe_all(records: Iterable[Record], model: IdentificationModel, opts: Id
 
 def _first_stamp(rec: Record) -> int:
     return int(min(rec.stamps_q_ns[0], rec.stamps_v_ns[0]))
+
+
+def _other_readings(rec: Record, model: IdentificationModel, opts: IdentifyOptions, m: float,
+                    rep) -> list | None:
+    """A slow record's other readings as sampled (half tick s, rows, report) when its reading
+    is open: auto read it held (then sampled at the stamp and at the loop's possible half
+    ticks), or it is sampled with its loop's rate unknown (the half ticks); else None."""
+    if rep.period_s <= SLOW_STEP_S:
+        return None
+    auto_held = rep.current_sampling_why.startswith(AUTO_HELD)
+    if not auto_held and not (rep.current_sampling == "sampled" and opts.current_loop_hz <= 0):
+        return None
+    shifts = loop_half_ticks(rep.period_s, opts.current_loop_hz)
+    shifts = ((0.0,) if auto_held and opts.current_loop_hz <= 0 else ()) + shifts
+    out = []
+    for d in shifts:
+        o, r, _ = observe(rec, model, opts.replace(current_sampling="sampled",
+                                                   current_loop_hz=0.5 / d if d else 0.0), m)
+        out.append((d, o, bag_report(r, rec.source, rec.condition, m, o.rows_per_joint(),
+                                     rec.sources)))
+    return out
 
 
 def fingerprint(rec: Record) -> str:
@@ -178,13 +209,57 @@ def identify_records(
     model: IdentificationModel,
     validation: Iterable[Record] = (),
 ) -> IdentificationResult:
-    """Identify from records; see :func:`identify`.
+    """Identify from records; see :func:`identify`. With ``current_sampling: auto`` records
+    in memory whose identified lag comes out negative are read again as sampled
+    (observe/sampling.py; ``identify`` reads the bags again).
 
     ``records`` may be a generator (``identify`` reads bags lazily, one at a time, so that only
     one record's raw samples are in memory at once).
     """
     opts = options or IdentifyOptions()
     _check_request(opts, method, payload_mass)
+    if isinstance(records, Sequence):  # auto may read them again, as sampled
+        kw = dict(payload_mass=payload_mass, method=method, gains=gains, essential=essential,
+                  model=model)
+        result = _identify_once(records, options=opts, validation=list(validation), **kw)
+        why = sampling_rerun(result, opts)
+        if why is None:
+            return result
+        log.info("%s", why)
+        again = _identify_once(records, options=opts.replace(current_sampling="sampled"),
+                               validation=list(validation), **kw)
+        again.warnings.insert(0, why)
+        return again
+    return _identify_once(records, payload_mass, method, gains, essential, opts, model=model,
+                          validation=validation)
+
+
+def sampling_rerun(result: IdentificationResult, opts: IdentifyOptions) -> str | None:
+    """Why a result read with ``current_sampling: auto`` must be read again as sampled (its
+    identified lag is negative: observe/sampling.lag_says_sampled), or None. Only when every
+    record was read held by auto's default (none tagged or set held by the robot file)."""
+    if opts.current_sampling != "auto":
+        return None
+    bags = result.diagnostics.get("bags", [])
+    if not bags or any(not str(b.get("current_sampling_why", "")).startswith(AUTO_HELD)
+                       for b in bags):
+        return None
+    return lag_says_sampled(result.current_lag)
+
+
+def _identify_once(
+    records: Iterable[Record],
+    payload_mass: float | None = None,
+    method: str = DEFAULT_METHOD,
+    gains: Sequence[float] | None = None,
+    essential: bool = False,
+    options: IdentifyOptions | None = None,
+    *,
+    model: IdentificationModel,
+    validation: Iterable[Record] = (),
+) -> IdentificationResult:
+    """:func:`identify_records` with each record's current sampling as resolved once."""
+    opts = options or IdentifyOptions()
     timings: dict[str, float] = {}
     t_all = time.perf_counter()
     model = observation_model(with_payload_unknowns(model), opts.screw_lead_m,
@@ -195,23 +270,32 @@ def identify_records(
             timings[k] = timings.get(k, 0.0) + v
 
     payloads: list[tuple[str, Payload]] = []
+    alts: list = []  # per record, its other readings when open (observe/sampling.py)
     blocks, reports, warnings, bag_names = _observe_all(records, model, opts, payload_mass, add,
-                                                        payloads)
-    model, blocks = _payload_or_not(model, blocks, opts, payloads)
-    # the first record's rate fixes what the solve needs in samples (the σ's decimation gain)
-    opts = dataclasses.replace(opts, filter_cutoff_hz=reports[0]["filter_cutoff_hz"],
-                               decimation=reports[0]["decimation"],
-                               decimation_cutoff_hz=reports[0]["decimation_cutoff_hz"])
-    model, blocks = _lag_or_paper(model, blocks, reports, opts)
+                                                        payloads, alts)
     t_solve = time.perf_counter()
-    factors = [RecordFactors.from_observations(b) for b in blocks]
-    chain = disagreement(blocks, model.nominal_gains, list(model.joint_names))
-    try:
-        solved = solve(factors, model, opts, method, gains, essential, bag_names)
-    except (ExcitationError, IdentificationError) as exc:  # two drive chains: the cause
-        if chain:
-            raise type(exc)(f"{chain} (the solve then says: {exc})") from None
-        raise
+
+    chains: list[str] = []  # the records' drive chains compared on the rows solved
+
+    def solve_rows(blocks, reports):
+        m, b = _payload_or_not(model, blocks, opts, payloads)
+        # the first record's rate fixes what the solve needs in samples (the σ's decimation gain)
+        o = dataclasses.replace(opts, filter_cutoff_hz=reports[0]["filter_cutoff_hz"],
+                                decimation=reports[0]["decimation"],
+                                decimation_cutoff_hz=reports[0]["decimation_cutoff_hz"])
+        m, b = _lag_or_paper(m, b, reports, o)
+        factors = [RecordFactors.from_observations(x) for x in b]
+        chains.append(disagreement(b, m.nominal_gains, list(m.joint_names)))
+        try:
+            return m, b, o, solve(factors, m, o, method, gains, essential, bag_names)
+        except (ExcitationError, IdentificationError) as exc:  # two drive chains: the cause
+            if chains[-1]:
+                raise type(exc)(f"{chains[-1]} (the solve then says: {exc})") from None
+            raise
+
+    (model, blocks, opts, solved), reports = _solve_reading(solve_rows, blocks, reports, alts,
+                                                            warnings)
+    chain = chains[-1]
     add(solved.timings)
     timings["solve"] = time.perf_counter() - t_solve - timings.get("essential", 0.0)
     result = solved.result
@@ -220,7 +304,7 @@ def identify_records(
     _joint_side_residual(result, blocks, solved, model, reports, opts)
 
     t_v = time.perf_counter()
-    vals = _validate(validation, solved, model, opts, payload_mass)
+    vals = _validate(validation, solved, model, _as_read(opts, reports), payload_mass)
     if vals:
         timings["validation"] = time.perf_counter() - t_v
     for v in vals:
@@ -232,6 +316,36 @@ def identify_records(
     result.observations = blocks
     result.observations_chi = solved.chi
     return result
+
+
+def _solve_reading(solve_rows: Callable, blocks: list[Observations],
+                   reports: list[dict[str, Any]], alts: list, warnings: list[str]
+                   ) -> tuple[tuple, list[dict[str, Any]]]:
+    """``solve_rows`` on the records' reading, or the best of their open readings
+    (observe/sampling.best_reading, its line into ``warnings``); a refusal of a slow log read
+    as sampled also names what a point-sampled log cannot undo (sampling.ALIASED)."""
+    try:
+        if any(a is not None for a in alts):
+            out, reports, line = best_reading(solve_rows, blocks, reports, alts)
+            warnings.append(line)
+            return out, reports
+        return solve_rows(blocks, reports), reports
+    except ExcitationError as exc:
+        if any(a is not None for a in alts) or any(r["current_sampling"] == "sampled"
+                                                   and r["period_s"] > SLOW_STEP_S
+                                                   for r in reports):
+            raise ExcitationError(f"{exc}; {ALIASED}") from None
+        raise
+
+
+def _as_read(opts: IdentifyOptions, reports: list[dict[str, Any]]) -> IdentifyOptions:
+    """The options that read other records (validation) as these were read: sampled, at the
+    half tick chosen, when all were read sampled."""
+    if {r["current_sampling"] for r in reports} != {"sampled"}:
+        return opts
+    shift_ms = max(r["current_shift_ms"] for r in reports)
+    return opts.replace(current_sampling="sampled",
+                        current_loop_hz=0.5e3 / shift_ms if shift_ms > 0 else opts.current_loop_hz)
 
 
 def _payload_or_not(model: IdentificationModel, blocks: list[Observations],
@@ -368,6 +482,15 @@ def identify(
 
     res = identify_records(lazily(bag_paths), payload_mass, method, gains, essential, opts,
                            model=model, validation=lazily(validation_bags))
+    why = sampling_rerun(res, opts)
+    if why is not None:  # read the bags again, as sampled at their stamps
+        log.info("%s", why)
+        t_first = res.diagnostics["timings_s"].get("total", 0.0)
+        res = identify_records(lazily(bag_paths), payload_mass, method, gains, essential,
+                               opts.replace(current_sampling="sampled"), model=model,
+                               validation=lazily(validation_bags))
+        res.warnings.insert(0, why)
+        res.diagnostics["timings_s"]["first_reading_held"] = round(t_first, 4)
     # reading happens inside identify_records' loop: its total already includes it
     res.diagnostics["timings_s"]["read"] = round(t_read[0], 4)
     return res

@@ -20,7 +20,7 @@ from orthoglide_ident.model.xacro_files import expanded_file, is_xacro
 KEYS = ("name", "model", "description", "actuated_joints", "nominal_gains", "payload_frame",
         "gravity", "loops", "reference_configuration", "passive_friction", "column_order",
         "body_labels", "fixed_bodies", "excitation", "transmission", "locked_joints",
-        "xacro_args")
+        "xacro_args", "current_sampling")
 
 
 @dataclass(frozen=True)
@@ -50,6 +50,9 @@ class RobotDescription:
     # joint: m or rad, fixed before anything else with the mimic joints that follow them
     # (model/locked_joints.py: Pinocchio's reduced model)
     locked_joints: dict[str, float] = field(default_factory=dict)
+    # how its records' currents relate to their stamps (held | sampled), for records whose tag
+    # does not say, under current_sampling: auto (identify/observe/sampling.py); None: not said
+    current_sampling: str | None = None
 
 
 def _fail(where: str, key: str, what: str) -> ConfigError:
@@ -173,4 +176,9 @@ def read_description(data: dict[str, Any], base_dir: Path, where: str = "robot f
                                for k, v in locked.items()}
     if "transmission" in data:
         kw["transmission"] = dict(_mapping(where, "transmission", data["transmission"]))
+    if "current_sampling" in data:
+        if data["current_sampling"] not in ("held", "sampled"):
+            raise _fail(where, "current_sampling", "held (over the step that follows) or sampled "
+                        f"(at the stamp, from a faster loop), not {data['current_sampling']!r}")
+        kw["current_sampling"] = data["current_sampling"]
     return RobotDescription(**kw)

@@ -8,6 +8,14 @@ one held over [t_k, t_k+1) and the plant's state is sampled at the logged instan
 
     rec = simulate_arm_log(60.0, clock_10_12(60.0), payload="2.0", trajectory="exciting2")
 
+A logger slower than its controller (a ROS node subscribed to a 1 kHz loop): ``point_sampled``
+keeps every 10th-14th tick of a record at the controller's rate, each kept sample the loop's own
+q and current at that tick, nothing averaged; the plant's current moves at every controller tick
+in between, so the logged one is a point sample of it (not held over the log step):
+
+    fast = simulate_arm_log(60.0, clock_uniform(60.0, 1000.0), print_resolution=0.0)
+    rec = point_sampled(fast, KEEP_10_12_14)   # steps 10/12/14 ms, ~83 Hz
+
 The PID is arm_simulator's, retuned for the slower tick (its bandwidth ω at most
 ``OMEGA_T / T̄``: a discrete loop at ω T̄ ≈ 1 rings); the plant's RK4 step divides every tick
 (``timestep``: 0.25 ms by default, finer for a 5 kHz controller). Nothing of the
@@ -40,6 +48,34 @@ def clock_uniform(duration_s: float, rate_hz: float) -> np.ndarray:
     """Steps (ns) of a steady clock at ``rate_hz``."""
     step = int(round(1e9 / rate_hz))
     return np.full(int(round(duration_s * rate_hz)), step, np.int64)
+
+
+KEEP_10_12_14 = (10, 12, 14)  # controller ticks between kept samples (a ~93 Hz logger of 1 kHz)
+KEEP_3_4_5 = (3, 4, 5)  # a ~250 Hz logger of a 1 kHz loop
+
+
+def point_sampled(rec: ArmRecord, strides: tuple[int, ...] | int, print_resolution: float = 1e-4
+                  ) -> ArmRecord:
+    """The ticks of ``rec`` (a record at its controller's rate) a slower logger keeps: every
+    ``strides`` ticks, cycling (10, 12, 14: steps of 10/12/14 ms from a 1 kHz loop), each kept
+    sample the loop's own encoder reading (printed to ``print_resolution``; 0: as read) and
+    current reference at that tick. Nothing averaged: the logged current is a point sample of
+    one that moves at every controller tick."""
+    import dataclasses
+
+    cycle = np.atleast_1d(np.asarray(strides, np.int64))
+    if np.any(cycle < 1):
+        raise ConfigError(f"strides must be positive tick counts, got {cycle.tolist()}")
+    n = rec.stamps_ns.shape[0]
+    steps = np.resize(cycle, n)  # more than enough
+    idx = np.concatenate([[0], np.cumsum(steps)])
+    idx = idx[idx < n]
+    q = rec.q[idx]
+    if print_resolution:
+        q = np.round(q / print_resolution) * print_resolution
+    return dataclasses.replace(rec, stamps_ns=rec.stamps_ns[idx], q=q, v_tau=rec.v_tau[idx],
+                               q_true=rec.q_true[idx], qd_true=rec.qd_true[idx],
+                               q_ref=rec.q_ref[idx], current=rec.current[idx])
 
 
 class _VariablePID(asim.ArmPID):

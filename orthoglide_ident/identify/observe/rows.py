@@ -24,6 +24,8 @@ from orthoglide_ident.identify.observe.reversals import (anchor_samples, bridge,
                                                  rows_clear, velocity_deadband)
 from orthoglide_ident.identify.records.segments import Segment, SegmentReport, split_record
 from orthoglide_ident.identify.observe.stream import DecimatedRows, SegmentStream, lag_rows, model_block
+from orthoglide_ident.identify.observe.sampling import (at_sampling, record_sampling,
+                                                        robot_file_sampling, sampled_shift_s)
 from orthoglide_ident.identify.observe.time_base import choose_velocity
 from orthoglide_ident.model.robot import Payload, RobotModel
 
@@ -55,6 +57,10 @@ def observe(rec: Record, model: IdentificationModel, opts: IdentifyOptions,
         min_samples=opts.min_segment_samples(step), nonfinite=opts.nonfinite,
         source=rec.source, joint_names=model.joint_names, qd=rec.qd)
     opts = opts.at_rate(1.0 / rep.period_s)
+    rep.current_sampling, rep.current_sampling_why = record_sampling(
+        rec.current_sampling, opts.current_sampling, robot_file_sampling(model))
+    opts = at_sampling(opts, rep.current_sampling)  # sampled: the states at the stamps
+    rep.current_shift_ms = 1e3 * sampled_shift_s(opts)  # (+ its loop's half tick, if known)
     rep.filter_cutoff_hz, rep.decimation = opts.filter_cutoff_hz, opts.decimation
     rep.decimation_cutoff_hz = opts.decimation_cutoff_hz
     times["segments"] = time.perf_counter() - t0
@@ -62,6 +68,7 @@ def observe(rec: Record, model: IdentificationModel, opts: IdentifyOptions,
     log.info("%s: %s; %s", rec.source, rep.time_base(), opts.describe_rates())
     segments, rep.velocity = choose_velocity(segments, opts, rep.period_s, rec.source)
     log.info("%s: joint velocity %s", rec.source, rep.velocity)
+    log.info("%s: current %s (%s)", rec.source, rep.current_sampling, rep.current_sampling_why)
     decimate = _segments_fir if opts.decimation_filter == "fir" else _segments_iir
     rows, n_bridged, n_unbridged = decimate(segments, model, opts, rep, times)
     n_b = len(model.names)
@@ -127,7 +134,8 @@ def _segments_fir(segments: list[Segment], model: IdentificationModel, opts: Ide
         t0 = time.perf_counter()
         states = states_at_half_tick(seg.q, _currents(seg, model, rep, t_start), T,
                                      opts.filter_cutoff_hz, opts.filter_order, trim,
-                                     opts.zoh_shift, opts.filter_currents, seg.stamps_ns, seg.qd)
+                                     opts.zoh_shift, opts.filter_currents, seg.stamps_ns, seg.qd,
+                                     sampled_shift_s(opts))
         stamps = seg.stamps_ns[trim:trim + states[0].shape[0]]
         times["filtering"] = times.get("filtering", 0.0) + time.perf_counter() - t0
         for a in range(0, stamps.shape[0], opts.chunk_samples):
@@ -183,10 +191,10 @@ def _segments_iir(segments: list[Segment], model: IdentificationModel, opts: Ide
         qh, qdh, qddh, v = states_at_half_tick(seg.q, _currents(seg, model, rep, t_start), T,
                                                opts.filter_cutoff_hz,
                                                opts.filter_order, trim, opts.zoh_shift,
-                                               opts.filter_currents, seg.stamps_ns, seg.qd)
+                                               opts.filter_currents, seg.stamps_ns, seg.qd,
+                                               sampled_shift_s(opts))
         ts = (seg.stamps_ns[trim:trim + qh.shape[0]] - t_start) * 1e-9
-        if opts.zoh_shift:
-            ts = ts + 0.5 * T
+        ts = ts + (0.5 * T if opts.zoh_shift else sampled_shift_s(opts))
         t2 = time.perf_counter()
         times["filtering"] += t2 - t1
         zones = None

@@ -31,6 +31,8 @@ from orthoglide_ident.identify.observe.decimation import fir_decimate_last, fir_
 from orthoglide_ident.identify.observe.filtering import filter_horizon, zero_phase_butterworth
 from orthoglide_ident.identify.options import IdentifyOptions
 from orthoglide_ident.identify.observe.smooth_rows import BridgeCorrections, smooth_columns_at_rows
+from orthoglide_ident.identify.observe.sampling import (at_sampling, record_sampling,
+                                                        robot_file_sampling, sampled_shift_s)
 from orthoglide_ident.identify.observe.time_base import states_on_stamps
 from orthoglide_ident.identify.observe.reversals import (ReversalTracker, anchor_samples, bridge_weights,
                                                  velocity_deadband)
@@ -141,6 +143,11 @@ class SegmentStream:
             raise DataError("block-by-block processing needs decimation_filter: fir (cheby1's "
                             "IIR depends on the whole segment)")
         opts = opts.at_rate(1.0 / period_s)  # Hz and s to samples (idempotent)
+        # live, the option (or the robot file) says how the current relates to its stamps;
+        # offline, observe() has resolved the record's already (idempotent)
+        opts = at_sampling(opts, record_sampling(None, opts.current_sampling,
+                                                 robot_file_sampling(model))[0])
+        self.shift = sampled_shift_s(opts)  # s, a sampled current's loop half tick
         self.model, self.opts, self.T, self.t0_ns, self.n_b = model, opts, period_s, t0_ns, n_b
         self.n_j = n_j = model.n_joints
         self.zoh = 1 if opts.zoh_shift else 0
@@ -241,7 +248,7 @@ class SegmentStream:
         # on the window's own stamps: an uneven clock's time base (exactly uniform: unchanged)
         qh, qdh, qddh = states_on_stamps(self._q[w0 - r0:w1 - r0], self._st[w0 - r0:w1 - r0],
                                          self.opts.filter_cutoff_hz, self.opts.filter_order,
-                                         self.opts.zoh_shift)
+                                         self.opts.zoh_shift, shift_s=self.shift)
         a, b = trim + S - w0, trim + s_new - w0
         v = self._v[w0 - r0:w1 - r0]
         if self.opts.filter_currents:  # the same window and filter as q: rows as offline's
@@ -395,7 +402,7 @@ class SegmentStream:
             start = np.arange(r) * n_d
             keep = (cs[:, start + L] - cs[:, start]) == 0
         centre = a + (L - 1) // 2 + np.arange(r) * n_d
-        t = (self._ts[centre] - self.t0_ns) * 1e-9 + (0.5 * self.T if self.zoh else 0.0)
+        t = (self._ts[centre] - self.t0_ns) * 1e-9 + (0.5 * self.T if self.zoh else self.shift)
         self._i_out += r
         qs = self._qs[centre]
         return DecimatedRows(Xd, keep, t, qs[:, :self.n_j], qs[:, self.n_j:2 * self.n_j])

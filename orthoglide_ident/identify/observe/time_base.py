@@ -79,19 +79,21 @@ def _lagrange_at(x: np.ndarray, s: np.ndarray) -> np.ndarray:
 
 
 def states_on_stamps(q: np.ndarray, stamps_ns: np.ndarray, cutoff_hz: float, order: int = 4,
-                     zoh_shift: bool = True, qd_recorded: np.ndarray | None = None
-                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+                     zoh_shift: bool = True, qd_recorded: np.ndarray | None = None,
+                     shift_s: float = 0.0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """q̂, q̂̇, q̂̈ of a continuous run ``q: (n, n_j)`` sampled at ``stamps_ns`` (n,), untrimmed.
 
     Row k is the state at (t_k + t_{k+1}) / 2 (``zoh_shift``, n - 1 rows) or at t_k (n rows).
     An exactly uniform run goes through filtering.derivative_filter / half_tick unchanged.
     ``qd_recorded`` (n, n_j): a recorded joint velocity, low-passed like q and used for q̂̇
-    (and differentiated for q̂̈) instead of differentiating q.
+    (and differentiated for q̂̈) instead of differentiating q. ``shift_s`` (without
+    ``zoh_shift``): row k at t_k + shift_s (a sampled current held over its faster loop's
+    tick acts at the middle of that tick: observe/sampling.py).
     """
     st = np.asarray(stamps_ns, np.int64)
     q = np.asarray(q, float)
     T = mean_step_s(st)
-    if is_uniform(st) and qd_recorded is None:
+    if is_uniform(st) and qd_recorded is None and (zoh_shift or shift_s == 0.0):
         return filtered_states(q, float(st[1] - st[0]) * 1e-9, cutoff_hz, order, zoh_shift)
     n = st.shape[0]
     k = np.arange(n)
@@ -110,7 +112,7 @@ def states_on_stamps(q: np.ndarray, stamps_ns: np.ndarray, cutoff_hz: float, ord
         q_hat, qd_hat, qdd_hat = _on_index(q_tau, t_hat, T, cutoff_hz, order, qd_tau)
     # the instants wanted: the middle of each held interval [t_k, t_k+1) (zero-order hold of
     # v_τ[k]) or the stamps; their fractional indices on t̂ by two Newton steps
-    want = 0.5 * (t[:-1] + t[1:]) if zoh_shift else t
+    want = 0.5 * (t[:-1] + t[1:]) if zoh_shift else t + shift_s
     s = want / T
     for _ in range(2):
         s = np.clip(s, 0.0, n - 1.0)
@@ -188,6 +190,7 @@ def states_at_half_tick(
     filter_currents: bool = False,
     stamps_ns: np.ndarray | None = None,
     qd_recorded: np.ndarray | None = None,
+    shift_s: float = 0.0,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Filtered states paired with the current references they act with.
 
@@ -195,10 +198,12 @@ def states_at_half_tick(
     ``trim`` samples dropped at each end (filter edge transients). All ``(m, n_j)``. With
     ``filter_currents`` v_tau goes through the same zero-phase low-pass as q (parallel filtering).
     ``stamps_ns`` (n,): the samples' stamps, the time base when they are uneven (time_base.py;
-    ``period_s`` is then their mean step); ``qd_recorded``: a recorded velocity used for q̂̇.
+    ``period_s`` is then their mean step); ``qd_recorded``: a recorded velocity used for q̂̇;
+    ``shift_s``: without ``zoh_shift``, the states at t_k + shift_s (states_on_stamps).
     """
     if stamps_ns is not None:
-        qf, qd, qdd = states_on_stamps(q, stamps_ns, cutoff_hz, order, zoh_shift, qd_recorded)
+        qf, qd, qdd = states_on_stamps(q, stamps_ns, cutoff_hz, order, zoh_shift, qd_recorded,
+                                       shift_s)
     else:
         qf, qd, qdd = filtered_states(q, period_s, cutoff_hz, order, zoh_shift)
     if filter_currents:

@@ -52,16 +52,20 @@ class Record:
     # "actuator"); None: as the robot file's transmission says (tagged_sides)
     position_side: str | None = None
     effort_side: str | None = None
+    # how the current relates to its stamps, as the bag's tag says ("held" | "sampled"); None:
+    # the option current_sampling decides (observe/sampling.py)
+    current_sampling: str | None = None
 
     @classmethod
     def from_arrays(cls, source: str, stamps_ns: np.ndarray, q: np.ndarray, v_tau: np.ndarray,
                     condition: str, payload_mass: float, joint_names: Sequence[str],
-                    payload: Payload | None = None) -> "Record":
+                    payload: Payload | None = None, current_sampling: str | None = None
+                    ) -> "Record":
         """A record whose positions and currents share stamps and ``joint_names`` (the robot's,
-        ``RobotModel.joint_names``)."""
+        ``RobotModel.joint_names``); ``current_sampling`` as a bag's tag would say it."""
         names = tuple(joint_names)
         return cls(source, stamps_ns, names, q, stamps_ns, names, v_tau, condition,
-                   float(payload_mass), payload=payload)
+                   float(payload_mass), payload=payload, current_sampling=current_sampling)
 
 
 def read_record(path: str | Path, model: RobotModel,
@@ -95,6 +99,7 @@ def read_record(path: str | Path, model: RobotModel,
         payload_mass=0.0 if tags is None else float(tags.payload_mass),
         warnings=list(data.warnings), payload=_tagged_payload(tags),
         sources=sources, qd=qd, position_side=sides[0], effort_side=sides[1],
+        current_sampling=None if tags is None else tags.current_sampling,
     ), model)
     tagged_unit = None if tags is None else tags.effort_unit
     if (tagged_unit or opts.effort_unit) == "torque":

@@ -48,6 +48,9 @@ class SegmentReport:
     period_s: float = 0.0  # mean step of the continuous runs (the median on a steady clock)
     steps: StepStats | None = None  # the paired stamps' step distribution
     velocity: str = "derived from q"  # where q̂̇ came from (time_base.choose_velocity)
+    current_sampling: str = "held"  # the current against its stamps (observe/sampling.py)
+    current_sampling_why: str = ""  # who said it
+    current_shift_ms: float = 0.0  # sampled: the states this long after the stamps
     filter_cutoff_hz: float = 0.0  # the cut-offs used at this record's rate (options.at_rate)
     decimation: int = 0
     decimation_cutoff_hz: float = 0.0
