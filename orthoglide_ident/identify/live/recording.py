@@ -1,8 +1,13 @@
 """One live recording (like one bag): pairing, segmentation at real gaps, segment streams.
 
-Fed by :class:`~live.LiveIdentification`. The tick period is the median step of the first
-``PERIOD_SAMPLES`` paired stamps (the offline pipeline takes the median over the whole record:
-the same for a controller's regular ticks; a different median at the end is warned about). A
+Fed by :class:`~live.LiveIdentification`. The tick period is set from the first
+``PERIOD_SAMPLES`` paired stamps by the offline rule (segments._breaks): their median step on a
+steady clock (the offline pipeline takes the median over the whole record: the same for a
+controller's regular ticks; a different median at the end is warned about), the mean of the
+steps between gaps on an uneven one (a ~100 Hz logger's 10/12/14 ms). An uneven clock's mean
+is known only at the end: its samples are kept (a logger's rate: small) and at stop the
+recording is rebuilt from them by the offline observation itself (rows.observe), so that the
+answer is the offline one on the same samples. A
 step outside (0.5, 1.5) periods ends the segment under way (ticks.find_breaks); a segment
 becomes a :class:`~stream.SegmentStream` once it is long enough to be kept
 (``IdentifyOptions.min_segment_samples``), and its decimated rows go to ``fold`` as they come.
@@ -20,8 +25,9 @@ from orthoglide_ident.identify.columns.current_lag import LiveLagInstrument, wit
 from orthoglide_ident.identify.options import IdentifyOptions
 from orthoglide_ident.identify.records.pairing import Paired, TopicBuffer, pair_upto
 from orthoglide_ident.identify.diagnostics import bag_report
+from orthoglide_ident.identify.records.record import Record
 from orthoglide_ident.identify.records.segments import SegmentReport
-from orthoglide_ident.ticks import find_breaks
+from orthoglide_ident.ticks import find_breaks, find_breaks_local, step_stats
 from orthoglide_ident.identify.observe.stream import DecimatedRows, SegmentStream
 from orthoglide_ident.model.transmission import Transmission
 
@@ -49,8 +55,9 @@ class LiveRecording:
 
     def __init__(self, source: str, condition: str, payload_mass: float, opts: IdentifyOptions,
                  model, n_b: int, fold: Fold, lag: bool = False,
-                 transmission: Transmission | None = None):
+                 transmission: Transmission | None = None, payload=None):
         self.source, self.condition, self.payload_mass = source, condition, payload_mass
+        self.payload = payload  # as start_recording was given it (the tag's), for the rebuild
         self.opts, self.model, self.n_b, self._fold = opts, model, n_b, fold
         limit = opts.current_warn_fraction * opts.current_limit_a
         self.joint_names = names = tuple(model.joint_names)
@@ -58,6 +65,9 @@ class LiveRecording:
         (q_names, q_map), (v_names, v_map) = channel_maps(names, transmission)
         self.q = TopicBuffer("joint_states", q_names, to_model=q_map)
         self.v = TopicBuffer("current_reference", v_names, limit=limit, to_model=v_map)
+        self.q.kept, self.v.kept = [], []  # until the clock is known steady (_set_period)
+        self.uneven = False  # the first PERIOD_SAMPLES steps are off their median grid
+        self.seconds = 0.0  # of equations folded in (decimated rows x their period)
         self.rep = SegmentReport()
         self.period_ns: float | None = None
         self.equations = np.zeros(n_j, dtype=int)  # per joint, folded in
@@ -169,13 +179,48 @@ class LiveRecording:
             return None
         cat = [np.concatenate([getattr(x, k) for x in self._pre]) for k in ("q", "v_tau")]
         self._pre = []
-        step = float(np.median(np.diff(stamps)))
+        step = self._period_rule(stamps)
         if step <= 0:
             return None
         self.period_ns = step
         self.rep.period_s = step * 1e-9
         self.opts = self.opts.at_rate(1e9 / step)  # cut-offs in Hz, lengths in s: to samples
         return Paired(stamps, cat[0], cat[1])
+
+    def _period_rule(self, stamps: np.ndarray) -> float:
+        """The offline period (segments._breaks) of the first stamps, ns: the median step on a
+        steady clock (its samples are then not kept), the mean step between gaps on an uneven
+        one (kept; no lag instrument, as offline: a period is a number of ticks)."""
+        dt = np.diff(stamps)
+        med = float(np.median(dt))
+        if med <= 0:
+            return med
+        brk, _ = find_breaks_local(dt, med)
+        steps = step_stats(stamps, mean_over=~brk)
+        self.uneven = steps.uneven
+        if not self.uneven:
+            self.q.kept = self.v.kept = None
+            return med
+        self.lag = False  # as observe's _currents: no lag instrument on an uneven clock
+        return steps.mean_s * 1e9
+
+    def raw_record(self) -> Record | None:
+        """The samples kept (an uneven clock's), as the bag holds them: a Record in the model's
+        channels, or None when they were not kept."""
+        q, v = self.q.kept_samples(), self.v.kept_samples()
+        if q is None or v is None or q[0].shape[0] < 2:
+            return None
+        names = list(self.joint_names)
+        return Record(self.source, q[0], names, q[1], v[0], names, v[1], self.condition,
+                      self.payload_mass, payload=self.payload)
+
+    def adopt(self, rep: SegmentReport, equations: list[int], n_decimated: int,
+              seconds: float) -> None:
+        """The offline observation's account of this recording (its rebuild at stop)."""
+        rep.n_duplicate_stamps = self.rep.n_duplicate_stamps  # dropped on arrival, not kept
+        self.rep, self.equations = rep, np.asarray(equations, int)
+        self.n_decimated, self.seconds = n_decimated, seconds
+        self.period_ns = rep.period_s * 1e9
 
     def _feed(self, p: Paired, out: list[str]) -> None:
         s = p.stamps_ns
@@ -290,6 +335,7 @@ class LiveRecording:
         self.n_decimated += rows.r
         self._done_s = float(rows.t[-1])
         seconds = rows.r * self.opts.decimation * self.period_ns * 1e-9
+        self.seconds += seconds
         self._fold(self, rows, seconds)
 
     def _watch_still(self, qd: np.ndarray, out: list[str]) -> None:

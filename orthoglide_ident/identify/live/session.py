@@ -45,7 +45,8 @@ from orthoglide_ident.identify.columns.drive_terms import observation_model, scr
 from orthoglide_ident.identify.solve.factors import RecordFactors
 from orthoglide_ident.identify.live.recording import LiveRecording
 from orthoglide_ident.identify.solve.methods import DEFAULT_METHOD, solve
-from orthoglide_ident.identify.observe.rows import IdentificationModel, with_known_payload
+from orthoglide_ident.identify.observe.rows import (IdentificationModel, observe,
+                                                    with_known_payload)
 from orthoglide_ident.identify.options import IdentifyOptions
 from orthoglide_ident.identify.columns.payload_unknowns import (check_one_payload, unknowns_of,
                                                         with_payload_unknowns)
@@ -150,7 +151,7 @@ class LiveIdentification:
                                        self.opts.lag_model == "auto")
         self._payloads: list[tuple[str, Payload]] = []  # the loaded recordings' (Sect. 4.3)
         self.n_b = len(self.model.names)
-        self._factors: dict[tuple[str, float], RecordFactors] = {}
+        self._factors: dict[LiveRecording, RecordFactors] = {}  # one per record, as offline
         self._seconds: dict[str, float] = {"loaded": 0.0, "unloaded": 0.0}
         self._recordings: list[LiveRecording] = []
         self._current: LiveRecording | None = None
@@ -192,7 +193,7 @@ class LiveIdentification:
             self._payloads.append((source, p))
             model = with_known_payload(model, p)
         self._current = LiveRecording(source, condition, mass, self.opts, model, self.n_b,
-                                      self._fold, lag, self.transmission)
+                                      self._fold, lag, self.transmission, payload)
         self._recordings.append(self._current)
 
     def stop_recording(self) -> list[str]:
@@ -200,7 +201,27 @@ class LiveIdentification:
         rec, self._current = self._current, None
         if rec is None:
             return []
-        return self._warn(rec.close())
+        return self._warn(rec.close() + self._rebuild(rec))
+
+    def _rebuild(self, rec: LiveRecording) -> list[str]:
+        """An uneven clock's recording (its samples kept) observed again whole by the offline
+        rules (rows.observe: the period is the mean step of the whole record, gaps against the
+        local step, no lag instrument) and its factors replaced: live = offline at its end."""
+        record = rec.raw_record()
+        if record is None or rec.period_ns is None:
+            return []
+        try:
+            obs, rep, _ = observe(record, self.model, self.opts, rec.payload_mass)
+        except OrthoglideError as exc:  # the streamed equations stay; say why
+            return [f"{rec.source}: not observed again by the offline rules ({exc}): the "
+                    "equations of its uneven clock streamed with its first steps' mean are used"]
+        self._seconds[rec.condition] -= rec.seconds
+        seconds = obs.n_samples * obs.decimation * rep.period_s
+        rec.adopt(rep, obs.rows_per_joint(), obs.n_samples, seconds)
+        self._seconds[rec.condition] += seconds
+        self._factors[rec] = RecordFactors.from_observations(obs)
+        self._version.n += 1
+        return []
 
     def add_joint_states(self, stamps_ns: Sequence[int] | np.ndarray, names: Sequence[str],
                          positions: np.ndarray) -> list[str]:
@@ -249,10 +270,9 @@ class LiveIdentification:
         return messages
 
     def _fold(self, rec: LiveRecording, rows: DecimatedRows, seconds: float) -> None:
-        key = (rec.condition, rec.payload_mass)
-        f = self._factors.get(key)
+        f = self._factors.get(rec)
         if f is None:
-            f = self._factors[key] = RecordFactors(rec.condition, rec.payload_mass, self.n_b,
+            f = self._factors[rec] = RecordFactors(rec.condition, rec.payload_mass, self.n_b,
                                                    n_joints=self.model.n_joints)
         f.add_source(rec.source)
         f.fold(rows.X, rows.keep, rows.t, rec.source,
