@@ -27,7 +27,8 @@ from orthoglide_ident.identify.records.pairing import Paired, TopicBuffer, pair_
 from orthoglide_ident.identify.diagnostics import bag_report
 from orthoglide_ident.identify.records.record import Record
 from orthoglide_ident.identify.records.segments import SegmentReport
-from orthoglide_ident.ticks import find_breaks, find_breaks_local, step_stats
+from orthoglide_ident.ticks import (BREAK_HIGH, BREAK_LOW, OFF_GRID_TOL, StepStats, find_breaks,
+                                    find_breaks_local, step_stats)
 from orthoglide_ident.identify.observe.stream import DecimatedRows, SegmentStream
 from orthoglide_ident.model.transmission import Transmission
 
@@ -380,6 +381,36 @@ class LiveRecording:
         return [f"{self.source}: the tick period over the whole record is {median:.0f} ns but "
                 f"{self.period_ns:.0f} ns was used from its first {PERIOD_SAMPLES} ticks: an "
                 "offline identification of the same data may differ slightly"]
+
+    def steps(self) -> StepStats | None:
+        """The paired stamps' step distribution so far (as ``info`` gives it): the offline
+        one once rebuilt, else from the histogram of steps (None: jittery stamps, or none)."""
+        if self.rep.steps is not None:
+            return self.rep.steps
+        if not self._steps or self.period_ns is None:
+            return None
+        steps = np.array(sorted(self._steps), float)
+        counts = np.array([self._steps[int(x)] for x in steps])
+        cum, n = np.cumsum(counts), int(counts.sum())
+
+        def at(share: float) -> float:
+            return float(steps[min(np.searchsorted(cum, share * n), steps.size - 1)]) * 1e-9
+
+        med = at(0.5)
+        ratio = steps / self.period_ns
+        even = (ratio > BREAK_LOW) & (ratio < BREAK_HIGH)
+        mean = float(np.sum(steps[even] * counts[even]) / max(counts[even].sum(), 1)) * 1e-9
+        off = float(counts[np.abs(steps * 1e-9 - med) > OFF_GRID_TOL * med].sum() / n)
+        return StepStats(n, med, mean or med, at(0.05), at(0.95), off)
+
+    def samples_line(self) -> str:
+        """What ``info`` says of a bag, of this recording so far: samples in, paired, used (in
+        segments long enough), the step distribution."""
+        used = self.rep.n_used + (self._seg_len if self._stream is not None else 0)
+        line = (f"{self.condition} {self.q.counts.received} samples in, {self.rep.n_paired} "
+                f"paired, {used} used")
+        st = self.steps()
+        return line + (f"; {st.describe()}" if st is not None and st.n_steps else "")
 
     def report(self) -> dict:
         """This recording's entry of the result's ``diagnostics["bags"]`` (as offline's)."""

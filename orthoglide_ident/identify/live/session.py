@@ -88,6 +88,7 @@ class LiveEstimate:
     equations: tuple[int, ...] = ()
     recording: str | None = None  # condition of the recording under way
     gain_units: tuple[str, ...] = ()
+    samples: str = ""  # the recording under way (or the last): samples in, used, its steps
 
     @property
     def known(self) -> bool:
@@ -98,7 +99,8 @@ class LiveEstimate:
         """Fields of orthoglide_msgs/LiveIdentification (header excluded)."""
         known = self.known
         return {
-            "status": self.status, "enough_data": self.enough_data,
+            "status": self.status + (f" | {self.samples}" if self.samples else ""),
+            "enough_data": self.enough_data,
             "joint_names": list(self.joint_names),
             "gain_units": list(self.gain_units),
             "drive_gains": [float(g) for g in self.gains] if known else [],
@@ -118,7 +120,8 @@ class LiveEstimate:
             f"{n} {v:8.5g} {u} ±{100 * s:.2f} %"  # a motor's 0.41704 N·m/A too
             for n, v, s, u in zip(self.joint_names, self.gains, self.gains_rel_std, units))
         return (f"{g} | {self.seconds_unloaded:.0f} s unloaded, {self.seconds_loaded:.0f} s "
-                f"loaded, lag {self.lag_s:.1f} s | {self.status}")
+                f"loaded, lag {self.lag_s:.1f} s | {self.status}"
+                + (f" | {self.samples}" if self.samples else ""))
 
 
 @dataclass
@@ -367,6 +370,8 @@ class LiveIdentification:
         est = v.estimate
         est.lag_s = self.lag_s
         est.recording = self._current.condition if self._current is not None else None
+        last = self._current or (self._recordings[-1] if self._recordings else None)
+        est.samples = last.samples_line() if last is not None else ""
         return est
 
     def _estimate(self) -> LiveEstimate:

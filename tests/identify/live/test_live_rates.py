@@ -13,6 +13,7 @@ from live_helpers import rel_diff
 from orthoglide_ident.identify.live.session import LiveIdentification
 from orthoglide_ident.identify.options import IdentifyOptions
 from orthoglide_ident.identify.pipeline import identify_records
+from orthoglide_ident.ticks import StepStats, step_stats
 from synthetic import SyntheticModel, synthetic_record
 
 MODEL = SyntheticModel()
@@ -76,3 +77,27 @@ def test_live_equals_offline_at_any_rate(rate):
     est = live.estimate()
     assert est.seconds_unloaded == pytest.approx(seconds["unloaded"], rel=1e-12)
     assert est.seconds_loaded == pytest.approx(seconds["loaded"], rel=1e-12)
+    # the live view and watch say what `info` says of the bag: samples taken, the steps
+    last = off.diagnostics["bags"][-1]
+    status = est.message_fields()["status"]
+    assert f"loaded {len(records[-1].stamps_q_ns)} samples in" in status, status
+    assert f"{last['n_used']} used" in status and StepStats(**last["steps"]).describe() in status
+
+
+@pytest.mark.parametrize("rate", ["1kHz", "uneven_93Hz"])
+def test_the_steps_are_shown_while_recording(rate):
+    """Before the stop too: the steps' histogram gives the distribution `info` gives."""
+    rec = _records(rate)[0]
+    live = LiveIdentification(CONFIG, model=MODEL)
+    live.start_recording(rec.source, rec.condition, rec.payload_mass)
+    live.add_joint_states(rec.stamps_q_ns, rec.names_q, rec.q)
+    live.add_current_reference(rec.stamps_v_ns, rec.names_v, rec.v_tau)
+    live.process()
+    status = live.estimate().message_fields()["status"]
+    n = len(rec.stamps_q_ns)
+    # the newest live_pairing_slack_s wait for their partner
+    paired = int(np.sum(rec.stamps_q_ns <= rec.stamps_q_ns[-1] - CONFIG.live_pairing_slack_s * 1e9))
+    ref = step_stats(rec.stamps_q_ns[:paired])
+    assert f"{n} samples in, {paired} paired" in status, status
+    assert f"median {ref.median_s * 1e3:.3f} ms" in status, status
+    assert f"{100 * ref.off_grid:.1f} % off the median grid" in status, status
