@@ -56,8 +56,9 @@ def test_identify_service_json_is_the_offline_json(spawn_python, ros_env, tmp_pa
     on the same bags (issue 47: it wrote nothing and exited 0)."""
     import json
 
-    spawn_python("from orthoglide_ident.nodes.identification import main; import sys; sys.exit(main())",
-                 "--ros-args", "-p", f"bag_dir:={tmp_path}", "-p", "live:=false")
+    spawn_python("from orthoglide_ident.nodes.identification import main; import sys; "
+                 "sys.exit(main())", "--ros-args", "-p", f"bag_dir:={tmp_path}",
+                 "-p", "live:=false")
     bags = [str(ROOT / "bags/unloaded"), str(ROOT / "bags/loaded")]
     served, offline = tmp_path / "served.json", tmp_path / "offline.json"
     out = cli(ros_env, "identify", "--service", *bags, "--json", str(served))

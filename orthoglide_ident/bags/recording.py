@@ -2,9 +2,9 @@
 
 No rclpy here: the recorder node's subscription callbacks call ``queue.append((topic, cdr_bytes,
 receive_time_ns, publish_time_ns))``; the thread parses the header stamp of the stamped topics (for
-the live count of missing samples, against each source's own step: info.TickCounter), writes through :class:`BagWriter`, flushes chunks that are older
-than the chunk duration, and on a write error (disk full) stops with a clear message, keeping what
-was written.
+the live count of missing samples, against each source's own step: info.TickCounter), writes
+through :class:`BagWriter`, flushes chunks that are older than the chunk duration, and on a
+write error (disk full) stops with a clear message, keeping what was written.
 """
 
 from __future__ import annotations

@@ -3,7 +3,8 @@ alone (position, and the motor current as effort, as UR's driver publishes it) a
 and ~93 Hz on the logger's own 10/12/14 ms clock with samples lost, fed to LiveFeed as the topic
 delivers it (bulk decoding, source choice, LiveIdentification; stamps given, no wall clock) and
 written to bags as the recorder writes them: the live answer equals `identify` on the bags to
-1e-9 on every gain and base parameter (above 1e-3 of the largest), and every sample of the bag reached it."""
+1e-9 on every gain and base parameter (above 1e-3 of the largest), and every sample of the bag
+reached it."""
 from __future__ import annotations
 
 import dataclasses

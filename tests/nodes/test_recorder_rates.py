@@ -17,12 +17,12 @@ ARM = ("shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint", "wrist_1_join
 
 def _record(g, js, rate: str, diags: list) -> tuple[str, str, int]:
     """One recording of ``rate``'s stamps: (stop message, bag, truth)."""
+    from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
     from sensor_msgs.msg import JointState
     from std_srvs.srv import Trigger
 
     from orthoglide_msgs.msg import RecorderStatus
     from orthoglide_msgs.srv import StartRecording
-    from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 
     st, truth = stamps(rate)
     res = g.call(StartRecording, "orthoglide/recorder/start", condition="unloaded",
