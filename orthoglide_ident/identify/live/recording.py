@@ -364,8 +364,9 @@ class LiveRecording:
 
     # --- end of recording ---------------------------------------------------------------------
     def _period_check(self) -> list[str]:
-        """The offline pipeline's period (median step over the record) against the one used."""
-        if not self._steps:
+        """The offline pipeline's period (median step over the record) against the one used
+        (an uneven clock's recording is observed again with the offline one: nothing to say)."""
+        if not self._steps or self.uneven:
             return []
         steps = np.array(sorted(self._steps))
         counts = np.array([self._steps[s] for s in steps])
