@@ -37,9 +37,17 @@ def _record(g, js, rec, name: str) -> tuple[str, str]:
     from orthoglide_msgs.msg import RecorderStatus
     from orthoglide_msgs.srv import StartRecording
 
+    from orthoglide_msgs.msg import LiveIdentification
+
     res = g.call(StartRecording, "orthoglide/recorder/start", condition=rec.condition,
                  payload_mass=rec.payload_mass, name=name)
     assert res.success, res.message
+    # the identification has taken the start (the recorder's status is latched with depth 1: a
+    # burst of samples and the stop in less time than its delivery would leave only the stop)
+    going = f"| {rec.condition} 0 samples in"
+    g._listen(LiveIdentification, "orthoglide/identification/live", 10, lambda m: None,
+              lambda: any(going in m.status for m in g.live), 30.0,
+              lambda: f"the identification did not take the {rec.condition} start")
     for _, raw, _ in rec.messages:
         js.publish(raw)
     latched = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL,
@@ -82,6 +90,7 @@ def test_a_93hz_arm_through_the_recorder_and_the_identification(tmp_path):
                                      QoSProfile(depth=2000, reliability=ReliabilityPolicy.RELIABLE))
         for node in ("orthoglide_recorder", "orthoglide_identification"):
             g.wait_for_subscriber("joint_states", node)
+        g.wait_for_subscriber("orthoglide/recorder/status", "orthoglide_identification")
         got = [_record(g, js, rec, name) for name, rec in recs.items()]
         last = recs["loaded"]
         done = f"loaded {len(last.messages)} samples in, {len(last.messages)} paired"
