@@ -102,3 +102,48 @@ def test_the_steps_are_shown_while_recording(rate):
     assert f"{n} samples in, {paired} paired" in status, status
     assert f"median {ref.median_s * 1e3:.3f} ms" in status, status
     assert f"{100 * ref.off_grid:.1f} % off the median grid" in status, status
+
+
+def test_live_through_a_transmission_at_93hz(tmp_path):
+    """The coupled wrist (joint-side positions and efforts mapped to the motors on arrival)
+    logged at ~93 Hz: live = offline (motor_side of the same records) to 1e-9, gains by motor."""
+    from identify.test_transmission_identification import MOTORS, N, OFFSET, _robot_file, _runs
+
+    from orthoglide_ident.identify.records.record import Record, motor_side
+    from orthoglide_ident.model.robot import Payload
+    from orthoglide_ident.model.robots import load_robot
+    from orthoglide_sim.arms.description import load_arm
+    from orthoglide_sim.arms.truth import load_truth
+
+    truth = load_truth(load_arm("ur5"))
+    load = truth.payload("2.0")
+    tag = load.tag()
+    payload = Payload(load.mass, tag["payload_frame"], tag["payload_com"], tag["payload_inertia"],
+                      "all")
+    tx = {"actuators": list(MOTORS), "reduction": N.tolist(), "offset": OFFSET.tolist(),
+          "effort_side": "joint"}
+    model = load_robot(_robot_file(tmp_path, tx, "at_93hz"))
+    joints = model.transmission.joints
+    recs = []
+    for i, (cond, r) in enumerate(_runs(truth, load, True).items()):
+        steps = np.random.default_rng(i).choice([10, 12, 14], len(r["stamps"]) // 10,
+                                                p=[.8, .1, .1])
+        k = np.cumsum(np.concatenate([[0], steps]))
+        k = np.delete(k[k < len(r["stamps"])], [200, 201])  # two samples lost
+        p = payload if cond == "loaded" else None
+        recs.append(Record(cond, r["stamps"][k], joints, r["q_j"][k], r["stamps"][k], joints,
+                           r["v"][k] @ N, cond, p.mass if p else 0.0, payload=p))
+    opts = CONFIG.replace(check_excitation=False, partial_answers=False)
+    off = identify_records([motor_side(r, model) for r in recs], options=opts, model=model)
+    live = LiveIdentification(opts, model=model)
+    for rec in recs:
+        live.start_recording(rec.source, rec.condition, rec.payload_mass, rec.payload)
+        for a in range(0, len(rec.stamps_q_ns), 41):
+            live.add_joint_states(rec.stamps_q_ns[a:a + 41], rec.names_q, rec.q[a:a + 41])
+            live.add_current_reference(rec.stamps_v_ns[a:a + 41], rec.names_v,
+                                       rec.v_tau[a:a + 41])
+        live.stop_recording()
+    res = live.result()
+    assert [g.name for g in res.drive_gains] == list(MOTORS)
+    dg, dp = rel_diff(off, res)
+    assert dg < 1e-9 and dp < 1e-9, (dg, dp)
