@@ -44,15 +44,17 @@ def records():
     return standin_records(seconds=12.0, drop_rate=0.0)
 
 
-def _at_rate(rec, rate: str, seed: int):
-    """The 1 kHz stand-in logged at ``rate``: JointState only, the effort the current."""
+def _at_rate(rec, rate: str, seed: int, dynamic: bool = False):
+    """The 1 kHz stand-in logged at ``rate``: JointState only, the effort the current (with
+    ``dynamic``, /dynamic_joint_states beside it, its current interface the current)."""
     rng = np.random.default_rng(seed)
     k, keep = 0, []
     while k < len(rec.messages):
         keep.append(k)
         k += {"1kHz": 1, "500Hz": 2}.get(rate) or int(rng.choice([10, 12, 14], p=[.8, .1, .1]))
     keep = [i for n, i in enumerate(keep) if n not in LOST]
-    return dataclasses.replace(rec, messages=[(rec.messages[i][0], rec.messages[i][1], None)
+    return dataclasses.replace(rec, messages=[(rec.messages[i][0], rec.messages[i][1],
+                                               rec.messages[i][2] if dynamic else None)
                                               for i in keep])
 
 
@@ -66,20 +68,22 @@ def _status(bag: str, rec, recording: bool):
     return m
 
 
-def _live(node, recs: dict):
+def _live(node, recs: dict, dynamic: bool = False):
     from orthoglide_ident.nodes.live_feed import LiveFeed
     from orthoglide_ident.nodes.live_sources import LiveTopics
 
     model = load_robot(ROBOT)
     live = LiveIdentification(OPTIONS, model=model)
-    feed = LiveFeed(node, live, threading.Lock(), LiveTopics("joint_states", "", ""),
-                    robot=model, worker=False)
+    topics = LiveTopics("joint_states", "", "dynamic_joint_states" if dynamic else "")
+    feed = LiveFeed(node, live, threading.Lock(), topics, robot=model, worker=False)
     try:
         for name, rec in recs.items():
             feed.on_status(_status(name, rec, True))
             feed.turn()
             for k in range(0, len(rec.messages), FEED):
                 feed.buffers["q"].extend(js for _, js, _ in rec.messages[k:k + FEED])
+                if dynamic:
+                    feed.buffers["d"].extend(d for _, _, d in rec.messages[k:k + FEED])
                 feed.turn()
             feed.on_status(_status(name, rec, False))
             feed.turn()
@@ -113,3 +117,16 @@ def test_live_feed_equals_identify_on_the_bags(node, records, rate, tmp_path):
         assert d["n_paired"] == d["n_joint_states"] == len(rec.messages)  # every sample
     assert [d["n_used"] for d in res.diagnostics["bags"]] == \
         [d["n_used"] for d in offline.diagnostics["bags"]]
+
+
+def test_dynamic_joint_states_at_93hz(node, records, tmp_path):
+    """The broadcaster's layout (the current from /dynamic_joint_states) at ~93 Hz: the same."""
+    recs = {n: _at_rate(r, "uneven_93Hz", i, dynamic=True)
+            for i, (n, r) in enumerate(records.items())}
+    bags = [str(write_record_bag(tmp_path / n, r)) for n, r in recs.items()]
+    offline = identify(bags, model=load_robot(ROBOT), options=OPTIONS)
+    assert {b["sources"] for b in offline.diagnostics["bags"]} == {
+        "q from /joint_states position (JointState); current from /dynamic_joint_states "
+        "interface 'current' (DynamicJointState)"}
+    dg, dp = max_rel_diff(_live(node, recs, dynamic=True).result(), offline)
+    assert dg < 1e-9 and dp < 1e-9, (dg, dp)
