@@ -14,7 +14,8 @@
 
 ``--robot``: a URDF, a robot YAML or a bundled robot's name (model/robots.py); without it, the
 Orthoglide exactly as before.
-    orthoglide-ident identify --service [BAG...] [--method tls|wls] [--essential]   (ROS 2)
+    orthoglide-ident identify --service [BAG...] [--method tls|wls] [--essential] [--json FILE]
+                     [--payload-mass KG]                                         (ROS 2)
     orthoglide-ident record start|stop|status [--condition C --payload-mass KG --name N]  (ROS 2)
     orthoglide-ident watch [--seconds S]                                          (ROS 2)
 
@@ -287,12 +288,7 @@ def _main(args: argparse.Namespace) -> int:
     if args.command == "excite" and getattr(args, "excite_handler", None):
         return args.excite_handler(args)  # excite run: the robot from its file, over ROS 2
     if args.command == "identify" and args.service:
-        if args.consistent or args.urdf_out or args.mjcf_out:
-            raise ConfigError("--consistent, --urdf-out and --mjcf-out are for identifying from "
-                              "bags here; for the node, set its parameter consistent (the "
-                              "consistent set is "
-                              "latched on orthoglide/identified_parameters/consistent)")
-        ros_client.identify_service(args)
+        ros_client.identify_service(args)  # flags it cannot send: refused in one line
         return EXIT_OK
     if args.command in ("identify", "report") and not args.bags:
         raise ConfigError(f"{args.command}: give at least one BAG (or --service to ask the running node)")

@@ -14,7 +14,10 @@ The same services and topics as `ros2 service call` / `ros2 topic echo` (names r
 from __future__ import annotations
 
 import argparse
+import json
+import math
 import time
+from pathlib import Path
 from typing import Any
 
 from orthoglide_ident.errors import OrthoglideError
@@ -169,18 +172,81 @@ def set_payload_shape(c: Client, args: argparse.Namespace) -> None:
                            f"{res.result.reason}")
 
 
+SERVICE_FLAGS_REFUSED = (  # identify flags the node takes from its own parameters, not a call
+    ("robot", "--robot", "the node's parameter robot"),
+    ("gains", "--gains", "the node's parameter wls_gains"),
+    ("payload_known", "--payload-known", "the recorder's payload_known tag or the node's option"),
+    ("r_sigma", "--r-sigma", "the node's parameter r_sigma"),
+    ("config", "--config", "the node's --params-file"),
+    ("validate", "--validate", "an offline identify with the bags"),
+    ("consistent", "--consistent", "the node's parameter consistent (the consistent set is "
+     "latched on orthoglide/identified_parameters/consistent)"),
+    ("urdf_out", "--urdf-out", "an offline identify --consistent with the bags"),
+    ("mjcf_out", "--mjcf-out", "an offline identify --consistent with the bags"),
+)
+JSON_WAIT_S = 10.0  # the JSON is published before the reply: it is there or on its way
+
+
+def refuse_service_flags(args: argparse.Namespace) -> None:
+    """One line naming the first flag the service cannot carry (Identify.srv is fixed): never
+    ignored silently."""
+    for attr, flag, where in SERVICE_FLAGS_REFUSED:
+        if getattr(args, attr, None):
+            raise ServiceError(f"identify --service: {flag} is not sent to the node; use {where}")
+
+
 def identify_service(args: argparse.Namespace) -> Any:
-    """Call orthoglide/identify; the IdentifiedParameters of the answer."""
+    """Call orthoglide/identify; the IdentifiedParameters of the answer. With ``--json FILE`` the
+    answer's JSON (the node's orthoglide/identify/json, the same document as an offline run's)."""
+    from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+    from std_msgs.msg import String
+
     from orthoglide_msgs.srv import Identify
 
+    refuse_service_flags(args)
+    docs: list = []
     with Client(args.namespace) as c:
+        if args.json:  # subscribed before the call: the answer's JSON cannot pass unseen
+            qos = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL,
+                             reliability=ReliabilityPolicy.RELIABLE)
+            c.node.create_subscription(String, "orthoglide/identify/json",
+                                       lambda m: docs.append(json.loads(m.data)), qos)
         res = c.call(Identify, "orthoglide/identify", timeout=600.0, bags=list(args.bags or []),
                      payload_mass=float(args.payload_mass or 0.0), method=args.method or "",
                      essential=bool(args.essential))
+        if res.success and args.json:
+            stamp = {"sec": res.parameters.header.stamp.sec,
+                     "nanosec": res.parameters.header.stamp.nanosec}
+            doc = _wait_for(c, docs, lambda d: d.get("stamp") == stamp, JSON_WAIT_S)
+            if doc is None:
+                raise ServiceError("the node answered but published no JSON on "
+                                   "orthoglide/identify/json: is it an older identification node?")
     if not res.success:
         raise ServiceError(res.message)
     print(res.message)
+    if args.json:
+        _write_json(args.json, doc["result"])
     return res.parameters
+
+
+def _wait_for(c: Client, got: list, match: Any, timeout: float) -> Any | None:
+    """The first of ``got`` (filled by a subscription) that ``match``es, spinning until then."""
+    t_end = time.monotonic() + timeout
+    while time.monotonic() < t_end:
+        hit = next((d for d in got if match(d)), None)
+        if hit is not None:
+            return hit
+        c.rclpy.spin_once(c.node, timeout_sec=0.1)
+    return None
+
+
+def _write_json(path: str, doc: Any) -> None:
+    from orthoglide_ident.results import json_text
+
+    try:
+        Path(path).write_text(json_text(doc))
+    except OSError as exc:
+        raise ServiceError(f"cannot write {path}: {exc.strerror or exc}") from None
 
 
 def status_line(m: Any) -> str:

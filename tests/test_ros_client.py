@@ -46,3 +46,32 @@ def test_identify_through_the_service(spawn_python, ros_env, tmp_path):
 def test_no_node_is_a_one_line_reason(ros_env):
     out = cli(ros_env, "record", "stop", timeout=60)
     assert out.returncode == 2 and "no service" in out.stderr and "Traceback" not in out.stderr
+
+
+def test_identify_service_json_is_the_offline_json(spawn_python, ros_env, tmp_path):
+    """`identify --service --json FILE` writes the document an offline `identify --json` writes
+    on the same bags (issue 47: it wrote nothing and exited 0)."""
+    import json
+
+    spawn_python("from orthoglide_ident.nodes.identification import main; import sys; "
+                 "sys.exit(main())", "--ros-args", "-p", f"bag_dir:={tmp_path}",
+                 "-p", "live:=false")
+    bags = [str(ROOT / "bags/unloaded"), str(ROOT / "bags/loaded")]
+    served, offline = tmp_path / "served.json", tmp_path / "offline.json"
+    out = cli(ros_env, "identify", "--service", *bags, "--json", str(served))
+    assert out.returncode == 0 and served.is_file(), (out.stdout, out.stderr)
+    ref = cli(ros_env, "identify", *bags, "--json", str(offline), "-q")
+    assert ref.returncode == 0, ref.stderr
+    docs = [json.loads(f.read_text()) for f in (served, offline)]
+    for d in docs:  # how long each step took is the one thing two runs do not share
+        assert d["diagnostics"].pop("timings_s")["total"] > 0
+    assert docs[0] == docs[1]
+
+
+@pytest.mark.parametrize("flag", [["--gains", "1,2,3"], ["--r-sigma", "5"], ["--consistent"],
+                                  ["--validate", "x"], ["--robot", "ur5"]])
+def test_identify_service_refuses_flags_it_cannot_send(ros_env, flag):
+    """No node needed: the refusal comes before any call, in one line naming the flag."""
+    out = cli(ros_env, "identify", "--service", *flag, timeout=60)
+    assert out.returncode == 2 and flag[0] in out.stderr, (out.stdout, out.stderr)
+    assert len(out.stderr.strip().splitlines()) == 1 and "Traceback" not in out.stderr

@@ -7,7 +7,8 @@ from pathlib import Path
 
 import numpy as np
 
-from orthoglide_ident.ticks import StepStats, find_breaks_local, missing_in_step, step_stats
+from orthoglide_ident.ticks import (BREAK_HIGH, BREAK_LOW, LOCAL_STEPS, OFF_GRID_TOL, ON_GRID,
+                                    UNEVEN_SHARE, StepStats, find_breaks_local, step_stats)
 
 from orthoglide_ident.errors import BagError
 
@@ -166,23 +167,96 @@ def bag_info(path: str | Path) -> BagInfo:
 
 
 class TickCounter:
-    """Streaming count of missing ticks from header stamps (the recorder's live loss count)."""
+    """Streaming count of missing samples from header stamps (the recorder's live loss count):
+    the rule of ``info`` (ticks.find_breaks_local) on the source's own step distribution, each
+    step judged against the median of the LOCAL_STEPS steps around it, so a ~100 Hz logger on
+    its own 10/12/14 ms clock is not 90 % missing against a 1 kHz tick. Where the local median
+    is within ON_GRID of ``rate_hz``'s period (a 1 kHz controller), ticks of that period are
+    counted (ticks.find_breaks). A step is judged once LOCAL_STEPS // 2 later steps are in;
+    :meth:`finish` judges the last ones (the window reflected at the end, as find_breaks_local).
+    Memory: the last LOCAL_STEPS steps, whatever the recording's length."""
 
     def __init__(self, rate_hz: float) -> None:
         self.period_ns = 1e9 / rate_hz if rate_hz > 0 else 0.0
         self.first: int | None = None
         self.last: int | None = None
-        self.missing = 0
+        self.missing = 0  # in the steps judged so far
         self.backwards = 0
+        self.n_steps = 0
+        self.span_ns = 0.0  # sum of the steps that are not breaks (for the mean rate) ...
+        self.n_even = 0  # ... and their number
+        self.median_ns = 0.0  # the latest local median step
+        self.off_grid = 0  # steps judged more than OFF_GRID_TOL off their local median
+        self._ctx = np.empty(0)  # the last (up to) LOCAL_STEPS // 2 steps judged
+        self._pending: list[float] = []  # steps not judged yet
+        self._judged = 0
 
     def add(self, stamp_ns: int) -> None:
         last, self.last = self.last, stamp_ns
         if last is None:
             self.first = stamp_ns
-        if last is None or not self.period_ns:
             return
         d = stamp_ns - last
-        if d <= 0:
-            self.backwards += 1
-        else:
-            self.missing += missing_in_step(d, self.period_ns)
+        self.backwards += d <= 0
+        self._pending.append(float(d))
+        if len(self._pending) >= 2 * LOCAL_STEPS:  # judged in batches: vectorised medians
+            self._judge(final=False)
+
+    def finish(self) -> None:
+        """Judge every step still pending (the end of the recording)."""
+        self._judge(final=True)
+
+    def _judge(self, final: bool) -> None:
+        half = LOCAL_STEPS // 2
+        pend = np.asarray(self._pending, float)
+        if self._judged == 0 and pend.size < LOCAL_STEPS:
+            if final and pend.size:  # too short for a window: the median step (as find_gaps)
+                self._count(pend, np.full(pend.size, float(np.median(pend))))
+                self._pending = []
+            return
+        left = pend[half:0:-1] if self._judged == 0 else self._ctx  # reflected at the start
+        real = pend if self._judged == 0 else np.concatenate([self._ctx, pend])
+        right = real[-2:-half - 2:-1] if final else np.empty(0)  # ... and at the end
+        full = np.concatenate([left, pend, right])
+        n = pend.size if final else pend.size - half
+        if n <= 0:
+            return
+        local = np.median(np.lib.stride_tricks.sliding_window_view(full[:n + 2 * half],
+                                                                   LOCAL_STEPS), axis=1)
+        self._count(pend[:n], local)
+        self._ctx = np.concatenate([left, pend[:n]])[-half:]
+        self._pending = list(pend[n:])
+
+    def _count(self, dt: np.ndarray, local: np.ndarray) -> None:
+        """Missing samples in steps ``dt`` judged against their local medians ``local``."""
+        if self.period_ns:  # the controller's own tick where the source keeps it
+            on_tick = np.abs(local / self.period_ns - 1.0) <= ON_GRID
+            local = np.where(on_tick, self.period_ns, local)
+        ratio = dt / np.where(local > 0, local, 1.0)
+        brk = (ratio < BREAK_LOW) | (ratio > BREAK_HIGH)
+        self.missing += int(np.sum(np.maximum(np.rint(ratio[brk]) - 1, 0)))
+        self._judged += dt.size
+        self.n_steps += dt.size
+        self.span_ns += float(np.sum(dt[~brk]))
+        self.n_even += int(np.sum(~brk))
+        self.off_grid += int(np.sum(np.abs(dt - local) > OFF_GRID_TOL * local))
+        self.median_ns = float(local[-1])
+
+    @property
+    def on_tick(self) -> bool:
+        """The source ticks at ``rate_hz`` (its local step on that period's grid)."""
+        return bool(self.period_ns) and abs(self.median_ns / self.period_ns - 1.0) <= ON_GRID
+
+    def describe(self) -> str:
+        """'against its own step (median 12.000 ms, mean 93.4 Hz, uneven: 66.7 % off the median)'
+        or 'against 1000 Hz ticks'."""
+        if not self.n_steps:
+            return "no steps yet"
+        if self.on_tick:
+            return f"against {1e9 / self.period_ns:g} Hz ticks"
+        rate = self.n_even / self.span_ns * 1e9 if self.span_ns > 0 else 0.0
+        share = self.off_grid / self.n_steps
+        even = (f"uneven: {100 * share:.1f} % off the local median" if share > UNEVEN_SHARE
+                else "even")
+        return (f"against its own step (median {self.median_ns * 1e-6:.3f} ms, mean "
+                f"{rate:.1f} Hz, {even})")

@@ -2,9 +2,9 @@
 
 No rclpy here: the recorder node's subscription callbacks call ``queue.append((topic, cdr_bytes,
 receive_time_ns, publish_time_ns))``; the thread parses the header stamp of the stamped topics (for
-the live count of missing ticks), writes through :class:`BagWriter`, flushes chunks that are older
-than the chunk duration, and on a write error (disk full) stops with a clear message, keeping what
-was written.
+the live count of missing samples, against each source's own step: info.TickCounter), writes
+through :class:`BagWriter`, flushes chunks that are older than the chunk duration, and on a
+write error (disk full) stops with a clear message, keeping what was written.
 """
 
 from __future__ import annotations
@@ -192,6 +192,9 @@ class Recording:
         self._thread.join()
         # by topic name: channels register in arrival order and ``stamped`` is a set
         counts = ", ".join(f"{n} {t}" for t, n in sorted(self.writer.counts.items()))
-        missing = ", ".join(f"{c.missing} missing on {t}" for t, c in sorted(self.counters.items()))
+        for c in self.counters.values():
+            c.finish()
+        missing = ", ".join(f"{c.missing} missing on {t} ({c.describe()})"
+                            for t, c in sorted(self.counters.items()))
         tail = f"; tagged incomplete: {incomplete}" if incomplete else ""
         return self.error or f"{self.writer.path}: wrote {counts}; samples missing: {missing}{tail}"

@@ -4,6 +4,7 @@
 """
 from __future__ import annotations
 
+import json
 import sys
 import threading
 from dataclasses import fields
@@ -23,7 +24,7 @@ from orthoglide_ident.identify.pipeline import identify
 from orthoglide_ident.model.robots import load_robot, load_robot_description
 from orthoglide_ident.nodes.live_feed import LiveFeed
 from orthoglide_ident.nodes.live_sources import LiveTopics
-from orthoglide_ident.results import IdentificationResult, lag_text
+from orthoglide_ident.results import IdentificationResult, finite_only, lag_text
 from orthoglide_ident.ros.core_log import CoreLog
 from orthoglide_ident.ros.params import Param, declare, on_set, usage
 from orthoglide_ident.ros.spin import spin
@@ -60,7 +61,11 @@ Topics   orthoglide/identified_parameters (orthoglide_msgs/msg/IdentifiedParamet
          estimated), so that a validation run does not switch a running CTC to other gains;
          orthoglide/identified_parameters/consistent (with the option consistent): the base
          parameters of physically consistent bodies identified under the constraints, gains
-         held (what the ctc node uses with its parameter consistent).
+         held (what the ctc node uses with its parameter consistent);
+         orthoglide/identify/json (std_msgs/String, transient local, depth 1): every successful
+         answer (partial ones too) as the JSON of `orthoglide-ident identify --json`, in
+         {"stamp": {"sec", "nanosec"}, "result": ...}, the stamp that of the reply's parameters
+         (`identify --service --json FILE` writes its "result").
 Every identification option is a ROS parameter (the keys of config/identification.yaml)."""
 
 NODE_PARAMETERS = (
@@ -88,6 +93,17 @@ OPTION_PARAMETERS = tuple(Param(f.name, getattr(IdentifyOptions(), f.name), "ide
                                 "config/identification.yaml)", dynamic=True) for f in fields(IdentifyOptions))
 OPTION_NAMES = frozenset(p.name for p in OPTION_PARAMETERS)
 PARAMETERS = NODE_PARAMETERS + OPTION_PARAMETERS
+
+
+JSON_TOPIC = "orthoglide/identify/json"  # the whole answer, as identify --json writes it
+
+
+def json_message(result: IdentificationResult, stamp: Any) -> String:
+    """The result's JSON (``identify --json``'s document) tagged with the reply's stamp, so that
+    a client tells its own answer from a later caller's on the latched topic."""
+    doc = {"stamp": {"sec": int(stamp.sec), "nanosec": int(stamp.nanosec)},
+           "result": finite_only(result.to_json())}
+    return String(data=json.dumps(doc, allow_nan=False))
 
 
 def find_bags(bag_dir: Path) -> list[str]:
@@ -127,6 +143,7 @@ class IdentificationNode(Node):
         topics["consistent"] = REFINEMENTS["consistent"].topic
         self.pub = {k: self.create_publisher(IdentifiedParameters, t, latched)
                     for k, t in topics.items()}
+        self.json_pub = self.create_publisher(String, JSON_TOPIC, latched)
         self.busy = threading.Lock()
         self.live_lock = threading.Lock()
         self.live = None
@@ -279,6 +296,7 @@ class IdentificationNode(Node):
         if result.warnings:
             response.message += f"; {len(result.warnings)} warning(s): " + " | ".join(result.warnings)
         response.parameters = msg
+        self.json_pub.publish(json_message(result, msg.header.stamp))  # before the reply leaves
         self.get_logger().info(response.message)
 
 

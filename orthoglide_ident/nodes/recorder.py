@@ -19,6 +19,7 @@ import time
 from pathlib import Path
 from typing import Any
 
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from std_srvs.srv import Trigger
@@ -49,8 +50,15 @@ Services (relative names: /orthoglide/... in the root namespace, -r __ns:=/robot
                              reason (a cancelled or aborted excitation run: excite run)
 Topic:
   orthoglide/recorder/status orthoglide_msgs/msg/RecorderStatus (transient local): recording?,
-                             condition, payload mass, bag, ticks written and missing; on start,
-                             on stop and every second while recording."""
+                             condition, payload mass, bag, ticks written and samples missing
+                             (judged against the source's own step distribution, as `info`
+                             does; ticks of expected_rate where the source keeps that rate),
+                             the step in its message; on start, on stop and every second
+                             while recording
+  /diagnostics               diagnostic_msgs/DiagnosticArray, the same counts (WARN when
+                             samples are missing), with the status
+A topic of `topics` that never has a publisher (dynamic_joint_states of a driver that publishes
+only joint_states) is said once, at the first start, and is not a fault."""
 
 PAYLOAD_KEYS = ("payload_frame", "payload_com", "payload_inertia")
 PARAMETERS = (
@@ -76,7 +84,9 @@ PARAMETERS = (
           "JointState topic is the one the status counts ticks on"),
     Param("optional_topics", ["orthoglide/setpoints", "orthoglide/current_command"],
           "recorded when a publisher exists (checked every second)"),
-    Param("expected_rate", 1000.0, "Hz of the controller ticks, for counting missing ticks from the stamps", dynamic=True),
+    Param("expected_rate", 1000.0, "Hz of the controller ticks: a source whose local step is this "
+          "period is counted in these ticks; any other source against its own step distribution",
+          dynamic=True),
     Param("chunk_duration", 0.5, "s per MCAP chunk: what a SIGKILL can lose at most", dynamic=True),
     Param("split_duration", 0.0, "s per .mcap file (0: no split)", dynamic=True),
     Param("split_size", 0, "bytes per .mcap file (0: no split)", dynamic=True),
@@ -151,9 +161,11 @@ class RecorderNode(Node):
         self.rec: Recording | None = None
         self.last = {"condition": "", "payload_mass": 0.0, "bag_path": "", "message": "idle"}
         self.last_ticks: tuple = (0, 0, None, None)  # written, missing, first and last stamp
+        self.last_against = ""  # how the last recording's missing samples were judged
         self.ended = ""  # why the last recording ended by itself (write error), until the next start
         self.heard: dict[str, float] = {}  # topic -> monotonic time of its last message
         self.silent: set[str] = set()  # required topics the status says are silent
+        self.said_absent: set[str] = set()  # required topics said once to have no publisher
         self.started_at = 0.0
         self.subs: dict[str, tuple[Any, str]] = {}  # topic -> (QoS subscribed with, type)
         self.checked_dirs: set[Path] = set()
@@ -166,6 +178,7 @@ class RecorderNode(Node):
         latched = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL,
                              reliability=ReliabilityPolicy.RELIABLE)
         self.status_pub = self.create_publisher(RecorderStatus, "orthoglide/recorder/status", latched)
+        self.diag_pub = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
         self.create_service(StartRecording, "orthoglide/recorder/start", self.on_start)
         self.create_service(Trigger, "orthoglide/recorder/stop", self.on_stop)
         self.create_service(StopRecording, "orthoglide/recorder/stop_incomplete", self.on_stop_incomplete)
@@ -246,6 +259,21 @@ class RecorderNode(Node):
         for field, ns in (("first_tick", first), ("last_tick", last)):
             getattr(msg, field).sec, getattr(msg, field).nanosec = divmod(ns or 0, 1_000_000_000)
         self.status_pub.publish(msg)
+        self.publish_diagnostics(msg)
+
+    def publish_diagnostics(self, status: Any) -> None:
+        """The status's counts on /diagnostics: WARN when samples are missing."""
+        counter = self.rec.counters.get(self._ticks_topic()) if self.rec is not None else None
+        against = counter.describe() if counter is not None else self.last_against
+        level = DiagnosticStatus.WARN if status.ticks_missing else DiagnosticStatus.OK
+        values = {"recording": status.recording, "condition": status.condition,
+                  "bag": status.bag_path, "topic": self._ticks_topic(),
+                  "samples written": status.ticks_written,
+                  "samples missing": status.ticks_missing, "judged": against}
+        self.diag_pub.publish(DiagnosticArray(header=status.header, status=[DiagnosticStatus(
+            level=level, name=f"{self.get_fully_qualified_name()}: recording",
+            hardware_id="orthoglide_ident", message=status.message,
+            values=[KeyValue(key=k, value=str(v)) for k, v in values.items()])]))
 
     def status_tick(self) -> None:
         """Every STATUS_PERIOD_S while recording: finish a recording a write error ended, say
@@ -256,7 +284,7 @@ class RecorderNode(Node):
         if rec.error:
             self._end()
             return
-        for topic in self.required:
+        for topic in (t for t in self.required if t in self.heard):  # never heard: not silence
             age = self._silent_for(topic)
             if age >= SILENT_S and topic not in self.silent:
                 self.silent.add(topic)
@@ -275,6 +303,9 @@ class RecorderNode(Node):
 
     def _status_text(self) -> str:
         text = self.last["message"]
+        counter = self.rec.counters.get(self._ticks_topic()) if self.rec is not None else None
+        if counter is not None and counter.n_steps:
+            text += f"; {counter.missing} samples missing ({counter.describe()})"
         if self.rec is not None and self.silent:
             ages = ", ".join(f"{t} for {self._silent_for(t):.1f} s" for t in sorted(self.silent))
             text += f"; no message on {ages} (source stopped or gone?); what arrived is kept"
@@ -330,9 +361,12 @@ class RecorderNode(Node):
         finally:  # this start's payload, accepted or not, is not the next one's
             self._reset_payload()
         self.discover()
-        for topic in self.required:
-            if topic not in self.subs:
-                self.get_logger().warning(f"{topic} has no publisher: recorded from its first message when one appears")
+        for topic in self.required:  # absent (an optional source): said once, not a fault
+            if topic not in self.heard and not self.count_publishers(topic) \
+                    and topic not in self.said_absent:
+                self.said_absent.add(topic)
+                self.get_logger().info(f"{topic} has no publisher: recorded from its first message "
+                                       "if one appears (said once)")
         # the topics of every tick (the Orthoglide's two, or the broadcaster's), aligned on their
         # stamps: those published now (a robot without /dynamic_joint_states, say, must not hold
         # its /joint_states back waiting for ticks that never come)
@@ -426,6 +460,8 @@ class RecorderNode(Node):
                         "messages received may be missing")
         self.ended = message if rec.error else ""
         self.last_ticks = self._ticks(rec)
+        counter = rec.counters.get(js)
+        self.last_against = counter.describe() if counter is not None else ""
         self.last["message"] = message
         if success:
             self.get_logger().info(message)

@@ -1,8 +1,13 @@
 """One live recording (like one bag): pairing, segmentation at real gaps, segment streams.
 
-Fed by :class:`~live.LiveIdentification`. The tick period is the median step of the first
-``PERIOD_SAMPLES`` paired stamps (the offline pipeline takes the median over the whole record:
-the same for a controller's regular ticks; a different median at the end is warned about). A
+Fed by :class:`~live.LiveIdentification`. The tick period is set from the first
+``PERIOD_SAMPLES`` paired stamps by the offline rule (segments._breaks): their median step on a
+steady clock (the offline pipeline takes the median over the whole record: the same for a
+controller's regular ticks; a different median at the end is warned about), the mean of the
+steps between gaps on an uneven one (a ~100 Hz logger's 10/12/14 ms). An uneven clock's mean
+is known only at the end: its samples are kept (a logger's rate: small) and at stop the
+recording is rebuilt from them by the offline observation itself (rows.observe), so that the
+answer is the offline one on the same samples. A
 step outside (0.5, 1.5) periods ends the segment under way (ticks.find_breaks); a segment
 becomes a :class:`~stream.SegmentStream` once it is long enough to be kept
 (``IdentifyOptions.min_segment_samples``), and its decimated rows go to ``fold`` as they come.
@@ -20,8 +25,10 @@ from orthoglide_ident.identify.columns.current_lag import LiveLagInstrument, wit
 from orthoglide_ident.identify.options import IdentifyOptions
 from orthoglide_ident.identify.records.pairing import Paired, TopicBuffer, pair_upto
 from orthoglide_ident.identify.diagnostics import bag_report
+from orthoglide_ident.identify.records.record import Record
 from orthoglide_ident.identify.records.segments import SegmentReport
-from orthoglide_ident.ticks import find_breaks
+from orthoglide_ident.ticks import (BREAK_HIGH, BREAK_LOW, OFF_GRID_TOL, StepStats, find_breaks,
+                                    find_breaks_local, step_stats)
 from orthoglide_ident.identify.observe.stream import DecimatedRows, SegmentStream
 from orthoglide_ident.model.transmission import Transmission
 
@@ -49,8 +56,9 @@ class LiveRecording:
 
     def __init__(self, source: str, condition: str, payload_mass: float, opts: IdentifyOptions,
                  model, n_b: int, fold: Fold, lag: bool = False,
-                 transmission: Transmission | None = None):
+                 transmission: Transmission | None = None, payload=None):
         self.source, self.condition, self.payload_mass = source, condition, payload_mass
+        self.payload = payload  # as start_recording was given it (the tag's), for the rebuild
         self.opts, self.model, self.n_b, self._fold = opts, model, n_b, fold
         limit = opts.current_warn_fraction * opts.current_limit_a
         self.joint_names = names = tuple(model.joint_names)
@@ -58,6 +66,9 @@ class LiveRecording:
         (q_names, q_map), (v_names, v_map) = channel_maps(names, transmission)
         self.q = TopicBuffer("joint_states", q_names, to_model=q_map)
         self.v = TopicBuffer("current_reference", v_names, limit=limit, to_model=v_map)
+        self.q.kept, self.v.kept = [], []  # until the clock is known steady (_set_period)
+        self.uneven = False  # the first PERIOD_SAMPLES steps are off their median grid
+        self.seconds = 0.0  # of equations folded in (decimated rows x their period)
         self.rep = SegmentReport()
         self.period_ns: float | None = None
         self.equations = np.zeros(n_j, dtype=int)  # per joint, folded in
@@ -169,13 +180,48 @@ class LiveRecording:
             return None
         cat = [np.concatenate([getattr(x, k) for x in self._pre]) for k in ("q", "v_tau")]
         self._pre = []
-        step = float(np.median(np.diff(stamps)))
+        step = self._period_rule(stamps)
         if step <= 0:
             return None
         self.period_ns = step
         self.rep.period_s = step * 1e-9
         self.opts = self.opts.at_rate(1e9 / step)  # cut-offs in Hz, lengths in s: to samples
         return Paired(stamps, cat[0], cat[1])
+
+    def _period_rule(self, stamps: np.ndarray) -> float:
+        """The offline period (segments._breaks) of the first stamps, ns: the median step on a
+        steady clock (its samples are then not kept), the mean step between gaps on an uneven
+        one (kept; no lag instrument, as offline: a period is a number of ticks)."""
+        dt = np.diff(stamps)
+        med = float(np.median(dt))
+        if med <= 0:
+            return med
+        brk, _ = find_breaks_local(dt, med)
+        steps = step_stats(stamps, mean_over=~brk)
+        self.uneven = steps.uneven
+        if not self.uneven:
+            self.q.kept = self.v.kept = None
+            return med
+        self.lag = False  # as observe's _currents: no lag instrument on an uneven clock
+        return steps.mean_s * 1e9
+
+    def raw_record(self) -> Record | None:
+        """The samples kept (an uneven clock's), as the bag holds them: a Record in the model's
+        channels, or None when they were not kept."""
+        q, v = self.q.kept_samples(), self.v.kept_samples()
+        if q is None or v is None or q[0].shape[0] < 2:
+            return None
+        names = list(self.joint_names)
+        return Record(self.source, q[0], names, q[1], v[0], names, v[1], self.condition,
+                      self.payload_mass, payload=self.payload)
+
+    def adopt(self, rep: SegmentReport, equations: list[int], n_decimated: int,
+              seconds: float) -> None:
+        """The offline observation's account of this recording (its rebuild at stop)."""
+        rep.n_duplicate_stamps = self.rep.n_duplicate_stamps  # dropped on arrival, not kept
+        self.rep, self.equations = rep, np.asarray(equations, int)
+        self.n_decimated, self.seconds = n_decimated, seconds
+        self.period_ns = rep.period_s * 1e9
 
     def _feed(self, p: Paired, out: list[str]) -> None:
         s = p.stamps_ns
@@ -290,6 +336,7 @@ class LiveRecording:
         self.n_decimated += rows.r
         self._done_s = float(rows.t[-1])
         seconds = rows.r * self.opts.decimation * self.period_ns * 1e-9
+        self.seconds += seconds
         self._fold(self, rows, seconds)
 
     def _watch_still(self, qd: np.ndarray, out: list[str]) -> None:
@@ -317,8 +364,9 @@ class LiveRecording:
 
     # --- end of recording ---------------------------------------------------------------------
     def _period_check(self) -> list[str]:
-        """The offline pipeline's period (median step over the record) against the one used."""
-        if not self._steps:
+        """The offline pipeline's period (median step over the record) against the one used
+        (an uneven clock's recording is observed again with the offline one: nothing to say)."""
+        if not self._steps or self.uneven:
             return []
         steps = np.array(sorted(self._steps))
         counts = np.array([self._steps[s] for s in steps])
@@ -334,6 +382,36 @@ class LiveRecording:
         return [f"{self.source}: the tick period over the whole record is {median:.0f} ns but "
                 f"{self.period_ns:.0f} ns was used from its first {PERIOD_SAMPLES} ticks: an "
                 "offline identification of the same data may differ slightly"]
+
+    def steps(self) -> StepStats | None:
+        """The paired stamps' step distribution so far (as ``info`` gives it): the offline
+        one once rebuilt, else from the histogram of steps (None: jittery stamps, or none)."""
+        if self.rep.steps is not None:
+            return self.rep.steps
+        if not self._steps or self.period_ns is None:
+            return None
+        steps = np.array(sorted(self._steps), float)
+        counts = np.array([self._steps[int(x)] for x in steps])
+        cum, n = np.cumsum(counts), int(counts.sum())
+
+        def at(share: float) -> float:
+            return float(steps[min(np.searchsorted(cum, share * n), steps.size - 1)]) * 1e-9
+
+        med = at(0.5)
+        ratio = steps / self.period_ns
+        even = (ratio > BREAK_LOW) & (ratio < BREAK_HIGH)
+        mean = float(np.sum(steps[even] * counts[even]) / max(counts[even].sum(), 1)) * 1e-9
+        off = float(counts[np.abs(steps * 1e-9 - med) > OFF_GRID_TOL * med].sum() / n)
+        return StepStats(n, med, mean or med, at(0.05), at(0.95), off)
+
+    def samples_line(self) -> str:
+        """What ``info`` says of a bag, of this recording so far: samples in, paired, used (in
+        segments long enough), the step distribution."""
+        used = self.rep.n_used + (self._seg_len if self._stream is not None else 0)
+        line = (f"{self.condition} {self.q.counts.received} samples in, {self.rep.n_paired} "
+                f"paired, {used} used")
+        st = self.steps()
+        return line + (f"; {st.describe()}" if st is not None and st.n_steps else "")
 
     def report(self) -> dict:
         """This recording's entry of the result's ``diagnostics["bags"]`` (as offline's)."""

@@ -45,7 +45,8 @@ from orthoglide_ident.identify.columns.drive_terms import observation_model, scr
 from orthoglide_ident.identify.solve.factors import RecordFactors
 from orthoglide_ident.identify.live.recording import LiveRecording
 from orthoglide_ident.identify.solve.methods import DEFAULT_METHOD, solve
-from orthoglide_ident.identify.observe.rows import IdentificationModel, with_known_payload
+from orthoglide_ident.identify.observe.rows import (IdentificationModel, observe,
+                                                    with_known_payload)
 from orthoglide_ident.identify.options import IdentifyOptions
 from orthoglide_ident.identify.columns.payload_unknowns import (check_one_payload, unknowns_of,
                                                         with_payload_unknowns)
@@ -87,6 +88,7 @@ class LiveEstimate:
     equations: tuple[int, ...] = ()
     recording: str | None = None  # condition of the recording under way
     gain_units: tuple[str, ...] = ()
+    samples: str = ""  # the recording under way (or the last): samples in, used, its steps
 
     @property
     def known(self) -> bool:
@@ -97,7 +99,8 @@ class LiveEstimate:
         """Fields of orthoglide_msgs/LiveIdentification (header excluded)."""
         known = self.known
         return {
-            "status": self.status, "enough_data": self.enough_data,
+            "status": self.status + (f" | {self.samples}" if self.samples else ""),
+            "enough_data": self.enough_data,
             "joint_names": list(self.joint_names),
             "gain_units": list(self.gain_units),
             "drive_gains": [float(g) for g in self.gains] if known else [],
@@ -117,7 +120,8 @@ class LiveEstimate:
             f"{n} {v:8.5g} {u} ±{100 * s:.2f} %"  # a motor's 0.41704 N·m/A too
             for n, v, s, u in zip(self.joint_names, self.gains, self.gains_rel_std, units))
         return (f"{g} | {self.seconds_unloaded:.0f} s unloaded, {self.seconds_loaded:.0f} s "
-                f"loaded, lag {self.lag_s:.1f} s | {self.status}")
+                f"loaded, lag {self.lag_s:.1f} s | {self.status}"
+                + (f" | {self.samples}" if self.samples else ""))
 
 
 @dataclass
@@ -150,7 +154,7 @@ class LiveIdentification:
                                        self.opts.lag_model == "auto")
         self._payloads: list[tuple[str, Payload]] = []  # the loaded recordings' (Sect. 4.3)
         self.n_b = len(self.model.names)
-        self._factors: dict[tuple[str, float], RecordFactors] = {}
+        self._factors: dict[LiveRecording, RecordFactors] = {}  # one per record, as offline
         self._seconds: dict[str, float] = {"loaded": 0.0, "unloaded": 0.0}
         self._recordings: list[LiveRecording] = []
         self._current: LiveRecording | None = None
@@ -192,7 +196,7 @@ class LiveIdentification:
             self._payloads.append((source, p))
             model = with_known_payload(model, p)
         self._current = LiveRecording(source, condition, mass, self.opts, model, self.n_b,
-                                      self._fold, lag, self.transmission)
+                                      self._fold, lag, self.transmission, payload)
         self._recordings.append(self._current)
 
     def stop_recording(self) -> list[str]:
@@ -200,7 +204,27 @@ class LiveIdentification:
         rec, self._current = self._current, None
         if rec is None:
             return []
-        return self._warn(rec.close())
+        return self._warn(rec.close() + self._rebuild(rec))
+
+    def _rebuild(self, rec: LiveRecording) -> list[str]:
+        """An uneven clock's recording (its samples kept) observed again whole by the offline
+        rules (rows.observe: the period is the mean step of the whole record, gaps against the
+        local step, no lag instrument) and its factors replaced: live = offline at its end."""
+        record = rec.raw_record()
+        if record is None or rec.period_ns is None:
+            return []
+        try:
+            obs, rep, _ = observe(record, self.model, self.opts, rec.payload_mass)
+        except OrthoglideError as exc:  # the streamed equations stay; say why
+            return [f"{rec.source}: not observed again by the offline rules ({exc}): the "
+                    "equations of its uneven clock streamed with its first steps' mean are used"]
+        self._seconds[rec.condition] -= rec.seconds
+        seconds = obs.n_samples * obs.decimation * rep.period_s
+        rec.adopt(rep, obs.rows_per_joint(), obs.n_samples, seconds)
+        self._seconds[rec.condition] += seconds
+        self._factors[rec] = RecordFactors.from_observations(obs)
+        self._version.n += 1
+        return []
 
     def add_joint_states(self, stamps_ns: Sequence[int] | np.ndarray, names: Sequence[str],
                          positions: np.ndarray) -> list[str]:
@@ -249,10 +273,9 @@ class LiveIdentification:
         return messages
 
     def _fold(self, rec: LiveRecording, rows: DecimatedRows, seconds: float) -> None:
-        key = (rec.condition, rec.payload_mass)
-        f = self._factors.get(key)
+        f = self._factors.get(rec)
         if f is None:
-            f = self._factors[key] = RecordFactors(rec.condition, rec.payload_mass, self.n_b,
+            f = self._factors[rec] = RecordFactors(rec.condition, rec.payload_mass, self.n_b,
                                                    n_joints=self.model.n_joints)
         f.add_source(rec.source)
         f.fold(rows.X, rows.keep, rows.t, rec.source,
@@ -347,6 +370,8 @@ class LiveIdentification:
         est = v.estimate
         est.lag_s = self.lag_s
         est.recording = self._current.condition if self._current is not None else None
+        last = self._current or (self._recordings[-1] if self._recordings else None)
+        est.samples = last.samples_line() if last is not None else ""
         return est
 
     def _estimate(self) -> LiveEstimate:

@@ -56,6 +56,9 @@ class TopicBuffer:
     _warned_names: set[tuple[str, ...]] = field(default_factory=set)
     _last_saturation_ns: dict[int, int] = field(default_factory=dict)
     _first: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+    # every sample taken for pairing, when not None (an uneven clock's recording is rebuilt
+    # from them by the offline rules at its end: live_recording.LiveRecording.close)
+    kept: list[tuple[np.ndarray, np.ndarray]] | None = None
 
     def add(self, stamps_ns: Sequence[int] | np.ndarray, names: Sequence[str],
             values: np.ndarray) -> list[str]:
@@ -189,6 +192,8 @@ class TopicBuffer:
         k = int(np.searchsorted(s, horizon_ns, side="right")) if np.isfinite(horizon_ns) \
             else s.shape[0]
         self._stamps, self._values = ([s[k:]], [x[k:]]) if k < s.shape[0] else ([], [])
+        if self.kept is not None and k:
+            self.kept.append((s[:k], x[:k]))
         if k:
             top = int(s[k - 1])
             self.horizon_ns = top if self.horizon_ns is None else max(self.horizon_ns, top)
@@ -199,6 +204,18 @@ class TopicBuffer:
         if stamps_ns.shape[0]:
             self._stamps.insert(0, stamps_ns)
             self._values.insert(0, values)
+
+    def kept_samples(self) -> tuple[np.ndarray, np.ndarray] | None:
+        """Every sample kept (see ``kept``), one per stamp in stamp order (a sample put back
+        and taken again counts once), or None when not kept."""
+        if self.kept is None:
+            return None
+        if not self.kept:
+            return np.zeros(0, np.int64), np.zeros((0, len(self.joint_names)))
+        s = np.concatenate([a for a, _ in self.kept])
+        x = np.concatenate([b for _, b in self.kept])
+        keep, _ = unique_sorted(s)
+        return s[keep], x[keep]
 
     @property
     def pending(self) -> int:
