@@ -5,9 +5,9 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
 
 from orthoglide_ident.ros import processes as children  # children end with this process
-
 
 ROOT = Path(__file__).resolve().parents[1]
 
