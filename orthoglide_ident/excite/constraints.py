@@ -109,7 +109,26 @@ def joint_slacks(limits, kinds: list[str], margins: Margins, q: np.ndarray, qd: 
             worst("velocity", 1.0 - np.abs(qd) / limits.velocity, margins.velocity, names, t, run),
             worst("acceleration", 1.0 - np.abs(qdd) / limits.acceleration, margins.acceleration,
                   names, t, run),
-            worst("effort", 1.0 - np.abs(tau) / limits.effort, margins.effort, names, t, run)]
+            worst("effort", 1.0 - np.abs(tau) / limits.effort, margins.effort, names, t, run)
+            ] + mimic_slacks(limits, margins, q, qd, qdd, t, run)
+
+
+def mimic_slacks(limits, margins: Margins, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray,
+                 t: np.ndarray, run: str) -> list[Slack]:
+    """Each mimic joint's own position, velocity and acceleration slacks (limits.py), where
+    it gives them; its effort is its leader's motor's (in the leader's column)."""
+    out = []
+    for m in getattr(limits, "mimics", ()):
+        qm, qdm, qddm = (x[:, None] for x in m.motion(q, qd, qdd))
+        if math.isfinite(m.lower) and math.isfinite(m.upper):
+            out.append(worst("position", np.minimum(qm - m.lower, m.upper - qm),
+                             margins.position_of([m.kind]), [m.joint], t, run))
+        for kind, x in (("velocity", qdm), ("acceleration", qddm)):
+            lim = getattr(m, kind)
+            if math.isfinite(lim) and lim > 0:
+                out.append(worst(kind, 1.0 - np.abs(x) / lim, getattr(margins, kind), [m.joint],
+                                 t, run))
+    return out
 
 
 def payload_of(run) -> Payload | None:

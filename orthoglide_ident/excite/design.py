@@ -115,12 +115,20 @@ class Problem:
         self.w_f = 2.0 * math.pi / options.period_s
         self.P = home_pose(robot, limits, options.pose)
         self.kinds = [j.kind for j in robot.joints]
-        pm = options.margins.position_of(self.kinds)
-        self.lo, self.hi = limits.lower + pm, limits.upper - pm
+        m = options.margins
+        pm = m.position_of(self.kinds)
+        # the bounds met by construction: the joints' own, narrowed by their mimic joints'
+        self.bounds = limits.through_mimics(pm, {x.joint: m.position_of([x.kind])[0]
+                                                 for x in limits.mimics})
+        self.lo, self.hi = self.bounds.lower, self.bounds.upper
         if np.any(self.P < self.lo) | np.any(self.P > self.hi):
             k = int(np.argmax((self.P < self.lo) | (self.P > self.hi)))
+            followers = [x.joint for x in limits.mimics if x.leader == k]
             raise ConfigError(f"start pose of {robot.joint_names[k]} ({self.P[k]:g}) is within "
-                              f"{pm[k]:g} of its limits: choose another (--pose)")
+                              f"{pm[k]:g} of its limits" + (f" or puts its mimic joints "
+                                                            f"{', '.join(followers)} there"
+                                                            if followers else "")
+                              + ": choose another (--pose)")
         self.t_scale = np.linspace(0.0, options.period_s, SCALE_GRID, endpoint=False)
         self.t = np.linspace(0.0, options.period_s, options.samples, endpoint=False)
         self.chi_b, self.gains = nominal_base_values(robot), robot.nominal_gains
@@ -145,8 +153,8 @@ class Problem:
                                                                     np.inf))
             m = self.opt.margins
             scale = np.min([room.min(axis=0),
-                            self.limits.velocity * (1 - m.velocity) / np.abs(qd).max(axis=0),
-                            self.limits.acceleration * (1 - m.acceleration) / np.abs(qdd).max(axis=0)],
+                            self.bounds.velocity * (1 - m.velocity) / np.abs(qd).max(axis=0),
+                            self.bounds.acceleration * (1 - m.acceleration) / np.abs(qdd).max(axis=0)],
                            axis=0)
         scale = np.where(np.isfinite(scale), scale, 0.0)
         return a * scale[:, None], b * scale[:, None]

@@ -13,9 +13,15 @@ Per actuated joint, the first source that gives a value wins:
 
 A joint left without a finite position range, velocity, acceleration or effort is a ConfigError
 naming the joint and where to give it. Units: m or rad, per s, per s², N or N·m.
+
+A URDF ``<mimic>`` joint (q_m = r q_l + o) keeps its own position and velocity limits (its URDF
+<limit>) and acceleration limit (a joint_limits file naming it): ``JointLimits.mimics``; the
+check verifies them on the mimic's own motion, and ``through_mimics`` maps them onto the leader
+for the design (r q̇_l within the mimic's limit is |q̇_l| ≤ v_m / |r|, and so on).
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 from pathlib import Path
@@ -41,6 +47,27 @@ EXCITATION_KEYS = ("position_limits", "velocity_limits", "acceleration_limits", 
 
 
 @dataclass(frozen=True)
+class MimicLimits:
+    """A mimic joint's own limits (inf where none is given) and how it follows its leader."""
+
+    joint: str
+    leader: int  # the leader's actuated index
+    multiplier: float
+    offset: float
+    kind: str  # revolute | prismatic
+    lower: float
+    upper: float
+    velocity: float
+    acceleration: float
+
+    def motion(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray
+               ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The mimic's (q, q̇, q̈) (m,) from the actuated samples (m, n)."""
+        r, a = self.multiplier, self.leader
+        return r * q[:, a] + self.offset, r * qd[:, a], r * qdd[:, a]
+
+
+@dataclass(frozen=True)
 class JointLimits:
     """Limits of the actuated joints (n,) each, in the model's joint order, and where each kind
     came from (``sources``: kind -> file)."""
@@ -52,6 +79,24 @@ class JointLimits:
     acceleration: np.ndarray
     effort: np.ndarray
     sources: dict[str, str]
+    mimics: tuple[MimicLimits, ...] = ()
+
+    def through_mimics(self, margin: np.ndarray, mimic_margin: dict[str, float]
+                       ) -> "JointLimits":
+        """These limits, each leader's range less ``margin`` (n,) and narrowed to what keeps
+        its mimic joints within theirs less ``mimic_margin`` (joint -> m or rad), its velocity
+        and acceleration to what keeps theirs: the bounds a design meets by construction."""
+        lo, hi = self.lower + margin, self.upper - margin
+        vel, acc = self.velocity.copy(), self.acceleration.copy()
+        for m in self.mimics:
+            a, r, pm = m.leader, m.multiplier, mimic_margin.get(m.joint, 0.0)
+            if r == 0:
+                continue
+            ends = sorted(((m.lower + pm - m.offset) / r, (m.upper - pm - m.offset) / r))
+            lo[a], hi[a] = max(lo[a], ends[0]), min(hi[a], ends[1])  # ±inf: no range given
+            vel[a] = min(vel[a], m.velocity / abs(r))
+            acc[a] = min(acc[a], m.acceleration / abs(r))
+        return dataclasses.replace(self, lower=lo, upper=hi, velocity=vel, acceleration=acc)
 
     def to_dict(self) -> dict[str, Any]:
         """``limits.joints`` of the trajectory file: joint -> {lower, upper, velocity, ...}."""
@@ -181,8 +226,12 @@ def read_limits(model, joint_limits_file: str | Path | None = None) -> JointLimi
     names = model.joint_names
     layers = [(str(model.description.path.name), _urdf_limits(model)),
               (f"robot file ({model.name})", _robot_file_limits(model, section))]
+    mimic_file = {}
     if joint_limits_file:
-        layers.append((str(joint_limits_file), ros2_joint_limits(joint_limits_file, names)))
+        both = ros2_joint_limits(joint_limits_file, names + _mimic_names(model))
+        mimic_file = {k: {j: v for j, v in d.items() if j not in names} for k, d in both.items()}
+        layers.append((str(joint_limits_file), {k: {j: v for j, v in d.items() if j in names}
+                                                for k, d in both.items()}))
     values = {k: np.full(len(names), math.nan) for k in KINDS}
     sources: dict[str, str] = {}
     for where, layer in layers:  # later layers override earlier ones
@@ -193,7 +242,23 @@ def read_limits(model, joint_limits_file: str | Path | None = None) -> JointLimi
                     if math.isfinite(v):
                         sources[kind] = where
     _require(model, values)
-    return JointLimits(names, sources=sources, **values)
+    return JointLimits(names, sources=sources, mimics=_mimic_limits(model, mimic_file), **values)
+
+
+def _mimic_names(model) -> tuple[str, ...]:
+    return tuple(j.name for j, *_ in getattr(model, "_mimic_rows", ()))
+
+
+def _mimic_limits(model, from_file: dict[str, dict[str, float]]) -> tuple[MimicLimits, ...]:
+    """Each mimic joint's own limits: the URDF's range and velocity, the joint_limits file's
+    range, velocity and acceleration over them (inf where neither gives one)."""
+    out = []
+    for j, a, r, o in getattr(model, "_mimic_rows", ()):
+        own = {"lower": j.lower, "upper": j.upper,
+               "velocity": j.velocity if j.velocity > 0 else math.inf, "acceleration": math.inf}
+        own.update({k: from_file[k][j.name] for k in own if j.name in from_file.get(k, {})})
+        out.append(MimicLimits(j.name, a, r, o, j.unit_kind, **own))
+    return tuple(out)
 
 
 def _require(model, values: dict[str, np.ndarray]) -> None:
