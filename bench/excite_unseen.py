@@ -1,0 +1,101 @@
+"""``excite design`` with its defaults on arms it never saw (example-robot-data) and on the
+bundled UR5 and five-bar.
+
+    PYTHONPATH=. .venv/bin/python bench/excite_unseen.py [--robots ur10,panda,...] [--restarts R]
+                                                         [--steps S] [--collision mesh|skip]
+
+Each unseen arm is used as its URDF comes (a copy: the Panda's fingers made fixed joints by hand,
+the only edit), with a 1 kg payload on its last link and nothing else: no acceleration limits
+(the derived default), no start pose (the file's, else mid-range out of self-collision). Per
+robot: design time, the predicted worst gain σ and κ of the design against the median of the
+random feasible shapes, the smallest slack to the margins on the 1 ms grid, or the refusal.
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import re
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+
+import numpy as np  # noqa: E402
+
+from orthoglide_ident.errors import OrthoglideError  # noqa: E402
+from orthoglide_ident.excite.collision import CollisionModel  # noqa: E402
+from orthoglide_ident.excite.design import DesignOptions, design  # noqa: E402
+from orthoglide_ident.excite.limits import read_limits  # noqa: E402
+from orthoglide_ident.model.robot import Payload  # noqa: E402
+from orthoglide_ident.model.robots import load_robot  # noqa: E402
+
+SHARE = Path(sys.prefix) / "lib/python3.11/site-packages/cmeel.prefix/share"
+ERD = SHARE / "example-robot-data/robots"
+UNSEEN = {"ur10": "ur_description/urdf/ur10_robot.urdf",
+          "ur3": "ur_description/urdf/ur3_robot.urdf",
+          "panda": "panda_description/urdf/panda.urdf",
+          "xarm7": "xarm_description/urdf/xarm7.urdf",
+          "z1": "z1_description/urdf/z1.urdf"}
+BUNDLED = {"ur5": Payload(2.0, "tool0", (0.035, -0.025, 0.06), (4e-3, 0, 0, 4e-3, 0, 2.5e-3)),
+           "five_bar": Payload(1.0, "tip", (0.01, 0.0, 0.02), (1e-4, 0, 0, 1e-4, 0, 1e-4))}
+UNSEEN_PAYLOAD_KG = 1.0
+
+
+def unseen_copy(name: str, folder: Path) -> Path:
+    """The arm's URDF copied to ``folder``, a gripper's joints fixed by hand (Panda's fingers)."""
+    text = (ERD / UNSEEN[name]).read_text()
+    text = re.sub(r'(<joint name="panda_finger_joint\d"\s+type=")prismatic"', r'\1fixed"', text)
+    text = re.sub(r"<mimic[^>]*/>", "", text) if name == "panda" else text
+    out = folder / f"{name}.urdf"
+    out.write_text(text)
+    return out
+
+
+def run(name: str, args, folder: Path) -> None:
+    if name in BUNDLED:
+        robot, payload = load_robot(name), BUNDLED[name]
+    else:
+        robot = load_robot(str(unseen_copy(name, folder)))
+        payload = Payload(UNSEEN_PAYLOAD_KG)
+    t0 = time.perf_counter()
+    try:
+        limits = read_limits(robot)
+        collision = CollisionModel(robot, args.collision, [str(SHARE)])
+        opt = DesignOptions(payload, np.full(robot.n_joints, 0.02), restarts=args.restarts,
+                            steps=args.steps, time_limit_s=args.time_limit)
+        d = design(robot, limits, collision, opt,
+                   progress=lambda s: print(f"  {name}: {s}", file=sys.stderr))
+    except OrthoglideError as exc:
+        print(f"{name:<9} refused after {time.perf_counter() - t0:.1f} s: {exc}")
+        return
+    rand = [e.prediction for e in d.random if e.prediction is not None]
+    med_s = np.median([p.worst_gain for p in rand]) if rand else np.nan
+    med_k = np.median([p.condition for p in rand]) if rand else np.nan
+    slack = min(s.value - s.required for s in d.check.by_kind().values())
+    coll = d.check.by_kind().get("collision")
+    print(f"{name:<9} {robot.n_joints} joints  {d.seconds:6.1f} s  worst gain σ "
+          f"{100 * d.prediction.worst_gain:.3g} % (random median {100 * med_s:.3g} %)  κ "
+          f"{d.prediction.condition:.3g} (median {med_k:.3g})  min slack {slack:.3g}  "
+          f"collision {coll.value if coll else float('nan'):.3g} m  "
+          f"{len(rand)} random feasible")
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--robots", default="ur5,five_bar,ur10,panda")
+    ap.add_argument("--restarts", type=int, default=20)
+    ap.add_argument("--steps", type=int, default=400)
+    ap.add_argument("--time-limit", type=float, default=None)
+    ap.add_argument("--collision", default="mesh")
+    args = ap.parse_args()
+    print(f"restarts {args.restarts}, steps {args.steps}, collision {args.collision}, "
+          f"time limit {args.time_limit}")
+    with tempfile.TemporaryDirectory() as tmp:
+        for name in args.robots.split(","):
+            run(name, args, Path(tmp))
+
+
+if __name__ == "__main__":
+    main()
