@@ -173,10 +173,10 @@ class Problem:
             room = np.where(d > 0, (self.hi - self.P) / d, np.where(d < 0, (self.lo - self.P) / d,
                                                                     np.inf))
             m = self.opt.margins
-            b = self.bounds
+            lim = self.bounds
             scale = np.min([room.min(axis=0),
-                            b.velocity * (1 - m.velocity) / np.abs(qd).max(axis=0),
-                            b.acceleration * (1 - m.acceleration) / np.abs(qdd).max(axis=0)],
+                            lim.velocity * (1 - m.velocity) / np.abs(qd).max(axis=0),
+                            lim.acceleration * (1 - m.acceleration) / np.abs(qdd).max(axis=0)],
                            axis=0)
         scale = np.where(np.isfinite(scale), scale, 0.0)
         return a * scale[:, None], b * scale[:, None]
