@@ -34,14 +34,13 @@ from typing import Callable
 import numpy as np
 
 from orthoglide_ident.errors import ConfigError, ExcitationError, ModelError
+from orthoglide_ident.excite import prediction
 from orthoglide_ident.excite.check import CheckReport, check_trajectory, nominal_efforts
 from orthoglide_ident.excite.constraints import (Margins, Slack, TreeStates, collision_slack,
                                                  joint_slacks, payload_dict)
-from orthoglide_ident.excite.limits import JointLimits, home_pose
-from orthoglide_ident.excite import prediction
-from orthoglide_ident.excite.prediction import (RATE_HZ, STRUCTURAL, Prediction,
-                                                RunSamples, excitation_ratio, from_information,
-                                                information,
+from orthoglide_ident.excite.limits import JointLimits, excitation_section, home_pose
+from orthoglide_ident.excite.prediction import (RATE_HZ, STRUCTURAL, Prediction, RunSamples,
+                                                excitation_ratio, from_information, information,
                                                 nominal_base_values, periodic_rate, run_rows)
 from orthoglide_ident.excite.trajectory import (ExcitationRun, ExcitationTrajectory,
                                                 rest_projection)
@@ -68,6 +67,7 @@ REPAIR_SHRINK = 0.97  # amplitude factor per failed 1 ms check
 REPAIRS = 15
 EVALS_PER_START = 3  # evaluations of a random start, its amplitude cuts included (measured)
 CHECK_EVALS = 20  # one 1 ms check and the final prediction, in evaluations
+CLEAR_FACTOR, CLEAR_TRIES = 2.0, 200  # a start pose nobody chose clears 2 margins (clear_start)
 
 
 @dataclass(frozen=True)
@@ -95,6 +95,9 @@ class DesignOptions:
     def __post_init__(self) -> None:
         if self.max_condition is None:
             object.__setattr__(self, "max_condition", prediction.MAX_CONDITION)
+        if self.time_limit_s is not None and not self.time_limit_s > 0:
+            raise ConfigError(f"--time-limit must be a positive number of seconds, not "
+                              f"{self.time_limit_s:g}")
         if not (self.period_s > 0 and self.periods >= 1 and self.harmonics >= 1
                 and self.restarts >= 1 and self.steps >= 0 and self.samples >= 10):
             raise ConfigError("period must be > 0 s, periods and harmonics >= 1, restarts >= 1, "
@@ -457,6 +460,41 @@ def _refusal(best: Evaluation) -> ExcitationError:
                            + _remedy(best.worst.kind if best.worst else ""))
 
 
+def _clearance(problem: Problem, q: np.ndarray) -> float:
+    Q, _ = problem.tree.configurations(q[None])
+    return float(problem.collision.distances(Q).min(initial=math.inf))
+
+
+def clear_start(problem: Problem, say: Callable[[str], None]) -> None:
+    """A start pose nobody chose (no --pose, no excitation.home) at the middle of the ranges
+    but within CLEAR_FACTOR × the collision margin of a body: moved to the nearest of seeded
+    random poses, at growing distances within the ranges, that clears it (said)."""
+    robot, col, m = problem.robot, problem.collision, problem.opt.margins
+    section_home = "home" in excitation_section(robot)[0]
+    if problem.opt.pose or section_home or col is None or col.mode == "skip" or \
+            problem.tree.closure is not None:
+        return
+    need = CLEAR_FACTOR * m.collision
+    d0 = _clearance(problem, problem.P)
+    if d0 >= need:
+        return
+    rng = np.random.default_rng(problem.opt.seed)
+    half = 0.5 * (problem.hi - problem.lo)
+    for k in range(CLEAR_TRIES):
+        radius = (k + 1) / CLEAR_TRIES
+        q = np.clip(problem.P + radius * half * rng.uniform(-1, 1, problem.n), problem.lo,
+                    problem.hi)
+        d = _clearance(problem, q)
+        if d >= need:
+            say(f"start pose: the middle of the ranges is {d0:.3g} m from a body (margin "
+                f"{m.collision:g} m); moved to {', '.join(f'{x:.3g}' for x in q)} ({d:.3g} m)")
+            problem.P = q
+            return
+    raise ConfigError(f"the middle of the joint ranges is {d0:.3g} m from a body (margin "
+                      f"{m.collision:g} m) and no pose near it clears it: give a start pose "
+                      "(--pose or excitation.home)")
+
+
 def design(robot, limits: JointLimits, collision, options: DesignOptions,
            progress: Callable[[str], None] | None = None) -> Design:
     """Design both runs for ``robot`` (module docstring); the 1 ms check passed. Directions
@@ -466,6 +504,7 @@ def design(robot, limits: JointLimits, collision, options: DesignOptions,
     steps = progress or (_log.info if sys.stderr.isatty() else None)  # on a terminal only
     clock = Clock(options.time_limit_s)
     problem = Problem(robot, limits, collision, options)
+    clear_start(problem, say)
     static_payload_check(robot, limits, options.margins, problem.P, options.payload)
     x, best, randoms = search(problem, steps, clock, say)
     if best.violation > 0 or best.prediction is None:

@@ -9,7 +9,9 @@ Per actuated joint, the first source that gives a value wins:
 2. the robot YAML's ``excitation`` mapping (docs/robot_files.md): ``position_limits``,
    ``velocity_limits``, ``acceleration_limits``, ``effort_limits`` or ``current_limits`` (A, times
    the nominal gain: the torque at the joint through the transmission);
-3. the URDF's ``<limit lower upper velocity effort>`` (a URDF has no acceleration limit).
+3. the URDF's ``<limit lower upper velocity effort>`` (a URDF has no acceleration limit);
+4. an acceleration limit none of them gives is derived: ACCEL_SAFETY · τ_max / M_jj at the home
+   pose (``derived_acceleration``; ``derive_acceleration=False`` refuses instead).
 
 A joint left without a finite position range, velocity, acceleration or effort is a ConfigError
 naming the joint and where to give it. Units: m or rad, per s, per s², N or N·m.
@@ -42,6 +44,8 @@ ROS2_KEYS = {"lower": ("has_position_limits", "min_position"),
              "velocity": ("has_velocity_limits", "max_velocity"),
              "acceleration": ("has_acceleration_limits", "max_acceleration"),
              "effort": ("has_effort_limits", "max_effort")}
+ACCEL_SAFETY = 0.5  # the fraction of the effort limit a derived acceleration limit spends
+DERIVED_SOURCE = f"derived: {ACCEL_SAFETY:g} × effort limit / the joint's inertia at home"
 EXCITATION_KEYS = ("position_limits", "velocity_limits", "acceleration_limits", "effort_limits",
                    "current_limits", "home", "collision")
 
@@ -220,8 +224,11 @@ def _urdf_limits(model) -> dict[str, dict[str, float]]:
     return out
 
 
-def read_limits(model, joint_limits_file: str | Path | None = None) -> JointLimits:
-    """The actuated joints' limits (module docstring: joint_limits YAML, robot file, URDF)."""
+def read_limits(model, joint_limits_file: str | Path | None = None,
+                derive_acceleration: bool = True) -> JointLimits:
+    """The actuated joints' limits (module docstring: joint_limits YAML, robot file, URDF);
+    a joint no source gives an acceleration limit gets the derived one (``derived_acceleration``)
+    unless ``derive_acceleration`` is False (then a ConfigError says where to give it)."""
     section, _ = excitation_section(model)
     names = model.joint_names
     layers = [(str(model.description.path.name), _urdf_limits(model)),
@@ -241,6 +248,13 @@ def read_limits(model, joint_limits_file: str | Path | None = None) -> JointLimi
                     values[kind][names.index(j)] = v
                     if math.isfinite(v):
                         sources[kind] = where
+    missing = ~(np.isfinite(values["acceleration"]) & (values["acceleration"] > 0))
+    if derive_acceleration and missing.any():
+        _require(model, {k: v for k, v in values.items() if k != "acceleration"})
+        derived = derived_acceleration(model, values["effort"],
+                                       start_pose(model, values["lower"], values["upper"]))
+        values["acceleration"] = np.where(missing, derived, values["acceleration"])
+        sources["acceleration"] = DERIVED_SOURCE
     _require(model, values)
     return JointLimits(names, sources=sources, mimics=_mimic_limits(model, mimic_file), **values)
 
@@ -261,6 +275,35 @@ def _mimic_limits(model, from_file: dict[str, dict[str, float]]) -> tuple[MimicL
     return tuple(out)
 
 
+def start_pose(model, lower: np.ndarray, upper: np.ndarray) -> np.ndarray:
+    """The robot file's ``excitation.home`` (joints it names), else the middle of each range."""
+    section, _ = excitation_section(model)
+    home = dict(per_joint(section["home"], model.joint_names,
+                          f"robot {model.name}: excitation.home")) if "home" in section else {}
+    return np.array([home.get(j, 0.5 * (lo + hi))
+                     for j, lo, hi in zip(model.joint_names, lower, upper)])
+
+
+def derived_acceleration(model, effort: np.ndarray, q_home: np.ndarray) -> np.ndarray:
+    """(n,) a_j = ACCEL_SAFETY · τ_max,j / M_jj(q_home): the acceleration that half the
+    effort limit gives the joint's own inertia at the home pose (M of the description's
+    parameters, armature included, no payload: τ(q, 0, e_j) − τ(q, 0, 0) = M e_j, eq. 15),
+    the other half left for gravity, the other joints' coupling and the payload."""
+    from orthoglide_ident.excite.check import nominal_efforts  # Pinocchio: not at import
+
+    n = len(q_home)
+    q = np.tile(q_home, (n + 1, 1))
+    qdd = np.vstack([np.zeros(n), np.eye(n)])
+    tau = nominal_efforts(model, None, q, np.zeros_like(q), qdd)
+    m_jj = np.diag(tau[1:] - tau[0])
+    if np.any(~(m_jj > 0)):
+        j = model.joint_names[int(np.argmax(~(m_jj > 0)))]
+        raise ConfigError(f"robot {model.name}: joint {j} moves no inertia at the home pose, so "
+                          "no acceleration limit can be derived: give one (excitation."
+                          "acceleration_limits or --joint-limits)")
+    return ACCEL_SAFETY * effort / m_jj
+
+
 def _require(model, values: dict[str, np.ndarray]) -> None:
     hint = {"lower": "a finite <limit lower upper> in the URDF or excitation.position_limits",
             "velocity": "<limit velocity> in the URDF or excitation.velocity_limits",
@@ -269,6 +312,8 @@ def _require(model, values: dict[str, np.ndarray]) -> None:
                             "max_acceleration)",
             "effort": "<limit effort> in the URDF, excitation.effort_limits or current_limits"}
     for kind in ("lower", "upper", "velocity", "acceleration", "effort"):
+        if kind not in values:
+            continue
         v = values[kind]
         bad = ~np.isfinite(v) if kind in ("lower", "upper") else ~(np.isfinite(v) & (v > 0))
         if bad.any():
@@ -286,16 +331,12 @@ def home_pose(model, limits: JointLimits, pose: dict[str, float] | None = None) 
     """(n,) where the runs start and end at rest: ``pose`` (joint -> value, the others from the
     robot file's ``excitation.home``), else the middle of each joint's range; ConfigError
     outside the limits."""
-    section, _ = excitation_section(model)
-    values = dict(per_joint(section["home"], model.joint_names,
-                            f"robot {model.name}: excitation.home")) if "home" in section else {}
+    q = start_pose(model, limits.lower, limits.upper)
     for j, v in (pose or {}).items():
         if j not in model.joint_names:
             raise ConfigError(f"--pose names {j!r}, not an actuated joint of robot {model.name} "
                               f"({', '.join(model.joint_names)})")
-        values[j] = float(v)
-    q = np.array([values.get(j, 0.5 * (lo + hi)) for j, lo, hi
-                  in zip(model.joint_names, limits.lower, limits.upper)])
+        q[model.joint_names.index(j)] = float(v)
     out = (q < limits.lower) | (q > limits.upper)
     if out.any():
         k = int(np.argmax(out))

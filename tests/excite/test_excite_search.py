@@ -87,3 +87,29 @@ def test_the_refusal_names_the_constraint_that_failed(tmp_path):
     msg = str(err.value)
     assert re.search(r"collision 0\.0(09|10)\d* < 0\.02 at l2/floor", msg), msg
     assert "lighter payload" not in msg
+
+
+def test_a_start_pose_nobody_chose_is_moved_out_of_collision(tmp_path):
+    """The middle of the ranges holds the arm upright, its tip sphere 5 mm under a box fixed
+    above it: moved out (to 2 margins), and said."""
+    urdf = two_link_urdf(tmp_path)
+    y = tmp_path / "arm.yaml"
+    # tip sphere (r 2 cm) centre at z = 0.1 + 0.3 + 0.3 = 0.7 m at q = 0; box bottom at 0.725
+    y.write_text(f"name: two_link\ndescription: {urdf.name}\nexcitation:\n"
+                 "  acceleration_limits: 10.0\n  collision:\n    boxes:\n"
+                 "      - {name: shelf, centre: [0, 0, 0.775], size: [0.2, 0.2, 0.1]}\n"
+                 "    primitives:\n      - {link: l2, sphere: {centre: [0, 0, 0.3], "
+                 "radius: 0.02}}\n")
+    robot = load_robot(str(y))
+    limits, col = read_limits(robot), CollisionModel(robot, "primitives")
+    said = []
+    d = design(robot, limits, col, _options(restarts=2, steps=0), progress=said.append)
+    assert any(s.startswith("start pose: the middle of the ranges is 0.005") for s in said), said
+    P = d.trajectory.start_pose("unloaded")
+    # hand kinematics (axes y, links along z): the sphere's centre, its distance to the box
+    c = np.array([0.3 * np.sin(P[0]) + 0.3 * np.sin(P[0] + P[1]), 0.0,
+                  0.1 + 0.3 * np.cos(P[0]) + 0.3 * np.cos(P[0] + P[1])])
+    lo, hi = np.array([-0.1, -0.1, 0.725]), np.array([0.1, 0.1, 0.825])
+    gap = np.linalg.norm(np.maximum(np.maximum(lo - c, c - hi), 0.0)) - 0.02
+    assert gap >= 0.04 - 1e-6
+    assert d.check.ok
