@@ -53,6 +53,11 @@ def unseen_copy(name: str, folder: Path) -> Path:
     return out
 
 
+def _worst(p) -> float:
+    """The worst determined gain's σ (the code before this bench had only ``worst_gain``)."""
+    return p.worst_determined_gain() if hasattr(p, "worst_determined_gain") else p.worst_gain
+
+
 def run(name: str, args, folder: Path) -> None:
     if name in BUNDLED:
         robot, payload = load_robot(name), BUNDLED[name]
@@ -63,20 +68,21 @@ def run(name: str, args, folder: Path) -> None:
     try:
         limits = read_limits(robot)
         collision = CollisionModel(robot, args.collision, [str(SHARE)])
+        extra = {"time_limit_s": args.time_limit} if args.time_limit else {}
         opt = DesignOptions(payload, np.full(robot.n_joints, 0.02), restarts=args.restarts,
-                            steps=args.steps, time_limit_s=args.time_limit)
+                            steps=args.steps, **extra)
         d = design(robot, limits, collision, opt,
                    progress=lambda s: print(f"  {name}: {s}", file=sys.stderr))
     except OrthoglideError as exc:
         print(f"{name:<9} refused after {time.perf_counter() - t0:.1f} s: {exc}")
         return
     rand = [e.prediction for e in d.random if e.prediction is not None]
-    med_s = np.median([p.worst_gain for p in rand]) if rand else np.nan
+    med_s = np.median([_worst(p) for p in rand]) if rand else np.nan
     med_k = np.median([p.condition for p in rand]) if rand else np.nan
     slack = min(s.value - s.required for s in d.check.by_kind().values())
     coll = d.check.by_kind().get("collision")
     print(f"{name:<9} {robot.n_joints} joints  {d.seconds:6.1f} s  worst gain σ "
-          f"{100 * d.prediction.worst_gain:.3g} % (random median {100 * med_s:.3g} %)  κ "
+          f"{100 * _worst(d.prediction):.3g} % (random median {100 * med_s:.3g} %)  κ "
           f"{d.prediction.condition:.3g} (median {med_k:.3g})  min slack {slack:.3g}  "
           f"collision {coll.value if coll else float('nan'):.3g} m  "
           f"{len(rand)} random feasible")

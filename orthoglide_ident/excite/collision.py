@@ -9,7 +9,8 @@ half-space above ``floor``, m along the world's z) and boxes fixed to the world.
 
 Pairs: every two bodies on different Pinocchio joints except adjacent ones (a joint and its
 parent, or two joints a loop closure holds together) and the pairs the robot file disables
-(``disabled_pairs`` of link names, or an SRDF's ``<disable_collisions link1 link2>``); the
+(``disabled_pairs`` of link names, or an SRDF's ``<disable_collisions link1 link2>``); without
+either, the pairs within 3 cm at 95 % of random poses (MoveIt's "always in collision"); the
 environment against every moving body not disabled. A distance is coal's: negative when the
 bodies interpenetrate. Units: m.
 """
@@ -27,9 +28,12 @@ import pinocchio as pin
 from orthoglide_ident.errors import ConfigError
 from orthoglide_ident.excite.limits import COLLISION_MODES as MODES
 from orthoglide_ident.excite.limits import excitation_section
+from orthoglide_ident.model.tree import set_joint
 
 COLLISION_KEYS = ("primitives", "disabled_pairs", "srdf", "floor", "boxes")
 SHAPES = ("capsule", "cylinder", "sphere", "box")
+# pairs left out when no SRDF says which (CollisionModel._drop_always_near)
+NEAR, NEAR_SHARE, NEAR_SAMPLES, NEAR_SEED = 0.03, 0.95, 100, 0  # 1.5 default margins
 
 
 def _vec(x: Any, n: int, what: str) -> np.ndarray:
@@ -164,6 +168,42 @@ class CollisionModel:
         self._pairs(self.n_robot, disabled)
         self.data = pin.GeometryData(self.geom)
         self._pin_data = self.model.createData()
+        self.always_near: list[str] = []
+        if not disabled and getattr(robot, "closure", None) is None:
+            self._drop_always_near()
+
+    def _random_configurations(self) -> np.ndarray:
+        """NEAR_SAMPLES seeded tree configurations, the actuated joints uniform in their
+        ranges (±π where a joint has none), mimic joints following their leader."""
+        rng = np.random.default_rng(NEAR_SEED)
+        Q = np.tile(pin.neutral(self.model), (NEAR_SAMPLES, 1))
+        values = {}
+        for j in self.robot.actuated:
+            lo, hi = (j.lower, j.upper) if math.isfinite(j.lower) and math.isfinite(j.upper) \
+                else (-math.pi, math.pi)
+            values[j.name] = rng.uniform(lo, hi, NEAR_SAMPLES)
+            set_joint(Q, j, values[j.name])
+        for j, a, r, o in getattr(self.robot, "_mimic_rows", ()):
+            set_joint(Q, j, r * values[self.robot.actuated[a].name] + o)
+        return Q
+
+    def _drop_always_near(self) -> None:
+        """Without an SRDF or disabled_pairs, the pairs within NEAR m of each other at
+        ≥ NEAR_SHARE of random poses are left out, as MoveIt's setup assistant leaves out the
+        pairs "always in collision": bodies drawn overlapping or touching (the
+        UR10's base and upper arm at 17-21 mm whatever the joints), which no motion can part."""
+        D = self.distances(self._random_configurations())
+        near = (D < NEAR).mean(axis=0) >= NEAR_SHARE
+        if not near.any():
+            return
+        pairs = list(self.geom.collisionPairs)
+        self.always_near = [n for n, x in zip(self.pair_names, near) if x]
+        self.geom.removeAllCollisionPairs()
+        for cp, x in zip(pairs, near):
+            if not x:
+                self.geom.addCollisionPair(cp)
+        self.pair_names = [n for n, x in zip(self.pair_names, near) if not x]
+        self.data = pin.GeometryData(self.geom)
 
     def _link(self, name: str, where: str) -> int:
         if not self.model.existFrame(name):
@@ -249,9 +289,54 @@ class CollisionModel:
             out[k] = [r.min_distance for r in self.data.distanceResults]
         return out
 
+    def _reach(self) -> float:
+        """A bound on |p − o_j| for any point p of a body and joint origin o_j: the joints'
+        offsets summed plus the largest body's extent (m; at least 1 for a prismatic joint's
+        unit speed)."""
+        import coal
+
+        T = sum(float(np.linalg.norm(self.model.jointPlacements[j].translation))
+                for j in range(1, self.model.njoints))
+        r = 0.0
+        for g in self.geom.geometryObjects[:self.n_robot]:
+            geo = g.geometry
+            if isinstance(geo, coal.Halfspace):
+                continue
+            geo.computeLocalAABB()
+            r = max(r, float(np.linalg.norm(g.placement.translation)
+                             + np.linalg.norm(geo.aabb_center) + geo.aabb_radius))
+        return max(T + r, 1.0)
+
+    def distances_along(self, Q: np.ndarray, qd: np.ndarray, dt: float,
+                        margin: float) -> np.ndarray:
+        """(m, n_pairs) m like ``distances`` for a serial robot's samples Q every ``dt`` s with
+        actuated speeds qd (m, n), skipping (inf) the samples at which a pair cannot have come
+        within ``margin``: two points on bodies move apart at most 2 R Σ_j |q̇_j| (R ``_reach``,
+        mimic joints counted through their multipliers), so a pair at distance d is next
+        computed (d − margin) / (2 R max Σ|q̇|) later. Exact wherever a pair nears the margin."""
+        out = np.full((Q.shape[0], self.n_pairs), math.inf)
+        if self.data is None or not self.n_pairs:
+            return out
+        gain = np.ones(qd.shape[1])
+        for _, a, r, _o in getattr(self.robot, "_mimic_rows", ()):
+            gain[a] += abs(r)
+        speed = 2.0 * self._reach() * float((np.abs(qd) @ gain).max())
+        due = np.zeros(self.n_pairs, dtype=int)
+        for i, q in enumerate(Q):
+            now = np.flatnonzero(due <= i)
+            if not now.size:
+                continue
+            pin.updateGeometryPlacements(self.model, self._pin_data, self.geom, self.data, q)
+            for p in now:
+                d = pin.computeDistance(self.geom, self.data, int(p)).min_distance
+                out[i, p] = d
+                skip = (d - margin) / (speed * dt) if speed > 0 else math.inf
+                due[p] = i + max(1, int(min(skip, Q.shape[0])))
+        return out
+
     def describe(self) -> dict[str, Any]:
         """What the trajectory file records of the collision check."""
         if self.mode == "skip":
             return {"mode": "skip"}
         return {"mode": self.mode, "bodies": self.geom.ngeoms, "pairs": self.n_pairs,
-                "floor_z": self.floor}
+                "floor_z": self.floor, "always_near_left_out": list(self.always_near)}

@@ -202,12 +202,17 @@ class TreeStates:
 
 
 def collision_slack(collision, Q: np.ndarray, margins: Margins, t: np.ndarray,
-                    run: str) -> list[Slack]:
-    """The smallest distance between checked bodies (none when collision is skipped)."""
+                    run: str, qd: np.ndarray | None = None) -> list[Slack]:
+    """The smallest distance between checked bodies (none when collision is skipped); with the
+    actuated speeds ``qd`` of a serial robot on a uniform grid, the samples at which no pair can
+    have come within the margin are skipped (CollisionModel.distances_along)."""
     if collision is None or collision.mode == "skip":
         return []
-    return [worst("collision", collision.distances(Q), margins.collision, collision.pair_names,
-                  t, run)]
+    if qd is not None and len(t) > 1 and getattr(collision.robot, "closure", None) is None:
+        D = collision.distances_along(Q, qd, float(t[1] - t[0]), margins.collision)
+    else:
+        D = collision.distances(Q)
+    return [worst("collision", D, margins.collision, collision.pair_names, t, run)]
 
 
 def failed(kind: str, exc: ModelError, run: str) -> Slack:

@@ -91,7 +91,7 @@ def test_the_refusal_names_the_constraint_that_failed(tmp_path):
 
 def test_a_start_pose_nobody_chose_is_moved_out_of_collision(tmp_path):
     """The middle of the ranges holds the arm upright, its tip sphere 5 mm under a box fixed
-    above it: moved out (to 2 margins), and said."""
+    above it: moved out (to 1.5 margins), and said."""
     urdf = two_link_urdf(tmp_path)
     y = tmp_path / "arm.yaml"
     # tip sphere (r 2 cm) centre at z = 0.1 + 0.3 + 0.3 = 0.7 m at q = 0; box bottom at 0.725
@@ -111,5 +111,5 @@ def test_a_start_pose_nobody_chose_is_moved_out_of_collision(tmp_path):
                   0.1 + 0.3 * np.cos(P[0]) + 0.3 * np.cos(P[0] + P[1])])
     lo, hi = np.array([-0.1, -0.1, 0.725]), np.array([0.1, 0.1, 0.825])
     gap = np.linalg.norm(np.maximum(np.maximum(lo - c, c - hi), 0.0)) - 0.02
-    assert gap >= 0.04 - 1e-6
+    assert gap >= 0.03 - 1e-6
     assert d.check.ok
