@@ -53,6 +53,18 @@ def unseen_copy(name: str, folder: Path) -> Path:
     return out
 
 
+def _limits_file(robot, acceleration: float | None, folder: Path) -> Path | None:
+    """A ros2_control joint_limits file giving every joint ``acceleration`` (as a user would
+    write before this work), or None (the derived default)."""
+    if acceleration is None:
+        return None
+    path = folder / f"{robot.name}_limits.yaml"
+    path.write_text("joint_limits:\n" + "".join(
+        f"  {j}:\n    has_acceleration_limits: true\n    max_acceleration: {acceleration}\n"
+        for j in robot.joint_names))
+    return path
+
+
 def _worst(p) -> float:
     """The worst determined gain's σ (the code before this bench had only ``worst_gain``)."""
     return p.worst_determined_gain() if hasattr(p, "worst_determined_gain") else p.worst_gain
@@ -66,7 +78,8 @@ def run(name: str, args, folder: Path) -> None:
         payload = Payload(UNSEEN_PAYLOAD_KG)
     t0 = time.perf_counter()
     try:
-        limits = read_limits(robot)
+        limits = read_limits(robot, _limits_file(robot, args.acceleration, folder)
+                             if name not in BUNDLED else None)
         collision = CollisionModel(robot, args.collision, [str(SHARE)])
         extra = {"time_limit_s": args.time_limit} if args.time_limit else {}
         opt = DesignOptions(payload, np.full(robot.n_joints, 0.02), restarts=args.restarts,
@@ -79,13 +92,15 @@ def run(name: str, args, folder: Path) -> None:
     rand = [e.prediction for e in d.random if e.prediction is not None]
     med_s = np.median([_worst(p) for p in rand]) if rand else np.nan
     med_k = np.median([p.condition for p in rand]) if rand else np.nan
-    slack = min(s.value - s.required for s in d.check.by_kind().values())
+    slack = min(s.value - s.required for k, s in d.check.by_kind().items() if k != "at_rest")
+    gone = [u.to_text().split(" (")[0] for u in getattr(d.prediction, "unexcited", ())]
     coll = d.check.by_kind().get("collision")
     print(f"{name:<9} {robot.n_joints} joints  {d.seconds:6.1f} s  worst gain σ "
           f"{100 * _worst(d.prediction):.3g} % (random median {100 * med_s:.3g} %)  κ "
           f"{d.prediction.condition:.3g} (median {med_k:.3g})  min slack {slack:.3g}  "
           f"collision {coll.value if coll else float('nan'):.3g} m  "
-          f"{len(rand)} random feasible")
+          f"{len(rand)} random feasible"
+          + (f"  not excited: {'; '.join(gone)}" if gone else ""))
 
 
 def main() -> None:
@@ -95,9 +110,11 @@ def main() -> None:
     ap.add_argument("--steps", type=int, default=400)
     ap.add_argument("--time-limit", type=float, default=None)
     ap.add_argument("--collision", default="mesh")
+    ap.add_argument("--acceleration", type=float, default=None,
+                    help="rad/s² for every joint of an unseen arm (default: derived)")
     args = ap.parse_args()
     print(f"restarts {args.restarts}, steps {args.steps}, collision {args.collision}, "
-          f"time limit {args.time_limit}")
+          f"time limit {args.time_limit}, acceleration {args.acceleration or 'derived'}")
     with tempfile.TemporaryDirectory() as tmp:
         for name in args.robots.split(","):
             run(name, args, Path(tmp))

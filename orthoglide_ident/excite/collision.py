@@ -289,6 +289,46 @@ class CollisionModel:
             out[k] = [r.min_distance for r in self.data.distanceResults]
         return out
 
+    def _spheres(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Each body's bounding sphere (centre in its frame, radius; inf for a half-space) and
+        the pairs' body indices (n_pairs, 2)."""
+        import coal
+
+        if not hasattr(self, "_sphere_cache"):
+            centre, radius = [], []
+            for g in self.geom.geometryObjects:
+                geo = g.geometry
+                if isinstance(geo, coal.Halfspace):
+                    centre.append(np.zeros(3))
+                    radius.append(math.inf)
+                    continue
+                geo.computeLocalAABB()
+                centre.append(np.array(geo.aabb_center))
+                radius.append(float(geo.aabb_radius))
+            pairs = np.array([(p.first, p.second) for p in self.geom.collisionPairs], int)
+            self._sphere_cache = (np.array(centre), np.array(radius), pairs.reshape(-1, 2))
+        return self._sphere_cache
+
+    def distances_above(self, Q: np.ndarray, above: float) -> np.ndarray:
+        """(m, n_pairs) like ``distances``, but a pair whose bounding spheres are ``above`` m
+        apart or more gets that lower bound instead of its exact distance (coal's mesh
+        distances cost ~0.3 ms a pair): what the search needs, the margin's penalty being 0
+        there; the 1 ms check computes them."""
+        out = np.full((Q.shape[0], self.n_pairs), math.inf)
+        if self.data is None or not self.n_pairs:
+            return out
+        centre, radius, pairs = self._spheres()
+        for i, q in enumerate(Q):
+            pin.updateGeometryPlacements(self.model, self._pin_data, self.geom, self.data, q)
+            world = np.array([M.rotation @ c + M.translation
+                              for M, c in zip(self.data.oMg, centre)])
+            lb = np.linalg.norm(world[pairs[:, 0]] - world[pairs[:, 1]], axis=1) \
+                - radius[pairs[:, 0]] - radius[pairs[:, 1]]
+            out[i] = lb
+            for p in np.flatnonzero(~(lb >= above)):
+                out[i, p] = pin.computeDistance(self.geom, self.data, int(p)).min_distance
+        return out
+
     def _reach(self) -> float:
         """A bound on |p − o_j| for any point p of a body and joint origin o_j: the joints'
         offsets summed plus the largest body's extent (m; at least 1 for a prismatic joint's

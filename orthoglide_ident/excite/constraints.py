@@ -202,13 +202,16 @@ class TreeStates:
 
 
 def collision_slack(collision, Q: np.ndarray, margins: Margins, t: np.ndarray,
-                    run: str, qd: np.ndarray | None = None) -> list[Slack]:
+                    run: str, qd: np.ndarray | None = None, bound: float | None = None
+                    ) -> list[Slack]:
     """The smallest distance between checked bodies (none when collision is skipped); with the
     actuated speeds ``qd`` of a serial robot on a uniform grid, the samples at which no pair can
     have come within the margin are skipped (CollisionModel.distances_along)."""
     if collision is None or collision.mode == "skip":
         return []
-    if qd is not None and len(t) > 1 and getattr(collision.robot, "closure", None) is None:
+    if bound is not None:  # the search: exact only for pairs within ``bound`` (distances_above)
+        D = collision.distances_above(Q, bound)
+    elif qd is not None and len(t) > 1 and getattr(collision.robot, "closure", None) is None:
         D = collision.distances_along(Q, qd, float(t[1] - t[0]), margins.collision)
     else:
         D = collision.distances(Q)

@@ -68,6 +68,7 @@ REPAIRS = 15
 EVALS_PER_START = 3  # evaluations of a random start, its amplitude cuts included (measured)
 CHECK_EVALS = 20  # one 1 ms check and the final prediction, in evaluations
 COLLISION_EVERY = 4  # the search's distances on every 4th sample: meshes cost ~30 ms a pose
+BOUND_FACTOR = 3.0  # pairs whose bounding spheres are 3 margins apart: their bound is enough
 CLEAR_FACTOR, CLEAR_TRIES = 1.5, 200  # a start pose nobody chose clears 1.5 margins
 
 
@@ -283,7 +284,8 @@ class Problem:
                 self.tree.closure is not None:
             Q, G = self.tree.configurations(q)
             k = COLLISION_EVERY  # the 1 ms check (and its repair) sees every sample
-            out += collision_slack(self.collision, Q[::k], m, self.t[::k], run)
+            out += collision_slack(self.collision, Q[::k], m, self.t[::k], run,
+                                   bound=BOUND_FACTOR * m.collision)
             out += self.tree.mode_slacks(Q, G, m, self.t, run)
         return out
 

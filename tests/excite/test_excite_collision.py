@@ -70,6 +70,11 @@ def test_the_1ms_check_skips_only_samples_no_pair_can_reach():
     assert np.all(full[skipped] >= 0.02)
     np.testing.assert_allclose(fast[~skipped], full[~skipped], atol=1e-5)  # GJK's tolerance
     assert fast.min() == pytest.approx(full.min(), abs=1e-5) and full.min() < 0
+    # the search's bound: exact within 6 cm, a lower bound (bounding spheres) beyond
+    coarse = c.distances_above(Q[::40], 0.06)
+    exact = np.isclose(coarse, full[::40], atol=1e-5)
+    assert np.all(full[::40][~exact] >= coarse[~exact]) and np.all(coarse[~exact] >= 0.06)
+    assert np.all(exact[full[::40] < 0.06]) and (~exact).mean() > 0.3
 
 
 def test_pairs_always_near_are_left_out_without_an_srdf(tmp_path):
