@@ -68,7 +68,10 @@ def test_the_1ms_check_skips_only_samples_no_pair_can_reach():
     skipped = ~np.isfinite(fast)
     assert skipped.mean() > 0.5  # most samples of most pairs
     assert np.all(full[skipped] >= 0.02)
-    np.testing.assert_allclose(fast[~skipped], full[~skipped], atol=1e-5)  # GJK's tolerance
+    done = fast[~skipped]  # exact within 3 margins, a lower bound beyond (bounding spheres)
+    near = full[~skipped] < 0.06
+    np.testing.assert_allclose(done[near], full[~skipped][near], atol=1e-5)  # GJK's tolerance
+    assert np.all(done[~near] <= full[~skipped][~near] + 1e-5) and np.all(done >= -1)
     assert fast.min() == pytest.approx(full.min(), abs=1e-5) and full.min() < 0
     # the search's bound: exact within 6 cm, a lower bound (bounding spheres) beyond
     coarse = c.distances_above(Q[::40], 0.06)
