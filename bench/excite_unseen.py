@@ -65,6 +65,11 @@ def _limits_file(robot, acceleration: float | None, folder: Path) -> Path | None
     return path
 
 
+def _kappa(p) -> float:
+    """κ of the directions a design excites (the code before: κ of all)."""
+    return p.condition_kept if hasattr(p, "condition_kept") else p.condition
+
+
 def _worst(p) -> float:
     """The worst determined gain's σ (the code before this bench had only ``worst_gain``)."""
     return p.worst_determined_gain() if hasattr(p, "worst_determined_gain") else p.worst_gain
@@ -91,13 +96,13 @@ def run(name: str, args, folder: Path) -> None:
         return
     rand = [e.prediction for e in d.random if e.prediction is not None]
     med_s = np.median([_worst(p) for p in rand]) if rand else np.nan
-    med_k = np.median([p.condition for p in rand]) if rand else np.nan
+    med_k = np.median([_kappa(p) for p in rand]) if rand else np.nan
     slack = min(s.value - s.required for k, s in d.check.by_kind().items() if k != "at_rest")
     gone = [u.to_text().split(" (")[0] for u in getattr(d.prediction, "unexcited", ())]
     coll = d.check.by_kind().get("collision")
     print(f"{name:<9} {robot.n_joints} joints  {d.seconds:6.1f} s  worst gain σ "
           f"{100 * _worst(d.prediction):.3g} % (random median {100 * med_s:.3g} %)  κ "
-          f"{d.prediction.condition:.3g} (median {med_k:.3g})  min slack {slack:.3g}  "
+          f"{_kappa(d.prediction):.3g} (median {med_k:.3g})  min slack {slack:.3g}  "
           f"collision {coll.value if coll else float('nan'):.3g} m  "
           f"{len(rand)} random feasible"
           + (f"  not excited: {'; '.join(gone)}" if gone else ""))

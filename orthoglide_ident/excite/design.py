@@ -19,7 +19,17 @@ regressor direction pass for the gains).
 Search: the best of ``restarts`` random shapes (each made feasible by lowering its α), then
 ``steps`` of a seeded (1+1) evolution strategy (a Gaussian step kept when J drops; step ×1.5
 on success, ×0.9 on failure), which copes with the kinks of the scaling and the penalties.
-Repeatable for a seed on one machine.
+Repeatable for a seed on one machine; ``time_limit_s`` keeps the best so far.
+
+The condition cap (``max_condition``, prediction.MAX_CONDITION) judges the design, not the
+path: during the search only the directions null up to rounding (prediction.STRUCTURAL) are
+left out, and a candidate beyond the cap pays OVER_CAP_WEIGHT · log(κ / cap) on top of J, so
+the search climbs towards it. The final design's directions still beyond the cap are named
+with their cause (the description's own dependence, tested on random motion free of the
+limits; the motion's limits; a gain the payload does not scale) and left out of its
+prediction; it is refused only when no gain is determined. A refusal names the constraint the
+best candidate breaks, with its value. A start pose nobody chose is moved out of collision
+(``clear_start``).
 """
 from __future__ import annotations
 

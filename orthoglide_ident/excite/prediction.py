@@ -22,7 +22,9 @@ sets the fastest wrist's gain σ.
 
 The condition number κ is that of the column-scaled weighted [W | V_τ] of both runs (the
 matrix whose smallest singular value sets every σ above): the design's second criterion, so that
-no base parameter is left unexcited while the gains are already good.
+no base parameter is left unexcited while the gains are already good. The eigen-directions of
+the scaled information beyond a cap on κ are not excited (``Unexcited``: the unknowns they
+load, their κ): the prediction is for the rest, those unknowns' σ infinite ("not determined").
 """
 from __future__ import annotations
 
