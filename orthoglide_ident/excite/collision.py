@@ -330,40 +330,58 @@ class CollisionModel:
                 out[i, p] = pin.computeDistance(self.geom, self.data, int(p)).min_distance
         return out
 
-    def _reach(self) -> float:
-        """A bound on |p − o_j| for any point p of a body and joint origin o_j: the joints'
-        offsets summed plus the largest body's extent (m; at least 1 for a prismatic joint's
-        unit speed)."""
+    def _pair_speeds(self) -> np.ndarray:
+        """(n_pairs, n) per pair, the bound on how fast its distance can change per unit of
+        each actuated joint's speed: in body a's frame only the joints on the tree path
+        between a and b move b, each point p of b at |q̇_j| |p − o_j| ≤ |q̇_j| R, R the path's
+        joint offsets summed plus b's extent (mimic joints through |r|; a prismatic joint's
+        unit speed counted as 1 m/s per m/s at least)."""
         import coal
 
-        T = sum(float(np.linalg.norm(self.model.jointPlacements[j].translation))
-                for j in range(1, self.model.njoints))
-        r = 0.0
-        for g in self.geom.geometryObjects[:self.n_robot]:
-            geo = g.geometry
-            if isinstance(geo, coal.Halfspace):
-                continue
-            geo.computeLocalAABB()
-            r = max(r, float(np.linalg.norm(g.placement.translation)
-                             + np.linalg.norm(geo.aabb_center) + geo.aabb_radius))
-        return max(T + r, 1.0)
+        model, objs = self.model, self.geom.geometryObjects
+
+        def support(j: int) -> set[int]:
+            out = set()
+            while j > 0:
+                out.add(j)
+                j = model.parents[j]
+            return out
+
+        def extent(g) -> float:
+            if isinstance(g.geometry, coal.Halfspace) or g.parentJoint == 0:
+                return 0.0  # the environment does not move
+            g.geometry.computeLocalAABB()
+            return float(np.linalg.norm(g.placement.translation)
+                         + np.linalg.norm(g.geometry.aabb_center) + g.geometry.aabb_radius)
+
+        weight = {j.id: (a, 1.0, j.kind == "prismatic") for a, j in enumerate(self.robot.actuated)}
+        for j, a, r, _ in getattr(self.robot, "_mimic_rows", ()):
+            weight[j.id] = (a, abs(r), j.kind == "prismatic")
+        out = np.zeros((self.n_pairs, len(self.robot.actuated)))
+        for k, cp in enumerate(self.geom.collisionPairs):
+            ga, gb = objs[cp.first], objs[cp.second]
+            path = support(ga.parentJoint) ^ support(gb.parentJoint)
+            R = sum(float(np.linalg.norm(model.jointPlacements[j].translation)) for j in path) \
+                + max(extent(ga), extent(gb))
+            for j in path:
+                a, w, prismatic = weight.get(j, (None, 0.0, False))
+                if a is not None:
+                    out[k, a] += w * (max(R, 1.0) if prismatic else R)
+        return out
 
     def distances_along(self, Q: np.ndarray, qd: np.ndarray, dt: float,
                         margin: float) -> np.ndarray:
         """(m, n_pairs) m like ``distances`` for a serial robot's samples Q every ``dt`` s with
         actuated speeds qd (m, n), skipping (inf) the samples at which a pair cannot have come
-        within ``margin``: two points on bodies move apart at most 2 R Σ_j |q̇_j| (R ``_reach``,
-        mimic joints counted through their multipliers), so a pair at distance d is next
-        computed (d − margin) / (2 R max Σ|q̇|) later; a pair whose bounding spheres are
+        within ``margin``: a pair's distance changes at most at v = Σ_j c_j |q̇_j| over the
+        joints between its bodies (``_pair_speeds``), so a pair at distance d is next computed
+        (d − margin) / max v later; a pair whose bounding spheres are
         EXACT_FACTOR margins apart gets that lower bound. Exact wherever a pair nears the
         margin."""
         out = np.full((Q.shape[0], self.n_pairs), math.inf)
         if self.data is None or not self.n_pairs:
             return out
-        gain = np.ones(qd.shape[1])
-        for _, a, r, _o in getattr(self.robot, "_mimic_rows", ()):
-            gain[a] += abs(r)
-        speed = 2.0 * self._reach() * float((np.abs(qd) @ gain).max())
+        speed = (self._pair_speeds() @ np.abs(qd).T).max(axis=1)  # (n_pairs,) m/s
         due = np.zeros(self.n_pairs, dtype=int)
         centre, radius, pairs = self._spheres()
         for i, q in enumerate(Q):
@@ -380,7 +398,7 @@ class CollisionModel:
                 if not d >= EXACT_FACTOR * margin:
                     d = pin.computeDistance(self.geom, self.data, int(p)).min_distance
                 out[i, p] = d
-                skip = (d - margin) / (speed * dt) if speed > 0 else math.inf
+                skip = (d - margin) / (speed[p] * dt) if speed[p] > 0 else math.inf
                 due[p] = i + max(1, int(min(skip, Q.shape[0])))
         return out
 

@@ -78,7 +78,7 @@ REPAIRS = 15
 EVALS_PER_START = 3  # evaluations of a random start, its amplitude cuts included (measured)
 CHECK_EVALS = 20  # one 1 ms check and the final prediction, in evaluations
 COLLISION_EVERY = 4  # the search's distances on every 4th sample: meshes cost ~30 ms a pose
-BOUND_FACTOR = 3.0  # pairs whose bounding spheres are 3 margins apart: their bound is enough
+BOUND_FACTOR = 1.0  # pairs whose bounding spheres are a margin apart: their bound is enough
 CLEAR_FACTOR, CLEAR_TRIES = 1.5, 200  # a start pose nobody chose clears 1.5 margins
 
 
