@@ -137,6 +137,8 @@ class CollisionModel:
     """The robot's collision bodies, the environment and the pairs checked (module docstring)."""
 
     def __init__(self, robot, mode: str = "mesh", package_dirs: list[str] | None = None):
+        import coal
+
         if mode not in MODES:
             raise ConfigError(f"--collision must be one of {', '.join(MODES)}, not {mode!r}")
         section, folder = excitation_section(robot)
@@ -150,6 +152,7 @@ class CollisionModel:
         self.pair_names: list[str] = []
         self.floor: float | None = None
         self.n_robot = 0
+        self.meshes = False
         if mode == "skip":
             self.data = None
             return
@@ -170,6 +173,8 @@ class CollisionModel:
         self.data = pin.GeometryData(self.geom)
         self._pin_data = self.model.createData()
         self.always_near: list[str] = []
+        self.meshes = any(isinstance(g.geometry, coal.BVHModelBase)
+                          for g in self.geom.geometryObjects)
         if not disabled and getattr(robot, "closure", None) is None:
             self._drop_always_near()
 
