@@ -4,7 +4,8 @@ bundled UR5 and five-bar.
     PYTHONPATH=. .venv/bin/python bench/excite_unseen.py [--robots ur10,panda,...] [--restarts R]
                                                          [--steps S] [--collision mesh|skip]
 
-Each unseen arm is used as its URDF comes (a copy: the Panda's fingers made fixed joints by hand,
+Times: the design's wall time and this process's CPU time (the machine is shared: the CPU
+time compares runs made under different loads). Each unseen arm is used as its URDF comes (a copy: the Panda's fingers made fixed joints by hand,
 the only edit), with a 1 kg payload on its last link and nothing else: no acceleration limits
 (the derived default), no start pose (the file's, else mid-range out of self-collision). Per
 robot: design time, the predicted worst gain σ and κ of the design against the median of the
@@ -81,7 +82,7 @@ def run(name: str, args, folder: Path) -> None:
     else:
         robot = load_robot(str(unseen_copy(name, folder)))
         payload = Payload(UNSEEN_PAYLOAD_KG)
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     try:
         limits = read_limits(robot, _limits_file(robot, args.acceleration, folder)
                              if name not in BUNDLED else None)
@@ -100,7 +101,8 @@ def run(name: str, args, folder: Path) -> None:
     slack = min(s.value - s.required for k, s in d.check.by_kind().items() if k != "at_rest")
     gone = [u.to_text().split(" (")[0] for u in getattr(d.prediction, "unexcited", ())]
     coll = d.check.by_kind().get("collision")
-    print(f"{name:<9} {robot.n_joints} joints  {d.seconds:6.1f} s  worst gain σ "
+    cpu = time.process_time() - c0  # the load of the shared machine aside
+    print(f"{name:<9} {robot.n_joints} joints  {d.seconds:6.1f} s (cpu {cpu:5.1f} s)  worst gain σ "
           f"{100 * _worst(d.prediction):.3g} % (random median {100 * med_s:.3g} %)  κ "
           f"{_kappa(d.prediction):.3g} (median {med_k:.3g})  min slack {slack:.3g}  "
           f"collision {coll.value if coll else float('nan'):.3g} m  "

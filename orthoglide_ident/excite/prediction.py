@@ -90,6 +90,7 @@ class Prediction:
                 "base_std": {n: num(s) for n, s in zip(names, self.base_std)},
                 "base_rel_std": {n: num(s) for n, s in zip(names, self.base_rel_std)},
                 "condition_number": num(self.condition),
+                "condition_number_excited": num(self.condition_kept),
                 "not_excited": [u.to_text() for u in self.unexcited]}
 
 

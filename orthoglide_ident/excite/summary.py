@@ -86,7 +86,9 @@ def prediction_text(pred_doc: dict[str, Any]) -> str:
              "  gain σ: " + ", ".join(f"{j} {100 * v:.3g} %" if v is not None else
                                       f"{j} not determined"
                                       for j, v in pred_doc["gain_rel_std"].items()),
-             f"  condition number κ {pred_doc['condition_number'] or math.inf:.4g}"]
+             f"  condition number κ {pred_doc['condition_number'] or math.inf:.4g}"
+             + (f" (of the directions excited: {pred_doc['condition_number_excited']:.4g})"
+                if pred_doc.get("not_excited") else "")]
     lines += [f"  not excited: {u}" for u in pred_doc.get("not_excited", [])]
     lines.append(f"  for every determined gain ≤ {100 * pred_doc['target_gain_rel_std']:.3g} %: "
                  + pred_doc["for_target"])
