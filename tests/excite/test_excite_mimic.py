@@ -53,3 +53,13 @@ def test_design_keeps_the_mimic_joint_within_its_limits(arm):
         # j3's own motion from the URDF's <mimic>, apart from the code: 3 × j2
         assert np.abs(3 * qd[:, 1]).max() <= 3.0 * 0.9 + 1e-9
         assert np.abs(3 * q[:, 1]).max() <= 2.0 - 0.05 + 1e-9
+
+
+def test_a_mimic_joint_moves_its_body_in_the_collision_check(arm):
+    """The tree configurations the distances are computed at hold j3 = 3 j2 (it stayed at 0)."""
+    from orthoglide_ident.excite.constraints import TreeStates
+
+    robot, _ = arm
+    Q, _ = TreeStates(robot).configurations(np.array([[0.1, 0.2]]))
+    j3 = next(j for j in robot.tree_joints if j.name == "j3")
+    assert Q[0, j3.iq] == pytest.approx(0.6)
