@@ -120,3 +120,16 @@ def test_a_plain_urdf_designs_with_derived_accelerations_and_a_time_limit(tmp_pa
     assert load_trajectory(out).extra["margins"]["worst"]["velocity"]["ok"]
     assert main(args + ["--require-acceleration-limits"]) == 2
     assert "joint j1 has no acceleration limit" in capsys.readouterr().err
+
+
+def test_a_period_too_short_says_what_it_cannot_excite_not_a_lighter_payload(tmp_path, capsys):
+    """issue 43: --period 0.01 answered 'loosen the margins … lighter payload'."""
+    urdf = two_link_urdf(tmp_path)
+    out = tmp_path / "t.yaml"
+    assert main(["excite", "design", "--robot", str(urdf), "--payload-mass", "0.5", "--out",
+                 str(out), "--period", "0.01", "--periods", "2", "--restarts", "2", "--steps",
+                 "0", "--collision", "skip"]) == 0
+    text = capsys.readouterr().out
+    assert "not excited: " in text and "a longer period" in text
+    assert "lighter payload" not in text
+    assert load_trajectory(out).extra["prediction"]["not_excited"]
