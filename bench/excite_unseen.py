@@ -6,9 +6,10 @@ bundled UR5 and five-bar.
 
 Times: the design's wall time and this process's CPU time (the machine is shared: the CPU
 time compares runs made under different loads). Each unseen arm is used as its URDF comes
-(a copy: the Panda's fingers made fixed joints by hand,
-the only edit), with a 1 kg payload on its last link and nothing else: no acceleration limits
-(the derived default), no start pose (the file's, else mid-range out of self-collision). Per
+(a copy: the Panda's fingers made fixed joints by hand, the only edit), with a 1 kg payload on
+its last link and nothing else: no acceleration limits (the derived default; ``--acceleration``
+gives every joint one, as a joint_limits file would), no start pose (the file's, else
+mid-range out of self-collision). Per
 robot: design time, the predicted worst gain σ and κ of the design against the median of the
 random feasible shapes, the smallest slack to the margins on the 1 ms grid, or the refusal.
 """
