@@ -359,7 +359,8 @@ class CollisionModel:
             return float(np.linalg.norm(g.placement.translation)
                          + np.linalg.norm(g.geometry.aabb_center) + g.geometry.aabb_radius)
 
-        weight = {j.id: (a, 1.0, j.kind == "prismatic") for a, j in enumerate(self.robot.actuated)}
+        weight = {j.id: (a, 1.0, j.kind == "prismatic")
+                  for a, j in enumerate(self.robot.actuated)}
         for j, a, r, _ in getattr(self.robot, "_mimic_rows", ()):
             weight[j.id] = (a, abs(r), j.kind == "prismatic")
         out = np.zeros((self.n_pairs, len(self.robot.actuated)))

@@ -256,9 +256,13 @@ class Problem:
         pred = self.predict(F, self.opt.max_condition)
         if not pred.unexcited:
             return pred
-        G = self.free_motion_information()
+        try:
+            G = self.free_motion_information()
+        except ModelError:  # a closed chain that does not assemble at random poses: not told
+            return pred
         return dataclasses.replace(pred, unexcited=tuple(
-            dataclasses.replace(u, on_any_motion=excitation_ratio(G, u.direction) < FREE_DEPENDENT)
+            dataclasses.replace(u, on_any_motion=bool(excitation_ratio(G, u.direction)
+                                                      < FREE_DEPENDENT))
             for u in pred.unexcited))
 
     def free_motion_information(self) -> np.ndarray:
