@@ -189,7 +189,7 @@ class CollisionModel:
                 else (-math.pi, math.pi)
             values[j.name] = rng.uniform(lo, hi, NEAR_SAMPLES)
             set_joint(Q, j, values[j.name])
-        for j, a, r, o in getattr(self.robot, "_mimic_rows", ()):
+        for j, a, r, o in getattr(self.robot, "mimic_rows", ()):
             set_joint(Q, j, r * values[self.robot.actuated[a].name] + o)
         return Q
 
@@ -361,7 +361,7 @@ class CollisionModel:
 
         weight = {j.id: (a, 1.0, j.kind == "prismatic")
                   for a, j in enumerate(self.robot.actuated)}
-        for j, a, r, _ in getattr(self.robot, "_mimic_rows", ()):
+        for j, a, r, _ in getattr(self.robot, "mimic_rows", ()):
             weight[j.id] = (a, abs(r), j.kind == "prismatic")
         out = np.zeros((self.n_pairs, len(self.robot.actuated)))
         for k, cp in enumerate(self.geom.collisionPairs):

@@ -181,7 +181,7 @@ class TreeStates:
             Q = np.tile(pin.neutral(model), (q.shape[0], 1))
             for a, j in enumerate(self.robot.actuated):
                 set_joint(Q, j, q[:, a])
-            for j, a, r, o in getattr(self.robot, "_mimic_rows", ()):  # q_m = r q_l + o
+            for j, a, r, o in getattr(self.robot, "mimic_rows", ()):  # q_m = r q_l + o
                 set_joint(Q, j, r * q[:, a] + o)
             return Q, None
         from orthoglide_ident.model.closure import TreeStates as States

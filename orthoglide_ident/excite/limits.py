@@ -260,14 +260,14 @@ def read_limits(model, joint_limits_file: str | Path | None = None,
 
 
 def _mimic_names(model) -> tuple[str, ...]:
-    return tuple(j.name for j, *_ in getattr(model, "_mimic_rows", ()))
+    return tuple(j.name for j, *_ in getattr(model, "mimic_rows", ()))
 
 
 def _mimic_limits(model, from_file: dict[str, dict[str, float]]) -> tuple[MimicLimits, ...]:
     """Each mimic joint's own limits: the URDF's range and velocity, the joint_limits file's
     range, velocity and acceleration over them (inf where neither gives one)."""
     out = []
-    for j, a, r, o in getattr(model, "_mimic_rows", ()):
+    for j, a, r, o in getattr(model, "mimic_rows", ()):
         own = {"lower": j.lower, "upper": j.upper,
                "velocity": j.velocity if j.velocity > 0 else math.inf, "acceleration": math.inf}
         own.update({k: from_file[k][j.name] for k in own if j.name in from_file.get(k, {})})
