@@ -105,7 +105,7 @@ def check_trajectory(traj: ExcitationTrajectory, robot, limits, collision, margi
             slacks.append(failed("working_mode", exc, name))
             continue
         slacks += joint_slacks(limits, kinds, margins, q, qd, qdd, tau, t, name)
-        slacks += collision_slack(collision, Q, margins, t, name)
+        slacks += collision_slack(collision, Q, margins, t, name, qd)
         slacks += tree.mode_slacks(Q, G, margins, t, name)
     return CheckReport(tuple(slacks))
 

@@ -43,6 +43,9 @@ def _add_robot_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--collision", choices=COLLISION_MODES, default="mesh",
                    help="self-collision bodies: the URDF's <collision> elements and the robot "
                         "file's primitives (mesh, default), the primitives only, or skip the check")
+    p.add_argument("--require-acceleration-limits", action="store_true",
+                   help="refuse a joint without an acceleration limit instead of deriving one "
+                        "from its effort limit and inertia at the home pose")
     p.add_argument("--package-dir", action="append", default=[], metavar="DIR",
                    help="where package:// collision meshes and a xacro's $(find pkg) are found "
                         "(repeatable; ROS_PACKAGE_PATH and the ament index are searched too)")
@@ -67,6 +70,8 @@ def _add_design(p: argparse.ArgumentParser) -> None:
     p.add_argument("--harmonics", type=int, default=5, help="per joint (default 5)")
     p.add_argument("--restarts", type=int, default=20, help="random shapes first (default 20)")
     p.add_argument("--steps", type=int, default=400, help="search steps after (default 400)")
+    p.add_argument("--time-limit", type=float, metavar="S",
+                   help="stop searching after S s and keep the best design so far")
     p.add_argument("--pose", metavar="J=V,...",
                    help="start and end pose (joint=value, m or rad); default the robot file's "
                         "excitation.home, else the middle of each joint's range")
@@ -91,15 +96,23 @@ def _load(args: argparse.Namespace, robot: RobotModel, traj=None):
     a trajectory's own recorded limits (``limits.joints``, what it was designed for) unless
     ``--joint-limits`` gives others."""
     from orthoglide_ident.excite.collision import CollisionModel
-    from orthoglide_ident.excite.limits import JointLimits, read_limits
+    from orthoglide_ident.excite.limits import (DERIVED_SOURCE, JointLimits, read_limits,
+                                                start_pose)
 
     recorded = (traj.extra.get("limits") or {}) if traj is not None else {}
     if recorded.get("joints") and not args.joint_limits:
         limits = JointLimits.from_dict(recorded, tuple(robot.joint_names), args.trajectory)
         _log.info("limits: those recorded in %s (--joint-limits FILE to check against others)",
                   args.trajectory)
-    else:
-        limits = read_limits(robot, args.joint_limits)
+        return limits, CollisionModel(robot, args.collision, args.package_dir)
+    limits = read_limits(robot, args.joint_limits, not args.require_acceleration_limits)
+    if limits.sources.get("acceleration") == DERIVED_SOURCE:
+        _log.info("acceleration limits %s (%s): %s (--require-acceleration-limits refuses "
+                  "instead)", DERIVED_SOURCE, "at " + ", ".join(f"{q:.3g}" for q in
+                                                              start_pose(robot, limits.lower,
+                                                                         limits.upper)),
+                  ", ".join(f"{j} {a:.3g}" for j, a in zip(robot.joint_names,
+                                                            limits.acceleration)))
     return limits, CollisionModel(robot, args.collision, args.package_dir)
 
 
@@ -161,7 +174,7 @@ def _design(args: argparse.Namespace, robot: RobotModel) -> int:
     robot.with_payload(payload)  # ConfigError now for a frame the robot lacks
     opt = DesignOptions(payload, noise, args.period, args.periods, args.harmonics, args.seed,
                         args.restarts, args.steps, target=args.target_sigma / 100.0,
-                        pose=_pose(args.pose))
+                        pose=_pose(args.pose), time_limit_s=args.time_limit)
     _log.info("designing for robot %s: %d joints, %d base parameters, %s collision pairs",
               robot.name, robot.n_joints, robot.n_b, collision.n_pairs if collision.mode != "skip"
               else "no")

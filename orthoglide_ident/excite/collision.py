@@ -9,7 +9,8 @@ half-space above ``floor``, m along the world's z) and boxes fixed to the world.
 
 Pairs: every two bodies on different Pinocchio joints except adjacent ones (a joint and its
 parent, or two joints a loop closure holds together) and the pairs the robot file disables
-(``disabled_pairs`` of link names, or an SRDF's ``<disable_collisions link1 link2>``); the
+(``disabled_pairs`` of link names, or an SRDF's ``<disable_collisions link1 link2>``); without
+either, the pairs within 3 cm at 95 % of random poses (MoveIt's "always in collision"); the
 environment against every moving body not disabled. A distance is coal's: negative when the
 bodies interpenetrate. Units: m.
 """
@@ -27,9 +28,13 @@ import pinocchio as pin
 from orthoglide_ident.errors import ConfigError
 from orthoglide_ident.excite.limits import COLLISION_MODES as MODES
 from orthoglide_ident.excite.limits import excitation_section
+from orthoglide_ident.model.tree import set_joint
 
 COLLISION_KEYS = ("primitives", "disabled_pairs", "srdf", "floor", "boxes")
 SHAPES = ("capsule", "cylinder", "sphere", "box")
+# pairs left out when no SRDF says which (CollisionModel._drop_always_near)
+EXACT_FACTOR = 3.0  # the 1 ms check: exact distances within 3 margins, a lower bound beyond
+NEAR, NEAR_SHARE, NEAR_SAMPLES, NEAR_SEED = 0.03, 0.95, 100, 0  # 1.5 default margins
 
 
 def _vec(x: Any, n: int, what: str) -> np.ndarray:
@@ -132,6 +137,8 @@ class CollisionModel:
     """The robot's collision bodies, the environment and the pairs checked (module docstring)."""
 
     def __init__(self, robot, mode: str = "mesh", package_dirs: list[str] | None = None):
+        import coal
+
         if mode not in MODES:
             raise ConfigError(f"--collision must be one of {', '.join(MODES)}, not {mode!r}")
         section, folder = excitation_section(robot)
@@ -145,6 +152,7 @@ class CollisionModel:
         self.pair_names: list[str] = []
         self.floor: float | None = None
         self.n_robot = 0
+        self.meshes = False
         if mode == "skip":
             self.data = None
             return
@@ -164,6 +172,44 @@ class CollisionModel:
         self._pairs(self.n_robot, disabled)
         self.data = pin.GeometryData(self.geom)
         self._pin_data = self.model.createData()
+        self.always_near: list[str] = []
+        self.meshes = any(isinstance(g.geometry, coal.BVHModelBase)
+                          for g in self.geom.geometryObjects)
+        if not disabled and getattr(robot, "closure", None) is None:
+            self._drop_always_near()
+
+    def _random_configurations(self) -> np.ndarray:
+        """NEAR_SAMPLES seeded tree configurations, the actuated joints uniform in their
+        ranges (±π where a joint has none), mimic joints following their leader."""
+        rng = np.random.default_rng(NEAR_SEED)
+        Q = np.tile(pin.neutral(self.model), (NEAR_SAMPLES, 1))
+        values = {}
+        for j in self.robot.actuated:
+            lo, hi = (j.lower, j.upper) if math.isfinite(j.lower) and math.isfinite(j.upper) \
+                else (-math.pi, math.pi)
+            values[j.name] = rng.uniform(lo, hi, NEAR_SAMPLES)
+            set_joint(Q, j, values[j.name])
+        for j, a, r, o in getattr(self.robot, "mimic_rows", ()):
+            set_joint(Q, j, r * values[self.robot.actuated[a].name] + o)
+        return Q
+
+    def _drop_always_near(self) -> None:
+        """Without an SRDF or disabled_pairs, the pairs within NEAR m of each other at
+        ≥ NEAR_SHARE of random poses are left out, as MoveIt's setup assistant leaves out the
+        pairs "always in collision": bodies drawn overlapping or touching (the
+        UR10's base and upper arm at 17-21 mm whatever the joints), which no motion can part."""
+        D = self.distances(self._random_configurations())
+        near = (D < NEAR).mean(axis=0) >= NEAR_SHARE
+        if not near.any():
+            return
+        pairs = list(self.geom.collisionPairs)
+        self.always_near = [n for n, x in zip(self.pair_names, near) if x]
+        self.geom.removeAllCollisionPairs()
+        for cp, x in zip(pairs, near):
+            if not x:
+                self.geom.addCollisionPair(cp)
+        self.pair_names = [n for n, x in zip(self.pair_names, near) if not x]
+        self.data = pin.GeometryData(self.geom)
 
     def _link(self, name: str, where: str) -> int:
         if not self.model.existFrame(name):
@@ -249,9 +295,122 @@ class CollisionModel:
             out[k] = [r.min_distance for r in self.data.distanceResults]
         return out
 
+    def _spheres(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Each body's bounding sphere (centre in its frame, radius; inf for a half-space) and
+        the pairs' body indices (n_pairs, 2)."""
+        import coal
+
+        if not hasattr(self, "_sphere_cache"):
+            centre, radius = [], []
+            for g in self.geom.geometryObjects:
+                geo = g.geometry
+                if isinstance(geo, coal.Halfspace):
+                    centre.append(np.zeros(3))
+                    radius.append(math.inf)
+                    continue
+                geo.computeLocalAABB()
+                centre.append(np.array(geo.aabb_center))
+                radius.append(float(geo.aabb_radius))
+            pairs = np.array([(p.first, p.second) for p in self.geom.collisionPairs], int)
+            self._sphere_cache = (np.array(centre), np.array(radius), pairs.reshape(-1, 2))
+        return self._sphere_cache
+
+    def distances_above(self, Q: np.ndarray, above: float) -> np.ndarray:
+        """(m, n_pairs) like ``distances``, but a pair whose bounding spheres are ``above`` m
+        apart or more gets that lower bound instead of its exact distance (coal's mesh
+        distances cost ~0.3 ms a pair): what the search needs, the margin's penalty being 0
+        there; the 1 ms check computes them."""
+        out = np.full((Q.shape[0], self.n_pairs), math.inf)
+        if self.data is None or not self.n_pairs:
+            return out
+        centre, radius, pairs = self._spheres()
+        for i, q in enumerate(Q):
+            pin.updateGeometryPlacements(self.model, self._pin_data, self.geom, self.data, q)
+            world = np.array([M.rotation @ c + M.translation
+                              for M, c in zip(self.data.oMg, centre)])
+            lb = np.linalg.norm(world[pairs[:, 0]] - world[pairs[:, 1]], axis=1) \
+                - radius[pairs[:, 0]] - radius[pairs[:, 1]]
+            out[i] = lb
+            for p in np.flatnonzero(~(lb >= above)):
+                out[i, p] = pin.computeDistance(self.geom, self.data, int(p)).min_distance
+        return out
+
+    def _pair_speeds(self) -> np.ndarray:
+        """(n_pairs, n) per pair, the bound on how fast its distance can change per unit of
+        each actuated joint's speed: in body a's frame only the joints on the tree path
+        between a and b move b, each point p of b at |q̇_j| |p − o_j| ≤ |q̇_j| R, R the path's
+        joint offsets summed plus b's extent (mimic joints through |r|; a prismatic joint's
+        unit speed counted as 1 m/s per m/s at least)."""
+        import coal
+
+        model, objs = self.model, self.geom.geometryObjects
+
+        def support(j: int) -> set[int]:
+            out = set()
+            while j > 0:
+                out.add(j)
+                j = model.parents[j]
+            return out
+
+        def extent(g) -> float:
+            if isinstance(g.geometry, coal.Halfspace) or g.parentJoint == 0:
+                return 0.0  # the environment does not move
+            g.geometry.computeLocalAABB()
+            return float(np.linalg.norm(g.placement.translation)
+                         + np.linalg.norm(g.geometry.aabb_center) + g.geometry.aabb_radius)
+
+        weight = {j.id: (a, 1.0, j.kind == "prismatic")
+                  for a, j in enumerate(self.robot.actuated)}
+        for j, a, r, _ in getattr(self.robot, "mimic_rows", ()):
+            weight[j.id] = (a, abs(r), j.kind == "prismatic")
+        out = np.zeros((self.n_pairs, len(self.robot.actuated)))
+        for k, cp in enumerate(self.geom.collisionPairs):
+            ga, gb = objs[cp.first], objs[cp.second]
+            path = support(ga.parentJoint) ^ support(gb.parentJoint)
+            R = sum(float(np.linalg.norm(model.jointPlacements[j].translation)) for j in path) \
+                + max(extent(ga), extent(gb))
+            for j in path:
+                a, w, prismatic = weight.get(j, (None, 0.0, False))
+                if a is not None:
+                    out[k, a] += w * (max(R, 1.0) if prismatic else R)
+        return out
+
+    def distances_along(self, Q: np.ndarray, qd: np.ndarray, dt: float,
+                        margin: float) -> np.ndarray:
+        """(m, n_pairs) m like ``distances`` for a serial robot's samples Q every ``dt`` s with
+        actuated speeds qd (m, n), skipping (inf) the samples at which a pair cannot have come
+        within ``margin``: a pair's distance changes at most at v = Σ_j c_j |q̇_j| over the
+        joints between its bodies (``_pair_speeds``), so a pair at distance d is next computed
+        (d − margin) / max v later; a pair whose bounding spheres are
+        EXACT_FACTOR margins apart gets that lower bound. Exact wherever a pair nears the
+        margin."""
+        out = np.full((Q.shape[0], self.n_pairs), math.inf)
+        if self.data is None or not self.n_pairs:
+            return out
+        speed = (self._pair_speeds() @ np.abs(qd).T).max(axis=1)  # (n_pairs,) m/s
+        due = np.zeros(self.n_pairs, dtype=int)
+        centre, radius, pairs = self._spheres()
+        for i, q in enumerate(Q):
+            now = np.flatnonzero(due <= i)
+            if not now.size:
+                continue
+            pin.updateGeometryPlacements(self.model, self._pin_data, self.geom, self.data, q)
+            for p in now:
+                a, b = pairs[p]
+                Ma, Mb = self.data.oMg[int(a)], self.data.oMg[int(b)]
+                d = float(np.linalg.norm(Ma.rotation @ centre[a] + Ma.translation
+                                         - Mb.rotation @ centre[b] - Mb.translation)
+                          - radius[a] - radius[b])  # ≤ the distance (bounding spheres)
+                if not d >= EXACT_FACTOR * margin:
+                    d = pin.computeDistance(self.geom, self.data, int(p)).min_distance
+                out[i, p] = d
+                skip = (d - margin) / (speed[p] * dt) if speed[p] > 0 else math.inf
+                due[p] = i + max(1, int(min(skip, Q.shape[0])))
+        return out
+
     def describe(self) -> dict[str, Any]:
         """What the trajectory file records of the collision check."""
         if self.mode == "skip":
             return {"mode": "skip"}
         return {"mode": self.mode, "bodies": self.geom.ngeoms, "pairs": self.n_pairs,
-                "floor_z": self.floor}
+                "floor_z": self.floor, "always_near_left_out": list(self.always_near)}

@@ -19,12 +19,24 @@ regressor direction pass for the gains).
 Search: the best of ``restarts`` random shapes (each made feasible by lowering its α), then
 ``steps`` of a seeded (1+1) evolution strategy (a Gaussian step kept when J drops; step ×1.5
 on success, ×0.9 on failure), which copes with the kinks of the scaling and the penalties.
-Repeatable for a seed on one machine.
+Repeatable for a seed on one machine; ``time_limit_s`` keeps the best so far.
+
+The condition cap (``max_condition``, prediction.MAX_CONDITION) judges the design, not the
+path: during the search only the directions null up to rounding (prediction.STRUCTURAL) are
+left out, and a candidate beyond the cap pays OVER_CAP_WEIGHT · log(κ / cap) on top of J, so
+the search climbs towards it. The final design's directions still beyond the cap are named
+with their cause (the description's own dependence, tested on random motion free of the
+limits; the motion's limits; a gain the payload does not scale) and left out of its
+prediction; it is refused only when no gain is determined. A refusal names the constraint the
+best candidate breaks, with its value. A start pose nobody chose is moved out of collision
+(``clear_start``).
 """
 from __future__ import annotations
 
+import dataclasses
 import logging
 import math
+import sys
 import time
 from dataclasses import dataclass, field
 from typing import Callable
@@ -32,12 +44,13 @@ from typing import Callable
 import numpy as np
 
 from orthoglide_ident.errors import ConfigError, ExcitationError, ModelError
+from orthoglide_ident.excite import prediction
 from orthoglide_ident.excite.check import CheckReport, check_trajectory, nominal_efforts
 from orthoglide_ident.excite.constraints import (Margins, Slack, TreeStates, collision_slack,
                                                  joint_slacks, payload_dict)
-from orthoglide_ident.excite.limits import JointLimits, home_pose
-from orthoglide_ident.excite.prediction import (RATE_HZ, Prediction, RunSamples,
-                                                from_information, information,
+from orthoglide_ident.excite.limits import JointLimits, excitation_section, home_pose
+from orthoglide_ident.excite.prediction import (RATE_HZ, STRUCTURAL, Prediction, RunSamples,
+                                                excitation_ratio, from_information, information,
                                                 nominal_base_values, periodic_rate, run_rows)
 from orthoglide_ident.excite.trajectory import (ExcitationRun, ExcitationTrajectory,
                                                 rest_projection)
@@ -48,6 +61,13 @@ from orthoglide_ident.progress import ProgressLine, duration_text
 _log = logging.getLogger("orthoglide_ident")
 
 COND_WEIGHT = 0.25
+OVER_CAP_WEIGHT = 1.0  # criterion per unit of log(κ / cap) beyond the cap (the search climbs)
+SEARCH_CAP = 1.0 / math.sqrt(STRUCTURAL)  # κ of the directions the search leaves out
+FREE_SAMPLES, FREE_SEED = 400, 12345  # random samples telling the description's dependences
+# λ/λmax on those samples below which a direction is the description's own (κ > 1e4 on any
+# motion; the xarm7's ia_2 + zz_2R, apart by its URDF's rounded angles: 3e-12, a 2-link arm's
+# gravity terms on a 0.01 s period: 0.1)
+FREE_DEPENDENT = 1e-8
 PENALTY = 100.0  # criterion per unit of normalised violation (a feasible shape always wins)
 VIOLATION_SCALE = {"position": 0.05, "velocity": 0.1, "acceleration": 0.1, "effort": 0.1,
                    "collision": 0.02, "working_mode": 0.05, "rate_growth": 0.1, "at_rest": 1.0}
@@ -56,6 +76,11 @@ ALPHA_START = 0.95  # a random shape's first amplitude, lowered by ALPHA_SHRINK 
 ALPHA_SHRINK = 0.75
 REPAIR_SHRINK = 0.97  # amplitude factor per failed 1 ms check
 REPAIRS = 15
+EVALS_PER_START = 3  # evaluations of a random start, its amplitude cuts included (measured)
+CHECK_EVALS = 20  # one 1 ms check and the final prediction, in evaluations
+COLLISION_EVERY = 4  # the search's distances on every 4th sample: meshes cost ~30 ms a pose
+BOUND_FACTOR = 1.0  # pairs whose bounding spheres are a margin apart: their bound is enough
+CLEAR_FACTOR, CLEAR_TRIES = 1.5, 200  # a start pose nobody chose clears 1.5 margins
 
 
 @dataclass(frozen=True)
@@ -76,8 +101,16 @@ class DesignOptions:
     margins: Margins = field(default_factory=Margins)
     target: float = 0.002
     pose: dict[str, float] | None = None
+    max_condition: float | None = None  # κ beyond which a direction is not excited
+    # (None: prediction.MAX_CONDITION)
+    time_limit_s: float | None = None  # the search returns its best so far after this
 
     def __post_init__(self) -> None:
+        if self.max_condition is None:
+            object.__setattr__(self, "max_condition", prediction.MAX_CONDITION)
+        if self.time_limit_s is not None and not self.time_limit_s > 0:
+            raise ConfigError(f"--time-limit must be a positive number of seconds, not "
+                              f"{self.time_limit_s:g}")
         if not (self.period_s > 0 and self.periods >= 1 and self.harmonics >= 1
                 and self.restarts >= 1 and self.steps >= 0 and self.samples >= 10):
             raise ConfigError("period must be > 0 s, periods and harmonics >= 1, restarts >= 1, "
@@ -97,6 +130,8 @@ class Evaluation:
     criterion: float  # J without penalty (inf: the model cannot follow it)
     violation: float  # normalised, 0 when feasible
     prediction: Prediction | None
+    worst: Slack | None = None  # the constraint furthest beyond its margin (None: none is)
+    reason: str = ""  # why the model cannot follow it
 
     @property
     def score(self) -> float:
@@ -116,18 +151,27 @@ class Problem:
         self.w_f = 2.0 * math.pi / options.period_s
         self.P = home_pose(robot, limits, options.pose)
         self.kinds = [j.kind for j in robot.joints]
-        pm = options.margins.position_of(self.kinds)
-        self.lo, self.hi = limits.lower + pm, limits.upper - pm
+        m = options.margins
+        pm = m.position_of(self.kinds)
+        # the bounds met by construction: the joints' own, narrowed by their mimic joints'
+        self.bounds = limits.through_mimics(pm, {x.joint: m.position_of([x.kind])[0]
+                                                 for x in limits.mimics})
+        self.lo, self.hi = self.bounds.lower, self.bounds.upper
         if np.any(self.P < self.lo) | np.any(self.P > self.hi):
             k = int(np.argmax((self.P < self.lo) | (self.P > self.hi)))
+            followers = [x.joint for x in limits.mimics if x.leader == k]
             raise ConfigError(f"start pose of {robot.joint_names[k]} ({self.P[k]:g}) is within "
-                              f"{pm[k]:g} of its limits: choose another (--pose)")
+                              f"{pm[k]:g} of its limits" + (f" or puts its mimic joints "
+                                                            f"{', '.join(followers)} there"
+                                                            if followers else "")
+                              + ": choose another (--pose)")
         self.t_scale = np.linspace(0.0, options.period_s, SCALE_GRID, endpoint=False)
         self.t = np.linspace(0.0, options.period_s, options.samples, endpoint=False)
         self.chi_b, self.gains = nominal_base_values(robot), robot.nominal_gains
         self.tree = TreeStates(robot)
         self.runs = (("unloaded", None), ("loaded", options.payload))
         self.ell = np.arange(1, self.L + 1, dtype=float)
+        self.evals = 0  # evaluations so far (the expected duration)
 
     @property
     def size(self) -> int:
@@ -145,9 +189,10 @@ class Problem:
             room = np.where(d > 0, (self.hi - self.P) / d, np.where(d < 0, (self.lo - self.P) / d,
                                                                     np.inf))
             m = self.opt.margins
+            lim = self.bounds
             scale = np.min([room.min(axis=0),
-                            self.limits.velocity * (1 - m.velocity) / np.abs(qd).max(axis=0),
-                            self.limits.acceleration * (1 - m.acceleration) / np.abs(qdd).max(axis=0)],
+                            lim.velocity * (1 - m.velocity) / np.abs(qd).max(axis=0),
+                            lim.acceleration * (1 - m.acceleration) / np.abs(qdd).max(axis=0)],
                            axis=0)
         scale = np.where(np.isfinite(scale), scale, 0.0)
         return a * scale[:, None], b * scale[:, None]
@@ -164,26 +209,81 @@ class Problem:
                                     self.opt.periods, runs)
 
     def evaluate(self, x: np.ndarray) -> Evaluation:
+        self.evals += 1
         traj = self.trajectory(x)
-        F, violation = 0.0, 0.0
+        F, violation, worst = 0.0, 0.0, None
         for name, payload in self.runs:
             q, qd, qdd = traj.evaluate(name, self.t)
             try:
                 X, tau = run_rows(self.robot, self.chi_b, self.gains,
                                   RunSamples(q, qd, qdd, traj.duration, payload))
                 slacks = self.slacks(q, qd, qdd, tau.T, name)
-            except ModelError:
-                return Evaluation(math.inf, math.inf, None)
-            violation += sum(max(0.0, s.required - s.value) / VIOLATION_SCALE[s.kind]
-                             for s in slacks)
+            except ModelError as exc:
+                return Evaluation(math.inf, math.inf, None, reason=f"{name} run: {exc}")
+            for s in slacks:
+                v = max(0.0, s.required - s.value) / VIOLATION_SCALE[s.kind]
+                violation += v
+                if v > 0 and (worst is None or v > worst[0]):
+                    worst = (v, s)
             F = F + information(X, tau, self.gains, self.opt.noise_a,
                                 RATE_HZ * traj.duration / len(self.t), self.lag_rate(tau))
+        # the search sees every direction but those null up to rounding (prediction.STRUCTURAL)
+        pred = self.predict(F, SEARCH_CAP)
+        return Evaluation(self.criterion(pred), violation, pred,
+                          None if worst is None else worst[1])
+
+    def predict(self, F: np.ndarray, cap: float) -> Prediction:
+        names = list(self.robot.names) + [f"g({j})" for j in self.robot.joint_names]
+        return from_information(F, self.chi_b, self.gains, self.opt.noise_a, cap, names)
+
+    def criterion(self, pred: Prediction) -> float:
+        """J (module docstring) of the gains and directions the motion can reach; beyond the
+        cap, ranked by κ so that the search climbs towards it (the cap judges the answer)."""
+        kappa = pred.condition_kept
+        crit = math.log(pred.worst_determined_gain()) + COND_WEIGHT * math.log(kappa) + \
+            OVER_CAP_WEIGHT * max(0.0, math.log(kappa / self.opt.max_condition))
+        return crit if math.isfinite(crit) else math.inf
+
+    def final_prediction(self, x: np.ndarray) -> Prediction:
+        """The design's prediction, the cap (``max_condition``) judging which directions it
+        excites."""
+        traj, F = self.trajectory(x), 0.0
+        for name, payload in self.runs:
+            q, qd, qdd = traj.evaluate(name, self.t)
+            X, tau = run_rows(self.robot, self.chi_b, self.gains,
+                              RunSamples(q, qd, qdd, traj.duration, payload))
+            F = F + information(X, tau, self.gains, self.opt.noise_a,
+                                RATE_HZ * traj.duration / len(self.t), self.lag_rate(tau))
+        pred = self.predict(F, self.opt.max_condition)
+        if not pred.unexcited:
+            return pred
         try:
-            pred = from_information(F, self.chi_b, self.gains, self.opt.noise_a)
-        except ExcitationError:
-            return Evaluation(math.inf, violation, None)
-        crit = math.log(pred.worst_gain) + COND_WEIGHT * math.log(pred.condition)
-        return Evaluation(crit if math.isfinite(crit) else math.inf, violation, pred)
+            G = self.free_motion_information()
+        except ModelError:  # a closed chain that does not assemble at random poses: not told
+            return pred
+        return dataclasses.replace(pred, unexcited=tuple(
+            dataclasses.replace(u, on_any_motion=bool(excitation_ratio(G, u.direction)
+                                                      < FREE_DEPENDENT))
+            for u in pred.unexcited))
+
+    def free_motion_information(self) -> np.ndarray:
+        """F of random samples free of the limits' coupling (uniform positions in range,
+        speeds and accelerations up to the limits, both runs): what the description allows
+        on any motion, to tell a dependence of the description from one of the motion."""
+        rng = np.random.default_rng(FREE_SEED)
+        m = FREE_SAMPLES
+        q = rng.uniform(self.limits.lower, self.limits.upper, (m, self.n))
+        qd = self.limits.velocity * rng.uniform(-1, 1, (m, self.n))
+        qdd = self.limits.acceleration * rng.uniform(-1, 1, (m, self.n))
+        F = 0.0
+        for _, payload in self.runs:
+            X, tau = run_rows(self.robot, self.chi_b, self.gains,
+                              RunSamples(q, qd, qdd, 1.0, payload))
+            # the lag columns (when the design has them) get independent random rates
+            rate = None if self.opt.periods < MIN_PERIODS else rng.normal(size=tau.shape) * \
+                np.abs(tau).mean(axis=1, keepdims=True) * self.w_f
+            F = F + information(X, tau, self.gains, self.opt.noise_a, 1.0, rate)
+        return F
 
     def lag_rate(self, tau: np.ndarray) -> np.ndarray | None:
         """τ̇ for the current-loop lag terms the identification adds on periodic records
@@ -198,7 +298,9 @@ class Problem:
         if (self.collision is not None and self.collision.mode != "skip") or \
                 self.tree.closure is not None:
             Q, G = self.tree.configurations(q)
-            out += collision_slack(self.collision, Q, m, self.t, run)
+            k = COLLISION_EVERY  # the 1 ms check (and its repair) sees every sample
+            out += collision_slack(self.collision, Q[::k], m, self.t[::k], run,
+                                   bound=BOUND_FACTOR * m.collision)
             out += self.tree.mode_slacks(Q, G, m, self.t, run)
         return out
 
@@ -274,41 +376,72 @@ def _random_start(problem: Problem, rng: np.random.Generator
     return x, ev, n
 
 
-def _expected(opt: DesignOptions, seconds: float, evals: int) -> str:
-    """The search's expected duration from its first random shape (``evals`` evaluations in
-    ``seconds``): the same per shape for every shape, then one evaluation per step."""
-    total = seconds * opt.restarts + seconds / evals * opt.steps
-    return (f"expected duration ~{duration_text(total)} ({opt.restarts} random shapes, "
-            f"{opt.steps} steps, {1e3 * seconds / evals:.0f} ms per evaluation)")
+class Clock:
+    """The search's time: the limit (``time_limit_s``) and the expected duration from the
+    first evaluations."""
+
+    def __init__(self, limit: float | None):
+        self.t0, self.limit = time.perf_counter(), limit
+
+    @property
+    def elapsed(self) -> float:
+        return time.perf_counter() - self.t0
+
+    def out(self) -> bool:
+        return self.limit is not None and self.elapsed > self.limit
 
 
-def search(problem: Problem, progress: Callable[[str], None] | None = None
+def expected_seconds(problem: Problem, per_eval: float) -> float:
+    """The search's duration at ``per_eval`` s per evaluation: each random start's evaluations
+    (1 + its amplitude cuts, ~3 on average), the steps, the 1 ms checks (~20 evaluations)."""
+    opt = problem.opt
+    return per_eval * (EVALS_PER_START * opt.restarts + opt.steps + CHECK_EVALS)
+
+
+def search(problem: Problem, progress: Callable[[str], None] | None = None,
+           clock: Clock | None = None, note: Callable[[str], None] | None = None
            ) -> tuple[np.ndarray, Evaluation, list[Evaluation]]:
-    """The best x found (module docstring), its evaluation and the feasible random starts'."""
+    """The best x found (module docstring), its evaluation and the feasible random starts'
+    (within ``clock``'s time limit: the best so far); ``progress`` while searching, ``note``
+    the expected duration and the time limit (default: ``progress``)."""
     opt = problem.opt
     rng = np.random.default_rng(opt.seed)
-    line = ProgressLine("designing", opt.restarts + opt.steps, "evaluations")
-    said = progress or (lambda _: None)
+    clock = clock or Clock(opt.time_limit_s)
+    line = ProgressLine("designing", opt.restarts + opt.steps, "evaluations")  # a terminal's
+    said, noted = progress or (lambda _: None), note or progress or (lambda _: None)
 
     def say(text: str) -> None:  # a message on a line of its own, the progress line after it
         line.close()
         said(text)
 
-    best_x, best, randoms, evals, t0 = None, None, [], 0, time.perf_counter()
+    def note(text: str) -> None:
+        line.close()
+        noted(text)
+
+    best_x, best, randoms, evals = None, None, [], 0
     for r in range(opt.restarts):
         x, ev, n = _random_start(problem, rng)
         evals += n
-        if r == 0:
-            say(_expected(opt, time.perf_counter() - t0, n))
         line.update(evals, evals / (r + 1) * opt.restarts + opt.steps)
         if ev.violation == 0 and math.isfinite(ev.criterion):
             randoms.append(ev)
         if best is None or ev.score < best.score:
             best_x, best = x, ev
+        if r == 0:
+            note("expected duration ~"
+                 + duration_text(expected_seconds(problem, clock.elapsed / problem.evals))
+                 + f" ({opt.restarts} random shapes, {opt.steps} steps"
+                 + (f", stopping at {opt.time_limit_s:g} s" if opt.time_limit_s else "") + ")")
+        if clock.out():
+            note(f"time limit {opt.time_limit_s:g} s: stopping after {r + 1} random shapes")
+            return best_x, best, randoms
     say(f"best of {opt.restarts} random shapes: {_describe(best)} "
         f"({len(randoms)} feasible)")
     step, n_shape = 0.05, problem.size - 2
     for k in range(opt.steps):
+        if clock.out():
+            note(f"time limit {opt.time_limit_s:g} s: the best of {k} steps")
+            break
         scale = np.concatenate([np.full(n_shape, np.abs(best_x[:n_shape]).mean()), [1.0, 1.0]])
         y = best_x + step * scale * rng.normal(size=best_x.size)
         ev = problem.evaluate(y)
@@ -318,16 +451,23 @@ def search(problem: Problem, progress: Callable[[str], None] | None = None
             step *= 0.9
         line.update(evals + k + 1)
         if (k + 1) % max(1, opt.steps // 8) == 0:
-            say(f"step {k + 1}/{opt.steps}: {_describe(best)}")
+            say(f"step {k + 1}/{opt.steps} ({clock.elapsed:.0f} s): {_describe(best)}")
     line.close()
     return best_x, best, randoms
 
 
 def _describe(ev: Evaluation) -> str:
     if ev.prediction is None:
-        return "no feasible shape yet"
-    return (f"worst gain σ {100 * ev.prediction.worst_gain:.3g} %, κ {ev.prediction.condition:.3g}"
-            + ("" if ev.violation == 0 else f", violation {ev.violation:.3g}"))
+        return ev.reason or "the model cannot follow any shape"
+    p = ev.prediction
+    return (f"worst gain σ {100 * p.worst_determined_gain():.3g} %, κ {p.condition_kept:.3g}"
+            + ("" if ev.violation == 0 else f", {_slack_text(ev.worst)}"))
+
+
+def _slack_text(s: Slack | None) -> str:
+    if s is None:
+        return "no constraint broken"
+    return f"{s.kind} {s.value:.4g} < {s.required:.4g} at {s.where}"
 
 
 def repaired(problem: Problem, x: np.ndarray, say: Callable[[str], None]
@@ -347,31 +487,92 @@ def repaired(problem: Problem, x: np.ndarray, say: Callable[[str], None]
         for k, (name, _) in enumerate(problem.runs):
             if name in bad:
                 x = problem.with_alpha(x, k, REPAIR_SHRINK)
-    worst = "; ".join(f"{s.kind} {s.value:.4g} < {s.required:.4g} at {s.where}"
-                      for s in report.failures())
-    raise ExcitationError(f"no trajectory within the limits was found ({worst}): loosen the "
-                          "margins, choose another start pose (--pose) or a lighter payload")
+    worst = "; ".join(_slack_text(s) for s in report.failures())
+    raise ExcitationError(f"no trajectory within the limits was found ({worst}): "
+                          + _remedy(report.failures()[0].kind))
+
+
+REMEDIES = {"position": "a start pose further from the limits (--pose)",
+            "velocity": "a longer period (--period) or looser velocity limits",
+            "acceleration": "a longer period (--period) or looser acceleration limits",
+            "effort": "a lighter payload, a longer period (--period) or another start pose",
+            "collision": "another start pose (--pose) further from the bodies named",
+            "working_mode": "another start pose (--pose) within the working mode",
+            "rate_growth": "another start pose (--pose) further from the singularities",
+            "at_rest": "more samples per period"}
+
+
+def _remedy(kind: str) -> str:
+    return f"{REMEDIES.get(kind, 'loosen the margins')} would help"
+
+
+def _refusal(best: Evaluation) -> ExcitationError:
+    """Why no feasible design was found: the constraint the best candidate breaks furthest
+    (kind, value, margin, where), or why the model cannot follow it."""
+    if best.prediction is None and best.worst is None:
+        return ExcitationError(f"no shape can be followed: {best.reason or 'the model fails'}")
+    return ExcitationError(f"no feasible trajectory found: even at a small amplitude the best "
+                           f"shape breaks {_slack_text(best.worst)}; "
+                           + _remedy(best.worst.kind if best.worst else ""))
+
+
+def _clearance(problem: Problem, q: np.ndarray) -> float:
+    Q, _ = problem.tree.configurations(q[None])
+    return float(problem.collision.distances(Q).min(initial=math.inf))
+
+
+def clear_start(problem: Problem, say: Callable[[str], None]) -> None:
+    """A start pose nobody chose (no --pose, no excitation.home) at the middle of the ranges
+    but within CLEAR_FACTOR × the collision margin of a body: moved to the nearest of seeded
+    random poses, at growing distances within the ranges, that clears it (said)."""
+    robot, col, m = problem.robot, problem.collision, problem.opt.margins
+    section_home = "home" in excitation_section(robot)[0]
+    if problem.opt.pose or section_home or col is None or col.mode == "skip" or \
+            problem.tree.closure is not None:
+        return
+    need = CLEAR_FACTOR * m.collision
+    d0 = _clearance(problem, problem.P)
+    if d0 >= need:
+        return
+    rng = np.random.default_rng(problem.opt.seed)
+    half = 0.5 * (problem.hi - problem.lo)
+    for k in range(CLEAR_TRIES):
+        radius = (k + 1) / CLEAR_TRIES
+        q = np.clip(problem.P + radius * half * rng.uniform(-1, 1, problem.n), problem.lo,
+                    problem.hi)
+        d = _clearance(problem, q)
+        if d >= need:
+            say(f"start pose: the middle of the ranges is {d0:.3g} m from a body (margin "
+                f"{m.collision:g} m); moved to {', '.join(f'{x:.3g}' for x in q)} ({d:.3g} m)")
+            problem.P = q
+            return
+    raise ConfigError(f"the middle of the joint ranges is {d0:.3g} m from a body (margin "
+                      f"{m.collision:g} m) and no pose near it clears it: give a start pose "
+                      "(--pose or excitation.home)")
 
 
 def design(robot, limits: JointLimits, collision, options: DesignOptions,
            progress: Callable[[str], None] | None = None) -> Design:
-    """Design both runs for ``robot`` (module docstring); the 1 ms check passed."""
+    """Design both runs for ``robot`` (module docstring); the 1 ms check passed. Directions
+    beyond the cap are named (Prediction.unexcited) and the design is for the rest; refused
+    (ExcitationError) when no gain is determined."""
     say = progress or _log.info
-    t0 = time.perf_counter()
+    steps = progress or (_log.info if sys.stderr.isatty() else None)  # on a terminal only
+    clock = Clock(options.time_limit_s)
     problem = Problem(robot, limits, collision, options)
+    clear_start(problem, say)
     static_payload_check(robot, limits, options.margins, problem.P, options.payload)
-    x, best, randoms = search(problem, say)
+    x, best, randoms = search(problem, steps, clock, say)
     if best.violation > 0 or best.prediction is None:
-        short = short_period(limits, options)
-        found = ("no trajectory found that determines the model (the runs' information is "
-                 "singular)" if best.violation == 0 else "no feasible trajectory found (every "
-                 f"shape breaks a constraint even at a small amplitude: {_describe(best)})")
-        raise ExcitationError(f"{found}: " + (short or "loosen the margins, choose another start "
-                                              "pose (--pose) or a lighter payload"))
+        raise _refusal(best)
     x, traj, report = repaired(problem, x, say)
-    final = problem.evaluate(x)
-    seconds = time.perf_counter() - t0
-    return Design(traj, report, final.prediction, final.criterion, randoms, seconds, problem)
+    pred = problem.final_prediction(x)
+    if pred.undetermined_gains.all():
+        raise ExcitationError("no drive gain is determined by any motion within the limits: "
+                              + "; ".join(u.to_text() for u in pred.unexcited))
+    for u in pred.unexcited:
+        say(f"not excited: {u.to_text()}")
+    return Design(traj, report, pred, problem.criterion(pred), randoms, clock.elapsed, problem)
 
 
 def payload_options(problem: Problem, traj: ExcitationTrajectory, masses: list[float]
@@ -382,7 +583,7 @@ def payload_options(problem: Problem, traj: ExcitationTrajectory, masses: list[f
     out = []
     for m in masses:
         load = Payload(m, p.frame, p.com, tuple(x * m / p.mass for x in p.inertia))
-        runs, F, ok = [], 0.0, True
+        F, ok = 0.0, True
         for name, payload in (("unloaded", None), ("loaded", load)):
             q, qd, qdd = traj.evaluate(name, problem.t)
             X, tau = run_rows(problem.robot, problem.chi_b, problem.gains,
@@ -391,7 +592,6 @@ def payload_options(problem: Problem, traj: ExcitationTrajectory, masses: list[f
                               (1 - problem.opt.margins.effort)))
             F = F + information(X, tau, problem.gains, problem.opt.noise_a,
                                 RATE_HZ * traj.duration / len(problem.t), problem.lag_rate(tau))
-        out.append((m, from_information(F, problem.chi_b, problem.gains, problem.opt.noise_a)
-                    if ok else None))
+        out.append((m, problem.predict(F, problem.opt.max_condition) if ok else None))
     return out
 

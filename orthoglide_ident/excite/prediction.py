@@ -22,7 +22,9 @@ sets the fastest wrist's gain σ.
 
 The condition number κ is that of the column-scaled weighted [W | V_τ] of both runs (the
 matrix whose smallest singular value sets every σ above): the design's second criterion, so that
-no base parameter is left unexcited while the gains are already good.
+no base parameter is left unexcited while the gains are already good. The eigen-directions of
+the scaled information beyond a cap on κ are not excited (``Unexcited``: the unknowns they
+load, their κ): the prediction is for the rest, those unknowns' σ infinite ("not determined").
 """
 from __future__ import annotations
 
@@ -37,7 +39,9 @@ from orthoglide_ident.model.robot import Payload
 
 RATE_HZ = 1000.0  # the records' sample rate the prediction is for
 DEFAULT_CURRENT_NOISE = 0.02  # A, per joint, when no record says otherwise
-MAX_CONDITION = 1e6  # κ (√ of the eigenvalue ratio) beyond which F is taken as singular
+MAX_CONDITION = 1e6  # κ (√ of the eigenvalue ratio) beyond which a direction is not excited
+STRUCTURAL = 1e-14  # λ/λmax of the scaled F below which a direction is null up to rounding
+LOADS = 0.3  # an unknown's |component| (of the largest) in a direction that names it
 DEFAULT_DECIMATION = 10  # n_d of a result that does not say (IdentifyOptions.decimation)
 
 
@@ -62,6 +66,16 @@ class Prediction:
     base_rel_std: np.ndarray  # (n_b,) fraction of the nominal value (inf where it is 0)
     condition: float
     noise_a: np.ndarray  # (n_j,) A
+    unexcited: tuple["Unexcited", ...] = ()  # directions beyond the cap, left out (σ = inf)
+    condition_kept: float = math.nan  # κ of the directions kept
+
+    @property
+    def undetermined_gains(self) -> np.ndarray:
+        return ~np.isfinite(self.gain_rel_std)
+
+    def worst_determined_gain(self) -> float:
+        ok = self.gain_rel_std[np.isfinite(self.gain_rel_std)]
+        return float(ok.max()) if ok.size else math.inf
 
     @property
     def worst_gain(self) -> float:
@@ -72,10 +86,12 @@ class Prediction:
             return float(x) if math.isfinite(x) else None
 
         return {"current_noise_a": {j: float(s) for j, s in zip(joints, self.noise_a)},
-                "gain_rel_std": {j: float(s) for j, s in zip(joints, self.gain_rel_std)},
-                "base_std": {n: float(s) for n, s in zip(names, self.base_std)},
+                "gain_rel_std": {j: num(s) for j, s in zip(joints, self.gain_rel_std)},
+                "base_std": {n: num(s) for n, s in zip(names, self.base_std)},
                 "base_rel_std": {n: num(s) for n, s in zip(names, self.base_rel_std)},
-                "condition_number": num(self.condition)}
+                "condition_number": num(self.condition),
+                "condition_number_excited": num(self.condition_kept),
+                "not_excited": [u.to_text() for u in self.unexcited]}
 
 
 def nominal_base_values(robot) -> np.ndarray:
@@ -126,23 +142,97 @@ def scaled_condition(F: np.ndarray) -> float:
     return math.sqrt(lam[-1] / lam[0]) if lam[0] > 0 else math.inf
 
 
+@dataclass(frozen=True)
+class Unexcited:
+    """A direction of the unknowns no motion of the design excites: the base parameters and
+    gains it loads (|component| ≥ LOADS), its κ (√ of λmax/λ of the scaled information) and
+    whether it is structural (columns dependent up to rounding: no motion separates them)."""
+
+    names: tuple[str, ...]
+    condition: float
+    structural: bool
+    direction: np.ndarray | None = None  # in the unknowns' own units (θ = D⁻¹ v)
+    on_any_motion: bool | None = None  # structural on random motion too (None: not tested)
+
+    def to_text(self) -> str:
+        if any(n.startswith("g(") for n in self.names):
+            why = ("the drive gains are scaled only by the payload's known mass (eq. 29): "
+                   + ("a loaded run is needed, moving these joints with the payload"
+                      if self.structural else "the payload hardly loads these joints: a "
+                      "heavier or offset payload, or a payload on an outer link, would help"))
+            return f"{' + '.join(self.names)} (κ {self.condition:.3g}): {why}"
+        if self.on_any_motion is False:
+            why = ("no motion found within these limits and this period separates them (on "
+                   "motion free of the limits they are): a longer period, looser velocity or "
+                   "acceleration limits, or a longer run would help")
+            return f"{' + '.join(self.names)} (κ {self.condition:.3g}): {why}"
+        why = ("their columns are dependent in this description up to rounding (the base-"
+               "parameter reduction kept them apart by a hair, e.g. a URDF angle rounded to "
+               "1.5708): no motion separates them, only their combination is identified"
+               if self.structural or self.on_any_motion else
+               "they move the efforts less than the current noise at these limits (a light "
+               "link, a small offset, or a gain the payload hardly loads): a heavier or "
+               "offset payload, a longer run or looser limits would help")
+        return f"{' + '.join(self.names)} (κ {self.condition:.3g}): {why}"
+
+
+def _unknown_names(names: Sequence[str] | None, n: int) -> list[str]:
+    return list(names) + [f"lag {k}" for k in range(n - len(names))] if names is not None \
+        else [f"unknown {k}" for k in range(n)]
+
+
+def _unexcited(lam: np.ndarray, V: np.ndarray, weak: np.ndarray, names: list[str],
+               scale: np.ndarray) -> tuple[Unexcited, ...]:
+    out = []
+    for k in np.flatnonzero(weak):
+        v = V[:, k] / np.abs(V[:, k]).max()
+        loads = [names[i] for i in np.argsort(-np.abs(v)) if abs(v[i]) >= LOADS]
+        kappa = math.sqrt(lam[-1] / lam[k]) if lam[k] > 0 else math.inf
+        out.append(Unexcited(tuple(loads), kappa, not lam[k] > STRUCTURAL * lam[-1],
+                             V[:, k] / scale))
+    return tuple(out)
+
+
+def excitation_ratio(F: np.ndarray, u: np.ndarray) -> float:
+    """How much information F gives direction ``u`` (unknowns' units) relative to its best
+    direction, in the column-scaled coordinates (λ/λmax of an eigen-direction)."""
+    d = np.sqrt(np.clip(np.diag(F), 0.0, None))
+    d = np.where(d > 0, d, 1.0)
+    w = d * u
+    top = np.linalg.eigvalsh(F / np.outer(d, d))[-1]
+    return float(w @ (F / np.outer(d, d)) @ w / (w @ w) / top) if top > 0 else 0.0
+
+
 def from_information(F: np.ndarray, chi_b: np.ndarray, gains: np.ndarray,
-                     noise_a: np.ndarray) -> Prediction:
+                     noise_a: np.ndarray, cap: float = MAX_CONDITION,
+                     names: Sequence[str] | None = None, strict: bool = False) -> Prediction:
+    """The prediction of information F (module docstring). Directions of the scaled F whose κ
+    is beyond ``cap`` are not excited: ``strict``, ExcitationError naming them; else the
+    prediction is for the rest (their combination held), the unknowns they load get σ = inf,
+    and ``unexcited`` names them. The full κ is kept either way (finite up to rounding: what a
+    search ranks candidates beyond the cap by)."""
     n_b = chi_b.shape[0]
-    kappa = scaled_condition(F)
-    try:
-        if not kappa < MAX_CONDITION:
-            raise np.linalg.LinAlgError
-        cov = np.linalg.inv(F)
-    except np.linalg.LinAlgError:
-        raise ExcitationError("the runs do not determine the gains and base parameters (singular "
-                              "information matrix): a loaded run is needed, and motion exciting "
-                              "every base parameter") from None
-    std = np.sqrt(np.abs(np.diag(cov)))[:n_b + gains.shape[0]]  # without the lag terms
+    d = np.sqrt(np.clip(np.diag(F), 0.0, None))
+    d = np.where(d > 0, d, 1.0)  # a column never excited: a zero row/column, a null direction
+    lam, V = np.linalg.eigh(F / np.outer(d, d))
+    top = max(lam[-1], 0.0)
+    kappa = math.sqrt(top / lam[0]) if lam[0] > 0 else math.inf
+    weak = ~(lam > top / cap ** 2) if top > 0 else np.ones(lam.shape, bool)
+    found = _unexcited(lam, V, weak, _unknown_names(names, F.shape[0]), d)
+    if weak.any() and strict:
+        raise ExcitationError(
+            f"the runs do not determine every gain and base parameter (κ {kappa:.3g} beyond "
+            f"{cap:.3g}): " + "; ".join(u.to_text() for u in found)) from None
+    keep = ~weak
+    cov = (V[:, keep] / lam[keep]) @ V[:, keep].T / np.outer(d, d)
+    std = np.sqrt(np.abs(np.diag(cov)))
+    loaded = (np.abs(V[:, weak]) >= LOADS * np.abs(V[:, weak]).max(axis=0, initial=0.0)).any(axis=1)
+    std = np.where(loaded, math.inf, std)[:n_b + gains.shape[0]]  # without the lag terms
     with np.errstate(divide="ignore", invalid="ignore"):
         base_rel = np.where(np.abs(chi_b) > 1e-12, std[:n_b] / np.abs(chi_b), np.inf)
+    kept = math.sqrt(top / lam[keep].min()) if keep.any() else math.inf
     return Prediction(std[n_b:] / gains, std[:n_b], base_rel, kappa,
-                      np.asarray(noise_a, float))
+                      np.asarray(noise_a, float), found, kept)
 
 
 def predict(robot, runs: Sequence[RunSamples], noise_a: np.ndarray | float,
@@ -159,12 +249,14 @@ def predict(robot, runs: Sequence[RunSamples], noise_a: np.ndarray | float,
         rate = periodic_rate(tau, period_s / r.q.shape[0]) if lag else None
         F = F + information(X, tau, gains, noise if r.noise_a is None else
                             np.asarray(r.noise_a, float), RATE_HZ * r.seconds / r.q.shape[0], rate)
-    return from_information(F, chi_b, gains, noise)
+    return from_information(F, chi_b, gains, noise, names=list(robot.names) + [
+        f"g({j})" for j in robot.joint_names], strict=True)
 
 
 def periods_needed(pred: Prediction, periods: int, target: float) -> int:
-    """Whole periods per run for every gain's σ to reach ``target`` (σ ∝ 1/√duration)."""
-    return max(1, math.ceil(periods * (pred.worst_gain / target) ** 2 - 1e-9))
+    """Whole periods per run for every determined gain's σ to reach ``target`` (σ ∝
+    1/√duration)."""
+    return max(1, math.ceil(periods * (pred.worst_determined_gain() / target) ** 2 - 1e-9))
 
 
 def noise_from_result(doc: Any, joints: Sequence[str], where: str) -> np.ndarray:

@@ -27,7 +27,8 @@ def payload_table(d: Design) -> list[dict[str, Any]]:
             out.append({"payload_kg": m, "feasible": False})
             continue
         k = periods_needed(pred, opt.periods, opt.target)
-        out.append({"payload_kg": m, "feasible": True, "worst_gain_rel_std": pred.worst_gain,
+        out.append({"payload_kg": m, "feasible": True,
+                    "worst_gain_rel_std": pred.worst_determined_gain(),
                     "seconds_per_run_for_target": k * opt.period_s})
     return out
 
@@ -49,7 +50,8 @@ def prediction_dict(d: Design, noise_source: str) -> dict[str, Any]:
         "target_gain_rel_std": opt.target,
         "seconds_per_run_for_target": k * opt.period_s,
         "for_target": sentence(k * opt.period_s, opt.payload.mass,
-                               pred.worst_gain * math.sqrt(opt.periods / k), opt.target),
+                               pred.worst_determined_gain() * math.sqrt(opt.periods / k),
+                               opt.target),
         "payloads": payload_table(d),
     })
     return doc
@@ -86,11 +88,15 @@ def prediction_text(pred_doc: dict[str, Any]) -> str:
     lines = [f"prediction ({pred_doc['seconds_per_run']:g} s per run, current noise "
              + ", ".join(f"{j} {v:.3g}" for j, v in pred_doc["current_noise_a"].items())
              + f" A, {pred_doc['noise_source']}):",
-             "  gain σ: " + ", ".join(f"{j} {100 * v:.3g} %"
+             "  gain σ: " + ", ".join(f"{j} {100 * v:.3g} %" if v is not None else
+                                      f"{j} not determined"
                                       for j, v in pred_doc["gain_rel_std"].items()),
-             f"  condition number κ {pred_doc['condition_number']:.4g}",
-             f"  for every gain ≤ {100 * pred_doc['target_gain_rel_std']:.3g} %: "
-             + pred_doc["for_target"]]
+             f"  condition number κ {pred_doc['condition_number'] or math.inf:.4g}"
+             + (f" (of the directions excited: {pred_doc['condition_number_excited']:.4g})"
+                if pred_doc.get("not_excited") else "")]
+    lines += [f"  not excited: {u}" for u in pred_doc.get("not_excited", [])]
+    lines.append(f"  for every determined gain ≤ {100 * pred_doc['target_gain_rel_std']:.3g} %: "
+                 + pred_doc["for_target"])
     for row in pred_doc["payloads"]:
         if row["feasible"]:
             lines.append(f"  with {row['payload_kg']:g} kg: worst gain σ "

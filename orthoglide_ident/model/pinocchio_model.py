@@ -169,6 +169,11 @@ class PinocchioRobot(NamedByParameters, RobotModel):
         self._mimic_rows = self._followers(desc, by_name, actuated)
         return actuated
 
+    @property
+    def mimic_rows(self) -> tuple[tuple[TreeJoint, int, float, float], ...]:
+        """(mimic joint, its leader's actuated index, multiplier, offset) of each URDF mimic."""
+        return self._mimic_rows
+
     def _followers(self, desc: RobotDescription, by_name: dict[str, TreeJoint],
                    actuated: tuple[TreeJoint, ...]) -> tuple[tuple[TreeJoint, int, float, float], ...]:
         """(mimic joint, its leader's actuated index, multiplier, offset) of each mimic joint:

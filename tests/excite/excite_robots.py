@@ -63,3 +63,35 @@ def static_runs(robot: str, joints, pose, a=None, b=None, period: float = 5.0,
             "loaded": ExcitationRun("loaded", np.asarray(pose, float), a, b,
                                     payload or {"mass": 1.0})}
     return ExcitationTrajectory(robot, tuple(joints), period, 2, runs)
+
+
+def mimic_arm_urdf(folder: Path, multiplier: float = 3.0) -> Path:
+    """A three-link arm (revolute about y) whose j3 follows j2 × ``multiplier`` (URDF <mimic>),
+    every joint limited to ±2 rad, 3 rad/s, 20 N·m; a robot YAML beside it gives 10 rad/s²."""
+    lim = LIMIT.format(effort=20.0)
+
+    def link(name: str) -> str:
+        return (f'<link name="{name}"><inertial><origin xyz="0 0 0.1"/><mass value="0.5"/>'
+                '<inertia ixx="0.005" ixy="0" ixz="0" iyy="0.005" iyz="0" izz="0.001"/>'
+                '</inertial></link>')
+
+    text = f"""<?xml version="1.0"?>
+<robot name="mimic_arm">
+  <link name="base"/>
+  <joint name="j1" type="revolute"><parent link="base"/><child link="l1"/>
+    <origin xyz="0 0 0.1"/><axis xyz="0 1 0"/>{lim}</joint>
+  {link("l1")}
+  <joint name="j2" type="revolute"><parent link="l1"/><child link="l2"/>
+    <origin xyz="0 0 0.2"/><axis xyz="0 1 0"/>{lim}</joint>
+  {link("l2")}
+  <joint name="j3" type="revolute"><parent link="l2"/><child link="l3"/>
+    <origin xyz="0 0 0.2"/><axis xyz="0 1 0"/>{lim}<mimic joint="j2" multiplier="{multiplier}"/>
+  </joint>
+  {link("l3")}
+</robot>"""
+    urdf = folder / "mimic_arm.urdf"
+    urdf.write_text(text)
+    robot = folder / "mimic_arm.yaml"
+    robot.write_text("name: mimic_arm\ndescription: mimic_arm.urdf\n"
+                     "excitation:\n  acceleration_limits: 10.0\n")
+    return robot

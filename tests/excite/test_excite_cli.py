@@ -100,3 +100,36 @@ def test_bad_inputs_get_one_line_reasons(designed, tmp_path, capsys):
     assert "cannot be found" in err and "--collision" in err
     err = one_line_error(capsys, ["excite", "check", str(tmp_path / "nope.yaml"), "--robot", "ur5"])
     assert "nope.yaml" in err
+
+
+def test_a_plain_urdf_designs_with_derived_accelerations_and_a_time_limit(tmp_path, capsys):
+    """No acceleration limit anywhere: derived (said in one line); the expected duration is
+    said first; --time-limit stops a search far too long for it with the best so far; no step
+    progress off a terminal."""
+    urdf = two_link_urdf(tmp_path)
+    out = tmp_path / "t.yaml"
+    args = ["excite", "design", "--robot", str(urdf), "--payload-mass", "0.5", "--out", str(out),
+            "--periods", "2", "--restarts", "3", "--steps", "10000000", "--time-limit", "1",
+            "--collision", "skip"]
+    assert main(args) == 0
+    err = capsys.readouterr().err
+    derived = [s for s in err.splitlines() if "acceleration limits derived" in s]
+    assert len(derived) == 1 and "0.5 × effort limit" in derived[0]
+    assert err.index("expected duration ~") < err.index("time limit 1 s: the best of")
+    assert "step " not in err
+    assert load_trajectory(out).extra["margins"]["worst"]["velocity"]["ok"]
+    assert main(args + ["--require-acceleration-limits"]) == 2
+    assert "joint j1 has no acceleration limit" in capsys.readouterr().err
+
+
+def test_a_period_too_short_says_what_it_cannot_excite_not_a_lighter_payload(tmp_path, capsys):
+    """issue 43: --period 0.01 answered 'loosen the margins … lighter payload'."""
+    urdf = two_link_urdf(tmp_path)
+    out = tmp_path / "t.yaml"
+    assert main(["excite", "design", "--robot", str(urdf), "--payload-mass", "0.5", "--out",
+                 str(out), "--period", "0.01", "--periods", "2", "--restarts", "2", "--steps",
+                 "0", "--collision", "skip"]) == 0
+    text = capsys.readouterr().out
+    assert "not excited: " in text and "a longer period" in text
+    assert "lighter payload" not in text
+    assert load_trajectory(out).extra["prediction"]["not_excited"]

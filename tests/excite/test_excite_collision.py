@@ -46,3 +46,54 @@ def test_package_meshes_found_through_package_dir(tmp_path):
     urdf = two_link_urdf(tmp_path, mesh="package://arm_description/meshes/cube.stl")
     c = CollisionModel(load_robot(str(urdf)), "mesh", [str(tmp_path / "share")])
     assert c.geom.ngeoms == 2 and c.n_pairs == 0  # l1 and l2 are adjacent
+
+
+def test_the_1ms_check_skips_only_samples_no_pair_can_reach():
+    """The UR5 folding onto itself (test_excite_check): every distance the advancing check
+    skips is above the margin when computed anyway, and the worst distance is the same."""
+    from excite_robots import static_runs
+
+    from orthoglide_ident.excite.constraints import TreeStates
+
+    robot = load_robot("ur5")
+    c = CollisionModel(robot, "mesh")
+    a = np.zeros((6, 2))
+    a[2] = [0.68, -0.68]
+    traj = static_runs("ur5", robot.joint_names, [0.0, -1.57, 2.2, 0.0, 0.0, 0.0], a)
+    t = np.arange(0.0, 5.0, 1e-3)
+    q, qd, _ = traj.evaluate("unloaded", t)
+    Q, _ = TreeStates(robot).configurations(q)
+    full = c.distances(Q)
+    fast = c.distances_along(Q, qd, 1e-3, 0.02)
+    skipped = ~np.isfinite(fast)
+    assert skipped.mean() > 0.5  # most samples of most pairs
+    assert np.all(full[skipped] >= 0.02)
+    done = fast[~skipped]  # exact within 3 margins, a lower bound beyond (bounding spheres)
+    near = full[~skipped] < 0.06
+    np.testing.assert_allclose(done[near], full[~skipped][near], atol=1e-5)  # GJK's tolerance
+    assert np.all(done[~near] <= full[~skipped][~near] + 1e-5) and np.all(done >= -1)
+    assert fast.min() == pytest.approx(full.min(), abs=1e-5) and full.min() < 0
+    # the search's bound: exact within 6 cm, a lower bound (bounding spheres) beyond
+    coarse = c.distances_above(Q[::40], 0.06)
+    exact = np.isclose(coarse, full[::40], atol=1e-5)
+    assert np.all(full[::40][~exact] >= coarse[~exact]) and np.all(coarse[~exact] >= 0.06)
+    assert np.all(exact[full[::40] < 0.06]) and (~exact).mean() > 0.3
+
+
+def test_pairs_always_near_are_left_out_without_an_srdf(tmp_path):
+    """A ball on the base around j1 (r 0.38 m) and one on l2 at j2's origin, which stays 0.3 m
+    from j1 whatever the joints: always interpenetrating, the pair is left out and named; with
+    disabled_pairs given, nothing is left out on the robot's behalf."""
+    urdf = two_link_urdf(tmp_path)
+    balls = ("    primitives:\n"
+             "      - {link: base, sphere: {centre: [0, 0, 0.1], radius: 0.38}}\n"
+             "      - {link: l2, sphere: {centre: [0, 0, 0], radius: 0.02}}\n")
+    y = tmp_path / "arm.yaml"
+    y.write_text(f"name: two_link\ndescription: {urdf.name}\nexcitation:\n  collision:\n{balls}")
+    c = CollisionModel(load_robot(str(y)), "primitives")
+    assert c.always_near == ["base/l2"] and c.n_pairs == 0
+    y2 = tmp_path / "arm_srdf.yaml"
+    y2.write_text(f"name: two_link\ndescription: {urdf.name}\nexcitation:\n  collision:\n{balls}"
+                  "    disabled_pairs: [[l1, l2]]\n")
+    c = CollisionModel(load_robot(str(y2)), "primitives")
+    assert c.always_near == [] and c.pair_names == ["base/l2"]

@@ -65,7 +65,7 @@ def test_a_urdf_without_limits_is_refused_with_a_reason(tmp_path):
 def test_no_acceleration_limit_says_where_to_give_one(tmp_path):
     urdf = two_link_urdf(tmp_path)
     with pytest.raises(ConfigError, match="no acceleration limit.*--joint-limits"):
-        read_limits(load_robot(str(urdf)))
+        read_limits(load_robot(str(urdf)), derive_acceleration=False)
 
 
 def test_a_typo_in_the_excitation_section_is_refused(tmp_path):
@@ -78,3 +78,23 @@ def test_a_typo_in_the_excitation_section_is_refused(tmp_path):
 def test_the_orthoglide_closed_form_has_no_description_to_design_on():
     with pytest.raises(ConfigError, match="need a robot described by a URDF"):
         read_limits(load_robot("orthoglide"))
+
+
+def test_a_plain_urdf_gets_acceleration_limits_from_its_efforts_and_inertia(tmp_path):
+    """No acceleration limit anywhere: a_j = 0.5 τ_max,j / M_jj at the home pose, M from
+    Pinocchio's CRBA on the URDF itself."""
+    import pinocchio as pin
+
+    from orthoglide_ident.excite.limits import ACCEL_SAFETY
+
+    urdf = two_link_urdf(tmp_path, effort=20.0)
+    robot = load_robot(_robot_yaml(tmp_path, urdf, "excitation:\n  home: [0.3, -0.7]\n"))
+    lim = read_limits(robot)
+    model = pin.buildModelFromUrdf(str(urdf))
+    M = pin.crba(model, model.createData(), np.array([0.3, -0.7]))
+    np.testing.assert_allclose(lim.acceleration, ACCEL_SAFETY * 20.0 / np.diag(M), rtol=1e-9)
+    assert ACCEL_SAFETY == 0.5 and lim.sources["acceleration"].startswith("derived")
+    # and at the middle of the ranges when the robot file gives no home
+    plain = read_limits(load_robot(str(urdf)))
+    M0 = pin.crba(model, model.createData(), np.zeros(2))
+    np.testing.assert_allclose(plain.acceleration, 0.5 * 20.0 / np.diag(M0), rtol=1e-9)
