@@ -56,6 +56,7 @@ from orthoglide_ident.excite.trajectory import (ExcitationRun, ExcitationTraject
                                                 rest_projection)
 from orthoglide_ident.identify.columns.current_lag import MIN_PERIODS
 from orthoglide_ident.model.robot import Payload
+from orthoglide_ident.identify.options import DEFAULT_FILTER_CUTOFF_HZ
 from orthoglide_ident.progress import ProgressLine, duration_text
 
 _log = logging.getLogger("orthoglide_ident")
@@ -363,6 +364,18 @@ def short_period(limits: JointLimits, options: DesignOptions) -> str:
             "the velocity limits; default 5 s)")
 
 
+def period_check(limits: JointLimits, options: DesignOptions) -> None:
+    """Refuse a fundamental at or above half the identification's derivative-filter cut-off
+    (identify/options.py, at 1 kHz): the identification would not see the motion, whatever the
+    search finds; the reason names the period (short_period's closed form when it applies)."""
+    f1 = 1.0 / options.period_s
+    if f1 >= 0.5 * DEFAULT_FILTER_CUTOFF_HZ:
+        raise ExcitationError(short_period(limits, options) or (
+            f"the period {options.period_s:g} s puts the motion at {f1:.3g} Hz and above, where "
+            f"the identification's derivative filter ({DEFAULT_FILTER_CUTOFF_HZ:g} Hz) takes it "
+            "out: use a period of seconds (default 5 s)"))
+
+
 def _random_start(problem: Problem, rng: np.random.Generator
                   ) -> tuple[np.ndarray, Evaluation, int]:
     """(x, its evaluation, the evaluations it took)."""
@@ -561,6 +574,7 @@ def design(robot, limits: JointLimits, collision, options: DesignOptions,
     clock = Clock(options.time_limit_s)
     problem = Problem(robot, limits, collision, options)
     clear_start(problem, say)
+    period_check(limits, options)
     static_payload_check(robot, limits, options.margins, problem.P, options.payload)
     x, best, randoms = search(problem, steps, clock, say)
     if best.violation > 0 or best.prediction is None:
