@@ -252,8 +252,9 @@ class IdentifyOptions:
     def validate(self, source: str = "options") -> None:
         if self.nonfinite not in ("error", "drop"):
             raise ConfigError(f"{source}: nonfinite must be 'error' or 'drop'")
-        if self.tls_noisy_columns not in ("all", "currents"):
-            raise ConfigError(f"{source}: tls_noisy_columns must be 'all' or 'currents'")
+        if self.tls_noisy_columns not in ("all", "currents", "per-joint"):
+            raise ConfigError(f"{source}: tls_noisy_columns must be 'all', 'currents' or "
+                              "'per-joint'")
         if self.decimation_filter not in ("fir", "cheby1"):
             raise ConfigError(f"{source}: decimation_filter must be 'fir' or 'cheby1'")
         if self.regressor_at not in ("rows", "samples"):
