@@ -84,10 +84,11 @@ def solve_iv(factors: list[RecordFactors], model, opts: IdentifyOptions, gains, 
                   chi_rows=sol.chi.copy())
 
 
-def cross_check(out: Solved, factors: list[RecordFactors], model) -> None:
+def cross_check(out: Solved, factors: list[RecordFactors], model, mark: bool = True) -> None:
     """IDIM-IV from a complete TLS answer ``out``; gains that disagree beyond
-    CROSS_CHECK_SIGMAS combined σ are warned about and marked not determined (in place).
-    Nothing when the rows were not kept (live) or IV cannot run: a cross-check, not a method."""
+    CROSS_CHECK_SIGMAS combined σ are warned about and, when ``mark`` (the excitation checks
+    on), marked not determined (in place). Nothing when the rows were not kept (live) or IV
+    cannot run: a cross-check, not a method."""
     result = out.result
     try:
         iv = iv_from(factors, out.chi, out.g_tau)
@@ -102,14 +103,16 @@ def cross_check(out: Solved, factors: list[RecordFactors], model) -> None:
         {"joint": g.name, "tls": float(g.value), "iv": float(v), "iv_rel_std": float(r),
          "sigmas": float(k)} for g, v, r, k in zip(result.drive_gains, iv.g_tau, iv_rel, z)]
     bad = [j for j in range(g_tls.shape[0]) if z[j] > CROSS_CHECK_SIGMAS]
+    texts = []
     for j in bad:
         g = result.drive_gains[j]
-        g.reason = (f"IDIM-TLS {g.value:.5g} and IDIM-IV {iv.g_tau[j]:.5g} (±{100 * iv_rel[j]:.2g}"
-                    f" %) disagree by {z[j]:.1f} combined σ: the joints' current noise differs, "
-                    "which biases the paper's TLS; use --method iv (or tls_noisy_columns: "
-                    "per-joint)")
-        g.determined, g.value, g.rel_std = False, float("nan"), float("nan")
+        reason = (f"IDIM-TLS {g.value:.5g} and IDIM-IV {iv.g_tau[j]:.5g} (±{100 * iv_rel[j]:.2g}"
+                  f" %) disagree by {z[j]:.1f} combined σ: the joints' current noise differs, "
+                  "which biases the paper's TLS (use --method iv, or tls_noisy_columns: "
+                  "per-joint), or the model lacks a force of the records")
+        if mark:
+            g.determined, g.value, g.rel_std, g.reason = False, float("nan"), float("nan"), \
+                reason
+        texts.append(f"{g.name} {'not determined' if mark else 'doubtful'}: {reason}")
     if bad:
-        result.warnings.insert(0, "TLS cross-checked by IV: " + "; ".join(
-            f"{result.drive_gains[j].name} not determined: {result.drive_gains[j].reason}"
-            for j in bad))
+        result.warnings.insert(0, "TLS cross-checked by IV: " + "; ".join(texts))

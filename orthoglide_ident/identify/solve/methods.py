@@ -113,7 +113,8 @@ def solve(factors: list[RecordFactors], model, opts: IdentifyOptions,
     if method == "tls" and opts.cross_check == "iv" and out.result.complete:
         from orthoglide_ident.identify.solve.iv_answer import cross_check
 
-        cross_check(out, factors, model)  # after TLS: IDIM-IV's gains beside (issue 43)
+        # after TLS, IDIM-IV's gains beside (issue 43); marked only when the checks are on
+        cross_check(out, factors, model, opts.check_excitation)
     split_payload(out.result, model)
     out.result.warnings.extend(friction_sign_warnings(out.result))
     if opts.consistent and not out.result.complete:

@@ -82,3 +82,22 @@ def test_iv_says_why_without_the_rows():
     f = RecordFactors("loaded", 1.0, 3, n_joints=3)
     with pytest.raises(IdentificationError, match="decimated rows"):
         observations_of([f])
+
+
+def test_the_cli_identifies_by_iv_from_bags(panda, tmp_path):
+    import json
+
+    from orthoglide_ident.bags.writer import write_bag
+    from orthoglide_ident.cli import main
+
+    _, recs = panda
+    bags = [str(write_bag(tmp_path / r.condition, r.stamps_q_ns, r.q, r.v_tau, r.condition,
+                          r.payload_mass, P.JOINTS)) for r in recs]
+    out = tmp_path / "iv.json"
+    assert main(["identify", "--robot", str(P.URDF), *bags, "--method", "iv", "--json",
+                 str(out), "-q"]) == 0
+    doc = json.loads(out.read_text())
+    assert doc["method"] == "iv" and all(g["determined"] for g in doc["drive_gains"])
+    g = np.array([x["value"] for x in doc["drive_gains"]])
+    rel = np.array([x["rel_std"] for x in doc["drive_gains"]])
+    assert np.all(np.abs(g / P.GAINS - 1) < 3 * rel)
