@@ -108,7 +108,7 @@ class IdentifyOptions:
     # exact, only the current references noisy (the sim's and the robot's case): same answer when
     # the trajectories excite well, and no near-null regressor direction mistaken for the gains
     # when they excite less
-    tls_noisy_columns: str = "all"  # the paper's TLS (eqs. 35-36); "currents": mixed LS-TLS
+    tls_noisy_columns: str = "per-joint"  # "all": the paper's TLS; "currents": mixed LS-TLS
     # "per-joint": mixed LS-TLS with each current column scaled to its joint's noise (issue 43)
     # after TLS, IDIM-IV from its answer: a gain further than 3 combined σ from IV's is warned
     # about and not determined (docs/guide/iv.md); "none": no cross-check

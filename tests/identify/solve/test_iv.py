@@ -7,7 +7,6 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-import panda_arm as P
 from orthoglide_ident.cli import build_parser
 from orthoglide_ident.errors import IdentificationError
 from orthoglide_ident.identify.options import IdentifyOptions
@@ -16,6 +15,7 @@ from orthoglide_ident.identify.solve import methods
 from orthoglide_ident.identify.solve.factors import RecordFactors
 from orthoglide_ident.identify.solve.iv import observations_of
 from orthoglide_ident.model.robots import load_robot
+import panda_arm as P
 from synthetic import TRUE_GAINS, SyntheticModel, synthetic_record
 
 SECONDS, NOISE = 20.0, 0.01
@@ -40,7 +40,8 @@ def test_the_methods_table_lists_iv():
 
 def test_iv_recovers_the_gains_where_the_papers_tls_is_biased(panda):
     model, recs = panda
-    tls = identify_records(recs, model=model, options=IdentifyOptions(cross_check="none"))
+    tls = identify_records(recs, model=model, options=IdentifyOptions(
+        tls_noisy_columns="all", cross_check="none"))  # the paper's TLS
     assert np.max(np.abs(_z(tls, P.GAINS))) > 4  # the bias: joint 7 at about -5.7 σ
     iv = identify_records(recs, model=model, method="iv")
     assert iv.method == "iv" and iv.complete
@@ -52,14 +53,15 @@ def test_iv_recovers_the_gains_where_the_papers_tls_is_biased(panda):
 
 def test_per_joint_tls_removes_the_bias(panda):
     model, recs = panda
-    res = identify_records(recs, model=model, options=IdentifyOptions(
-        tls_noisy_columns="per-joint", cross_check="none"))
+    res = identify_records(recs, model=model, options=IdentifyOptions(cross_check="none"))
+    assert res.diagnostics["solver"]["tls_noisy_columns"] == "per-joint"  # the default
     assert np.all(np.abs(_z(res, P.GAINS)) < 3)
 
 
 def test_the_cross_check_marks_the_biased_tls_gains(panda):
     model, recs = panda
-    res = identify_records(recs, model=model)  # TLS, cross-checked by IV (the default)
+    # the paper's TLS, cross-checked by IV (the default cross-check)
+    res = identify_records(recs, model=model, options=IdentifyOptions(tls_noisy_columns="all"))
     marked = [g for g in res.drive_gains if not g.determined]
     assert marked and all("IDIM-IV" in g.reason for g in marked)
     assert any(w.startswith("TLS cross-checked by IV") for w in res.warnings)
