@@ -107,9 +107,10 @@ class IdentifyOptions:
     # "all": the paper's TLS (every column of W_tot noisy); "currents": mixed LS-TLS, W and W_kl
     # exact, only the current references noisy (the sim's and the robot's case): same answer when
     # the trajectories excite well, and no near-null regressor direction mistaken for the gains
-    # when they excite less
-    tls_noisy_columns: str = "per-joint"  # "all": the paper's TLS; "currents": mixed LS-TLS
-    # "per-joint": mixed LS-TLS with each current column scaled to its joint's noise (issue 43)
+    # when they excite less; "per-joint" (default): the mixed LS-TLS with each current column
+    # scaled to its joint's noise, without which TLS biases small gains when the joints' current
+    # noise differs (issue 43, docs/guide/iv.md)
+    tls_noisy_columns: str = "per-joint"
     # after TLS, IDIM-IV from its answer: a gain further than 3 combined σ from IV's is warned
     # about and not determined (docs/guide/iv.md); "none": no cross-check
     cross_check: str = "iv"

@@ -8,7 +8,9 @@
 Several loaded records may be stacked, each with its own weighed mass: the last column then holds
 -W_kl·m_7 of each. χ_ul is empty for the Orthoglide (only m_7 acts on a translating platform).
 The solution is the right singular vector of the smallest singular value (eqs. 35-36), scaled so
-that its last component is 1. Rows of joint j are weighted by 1/σ_j (Sect. 4.2), σ_j from a first
+that its last component is 1. Eq. (34)'s closest compatible system is the errors-in-variables
+answer only when the columns carry equal noise: by default (``noisy_columns="per-joint"``) W and
+W_kl are taken as exact and each current column is scaled to its joint's noise (issue 43). Rows of joint j are weighted by 1/σ_j (Sect. 4.2), σ_j from a first
 unweighted solution. Standard deviations by eqs. (37)-(39) (``rel_std_paper``) and the honest
 ones that also cover correlated residuals (``rel_std``, uncertainty.py).
 
