@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from orthoglide_ident.cli import build_parser
-from orthoglide_ident.errors import IdentificationError
+from orthoglide_ident.errors import ConfigError, IdentificationError
 from orthoglide_ident.identify.options import IdentifyOptions
 from orthoglide_ident.identify.pipeline import identify_records
 from orthoglide_ident.identify.solve import methods
@@ -36,6 +36,10 @@ def test_the_methods_table_lists_iv():
     assert not m.gains_given and "drive_gains" in m.result_fields
     args = build_parser().parse_args(["identify", "b1", "b2", "--method", "iv"])
     assert args.method == "iv"
+    args = build_parser().parse_args(["identify", "b1", "b2", "--cross-check", "none"])
+    assert args.cross_check == "none"
+    with pytest.raises(ConfigError, match="cross_check must be 'iv' or 'none'"):
+        IdentifyOptions(cross_check="hausman").validate()
 
 
 def test_iv_recovers_the_gains_where_the_papers_tls_is_biased(panda):
