@@ -67,7 +67,7 @@ class IVSolution:
 @dataclass
 class _Rows:
     """Joint j's kept rows of one record: W (r, n_b), the payload term y (r,), v_τ (r,), the
-    rows' instants (r,) s."""
+    rows' instants (r,) s since the record's first stamp (its row index without them)."""
 
     j: int
     W: np.ndarray
@@ -136,7 +136,7 @@ def _block_meat(rows: list[_Rows], res: list[np.ndarray], theta: np.ndarray,
         zr = np.zeros((r.W.shape[0], c))
         zr[:, :n_b] = -r.W
         zr[:, n_b + r.j] = v_sim
-        block = np.floor((r.t - r.t[0]) / BLOCK_S).astype(int) if r.t.size else r.t
+        block = np.floor(r.t / BLOCK_S).astype(int)  # t: s since the record's first stamp
         contrib = zr * (e / sigma[r.j] ** 2)[:, None]
         for k in np.unique(block):
             key = (r.record, int(k))
