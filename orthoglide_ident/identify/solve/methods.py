@@ -18,6 +18,7 @@ from typing import Callable, Sequence
 
 from orthoglide_ident.errors import IdentificationError
 from orthoglide_ident.identify.solve.factors import RecordFactors
+from orthoglide_ident.identify.solve.iv_answer import cross_check, solve_iv
 from orthoglide_ident.identify.options import IdentifyOptions
 from orthoglide_ident.identify.solve.payload_report import split_payload
 from orthoglide_ident.identify.columns.payload_unknowns import unknowns_of
@@ -55,8 +56,6 @@ def _tls(factors, model, opts, gains, essential, bags) -> Solved:
 
 
 def _iv(factors, model, opts, gains, essential, bags) -> Solved:
-    from orthoglide_ident.identify.solve.iv_answer import solve_iv
-
     return solve_iv(factors, model, opts, gains, essential, bags)
 
 
@@ -111,8 +110,6 @@ def solve(factors: list[RecordFactors], model, opts: IdentifyOptions,
             "identified (Sect. 4.3); tag them or give --payload-known point")
     out = m.solve(factors, model, opts, gains, essential, list(bags))
     if method == "tls" and opts.cross_check == "iv" and out.result.complete:
-        from orthoglide_ident.identify.solve.iv_answer import cross_check
-
         # after TLS, IDIM-IV's gains beside (issue 43); marked only when the checks are on
         cross_check(out, factors, model, opts.check_excitation)
     split_payload(out.result, model)
