@@ -110,6 +110,9 @@ def _add_identify_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--gains", metavar="G1,G2,...|FILE.json",
                    help="drive gains (N/A, N·m/A for a revolute joint) for --method wls: one per "
                         "joint, or a JSON file (e.g. the --json output of a TLS identification)")
+    p.add_argument("--cross-check", choices=("iv", "none"), default=None,
+                   help="after --method tls, IDIM-IV from its answer: a gain further than 3 "
+                        "combined σ from IV's is not determined, with the reason (default iv)")
     p.add_argument("--essential", action="store_true",
                    help="also reduce to essential parameters (paper Sect. 5.2) and show base and "
                         "essential results side by side")
@@ -229,6 +232,8 @@ def _run_identify(args: argparse.Namespace):
         opts = opts.replace(consistent=True)
     if getattr(args, "payload_known", None):
         opts = opts.replace(payload_known=args.payload_known)
+    if getattr(args, "cross_check", None):
+        opts = opts.replace(cross_check=args.cross_check)
     method = args.method or DEFAULT_METHOD
     gains = parse_gains(args.gains, robot.joint_names) if args.gains else None
     if gains is not None and not METHODS[method].gains_given:

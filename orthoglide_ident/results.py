@@ -160,7 +160,7 @@ class PayloadParameters:
 class IdentificationResult:
     """What ``identify`` found; ``to_json()`` is the document of docs/design/interfaces.md."""
 
-    method: str  # "tls" | "wls"
+    method: str  # "tls" | "wls" | "iv"
     joint_names: list[str]
     drive_gains: list[Estimate]  # name = joint name
     drive_gains_given: bool  # True for WLS (gains were an input, rel_std 0)
@@ -380,12 +380,15 @@ class IdentificationResult:
 
     def _header_lines(self) -> list[str]:
         head = {"tls": "IDIM-TLS (drive gains and base parameters, scale from the payload mass)",
-                "wls": "IDIM-WLS with given drive gains (payload mass estimated)"}
+                "wls": "IDIM-WLS with given drive gains (payload mass estimated)",
+                "iv": "IDIM-IV (instruments: the identified model's currents; scale from the "
+                      "payload mass)"}
         lines = [head.get(self.method, self.method)]
         variant = self.diagnostics.get("solver", {}).get("tls_noisy_columns")
         if self.method == "tls" and variant:
             lines.append({"currents": "mixed LS-TLS: W exact, errors in the current references",
-                          "all": "TLS of eqs. (35)-(36): errors in every column of W_tot"}
+                          "all": "TLS of eqs. (35)-(36): errors in every column of W_tot",
+                          "per-joint": "mixed LS-TLS, each current column scaled to its noise"}
                          .get(variant, variant))
         lines.append(f"bags: {', '.join(self.bags)}")
         lines.append("")

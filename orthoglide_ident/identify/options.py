@@ -117,8 +117,13 @@ class IdentifyOptions:
     # "all": the paper's TLS (every column of W_tot noisy); "currents": mixed LS-TLS, W and W_kl
     # exact, only the current references noisy (the sim's and the robot's case): same answer when
     # the trajectories excite well, and no near-null regressor direction mistaken for the gains
-    # when they excite less
-    tls_noisy_columns: str = "all"  # the paper's TLS (eqs. 35-36); "currents": mixed LS-TLS
+    # when they excite less; "per-joint" (default): the mixed LS-TLS with each current column
+    # scaled to its joint's noise, without which TLS biases small gains when the joints' current
+    # noise differs (issue 43, docs/guide/iv.md)
+    tls_noisy_columns: str = "per-joint"
+    # after TLS, IDIM-IV from its answer: a gain further than 3 combined σ from IV's is warned
+    # about and not determined (docs/guide/iv.md); "none": no cross-check
+    cross_check: str = "iv"
     r_sigma: float = 10.0  # essential parameters stop at max %σ / min %σ < r_sigma
     # "keep_gains": cancel by the r_sigma order only while the gains (TLS) or the estimated
     # payload masses (WLS) stay within max(their σ, essential_min_tolerance) of the base model's
@@ -262,8 +267,11 @@ class IdentifyOptions:
     def validate(self, source: str = "options") -> None:
         if self.nonfinite not in ("error", "drop"):
             raise ConfigError(f"{source}: nonfinite must be 'error' or 'drop'")
-        if self.tls_noisy_columns not in ("all", "currents"):
-            raise ConfigError(f"{source}: tls_noisy_columns must be 'all' or 'currents'")
+        if self.cross_check not in ("iv", "none"):
+            raise ConfigError(f"{source}: cross_check must be 'iv' or 'none'")
+        if self.tls_noisy_columns not in ("all", "currents", "per-joint"):
+            raise ConfigError(f"{source}: tls_noisy_columns must be 'all', 'currents' or "
+                              "'per-joint'")
         if self.decimation_filter not in ("fir", "cheby1"):
             raise ConfigError(f"{source}: decimation_filter must be 'fir' or 'cheby1'")
         if self.regressor_at not in ("rows", "samples"):

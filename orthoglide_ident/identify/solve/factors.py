@@ -54,6 +54,7 @@ class RecordFactors:
     n_samples: int = 0
     moments: dict[str, ResidualMoments] = field(default_factory=dict)
     n_joints: int = 0
+    observations: Observations | None = None  # the rows themselves, offline (IDIM-IV needs them)
 
     def __post_init__(self) -> None:
         if not self.n_joints:
@@ -116,7 +117,8 @@ class RecordFactors:
     def from_observations(cls, obs: Observations) -> "RecordFactors":
         """The factors of one record's decimated equations."""
         n_j, _, n_b = obs.W.shape
-        f = cls(obs.condition, float(obs.payload_mass), n_b, [obs.source], n_joints=n_j)
+        f = cls(obs.condition, float(obs.payload_mass), n_b, [obs.source], n_joints=n_j,
+                observations=obs)
         f.n_samples = obs.n_samples
         for j in range(n_j):
             sel = slice(None) if obs.keep is None else obs.keep[j]

@@ -18,6 +18,7 @@ from typing import Callable, Sequence
 
 from orthoglide_ident.errors import IdentificationError
 from orthoglide_ident.identify.solve.factors import RecordFactors
+from orthoglide_ident.identify.solve.iv_answer import cross_check, solve_iv
 from orthoglide_ident.identify.options import IdentifyOptions
 from orthoglide_ident.identify.solve.payload_report import split_payload
 from orthoglide_ident.identify.columns.payload_unknowns import unknowns_of
@@ -54,6 +55,10 @@ def _tls(factors, model, opts, gains, essential, bags) -> Solved:
     return solve_tls(factors, model, opts, essential, bags)
 
 
+def _iv(factors, model, opts, gains, essential, bags) -> Solved:
+    return solve_iv(factors, model, opts, gains, essential, bags)
+
+
 METHODS: dict[str, Method] = {m.name: m for m in (
     Method("tls", "IDIM-TLS (eqs. 33-39): drive gains and base parameters at once, scaled by the "
                   "known payload mass", False,
@@ -61,6 +66,10 @@ METHODS: dict[str, Method] = {m.name: m for m in (
     Method("wls", "IDIM-WLS (eqs. 24-28): drive gains given (default the robot's nominal ones), "
                   "payload mass of the loaded records estimated", True,
            ("payloads",), "orthoglide/identified_parameters/wls", solve_wls),
+    Method("iv", "IDIM-IV (Janot et al. 2014): drive gains and base parameters by instrumental "
+                 "variables (the identified model's currents), scaled by the known payload mass; "
+                 "unbiased when the joints' current noise differs", False,
+           ("drive_gains", "payload_mass"), "orthoglide/identified_parameters/iv", _iv),
 )}
 DEFAULT_METHOD = "tls"
 
@@ -100,6 +109,9 @@ def solve(factors: list[RecordFactors], model, opts: IdentifyOptions,
             "--consistent needs the payload's CoM and inertia: with only its mass known they are "
             "identified (Sect. 4.3); tag them or give --payload-known point")
     out = m.solve(factors, model, opts, gains, essential, list(bags))
+    if method == "tls" and opts.cross_check == "iv" and out.result.complete:
+        # after TLS, IDIM-IV's gains beside (issue 43); marked only when the checks are on
+        cross_check(out, factors, model, opts.check_excitation)
     split_payload(out.result, model)
     out.result.warnings.extend(friction_sign_warnings(out.result))
     if opts.consistent and not out.result.complete:

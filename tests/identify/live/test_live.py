@@ -342,7 +342,8 @@ def test_live_lag_left_out_when_a_segment_does_not_repeat(realistic_records):
             feed(paper, r, (250,), 2, seed=i)
         bad = 0 if recs is cut else 1
         assert res.current_lag == [] and res.diagnostics["bags"][bad]["n_not_repeating"] == 1
-        assert max(rel_diff(paper.result(), res)) < 1e-9
+        # round-off, through the per-joint noise scaling's fixed point on 5 s records (~1e-9)
+        assert max(rel_diff(paper.result(), res)) < 1e-8
         off = identify_records(recs, options=IdentifyOptions(check_excitation=False,
                                                              lag_model="off"), model=ORTHOGLIDE)
         assert max(rel_diff(off, res)) < 1e-6

@@ -39,8 +39,8 @@ def test_every_method_of_the_table_solves_and_keeps_its_promise_about_the_gains(
 
 
 def test_an_unknown_method_names_the_table(records):
-    with pytest.raises(IdentificationError, match="unknown method 'iv': use tls or wls"):
-        identify_records(records, method="iv", model=MODEL)
+    with pytest.raises(IdentificationError, match="unknown method 'ml': use tls or wls or iv"):
+        identify_records(records, method="ml", model=MODEL)
     assert methods.get(methods.DEFAULT_METHOD) is methods.METHODS["tls"]
 
 
@@ -49,7 +49,7 @@ def test_the_cli_offers_the_table():
     for name in methods.METHODS:
         assert parser.parse_args(["identify", "B", "--method", name]).method == name
     with pytest.raises(SystemExit):
-        parser.parse_args(["identify", "B", "--method", "iv"])
+        parser.parse_args(["identify", "B", "--method", "ml"])
 
 
 def test_a_new_row_is_all_the_pipeline_needs(records, monkeypatch):
