@@ -1,4 +1,4 @@
-"""rosbag2/MCAP bags: tagged writing, fast reading, info, recovery (docs/design/interfaces.md, §8).
+"""rosbag2/MCAP bags: tagged writing, fast reading, info, recovery (docs/design/interfaces.md).
 
 No rclpy here. Files are written by the official MCAP library as rosbag2's MCAP storage plugin
 writes them (``_mcapfile``, ``_metadata``) and read by a fast crash-tolerant scanner (``_mcap``);

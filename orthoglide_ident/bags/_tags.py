@@ -1,7 +1,7 @@
 """The tag of a bag: loaded/unloaded, the payload, and where q and the current were recorded.
 
 Stored as strings, the same keys in metadata.yaml ``custom_data`` and in each .mcap file's
-``orthoglide`` metadata record (docs/design/interfaces.md, §8):
+``orthoglide`` metadata record (docs/design/interfaces.md):
 
 ==============================  ==================================================================
 ``orthoglide.condition``        ``loaded`` | ``unloaded``

@@ -1,4 +1,4 @@
-"""One continuous segment processed block by block into decimated equations (docs/design/method.md-3).
+"""One continuous segment processed block by block into decimated equations (docs/design/method.md).
 
 The offline pipeline (a whole segment at once, pushed in chunks to bound memory) and the live
 identification (1 kHz samples pushed about once a second) both run a segment through a
