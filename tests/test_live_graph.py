@@ -38,9 +38,10 @@ def test_record_identify_live_and_control_over_ros(tmp_path):
         g.wait_for_subscriber("orthoglide/current_reference", "orthoglide_identification")
         bags = [record(g, "unloaded", "unloaded", 0.0, 12.0, quiet=True)]
         g.set_params("orthoglide_driver", payload="1.983", trajectory="exciting2")
-        time.sleep(3.0)
+        g.wait_for_robot_time(3.0)  # the new trajectory blends in (2 s of robot time)
         bags.append(record(g, "loaded", "loaded", 1.983, 12.0, quiet=True))
-        time.sleep(1.5)
+        # the live estimate has folded in the loaded recording (its worker runs about 1 Hz)
+        g.wait_for_live(lambda m: m.loaded_seconds > 0.9 * 12.0 and m.drive_gains, timeout=120.0)
 
         # the live estimate went out while recording, and says what it lacked before the payload
         statuses = [m.status for m in g.live]
@@ -58,10 +59,10 @@ def test_record_identify_live_and_control_over_ros(tmp_path):
         g.start("orthoglide_ctc", "ctc")
         g.wait_for_feedforward()
         g.set_params("orthoglide_driver", trajectory="test2", controller="pid")
-        time.sleep(3.0)
+        g.wait_for_robot_time(3.0)  # the trajectory blends in, the PID settles
         e_pid = tracking_errors(record(g, "pid", "loaded", 1.983, 2.0, quiet=True))
         g.set_params("orthoglide_driver", controller="ctc")
-        time.sleep(1.0)
+        g.wait_for_robot_time(1.0)  # the CTC takes over and settles
         before = g.driver_counters()
         e_ctc = tracking_errors(record(g, "ctc", "loaded", 1.983, 2.0, quiet=True))
         after = g.driver_counters()
@@ -124,11 +125,15 @@ def test_each_node_stopped_for_a_second_while_recording_loses_nothing(tmp_path):
                      name="stalls")
         assert res.success, res.message
         for name in ("orthoglide_driver", "orthoglide_recorder", "orthoglide_identification", "orthoglide_ctc"):
+            # a second of the recording going on, then this node stopped for a second: the
+            # durations are the experiment's (a stall), not a wait for something
             time.sleep(1.0)
             g.procs[name].send_signal(signal.SIGSTOP)
             time.sleep(1.0)
             g.procs[name].send_signal(signal.SIGCONT)
-        time.sleep(1.0)
+        # the recording goes on after the last stall: a second more of ticks written
+        written = g.wait_for_status(lambda s: s.recording).ticks_written
+        g.wait_for_status(lambda s: s.recording and s.ticks_written >= written + 1000, timeout=120.0)
         stop = g.call(Trigger, "orthoglide/recorder/stop")
         after = g.driver_counters()
         assert stop.success, stop.message

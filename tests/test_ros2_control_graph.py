@@ -3,7 +3,6 @@ joint_state_broadcaster publishes, the recorder records it, the identification i
 and from the bags (`make demo-ros2-control` in short)."""
 from __future__ import annotations
 
-import time
 from pathlib import Path
 
 import numpy as np
@@ -75,9 +74,10 @@ def test_record_and_identify_a_ros2_control_robot(tmp_path):
             g.wait_for_subscriber(topic, "orthoglide_recorder")
         paths = [record(g, "unloaded", "unloaded", 0.0, 15.0, quiet=True)]
         g.set_params(STANDIN, payload=2.5, trajectory="exciting2")
-        time.sleep(3.0)
+        g.wait_for_robot_time(3.0, "joint_states")  # the new trajectory blends in (robot time)
         paths.append(record(g, "loaded", "loaded", 2.5, 15.0, quiet=True))
-        time.sleep(1.5)
+        # the live estimate has folded in the loaded recording (its worker runs about 1 Hz)
+        g.wait_for_live(lambda m: m.loaded_seconds > 0.9 * 15.0 and m.drive_gains, timeout=120.0)
         live = identify(g, []).parameters
         offline = identify(g, paths).parameters
         log = (tmp_path / "logs" / f"{STANDIN}.log").read_text()
