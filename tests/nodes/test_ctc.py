@@ -10,6 +10,7 @@ import time
 import numpy as np
 import pytest
 
+from ff_reference import orthoglide_currents
 from orthoglide_ident.ros import processes as children  # children end with this process
 
 
@@ -154,10 +155,14 @@ def test_ctc_node_waits_for_parameters_then_feeds_forward(ros_env):
     # every tick from the parameters on is fed (setpoints kept from before them too, when their
     # successor came); 39 has no successor yet and the last batch may still wait for more
     expected = feedforward_currents(*ref, p)
+    # the same from the simulator's plant (tests/ff_reference.py): not the model under test
+    independent = orthoglide_currents(p.drive_gains, p.payload_mass, *ref)
     ticks = sorted((s - t0) // 10**6 for s in got)
     assert set(range(10, 35)) <= set(ticks) <= set(range(0, 39)), (ticks, "".join(run.lines))
     for k in ticks:
-        np.testing.assert_allclose(got[t0 + k * 10**6], expected[k], rtol=1e-9)
+        np.testing.assert_allclose(got[t0 + k * 10**6], expected[k], rtol=1e-9)  # transported
+        np.testing.assert_allclose(got[t0 + k * 10**6], independent[k], rtol=1e-9,
+                                   atol=1e-9 * np.abs(independent).max())
 
 
 @pytest.mark.parametrize("args, reason", [(["-p", "batch:=0"], "parameter batch: must be >= 1"),
@@ -276,10 +281,13 @@ def test_ctc_node_refuses_a_model_that_does_not_fit_and_keeps_the_old_one(ros_en
     finally:
         run.close()
     expected = feedforward_currents(*ref, p)
+    independent = orthoglide_currents(p.drive_gains, p.payload_mass, *ref)  # the plant's
     ticks = sorted((s - t0) // 10**6 for s in got)
     assert set(range(0, 55)) <= set(ticks), (ticks, "".join(run.lines))
     for k in ticks:
-        np.testing.assert_allclose(got[t0 + k * 10**6], expected[k], rtol=1e-9)
+        np.testing.assert_allclose(got[t0 + k * 10**6], expected[k], rtol=1e-9)  # transported
+        np.testing.assert_allclose(got[t0 + k * 10**6], independent[k], rtol=1e-9,
+                                   atol=1e-9 * np.abs(independent).max())
     assert run.proc.returncode == 0
 
 
@@ -291,11 +299,14 @@ def test_ctc_node_through_a_coupled_transmission_feeds_each_motor(ros_env, tmp_p
     import orthoglide_msgs.msg  # noqa: F401
     from orthoglide_ident.control import CTCParameters, feedforward_currents
     from orthoglide_msgs.msg import IdentifiedParameters, JointSetpoint
-    from test_control import _coupled_ur5
+    from ff_reference import arm_currents
+    from orthoglide_ident.model.robots import ROBOTS_DIR
+    from test_control import COUPLED_N, _coupled_ur5
 
     robot = _coupled_ur5(tmp_path)
     joints = robot.transmission.joints
-    p = CTCParameters.from_values(robot.names, robot.K @ robot.standard_values(),
+    chi_st = robot.standard_values()
+    p = CTCParameters.from_values(robot.names, robot.K @ chi_st,
                                   [0.13, 0.13, 0.1, 0.1, 0.1, 0.1], 0.0, model=robot)
     got: dict[int, tuple[list[str], list[float]]] = {}
     limit = [5.0, 5.0, 5.0, 5.0, 5.0, 0.02]  # the coupled motor's clips
@@ -325,9 +336,13 @@ def test_ctc_node_through_a_coupled_transmission_feeds_each_motor(ros_env, tmp_p
     finally:
         run.close()
     expected = np.clip(feedforward_currents(q, qd, qdd, p), -np.array(limit), limit)
+    # the same from Pinocchio's RNEA of the URDF through N, the motor terms by hand
+    independent = np.clip(arm_currents(robot, ROBOTS_DIR / "ur5.urdf", chi_st, None, p.drive_gains,
+                                       0.0, q, qd, qdd, reduction=COUPLED_N), -np.array(limit), limit)
     for s, (names, v) in got.items():
         assert names == list(robot.joint_names)
-        np.testing.assert_allclose(v, expected[(s - t0) // 10**6], rtol=1e-9, atol=1e-12)
+        np.testing.assert_allclose(v, expected[(s - t0) // 10**6], rtol=1e-9, atol=1e-12)  # transported
+        np.testing.assert_allclose(v, independent[(s - t0) // 10**6], rtol=1e-9, atol=1e-12)
     assert any(abs(v[5]) == pytest.approx(0.02) for _, v in got.values())
 
 
@@ -342,7 +357,9 @@ def test_ctc_monitor_brings_motor_side_positions_to_the_joints(ros_env, tmp_path
     from sensor_msgs.msg import JointState
 
     from orthoglide_msgs.msg import JointSetpoint
-    from test_control import _coupled_ur5
+    from ff_reference import arm_currents
+    from orthoglide_ident.model.robots import ROBOTS_DIR
+    from test_control import COUPLED_N, _coupled_ur5
 
     robot = _coupled_ur5(tmp_path)
     path = tmp_path / "ur5_coupled_ctc.yaml"
