@@ -76,8 +76,8 @@ def test_record_and_identify_a_ros2_control_robot(tmp_path):
         g.set_params(STANDIN, payload=2.5, trajectory="exciting2")
         g.wait_for_robot_time(3.0, "joint_states")  # the new trajectory blends in (robot time)
         paths.append(record(g, "loaded", "loaded", 2.5, 15.0, quiet=True))
-        # the live estimate has folded in the loaded recording (its worker runs about 1 Hz)
-        g.wait_for_live(lambda m: m.loaded_seconds > 0.9 * 15.0 and m.drive_gains, timeout=120.0)
+        # live identification has folded in the loaded recording (its feed says so when done)
+        g.wait_for_log("orthoglide_identification", f": {paths[-1]} done;")
         live = identify(g, []).parameters
         offline = identify(g, paths).parameters
         log = (tmp_path / "logs" / f"{STANDIN}.log").read_text()

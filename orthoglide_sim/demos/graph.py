@@ -281,18 +281,18 @@ class Graph:
                      lambda: got[0] > 0, timeout,
                      lambda: f"no message on {name} within {timeout:.0f} s of its subscriber")
 
-    def wait_for_live(self, done: Any, timeout: float = 60.0) -> Any:
-        """The first live identification message (``self.live``, about 1 Hz) from now on for which
-        ``done(msg)`` holds; GraphError with the last one after ``timeout`` s (a hang bound)."""
-        n0 = len(self.live)
+    def wait_for_log(self, name: str, text: str, timeout: float = 120.0) -> str:
+        """The first line of node ``name``'s log holding ``text`` (what the node says when it has
+        done something); GraphError with the log's last lines after ``timeout`` s (a hang bound)."""
+        path = self.log_dir / f"{name}.log"
         t_end = time.monotonic() + timeout
-        while not any(done(m) for m in self.live[n0:]):
+        while not (lines := [ln for ln in path.read_text().splitlines() if text in ln]):
             if time.monotonic() > t_end:
                 self.check_alive()
-                raise GraphError(f"live identification not as awaited within {timeout:.0f} s: "
-                                 f"{self.live[-1] if self.live else 'none received'}")
+                raise GraphError(f"{name} did not log {text!r} within {timeout:.0f} s: "
+                                 + " | ".join(self.log_tail(name, 3)))
             time.sleep(0.05)
-        return next(m for m in self.live[n0:] if done(m))
+        return lines[0]
 
     def wait_for_robot_time(self, seconds: float, topic: str = "orthoglide/joint_states",
                             timeout: float = 120.0) -> float:
