@@ -14,6 +14,22 @@ from orthoglide_sim.demos.graph import Graph  # noqa: E402
 G_TRUE = np.array([2170.0, 2100.0, 2070.0])
 
 
+def _record_ticks(g, name: str, ticks: int) -> str:
+    """A loaded recording of ``ticks`` ticks written (robot time, whatever the machine's load),
+    as node_set.record's service calls; its bag path."""
+    from orthoglide_msgs.srv import StartRecording
+    from std_srvs.srv import Trigger
+
+    res = g.call(StartRecording, "orthoglide/recorder/start", condition="loaded", payload_mass=1.983,
+                 name=name)
+    assert res.success, res.message
+    g.wait_for_status(lambda s: s.recording and s.bag_path == res.bag_path and s.ticks_written >= ticks,
+                      timeout=120.0)
+    stop = g.call(Trigger, "orthoglide/recorder/stop")
+    assert stop.success, stop.message
+    return res.bag_path
+
+
 def _rel(a, b) -> float:
     a, b = np.asarray(a, float), np.asarray(b, float)
     return float(np.max(np.abs(a - b) / np.maximum(np.abs(b), 1e-12)))
@@ -60,11 +76,11 @@ def test_record_identify_live_and_control_over_ros(tmp_path):
         g.wait_for_feedforward()
         g.set_params("orthoglide_driver", trajectory="test2", controller="pid")
         g.wait_for_robot_time(3.0)  # the trajectory blends in, the PID settles
-        e_pid = tracking_errors(record(g, "pid", "loaded", 1.983, 2.0, quiet=True))
+        e_pid = tracking_errors(_record_ticks(g, "pid", 2000))
         g.set_params("orthoglide_driver", controller="ctc")
         g.wait_for_robot_time(1.0)  # the CTC takes over and settles
         before = g.driver_counters()
-        e_ctc = tracking_errors(record(g, "ctc", "loaded", 1.983, 2.0, quiet=True))
+        e_ctc = tracking_errors(_record_ticks(g, "ctc", 2000))
         after = g.driver_counters()
     rms_pid, rms_ctc = (np.sqrt(np.mean(e**2, axis=0)) for e in (e_pid, e_ctc))
     assert len(e_ctc) > 1500

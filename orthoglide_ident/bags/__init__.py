@@ -57,7 +57,8 @@ from .reader import (
 )
 from .reindex import FileReport, ReindexResult, left_open, reindex
 from .sources import BagSources, Source
-from ._encode import CdrTemplate, MessageTemplate, encode_dynamic_joint_states, encode_joint_states, encode_messages
+from ._encode import (CdrTemplate, MessageTemplate, encode_dynamic_joint_states, encode_joint_states,
+                      encode_messages)
 from .writer import LAYOUTS, BagWriter, write_bag
 
 __all__ = [

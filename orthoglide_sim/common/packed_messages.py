@@ -4,8 +4,8 @@ A JointState, CurrentReference or JointSetpoint of the driver has the same layou
 (the same joint names, three float64 per array, an empty frame_id): only its stamp and values
 change. ``PackedMessage`` serialises one with rclpy (CDR, as ``publish(msg)`` would), finds where
 its stamp and float64 values sit, and each tick writes the new ones there (the bags'
-``CdrTemplate``, the one CDR template patcher) and hands the bytes to ``Publisher.publish`` (rclpy publishes bytes as a serialised message). The
-subscribers receive the same bytes as rosbags' CDR serialisation of the message
+``CdrTemplate``, the one CDR template patcher) and hands the bytes to ``Publisher.publish``
+(rclpy publishes bytes as a serialised message). The subscribers receive the same bytes as rosbags' CDR serialisation of the message
 (tests/sim/nodes/test_driver.py); the driver saves the Python message objects and their conversion,
 ~10 us per message.
 
