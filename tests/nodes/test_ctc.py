@@ -71,7 +71,8 @@ class _CTCRun:
         self.pub_par = self.node.create_publisher(IdentifiedParameters, "/orthoglide/identified_parameters",
                                                   latched)
         self.pub_sp = self.node.create_publisher(JointSetpoint, "/orthoglide/setpoints", 100)
-        self.node.create_subscription(CurrentReference, "/orthoglide/feedforward", on_feedforward, 100)
+        self.node.create_subscription(CurrentReference, "/orthoglide/feedforward", on_feedforward,
+                                      5000)  # every tick of a run, however late this test spins
 
     def wait_for(self, text: str, timeout: float) -> None:
         _wait_for(self.lines, text, timeout, self.proc)
