@@ -70,7 +70,7 @@ class _CTCRun:
                              reliability=ReliabilityPolicy.RELIABLE)
         self.pub_par = self.node.create_publisher(IdentifiedParameters, "/orthoglide/identified_parameters",
                                                   latched)
-        self.pub_sp = self.node.create_publisher(JointSetpoint, "/orthoglide/setpoints", 100)
+        self.pub_sp = self.node.create_publisher(JointSetpoint, "/orthoglide/setpoints", 5000)
         self.node.create_subscription(CurrentReference, "/orthoglide/feedforward", on_feedforward,
                                       5000)  # every tick of a run, however late this test spins
 
