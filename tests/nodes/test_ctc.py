@@ -360,9 +360,7 @@ def test_ctc_monitor_brings_motor_side_positions_to_the_joints(ros_env, tmp_path
     from sensor_msgs.msg import JointState
 
     from orthoglide_msgs.msg import JointSetpoint
-    from ff_reference import arm_currents
-    from orthoglide_ident.model.robots import ROBOTS_DIR
-    from test_control import COUPLED_N, _coupled_ur5
+    from test_control import _coupled_ur5
 
     robot = _coupled_ur5(tmp_path)
     path = tmp_path / "ur5_coupled_ctc.yaml"
