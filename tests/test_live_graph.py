@@ -50,8 +50,9 @@ def test_record_identify_live_and_control_over_ros(tmp_path):
         g.wait_for_ticks(timeout=120.0)  # the driver is publishing (a hang bound, not a figure)
         # live identification gets only what is published after its subscription matched: a
         # recording started before that begins without it (the feed says so)
-        g.wait_for_subscriber("orthoglide/joint_states", "orthoglide_identification")
-        g.wait_for_subscriber("orthoglide/current_reference", "orthoglide_identification")
+        for topic in ("orthoglide/joint_states", "orthoglide/current_reference"):
+            g.wait_for_subscriber(topic, "orthoglide_identification")
+            g.wait_for_log("orthoglide_identification", f"live identification: receiving /{topic}")
         bags = [record(g, "unloaded", "unloaded", 0.0, 12.0, quiet=True)]
         g.set_params("orthoglide_driver", payload="1.983", trajectory="exciting2")
         g.wait_for_robot_time(3.0)  # the new trajectory blends in (2 s of robot time)

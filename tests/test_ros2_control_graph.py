@@ -72,6 +72,8 @@ def test_record_and_identify_a_ros2_control_robot(tmp_path):
         for topic in TOPICS:
             g.wait_for_subscriber(topic, "orthoglide_identification")
             g.wait_for_subscriber(topic, "orthoglide_recorder")
+            # live = offline needs every tick of the recordings: its intake says when data come
+            g.wait_for_log("orthoglide_identification", f"live identification: receiving /{topic}")
         paths = [record(g, "unloaded", "unloaded", 0.0, 15.0, quiet=True)]
         g.set_params(STANDIN, payload=2.5, trajectory="exciting2")
         g.wait_for_robot_time(3.0, "joint_states")  # the new trajectory blends in (robot time)
