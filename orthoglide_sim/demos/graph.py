@@ -267,9 +267,10 @@ class Graph:
 
     def _wait_for_delivery(self, name: str, timeout: float) -> None:
         """Until a probe subscription, made after the awaited one was discovered here, receives a
-        message of ``name``: its publishers have matched a reader announced after the awaited one
-        (the match of two other processes cannot be seen from outside; this is its last step in
-        order). Nothing to wait for while the topic has no publisher: it matches when one comes."""
+        message of ``name``: the publishers reach this process. The match of two other processes
+        cannot be seen from outside (it may come later: a node that must get every tick says when
+        it receives, e.g. the identification's 'live identification: receiving <topic>'). Nothing
+        to wait for while the topic has no publisher."""
         publishers = self.node.get_publishers_info_by_topic(name)
         if not publishers:
             return
