@@ -14,6 +14,22 @@ from orthoglide_sim.demos.graph import Graph  # noqa: E402
 G_TRUE = np.array([2170.0, 2100.0, 2070.0])
 
 
+def _record_ticks(g, name: str, ticks: int) -> str:
+    """A loaded recording of ``ticks`` ticks written (robot time, whatever the machine's load),
+    as node_set.record's service calls; its bag path."""
+    from orthoglide_msgs.srv import StartRecording
+    from std_srvs.srv import Trigger
+
+    res = g.call(StartRecording, "orthoglide/recorder/start", condition="loaded", payload_mass=1.983,
+                 name=name)
+    assert res.success, res.message
+    g.wait_for_status(lambda s: s.recording and s.bag_path == res.bag_path and s.ticks_written >= ticks,
+                      timeout=120.0)
+    stop = g.call(Trigger, "orthoglide/recorder/stop")
+    assert stop.success, stop.message
+    return res.bag_path
+
+
 def _rel(a, b) -> float:
     a, b = np.asarray(a, float), np.asarray(b, float)
     return float(np.max(np.abs(a - b) / np.maximum(np.abs(b), 1e-12)))
@@ -34,13 +50,15 @@ def test_record_identify_live_and_control_over_ros(tmp_path):
         g.wait_for_ticks(timeout=120.0)  # the driver is publishing (a hang bound, not a figure)
         # live identification gets only what is published after its subscription matched: a
         # recording started before that begins without it (the feed says so)
-        g.wait_for_subscriber("orthoglide/joint_states", "orthoglide_identification")
-        g.wait_for_subscriber("orthoglide/current_reference", "orthoglide_identification")
+        for topic in ("orthoglide/joint_states", "orthoglide/current_reference"):
+            g.wait_for_subscriber(topic, "orthoglide_identification")
+            g.wait_for_log("orthoglide_identification", f"live identification: receiving /{topic}")
         bags = [record(g, "unloaded", "unloaded", 0.0, 12.0, quiet=True)]
         g.set_params("orthoglide_driver", payload="1.983", trajectory="exciting2")
-        time.sleep(3.0)
+        g.wait_for_robot_time(3.0)  # the new trajectory blends in (2 s of robot time)
         bags.append(record(g, "loaded", "loaded", 1.983, 12.0, quiet=True))
-        time.sleep(1.5)
+        # live identification has folded in the loaded recording (its feed says so when done)
+        g.wait_for_log("orthoglide_identification", f": {bags[-1]} done;")
 
         # the live estimate went out while recording, and says what it lacked before the payload
         statuses = [m.status for m in g.live]
@@ -58,12 +76,12 @@ def test_record_identify_live_and_control_over_ros(tmp_path):
         g.start("orthoglide_ctc", "ctc")
         g.wait_for_feedforward()
         g.set_params("orthoglide_driver", trajectory="test2", controller="pid")
-        time.sleep(3.0)
-        e_pid = tracking_errors(record(g, "pid", "loaded", 1.983, 2.0, quiet=True))
+        g.wait_for_robot_time(3.0)  # the trajectory blends in, the PID settles
+        e_pid = tracking_errors(_record_ticks(g, "pid", 2000))
         g.set_params("orthoglide_driver", controller="ctc")
-        time.sleep(1.0)
+        g.wait_for_robot_time(1.0)  # the CTC takes over and settles
         before = g.driver_counters()
-        e_ctc = tracking_errors(record(g, "ctc", "loaded", 1.983, 2.0, quiet=True))
+        e_ctc = tracking_errors(_record_ticks(g, "ctc", 2000))
         after = g.driver_counters()
     rms_pid, rms_ctc = (np.sqrt(np.mean(e**2, axis=0)) for e in (e_pid, e_ctc))
     assert len(e_ctc) > 1500
@@ -124,11 +142,15 @@ def test_each_node_stopped_for_a_second_while_recording_loses_nothing(tmp_path):
                      name="stalls")
         assert res.success, res.message
         for name in ("orthoglide_driver", "orthoglide_recorder", "orthoglide_identification", "orthoglide_ctc"):
+            # a second of the recording going on, then this node stopped for a second: the
+            # durations are the experiment's (a stall), not a wait for something
             time.sleep(1.0)
             g.procs[name].send_signal(signal.SIGSTOP)
             time.sleep(1.0)
             g.procs[name].send_signal(signal.SIGCONT)
-        time.sleep(1.0)
+        # the recording goes on after the last stall: a second more of ticks written
+        written = g.wait_for_status(lambda s: s.recording).ticks_written
+        g.wait_for_status(lambda s: s.recording and s.ticks_written >= written + 1000, timeout=120.0)
         stop = g.call(Trigger, "orthoglide/recorder/stop")
         after = g.driver_counters()
         assert stop.success, stop.message

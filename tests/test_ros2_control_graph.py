@@ -3,7 +3,6 @@ joint_state_broadcaster publishes, the recorder records it, the identification i
 and from the bags (`make demo-ros2-control` in short)."""
 from __future__ import annotations
 
-import time
 from pathlib import Path
 
 import numpy as np
@@ -73,11 +72,14 @@ def test_record_and_identify_a_ros2_control_robot(tmp_path):
         for topic in TOPICS:
             g.wait_for_subscriber(topic, "orthoglide_identification")
             g.wait_for_subscriber(topic, "orthoglide_recorder")
+            # live = offline needs every tick of the recordings: its intake says when data come
+            g.wait_for_log("orthoglide_identification", f"live identification: receiving /{topic}")
         paths = [record(g, "unloaded", "unloaded", 0.0, 15.0, quiet=True)]
         g.set_params(STANDIN, payload=2.5, trajectory="exciting2")
-        time.sleep(3.0)
+        g.wait_for_robot_time(3.0, "joint_states")  # the new trajectory blends in (robot time)
         paths.append(record(g, "loaded", "loaded", 2.5, 15.0, quiet=True))
-        time.sleep(1.5)
+        # live identification has folded in the loaded recording (its feed says so when done)
+        g.wait_for_log("orthoglide_identification", f": {paths[-1]} done;")
         live = identify(g, []).parameters
         offline = identify(g, paths).parameters
         log = (tmp_path / "logs" / f"{STANDIN}.log").read_text()

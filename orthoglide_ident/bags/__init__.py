@@ -57,7 +57,8 @@ from .reader import (
 )
 from .reindex import FileReport, ReindexResult, left_open, reindex
 from .sources import BagSources, Source
-from ._encode import MessageTemplate, encode_dynamic_joint_states, encode_joint_states, encode_messages
+from ._encode import (CdrTemplate, MessageTemplate, encode_dynamic_joint_states, encode_joint_states,
+                      encode_messages)
 from .writer import LAYOUTS, BagWriter, write_bag
 
 __all__ = [
@@ -79,6 +80,7 @@ __all__ = [
     "JTC_STATE_TYPE",
     "LAYOUTS",
     "MASS_KEY",
+    "CdrTemplate",
     "MessageTemplate",
     "METADATA_NAME",
     "POSITION_SIDE_KEY",

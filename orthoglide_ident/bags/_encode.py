@@ -46,23 +46,47 @@ def _template(msgtype: str, names: tuple[str, ...], shape: tuple) -> tuple[np.nd
     return np.frombuffer(raw, np.uint8), lay
 
 
+class CdrTemplate:
+    """A serialised message whose header.stamp (bytes 4..12, after the 4-byte encapsulation)
+    and float64 values (at ``offsets``, 8 bytes each) are written into a copy of ``raw``: the
+    one CDR template patcher (the bags' encoders, the broadcasters' and the simulated driver's
+    per-tick messages)."""
+
+    def __init__(self, raw: bytes | np.ndarray, offsets: Sequence[int]) -> None:
+        self.raw = np.frombuffer(bytes(raw), np.uint8)
+        self.offsets = np.asarray(offsets, np.int64)
+        self._idx = (self.offsets[:, None] + np.arange(8)).reshape(-1)
+
+    def pack(self, sec: int, nanosec: int, values: Sequence[float] | np.ndarray) -> bytes:
+        """One message: stamp (sec, nanosec) and ``values`` (len(offsets),) in offsets' order."""
+        out = self.raw.copy()
+        out[4:12] = np.frombuffer(_STAMP.pack(sec, nanosec), np.uint8)
+        out[self._idx] = np.ascontiguousarray(values, "<f8").view(np.uint8)
+        return out.tobytes()
+
+    def pack_many(self, stamps_ns: np.ndarray, values: np.ndarray) -> np.ndarray:
+        """``(N, L) uint8``: one message per stamp (ns), row k of ``values`` (N, len(offsets))."""
+        stamps_ns = np.asarray(stamps_ns, np.int64)
+        n = len(stamps_ns)
+        out = np.tile(self.raw, (n, 1))
+        sec, nsec = np.divmod(stamps_ns, 1_000_000_000)
+        out[:, 4:8] = sec.astype("<i4").view(np.uint8).reshape(-1, 4)
+        out[:, 8:12] = nsec.astype("<u4").view(np.uint8).reshape(-1, 4)
+        if len(self.offsets):
+            vals = np.ascontiguousarray(values, "<f8").reshape(n, len(self.offsets))
+            out[:, self._idx] = vals.view(np.uint8).reshape(n, -1)
+        return out
+
+
 def _encode(msgtype: str, names: Sequence[str], shape: tuple, stamps_ns: np.ndarray,
             columns: Mapping[tuple[str, str], np.ndarray]) -> np.ndarray:
     """``(N, L) uint8``: one message per stamp, column ``(joint, field)`` from ``columns``."""
-    stamps_ns = np.asarray(stamps_ns, np.int64)
     tpl, lay = _template(msgtype, tuple(names), shape)
-    n = len(stamps_ns)
-    out = np.tile(tpl, (n, 1))
-    sec, nsec = np.divmod(stamps_ns, 1_000_000_000)
-    out[:, 4:8] = sec.astype("<i4").view(np.uint8).reshape(-1, 4)
-    out[:, 8:12] = nsec.astype("<u4").view(np.uint8).reshape(-1, 4)
-    if lay.columns:
-        vals = np.empty((n, len(lay.columns)), "<f8")
-        for k, col in enumerate(lay.columns):
-            vals[:, k] = columns[col]
-        idx = (lay.offsets[:, None] + np.arange(8)).reshape(-1)
-        out[:, idx] = vals.view(np.uint8).reshape(n, -1)
-    return out
+    n = len(np.asarray(stamps_ns))
+    vals = np.empty((n, len(lay.columns)), "<f8")
+    for k, col in enumerate(lay.columns):
+        vals[:, k] = columns[col]
+    return CdrTemplate(tpl, lay.offsets).pack_many(stamps_ns, vals)
 
 
 def _by_joint(names: Sequence[str], field: str, values: np.ndarray
@@ -125,9 +149,9 @@ class MessageTemplate:
     the bytes equal :func:`encode_joint_states` / :func:`encode_dynamic_joint_states`'."""
 
     def __init__(self, msgtype: str, names: Sequence[str], shape: tuple) -> None:
-        self._tpl, lay = _template(msgtype, tuple(names), shape)
+        tpl, lay = _template(msgtype, tuple(names), shape)
         self.columns = lay.columns
-        self._idx = (lay.offsets[:, None] + np.arange(8)).reshape(-1)
+        self._cdr = CdrTemplate(tpl, lay.offsets)
 
     @classmethod
     def joint_state(cls, names: Sequence[str], fields: Sequence[str] = JOINT_STATE_FIELDS
@@ -143,8 +167,4 @@ class MessageTemplate:
 
     def encode(self, stamp_ns: int, values: np.ndarray) -> bytes:
         """CDR bytes of the message stamped ``stamp_ns`` with ``values`` (len(columns),)."""
-        out = self._tpl.copy()
-        sec, nsec = divmod(int(stamp_ns), 1_000_000_000)
-        out[4:12] = np.frombuffer(_STAMP.pack(sec, nsec), np.uint8)
-        out[self._idx] = np.asarray(values, "<f8").view(np.uint8)
-        return out.tobytes()
+        return self._cdr.pack(*divmod(int(stamp_ns), 1_000_000_000), values)

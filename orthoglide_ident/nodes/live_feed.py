@@ -123,6 +123,7 @@ class LiveFeed:
         latched = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL,
                              reliability=ReliabilityPolicy.RELIABLE)
         self.reliability = dict.fromkeys(self.TOPICS, ReliabilityPolicy.RELIABLE)  # subscribed with
+        self.receiving: set[str] = set()  # topics whose first message arrived (said once each)
         self.taker = BatchTaker(node, [self._intake(key, stream) for key in self.TOPICS], period_s=0.01)
         # deeper than the recorder's latched 1: a stop followed at once by the next start must not
         # be coalesced into the start (the stop carries the recording's last tick)
@@ -141,7 +142,15 @@ class LiveFeed:
 
     def _intake(self, key: str, qos: QoSProfile) -> BatchTopic:
         topic, cls, _ = self.TOPICS[key]
-        return BatchTopic(cls, topic, qos, lambda batch, buf=self.buffers[key]: buf.extend(m[0] for m in batch))
+        buf = self.buffers[key]
+
+        def on_batch(batch) -> None:
+            buf.extend(m[0] for m in batch)
+            if key not in self.receiving:  # matched with its publishers: from now on, nothing missed
+                self.receiving.add(key)
+                self.node.get_logger().info("live identification: receiving "
+                                            f"{self.node.resolve_topic_name(topic)}")
+        return BatchTopic(cls, topic, qos, on_batch)
 
     def follow_publishers(self) -> None:
         """Subscribe best effort while a publisher offers best effort (a reliable subscription

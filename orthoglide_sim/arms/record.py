@@ -21,6 +21,7 @@ from orthoglide_sim.arms.excitation import designed_trajectory
 from orthoglide_sim.arms.limits import MotionLimits, motion_limits
 from orthoglide_sim.arms.truth import ArmPayload, ArmTruth, load_truth
 from orthoglide_sim.arms.plant import MujocoPlant
+from orthoglide_sim.arms.unmodelled import DriveState, Unmodelled
 from orthoglide_sim.common.trajectories import FourierTrajectory
 
 NOISE_STRIDE = 10  # ticks between the reference samples the rms current is taken over
@@ -77,13 +78,15 @@ def current_noise_std(plant: MujocoPlant, q: np.ndarray, qd: np.ndarray, qdd: np
 def simulate_arm(duration_s: float, robot: str = "ur5", payload: str | None = None,
                  trajectory: str | FourierTrajectory = "exciting1", seed: int = 0,
                  truth: ArmTruth | None = None, noise: bool = True, start_ns: int = 0,
-                 limits: MotionLimits | None = None) -> ArmRecord:
+                 limits: MotionLimits | None = None,
+                 effects: Unmodelled | None = None) -> ArmRecord:
     """The arm tracking ``trajectory`` for ``duration_s`` s under the 1 kHz PID (arm_simulator).
 
     robot: a bundled name, robot YAML or URDF (ignored when ``truth`` is given); payload: None,
     "2.0", "1.0" or another of ``truth.payloads``; trajectory: "exciting1", "exciting2", a .json
     or a FourierTrajectory (designed_runs.py: a run the product designed); limits: the stop
-    limits (default arm_limits.motion_limits).
+    limits (default arm_limits.motion_limits); effects: drive effects the identification's model
+    lacks (orthoglide_sim/arms/unmodelled.py), None: the plant the model describes.
     Raises ConfigError on bad arguments, WorkspaceError if the arm leaves its stop limits.
     """
     if not duration_s > 0:
@@ -102,7 +105,25 @@ def simulate_arm(duration_s: float, robot: str = "ur5", payload: str | None = No
                             asim.quantise(q_ref[0] - qd_ref[0] * asim.TICK, truth.encoder_resolution),
                             qd_ref[0], torque0)
     plant.reset(q_ref[0], qd_ref[0])
-    res = asim.run_closed_loop(plant, pid, q_ref, qd_ref, noise_a, limits)
+    drive = None
+    if effects is not None and effects.any:
+        drive = _drive_state(plant, effects, inertia, torque0, q_ref[0], qd_ref[0], qdd_ref[0],
+                             arm.nominal_gains)
+    res = asim.run_closed_loop(plant, pid, q_ref, qd_ref, noise_a, limits, drive)
     stamps = start_ns + np.arange(N, dtype=np.int64) * int(round(asim.TICK * 1e9))
     return ArmRecord(stamps, res.q_meas, res.v_tau, truth, load, res.q, res.qd, q_ref, res.current,
                      std if noise else np.zeros(arm.n), trajectory_name(trajectory), seed, res.saturated)
+
+
+def _drive_state(plant: MujocoPlant, effects: Unmodelled, inertia: np.ndarray, torque0: np.ndarray,
+                 q0: np.ndarray, qd0: np.ndarray, qdd0: np.ndarray,
+                 nominal_gains: np.ndarray) -> DriveState:
+    """The unmodelled effects' states at t_0, in steady state on the reference. Behind a spring
+    the rotor inertia is the motor's, no longer the link's (MuJoCo's armature set to 0)."""
+    armature = plant.truth.drive_array("armature")
+    drive = DriveState(effects, inertia, armature, plant.truth.drive_array("frictionloss"),
+                       asim.TIMESTEP)
+    if effects.two_mass:
+        plant.model.dof_armature[plant.dof] = 0.0
+    drive.start(q0, qd0, torque0 / nominal_gains, torque0 - armature * qdd0)
+    return drive

@@ -14,6 +14,10 @@ Per tick k (t_k = k TICK), as orthoglide_sim/orthoglide/simulator.py does for th
 4. the drive applies g_tau (v_tau + noise) (the true gain, white current noise held over the
    tick) during [t_k, t_k+1): zero-order hold, SUBSTEPS MuJoCo RK4 steps.
 
+With unmodelled effects (orthoglide_sim/arms/unmodelled.py: joint elasticity, backlash, a
+second-order current loop, Stribeck friction) step 4 is taken one MuJoCo step at a time with
+those effects between the current and the link.
+
 Leaving the stop limits (arm_limits) or a non-finite state raises WorkspaceError: a simulated
 robot that leaves its workspace is an error, not a number.
 """
@@ -27,6 +31,7 @@ import numpy as np
 from orthoglide_ident.errors import WorkspaceError
 from orthoglide_sim.arms.limits import MotionLimits
 from orthoglide_sim.arms.plant import TIMESTEP, MujocoPlant
+from orthoglide_sim.arms.unmodelled import DriveState
 
 TICK = 1.0e-3  # s, controller period (1 kHz)
 SUBSTEPS = int(round(TICK / TIMESTEP))  # MuJoCo steps per tick
@@ -114,19 +119,42 @@ def _check(plant: MujocoPlant, limits: MotionLimits, k: int, v_tau: np.ndarray) 
 
 
 def run_closed_loop(plant: MujocoPlant, pid: ArmPID, q_ref: np.ndarray, qd_ref: np.ndarray,
-                    noise: np.ndarray, limits: MotionLimits) -> LoopResult:
-    """Track the sampled reference (N, n) from the plant's current state; ``noise`` (N, n) A."""
+                    noise: np.ndarray, limits: MotionLimits,
+                    drive: DriveState | None = None) -> LoopResult:
+    """Track the sampled reference (N, n) from the plant's current state; ``noise`` (N, n) A;
+    ``drive``: the unmodelled effects' states (orthoglide_sim/arms/unmodelled.py), None: none."""
     N, n = q_ref.shape
     g_tau = plant.truth.drive_array("g_tau")
     resolution = plant.truth.encoder_resolution
     out = LoopResult(*(np.empty((N, n)) for _ in range(5)), saturated=0)
     for k in range(N):
         out.q[k], out.qd[k] = plant.q, plant.qd
-        out.q_meas[k] = quantise(out.q[k], resolution)
+        # the encoder is on the motor: behind a spring or a gap, the motor's angle
+        behind = drive is not None and drive.fx.two_mass
+        out.q_meas[k] = quantise(drive.theta if behind else out.q[k], resolution)
         v = pid.current(out.q_meas[k], q_ref[k], qd_ref[k])
         out.v_tau[k] = v
         out.current[k] = v + noise[k]
         out.saturated += bool(np.any(np.abs(v) >= pid.current_limit))
-        plant.step(g_tau * out.current[k], SUBSTEPS)
+        if drive is None:
+            plant.step(g_tau * out.current[k], SUBSTEPS)
+        else:
+            _step_unmodelled(plant, drive, g_tau, out.current[k])
         _check(plant, limits, k, v)
     return out
+
+
+def _step_unmodelled(plant: MujocoPlant, drive: DriveState, g_tau: np.ndarray,
+                     current: np.ndarray) -> None:
+    """One tick of SUBSTEPS steps, the unmodelled effects updated at every step."""
+    for _ in range(SUBSTEPS):
+        motor_torque = g_tau * drive.current(current)
+        q, qd = plant.q, plant.qd
+        on_link = drive.stribeck(qd)
+        if drive.fx.two_mass:
+            spring = drive.spring(q, qd)
+            drive.advance_motor(motor_torque, spring)
+            on_link = on_link + spring
+        else:
+            on_link = on_link + motor_torque
+        plant.step(on_link, 1)

@@ -3,9 +3,9 @@
 A JointState, CurrentReference or JointSetpoint of the driver has the same layout at every tick
 (the same joint names, three float64 per array, an empty frame_id): only its stamp and values
 change. ``PackedMessage`` serialises one with rclpy (CDR, as ``publish(msg)`` would), finds where
-its stamp and float64 values sit, and each tick writes the new ones there (struct.pack_into) and
-hands the bytes to ``Publisher.publish`` (rclpy publishes bytes as a serialised message). The
-subscribers receive the same bytes as rosbags' CDR serialisation of the message
+its stamp and float64 values sit, and each tick writes the new ones there (the bags'
+``CdrTemplate``, the one CDR template patcher) and hands the bytes to ``Publisher.publish``
+(rclpy publishes bytes as a serialised message). The subscribers receive the same bytes as rosbags' CDR serialisation of the message
 (tests/sim/nodes/test_driver.py); the driver saves the Python message objects and their conversion,
 ~10 us per message.
 
@@ -19,7 +19,10 @@ from __future__ import annotations
 import struct
 from typing import Any, Sequence
 
+import numpy as np
 from rclpy.serialization import deserialize_message, serialize_message
+
+from orthoglide_ident.bags import CdrTemplate
 
 _STAMP = struct.Struct("<iI")
 _SENTINEL_SEC, _SENTINEL_NSEC = 0x5EC5EC5E, 0x0A5EC0DE  # found once in the serialised template
@@ -40,7 +43,8 @@ def _exact(raw: bytes, msg_type: Any) -> bytes:
 
 class PackedMessage:
     """Serialised message of ``msg_type`` with ``name`` (joint names) and float64 arrays
-    ``fields`` of len(name) values each; ``pack(sec, nanosec, *values)`` returns its bytes."""
+    ``fields`` of len(name) values each; ``pack(sec, nanosec, *values)`` returns its bytes.
+    The sentinels place the stamp and the values; the patching is the bags' CdrTemplate."""
 
     def __init__(self, msg_type: Any, name: Sequence[str], fields: Sequence[str]):
         n = len(name)
@@ -50,10 +54,11 @@ class PackedMessage:
         for field, values in zip(fields, sentinels):
             setattr(msg, field, values)
         raw = _exact(serialize_message(msg), msg_type)
-        self._stamp_at = self._find(raw, _STAMP.pack(_SENTINEL_SEC, _SENTINEL_NSEC), "header.stamp")
-        self._values = struct.Struct(f"<{n}d")
-        self._at = [self._find(raw, self._values.pack(*v), f) for f, v in zip(fields, sentinels)]
-        self.buffer = bytearray(raw)
+        if self._find(raw, _STAMP.pack(_SENTINEL_SEC, _SENTINEL_NSEC), "header.stamp") != 4:
+            raise ValueError("header.stamp is not the message's first field")
+        values = struct.Struct(f"<{n}d")
+        at = [self._find(raw, values.pack(*v), f) for f, v in zip(fields, sentinels)]
+        self._cdr = CdrTemplate(raw, [a + 8 * j for a in at for j in range(n)])
 
     @staticmethod
     def _find(raw: bytes, pattern: bytes, what: str) -> int:
@@ -64,7 +69,4 @@ class PackedMessage:
 
     def pack(self, sec: int, nanosec: int, *values: Sequence[float]) -> bytes:
         """The message's bytes with this stamp and these values (one sequence per field)."""
-        _STAMP.pack_into(self.buffer, self._stamp_at, sec, nanosec)
-        for at, v in zip(self._at, values):
-            self._values.pack_into(self.buffer, at, *v)
-        return bytes(self.buffer)
+        return self._cdr.pack(sec, nanosec, np.concatenate([np.asarray(v, float) for v in values]))

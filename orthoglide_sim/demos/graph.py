@@ -7,6 +7,7 @@ the live graph; nothing here is numerical.
 """
 from __future__ import annotations
 
+import importlib
 import os
 import signal
 import subprocess
@@ -251,8 +252,8 @@ class Graph:
 
     def wait_for_subscriber(self, topic: str, node_prefix: str, timeout: float = 30.0) -> float:
         """Seconds until a node whose name starts with ``node_prefix`` subscribes to ``topic`` (its
-        batch intake is the hidden ``_<node>_rx`` node), plus 0.5 s for DDS to match it with the
-        publishers: a subscriber gets nothing published before that."""
+        batch intake is the hidden ``_<node>_rx`` node) and the topic's publishers deliver to a
+        subscription made after it: a subscriber gets nothing published before DDS matched it."""
         name = self.node.resolve_topic_name(topic)
         t0 = time.monotonic()
         while not any(i.node_name.lstrip("_").startswith(node_prefix)
@@ -261,8 +262,45 @@ class Graph:
                 self.check_alive()
                 raise GraphError(f"{node_prefix} did not subscribe to {name} within {timeout:.0f} s")
             time.sleep(0.05)
-        time.sleep(0.5)
+        self._wait_for_delivery(name, timeout)
         return time.monotonic() - t0
+
+    def _wait_for_delivery(self, name: str, timeout: float) -> None:
+        """Until a probe subscription, made after the awaited one was discovered here, receives a
+        message of ``name``: the publishers reach this process. The match of two other processes
+        cannot be seen from outside (it may come later: a node that must get every tick says when
+        it receives, e.g. the identification's 'live identification: receiving <topic>'). Nothing
+        to wait for while the topic has no publisher."""
+        publishers = self.node.get_publishers_info_by_topic(name)
+        if not publishers:
+            return
+        package, kind, type_name = publishers[0].topic_type.split("/")
+        msg_type = getattr(importlib.import_module(f"{package}.{kind}"), type_name)
+        got = [0]
+        any_reliability = QoSProfile(depth=10, reliability=ReliabilityPolicy.BEST_EFFORT)
+        self._listen(msg_type, name, any_reliability, lambda m: got.__setitem__(0, 1),
+                     lambda: got[0] > 0, timeout,
+                     lambda: f"no message on {name} within {timeout:.0f} s of its subscriber")
+
+    def wait_for_log(self, name: str, text: str, timeout: float = 120.0) -> str:
+        """The first line of node ``name``'s log holding ``text`` (what the node says when it has
+        done something); GraphError with the log's last lines after ``timeout`` s (a hang bound)."""
+        path = self.log_dir / f"{name}.log"
+        t_end = time.monotonic() + timeout
+        while not (lines := [ln for ln in path.read_text().splitlines() if text in ln]):
+            if time.monotonic() > t_end:
+                self.check_alive()
+                raise GraphError(f"{name} did not log {text!r} within {timeout:.0f} s: "
+                                 + " | ".join(self.log_tail(name, 3)))
+            time.sleep(0.05)
+        return lines[0]
+
+    def wait_for_robot_time(self, seconds: float, topic: str = "orthoglide/joint_states",
+                            timeout: float = 120.0) -> float:
+        """Until ``seconds`` of robot time went by: that many seconds of 1 kHz joint states
+        arrived (a trajectory blends in, a controller settles, in the robot's time whatever the
+        load of the machine). Wall-clock seconds it took."""
+        return self.wait_for_messages(JointState, topic, round(seconds * 1000), timeout)
 
     def wait_for_ticks(self, timeout: float = 30.0) -> float:
         """Seconds until a joint state arrives (the driver or robot is publishing)."""

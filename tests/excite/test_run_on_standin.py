@@ -107,8 +107,10 @@ def test_other_joints_are_rejected_and_ctrl_c_cancels(graph):
                     on_feedback=lambda fb: state.update(accepted=True),
                     on_interrupt=lambda: state.update(cancelled=True))
     assert out.status == "interrupted" and state["cancelled"]
-    time.sleep(0.5)
-    log = (graph.tmp / "logs" / f"{STANDIN}.log").read_text()
+    log_path = graph.tmp / "logs" / f"{STANDIN}.log"
+    t_end = time.monotonic() + 60  # the stand-in logs the cancel it acknowledged (a hang bound)
+    while "goal canceled" not in (log := log_path.read_text()) and time.monotonic() < t_end:
+        time.sleep(0.05)
     assert "goal rejected: goal joints" in log and "goal canceled" in log
 
 
@@ -135,11 +137,10 @@ def test_the_excitation_node_runs_and_cancels_as_a_service(graph):
         payload_mass=1.0, name="cancelled")))
     t.start()
     bag = graph.tmp / "bags" / "cancelled"
-    for _ in range(600):  # until the recording has begun (after the move to the start pose)
-        if (bag / "metadata.yaml").exists():
-            break
-        time.sleep(0.1)
-    time.sleep(1.0)
+    # until the recording has begun (after the move to the start pose) and half a second of it
+    # is written: the cancel comes mid-run
+    graph.wait_for_status(lambda s: s.recording and s.bag_path.endswith("cancelled")
+                          and s.ticks_written >= 500, timeout=120.0)
     assert graph.call(Trigger, "orthoglide/excitation/cancel").success
     t.join(timeout=120)
     assert answers and not answers[0].success and "cancel requested" in answers[0].message

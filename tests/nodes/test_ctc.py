@@ -10,7 +10,10 @@ import time
 import numpy as np
 import pytest
 
+from ff_reference import orthoglide_currents
 from orthoglide_ident.ros import processes as children  # children end with this process
+
+HANG_S = 120.0  # s: a bound on a hang (a busy machine takes what it takes), not a figure
 
 
 def test_ctc_help_does_not_start_ros(capsys):
@@ -67,8 +70,9 @@ class _CTCRun:
                              reliability=ReliabilityPolicy.RELIABLE)
         self.pub_par = self.node.create_publisher(IdentifiedParameters, "/orthoglide/identified_parameters",
                                                   latched)
-        self.pub_sp = self.node.create_publisher(JointSetpoint, "/orthoglide/setpoints", 100)
-        self.node.create_subscription(CurrentReference, "/orthoglide/feedforward", on_feedforward, 100)
+        self.pub_sp = self.node.create_publisher(JointSetpoint, "/orthoglide/setpoints", 5000)
+        self.node.create_subscription(CurrentReference, "/orthoglide/feedforward", on_feedforward,
+                                      5000)  # every tick of a run, however late this test spins
 
     def wait_for(self, text: str, timeout: float) -> None:
         _wait_for(self.lines, text, timeout, self.proc)
@@ -144,20 +148,24 @@ def test_ctc_node_waits_for_parameters_then_feeds_forward(ros_env):
         publish_setpoints(0, 10)
         run.spin(0.5)
         assert got == {}, "published a feed-forward before parameters arrived"
-        run.wait_for("no identified parameters yet", 10)
+        run.wait_for("no identified parameters yet", HANG_S)
         run.publish_parameters(p, [float(v) for v in p.chi_b])
-        run.wait_for("parameters in", 30)
+        run.wait_for("parameters in", HANG_S)
         publish_setpoints(10, 30)
-        run.spin_until(lambda: set(range(10, 35)) <= {(s - t0) // 10**6 for s in got}, 30, "not fed")
+        run.spin_until(lambda: set(range(10, 35)) <= {(s - t0) // 10**6 for s in got}, HANG_S, "not fed")
     finally:
         run.close()
     # every tick from the parameters on is fed (setpoints kept from before them too, when their
     # successor came); 39 has no successor yet and the last batch may still wait for more
     expected = feedforward_currents(*ref, p)
+    # the same from the simulator's plant (tests/ff_reference.py): not the model under test
+    independent = orthoglide_currents(p.drive_gains, p.payload_mass, *ref)
     ticks = sorted((s - t0) // 10**6 for s in got)
     assert set(range(10, 35)) <= set(ticks) <= set(range(0, 39)), (ticks, "".join(run.lines))
     for k in ticks:
-        np.testing.assert_allclose(got[t0 + k * 10**6], expected[k], rtol=1e-9)
+        np.testing.assert_allclose(got[t0 + k * 10**6], expected[k], rtol=1e-9)  # transported
+        np.testing.assert_allclose(got[t0 + k * 10**6], independent[k], rtol=1e-9,
+                                   atol=1e-9 * np.abs(independent).max())
 
 
 @pytest.mark.parametrize("args, reason", [(["-p", "batch:=0"], "parameter batch: must be >= 1"),
@@ -190,21 +198,21 @@ def test_ctc_node_clips_to_the_current_limit_and_stops_on_nan(ros_env):
         ``fed`` feed-forwards arrived."""
         before = run.said(answer)
         run.publish_parameters(p, values)
-        run.spin_until(lambda: run.said(answer) > before, 30, f"the node never logged {answer!r}")
+        run.spin_until(lambda: run.said(answer) > before, HANG_S, f"the node never logged {answer!r}")
         for k in range(first, first + 20):
             run.publish_setpoint(ref, k, 10**11 + k * 10**6, qdd_scale=qdd_scale)
-        run.spin_until(lambda: len(got) >= fed, 30, f"{len(got)} of {fed} feed-forwards")
+        run.spin_until(lambda: len(got) >= fed, HANG_S, f"{len(got)} of {fed} feed-forwards")
 
     try:
         run.start()
         publish([1000.0 * float(v) for v in p.chi_b], 0, "parameters in", 15)
-        run.wait_for("clipped", 10)
+        run.wait_for("clipped", HANG_S)
         assert np.max(np.abs(got)) == pytest.approx(0.5), got
         publish([float("nan")] * len(p.names), 20, "rejected, keeping the previous ones", 35)
         n = len(got)
         assert np.max(np.abs(got)) == pytest.approx(0.5)  # still fed, with the old ones
         publish([1000.0 * float(v) for v in p.chi_b], 40, "parameters in", 0, qdd_scale=float("nan"))
-        run.wait_for("stopped: non-finite feed-forward", 10)
+        run.wait_for("stopped: non-finite feed-forward", HANG_S)
         assert len(got) <= n + 1 and run.proc.poll() is None  # the tick held back before the NaN, at most
     finally:
         run.close()
@@ -232,7 +240,7 @@ def test_ctc_node_with_consistent_uses_the_consistent_set_only(ros_env):
                                          values=[float(v) for v in p.chi_b],
                                          drive_gains=[float(g) for g in p.drive_gains],
                                          payload_mass=1.983))
-        run.wait_for("parameters in (tls consistent)", 30)
+        run.wait_for("parameters in (tls consistent)", HANG_S)
     finally:
         run.close()
 
@@ -256,30 +264,33 @@ def test_ctc_node_refuses_a_model_that_does_not_fit_and_keeps_the_old_one(ros_en
     try:
         run.start()
         run.publish_parameters(p, [float(v) for v in p.chi_b])
-        run.spin_until(lambda: run.said("parameters in"), 30, "no parameters in")
+        run.spin_until(lambda: run.said("parameters in"), HANG_S, "no parameters in")
         for k in range(0, 20):
             run.publish_setpoint(ref, k, t0 + k * 10**6)
         other_robot = IdentifiedParameters(names=["m_shoulder_link", "zz_upper_arm_link"], values=[3.7, 0.1],
                                            drive_gains=[13.0] * 6, payload_mass=1.0)
         run.pub_par.publish(other_robot)
         run.spin_until(lambda: run.said("rejected, keeping the previous ones: unknown base parameter name(s) "
-                                        "m_shoulder_link"), 30, "the other robot's model was not refused")
+                                        "m_shoulder_link"), HANG_S, "the other robot's model was not refused")
         for k in range(20, 40):
             run.publish_setpoint(ref, k, t0 + k * 10**6)
         two_gains = IdentifiedParameters(names=list(p.names), values=[float(v) for v in p.chi_b],
                                          drive_gains=[2100.0, 2100.0], payload_mass=1.983)
         run.pub_par.publish(two_gains)
-        run.spin_until(lambda: run.said("drive_gains must be 3 positive numbers"), 30, "two gains not refused")
+        run.spin_until(lambda: run.said("drive_gains must be 3 positive numbers"), HANG_S, "two gains not refused")
         for k in range(40, 60):
             run.publish_setpoint(ref, k, t0 + k * 10**6)
-        run.spin_until(lambda: set(range(55)) <= {(s - t0) // 10**6 for s in got}, 30, "feed-forward stopped")
+        run.spin_until(lambda: set(range(55)) <= {(s - t0) // 10**6 for s in got}, HANG_S, "feed-forward stopped")
     finally:
         run.close()
     expected = feedforward_currents(*ref, p)
+    independent = orthoglide_currents(p.drive_gains, p.payload_mass, *ref)  # the plant's
     ticks = sorted((s - t0) // 10**6 for s in got)
     assert set(range(0, 55)) <= set(ticks), (ticks, "".join(run.lines))
     for k in ticks:
-        np.testing.assert_allclose(got[t0 + k * 10**6], expected[k], rtol=1e-9)
+        np.testing.assert_allclose(got[t0 + k * 10**6], expected[k], rtol=1e-9)  # transported
+        np.testing.assert_allclose(got[t0 + k * 10**6], independent[k], rtol=1e-9,
+                                   atol=1e-9 * np.abs(independent).max())
     assert run.proc.returncode == 0
 
 
@@ -291,11 +302,14 @@ def test_ctc_node_through_a_coupled_transmission_feeds_each_motor(ros_env, tmp_p
     import orthoglide_msgs.msg  # noqa: F401
     from orthoglide_ident.control import CTCParameters, feedforward_currents
     from orthoglide_msgs.msg import IdentifiedParameters, JointSetpoint
-    from test_control import _coupled_ur5
+    from ff_reference import arm_currents
+    from orthoglide_ident.model.robots import ROBOTS_DIR
+    from test_control import COUPLED_N, _coupled_ur5
 
     robot = _coupled_ur5(tmp_path)
     joints = robot.transmission.joints
-    p = CTCParameters.from_values(robot.names, robot.K @ robot.standard_values(),
+    chi_st = robot.standard_values()
+    p = CTCParameters.from_values(robot.names, robot.K @ chi_st,
                                   [0.13, 0.13, 0.1, 0.1, 0.1, 0.1], 0.0, model=robot)
     got: dict[int, tuple[list[str], list[float]]] = {}
     limit = [5.0, 5.0, 5.0, 5.0, 5.0, 0.02]  # the coupled motor's clips
@@ -313,21 +327,25 @@ def test_ctc_node_through_a_coupled_transmission_feeds_each_motor(ros_env, tmp_p
         run.pub_par.publish(IdentifiedParameters(
             names=list(p.names), values=[float(v) for v in p.chi_b],
             drive_gains=[float(g) for g in p.drive_gains], payload_mass=0.0))
-        run.wait_for("parameters in", 30)
+        run.wait_for("parameters in", HANG_S)
         for k in range(30):
             m = JointSetpoint(name=list(joints), position=list(q[k]), velocity=list(qd[k]),
                               acceleration=list(qdd[k]))
             m.header.stamp.sec, m.header.stamp.nanosec = divmod(t0 + k * 10**6, 10**9)
             run.pub_sp.publish(m)
             run.spin(0.003)
-        run.spin_until(lambda: set(range(0, 25)) <= {(s - t0) // 10**6 for s in got}, 30,
+        run.spin_until(lambda: set(range(0, 25)) <= {(s - t0) // 10**6 for s in got}, HANG_S,
                        "not fed")
     finally:
         run.close()
     expected = np.clip(feedforward_currents(q, qd, qdd, p), -np.array(limit), limit)
+    # the same from Pinocchio's RNEA of the URDF through N, the motor terms by hand
+    independent = np.clip(arm_currents(robot, ROBOTS_DIR / "ur5.urdf", chi_st, None, p.drive_gains,
+                                       0.0, q, qd, qdd, reduction=COUPLED_N), -np.array(limit), limit)
     for s, (names, v) in got.items():
         assert names == list(robot.joint_names)
-        np.testing.assert_allclose(v, expected[(s - t0) // 10**6], rtol=1e-9, atol=1e-12)
+        np.testing.assert_allclose(v, expected[(s - t0) // 10**6], rtol=1e-9, atol=1e-12)  # transported
+        np.testing.assert_allclose(v, independent[(s - t0) // 10**6], rtol=1e-9, atol=1e-12)
     assert any(abs(v[5]) == pytest.approx(0.02) for _, v in got.values())
 
 
@@ -376,7 +394,7 @@ def test_ctc_monitor_brings_motor_side_positions_to_the_joints(ros_env, tmp_path
             js.header.stamp.sec, js.header.stamp.nanosec = divmod(t0 + k * step, 10**9)
             pub_js.publish(js)
             run.spin(0.003)
-        run.wait_for("tracking error over", 30)
+        run.wait_for("tracking error over", HANG_S)
     finally:
         run.close()
     line = next(x for x in run.lines if "tracking error over" in x)
@@ -405,7 +423,7 @@ def test_ctc_node_states_its_lead_and_cpu_on_diagnostics_and_sums_up_at_exit(ros
     try:
         run.start()
         run.publish_parameters(p, [float(v) for v in p.chi_b])
-        run.wait_for("parameters in", 30)
+        run.wait_for("parameters in", HANG_S)
         t0 = time.time_ns() + 300 * 10**6  # tick k at t0 + k ms, published ~0.2 s ahead
         for first in range(0, n, 100):
             run.spin(max(0.0, (t0 + (first - 200) * 10**6 - time.time_ns()) * 1e-9))
@@ -415,7 +433,7 @@ def test_ctc_node_states_its_lead_and_cpu_on_diagnostics_and_sums_up_at_exit(ros
                 m.header.stamp.sec, m.header.stamp.nanosec = divmod(t0 + k * 10**6, 10**9)
                 run.pub_sp.publish(m)
         # the last ticks, fewer than a batch, go out as they near: no setpoint comes after them
-        run.spin_until(lambda: len(got) >= n - 1 and figures, 30, "not every tick fed, or no diagnostics")
+        run.spin_until(lambda: len(got) >= n - 1 and figures, HANG_S, "not every tick fed, or no diagnostics")
     finally:
         run.close()
     assert got == {t0 + k * 10**6 for k in range(n - 1)}  # each tick once; the last has no successor

@@ -211,11 +211,13 @@ def test_live_identification_warns_and_survives_nan_and_wrong_names(spawn_python
             pub_cr.publish(CurrentReference(header=js.header, name=names, current=[float(x) for x in rec.v_tau[k]]))
             if k % 50 == 0:
                 rclpy.spin_once(n, timeout_sec=0.0)
-                time.sleep(0.04)
+                time.sleep(0.04)  # paces the publisher (about 1.25 kHz), within the queue depths
         fut = stop.call_async(Trigger.Request())
         rclpy.spin_until_future_complete(n, fut, timeout_sec=30)
-        t_end = time.time() + 5
-        while time.time() < t_end:
+        t_end = time.monotonic() + 60  # until the live feed said all three (a bound on a hang)
+        while time.monotonic() < t_end and not (
+                all(w in " | ".join(w for m in live for w in m.warnings) for w in ("lost", "names"))
+                and live[-1].unloaded_seconds > 1.5):
             rclpy.spin_once(n, timeout_sec=0.1)
         warnings = " | ".join(w for m in live for w in m.warnings)
         assert "lost" in warnings and ("NaN" in warnings or "non-finite" in warnings), warnings
@@ -309,9 +311,14 @@ def test_a_partial_answer_succeeds_says_which_and_is_not_latched(spawn_python, t
                          reliability=ReliabilityPolicy.RELIABLE)
         n.create_subscription(IdentifiedParameters, "/orthoglide/identified_parameters",
                               got.append, qos)
-        t0 = time.time()
-        while time.time() - t0 < 3:
-            rclpy.spin_once(n, timeout_sec=0.2)
+        sub = list(n.subscriptions)[-1]  # the one just made
+        t_end = time.monotonic() + 30  # matched with the node's latched publisher (a hang bound)
+        while sub.get_publisher_count() < 1 and time.monotonic() < t_end:
+            rclpy.spin_once(n, timeout_sec=0.05)
+        assert sub.get_publisher_count() >= 1
+        t_end = time.monotonic() + 1.0  # a latched sample comes with the match: a second after it
+        while time.monotonic() < t_end:
+            rclpy.spin_once(n, timeout_sec=0.1)
         assert not got  # a late subscriber of the latched topic gets nothing: no full answer yet
         n.destroy_node()
     finally:

@@ -164,3 +164,29 @@ def test_a_stop_and_the_next_start_between_two_feeds_lose_nothing():
     finally:
         node.destroy_node()
         rclpy.shutdown()
+
+
+def test_the_first_message_of_each_topic_is_said_once():
+    """'live identification: receiving <topic>' when a topic's first batch comes in (its
+    publishers matched: what they publish from then on reaches live identification), once."""
+    from sensor_msgs.msg import JointState
+
+    from orthoglide_ident.nodes.live_feed import LiveFeed
+
+    rclpy.init()
+    node = rclpy.create_node("test_live_feed_receiving")
+    said: list[str] = []
+    try:
+        feed = LiveFeed(node, _Spy(), threading.Lock(), robot=ORTHOGLIDE, worker=False)
+        logger = type("L", (), {"info": lambda self, m: said.append(m)})()
+        feed.node = type("N", (), {"get_logger": lambda self: logger,
+                                   "resolve_topic_name": lambda self, t: node.resolve_topic_name(t)})()
+        take = feed._intake("q", None).on_batch
+        for k in range(3):
+            take([(_raw(JointState, 10**12 + k), 0, 0)])
+        assert said == ["live identification: receiving /orthoglide/joint_states"]
+        assert len(feed.buffers["q"]) == 3
+        feed.close()
+    finally:
+        node.destroy_node()
+        rclpy.shutdown()

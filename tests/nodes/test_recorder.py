@@ -285,7 +285,15 @@ def test_sigkill_leaves_readable_bag(client, spawn_recorder, ros_env) -> None:
     assert res.success, res.message
     pub = _publish(ros_env, 4.0)
     assert pub.stdout is not None and pub.stdout.readline().startswith("publishing")
-    time.sleep(2.0)
+    from orthoglide_msgs.msg import RecorderStatus  # ~2 s written (a status about once a second)
+    from rclpy.qos import DurabilityPolicy, QoSProfile
+    seen = []
+    sub = client.ros_node.create_subscription(RecorderStatus, "/orthoglide/recorder/status", seen.append,
+                                              QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL))
+    deadline = time.monotonic() + 60  # a bound on a hang
+    while not (seen and seen[-1].ticks_written >= 2000) and time.monotonic() < deadline and pub.poll() is None:
+        rclpy.spin_once(client.ros_node, timeout_sec=0.1)
+    client.ros_node.destroy_subscription(sub)
     proc.kill()
     proc.wait(10)
     pub.communicate(timeout=30)

@@ -18,6 +18,9 @@ from synthetic import synthetic_record
 
 T0 = 1_796_000_000_000_000_000  # ns, a multiple of the 20 ms period
 TICK = 1_000_000
+PERIOD = 20 * TICK  # the viewer's default decimation period (50 Hz)
+PROBES = 50  # probe ticks tried, 1 s each: a bound on a hang
+HANG_S = 120.0  # s: a bound on a hang (a busy machine takes what it takes), not a figure
 
 
 class ViewerRun:
@@ -34,7 +37,9 @@ class ViewerRun:
                                       "-p", "port:=0", *args], env=ros_env, stdout=subprocess.PIPE,
                                      stderr=subprocess.STDOUT, text=True)
         self.lines: list[str] = []
-        threading.Thread(target=lambda: self.lines.extend(iter(self.proc.stdout.readline, "")), daemon=True).start()
+        self._reader = threading.Thread(target=lambda: self.lines.extend(iter(self.proc.stdout.readline, "")),
+                                        daemon=True)
+        self._reader.start()
         self.rclpy = rclpy
         rclpy.init()
         self.node = rclpy.create_node("viewer_test_publisher")
@@ -63,6 +68,30 @@ class ViewerRun:
             assert time.monotonic() < t_end, "the viewer never subscribed"
             time.sleep(0.05)
 
+    def wait_flowing(self, client, channels=("/orthoglide/joint_states",), before_ns=T0,
+                     publish=None) -> None:
+        """Until a probe tick published now reaches ``client`` on each of ``channels``: the ROS
+        subscriptions are matched and the server has taken the client's subscription (the
+        protocol has no acknowledgement). Probe k is stamped in a period of its own before
+        ``before_ns`` (the decimator sends the first tick of each period, in order), so the test's
+        own ticks after it are all new; only the last probe's frames are awaited, so none of the
+        earlier ones (lost, or in flight) comes after it."""
+        publish = publish or (lambda ns: self.publish_ticks([ns], ["q11", "q12", "q13"], np.zeros((1, 3)),
+                                                            ["q11", "q12", "q13"], np.zeros((1, 3))))
+        for k in range(PROBES):
+            ns = before_ns - (PROBES - k) * PERIOD
+            publish(ns)
+            if self._probe_arrived(client, channels, ns):
+                return
+        raise AssertionError(f"no probe tick reached the client on {channels} in {PROBES} tries")
+
+    @staticmethod
+    def _probe_arrived(client, channels, ns) -> bool:
+        def arrived(fs) -> bool:
+            return all(any(f.topic == c and f.log_time == ns for f in fs) for c in channels)
+
+        return arrived(client.frames(1.0, until=arrived))
+
     def publish_ticks(self, stamps, q_names, q, v_names, v, burst=50) -> None:
         from sensor_msgs.msg import JointState
 
@@ -88,7 +117,7 @@ class ViewerRun:
             except subprocess.TimeoutExpired:
                 self.proc.kill()
                 self.proc.wait()
-        time.sleep(0.1)
+        self._reader.join(10)  # it has read the output to its end
         return "".join(self.lines)
 
 
@@ -121,13 +150,13 @@ def test_a_client_subscribes_and_receives_decimated_frames_of_any_joints(viewer)
     assert all(c["encoding"] == "json" and c["schemaEncoding"] == "jsonschema" for c in client.channels.values())
     client.subscribe()
     viewer.wait_matched()
-    time.sleep(0.5)  # the server has taken the subscriptions
+    viewer.wait_flowing(client, ("/orthoglide/joint_states", "/orthoglide/current_reference"))
     names = [f"joint_{i}" for i in range(6)]  # not the Orthoglide: six joints, any names
     stamps = T0 + TICK * np.arange(400)
     q = 0.01 * np.arange(400)[:, None] + np.arange(6)[None, :]
     viewer.publish_ticks(stamps, names, q, ["a", "b"], np.ones((400, 2)))
     viewer.pub["live"].publish(_live_message())
-    frames = client.frames(20, until=lambda fs: sum(f.topic == "/orthoglide/identification/live" for f in fs)
+    frames = client.frames(HANG_S, until=lambda fs: sum(f.topic == "/orthoglide/identification/live" for f in fs)
                            and sum(f.topic == "/orthoglide/joint_states" for f in fs) >= 20)
     js = [f for f in frames if f.topic == "/orthoglide/joint_states"]
     # the first tick of every 20 ms of stamps: 1 kHz in, 50 Hz out
@@ -170,7 +199,7 @@ def test_the_forces_channel_compares_the_measured_and_the_model_force(viewer):
         assert time.monotonic() < t_end, "".join(viewer.lines)
         time.sleep(0.05)
     viewer.publish_ticks(rec.stamps_q_ns, bm.joint_names, rec.q, bm.joint_names, rec.v_tau)
-    frames = client.frames(20, until=lambda fs: sum(f.topic == "/orthoglide/forces" for f in fs) >= 80)
+    frames = client.frames(HANG_S, until=lambda fs: sum(f.topic == "/orthoglide/forces" for f in fs) >= 80)
     forces = [f.message for f in frames if f.topic == "/orthoglide/forces"]
     assert len(forces) >= 80  # (2000 ticks - the filter's 2 x 164) / 20
     meas = np.array([m["measured"] for m in forces])
@@ -211,7 +240,7 @@ def test_a_robot_with_a_transmission_is_viewed_by_motor(ros_env, tmp_path):
                                   drive_gains_rel_std=[0.002] * 6, residual_rms=[0.001] * 6)
         run.pub["live"].publish(live)
         run.publish_ticks(stamps, joints, q_j, MOTORS, v)
-        frames = client.frames(20, until=lambda fs: sum(f.topic == "/orthoglide/forces" for f in fs) >= 80
+        frames = client.frames(HANG_S, until=lambda fs: sum(f.topic == "/orthoglide/forces" for f in fs) >= 80
                                and any(f.topic == "/orthoglide/identification/live" for f in fs))
         forces = [f.message for f in frames if f.topic == "/orthoglide/forces"]
         assert len(forces) >= 80  # (2000 ticks - the filter's 2 x 164) / 20
@@ -255,7 +284,16 @@ def test_a_ros2_control_robot_is_viewed_from_its_broadcaster_topics(ros_env):
         while not (pub_js.get_subscription_count() and pub_d.get_subscription_count()):
             assert time.monotonic() < t_end, "the viewer never subscribed"
             time.sleep(0.05)
-        time.sleep(0.5)
+
+        def probe(ns: int) -> None:
+            for m in (JointState(name=joints, position=[0.0] * 7, effort=[0.0] * 7),
+                      DynamicJointState(joint_names=joints, interface_values=[InterfaceValue(
+                          interface_names=["position", "current"], values=[0.0, 0.0])] * 7)):
+                m.header.stamp.sec, m.header.stamp.nanosec = divmod(ns, 10**9)
+                (pub_js if isinstance(m, JointState) else pub_d).publish(m)
+
+        run.wait_flowing(client, ("/joint_states", "/joint_states/effort", "/dynamic_joint_states"),
+                         publish=probe)
         for k in range(400):
             sec, nsec = divmod(T0 + k * TICK, 10**9)
             effort = [0.1 * k + j for j in range(6)] + [float("nan")]
@@ -267,8 +305,8 @@ def test_a_ros2_control_robot_is_viewed_from_its_broadcaster_topics(ros_env):
             pub_js.publish(js)
             pub_d.publish(d)
             if k % 50 == 49:
-                time.sleep(0.01)
-        frames = client.frames(20, until=lambda fs: all(
+                time.sleep(0.01)  # paces the publisher (about 5 kHz), within the queue depths
+        frames = client.frames(HANG_S, until=lambda fs: all(
             sum(f.topic == t for f in fs) >= 20 for t in ("/joint_states", "/joint_states/effort",
                                                           "/dynamic_joint_states")))
         by = {t: [f for f in frames if f.topic == t] for t in ("/joint_states", "/joint_states/effort",
@@ -300,7 +338,7 @@ def test_garbage_a_vanished_and_a_stalled_client_leave_the_node_serving(viewer):
     vanished = FoxgloveClient(viewer.url)
     vanished.subscribe()
     viewer.wait_matched()
-    time.sleep(0.5)
+    viewer.wait_flowing(vanished)
     stamps = T0 + TICK * np.arange(3000)
     q = np.zeros((3000, 3))
     half = 1500
@@ -312,10 +350,10 @@ def test_garbage_a_vanished_and_a_stalled_client_leave_the_node_serving(viewer):
     assert garbage.status  # the server told it what was wrong
     fresh = FoxgloveClient(viewer.url)
     fresh.subscribe(["/orthoglide/joint_states"])
-    time.sleep(0.5)
-    more = T0 + TICK * np.arange(3000, 3200)
+    more = T0 + TICK * np.arange(4000, 4200)  # after the probes, in the second after the ticks
+    viewer.wait_flowing(fresh, before_ns=int(more[0]))
     viewer.publish_ticks(more, ["q11", "q12", "q13"], np.zeros((200, 3)), ["q11", "q12", "q13"], np.zeros((200, 3)))
-    got = fresh.frames(20, until=lambda fs: any(f.log_time == more[-20] for f in fs))
+    got = fresh.frames(HANG_S, until=lambda fs: any(f.log_time == more[-20] for f in fs))
     assert [f.log_time for f in got] == list(more[::20])  # every new period, in order
     assert viewer.proc.poll() is None
     for c in (garbage, stalled, fresh):
@@ -340,14 +378,21 @@ def test_a_best_effort_publisher_is_followed(viewer):
     while pub.get_subscription_count() == 0:
         assert time.monotonic() < t_end
         time.sleep(0.05)
-    time.sleep(0.5)
+
+    def probe(ns: int) -> None:
+        m = JointSetpoint(name=["q11", "q12", "q13"], position=[0.0] * 3, velocity=[0.0] * 3,
+                          acceleration=[0.0] * 3)
+        m.header.stamp.sec, m.header.stamp.nanosec = divmod(ns, 10**9)
+        pub.publish(m)
+
+    viewer.wait_flowing(client, ("/orthoglide/setpoints",), publish=probe)
     for k in range(100):
         m = JointSetpoint(name=["q11", "q12", "q13"], position=[0.001 * k] * 3, velocity=[0.1] * 3,
                           acceleration=[-2.0] * 3)
         m.header.stamp.sec, m.header.stamp.nanosec = divmod(T0 + k * TICK, 10**9)
         pub.publish(m)
-        time.sleep(0.001)
-    got = client.frames(20, until=lambda fs: len(fs) >= 3)
+        time.sleep(0.001)  # paces the publisher (about 1 kHz): best effort drops a burst
+    got = client.frames(HANG_S, until=lambda fs: len(fs) >= 3)
     assert got, "no setpoints frame"
     for f in got:  # best effort may lose a message on the way, never alter one
         k = (f.log_time - T0) // TICK
@@ -366,7 +411,7 @@ def test_a_stalled_client_loses_frames_the_others_do_not(ros_env):
         for c in (stalled, reader):
             c.subscribe(["/orthoglide/joint_states"])
         run.wait_matched()
-        time.sleep(0.5)
+        run.wait_flowing(reader)  # the stalled client's subscription is taken with it (one op each, in order)
         n, names = 16000, [f"joint_{i:02d}" for i in range(48)]
         stamps = T0 + TICK * np.arange(n)
         q = np.random.default_rng(0).random((n, 48))
@@ -379,7 +424,7 @@ def test_a_stalled_client_loses_frames_the_others_do_not(ros_env):
             want = a + 1000
             got.extend(reader.frames(60, until=lambda fs: len(got) + len(fs) >= want))
         assert [f.log_time for f in got] == list(stamps)
-        late = stalled.frames(5)
+        late = [f for f in stalled.frames(5) if f.log_time >= T0]  # not the probe ticks before T0
         assert 0 < len(late) < n
         times = [f.log_time for f in late]
         assert times == sorted(times) and set(times) <= set(stamps.tolist())

@@ -54,6 +54,9 @@ CONTINUITY_TOL = 0.25  # of the row period: consecutive rows of one segment
 # bodies before it, nor the other joints' drive terms) have their products and QR computed on
 # those columns only; a closed chain's rows fill nearly all (the Orthoglide's 64 of 66)
 SPARSE_COLUMNS = 0.75
+# rows of a joint from a sign change of its current on (that row included): where a backlash is
+# crossed (the drive's torque reverses) and the residual of what the model lacks there sits
+REVERSAL_ROWS = 3
 
 
 @dataclass
@@ -85,6 +88,12 @@ class ResidualMoments:
     _tail: tuple | None = None  # last LAGS rows: (Z (n_j, m, n_c), t (m,))
     # the joints whose position spectrum is folded (a screw's ripple: prismatic joints); None: all
     screws: tuple[bool, ...] | None = None
+    # (n_j, n_c, n_c) Gram of each joint's rows at a reversal of its current (REVERSAL_ROWS from
+    # its sign change on), their count, and the state carried from fold to fold (rows since the
+    # last sign change, that sign): the same rows whatever the batches
+    reversal: np.ndarray | None = None
+    reversal_rows: np.ndarray | None = None
+    reversal_state: tuple[np.ndarray, np.ndarray] | None = None
 
     def __post_init__(self) -> None:
         n_j, n_l = self.n_j, WAVELENGTHS_M.shape[0]
@@ -102,6 +111,11 @@ class ResidualMoments:
             self.ripple_s2 = np.zeros((n_j, 2, n_l), dtype=complex)
         if self.spectrum_rows is None:
             self.spectrum_rows = np.zeros(n_j, dtype=np.int64)
+        if self.reversal is None:
+            self.reversal = np.zeros((n_j, self.n_c, self.n_c))
+            self.reversal_rows = np.zeros(n_j, dtype=np.int64)
+        if self.reversal_state is None:
+            self.reversal_state = (np.full(n_j, REVERSAL_ROWS), np.zeros(n_j))
 
     @property
     def n_blocks(self) -> int:
@@ -118,7 +132,8 @@ class ResidualMoments:
             {b: r.copy() for b, r in self.block_rows.items()},
             self.lagged[(slice(None), slice(None)) + ix], self.pairs.copy(),
             self.spectrum[..., keep], self.ripple_s0.copy(), self.ripple_s2.copy(),
-            self.spectrum_rows.copy(), tail, self.screws)
+            self.spectrum_rows.copy(), tail, self.screws, self.reversal[(slice(None),) + ix],
+            self.reversal_rows.copy(), tuple(a.copy() for a in self.reversal_state))
 
     def only_joints(self, idx: np.ndarray) -> "ResidualMoments":
         """The moments of the joints ``idx`` only (RecordFactors.only_joints: a partial answer)."""
@@ -130,7 +145,8 @@ class ResidualMoments:
             {b: r[idx] for b, r in self.block_rows.items()},
             self.lagged[idx], self.pairs[idx], self.spectrum[idx], self.ripple_s0[idx],
             self.ripple_s2[idx], self.spectrum_rows[idx], tail,
-            None if self.screws is None else tuple(self.screws[i] for i in idx))
+            None if self.screws is None else tuple(self.screws[i] for i in idx),
+            self.reversal[idx], self.reversal_rows[idx], tuple(a[idx] for a in self.reversal_state))
 
     def fold(self, X: np.ndarray, keep: np.ndarray | None, t: np.ndarray,
              q: np.ndarray | None = None, qd: np.ndarray | None = None) -> None:
@@ -152,6 +168,7 @@ class ResidualMoments:
         cols = _nonzero_columns(Z, None if self._tail is None else self._tail[0])
         self._fold_blocks(Z, kept, t, cols)
         self._fold_lagged(Z, kept, t, cols)
+        self._fold_reversals(Z)
         if q is not None and qd is not None:
             self._fold_spectrum(Z, kept, q, qd)
 
@@ -206,6 +223,25 @@ class ResidualMoments:
                 self.pairs[:, L] += np.sum(same & kept[:, i0:m - L] & kept[:, i0 + L:m], axis=1)
         k = min(LAGS, m)
         self._tail = (Z[:, m - k:].copy(), t[m - k:].copy(), kept[:, m - k:].copy())
+
+    def _fold_reversals(self, Z: np.ndarray) -> None:
+        """The Gram of each joint's rows at a reversal of its current (the last column, v_τ):
+        the row where its sign changes and the REVERSAL_ROWS - 1 after it. Rows left out (zero)
+        carry no sign."""
+        since, last = self.reversal_state
+        for j in range(self.n_j):
+            sign = np.sign(Z[j, :, -1])
+            flag = np.zeros(sign.shape[0], bool)
+            for k, sg in enumerate(sign):
+                if sg != 0 and last[j] != 0 and sg != last[j]:
+                    since[j] = 0
+                flag[k] = sg != 0 and since[j] < REVERSAL_ROWS
+                since[j] += 1
+                last[j] = sg if sg != 0 else last[j]
+            if flag.any():
+                Zr = Z[j, flag]
+                self.reversal[j] += Zr.T @ Zr
+                self.reversal_rows[j] += int(flag.sum())
 
     def _fold_spectrum(self, Z: np.ndarray, kept: np.ndarray, q: np.ndarray, qd: np.ndarray
                        ) -> None:
@@ -332,6 +368,9 @@ class Uncertainty:
     spectrum: np.ndarray | None = None  # (n_j, 2, n_λ) amplitude (N) vs wavelength (1, sign q̇)
     spectrum_floor: np.ndarray | None = None  # (n_j, 2, n_λ) N, what a white residual would give
     notes: list[str] = field(default_factory=list)
+    # (n_j,) rms residual of the rows at reversals of each joint's current / of its other rows
+    # (nan: fewer than REVERSAL_MIN_ROWS of either)
+    reversal_ratio: np.ndarray | None = None
 
 
 @dataclass
@@ -352,6 +391,9 @@ class _Folded:
         self.pairs = np.zeros((self.n_j, LAGS + 1))
         self.ss = np.zeros(self.n_j)  # Σ ρ² per joint
         self.rows = np.zeros(self.n_j)
+        # Σ ρ² and rows over the blocks (every kept row) and over the rows at current reversals
+        self.block_ss, self.block_n = np.zeros(self.n_j), np.zeros(self.n_j)
+        self.rev_ss, self.rev_n = np.zeros(self.n_j), np.zeros(self.n_j)
 
     def add(self, rec: int, mom: ResidualMoments, j: int, v: np.ndarray, Tc: np.ndarray,
             w2j: float) -> None:
@@ -359,7 +401,10 @@ class _Folded:
         self.have_moments = True
         self.block_s = max(self.block_s, mom.block_s)
         for key, P in mom.blocks.items():
-            s = Tc.T @ (P[j] @ v) * w2j
+            Pv = P[j] @ v
+            self.block_ss[j] += float(v @ Pv)
+            self.block_n[j] += float(mom.block_rows[key][j])
+            s = Tc.T @ Pv * w2j
             k = (rec, key)
             self.scores[k] = self.scores[k] + s if k in self.scores else s
             self.score_rows[k] = self.score_rows.get(k, 0.0) + float(mom.block_rows[key][j])
@@ -370,6 +415,9 @@ class _Folded:
             self.ac_num[j, L] += float(v @ C @ v)
             self.pairs[j, L] += mom.pairs[j, L]
             self.lag_terms.append((j, L, Tc.T @ C @ Tc))
+        if mom.reversal is not None and mom.reversal_rows[j]:
+            self.rev_ss[j] += float(v @ mom.reversal[j] @ v)
+            self.rev_n[j] += float(mom.reversal_rows[j])
         if mom.spectrum_rows[j]:
             if self.spec is None:
                 self.spec = np.zeros((self.n_j, 2, WAVELENGTHS_M.shape[0]), dtype=complex)
@@ -468,7 +516,18 @@ def evaluate(factors: Iterable, layout: LayoutFn, z: np.ndarray, joint_sigma: np
     out.cov = (cov_stat / np.outer(d, d)) * np.outer(np.sqrt(var), np.sqrt(var))
     if acc.spec is not None:
         out.spectrum, out.spectrum_floor = _position_spectrum(acc, gamma[:, 0], out.autocorrelation)
+    out.reversal_ratio = _reversal_ratio(acc)
     return out
+
+
+def _reversal_ratio(acc: _Folded) -> np.ndarray:
+    """(n_j,) rms residual of the rows at current reversals over that of the other rows."""
+    other_n = acc.block_n - acc.rev_n
+    other_ss = acc.block_ss - acc.rev_ss
+    enough = (acc.rev_n >= REVERSAL_MIN_ROWS) & (other_n >= REVERSAL_MIN_ROWS) & (other_ss > 0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        ratio = np.sqrt((acc.rev_ss / acc.rev_n) / (other_ss / other_n))
+    return np.where(enough, ratio, np.nan)
 
 
 # --------------------------------------------------------------------------------------------
@@ -478,6 +537,10 @@ WHITE_TOLERANCE = 0.15  # |autocorrelation - that of white noise after the FIR| 
 INFLATION_WARN = 2.0  # honest σ of a gain / eq. (39)'s beyond which the residual is said to matter
 PEAK_RATIO = 4.0  # a position-spectrum peak this far above the spectrum's median ...
 PEAK_FLOOR = 5.0  # ... and this far above a white residual's level (P < 1e-10 each) is reported
+# rms residual at current reversals / elsewhere beyond which it is said (the UR5: 1.0-1.4
+# without a backlash, with Stribeck, elasticity or a current loop; 2.4-3.8 with one)
+REVERSAL_WARN = 2.0
+REVERSAL_MIN_ROWS = 30  # rows at reversals (and elsewhere) for that ratio to mean something
 
 
 @dataclass
@@ -565,6 +628,7 @@ def diagnose(unc: Uncertainty, decimation: int, n_params: int, joint_names: tupl
                 f"({joint_names[worst]}): the residual is correlated with the regressors over "
                 f"{unc.block_s:g} s blocks — forces the IDIM lacks (friction near velocity "
                 "reversals, current-loop lag, ripple); the reported σ includes them")
+    warnings += _reversal_warnings(unc, joint_names, d)
     peaks = spectrum_peaks(unc, joint_names, screws)
     d["position_spectrum_peaks"] = [p.to_json() for p in peaks]
     for p in peaks:
@@ -575,3 +639,17 @@ def diagnose(unc: Uncertainty, decimation: int, n_params: int, joint_names: tupl
             f"{p.amplitude_n / max(p.median_n, 1e-12):.0f}x the spectrum's median): {what} "
             "that the IDIM does not model")
     return d, warnings
+
+
+def _reversal_warnings(unc: Uncertainty, joint_names: tuple[str, ...], d: dict) -> list[str]:
+    """A residual concentrated where a joint's current reverses (``d["reversal_residual_ratio"]``:
+    rms there / elsewhere): what crosses a backlash then, or a friction that changes there, is
+    not in the IDIM, and the block sandwich does not see an error that recurs with the motion."""
+    if unc.reversal_ratio is None:
+        return []
+    d["reversal_residual_ratio"] = {n: None if np.isnan(x) else float(x)
+                                    for n, x in zip(joint_names, unc.reversal_ratio)}
+    return [f"the residual of {n} is {r:.1f}x larger where its current reverses than elsewhere: "
+            "a backlash (lost motion) or a friction at torque reversals that the IDIM does not "
+            "model; the σ of the drive gains may not cover the error it causes"
+            for n, r in zip(joint_names, unc.reversal_ratio) if r > REVERSAL_WARN]

@@ -312,3 +312,44 @@ def test_ripple_columns_from_the_moments_are_the_rows_own():
     assert view.chi.shape == (4,) and view.cov.shape == (7, 7)
     # the synthetic ripple is 0.5 N sin(2π q/λ) sign(q̇) in the force (its rows' H is ~1: slow)
     assert abs(rip[0].amplitude_n - 0.5) < 0.1 and abs(rip[0].phase_rad + np.pi / 2) < 0.2
+
+
+def _flips(v: np.ndarray, rows: int = 3) -> np.ndarray:
+    """(3, r) the rows from each sign change of v (per joint) on, ``rows`` of them."""
+    out = np.zeros(v.shape, bool)
+    for j in range(v.shape[0]):
+        for k in np.flatnonzero(np.sign(v[j, 1:]) != np.sign(v[j, :-1])) + 1:
+            out[j, k:k + rows] = True
+    return out
+
+
+def test_a_residual_at_current_reversals_is_said_and_folded_as_at_once():
+    """An error on the rows where each joint's current reverses (as a backlash crossed there
+    leaves): the rms there over elsewhere is measured and said, naming the joint; on white
+    errors the ratio is ~1 and nothing is said. The reversal rows do not depend on how rows
+    arrive."""
+    blocks = _blocks(7, smooth=True)
+    clean = TLSProblem(blocks).solve()
+    for obs in blocks:  # away from zero: the same sign changes
+        obs.v_tau[:] += 20 * 2e-4 * np.sign(obs.v_tau) * _flips(obs.v_tau)
+    hit = TLSProblem(blocks).solve()
+    names = ("q11", "q12", "q13")
+    assert np.all(np.abs(clean.uncertainty.reversal_ratio - 1) < 0.3), clean.uncertainty.reversal_ratio
+    assert np.all(hit.uncertainty.reversal_ratio > 5), hit.uncertainty.reversal_ratio
+    for sol, said in ((clean, 0), (hit, 3)):
+        d, warnings = diagnose(sol.uncertainty, 10, 4, names, gain_index=slice(4, 7))
+        assert sum("where its current reverses" in w and "backlash" in w for w in warnings) == said
+        assert set(d["reversal_residual_ratio"]) == set(names)
+    # the rows folded are the rows of each sign change on (here, three), in pieces as at once
+    obs = blocks[0]
+    X = np.concatenate([obs.W.transpose(2, 0, 1), obs.w_m[None], obs.v_tau[None]])  # (n_c, 3, r)
+    whole, parts = ResidualMoments(X.shape[0], 3, DT), ResidualMoments(X.shape[0], 3, DT)
+    whole.fold(X, None, obs.t)
+    for a, b in ((0, 1), (1, 7), (7, 399), (399, 1500)):
+        parts.fold(X[:, :, a:b], None, obs.t[a:b])
+    flags = _flips(obs.v_tau)
+    Z = X.transpose(1, 2, 0)
+    for j in range(3):
+        np.testing.assert_allclose(whole.reversal[j], Z[j, flags[j]].T @ Z[j, flags[j]], rtol=1e-12)
+    np.testing.assert_allclose(parts.reversal, whole.reversal, rtol=1e-12)
+    assert np.array_equal(parts.reversal_rows, flags.sum(axis=1))
