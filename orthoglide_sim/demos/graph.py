@@ -270,8 +270,9 @@ class Graph:
         message of ``name``: the publishers reach this process. The match of two other processes
         cannot be seen from outside (it may come later: a node that must get every tick says when
         it receives, e.g. the identification's 'live identification: receiving <topic>'). Nothing
-        to wait for while the topic has no publisher."""
-        publishers = self.node.get_publishers_info_by_topic(name)
+        to wait for while the topic has no publisher but this process's own."""
+        own = self.node.get_name()  # this process's publishers: wait_for_match sees their match
+        publishers = [p for p in self.node.get_publishers_info_by_topic(name) if p.node_name != own]
         if not publishers:
             return
         package, kind, type_name = publishers[0].topic_type.split("/")

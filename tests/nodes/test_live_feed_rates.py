@@ -24,8 +24,10 @@ from ros2_control_records import ROBOT, standin_records, write_record_bag  # noq
 
 # the node's options (config/identification.yaml); 12 s at ~93 Hz do not determine a UR5's
 # gains: the checks would refuse both answers, and equality, not accuracy, is the point here
+# gains: the checks would refuse both answers, and equality, not accuracy, is the point here;
+# an untagged slow log read held alike (live reads it held; offline auto also tries sampled)
 OPTIONS = IdentifyOptions.from_yaml("config/identification.yaml").replace(
-    check_excitation=False, partial_answers=False)
+    check_excitation=False, partial_answers=False, current_sampling="held")
 LOST = (200, 201, 650)  # samples of the subsampled record the logger lost
 FEED = 97  # messages handed to the feed between two turns (a batch of the intake)
 

@@ -3,12 +3,19 @@
 on the recorder's status, where the live identification takes them from."""
 from __future__ import annotations
 
+from rclpy.qos import QoSProfile, ReliabilityPolicy
+
 import subprocess
 import sys
 import time
 
 import numpy as np
 
+
+
+# reliable, the whole run kept unacknowledged: a recorder slow to take its first batch (opening
+# its bag) under load must not lose a test's ticks to the publisher's short history
+WHOLE_RUN = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE)
 
 
 def test_the_payload_shape_goes_into_the_tag_and_the_status(tmp_path, ros_env):
@@ -25,7 +32,7 @@ def test_the_payload_shape_goes_into_the_tag_and_the_status(tmp_path, ros_env):
     names = ["j1", "j2"]
     t0 = 1_796_000_000 * 10**9
     with Graph(tmp_path / "logs") as g:
-        js = g.node.create_publisher(JointState, "joint_states", qos_profile_system_default)
+        js = g.node.create_publisher(JointState, "joint_states", WHOLE_RUN)
         # config/ros2_control.yaml names /dynamic_joint_states too: this robot publishes only
         # /joint_states (effort = the current), which must be recorded all the same
         g.start("orthoglide_recorder", "recorder", {"output_dir": str(tmp_path / "bags")},
@@ -37,7 +44,7 @@ def test_the_payload_shape_goes_into_the_tag_and_the_status(tmp_path, ros_env):
                "--name", "shaped"]
         bad = subprocess.run(cli[:-6] + ["--payload-com", "1,2"], env=ros_env, capture_output=True,
                              text=True, timeout=120)
-        assert bad.returncode == 2 and "--payload-com needs 3 numbers" in bad.stderr
+        assert bad.returncode == 2 and "--payload-com: expected 3 numbers" in bad.stderr
         ok = subprocess.run(cli, env=ros_env, capture_output=True, text=True, timeout=120)
         assert ok.returncode == 0, ok.stderr
         got: list = []
@@ -125,7 +132,7 @@ def test_what_is_known_of_the_payload_is_tagged_per_start(tmp_path, ros_env):
                          reliability=ReliabilityPolicy.RELIABLE)
     statuses = {}
     with Graph(tmp_path / "logs") as g:
-        js = g.node.create_publisher(JointState, "joint_states", qos_profile_system_default)
+        js = g.node.create_publisher(JointState, "joint_states", WHOLE_RUN)
         g.start("orthoglide_recorder", "recorder", {"output_dir": str(tmp_path / "bags")},
                 params_file=ROOT / "config" / "ros2_control.yaml")
         g.wait_for_subscriber("joint_states", "orthoglide_recorder")

@@ -3,6 +3,8 @@ dynamic_joint_states recorded with the QoS the broadcaster offers, ticks counted
 the ticks a topic dropped counted as missing."""
 from __future__ import annotations
 
+from rclpy.qos import QoSProfile, ReliabilityPolicy
+
 import time
 
 import numpy as np
@@ -11,9 +13,13 @@ import numpy as np
 TICKS, DROPPED_JS, DROPPED_DJS = 600, (100, 101, 350), (200,)
 
 
+# reliable, the whole run kept unacknowledged: a recorder slow to take its first batch (opening
+# its bag) under load must not lose a test's ticks to the publisher's short history
+WHOLE_RUN = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE)
+
+
 def test_records_the_broadcasters_topics(tmp_path):
     from control_msgs.msg import DynamicJointState
-    from rclpy.qos import qos_profile_system_default
     from sensor_msgs.msg import JointState
     from std_srvs.srv import Trigger
 
@@ -29,8 +35,8 @@ def test_records_the_broadcasters_topics(tmp_path):
     layout = BroadcasterLayout.of(arm, ["gripper_finger_joint"], "shuffled", seed=0)
     t0 = 1_796_000_000 * 10**9
     with Graph(tmp_path / "logs") as g:
-        js = g.node.create_publisher(JointState, "joint_states", qos_profile_system_default)
-        djs = g.node.create_publisher(DynamicJointState, "dynamic_joint_states", qos_profile_system_default)
+        js = g.node.create_publisher(JointState, "joint_states", WHOLE_RUN)
+        djs = g.node.create_publisher(DynamicJointState, "dynamic_joint_states", WHOLE_RUN)
         g.start("orthoglide_recorder", "recorder", {"output_dir": str(tmp_path / "bags")},
                 params_file=ROOT / "config" / "ros2_control.yaml")
         g.wait_for_match(js)  # the recorder's subscriptions, matched with these publishers

@@ -103,8 +103,11 @@ def test_report_cli_writes_the_mcap_beside_the_png(tmp_path, capsys):
 
 
 def test_report_cli_refuses_an_mcap_it_cannot_write_in_one_line(tmp_path, capsys):
-    code = main(["report", *BAGS, "--out", str(tmp_path), "--mcap", str(tmp_path / "no" / "such" / "r.mcap"),
-                 "-q"])
+    """A missing folder is made (issue 45: every --out-like flag); one under a file cannot be."""
+    (tmp_path / "a_file").write_text("")
+    code = main(["report", *BAGS, "--out", str(tmp_path), "--mcap",
+                 str(tmp_path / "a_file" / "such" / "r.mcap"), "-q"])
     err = capsys.readouterr().err
     assert code == 2 and "Traceback" not in err
-    assert err.strip().splitlines()[-1].startswith("orthoglide-ident: error: cannot write")
+    assert err.strip().splitlines()[-1].startswith("orthoglide-ident: error: ")
+    assert "a_file" in err.strip().splitlines()[-1]

@@ -52,6 +52,7 @@ from orthoglide_ident.identify.columns.payload_unknowns import (check_one_payloa
                                                         with_payload_unknowns)
 from orthoglide_ident.identify.records.record import payload_knowledge
 from orthoglide_ident.identify.solve.answer import limits, min_rows, tls_model
+from orthoglide_ident.identify.observe.sampling import AUTO_HELD, SLOW_STEP_S
 from orthoglide_ident.identify.observe.stream import DecimatedRows
 from orthoglide_ident.identify.solve.tls import check_excitation
 from orthoglide_ident.model.robot import Payload
@@ -224,6 +225,13 @@ class LiveIdentification:
         self._seconds[rec.condition] += seconds
         self._factors[rec] = RecordFactors.from_observations(obs)
         self._version.n += 1
+        if rep.current_sampling_why.startswith(AUTO_HELD) and rep.period_s > SLOW_STEP_S:
+            # offline, an untagged slow log is also read sampled and the better reading kept
+            # (pipeline._solve_reading); live reads it held only: say so, and how to agree
+            return [f"{rec.source}: read held (current_sampling: auto, untagged, steps of "
+                    f"{1e3 * rep.period_s:.1f} ms); identify on the bags also tries it sampled "
+                    "and may answer otherwise: set current_sampling (held | sampled) to have "
+                    "both read it alike (docs/guide/sampling.md)"]
         return []
 
     def add_joint_states(self, stamps_ns: Sequence[int] | np.ndarray, names: Sequence[str],

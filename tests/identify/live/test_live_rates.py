@@ -133,7 +133,8 @@ def test_live_through_a_transmission_at_93hz(tmp_path):
         p = payload if cond == "loaded" else None
         recs.append(Record(cond, r["stamps"][k], joints, r["q_j"][k], r["stamps"][k], joints,
                            r["v"][k] @ N, cond, p.mass if p else 0.0, payload=p))
-    opts = CONFIG.replace(check_excitation=False, partial_answers=False)
+    # read alike: live reads an untagged slow log held, offline auto also tries it sampled
+    opts = CONFIG.replace(check_excitation=False, partial_answers=False, current_sampling="held")
     off = identify_records([motor_side(r, model) for r in recs], options=opts, model=model)
     live = LiveIdentification(opts, model=model)
     for rec in recs:
@@ -147,3 +148,10 @@ def test_live_through_a_transmission_at_93hz(tmp_path):
     assert [g.name for g in res.drive_gains] == list(MOTORS)
     dg, dp = rel_diff(off, res)
     assert dg < 1e-9 and dp < 1e-9, (dg, dp)
+
+
+def test_live_says_when_it_reads_a_slow_untagged_log_held():
+    """current_sampling: auto on a ~93 Hz untagged log: live reads it held and says that
+    offline may read it otherwise (a difference the user can close with the option)."""
+    live = _live(_records("uneven_93Hz"), 97)
+    assert any("read held (current_sampling: auto, untagged" in w for w in live.result().warnings)

@@ -83,10 +83,15 @@ def big_arm():
                                                             timestep=STEP)
 
 
+# The paper's TLS (all of W_tot's columns noisy, eqs. 33-36) leaves this case unseparated: the
+# subset search is tested on it. The per-joint TLS (the default) answers it whole (last test).
+PAPER_TLS = IdentifyOptions(tls_noisy_columns="all", cross_check="none")
+
+
 @pytest.fixture(scope="module")
 def answered(big_arm):
     model, _, pair = big_arm
-    return identify_records(pair_records(pair), model=model)
+    return identify_records(pair_records(pair), model=model, options=PAPER_TLS)
 
 
 def test_before_the_full_set_is_not_separated(big_arm):
@@ -94,7 +99,7 @@ def test_before_the_full_set_is_not_separated(big_arm):
     model, _, pair = big_arm
     with pytest.raises(ExcitationError, match=r"not separated \(s_c/s_c-1 = 0\.\d+ > 0\.5"):
         identify_records(pair_records(pair), model=model,
-                         options=IdentifyOptions(partial_answers=False))
+                         options=PAPER_TLS.replace(partial_answers=False))
 
 
 def test_the_subset_is_answered_within_3_sigma(big_arm, answered):
@@ -129,7 +134,7 @@ def test_the_left_out_gains_say_why(answered):
     assert why["elbow_joint"].endswith("log positions finer than their print, or at a higher rate")
     assert why["wrist_3_joint"].endswith("record more motion of that joint with the payload on, "
                                          "or a heavier payload off its axis")
-    assert res.warnings[0].startswith("partial answer: ")
+    assert any(w.startswith("partial answer: ") for w in res.warnings)
 
 
 def test_nothing_separated_exits_with_the_real_reason(big_arm):
@@ -139,7 +144,7 @@ def test_nothing_separated_exits_with_the_real_reason(big_arm):
     noisy = dataclasses.replace(truth, current_noise_fraction=0.10)
     pair = simulate_pair(1, SECONDS, truth=noisy, timestep=STEP)
     with pytest.raises(ExcitationError) as exc:
-        identify_records(pair_records(pair), model=model)
+        identify_records(pair_records(pair), model=model, options=PAPER_TLS)
     msg = str(exc.value)
     assert msg.startswith("no drive gain is determined: ") and "\n" not in msg
     assert "not separated (s_c/s_c-1 = " in msg and "eq. 37" in msg
@@ -151,9 +156,20 @@ def test_repeated_records_of_the_same_robot_agree_within_their_sigma(big_arm, an
     within 3 σ of their difference."""
     model, truth, _ = big_arm
     other = simulate_pair(2, SECONDS, truth=truth, timestep=STEP)
-    a, b = answered, identify_records(pair_records(other), model=model)
+    a, b = answered, identify_records(pair_records(other), model=model, options=PAPER_TLS)
     both = [(x, y) for x, y in zip(a.drive_gains, b.drive_gains) if x.determined and y.determined]
     assert both
     for x, y in both:
         sigma = np.hypot(x.value * x.rel_std, y.value * y.rel_std)
         assert abs(x.value - y.value) <= 3 * sigma, (x.name, x.value, y.value, sigma)
+
+
+def test_the_per_joint_tls_answers_the_big_arm_whole_within_3_sigma(big_arm):
+    """The default TLS (each current column scaled by its own noise, iterated: solve/tls.py)
+    separates what the paper's TLS could not here: every gain determined, each within 3 of its
+    σ of the plant's (measured 2026-12-06: within 1.2 σ on two pairs)."""
+    model, truth, pair = big_arm
+    res = identify_records(pair_records(pair), model=model)
+    assert res.complete
+    for g, t in zip(res.drive_gains, truth.drive_array("g_tau")):
+        assert abs(g.value / t - 1) <= 3 * g.rel_std < 0.05, (g.name, g.value / t - 1, g.rel_std)
