@@ -40,11 +40,12 @@ STAMP_MSGS := $(VENV)/.stamp-msgs
 STAMP_CONTROL_MSGS := $(VENV)/.stamp-control-msgs
 STAMP_PROJECT := $(VENV)/.stamp-project
 
-.PHONY: help setup setup-stamps test test-slow demo demo-offline demo-ros2-control demo-excite bench bags lock clean distclean
+.PHONY: help setup setup-stamps lint test test-slow demo demo-offline demo-ros2-control demo-excite bench bags lock clean distclean
 
 help:
 	@echo "make setup      create $(VENV) (Python 3.11) with ROS 2 Jazzy wheels, build orthoglide_msgs (and control_msgs if missing), install the project"
-	@echo "make test       setup if needed, then the fast tests (pytest -m 'not slow')"
+	@echo "make test       setup if needed, then the linter (ruff) and the fast tests (pytest -m 'not slow')"
+	@echo "make lint       setup if needed, then the linter alone (ruff check: pyproject.toml [tool.ruff])"
 	@echo "make test-slow  setup if needed, then the slow tests (pytest -m slow)"
 	@echo "make demo       setup if needed, then the live node set end to end (record, identify, Table 4 over ROS 2)"
 	@echo "make demo-offline  setup if needed, then the offline pipeline (simulate, bags, identify, validate)"
@@ -107,7 +108,11 @@ OUT ?= bags
 bags: setup
 	$(PY) -m orthoglide_sim.orthoglide.make_bags --duration $(DURATION) --out $(OUT)
 
-test: setup
+# the linter first (ruff, pyproject.toml [tool.ruff]): a lint error fails `make test`, and so CI
+lint: setup
+	$(PY) -m ruff check .
+
+test: setup lint
 	$(PY) -m pytest -m "not slow" $(PYTEST_ARGS)
 
 # pytest exits 5 when no test is collected: not an error here (there may be no slow test yet).

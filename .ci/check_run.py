@@ -34,7 +34,9 @@ def main(argv: list[str]) -> int:
     report, label = Path(argv[0]), argv[1]
     count, skipped = skips(report)
     ran = count["tests"] - count["skipped"] - count["failures"] - count["errors"]
-    print(f"ci: {label} tests: {count['tests']} collected, {ran} passed, {count['skipped']} skipped")
+    print(
+        f"ci: {label} tests: {count['tests']} collected, {ran} passed, {count['skipped']} skipped"
+    )
     allowed = allowed_reasons()
     refused = []
     for test, message in skipped:

@@ -34,7 +34,11 @@ from orthoglide_sim.arms.record import simulate_arm  # noqa: E402
 
 
 def one_seed(robot: str, seconds: float, seed: int, model) -> dict:
-    runs = {"unloaded": ("exciting1", None), "2kg": ("exciting2", "2.0"), "1kg": ("exciting1", "1.0")}
+    runs = {
+        "unloaded": ("exciting1", None),
+        "2kg": ("exciting2", "2.0"),
+        "1kg": ("exciting1", "1.0"),
+    }
     recs, truth = {}, None
     for k, (name, (traj, payload)) in enumerate(runs.items()):
         sim = simulate_arm(seconds, robot, payload=payload, trajectory=traj, seed=3 * seed + k)
@@ -46,7 +50,9 @@ def one_seed(robot: str, seconds: float, seed: int, model) -> dict:
     g_true = np.array([truth.drives[j].g_tau for j in model.joint_names])
     err = g / g_true - 1
     sigma = np.array([x.rel_std for x in tls.drive_gains])
-    wls = identify_records([recs["unloaded"], recs["1kg"]], method="wls", gains=list(g), model=model)
+    wls = identify_records(
+        [recs["unloaded"], recs["1kg"]], method="wls", gains=list(g), model=model
+    )
     nom = identify_records([recs["unloaded"], recs["1kg"]], method="wls", model=model)
     return {"err": err, "z": err / sigma, "sigma": sigma, "t": t_id,
             "wls": wls.payload_mass.value - 1.0, "wls_nominal": nom.payload_mass.value - 1.0}
@@ -61,8 +67,11 @@ def main() -> int:
                     "--robot); e.g. orthoglide_ident/robots/ur5.urdf, the plain URDF")
     args = ap.parse_args()
     model = load_robot(args.model or args.robot)
-    print(f"{args.robot} (given as {args.model or args.robot}): {args.seconds:g} s unloaded + {args.seconds:g} s with 2 kg (TLS), "
-          f"1 kg for WLS; {args.seeds} seeds")
+    print(
+        f"{args.robot} (given as {args.model or args.robot}): {args.seconds:g} s unloaded + "
+        f"{args.seconds:g} s with 2 kg (TLS), "
+        f"1 kg for WLS; {args.seeds} seeds"
+    )
     print(f"{'seed':>4} {'worst gain err %':>16} {'max |z|':>8} {'σ % (mean)':>10} "
           f"{'WLS 1 kg err %':>14} {'nominal gains %':>15} {'identify s':>10}")
     rows = []

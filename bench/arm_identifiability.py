@@ -1,5 +1,6 @@
 """Do the simulated UR5's records carry its drive gains? A plain IDIM-TLS on them (paper eqs.
-(33)-(36)) with the simulator's own regressor (orthoglide_sim.arms.pinocchio_truth), not the product's
+(33)-(36)) with the simulator's own regressor (orthoglide_sim.arms.pinocchio_truth), not the
+product's
 pipeline: a check of the plant and its records, figures for the identification to compare with.
 
     .venv/bin/python bench/arm_identifiability.py [--seconds 60]
@@ -20,9 +21,9 @@ from scipy.ndimage import minimum_filter1d
 from scipy.signal import butter, filtfilt
 
 from orthoglide_sim.arms.description import load_arm
+from orthoglide_sim.arms.pinocchio_truth import ArmRegressor, TruthDynamics
 from orthoglide_sim.arms.record import ArmRecord, simulate_arm
 from orthoglide_sim.arms.truth import default_truth
-from orthoglide_sim.arms.pinocchio_truth import ArmRegressor, TruthDynamics
 
 TICK = 1.0e-3  # s
 CUTOFF = 25.0  # Hz, low-pass of q and v_tau
@@ -58,7 +59,9 @@ def tls_rows(rec: ArmRecord, reg: ArmRegressor, margin_ticks: int, source: str =
     return np.hstack([reg.base(q, qd, qdd), -V, known[:, None]]) / sigma[:, None]
 
 
-def gains(records: list[ArmRecord], reg: ArmRegressor, margin_ticks: int, source: str = "q") -> np.ndarray:
+def gains(
+    records: list[ArmRecord], reg: ArmRegressor, margin_ticks: int, source: str = "q"
+) -> np.ndarray:
     """g_tau by TLS: the right singular vector of the smallest singular value, scaled so that the
     payload's known column has coefficient 1 (eq. 36)."""
     A = np.vstack([tls_rows(r, reg, margin_ticks, source) for r in records])
@@ -74,11 +77,18 @@ def main() -> None:
     truth = default_truth(load_arm("ur5"))
     reg = ArmRegressor(truth.arm)
     g_true = truth.drive_array("g_tau")
-    print(f"UR5, {args.seconds:g} s unloaded + {args.seconds:g} s with 2 kg; gain error (%) per joint")
-    print(f"  {'nominal gains':<36}" + " ".join(f"{v:7.3f}" for v in 100 * (truth.arm.nominal_gains / g_true - 1)))
+    print(
+        f"UR5, {args.seconds:g} s unloaded + {args.seconds:g} s with 2 kg; gain error (%) per joint"
+    )
+    print(
+        f"  {'nominal gains':<36}"
+        + " ".join(f"{v:7.3f}" for v in 100 * (truth.arm.nominal_gains / g_true - 1))
+    )
     for noise in (False, True):
-        recs = [simulate_arm(args.seconds, payload=p, trajectory=t, seed=s, truth=truth, noise=noise)
-                for p, t, s in ((None, "exciting1", 0), ("2.0", "exciting2", 1))]
+        recs = [
+            simulate_arm(args.seconds, payload=p, trajectory=t, seed=s, truth=truth, noise=noise)
+            for p, t, s in ((None, "exciting1", 0), ("2.0", "exciting2", 1))
+        ]
         for margin in (8, 40):
             g = gains(recs, reg, margin)
             label = f"{'noisy' if noise else 'noise-free'}, reversals ±{margin} ms"

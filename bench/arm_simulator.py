@@ -19,9 +19,9 @@ import numpy as np
 from orthoglide_sim.arms import excitation as ax
 from orthoglide_sim.arms.description import load_arm
 from orthoglide_sim.arms.limits import motion_limits
+from orthoglide_sim.arms.pinocchio_truth import ArmRegressor, TruthDynamics
 from orthoglide_sim.arms.record import simulate_arm
 from orthoglide_sim.arms.truth import default_truth
-from orthoglide_sim.arms.pinocchio_truth import ArmRegressor, TruthDynamics
 
 RECORD_S = 60.0  # s per record the σ is predicted for
 N_PERIOD = 500  # samples per period for the σ
@@ -51,12 +51,19 @@ def speed_and_tracking(truth, seconds: float) -> dict:
 
 def excitation(arm, reg: ArmRegressor) -> None:
     lim = motion_limits(arm)
-    random = np.array([ax.condition_number(ax.random_trajectory(lim, s), reg.base) for s in range(20)])
+    random = np.array(
+        [ax.condition_number(ax.random_trajectory(lim, s), reg.base) for s in range(20)]
+    )
     print(f"cond(W), {len(reg.base_columns)} base columns, {ax.SAMPLES} samples per period:")
     for name in ("exciting1", "exciting2"):
-        print(f"  {name:<28}{ax.condition_number(ax.designed_trajectory(arm, name), reg.base):8.1f}")
-    print(f"  {'random Fourier (20 seeds)':<28}median {np.median(random):.1f}, best {random.min():.1f}, "
-          f"worst {random.max():.1f}")
+        print(
+            f"  {name:<28}{ax.condition_number(ax.designed_trajectory(arm, name), reg.base):8.1f}"
+        )
+    print(
+        f"  {'random Fourier (20 seeds)':<28}median {np.median(random):.1f}, best "
+        f"{random.min():.1f}, "
+        f"worst {random.max():.1f}"
+    )
 
 
 def _tls_rows(truth, reg, traj_name: str, payload, sigma: np.ndarray) -> np.ndarray:
@@ -97,7 +104,10 @@ def main() -> None:
     reg = ArmRegressor(arm)
     excitation(arm, reg)
     sigma = predicted_gain_std(truth, reg, noise)
-    print(f"predicted gain σ, {RECORD_S:g} s unloaded + {RECORD_S:g} s with 2 kg, 0.5 % current noise:")
+    print(
+        f"predicted gain σ, {RECORD_S:g} s unloaded + {RECORD_S:g} s with 2 kg, 0.5 % current "
+        "noise:"
+    )
     print(_row("σ(g_tau) (%)", sigma))
 
 

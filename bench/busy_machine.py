@@ -15,7 +15,8 @@ with the hog, and the two are printed side by side with the bar (issue 35):
              Orthoglide <= 0.5) and both as programs of their own (interpreter start and imports
              included: what a user waits for), and, as first printed, the program against the
              in-process read;
-  demo       `python -m orthoglide_sim.demos.node_set` (the graph started as the launch file does, 2 x
+  demo       `python -m orthoglide_sim.demos.node_set` (the graph started as the launch file does, 2
+  x
              --record-seconds recorded, identified, Table 4 over ROS); read from its FIXED lines
              (DESIGN §9): per Table 4 run "driver: N of M ticks late, K without a fresh
              feed-forward", per test "CTC over ROS / in-process a, b, c" (bar <= 1.5), and the
@@ -47,9 +48,9 @@ import subprocess
 import sys
 import tempfile
 import time
+from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
-from typing import Iterator
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
@@ -75,8 +76,8 @@ def cpu_hog(n: int) -> Iterator[None]:
 
 def _bags(keep: Path) -> dict[str, list[Path]]:
     """2 x 60 s bags of the UR5 and of the Orthoglide (written once into ``keep``)."""
-    from identify_speed import arm_bags  # noqa: E402 (bench/ on the path)
     from identify_data import record
+    from identify_speed import arm_bags  # noqa: E402 (bench/ on the path)
 
     from orthoglide_ident import bags
     from orthoglide_ident.model.robots import load_robot
@@ -137,7 +138,10 @@ def parse_demo(text: str) -> dict[str, float]:
     held, late, expired = [], [], []
     for n_late, n_ticks, rest in re.findall(r"driver: (\d+) of (\d+) ticks late(.*)", text):
         late.append(100 * int(n_late) / max(int(n_ticks), 1))
-        m = re.match(r", (\d+) without a fresh feed-forward \(previous one held\)(?:, (\d+) of them past)?", rest)
+        m = re.match(
+            r", (\d+) without a fresh feed-forward \(previous one held\)(?:, (\d+) of them past)?",
+            rest,
+        )
         if m:
             held.append(100 * int(m.group(1)) / max(int(n_ticks), 1))
             expired.append(100 * int(m.group(2) or 0) / max(int(n_ticks), 1))
@@ -149,7 +153,9 @@ def parse_demo(text: str) -> dict[str, float]:
     ctc = re.findall(r"ctc: lead min (-?[\d.]+) / median (-?[\d.]+) ms, CPU (\d+) %", text)
     if ctc:
         out["demo: ctc lead at sending, min (worst run, ms)"] = min(float(a) for a, _, _ in ctc)
-        out["demo: ctc lead at sending, median (median run, ms)"] = statistics.median(float(b) for _, b, _ in ctc)
+        out["demo: ctc lead at sending, median (median run, ms)"] = statistics.median(
+            float(b) for _, b, _ in ctc
+        )
         out["demo: ctc CPU (worst run, % of a core)"] = max(float(c) for _, _, c in ctc)
     for line in re.findall(r"CPU while recording \(% of one core\): (.*)", text):
         for node, pct in re.findall(r"(\w+) (\d+)", line):
@@ -161,9 +167,20 @@ def parse_demo(text: str) -> dict[str, float]:
 
 
 def demo_figures(record_s: float, out_dir: Path) -> dict[str, float]:
-    proc = subprocess.run([sys.executable, "-m", "orthoglide_sim.demos.node_set", "--record-seconds",
-                           str(record_s), "--out", str(out_dir)], cwd=ROOT, capture_output=True,
-                          text=True)
+    proc = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "orthoglide_sim.demos.node_set",
+            "--record-seconds",
+            str(record_s),
+            "--out",
+            str(out_dir),
+        ],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+    )
     (out_dir.parent / (out_dir.name + ".txt")).write_text(proc.stdout + proc.stderr)
     if proc.returncode != 0:
         print(f"demo failed (exit {proc.returncode}); its output: {out_dir}.txt", file=sys.stderr)

@@ -28,12 +28,12 @@ from orthoglide_ident.model.robots import load_robot
 from orthoglide_sim.arms import excitation as ax
 from orthoglide_sim.arms import simulator as asim
 from orthoglide_sim.arms.limits import motion_limits
+from orthoglide_sim.arms.plant import TIMESTEP
 from orthoglide_sim.chains.description import load_chain
+from orthoglide_sim.chains.pinocchio_truth import ChainDynamics, rigid_loop_currents
 from orthoglide_sim.chains.plant import ChainPlant
 from orthoglide_sim.chains.record import simulate_chain
 from orthoglide_sim.chains.truth import apply_chain_overrides, default_chain_truth
-from orthoglide_sim.arms.plant import TIMESTEP
-from orthoglide_sim.chains.pinocchio_truth import ChainDynamics, rigid_loop_currents
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests" / "identify"))
 from test_on_arm import as_record  # noqa: E402  (the record a bag of the run holds)
@@ -65,7 +65,10 @@ def speed_and_tracking(truth, seconds: float) -> dict:
 def softness(truth, robot, noise: dict, n: int = 40) -> None:
     """MuJoCo's loop against Pinocchio's rigid one: at closed states (torque Gᵀ M G Δq̈_a over
     the applied torque) and over a tick (Gᵀ M G Δq̇_a / T over the current noise's torque)."""
-    print("loop softness (MuJoCo equality, d = 0.9999) against Pinocchio's rigid loop, friction loss off:")
+    print(
+        "loop softness (MuJoCo equality, d = 0.9999) against Pinocchio's rigid loop, friction loss "
+        "off:"
+    )
     g = truth.drive_array("g_tau")
     for payload in (None, "1.0"):
         load = truth.payload(payload)
@@ -92,8 +95,16 @@ def softness(truth, robot, noise: dict, n: int = 40) -> None:
             dtau = Mr @ (plant.data.qvel - v1)[plant.dof] / asim.TICK
             tick.append(np.abs(dtau / (g * noise[payload])).max())
         name = "unloaded" if payload is None else f"{load.mass:g} kg"
-        print(f"  {name:<9} at a state: median {np.median(state):.1e}, max {np.max(state):.1e} of the "
-              f"torque; over a tick: median {np.median(tick):.3f}, max {np.max(tick):.3f} of the noise σ")
+        print(
+            f"  {name:<9} at a state: median {np.median(state):.1e}, max {np.max(state):.1e} of "
+            "the "
+            ""
+            ""
+            ""
+            ""
+            f"torque; over a tick: median {np.median(tick):.3f}, max {np.max(tick):.3f} of the "
+            "noise σ"
+        )
 
 
 def closed_loop_softness(truth, seconds: float) -> None:
@@ -108,9 +119,14 @@ def closed_loop_softness(truth, seconds: float) -> None:
     rec = simulate_chain(seconds, payload="1.0", trajectory="exciting2", truth=t, noise=False)
     ref = ax.designed_trajectory(t.arm, "exciting2").evaluate(np.arange(len(rec.q)) * asim.TICK)
     rigid = rigid_loop_currents(t, rec.payload, *ref)
-    noisy = simulate_chain(1.0, payload="1.0", trajectory="exciting2", truth=truth).current_noise_std
+    noisy = simulate_chain(
+        1.0, payload="1.0", trajectory="exciting2", truth=truth
+    ).current_noise_std
     diff = rec.v_tau - rigid
-    print(f"soft (MuJoCo) vs rigid (Pinocchio) loop under the same PID, {seconds:g} s with 1 kg, no noise:")
+    print(
+        f"soft (MuJoCo) vs rigid (Pinocchio) loop under the same PID, {seconds:g} s with 1 kg, no "
+        "noise:"
+    )
     print(_row("Δv_tau rms / noise σ", np.sqrt(np.mean(diff**2, axis=0)) / noisy, "{:9.1e}"))
     print(_row("Δv_tau max / noise σ", np.abs(diff).max(0) / noisy, "{:9.1e}"))
 
@@ -123,8 +139,11 @@ def excitation(chain, robot) -> None:
     for name in ("exciting1", "exciting2"):
         cond = ax.condition_number(ax.designed_trajectory(chain, name), robot.regressor)
         print(f"  {name:<30}{cond:9.1f}")
-    print(f"  {'random Fourier (20 seeds)':<30}median {np.median(random):.1f}, best {random.min():.1f}, "
-          f"worst {random.max():.1f}")
+    print(
+        f"  {'random Fourier (20 seeds)':<30}median {np.median(random):.1f}, best "
+        f"{random.min():.1f}, "
+        f"worst {random.max():.1f}"
+    )
 
 
 def identification(truth, robot, seconds: float, seeds: int) -> None:
@@ -146,10 +165,14 @@ def identification(truth, robot, seconds: float, seeds: int) -> None:
         wls = identify_records([recs[0], recs[2]], method="wls", gains=list(g), model=robot)
         nominal = identify_records([recs[0], recs[2]], method="wls", model=robot)
         ratio = tls.diagnostics["solver"]["singular_ratio"]
-        print(f"  {seed:<5}" + "".join(f"{100 * e:10.4f}" for e in err)
-              + "".join(f"{100 * s:10.4f}" for s in sigma) + "".join(f"{z:8.2f}" for z in err / sigma)
-              + f"{ratio:11.3f}{wls.payload_mass.value:21.5f} / {nominal.payload_mass.value:.5f} kg"
-              + f"{wall:10.1f}")
+        print(
+            f"  {seed:<5}"
+            + "".join(f"{100 * e:10.4f}" for e in err)
+            + "".join(f"{100 * s:10.4f}" for s in sigma)
+            + "".join(f"{z:8.2f}" for z in err / sigma)
+            + f"{ratio:11.3f}{wls.payload_mass.value:21.5f} / {nominal.payload_mass.value:.5f} kg"
+            + f"{wall:10.1f}"
+        )
 
 
 def main() -> None:
@@ -159,9 +182,13 @@ def main() -> None:
     args = ap.parse_args()
     chain = load_chain("five_bar")
     truth, robot = default_chain_truth(chain), load_robot("five_bar")
-    print(f"five-bar on MuJoCo, RK4 4 x 0.25 ms per 1 kHz tick; actuated {', '.join(chain.joint_names)}, "
-          f"passive {', '.join(chain.passive_names)}; true gains {np.round(truth.drive_array('g_tau'), 4)} "
-          f"(nominal {chain.nominal_gains[0]:g}) N·m/A")
+    print(
+        "five-bar on MuJoCo, RK4 4 x 0.25 ms per 1 kHz tick; actuated "
+        f"{', '.join(chain.joint_names)}, "
+        f"passive {', '.join(chain.passive_names)}; true gains "
+        f"{np.round(truth.drive_array('g_tau'), 4)} "
+        f"(nominal {chain.nominal_gains[0]:g}) N·m/A"
+    )
     noise = speed_and_tracking(truth, args.seconds)
     softness(truth, robot, noise)
     closed_loop_softness(truth, min(args.seconds, 5.0))

@@ -35,10 +35,12 @@ sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from orthoglide_ident.errors import OrthoglideError  # noqa: E402
-from orthoglide_ident.identify.validate.direct_dynamics import validate as direct_validate  # noqa: E402
-from orthoglide_ident.identify import IdentifyOptions  # noqa: E402
-from orthoglide_ident.identify import identify_records  # noqa: E402
+from orthoglide_ident.identify import (
+    IdentifyOptions,  # noqa: E402
+    identify_records,  # noqa: E402
+)
 from orthoglide_ident.identify.consistency.pseudo_inertia import INERTIAL_KINDS  # noqa: E402
+from orthoglide_ident.identify.validate.direct_dynamics import validate as direct_validate  # noqa: E402
 from orthoglide_ident.model.robots import load_robot  # noqa: E402
 
 PAYLOAD = 1.983

@@ -35,10 +35,14 @@ from pathlib import Path
 import numpy as np
 
 from orthoglide_ident.errors import OrthoglideError
+from orthoglide_sim.arms.transmission_urdf import write_simple_transmission_robot
 from orthoglide_sim.coupled.check import torque_balance
 from orthoglide_sim.coupled.record import simulate_coupled, write_coupled_bag, write_robot_files
-from orthoglide_sim.coupled.truth import default_coupled_truth, simple_transmission_truth, truth_summary
-from orthoglide_sim.arms.transmission_urdf import write_simple_transmission_robot
+from orthoglide_sim.coupled.truth import (
+    default_coupled_truth,
+    simple_transmission_truth,
+    truth_summary,
+)
 
 RUNS = (("unloaded", None, "exciting1", 0), ("loaded_2kg", "2.0", "exciting2", 1))
 # folder, position side, effort side (actuator: each motor's current, A; joint: Nᵀ g_nominal v, N·m)
@@ -51,14 +55,19 @@ def _fmt(v, scale=1.0, digits=3) -> str:
     return "[" + ", ".join(f"{scale * x:.{digits}f}" for x in v) + "]"
 
 
-def one_run(out: Path, name: str, payload, trajectory: str, seed: int, seconds: float, truth) -> None:
+def one_run(
+    out: Path, name: str, payload, trajectory: str, seed: int, seconds: float, truth
+) -> None:
     t0 = time.perf_counter()
     rec = simulate_coupled(seconds, payload=payload, trajectory=trajectory, seed=seed, truth=truth)
     sim_s = time.perf_counter() - t0
     for folder, position_side, effort_side in LAYOUTS:
         path = write_coupled_bag(out / folder / name, rec, position_side, effort_side)
-        print(f"wrote {path}: {seconds:g} s at 1 kHz, {rec.payload_mass:g} kg, {trajectory}, seed {seed}, "
-              f"positions {position_side}-side, efforts {effort_side}-side")
+        print(
+            f"wrote {path}: {seconds:g} s at 1 kHz, {rec.payload_mass:g} kg, {trajectory}, seed "
+            f"{seed}, "
+            f"positions {position_side}-side, efforts {effort_side}-side"
+        )
     N = truth.reduction
     g = truth.motor_array("gain")
     noise_tau = np.sqrt((N.T ** 2) @ (g * rec.current_noise_std) ** 2)  # σ of Nᵀ g ε per joint
@@ -66,13 +75,19 @@ def one_run(out: Path, name: str, payload, trajectory: str, seed: int, seconds: 
     bal = torque_balance(rec, step=max(1, rec.q_true.shape[0] // 2000))
     worst, share = bal.sliding_error(SLIDING)
     band = np.mean(np.abs(rec.qd_motor_true) < SLIDING, axis=0)
-    print(f"  simulated in {sim_s:.1f} s (busy machine: indicative); tracking rms {_fmt(rec.tracking_rms, 1e3)} mrad; "
-          f"{rec.saturated_ticks} saturated ticks")
+    print(
+        f"  simulated in {sim_s:.1f} s (busy machine: indicative); tracking rms "
+        f"{_fmt(rec.tracking_rms, 1e3)} mrad; "
+        f"{rec.saturated_ticks} saturated ticks"
+    )
     print(f"  motor current rms {_fmt(np.sqrt(np.mean(rec.v_tau ** 2, axis=0)))} A, noise σ "
           f"{_fmt(rec.current_noise_std, 1e3)} mA = {_fmt(noise_tau)} N·m at the joints")
-    print(f"  checks: max |q̇_m - N q̇| / max |q̇_m| = {vel_err:.1e}; torque balance vs Pinocchio RNEA "
-          f"{worst:.1e} (relative, {100 * share:.0f} % of sampled ticks with every |q̇_m| > {SLIDING} rad/s); "
-          f"share of ticks in each motor's friction band {_fmt(100 * band, digits=1)} %")
+    print(
+        f"  checks: max |q̇_m - N q̇| / max |q̇_m| = {vel_err:.1e}; torque balance vs Pinocchio RNEA "
+        f"{worst:.1e} (relative, {100 * share:.0f} % of sampled ticks with every |q̇_m| > {SLIDING} "
+        "rad/s); "
+        f"share of ticks in each motor's friction band {_fmt(100 * band, digits=1)} %"
+    )
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -99,9 +114,12 @@ def main(argv: list[str] | None = None) -> int:
     print(f"wrote {args.out / 'truth.json'}")
     m = summary["motors"]
     for i, a in enumerate(summary["actuators"]):
-        print(f"  motor {i + 1} ({a}): g {m['gain'][i]:.5f} N·m/A (nominal {m['nominal_gain'][i]:.2f}), "
-              f"Ia {m['inertia'][i]:.3e} kg·m², fv {m['viscous'][i]:.3e} N·m·s/rad, "
-              f"fs {m['coulomb'][i]:.4f} N·m, off {m['offset'][i]:+.4f} N·m")
+        print(
+            f"  motor {i + 1} ({a}): g {m['gain'][i]:.5f} N·m/A (nominal "
+            f"{m['nominal_gain'][i]:.2f}), "
+            f"Ia {m['inertia'][i]:.3e} kg·m², fv {m['viscous'][i]:.3e} N·m·s/rad, "
+            f"fs {m['coulomb'][i]:.4f} N·m, off {m['offset'][i]:+.4f} N·m"
+        )
     return 0
 
 

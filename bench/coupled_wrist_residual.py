@@ -34,9 +34,9 @@ from orthoglide_ident.errors import OrthoglideError
 from orthoglide_ident.identify import identify
 from orthoglide_ident.model import robots
 from orthoglide_ident.model.robots import load_robot
+from orthoglide_sim.arms.pinocchio_truth import TruthDynamics
 from orthoglide_sim.coupled.record import simulate_coupled, write_coupled_bag, write_robot_files
 from orthoglide_sim.coupled.truth import default_coupled_truth
-from orthoglide_sim.arms.pinocchio_truth import TruthDynamics
 
 RUNS = (("unloaded", None, "exciting1", 0), ("loaded_2kg", "2.0", "exciting2", 1))
 COUPLED = (4, 5)  # wrist_2, wrist_3 and motors 5, 6 (0-based)

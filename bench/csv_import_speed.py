@@ -51,7 +51,10 @@ def main() -> None:
         size = csv.stat().st_size / 1e6
     parse, total = t1 - t0, t2 - t1
     rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
-    print(f"rows {args.rows}, joints {args.joints}, file {size:.1f} MB{' (gzip)' if args.gzip else ''}")
+    print(
+        f"rows {args.rows}, joints {args.joints}, file {size:.1f} "
+        f"MB{' (gzip)' if args.gzip else ''}"
+    )
     print(f"{'stage':<28}{'s':>8}{'rows/s':>12}")
     print(f"{'parse (read_csv)':<28}{parse:8.2f}{args.rows / parse:12.3g}")
     print(f"{'import (parse + write bag)':<28}{total:8.2f}{args.rows / total:12.3g}")

@@ -1,6 +1,8 @@
-"""Tracking errors of PID, PID + velocity feed-forward and CTC on the test trajectories (paper Table 4).
+"""Tracking errors of PID, PID + velocity feed-forward and CTC on the test trajectories (paper
+Table 4).
 
-    .venv/bin/python bench/ctc_tracking.py [--duration S] [--runs N] [--bags UNLOADED LOADED] [--ros]
+    .venv/bin/python bench/ctc_tracking.py [--duration S] [--runs N] [--bags UNLOADED LOADED]
+    [--ros]
 
 The simulated Orthoglide carries the 1.983 kg payload and tracks "test1" and "test2" (Fig. 6-like)
 under five control laws with the same linear part (the driver's PID, triple pole at 100 rad/s):
@@ -15,7 +17,8 @@ current of each tick (orthoglide_ident.control.feedforward_currents), here witho
 (in-process). The payload mass in every CTC model is the nominal 1.983 kg (as in the paper). The
 error is the true actuator position minus the reference, in um, rms and max per joint, averaged
 over ``--runs`` noise seeds. Also the feed-forward's compute time per tick (the ctc node's batches
-of 10 setpoints). ``--ros`` then runs the same table through the live node set (orthoglide_sim.demos.node_set:
+of 10 setpoints). ``--ros`` then runs the same table through the live node set
+(orthoglide_sim.demos.node_set:
 driver in real time, ctc node, DDS) and prints both side by side.
 """
 from __future__ import annotations
@@ -30,8 +33,8 @@ from orthoglide_ident.control import CTCParameters, feedforward_currents
 from orthoglide_ident.identify import identify
 from orthoglide_ident.model.orthoglide.geometry import G_TAU_MANUFACTURER
 from orthoglide_ident.model.robots import load_robot
-from orthoglide_sim.orthoglide.record import simulate
 from orthoglide_sim.common.trajectories import get_trajectory
+from orthoglide_sim.orthoglide.record import simulate
 
 ORTHOGLIDE = load_robot("orthoglide")  # the robot these records are of
 
@@ -61,13 +64,19 @@ def models(bags: list[str]) -> dict[str, CTCParameters]:
             "CTC, true model": true_model(m7)}
 
 
-def run(traj_name: str, case: str, model: CTCParameters | None, duration: float, seed: int) -> np.ndarray:
+def run(
+    traj_name: str, case: str, model: CTCParameters | None, duration: float, seed: int
+) -> np.ndarray:
     """(N, 3) true position - reference, m."""
     if model is None:
-        rec = simulate(duration, PAYLOAD, traj_name, "pid" if case == "simple PID" else "pid_ff", seed)
+        rec = simulate(
+            duration, PAYLOAD, traj_name, "pid" if case == "simple PID" else "pid_ff", seed
+        )
     else:
         ref = get_trajectory(traj_name).evaluate(np.arange(round(duration * 1000) + 1) * 1e-3)
-        rec = simulate(duration, PAYLOAD, traj_name, "ctc", seed, feedforward=feedforward_currents(*ref, model))
+        rec = simulate(
+            duration, PAYLOAD, traj_name, "ctc", seed, feedforward=feedforward_currents(*ref, model)
+        )
     return rec.q_true - rec.q_ref
 
 
@@ -86,21 +95,37 @@ def print_table(rows: dict, cases: list[str], title: str) -> None:
     w = max(len(c) for c in cases)
     print(f"\n{title}")
     print(f"{'control strategy':<{w}}  {'maximal error':^26}  {'rms':^26}")
-    print(f"{'':<{w}}  {'joint 1':>8}{'joint 2':>9}{'joint 3':>9}  {'joint 1':>8}{'joint 2':>9}{'joint 3':>9}")
+    print(
+        f"{'':<{w}}  {'joint 1':>8}{'joint 2':>9}{'joint 3':>9}  "
+        f"{'joint 1':>8}{'joint 2':>9}{'joint 3':>9}"
+    )
     for traj_name in ("test1", "test2"):
         print(traj_name)
         for case in cases:
             if (traj_name, case) in rows:
                 mx, rms = rows[traj_name, case]
-                print(f"{case:<{w}}  " + "".join(f"{v:9.1f}" for v in mx) + " " + "".join(f"{v:9.1f}" for v in rms))
+                print(
+                    f"{case:<{w}}  "
+                    + "".join(f"{v:9.1f}" for v in mx)
+                    + " "
+                    + "".join(f"{v:9.1f}" for v in rms)
+                )
 
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--duration", type=float, default=4.0, help="s per run (default 4: about two periods)")
-    ap.add_argument("--runs", type=int, default=2, help="runs per case, different noise seeds (default 2)")
-    ap.add_argument("--bags", nargs=2, default=["bags/unloaded", "bags/loaded"], metavar=("UNLOADED", "LOADED"))
-    ap.add_argument("--ros", action="store_true", help="also run the table through the live node set")
+    ap.add_argument(
+        "--duration", type=float, default=4.0, help="s per run (default 4: about two periods)"
+    )
+    ap.add_argument(
+        "--runs", type=int, default=2, help="runs per case, different noise seeds (default 2)"
+    )
+    ap.add_argument(
+        "--bags", nargs=2, default=["bags/unloaded", "bags/loaded"], metavar=("UNLOADED", "LOADED")
+    )
+    ap.add_argument(
+        "--ros", action="store_true", help="also run the table through the live node set"
+    )
     args = ap.parse_args(argv)
     t0 = time.perf_counter()
     ctc = models(args.bags)
@@ -108,11 +133,20 @@ def main(argv: list[str] | None = None) -> int:
     rows = {}
     for traj_name in ("test1", "test2"):
         for case in cases:
-            errs = [run(traj_name, case, ctc.get(case), args.duration, seed) * 1e6 for seed in range(args.runs)]
-            rows[traj_name, case] = (np.mean([np.abs(e).max(axis=0) for e in errs], axis=0),
-                                     np.mean([np.sqrt(np.mean(e**2, axis=0)) for e in errs], axis=0))
-    print_table(rows, cases, f"In-process, payload {PAYLOAD} kg, mean of {args.runs} run(s) of {args.duration} s "
-                f"(true position - reference, um)")
+            errs = [
+                run(traj_name, case, ctc.get(case), args.duration, seed) * 1e6
+                for seed in range(args.runs)
+            ]
+            rows[traj_name, case] = (
+                np.mean([np.abs(e).max(axis=0) for e in errs], axis=0),
+                np.mean([np.sqrt(np.mean(e**2, axis=0)) for e in errs], axis=0),
+            )
+    print_table(
+        rows,
+        cases,
+        f"In-process, payload {PAYLOAD} kg, mean of {args.runs} run(s) of {args.duration} s "
+        f"(true position - reference, um)",
+    )
     for traj_name in ("test1", "test2"):
         pid, c = rows[traj_name, "simple PID"][1], rows[traj_name, "CTC, identif. gains"][1]
         print(f"  {traj_name}: rms PID / CTC identified " + ", ".join(f"{r:.0f}x" for r in pid / c)
@@ -140,11 +174,17 @@ def ros_table(bags: list[str], duration: float, inproc: dict) -> None:
         g.set_params("orthoglide_driver", payload=PAYLOAD)
         rows = demo.table4_over_ros(g, [str(Path(b).resolve()) for b in bags], duration)
         log = g.log_tail("orthoglide_driver", 3)
-    ros = {k: (np.abs(e).max(axis=0) * 1e6, np.sqrt(np.mean(e**2, axis=0)) * 1e6) for k, e in rows.items()}
+    ros = {
+        k: (np.abs(e).max(axis=0) * 1e6, np.sqrt(np.mean(e**2, axis=0)) * 1e6)
+        for k, e in rows.items()
+    }
     print_table(ros, list(demo.TABLE4), "Over ROS 2 (encoder position - setpoint, um)")
     for traj_name in ("test1", "test2"):
         r, i = ros[traj_name, "CTC, identif. gains"][1], inproc[traj_name, "CTC, identif. gains"][1]
-        print(f"  {traj_name}: CTC identified over ROS / in-process " + ", ".join(f"{x:.2f}" for x in r / i))
+        print(
+            f"  {traj_name}: CTC identified over ROS / in-process "
+            + ", ".join(f"{x:.2f}" for x in r / i)
+        )
     print("  driver: " + " | ".join(line.split("]: ")[-1] for line in log if "ticks" in line))
 
 

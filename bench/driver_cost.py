@@ -54,8 +54,14 @@ def child(out: str, ros_args: list[str], plain: bool) -> int:
     from orthoglide_sim.orthoglide import session
 
     totals: dict[str, int] = {}
-    for name, key in () if plain else (("advance", "plant"), ("measure", "controller"), ("control", "controller")):
-        setattr(session.DriverSession, name, _timed(getattr(session.DriverSession, name), totals, key))
+    for name, key in (
+        ()
+        if plain
+        else (("advance", "plant"), ("measure", "controller"), ("control", "controller"))
+    ):
+        setattr(
+            session.DriverSession, name, _timed(getattr(session.DriverSession, name), totals, key)
+        )
     for name in () if plain else ("_publish_js", "_publish_setpoint", "_tick"):
         setattr(driver_node.Driver, name, _timed(getattr(driver_node.Driver, name), totals, name))
     if not plain:
@@ -68,12 +74,30 @@ def child(out: str, ros_args: list[str], plain: bool) -> int:
             self.pub_cr.publish = _timed(self.pub_cr.publish, totals, "_publish_cr")
 
     def patched_loop(self, stop):
-        t0, c0, r0 = time.monotonic_ns(), time.thread_time_ns(), resource.getrusage(resource.RUSAGE_SELF)
+        t0, c0, r0 = (
+            time.monotonic_ns(),
+            time.thread_time_ns(),
+            resource.getrusage(resource.RUSAGE_SELF),
+        )
         loop(self, stop)
-        t1, c1, r1 = time.monotonic_ns(), time.thread_time_ns(), resource.getrusage(resource.RUSAGE_SELF)
+        t1, c1, r1 = (
+            time.monotonic_ns(),
+            time.thread_time_ns(),
+            resource.getrusage(resource.RUSAGE_SELF),
+        )
         cpu = (r1.ru_utime + r1.ru_stime - r0.ru_utime - r0.ru_stime) * 1e9
-        Path(out).write_text(json.dumps({"ticks": self.session.k, "wall_ns": t1 - t0, "loop_ns": c1 - c0,
-                                         "process_ns": cpu, "late": self.late, **totals}))
+        Path(out).write_text(
+            json.dumps(
+                {
+                    "ticks": self.session.k,
+                    "wall_ns": t1 - t0,
+                    "loop_ns": c1 - c0,
+                    "process_ns": cpu,
+                    "late": self.late,
+                    **totals,
+                }
+            )
+        )
 
     driver_node.Driver.__init__, driver_node.Driver.main_loop = patched_init, patched_loop
     return driver_node.main([sys.argv[0], "--ros-args", *ros_args])
@@ -108,13 +132,23 @@ def measure(seconds: float, params: list[str]) -> tuple[dict, dict]:
             runs = {}
             for mode in ("plain", "timed"):
                 path = out / f"{mode}.json"
-                cmd = [sys.executable, __file__, "--child", str(path)] + (["--plain"] if mode == "plain" else [])
+                cmd = [sys.executable, __file__, "--child", str(path)] + (
+                    ["--plain"] if mode == "plain" else []
+                )
                 for p in params:
                     cmd += ["-p", p]
-                proc = subprocess.run(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
-                                      timeout=seconds + 120, env=dict(os.environ, PYTHONPATH=str(ROOT)))
+                proc = subprocess.run(
+                    cmd,
+                    stdout=subprocess.DEVNULL,
+                    stderr=subprocess.PIPE,
+                    text=True,
+                    timeout=seconds + 120,
+                    env=dict(os.environ, PYTHONPATH=str(ROOT)),
+                )
                 if not path.exists():
-                    raise RuntimeError(f"the driver did not finish: {proc.stderr.strip().splitlines()[-3:]}")
+                    raise RuntimeError(
+                        f"the driver did not finish: {proc.stderr.strip().splitlines()[-3:]}"
+                    )
                 runs[mode] = json.loads(path.read_text())
     return runs["timed"], runs["plain"]
 
@@ -122,11 +156,18 @@ def measure(seconds: float, params: list[str]) -> tuple[dict, dict]:
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seconds", type=float, default=10.0, help="s of real-time ticks (default 10)")
-    ap.add_argument("--plant", default=None, help="the driver's plant parameter (default: the driver's own)")
+    ap.add_argument(
+        "--plant", default=None, help="the driver's plant parameter (default: the driver's own)"
+    )
     ap.add_argument("--payload", default="1.983")
     ap.add_argument("--controller", default="pid")
-    ap.add_argument("--hog", type=int, default=max((os.cpu_count() or 2) - 1, 1),
-                    help="busy processes beside the second run (default: one per core minus one; 0: quiet only)")
+    ap.add_argument(
+        "--hog",
+        type=int,
+        default=max((os.cpu_count() or 2) - 1, 1),
+        help="busy processes beside the second run (default: one per core minus one; "
+        "0: quiet only)",
+    )
     ap.add_argument("--child", default=None, help=argparse.SUPPRESS)
     ap.add_argument("--plain", action="store_true", help=argparse.SUPPRESS)
     args, rest = ap.parse_known_args(argv)
@@ -134,18 +175,26 @@ def main(argv: list[str] | None = None) -> int:
         return child(args.child, rest, args.plain)
     from busy_machine import cpu_hog  # bench/ is on the path: this script's folder
 
-    params = [f"duration:={args.seconds}", f"payload:={args.payload}", f"controller:={args.controller}",
-              "trajectory:=exciting"] + ([f"plant:={args.plant}"] if args.plant else [])
+    params = [
+        f"duration:={args.seconds}",
+        f"payload:={args.payload}",
+        f"controller:={args.controller}",
+        "trajectory:=exciting",
+    ] + ([f"plant:={args.plant}"] if args.plant else [])
     columns = {}
     for hog in sorted({0, args.hog}):
         with cpu_hog(hog):
             try:
-                columns["quiet" if not hog else f"hog {hog}"] = measure(args.seconds, params) + (os.getloadavg()[0],)
+                columns["quiet" if not hog else f"hog {hog}"] = measure(args.seconds, params) + (
+                    os.getloadavg()[0],
+                )
             except RuntimeError as e:
                 print(f"driver_cost: {e}", file=sys.stderr)
                 return 1
-    print(f"driver at 1 kHz for {args.seconds:g} s ({args.controller}, payload {args.payload}, plant "
-          f"{args.plant or 'default'}) with recorder, identification, ctc running; CPU per tick (us):")
+    print(
+        f"driver at 1 kHz for {args.seconds:g} s ({args.controller}, payload {args.payload}, plant "
+        f"{args.plant or 'default'}) with recorder, identification, ctc running; CPU per tick (us):"
+    )
     print(f"  {'':<11}" + "".join(f"{name:>16}" for name in columns))
     splits = {name: split(r) for name, (r, _, _) in columns.items()}
     for k in PARTS + ("total",):
@@ -156,8 +205,11 @@ def main(argv: list[str] | None = None) -> int:
             "late ticks (untimed run)": lambda r, p: p["late"]}
     for label, f in rows.items():
         print(f"  {label:<36}" + "".join(f"{f(r, p):8.0f}" for r, p, _ in columns.values()))
-    print("  load average: " + ", ".join(f"{name} {load:.1f}" for name, (_, _, load) in columns.items())
-          + "; bar (issue 35): the untimed run <= 25 % of a core, also beside the hog")
+    print(
+        "  load average: "
+        + ", ".join(f"{name} {load:.1f}" for name, (_, _, load) in columns.items())
+        + "; bar (issue 35): the untimed run <= 25 % of a core, also beside the hog"
+    )
     return 0
 
 

@@ -106,18 +106,35 @@ class ExternalController:
         def each(cls, handler):  # the node set's batch intake, woken by every message (period 0)
             return lambda batch: [handler(deserialize_message(raw, cls)) for raw, _, _ in batch]
 
-        self.taker = BatchTaker(node, [BatchTopic(JointSetpoint, "/orthoglide/setpoints", qos,
-                                                  each(JointSetpoint, self.on_setpoint)),
-                                       BatchTopic(JointState, "/orthoglide/joint_states", qos,
-                                                  each(JointState, self.on_joint_state))], period_s=0.0)
-        node.create_subscription(CurrentReference, "/orthoglide/current_reference", self.on_applied, qos)
+        self.taker = BatchTaker(
+            node,
+            [
+                BatchTopic(
+                    JointSetpoint,
+                    "/orthoglide/setpoints",
+                    qos,
+                    each(JointSetpoint, self.on_setpoint),
+                ),
+                BatchTopic(
+                    JointState,
+                    "/orthoglide/joint_states",
+                    qos,
+                    each(JointState, self.on_joint_state),
+                ),
+            ],
+            period_s=0.0,
+        )
+        node.create_subscription(
+            CurrentReference, "/orthoglide/current_reference", self.on_applied, qos
+        )
         self.setpoints: dict[int, tuple] = {}
         self.last_setpoint: tuple | None = None
         self.gains = (3 * 10.0 * omega**2, 3 * 10.0 * omega, 10.0 * omega**3)  # Kp, Kd, Ki
         self.q_prev: np.ndarray | None = None
         self.integral = np.zeros(3)
         self.sent: dict[float, int] = {}  # first current of each command -> stamp it came from
-        self.applied: list[tuple[int, int | None]] = []  # (tick stamp, stamp of the command applied)
+        # (tick stamp, stamp of the command applied)
+        self.applied: list[tuple[int, int | None]] = []
         self.latency: list[int] = []
 
     def on_setpoint(self, m) -> None:
@@ -126,7 +143,8 @@ class ExternalController:
     def on_joint_state(self, m) -> None:
         st = _stamp(m)
         self.latency.append(time.time_ns() - st)
-        sp = self.setpoints.pop(st, None) or self.last_setpoint  # the first ones come before we listen
+        # the first ones come before we listen
+        sp = self.setpoints.pop(st, None) or self.last_setpoint
         if sp is None:
             return
         self.last_setpoint = sp
@@ -138,7 +156,9 @@ class ExternalController:
         self.integral = self.integral + (q_d - q) * self.sm.TICK
         v = (kp * (q_d - q) + ki * self.integral + kd * (qd_d - v_est)) / self.sm.G_TAU_MANUFACTURER
         self.sent[float(v[0])] = st
-        self.pub.publish(self.CurrentReference(header=m.header, name=JOINTS, current=[float(x) for x in v]))
+        self.pub.publish(
+            self.CurrentReference(header=m.header, name=JOINTS, current=[float(x) for x in v])
+        )
 
     def on_applied(self, m) -> None:
         self.applied.append((_stamp(m), self.sent.get(float(m.current[0]))))
@@ -154,7 +174,9 @@ def external_run(node, duration: float, omega: float = 40.0) -> dict:
     executor.add_node(node)
     spinner = threading.Thread(target=executor.spin, daemon=True)
     spinner.start()
-    proc = _spawn([f"duration:={duration}", "controller:=external", "payload:=1.983", "trajectory:=test2"])
+    proc = _spawn(
+        [f"duration:={duration}", "controller:=external", "payload:=1.983", "trajectory:=test2"]
+    )
     try:
         proc.wait(timeout=duration + 60)
     except subprocess.TimeoutExpired:
@@ -174,14 +196,19 @@ def external_run(node, duration: float, omega: float = 40.0) -> dict:
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--duration", type=float, default=60.0, help="s of external-mode real time (default 60)")
-    ap.add_argument("--starts", type=int, default=5, help="driver starts for the time to first tick")
+    ap.add_argument(
+        "--duration", type=float, default=60.0, help="s of external-mode real time (default 60)"
+    )
+    ap.add_argument(
+        "--starts", type=int, default=5, help="driver starts for the time to first tick"
+    )
     args = ap.parse_args(argv)
     os.environ.setdefault("PYTHONUNBUFFERED", "1")
     import rclpy
     from rclpy.signals import SignalHandlerOptions
 
-    children.interrupt_on_signals()  # SIGTERM (timeout, CI) like Ctrl-C: one line, the driver stopped
+    # SIGTERM (timeout, CI) like Ctrl-C: one line, the driver stopped
+    children.interrupt_on_signals()
     rclpy.init(signal_handler_options=SignalHandlerOptions.NO)
     node = rclpy.create_node("bench_driver_realtime")
     try:
@@ -194,25 +221,38 @@ def main(argv: list[str] | None = None) -> int:
     finally:
         node.destroy_node()
         rclpy.try_shutdown()
-    print(f"time to first tick on both topics, {args.starts} starts: median {np.median(firsts):.2f} s, "
-          f"worst {np.max(firsts):.2f} s (before: 28-31 s)")
+    print(
+        f"time to first tick on both topics, {args.starts} starts: median {np.median(firsts):.2f} "
+        "s, "
+        f"worst {np.max(firsts):.2f} s (before: 28-31 s)"
+    )
     print(f"plant + controller per tick: p50 {np.percentile(step_ms, 50):.3f} ms, "
           f"p99 {np.percentile(step_ms, 99):.3f} ms (before: ~2 ms)")
     print(f"batch record real-time factor: {rtf:.1f}x")
     n, late = ext["ticks"], ext["late"]
     lat = ext["latency_ms"]
-    print(f"controller:=external, {args.duration:.0f} s: {n} ticks, {late} published > 0.5 ms after their "
-          f"deadline ({100 * (1 - late / max(n, 1)):.2f} % on time; before: 3999 of 4000 late)")
+    print(
+        f"controller:=external, {args.duration:.0f} s: {n} ticks, {late} published > 0.5 ms after "
+        "their "
+        f"deadline ({100 * (1 - late / max(n, 1)):.2f} % on time; before: 3999 of 4000 late)"
+    )
     if lat.size:
-        print(f"  joint_states arrival here: p50 {np.percentile(lat, 50):.3f} ms, p99 {np.percentile(lat, 99):.3f} ms "
-              f"after the deadline; {np.mean(lat <= 0.5) * 100:.2f} % within 0.5 ms")
+        print(
+            f"  joint_states arrival here: p50 {np.percentile(lat, 50):.3f} ms, p99 "
+            f"{np.percentile(lat, 99):.3f} ms "
+            f"after the deadline; {np.mean(lat <= 0.5) * 100:.2f} % within 0.5 ms"
+        )
     ages = ext["ages"]
     if ages.size:
         values, counts = np.unique(ages, return_counts=True)
         hist = ", ".join(f"{v}: {c}" for v, c in zip(values[:8], counts[:8]))
-        print(f"  applied command age (ticks): {hist}; {np.mean(ages <= 1) * 100:.2f} % from the previous tick, "
-              f"median {np.median(ages):.0f}, max {ages.max()}; {ext['unmatched']} of {ext['received']} ticks "
-              "applied no command of this run (start)")
+        print(
+            f"  applied command age (ticks): {hist}; {np.mean(ages <= 1) * 100:.2f} % from the "
+            "previous tick, "
+            f"median {np.median(ages):.0f}, max {ages.max()}; {ext['unmatched']} of "
+            f"{ext['received']} ticks "
+            "applied no command of this run (start)"
+        )
     print("  driver: " + " | ".join(ext["log_tail"]))
     return 0
 

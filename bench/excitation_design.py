@@ -38,8 +38,12 @@ from identify.test_on_arm import as_record  # noqa: E402
 from orthoglide_ident.excite.collision import CollisionModel  # noqa: E402
 from orthoglide_ident.excite.design import DesignOptions, design  # noqa: E402
 from orthoglide_ident.excite.limits import read_limits  # noqa: E402
-from orthoglide_ident.excite.prediction import (DEFAULT_CURRENT_NOISE, RunSamples,  # noqa: E402
-                                                noise_from_result, predict)
+from orthoglide_ident.excite.prediction import (  # noqa: E402
+    DEFAULT_CURRENT_NOISE,
+    RunSamples,
+    noise_from_result,
+    predict,
+)
 from orthoglide_ident.excite.summary import with_extras  # noqa: E402
 from orthoglide_ident.identify import identify_records  # noqa: E402
 from orthoglide_ident.model.robot import Payload  # noqa: E402
@@ -79,9 +83,11 @@ def print_design(name: str, d) -> None:
           f"{d.problem.opt.steps} steps; wall time on the shared 2-core machine)")
     print(f"  {'':<24}{'criterion':>10}{'worst gain σ %':>16}{'κ':>9}")
     print(f"  {'designed':<24}{d.criterion:>10.3f}{100 * p.worst_gain:>16.4f}{p.condition:>9.1f}")
-    print(f"  {f'random feasible (median of {len(rand)})':<24}"
-          f"{med(lambda e: e.criterion):>10.3f}{100 * med(lambda e: e.prediction.worst_gain):>16.4f}"
-          f"{med(lambda e: e.prediction.condition):>9.1f}")
+    print(
+        f"  {f'random feasible (median of {len(rand)})':<24}"
+        f"{med(lambda e: e.criterion):>10.3f}{100 * med(lambda e: e.prediction.worst_gain):>16.4f}"
+        f"{med(lambda e: e.prediction.condition):>9.1f}"
+    )
     print("  1 ms check (worst slack, margin kept, worst - margin):")
     for kind, s in d.check.by_kind().items():
         print(f"    {kind:<13} {s.value:>9.4g} {s.required:>7.3g} {s.value - s.required:>+9.4g}  "
@@ -131,10 +137,12 @@ def achieved(robot, truth, d, limits, collision, seeds: int) -> None:
     print(f"    {'joint':<20}{'predicted':>10}{'eq. 39':>9}{'honest':>9}{'sd(err)':>9}"
           f"{'mean err':>10}{'eq39/pred':>10}{'pred same':>10}{'eq39/same':>10}")
     for j, name in enumerate(robot.joint_names):
-        print(f"    {name:<20}{100 * pred[:, j].mean():>10.4f}{100 * paper[:, j].mean():>9.4f}"
-              f"{100 * honest[:, j].mean():>9.4f}{100 * sd[j]:>9.4f}{100 * errs[:, j].mean():>+10.4f}"
-              f"{paper[:, j].mean() / pred[:, j].mean():>10.2f}{100 * same[j]:>10.4f}"
-              f"{paper[:, j].mean() / same[j]:>10.2f}")
+        print(
+            f"    {name:<20}{100 * pred[:, j].mean():>10.4f}{100 * paper[:, j].mean():>9.4f}"
+            f"{100 * honest[:, j].mean():>9.4f}{100 * sd[j]:>9.4f}{100 * errs[:, j].mean():>+10.4f}"
+            f"{paper[:, j].mean() / pred[:, j].mean():>10.2f}{100 * same[j]:>10.4f}"
+            f"{paper[:, j].mean() / same[j]:>10.2f}"
+        )
     print("  (predicted: noise from a previous identification of the simulator's own records; "
           "pred same: from seed 0's identification of these runs)")
 

@@ -15,9 +15,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from orthoglide_ident.identify import IdentifyOptions, Record
 from orthoglide_ident.identify.observe.time_base import states_at_half_tick
-from orthoglide_ident.identify import IdentifyOptions
-from orthoglide_ident.identify import Record
 
 
 def gain_rel_std_bound(records: list[Record], model, chi: np.ndarray, g: np.ndarray,

@@ -1,4 +1,5 @@
-"""Accuracy of the identification and honesty of its σ over seeds, both plant profiles (docs/benchmarks.md).
+"""Accuracy of the identification and honesty of its σ over seeds, both plant profiles
+(docs/benchmarks.md).
 
     PYTHONPATH=. .venv/bin/python bench/identify_accuracy.py [--profiles nominal,realistic]
         [--seconds 30,60] [--seeds 5] [--first-seed 0] [--payload KG] [--cache DIR] [--validate]
@@ -36,11 +37,15 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from orthoglide_ident.errors import OrthoglideError  # noqa: E402
-from orthoglide_ident.identify import IdentifyOptions  # noqa: E402
-from orthoglide_ident.identify import Record, identify_records  # noqa: E402
-from orthoglide_ident.model.robots import load_robot  # noqa: E402
 from gain_bound import gain_rel_std_bound  # noqa: E402
+
+from orthoglide_ident.errors import OrthoglideError  # noqa: E402
+from orthoglide_ident.identify import (  # noqa: E402
+    IdentifyOptions,  # noqa: E402
+    Record,
+    identify_records,
+)
+from orthoglide_ident.model.robots import load_robot  # noqa: E402
 
 ORTHOGLIDE = load_robot("orthoglide")  # the robot these records are of
 
@@ -173,14 +178,21 @@ def summary(profile: str, seconds: float, rows: list[dict]) -> list[str]:
     E = np.array([r["gain_err"] for r in rows])
     Sp = np.array([r["sig_paper"] for r in rows])
     Sh = np.array([r["sig_honest"] for r in rows])
-    bar = GAIN_BAR.get(profile, 0.3) if (profile, seconds) in (("realistic", 30.0), ("nominal", 60.0)) \
+    bar = (
+        GAIN_BAR.get(profile, 0.3)
+        if (profile, seconds) in (("realistic", 30.0), ("nominal", 60.0))
         else None
+    )
     lines = [f"{profile} {seconds:g} s, {len(rows)} seeds"]
     lines.append("  gain error %   mean ± sd:  " + "  ".join(
         f"q1{j + 1} {E[:, j].mean():+.3f} ± {E[:, j].std():.3f}" for j in range(3))
         + f"   worst {np.abs(E).max():.3f}" + (f" (figure {bar} %)" if bar else ""))
-    lines.append("  σ %  paper (eqs. 38-39): " + "  ".join(f"{Sp[:, j].mean():.3f}" for j in range(3))
-                 + "   honest: " + "  ".join(f"{Sh[:, j].mean():.3f}" for j in range(3)))
+    lines.append(
+        "  σ %  paper (eqs. 38-39): "
+        + "  ".join(f"{Sp[:, j].mean():.3f}" for j in range(3))
+        + "   honest: "
+        + "  ".join(f"{Sh[:, j].mean():.3f}" for j in range(3))
+    )
     if bar:
         lines += figure_lines(E, Sp, bar, [r["seed"] for r in rows], rows[0].get("bound"))
     lines.append("  gains  |err|/σ   paper: " + coverage([r["z_paper"] for r in rows])

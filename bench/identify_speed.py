@@ -182,8 +182,10 @@ def main() -> int:
     bar = "0.6 (6-DOF arm)" if args.robot else "0.5"
     print(f"{'identify in this process':<34}{t_in:>10.2f}")
     print(f"{'rosbags read as a program':<34}{t_rosbags_p:>10.2f}")
-    print(f"ratio identify / rosbags read, both in-process: {t_in / t_rosbags:.2f}  (bar: <= {bar}, "
-          "issue 35)")
+    print(
+        f"ratio identify / rosbags read, both in-process: {t_in / t_rosbags:.2f}  (bar: <= {bar}, "
+        "issue 35)"
+    )
     print(f"ratio identify / rosbags read, both programs: {t_cli / t_rosbags_p:.2f}; identify "
           f"program / in-process read: {t_cli / t_rosbags:.2f}")
     print(f"peak RSS of identify: {rss_mb:.0f} MiB  (bar: < 1024 MiB)")

@@ -37,15 +37,20 @@ from identify_data import record  # noqa: E402
 from identify_speed import rosbags_read  # noqa: E402
 
 from orthoglide_ident import bags  # noqa: E402
-from orthoglide_ident.identify import LiveIdentification  # noqa: E402
-from orthoglide_ident.identify import IdentifyOptions  # noqa: E402
-from orthoglide_ident.identify import (Record, identify, identify_records,  # noqa: E402
-                                       read_record)
+from orthoglide_ident.identify import (  # noqa: E402
+    IdentifyOptions,  # noqa: E402
+    LiveIdentification,  # noqa: E402
+    Record,
+    identify,
+    identify_records,
+    read_record,
+)
 from orthoglide_ident.model.robots import load_robot  # noqa: E402
 
 ORTHOGLIDE = load_robot("orthoglide")  # the robot these records are of
 
-G_TRUE = np.array([2170.0, 2100.0, 2070.0])  # N/A, the plant's drive gains (docs/design/simulator.md)
+# N/A, the plant's drive gains (docs/design/simulator.md)
+G_TRUE = np.array([2170.0, 2100.0, 2070.0])
 
 
 def get_bags(args, tmp: str) -> tuple[list[Path], str]:

@@ -30,9 +30,14 @@ def start(g, out: Path) -> None:
     g.start("orthoglide_driver", "driver", {"trajectory": "exciting", "controller": "pid"})
     g.start("orthoglide_recorder", "recorder", {"output_dir": str(out / "bags")},
             params_file=ROOT / "config/recorder.yaml")
-    g.start("orthoglide_identification", "identification", {"bag_dir": str(out / "bags"), "lag_model": "off"})
+    g.start(
+        "orthoglide_identification",
+        "identification",
+        {"bag_dir": str(out / "bags"), "lag_model": "off"},
+    )
     g.wait_for_ticks()
-    identify(g, [str(ROOT / "bags" / "unloaded"), str(ROOT / "bags" / "loaded")])  # latched for the ctc
+    # latched for the ctc
+    identify(g, [str(ROOT / "bags" / "unloaded"), str(ROOT / "bags" / "loaded")])
     g.start("orthoglide_ctc", "ctc", params_file=ROOT / "config/ctc.yaml")
     g.wait_for_feedforward()
     g.wait_for_subscriber("orthoglide/joint_states", "orthoglide_identification")
@@ -47,8 +52,13 @@ def stalled_recording(g, node: str, stall: float, statuses: list) -> dict:
     from orthoglide_msgs.srv import StartRecording
 
     before, n_live, n_status = g.driver_counters(), len(g.live), len(statuses)
-    res = g.call(StartRecording, "orthoglide/recorder/start", condition="unloaded", payload_mass=0.0,
-                 name=f"stall_{node}")
+    res = g.call(
+        StartRecording,
+        "orthoglide/recorder/start",
+        condition="unloaded",
+        payload_mass=0.0,
+        name=f"stall_{node}",
+    )
     time.sleep(1.0)
     g.procs[node].send_signal(signal.SIGSTOP)
     time.sleep(stall)
@@ -58,7 +68,13 @@ def stalled_recording(g, node: str, stall: float, statuses: list) -> dict:
     after = g.driver_counters()
     time.sleep(1.5)  # the live estimate of the recording's end
     js = bags.read_bag(res.bag_path).joint_states.stamps_ns
-    said = sorted({m.message.split("; ", 1)[1] for m in statuses[n_status:] if m.recording and "; " in m.message})
+    said = sorted(
+        {
+            m.message.split("; ", 1)[1]
+            for m in statuses[n_status:]
+            if m.recording and "; " in m.message
+        }
+    )
     live = g.live[n_live:]
     return {
         "node": node.removeprefix("orthoglide_"),
@@ -77,7 +93,9 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--stall", type=float, default=1.0, help="s each node is stopped (SIGSTOP)")
     a = ap.parse_args(argv)
-    os.environ.update(ROS_DOMAIN_ID=str(215 + os.getpid() % 18), ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST")
+    os.environ.update(
+        ROS_DOMAIN_ID=str(215 + os.getpid() % 18), ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST"
+    )
     os.environ.pop("ROS_LOCALHOST_ONLY", None)
     from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 
@@ -90,8 +108,16 @@ def main(argv: list[str] | None = None) -> int:
     try:
         with tempfile.TemporaryDirectory() as tmp, Graph(Path(tmp) / "logs") as g:
             statuses: list = []
-            g.node.create_subscription(RecorderStatus, "orthoglide/recorder/status", statuses.append, QoSProfile(
-                depth=10, durability=DurabilityPolicy.TRANSIENT_LOCAL, reliability=ReliabilityPolicy.RELIABLE))
+            g.node.create_subscription(
+                RecorderStatus,
+                "orthoglide/recorder/status",
+                statuses.append,
+                QoSProfile(
+                    depth=10,
+                    durability=DurabilityPolicy.TRANSIENT_LOCAL,
+                    reliability=ReliabilityPolicy.RELIABLE,
+                ),
+            )
             start(g, Path(tmp))
             for node in NODES:
                 rows.append(stalled_recording(g, node, a.stall, statuses))
@@ -99,7 +125,10 @@ def main(argv: list[str] | None = None) -> int:
     except Interrupted as e:
         print(f"node_stalls: interrupted by {e}: the nodes were stopped", file=sys.stderr)
         return e.exit_code
-    print(f"each node stopped (SIGSTOP) {a.stall:g} s while recording, under the CTC, one recording each")
+    print(
+        f"each node stopped (SIGSTOP) {a.stall:g} s while recording, under the CTC, one recording "
+        "each"
+    )
     print(f"{'node':<15} {'ticks':>6} {'missing':>7} {'late':>5} {'ff held':>7} {'live lag s':>10} "
           f"{'live warn':>9}  recorder status said")
     for r in rows:

@@ -102,7 +102,6 @@ def main() -> None:
     ap.add_argument("--seconds", type=float, default=30.0)
     args = ap.parse_args()
     import rclpy
-
     from ros2_control_records import standin_records, write_record_bag
 
     opts = IdentifyOptions.from_yaml(str(ROOT / "config/identification.yaml")).replace(

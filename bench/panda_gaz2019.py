@@ -42,13 +42,18 @@ def main_bench() -> None:
     g_rms = np.sqrt(np.mean(g_p ** 2, axis=0))
     g_rel = np.sqrt(np.mean((g_o - g_p) ** 2, axis=0)) / np.where(g_rms > 0, g_rms, np.nan)
     print("held-out torque (traj1_b, 7 s), residual rms in N·m")
-    print(f"{'joint':<14}{'measured':>10}{'published':>11}{'ours':>8}{'gravity':>10}{'ours vs pub':>13}")
+    print(
+        f"{'joint':<14}{'measured':>10}{'published':>11}{'ours':>8}{'gravity':>10}"
+        f"{'ours vs pub':>13}"
+    )
     for j, name in enumerate(P.JOINTS):
         print(f"{name:<14}{rms['measured'][j]:10.3f}{rms['published'][j]:11.3f}"
               f"{rms['identified'][j]:8.3f}{g_rms[j]:10.3f}"
               + (f"{100 * g_rel[j]:12.1f}%" if g_rms[j] > 0.5 else f"{'-':>13}"))
     tot = {k: float(np.sqrt(np.mean(v ** 2))) for k, v in rms.items()}
-    print(f"{'all joints':<14}{tot['measured']:10.3f}{tot['published']:11.3f}{tot['identified']:8.3f}")
+    print(
+        f"{'all joints':<14}{tot['measured']:10.3f}{tot['published']:11.3f}{tot['identified']:8.3f}"
+    )
     print("\nbase parameters with %σ < 6 % (ours) next to the published ones")
     print(f"{'name':<10}{'ours':>10}{'%σ':>7}{'published':>11}{'diff':>8}")
     for p, b in zip(doc["parameters"], published):

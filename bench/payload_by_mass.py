@@ -22,8 +22,7 @@ import time
 import numpy as np
 
 from orthoglide_ident.errors import OrthoglideError
-from orthoglide_ident.identify import IdentifyOptions
-from orthoglide_ident.identify import Record, identify_records
+from orthoglide_ident.identify import IdentifyOptions, Record, identify_records
 from orthoglide_ident.model.robots import load_robot
 from orthoglide_sim.arms.description import load_arm
 from orthoglide_sim.arms.record import simulate_arm

@@ -26,6 +26,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+
 from orthoglide_ident.model.robots import load_robot
 
 ORTHOGLIDE = load_robot("orthoglide")  # the robot these records are of

@@ -22,10 +22,12 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import numpy as np  # noqa: E402
 
-from orthoglide_ident.identify import IdentifyOptions  # noqa: E402
+from orthoglide_ident.identify import (
+    IdentifyOptions,  # noqa: E402
+    Record,  # noqa: E402
+    identify_records,  # noqa: E402
+)
 from orthoglide_ident.identify.observe.filtering import derivative_filter  # noqa: E402
-from orthoglide_ident.identify import identify_records  # noqa: E402
-from orthoglide_ident.identify import Record  # noqa: E402
 from orthoglide_ident.identify.observe.time_base import states_on_stamps  # noqa: E402
 from orthoglide_ident.model.robots import load_robot  # noqa: E402
 from orthoglide_sim.arms.log import clock_10_12, clock_uniform, simulate_arm_log  # noqa: E402
@@ -109,13 +111,17 @@ def fast_case(duration: float, model) -> None:
     # differences in the larger of the two σ (the 1 kHz record's: its averaged current aliases
     # the 5 kHz PID's 0.5-2.5 kHz content)
     diffs = []
-    for x, y in zip(list(a.drive_gains) + list(a.parameters), list(b.drive_gains) + list(b.parameters)):
+    for x, y in zip(
+        list(a.drive_gains) + list(a.parameters), list(b.drive_gains) + list(b.parameters)
+    ):
         s = max(abs(x.value * x.rel_std), abs(y.value * y.rel_std), 1e-300)
         diffs.append((abs(x.value - y.value) / s, x.name))
     truth = recs[0].truth.drive_array("g_tau")
     for x, y, t, (k, _), n in zip(a.drive_gains, b.drive_gains, truth, diffs, model.joint_names):
-        print(f"  {n:<22} 5 kHz {100 * (x.value / t - 1):+7.3f} % ± {100 * x.rel_std:.3f} %   "
-              f"1 kHz {100 * (y.value / t - 1):+7.3f} % ± {100 * y.rel_std:.3f} %   {k:.2f} σ apart")
+        print(
+            f"  {n:<22} 5 kHz {100 * (x.value / t - 1):+7.3f} % ± {100 * x.rel_std:.3f} %   "
+            f"1 kHz {100 * (y.value / t - 1):+7.3f} % ± {100 * y.rel_std:.3f} %   {k:.2f} σ apart"
+        )
     params = diffs[len(a.drive_gains):]
     worst = max(params)
     print(f"  gains: largest difference {max(diffs[:len(a.drive_gains)])[0]:.2f} σ; base "

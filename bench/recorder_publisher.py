@@ -28,8 +28,8 @@ def main(argv: list[str] | None = None) -> int:
 
     import rclpy
     from rclpy.duration import Duration
-    from rclpy.signals import SignalHandlerOptions
     from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
+    from rclpy.signals import SignalHandlerOptions
     from sensor_msgs.msg import JointState
 
     from orthoglide_ident import bags
@@ -76,8 +76,12 @@ def main(argv: list[str] | None = None) -> int:
     # subscriber has all of them (as the simulator's driver does on its way out)
     for pub in (pub_js, pub_cr):
         if not pub.wait_for_all_acked(Duration(seconds=5)):
-            print(f"{pub.topic_name}: a subscriber had not received every tick 5 s after the last one",
-                  file=sys.stderr, flush=True)
+            print(
+                f"{pub.topic_name}: a subscriber had not received every tick 5 s after the last "
+                "one",
+                file=sys.stderr,
+                flush=True,
+            )
     print(f"sent {n} ticks in {elapsed:.3f} s", flush=True)
     node.destroy_node()
     rclpy.shutdown()

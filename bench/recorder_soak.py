@@ -77,8 +77,10 @@ def start_driver(env: dict[str, str], log: Path, node) -> subprocess.Popen:
         while not heard:
             if drv.poll() is not None or time.monotonic() > deadline:
                 tail = " | ".join(log.read_text().strip().splitlines()[-3:])
-                raise SystemExit(f"recorder_soak: the driver did not publish within {DRIVER_START_S:.0f} s "
-                                 f"(exit code {drv.poll()}): {tail}")
+                raise SystemExit(
+                    f"recorder_soak: the driver did not publish within {DRIVER_START_S:.0f} s "
+                    f"(exit code {drv.poll()}): {tail}"
+                )
             rclpy.spin_once(node, timeout_sec=0.1)
     except BaseException:
         stop(drv)
@@ -237,7 +239,9 @@ def soak(a: argparse.Namespace, env: dict[str, str]) -> list[dict]:
             )
             client = _Client(node)
             if not client.s.wait_for_service(timeout_sec=30):
-                raise SystemExit("recorder_soak: the recorder's services did not appear within 30 s")
+                raise SystemExit(
+                    "recorder_soak: the recorder's services did not appear within 30 s"
+                )
             time.sleep(1.0)
             t_start = time.monotonic()
             if a.source == "driver":
@@ -246,14 +250,21 @@ def soak(a: argparse.Namespace, env: dict[str, str]) -> list[dict]:
             rows = [run(client, env, out, "soak", 1000.0, a.duration, rec.pid, driver, a.stall)]
             if a.max_rate_search:
                 for r in (float(x) for x in a.rates.split(",")):
-                    rows.append(run(client, env, out, f"rate{int(r)}", r, a.search_duration, rec.pid))
+                    rows.append(
+                        run(client, env, out, f"rate{int(r)}", r, a.search_duration, rec.pid)
+                    )
                     if rows[-1]["lost_js"] or rows[-1]["lost_cr"] or rows[-1]["gaps"]:
                         break
         finally:
             if driver is not None:
                 stop(driver)
-                said = [ln for ln in (out / "driver.log").read_text().splitlines() if "driver: " in ln]
-                print(f"driver said: {said[-1] if said else f'(nothing; exit code {driver.returncode})'}")
+                said = [
+                    ln for ln in (out / "driver.log").read_text().splitlines() if "driver: " in ln
+                ]
+                print(
+                    "driver said: "
+                    f"{said[-1] if said else f'(nothing; exit code {driver.returncode})'}"
+                )
             stop(rec)
             node.destroy_node()
             rclpy.try_shutdown()
@@ -284,7 +295,9 @@ class _Client:
     def start(self, cond, mass, name):
         from orthoglide_msgs.srv import StartRecording
 
-        return self.call(self.s, StartRecording.Request(condition=cond, payload_mass=mass, name=name))
+        return self.call(
+            self.s, StartRecording.Request(condition=cond, payload_mass=mass, name=name)
+        )
 
     def stop(self):
         from std_srvs.srv import Trigger
@@ -332,16 +345,22 @@ def main(argv: list[str] | None = None) -> int:
     try:
         rows = soak(a, env)
     except Interrupted as e:
-        print(f"recorder_soak: interrupted by {e}: the recorder and the source were stopped", file=sys.stderr)
+        print(
+            f"recorder_soak: interrupted by {e}: the recorder and the source were stopped",
+            file=sys.stderr,
+        )
         return e.exit_code
     print(
-        f"{'rate Hz':>8} {'sent':>8} {'pub s':>7} {'lost js':>8} {'lost cr':>8} {'gaps':>6} {'CPU %':>6} "
+        f"{'rate Hz':>8} {'sent':>8} {'pub s':>7} {'lost js':>8} {'lost cr':>8} {'gaps':>6} "
+        f"{'CPU %':>6} "
         f"{'RSS0 MiB':>9} {'RSS1 MiB':>9} {'RSSmax':>7} {'bag MB':>7}"
     )
     for r in rows:
         print(
-            f"{r['rate']:>8.0f} {r['sent']:>8d} {r['pub_s']:>7.1f} {r['lost_js']:>8d} {r['lost_cr']:>8d} "
-            f"{r['gaps']:>6d} {r['cpu']:>6.1f} {r['rss0']:>9.1f} {r['rss1']:>9.1f} {r['rss_max']:>7.1f} "
+            f"{r['rate']:>8.0f} {r['sent']:>8d} {r['pub_s']:>7.1f} {r['lost_js']:>8d} "
+            f"{r['lost_cr']:>8d} "
+            f"{r['gaps']:>6d} {r['cpu']:>6.1f} {r['rss0']:>9.1f} {r['rss1']:>9.1f} "
+            f"{r['rss_max']:>7.1f} "
             f"{r['size'] / 1e6:>7.2f}"
         )
     print(f"recorder said: {rows[0]['stop']}")
@@ -359,7 +378,8 @@ def main(argv: list[str] | None = None) -> int:
     if a.max_rate_search:
         ok = [r["rate"] for r in rows if not (r["lost_js"] or r["lost_cr"] or r["gaps"])]
         print(
-            f"highest rate with zero loss: {max(ok):.0f} Hz (both topics; publisher pacing in 'pub s')"
+            f"highest rate with zero loss: {max(ok):.0f} Hz (both topics; publisher pacing in 'pub "
+            "s')"
         )
     return 0
 

@@ -34,15 +34,17 @@ HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE.parent))
 
 from orthoglide_ident import bags  # noqa: E402
-from orthoglide_sim.demos.node_set import record  # noqa: E402
 from orthoglide_sim.demos.graph import Graph  # noqa: E402
+from orthoglide_sim.demos.node_set import record  # noqa: E402
 
 STANDIN = "ros2_control_standin"
 SEED = 5
 NODES = {  # identification node -> (its service, parameters)
     "orthoglide_identification": ("orthoglide/identify", {"lag_model": "off"}),
     "identification_lag": ("orthoglide/identify_lag", {"lag_model": "auto"}),
-    "identification_effort": ("orthoglide/identify_effort", {"lag_model": "off", "dynamic_joint_states_topic": '""'}),  # "": not read
+    # dynamic_joint_states_topic "": that topic not read
+    "identification_effort": ("orthoglide/identify_effort",
+                              {"lag_model": "off", "dynamic_joint_states_topic": '""'}),
 }
 
 
@@ -61,11 +63,25 @@ def start(g: Graph, out: Path, drop_rate: float) -> None:
     from orthoglide_ident._install_ament import ROOT
 
     config = ROOT / "config" / "ros2_control.yaml"
-    g.start(STANDIN, "driver", {"robot": "ur5_mount", "drop_rate": drop_rate, "seed": SEED}, params_file=config)
+    g.start(
+        STANDIN,
+        "driver",
+        {"robot": "ur5_mount", "drop_rate": drop_rate, "seed": SEED},
+        params_file=config,
+    )
     g.start("orthoglide_recorder", "recorder", {"output_dir": str(out)}, params_file=config)
     for name, (service, params) in NODES.items():
-        g.start(name, "identification", {"bag_dir": str(out), "robot": "ur5_mount", "joint_states_topic": "joint_states",
-                                         **params}, remap={"orthoglide/identify": service})
+        g.start(
+            name,
+            "identification",
+            {
+                "bag_dir": str(out),
+                "robot": "ur5_mount",
+                "joint_states_topic": "joint_states",
+                **params,
+            },
+            remap={"orthoglide/identify": service},
+        )
     g.wait_for_messages(JointState, "joint_states", 1, timeout=120)
     for topic in ("joint_states", "dynamic_joint_states"):
         g.wait_for_subscriber(topic, "orthoglide_recorder")
@@ -87,12 +103,18 @@ def replayed_drops(start_ns: int, last_ns: int, rate: float) -> dict[str, set[in
 
 def recorder_figures(path: str, start_ns: int, rate: float, stop_message: str, cpu: float) -> None:
     data = bags.read_bag(path)
-    stamps = {"joint_states": data.positions.stamps_ns, "dynamic_joint_states": data.current.stamps_ns}
+    stamps = {
+        "joint_states": data.positions.stamps_ns,
+        "dynamic_joint_states": data.current.stamps_ns,
+    }
     first = min(int(s[0]) for s in stamps.values())
     last = max(int(s[-1]) for s in stamps.values())
     dropped = replayed_drops(start_ns, last, rate)
     span = set(range(first, last + 1, 1_000_000))
-    print(f"recorded {(last - first) / 1e9:.1f} s at 1 kHz, 6 joints + 1 extra; recorder: {stop_message}")
+    print(
+        f"recorded {(last - first) / 1e9:.1f} s at 1 kHz, 6 joints + 1 extra; recorder: "
+        f"{stop_message}"
+    )
     print(f"{'topic':<22} {'ticks':>7} {'dropped':>8} {'published':>10} {'in bag':>8} {'lost':>5}")
     for topic, st in stamps.items():
         got = set(int(s) for s in st)
@@ -128,7 +150,7 @@ def effort_only_copy(path: str, out: Path) -> str:
         ch = w.add_topic("/joint_states", bags.JOINT_STATE_TYPE)
         for f in sorted(Path(path).glob("*.mcap")):
             with open(f, "rb") as fh:
-                for _, channel, msg in make_reader(fh).iter_messages(topics=["/joint_states"]):
+                for _, _channel, msg in make_reader(fh).iter_messages(topics=["/joint_states"]):
                     sec, nsec = struct.unpack_from("<iI", msg.data, 4)  # header.stamp
                     if sec * 10**9 + nsec in both:
                         w.write(ch, msg.data, msg.log_time)
@@ -148,7 +170,9 @@ def run(out: Path, duration: float, drop_rate: float) -> dict:
         time.sleep(3.0)
         paths.append(record(g, "loaded", "loaded", 2.5, duration, quiet=True))
         time.sleep(2.0)
-        results = {n: (call_identify(g, s, []), call_identify(g, s, paths)) for n, (s, _) in NODES.items()}
+        results = {
+            n: (call_identify(g, s, []), call_identify(g, s, paths)) for n, (s, _) in NODES.items()
+        }
         log = (out / "logs" / f"{STANDIN}.log").read_text()
     start_ns = int(log.split("update k is stamped ", 1)[1].split()[0])
     return dict(paths=paths, cpu=cpu, stop=stop_message, results=results, start_ns=start_ns)
@@ -156,8 +180,7 @@ def run(out: Path, duration: float, drop_rate: float) -> dict:
 
 def sources_figures(out: Path, r: dict) -> None:
     """(A) vs (B): offline on the same ticks, live as each node got them."""
-    from orthoglide_ident.identify import IdentifyOptions
-    from orthoglide_ident.identify import identify
+    from orthoglide_ident.identify import IdentifyOptions, identify
     from orthoglide_ident.model.robots import load_robot
     from orthoglide_sim.arms.description import load_arm
     from orthoglide_sim.arms.truth import load_truth
@@ -172,9 +195,14 @@ def sources_figures(out: Path, r: dict) -> None:
     extra = 0
     for p in paths:
         data = bags.read_bag(p)
-        extra += len(set(map(int, data.positions.stamps_ns)) - set(map(int, data.current.stamps_ns)))
-    print(f"live (A) vs live (B): {compare(results['identification_effort'][0], results['orthoglide_identification'][0])}"
-          f" ((A) also holds the {extra} ticks only /dynamic_joint_states dropped)")
+        extra += len(
+            set(map(int, data.positions.stamps_ns)) - set(map(int, data.current.stamps_ns))
+        )
+    print(
+        "live (A) vs live (B): "
+        f"{compare(results['identification_effort'][0], results['orthoglide_identification'][0])}"
+        f" ((A) also holds the {extra} ticks only /dynamic_joint_states dropped)"
+    )
     g_true = load_truth(load_arm("ur5_mount")).drive_array("g_tau")
     print("gains vs the plant's truth (B, offline): " + ", ".join(f"{100 * (g / t - 1):+.3f} %"
                                                                  for g, t in zip(gb, g_true)))
@@ -183,7 +211,9 @@ def sources_figures(out: Path, r: dict) -> None:
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--duration", type=float, default=60.0, help="s per recording (default 60)")
-    ap.add_argument("--drop-rate", type=float, default=1e-4, help="the stand-in's drop rate per topic")
+    ap.add_argument(
+        "--drop-rate", type=float, default=1e-4, help="the stand-in's drop rate per topic"
+    )
     ap.add_argument("--keep", type=Path, help="keep the bags and logs here")
     args = ap.parse_args(argv)
     out = args.keep or Path(tempfile.mkdtemp(prefix="ros2c_bench_"))
@@ -191,9 +221,17 @@ def main(argv: list[str] | None = None) -> int:
         shutil.rmtree(out)
     r = run(out, args.duration, args.drop_rate)
     print("== 1. recorder from the stand-in")
-    recorder_figures(r["paths"][0], r["start_ns"], args.drop_rate, r["stop"], r["cpu"]["orthoglide_recorder"])
-    print("CPU % of a core while recording: " + ", ".join(f"{k} {v:.1f}" for k, v in sorted(r["cpu"].items())))
-    print(f"== 2. live vs offline ({args.duration:g} s + {args.duration:g} s), the current from /dynamic_joint_states")
+    recorder_figures(
+        r["paths"][0], r["start_ns"], args.drop_rate, r["stop"], r["cpu"]["orthoglide_recorder"]
+    )
+    print(
+        "CPU % of a core while recording: "
+        + ", ".join(f"{k} {v:.1f}" for k, v in sorted(r["cpu"].items()))
+    )
+    print(
+        f"== 2. live vs offline ({args.duration:g} s + {args.duration:g} s), the current from "
+        "/dynamic_joint_states"
+    )
     for name in ("orthoglide_identification", "identification_lag"):
         live, offline = r["results"][name]
         print(f"lag_model {NODES[name][1]['lag_model']:>4}: {compare(live, offline)}")

@@ -31,25 +31,41 @@ def main(argv: list[str] | None = None) -> int:
     args = ap.parse_args(argv)
     import rclpy
     from rclpy.executors import SingleThreadedExecutor
-    from rclpy.signals import SignalHandlerOptions
     from rclpy.qos import QoSProfile, ReliabilityPolicy
+    from rclpy.signals import SignalHandlerOptions
     from sensor_msgs.msg import JointState
 
     from orthoglide_ident.ros.batch import BatchTaker, BatchTopic
     from orthoglide_msgs.msg import CurrentReference, JointSetpoint
 
-    topics = [(JointState, "/orthoglide/joint_states"), (CurrentReference, "/orthoglide/current_reference"),
-              (JointSetpoint, "/orthoglide/setpoints")]
+    topics = [
+        (JointState, "/orthoglide/joint_states"),
+        (CurrentReference, "/orthoglide/current_reference"),
+        (JointSetpoint, "/orthoglide/setpoints"),
+    ]
     qos = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE)
-    driver = children.popen([sys.executable, "-m", "orthoglide_sim.nodes.driver", "--ros-args", "-p",
-                               f"duration:={2 * args.seconds + 6}"], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    children.interrupt_on_signals()  # SIGTERM (timeout, CI) like Ctrl-C: one line, the driver stopped
+    driver = children.popen(
+        [
+            sys.executable,
+            "-m",
+            "orthoglide_sim.nodes.driver",
+            "--ros-args",
+            "-p",
+            f"duration:={2 * args.seconds + 6}",
+        ],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
+    # SIGTERM (timeout, CI) like Ctrl-C: one line, the driver stopped
+    children.interrupt_on_signals()
     rclpy.init(signal_handler_options=SignalHandlerOptions.NO)
     try:
         node = rclpy.create_node("bench_intake_executor")
         count = [0]
         for cls, topic in topics:
-            node.create_subscription(cls, topic, lambda m: count.__setitem__(0, count[0] + 1), qos, raw=True)
+            node.create_subscription(
+                cls, topic, lambda m: count.__setitem__(0, count[0] + 1), qos, raw=True
+            )
         executor = SingleThreadedExecutor()
         executor.add_node(node)
         threading.Thread(target=executor.spin, daemon=True).start()
@@ -59,8 +75,13 @@ def main(argv: list[str] | None = None) -> int:
 
         owner = rclpy.create_node("bench_intake_batch")
         count = [0]
-        taker = BatchTaker(owner, [BatchTopic(cls, topic, qos, lambda b: count.__setitem__(0, count[0] + len(b)))
-                                   for cls, topic in topics])
+        taker = BatchTaker(
+            owner,
+            [
+                BatchTopic(cls, topic, qos, lambda b: count.__setitem__(0, count[0] + len(b)))
+                for cls, topic in topics
+            ],
+        )
         rate_b, cpu_b = measure(owner, args.seconds, count)
         taker.close()
         owner.destroy_node()

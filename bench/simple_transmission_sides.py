@@ -33,8 +33,11 @@ KIND_POWERS = {"ia": 2, "fv": 2, "fs": 1, "tauoff": 1}
 def joint_side_yaml(folder: Path, n: np.ndarray, nominal: np.ndarray) -> Path:
     src = resolve("ur5")
     data = read_yaml(src)
-    data.update(name="ur5_joint_side", description=str((src.parent / data["description"]).resolve()),
-                nominal_gains=(np.abs(n) * nominal).tolist())
+    data.update(
+        name="ur5_joint_side",
+        description=str((src.parent / data["description"]).resolve()),
+        nominal_gains=(np.abs(n) * nominal).tolist(),
+    )
     path = folder / "ur5_joint_side.yaml"
     path.write_text(yaml.safe_dump(data, sort_keys=False))
     return path
@@ -80,7 +83,10 @@ def main(argv: list[str] | None = None) -> int:
     res = np.array(by_j.residual_rms) / (np.abs(n) * np.array(by_m.residual_rms)) - 1
     print(f"{args.method}: gains per motor {', '.join(f'{x:.5f}' for x in gm)} N·m/A")
     if not wls:
-        print(f"  gains |n| g_m vs the joint-side description's: max {np.max(np.abs(gj / (np.abs(n) * gm) - 1)):.2g} relative")
+        print(
+            "  gains |n| g_m vs the joint-side description's: max "
+            f"{np.max(np.abs(gj / (np.abs(n) * gm) - 1)):.2g} relative"
+        )
     print(f"  {len(rel)} parameters: max {max(rel):.2g} relative, {max(sig):.2g} σ; "
           f"residuals: max {np.max(np.abs(res)):.2g} relative")
     return 0

@@ -1,4 +1,5 @@
-"""The Foxglove viewer next to the live graph: its CPU, what it costs the others, what a client gets.
+"""The Foxglove viewer next to the live graph: its CPU, what it costs the others, what a client
+gets.
 
     .venv/bin/python bench/viewer.py [--seconds 15]
 
@@ -26,17 +27,25 @@ sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "tests"))
 
 from foxglove_ws import FoxgloveClient  # noqa: E402
-from orthoglide_sim.demos.node_set import identify  # noqa: E402
+
 from orthoglide_sim.demos.graph import Graph  # noqa: E402
+from orthoglide_sim.demos.node_set import identify  # noqa: E402
 
 
 def recording(g: Graph, name: str, condition: str, mass: float, seconds: float) -> dict:
     """One recording through the services: per-node CPU % over it, missed ticks, live estimates."""
-    from orthoglide_msgs.srv import StartRecording
     from std_srvs.srv import Trigger
 
+    from orthoglide_msgs.srv import StartRecording
+
     n_live = len(g.live)
-    res = g.call(StartRecording, "orthoglide/recorder/start", condition=condition, payload_mass=mass, name=name)
+    res = g.call(
+        StartRecording,
+        "orthoglide/recorder/start",
+        condition=condition,
+        payload_mass=mass,
+        name=name,
+    )
     assert res.success, res.message
     cpu0, t0 = g.cpu_seconds(), time.monotonic()
     time.sleep(seconds)
@@ -44,7 +53,9 @@ def recording(g: Graph, name: str, condition: str, mass: float, seconds: float) 
     stop = g.call(Trigger, "orthoglide/recorder/stop")
     assert stop.success, stop.message
     missing = re.search(r"(\d+) missing on /orthoglide/joint_states", stop.message)
-    written = re.search(r"wrote (\d+) /orthoglide/current_reference, (\d+) /orthoglide/joint_states", stop.message)
+    written = re.search(
+        r"wrote (\d+) /orthoglide/current_reference, (\d+) /orthoglide/joint_states", stop.message
+    )
     live = g.live[n_live:]
     return {"cpu": {k: 100 * (cpu1[k] - cpu0.get(k, 0.0)) / (t1 - t0) for k in cpu1},
             "missing": int(missing.group(1)) if missing else -1,
@@ -99,14 +110,27 @@ def main(argv: list[str] | None = None) -> int:
         stop.set()
         reader.join()
 
-    print(f"viewer bench: {s:.0f} s recordings at 1 kHz (loaded), the driver in real time, 2 shared cores")
+    print(
+        f"viewer bench: {s:.0f} s recordings at 1 kHz (loaded), the driver in real time, 2 shared "
+        "cores"
+    )
     print(f"{'':28}{'without viewer':>16}{'with viewer + 1 client':>26}")
-    for name in ("orthoglide_viewer", "orthoglide_recorder", "orthoglide_identification", "orthoglide_driver"):
+    for name in (
+        "orthoglide_viewer",
+        "orthoglide_recorder",
+        "orthoglide_identification",
+        "orthoglide_driver",
+    ):
         a = without["cpu"].get(name)
-        print(f"  {name + ' % of a core':<36}{'-' if a is None else f'{a:6.1f}':>8}{with_viewer['cpu'][name]:>20.1f}")
+        print(
+            f"  {name + ' % of a core':<36}{'-' if a is None else f'{a:6.1f}':>8}"
+            f"{with_viewer['cpu'][name]:>20.1f}"
+        )
     for key, label in (("written", "ticks recorded"), ("missing", "ticks missed by the recorder"),
                        ("live", "live estimates"), ("lag", "live lag max (s)")):
-        a, b = (f"{x:.2f}" if isinstance(x, float) else str(x) for x in (without[key], with_viewer[key]))
+        a, b = (
+            f"{x:.2f}" if isinstance(x, float) else str(x) for x in (without[key], with_viewer[key])
+        )
         print(f"  {label:<36}{a:>8}{b:>20}")
     print("frames per second delivered to the client:")
     for topic, n in sorted(got.items()):

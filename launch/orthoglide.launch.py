@@ -26,16 +26,46 @@ PACKAGE = "orthoglide_ident"
 # started again when it exits (the simulated robot is not: it stands in for a robot controller,
 # which has its own supervision; the viewer is a view, started again by hand)
 NODES = (
-    {"executable": "driver", "name": "orthoglide_driver", "config": "driver.yaml",
-     "arguments": ("payload", "trajectory", "controller"), "when": "use_sim", "respawn": False},
-    {"executable": "recorder", "name": "orthoglide_recorder", "config": "recorder.yaml",
-     "arguments": ("output_dir",), "when": None, "respawn": True},
-    {"executable": "identification", "name": "orthoglide_identification", "config": "identification.yaml",
-     "arguments": ("bag_dir",), "when": None, "respawn": True},
-    {"executable": "ctc", "name": "orthoglide_ctc", "config": "ctc.yaml", "arguments": (), "when": None,
-     "respawn": True},
-    {"executable": "viewer", "name": "orthoglide_viewer", "config": "viewer.yaml", "arguments": (),
-     "when": "viewer", "respawn": False},
+    {
+        "executable": "driver",
+        "name": "orthoglide_driver",
+        "config": "driver.yaml",
+        "arguments": ("payload", "trajectory", "controller"),
+        "when": "use_sim",
+        "respawn": False,
+    },
+    {
+        "executable": "recorder",
+        "name": "orthoglide_recorder",
+        "config": "recorder.yaml",
+        "arguments": ("output_dir",),
+        "when": None,
+        "respawn": True,
+    },
+    {
+        "executable": "identification",
+        "name": "orthoglide_identification",
+        "config": "identification.yaml",
+        "arguments": ("bag_dir",),
+        "when": None,
+        "respawn": True,
+    },
+    {
+        "executable": "ctc",
+        "name": "orthoglide_ctc",
+        "config": "ctc.yaml",
+        "arguments": (),
+        "when": None,
+        "respawn": True,
+    },
+    {
+        "executable": "viewer",
+        "name": "orthoglide_viewer",
+        "config": "viewer.yaml",
+        "arguments": (),
+        "when": "viewer",
+        "respawn": False,
+    },
 )
 RESPAWN_DELAY_S = 2.0
 
@@ -53,20 +83,29 @@ ARGUMENTS = {
 
 
 def generate_launch_description():
-    from launch import LaunchDescription
     from launch.actions import DeclareLaunchArgument, GroupAction
     from launch.conditions import IfCondition
     from launch.substitutions import LaunchConfiguration, PathJoinSubstitution
     from launch_ros.actions import Node, PushRosNamespace
     from launch_ros.substitutions import FindPackageShare
 
+    from launch import LaunchDescription
+
     config = PathJoinSubstitution([FindPackageShare(PACKAGE), "config"])
     nodes = [
-        Node(package=PACKAGE, executable=n["executable"], name=n["name"], output="screen",
-             parameters=[PathJoinSubstitution([config, n["config"]]),
-                         {a: LaunchConfiguration(a) for a in n["arguments"]}],
-             condition=IfCondition(LaunchConfiguration(n["when"])) if n["when"] else None,
-             respawn=LaunchConfiguration("respawn") if n["respawn"] else False, respawn_delay=RESPAWN_DELAY_S)
+        Node(
+            package=PACKAGE,
+            executable=n["executable"],
+            name=n["name"],
+            output="screen",
+            parameters=[
+                PathJoinSubstitution([config, n["config"]]),
+                {a: LaunchConfiguration(a) for a in n["arguments"]},
+            ],
+            condition=IfCondition(LaunchConfiguration(n["when"])) if n["when"] else None,
+            respawn=LaunchConfiguration("respawn") if n["respawn"] else False,
+            respawn_delay=RESPAWN_DELAY_S,
+        )
         for n in NODES
     ]
     return LaunchDescription(

@@ -34,16 +34,29 @@ EXECUTABLES: dict[str, str] = {
     "viewer": "orthoglide_ident.nodes.viewer",
     "excitation": "orthoglide_ident.nodes.excitation",
 }
-"""`ros2 run orthoglide_ident <exec>` -> module whose ``main()`` it runs (resource/launchers/<exec>)."""
+"""`ros2 run orthoglide_ident <exec>` -> module whose ``main()`` it runs
+(resource/launchers/<exec>)."""
 
-CONFIG_FILES = ("driver", "recorder", "identification", "ctc", "viewer", "plant", "ros2_control", "arm_plant")
-"""config/<name>.yaml, installed under share/orthoglide_ident/config (the launch file loads them)."""
+CONFIG_FILES = (
+    "driver",
+    "recorder",
+    "identification",
+    "ctc",
+    "viewer",
+    "plant",
+    "ros2_control",
+    "arm_plant",
+)
+"""config/<name>.yaml, installed under share/orthoglide_ident/config (the launch file loads
+them)."""
 
 LAUNCH_FILES = ("orthoglide", "ros2_control")
-"""launch/<name>.launch.py, installed under share/orthoglide_ident/launch (ros2 launch finds them)."""
+"""launch/<name>.launch.py, installed under share/orthoglide_ident/launch (ros2 launch finds
+them)."""
 
 FOXGLOVE_LAYOUT = "resource/orthoglide_layout.json"
-"""The Foxglove layout of the viewer's (and a report MCAP's) channels: share/orthoglide_ident/foxglove."""
+"""The Foxglove layout of the viewer's (and a report MCAP's) channels:
+share/orthoglide_ident/foxglove."""
 
 PTH_FILE = "orthoglide_ident_ament_prefix.pth"
 
@@ -88,7 +101,9 @@ def main(argv: list[str] | None = None) -> int:
                         help="install prefix (default: %(default)s)")
     args = parser.parse_args(argv)
     prefix = args.prefix.resolve()
-    site_packages = Path(sysconfig.get_paths()["purelib"]) if prefix == Path(sys.prefix).resolve() else None
+    site_packages = (
+        Path(sysconfig.get_paths()["purelib"]) if prefix == Path(sys.prefix).resolve() else None
+    )
     for path in install(prefix, site_packages):
         print(f"installed {os.path.relpath(path, prefix)}")
     return 0

@@ -1,4 +1,5 @@
-"""``orthoglide-ident``: offline identification, bag info, base model and reports (docs/design/interfaces.md).
+"""``orthoglide-ident``: offline identification, bag info, base model and reports
+(docs/design/interfaces.md).
 
     orthoglide-ident identify [--robot FILE] BAG... [--payload-mass KG] [--method tls|wls]
                      [--payload-known mass|com|all|point]
@@ -33,16 +34,19 @@ import math
 import os
 import sys
 import traceback
+from collections.abc import Sequence
 from pathlib import Path
-from typing import Sequence
 
 from orthoglide_ident import import_command, ros_client
 from orthoglide_ident.errors import ConfigError, OrthoglideError
 from orthoglide_ident.flags import prepare_outputs
-from orthoglide_ident.progress import set_quiet
 from orthoglide_ident.identify.solve.methods import DEFAULT_METHOD, METHODS
-from orthoglide_ident.model.robots import (add_description_options, bundled_robots,
-                                           load_robot_from_args)
+from orthoglide_ident.model.robots import (
+    add_description_options,
+    bundled_robots,
+    load_robot_from_args,
+)
+from orthoglide_ident.progress import set_quiet
 
 PROG = "orthoglide-ident"
 EXIT_OK, EXIT_BUG, EXIT_BAD_INPUT, EXIT_INTERRUPTED, EXIT_BROKEN_PIPE = 0, 1, 2, 130, 141
@@ -85,10 +89,14 @@ def parse_gains(text: str, joints: Sequence[str]) -> list[float]:
 
 
 def _add_robot_option(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--robot", metavar="FILE", default="",
-                   help="the robot: a URDF, a .urdf.xacro, an MJCF .xml, a robot YAML "
-                        f"(docs/guide/robot_files.md) or a bundled robot ({', '.join(bundled_robots())})"
-                        "; default the Orthoglide (the paper's closed form)")
+    p.add_argument(
+        "--robot",
+        metavar="FILE",
+        default="",
+        help="the robot: a URDF, a .urdf.xacro, an MJCF .xml, a robot YAML "
+        f"(docs/guide/robot_files.md) or a bundled robot ({', '.join(bundled_robots())})"
+        "; default the Orthoglide (the paper's closed form)",
+    )
     add_description_options(p)
 
 
@@ -139,9 +147,13 @@ def _add_identify_options(p: argparse.ArgumentParser) -> None:
                         "joint armature = rotor inertia, damping = viscous, frictionloss = "
                         "Coulomb friction; a motor actuator per actuator, control in A, gear = "
                         "drive gain); implies --consistent")
-    p.add_argument("--json", metavar="FILE", help="write the result as JSON (docs/design/interfaces.md) to FILE "
-                   "(strict JSON: a number that is missing is null; drive_gains[i].determined, "
-                   "reason)")
+    p.add_argument(
+        "--json",
+        metavar="FILE",
+        help="write the result as JSON (docs/design/interfaces.md) to FILE "
+        "(strict JSON: a number that is missing is null; drive_gains[i].determined, "
+        "reason)",
+    )
     p.add_argument("-q", "--quiet", action="store_true", help="no progress on stderr")
     _add_robot_option(p)
 
@@ -193,8 +205,13 @@ def build_parser() -> argparse.ArgumentParser:
                                    "(%%σ), summary.md and result.json into --out.")
     _add_identify_options(p)
     p.add_argument("--out", required=True, metavar="DIR", help="output directory (created)")
-    p.add_argument("--mcap", metavar="FILE", help="also write the plots as an MCAP file for Foxglove or "
-                   "Lichtblick (forces, residual, the gains' convergence; orthoglide_ident/view/report_mcap.py)")
+    p.add_argument(
+        "--mcap",
+        metavar="FILE",
+        help="also write the plots as an MCAP file for Foxglove or "
+        "Lichtblick (forces, residual, the gains' convergence; "
+        "orthoglide_ident/view/report_mcap.py)",
+    )
     import_command.add_parser(sub)
     ros_client.add_parsers(sub)
     from orthoglide_ident.excite.cli import add_excite_commands
@@ -296,7 +313,9 @@ def _main(args: argparse.Namespace) -> int:
         ros_client.identify_service(args)  # flags it cannot send: refused in one line
         return EXIT_OK
     if args.command in ("identify", "report") and not args.bags:
-        raise ConfigError(f"{args.command}: give at least one BAG (or --service to ask the running node)")
+        raise ConfigError(
+            f"{args.command}: give at least one BAG (or --service to ask the running node)"
+        )
     if args.command in ("identify", "report"):
         _setup_logging(args.quiet)
         res = _run_identify(args)

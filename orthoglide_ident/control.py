@@ -1,4 +1,5 @@
-"""Computed torque control (CTC) with the identified model: its model part (paper Sect. 5.2, Table 4).
+"""Computed torque control (CTC) with the identified model: its model part (paper Sect. 5.2, Table
+4).
 
 The paper's CTC is the IDIM along the reference on top of a linear part with the same bandwidth
 (100 rad/s) as the PID controllers it is compared with. Split as robot controllers are, the linear
@@ -26,8 +27,9 @@ Pure numpy, no ROS: ``feedforward`` is vectorised over samples; the ctc node cal
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any, Mapping, Sequence
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -56,8 +58,14 @@ class CTCParameters:
         return self.model
 
     @classmethod
-    def from_values(cls, names: Sequence[str], values: Sequence[float], drive_gains: Sequence[float],
-                    payload_mass: float, model: RobotModel) -> "CTCParameters":
+    def from_values(
+        cls,
+        names: Sequence[str],
+        values: Sequence[float],
+        drive_gains: Sequence[float],
+        payload_mass: float,
+        model: RobotModel,
+    ) -> CTCParameters:
         """Validate and order: unknown or repeated names, non-finite values, gains that are not
         one positive number per joint or a negative payload mass raise ConfigError."""
         robot = model
@@ -76,8 +84,10 @@ class CTCParameters:
             raise ConfigError("no dynamic parameters given: run an identification first")
         unknown = [n for n in names if n not in index]
         if unknown:
-            raise ConfigError(f"unknown base parameter name(s) {', '.join(unknown[:5])}: expected names of the "
-                              f"{robot.name} base model (e.g. {', '.join(bm_names[:3])})")
+            raise ConfigError(
+                f"unknown base parameter name(s) {', '.join(unknown[:5])}: expected names of the "
+                f"{robot.name} base model (e.g. {', '.join(bm_names[:3])})"
+            )
         if len(set(names)) != len(names):
             raise ConfigError("repeated base parameter names")
         if not np.all(np.isfinite(values)):
@@ -94,23 +104,30 @@ class CTCParameters:
     @classmethod
     def from_result(cls, result: IdentificationResult, payload_mass: float | None = None,
                     drive_gains: Sequence[float] | None = None, essential: bool = False, *,
-                    model: RobotModel) -> "CTCParameters":
+                    model: RobotModel) -> CTCParameters:
         """From an ``IdentificationResult``; ``payload_mass`` (kg) is the payload on the robot now
         (default: the result's, known or estimated), ``drive_gains`` override the result's (e.g. the
         manufacturer's); ``essential`` takes the essential-parameter result (Sect. 5.2)."""
         if essential:
             if result.essential is None:
-                raise ConfigError("the identification has no essential-parameter result (identify --essential)")
+                raise ConfigError(
+                    "the identification has no essential-parameter result (identify --essential)"
+                )
             result = result.essential
         if payload_mass is None:
             payload_mass = result.payload_mass.value if result.payload_mass is not None else 0.0
         gains = [g.value for g in result.drive_gains] if drive_gains is None else drive_gains
-        return cls.from_values([p.name for p in result.parameters], [p.value for p in result.parameters],
-                               gains, payload_mass, model)
+        return cls.from_values(
+            [p.name for p in result.parameters],
+            [p.value for p in result.parameters],
+            gains,
+            payload_mass,
+            model,
+        )
 
     @classmethod
     def from_message_fields(cls, fields: Mapping[str, Any], payload_mass: float | None = None, *,
-                            model: RobotModel) -> "CTCParameters":
+                            model: RobotModel) -> CTCParameters:
         """From the fields of orthoglide_msgs/IdentifiedParameters (names, values, drive_gains,
         payload_mass; ``IdentificationResult.message_fields()`` or a received message's)."""
         try:
@@ -120,7 +137,7 @@ class CTCParameters:
             raise ConfigError(f"identified parameters lack field {exc}") from None
         return cls.from_values(list(names), list(values), list(gains), m7, model)
 
-    def with_gains(self, drive_gains: Sequence[float]) -> "CTCParameters":
+    def with_gains(self, drive_gains: Sequence[float]) -> CTCParameters:
         """The same model with other drive gains (N/A or N·m/A)."""
         return CTCParameters.from_values(self.names or self.robot.names, self._values(),
                                          drive_gains, self.payload_mass, self.model)
@@ -132,7 +149,9 @@ class CTCParameters:
         return self.chi_b[[index[n] for n in self.names]]
 
 
-def feedforward(q_d: np.ndarray, qd_d: np.ndarray, qdd_d: np.ndarray, params: CTCParameters) -> np.ndarray:
+def feedforward(
+    q_d: np.ndarray, qd_d: np.ndarray, qdd_d: np.ndarray, params: CTCParameters
+) -> np.ndarray:
     """IDIM forces along a reference: tau (N, n_j) N or N·m = W_b chi_b + W_kl m_7 (eq. 29),
     evaluated in chunks of FF_CHUNK samples. q_d, qd_d, qdd_d: (N, n_j) in the joints' units."""
     robot = params.robot

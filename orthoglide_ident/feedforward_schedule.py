@@ -44,8 +44,10 @@ class Run:
     ref: np.ndarray
 
 
-LEAD_BIN_NS = 100_000  # the leads are counted in 0.1 ms bins (a bounded memory however long it runs)
-LEAD_BINS = 5_000  # 0 .. 0.5 s ahead; a late tick counts in the first bin, a longer lead in the last
+# the leads are counted in 0.1 ms bins (a bounded memory however long it runs)
+LEAD_BIN_NS = 100_000
+# 0 .. 0.5 s ahead; a late tick counts in the first bin, a longer lead in the last
+LEAD_BINS = 5_000
 
 
 @dataclass
@@ -70,7 +72,7 @@ class LeadStats:
             bins = np.clip(lead_ns // LEAD_BIN_NS, 0, LEAD_BINS - 1)
             self.histogram += np.bincount(bins, minlength=LEAD_BINS)
 
-    def merge(self, other: "LeadStats") -> None:
+    def merge(self, other: LeadStats) -> None:
         """Add ``other``'s counts (a longer window from shorter ones)."""
         self.sent += other.sent
         self.late += other.late
@@ -176,8 +178,10 @@ class FeedforwardSchedule:
     def _cause(self, stamp: int, arrived: int, now_ns: int) -> str:
         ms = 1e-6
         at_arrival, waited = (stamp - arrived) * ms, (now_ns - arrived) * ms
-        head = (f"falling behind: the feed-forward of tick {stamp} went out "
-                f"{(stamp - now_ns) * ms:.1f} ms before its tick (margin {self.margin_ns * ms:.0f} ms)")
+        head = (
+            f"falling behind: the feed-forward of tick {stamp} went out "
+            f"{(stamp - now_ns) * ms:.1f} ms before its tick (margin {self.margin_ns * ms:.0f} ms)"
+        )
         if at_arrival < self.margin_ns * ms:
             return (f"{head}: its setpoint arrived only {at_arrival:.1f} ms ahead (the "
                     "controller's setpoint_lead is too short, or the setpoints are delayed on "

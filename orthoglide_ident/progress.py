@@ -94,7 +94,7 @@ class ProgressLine:
             self.stream.flush()
             self._width = 0
 
-    def __enter__(self) -> "ProgressLine":
+    def __enter__(self) -> ProgressLine:
         return self
 
     def __exit__(self, *exc) -> None:

@@ -1,4 +1,5 @@
-"""Identification results: one dataclass, serialised once to the JSON of docs/design/interfaces.md and to a table.
+"""Identification results: one dataclass, serialised once to the JSON of docs/design/interfaces.md
+and to a table.
 
 Relative standard deviations are fractions (0.002 = 0.2 %σ); the table prints %σ. Two are given:
 ``rel_std`` the honest one, which also covers residuals correlated from row to row (the forces
@@ -149,7 +150,9 @@ class PayloadParameters:
             out.append("  inertia about it (kg·m²): " + ", ".join(
                 f"{n} {v:.4g} ± {e:.2g}" for n, v, e in
                 zip(("Ixx", "Ixy", "Ixz", "Iyy", "Iyz", "Izz"), self.inertia, self.inertia_std)))
-        out.append(f"  identified (first moments kg·m, inertia kg·m² at the origin of {self.frame}):")
+        out.append(
+            f"  identified (first moments kg·m, inertia kg·m² at the origin of {self.frame}):"
+        )
         for p, sd in zip(self.parameters, self.std):
             expr = f" = {p.expression}" if p.expression and p.expression != p.name else ""
             out.append(f"    {p.name:<8} {p.value:+.6g} ± {sd:.3g}{expr}")
@@ -177,7 +180,7 @@ class IdentificationResult:
     # joints of the description fixed before anything else (model/locked_joints.py), as JSON
     locked_joints: list[dict[str, Any]] = field(default_factory=list)
     diagnostics: dict[str, Any] = field(default_factory=dict)
-    essential: "IdentificationResult | None" = None
+    essential: IdentificationResult | None = None
     removed: list[str] = field(default_factory=list)  # cancelled base parameters (essential)
     # position-periodic forces found in the residual and modelled (identify/drive_terms.py)
     ripple: list[dict[str, Any]] = field(default_factory=list)
@@ -309,15 +312,23 @@ class IdentificationResult:
         ess = self.essential
         lines = self._header_lines()
         lines.extend(self._table_lines())
-        lines.append("%σ: covers residuals correlated from row to row (the largest of eqs. (38)-(39), "
-                     "a stationary-correlation and a block sandwich); %σ eq39: the paper's eqs. "
-                     "(38)-(39), independent errors")
+        lines.append(
+            "%σ: covers residuals correlated from row to row (the largest of eqs. (38)-(39), "
+            "a stationary-correlation and a block sandwich); %σ eq39: the paper's eqs. "
+            "(38)-(39), independent errors"
+        )
         for pm in self.payloads:
             what = "known (weighed)" if pm.known else "estimated"
             tag = "" if pm.tagged is None or pm.known else f", tagged {pm.tagged:.4g} kg"
-            paper = "" if pm.rel_std_paper is None else f" (eq. 27: ± {_pct(pm.rel_std_paper).strip()} %)"
-            lines.append(f"payload mass m_7: {pm.value:.5g} kg ± {_pct(pm.rel_std).strip()} %{paper} "
-                         f"({what}{tag})")
+            paper = (
+                ""
+                if pm.rel_std_paper is None
+                else f" (eq. 27: ± {_pct(pm.rel_std_paper).strip()} %)"
+            )
+            lines.append(
+                f"payload mass m_7: {pm.value:.5g} kg ± {_pct(pm.rel_std).strip()} %{paper} "
+                f"({what}{tag})"
+            )
         if self.payload is not None:
             lines.extend(self.payload.text_lines())
         lines.append(f"condition number (scaled W): {self.condition_number:.4g}")
@@ -340,9 +351,11 @@ class IdentificationResult:
         for src in sources:
             lines.append(f"recorded: {src}")
         for r in self.ripple:
-            lines.append(f"ripple modelled: {r['joint']} ±{r['amplitude_n']:.3g} N (σ "
-                         f"{r['amplitude_std_n']:.2g} N) at a {1e3 * r['wavelength_m']:.1f} mm period of "
-                         f"its position, {r['kind']}")
+            lines.append(
+                f"ripple modelled: {r['joint']} ±{r['amplitude_n']:.3g} N (σ "
+                f"{r['amplitude_std_n']:.2g} N) at a {1e3 * r['wavelength_m']:.1f} mm period of "
+                f"its position, {r['kind']}"
+            )
         lines.extend(self._residual_lines())
         if ess is not None:
             lines.extend(self._essential_lines(ess))
@@ -363,11 +376,13 @@ class IdentificationResult:
         for b in d.get("bags", []):  # what was done with an uneven clock or a recorded velocity
             steps = b.get("steps") or {}
             if steps.get("off_grid", 0.0) > UNEVEN_SHARE or b.get("velocity", "").startswith("rec"):
-                lines.append(f"time base {b['bag']}: {steps.get('mean_s', 0) and 1 / steps['mean_s']:.1f} "
-                             f"Hz mean, {100 * steps.get('off_grid', 0.0):.1f} % of the steps off "
-                             "the median grid: derivatives, filters and the zero-order hold on "
-                             f"each sample's stamp; filter {b['filter_cutoff_hz']:.4g} Hz, "
-                             f"decimation by {b['decimation']}; velocity {b['velocity']}")
+                lines.append(
+                    f"time base {b['bag']}: {steps.get('mean_s', 0) and 1 / steps['mean_s']:.1f} "
+                    f"Hz mean, {100 * steps.get('off_grid', 0.0):.1f} % of the steps off "
+                    "the median grid: derivatives, filters and the zero-order hold on "
+                    f"each sample's stamp; filter {b['filter_cutoff_hz']:.4g} Hz, "
+                    f"decimation by {b['decimation']}; velocity {b['velocity']}"
+                )
         for wmsg in self.warnings:
             lines.append(f"warning: {wmsg}")
         return "\n".join(lines)
@@ -399,7 +414,8 @@ class IdentificationResult:
         ess = self.essential
         w = max([len(p.name) for p in self.parameters] + [12]
                 + [len(f"g_tau {g.name}") for g in self.drive_gains])
-        hdr = f"  {'parameter':<{w}} {'value' if ess is None else 'base':>12} {'%σ':>7} {'%σ eq39':>7}"
+        hdr = (f"  {'parameter':<{w}} {'value' if ess is None else 'base':>12} {'%σ':>7} "
+               f"{'%σ eq39':>7}")
         if ess is not None:
             hdr += f"   {'essential':>12} {'%σ':>7}"
         lines = [f"drive gains ({self._units(self.gain_units, 'N/A')})"
@@ -409,7 +425,8 @@ class IdentificationResult:
             if not g.determined:
                 lines.append(f"  g_tau {g.name:<{w - 6}} not determined: {g.reason}")
                 continue
-            row = f"  g_tau {g.name:<{w - 6}} {g.value:12.6g} {_pct(g.rel_std)} {_pct(g.rel_std_paper)}"
+            row = (f"  g_tau {g.name:<{w - 6}} {g.value:12.6g} {_pct(g.rel_std)} "
+                   f"{_pct(g.rel_std_paper)}")
             if ess is not None:
                 e = eg[g.name]
                 row += f"   {e.value:12.6g} {_pct(e.rel_std)}"
@@ -441,17 +458,19 @@ class IdentificationResult:
                 + " ".join(f"{x:.2f}" for x in white[:3]) + ")")
         inf = u.get("gain_sigma_inflation")
         if inf:
-            out.append(f"σ of the gains / eqs. (38)-(39): " + ", ".join(
+            out.append("σ of the gains / eqs. (38)-(39): " + ", ".join(
                 f"{j} {x:.2f}" for j, x in inf.items())
                 + f"  ({u.get('blocks', 0)} blocks of {u.get('block_s', 0):g} s)")
         where = " (of the model without the ripple columns)" if self.ripple else ""
         for pk in u.get("position_spectrum_peaks", []):
-            out.append(f"residual vs position{where}: {pk['joint']} ±{pk['amplitude_n']:.2g} N at a "
-                       f"{1e3 * pk['wavelength_m']:.1f} mm period ({pk['kind']}; spectrum median "
-                       f"{pk['median_n']:.2g} N)")
+            out.append(
+                f"residual vs position{where}: {pk['joint']} ±{pk['amplitude_n']:.2g} N at a "
+                f"{1e3 * pk['wavelength_m']:.1f} mm period ({pk['kind']}; spectrum median "
+                f"{pk['median_n']:.2g} N)"
+            )
         return out
 
-    def _essential_lines(self, ess: "IdentificationResult") -> list[str]:
+    def _essential_lines(self, ess: IdentificationResult) -> list[str]:
         d = ess.diagnostics
         out = [f"essential parameters ({d.get('method', 'paper')}): {len(ess.parameters)} kept of "
                f"{len(self.parameters)} ({d.get('stopped_because', '')}); residual rms "

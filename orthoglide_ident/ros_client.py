@@ -4,7 +4,8 @@
         [--payload-frame LINK --payload-com X,Y,Z --payload-inertia ... --payload-known point]
     orthoglide-ident record stop
     orthoglide-ident record status
-    orthoglide-ident identify --service [BAG...] [--method tls|wls] [--essential] [--payload-mass KG]
+    orthoglide-ident identify --service [BAG...] [--method tls|wls] [--essential] [--payload-mass
+    KG]
     orthoglide-ident watch [--seconds S]
 
 The same services and topics as `ros2 service call` / `ros2 topic echo` (names relative to
@@ -30,21 +31,38 @@ class ServiceError(OrthoglideError):
 
 def add_parsers(sub: Any) -> None:
     """``record`` and ``watch`` subcommands (``identify --service`` lives with ``identify``)."""
-    p = sub.add_parser("record", help="start / stop a recording, or print the recorder's status (ROS 2)",
-                       description="Call the recorder node's services (orthoglide/recorder/start|stop) or "
-                                   "print its latched status (orthoglide/recorder/status).")
+    p = sub.add_parser(
+        "record",
+        help="start / stop a recording, or print the recorder's status (ROS 2)",
+        description="Call the recorder node's services (orthoglide/recorder/start|stop) or "
+        "print its latched status (orthoglide/recorder/status).",
+    )
     p.add_argument("action", choices=("start", "stop", "status"))
-    p.add_argument("--condition", choices=("loaded", "unloaded"), help="start: with or without the payload")
-    p.add_argument("--payload-mass", type=float, default=0.0, metavar="KG", help="start: weighed payload, kg")
-    p.add_argument("--name", default="", help="start: bag folder name (default <condition>_<date>_<time>)")
-    p.add_argument("--payload-frame", default=None, metavar="LINK",
-                   help="start loaded: the link the payload is fixed to (default the robot's payload frame)")
+    p.add_argument(
+        "--condition", choices=("loaded", "unloaded"), help="start: with or without the payload"
+    )
+    p.add_argument(
+        "--payload-mass", type=float, default=0.0, metavar="KG", help="start: weighed payload, kg"
+    )
+    p.add_argument(
+        "--name", default="", help="start: bag folder name (default <condition>_<date>_<time>)"
+    )
+    p.add_argument(
+        "--payload-frame",
+        default=None,
+        metavar="LINK",
+        help="start loaded: the link the payload is fixed to (default the robot's payload frame)",
+    )
     p.add_argument("--payload-com", default=None, metavar="X,Y,Z",
                    help="start loaded: its centre of mass in that frame, m (default its origin)")
-    p.add_argument("--payload-inertia", default=None, metavar="IXX,IXY,IXZ,IYY,IYZ,IZZ",
-                   help="start loaded: its inertia about the centre of mass, kg·m² (default 0: a point mass); "
-                        "the three set the recorder's payload_* parameters for this start only (tagged "
-                        "in the bag; nothing carries over to the next start)")
+    p.add_argument(
+        "--payload-inertia",
+        default=None,
+        metavar="IXX,IXY,IXZ,IYY,IYZ,IZZ",
+        help="start loaded: its inertia about the centre of mass, kg·m² (default 0: a point mass); "
+        "the three set the recorder's payload_* parameters for this start only (tagged "
+        "in the bag; nothing carries over to the next start)",
+    )
     p.add_argument("--payload-known", choices=("mass", "com", "all", "point"), default=None,
                    help="start loaded: what is known of the payload (paper Sect. 4.3), tagged "
                         "orthoglide.payload_known: mass (weighed only: its CoM and inertia are "
@@ -53,15 +71,22 @@ def add_parsers(sub: Any) -> None:
     p.add_argument("--recorder", default="orthoglide_recorder", metavar="NODE",
                    help="the recorder node's name, for --payload-* (default orthoglide_recorder)")
     add_namespace(p)
-    p = sub.add_parser("watch", help="follow the recording and the live identification (ROS 2)",
-                       description="Print orthoglide/recorder/status and orthoglide/identification/live "
-                                   "as they come, until Ctrl-C or --seconds.")
-    p.add_argument("--seconds", type=float, default=0.0, help="stop after this long (default: Ctrl-C)")
+    p = sub.add_parser(
+        "watch",
+        help="follow the recording and the live identification (ROS 2)",
+        description="Print orthoglide/recorder/status and orthoglide/identification/live "
+        "as they come, until Ctrl-C or --seconds.",
+    )
+    p.add_argument(
+        "--seconds", type=float, default=0.0, help="stop after this long (default: Ctrl-C)"
+    )
     add_namespace(p)
 
 
 def add_namespace(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--namespace", default="", help="namespace of the robot's graph (default: the root)")
+    p.add_argument(
+        "--namespace", default="", help="namespace of the robot's graph (default: the root)"
+    )
 
 
 class Client:
@@ -70,11 +95,12 @@ class Client:
     def __init__(self, namespace: str = ""):
         self.namespace = namespace
 
-    def __enter__(self) -> "Client":
+    def __enter__(self) -> Client:
         import rclpy
         from rclpy.signals import SignalHandlerOptions
 
-        rclpy.init(signal_handler_options=SignalHandlerOptions.NO)  # Ctrl-C: KeyboardInterrupt, one line
+        # Ctrl-C: KeyboardInterrupt, one line
+        rclpy.init(signal_handler_options=SignalHandlerOptions.NO)
         self.rclpy = rclpy
         self.node = rclpy.create_node("orthoglide_ident_cli", namespace=self.namespace or "/")
         return self
@@ -83,12 +109,16 @@ class Client:
         self.node.destroy_node()
         self.rclpy.try_shutdown()
 
-    def call(self, srv_type: Any, service: str, timeout: float = SERVICE_TIMEOUT_S, **fields: Any) -> Any:
+    def call(
+        self, srv_type: Any, service: str, timeout: float = SERVICE_TIMEOUT_S, **fields: Any
+    ) -> Any:
         client = self.node.create_client(srv_type, service)
         name = client.srv_name
         if not client.wait_for_service(timeout_sec=min(timeout, 10.0)):
-            raise ServiceError(f"no service {name}: is the node running (ros2 launch orthoglide_ident "
-                               "orthoglide.launch.py) in this ROS_DOMAIN_ID and namespace?")
+            raise ServiceError(
+                f"no service {name}: is the node running (ros2 launch orthoglide_ident "
+                "orthoglide.launch.py) in this ROS_DOMAIN_ID and namespace?"
+            )
         future = client.call_async(srv_type.Request(**fields))
         self.rclpy.spin_until_future_complete(self.node, future, timeout_sec=timeout)
         if not future.done():
@@ -100,7 +130,11 @@ class Client:
         from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 
         got: list = []
-        qos = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL, reliability=ReliabilityPolicy.RELIABLE)
+        qos = QoSProfile(
+            depth=1,
+            durability=DurabilityPolicy.TRANSIENT_LOCAL,
+            reliability=ReliabilityPolicy.RELIABLE,
+        )
         self.node.create_subscription(msg_type, topic, got.append, qos)
         t_end = time.monotonic() + timeout
         while not got and time.monotonic() < t_end:
@@ -252,7 +286,8 @@ def status_line(m: Any) -> str:
     """orthoglide/recorder/status in one line."""
     what = f"recording {m.condition}" if m.recording else f"idle (last: {m.condition or 'none'})"
     mass = f", {m.payload_mass:g} kg" if m.condition == "loaded" else ""
-    return f"recorder: {what}{mass} {m.bag_path} | {m.ticks_written} ticks, {m.ticks_missing} missing | {m.message}"
+    return (f"recorder: {what}{mass} {m.bag_path} | {m.ticks_written} ticks, "
+            f"{m.ticks_missing} missing | {m.message}")
 
 
 def live_line(m: Any) -> str:
@@ -261,7 +296,8 @@ def live_line(m: Any) -> str:
     gains = "gains -" if not m.drive_gains else "  ".join(
         f"{n} {g:8.5g} {u} ±{100 * s:.2f}%"  # a motor's 0.41704 N·m/A too
         for n, g, s, u in zip(m.joint_names, m.drive_gains, m.drive_gains_rel_std, units))
-    line = f"live: {m.unloaded_seconds:.0f} s unloaded, {m.loaded_seconds:.0f} s loaded | {gains} | {m.status}"
+    line = (f"live: {m.unloaded_seconds:.0f} s unloaded, {m.loaded_seconds:.0f} s loaded | "
+            f"{gains} | {m.status}")
     return line + "".join(f"\n  warning: {w}" for w in m.warnings)
 
 
@@ -270,7 +306,9 @@ def watch(args: argparse.Namespace) -> int:
 
     from orthoglide_msgs.msg import LiveIdentification, RecorderStatus
 
-    latched = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL, reliability=ReliabilityPolicy.RELIABLE)
+    latched = QoSProfile(
+        depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL, reliability=ReliabilityPolicy.RELIABLE
+    )
     with Client(args.namespace) as c:
         c.node.create_subscription(RecorderStatus, "orthoglide/recorder/status",
                                    lambda m: print(status_line(m), flush=True), latched)

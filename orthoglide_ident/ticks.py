@@ -10,7 +10,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-TICK_NS = 1_000_000  # a 1 kHz controller's period (the Orthoglide's, a controller manager's update rate)
+# a 1 kHz controller's period (the Orthoglide's, a controller manager's update rate)
+TICK_NS = 1_000_000
 BREAK_LOW = 0.5  # periods: a shorter step is a break (a jump back, a duplicated clock)
 BREAK_HIGH = 1.5  # periods: a longer step is a break with round(step / period) - 1 ticks missing
 

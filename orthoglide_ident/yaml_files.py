@@ -5,8 +5,9 @@ YAML, or it is a mapping wrapped in one section key; they say it here once.
 """
 from __future__ import annotations
 
+from collections.abc import Mapping
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any
 
 from orthoglide_ident.errors import ConfigError
 

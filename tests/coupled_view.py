@@ -28,9 +28,16 @@ FV = np.full(6, 2e-4)  # N·m·s/rad, motor side
 def coupled_robot_file(folder: Path) -> Path:
     data = yaml.safe_load((ROBOTS_DIR / "ur5.yaml").read_text())
     data.pop("excitation", None)
-    data.update(name="ur5_coupled_view", description=str(ROBOTS_DIR / "ur5.urdf"),
-                nominal_gains=[0.13] * 6, transmission={"actuators": list(MOTORS), "reduction":
-                                                        N_WRIST.tolist(), "offset": OFFSET.tolist()})
+    data.update(
+        name="ur5_coupled_view",
+        description=str(ROBOTS_DIR / "ur5.urdf"),
+        nominal_gains=[0.13] * 6,
+        transmission={
+            "actuators": list(MOTORS),
+            "reduction": N_WRIST.tolist(),
+            "offset": OFFSET.tolist(),
+        },
+    )
     path = Path(folder) / "ur5_coupled_view.yaml"
     path.write_text(yaml.safe_dump(data))
     return path

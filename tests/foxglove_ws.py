@@ -54,7 +54,9 @@ class FoxgloveClient:
             return
         op, sub, log_time = _FRAME.unpack_from(data)
         if op == 0x01 and sub in self.subscriptions:
-            self.pending.append(Frame(self.subscriptions[sub], log_time, json.loads(data[_FRAME.size:])))
+            self.pending.append(
+                Frame(self.subscriptions[sub], log_time, json.loads(data[_FRAME.size :]))
+            )
 
     def subscribe(self, topics: list[str] | None = None) -> None:
         """Subscribe to ``topics`` (all advertised when None)."""

@@ -36,11 +36,24 @@ class HeadlessPage:
     def __init__(self, binary: str, timeout: float = 30.0) -> None:
         self.profile = tempfile.TemporaryDirectory(prefix="chromium-")
         self.proc = subprocess.Popen(
-            [binary, "--headless", "--no-sandbox", "--disable-gpu", "--remote-debugging-port=0",
-             "--remote-debugging-address=127.0.0.1", f"--user-data-dir={self.profile.name}", "about:blank"],
-            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+            [
+                binary,
+                "--headless",
+                "--no-sandbox",
+                "--disable-gpu",
+                "--remote-debugging-port=0",
+                "--remote-debugging-address=127.0.0.1",
+                f"--user-data-dir={self.profile.name}",
+                "about:blank",
+            ],
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.PIPE,
+            text=True,
+        )
         port = self._devtools_port(timeout)
-        pages = json.loads(urllib.request.urlopen(f"http://127.0.0.1:{port}/json/list", timeout=timeout).read())
+        pages = json.loads(
+            urllib.request.urlopen(f"http://127.0.0.1:{port}/json/list", timeout=timeout).read()
+        )
         page = next(p for p in pages if p.get("type") == "page")
         self.ws = websocket.create_connection(page["webSocketDebuggerUrl"], timeout=timeout)
         self._id = 0
@@ -90,7 +103,8 @@ class HeadlessPage:
 # u64 log time, JSON payload) and keep what the test reads.
 FOXGLOVE_PAGE_JS = r"""
 (url) => {
-  const fx = window.fx = {open: false, protocol: null, closed: null, topics: [], subs: {}, counts: {},
+  const fx = window.fx = {open: false, protocol: null, closed: null, topics: [], subs: {}, counts:
+  {},
                           bad: 0, live: [], last: {}};
   const ws = new WebSocket(url, ["foxglove.sdk.v1"]);
   ws.binaryType = "arraybuffer";
@@ -116,7 +130,8 @@ FOXGLOVE_PAGE_JS = r"""
     fx.counts[topic] = (fx.counts[topic] || 0) + 1;
     fx.last[topic] = msg;
     if (topic.endsWith("/identification/live"))
-      fx.live.push({log_time: logTime.toString(), stamp: msg.header.stamp, status: msg.status, gains: msg.gains});
+      fx.live.push({log_time: logTime.toString(), stamp: msg.header.stamp, status: msg.status,
+      gains: msg.gains});
   };
   return true;
 }

@@ -4,9 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from orthoglide_ident.identify import LiveIdentification
-from orthoglide_ident.identify import IdentifyOptions
-from orthoglide_ident.identify import Record
+from orthoglide_ident.identify import IdentifyOptions, LiveIdentification, Record
 from orthoglide_ident.model.robot import Payload
 from orthoglide_sim.arms.record import ArmRecord
 
@@ -74,6 +72,8 @@ def live_result(model, records, options: IdentifyOptions, batch: int = 500):
         live.start_recording(rec.source, rec.condition, rec.payload_mass, rec.payload)
         for a in range(0, len(rec.stamps_q_ns), batch):
             live.add_joint_states(rec.stamps_q_ns[a:a + batch], rec.names_q, rec.q[a:a + batch])
-            live.add_current_reference(rec.stamps_v_ns[a:a + batch], rec.names_v, rec.v_tau[a:a + batch])
+            live.add_current_reference(
+                rec.stamps_v_ns[a : a + batch], rec.names_v, rec.v_tau[a : a + batch]
+            )
         live.stop_recording()
     return live.result()

@@ -1,8 +1,10 @@
 """Records of the ros2_control stand-in without ROS: the bytes it would publish, and their bags.
 
     recs = standin_records(seconds=20.0, drop_rate=2e-4)
-    recs["unloaded"].messages       # [(stamp, joint_states bytes | None, dynamic_joint_states bytes | None)]
-    write_record_bag(path, recs["loaded"])   # as the recorder writes them (both topics, their drops)
+    recs["unloaded"].messages       # [(stamp, joint_states bytes | None, dynamic_joint_states bytes
+    | None)]
+    write_record_bag(path, recs["loaded"])   # as the recorder writes them (both topics, their
+    drops)
 """
 from __future__ import annotations
 
@@ -42,8 +44,15 @@ def standin_records(seconds: float = 20.0, drop_rate: float = 2e-4) -> dict[str,
         layout = BroadcasterLayout.of(s.joint_names, [GRIPPER], "shuffled", seed=0)
         dropper = TickDropper(drop_rate, seed=i)
         msgs = broadcast(s, int(round(seconds * 1000)), layout, dropper, START_NS + i * 100 * 10**9)
-        out[name] = StandinRecord(name, 0.0 if payload is None else PAYLOAD_KG, msgs, layout,
-                                  dict(dropper.dropped), s.truth.drive_array("g_tau"), s.joint_names)
+        out[name] = StandinRecord(
+            name,
+            0.0 if payload is None else PAYLOAD_KG,
+            msgs,
+            layout,
+            dict(dropper.dropped),
+            s.truth.drive_array("g_tau"),
+            s.joint_names,
+        )
     return out
 
 
@@ -53,7 +62,9 @@ def write_record_bag(path: Path, rec: StandinRecord, dynamic: bool = True) -> Pa
     tags = bags.BagTags.checked(rec.condition, rec.payload_mass)
     with bags.BagWriter(path, tags) as w:
         js = w.add_topic("/joint_states", bags.JOINT_STATE_TYPE)
-        djs = w.add_topic("/dynamic_joint_states", bags.DYNAMIC_JOINT_STATE_TYPE) if dynamic else None
+        djs = (
+            w.add_topic("/dynamic_joint_states", bags.DYNAMIC_JOINT_STATE_TYPE) if dynamic else None
+        )
         for stamp, a, b in rec.messages:
             if a is not None:
                 w.write(js, a, stamp)

@@ -16,8 +16,7 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
-from orthoglide_ident.model.robot import (INERTIAL_KINDS, ActuatedJoint, Body, Payload,
-                                          RobotModel)
+from orthoglide_ident.model.robot import INERTIAL_KINDS, ActuatedJoint, Body, Payload, RobotModel
 
 DRIVE = ("ia", "fv", "fs", "tauoff")
 # Pinocchio's dynamic parameters [m, mx, my, mz, Ixx, Ixy, Iyy, Ixz, Iyz, Izz] -> INERTIAL_KINDS
@@ -31,11 +30,14 @@ URDF = """<?xml version="1.0"?>
 <robot name="arm3">
   <link name="base_link"/>
   <link name="link1"><inertial><origin xyz="0.01 -0.02 0.08" rpy="0 0 0"/><mass value="3.0"/>
-    <inertia ixx="0.020" ixy="0.001" ixz="-0.002" iyy="0.018" iyz="0.0015" izz="0.012"/></inertial></link>
+    <inertia ixx="0.020" ixy="0.001" ixz="-0.002" iyy="0.018" iyz="0.0015"
+    izz="0.012"/></inertial></link>
   <link name="link2"><inertial><origin xyz="0.15 0.01 0.02" rpy="0 0 0"/><mass value="2.2"/>
-    <inertia ixx="0.004" ixy="0.0005" ixz="0.0003" iyy="0.030" iyz="-0.0002" izz="0.029"/></inertial></link>
+    <inertia ixx="0.004" ixy="0.0005" ixz="0.0003" iyy="0.030" iyz="-0.0002"
+    izz="0.029"/></inertial></link>
   <link name="link3"><inertial><origin xyz="0.12 -0.01 0.0" rpy="0 0 0"/><mass value="1.4"/>
-    <inertia ixx="0.002" ixy="-0.0002" ixz="0.0001" iyy="0.012" iyz="0.0001" izz="0.011"/></inertial></link>
+    <inertia ixx="0.002" ixy="-0.0002" ixz="0.0001" iyy="0.012" iyz="0.0001"
+    izz="0.011"/></inertial></link>
   <link name="tool"><inertial><origin xyz="0.0 0.0 0.03" rpy="0 0 0"/><mass value="0.3"/>
     <inertia ixx="0.0003" ixy="0" ixz="0" iyy="0.0003" iyz="0" izz="0.0002"/></inertial></link>
   <joint name="j1" type="revolute"><parent link="base_link"/><child link="link1"/>
@@ -131,7 +133,7 @@ class SerialRobot(RobotModel):
             return out
         return X
 
-    def with_payload(self, payload: Payload) -> "SerialRobot":
+    def with_payload(self, payload: Payload) -> SerialRobot:
         return self
 
     def random_states(self, n: int, seed: int = 0):
@@ -142,7 +144,7 @@ class SerialRobot(RobotModel):
     def standard_values(self) -> np.ndarray:
         """The URDF's own χ_st (fixed links merged), the friction and armature given."""
         out = []
-        for k, b in enumerate(self.bodies, start=1):
+        for k, _body in enumerate(self.bodies, start=1):
             pi = self.model.inertias[k].toDynamicParameters()
             fv, fs, off = self.friction[str(k)]
             out += list(pi[PIN_ORDER]) + [self.armature[str(k)], fv, fs, off]

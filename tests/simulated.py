@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import importlib
 
-
 from orthoglide_ident.identify import Record
 from orthoglide_ident.model.robots import load_robot
 

@@ -90,7 +90,7 @@ class SyntheticModel(RobotModel):
         out[4 * n] = out[4 * n + 1] = self._platform(q, qdd).T
         return out
 
-    def with_payload(self, payload: Payload) -> "SyntheticModel":
+    def with_payload(self, payload: Payload) -> SyntheticModel:
         return self
 
     def standard_regressor(self, q, qd, qdd) -> np.ndarray:
@@ -114,8 +114,14 @@ class SyntheticModel(RobotModel):
         return tau.reshape(self.n_joints, N).T
 
 
-def trajectory(t: np.ndarray, seed: int = 0, amplitude: float = 0.06, f_max: float = 2.0,
-               n_harmonics: int = 5, n_joints: int = 3) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def trajectory(
+    t: np.ndarray,
+    seed: int = 0,
+    amplitude: float = 0.06,
+    f_max: float = 2.0,
+    n_harmonics: int = 5,
+    n_joints: int = 3,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Smooth exciting q(t), q̇, q̈ (N, n): sums of sines, ``amplitude`` m, up to ``f_max`` Hz."""
     rng = np.random.default_rng(seed)
     t = np.asarray(t, float)[:, None]

@@ -1,4 +1,5 @@
-"""The house rules of docs/design/architecture.md "Layout", read from the code's own imports and calls.
+"""The house rules of docs/design/architecture.md "Layout", read from the code's own imports and
+calls.
 
 - the Orthoglide is one robot package: no product module outside ``model/orthoglide/`` imports it,
   but the robot registry (``model/robots.py``);
@@ -25,7 +26,8 @@ ROOT = Path(__file__).resolve().parents[1]
 PRODUCT = ROOT / "orthoglide_ident"
 ORTHOGLIDE_PACKAGE = "orthoglide_ident.model.orthoglide"
 REGISTRY = "orthoglide_ident/model/robots.py"
-EDGES = ("orthoglide_ident/cli.py", "orthoglide_ident/excite/run_cli.py",  # the excite run command's handler
+# the excite run command's handler
+EDGES = ("orthoglide_ident/cli.py", "orthoglide_ident/excite/run_cli.py",
          "orthoglide_ident/nodes/")  # where "which robot" is resolved
 
 
@@ -110,7 +112,11 @@ def test_the_robot_is_resolved_at_the_edges_only():
             if isinstance(node, ast.Call) and getattr(node.func, "id", None) == "load_robot":
                 if rel != REGISTRY and not rel.startswith(EDGES):
                     offenders.append(f"{rel}:{node.lineno}: load_robot below the edges")
-                if node.args and isinstance(node.args[0], ast.Constant) and node.args[0].value is None:
+                if (
+                    node.args
+                    and isinstance(node.args[0], ast.Constant)
+                    and node.args[0].value is None
+                ):
                     offenders.append(f"{rel}:{node.lineno}: load_robot(None): say which robot")
     assert not offenders, "\n".join(offenders)
 
@@ -129,7 +135,7 @@ def test_no_private_name_is_imported_across_packages():
     for p in _modules(PRODUCT, ROOT / "orthoglide_sim"):
         for mod, name, line in _imports(p):
             dotted = mod.split(".") + ([name] if name else [])
-            if not dotted[0] in ("orthoglide_ident", "orthoglide_sim") or not any(
+            if dotted[0] not in ("orthoglide_ident", "orthoglide_sim") or not any(
                     x.startswith("_") and not x.startswith("__") for x in dotted):
                 continue
             if _owner_package(dotted) != _package(p):
@@ -244,8 +250,10 @@ def _circles(graph: dict[str, set[str]]) -> list[list[str]]:
         if root in index:
             continue
         work = [(root, iter(sorted(graph[root])))]
-        index[root] = low[root] = counter[0]; counter[0] += 1
-        stack.append(root); on.add(root)
+        index[root] = low[root] = counter[0]
+        counter[0] += 1
+        stack.append(root)
+        on.add(root)
         while work:
             v, it = work[-1]
             w = next(it, None)
@@ -256,14 +264,18 @@ def _circles(graph: dict[str, set[str]]) -> list[list[str]]:
                 if low[v] == index[v]:
                     comp = []
                     while True:
-                        x = stack.pop(); on.discard(x); comp.append(x)
+                        x = stack.pop()
+                        on.discard(x)
+                        comp.append(x)
                         if x == v:
                             break
                     if len(comp) > 1:
                         out.append(sorted(comp))
             elif w not in index:
-                index[w] = low[w] = counter[0]; counter[0] += 1
-                stack.append(w); on.add(w)
+                index[w] = low[w] = counter[0]
+                counter[0] += 1
+                stack.append(w)
+                on.add(w)
                 work.append((w, iter(sorted(graph.get(w, ())))))
             elif w in on:
                 low[v] = min(low[v], index[w])

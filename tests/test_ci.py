@@ -39,7 +39,9 @@ def test_an_allowed_skip_passes_and_is_printed_with_its_reason(tmp_path):
                'message="the mcap CLI is not installed"/></testcase>')
     run = _check(_report(tmp_path, PASSED, allowed), "--require-pass")
     assert run.returncode == 0, run.stdout
-    assert "skipped tests.bags.test_mcap_cli::test_doctor: the mcap CLI is not installed" in run.stdout
+    assert (
+        "skipped tests.bags.test_mcap_cli::test_doctor: the mcap CLI is not installed" in run.stdout
+    )
 
 
 def test_a_run_that_passed_nothing_fails_when_a_pass_is_required(tmp_path):

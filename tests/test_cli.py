@@ -5,12 +5,12 @@ import json
 
 import numpy as np
 import pytest
+from synthetic import synthetic_record
 
 from orthoglide_ident import bags
 from orthoglide_ident.cli import main, parse_gains
 from orthoglide_ident.errors import ConfigError
 from orthoglide_ident.model.robots import load_robot
-from synthetic import synthetic_record
 
 ORTHOGLIDE = load_robot("orthoglide")  # the robot these records are of
 
@@ -29,8 +29,8 @@ def _one_line_error(capsys, code, match=None):
 @pytest.fixture(scope="module")
 def model_bags(tmp_path_factory):
     """Noise-free bags of the Orthoglide base model with the simulator's true parameters."""
-    from orthoglide_sim.orthoglide import truth as true_parameters
     from orthoglide_ident.model.orthoglide.base import base_model
+    from orthoglide_sim.orthoglide import truth as true_parameters
 
     bm = base_model()
     tp = true_parameters.default_parameters()

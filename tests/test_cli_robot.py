@@ -1,4 +1,6 @@
-"""``orthoglide-ident --robot``: the CLI for a robot other than the Orthoglide, as a user runs it."""
+"""``orthoglide-ident --robot``: the CLI for a robot other than the Orthoglide, as a user runs
+it."""
+
 from __future__ import annotations
 
 import json

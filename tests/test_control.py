@@ -8,8 +8,8 @@ from orthoglide_ident import control as ctl
 from orthoglide_ident.control import CTCParameters, feedforward, feedforward_currents
 from orthoglide_ident.errors import ConfigError
 from orthoglide_ident.model.orthoglide.base import base_model
-from orthoglide_ident.results import Estimate, IdentificationResult, PayloadMass
 from orthoglide_ident.model.robots import load_robot
+from orthoglide_ident.results import Estimate, IdentificationResult, PayloadMass
 
 ORTHOGLIDE = load_robot("orthoglide")  # the robot these records are of
 
@@ -27,17 +27,25 @@ def true_params(m7: float = 1.983) -> CTCParameters:
 def fake_result(params: CTCParameters) -> IdentificationResult:
     names = base_model().names
     return IdentificationResult(
-        method="tls", joint_names=["q11", "q12", "q13"],
-        drive_gains=[Estimate(j, float(g), 0.001) for j, g in zip(["q11", "q12", "q13"], params.drive_gains)],
+        method="tls",
+        joint_names=["q11", "q12", "q13"],
+        drive_gains=[
+            Estimate(j, float(g), 0.001) for j, g in zip(["q11", "q12", "q13"], params.drive_gains)
+        ],
         drive_gains_given=False,
         parameters=[Estimate(n, float(v), 0.01) for n, v in zip(names, params.chi_b)],
-        payload_mass=PayloadMass(params.payload_mass, 0.0005, True), payloads=[], condition_number=100.0,
-        residual_rms=[1.0, 1.0, 1.0], bags=["a", "b"])
+        payload_mass=PayloadMass(params.payload_mass, 0.0005, True),
+        payloads=[],
+        condition_number=100.0,
+        residual_rms=[1.0, 1.0, 1.0],
+        bags=["a", "b"],
+    )
 
 
 def test_feedforward_equals_plant_torque_on_exact_data(monkeypatch):
     """Plant forward dynamics (Pinocchio, independent of the model; sign() friction like the model)
-    under random forces, then the feed-forward at the resulting (q, qd, qdd) gives the forces back."""
+    under random forces, then the feed-forward at the resulting (q, qd, qdd) gives the forces
+    back."""
     from orthoglide_sim.orthoglide.plant import Plant
     from orthoglide_sim.orthoglide.truth import load_parameters
 
@@ -56,6 +64,7 @@ def test_feedforward_matches_the_plant_and_ignores_absent_parameters():
     (Pinocchio's constraint dynamics of the legs, not the model's closed form); a subset of the
     parameters counts the absent ones as 0."""
     from ff_reference import orthoglide_currents
+
     from orthoglide_ident.model.orthoglide.base import random_states
 
     bm = base_model()
@@ -92,7 +101,8 @@ def test_feedforward_currents_in_the_middle_of_each_hold_over_the_gains():
 
 
 def test_feedforward_currents_of_a_quintic_are_the_half_tick_model():
-    """On a smooth test trajectory the mean of two ticks is the reference at t_k + T/2 to ~1e-6 m."""
+    """On a smooth test trajectory the mean of two ticks is the reference at t_k + T/2 to ~1e-6
+    m."""
     from orthoglide_sim.common.trajectories import get_trajectory
 
     traj = get_trajectory("test2")
@@ -133,7 +143,12 @@ def test_parameters_from_result_and_message_agree():
     ({"values": ["heavy"]}, "not numbers"),
 ])
 def test_bad_parameters_raise_config_error(change, match):
-    fields = {"names": ["m_11R"], "values": [1.0], "drive_gains": [2001.0] * 3, "payload_mass": 1.983}
+    fields = {
+        "names": ["m_11R"],
+        "values": [1.0],
+        "drive_gains": [2001.0] * 3,
+        "payload_mass": 1.983,
+    }
     fields.update(change)
     with pytest.raises(ConfigError, match=match):
         CTCParameters.from_message_fields(fields, model=ORTHOGLIDE)

@@ -126,7 +126,10 @@ def test_the_lead_statistics_min_and_median_in_bounded_memory():
     runs, _ = _drive(FeedforwardSchedule(batch=10, margin_ns=10 * MS), n=2000, lead=50, wake=5)
     leads = np.concatenate([r.stamps - now for now, r in runs]) * 1e-6
     assert lead_min == leads.min() and abs(lead_median - np.median(leads)) <= 0.05  # 0.1 ms bins
-    assert f"lead at sending min {leads.min():.1f} / median {lead_median:.1f} ms" in sched.total.summary()
+    assert (
+        f"lead at sending min {leads.min():.1f} / median {lead_median:.1f} ms"
+        in sched.total.summary()
+    )
     size = sched.total.histogram.nbytes
     _drive(sched, n=20_000, lead=50, wake=5, t0=T0 + 10**10)
     assert sched.total.histogram.nbytes == size and sched.total.sent == 1999 + 19_999

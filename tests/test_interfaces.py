@@ -1,6 +1,8 @@
-"""The orthoglide_msgs interfaces (docs/design/interfaces.md): exact fields, CDR round trip, and real exchange
+"""The orthoglide_msgs interfaces (docs/design/interfaces.md): exact fields, CDR round trip, and
+real exchange
 between processes over Fast DDS -- a publisher and a subscriber, a service server and a client.
-The control_msgs messages of ros2_control (docs/design/architecture.md §3): Jazzy's fields, a real install's type
+The control_msgs messages of ros2_control (docs/design/architecture.md §3): Jazzy's fields, a real
+install's type
 hashes, and the same exchange between processes."""
 from __future__ import annotations
 
@@ -8,9 +10,9 @@ import json
 from pathlib import Path
 
 import pytest
-from control_msgs.msg import DynamicJointState, InterfaceValue, JointTrajectoryControllerState
 from rclpy.serialization import deserialize_message, serialize_message
 
+from control_msgs.msg import DynamicJointState, InterfaceValue, JointTrajectoryControllerState
 from orthoglide_ident.bags import _types
 from orthoglide_msgs.msg import CurrentReference, IdentifiedParameters
 from orthoglide_msgs.srv import Identify, StartRecording, StopRecording
@@ -144,7 +146,8 @@ while not received and node.get_clock().now().nanoseconds < deadline:
 if received:
     msg = received[0]
     print(json.dumps({"name": list(msg.name), "current": list(msg.current),
-                      "sec": msg.header.stamp.sec, "nanosec": msg.header.stamp.nanosec}), flush=True)
+                      "sec": msg.header.stamp.sec, "nanosec": msg.header.stamp.nanosec}),
+                      flush=True)
 node.destroy_node()
 rclpy.shutdown()
 sys.exit(0 if received else 3)
@@ -476,27 +479,35 @@ def test_follow_joint_trajectory_hashes_agree_in_rosidl_and_rosbags() -> None:
     """The built action's hashes (rosidl) are the pinned ones, and rosbags' independent REP 2011
     implementation hashes the .action/.msg files' goal, result, feedback and tolerances alike."""
     from ament_index_python.packages import get_package_share_directory
-    from control_msgs.action import FollowJointTrajectory
     from rosbags.typesys import Stores, get_types_from_msg, get_typestore
+
+    from control_msgs.action import FollowJointTrajectory
 
     share = Path(get_package_share_directory("control_msgs"))
     built = {}
     for f in (share / "action/FollowJointTrajectory.json", share / "msg/JointTolerance.json",
               share / "msg/JointComponentTolerance.json"):
-        built.update({h["type_name"]: h["hash_string"] for h in json.loads(f.read_text())["type_hashes"]})
+        built.update(
+            {h["type_name"]: h["hash_string"] for h in json.loads(f.read_text())["type_hashes"]}
+        )
     assert {k: built[k] for k in FOLLOW_JOINT_TRAJECTORY_HASHES} == FOLLOW_JOINT_TRAJECTORY_HASHES
     store = get_typestore(Stores.ROS2_JAZZY)
     defs = ROOT / "msg_defs/control_msgs"
     for name in ("JointTolerance", "JointComponentTolerance"):
-        store.register(get_types_from_msg((defs / f"msg/{name}.msg").read_text(), f"control_msgs/msg/{name}"))
+        store.register(
+            get_types_from_msg((defs / f"msg/{name}.msg").read_text(), f"control_msgs/msg/{name}")
+        )
     text = (defs / "action/FollowJointTrajectory.action").read_text()
     text = text.replace("JointTolerance[]", "control_msgs/msg/JointTolerance[]").replace(
         "JointComponentTolerance[]", "control_msgs/msg/JointComponentTolerance[]")
     for part, suffix in zip(text.split("\n---\n"), ("Goal", "Result", "Feedback")):
-        store.register(get_types_from_msg(part, f"control_msgs/action/FollowJointTrajectory_{suffix}"))
+        store.register(
+            get_types_from_msg(part, f"control_msgs/action/FollowJointTrajectory_{suffix}")
+        )
     for name, h in FOLLOW_JOINT_TRAJECTORY_HASHES.items():
         if name != "control_msgs/action/FollowJointTrajectory":  # rosbags has no actions
             assert store.hash_rihs01(name) == h, name
     assert set(FollowJointTrajectory.Feedback.get_fields_and_field_types()) == {
         "header", "joint_names", "desired", "actual", "error", "multi_dof_joint_names",
-        "multi_dof_desired", "multi_dof_actual", "multi_dof_error"}  # jazzy: no `index` (6.x adds it)
+        # jazzy: no `index` (6.x adds it)
+        "multi_dof_desired", "multi_dof_actual", "multi_dof_error"}

@@ -7,9 +7,8 @@ import time
 import numpy as np
 import pytest
 
-
-from orthoglide_sim.demos.node_set import identify, record, tracking_errors  # noqa: E402
 from orthoglide_sim.demos.graph import Graph  # noqa: E402
+from orthoglide_sim.demos.node_set import identify, record, tracking_errors  # noqa: E402
 
 G_TRUE = np.array([2170.0, 2100.0, 2070.0])
 
@@ -17,14 +16,22 @@ G_TRUE = np.array([2170.0, 2100.0, 2070.0])
 def _record_ticks(g, name: str, ticks: int) -> str:
     """A loaded recording of ``ticks`` ticks written (robot time, whatever the machine's load),
     as node_set.record's service calls; its bag path."""
-    from orthoglide_msgs.srv import StartRecording
     from std_srvs.srv import Trigger
 
-    res = g.call(StartRecording, "orthoglide/recorder/start", condition="loaded", payload_mass=1.983,
-                 name=name)
+    from orthoglide_msgs.srv import StartRecording
+
+    res = g.call(
+        StartRecording,
+        "orthoglide/recorder/start",
+        condition="loaded",
+        payload_mass=1.983,
+        name=name,
+    )
     assert res.success, res.message
-    g.wait_for_status(lambda s: s.recording and s.bag_path == res.bag_path and s.ticks_written >= ticks,
-                      timeout=120.0)
+    g.wait_for_status(
+        lambda s: s.recording and s.bag_path == res.bag_path and s.ticks_written >= ticks,
+        timeout=120.0,
+    )
     stop = g.call(Trigger, "orthoglide/recorder/stop")
     assert stop.success, stop.message
     return res.bag_path
@@ -85,7 +92,9 @@ def test_record_identify_live_and_control_over_ros(tmp_path):
         after = g.driver_counters()
     rms_pid, rms_ctc = (np.sqrt(np.mean(e**2, axis=0)) for e in (e_pid, e_ctc))
     assert len(e_ctc) > 1500
-    fresh, held = (int(after[k]) - int(before[k]) for k in ("feedforward_fresh", "feedforward_missing"))
+    fresh, held = (
+        int(after[k]) - int(before[k]) for k in ("feedforward_fresh", "feedforward_missing")
+    )
     # Table 4's point, CTC over DDS as good as in-process (>20x better than the PID), holds
     # when the feed-forward comes in time; on a machine too loaded for the ctc to keep up at
     # 1 kHz the driver holds stale ones (it counts them) and the CTC is still far better than
@@ -128,20 +137,32 @@ def test_each_node_stopped_for_a_second_while_recording_loses_nothing(tmp_path):
         g.start("orthoglide_identification", "identification", {"bag_dir": str(tmp_path / "bags"),
                                                                 "lag_model": "off"})
         g.wait_for_ticks()
-        identify(g, [str(ROOT / "bags" / "unloaded"), str(ROOT / "bags" / "loaded")])  # latched for the ctc
+        # latched for the ctc
+        identify(g, [str(ROOT / "bags" / "unloaded"), str(ROOT / "bags" / "loaded")])
         g.start("orthoglide_ctc", "ctc", params_file=ROOT / "config/ctc.yaml")
         g.wait_for_feedforward()
         g.wait_for_subscriber("orthoglide/joint_states", "orthoglide_identification")
         g.set_params("orthoglide_driver", controller="ctc")
         before = g.driver_counters()
         n_live = len(g.live)
-        from orthoglide_msgs.srv import StartRecording
         from std_srvs.srv import Trigger
 
-        res = g.call(StartRecording, "orthoglide/recorder/start", condition="unloaded", payload_mass=0.0,
-                     name="stalls")
+        from orthoglide_msgs.srv import StartRecording
+
+        res = g.call(
+            StartRecording,
+            "orthoglide/recorder/start",
+            condition="unloaded",
+            payload_mass=0.0,
+            name="stalls",
+        )
         assert res.success, res.message
-        for name in ("orthoglide_driver", "orthoglide_recorder", "orthoglide_identification", "orthoglide_ctc"):
+        for name in (
+            "orthoglide_driver",
+            "orthoglide_recorder",
+            "orthoglide_identification",
+            "orthoglide_ctc",
+        ):
             # a second of the recording going on, then this node stopped for a second: the
             # durations are the experiment's (a stall), not a wait for something
             time.sleep(1.0)
@@ -150,7 +171,9 @@ def test_each_node_stopped_for_a_second_while_recording_loses_nothing(tmp_path):
             g.procs[name].send_signal(signal.SIGCONT)
         # the recording goes on after the last stall: a second more of ticks written
         written = g.wait_for_status(lambda s: s.recording).ticks_written
-        g.wait_for_status(lambda s: s.recording and s.ticks_written >= written + 1000, timeout=120.0)
+        g.wait_for_status(
+            lambda s: s.recording and s.ticks_written >= written + 1000, timeout=120.0
+        )
         stop = g.call(Trigger, "orthoglide/recorder/stop")
         after = g.driver_counters()
         assert stop.success, stop.message
@@ -158,7 +181,9 @@ def test_each_node_stopped_for_a_second_while_recording_loses_nothing(tmp_path):
         seconds = len(data.joint_states.stamps_ns) / 1000
         t_end = time.monotonic() + 30  # live identification folds in the recording's last ticks
         while not (g.live[n_live:] and g.live[-1].unloaded_seconds > 0.9 * seconds):
-            assert time.monotonic() < t_end, [(m.unloaded_seconds, m.status) for m in g.live[n_live:]]
+            assert time.monotonic() < t_end, [
+                (m.unloaded_seconds, m.status) for m in g.live[n_live:]
+            ]
             time.sleep(0.2)
         g.check_alive()  # every node went on
         live = g.live[n_live:]
@@ -168,10 +193,20 @@ def test_each_node_stopped_for_a_second_while_recording_loses_nothing(tmp_path):
     # by len(js) plus at most the two counter reads' delays (diagnostics once a second, <= 1000
     # ticks each) and the calls' — whatever the machine's speed (a loaded one ticks late)
     published = int(after["ticks"]) - int(before["ticks"])
-    assert bags.find_gaps(js).missing == 0 and published - 3000 <= len(js) <= published, (len(js), published)
-    assert "0 missing on /orthoglide/current_reference, 0 missing on /orthoglide/joint_states" in stop.message
-    assert f"wrote {len(js)} /orthoglide/current_reference, {len(js)} /orthoglide/joint_states" in stop.message
+    assert bags.find_gaps(js).missing == 0 and published - 3000 <= len(js) <= published, (
+        len(js),
+        published,
+    )
+    assert (
+        "0 missing on /orthoglide/current_reference, 0 missing on /orthoglide/joint_states"
+        in stop.message
+    )
+    assert (
+        f"wrote {len(js)} /orthoglide/current_reference, {len(js)} /orthoglide/joint_states"
+        in stop.message
+    )
     assert int(after["late"]) - int(before["late"]) >= 500  # the driver's own second
-    assert int(after["feedforward_missing"]) - int(before["feedforward_missing"]) >= 500  # the ctc's second
+    # the ctc's second
+    assert int(after["feedforward_missing"]) - int(before["feedforward_missing"]) >= 500
     warnings = [w for m in live for w in m.warnings]
     assert not [w for w in warnings if "lost" in w or "missing" in w], warnings

@@ -34,10 +34,8 @@ def _record(g, js, rec, name: str) -> tuple[str, str]:
     from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
     from std_srvs.srv import Trigger
 
-    from orthoglide_msgs.msg import RecorderStatus
+    from orthoglide_msgs.msg import LiveIdentification, RecorderStatus
     from orthoglide_msgs.srv import StartRecording
-
-    from orthoglide_msgs.msg import LiveIdentification
 
     res = g.call(StartRecording, "orthoglide/recorder/start", condition=rec.condition,
                  payload_mass=rec.payload_mass, name=name)

@@ -84,7 +84,9 @@ def _ros2_run_path(package: str, executable: str) -> Path:
 @pytest.mark.parametrize("executable", list(EXECUTABLES))
 def test_ros2_run_launcher_starts_its_module(executable: str, ros_env: dict[str, str]) -> None:
     launcher = _ros2_run_path("orthoglide_ident", executable)
-    assert launcher.is_file() and os.access(launcher, os.X_OK), f"{launcher}: missing or not executable"
+    assert launcher.is_file() and os.access(launcher, os.X_OK), (
+        f"{launcher}: missing or not executable"
+    )
     module = EXECUTABLES[executable]
     assert _module_exists(module), f"{module}: the module {executable!r} runs is missing"
     # Run as `ros2 run` does: the file itself, no venv activation, no sourced ROS.
@@ -94,7 +96,9 @@ def test_ros2_run_launcher_starts_its_module(executable: str, ros_env: dict[str,
                          timeout=120)
     assert out.returncode == 0, f"{launcher} --help exited {out.returncode}:\n{out.stderr}"
     assert "usage" in out.stdout.lower(), f"{launcher} --help printed no usage:\n{out.stdout}"
-    assert executable in out.stdout, f"usage should name the executable {executable!r}:\n{out.stdout}"
+    assert executable in out.stdout, (
+        f"usage should name the executable {executable!r}:\n{out.stdout}"
+    )
 
 
 def test_console_script_orthoglide_ident() -> None:
@@ -109,8 +113,9 @@ def test_make_setup_is_up_to_date() -> None:
     """A second `make setup` has nothing to rebuild (make -q: exit 0 = up to date)."""
     out = children.run(["make", "-q", "-C", str(ROOT), "VENV=" + str(PREFIX), "setup-stamps"],
                          capture_output=True, text=True, timeout=60)
-    assert out.returncode == 0, "make setup would rebuild something: inputs newer than the venv's " \
-                                "stamps (run `make setup`)"
+    assert out.returncode == 0, (
+        "make setup would rebuild something: inputs newer than the venv's stamps (run `make setup`)"
+    )
 
 
 def test_launch_file_lists_the_node_set_with_installed_configs():
@@ -124,8 +129,16 @@ def test_launch_file_lists_the_node_set_with_installed_configs():
     spec = importlib.util.spec_from_file_location("orthoglide_launch", path)
     launch = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(launch)
-    assert [n["executable"] for n in launch.NODES] == ["driver", "recorder", "identification", "ctc", "viewer"]
-    assert all(n["executable"] in EXECUTABLES and n["name"].startswith("orthoglide_") for n in launch.NODES)
+    assert [n["executable"] for n in launch.NODES] == [
+        "driver",
+        "recorder",
+        "identification",
+        "ctc",
+        "viewer",
+    ]
+    assert all(
+        n["executable"] in EXECUTABLES and n["name"].startswith("orthoglide_") for n in launch.NODES
+    )
     # a node that cannot go on exits 1 and is started again (respawn:=true), not the simulated robot
     # nor the viewer (a view, started again by hand)
     assert [n["respawn"] for n in launch.NODES] == [False, True, True, True, False]
@@ -148,14 +161,20 @@ def test_launch_file_lists_the_node_set_with_installed_configs():
 
 
 def test_config_files_are_the_nodes_parameter_files():
-    """Every key of config/<node>.yaml is a parameter the node declares (so the file really sets it)."""
+    """Every key of config/<node>.yaml is a parameter the node declares (so the file really sets
+    it)."""
     import yaml
 
     from orthoglide_ident.nodes import ctc, identification, recorder, viewer
     from orthoglide_sim.nodes import driver as driver_node
 
-    for module, name in ((driver_node, "driver"), (recorder, "recorder"), (identification, "identification"),
-                         (ctc, "ctc"), (viewer, "viewer")):
+    for module, name in (
+        (driver_node, "driver"),
+        (recorder, "recorder"),
+        (identification, "identification"),
+        (ctc, "ctc"),
+        (viewer, "viewer"),
+    ):
         data = yaml.safe_load((ROOT / "config" / f"{name}.yaml").read_text())
         keys = set(data["/**"]["ros__parameters"])
         declared = {p.name for p in module.PARAMETERS}
@@ -166,4 +185,6 @@ def test_foxglove_layout_is_installed():
     from orthoglide_ident._install_ament import FOXGLOVE_LAYOUT
 
     installed = PREFIX / "share/orthoglide_ident/foxglove" / Path(FOXGLOVE_LAYOUT).name
-    assert installed.read_bytes() == (ROOT / FOXGLOVE_LAYOUT).read_bytes(), "stale layout: run `make setup`"
+    assert installed.read_bytes() == (ROOT / FOXGLOVE_LAYOUT).read_bytes(), (
+        "stale layout: run `make setup`"
+    )

@@ -1,5 +1,6 @@
 """The public faces: what each package's ``__init__`` hands on, pinned. A change here is a change
-of the product's API: make it on purpose (and say so in docs/design/architecture.md "Public faces")."""
+of the product's API: make it on purpose (and say so in docs/design/architecture.md "Public
+faces")."""
 from __future__ import annotations
 
 import importlib
@@ -8,28 +9,93 @@ import pytest
 
 API = {
     "orthoglide_ident.identify": [
-        "IdentifyOptions", "LiveEstimate", "LiveIdentification", "Record", "identify",
-        "identify_records", "read_record"],
+        "IdentifyOptions",
+        "LiveEstimate",
+        "LiveIdentification",
+        "Record",
+        "identify",
+        "identify_records",
+        "read_record",
+    ],
     "orthoglide_ident.model": [
-        "ActuatedJoint", "Body", "Payload", "RobotModel", "bundled_robots", "load_robot"],
+        "ActuatedJoint",
+        "Body",
+        "Payload",
+        "RobotModel",
+        "bundled_robots",
+        "load_robot",
+    ],
     "orthoglide_ident.bags": [
-        "BagData", "BagInfo", "BagSources", "BagTags", "BagWriter", "COM_KEY", "CONDITIONS",
-        "CONDITION_KEY", "CURRENT_REFERENCE_TOPIC", "CURRENT_REFERENCE_TYPE", "CURRENT_SOURCE_KEY",
-        "CurrentReferences", "DYNAMIC_JOINT_STATES_TOPIC", "DYNAMIC_JOINT_STATE_TYPE",
-        "EFFORT_SIDE_KEY", "EFFORT_UNIT_KEY", "FRAME_KEY", "FileReport", "FileStatus", "Gaps", "INCOMPLETE_KEY",
-        "INERTIA_KEY", "JOINT_STATES_TOPIC", "JOINT_STATE_TYPE", "JTC_STATE_TYPE", "JointStates",
-        "LAYOUTS", "MASS_KEY", "METADATA_NAME", "MessageTemplate",
-        "POSITION_SIDE_KEY", "POSITION_SOURCE_KEY", "SIDES", "ROS2_CONTROL_JOINT_STATES_TOPIC", "Recording", "ReindexResult",
-        "Source", "TickCounter", "TopicInfo", "bag_files", "bag_info", "decode_messages",
-        "default_qos", "encode_dynamic_joint_states", "encode_joint_states", "encode_messages",
-        "find_gaps", "left_open", "msgdef_and_hash", "qos_profile", "read_bag", "reindex",
-        "write_bag"],
+        "BagData",
+        "BagInfo",
+        "BagSources",
+        "BagTags",
+        "BagWriter",
+        "COM_KEY",
+        "CONDITIONS",
+        "CONDITION_KEY",
+        "CURRENT_REFERENCE_TOPIC",
+        "CURRENT_REFERENCE_TYPE",
+        "CURRENT_SOURCE_KEY",
+        "CurrentReferences",
+        "DYNAMIC_JOINT_STATES_TOPIC",
+        "DYNAMIC_JOINT_STATE_TYPE",
+        "EFFORT_SIDE_KEY",
+        "EFFORT_UNIT_KEY",
+        "FRAME_KEY",
+        "FileReport",
+        "FileStatus",
+        "Gaps",
+        "INCOMPLETE_KEY",
+        "INERTIA_KEY",
+        "JOINT_STATES_TOPIC",
+        "JOINT_STATE_TYPE",
+        "JTC_STATE_TYPE",
+        "JointStates",
+        "LAYOUTS",
+        "MASS_KEY",
+        "METADATA_NAME",
+        "MessageTemplate",
+        "POSITION_SIDE_KEY",
+        "POSITION_SOURCE_KEY",
+        "SIDES",
+        "ROS2_CONTROL_JOINT_STATES_TOPIC",
+        "Recording",
+        "ReindexResult",
+        "Source",
+        "TickCounter",
+        "TopicInfo",
+        "bag_files",
+        "bag_info",
+        "decode_messages",
+        "default_qos",
+        "encode_dynamic_joint_states",
+        "encode_joint_states",
+        "encode_messages",
+        "find_gaps",
+        "left_open",
+        "msgdef_and_hash",
+        "qos_profile",
+        "read_bag",
+        "reindex",
+        "write_bag",
+    ],
 }
 # the extension tables (docs/design/architecture.md "Extension points"): one place each
 TABLES = {
-    "orthoglide_ident.identify.solve.methods": ["METHODS", "REFINEMENTS", "DEFAULT_METHOD", "get", "solve"],
-    "orthoglide_ident.bags.sources": ["INPUT_SOURCES", "CURRENT_SOURCES", "POSITION",
-                                      "DEFAULT_INTERFACE"],
+    "orthoglide_ident.identify.solve.methods": [
+        "METHODS",
+        "REFINEMENTS",
+        "DEFAULT_METHOD",
+        "get",
+        "solve",
+    ],
+    "orthoglide_ident.bags.sources": [
+        "INPUT_SOURCES",
+        "CURRENT_SOURCES",
+        "POSITION",
+        "DEFAULT_INTERFACE",
+    ],
     "orthoglide_ident.model.robots": ["load_robot", "bundled_robots"],
 }
 # the node plumbing the nodes and the simulator share (rclpy: imported only where used)
@@ -69,6 +135,8 @@ def test_the_robot_model_answers_what_callers_asked_by_type():
     assert all(hasattr(RobotModel, n) for n in ROBOT_MODEL)
     for name in ("orthoglide", "ur5"):
         robot = load_robot(name)
-        assert len(robot.gravity) == 3 and abs(sum(g * g for g in robot.gravity) - 9.80665 ** 2) < 1e-9
+        assert (
+            len(robot.gravity) == 3 and abs(sum(g * g for g in robot.gravity) - 9.80665**2) < 1e-9
+        )
     # the Orthoglide's gravity is along +y0 (paper Sect. 5.1), a URDF robot's along -z
     assert load_robot("orthoglide").gravity[1] > 0 and load_robot("ur5").gravity[2] < 0

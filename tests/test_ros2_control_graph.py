@@ -9,9 +9,8 @@ import numpy as np
 import pytest
 import yaml
 
-
-from orthoglide_sim.demos.node_set import identify, record  # noqa: E402
 from orthoglide_sim.demos.graph import Graph  # noqa: E402
+from orthoglide_sim.demos.node_set import identify, record  # noqa: E402
 
 STANDIN = "ros2_control_standin"
 DROP_RATE, SEED = 3e-4, 4
@@ -64,8 +63,18 @@ def test_record_and_identify_a_ros2_control_robot(tmp_path):
 
     config = ROOT / "config" / "ros2_control.yaml"
     with Graph(tmp_path / "logs") as g:
-        g.start(STANDIN, "driver", {"robot": "ur5_mount", "drop_rate": DROP_RATE, "seed": SEED}, params_file=config)
-        g.start("orthoglide_recorder", "recorder", {"output_dir": str(tmp_path / "bags")}, params_file=config)
+        g.start(
+            STANDIN,
+            "driver",
+            {"robot": "ur5_mount", "drop_rate": DROP_RATE, "seed": SEED},
+            params_file=config,
+        )
+        g.start(
+            "orthoglide_recorder",
+            "recorder",
+            {"output_dir": str(tmp_path / "bags")},
+            params_file=config,
+        )
         g.start("orthoglide_identification", "identification",
                 {"bag_dir": str(tmp_path / "bags"), "lag_model": "off"}, params_file=config)
         g.wait_for_messages(JointState, "joint_states", 1, timeout=60)
@@ -91,7 +100,11 @@ def test_record_and_identify_a_ros2_control_robot(tmp_path):
     assert list(offline.joint_names) == list(load_arm("ur5_mount").joint_names)
     assert _rel(live.drive_gains, offline.drive_gains) < 1e-6
     values = dict(zip(offline.names, offline.values))
-    big = [(n, v) for n, v in zip(live.names, live.values) if abs(values[n]) > 1e-3 * max(map(abs, values.values()))]
+    big = [
+        (n, v)
+        for n, v in zip(live.names, live.values)
+        if abs(values[n]) > 1e-3 * max(map(abs, values.values()))
+    ]
     assert _rel([v for _, v in big], [values[n] for n, _ in big]) < 1e-6
     assert _rel(offline.drive_gains, g_true) < 0.005
 
@@ -99,10 +112,20 @@ def test_record_and_identify_a_ros2_control_robot(tmp_path):
         data = bagio.read_bag(path)
         # the hardware's order and the gripper, as published; the current from the interface
         assert "gripper_finger_joint" in data.positions.names
-        assert data.sources.current.topic == "/dynamic_joint_states" and data.sources.current.field == "current"
-        # every tick published is in the bag; the ones missing are exactly those the stand-in dropped
-        stamps = {"joint_states": data.positions.stamps_ns, "dynamic_joint_states": data.current.stamps_ns}
-        first, last = min(int(s[0]) for s in stamps.values()), max(int(s[-1]) for s in stamps.values())
+        assert (
+            data.sources.current.topic == "/dynamic_joint_states"
+            and data.sources.current.field == "current"
+        )
+        # every tick published is in the bag; the ones missing are exactly those the stand-in
+        # dropped
+        stamps = {
+            "joint_states": data.positions.stamps_ns,
+            "dynamic_joint_states": data.current.stamps_ns,
+        }
+        first, last = (
+            min(int(s[0]) for s in stamps.values()),
+            max(int(s[-1]) for s in stamps.values()),
+        )
         dropped = _dropped_stamps(start_ns, (last - start_ns) // 1_000_000 + 1)
         for topic, st in stamps.items():
             span = set(range(first, last + 1, 1_000_000))

@@ -12,7 +12,9 @@ from orthoglide_ident._install_ament import EXECUTABLES, ROOT, data_files
 
 
 def _launch():
-    spec = importlib.util.spec_from_file_location("ros2_control_launch", ROOT / "launch" / "ros2_control.launch.py")
+    spec = importlib.util.spec_from_file_location(
+        "ros2_control_launch", ROOT / "launch" / "ros2_control.launch.py"
+    )
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     return module
@@ -26,7 +28,10 @@ def test_launch_file_lists_the_nodes_with_installed_configs():
     assert (Path(sys.prefix) / "share/orthoglide_ident/launch/ros2_control.launch.py").is_file()
     for n in launch.NODES:
         assert n["executable"] in EXECUTABLES
-        assert n["config"] is None or f"config/{n['config']}" in installed["share/orthoglide_ident/config"]
+        assert (
+            n["config"] is None
+            or f"config/{n['config']}" in installed["share/orthoglide_ident/config"]
+        )
         assert set(n["arguments"]) <= set(launch.ARGUMENTS)
         assert n["when"] is None or n["when"] in launch.ARGUMENTS
     assert [n["name"] for n in launch.NODES if n["when"] is None] == ["orthoglide_recorder",
@@ -42,16 +47,24 @@ def test_ros2_control_yaml_sets_declared_parameters_of_each_node():
     from orthoglide_sim.nodes import ros2_control as ros2_control_node
 
     data = yaml.safe_load((ROOT / "config" / "ros2_control.yaml").read_text())
-    declared = {"orthoglide_recorder": recorder.PARAMETERS, "orthoglide_identification": identification.PARAMETERS,
-                "orthoglide_ctc": ctc.PARAMETERS, "ros2_control_standin": ros2_control_node.PARAMETERS,
-                "orthoglide_viewer": viewer.PARAMETERS}
+    declared = {
+        "orthoglide_recorder": recorder.PARAMETERS,
+        "orthoglide_identification": identification.PARAMETERS,
+        "orthoglide_ctc": ctc.PARAMETERS,
+        "ros2_control_standin": ros2_control_node.PARAMETERS,
+        "orthoglide_viewer": viewer.PARAMETERS,
+    }
     launched = {n["name"] for n in _launch().NODES}
     assert set(data) <= set(declared) and set(data) <= launched
     for node, section in data.items():
         keys = set(section["ros__parameters"])
-        assert keys <= {p.name for p in declared[node]}, (node, keys - {p.name for p in declared[node]})
+        assert keys <= {p.name for p in declared[node]}, (
+            node,
+            keys - {p.name for p in declared[node]},
+        )
     topics = data["orthoglide_recorder"]["ros__parameters"]["topics"]
-    assert topics == ["joint_states", "dynamic_joint_states"]  # relative: the controller manager's namespace
+    # relative: the controller manager's namespace
+    assert topics == ["joint_states", "dynamic_joint_states"]
 
 
 def test_every_node_of_the_launch_accepts_its_parameter_files():

@@ -1,4 +1,6 @@
-"""orthoglide-ident's client side of the node set: record start|stop|status, watch, identify --service."""
+"""orthoglide-ident's client side of the node set: record start|stop|status, watch, identify
+--service."""
+
 from __future__ import annotations
 
 import subprocess
@@ -21,11 +23,17 @@ def test_record_commands_against_the_recorder(spawn_python, ros_env, tmp_path):
     spawn_python("from orthoglide_ident.nodes.recorder import main; import sys; sys.exit(main())",
                  "--ros-args", "-p", f"output_dir:={tmp_path}")
     bad = cli(ros_env, "record", "start", "--condition", "loaded")  # no payload mass
-    assert bad.returncode == 2 and "payload" in bad.stderr and "Traceback" not in bad.stderr, bad.stderr
+    assert bad.returncode == 2 and "payload" in bad.stderr and "Traceback" not in bad.stderr, (
+        bad.stderr
+    )
     start = cli(ros_env, "record", "start", "--condition", "unloaded", "--name", "cli_run")
     assert start.returncode == 0 and "recording unloaded" in start.stdout, start.stderr
     status = cli(ros_env, "record", "status")
-    assert status.returncode == 0 and "recording unloaded" in status.stdout and "cli_run" in status.stdout
+    assert (
+        status.returncode == 0
+        and "recording unloaded" in status.stdout
+        and "cli_run" in status.stdout
+    )
     watch = cli(ros_env, "watch", "--seconds", "5")
     assert watch.returncode == 0 and "recorder: recording unloaded" in watch.stdout
     stop = cli(ros_env, "record", "stop")  # nothing published: a failure that says why
@@ -35,10 +43,21 @@ def test_record_commands_against_the_recorder(spawn_python, ros_env, tmp_path):
 
 
 def test_identify_through_the_service(spawn_python, ros_env, tmp_path):
-    spawn_python("from orthoglide_ident.nodes.identification import main; import sys; sys.exit(main())",
-                 "--ros-args", "-p", f"bag_dir:={tmp_path}", "-p", "live:=false")
-    out = cli(ros_env, "identify", "--service", str(ROOT / "bags/unloaded"), str(ROOT / "bags/loaded"))
-    assert out.returncode == 0 and out.stdout.startswith("tls: drive gains ["), (out.stdout, out.stderr)
+    spawn_python(
+        "from orthoglide_ident.nodes.identification import main; import sys; sys.exit(main())",
+        "--ros-args",
+        "-p",
+        f"bag_dir:={tmp_path}",
+        "-p",
+        "live:=false",
+    )
+    out = cli(
+        ros_env, "identify", "--service", str(ROOT / "bags/unloaded"), str(ROOT / "bags/loaded")
+    )
+    assert out.returncode == 0 and out.stdout.startswith("tls: drive gains ["), (
+        out.stdout,
+        out.stderr,
+    )
     none = cli(ros_env, "identify", "--service")  # bag_dir is empty
     assert none.returncode == 2 and "no bags" in none.stderr and "\n" not in none.stderr.strip()
 

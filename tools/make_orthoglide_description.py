@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
-from orthoglide_ident.model.orthoglide.geometry import A, D4, D6
+from orthoglide_ident.model.orthoglide.geometry import D4, D6, A
 
 ROBOTS = Path(__file__).resolve().parent.parent / "orthoglide_ident" / "robots"
 OUT = ROBOTS / "orthoglide_general.urdf"

@@ -10,15 +10,22 @@ import sys
 OURS = "control-msgs-interfaces"  # the distribution name in pyproject.toml
 
 try:
+    from rclpy.serialization import serialize_message
+
     import control_msgs
     from control_msgs.action import FollowJointTrajectory
     from control_msgs.msg import DynamicJointState, InterfaceValue, JointTrajectoryControllerState
-    from rclpy.serialization import serialize_message
 
     # an older control_msgs without the action, or one without its type support, is not enough
-    for msg_type in (DynamicJointState, InterfaceValue, JointTrajectoryControllerState,
-                     FollowJointTrajectory.Goal, FollowJointTrajectory.Result,
-                     FollowJointTrajectory.Feedback, FollowJointTrajectory.Impl.SendGoalService.Request):
+    for msg_type in (
+        DynamicJointState,
+        InterfaceValue,
+        JointTrajectoryControllerState,
+        FollowJointTrajectory.Goal,
+        FollowJointTrajectory.Result,
+        FollowJointTrajectory.Feedback,
+        FollowJointTrajectory.Impl.SendGoalService.Request,
+    ):
         serialize_message(msg_type())  # loads the type support: the libraries are found
 except Exception:  # not installed, or installed for another interpreter: build ours
     sys.exit(1)

@@ -14,6 +14,13 @@ Orthoglide's topics or a ros2_control robot's, as :mod:`.sources` chooses.
 
 from __future__ import annotations
 
+from ._encode import (
+    CdrTemplate,
+    MessageTemplate,
+    encode_dynamic_joint_states,
+    encode_joint_states,
+    encode_messages,
+)
 from ._tags import (
     COM_KEY,
     CONDITION_KEY,
@@ -45,7 +52,6 @@ from ._types import (
     qos_profile,
 )
 from .info import BagInfo, Gaps, TickCounter, TopicInfo, bag_info, find_gaps
-from .recording import Recording
 from .reader import (
     BagData,
     CurrentReferences,
@@ -55,10 +61,9 @@ from .reader import (
     decode_messages,
     read_bag,
 )
+from .recording import Recording
 from .reindex import FileReport, ReindexResult, left_open, reindex
 from .sources import BagSources, Source
-from ._encode import (CdrTemplate, MessageTemplate, encode_dynamic_joint_states, encode_joint_states,
-                      encode_messages)
 from .writer import LAYOUTS, BagWriter, write_bag
 
 __all__ = [

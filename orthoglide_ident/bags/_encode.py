@@ -155,12 +155,12 @@ class MessageTemplate:
 
     @classmethod
     def joint_state(cls, names: Sequence[str], fields: Sequence[str] = JOINT_STATE_FIELDS
-                    ) -> "MessageTemplate":
+                    ) -> MessageTemplate:
         return cls(JOINT_STATE_TYPE, names, tuple(fields))
 
     @classmethod
     def dynamic_joint_state(cls, names: Sequence[str], interfaces: Sequence[Sequence[str]]
-                            ) -> "MessageTemplate":
+                            ) -> MessageTemplate:
         if len(interfaces) != len(names):
             raise DataError(f"{len(names)} joints but {len(interfaces)} interface lists")
         return cls(DYNAMIC_JOINT_STATE_TYPE, names, tuple(tuple(i) for i in interfaces))

@@ -12,8 +12,8 @@ from __future__ import annotations
 
 import fcntl
 import os
-from pathlib import Path
 from collections.abc import Sequence
+from pathlib import Path
 from typing import IO
 
 from mcap.writer import LIBRARY_IDENTIFIER, CompressionType, IndexType, Writer

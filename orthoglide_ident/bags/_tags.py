@@ -29,7 +29,8 @@ Stored as strings, the same keys in metadata.yaml ``custom_data`` and in each .m
                                 ``orthoglide-ident import``); identification turns a torque into a
                                 current with the nominal gains (optional; absent: the
                                 ``effort_unit`` option, default A)
-``orthoglide.position_side``    ``joint`` | ``actuator``: the positions are the joints' or the motors'
+``orthoglide.position_side``    ``joint`` | ``actuator``: the positions are the joints' or the
+motors'
                                 (encoders, offset included) for a robot with a transmission
                                 (optional; absent: the robot file's ``position_side``; identify
                                 reads the bag as tagged, docs/design/bags.md)

@@ -1,6 +1,7 @@
 """Message types known to the bag code: definitions, RIHS01 hashes, rosbag2 QoS records.
 
-The custom ``orthoglide_msgs`` definitions (docs/design/interfaces.md, fields exactly) and the ros2_control
+The custom ``orthoglide_msgs`` definitions (docs/design/interfaces.md, fields exactly) and the
+ros2_control
 ``control_msgs`` ones the product reads and writes (Jazzy's fields, msg_defs/control_msgs) are
 embedded so that an installed copy works without the source tree or any compiled type; other
 packages' .msg files are looked up under the ament prefixes when a recorder meets an unknown

@@ -94,7 +94,9 @@ class ColumnMap:
         for key, value in data.items():
             k = str(key).replace("-", "_")
             if k not in known:
-                raise ConfigError(f"{source}: unknown key {key!r}; known: {', '.join(sorted(known))}")
+                raise ConfigError(
+                    f"{source}: unknown key {key!r}; known: {', '.join(sorted(known))}"
+                )
             out[k] = value
         joints = out.get("joints")
         if isinstance(joints, Mapping):  # per joint: {name: {position: col, effort: col, ...}}
@@ -249,13 +251,15 @@ def _header(path: Path, delimiter: str) -> tuple[list[str], int, str | None]:
     """(column names, the header's file line or 0, the delimiter); DataError on an empty file."""
     try:
         with _open(path) as f:
-            for number, line in enumerate(f, 1):
+            for number, line in enumerate(f, 1):  # noqa: B007  (the line number of a refusal)
                 if _is_data(line):
                     break
             else:
                 raise DataError(f"{path}: empty file (no header, no rows)")
     except (OSError, EOFError, lzma.LZMAError, UnicodeDecodeError) as exc:
-        raise DataError(f"{path}: cannot read it ({getattr(exc, 'strerror', None) or exc})") from None
+        raise DataError(
+            f"{path}: cannot read it ({getattr(exc, 'strerror', None) or exc})"
+        ) from None
     if delimiter:
         delim = DELIMITERS[delimiter]
     else:
@@ -454,7 +458,8 @@ def _row_reason(cells: list[str], header: list[str], width: int, usecols: list[i
     return ""
 
 
-# -- several files, one bag --------------------------------------------------------------------------
+# -- several files, one bag
+# --------------------------------------------------------------------------
 @dataclass
 class ImportResult:
     """What ``import`` wrote: the bag, the files and rows it holds, the tag."""

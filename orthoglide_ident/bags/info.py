@@ -7,10 +7,18 @@ from pathlib import Path
 
 import numpy as np
 
-from orthoglide_ident.ticks import (BREAK_HIGH, BREAK_LOW, LOCAL_STEPS, OFF_GRID_TOL, ON_GRID,
-                                    UNEVEN_SHARE, StepStats, find_breaks_local, step_stats)
-
 from orthoglide_ident.errors import BagError
+from orthoglide_ident.ticks import (
+    BREAK_HIGH,
+    BREAK_LOW,
+    LOCAL_STEPS,
+    OFF_GRID_TOL,
+    ON_GRID,
+    UNEVEN_SHARE,
+    StepStats,
+    find_breaks_local,
+    step_stats,
+)
 
 from ._tags import BagTags
 from .reader import FileStatus, _scan_bag

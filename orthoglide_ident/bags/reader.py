@@ -9,7 +9,6 @@ message types are decoded from the bag's own schemas, so no compiled type is nee
 from __future__ import annotations
 
 import dataclasses
-
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -349,8 +348,10 @@ def read_bag(path: str | Path, *, require_tags: bool = True, interface: str | No
     if channels is not None:
         position_joints, joints = channels(scan.tags)
     if scan.incomplete:
-        warnings.append(f"{scan.path}: tagged incomplete ({scan.incomplete}): its run stopped before "
-                        "the end of its trajectory, so it holds less excitation than designed")
+        warnings.append(
+            f"{scan.path}: tagged incomplete ({scan.incomplete}): its run stopped before "
+            "the end of its trajectory, so it holds less excitation than designed"
+        )
     src = choose_sources(scan.topics, scan.path, tags=scan.tags, interface=interface,
                          joints=joints)
     out = []

@@ -31,8 +31,15 @@ _STAMP = struct.Struct("<iI")
 BAG_NAME = re.compile(r"^[A-Za-z0-9_.+-]+$")
 
 
-def open_bag(output_dir: str | Path, name: str, tags: BagTags, compression: str = "zstd",
-             chunk_duration_s: float = 0.5, split_duration_s: float = 0.0, split_size_bytes: int = 0) -> BagWriter:
+def open_bag(
+    output_dir: str | Path,
+    name: str,
+    tags: BagTags,
+    compression: str = "zstd",
+    chunk_duration_s: float = 0.5,
+    split_duration_s: float = 0.0,
+    split_size_bytes: int = 0,
+) -> BagWriter:
     """The writer of a new recording ``output_dir/name`` (name "" = <condition>_<date>_<time>).
 
     Checks the name and that the folder is writable before anything is created, so that a refused
@@ -45,12 +52,19 @@ def open_bag(output_dir: str | Path, name: str, tags: BagTags, compression: str 
     try:
         out.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
-        raise ConfigError(f"output folder {out} is not writable: cannot create it ({exc.strerror or exc})") from None
+        raise ConfigError(
+            f"output folder {out} is not writable: cannot create it ({exc.strerror or exc})"
+        ) from None
     if not os.access(out, os.W_OK | os.X_OK):
         raise ConfigError(f"output folder {out} is not writable")
-    writer = BagWriter(out / name, tags, compression="" if compression in ("none", "") else compression,
-                       chunk_duration_s=chunk_duration_s, split_duration_s=split_duration_s or None,
-                       split_size_bytes=split_size_bytes or None)
+    writer = BagWriter(
+        out / name,
+        tags,
+        compression="" if compression in ("none", "") else compression,
+        chunk_duration_s=chunk_duration_s,
+        split_duration_s=split_duration_s or None,
+        split_size_bytes=split_size_bytes or None,
+    )
     try:
         return writer.open()
     except OSError as exc:
@@ -75,7 +89,8 @@ class TickAligner:
         self.held: collections.deque[tuple] = collections.deque()
 
     def push(self, item: tuple, stamp: int | None) -> list[tuple]:
-        """Queue ``item`` (stamp: its header stamp when its topic is stamped); what may be written."""
+        """Queue ``item`` (stamp: its header stamp when its topic is stamped); what may be
+        written."""
         if stamp is not None:
             topic = item[0]
             self.first.setdefault(topic, stamp)

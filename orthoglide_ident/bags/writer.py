@@ -443,7 +443,8 @@ def _write_blocks(w: BagWriter, topics: list[tuple[int, Callable[[slice, np.ndar
 
 def _orthoglide_topics(w: BagWriter, names: tuple[str, ...], q: np.ndarray, v_tau: np.ndarray
                        ) -> list[tuple[int, Callable[[slice, np.ndarray], np.ndarray]]]:
-    """Register the Orthoglide's two topics (docs/design/interfaces.md): (channel, encoder of a tick block)."""
+    """Register the Orthoglide's two topics (docs/design/interfaces.md): (channel, encoder of a
+    tick block)."""
     return [
         (w.add_topic(JOINT_STATES_TOPIC, JOINT_STATE_TYPE),
          lambda k, st: encode_messages(JOINT_STATE_TYPE, names, st, q[k])),

@@ -16,8 +16,15 @@ from typing import Any
 import numpy as np
 
 from orthoglide_ident.errors import ConfigError, ModelError
-from orthoglide_ident.excite.constraints import (Margins, Slack, TreeStates, collision_slack,
-                                                 failed, joint_slacks, payload_of)
+from orthoglide_ident.excite.constraints import (
+    Margins,
+    Slack,
+    TreeStates,
+    collision_slack,
+    failed,
+    joint_slacks,
+    payload_of,
+)
 from orthoglide_ident.excite.trajectory import ExcitationTrajectory
 
 CHECK_STEP_S = 1e-3

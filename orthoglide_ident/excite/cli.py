@@ -14,8 +14,8 @@ import argparse
 import json
 import logging
 import math
+from collections.abc import Callable
 from pathlib import Path
-from typing import Callable
 
 import numpy as np
 
@@ -33,10 +33,14 @@ def _floats(text: str, n: int | None, what: str) -> list[float]:
 
 
 def _add_robot_options(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--robot", required=True, metavar="FILE",
-                   help="the robot: a URDF, a robot YAML (docs/guide/robot_files.md: its `excitation` "
-                        "key holds acceleration limits, home pose, collision primitives) or a "
-                        "bundled name (ur5, five_bar)")
+    p.add_argument(
+        "--robot",
+        required=True,
+        metavar="FILE",
+        help="the robot: a URDF, a robot YAML (docs/guide/robot_files.md: its `excitation` "
+        "key holds acceleration limits, home pose, collision primitives) or a "
+        "bundled name (ur5, five_bar)",
+    )
     p.add_argument("--joint-limits", metavar="YAML",
                    help="a ros2_control joint_limits YAML (position, velocity, acceleration, "
                         "effort per joint); overrides the robot file and the URDF")
@@ -54,7 +58,9 @@ def _add_robot_options(p: argparse.ArgumentParser) -> None:
 
 def _add_design(p: argparse.ArgumentParser) -> None:
     _add_robot_options(p)
-    p.add_argument("--out", required=True, metavar="FILE", help="the trajectory file to write (YAML)")
+    p.add_argument(
+        "--out", required=True, metavar="FILE", help="the trajectory file to write (YAML)"
+    )
     p.add_argument("--payload-mass", type=float, required=True, metavar="KG",
                    help="the payload the user will mount for the loaded run, kg")
     p.add_argument("--payload-frame", default="", metavar="FRAME",
@@ -87,7 +93,9 @@ def _add_design(p: argparse.ArgumentParser) -> None:
 
 
 def _add_check(p: argparse.ArgumentParser) -> None:
-    p.add_argument("trajectory", metavar="TRAJ.yaml", help="a trajectory file (excite design --out)")
+    p.add_argument(
+        "trajectory", metavar="TRAJ.yaml", help="a trajectory file (excite design --out)"
+    )
     _add_robot_options(p)
 
 
@@ -96,8 +104,7 @@ def _load(args: argparse.Namespace, robot: RobotModel, traj=None):
     a trajectory's own recorded limits (``limits.joints``, what it was designed for) unless
     ``--joint-limits`` gives others."""
     from orthoglide_ident.excite.collision import CollisionModel
-    from orthoglide_ident.excite.limits import (DERIVED_SOURCE, JointLimits, read_limits,
-                                                start_pose)
+    from orthoglide_ident.excite.limits import DERIVED_SOURCE, JointLimits, read_limits, start_pose
 
     recorded = (traj.extra.get("limits") or {}) if traj is not None else {}
     if recorded.get("joints") and not args.joint_limits:

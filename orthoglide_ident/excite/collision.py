@@ -158,7 +158,11 @@ class CollisionModel:
             return
         dirs = [str(Path(d).expanduser()) for d in (package_dirs or [])]
         urdf = robot.description.path
-        if mode == "mesh" and urdf.suffix.lower() == ".urdf" and check_meshes(robot.name, urdf, dirs):
+        if (
+            mode == "mesh"
+            and urdf.suffix.lower() == ".urdf"
+            and check_meshes(robot.name, urdf, dirs)
+        ):
             self.geom = pin.buildGeomFromUrdf(self.model, str(urdf), pin.GeometryType.COLLISION,
                                               package_dirs=dirs or None)
         self._add_primitives(cfg.get("primitives") or [], f"{where}.primitives")
@@ -250,7 +254,9 @@ class CollisionModel:
 
     def _disabled(self, cfg: dict, folder: Path, where: str) -> set[frozenset[str]]:
         pairs = cfg.get("disabled_pairs") or []
-        if not isinstance(pairs, list) or not all(isinstance(p, list) and len(p) == 2 for p in pairs):
+        if not isinstance(pairs, list) or not all(
+            isinstance(p, list) and len(p) == 2 for p in pairs
+        ):
             raise ConfigError(f"{where}.disabled_pairs: expected a list of [link, link] pairs")
         out = {frozenset(map(str, p)) for p in pairs}
         if cfg.get("srdf"):

@@ -53,7 +53,7 @@ class Margins:
         return asdict(self)
 
     @classmethod
-    def from_dict(cls, d: Any, where: str) -> "Margins":
+    def from_dict(cls, d: Any, where: str) -> Margins:
         if d is None:
             return cls()
         try:
@@ -96,8 +96,9 @@ def worst(kind: str, slack: np.ndarray, required: float | np.ndarray, names: lis
         return Slack(kind, math.inf, float(req.max(initial=0.0)), "nothing to check", run)
     excess = slack - req
     i, j = np.unravel_index(int(np.argmin(excess)), excess.shape)
-    return Slack(kind, float(slack[i, j]), float(req[j]), f"{names[j]}, {run} run, t = {t[i]:.3f} s",
-                 run)
+    return Slack(
+        kind, float(slack[i, j]), float(req[j]), f"{names[j]}, {run} run, t = {t[i]:.3f} s", run
+    )
 
 
 def joint_slacks(limits, kinds: list[str], margins: Margins, q: np.ndarray, qd: np.ndarray,

@@ -38,25 +38,39 @@ import logging
 import math
 import sys
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Callable
 
 import numpy as np
 
 from orthoglide_ident.errors import ConfigError, ExcitationError, ModelError
 from orthoglide_ident.excite import prediction
 from orthoglide_ident.excite.check import CheckReport, check_trajectory, nominal_efforts
-from orthoglide_ident.excite.constraints import (Margins, Slack, TreeStates, collision_slack,
-                                                 joint_slacks, payload_dict)
+from orthoglide_ident.excite.constraints import (
+    Margins,
+    Slack,
+    TreeStates,
+    collision_slack,
+    joint_slacks,
+    payload_dict,
+)
 from orthoglide_ident.excite.limits import JointLimits, excitation_section, home_pose
-from orthoglide_ident.excite.prediction import (RATE_HZ, STRUCTURAL, Prediction, RunSamples,
-                                                excitation_ratio, from_information, information,
-                                                nominal_base_values, periodic_rate, run_rows)
-from orthoglide_ident.excite.trajectory import (ExcitationRun, ExcitationTrajectory,
-                                                rest_projection)
+from orthoglide_ident.excite.prediction import (
+    RATE_HZ,
+    STRUCTURAL,
+    Prediction,
+    RunSamples,
+    excitation_ratio,
+    from_information,
+    information,
+    nominal_base_values,
+    periodic_rate,
+    run_rows,
+)
+from orthoglide_ident.excite.trajectory import ExcitationRun, ExcitationTrajectory, rest_projection
 from orthoglide_ident.identify.columns.current_lag import MIN_PERIODS
-from orthoglide_ident.model.robot import Payload
 from orthoglide_ident.identify.options import DEFAULT_FILTER_CUTOFF_HZ
+from orthoglide_ident.model.robot import Payload
 from orthoglide_ident.progress import ProgressLine, duration_text
 
 _log = logging.getLogger("orthoglide_ident")

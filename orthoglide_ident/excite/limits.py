@@ -86,7 +86,7 @@ class JointLimits:
     mimics: tuple[MimicLimits, ...] = ()
 
     def through_mimics(self, margin: np.ndarray, mimic_margin: dict[str, float]
-                       ) -> "JointLimits":
+                       ) -> JointLimits:
         """These limits, each leader's range less ``margin`` (n,) and narrowed to what keeps
         its mimic joints within theirs less ``mimic_margin`` (joint -> m or rad), its velocity
         and acceleration to what keeps theirs: the bounds a design meets by construction."""
@@ -109,7 +109,7 @@ class JointLimits:
                 "sources": dict(self.sources)}
 
     @classmethod
-    def from_dict(cls, d: Any, joints: tuple[str, ...], where: str) -> "JointLimits":
+    def from_dict(cls, d: Any, joints: tuple[str, ...], where: str) -> JointLimits:
         try:
             rows = d["joints"]
             vals = {k: np.array([float(rows[j][k]) for j in joints]) for k in KINDS}
@@ -163,8 +163,10 @@ def ros2_joint_limits(path: str | Path, joints: tuple[str, ...]) -> dict[str, di
     doc = load_yaml(path, "joint limits file")
     table = _find_joint_limits(doc)
     if table is None:
-        raise ConfigError(f"joint limits file {path}: no joint_limits mapping (ros2_control's "
-                          "joint_limits: {<joint>: {has_velocity_limits: true, max_velocity: ...}})")
+        raise ConfigError(
+            f"joint limits file {path}: no joint_limits mapping (ros2_control's "
+            "joint_limits: {<joint>: {has_velocity_limits: true, max_velocity: ...}})"
+        )
     out: dict[str, dict[str, float]] = {k: {} for k in KINDS}
     for joint, entry in table.items():
         if joint not in joints or not isinstance(entry, dict):

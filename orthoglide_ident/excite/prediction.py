@@ -6,7 +6,8 @@ m = 0), χ_tot = [χ_b, 1, g_τ]; the loaded rows' known payload m fixes the sca
 in the current references only (σ_j A on joint j, white at the 1 kHz sample rate), the
 linearised (Cramér–Rao) covariance of θ = [χ_b, g_τ] is
 
-    cov θ = (Σ_rows a aᵀ / (g_j σ_j)²)⁻¹,   a = [W_row, −v_τ,row e_j],   v_τ = (W χ_b + m W_kl) / g_j
+    cov θ = (Σ_rows a aᵀ / (g_j σ_j)²)⁻¹,   a = [W_row, −v_τ,row e_j],   v_τ = (W χ_b + m W_kl) /
+    g_j
 
 which is eq. (39) at small noise. Evaluated at the nominal model (the URDF's inertials,
 armature, damping and friction, regrouped into χ_b = K χ_st: eq. 21) and the manufacturer's
@@ -29,8 +30,9 @@ load, their κ): the prediction is for the rest, those unknowns' σ infinite ("n
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any, Sequence
+from typing import Any
 
 import numpy as np
 
@@ -66,7 +68,7 @@ class Prediction:
     base_rel_std: np.ndarray  # (n_b,) fraction of the nominal value (inf where it is 0)
     condition: float
     noise_a: np.ndarray  # (n_j,) A
-    unexcited: tuple["Unexcited", ...] = ()  # directions beyond the cap, left out (σ = inf)
+    unexcited: tuple[Unexcited, ...] = ()  # directions beyond the cap, left out (σ = inf)
     condition_kept: float = math.nan  # κ of the directions kept
 
     @property

@@ -59,7 +59,9 @@ def check_run(traj: ExcitationTrajectory, run: str, robot: RobotModel, where: st
     """ConfigError (one line, naming ``where``) unless run ``run`` of ``traj`` is for ``robot``'s
     actuated joints and stays inside its position and velocity limits on a 1 ms grid."""
     if not _robot_matches(traj, robot):
-        raise ConfigError(f"{where}: the trajectory is for robot {traj.robot!r}, not {robot.name!r}")
+        raise ConfigError(
+            f"{where}: the trajectory is for robot {traj.robot!r}, not {robot.name!r}"
+        )
     if tuple(traj.joints) != tuple(robot.joint_names):
         raise ConfigError(f"{where}: the trajectory moves joints {', '.join(traj.joints)}; robot "
                           f"{robot.name} has {', '.join(robot.joint_names)}")
@@ -70,8 +72,11 @@ def check_run(traj: ExcitationTrajectory, run: str, robot: RobotModel, where: st
     lo = np.array([j.lower for j in robot.joints])
     hi = np.array([j.upper for j in robot.joints])
     vmax = np.array([j.velocity_limit for j in robot.joints])
-    checks = (("below its lower limit", lo - q, q, lo, ""), ("above its upper limit", q - hi, q, hi, ""),
-              ("faster than its velocity limit", np.abs(qd) - vmax, qd, vmax, "/s"))
+    checks = (
+        ("below its lower limit", lo - q, q, lo, ""),
+        ("above its upper limit", q - hi, q, hi, ""),
+        ("faster than its velocity limit", np.abs(qd) - vmax, qd, vmax, "/s"),
+    )
     for what, over, value, limit, per_s in checks:
         if np.any(over > 0):
             k, j = np.unravel_index(int(np.argmax(over)), over.shape)
@@ -80,7 +85,9 @@ def check_run(traj: ExcitationTrajectory, run: str, robot: RobotModel, where: st
                               f"({value[k, j]:.4f} vs {limit[j]:.4f} {joint.unit}{per_s})")
 
 
-def excitation_points(traj: ExcitationTrajectory, run: str, rate_hz: float = SAMPLE_RATE_HZ) -> Points:
+def excitation_points(
+    traj: ExcitationTrajectory, run: str, rate_hz: float = SAMPLE_RATE_HZ
+) -> Points:
     """The run sampled at ``rate_hz`` from t = 0 to its end (both included)."""
     if not (math.isfinite(rate_hz) and rate_hz > 0):
         raise ConfigError(f"sample rate {rate_hz!r} Hz must be positive")
@@ -107,7 +114,9 @@ def approach_points(q_now: np.ndarray, q_start: np.ndarray, speed: np.ndarray,
 
 def approach_speed(robot: RobotModel) -> np.ndarray:
     """(n,) the approach's speed per joint: a fraction of its limit, or a default without one."""
-    default = np.array([APPROACH_DEFAULT_SPEED / (10 if j.kind == "prismatic" else 1) for j in robot.joints])
+    default = np.array(
+        [APPROACH_DEFAULT_SPEED / (10 if j.kind == "prismatic" else 1) for j in robot.joints]
+    )
     vmax = np.array([j.velocity_limit for j in robot.joints])
     return np.where(np.isfinite(vmax), APPROACH_SPEED_FRACTION * vmax, default)
 
@@ -139,7 +148,9 @@ def payload_tag(traj: ExcitationTrajectory, condition: str, mass: float | None =
     try:
         m = float(m)
     except (TypeError, ValueError):
-        raise ConfigError(f"{where}: its loaded run names no payload mass: give --payload-mass KG") from None
+        raise ConfigError(
+            f"{where}: its loaded run names no payload mass: give --payload-mass KG"
+        ) from None
     if not (math.isfinite(m) and m > 0):
         raise ConfigError(f"payload mass {m!r} kg must be positive")
 
@@ -158,7 +169,9 @@ def payload_tag(traj: ExcitationTrajectory, condition: str, mass: float | None =
     return PayloadTag("loaded", m, p.get("frame"), numbers("com", 3), numbers("inertia", 6))
 
 
-def progress_line(t: float, duration: float, error: np.ndarray, joint_names: tuple[str, ...]) -> str:
+def progress_line(
+    t: float, duration: float, error: np.ndarray, joint_names: tuple[str, ...]
+) -> str:
     """One line of a goal's progress from its feedback: time, and the largest tracking error."""
     j = int(np.argmax(np.abs(error))) if len(error) else 0
     worst = f", largest error {error[j]:+.4f} on {joint_names[j]}" if len(error) else ""

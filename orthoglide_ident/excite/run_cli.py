@@ -26,26 +26,43 @@ EXIT_INCOMPLETE = 1
 def add_run_command(excite_sub: Any) -> None:
     """``run`` under ``orthoglide-ident excite``."""
     p = excite_sub.add_parser(
-        "run", help="run a trajectory file's run through the joint_trajectory_controller and record it (ROS 2)",
-        description=__doc__.split("\n\n", 1)[1], formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("trajectory", metavar="TRAJ.yaml", help="the exciting-trajectory file (excite design)")
+        "run",
+        help="run a trajectory file's run through the joint_trajectory_controller and record it "
+             "(ROS 2)",
+        description=__doc__.split("\n\n", 1)[1],
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    p.add_argument(
+        "trajectory", metavar="TRAJ.yaml", help="the exciting-trajectory file (excite design)"
+    )
     p.add_argument("--condition", required=True, choices=("unloaded", "loaded"), help="which run")
     p.add_argument("--payload-mass", type=float, default=None, metavar="KG",
                    help="loaded: the weighed payload (default: the file's loaded payload mass)")
     p.add_argument("--robot", default=None, metavar="FILE",
                    help="the robot (URDF or robot YAML; default: the file's robot)")
-    p.add_argument("--controller", default="joint_trajectory_controller", metavar="NAME",
-                   help="the joint_trajectory_controller: its action is NAME/follow_joint_trajectory")
+    p.add_argument(
+        "--controller",
+        default="joint_trajectory_controller",
+        metavar="NAME",
+        help="the joint_trajectory_controller: its action is NAME/follow_joint_trajectory",
+    )
     p.add_argument("--joint-states", default="joint_states", metavar="TOPIC",
                    help="where the robot's position is read before the move to the start pose")
     p.add_argument("--rate", type=float, default=plan.SAMPLE_RATE_HZ, metavar="HZ",
                    help=f"points per second sent (default {plan.SAMPLE_RATE_HZ:g})")
-    p.add_argument("--path-tolerance", type=float, default=0.0, metavar="RAD",
-                   help="abort when a joint leaves the path by more (rad or m; default 0: the controller's)")
+    p.add_argument(
+        "--path-tolerance",
+        type=float,
+        default=0.0,
+        metavar="RAD",
+        help="abort when a joint leaves the path by more (rad or m; default 0: the controller's)",
+    )
     p.add_argument("--goal-time", type=float, default=1.0, metavar="S",
                    help="time after the end allowed to settle (default 1 s)")
     p.add_argument("--name", default="", help="bag folder name (default <condition>_<date>_<time>)")
-    p.add_argument("--no-record", action="store_true", help="run without recording (a dry run on the robot)")
+    p.add_argument(
+        "--no-record", action="store_true", help="run without recording (a dry run on the robot)"
+    )
     ros_client.add_namespace(p)
     p.set_defaults(excite_handler=run_command)
 
@@ -60,11 +77,22 @@ def run_command(args: argparse.Namespace) -> int:
     from orthoglide_ident.model.robots import load_robot
 
     traj = load_trajectory(args.trajectory)
-    robot = load_robot(args.robot or traj.robot)  # the robot is resolved here, at the command's edge
-    options = RunOptions(args.controller, args.joint_states, args.rate, args.path_tolerance, args.goal_time,
-                         record=not args.no_record)
+    # the robot is resolved here, at the command's edge
+    robot = load_robot(args.robot or traj.robot)
+    options = RunOptions(
+        args.controller,
+        args.joint_states,
+        args.rate,
+        args.path_tolerance,
+        args.goal_time,
+        record=not args.no_record,
+    )
     with ros_client.Client(args.namespace) as c:
-        runner = ExcitationRunner(c.node, lambda t: c.rclpy.spin_once(c.node, timeout_sec=t), _say, options)
-        result = runner.run(traj, args.trajectory, robot, args.condition, args.payload_mass, args.name)
+        runner = ExcitationRunner(
+            c.node, lambda t: c.rclpy.spin_once(c.node, timeout_sec=t), _say, options
+        )
+        result = runner.run(
+            traj, args.trajectory, robot, args.condition, args.payload_mass, args.name
+        )
     print(result.message)
     return 0 if result.success else EXIT_INCOMPLETE

@@ -89,13 +89,24 @@ class ExcitationRunner:
         self._follow_live(progress)
         bag = self._start_recording(tag, name) if self.o.record else ""
         try:
-            self.say(f"running {condition}: {points.duration:.1f} s, {len(points.times)} points to {self.o.action}")
-            out = send_goal(self.node, self.o.action, goal_message(points, self.o.path_tolerance,
-                                                                     goal_time=self.o.goal_time),
-                            points.duration, progress.feedback, self.spin, should_cancel=self.should_cancel)
+            self.say(
+                f"running {condition}: {points.duration:.1f} s, {len(points.times)} points to "
+                f"{self.o.action}"
+            )
+            out = send_goal(
+                self.node,
+                self.o.action,
+                goal_message(points, self.o.path_tolerance, goal_time=self.o.goal_time),
+                points.duration,
+                progress.feedback,
+                self.spin,
+                should_cancel=self.should_cancel,
+            )
         except BaseException as exc:  # the recording must not go on without its run
             if self.o.record:
-                self._stop_recording(f"{condition} run failed: {type(exc).__name__}: {exc}".strip(": "))
+                self._stop_recording(
+                    f"{condition} run failed: {type(exc).__name__}: {exc}".strip(": ")
+                )
             raise
         finally:
             self._follow_live(None)
@@ -109,16 +120,24 @@ class ExcitationRunner:
     # ---- steps ------------------------------------------------------------------------------
     def _approach(self, points: plan.Points, robot: Any, condition: str) -> None:
         q_now = self.current_position(points.joint_names)
-        approach = plan.approach_points(q_now, points.q[0], plan.approach_speed(robot), points.joint_names,
-                                        self.o.rate_hz)
+        approach = plan.approach_points(
+            q_now, points.q[0], plan.approach_speed(robot), points.joint_names, self.o.rate_hz
+        )
         self.say(f"moving to the start pose of the {condition} run ({approach.duration:.1f} s)")
-        out = send_goal(self.node, self.o.action, goal_message(approach, goal_time=self.o.goal_time),
-                        approach.duration, _Progress(self.say, "approach", approach.duration,
-                                                     points.joint_names).feedback,
-                        self.spin, should_cancel=self.should_cancel)
+        out = send_goal(
+            self.node,
+            self.o.action,
+            goal_message(approach, goal_time=self.o.goal_time),
+            approach.duration,
+            _Progress(self.say, "approach", approach.duration, points.joint_names).feedback,
+            self.spin,
+            should_cancel=self.should_cancel,
+        )
         if not out.ok:
-            raise RunError(f"the move to the start pose did not complete ({out.status}: {out.reason}); "
-                           "nothing was recorded")
+            raise RunError(
+                f"the move to the start pose did not complete ({out.status}: {out.reason}); "
+                "nothing was recorded"
+            )
 
     def current_position(self, joints: tuple[str, ...]) -> np.ndarray:
         from sensor_msgs.msg import JointState
@@ -135,18 +154,27 @@ class ExcitationRunner:
         got = list(self._states)
         topic = self.o.joint_states
         if not got:
-            raise RunError(f"no message on {topic} within {JOINT_STATES_TIMEOUT_S:g} s: is the robot running?")
+            raise RunError(
+                f"no message on {topic} within {JOINT_STATES_TIMEOUT_S:g} s: is the robot running?"
+            )
         names = list(got[-1].name)
         missing = [j for j in joints if j not in names]
         if missing:
-            raise ConfigError(f"the trajectory's joints {missing} are not on {topic} (it has {', '.join(names)}): "
-                              "a trajectory for another robot?")
+            raise ConfigError(
+                f"the trajectory's joints {missing} are not on {topic} (it has "
+                f"{', '.join(names)}): "
+                ""
+                ""
+                ""
+                ""
+                "a trajectory for another robot?"
+            )
         return np.array([got[-1].position[names.index(j)] for j in joints])
 
     def _on_states(self, msg: Any) -> None:
         self._states[:] = [msg]  # the newest only
 
-    def _follow_live(self, progress: "_Progress | None") -> None:
+    def _follow_live(self, progress: _Progress | None) -> None:
         """The live identification's lines go to ``progress`` (None: nowhere); one subscription,
         kept (destroying one under a node's waiting executor races)."""
         from orthoglide_msgs.msg import LiveIdentification
@@ -189,7 +217,11 @@ class ExcitationRunner:
         from rcl_interfaces.srv import SetParameters
 
         S, A = ParameterType.PARAMETER_STRING, ParameterType.PARAMETER_DOUBLE_ARRAY
-        params = [Parameter(name="payload_frame", value=ParameterValue(type=S, string_value=tag.frame or ""))]
+        params = [
+            Parameter(
+                name="payload_frame", value=ParameterValue(type=S, string_value=tag.frame or "")
+            )
+        ]
         for key, values, n in (("payload_com", tag.com, 3), ("payload_inertia", tag.inertia, 6)):
             params.append(Parameter(name=key, value=ParameterValue(
                 type=A, double_array_value=list(values) if values else [0.0] * n)))
@@ -203,8 +235,13 @@ class ExcitationRunner:
 
         from orthoglide_msgs.srv import StopRecording
 
-        res = (self.call(StopRecording, "orthoglide/recorder/stop_incomplete", incomplete_reason=incomplete)
-               if incomplete else self.call(Trigger, "orthoglide/recorder/stop"))
+        res = (
+            self.call(
+                StopRecording, "orthoglide/recorder/stop_incomplete", incomplete_reason=incomplete
+            )
+            if incomplete
+            else self.call(Trigger, "orthoglide/recorder/stop")
+        )
         if not res.success:
             raise RunError(f"the recorder's stop failed: {res.message}")
         return res.message
@@ -213,7 +250,9 @@ class ExcitationRunner:
 class _Progress:
     """Feedback and live-identification lines, at most every PROGRESS_PERIOD_S."""
 
-    def __init__(self, say: Callable[[str], None], what: str, duration: float, joints: tuple[str, ...]) -> None:
+    def __init__(
+        self, say: Callable[[str], None], what: str, duration: float, joints: tuple[str, ...]
+    ) -> None:
         self.say, self.what, self.duration, self.joints = say, what, duration, joints
         self.next_line, self.live = 0.0, ""
 

@@ -103,6 +103,8 @@ def prediction_text(pred_doc: dict[str, Any]) -> str:
                          f"{100 * row['worst_gain_rel_std']:.3g} %, "
                          f"{row['seconds_per_run_for_target']:g} s per run for the target")
         else:
-            lines.append(f"  with {row['payload_kg']:g} kg: beyond the effort limits on this motion")
+            lines.append(
+                f"  with {row['payload_kg']:g} kg: beyond the effort limits on this motion"
+            )
     return "\n".join(lines)
 

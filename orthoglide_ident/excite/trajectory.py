@@ -153,7 +153,9 @@ def load_trajectory(path: str | Path) -> ExcitationTrajectory:
         runs_doc = doc["runs"]
         robot = str(doc["robot"])
     except (KeyError, TypeError, ValueError) as exc:
-        raise ConfigError(f"{where}: needs robot, joints, period_s, periods and runs ({exc})") from None
+        raise ConfigError(
+            f"{where}: needs robot, joints, period_s, periods and runs ({exc})"
+        ) from None
     if not (period > 0 and periods >= 1 and joints and isinstance(runs_doc, dict) and runs_doc):
         raise ConfigError(f"{where}: period_s must be > 0, periods >= 1, joints and runs non-empty")
     unknown = sorted(set(runs_doc) - set(RUN_NAMES))

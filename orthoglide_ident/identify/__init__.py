@@ -4,9 +4,11 @@
     from orthoglide_ident.model.robots import load_robot
     robot = load_robot("orthoglide")                           # or a URDF, a robot YAML
     res = identify(["bags/unloaded", "bags/loaded"], model=robot)  # IDIM-TLS, payload from tags
-    res.to_json(); res.to_text(); res.message_fields()         # docs/design/interfaces.md JSON, table, msg fields
+    res.to_json(); res.to_text(); res.message_fields()         # docs/design/interfaces.md JSON,
+    table, msg fields
 
-Rooms by concern (docs/design/architecture.md §1): reading records (records: bags → Record), observation
+Rooms by concern (docs/design/architecture.md §1): reading records (records: bags → Record),
+observation
 (observe, with segments, filtering, reversals, decimation, stream, drive_terms, current_lag: a
 record → decimated rows of [W | W_payload, v_τ]), equations (factors: per-joint R factors),
 solving (methods: the table of methods, dispatching to solve → tls / wls, uncertainty,

@@ -8,15 +8,15 @@ from __future__ import annotations
 import dataclasses
 import logging
 import math
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, fields
 from pathlib import Path
-from typing import Any, Mapping, Sequence
+from typing import Any
 
 import numpy as np
 
 from orthoglide_ident.errors import ConfigError
 from orthoglide_ident.yaml_files import load_yaml
-
 
 log = logging.getLogger("orthoglide_ident.identify")
 
@@ -198,7 +198,7 @@ class IdentifyOptions:
         return ExcitationLimits(self.max_condition, self.max_singular_ratio,
                                 self.max_gain_rel_std, band, band_is_error=absolute)
 
-    def at_rate(self, rate_hz: float) -> "IdentifyOptions":
+    def at_rate(self, rate_hz: float) -> IdentifyOptions:
         """These options for a record of mean sample rate ``rate_hz``: the cut-offs filled in
         (0 = from the rate), ``decimation`` (n_d) and ``chunk_samples`` set from
         ``decimation_cutoff_hz`` and ``chunk_s`` unless the old names were given."""
@@ -224,11 +224,11 @@ class IdentifyOptions:
         trim = int(round(self.edge_trim_s / period_s))
         return 2 * trim + 16 * self.decimation + 32
 
-    def replace(self, **changes: Any) -> "IdentifyOptions":
+    def replace(self, **changes: Any) -> IdentifyOptions:
         return dataclasses.replace(self, **{k: v for k, v in changes.items() if v is not None})
 
     @classmethod
-    def from_mapping(cls, data: Mapping[str, Any], source: str = "options") -> "IdentifyOptions":
+    def from_mapping(cls, data: Mapping[str, Any], source: str = "options") -> IdentifyOptions:
         """Options from a mapping; unknown keys and wrong types raise :class:`ConfigError`."""
         known = {f.name: f for f in fields(cls)}
         base = cls()
@@ -299,7 +299,9 @@ class IdentifyOptions:
         if self.ripple_model not in ("auto", "off"):
             raise ConfigError(f"{source}: ripple_model must be 'auto' or 'off'")
         if self.effort_unit not in ("A", "torque"):
-            raise ConfigError(f"{source}: effort_unit must be 'A' (a current) or 'torque' (N·m or N)")
+            raise ConfigError(
+                f"{source}: effort_unit must be 'A' (a current) or 'torque' (N·m or N)"
+            )
         if self.lag_model not in ("auto", "off"):
             raise ConfigError(f"{source}: lag_model must be 'auto' or 'off'")
         if not (self.screw_lead_m == 0 or 1e-4 <= self.screw_lead_m <= 0.5):
@@ -331,7 +333,7 @@ class IdentifyOptions:
                               "current_limit_a >= 0 and 0 < current_warn_fraction <= 1")
 
     @classmethod
-    def from_yaml(cls, path: str | Path) -> "IdentifyOptions":
+    def from_yaml(cls, path: str | Path) -> IdentifyOptions:
         """Options from a YAML file: a plain mapping or a ROS 2 parameter file."""
         p = Path(path)
         data = load_yaml(p, "config")

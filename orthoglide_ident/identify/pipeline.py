@@ -16,32 +16,50 @@ from __future__ import annotations
 import dataclasses
 import logging
 import time
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from pathlib import Path
-from typing import Any, Callable, Iterable, Iterator, Sequence
+from typing import Any
 
 import numpy as np
 
 from orthoglide_ident.errors import ExcitationError, IdentificationError
-from orthoglide_ident.identify.diagnostics import bag_report, finish_result
 from orthoglide_ident.identify.columns.drive_terms import observation_model
-from orthoglide_ident.identify.solve.factors import RecordFactors
-from orthoglide_ident.identify.solve.methods import DEFAULT_METHOD, get, solve
+from orthoglide_ident.identify.columns.payload_unknowns import (
+    check_one_payload,
+    unknowns_of,
+    used_columns,
+    with_payload_unknowns,
+)
+from orthoglide_ident.identify.diagnostics import bag_report, finish_result
 from orthoglide_ident.identify.observe.equations import Observations
 from orthoglide_ident.identify.observe.rows import IdentificationModel, observe
-from orthoglide_ident.identify.observe.sampling import (ALIASED, AUTO_HELD, SLOW_STEP_S,
-                                                        best_reading, lag_says_sampled,
-                                                        loop_half_ticks)
+from orthoglide_ident.identify.observe.sampling import (
+    ALIASED,
+    AUTO_HELD,
+    SLOW_STEP_S,
+    best_reading,
+    lag_says_sampled,
+    loop_half_ticks,
+)
 from orthoglide_ident.identify.options import IdentifyOptions
-from orthoglide_ident.identify.columns.payload_unknowns import (check_one_payload, unknowns_of,
-                                                        used_columns, with_payload_unknowns)
 from orthoglide_ident.identify.records.record import Record, read_record, record_payload
-from orthoglide_ident.identify.records.robot_checks import (check_positions, motion_warnings,
-                                                            robot_of)
+from orthoglide_ident.identify.records.robot_checks import (
+    check_positions,
+    motion_warnings,
+    robot_of,
+)
 from orthoglide_ident.identify.solve.answer import Solved, min_rows
-from orthoglide_ident.identify.validate.cross_validation import ValidationResult, cross_validate
+from orthoglide_ident.identify.solve.factors import RecordFactors
+from orthoglide_ident.identify.solve.methods import DEFAULT_METHOD, get, solve
 from orthoglide_ident.identify.validate.agreement import disagreement
-from orthoglide_ident.identify.validate.joint_side import (LONGER, current_noise, joint_side_rms,
-                                                           misfit, misfit_lines)
+from orthoglide_ident.identify.validate.cross_validation import ValidationResult, cross_validate
+from orthoglide_ident.identify.validate.joint_side import (
+    LONGER,
+    current_noise,
+    joint_side_rms,
+    misfit,
+    misfit_lines,
+)
 from orthoglide_ident.model.robot import Payload
 from orthoglide_ident.results import IdentificationResult
 

@@ -2,7 +2,8 @@
 
 - ``robot``: ``RobotModel`` (joints, standard and base parameters, the IDIM block for samples),
   ``ActuatedJoint``, ``Body``, ``Payload`` — what identify/, control, the nodes and the CLI use;
-- ``robots``: ``load_robot(spec)`` for ``--robot`` / the ``robot`` parameter (docs/design/architecture.md
+- ``robots``: ``load_robot(spec)`` for ``--robot`` / the ``robot`` parameter
+(docs/design/architecture.md
   §8), the one registry of robot kinds;
 - the general model on Pinocchio (``pinocchio_model``, ``tree``, ``tree_regressor``, ``closure``,
   ``loop_constraints``, ``robot_file``) and what every robot shares: base parameters by QR

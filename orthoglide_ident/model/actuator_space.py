@@ -29,8 +29,7 @@ import numpy as np
 from orthoglide_ident.errors import ConfigError
 from orthoglide_ident.model.base_parameters import BaseSet, NamedByParameters, base_parameters
 from orthoglide_ident.model.pinocchio_model import ROWS_PER_PARAMETER, PinocchioRobot
-from orthoglide_ident.model.robot import (DRIVE_KINDS, ActuatedJoint, Body, Payload,
-                                          RobotModel)
+from orthoglide_ident.model.robot import DRIVE_KINDS, ActuatedJoint, Body, Payload, RobotModel
 from orthoglide_ident.model.transmission import Transmission
 
 
@@ -178,7 +177,7 @@ class ActuatorSpaceRobot(NamedByParameters, RobotModel):
         _, _, _, q_j, qd_j, qdd_j = self._joint_side(q, qd, qdd)
         return self._to_motors(self.joint_model.payload_standard_block(q_j, qd_j, qdd_j, frame))
 
-    def with_payload(self, payload: Payload) -> "ActuatorSpaceRobot":
+    def with_payload(self, payload: Payload) -> ActuatorSpaceRobot:
         other = copy.copy(self)
         other.joint_model = self.joint_model.with_payload(payload)
         return other

@@ -12,8 +12,8 @@ clearly enough to tell which columns depend on which.
 """
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Sequence
 
 import numpy as np
 
@@ -34,7 +34,8 @@ class BaseParameter:
 
     name: str  # paper style, 'm_11R' when regrouped
     standard: str  # kept standard parameter, e.g. 'm_11'
-    terms: tuple[tuple[str, float], ...]  # (standard name, coefficient), the kept one first with 1.0
+    # (standard name, coefficient), the kept one first with 1.0
+    terms: tuple[tuple[str, float], ...]
     legs: tuple[int, ...]  # legs whose base parameter of this kind has the same form
 
     @property
@@ -43,7 +44,9 @@ class BaseParameter:
         for name, c in self.terms[1:]:
             sign = "-" if c < 0 else "+"
             mag = abs(c)
-            out += f" {sign} {name}" if abs(mag - 1.0) < 1e-9 else f" {sign} {_fmt_coef(mag)} {name}"
+            out += (
+                f" {sign} {name}" if abs(mag - 1.0) < 1e-9 else f" {sign} {_fmt_coef(mag)} {name}"
+            )
         return out
 
 

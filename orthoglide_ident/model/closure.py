@@ -19,8 +19,8 @@ The actuated forces are then τ_a = Gᵀ τ_t (virtual power), which is eq. (15)
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Sequence
 
 import numpy as np
 import pinocchio as pin
@@ -47,7 +47,7 @@ class TreeStates:
     G: np.ndarray
 
     @classmethod
-    def empty(cls, m: int, nq: int, nv: int, n_a: int) -> "TreeStates":
+    def empty(cls, m: int, nq: int, nv: int, n_a: int) -> TreeStates:
         return cls(np.zeros((m, nq)), np.zeros((m, nv)), np.zeros((m, nv)), np.zeros((m, nv, n_a)))
 
 

@@ -17,8 +17,8 @@ actuated, a mimic joint locked apart from its leader.
 """
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Mapping
 
 import numpy as np
 import pinocchio as pin

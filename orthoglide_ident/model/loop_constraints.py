@@ -15,9 +15,9 @@ a row that stays zero: callers use the null space of J_c, not its inverse.
 """
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Sequence
 
 import numpy as np
 import pinocchio as pin

@@ -23,8 +23,8 @@ import contextlib
 import logging
 import math
 import re
+from collections.abc import Iterator, Sequence
 from pathlib import Path
-from typing import Iterator, Sequence
 
 import numpy as np
 

@@ -23,9 +23,10 @@ from __future__ import annotations
 import copy
 import math
 import threading
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Sequence
+from typing import Any
 
 import numpy as np
 import pinocchio as pin
@@ -33,15 +34,28 @@ import pinocchio as pin
 from orthoglide_ident.errors import ConfigError, ModelError, OrthoglideError, WorkspaceError
 from orthoglide_ident.model.base_parameters import BaseSet, NamedByParameters, base_parameters
 from orthoglide_ident.model.closure import Closure, TreeStates
-from orthoglide_ident.model.locked_joints import (LockedJoint, lock_text, locked_joints,
-                                                 reduced_model)
+from orthoglide_ident.model.locked_joints import (
+    LockedJoint,
+    lock_text,
+    locked_joints,
+    reduced_model,
+)
 from orthoglide_ident.model.loop_constraints import LoopConstraints
 from orthoglide_ident.model.robot import INERTIAL_KINDS, ActuatedJoint, Body, Payload, RobotModel
 from orthoglide_ident.model.robot_file import RobotDescription, read_description
-from orthoglide_ident.model.tree import (TreeJoint, fixed_link, load_tree, movable_joints,
-                                        urdf_mimics)
-from orthoglide_ident.model.tree_regressor import (Column, TreeRegressor, kinds_parameters,
-                                                   pin_parameters)
+from orthoglide_ident.model.tree import (
+    TreeJoint,
+    fixed_link,
+    load_tree,
+    movable_joints,
+    urdf_mimics,
+)
+from orthoglide_ident.model.tree_regressor import (
+    Column,
+    TreeRegressor,
+    kinds_parameters,
+    pin_parameters,
+)
 
 ACTUATED_TERMS = ("ia", "fv", "fs", "tauoff")
 PASSIVE_TERMS = ("fv", "fs", "tauoff")
@@ -100,7 +114,7 @@ class PinocchioRobot(NamedByParameters, RobotModel):
 
     @classmethod
     def from_description(cls, data: dict[str, Any], base_dir: Path, where: str | None = None,
-                         package_dirs: Sequence[str | Path] = ()) -> "PinocchioRobot":
+                         package_dirs: Sequence[str | Path] = ()) -> PinocchioRobot:
         """The model a robot YAML's mapping describes (``description`` relative to base_dir);
         ``where`` names the file in its errors (default: the robot's name or description);
         ``package_dirs``: where a xacro description's packages are found."""
@@ -174,8 +188,9 @@ class PinocchioRobot(NamedByParameters, RobotModel):
         """(mimic joint, its leader's actuated index, multiplier, offset) of each URDF mimic."""
         return self._mimic_rows
 
-    def _followers(self, desc: RobotDescription, by_name: dict[str, TreeJoint],
-                   actuated: tuple[TreeJoint, ...]) -> tuple[tuple[TreeJoint, int, float, float], ...]:
+    def _followers(
+        self, desc: RobotDescription, by_name: dict[str, TreeJoint], actuated: tuple[TreeJoint, ...]
+    ) -> tuple[tuple[TreeJoint, int, float, float], ...]:
         """(mimic joint, its leader's actuated index, multiplier, offset) of each mimic joint:
         only a 1-DOF mimic of an actuated leader, in an open tree, is supported (said)."""
         out = []
@@ -452,7 +467,7 @@ class PinocchioRobot(NamedByParameters, RobotModel):
         """m/s², the description's (z up unless the robot file says otherwise)."""
         return self.description.gravity
 
-    def with_payload(self, payload: Payload) -> "PinocchioRobot":
+    def with_payload(self, payload: Payload) -> PinocchioRobot:
         """The same robot whose payload column is ``payload``'s (its frame, or payload_frame)."""
         other = copy.copy(self)  # shares the tree, closure, base parameters and the lock
         other._bind_payload(payload)

@@ -13,7 +13,8 @@ Two implementations:
 - the general model on Pinocchio (``model/pinocchio_model.py``): a URDF or MJCF tree, closed
   chains by loop constraints, base parameters by pivoted QR on random states.
 
-Layouts (docs/design/architecture.md): samples ``q, qd, qdd: (m, n)`` with n = ``n_joints`` columns in
+Layouts (docs/design/architecture.md): samples ``q, qd, qdd: (m, n)`` with n = ``n_joints`` columns
+in
 ``joint_names`` order; ``observation_block`` is ``(n_b + 1, n, m)`` — column, joint, sample, each
 column of each joint contiguous in time (what the parallel decimation filters); ``regressor`` is
 ``(n m, n_b)`` with rows stacked joint by joint (eq. 20). SI units: m or rad, N or N·m, A,
@@ -23,8 +24,8 @@ from __future__ import annotations
 
 import abc
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Sequence
 
 import numpy as np
 
@@ -62,8 +63,10 @@ class ActuatedJoint:
         if self.kind not in JOINT_KINDS:
             raise ConfigError(f"joint {self.name}: kind {self.kind!r} is not prismatic or revolute")
         if not (math.isfinite(self.nominal_gain) and self.nominal_gain > 0):
-            raise ConfigError(f"joint {self.name}: nominal drive gain {self.nominal_gain!r} must be "
-                              "a positive number")
+            raise ConfigError(
+                f"joint {self.name}: nominal drive gain {self.nominal_gain!r} must be "
+                "a positive number"
+            )
 
     @property
     def unit(self) -> str:
@@ -128,7 +131,7 @@ class Payload:
         """The inertial kinds identified with the robot's parameters (χ_ul of eq. 29)."""
         return PAYLOAD_UNKNOWN[self.known]
 
-    def known_part(self) -> "Payload":
+    def known_part(self) -> Payload:
         """The payload whose ten parameters are the known ones (W_kl of eq. 33 per kg): a point
         mass at the frame origin (mass known), at the centre of mass (com, point), or all."""
         if self.known == "all":
@@ -181,7 +184,7 @@ class RobotModel(abc.ABC):
         of the bound payload (``with_payload``); written into ``out`` when given."""
 
     @abc.abstractmethod
-    def with_payload(self, payload: Payload) -> "RobotModel":
+    def with_payload(self, payload: Payload) -> RobotModel:
         """The same model whose payload column is that of ``payload``'s shape (frame, com,
         inertia per kg); ConfigError for a frame the robot does not have."""
 
@@ -282,7 +285,8 @@ class RobotModel(abc.ABC):
         return tuple(j.gain_unit for j in self.joints)
 
     def check_joint_names(self, names: Sequence[str], what: str) -> None:
-        """ConfigError unless ``names`` hold every joint of the model (any order, extras allowed)."""
+        """ConfigError unless ``names`` hold every joint of the model (any order, extras
+        allowed)."""
         missing = [j for j in self.joint_names if j not in names]
         if missing:
             raise ConfigError(f"{what} lacks the joints {missing} of robot {self.name} "

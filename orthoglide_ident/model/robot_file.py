@@ -7,15 +7,15 @@ unknown key (a typo would otherwise be ignored), a wrong type, a missing descrip
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Sequence
+from typing import Any
 
 from orthoglide_ident.errors import ConfigError
 from orthoglide_ident.model.loop_constraints import LOOP_KINDS, Loop
 from orthoglide_ident.model.robot import DEFAULT_GRAVITY
 from orthoglide_ident.model.xacro_files import expanded_file, is_xacro
-
 
 KEYS = ("name", "model", "description", "actuated_joints", "nominal_gains", "payload_frame",
         "gravity", "loops", "reference_configuration", "passive_friction", "column_order",

@@ -19,8 +19,9 @@ from __future__ import annotations
 
 import functools
 import logging
+from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import Any, Mapping, Sequence
+from typing import Any
 
 from orthoglide_ident.errors import ConfigError
 from orthoglide_ident.model.robot import RobotModel
@@ -222,7 +223,9 @@ def load_robot_description(urdf: str, cache_dir: Path | None = None) -> RobotMod
     except ET.ParseError as exc:
         raise ConfigError(f"robot_description is not valid XML ({exc})") from None
     if root.tag != "robot":
-        raise ConfigError(f"robot_description is not a URDF (root element <{root.tag}>, not <robot>)")
+        raise ConfigError(
+            f"robot_description is not a URDF (root element <{root.tag}>, not <robot>)"
+        )
     folder = cache_dir or description_cache()
     path = folder / f"{hashlib.sha256(urdf.encode()).hexdigest()[:32]}.urdf"
     if not path.exists():
@@ -232,7 +235,9 @@ def load_robot_description(urdf: str, cache_dir: Path | None = None) -> RobotMod
             tmp.write_text(urdf)
             tmp.replace(path)  # whole or not at all: another process may read it
         except OSError as exc:
-            raise ConfigError(f"cannot keep robot_description in {folder}: {exc.strerror}") from None
+            raise ConfigError(
+                f"cannot keep robot_description in {folder}: {exc.strerror}"
+            ) from None
     return _load_description(str(path), root.get("name") or "robot_description")
 
 

@@ -24,9 +24,10 @@ from __future__ import annotations
 
 import math
 import xml.etree.ElementTree as ET
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Sequence
+from typing import Any
 
 import numpy as np
 
@@ -134,12 +135,17 @@ def read_transmission(value: Any, joints: Sequence[str], where: str) -> Transmis
     """The robot YAML's ``transmission:`` mapping over the actuated ``joints`` (N's columns in
     that order)."""
     if not isinstance(value, dict):
-        raise ConfigError(f"{where}: transmission: expected a mapping ({', '.join(TRANSMISSION_KEYS)})"
-                          f", got {value!r}")
+        raise ConfigError(
+            f"{where}: transmission: expected a mapping ({', '.join(TRANSMISSION_KEYS)})"
+            f", got {value!r}"
+        )
     unknown = sorted(set(value) - set(TRANSMISSION_KEYS))
     if unknown or "reduction" not in value:
-        raise ConfigError(f"{where}: transmission: {'unknown keys ' + str(unknown) if unknown else 'reduction is missing'}"
-                          f" (known: {', '.join(TRANSMISSION_KEYS)})")
+        raise ConfigError(
+            f"{where}: transmission: "
+            f"{'unknown keys ' + str(unknown) if unknown else 'reduction is missing'}"
+            f" (known: {', '.join(TRANSMISSION_KEYS)})"
+        )
     N = _matrix(where, value["reduction"])
     actuators = value.get("actuators", [f"motor_{k + 1}" for k in range(N.shape[0])])
     if isinstance(actuators, str) or not isinstance(actuators, list) or \

@@ -6,8 +6,10 @@ Jacobian J_f (LOCAL), whose product J_fᵀ Φ_f is that body's contribution to t
 forces, come from rnea_regressor.py for a whole chunk of samples at once (numpy, 1-DOF
 joints), else from Pinocchio's C++ sample by sample (``computeJointTorqueRegressor``,
 ``frameBodyRegressor``, ``computeFrameJacobian``: multi-DOF joints, and the reference the
-vectorised path is tested against). The payload, rigidly fixed to one joint's body, needs neither: its
-column is that body's columns of Y times its parameters in the joint's frame. Everything else is numpy over a chunk of samples:
+vectorised path is tested against). The payload, rigidly fixed to one joint's body, needs neither:
+its
+column is that body's columns of Y times its parameters in the joint's frame. Everything else is
+numpy over a chunk of samples:
 picking the columns asked for, the drive columns (ia q̈ of an actuated joint — the regressor
 omits armature — and fv q̇, fs sign(q̇), tauoff of each joint with friction), and the
 projection onto the actuated joints, τ_a = Gᵀ τ_t (closure.py; a serial robot's G selects its
@@ -21,8 +23,8 @@ INERTIAL_KINDS onto it. Output layout: (column, joint, sample), as RobotModel.ob
 """
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Sequence
 
 import numpy as np
 import pinocchio as pin

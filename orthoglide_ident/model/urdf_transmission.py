@@ -20,7 +20,8 @@ from __future__ import annotations
 
 import logging
 import xml.etree.ElementTree as ET
-from typing import Any, Sequence
+from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 
@@ -155,9 +156,12 @@ def ros2_control_block(root: ET.Element, robot: RobotModel, chi_st: np.ndarray,
             rc.extend(_unsupported(robot, rows, cols, values, gains))
             continue
         if form[0] == "FourBarLinkageTransmission":
-            LOG.warning("--urdf-out: motors %s are written as a FourBarLinkageTransmission: its "
-                        "velocities are N's, but ros2_control's own four-bar effort formula is "
-                        "not τ_j = Nᵀ τ_m (docs/guide/robot_files.md)", [t.actuators[a] for a in rows])
+            LOG.warning(
+                "--urdf-out: motors %s are written as a FourBarLinkageTransmission: its "
+                "velocities are N's, but ros2_control's own four-bar effort formula is "
+                "not τ_j = Nᵀ τ_m (docs/guide/robot_files.md)",
+                [t.actuators[a] for a in rows],
+            )
         rc.append(_transmission(robot, rows, cols, form, values, gains))
 
 

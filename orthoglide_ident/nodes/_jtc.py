@@ -28,7 +28,7 @@ from __future__ import annotations
 
 import struct
 from collections import deque
-from typing import Callable, Sequence
+from collections.abc import Callable, Sequence
 
 import numpy as np
 
@@ -43,9 +43,15 @@ def _string(name: str) -> bytes:
     return struct.pack("<I", len(data)) + data
 
 
-def encode_joint_trajectory(stamp_ns: int, joint_names: Sequence[str], times_ns: np.ndarray,
-                            positions: np.ndarray, velocities: np.ndarray, accelerations: np.ndarray,
-                            effort: np.ndarray) -> bytes:
+def encode_joint_trajectory(
+    stamp_ns: int,
+    joint_names: Sequence[str],
+    times_ns: np.ndarray,
+    positions: np.ndarray,
+    velocities: np.ndarray,
+    accelerations: np.ndarray,
+    effort: np.ndarray,
+) -> bytes:
     """CDR bytes (little endian, as rclpy serialises) of a JointTrajectory with an empty frame id:
     points at ``times_ns`` (N,) from ``stamp_ns``, arrays (N, n) in ``joint_names`` order."""
     out = bytearray(b"\x00\x01\x00\x00")  # encapsulation: CDR little endian
@@ -105,7 +111,8 @@ class TrajectoryOutlet:
                 gains: np.ndarray) -> bytes | None:
         """The next message for consecutive ticks ``stamps_ns`` (N,), reference ``ref`` (N, 3, n)
         (q_d, qd_d, qdd_d) and feed-forward ``v_ff`` (N, n) A; None until there are two points.
-        Point k carries the feed-forward of tick k - 1 (applied from the JTC's update at t_(k-1))."""
+        Point k carries the feed-forward of tick k - 1 (applied from the JTC's update at
+        t_(k-1))."""
         e = self.efforts(v_ff, gains)
         if self.history and int(stamps_ns[0]) != self.history[-1][0] + TICK_NS:
             self.history.clear()  # a gap: what was sent before does not lead into these ticks
@@ -120,4 +127,6 @@ class TrajectoryOutlet:
         points = list(self.history)
         t0 = points[0][0]
         cols = [np.array([p[i] for p in points]) for i in range(1, 5)]
-        return encode_joint_trajectory(t0, self.joint_names, np.array([p[0] - t0 for p in points]), *cols)
+        return encode_joint_trajectory(
+            t0, self.joint_names, np.array([p[0] - t0 for p in points]), *cols
+        )

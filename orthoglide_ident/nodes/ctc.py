@@ -48,7 +48,8 @@ driver's) carries the same: ticks_sent, short, late, dropped since start, lead_m
 lead_median_ms and cpu_percent over the last second; on the way out one line sums up the run.
 The intake wakes at least every margin_ms, so ready ticks go out as they near even when no
 setpoint follows them. Until parameters arrive nothing is published (the setpoints are not
-even decoded), and the log says so; new parameters replace the old ones at once. Feed-forward currents are clipped to
+even decoded), and the log says so; new parameters replace the old ones at once. Feed-forward
+currents are clipped to
 current_limit; a non-finite one stops the output with an error until new parameters arrive.
 With monitor true it also pairs orthoglide/joint_states with the setpoints and logs the tracking
 error every 5 s. Names are relative: -r __ns:=/robot2 moves the whole interface.
@@ -58,7 +59,8 @@ setpoints also go to a joint_trajectory_controller whose only command interface 
 trajectory_msgs/JointTrajectory points (q_d, qd_d, qdd_d) whose effort is the feed-forward in the
 controller's units (trajectory_effort); the JTC adds it to its PID (README "Next to ros2_control").
 
-A robot with a transmission (docs/guide/robot_files.md "Transmissions": identified in actuator space):
+A robot with a transmission (docs/guide/robot_files.md "Transmissions": identified in actuator
+space):
 the setpoints are the joints', the feed-forward one current per motor, v_m = diag(g)⁻¹ N⁻ᵀ τ_j
 plus the motors' own inertia and friction, clipped to current_limit per motor and published
 under the motors' names; the trajectory points' efforts are joint-side, Nᵀ (scale x v_m), which
@@ -66,35 +68,85 @@ the hardware's transmission turns back into the motors' (the four-bar linkage: s
 model/transmission.py)."""
 
 PARAMETERS = (
-    Param("robot", "", "the robot: a URDF, a robot YAML or a bundled robot's name, as the "
-          "identification node's; empty: the Orthoglide"),
-    Param("payload_mass", -1.0, "kg put in the model (the paper: the nominal weighed mass); < 0: the "
-          "identified parameters' payload_mass"),
-    Param("batch", 10, "setpoint ticks per feed-forward computation (one vectorised model call); "
-          "fewer when a tick is due within 2 x margin_ms. More ticks share the call's fixed cost "
-          "but wait longer: 20 cut the node's CPU from 20-22 to 17-18 % of a core in make demo, "
-          "and its first tick's lead from ~40 to ~30 ms (less room for a busy machine)"),
-    Param("margin_ms", 10.0, "ms: ready ticks are computed at once when one is due within twice this; a "
-          "feed-forward sent later than this before its tick is reported (falling behind)"),
-    Param("rt_priority", 30, "SCHED_FIFO priority (1-99) of the thread that takes the setpoints and "
-          "sends the feed-forward, below the controller's (the simulated driver's 40), so that a "
-          "busy machine does not make it late; the node's other Python threads run one below it "
-          "(none holds Python's lock off a core while the intake waits for it); 0: ordinary scheduling"),
-    Param("current_limit", [1.0], "A per joint, per motor for a robot with a transmission (one "
-          "number: every one): feed-forward currents are clipped to it"),
-    Param("monitor", False, "log the tracking error (joint states vs setpoints) every 5 s (one more 1 kHz "
-          "subscription)"),
-    Param("consistent", False, "use the physically consistent set (orthoglide/identified_parameters/"
-          "consistent: real bodies identified under the constraints, the identification node's option "
-          "consistent) instead of the unconstrained base parameters"),
-    Param("trajectory_topic", "", "also send the setpoints to a joint_trajectory_controller as "
-          "trajectory_msgs/JointTrajectory with effort = the feed-forward, e.g. "
-          "joint_trajectory_controller/joint_trajectory; empty: not sent"),
-    Param("trajectory_effort", "nominal", "the points' effort: nominal (v_ff x nominal gain, N·m or N: what "
-          "the hardware turns into the model's current), torque (v_ff x identified gain, the model's "
-          "torque) or current (v_ff, A)"),
-    Param("trajectory_overlap", 100, "ticks already sent repeated at the start of each trajectory message, "
-          "so that it starts before the controller's now (more than setpoint_lead)"),
+    Param(
+        "robot",
+        "",
+        "the robot: a URDF, a robot YAML or a bundled robot's name, as the "
+        "identification node's; empty: the Orthoglide",
+    ),
+    Param(
+        "payload_mass",
+        -1.0,
+        "kg put in the model (the paper: the nominal weighed mass); < 0: the "
+        "identified parameters' payload_mass",
+    ),
+    Param(
+        "batch",
+        10,
+        "setpoint ticks per feed-forward computation (one vectorised model call); "
+        "fewer when a tick is due within 2 x margin_ms. More ticks share the call's fixed cost "
+        "but wait longer: 20 cut the node's CPU from 20-22 to 17-18 % of a core in make demo, "
+        "and its first tick's lead from ~40 to ~30 ms (less room for a busy machine)",
+    ),
+    Param(
+        "margin_ms",
+        10.0,
+        "ms: ready ticks are computed at once when one is due within twice this; a "
+        "feed-forward sent later than this before its tick is reported (falling behind)",
+    ),
+    Param(
+        "rt_priority",
+        30,
+        "SCHED_FIFO priority (1-99) of the thread that takes the setpoints and "
+        "sends the feed-forward, below the controller's (the simulated driver's 40), so that a "
+        "busy machine does not make it late; the node's other Python threads run one below it "
+        "(none holds Python's lock off a core while the intake waits for it); 0: ordinary "
+        "scheduling",
+    ),
+    Param(
+        "current_limit",
+        [1.0],
+        "A per joint, per motor for a robot with a transmission (one "
+        "number: every one): feed-forward currents are clipped to it",
+    ),
+    Param(
+        "monitor",
+        False,
+        "log the tracking error (joint states vs setpoints) every 5 s (one more 1 kHz "
+        "subscription)",
+    ),
+    Param(
+        "consistent",
+        False,
+        "use the physically consistent set (orthoglide/identified_parameters/"
+        "consistent: real bodies identified under the constraints, the identification node's "
+        "option "
+        ""
+        ""
+        ""
+        ""
+        "consistent) instead of the unconstrained base parameters",
+    ),
+    Param(
+        "trajectory_topic",
+        "",
+        "also send the setpoints to a joint_trajectory_controller as "
+        "trajectory_msgs/JointTrajectory with effort = the feed-forward, e.g. "
+        "joint_trajectory_controller/joint_trajectory; empty: not sent",
+    ),
+    Param(
+        "trajectory_effort",
+        "nominal",
+        "the points' effort: nominal (v_ff x nominal gain, N·m or N: what "
+        "the hardware turns into the model's current), torque (v_ff x identified gain, the model's "
+        "torque) or current (v_ff, A)",
+    ),
+    Param(
+        "trajectory_overlap",
+        100,
+        "ticks already sent repeated at the start of each trajectory message, "
+        "so that it starts before the controller's now (more than setpoint_lead)",
+    ),
 )
 MONITOR_PERIOD_NS = 5_000_000_000
 REPORT_PERIOD_S = 10.0  # the feed-forward lead and the node's CPU are logged this often
@@ -130,7 +182,8 @@ class CTCNode(Node):
             raise OrthoglideError(f"parameter rt_priority: 0 (off) or 1-99, got {v['rt_priority']}")
         self.payload_mass = v["payload_mass"]
         self.schedule = FeedforwardSchedule(v["batch"], int(v["margin_ms"] * 1e6))
-        self._started = self._report_at = self._diag_at = (time.monotonic(), time.process_time())  # wall, CPU
+        # wall, CPU
+        self._started = self._report_at = self._diag_at = (time.monotonic(), time.process_time())
         self._window = LeadStats()  # the seconds since the last log line
         self.robot = load_robot(v["robot"])
         t = self.robot.transmission  # setpoints are the joints', currents the motors' (issue 33)
@@ -151,9 +204,13 @@ class CTCNode(Node):
         self.monitor = TrackingMonitor(self, self.robot) if v["monitor"] else None
         self.outlet = None  # to a joint_trajectory_controller (nodes._jtc)
         if v["trajectory_topic"]:
-            self.outlet = TrajectoryOutlet(self.joints, v["trajectory_effort"], self.robot.nominal_gains,
-                                           v["trajectory_overlap"],
-                                           None if t is None else t.to_joint_effort)
+            self.outlet = TrajectoryOutlet(
+                self.joints,
+                v["trajectory_effort"],
+                self.robot.nominal_gains,
+                v["trajectory_overlap"],
+                None if t is None else t.to_joint_effort,
+            )
             self.pub_traj = self.create_publisher(JointTrajectory, v["trajectory_topic"], 10)
         if v["rt_priority"] > 1:  # this thread's later ones too (the executor's, ros.spin)
             # every Python thread of the node just below the intake: a thread holding Python's
@@ -161,9 +218,13 @@ class CTCNode(Node):
             # 48-73 ms in make demo beside a hog (priority inversion); its refusal is said below
             real_time_thread(v["rt_priority"] - 1)
         # last: the taker's thread calls on_setpoints at once, which needs everything above
-        self.taker = BatchTaker(self, [BatchTopic(JointSetpoint, "orthoglide/setpoints", stream, self.on_setpoints)],
-                                rt_priority=v["rt_priority"], on_wake=self.on_wake,
-                                wake_s=max(v["margin_ms"], 1.0) * 1e-3)
+        self.taker = BatchTaker(
+            self,
+            [BatchTopic(JointSetpoint, "orthoglide/setpoints", stream, self.on_setpoints)],
+            rt_priority=v["rt_priority"],
+            on_wake=self.on_wake,
+            wake_s=max(v["margin_ms"], 1.0) * 1e-3,
+        )
         self.get_logger().info(f"waiting for {self.resolve_topic_name(self.params_topic)} "
                                "(no feed-forward until they arrive)")
 
@@ -234,8 +295,11 @@ class CTCNode(Node):
                 self._stop(f"non-finite feed-forward: setpoint at stamp "
                            f"{int(run.stamps[min(bad, len(run.stamps) - 1)])} is not finite")
                 return
-            self._publish(run.stamps, feedforward_currents(ref[:, 0], ref[:, 1], ref[:, 2], self.model),
-                          ref[:-1])
+            self._publish(
+                run.stamps,
+                feedforward_currents(ref[:, 0], ref[:, 1], ref[:, 2], self.model),
+                ref[:-1],
+            )
             behind = self.schedule.sent(run.stamps, time.time_ns())
             if behind:
                 self.get_logger().warning(behind)
@@ -256,8 +320,10 @@ class CTCNode(Node):
         share = (cpu - self._report_at[1]) / (wall - self._report_at[0])
         self._report_at, window, self._window = (wall, cpu), self._window, LeadStats()
         if window.sent or window.dropped:
-            self.get_logger().info(f"feed-forward over {REPORT_PERIOD_S:.0f} s: {window.summary()}; "
-                                   f"ctc CPU {100 * share:.0f} % of a core")
+            self.get_logger().info(
+                f"feed-forward over {REPORT_PERIOD_S:.0f} s: {window.summary()}; "
+                f"ctc CPU {100 * share:.0f} % of a core"
+            )
 
     def _publish_diagnostics(self, stats: LeadStats, cpu_share: float) -> None:
         """The last second's figures (lead, CPU) and the counts since start, as robot drivers
@@ -269,8 +335,11 @@ class CTCNode(Node):
                   "lead_median_ms": "" if lead is None else f"{lead[1]:.2f}"}
         status = DiagnosticStatus(
             level=DiagnosticStatus.WARN if stats.short else DiagnosticStatus.OK,
-            name=f"{self.get_fully_qualified_name()}: feed-forward", hardware_id="orthoglide_ctc",
-            message=stats.summary(), values=[KeyValue(key=k, value=str(v)) for k, v in values.items()])
+            name=f"{self.get_fully_qualified_name()}: feed-forward",
+            hardware_id="orthoglide_ctc",
+            message=stats.summary(),
+            values=[KeyValue(key=k, value=str(v)) for k, v in values.items()],
+        )
         msg = DiagnosticArray(status=[status])
         msg.header.stamp = self.get_clock().now().to_msg()
         self.pub_diag.publish(msg)
@@ -278,8 +347,11 @@ class CTCNode(Node):
     def summary(self) -> str:
         """The whole run: what was sent, its lead, and the node's CPU."""
         wall, cpu = time.monotonic() - self._started[0], time.process_time() - self._started[1]
-        return (f"ctc: {self.schedule.total.summary()} in {wall:.0f} s; ctc CPU {100 * cpu / max(wall, 1e-9):.0f} % "
-                "of a core")
+        return (
+            f"ctc: {self.schedule.total.summary()} in {wall:.0f} s; ctc CPU "
+            f"{100 * cpu / max(wall, 1e-9):.0f} % "
+            "of a core"
+        )
 
     def _stop(self, reason: str) -> None:
         self.stopped = reason
@@ -293,8 +365,10 @@ class CTCNode(Node):
         n_clip = int(np.sum(np.any(clipped != v_ff, axis=1)))
         if n_clip:
             self.clipped += n_clip
-            self.get_logger().warning(f"feed-forward beyond current_limit clipped ({self.clipped} ticks so far)",
-                                      throttle_duration_sec=5.0)
+            self.get_logger().warning(
+                f"feed-forward beyond current_limit clipped ({self.clipped} ticks so far)",
+                throttle_duration_sec=5.0,
+            )
         for stamp, v in zip(stamps, clipped):
             msg = CurrentReference(name=self.motors, current=[float(x) for x in v])
             msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(int(stamp), 1_000_000_000)
@@ -317,9 +391,12 @@ class TrackingMonitor:
         self.node = node
         t = robot.transmission
         motors = t is not None and t.position_side == "actuator"
-        self.channels = list(robot.joint_names if t is None else t.actuators if motors else t.joints)
+        self.channels = list(
+            robot.joint_names if t is None else t.actuators if motors else t.joints
+        )
         self.to_joint = t.to_joint_position if motors else None
-        self.lock = threading.Lock()  # setpoints come from the batch thread, joint states from the executor
+        # setpoints come from the batch thread, joint states from the executor
+        self.lock = threading.Lock()
         self.setpoints: dict[int, np.ndarray] = {}
         self.errors: list[np.ndarray] = []
         self.t_last = None
@@ -351,16 +428,24 @@ class TrackingMonitor:
             e = np.array(self.errors) * 1e6
             rms, mx = np.sqrt(np.mean(e**2, axis=0)), np.abs(e).max(axis=0)
             self.node.get_logger().info(
-                "tracking error over %.1f s: rms %s um, max %s um" % (
-                    len(e) / 1000, " / ".join(f"{x:.1f}" for x in rms), " / ".join(f"{x:.1f}" for x in mx)))
+                f"tracking error over {len(e) / 1000:.1f} s: rms "
+                f"{' / '.join(f'{x:.1f}' for x in rms)} um, max "
+                f"{' / '.join(f'{x:.1f}' for x in mx)} um")
             self.errors, self.t_last = [], stamp
 
 
 def main(argv: list[str] | None = None) -> int:
     argv = sys.argv if argv is None else argv
     if any(a in ("-h", "--help") for a in argv[1:]):
-        print(usage("usage: ros2 run orthoglide_ident ctc [--ros-args -p NAME:=VALUE ... | --params-file "
-                    "config/ctc.yaml]", DOC, PARAMETERS))
+        print(
+            usage(
+                "usage: ros2 run orthoglide_ident ctc [--ros-args -p NAME:=VALUE ... | "
+                "--params-file "
+                "config/ctc.yaml]",
+                DOC,
+                PARAMETERS,
+            )
+        )
         return 0
     return spin(CTCNode, argv, "ctc")
 

@@ -22,8 +22,10 @@ from orthoglide_ident.ros.spin import spin
 from orthoglide_msgs.srv import RunExcitation
 
 DOC = """\
-Runs one run (unloaded or loaded) of an exciting-trajectory file (excite design) on the robot: checks
-it against the robot's limits, moves to its start pose slowly, starts the recorder with the run's tag,
+Runs one run (unloaded or loaded) of an exciting-trajectory file (excite design) on the robot:
+checks
+it against the robot's limits, moves to its start pose slowly, starts the recorder with the run's
+tag,
 sends it to <controller>/follow_joint_trajectory, follows its feedback and the live identification,
 and stops the recorder -- with the reason when the goal did not succeed (the bag is kept, tagged
 orthoglide.incomplete).
@@ -36,13 +38,33 @@ Services (relative names):
                                 incomplete: "cancel requested")"""
 
 PARAMETERS = (
-    Param("robot", "", "the robot (URDF or robot YAML) the runs are checked against; empty: each file's robot"),
-    Param("controller", "joint_trajectory_controller", "the JTC: its action is <controller>/follow_joint_trajectory"),
-    Param("joint_states", "joint_states", "where the robot's position is read before the move to the start pose"),
+    Param(
+        "robot",
+        "",
+        "the robot (URDF or robot YAML) the runs are checked against; empty: each file's robot",
+    ),
+    Param(
+        "controller",
+        "joint_trajectory_controller",
+        "the JTC: its action is <controller>/follow_joint_trajectory",
+    ),
+    Param(
+        "joint_states",
+        "joint_states",
+        "where the robot's position is read before the move to the start pose",
+    ),
     Param("rate", plan.SAMPLE_RATE_HZ, "Hz: points per second sent to the JTC"),
-    Param("path_tolerance", 0.0, "rad (m): abort when a joint leaves the path by more; 0: the controller's"),
+    Param(
+        "path_tolerance",
+        0.0,
+        "rad (m): abort when a joint leaves the path by more; 0: the controller's",
+    ),
     Param("goal_time", 1.0, "s: time after the end allowed to settle"),
-    Param("recorder", "orthoglide_recorder", "the recorder node's name (for the payload's frame, CoM, inertia)"),
+    Param(
+        "recorder",
+        "orthoglide_recorder",
+        "the recorder node's name (for the payload's frame, CoM, inertia)",
+    ),
 )
 
 
@@ -55,13 +77,25 @@ class ExcitationNode(Node):
         self.busy = threading.Lock()
         self.cancel = threading.Event()
         p = self.p
-        options = RunOptions(p["controller"], p["joint_states"], p["rate"], p["path_tolerance"], p["goal_time"],
-                             p["recorder"])
+        options = RunOptions(
+            p["controller"],
+            p["joint_states"],
+            p["rate"],
+            p["path_tolerance"],
+            p["goal_time"],
+            p["recorder"],
+        )
         # a step waits by sleeping: this node's executor threads run the callbacks meanwhile
-        self.runner = ExcitationRunner(self, time.sleep, self.get_logger().info, options, self.cancel.is_set)
+        self.runner = ExcitationRunner(
+            self, time.sleep, self.get_logger().info, options, self.cancel.is_set
+        )
         group = ReentrantCallbackGroup()  # a run waits in its callback while the others are served
-        self.create_service(RunExcitation, "orthoglide/excitation/run", self.on_run, callback_group=group)
-        self.create_service(Trigger, "orthoglide/excitation/cancel", self.on_cancel, callback_group=group)
+        self.create_service(
+            RunExcitation, "orthoglide/excitation/run", self.on_run, callback_group=group
+        )
+        self.create_service(
+            Trigger, "orthoglide/excitation/cancel", self.on_cancel, callback_group=group
+        )
         self.get_logger().info(f"ready: {self.resolve_service_name('orthoglide/excitation/run')} "
                                f"(controller {self.p['controller']})")
 
@@ -73,8 +107,9 @@ class ExcitationNode(Node):
             self.cancel.clear()
             traj = load_trajectory(req.trajectory)
             robot = load_robot(self.p["robot"] or traj.robot)
-            result = self.runner.run(traj, req.trajectory, robot, req.condition, req.payload_mass or None,
-                                     req.name)
+            result = self.runner.run(
+                traj, req.trajectory, robot, req.condition, req.payload_mass or None, req.name
+            )
             res.success, res.message, res.bag_path = result.success, result.message, result.bag_path
         except OrthoglideError as exc:
             res.success, res.message = False, " ".join(str(exc).split())
@@ -97,7 +132,13 @@ class ExcitationNode(Node):
 def main(argv: list[str] | None = None) -> int:
     argv = sys.argv if argv is None else argv
     if "-h" in argv or "--help" in argv:
-        print(usage("usage: ros2 run orthoglide_ident excitation [--ros-args -p NAME:=VALUE ...]", DOC, PARAMETERS))
+        print(
+            usage(
+                "usage: ros2 run orthoglide_ident excitation [--ros-args -p NAME:=VALUE ...]",
+                DOC,
+                PARAMETERS,
+            )
+        )
         return 0
     return spin(ExcitationNode, argv, "excitation", threads=4)
 

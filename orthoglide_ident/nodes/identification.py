@@ -18,9 +18,9 @@ from std_msgs.msg import String
 
 from orthoglide_ident.errors import ConfigError, OrthoglideError
 from orthoglide_ident.identify.live.session import LiveIdentification
-from orthoglide_ident.identify.solve.methods import METHODS, REFINEMENTS, get
 from orthoglide_ident.identify.options import IdentifyOptions
 from orthoglide_ident.identify.pipeline import identify
+from orthoglide_ident.identify.solve.methods import METHODS, REFINEMENTS, get
 from orthoglide_ident.model.robots import load_robot, load_robot_description
 from orthoglide_ident.nodes.live_feed import LiveFeed
 from orthoglide_ident.nodes.live_sources import LiveTopics
@@ -45,7 +45,8 @@ current from a dynamic_joint_states_topic interface, else the JointState effort,
 current_reference_topic, the first there is), and the estimate goes
 out about once a second on orthoglide/identification/live (orthoglide_msgs/msg/LiveIdentification:
 gains with %sigma, seconds used, s_c/s_(c-1), condition number, residual rms, lag, a one-line
-status and the warnings: lost ticks, NaN, wrong joint names, weak excitation, current near the limit).
+status and the warnings: lost ticks, NaN, wrong joint names, weak excitation, current near the
+limit).
 
 Service  orthoglide/identify (orthoglide_msgs/srv/Identify)
   request: bags (paths; empty = the live data when there are some, else every bag in bag_dir),
@@ -69,28 +70,66 @@ Topics   orthoglide/identified_parameters (orthoglide_msgs/msg/IdentifiedParamet
 Every identification option is a ROS parameter (the keys of config/identification.yaml)."""
 
 NODE_PARAMETERS = (
-    Param("robot", "", "the robot: a URDF, a robot YAML (docs/guide/robot_files.md) or a bundled robot "
-          "(orthoglide, ur5, ...); empty: the Orthoglide"),
+    Param(
+        "robot",
+        "",
+        "the robot: a URDF, a robot YAML (docs/guide/robot_files.md) or a bundled robot "
+        "(orthoglide, ur5, ...); empty: the Orthoglide",
+    ),
     Param("bag_dir", "bags", "where to look for bags when a request names none"),
-    Param("method", "tls", "tls: gains identified, payload mass known; wls: gains given (wls_gains), "
-          "payload mass estimated"),
-    Param("essential", False, "also reduce to the essential parameters (Sect. 5.2) and answer with them"),
-    Param("wls_gains", [0.0], "N/A (N·m/A for revolute joints), the drive gains IDIM-WLS uses, one "
-          "per joint; [0.0]: the robot's nominal (manufacturer's) gains, the Orthoglide's 637 pi",
-          dynamic=True),
-    Param("live", True, "identify the recordings while they run (orthoglide/identification/live); an "
-          "identify call with no bags then answers from the live data"),
-    Param("joint_states_topic", "orthoglide/joint_states", "live: the JointState topic of q (a ros2_control "
-          "robot: joint_states)"),
-    Param("dynamic_joint_states_topic", "dynamic_joint_states", "live: the DynamicJointState topic whose "
-          "current_interface is the current, when published (\"\": not read)"),
-    Param("current_reference_topic", "orthoglide/current_reference", "live: the CurrentReference topic, "
-          "used when neither of the above carries a current (\"\": not read)"),
+    Param(
+        "method",
+        "tls",
+        "tls: gains identified, payload mass known; wls: gains given (wls_gains), "
+        "payload mass estimated",
+    ),
+    Param(
+        "essential",
+        False,
+        "also reduce to the essential parameters (Sect. 5.2) and answer with them",
+    ),
+    Param(
+        "wls_gains",
+        [0.0],
+        "N/A (N·m/A for revolute joints), the drive gains IDIM-WLS uses, one "
+        "per joint; [0.0]: the robot's nominal (manufacturer's) gains, the Orthoglide's 637 pi",
+        dynamic=True,
+    ),
+    Param(
+        "live",
+        True,
+        "identify the recordings while they run (orthoglide/identification/live); an "
+        "identify call with no bags then answers from the live data",
+    ),
+    Param(
+        "joint_states_topic",
+        "orthoglide/joint_states",
+        "live: the JointState topic of q (a ros2_control robot: joint_states)",
+    ),
+    Param(
+        "dynamic_joint_states_topic",
+        "dynamic_joint_states",
+        "live: the DynamicJointState topic whose "
+        'current_interface is the current, when published ("": not read)',
+    ),
+    Param(
+        "current_reference_topic",
+        "orthoglide/current_reference",
+        "live: the CurrentReference topic, "
+        'used when neither of the above carries a current ("": not read)',
+    ),
 )
 # Every IdentifyOptions field is a parameter of the same name, so --params-file
 # config/identification.yaml sets them (the CLI's --config reads the same file).
-OPTION_PARAMETERS = tuple(Param(f.name, getattr(IdentifyOptions(), f.name), "identification option (see "
-                                "config/identification.yaml)", dynamic=True) for f in fields(IdentifyOptions))
+OPTION_PARAMETERS = tuple(
+    Param(
+        f.name,
+        getattr(IdentifyOptions(), f.name),
+        "identification option (see config/identification.yaml)",
+        dynamic=True,
+    )
+    for f in fields(IdentifyOptions)
+)
 OPTION_NAMES = frozenset(p.name for p in OPTION_PARAMETERS)
 PARAMETERS = NODE_PARAMETERS + OPTION_PARAMETERS
 
@@ -149,17 +188,28 @@ class IdentificationNode(Node):
         self.live = None
         if self.param("live"):
             self.live = LiveIdentification(self.options(), model=self.robot)
-            topics = LiveTopics(self.param("joint_states_topic"), self.param("current_reference_topic"),
-                                self.param("dynamic_joint_states_topic"), self.options().current_interface)
+            topics = LiveTopics(
+                self.param("joint_states_topic"),
+                self.param("current_reference_topic"),
+                self.param("dynamic_joint_states_topic"),
+                self.options().current_interface,
+            )
             self.feed = LiveFeed(self, self.live, self.live_lock, topics, robot=self.robot,
                                  effort_unit=self.options().effort_unit)
         if not self.param("robot"):  # the URDF robot_state_publisher publishes, when there is one
             self.create_subscription(String, "robot_description", self._on_description, latched)
-        self.create_service(Identify, "orthoglide/identify", self.on_identify, callback_group=ReentrantCallbackGroup())
+        self.create_service(
+            Identify,
+            "orthoglide/identify",
+            self.on_identify,
+            callback_group=ReentrantCallbackGroup(),
+        )
         on_set(self, PARAMETERS, self._check_changes)  # bad values refused at `ros2 param set`
-        self.get_logger().info(f"ready ({self.robot.name}: {self.robot.n_joints} joints "
-                               f"{', '.join(self.robot.joint_names)}, {self.robot.n_b} base "
-                               f"parameters): call {self.resolve_service_name('orthoglide/identify')}")
+        self.get_logger().info(
+            f"ready ({self.robot.name}: {self.robot.n_joints} joints "
+            f"{', '.join(self.robot.joint_names)}, {self.robot.n_b} base "
+            f"parameters): call {self.resolve_service_name('orthoglide/identify')}"
+        )
 
     def close(self) -> None:
         if self.live is not None:
@@ -184,8 +234,10 @@ class IdentificationNode(Node):
                 self.feed.replace(self.live, robot)
 
             self.feed.submit(replace)
-        self.get_logger().info(f"robot from robot_description: {robot.name}, {robot.n_joints} joints "
-                               f"{', '.join(robot.joint_names)}, {robot.n_b} base parameters (nominal gains 1)")
+        self.get_logger().info(
+            f"robot from robot_description: {robot.name}, {robot.n_joints} joints "
+            f"{', '.join(robot.joint_names)}, {robot.n_b} base parameters (nominal gains 1)"
+        )
 
     def param(self, name: str) -> Any:
         return next(p for p in PARAMETERS if p.name == name).coerce(self.get_parameter(name).value)
@@ -197,8 +249,10 @@ class IdentificationNode(Node):
             self._check_gains(changes["wls_gains"])
         changed = [k for k in changes if k in OPTION_NAMES]
         if changed and self.live is not None:
-            self.get_logger().info(f"{', '.join(changed)} changed: used by identifications from bags; "
-                                   "the live identification keeps the options it started with")
+            self.get_logger().info(
+                f"{', '.join(changed)} changed: used by identifications from bags; "
+                "the live identification keeps the options it started with"
+            )
 
     def _check_gains(self, gains: list[float]) -> None:
         if gains != [0.0] and (len(gains) != self.robot.n_joints or min(gains) <= 0):
@@ -217,10 +271,14 @@ class IdentificationNode(Node):
         values.update((k, v) for k, v in (changes or {}).items() if k in OPTION_NAMES)
         return IdentifyOptions.from_mapping(values, source="parameters")
 
-    def on_identify(self, request: Identify.Request, response: Identify.Response) -> Identify.Response:
+    def on_identify(
+        self, request: Identify.Request, response: Identify.Response
+    ) -> Identify.Response:
         if not self.busy.acquire(blocking=False):
             response.success = False
-            response.message = "busy: another identification is running; call again when it has answered"
+            response.message = (
+                "busy: another identification is running; call again when it has answered"
+            )
             return response
         try:
             self.run(request, response)
@@ -244,7 +302,9 @@ class IdentificationNode(Node):
             return
         self.answer(result, method, essential, response)
 
-    def identify(self, request: Identify.Request, method: str, essential: bool) -> IdentificationResult:
+    def identify(
+        self, request: Identify.Request, method: str, essential: bool
+    ) -> IdentificationResult:
         """From the bags named, else the live data, else every bag of bag_dir."""
         payload_mass = request.payload_mass if request.payload_mass > 0 else None
         gains = self.wls_gains() if get(method).gains_given else None
@@ -252,35 +312,52 @@ class IdentificationNode(Node):
             with self.live_lock:
                 est = self.live.estimate()
                 if est.seconds_loaded + est.seconds_unloaded > 0:
-                    self.source = (f"the live data ({est.seconds_unloaded:.0f} s unloaded, {est.seconds_loaded:.0f} s "
-                                   "loaded)")
+                    self.source = (
+                        f"the live data ({est.seconds_unloaded:.0f} s unloaded, "
+                        f"{est.seconds_loaded:.0f} s "
+                        "loaded)"
+                    )
                     self.get_logger().info(f"identifying ({method}) from {self.source}")
                     return self.live.result(method, essential, gains, payload_mass)
         bags = list(request.bags) or find_bags(Path(self.param("bag_dir")))
         if not bags:
-            raise OrthoglideError(f"no bags given and none found in bag_dir '{self.param('bag_dir')}'")
+            raise OrthoglideError(
+                f"no bags given and none found in bag_dir '{self.param('bag_dir')}'"
+            )
         # no bags named and no live data (none recorded since this node started): say where from
         self.source = f"{len(bags)} bag(s)" + ("" if request.bags else " of bag_dir (no live data)")
         self.get_logger().info(f"identifying ({method}) from {self.source}: {', '.join(bags)}")
-        return identify(bags, payload_mass=payload_mass, method=method, gains=gains, essential=essential,
-                        options=self.options(), model=self.robot)
+        return identify(
+            bags,
+            payload_mass=payload_mass,
+            method=method,
+            gains=gains,
+            essential=essential,
+            options=self.options(),
+            model=self.robot,
+        )
 
     def answer(self, result: IdentificationResult, method: str, essential: bool,
                response: Identify.Response) -> None:
-        """Publish (latched) and answer with the result; its warnings go to the log and the reply."""
+        """Publish (latched) and answer with the result; its warnings go to the log and the
+        reply."""
         chosen = result.essential if essential and result.essential is not None else result
         msg = result_message(chosen, self.get_clock().now().to_msg())
         if chosen.complete:  # a partial answer is not latched: the ctc takes only a full one
             self.pub[method].publish(msg)
         for w in result.warnings:
             self.get_logger().warning(w)
-        gains = ", ".join(f"{n} {g:.5g}" if ok else f"{n} not determined"  # a motor's: 0.41704
-                          for n, g, ok in zip(msg.joint_names, msg.drive_gains, msg.drive_gains_determined))
+        gains = ", ".join(
+            f"{n} {g:.5g}" if ok else f"{n} not determined"  # a motor's: 0.41704
+            for n, g, ok in zip(msg.joint_names, msg.drive_gains, msg.drive_gains_determined)
+        )
         response.success = True
-        response.message = (f"{method}{' essential' if chosen is not result else ''}: drive gains [{gains}] "
-                            f"{chosen._units(chosen.gain_units, 'N/A')}, {len(msg.names)} parameters, payload "
-                            f"{msg.payload_mass:.4g} kg, residual rms {msg.residual_rms:.3g} "
-                            f"{chosen._units(chosen.effort_units, 'N')}, cond {msg.condition_number:.3g}")
+        response.message = (
+            f"{method}{' essential' if chosen is not result else ''}: drive gains [{gains}] "
+            f"{chosen._units(chosen.gain_units, 'N/A')}, {len(msg.names)} parameters, payload "
+            f"{msg.payload_mass:.4g} kg, residual rms {msg.residual_rms:.3g} "
+            f"{chosen._units(chosen.effort_units, 'N')}, cond {msg.condition_number:.3g}"
+        )
         if chosen.current_lag:  # a drive term, not a parameter of the message
             response.message += "; current-loop lag " + lag_text(chosen.current_lag)
         if chosen.payload is not None:  # identified with the robot (Sect. 4.3): in the reply
@@ -294,7 +371,9 @@ class IdentificationNode(Node):
                                  + chosen.not_determined_text())
         response.message += f"; from {self.source}"
         if result.warnings:
-            response.message += f"; {len(result.warnings)} warning(s): " + " | ".join(result.warnings)
+            response.message += f"; {len(result.warnings)} warning(s): " + " | ".join(
+                result.warnings
+            )
         response.parameters = msg
         self.json_pub.publish(json_message(result, msg.header.stamp))  # before the reply leaves
         self.get_logger().info(response.message)
@@ -303,9 +382,15 @@ class IdentificationNode(Node):
 def main(argv: list[str] | None = None) -> int:
     argv = sys.argv if argv is None else argv
     if any(a in ("-h", "--help") for a in argv[1:]):
-        print(usage("usage: ros2 run orthoglide_ident identification [--ros-args -p NAME:=VALUE ... | "
-                    "--params-file config/identification.yaml]", DOC, NODE_PARAMETERS)
-              + "\n  ... and every identification option of config/identification.yaml (same names)")
+        print(
+            usage(
+                "usage: ros2 run orthoglide_ident identification [--ros-args -p NAME:=VALUE ... | "
+                "--params-file config/identification.yaml]",
+                DOC,
+                NODE_PARAMETERS,
+            )
+            + "\n  ... and every identification option of config/identification.yaml (same names)"
+        )
         return 0
     return spin(IdentificationNode, argv, "identification", threads=2)
 

@@ -33,24 +33,36 @@ from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import JointState
 
-from orthoglide_ident.bags import (CURRENT_REFERENCE_TYPE, DYNAMIC_JOINT_STATE_TYPE, JOINT_STATE_TYPE,
-                                   decode_messages)
+from orthoglide_ident.bags import (
+    CURRENT_REFERENCE_TYPE,
+    DYNAMIC_JOINT_STATE_TYPE,
+    JOINT_STATE_TYPE,
+    decode_messages,
+)
 from orthoglide_ident.bags.sources import CURRENT_SOURCES
 from orthoglide_ident.errors import OrthoglideError
 from orthoglide_ident.identify.live.session import LiveIdentification
 from orthoglide_ident.identify.records.record import effort_channels, torque_as_current
 from orthoglide_ident.model.robot import Payload, RobotModel
-from orthoglide_ident.nodes.live_sources import DYNAMIC, EFFORT, REFERENCE, LiveTopics, choose_current
+from orthoglide_ident.nodes.live_sources import (
+    DYNAMIC,
+    EFFORT,
+    REFERENCE,
+    LiveTopics,
+    choose_current,
+)
 from orthoglide_ident.ros.batch import BatchTaker, BatchTopic
 from orthoglide_ident.ros.guard import FailureLog
-from orthoglide_msgs.msg import CurrentReference, LiveIdentification as LiveMsg, RecorderStatus
+from orthoglide_msgs.msg import CurrentReference, RecorderStatus
+from orthoglide_msgs.msg import LiveIdentification as LiveMsg
 
 FEED_PERIOD_S = 0.1
 ESTIMATE_PERIOD_S = 1.0
 IDLE_BUFFER = 5000  # messages kept per topic while nothing records: the recorder may start first
 BACKLOG_S = 300.0  # s of a recording's messages kept per topic while the worker is busy (at 1 kHz)
 STOP_WAIT_S = 1.0  # after the recorder stopped, wait this long at most for its last ticks here
-STREAM_DEPTH = 5000  # messages DDS holds for this node while it is stalled (5 s at 1 kHz), as the recorder
+# messages DDS holds for this node while it is stalled (5 s at 1 kHz), as the recorder
+STREAM_DEPTH = 5000
 QOS_CHECK_PERIOD_S = 1.0  # how often the publishers' offered reliability is looked at
 HOLDBACK_NS = 250_000_000  # the newest 0.25 s wait: the recorder's stop may end the recording there
 STATUS_DEPTH = 10  # recorder statuses queued here (a stop and the next start may come together)
@@ -109,7 +121,8 @@ class LiveFeed:
         # what the intake thread has taken and the worker not yet fed (deque: thread-safe appends)
         self.buffers = {k: collections.deque(maxlen=int(BACKLOG_S * 1000)) for k in self.TOPICS}
         self.source: str | None = None  # where the recording's current comes from (live_sources)
-        self.left_out: set[str] = set()  # recordings live identification gave up (the reason was said)
+        # recordings live identification gave up (the reason was said)
+        self.left_out: set[str] = set()
         self.waiting_since: float | None = None  # first joint state of the recording seen here
         self.bag: str | None = None  # the recording being fed
         self.first: int | None = None
@@ -120,23 +133,27 @@ class LiveFeed:
         self.warnings: list[str] = []
         self.dirty = False  # something to say on orthoglide/identification/live
         stream = QoSProfile(depth=STREAM_DEPTH, reliability=ReliabilityPolicy.RELIABLE)
-        latched = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL,
-                             reliability=ReliabilityPolicy.RELIABLE)
         self.reliability = dict.fromkeys(self.TOPICS, ReliabilityPolicy.RELIABLE)  # subscribed with
         self.receiving: set[str] = set()  # topics whose first message arrived (said once each)
-        self.taker = BatchTaker(node, [self._intake(key, stream) for key in self.TOPICS], period_s=0.01)
+        self.taker = BatchTaker(
+            node, [self._intake(key, stream) for key in self.TOPICS], period_s=0.01
+        )
         # deeper than the recorder's latched 1: a stop followed at once by the next start must not
         # be coalesced into the start (the stop carries the recording's last tick)
         statuses = QoSProfile(depth=STATUS_DEPTH, durability=DurabilityPolicy.TRANSIENT_LOCAL,
                               reliability=ReliabilityPolicy.RELIABLE)
-        node.create_subscription(RecorderStatus, "orthoglide/recorder/status", self.on_status, statuses)
+        node.create_subscription(
+            RecorderStatus, "orthoglide/recorder/status", self.on_status, statuses
+        )
         self.pub = node.create_publisher(LiveMsg, "orthoglide/identification/live", 10)
         node.create_timer(QOS_CHECK_PERIOD_S, self.follow_publishers)
         self._jobs: queue.SimpleQueue = queue.SimpleQueue()  # from the executor, run by the worker
         self._stop = threading.Event()
         self._failures = FailureLog(node.get_logger())
         self._next_estimate = time.monotonic() + ESTIMATE_PERIOD_S
-        self._worker = threading.Thread(target=self._work, name=f"{node.get_name()}-live", daemon=True)
+        self._worker = threading.Thread(
+            target=self._work, name=f"{node.get_name()}-live", daemon=True
+        )
         if worker:
             self._worker.start()
 
@@ -146,7 +163,8 @@ class LiveFeed:
 
         def on_batch(batch) -> None:
             buf.extend(m[0] for m in batch)
-            if key not in self.receiving:  # matched with its publishers: from now on, nothing missed
+            # matched with its publishers: from now on, nothing missed
+            if key not in self.receiving:
                 self.receiving.add(key)
                 self.node.get_logger().info("live identification: receiving "
                                             f"{self.node.resolve_topic_name(topic)}")
@@ -163,8 +181,10 @@ class LiveFeed:
             if offered and want != self.reliability[key]:
                 self.reliability[key] = want
                 self.taker.add(self._intake(key, QoSProfile(depth=STREAM_DEPTH, reliability=want)))
-                self.node.get_logger().info(f"live identification: {topic} taken {want.name.lower()}, as its "
-                                            "publishers offer")
+                self.node.get_logger().info(
+                    f"live identification: {topic} taken {want.name.lower()}, as its "
+                    "publishers offer"
+                )
 
     # ---- the worker ----------------------------------------------------------------------------
     def submit(self, job) -> None:
@@ -181,7 +201,8 @@ class LiveFeed:
                 self._failures.failed("live identification", exc, "the worker goes on")
 
     def turn(self) -> None:
-        """The jobs submitted, in order; the buffered ticks fed; about once a second the estimate."""
+        """The jobs submitted, in order; the buffered ticks fed; about once a second the
+        estimate."""
         while True:
             try:
                 job = self._jobs.get_nowait()
@@ -203,7 +224,13 @@ class LiveFeed:
         """(worker, under the lock) A new recording, its first tick, its end."""
         if msg.recording and msg.bag_path != self.bag and msg.bag_path not in self.left_out:
             self._end_previous()
-            self.bag, self.first, self.last, self.seen, self.started = msg.bag_path, None, None, {}, {}
+            self.bag, self.first, self.last, self.seen, self.started = (
+                msg.bag_path,
+                None,
+                None,
+                {},
+                {},
+            )
             self.source, self.waiting_since = None, None
             try:
                 self.live.start_recording(msg.bag_path, msg.condition, msg.payload_mass,
@@ -212,7 +239,9 @@ class LiveFeed:
                 self._say([f"live identification ignores {msg.bag_path}: {e}"])
                 self.bag = None
                 return
-            self.node.get_logger().info(f"live identification: {msg.condition} recording {msg.bag_path}")
+            self.node.get_logger().info(
+                f"live identification: {msg.condition} recording {msg.bag_path}"
+            )
         if self.bag is not None and msg.bag_path == self.bag:
             self.first = self.first or _tick(msg.first_tick)
             if not msg.recording:
@@ -224,11 +253,23 @@ class LiveFeed:
     def _recorder_restarted(self) -> None:
         """An idle recorder that is not the one recording ``self.bag``: that one was killed (and
         restarted). Its recording ends here at the last tick every topic delivered."""
-        used = self._used() if self.source is not None else ("q",)  # the topics this recording reads
-        newest = [_stamp_ns(self.buffers[k][-1]) if self.buffers[k] else self.seen.get(k, 0) for k in used]
+        # the topics this recording reads
+        used = self._used() if self.source is not None else ("q",)
+        newest = [
+            _stamp_ns(self.buffers[k][-1]) if self.buffers[k] else self.seen.get(k, 0) for k in used
+        ]
         self.last, self.stopped_at = min(newest), time.monotonic()
-        self._say([f"the recorder of {self.bag} restarted without stopping it (killed?): its live data end at "
-                   "the last tick received here"])
+        self._say(
+            [
+                f"the recorder of {self.bag} restarted without stopping it (killed?): its live "
+                "data "
+                ""
+                ""
+                ""
+                "end at "
+                "the last tick received here"
+            ]
+        )
 
     def _end_previous(self) -> None:
         """A new recording starts: the one under way first gets its ticks already here (the
@@ -238,9 +279,13 @@ class LiveFeed:
         if self.bag is not None and self.last is not None and self.source is not None:
             late = [self.TOPICS[k][0] for k in self._used() if self.seen.get(k, 0) < self.last]
             if late:
-                self._say([f"{self.bag} ended with the next recording's start before its last ticks "
-                           f"on {', '.join(late)} reached live identification: its live data end "
-                           "earlier than its bag (identify the bag for the exact result)"])
+                self._say(
+                    [
+                        f"{self.bag} ended with the next recording's start before its last ticks "
+                        f"on {', '.join(late)} reached live identification: its live data end "
+                        "earlier than its bag (identify the bag for the exact result)"
+                    ]
+                )
         self._finish()
 
     # ---- data --------------------------------------------------------------------------------
@@ -291,7 +336,9 @@ class LiveFeed:
         publishers = {k: self.node.count_publishers(t) for k, (t, _, _) in self.TOPICS.items()}
         resolved = {k: self.node.resolve_topic_name(t) for k, (t, _, _) in self.TOPICS.items()}
         try:
-            self.source = choose_current(self._joints(), self.topics, first, publishers, waited, resolved)
+            self.source = choose_current(
+                self._joints(), self.topics, first, publishers, waited, resolved
+            )
         except OrthoglideError as e:
             self._say([f"live identification leaves {self.bag} out: {e}"])
             self.left_out.add(str(self.bag))
@@ -310,17 +357,24 @@ class LiveFeed:
         return effort_channels(self.robot)
 
     def _take(self, buf: collections.deque) -> list[bytes]:
-        """Messages of the recording's ticks, oldest first; earlier ones dropped, later ones kept."""
+        """Messages of the recording's ticks, oldest first; earlier ones dropped, later ones
+        kept."""
         while buf and _stamp_ns(buf[0]) < self.first:
             buf.popleft()
         if buf and not self.started.get(id(buf)):
             self.started[id(buf)] = True
             late_ns = _stamp_ns(buf[0]) - self.first
             if late_ns > 0:  # subscribed after the recording began (DDS matching takes a moment)
-                self._say([f"the first {round(late_ns / 1e6)} ms of {self.bag} never reached live "
-                           "identification (subscribed after the recording began): the live estimate "
-                           "leaves them out; identify the bag for the exact result"])
-        limit = self.last if self.last is not None else (_stamp_ns(buf[-1]) - HOLDBACK_NS if buf else 0)
+                self._say(
+                    [
+                        f"the first {round(late_ns / 1e6)} ms of {self.bag} never reached live "
+                        "identification (subscribed after the recording began): the live estimate "
+                        "leaves them out; identify the bag for the exact result"
+                    ]
+                )
+        limit = (
+            self.last if self.last is not None else (_stamp_ns(buf[-1]) - HOLDBACK_NS if buf else 0)
+        )
         out = []
         while buf and _stamp_ns(buf[0]) <= limit:
             out.append(buf.popleft())
@@ -329,7 +383,9 @@ class LiveFeed:
     def _add(self, key: str, raw: list[bytes]) -> None:
         topic, _, msgtype = self.TOPICS[key]
         try:
-            stamps, names, values = decode_messages(raw, msgtype, self.topics.iface if key == DYNAMIC else None)
+            stamps, names, values = decode_messages(
+                raw, msgtype, self.topics.iface if key == DYNAMIC else None
+            )
             if key == "q":
                 self._say(self.live.add_joint_states(stamps, list(names), values))
                 if self.source != EFFORT:
@@ -346,8 +402,13 @@ class LiveFeed:
         """Another robot model (a new robot_description): the recording under way, if any, is
         left out with a warning; the next ones are identified with ``live`` (under the lock)."""
         if self.bag is not None:
-            self._say([f"the robot model changed to {robot.name} during {self.bag}: live identification "
-                       "leaves it out and starts again from the next recording (identify its bag)"])
+            self._say(
+                [
+                    f"the robot model changed to {robot.name} during {self.bag}: live "
+                    "identification "
+                    "leaves it out and starts again from the next recording (identify its bag)"
+                ]
+            )
             self.left_out.add(self.bag)
             self.bag = self.first = self.last = None
         self.live, self.robot = live, robot
@@ -356,7 +417,9 @@ class LiveFeed:
     def _finish(self) -> None:
         if self.bag is not None:
             self._say(self.live.stop_recording())
-            self.node.get_logger().info(f"live identification: {self.bag} done; {self.live.estimate().line()}")
+            self.node.get_logger().info(
+                f"live identification: {self.bag} done; {self.live.estimate().line()}"
+            )
             self.dirty = True
         self.bag, self.first, self.last, self.source = None, None, None, None
 

@@ -49,8 +49,9 @@ class LiveTopics:
 
 def _interfaces_of(raw: bytes, joint: str) -> list[str]:
     """The interfaces ``joint`` has in one serialized DynamicJointState (for the reason)."""
-    from control_msgs.msg import DynamicJointState
     from rclpy.serialization import deserialize_message
+
+    from control_msgs.msg import DynamicJointState
 
     msg = deserialize_message(raw, DynamicJointState)
     for name, iv in zip(msg.joint_names, msg.interface_values):
@@ -74,7 +75,8 @@ def _dynamic(raw: bytes, joints: Sequence[str], topics: LiveTopics, topic: str) 
 
 
 def _effort(raw: bytes, joints: Sequence[str], topic: str) -> bool:
-    """True if the JointState carries a finite effort for every joint (DataError: a joint missing)."""
+    """True if the JointState carries a finite effort for every joint (DataError: a joint
+    missing)."""
     names, values = decode_messages([raw], JOINT_STATE_TYPE, "effort")[1:]
     all_names = decode_messages([raw], JOINT_STATE_TYPE)[1]
     missing = [j for j in joints if j not in all_names]
@@ -102,8 +104,10 @@ def choose_current(joints: Sequence[str], topics: LiveTopics, first: Mapping[str
         if not late:
             return None  # its first message may be on its way
         if topics.interface:
-            raise DataError(f"interface {topics.interface!r} asked for (current_interface), but nothing "
-                            f"arrived on {resolved.get(DYNAMIC) or 'dynamic_joint_states_topic (empty)'}")
+            raise DataError(
+                f"interface {topics.interface!r} asked for (current_interface), but nothing "
+                f"arrived on {resolved.get(DYNAMIC) or 'dynamic_joint_states_topic (empty)'}"
+            )
     q = first.get("q")
     if q is None:
         return None

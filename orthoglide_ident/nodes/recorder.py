@@ -35,7 +35,8 @@ from orthoglide_msgs.msg import RecorderStatus
 from orthoglide_msgs.srv import StartRecording, StopRecording
 
 DOC = """\
-Records tagged rosbag2 bags (metadata.yaml v9 + MCAP) of the Orthoglide's topics, or of a ros2_control
+Records tagged rosbag2 bags (metadata.yaml v9 + MCAP) of the Orthoglide's topics, or of a
+ros2_control
 robot's (topics: [joint_states, dynamic_joint_states], as joint_state_broadcaster publishes them;
 each channel's offered QoS is recorded, its subscription follows it).
 
@@ -62,37 +63,82 @@ only joint_states) is said once, at the first start, and is not a fault."""
 
 PAYLOAD_KEYS = ("payload_frame", "payload_com", "payload_inertia")
 PARAMETERS = (
-    Param("payload_frame", "", "the link a loaded recording's payload is fixed to (\"\": the robot's "
-          "payload frame); with payload_com and payload_inertia in the bag's tag (orthoglide.payload_*). "
-          "The payload_* parameters are used by the next start only, then back to their launch values",
-          dynamic=True),
-    Param("payload_com", [0.0, 0.0, 0.0], "m, the payload's centre of mass in payload_frame (zeros: at its "
-          "origin); used by the next loaded start", dynamic=True),
-    Param("payload_inertia", [0.0] * 6, "kg·m², Ixx Ixy Ixz Iyy Iyz Izz about the payload's centre of mass "
-          "(zeros: a point mass); used by the next loaded start", dynamic=True),
-    Param("robot", "", "the robot (a URDF, robot YAML or bundled name, as the identification node's): a "
-          "loaded start's payload_frame must be one of its frames (\"\": not checked)"),
-    Param("payload_known", "", "what is known of a loaded recording's payload, tagged "
-          "orthoglide.payload_known (paper Sect. 4.3): mass (weighed only: its CoM and inertia are "
-          "identified), com, all, point (a point mass at payload_frame / payload_com); \"\": what "
-          "payload_com and payload_inertia give (none: mass only)", dynamic=True),
-    Param("output_dir", "bags", "folder for the bag directories (this and the next ones: from the next start "
-          "on when changed)", dynamic=True),
-    Param("topics", ["orthoglide/joint_states", "orthoglide/current_reference"],
-          "always recorded (subscribed at start-up; relative names resolve in the node's namespace): the "
-          "Orthoglide's, or a ros2_control robot's [joint_states, dynamic_joint_states]; the first "
-          "JointState topic is the one the status counts ticks on"),
-    Param("optional_topics", ["orthoglide/setpoints", "orthoglide/current_command"],
-          "recorded when a publisher exists (checked every second)"),
-    Param("expected_rate", 1000.0, "Hz of the controller ticks: a source whose local step is this "
-          "period is counted in these ticks; any other source against its own step distribution",
-          dynamic=True),
+    Param(
+        "payload_frame",
+        "",
+        "the link a loaded recording's payload is fixed to (\"\": the robot's "
+        "payload frame); with payload_com and payload_inertia in the bag's tag "
+        "(orthoglide.payload_*). "
+        "The payload_* parameters are used by the next start only, then back to their launch "
+        "values",
+        dynamic=True,
+    ),
+    Param(
+        "payload_com",
+        [0.0, 0.0, 0.0],
+        "m, the payload's centre of mass in payload_frame (zeros: at its "
+        "origin); used by the next loaded start",
+        dynamic=True,
+    ),
+    Param(
+        "payload_inertia",
+        [0.0] * 6,
+        "kg·m², Ixx Ixy Ixz Iyy Iyz Izz about the payload's centre of mass "
+        "(zeros: a point mass); used by the next loaded start",
+        dynamic=True,
+    ),
+    Param(
+        "robot",
+        "",
+        "the robot (a URDF, robot YAML or bundled name, as the identification node's): a "
+        'loaded start\'s payload_frame must be one of its frames ("": not checked)',
+    ),
+    Param(
+        "payload_known",
+        "",
+        "what is known of a loaded recording's payload, tagged "
+        "orthoglide.payload_known (paper Sect. 4.3): mass (weighed only: its CoM and inertia are "
+        'identified), com, all, point (a point mass at payload_frame / payload_com); "": what '
+        "payload_com and payload_inertia give (none: mass only)",
+        dynamic=True,
+    ),
+    Param(
+        "output_dir",
+        "bags",
+        "folder for the bag directories (this and the next ones: from the next start "
+        "on when changed)",
+        dynamic=True,
+    ),
+    Param(
+        "topics",
+        ["orthoglide/joint_states", "orthoglide/current_reference"],
+        "always recorded (subscribed at start-up; relative names resolve in the node's namespace): "
+        "the "
+        "Orthoglide's, or a ros2_control robot's [joint_states, dynamic_joint_states]; the first "
+        "JointState topic is the one the status counts ticks on",
+    ),
+    Param(
+        "optional_topics",
+        ["orthoglide/setpoints", "orthoglide/current_command"],
+        "recorded when a publisher exists (checked every second)",
+    ),
+    Param(
+        "expected_rate",
+        1000.0,
+        "Hz of the controller ticks: a source whose local step is this "
+        "period is counted in these ticks; any other source against its own step distribution",
+        dynamic=True,
+    ),
     Param("chunk_duration", 0.5, "s per MCAP chunk: what a SIGKILL can lose at most", dynamic=True),
     Param("split_duration", 0.0, "s per .mcap file (0: no split)", dynamic=True),
     Param("split_size", 0, "bytes per .mcap file (0: no split)", dynamic=True),
     Param("compression", "zstd", "zstd | lz4 | none", dynamic=True),
-    Param("queue_depth", 5000, "subscription history depth (reliable, keep last): what DDS holds for the "
-          "recorder while it is stalled; 5 s at 1 kHz"),
+    Param(
+        "queue_depth",
+        5000,
+        "subscription history depth (reliable, keep last): what DDS holds for the "
+        "recorder while it is stalled; 5 s at 1 kHz",
+    ),
 )
 STATUS_PERIOD_S = 1.0
 STOP_DRAIN_S = 2.0  # at stop, the intake has this long to hand over what it holds
@@ -162,7 +208,8 @@ class RecorderNode(Node):
         self.last = {"condition": "", "payload_mass": 0.0, "bag_path": "", "message": "idle"}
         self.last_ticks: tuple = (0, 0, None, None)  # written, missing, first and last stamp
         self.last_against = ""  # how the last recording's missing samples were judged
-        self.ended = ""  # why the last recording ended by itself (write error), until the next start
+        # why the last recording ended by itself (write error), until the next start
+        self.ended = ""
         self.heard: dict[str, float] = {}  # topic -> monotonic time of its last message
         self.silent: set[str] = set()  # required topics the status says are silent
         self.said_absent: set[str] = set()  # required topics said once to have no publisher
@@ -177,11 +224,15 @@ class RecorderNode(Node):
         self.discover()
         latched = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL,
                              reliability=ReliabilityPolicy.RELIABLE)
-        self.status_pub = self.create_publisher(RecorderStatus, "orthoglide/recorder/status", latched)
+        self.status_pub = self.create_publisher(
+            RecorderStatus, "orthoglide/recorder/status", latched
+        )
         self.diag_pub = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
         self.create_service(StartRecording, "orthoglide/recorder/start", self.on_start)
         self.create_service(Trigger, "orthoglide/recorder/stop", self.on_stop)
-        self.create_service(StopRecording, "orthoglide/recorder/stop_incomplete", self.on_stop_incomplete)
+        self.create_service(
+            StopRecording, "orthoglide/recorder/stop_incomplete", self.on_stop_incomplete
+        )
         self.create_timer(1.0, self.discover)
         self.create_timer(STATUS_PERIOD_S, self.status_tick)
         self.publish_status()
@@ -213,7 +264,9 @@ class RecorderNode(Node):
             if rec is not None and rec.alive:
                 if topic not in rec.registered:  # first message: its publishers' QoS are known now
                     self._register(rec, topic)
-                rec.queue.extend((topic, data, received, published) for data, received, published in batch)
+                rec.queue.extend(
+                    (topic, data, received, published) for data, received, published in batch
+                )
 
         self.taker.add(BatchTopic(cls, topic, qos, on_batch))
         self.subs[topic] = (qos, msgtype)
@@ -225,8 +278,10 @@ class RecorderNode(Node):
         if offered and any(o.reliability == ReliabilityPolicy.BEST_EFFORT for o in offered):
             qos.reliability = ReliabilityPolicy.BEST_EFFORT
             if not quiet:
-                self.get_logger().warning(f"{topic}: a publisher offers best effort: recorded best effort (ticks "
-                                          "may be lost on the way, the missing count will say)")
+                self.get_logger().warning(
+                    f"{topic}: a publisher offers best effort: recorded best effort (ticks "
+                    "may be lost on the way, the missing count will say)"
+                )
         if offered and all(o.durability == DurabilityPolicy.TRANSIENT_LOCAL for o in offered):
             qos.durability = DurabilityPolicy.TRANSIENT_LOCAL
         return qos
@@ -235,7 +290,11 @@ class RecorderNode(Node):
         """Add a topic to the bag with its publishers' offered QoS, as rosbag2 records them."""
         infos = self.get_publishers_info_by_topic(topic)
         rec.registered.add(topic)
-        rec.add_topic(topic, self.subs[topic][1], [_qos_dict(i.qos_profile) for i in infos] or bags.default_qos())
+        rec.add_topic(
+            topic,
+            self.subs[topic][1],
+            [_qos_dict(i.qos_profile) for i in infos] or bags.default_qos(),
+        )
 
     def discover(self) -> None:
         """Subscribe to the wanted topics: the required ones from the start (reliable), the optional
@@ -251,7 +310,9 @@ class RecorderNode(Node):
 
     def publish_status(self) -> None:
         """orthoglide/recorder/status: what is being (or was last) recorded, and how it goes."""
-        msg = RecorderStatus(recording=self.rec is not None, **{**self.last, "message": self._status_text()})
+        msg = RecorderStatus(
+            recording=self.rec is not None, **{**self.last, "message": self._status_text()}
+        )
         msg.header.stamp = self.get_clock().now().to_msg()
         if self.rec is not None:
             self.last_ticks = self._ticks(self.rec)
@@ -288,8 +349,10 @@ class RecorderNode(Node):
             age = self._silent_for(topic)
             if age >= SILENT_S and topic not in self.silent:
                 self.silent.add(topic)
-                self.get_logger().warning(f"no message on {topic} for {age:.1f} s: source stopped or gone? "
-                                          "What arrived is kept; the recording goes on")
+                self.get_logger().warning(
+                    f"no message on {topic} for {age:.1f} s: source stopped or gone? "
+                    "What arrived is kept; the recording goes on"
+                )
             elif age < SILENT_S and topic in self.silent:
                 self.silent.discard(topic)
                 self.get_logger().info(f"{topic} is back")
@@ -322,23 +385,38 @@ class RecorderNode(Node):
             try:
                 result = bags.reindex(bag)
             except BagError as exc:
-                self.get_logger().warning(f"{bag} was left open (recorder killed?) and could not be reindexed: {exc}")
+                self.get_logger().warning(
+                    f"{bag} was left open (recorder killed?) and could not be reindexed: {exc}"
+                )
                 continue
             kept = sum(f.messages for f in result.files)
             lost = "; ".join(f"{f.path.name} lost: {f.lost}" for f in result.files if not f.closed)
-            self.get_logger().warning(f"{bag} was left open (recorder killed?): reindexed: {kept} messages "
-                                      f"kept; {lost}; originals kept as *.mcap.orig")
+            self.get_logger().warning(
+                f"{bag} was left open (recorder killed?): reindexed: {kept} messages "
+                f"kept; {lost}; originals kept as *.mcap.orig"
+            )
 
     def _ticks(self, rec: Recording) -> tuple[int, int, int | None, int | None]:
         """(written, missing, first stamp, last stamp) of the joint states of a recording."""
         js = self._ticks_topic()
         counter = rec.counters.get(js)
-        return (rec.writer.counts.get(js, 0), _missing(rec), counter and counter.first, counter and counter.last)
+        return (
+            rec.writer.counts.get(js, 0),
+            _missing(rec),
+            counter and counter.first,
+            counter and counter.last,
+        )
 
     def _ticks_topic(self) -> str:
         """The joint states the status counts ticks on: the first JointState topic of ``topics``."""
-        return next((t for t in self.required if t in self.subs and self.subs[t][1] == bags.JOINT_STATE_TYPE),
-                    self.resolve_topic_name("orthoglide/joint_states"))
+        return next(
+            (
+                t
+                for t in self.required
+                if t in self.subs and self.subs[t][1] == bags.JOINT_STATE_TYPE
+            ),
+            self.resolve_topic_name("orthoglide/joint_states"),
+        )
 
     def on_start(self, req: Any, res: Any) -> Any:
         res.success = False
@@ -353,8 +431,15 @@ class RecorderNode(Node):
             tags = bags.BagTags.checked(req.condition, req.payload_mass,
                                         **self._payload_shape(req.condition),
                                         **robot_sides(p["robot"]))
-            writer = open_bag(p["output_dir"], req.name, tags, p["compression"], p["chunk_duration"],
-                              p["split_duration"], p["split_size"])
+            writer = open_bag(
+                p["output_dir"],
+                req.name,
+                tags,
+                p["compression"],
+                p["chunk_duration"],
+                p["split_duration"],
+                p["split_size"],
+            )
         except OrthoglideError as exc:
             res.message = str(exc)
             return res
@@ -393,7 +478,9 @@ class RecorderNode(Node):
         """payload_* back to their launch values: what a start said is not carried over."""
         from rclpy.parameter import Parameter
 
-        changed = [Parameter(k, value=v) for k, v in self.payload_defaults.items() if self.p[k] != v]
+        changed = [
+            Parameter(k, value=v) for k, v in self.payload_defaults.items() if self.p[k] != v
+        ]
         if changed:
             self.set_parameters(changed)
 
@@ -409,8 +496,10 @@ class RecorderNode(Node):
             check_frame(p["robot"], p["payload_frame"])
             out["payload_frame"] = p["payload_frame"]
         if len(p["payload_com"]) != 3 or len(p["payload_inertia"]) != 6:
-            raise ConfigError("parameters payload_com (3 numbers, m) and payload_inertia (6, kg·m²) "
-                              f"have {len(p['payload_com'])} and {len(p['payload_inertia'])}")
+            raise ConfigError(
+                "parameters payload_com (3 numbers, m) and payload_inertia (6, kg·m²) "
+                f"have {len(p['payload_com'])} and {len(p['payload_inertia'])}"
+            )
         known = p["payload_known"] or None
         com, inertia = any(p["payload_com"]), any(p["payload_inertia"])
         if known in ("com", "point"):  # a CoM (when given), no inertia
@@ -428,7 +517,9 @@ class RecorderNode(Node):
     def on_stop(self, req: Any, res: Any) -> Any:
         if self.rec is None:
             res.success = False
-            res.message = "not recording" + (f" (the last recording ended: {self.ended})" if self.ended else "")
+            res.message = "not recording" + (
+                f" (the last recording ended: {self.ended})" if self.ended else ""
+            )
             return res
         res.success, res.message = self._end()
         return res
@@ -456,8 +547,10 @@ class RecorderNode(Node):
             message = (f"nothing recorded on {js} (no publisher, or one whose QoS does not match); "
                        f"{rec.writer.path} holds no data")
         if not drained:
-            message += (f"; the intake did not hand over what it held within {STOP_DRAIN_S:g} s: the last "
-                        "messages received may be missing")
+            message += (
+                f"; the intake did not hand over what it held within {STOP_DRAIN_S:g} s: the last "
+                "messages received may be missing"
+            )
         self.ended = message if rec.error else ""
         self.last_ticks = self._ticks(rec)
         counter = rec.counters.get(js)
@@ -501,8 +594,15 @@ def _check(p: dict[str, Any]) -> None:
 def main(argv: list[str] | None = None) -> int:
     argv = sys.argv if argv is None else argv
     if "-h" in argv or "--help" in argv:
-        print(usage("usage: ros2 run orthoglide_ident recorder [--ros-args -p NAME:=VALUE ... | --params-file "
-                    "config/recorder.yaml]", DOC, PARAMETERS))
+        print(
+            usage(
+                "usage: ros2 run orthoglide_ident recorder [--ros-args -p NAME:=VALUE ... | "
+                "--params-file "
+                "config/recorder.yaml]",
+                DOC,
+                PARAMETERS,
+            )
+        )
         return 0
     return spin(RecorderNode, argv, "recorder")
 

@@ -25,8 +25,9 @@ from __future__ import annotations
 import os
 import threading
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any, Callable
+from typing import Any
 
 import rclpy
 from rclpy.exceptions import InvalidHandle
@@ -79,9 +80,12 @@ class BatchTaker:
         self._stop = threading.Event()
         self._drains: list[threading.Event] = []  # drain() calls waiting for the next full take
         self.failures = 0  # batches whose callback raised (logged, the thread goes on)
-        self.last_take = time.monotonic()  # when the last take started: what was pending then is handed over
+        # when the last take started: what was pending then is handed over
+        self.last_take = time.monotonic()
         self._log = FailureLog(owner.get_logger())
-        self._thread = threading.Thread(target=self._run, name=f"{owner.get_name()}-rx", daemon=True)
+        self._thread = threading.Thread(
+            target=self._run, name=f"{owner.get_name()}-rx", daemon=True
+        )
         self._thread.start()
 
     def add(self, topic: BatchTopic) -> None:
@@ -94,7 +98,8 @@ class BatchTaker:
             new, self._new = self._new, []
         for t in new:
             name = self.owner.resolve_topic_name(t.topic)
-            if name in self._topics:  # a new QoS for a topic taken already: replace its subscription
+            # a new QoS for a topic taken already: replace its subscription
+            if name in self._topics:
                 i = self._topics.index(name)
                 self.node.destroy_subscription(self.subs[i][0])
                 del self.subs[i], self._topics[i]
@@ -104,7 +109,8 @@ class BatchTaker:
 
     def drain(self, timeout_s: float) -> bool:
         """Return once every message the subscriptions hold now has been handed over (one full
-        take started after this call), or after ``timeout_s``: False then, or if the thread is gone."""
+        take started after this call), or after ``timeout_s``: False then, or if the thread is
+        gone."""
         done = threading.Event()
         with self._lock:
             self._drains.append(done)
@@ -129,7 +135,8 @@ class BatchTaker:
             self._real_time()
         try:
             while not self._stop.is_set() and ctx.ok():
-                with self._lock:  # these calls are served by the take below, which starts after them
+                # these calls are served by the take below, which starts after them
+                with self._lock:
                     drains, self._drains = self._drains, []
                 self._subscribe_new()
                 if self.subs:
@@ -150,9 +157,15 @@ class BatchTaker:
                     time.sleep(self.period_s)  # let messages gather: one wake-up takes them all
         except (InvalidHandle, RuntimeError) as exc:
             if not self._stop.is_set() and ctx.ok():
-                cannot_go_on(self.owner, f"its intake of {', '.join(self._topics)} failed: {type(exc).__name__}: {exc}")
+                cannot_go_on(
+                    self.owner,
+                    f"its intake of {', '.join(self._topics)} failed: {type(exc).__name__}: {exc}",
+                )
         except Exception as exc:  # noqa: BLE001 - a node deaf to its topics must not stay up
-            cannot_go_on(self.owner, f"its intake of {', '.join(self._topics)} failed: {type(exc).__name__}: {exc}")
+            cannot_go_on(
+                self.owner,
+                f"its intake of {', '.join(self._topics)} failed: {type(exc).__name__}: {exc}",
+            )
         # else: closed, or shutting down
 
     def _hand_over(self, on_batch: Callable[[Batch], None], batch: Batch, topic: str) -> None:

@@ -38,7 +38,7 @@ class CoreLog(logging.Handler):
         except Exception:  # a log line must never break an identification
             self.handleError(record)
 
-    def __enter__(self) -> "CoreLog":
+    def __enter__(self) -> CoreLog:
         core = logging.getLogger(CORE_LOGGER)
         self._level = core.level
         if core.getEffectiveLevel() > logging.INFO:

@@ -23,7 +23,8 @@ from __future__ import annotations
 import functools
 import time
 import traceback
-from typing import Any, Callable
+from collections.abc import Callable
+from typing import Any
 
 REPEAT_LOG_S = 5.0  # a callback failing at 1 kHz logs once per this many seconds
 FATAL_ATTRIBUTE = "cannot_go_on_reason"
@@ -56,7 +57,9 @@ class FailureLog:
         t_last, n_last = self._logged.get(what, (float("-inf"), 0))
         now = time.monotonic()
         if now - t_last >= REPEAT_LOG_S:
-            again = f" ({n - n_last - 1} more failure(s) since the last line)" if n - n_last > 1 else ""
+            again = (
+                f" ({n - n_last - 1} more failure(s) since the last line)" if n - n_last > 1 else ""
+            )
             self.logger.error(f"{what} failed: {reason}; {consequence}{again}")
             self.logger.debug("".join(traceback.format_exception(exc)))
             self._logged[what] = (now, n)
@@ -83,7 +86,9 @@ class CallbackGuard:
         for e in node.subscriptions:
             self._wrap(e, f"subscription {e.topic_name}", self._plain_wrapper)
         for e in node.timers:
-            self._wrap(e, f"timer {getattr(e.callback, '__qualname__', 'callback')}", self._plain_wrapper)
+            self._wrap(
+                e, f"timer {getattr(e.callback, '__qualname__', 'callback')}", self._plain_wrapper
+            )
 
     @staticmethod
     def _wrap(entity: Any, what: str, make: Callable[[Callable, str, Any], Callable]) -> None:
@@ -118,7 +123,8 @@ class CallbackGuard:
 
 
 def failure_response(srv_type: Any, message: str) -> Any:
-    """A fresh response of ``srv_type`` with ``success: false`` and ``message`` (when it has them)."""
+    """A fresh response of ``srv_type`` with ``success: false`` and ``message`` (when it has
+    them)."""
     response = srv_type.Response()
     if hasattr(response, "success"):
         response.success = False

@@ -11,8 +11,9 @@ from __future__ import annotations
 
 import array
 import math
+from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass
-from typing import Any, Callable, Iterable, Mapping
+from typing import Any
 
 from orthoglide_ident.errors import ConfigError, OrthoglideError
 
@@ -69,7 +70,11 @@ class Param:
                 return value
             raise bad()
         if kind == "float":
-            if isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value):
+            if (
+                isinstance(value, (int, float))
+                and not isinstance(value, bool)
+                and math.isfinite(value)
+            ):
                 return float(value)
             raise bad()
         if isinstance(value, array.array):  # rclpy hands numeric arrays over as array.array
@@ -80,16 +85,24 @@ class Param:
             raise bad()
         if isinstance(value, (int, float)) and not isinstance(value, bool):
             value = [value]
-        if isinstance(value, (list, tuple)) and all(isinstance(v, (int, float)) and not isinstance(v, bool)
-                                                    and math.isfinite(v) for v in value):
+        if isinstance(value, (list, tuple)) and all(
+            isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+            for v in value
+        ):
             return [float(v) for v in value]
         raise bad()
 
 
 def usage(synopsis: str, doc: str, table: Iterable[Param]) -> str:
     """--help text: usage line, the node's description, then every parameter."""
-    lines = [synopsis, "", doc.strip(), "", "ROS parameters (--ros-args -p NAME:=VALUE or --params-file FILE.yaml;"
-             " * = may be changed while running with ros2 param set):"]
+    lines = [
+        synopsis,
+        "",
+        doc.strip(),
+        "",
+        "ROS parameters (--ros-args -p NAME:=VALUE or --params-file FILE.yaml;"
+        " * = may be changed while running with ros2 param set):",
+    ]
     for p in table:
         default = repr(p.default) if not isinstance(p.default, str) else f'"{p.default}"'
         lines.append(f"  {p.name + (' *' if p.dynamic else ''):<22} {p.kind:<8} default {default}")
@@ -107,7 +120,9 @@ def declare(node: Any, table: Iterable[Param]) -> dict[str, Any]:
 
     values = {}
     for p in table:
-        desc = ParameterDescriptor(description=p.description, dynamic_typing=True, read_only=not p.dynamic)
+        desc = ParameterDescriptor(
+            description=p.description, dynamic_typing=True, read_only=not p.dynamic
+        )
         value = node.declare_parameter(p.name, p.default, desc).value
         values[p.name] = p.coerce(value)
     return values
@@ -151,11 +166,21 @@ def from_command_line(argv: list[str], name: str, nodes: Iterable[str]) -> Any:
             ros = True
         elif arg == "--":
             ros = False
-        elif ros and arg in ("-p", "--param") and i + 1 < len(argv) and argv[i + 1].startswith(f"{name}:="):
+        elif (
+            ros
+            and arg in ("-p", "--param")
+            and i + 1 < len(argv)
+            and argv[i + 1].startswith(f"{name}:=")
+        ):
             value = yaml.safe_load(argv[i + 1].split(":=", 1)[1])
         elif ros and arg == "--params-file" and i + 1 < len(argv):
             files.append(argv[i + 1])
-        elif ros and arg in ("-r", "--remap") and i + 1 < len(argv) and argv[i + 1].startswith("__node:="):
+        elif (
+            ros
+            and arg in ("-r", "--remap")
+            and i + 1 < len(argv)
+            and argv[i + 1].startswith("__node:=")
+        ):
             names.append(argv[i + 1].split(":=", 1)[1])
     if value is not None:
         return value

@@ -15,8 +15,10 @@ The signal is tied to the *thread* that started the child: start children from t
 (or one that lives as long as they should). Elsewhere than Linux ``popen`` is plain Popen.
 
 A script that runs a node set (the demo, a benchmark) calls ``interrupt_on_signals()`` and gives
-rclpy no signal handlers of its own (``rclpy.init(signal_handler_options=SignalHandlerOptions.NO)``):
-SIGTERM and SIGHUP then raise ``Interrupted`` in the main thread like Ctrl-C, its ``with``/``finally``
+rclpy no signal handlers of its own
+(``rclpy.init(signal_handler_options=SignalHandlerOptions.NO)``):
+SIGTERM and SIGHUP then raise ``Interrupted`` in the main thread like Ctrl-C, its
+``with``/``finally``
 blocks stop the children, and the script prints one line (rclpy's own SIGTERM handler shut the
 context down under the running code instead: chained RCLError tracebacks).
 """

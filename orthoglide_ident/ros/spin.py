@@ -74,8 +74,14 @@ def check_params_files(args: list[str]) -> None:
             line = f" (line {where.line + 1})" if where is not None else ""
             raise ConfigError(f"parameter file {f} is not valid YAML{line}: "
                               f"{getattr(exc, 'problem', None) or exc}") from None
-        ok = isinstance(doc, dict) and doc and all(
-            isinstance(v, dict) and isinstance(v.get("ros__parameters"), dict) for v in doc.values())
+        ok = (
+            isinstance(doc, dict)
+            and doc
+            and all(
+                isinstance(v, dict) and isinstance(v.get("ros__parameters"), dict)
+                for v in doc.values()
+            )
+        )
         if not ok:
             raise ConfigError(f"parameter file {f} is not a ROS 2 parameter file: expected "
                               "'<node name or /**>:' then 'ros__parameters:' and the parameters")
@@ -84,10 +90,16 @@ def check_params_files(args: list[str]) -> None:
 def _warn_unknown_parameters(node: Any) -> None:
     """A parameter set for this node (file or -p) that it does not have: most likely a typo."""
     given = set(getattr(node, "_parameter_overrides", {}))
-    unknown = sorted(n for n in given - set(getattr(node, "_parameters", {})) if not n.startswith("qos_overrides."))
+    unknown = sorted(
+        n
+        for n in given - set(getattr(node, "_parameters", {}))
+        if not n.startswith("qos_overrides.")
+    )
     if unknown:
-        node.get_logger().warning(f"ignored parameter(s) this node does not have: {', '.join(unknown)} "
-                                  "(a typo? --help lists the parameters)")
+        node.get_logger().warning(
+            f"ignored parameter(s) this node does not have: {', '.join(unknown)} "
+            "(a typo? --help lists the parameters)"
+        )
 
 
 def _init_ros(args: list[str], prog: str) -> int | None:
@@ -144,10 +156,13 @@ def _stop_on_signals() -> tuple[threading.Event, list[int]]:
 def _run(node: Any, executor: Any, guard: CallbackGuard, stop: threading.Event) -> int:
     """Serve ``node`` until a stop request, the end of its main loop, an external shutdown, or a
     reason it cannot go on (exit code 1, logged)."""
-    spinner = threading.Thread(target=_serve, args=(executor, guard, stop), name="executor", daemon=True)
+    spinner = threading.Thread(
+        target=_serve, args=(executor, guard, stop), name="executor", daemon=True
+    )
     spinner.start()
     try:
-        if hasattr(node, "main_loop"):  # a node with its own main loop (the driver's ticks) returns on stop
+        # a node with its own main loop (the driver's ticks) returns on stop
+        if hasattr(node, "main_loop"):
             node.main_loop(stop)
         while not stop.is_set() and not getattr(node, "finished", False):
             if not spinner.is_alive():
@@ -158,8 +173,10 @@ def _run(node: Any, executor: Any, guard: CallbackGuard, stop: threading.Event) 
                 break
             spinner.join(IDLE_WAIT_S)
         if fatal_reason(node) and not stop.is_set():
-            node.get_logger().error(f"cannot go on: {fatal_reason(node)}; exiting with code 1 (ros2 launch "
-                                    "respawn or a supervisor restarts the node)")
+            node.get_logger().error(
+                f"cannot go on: {fatal_reason(node)}; exiting with code 1 (ros2 launch "
+                "respawn or a supervisor restarts the node)"
+            )
             return 1
         return 0
     finally:
@@ -191,7 +208,9 @@ def spin(make_node: Callable[[], Any], args: list[str], prog: str, threads: int 
         guard = CallbackGuard(node)
         guard.wrap_all()
         _warn_unknown_parameters(node)
-        executor = MultiThreadedExecutor(num_threads=threads) if threads > 1 else SingleThreadedExecutor()
+        executor = (
+            MultiThreadedExecutor(num_threads=threads) if threads > 1 else SingleThreadedExecutor()
+        )
         executor.add_node(node)
         code = _run(node, executor, guard, stop)
     except KeyboardInterrupt:

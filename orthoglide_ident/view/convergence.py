@@ -16,14 +16,14 @@ fraction of their σ.
 """
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Sequence
 
 import numpy as np
 
 from orthoglide_ident.errors import OrthoglideError
-from orthoglide_ident.identify.solve.factors import RecordFactors
 from orthoglide_ident.identify.observe.equations import Observations
+from orthoglide_ident.identify.solve.factors import RecordFactors
 from orthoglide_ident.identify.solve.tls import ExcitationLimits, check_excitation, idim_tls
 
 MAX_POINTS = 60  # steps at most (longer records: longer steps; each costs a solve)
@@ -50,7 +50,9 @@ def record_seconds(obs: Observations) -> float:
 
 def _rows(obs: Observations, sel: np.ndarray) -> np.ndarray:
     """[W | W_kl | v_τ] of the selected rows: (n_b + 2, n_joints, r)."""
-    return np.concatenate([obs.W[:, sel].transpose(2, 0, 1), obs.w_m[None, :, sel], obs.v_tau[None, :, sel]])
+    return np.concatenate(
+        [obs.W[:, sel].transpose(2, 0, 1), obs.w_m[None, :, sel], obs.v_tau[None, :, sel]]
+    )
 
 
 def _fold_upto(f: RecordFactors, obs: Observations, done: int, tau: float) -> int:
@@ -93,8 +95,13 @@ def gain_convergence(observations: list[Observations], step_s: float = 0.5, weig
     return points
 
 
-def _solve(factors: list[RecordFactors], weighting: bool, noisy_columns: str, limits: ExcitationLimits,
-           joint_names: tuple[str, ...]) -> tuple[np.ndarray, np.ndarray] | None:
+def _solve(
+    factors: list[RecordFactors],
+    weighting: bool,
+    noisy_columns: str,
+    limits: ExcitationLimits,
+    joint_names: tuple[str, ...],
+) -> tuple[np.ndarray, np.ndarray] | None:
     try:
         sol = idim_tls(factors, weighting, noisy_columns=noisy_columns)
         check_excitation(sol, limits, None, joint_names)

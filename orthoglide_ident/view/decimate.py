@@ -7,7 +7,7 @@ the stamps (joint states, currents and setpoints of one tick together).
 """
 from __future__ import annotations
 
-from typing import Sequence
+from collections.abc import Sequence
 
 import numpy as np
 
@@ -17,7 +17,9 @@ def cdr_stamps(raw: Sequence[bytes]) -> np.ndarray:
     4 bytes of encapsulation, then sec int32, nanosec uint32), without deserializing them."""
     if not raw:
         return np.empty(0, np.int64)
-    heads = np.frombuffer(b"".join(r[4:12] for r in raw), dtype=np.dtype([("sec", "<i4"), ("nanosec", "<u4")]))
+    heads = np.frombuffer(
+        b"".join(r[4:12] for r in raw), dtype=np.dtype([("sec", "<i4"), ("nanosec", "<u4")])
+    )
     return heads["sec"].astype(np.int64) * 1_000_000_000 + heads["nanosec"].astype(np.int64)
 
 

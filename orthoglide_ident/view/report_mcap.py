@@ -17,7 +17,6 @@ instant in its record for the forces, the longest record's end for the result. T
 from __future__ import annotations
 
 import dataclasses
-
 from pathlib import Path
 
 import numpy as np
@@ -41,7 +40,9 @@ def _limits(options: dict, nominal_gains: list[float]) -> ExcitationLimits:
     return opts.limits(nominal_gains)
 
 
-def report_messages(res: IdentificationResult) -> tuple[dict[str, list[tuple[int, dict]]], dict[str, str]]:
+def report_messages(
+    res: IdentificationResult,
+) -> tuple[dict[str, list[tuple[int, dict]]], dict[str, str]]:
     """Per channel (log time ns, message) in time order, and the metadata record's entries."""
     opts = res.diagnostics.get("options", {})
     joints = list(res.joint_names)
@@ -55,11 +56,18 @@ def report_messages(res: IdentificationResult) -> tuple[dict[str, list[tuple[int
             out[schemas.REPORT_CONVERGENCE].append((ns, schemas.convergence(
                 ns, p.seconds, p.unloaded_seconds, p.loaded_seconds, joints, p.gains, p.rel_std)))
     val, crossed = validation_for_plot(res)
-    meta = {"bags": ", ".join(res.bags), "method": res.method,
-            "time_axis": "log time = seconds from the start of a record (convergence: of every record)",
-            "records": "; ".join(f"{o.source} ({o.condition}) {record_seconds(o):.3f} s" for o in res.observations)}
+    meta = {
+        "bags": ", ".join(res.bags),
+        "method": res.method,
+        "time_axis": "log time = seconds from the start of a record (convergence: of every record)",
+        "records": "; ".join(
+            f"{o.source} ({o.condition}) {record_seconds(o):.3f} s" for o in res.observations
+        ),
+    }
     if val is not None:
-        meta["forces_record"] = f"{val.source} ({'cross-validation' if crossed else 'identification record'})"
+        meta["forces_record"] = (
+            f"{val.source} ({'cross-validation' if crossed else 'identification record'})"
+        )
         ticks = int(res.diagnostics.get("decimation", 1))
         for k, t in enumerate(np.asarray(val.t, float)):
             ns = round(t * NS)
@@ -81,10 +89,16 @@ def write_report_mcap(res: IdentificationResult, path: str | Path) -> Path:
     try:
         writer = foxglove.open_mcap(path, allow_overwrite=True, context=ctx)
     except (RuntimeError, OSError) as exc:
-        raise ConfigError(f"cannot write {path}: {str(exc).removeprefix('FoxgloveError: ')}") from None
+        raise ConfigError(
+            f"cannot write {path}: {str(exc).removeprefix('FoxgloveError: ')}"
+        ) from None
     with writer:
-        channels = {c: foxglove.Channel("/" + c, schema=schemas.SCHEMAS[c], context=ctx) for c in CHANNELS}
-        ordered = sorted(((ns, c, msg) for c, items in messages.items() for ns, msg in items), key=lambda x: x[0])
+        channels = {
+            c: foxglove.Channel("/" + c, schema=schemas.SCHEMAS[c], context=ctx) for c in CHANNELS
+        }
+        ordered = sorted(
+            ((ns, c, msg) for c, items in messages.items() for ns, msg in items), key=lambda x: x[0]
+        )
         for ns, topic, msg in ordered:  # log times non-decreasing through the file
             channels[topic].log(msg, log_time=ns)
         writer.write_metadata("orthoglide_report", meta)

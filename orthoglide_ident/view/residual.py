@@ -14,7 +14,8 @@ row: the residual runs that far behind the newest tick. Only consecutive ticks a
 together; a gap (lost ticks) restarts the filter.
 
 Rows are averaged over blocks of ``block_s`` (the view's period, 20 ms: 20 ticks at 1 kHz): one
-value per joint a browser can plot at 50 Hz, with the noise of 20 ticks averaged away. Joints are those of the robot model, in
+value per joint a browser can plot at 50 Hz, with the noise of 20 ticks averaged away. Joints are
+those of the robot model, in
 its order; the messages may carry them in any order, with others beside them.
 
 A robot with a transmission (model/transmission.py) is identified in actuator space, and so is
@@ -31,8 +32,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from orthoglide_ident.errors import ConfigError
-from orthoglide_ident.identify.observe.filtering import filter_horizon, filtered_states, zero_phase_butterworth
 from orthoglide_ident.identify.live.recording import channel_maps
+from orthoglide_ident.identify.observe.filtering import (
+    filter_horizon,
+    filtered_states,
+    zero_phase_butterworth,
+)
 from orthoglide_ident.identify.options import IdentifyOptions
 from orthoglide_ident.model.robot import RobotModel
 
@@ -55,12 +60,17 @@ class ForceBlock:
 class ForceResidual:
     """Pairs joint positions and current references by stamp and gives ``ForceBlock``s."""
 
-    def __init__(self, model: RobotModel, block_s: float = 0.02, options: IdentifyOptions | None = None) -> None:
+    def __init__(
+        self, model: RobotModel, block_s: float = 0.02, options: IdentifyOptions | None = None
+    ) -> None:
         opts = options or IdentifyOptions()
-        self.model, self.block_s, self.block = model, float(block_s), 1  # ticks per block, once the period is known
+        # ticks per block, once the period is known
+        self.model, self.block_s, self.block = model, float(block_s), 1
         self.transmission = model.transmission
         # the channels q and v arrive on, and their map to the model's (a transmission's motors)
-        self.channels = dict(zip(("q", "v"), channel_maps(tuple(model.joint_names), self.transmission)))
+        self.channels = dict(
+            zip(("q", "v"), channel_maps(tuple(model.joint_names), self.transmission))
+        )
         self.opts = opts  # cut-offs resolved at the record's rate (IdentifyOptions.at_rate)
         self.cutoff_hz, self.order = opts.filter_cutoff_hz, opts.filter_order
         self.zoh_shift, self.filter_currents = opts.zoh_shift, opts.filter_currents
@@ -88,9 +98,11 @@ class ForceResidual:
         index = {n: i for i, n in enumerate(self.model.names)}
         unknown = [n for n in names if n not in index]
         if unknown or len(names) != len(values):
-            raise ConfigError(f"identified parameters are not those of robot {self.model.name}'s base model "
-                              f"(unknown: {', '.join(unknown[:4]) or 'none'}; {len(names)} names, "
-                              f"{len(values)} values): no model force")
+            raise ConfigError(
+                f"identified parameters are not those of robot {self.model.name}'s base model "
+                f"(unknown: {', '.join(unknown[:4]) or 'none'}; {len(names)} names, "
+                f"{len(values)} values): no model force"
+            )
         gains = dict(zip(joint_names, drive_gains))
         missing = [j for j in self.model.joint_names if j not in gains]
         if missing:
@@ -104,13 +116,18 @@ class ForceResidual:
         """The payload on the robot now (kg; 0 unloaded): its force is part of the model's."""
         self.payload_mass = float(mass_kg)
 
-    def add(self, topic: str, stamps_ns: np.ndarray, names: tuple[str, ...], values: np.ndarray) -> None:
-        """Decoded ticks of ``topic`` "q" (positions) or "v" (current references), values (m, len(names))."""
+    def add(
+        self, topic: str, stamps_ns: np.ndarray, names: tuple[str, ...], values: np.ndarray
+    ) -> None:
+        """Decoded ticks of ``topic`` "q" (positions) or "v" (current references), values (m,
+        len(names))."""
         wanted, to_model = self.channels[topic]
         missing = [j for j in wanted if j not in names]
         if missing:
-            raise ConfigError(f"{'positions' if topic == 'q' else 'currents'} lack joints {', '.join(missing)} "
-                              f"of robot {self.model.name} (have {', '.join(names)})")
+            raise ConfigError(
+                f"{'positions' if topic == 'q' else 'currents'} lack joints {', '.join(missing)} "
+                f"of robot {self.model.name} (have {', '.join(names)})"
+            )
         values = np.asarray(values, float)[:, [names.index(j) for j in wanted]]
         if to_model is not None:  # a transmission's joint-side channels, to its motors
             values = to_model(values)
@@ -159,7 +176,8 @@ class ForceResidual:
             self.t = np.concatenate([self.t, stamps])  # too few ticks yet to know the period
             self.q, self.v = np.concatenate([self.q, q]), np.concatenate([self.v, v])
             return
-        keep = stamps > (self.t[-1] if len(self.t) else np.iinfo(np.int64).min)  # late ticks: too late
+        # late ticks: too late
+        keep = stamps > (self.t[-1] if len(self.t) else np.iinfo(np.int64).min)
         self._extend(stamps[keep], q[keep], v[keep])
 
     def _set_period(self, diffs: np.ndarray) -> None:
@@ -204,7 +222,9 @@ class ForceResidual:
         n, m = self.model.n_joints, k * B
         tau_model = (self.model.regressor(qf, qd, qdd) @ self.chi).reshape(n, m).T
         if self.payload_mass:
-            tau_model += self.payload_mass * self.model.payload_mass_column(qf, qd, qdd).reshape(n, m).T
+            tau_model += (
+                self.payload_mass * self.model.payload_mass_column(qf, qd, qdd).reshape(n, m).T
+            )
         tau_meas = v * self.g_tau
         means = [a.reshape(k, B, n).mean(axis=1) for a in (tau_meas, tau_model)]
         mid = t[rows].reshape(k, B)[:, B // 2]

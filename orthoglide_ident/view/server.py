@@ -51,13 +51,24 @@ class ViewServer:
         self.context = foxglove.Context()  # its own: nothing else logged in the process reaches it
         self.listener = _Listener()
         try:
-            self.server = foxglove.start_server(name=SERVER_NAME, host=host, port=port, context=self.context,
-                                                server_listener=self.listener, message_backlog_size=backlog)
+            self.server = foxglove.start_server(
+                name=SERVER_NAME,
+                host=host,
+                port=port,
+                context=self.context,
+                server_listener=self.listener,
+                message_backlog_size=backlog,
+            )
         except (RuntimeError, OSError, ValueError, TypeError) as exc:
             reason = str(exc).removeprefix("FoxgloveError: ").splitlines()[0]
-            raise ConfigError(f"cannot serve the Foxglove view on {host}:{port}: {reason}"
-                              + (" (another viewer or program uses it: set the port parameter)"
-                                 if "in use" in reason else "")) from None
+            raise ConfigError(
+                f"cannot serve the Foxglove view on {host}:{port}: {reason}"
+                + (
+                    " (another viewer or program uses it: set the port parameter)"
+                    if "in use" in reason
+                    else ""
+                )
+            ) from None
         self.host, self.port = host, self.server.port
         self.channels: dict[str, Any] = {}
         self.sent: collections.Counter[str] = collections.Counter()  # messages logged per topic
@@ -75,7 +86,9 @@ class ViewServer:
 
     def log(self, topic: str, msg: dict[str, Any], log_time_ns: int) -> None:
         """Queue ``msg`` for every client subscribed to ``topic`` (never waits for one)."""
-        self.channels[topic].log(json.dumps(msg, allow_nan=False).encode(), log_time=int(log_time_ns))
+        self.channels[topic].log(
+            json.dumps(msg, allow_nan=False).encode(), log_time=int(log_time_ns)
+        )
         self.sent[topic] += 1
 
     def close(self) -> None:

@@ -1,7 +1,9 @@
 """Write a simulated robot's bags: unloaded, the heavier payload (TLS) and the lighter one (WLS
-check), tagged as the recorder tags them, the payloads' frame, centre of mass and inertia in the tag.
+check), tagged as the recorder tags them, the payloads' frame, centre of mass and inertia in the
+tag.
 
-    python -m orthoglide_sim.arms.bags --robot ur5 --duration 60 --out DIR [--seed 0] [--params YAML]
+    python -m orthoglide_sim.arms.bags --robot ur5 --duration 60 --out DIR [--seed 0] [--params
+    YAML]
     python -m orthoglide_sim.arms.bags --robot five_bar --duration 60 --out DIR
 
 A serial arm (arm_record, MuJoCo): bags DIR/unloaded, DIR/loaded_2kg, DIR/loaded_1kg. A closed
@@ -62,11 +64,17 @@ def write_record(path: Path, rec: ArmRecord, mass_only: bool = False) -> Path:
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m orthoglide_sim.arms.bags", description=__doc__.splitlines()[0])
-    ap.add_argument("--robot", default="ur5", help="bundled robot name, robot YAML or URDF (default ur5)")
+    ap = argparse.ArgumentParser(
+        prog="python -m orthoglide_sim.arms.bags", description=__doc__.splitlines()[0]
+    )
+    ap.add_argument(
+        "--robot", default="ur5", help="bundled robot name, robot YAML or URDF (default ur5)"
+    )
     ap.add_argument("--duration", type=float, default=60.0, help="seconds per record (default 60)")
     ap.add_argument("--out", type=Path, required=True, help="output folder")
-    ap.add_argument("--seed", type=int, default=0, help="current-noise seed of the first record (default 0)")
+    ap.add_argument(
+        "--seed", type=int, default=0, help="current-noise seed of the first record (default 0)"
+    )
     ap.add_argument("--params", default=None, help="YAML overriding the robot's truth "
                     "(config/arm_plant.yaml, config/five_bar_plant.yaml)")
     args = ap.parse_args(argv)
@@ -81,8 +89,10 @@ def main(argv: list[str] | None = None) -> int:
                            seed=args.seed + k, truth=truth)
             path = write_record(args.out / name, rec)
             rms = ", ".join(f"{1e3 * v:.3f}" for v in rec.tracking_rms)
-            print(f"{path}: {args.duration:g} s, {rec.payload_mass:g} kg, {trajectory}, tracking rms "
-                  f"[{rms}] mrad, {rec.saturated_ticks} saturated ticks")
+            print(
+                f"{path}: {args.duration:g} s, {rec.payload_mass:g} kg, {trajectory}, tracking rms "
+                f"[{rms}] mrad, {rec.saturated_ticks} saturated ticks"
+            )
     except OrthoglideError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2

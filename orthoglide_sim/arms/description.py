@@ -28,7 +28,14 @@ MOVABLE = ("revolute", "continuous", "prismatic")
 def rpy_matrix(rpy) -> np.ndarray:
     """URDF's fixed-axis roll-pitch-yaw rotation R = Rz(yaw) Ry(pitch) Rx(roll)."""
     r, p, y = (float(v) for v in rpy)
-    cr, sr, cp, sp, cy, sy = math.cos(r), math.sin(r), math.cos(p), math.sin(p), math.cos(y), math.sin(y)
+    cr, sr, cp, sp, cy, sy = (
+        math.cos(r),
+        math.sin(r),
+        math.cos(p),
+        math.sin(p),
+        math.cos(y),
+        math.sin(y),
+    )
     return np.array([[cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
                      [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
                      [-sp, cp * sr, cp * cr]])
@@ -103,7 +110,9 @@ def _inertial(link: ET.Element, where: str) -> LinkInertial | None:
     xyz = _floats(None if origin is None else origin.get("xyz"), 3, f"{where} origin xyz")
     rpy = _floats(None if origin is None else origin.get("rpy"), 3, f"{where} origin rpy")
     i = el.find("inertia")
-    xx, xy, xz, yy, yz, zz = (float(i.get(k, "0")) for k in ("ixx", "ixy", "ixz", "iyy", "iyz", "izz"))
+    xx, xy, xz, yy, yz, zz = (
+        float(i.get(k, "0")) for k in ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")
+    )
     R = rpy_matrix(rpy)
     I_origin = np.array([[xx, xy, xz], [xy, yy, yz], [xz, yz, zz]])
     return LinkInertial(mass, xyz, R @ I_origin @ R.T)
@@ -123,20 +132,28 @@ def parse_urdf(text: str, where: str) -> tuple[list[tuple[str, str, str, str, ET
         inertial = _inertial(link, f"{where}: link {link.get('name')}")
         if inertial is not None:
             inertials[link.get("name")] = inertial
-    joints = [(j.get("name"), j.get("type"), j.find("parent").get("link"), j.find("child").get("link"), j)
-              for j in root.findall("joint")]
+    joints = [
+        (j.get("name"), j.get("type"), j.find("parent").get("link"), j.find("child").get("link"), j)
+        for j in root.findall("joint")
+    ]
     return joints, inertials
 
 
 def arm_joint(el: ET.Element, kind: str, child: str, gain: float) -> ArmJoint:
     lim = el.find("limit")
     get = (lambda k, d: float(lim.get(k, d))) if lim is not None else (lambda k, d: float(d))
-    lower, upper = (get("lower", "-inf"), get("upper", "inf")) if kind != "continuous" else (-math.inf, math.inf)
+    lower, upper = (
+        (get("lower", "-inf"), get("upper", "inf"))
+        if kind != "continuous"
+        else (-math.inf, math.inf)
+    )
     return ArmJoint(el.get("name"), "prismatic" if kind == "prismatic" else "revolute", child,
                     lower, upper, get("velocity", "inf"), get("effort", "inf"), gain)
 
 
-def _serial_joints(joints, actuated: list[str], gains: list[float], where: str) -> tuple[ArmJoint, ...]:
+def _serial_joints(
+    joints, actuated: list[str], gains: list[float], where: str
+) -> tuple[ArmJoint, ...]:
     """The movable joints in chain order; ConfigError unless they form one chain, all actuated."""
     movable = [j for j in joints if j[1] in MOVABLE]
     names = [j[0] for j in movable]
@@ -168,19 +185,25 @@ def load_arm(spec: str | Path = "ur5") -> ArmDescription:
     that does not parse or a robot that is not a serial arm."""
     path = robots.resolve(spec)
     if path is None:
-        raise ConfigError("the Orthoglide has its own simulator (orthoglide_sim.orthoglide.record); "
-                          "give the arm simulator a serial arm (e.g. ur5, a URDF or a robot YAML)")
+        raise ConfigError(
+            "the Orthoglide has its own simulator (orthoglide_sim.orthoglide.record); "
+            "give the arm simulator a serial arm (e.g. ur5, a URDF or a robot YAML)"
+        )
     data = {"description": path.name} if path.suffix.lower() == ".urdf" else robots.read_yaml(path)
     urdf_path = (path.parent / str(data.get("description", ""))).resolve()
     if urdf_path.suffix.lower() != ".urdf" or not urdf_path.is_file():
-        raise ConfigError(f"robot file {path}: description {data.get('description')!r} is not a URDF file")
+        raise ConfigError(
+            f"robot file {path}: description {data.get('description')!r} is not a URDF file"
+        )
     text = urdf_path.read_text()
     joints, inertials = parse_urdf(text, str(urdf_path))
     movable = [j[0] for j in joints if j[1] in MOVABLE]
     actuated = [str(a) for a in data.get("actuated_joints") or movable]
     gains = [float(g) for g in data.get("nominal_gains") or [1.0] * len(actuated)]
     if len(gains) != len(actuated):
-        raise ConfigError(f"robot file {path}: {len(gains)} nominal gains for {len(actuated)} joints")
+        raise ConfigError(
+            f"robot file {path}: {len(gains)} nominal gains for {len(actuated)} joints"
+        )
     arm_joints = _serial_joints(joints, actuated, gains, str(path))
     name = str(data.get("name") or urdf_path.stem)
     frame = str(data.get("payload_frame") or arm_joints[-1].child)

@@ -14,7 +14,8 @@ joint-torque regressor with drive columns), for a closed chain the product's gen
 (``load_robot(name).regressor``: its base columns, the rows of the actuated joints through the
 loops), whose box (arm_limits) keeps the loops closed away from singularities.
 
-    python -m orthoglide_sim.arms.excitation --robot ur5       # rewrites data/ur5_exciting{1,2}.json
+    python -m orthoglide_sim.arms.excitation --robot ur5       # rewrites
+    data/ur5_exciting{1,2}.json
     python -m orthoglide_sim.arms.excitation --robot five_bar  # data/five_bar_exciting{1,2}.json
 
 The search (best of ``--restarts`` random shapes, then a seeded (1+1) evolution strategy on
@@ -25,8 +26,8 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+from collections.abc import Callable
 from pathlib import Path
-from typing import Callable
 
 import numpy as np
 
@@ -50,10 +51,14 @@ def scaled(traj: FourierTrajectory, limits: MotionLimits, n: int = 2000) -> Four
     mid, span = 0.5 * (dq.max(0) + dq.min(0)), 0.5 * (dq.max(0) - dq.min(0))
     s = np.min([limits.half / span, limits.velocity / np.abs(qd).max(0),
                 limits.acceleration / np.abs(qdd).max(0)], axis=0)
-    return FourierTrajectory(limits.centre - s * mid, traj.a * s[:, None], traj.b * s[:, None], traj.w_f)
+    return FourierTrajectory(
+        limits.centre - s * mid, traj.a * s[:, None], traj.b * s[:, None], traj.w_f
+    )
 
 
-def shape_maker(limits: MotionLimits, K: int, period: float) -> Callable[[np.ndarray], FourierTrajectory]:
+def shape_maker(
+    limits: MotionLimits, K: int, period: float
+) -> Callable[[np.ndarray], FourierTrajectory]:
     """x (2 n K: a then b, joint by joint) -> that shape scaled to the limits."""
     n, w_f = len(limits.centre), 2.0 * np.pi / period
 
@@ -112,11 +117,15 @@ def designed_trajectory(arm: ArmDescription, name: str) -> FourierTrajectory:
     have one series per joint of ``arm``."""
     path = Path(name) if name.endswith(".json") else DATA_DIR / f"{arm.name}_{name}.json"
     if not path.exists():
-        raise ConfigError(f"no trajectory {name!r} for robot {arm.name} ({path} missing): design one with "
-                          f"python -m orthoglide_sim.arms.excitation --robot {arm.name}")
+        raise ConfigError(
+            f"no trajectory {name!r} for robot {arm.name} ({path} missing): design one with "
+            f"python -m orthoglide_sim.arms.excitation --robot {arm.name}"
+        )
     traj = load_fourier(path)
     if traj.a.shape[0] != arm.n:
-        raise ConfigError(f"trajectory {path} has {traj.a.shape[0]} joints, robot {arm.name} has {arm.n}")
+        raise ConfigError(
+            f"trajectory {path} has {traj.a.shape[0]} joints, robot {arm.name} has {arm.n}"
+        )
     return traj
 
 
@@ -136,12 +145,24 @@ def design_regressor(robot: str) -> tuple[ArmDescription, Regressor]:
     return arm, ArmRegressor(arm).base
 
 
-def _write(path: Path, arm: ArmDescription, traj: FourierTrajectory, cond: float, limits: MotionLimits,
-           seed: int) -> None:
+def _write(
+    path: Path,
+    arm: ArmDescription,
+    traj: FourierTrajectory,
+    cond: float,
+    limits: MotionLimits,
+    seed: int,
+) -> None:
     doc = traj.to_dict() | {
-        "robot": arm.name, "joint_names": list(arm.joint_names), "criterion": "cond",
-        "condition_number": cond, "seed": seed,
-        "limits": {k: getattr(limits, k).tolist() for k in ("centre", "half", "velocity", "acceleration")}}
+        "robot": arm.name,
+        "joint_names": list(arm.joint_names),
+        "criterion": "cond",
+        "condition_number": cond,
+        "seed": seed,
+        "limits": {
+            k: getattr(limits, k).tolist() for k in ("centre", "half", "velocity", "acceleration")
+        },
+    }
     path.write_text(json.dumps(doc, indent=1) + "\n")
     print(f"{path}: cond(W) {cond:.1f}, period {traj.period:g} s, {traj.a.shape[1]} harmonics")
 
@@ -149,7 +170,9 @@ def _write(path: Path, arm: ArmDescription, traj: FourierTrajectory, cond: float
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="python -m orthoglide_sim.arms.excitation",
                                  description="Design a robot's exciting trajectories (cond(W)).")
-    ap.add_argument("--robot", default="ur5", help="bundled robot name, robot YAML or URDF (default ur5)")
+    ap.add_argument(
+        "--robot", default="ur5", help="bundled robot name, robot YAML or URDF (default ur5)"
+    )
     ap.add_argument("--harmonics", type=int, default=HARMONICS)
     ap.add_argument("--period", type=float, default=PERIOD, help="s (default 5)")
     ap.add_argument("--restarts", type=int, default=20)
@@ -165,7 +188,9 @@ def main(argv: list[str] | None = None) -> int:
         for k in (1, 2):
             traj, cond = optimise(regressor, limits, args.harmonics, args.period, args.seed + k - 1,
                                   args.restarts, args.steps, verbose=True)
-            _write(design_path(arm.name, k, args.out_dir), arm, traj, cond, limits, args.seed + k - 1)
+            _write(
+                design_path(arm.name, k, args.out_dir), arm, traj, cond, limits, args.seed + k - 1
+            )
     except OrthoglideError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2

@@ -79,7 +79,9 @@ def motion_limits(arm: ArmDescription) -> MotionLimits:
         vel = np.array([j.velocity if math.isfinite(j.velocity) else 2.0 for j in arm.joints])
         table = {"centre": mid, "half": np.minimum(0.4 * span, 1.5), "velocity": 0.5 * vel,
                  "acceleration": 2.5 * vel}
-    margin = np.array([STOP_MARGIN if j.kind == "revolute" else 0.1 * STOP_MARGIN for j in arm.joints])
+    margin = np.array(
+        [STOP_MARGIN if j.kind == "revolute" else 0.1 * STOP_MARGIN for j in arm.joints]
+    )
     return MotionLimits(table["centre"], table["half"], table["velocity"], table["acceleration"],
                         np.maximum(table["centre"] - table["half"] - margin, lo),
                         np.minimum(table["centre"] + table["half"] + margin, hi))

@@ -29,10 +29,15 @@ from orthoglide_ident.errors import ConfigError
 from orthoglide_sim.arms import simulator as asim
 from orthoglide_sim.arms.description import load_arm
 from orthoglide_sim.arms.limits import motion_limits
-from orthoglide_sim.arms.record import (NOISE_STRIDE, ArmRecord, current_noise_std, reference_of,
-                                        trajectory_name)
-from orthoglide_sim.arms.truth import ArmTruth, load_truth
 from orthoglide_sim.arms.plant import MujocoPlant
+from orthoglide_sim.arms.record import (
+    NOISE_STRIDE,
+    ArmRecord,
+    current_noise_std,
+    reference_of,
+    trajectory_name,
+)
+from orthoglide_sim.arms.truth import ArmTruth, load_truth
 from orthoglide_sim.common.trajectories import FourierTrajectory
 
 OMEGA_T = 0.1  # the PID's bandwidth x the mean tick, at most (0.1 at 1 kHz: 100 rad/s)
@@ -135,6 +140,10 @@ def simulate_arm_log(duration_s: float, steps_ns: np.ndarray, robot: str = "ur5"
         saturated += bool(np.any(np.abs(v) >= pid.current_limit))
         plant.step(g_tau * out["cur"][k], int(sub[k]))  # held until the next tick
         asim._check(plant, limits, k, v)
-    printed = out["q_meas"] if not print_resolution else np.round(out["q_meas"] / print_resolution) * print_resolution
+    printed = (
+        out["q_meas"]
+        if not print_resolution
+        else np.round(out["q_meas"] / print_resolution) * print_resolution
+    )
     return ArmRecord(stamps, printed, out["v"], truth, load, out["q"], out["qd"], q_ref,
                      out["cur"], std, trajectory_name(trajectory), seed, saturated)

@@ -31,7 +31,9 @@ def write_mounted_robot(folder: str | Path, robot: str = "ur5",
     """``robot`` (a bundled name or robot YAML) with the payload mount; the new YAML's path."""
     path = robots.resolve(robot)
     if path is None or path.suffix.lower() not in (".yaml", ".yml"):
-        raise ConfigError(f"robot {robot!r}: give a robot YAML (or a bundled name) with a URDF description")
+        raise ConfigError(
+            f"robot {robot!r}: give a robot YAML (or a bundled name) with a URDF description"
+        )
     data = robots.read_yaml(path)
     urdf_path = (path.parent / str(data.get("description", ""))).resolve()
     text = urdf_path.read_text()
@@ -49,6 +51,9 @@ def write_mounted_robot(folder: str | Path, robot: str = "ur5",
     (folder / f"{stem}.urdf").write_text(text[:end] + mount + text[end:])
     data.update(description=f"{stem}.urdf", payload_frame=MOUNT_LINK)
     out = folder / f"{stem}.yaml"
-    out.write_text(f"# {path.name} with a payload mount {offset} m from {frame} (orthoglide_sim.arms.payload_mount)\n"
-                   + yaml.safe_dump(data, sort_keys=False))
+    out.write_text(
+        f"# {path.name} with a payload mount {offset} m from {frame} "
+        "(orthoglide_sim.arms.payload_mount)\n"
+        + yaml.safe_dump(data, sort_keys=False)
+    )
     return out

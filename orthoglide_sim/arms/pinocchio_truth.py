@@ -25,7 +25,8 @@ DRIVE = ("ia", "fv", "fs", "tauoff")
 
 
 def urdf_model(arm: ArmDescription, gravity: float) -> tuple[pin.Model, np.ndarray]:
-    """Pinocchio's model of the URDF (its own inertials) and the v-indices of the actuated joints."""
+    """Pinocchio's model of the URDF (its own inertials) and the v-indices of the actuated
+    joints."""
     try:
         model = pin.buildModelFromXML(arm.urdf_text)
     except (RuntimeError, ValueError) as exc:
@@ -33,7 +34,9 @@ def urdf_model(arm: ArmDescription, gravity: float) -> tuple[pin.Model, np.ndarr
     model.gravity = pin.Motion(np.array([0.0, 0.0, -gravity]), np.zeros(3))
     idx = np.array([model.joints[model.getJointId(j)].idx_v for j in arm.joint_names])
     if model.nv != arm.n or sorted(idx) != list(range(arm.n)):
-        raise ConfigError(f"{arm.name}: Pinocchio model has nv={model.nv} for {arm.n} actuated joints")
+        raise ConfigError(
+            f"{arm.name}: Pinocchio model has nv={model.nv} for {arm.n} actuated joints"
+        )
     return model, idx
 
 
@@ -61,7 +64,8 @@ def truth_model(truth: ArmTruth, payload: ArmPayload | None = None) -> tuple[pin
 
 
 class TruthDynamics:
-    """tau = RNEA(q, q̇, q̈) (with armature) + fv q̇ + tauoff [+ fs sign(q̇)] of the truth, per sample."""
+    """tau = RNEA(q, q̇, q̈) (with armature) + fv q̇ + tauoff [+ fs sign(q̇)] of the truth, per
+    sample."""
 
     def __init__(self, truth: ArmTruth, payload: ArmPayload | None = None):
         self.model, self.idx = truth_model(truth, payload)
@@ -69,7 +73,9 @@ class TruthDynamics:
         self.fv, self.fs = truth.drive_array("damping"), truth.drive_array("frictionloss")
         self.tauoff = truth.drive_array("offset")
 
-    def torques(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray, friction: bool = False) -> np.ndarray:
+    def torques(
+        self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray, friction: bool = False
+    ) -> np.ndarray:
         """(m, n) joint torques for samples (m, n)."""
         q, qd, qdd = (np.atleast_2d(np.asarray(x, float)) for x in (q, qd, qdd))
         out = np.empty_like(q)
@@ -89,7 +95,9 @@ class ArmRegressor:
     criterion cond(W) needs (a regroupable column makes W rank-deficient).
     """
 
-    def __init__(self, arm: ArmDescription, gravity: float = GRAVITY, n_random: int = 400, seed: int = 0):
+    def __init__(
+        self, arm: ArmDescription, gravity: float = GRAVITY, n_random: int = 400, seed: int = 0
+    ):
         self.arm = arm
         self.model, self.idx = urdf_model(arm, gravity)
         self.data = self.model.createData()
@@ -126,7 +134,8 @@ class ArmRegressor:
         return self.standard(q, qd, qdd)[:, self.base_columns]
 
     def standard_vector(self, truth: ArmTruth, payload: ArmPayload | None = None) -> np.ndarray:
-        """pi_st of the truth (and payload) in ``names`` order: W_st pi_st = TruthDynamics with friction."""
+        """pi_st of the truth (and payload) in ``names`` order: W_st pi_st = TruthDynamics with
+        friction."""
         model, _ = truth_model(truth, payload)
         inertial = [model.inertias[i].toDynamicParameters() for i in range(1, model.njoints)]
         drives = [[d.armature, d.damping, d.frictionloss, d.offset]

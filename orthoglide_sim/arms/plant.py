@@ -11,7 +11,8 @@ body masses, centres of mass and full inertia tensors equal the truth to round-o
 
 MuJoCo options: gravity ``arm_truth.GRAVITY`` along -z; RK4 at TIMESTEP (4 steps per 1 kHz
 tick: against 1/32 ms steps the velocity after a tick differs by 2e-9 to 1e-7 rad/s rms on the
-UR5's exciting motion, an equivalent torque below 1e-3 of the current noise's); no contacts (geometry is stripped: ``discardvisual``, no geoms), no joint-limit
+UR5's exciting motion, an equivalent torque below 1e-3 of the current noise's); no contacts
+(geometry is stripped: ``discardvisual``, no geoms), no joint-limit
 constraints (leaving the limits is the simulator's WorkspaceError instead); the inertials exactly
 as given (``balanceinertia="false"``, ``inertiafromgeom="false"``, static links not fused so the
 payload frame exists). Friction loss is MuJoCo's soft constraint (time constant
@@ -104,8 +105,8 @@ class JointStates:
     """The joint state of a MuJoCo plant (``model``, ``data``, ``dof``: its joints' velocity
     addresses, one DOF each), shared by the arm's and the coupled wrist's plants."""
 
-    model: "mujoco.MjModel"
-    data: "mujoco.MjData"
+    model: mujoco.MjModel
+    data: mujoco.MjData
     dof: np.ndarray
 
     def reset(self, q: np.ndarray, qd: np.ndarray) -> None:
@@ -202,5 +203,7 @@ class MujocoPlant(JointStates):
             got = self.body_inertial(name)
             a = np.concatenate([[got.mass], got.com, got.inertia.ravel()])
             b = np.concatenate([[rb.mass], rb.com, rb.inertia.ravel()])
-            errs[name] = float(np.max(np.abs(a - b) / np.maximum(np.abs(b), 1e-300 + np.abs(b).max() * 1e-3)))
+            errs[name] = float(
+                np.max(np.abs(a - b) / np.maximum(np.abs(b), 1e-300 + np.abs(b).max() * 1e-3))
+            )
         return errs

@@ -19,8 +19,8 @@ from orthoglide_sim.arms import simulator as asim
 from orthoglide_sim.arms.description import load_arm
 from orthoglide_sim.arms.excitation import designed_trajectory
 from orthoglide_sim.arms.limits import MotionLimits, motion_limits
-from orthoglide_sim.arms.truth import ArmPayload, ArmTruth, load_truth
 from orthoglide_sim.arms.plant import MujocoPlant
+from orthoglide_sim.arms.truth import ArmPayload, ArmTruth, load_truth
 from orthoglide_sim.arms.unmodelled import DriveState, Unmodelled
 from orthoglide_sim.common.trajectories import FourierTrajectory
 
@@ -61,14 +61,20 @@ class ArmRecord:
 
 def reference_of(arm, trajectory: str | FourierTrajectory) -> FourierTrajectory:
     """A trajectory given by name (designed_trajectory) or as a FourierTrajectory itself."""
-    return trajectory if isinstance(trajectory, FourierTrajectory) else designed_trajectory(arm, trajectory)
+    return (
+        trajectory
+        if isinstance(trajectory, FourierTrajectory)
+        else designed_trajectory(arm, trajectory)
+    )
 
 
 def trajectory_name(trajectory: str | FourierTrajectory) -> str:
     return trajectory if isinstance(trajectory, str) else "designed"
 
 
-def current_noise_std(plant: MujocoPlant, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> np.ndarray:
+def current_noise_std(
+    plant: MujocoPlant, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray
+) -> np.ndarray:
     """(n,) A: the truth's noise fraction of each joint's rms current along the reference."""
     tau = plant.inverse_dynamics(q, qd, qdd, friction=True)
     i_ref = tau / plant.truth.drive_array("g_tau")
@@ -96,14 +102,25 @@ def simulate_arm(duration_s: float, robot: str = "ur5", payload: str | None = No
     limits, plant = limits or motion_limits(arm), MujocoPlant(truth, load)
     N = int(round(duration_s / asim.TICK))
     q_ref, qd_ref, qdd_ref = reference_of(arm, trajectory).evaluate(np.arange(N) * asim.TICK)
-    std = current_noise_std(plant, q_ref[::NOISE_STRIDE], qd_ref[::NOISE_STRIDE], qdd_ref[::NOISE_STRIDE])
-    noise_a = np.random.default_rng(seed).normal(0.0, 1.0, (N, arm.n)) * std if noise else np.zeros((N, arm.n))
+    std = current_noise_std(
+        plant, q_ref[::NOISE_STRIDE], qd_ref[::NOISE_STRIDE], qdd_ref[::NOISE_STRIDE]
+    )
+    noise_a = (
+        np.random.default_rng(seed).normal(0.0, 1.0, (N, arm.n)) * std
+        if noise
+        else np.zeros((N, arm.n))
+    )
     current_limit = np.array([j.effort for j in arm.joints]) / arm.nominal_gains
     torque0 = plant.inverse_dynamics(q_ref[:1], qd_ref[:1], qdd_ref[:1], friction=True)[0]
     inertia = asim.joint_inertia(MujocoPlant(truth), limits.centre)  # tuned once, unloaded
-    pid = asim.ArmPID.tuned(inertia, arm.nominal_gains, current_limit,
-                            asim.quantise(q_ref[0] - qd_ref[0] * asim.TICK, truth.encoder_resolution),
-                            qd_ref[0], torque0)
+    pid = asim.ArmPID.tuned(
+        inertia,
+        arm.nominal_gains,
+        current_limit,
+        asim.quantise(q_ref[0] - qd_ref[0] * asim.TICK, truth.encoder_resolution),
+        qd_ref[0],
+        torque0,
+    )
     plant.reset(q_ref[0], qd_ref[0])
     drive = None
     if effects is not None and effects.any:
@@ -111,8 +128,21 @@ def simulate_arm(duration_s: float, robot: str = "ur5", payload: str | None = No
                              arm.nominal_gains)
     res = asim.run_closed_loop(plant, pid, q_ref, qd_ref, noise_a, limits, drive)
     stamps = start_ns + np.arange(N, dtype=np.int64) * int(round(asim.TICK * 1e9))
-    return ArmRecord(stamps, res.q_meas, res.v_tau, truth, load, res.q, res.qd, q_ref, res.current,
-                     std if noise else np.zeros(arm.n), trajectory_name(trajectory), seed, res.saturated)
+    return ArmRecord(
+        stamps,
+        res.q_meas,
+        res.v_tau,
+        truth,
+        load,
+        res.q,
+        res.qd,
+        q_ref,
+        res.current,
+        std if noise else np.zeros(arm.n),
+        trajectory_name(trajectory),
+        seed,
+        res.saturated,
+    )
 
 
 def _drive_state(plant: MujocoPlant, effects: Unmodelled, inertia: np.ndarray, torque0: np.ndarray,

@@ -4,7 +4,8 @@ The same plant, controller and noise as ``arm_record.simulate_arm``, one tick pe
 node can publish each tick as it happens and change the payload or the trajectory while it runs:
 
     s = ArmSession("ur5", payload=None, trajectory="exciting1", seed=0)
-    tick = s.tick()        # k, q_meas (encoder), velocity estimate, v_tau (A) held over [t_k, t_k+1)
+    tick = s.tick()        # k, q_meas (encoder), velocity estimate, v_tau (A) held over [t_k,
+    t_k+1)
     s.set_payload("2.0")   # mounted now: the motion goes on from the same state
     s.set_trajectory("exciting2", s.k)   # blends in over 2 s (session.BLEND_TIME)
     goal = s.start_goal(times, q, qd, qdd, tolerances)   # a FollowJointTrajectory goal from now on
@@ -33,17 +34,24 @@ from orthoglide_sim.arms import simulator as asim
 from orthoglide_sim.arms.description import load_arm
 from orthoglide_sim.arms.excitation import designed_trajectory
 from orthoglide_sim.arms.limits import motion_limits
+from orthoglide_sim.arms.plant import MujocoPlant
 from orthoglide_sim.arms.record import NOISE_STRIDE, current_noise_std
 from orthoglide_sim.arms.truth import ArmPayload, ArmTruth, RigidBody, load_truth
 from orthoglide_sim.chains.description import load_chain
 from orthoglide_sim.chains.plant import ChainPlant
 from orthoglide_sim.chains.truth import ChainTruth, load_chain_truth
-from orthoglide_sim.common.joint_trajectory import PATH_TOLERANCE_VIOLATED, GoalTracker, Hold, JointTrajectory, Tolerances
-from orthoglide_sim.arms.plant import MujocoPlant
+from orthoglide_sim.common.joint_trajectory import (
+    PATH_TOLERANCE_VIOLATED,
+    GoalTracker,
+    Hold,
+    JointTrajectory,
+    Tolerances,
+)
 from orthoglide_sim.orthoglide.session import Reference
 
 NOISE_BLOCK = 1000  # ticks of current noise drawn at once (the same stream as one draw of all)
-POINT_RADIUS = 0.005  # m, a point-mass payload is a sphere this size (its inertia ~1e-3 of the noise)
+# m, a point-mass payload is a sphere this size (its inertia ~1e-3 of the noise)
+POINT_RADIUS = 0.005
 MAX_POINT_MASS = 20.0  # kg
 HOLD = "hold"  # the trajectory parameter: at rest at the box centre (until a goal moves the arm)
 NOISE_TRAJECTORY = "exciting1"  # the motion whose rms current sizes the noise when holding
@@ -71,14 +79,17 @@ class ArmSession:
         self.limits = motion_limits(arm)
         self._internal: dict[str, object] = {HOLD: Hold(self.limits.centre)}  # goals, holds
         self.reference = Reference(trajectory, self._trajectory)
-        self.period = designed_trajectory(arm, NOISE_TRAJECTORY if trajectory == HOLD else trajectory).period
+        self.period = designed_trajectory(
+            arm, NOISE_TRAJECTORY if trajectory == HOLD else trajectory
+        ).period
         self.goal: GoalTracker | None = None
         self._goal_k0 = 0
         self.payload = resolve_payload(self.truth, payload)
         self.plant = self.Plant(self.truth, self.payload)
         self.g_tau = self.truth.drive_array("g_tau")
         self.current_limit = np.array([j.effort for j in arm.joints]) / arm.nominal_gains
-        self.inertia = (ChainPlant(self.truth).actuated_inertia(self.limits.centre)  # tuned unloaded
+        # tuned unloaded
+        self.inertia = (ChainPlant(self.truth).actuated_inertia(self.limits.centre)
                         if self.Plant is ChainPlant
                         else asim.joint_inertia(MujocoPlant(self.truth), self.limits.centre))
         self.rng = np.random.default_rng(seed)
@@ -100,7 +111,9 @@ class ArmSession:
         reference = (Reference(NOISE_TRAJECTORY, self._trajectory) if self.reference.name == HOLD
                      else self.reference)
         q, qd, qdd = reference.evaluate(np.arange(int(round(window / asim.TICK))))
-        return current_noise_std(self.plant, q[::NOISE_STRIDE], qd[::NOISE_STRIDE], qdd[::NOISE_STRIDE])
+        return current_noise_std(
+            self.plant, q[::NOISE_STRIDE], qd[::NOISE_STRIDE], qdd[::NOISE_STRIDE]
+        )
 
     def _start_on_reference(self) -> None:
         """The plant at rest on the reference of tick k, the PID pre-loaded as simulate_arm's."""
@@ -122,7 +135,11 @@ class ArmSession:
 
     def _trajectory(self, name: str):
         """A reference by name: hold, a goal's (internal), or the arm's designed ones."""
-        return self._internal[name] if name in self._internal else designed_trajectory(self.truth.arm, name)
+        return (
+            self._internal[name]
+            if name in self._internal
+            else designed_trajectory(self.truth.arm, name)
+        )
 
     def set_trajectory(self, name: str, k: int) -> None:
         """Blend into trajectory ``name`` from tick ``k`` on. ConfigError if unknown, still
@@ -132,8 +149,15 @@ class ArmSession:
         self.reference.switch(name, k)
 
     # ---- FollowJointTrajectory goals ---------------------------------------------------------
-    def start_goal(self, times: np.ndarray, q: np.ndarray, qd: np.ndarray | None, qdd: np.ndarray | None,
-                   tolerances: Tolerances, effort: np.ndarray | None = None) -> GoalTracker:
+    def start_goal(
+        self,
+        times: np.ndarray,
+        q: np.ndarray,
+        qd: np.ndarray | None,
+        qdd: np.ndarray | None,
+        tolerances: Tolerances,
+        effort: np.ndarray | None = None,
+    ) -> GoalTracker:
         """Follow points at ``times`` (s from the next tick; arrays (N, n) in the arm's joint
         order) from the reference of the next tick on; ``effort`` (N, n) N·m, when given, is
         fed forward (divided by the nominal gains, as the hardware does with an effort command).
@@ -190,7 +214,9 @@ class ArmSession:
         if self.goal is not None and self.goal.status == "active":
             effort = self.goal.trajectory.effort_at((k - self._goal_k0) * asim.TICK)
             if effort is not None:  # the JTC's feed-forward: effort command / nominal gain
-                v = np.clip(v + effort / self.pid.nominal_gain, -self.current_limit, self.current_limit)
+                v = np.clip(
+                    v + effort / self.pid.nominal_gain, -self.current_limit, self.current_limit
+                )
         self.saturated += bool(np.any(np.abs(v) >= self.pid.current_limit))
         self.plant.step(self.g_tau * (v + self._noise_at(k)), asim.SUBSTEPS)
         try:
@@ -198,7 +224,11 @@ class ArmSession:
         except WorkspaceError as exc:
             self.fault = str(exc)
             if self.goal is not None and self.goal.status == "active":
-                self.goal.status, self.goal.code, self.goal.reason = "aborted", PATH_TOLERANCE_VIOLATED, self.fault
+                self.goal.status, self.goal.code, self.goal.reason = (
+                    "aborted",
+                    PATH_TOLERANCE_VIOLATED,
+                    self.fault,
+                )
         self.k += 1
         self.reference.settle(self.k)
         return ArmTick(k, q_meas, self.pid.v_filtered.copy(), v)
@@ -231,7 +261,11 @@ def resolve_payload(truth: ArmTruth, value: object) -> ArmPayload | None:
     except ValueError:
         mass = math.nan
     if not 0.0 < mass < MAX_POINT_MASS:
-        raise ConfigError(f"payload {value!r}: none, one of {', '.join(sorted(truth.payloads))} (the plant's "
-                          f"bodies) or a point mass in kg (0, {MAX_POINT_MASS:g})")
+        raise ConfigError(
+            f"payload {value!r}: none, one of {', '.join(sorted(truth.payloads))} (the plant's "
+            f"bodies) or a point mass in kg (0, {MAX_POINT_MASS:g})"
+        )
     inertia = 0.4 * mass * POINT_RADIUS**2 * np.eye(3)
-    return ArmPayload(f"{mass:g} kg point", truth.arm.payload_frame, RigidBody(mass, np.zeros(3), inertia))
+    return ArmPayload(
+        f"{mass:g} kg point", truth.arm.payload_frame, RigidBody(mass, np.zeros(3), inertia)
+    )

@@ -71,7 +71,7 @@ class ArmPID:
     @classmethod
     def tuned(cls, inertia: np.ndarray, nominal_gain: np.ndarray, current_limit: np.ndarray,
               q0: np.ndarray, qd0: np.ndarray, torque0: np.ndarray, omega: float = OMEGA,
-              velocity_filter: float = VELOCITY_FILTER) -> "ArmPID":
+              velocity_filter: float = VELOCITY_FILTER) -> ArmPID:
         """Triple pole at -omega on each joint's ``inertia``; the integrator pre-loaded with the
         torque ``torque0`` the reference needs at t_0 (the plant starts on the reference)."""
         J = np.asarray(inertia, float)
@@ -113,9 +113,11 @@ def _check(plant: MujocoPlant, limits: MotionLimits, k: int, v_tau: np.ndarray) 
     out = (q < limits.stop_lower) | (q > limits.stop_upper)
     if np.any(out):
         j = int(np.argmax(out))
-        raise WorkspaceError(f"{names[j]} = {q[j]:.3f} left its limits [{limits.stop_lower[j]:.3f}, "
-                             f"{limits.stop_upper[j]:.3f}] at tick {k} (current "
-                             f"{np.round(v_tau, 3).tolist()} A): the simulated arm stopped")
+        raise WorkspaceError(
+            f"{names[j]} = {q[j]:.3f} left its limits [{limits.stop_lower[j]:.3f}, "
+            f"{limits.stop_upper[j]:.3f}] at tick {k} (current "
+            f"{np.round(v_tau, 3).tolist()} A): the simulated arm stopped"
+        )
 
 
 def run_closed_loop(plant: MujocoPlant, pid: ArmPID, q_ref: np.ndarray, qd_ref: np.ndarray,

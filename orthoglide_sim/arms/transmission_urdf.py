@@ -36,9 +36,12 @@ def ros2_control_block(truth: CoupledTruth, name: str) -> str:
     lines = [f'  <ros2_control name="{name}" type="system">',
              "    <hardware><plugin>mock_components/GenericSystem</plugin></hardware>"]
     for j in truth.arm.joint_names:
-        lines += [f'    <joint name="{j}">', '      <command_interface name="effort"/>',
-                  *(f'      <state_interface name="{s}"/>' for s in ("position", "velocity", "effort")),
-                  "    </joint>"]
+        lines += [
+            f'    <joint name="{j}">',
+            '      <command_interface name="effort"/>',
+            *(f'      <state_interface name="{s}"/>' for s in ("position", "velocity", "effort")),
+            "    </joint>",
+        ]
     for k, j in enumerate(truth.arm.joint_names):
         n = float(N[k, k])
         x = -float(truth.motor_offset[k]) / n
@@ -50,7 +53,9 @@ def ros2_control_block(truth: CoupledTruth, name: str) -> str:
     return "\n".join(lines + ["  </ros2_control>", ""])
 
 
-def read_simple_transmissions(urdf_text: str, joint_names: tuple[str, ...]) -> tuple[np.ndarray, np.ndarray]:
+def read_simple_transmissions(
+    urdf_text: str, joint_names: tuple[str, ...]
+) -> tuple[np.ndarray, np.ndarray]:
     """(N, motor offsets) of a URDF's SimpleTransmissions, one per joint of ``joint_names``
     (defaults n = 1, offset 0, as ros2_control's)."""
     root = ET.fromstring(urdf_text)
@@ -80,10 +85,15 @@ def write_simple_transmission_robot(folder: str | Path, truth: CoupledTruth,
     folder.mkdir(parents=True, exist_ok=True)
     urdf = folder / f"{stem}.urdf"
     urdf.write_text(text[:end] + ros2_control_block(truth, stem) + text[end:])
-    data.update(name=stem, description=urdf.name, nominal_gains=truth.motor_array("nominal_gain").tolist())
+    data.update(
+        name=stem, description=urdf.name, nominal_gains=truth.motor_array("nominal_gain").tolist()
+    )
     out = folder / f"{stem}.yaml"
-    out.write_text("# The UR5 with one SimpleTransmission per joint in its URDF's <ros2_control> block\n"
-                   "# (orthoglide_sim.arms.transmission_urdf); nominal_gains per motor (N·m/A at the motor shaft)\n"
-                   + yaml.safe_dump(data, sort_keys=False, allow_unicode=True, default_flow_style=None))
+    out.write_text(
+        "# The UR5 with one SimpleTransmission per joint in its URDF's <ros2_control> block\n"
+        "# (orthoglide_sim.arms.transmission_urdf); nominal_gains per motor (N·m/A at the motor "
+        "shaft)\n"
+        + yaml.safe_dump(data, sort_keys=False, allow_unicode=True, default_flow_style=None)
+    )
     return urdf, out
 

@@ -18,9 +18,10 @@ Units: kg, m, kg·m², N·m·s/rad, N·m, N·m/A (prismatic joints: kg, N·s/m, 
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any
 
 import numpy as np
 
@@ -28,7 +29,8 @@ from orthoglide_ident.errors import ConfigError
 from orthoglide_ident.yaml_files import load_yaml, unwrap_section
 from orthoglide_sim.arms.description import ArmDescription, LinkInertial, rpy_matrix
 
-GRAVITY = 9.80665  # m/s² along -z of the URDF's world: standard gravity, as the product's robot files
+# m/s² along -z of the URDF's world: standard gravity, as the product's robot files
+GRAVITY = 9.80665
 CURRENT_NOISE_FRACTION = 0.005  # std of the current noise / each joint's rms current (issue 24)
 ENCODER_COUNTS = 2**19  # counts per revolution of a revolute joint's encoder
 LINEAR_ENCODER_RESOLUTION = 1.0e-6  # m, a prismatic joint's encoder step
@@ -90,12 +92,16 @@ class RigidBody:
         """ConfigError unless physically consistent: m > 0, inertia symmetric positive definite
         with principal moments meeting the triangle inequality (pseudo-inertia ⪰ 0)."""
         I = np.asarray(self.inertia)
-        if not (self.mass > 0 and np.all(np.isfinite(I)) and np.allclose(I, I.T, rtol=0, atol=1e-15)):
+        if not (
+            self.mass > 0 and np.all(np.isfinite(I)) and np.allclose(I, I.T, rtol=0, atol=1e-15)
+        ):
             raise ConfigError(f"{where}: needs a positive mass and a symmetric inertia")
         lam = np.linalg.eigvalsh(I)
         if lam[0] <= 0 or lam[2] > lam[0] + lam[1]:
-            raise ConfigError(f"{where}: principal moments {lam.tolist()} kg·m² are not positive or "
-                              "break the triangle inequality (Ia <= Ib + Ic)")
+            raise ConfigError(
+                f"{where}: principal moments {lam.tolist()} kg·m² are not positive or "
+                "break the triangle inequality (Ia <= Ib + Ic)"
+            )
 
     def standard(self) -> np.ndarray:
         """(10,) standard parameters xx, xy, xz, yy, yz, zz (at the link origin), mx, my, mz, m."""
@@ -105,7 +111,7 @@ class RigidBody:
                          *(self.mass * c), self.mass])
 
     @classmethod
-    def from_principal(cls, mass: float, com, principal, tilt) -> "RigidBody":
+    def from_principal(cls, mass: float, com, principal, tilt) -> RigidBody:
         R = tilt_matrix(tilt)
         return cls(float(mass), np.asarray(com, float), _symmetric(R @ np.diag(principal) @ R.T))
 
@@ -150,7 +156,8 @@ class ArmPayload:
 
     def tag(self) -> dict[str, Any]:
         """The payload's frame, centre of mass (m) and inertia about it (kg·m², Ixx Ixy Ixz Iyy
-        Iyz Izz): write_bag's ``payload``, which tags the bag with them (docs/design/interfaces.md)."""
+        Iyz Izz): write_bag's ``payload``, which tags the bag with them
+        (docs/design/interfaces.md)."""
         I = self.body.inertia
         return {"payload_frame": self.frame,
                 "payload_com": tuple(float(v) for v in self.body.com),
@@ -186,7 +193,9 @@ class ArmTruth:
             return None
         key = str(name)
         if key not in self.payloads:
-            raise ConfigError(f"unknown payload {key!r}: use none or one of {', '.join(sorted(self.payloads))}")
+            raise ConfigError(
+                f"unknown payload {key!r}: use none or one of {', '.join(sorted(self.payloads))}"
+            )
         return self.payloads[key]
 
 
@@ -210,8 +219,13 @@ def seeded_link(nominal: LinkInertial, rng: np.random.Generator) -> RigidBody:
     """An arm without a table: mass ±3-7 %, centre of mass ±3-12 mm per axis, moments ±3-8 %,
     tilt ±0.03-0.1 rad; the largest moment kept 2 % inside the triangle inequality."""
     sign = lambda k: rng.choice([-1.0, 1.0], k)  # noqa: E731
-    body = perturbed(nominal, 1 + sign(1)[0] * rng.uniform(0.03, 0.07), sign(3) * rng.uniform(3e-3, 12e-3, 3),
-                     1 + sign(3) * rng.uniform(0.03, 0.08, 3), sign(3) * rng.uniform(0.03, 0.1, 3))
+    body = perturbed(
+        nominal,
+        1 + sign(1)[0] * rng.uniform(0.03, 0.07),
+        sign(3) * rng.uniform(3e-3, 12e-3, 3),
+        1 + sign(3) * rng.uniform(0.03, 0.08, 3),
+        sign(3) * rng.uniform(0.03, 0.1, 3),
+    )
     lam, axes = np.linalg.eigh(body.inertia)
     lam[2] = min(lam[2], 0.98 * (lam[0] + lam[1]))
     return replace(body, inertia=_symmetric(axes @ np.diag(lam) @ axes.T))
@@ -227,16 +241,24 @@ def seeded_joint(effort: float, nominal_gain: float, rng: np.random.Generator) -
 def default_truth(arm: ArmDescription, seed: int = DEFAULT_SEED) -> ArmTruth:
     """The arm's truth: the UR5 table for the UR5's links and joints, the seeded rule otherwise."""
     rng = np.random.default_rng(seed)
-    bodies = {link: (perturbed(nom, *UR5_LINKS[link]) if link in UR5_LINKS else seeded_link(nom, rng))
-              for link, nom in arm.inertials.items() if nom.mass > 0}
+    bodies = {
+        link: (perturbed(nom, *UR5_LINKS[link]) if link in UR5_LINKS else seeded_link(nom, rng))
+        for link, nom in arm.inertials.items()
+        if nom.mass > 0
+    }
     drives = {}
     for j in arm.joints:
         if j.name in UR5_JOINTS:
             ia, fv, fs, off, factor = UR5_JOINTS[j.name]
             drives[j.name] = JointDrive(ia, fv, fs, off, j.nominal_gain * factor)
         else:
-            drives[j.name] = seeded_joint(j.effort if math.isfinite(j.effort) else 100.0, j.nominal_gain, rng)
-    payloads = {k: ArmPayload(k, arm.payload_frame, RigidBody.from_principal(*v)) for k, v in PAYLOADS.items()}
+            drives[j.name] = seeded_joint(
+                j.effort if math.isfinite(j.effort) else 100.0, j.nominal_gain, rng
+            )
+    payloads = {
+        k: ArmPayload(k, arm.payload_frame, RigidBody.from_principal(*v))
+        for k, v in PAYLOADS.items()
+    }
     truth = ArmTruth(arm, bodies, drives, payloads)
     for link, body in bodies.items():
         body.check(f"link {link}")
@@ -281,7 +303,9 @@ def _rigid_body(data: Any, base: RigidBody | None, where: str) -> RigidBody:
     return body
 
 
-def apply_overrides(truth: ArmTruth, data: Mapping[str, Any], source: str = "overrides") -> ArmTruth:
+def apply_overrides(
+    truth: ArmTruth, data: Mapping[str, Any], source: str = "overrides"
+) -> ArmTruth:
     """``truth`` with the YAML mapping ``data`` (layout of config/arm_plant.yaml) applied."""
     if not isinstance(data, Mapping) or set(data) - _TOP_KEYS:
         raise ConfigError(f"{source}: expected a mapping with keys among {sorted(_TOP_KEYS)}")
@@ -293,11 +317,19 @@ def apply_overrides(truth: ArmTruth, data: Mapping[str, Any], source: str = "ove
         bodies[link] = _rigid_body(d, bodies[link], f"{source}: bodies.{link}")
     for joint, d in (data.get("joints") or {}).items():
         if joint not in drives:
-            raise ConfigError(f"{source}: joints.{joint}: not an actuated joint ({', '.join(drives)})")
+            raise ConfigError(
+                f"{source}: joints.{joint}: not an actuated joint ({', '.join(drives)})"
+            )
         if not isinstance(d, Mapping) or set(d) - set(_DRIVE_KEYS):
-            raise ConfigError(f"{source}: joints.{joint}: expected a mapping of {', '.join(_DRIVE_KEYS)}")
-        values = {k: checked_number(v, f"{source}: joints.{joint}.{k}", -math.inf if k == "offset" else 0.0)
-                  for k, v in d.items()}
+            raise ConfigError(
+                f"{source}: joints.{joint}: expected a mapping of {', '.join(_DRIVE_KEYS)}"
+            )
+        values = {
+            k: checked_number(
+                v, f"{source}: joints.{joint}.{k}", -math.inf if k == "offset" else 0.0
+            )
+            for k, v in d.items()
+        }
         if values.get("g_tau", 1.0) <= 0:
             raise ConfigError(f"{source}: joints.{joint}.g_tau must be positive")
         drives[joint] = replace(drives[joint], **values)
@@ -307,7 +339,12 @@ def apply_overrides(truth: ArmTruth, data: Mapping[str, Any], source: str = "ove
         frame = str(d.pop("frame", old.frame if old else truth.arm.payload_frame))
         payloads[name] = ArmPayload(name, frame, _rigid_body(d, old.body if old else None,
                                                              f"{source}: payloads.{name}"))
-    noise = checked_number(data.get("current_noise", truth.current_noise_fraction), f"{source}: current_noise", 0.0, 1.0)
+    noise = checked_number(
+        data.get("current_noise", truth.current_noise_fraction),
+        f"{source}: current_noise",
+        0.0,
+        1.0,
+    )
     counts = data.get("encoder_counts", truth.encoder_counts)
     if isinstance(counts, bool) or not isinstance(counts, int) or counts < 2:
         raise ConfigError(f"{source}: encoder_counts must be an integer >= 2, got {counts!r}")

@@ -64,10 +64,14 @@ def _loops(data: dict, links: set[str], where: str) -> tuple[ChainLoop, ...]:
     loops = []
     for k, loop in enumerate(data.get("loops") or []):
         if not isinstance(loop, dict) or not {"frame_a", "frame_b"} <= set(loop):
-            raise ConfigError(f"{where}: loops[{k}]: expected {{frame_a, frame_b, type}}, got {loop!r}")
+            raise ConfigError(
+                f"{where}: loops[{k}]: expected {{frame_a, frame_b, type}}, got {loop!r}"
+            )
         kind = str(loop.get("type", "point"))
         if kind not in LOOP_KINDS:
-            raise ConfigError(f"{where}: loops[{k}]: type {kind!r} is not {' or '.join(LOOP_KINDS)}")
+            raise ConfigError(
+                f"{where}: loops[{k}]: type {kind!r} is not {' or '.join(LOOP_KINDS)}"
+            )
         for key in ("frame_a", "frame_b"):
             if loop[key] not in links:
                 raise ConfigError(f"{where}: loops[{k}].{key}: {loop[key]!r} is not a link of the "
@@ -89,7 +93,9 @@ def load_chain(spec: str | Path = "five_bar") -> ChainDescription:
     ConfigError with a one-line reason on a file that is not one."""
     path = robots.resolve(spec)
     if path is None or path.suffix.lower() not in (".yaml", ".yml"):
-        raise ConfigError(f"robot {spec!r}: the closed-chain simulator takes a robot YAML with loops")
+        raise ConfigError(
+            f"robot {spec!r}: the closed-chain simulator takes a robot YAML with loops"
+        )
     data = robots.read_yaml(path)
     urdf_path = (path.parent / str(data.get("description", ""))).resolve()
     if urdf_path.suffix.lower() != ".urdf" or not urdf_path.is_file():
@@ -111,11 +117,17 @@ def load_chain(spec: str | Path = "five_bar") -> ChainDescription:
     gains = data.get("nominal_gains", 1.0)
     gains = [float(g) for g in (gains if isinstance(gains, list) else [gains] * len(actuated))]
     if len(gains) != len(actuated):
-        raise ConfigError(f"robot file {path}: {len(gains)} nominal gains for {len(actuated)} joints")
-    act = tuple(arm_joint(by_name[a][4], by_name[a][1], by_name[a][3], g) for a, g in zip(actuated, gains))
+        raise ConfigError(
+            f"robot file {path}: {len(gains)} nominal gains for {len(actuated)} joints"
+        )
+    act = tuple(
+        arm_joint(by_name[a][4], by_name[a][1], by_name[a][3], g) for a, g in zip(actuated, gains)
+    )
     passive = tuple(arm_joint(el, kind, child, 0.0) for name, kind, _, child, el in movable
                     if name not in actuated)
-    reference = tuple((str(k), float(v)) for k, v in (data.get("reference_configuration") or {}).items())
+    reference = tuple(
+        (str(k), float(v)) for k, v in (data.get("reference_configuration") or {}).items()
+    )
     gravity = tuple(float(g) for g in data.get("gravity", DEFAULT_GRAVITY))
     name = str(data.get("name") or urdf_path.stem)
     frame = str(data.get("payload_frame") or act[-1].child)

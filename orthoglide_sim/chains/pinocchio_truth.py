@@ -20,9 +20,9 @@ import numpy as np
 import pinocchio as pin
 
 from orthoglide_ident.errors import ConfigError
+from orthoglide_sim.arms.pinocchio_truth import pin_inertia
 from orthoglide_sim.arms.truth import ArmPayload
 from orthoglide_sim.chains.truth import ChainTruth
-from orthoglide_sim.arms.pinocchio_truth import pin_inertia
 
 PROXIMAL = (1e-13, 1e-10, 50)  # accuracy, mu, iterations of constraintDynamics' proximal solver
 
@@ -37,7 +37,9 @@ def chain_model(truth: ChainTruth, payload: ArmPayload | None = None) -> pin.Mod
     model.gravity = pin.Motion(np.asarray(arm.gravity, float), np.zeros(3))
     names = [model.names[i] for i in range(1, model.njoints)]
     if names != list(arm.tree_joints) or model.nv != len(names):
-        raise ConfigError(f"{arm.name}: Pinocchio's joints {names} are not the tree's {arm.tree_joints}")
+        raise ConfigError(
+            f"{arm.name}: Pinocchio's joints {names} are not the tree's {arm.tree_joints}"
+        )
     inertias = [pin.Inertia.Zero() for _ in range(model.njoints)]
     attached = list(truth.bodies.items()) + ([(payload.frame, payload.body)] if payload else [])
     for link, rb in attached:
@@ -71,8 +73,17 @@ class ChainDynamics:
         models = []
         for loop in arm.loops:
             a, b = (model.frames[model.getFrameId(f)] for f in (loop.frame_a, loop.frame_b))
-            models.append(pin.RigidConstraintModel(kinds[loop.kind], model, a.parentJoint, a.placement,
-                                                   b.parentJoint, b.placement, pin.ReferenceFrame.LOCAL))
+            models.append(
+                pin.RigidConstraintModel(
+                    kinds[loop.kind],
+                    model,
+                    a.parentJoint,
+                    a.placement,
+                    b.parentJoint,
+                    b.placement,
+                    pin.ReferenceFrame.LOCAL,
+                )
+            )
         self.constraints = pin.StdVec_RigidConstraintModel(models)
         self.constraint_data = pin.StdVec_RigidConstraintData([c.createData() for c in models])
         pin.initConstraintDynamics(model, self.data, self.constraints, self.constraint_data)
@@ -84,18 +95,34 @@ class ChainDynamics:
         tau[self.S_a] += tau_a
         return tau
 
-    def forward(self, q: np.ndarray, v: np.ndarray, tau_a: np.ndarray, friction: bool = False) -> np.ndarray:
+    def forward(
+        self, q: np.ndarray, v: np.ndarray, tau_a: np.ndarray, friction: bool = False
+    ) -> np.ndarray:
         """(nv,) tree accelerations under actuated torques ``tau_a`` with the loops held rigid."""
-        return pin.constraintDynamics(self.model, self.data, q, v, self.tree_torque(v, tau_a, friction),
-                                      self.constraints, self.constraint_data, self.prox).copy()
+        return pin.constraintDynamics(
+            self.model,
+            self.data,
+            q,
+            v,
+            self.tree_torque(v, tau_a, friction),
+            self.constraints,
+            self.constraint_data,
+            self.prox,
+        ).copy()
 
     def rk4(self, q: np.ndarray, v: np.ndarray, tau_a: np.ndarray, dt: float,
             n: int) -> tuple[np.ndarray, np.ndarray]:
         """n RK4 steps of dt under tau_a held (friction loss off): the state (q, v) after them."""
         for _ in range(n):
             k1q, k1v = v, self.forward(q, v, tau_a)
-            k2q, k2v = v + 0.5 * dt * k1v, self.forward(q + 0.5 * dt * k1q, v + 0.5 * dt * k1v, tau_a)
-            k3q, k3v = v + 0.5 * dt * k2v, self.forward(q + 0.5 * dt * k2q, v + 0.5 * dt * k2v, tau_a)
+            k2q, k2v = (
+                v + 0.5 * dt * k1v,
+                self.forward(q + 0.5 * dt * k1q, v + 0.5 * dt * k1v, tau_a),
+            )
+            k3q, k3v = (
+                v + 0.5 * dt * k2v,
+                self.forward(q + 0.5 * dt * k2q, v + 0.5 * dt * k2v, tau_a),
+            )
             k4q, k4v = v + dt * k3v, self.forward(q + dt * k3q, v + dt * k3v, tau_a)
             q = q + dt / 6.0 * (k1q + 2 * k2q + 2 * k3q + k4q)
             v = v + dt / 6.0 * (k1v + 2 * k2v + 2 * k3v + k4v)
@@ -134,9 +161,9 @@ def rigid_loop_currents(truth: ChainTruth, payload: ArmPayload | None, q_ref: np
     What a rigid five-bar needs; the MuJoCo plant's currents on the same run differ from them
     by the loop's softness alone when the truth has no friction loss and exact encoders."""
     from orthoglide_sim.arms import simulator as asim
+    from orthoglide_sim.arms.plant import TIMESTEP
     from orthoglide_sim.chains.plant import ChainPlant
     from orthoglide_sim.chains.record import tuned_pid
-    from orthoglide_sim.arms.plant import TIMESTEP
 
     plant, dyn = ChainPlant(truth, payload), ChainDynamics(truth, payload)
     pid = tuned_pid(plant, q_ref[0], qd_ref[0], qdd_ref[0])

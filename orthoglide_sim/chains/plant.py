@@ -8,7 +8,8 @@ integrates its own constrained forward dynamics (its mass matrix, RNE bias, the 
 soft equality constraint solved with the friction loss by its Newton solver), and the plant
 closes the loops with MuJoCo's own kinematics (``assemble``). The identification's model
 (Pinocchio's regressors projected through the loops' null space, model/closure.py) shares none
-of that; the one fact shared is the truth's numbers (tests/sim/chains/test_chain_plant.py checks both,
+of that; the one fact shared is the truth's numbers (tests/sim/chains/test_chain_plant.py checks
+both,
 and MuJoCo against Pinocchio's constraintDynamics).
 
 The loop: sites, not anchors (MuJoCo computes a ``connect`` anchor from the model's q = 0 pose,
@@ -21,7 +22,8 @@ leaves the constrained accelerations at a closed state off the rigid loop's by a
 ~1e-4 (unloaded) to ~1e-3 (1 kg at the tip) of the applied one, tenfold more at d = 0.999:
 the softness is all of it. Along a record the loop stays closed to ~5e-9 m, and the currents
 the controller needs differ from those of a rigid loop (Pinocchio, same PID and reference) by
-< 2e-4 of the current noise's σ rms, 5e-3 σ at most: negligible (tests/sim/chains/test_chain_plant.py,
+< 2e-4 of the current noise's σ rms, 5e-3 σ at most: negligible
+(tests/sim/chains/test_chain_plant.py,
 bench/closed_chain.py). Why so much smaller: the soft solution still meets the equation of
 motion along the loop, Gᵀ(M q̈ + h - τ) = 0, exactly (its constraint force is J_cᵀ f and
 J_c G = 0); only its part across the loop is off, and the loop's stiffness pulls that back.
@@ -37,10 +39,16 @@ import mujoco
 import numpy as np
 
 from orthoglide_ident.errors import ConfigError, WorkspaceError
+from orthoglide_sim.arms.plant import (
+    FRICTION_TIMECONST,
+    INERTIAL_TOLERANCE,
+    TIMESTEP,
+    MujocoPlant,
+    build_spec,
+    route_warnings,
+)
 from orthoglide_sim.arms.truth import ArmPayload
 from orthoglide_sim.chains.truth import ChainTruth
-from orthoglide_sim.arms.plant import (FRICTION_TIMECONST, INERTIAL_TOLERANCE, TIMESTEP, MujocoPlant,
-                                         route_warnings, build_spec)
 
 LOOP_TIMECONST = 2.0 * TIMESTEP  # s, solref of the loops: the stiffest MuJoCo keeps stable
 LOOP_SOLIMP = (0.9999, 0.9999, 0.001, 0.5, 2.0)  # impedance d at MuJoCo's maximum (mjMAXIMP)
@@ -63,7 +71,9 @@ def _loop_sites(spec: mujoco.MjSpec, truth: ChainTruth) -> None:
         for side, link in (("a", loop.frame_a), ("b", loop.frame_b)):
             body = spec.body(link)
             if body is None:
-                raise ConfigError(f"loop {loop.frame_a}-{loop.frame_b}: {link!r} is not a MuJoCo body")
+                raise ConfigError(
+                    f"loop {loop.frame_a}-{loop.frame_b}: {link!r} is not a MuJoCo body"
+                )
             names.append(SITE.format(k=k, side=side))
             body.add_site(name=names[-1])
         eq = spec.add_equality(type=kinds[loop.kind], objtype=mujoco.mjtObj.mjOBJ_SITE,
@@ -212,9 +222,11 @@ class ChainPlant(MujocoPlant):
                                  f"t = {self.time:.3f} s: the simulated robot stopped")
         if np.any(out):
             j = int(np.argmax(out))
-            raise WorkspaceError(f"passive joint {self.truth.arm.passive_names[j]} = {q_p[j]:.3f} left "
-                                 f"its limits [{lo[j]:.3f}, {hi[j]:.3f}] at t = {self.time:.3f} s: "
-                                 "the simulated robot stopped")
+            raise WorkspaceError(
+                f"passive joint {self.truth.arm.passive_names[j]} = {q_p[j]:.3f} left "
+                f"its limits [{lo[j]:.3f}, {hi[j]:.3f}] at t = {self.time:.3f} s: "
+                "the simulated robot stopped"
+            )
 
     # --- dynamics ------------------------------------------------------------------------
     def inverse_dynamics(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray,

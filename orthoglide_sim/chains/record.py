@@ -20,8 +20,13 @@ import numpy as np
 from orthoglide_ident.errors import ConfigError
 from orthoglide_sim.arms import simulator as asim
 from orthoglide_sim.arms.limits import MotionLimits, motion_limits
-from orthoglide_sim.arms.record import (NOISE_STRIDE, ArmRecord, current_noise_std, reference_of,
-                                       trajectory_name)
+from orthoglide_sim.arms.record import (
+    NOISE_STRIDE,
+    ArmRecord,
+    current_noise_std,
+    reference_of,
+    trajectory_name,
+)
 from orthoglide_sim.chains.description import load_chain
 from orthoglide_sim.chains.plant import ChainPlant
 from orthoglide_sim.chains.truth import ChainTruth, load_chain_truth
@@ -45,8 +50,14 @@ def tuned_pid(plant: ChainPlant, q0: np.ndarray, qd0: np.ndarray, qdd0: np.ndarr
     current_limit = np.array([j.effort for j in chain.joints]) / chain.nominal_gains
     torque0 = plant.inverse_dynamics(q0[None], qd0[None], qdd0[None], friction=True)[0]
     inertia = ChainPlant(truth).actuated_inertia(motion_limits(chain).centre)
-    return asim.ArmPID.tuned(inertia, chain.nominal_gains, current_limit,
-                             asim.quantise(q0 - qd0 * asim.TICK, truth.encoder_resolution), qd0, torque0)
+    return asim.ArmPID.tuned(
+        inertia,
+        chain.nominal_gains,
+        current_limit,
+        asim.quantise(q0 - qd0 * asim.TICK, truth.encoder_resolution),
+        qd0,
+        torque0,
+    )
 
 
 def simulate_chain(duration_s: float, robot: str = "five_bar", payload: str | None = None,
@@ -76,7 +87,21 @@ def simulate_chain(duration_s: float, robot: str = "five_bar", payload: str | No
     plant.reset(q_ref[0], qd_ref[0])
     res = asim.run_closed_loop(plant, pid, q_ref, qd_ref, noise_a, limits)
     stamps = start_ns + np.arange(N, dtype=np.int64) * int(round(asim.TICK * 1e9))
-    return ChainRecord(stamps, res.q_meas, res.v_tau, truth, load, res.q, res.qd, q_ref, res.current,
-                       std if noise else np.zeros(chain.n), trajectory_name(trajectory), seed, res.saturated,
-                       np.array(plant.tree_log), np.array(plant.loop_errors))
+    return ChainRecord(
+        stamps,
+        res.q_meas,
+        res.v_tau,
+        truth,
+        load,
+        res.q,
+        res.qd,
+        q_ref,
+        res.current,
+        std if noise else np.zeros(chain.n),
+        trajectory_name(trajectory),
+        seed,
+        res.saturated,
+        np.array(plant.tree_log),
+        np.array(plant.loop_errors),
+    )
 

@@ -22,16 +22,27 @@ Units: kg, m, kg·m², N·m·s/rad, N·m, N·m/A (prismatic joints: kg, N·s/m, 
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any
 
 import numpy as np
 
 from orthoglide_ident.errors import ConfigError
 from orthoglide_ident.yaml_files import load_yaml, unwrap_section
-from orthoglide_sim.arms.truth import (DEFAULT_SEED, ArmPayload, ArmTruth, JointDrive, RigidBody,
-                                      checked_number, seeded_joint, seeded_link, apply_overrides, perturbed)
+from orthoglide_sim.arms.truth import (
+    DEFAULT_SEED,
+    ArmPayload,
+    ArmTruth,
+    JointDrive,
+    RigidBody,
+    apply_overrides,
+    checked_number,
+    perturbed,
+    seeded_joint,
+    seeded_link,
+)
 from orthoglide_sim.chains.description import ChainDescription
 
 # Five-bar links: (mass factor, centre-of-mass shift (3,) m, principal-moment factors (3,) in
@@ -114,7 +125,10 @@ def default_chain_truth(chain: ChainDescription, seed: int = DEFAULT_SEED) -> Ch
                         else _seeded_passive(j.effort if math.isfinite(j.effort) else 100.0, rng))
                for j in chain.passive}
     table = FIVE_BAR_PAYLOADS if chain.name == "five_bar" else {}
-    payloads = {k: ArmPayload(k, chain.payload_frame, RigidBody.from_principal(*v)) for k, v in table.items()}
+    payloads = {
+        k: ArmPayload(k, chain.payload_frame, RigidBody.from_principal(*v))
+        for k, v in table.items()
+    }
     for link, body in bodies.items():
         body.check(f"link {link}")
     return ChainTruth(chain, bodies, drives, payloads, gravity=float(np.linalg.norm(chain.gravity)),
@@ -125,7 +139,9 @@ def default_chain_truth(chain: ChainDescription, seed: int = DEFAULT_SEED) -> Ch
 _PASSIVE_KEYS = ("damping", "frictionloss", "offset")
 
 
-def apply_chain_overrides(truth: ChainTruth, data: Mapping[str, Any], source: str = "overrides") -> ChainTruth:
+def apply_chain_overrides(
+    truth: ChainTruth, data: Mapping[str, Any], source: str = "overrides"
+) -> ChainTruth:
     """``truth`` with a YAML mapping applied: arm_truth's keys, and ``passive_joints``."""
     if not isinstance(data, Mapping):
         raise ConfigError(f"{source}: expected a mapping")

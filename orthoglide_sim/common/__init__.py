@@ -1,1 +1,2 @@
-"""What every simulated robot shares: the 1 kHz clock, ticks ahead, packed messages, trajectories."""
+"""What every simulated robot shares: the 1 kHz clock, ticks ahead, packed messages,
+trajectories."""

@@ -17,8 +17,8 @@ is still sending the previous message), and counts them.
 """
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Sequence
 
 import numpy as np
 
@@ -40,22 +40,31 @@ class BroadcasterLayout:
     def __init__(self, names: Sequence[str], arm_column: np.ndarray) -> None:
         self.names = tuple(names)
         self.arm_column = np.asarray(arm_column)
-        self.interfaces = tuple(ARM_INTERFACES if c >= 0 else EXTRA_INTERFACES for c in self.arm_column)
+        self.interfaces = tuple(
+            ARM_INTERFACES if c >= 0 else EXTRA_INTERFACES for c in self.arm_column
+        )
         self._js = bags.MessageTemplate.joint_state(self.names)
         self._djs = bags.MessageTemplate.dynamic_joint_state(self.names, self.interfaces)
         self._js_from = self._sources(self._js.columns)
         self._djs_from = self._sources(self._djs.columns)
 
     @classmethod
-    def of(cls, arm_joints: Sequence[str], extra_joints: Sequence[str] = (), order: str = "shuffled",
-           seed: int = 0) -> "BroadcasterLayout":
+    def of(
+        cls,
+        arm_joints: Sequence[str],
+        extra_joints: Sequence[str] = (),
+        order: str = "shuffled",
+        seed: int = 0,
+    ) -> BroadcasterLayout:
         """``order``: "shuffled" (the arm's joints permuted by ``seed``, the extra joints in the
         middle: a hardware order no URDF gives), "urdf" (the arm's order, extras last), or the
         joint names comma-separated (every arm and extra joint once). ConfigError otherwise."""
         arm, extra = list(arm_joints), list(extra_joints)
         if set(arm) & set(extra) or len(set(extra)) != len(extra):
-            raise ConfigError(f"extra_joints {extra} must be new, distinct joint names (the arm has "
-                              f"{', '.join(arm)})")
+            raise ConfigError(
+                f"extra_joints {extra} must be new, distinct joint names (the arm has "
+                f"{', '.join(arm)})"
+            )
         if order == "shuffled":
             names = [arm[i] for i in np.random.default_rng(seed).permutation(len(arm))]
             names[len(names) // 2:len(names) // 2] = extra
@@ -64,8 +73,10 @@ class BroadcasterLayout:
         else:
             names = [n.strip() for n in order.split(",") if n.strip()]
             if sorted(names) != sorted(arm + extra):
-                raise ConfigError(f"joint_order {order!r}: name each of {', '.join(arm + extra)} once, "
-                                  "or say shuffled or urdf")
+                raise ConfigError(
+                    f"joint_order {order!r}: name each of {', '.join(arm + extra)} once, "
+                    "or say shuffled or urdf"
+                )
         return cls(names, np.array([arm.index(n) if n in arm else -1 for n in names]))
 
     def _sources(self, columns) -> tuple[np.ndarray, np.ndarray]:
@@ -117,7 +128,8 @@ class TickDropper:
 def broadcast(session: ArmSession, n_ticks: int, layout: BroadcasterLayout, dropper: TickDropper,
               start_ns: int) -> list[tuple[int, bytes | None, bytes | None]]:
     """What the stand-in publishes over ``n_ticks`` updates, without ROS (tests, benches): per
-    update (stamp, joint_states bytes, dynamic_joint_states bytes), None where a topic dropped it."""
+    update (stamp, joint_states bytes, dynamic_joint_states bytes), None where a topic dropped
+    it."""
     out = []
     for _ in range(n_ticks):
         tick = session.tick()

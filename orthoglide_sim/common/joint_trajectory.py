@@ -6,7 +6,8 @@ accelerations count as 0 here, where the JTC would use a cubic or a straight lin
 first point (when its time is after the goal's start) from the state the goal starts from; after
 the last point it holds that point's position at rest. A goal's ``effort`` (N·m or N, per point)
 is interpolated linearly and added to the PID's output as feed-forward, as the JTC does with the
-``effort`` command interface (the hardware divides it by the nominal torque constant). :class:`GoalTracker` follows one goal tick by tick: the path tolerance
+``effort`` command interface (the hardware divides it by the nominal torque constant).
+:class:`GoalTracker` follows one goal tick by tick: the path tolerance
 on every tick (position error, per joint), the goal tolerance from the last point's time on
 (position and velocity errors; a velocity tolerance of 0 means "stopped": ``STOPPED_VELOCITY``),
 ``goal_time`` after it the goal aborts; ``cancel()`` ends it. Tolerances: 0 takes the default,
@@ -41,10 +42,18 @@ def _quintic(p0, v0, a0, p1, v1, a1, T):
 
 
 class JointTrajectory:
-    """The reference of one goal (see the module docstring): ``evaluate(t)`` -> q, qd, qdd (m, n)."""
+    """The reference of one goal (see the module docstring): ``evaluate(t)`` -> q, qd, qdd (m,
+    n)."""
 
-    def __init__(self, times: np.ndarray, q: np.ndarray, qd: np.ndarray | None, qdd: np.ndarray | None,
-                 start: tuple[np.ndarray, np.ndarray, np.ndarray], effort: np.ndarray | None = None) -> None:
+    def __init__(
+        self,
+        times: np.ndarray,
+        q: np.ndarray,
+        qd: np.ndarray | None,
+        qdd: np.ndarray | None,
+        start: tuple[np.ndarray, np.ndarray, np.ndarray],
+        effort: np.ndarray | None = None,
+    ) -> None:
         times, q = np.asarray(times, float), np.atleast_2d(np.asarray(q, float))
         if len(times) != len(q) or not len(times) or np.any(np.diff(times) <= 0) or times[0] < 0:
             raise ConfigError("a trajectory needs points at strictly increasing times from 0 on")
@@ -55,7 +64,9 @@ class JointTrajectory:
             effort = np.asarray(effort, float)
         if times[0] > 0:  # the JTC interpolates from the state it starts from to the first point
             times = np.concatenate([[0.0], times])
-            q, qd, qdd = (np.vstack([np.reshape(s, (1, n)), x]) for s, x in zip(start, (q, qd, qdd)))
+            q, qd, qdd = (
+                np.vstack([np.reshape(s, (1, n)), x]) for s, x in zip(start, (q, qd, qdd))
+            )
             if effort is not None:
                 effort = np.vstack([effort[:1], effort])
         self.effort = effort  # (N, n) or None
@@ -70,11 +81,17 @@ class JointTrajectory:
         """q, qd, qdd at ``t`` (s from the goal's start), each (m, n)."""
         t = np.atleast_1d(np.asarray(t, float))
         n = len(self.end_pos)
-        q, qd, qdd = np.tile(self.end_pos, (len(t), 1)), np.zeros((len(t), n)), np.zeros((len(t), n))
+        q, qd, qdd = (
+            np.tile(self.end_pos, (len(t), 1)),
+            np.zeros((len(t), n)),
+            np.zeros((len(t), n)),
+        )
         q[t < 0] = self.first
         inside = (t >= 0) & (t < self.end_time)
         if inside.any():
-            seg = np.clip(np.searchsorted(self.times, t[inside], "right") - 1, 0, len(self.coef) - 1)
+            seg = np.clip(
+                np.searchsorted(self.times, t[inside], "right") - 1, 0, len(self.coef) - 1
+            )
             tau = (t[inside] - self.times[seg])[:, None]
             c = self.coef[seg]  # (m, 6, n)
             powers = tau[:, None, :] ** np.arange(6)[None, :, None]  # (m, 6, 1)
@@ -89,7 +106,9 @@ class JointTrajectory:
         """The feed-forward effort at ``t`` (linear between points; none after the last one)."""
         if self.effort is None or not 0.0 <= t <= self.end_time:
             return None
-        return np.array([np.interp(t, self.times, self.effort[:, j]) for j in range(self.effort.shape[1])])
+        return np.array(
+            [np.interp(t, self.times, self.effort[:, j]) for j in range(self.effort.shape[1])]
+        )
 
 
 class Hold:
@@ -153,18 +172,27 @@ class GoalTracker:
         bad_p = (tol.goal_position > 0) & (np.abs(e) > tol.goal_position)
         bad_v = np.abs(e_v) > v_tol
         if not (bad_p.any() or bad_v.any()):
-            self.status, self.reason = "succeeded", f"reached the last point {t - self.trajectory.end_time:.3f} s after its time"
+            self.status, self.reason = (
+                "succeeded",
+                f"reached the last point {t - self.trajectory.end_time:.3f} s after its time",
+            )
         elif tol.goal_time > 0 and t > self.trajectory.end_time + tol.goal_time:
             if bad_p.any():
-                self._abort(GOAL_TOLERANCE_VIOLATED, "goal position", bad_p, e, tol.goal_position, t)
+                self._abort(
+                    GOAL_TOLERANCE_VIOLATED, "goal position", bad_p, e, tol.goal_position, t
+                )
             else:
                 self._abort(GOAL_TOLERANCE_VIOLATED, "goal velocity", bad_v, e_v, v_tol, t)
 
-    def _abort(self, code: int, what: str, over: np.ndarray, e: np.ndarray, tol: np.ndarray, t: float) -> None:
+    def _abort(
+        self, code: int, what: str, over: np.ndarray, e: np.ndarray, tol: np.ndarray, t: float
+    ) -> None:
         j = int(np.argmax(over))
         self.status, self.code = "aborted", code
-        self.reason = (f"{self.joint_names[j]} violated its {what} tolerance at t = {t:.3f} s: error "
-                       f"{e[j]:+.4f}, tolerance {tol[j]:.4f}")
+        self.reason = (
+            f"{self.joint_names[j]} violated its {what} tolerance at t = {t:.3f} s: error "
+            f"{e[j]:+.4f}, tolerance {tol[j]:.4f}"
+        )
 
     def cancel(self) -> None:
         if self.status == "active":

@@ -5,7 +5,8 @@ A JointState, CurrentReference or JointSetpoint of the driver has the same layou
 change. ``PackedMessage`` serialises one with rclpy (CDR, as ``publish(msg)`` would), finds where
 its stamp and float64 values sit, and each tick writes the new ones there (the bags'
 ``CdrTemplate``, the one CDR template patcher) and hands the bytes to ``Publisher.publish``
-(rclpy publishes bytes as a serialised message). The subscribers receive the same bytes as rosbags' CDR serialisation of the message
+(rclpy publishes bytes as a serialised message). The subscribers receive the same bytes as rosbags'
+CDR serialisation of the message
 (tests/sim/nodes/test_driver.py); the driver saves the Python message objects and their conversion,
 ~10 us per message.
 
@@ -17,7 +18,8 @@ message's own length, the shortest prefix that still deserialises.
 from __future__ import annotations
 
 import struct
-from typing import Any, Sequence
+from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 from rclpy.serialization import deserialize_message, serialize_message
@@ -50,7 +52,9 @@ class PackedMessage:
         n = len(name)
         msg = msg_type(name=list(name))
         msg.header.stamp.sec, msg.header.stamp.nanosec = _SENTINEL_SEC, _SENTINEL_NSEC
-        sentinels = [[1.0e300 + (i * n + j) * 1.0e285 for j in range(n)] for i in range(len(fields))]
+        sentinels = [
+            [1.0e300 + (i * n + j) * 1.0e285 for j in range(n)] for i in range(len(fields))
+        ]
         for field, values in zip(fields, sentinels):
             setattr(msg, field, values)
         raw = _exact(serialize_message(msg), msg_type)
@@ -64,7 +68,8 @@ class PackedMessage:
     def _find(raw: bytes, pattern: bytes, what: str) -> int:
         at = raw.find(pattern)
         if at < 0 or raw.find(pattern, at + 1) >= 0:
-            raise ValueError(f"cannot place {what} in the serialised message")  # a layout not handled here
+            # a layout not handled here
+            raise ValueError(f"cannot place {what} in the serialised message")
         return at
 
     def pack(self, sec: int, nanosec: int, *values: Sequence[float]) -> bytes:

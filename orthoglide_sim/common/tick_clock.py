@@ -9,7 +9,8 @@ from orthoglide_ident.ros.batch import real_time_thread
 from orthoglide_ident.ticks import TICK_NS  # noqa: F401  (the clock's period, for its users)
 
 LATE_NS = 500_000  # a tick published more than 0.5 ms after its deadline is late
-# time.sleep overshoots by ~0.04 ms (median) at SCHED_FIFO, ~0.1 ms without: wake this much before, then
+# time.sleep overshoots by ~0.04 ms (median) at SCHED_FIFO, ~0.1 ms without: wake this much before,
+# then
 # spin. Every microsecond of it is the node's CPU (0.1 ms spun was 6-8 % of a core at 1 kHz): a tick
 # published up to a few tens of microseconds after its deadline costs nobody anything (late: 0.5 ms)
 WAKE_EARLY_NS = 50_000
@@ -32,5 +33,7 @@ def real_time_priority(priority: int, logger: Any, loop: str) -> None:
     if refused is None:
         logger.info(f"{loop} at real-time priority {priority} (SCHED_FIFO)")
     else:
-        logger.warning(f"no real-time priority for the {loop} ({refused}); ticks may be late when the "
-                       "machine is busy (set rt_priority:=0 to silence this)")
+        logger.warning(
+            f"no real-time priority for the {loop} ({refused}); ticks may be late when the "
+            "machine is busy (set rt_priority:=0 to silence this)"
+        )

@@ -5,7 +5,8 @@ Exciting trajectories (paper Sect. 3.2, refs [24, 25], Fig. 4): per actuator a f
     q_i(t) = q0_i + sum_{k=1..K} a_ik / (k w_f) sin(k w_f t) - b_ik / (k w_f) cos(k w_f t)
 
 whose coefficients are optimised for the condition number of the base observation matrix (see
-``orthoglide_sim.orthoglide.excitation``), under the workspace box, velocity and acceleration limits and a
+``orthoglide_sim.orthoglide.excitation``), under the workspace box, velocity and acceleration limits
+and a
 margin from singularities. Test trajectories (Fig. 6): smooth point-to-point motions (quintic
 blends, zero velocity and acceleration at every via point).
 
@@ -59,16 +60,30 @@ class FourierTrajectory:
         return q, qd, qdd
 
     def to_dict(self) -> dict:
-        return {"kind": "fourier", "q0": self.q0.tolist(), "a": self.a.tolist(), "b": self.b.tolist(),
-                "w_f": self.w_f}
+        return {
+            "kind": "fourier",
+            "q0": self.q0.tolist(),
+            "a": self.a.tolist(),
+            "b": self.b.tolist(),
+            "w_f": self.w_f,
+        }
 
     @classmethod
-    def from_dict(cls, d: dict) -> "FourierTrajectory":
-        return cls(np.array(d["q0"], float), np.array(d["a"], float), np.array(d["b"], float), float(d["w_f"]))
+    def from_dict(cls, d: dict) -> FourierTrajectory:
+        return cls(
+            np.array(d["q0"], float),
+            np.array(d["a"], float),
+            np.array(d["b"], float),
+            float(d["w_f"]),
+        )
 
 
 def _quintic(s):
-    return s**3 * (10 - 15 * s + 6 * s**2), s**2 * (30 - 60 * s + 30 * s**2), s * (60 - 180 * s + 120 * s**2)
+    return (
+        s**3 * (10 - 15 * s + 6 * s**2),
+        s**2 * (30 - 60 * s + 30 * s**2),
+        s * (60 - 180 * s + 120 * s**2),
+    )
 
 
 @dataclass(frozen=True)
@@ -121,7 +136,8 @@ def exciting_names() -> list[str]:
 
 
 def get_trajectory(name: str):
-    """A trajectory by name: "exciting" (= exciting1), "exciting2", "test1", "test2", or a .json path."""
+    """A trajectory by name: "exciting" (= exciting1), "exciting2", "test1", "test2", or a .json
+    path."""
     if name in TEST_TRAJECTORIES:
         return TEST_TRAJECTORIES[name]
     if name == "exciting":

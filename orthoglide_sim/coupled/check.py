@@ -15,9 +15,9 @@ from dataclasses import dataclass
 import numpy as np
 import pinocchio as pin
 
-from orthoglide_sim.coupled.record import CoupledRecord
-from orthoglide_sim.coupled.plant import CoupledPlant
 from orthoglide_sim.arms.pinocchio_truth import truth_model
+from orthoglide_sim.coupled.plant import CoupledPlant
+from orthoglide_sim.coupled.record import CoupledRecord
 
 
 @dataclass
@@ -35,7 +35,9 @@ class Balance:
         """Largest |error| / tau_max over the ticks where every |q̇_m| > ``band`` rad/s, and the
         share of such ticks."""
         s = self.slowest > band
-        return float(np.abs(self.error[s]).max() / self.tau_max) if s.any() else np.nan, float(s.mean())
+        return float(np.abs(self.error[s]).max() / self.tau_max) if s.any() else np.nan, float(
+            s.mean()
+        )
 
 
 def torque_balance(rec: CoupledRecord, step: int = 5) -> Balance:
@@ -44,7 +46,9 @@ def torque_balance(rec: CoupledRecord, step: int = 5) -> Balance:
     plant = CoupledPlant(t, rec.payload)
     model, _ = truth_model(t.rigid, rec.payload)
     data = model.createData()
-    g, ia, fv, fs, off = (t.motor_array(k) for k in ("gain", "inertia", "viscous", "coulomb", "offset"))
+    g, ia, fv, fs, off = (
+        t.motor_array(k) for k in ("gain", "inertia", "viscous", "coulomb", "offset")
+    )
     err, friction, slowest, tau_max = [], [], [], 0.0
     for k in range(0, rec.q_true.shape[0], step):
         q, qd, i = rec.q_true[k], rec.qd_true[k], rec.current[k]

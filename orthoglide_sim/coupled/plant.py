@@ -26,10 +26,9 @@ import mujoco
 import numpy as np
 
 from orthoglide_ident.errors import ConfigError
+from orthoglide_sim.arms.plant import FRICTION_TIMECONST, JointStates, build_spec, route_warnings
 from orthoglide_sim.arms.truth import ArmPayload
 from orthoglide_sim.coupled.truth import CoupledTruth
-from orthoglide_sim.arms.plant import (FRICTION_TIMECONST, JointStates, route_warnings,
-                                         build_spec)
 
 
 def motor_name(truth: CoupledTruth, m: int) -> str:

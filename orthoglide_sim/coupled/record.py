@@ -35,9 +35,9 @@ from orthoglide_sim.arms import simulator as asim
 from orthoglide_sim.arms.limits import MotionLimits, motion_limits
 from orthoglide_sim.arms.record import NOISE_STRIDE, reference_of, trajectory_name
 from orthoglide_sim.arms.truth import ArmPayload
-from orthoglide_sim.coupled.truth import CoupledTruth, default_coupled_truth
-from orthoglide_sim.coupled.plant import CoupledPlant
 from orthoglide_sim.common.trajectories import FourierTrajectory
+from orthoglide_sim.coupled.plant import CoupledPlant
+from orthoglide_sim.coupled.truth import CoupledTruth, default_coupled_truth
 
 SIDES = bags.SIDES
 
@@ -126,12 +126,16 @@ def simulate_coupled(duration_s: float, payload: str | None = None,
     qm_ref, qdm_ref = truth.motor_positions(q_ref), qd_ref @ N.T
     s = slice(None, None, NOISE_STRIDE)
     tau_m = plant.motor_torques(q_ref[s], qd_ref[s], qdd_ref[s])
-    std = truth.current_noise_fraction * np.sqrt(np.mean((tau_m / truth.motor_array("gain")) ** 2, axis=0))
+    std = truth.current_noise_fraction * np.sqrt(
+        np.mean((tau_m / truth.motor_array("gain")) ** 2, axis=0)
+    )
     std = std if noise else np.zeros(arm.n)
     noise_a = np.random.default_rng(seed).normal(0.0, 1.0, (K, arm.n)) * std
     torque0 = plant.motor_torques(q_ref[:1], qd_ref[:1], qdd_ref[:1])[0]
     inertia = motor_inertia(CoupledPlant(truth), limits.centre)  # tuned once, unloaded
-    q_prev = asim.quantise(truth.motor_positions(q_ref[0] - qd_ref[0] * asim.TICK), truth.encoder_resolution)
+    q_prev = asim.quantise(
+        truth.motor_positions(q_ref[0] - qd_ref[0] * asim.TICK), truth.encoder_resolution
+    )
     pid = asim.ArmPID.tuned(inertia, truth.motor_array("nominal_gain"), current_limits(truth),
                             q_prev, qdm_ref[0], torque0)
     plant.reset(q_ref[0], qd_ref[0])
@@ -168,10 +172,21 @@ def write_coupled_bag(path: str | Path, rec: CoupledRecord, position_side: str =
     payload = None if rec.payload is None else rec.payload.tag()
     extra = {"orthoglide.sim.robot": rec.truth.name, "orthoglide.sim.trajectory": rec.trajectory,
              "orthoglide.sim.seed": str(rec.seed)}
-    return bags.write_bag(path, rec.stamps_ns, q, effort, condition, rec.payload_mass,
-                          joint_names=rec.truth.actuators, extra=extra, layout="joint_states",
-                          payload=payload, effort_unit=None if effort_side == "actuator" else "torque",
-                          position_side=position_side, effort_side=effort_side)
+    return bags.write_bag(
+        path,
+        rec.stamps_ns,
+        q,
+        effort,
+        condition,
+        rec.payload_mass,
+        joint_names=rec.truth.actuators,
+        extra=extra,
+        layout="joint_states",
+        payload=payload,
+        effort_unit=None if effort_side == "actuator" else "torque",
+        position_side=position_side,
+        effort_side=effort_side,
+    )
 
 
 def write_robot_files(folder: str | Path, truth: CoupledTruth) -> tuple[Path, Path]:
@@ -191,8 +206,10 @@ def write_robot_files(folder: str | Path, truth: CoupledTruth) -> tuple[Path, Pa
                  nominal_gains=truth.motor_array("nominal_gain").tolist(),
                  transmission=dict(truth.transmission(), position_side=side))
         path = folder / f"{stem}.yaml"
-        path.write_text("# The UR5 with a coupled wrist (orthoglide_sim.coupled.truth): motor 6 turns "
-                        "with q5 + q6;\n# nominal_gains per motor (N·m/A at the motor shaft)\n"
-                        + yaml.safe_dump(d, sort_keys=False, allow_unicode=True, default_flow_style=None))
+        path.write_text(
+            "# The UR5 with a coupled wrist (orthoglide_sim.coupled.truth): motor 6 turns "
+            "with q5 + q6;\n# nominal_gains per motor (N·m/A at the motor shaft)\n"
+            + yaml.safe_dump(d, sort_keys=False, allow_unicode=True, default_flow_style=None)
+        )
         out.append(path)
     return out[0], out[1]

@@ -29,7 +29,13 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from orthoglide_sim.arms.description import ArmDescription, load_arm
-from orthoglide_sim.arms.truth import CURRENT_NOISE_FRACTION, ArmPayload, ArmTruth, JointDrive, default_truth
+from orthoglide_sim.arms.truth import (
+    CURRENT_NOISE_FRACTION,
+    ArmPayload,
+    ArmTruth,
+    JointDrive,
+    default_truth,
+)
 
 # N: motor velocity = N · joint velocity (rows: motors, columns: shoulder_pan ... wrist_3)
 REDUCTION = np.array([[32, 0, 0, 0, 0, 0],
@@ -126,14 +132,18 @@ def rigid_truth(truth: ArmTruth) -> ArmTruth:
     return replace(truth, drives={j: bare for j in truth.drives})
 
 
-def default_coupled_truth(arm: ArmDescription | None = None, reduction: np.ndarray = REDUCTION) -> CoupledTruth:
+def default_coupled_truth(
+    arm: ArmDescription | None = None, reduction: np.ndarray = REDUCTION
+) -> CoupledTruth:
     """The UR5 with the coupled-wrist drive chain (REDUCTION, MOTORS, MOTOR_OFFSET), or with
     another ``reduction`` of the same motors (SIMPLE_REDUCTION: simple_transmission_truth)."""
     arm = arm or load_arm("ur5")
     if arm.n != reduction.shape[1]:
         raise ValueError(f"the drive chain has {reduction.shape[1]} joints, {arm.name} {arm.n}")
     motors = tuple(MotorDrive(ia, fv, fs, off, g, g * f) for ia, fv, fs, off, g, f in MOTORS)
-    return CoupledTruth(rigid_truth(default_truth(arm)), np.array(reduction, float), MOTOR_OFFSET.copy(), motors)
+    return CoupledTruth(
+        rigid_truth(default_truth(arm)), np.array(reduction, float), MOTOR_OFFSET.copy(), motors
+    )
 
 
 def simple_transmission_truth(arm: ArmDescription | None = None) -> CoupledTruth:

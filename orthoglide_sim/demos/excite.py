@@ -1,4 +1,5 @@
-"""`make demo-excite`: from a URDF to a designed trajectory and the identified model feeding forward,
+"""`make demo-excite`: from a URDF to a designed trajectory and the identified model feeding
+forward,
 through the robot's joint_trajectory_controller action, as a user would on a ros2_control robot.
 
 1. `orthoglide-ident excite design --robot ur5_mount --joint-limits cell_joint_limits.yaml
@@ -29,8 +30,8 @@ from pathlib import Path
 import numpy as np
 
 from orthoglide_ident.errors import OrthoglideError
-from orthoglide_sim.demos.node_set import ROOT, say
 from orthoglide_sim.demos.graph import Graph, own_ros_domain
+from orthoglide_sim.demos.node_set import ROOT, say
 from orthoglide_sim.demos.verdict import GAIN_BAR, SIGMA_BAR, gain_causes, verdict_line
 
 ROBOT = "ur5_mount"  # the UR5 with a payload mount off the last axis (orthoglide_ident/robots)
@@ -46,9 +47,21 @@ def start_graph(g: Graph, out: Path) -> None:
     from sensor_msgs.msg import JointState
 
     config = ROOT / "config" / "ros2_control.yaml"
-    g.start(STANDIN, "driver", {"robot": ROBOT, "payload": "none", "trajectory": "hold"}, params_file=config)
-    g.start("orthoglide_recorder", "recorder", {"output_dir": str(out / "bags")}, params_file=config)
-    g.start("orthoglide_identification", "identification", {"bag_dir": str(out / "bags")}, params_file=config)
+    g.start(
+        STANDIN,
+        "driver",
+        {"robot": ROBOT, "payload": "none", "trajectory": "hold"},
+        params_file=config,
+    )
+    g.start(
+        "orthoglide_recorder", "recorder", {"output_dir": str(out / "bags")}, params_file=config
+    )
+    g.start(
+        "orthoglide_identification",
+        "identification",
+        {"bag_dir": str(out / "bags")},
+        params_file=config,
+    )
     g.wait_for_messages(JointState, "joint_states", 1, timeout=60.0)
     for node in ("orthoglide_identification", "orthoglide_recorder"):
         g.wait_for_subscriber("/joint_states", node)
@@ -63,16 +76,39 @@ def cell_limits(path: Path) -> Path:
     from orthoglide_sim.arms.session import robot_truth
 
     arm = robot_truth(ROBOT).arm
-    path.write_text(yaml.safe_dump(ros2_joint_limits(motion_limits(arm), arm.joint_names), sort_keys=False))
+    path.write_text(
+        yaml.safe_dump(ros2_joint_limits(motion_limits(arm), arm.joint_names), sort_keys=False)
+    )
     return path
 
 
 def excite_design(traj: Path, limits: Path, periods: int) -> None:
-    """`orthoglide-ident excite design` for the demo's robot, cell and payload (seeded: repeatable)."""
-    run = subprocess.run([str(CLI), "excite", "design", "--robot", ROBOT, "--joint-limits", str(limits),
-                          "--payload-mass", str(PAYLOAD_KG),
-                          "--periods", str(periods), "--period", str(PERIOD_S), "--seed", str(SEED),
-                          "--out", str(traj)], capture_output=True, text=True, timeout=900)
+    """`orthoglide-ident excite design` for the demo's robot, cell and payload (seeded:
+    repeatable)."""
+    run = subprocess.run(
+        [
+            str(CLI),
+            "excite",
+            "design",
+            "--robot",
+            ROBOT,
+            "--joint-limits",
+            str(limits),
+            "--payload-mass",
+            str(PAYLOAD_KG),
+            "--periods",
+            str(periods),
+            "--period",
+            str(PERIOD_S),
+            "--seed",
+            str(SEED),
+            "--out",
+            str(traj),
+        ],
+        capture_output=True,
+        text=True,
+        timeout=900,
+    )
     if run.returncode != 0:
         raise OrthoglideError(f"excite design failed: {run.stderr.strip()}")
     for line in run.stdout.splitlines():
@@ -81,8 +117,24 @@ def excite_design(traj: Path, limits: Path, periods: int) -> None:
 
 def excite_run(traj: Path, condition: str, name: str) -> int:
     """`orthoglide-ident excite run`, its progress passed through."""
-    run = subprocess.run([str(CLI), "excite", "run", str(traj), "--condition", condition, "--robot", ROBOT,
-                          "--name", name], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, timeout=1800)
+    run = subprocess.run(
+        [
+            str(CLI),
+            "excite",
+            "run",
+            str(traj),
+            "--condition",
+            condition,
+            "--robot",
+            ROBOT,
+            "--name",
+            name,
+        ],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+        timeout=1800,
+    )
     for line in run.stdout.splitlines():
         say(f"   | {line}")
     return run.returncode
@@ -90,8 +142,12 @@ def excite_run(traj: Path, condition: str, name: str) -> int:
 
 def identify(bags: list[Path], out: Path) -> dict:
     path = out / "identified.json"
-    run = subprocess.run([str(CLI), "identify", "--robot", ROBOT, "--json", str(path), *map(str, bags)],
-                         capture_output=True, text=True, timeout=900)
+    run = subprocess.run(
+        [str(CLI), "identify", "--robot", ROBOT, "--json", str(path), *map(str, bags)],
+        capture_output=True,
+        text=True,
+        timeout=900,
+    )
     if run.returncode != 0:
         raise OrthoglideError(f"identify failed: {run.stderr.strip()}")
     return json.loads(path.read_text())
@@ -110,8 +166,14 @@ def gains_table(doc: dict) -> tuple[float, float]:
     say(f"   {'joint':<20} {'truth':>8} {'identified':>11} {'σ':>7} {'error':>8}")
     for g_true, g in zip(truth, doc["drive_gains"]):
         err = g["value"] / g_true - 1
-        worst_pct, worst_sigma = max(worst_pct, abs(100 * err)), max(worst_sigma, abs(err) / g["rel_std"])
-        say(f"   {g['joint']:<20} {g_true:8.3f} {g['value']:11.3f} {100 * g['rel_std']:6.3f}% {100 * err:+7.3f}%")
+        worst_pct, worst_sigma = (
+            max(worst_pct, abs(100 * err)),
+            max(worst_sigma, abs(err) / g["rel_std"]),
+        )
+        say(
+            f"   {g['joint']:<20} {g_true:8.3f} {g['value']:11.3f} {100 * g['rel_std']:6.3f}% "
+            f"{100 * err:+7.3f}%"
+        )
     return worst_pct, worst_sigma
 
 
@@ -122,9 +184,18 @@ def feedforward_effort(doc: dict, points) -> np.ndarray:
     from orthoglide_ident.model.robots import load_robot
 
     model = load_robot(ROBOT)
-    params = CTCParameters.from_values([p["name"] for p in doc["parameters"]], [p["value"] for p in doc["parameters"]],
-                                       [g["value"] for g in doc["drive_gains"]], PAYLOAD_KG, model)
-    return feedforward(points.q, points.qd, points.qdd, params) / params.drive_gains * model.nominal_gains
+    params = CTCParameters.from_values(
+        [p["name"] for p in doc["parameters"]],
+        [p["value"] for p in doc["parameters"]],
+        [g["value"] for g in doc["drive_gains"]],
+        PAYLOAD_KG,
+        model,
+    )
+    return (
+        feedforward(points.q, points.qd, points.qdd, params)
+        / params.drive_gains
+        * model.nominal_gains
+    )
 
 
 def tracking_rms(g: Graph, points, effort: np.ndarray | None) -> float:
@@ -132,8 +203,14 @@ def tracking_rms(g: Graph, points, effort: np.ndarray | None) -> float:
     from orthoglide_ident.excite.action_client import goal_message, send_goal
 
     errors: list = []
-    out = send_goal(g.node, ACTION, goal_message(points, goal_time=1.0, effort=effort), points.duration,
-                    on_feedback=lambda fb: errors.append(fb.error.positions), spin=time.sleep)  # g spins it
+    out = send_goal(
+        g.node,
+        ACTION,
+        goal_message(points, goal_time=1.0, effort=effort),
+        points.duration,
+        on_feedback=lambda fb: errors.append(fb.error.positions),
+        spin=time.sleep,
+    )  # g spins it
     if not out.ok:
         raise OrthoglideError(f"feed-forward run {out.status}: {out.reason}")
     return float(np.sqrt(np.mean(np.square(errors))))
@@ -149,8 +226,15 @@ def run(out: Path, periods: int) -> int:
     out.mkdir(parents=True)
     traj = out / "ur5_excitation.yaml"
     limits = cell_limits(out / "cell_joint_limits.yaml")
-    say(f"1. excite design --robot {ROBOT} --joint-limits {limits.name} --payload-mass {PAYLOAD_KG} "
-        f"--periods {periods} --seed {SEED}: {traj} ({periods} periods of {PERIOD_S:g} s per run)")
+    say(
+        f"1. excite design --robot {ROBOT} --joint-limits {limits.name} --payload-mass "
+        f"{PAYLOAD_KG} "
+        ""
+        ""
+        ""
+        ""
+        f"--periods {periods} --seed {SEED}: {traj} ({periods} periods of {PERIOD_S:g} s per run)"
+    )
     excite_design(traj, limits, periods)
     say(f"2. ros2_control stand-in ({ROBOT}, at rest), recorder and identification as processes")
     with Graph(out / "logs") as g:
@@ -168,30 +252,55 @@ def run(out: Path, periods: int) -> int:
         causes = gain_causes([g["joint"] for g in doc["drive_gains"]],
                              [g["value"] for g in doc["drive_gains"]],
                              [g["rel_std"] for g in doc["drive_gains"]], truth_gains())
-        say("5. the loaded run again through the action, without and with the identified model's feed-forward")
+        say(
+            "5. the loaded run again through the action, without and with the identified model's "
+            "feed-forward"
+        )
         points = plan.excitation_points(load_trajectory(traj), "loaded")
         rms_pid = tracking_rms(g, points, None)
         rms_ff = tracking_rms(g, points, feedforward_effort(doc, points))
         c = g.driver_counters()
     wall = time.monotonic() - t_start
-    say(f"   tracking error rms: PID alone {1e3 * rms_pid:.3f} mrad, with the feed-forward {1e3 * rms_ff:.3f} mrad")
-    say(f"gains within {worst_pct:.3f} % and {worst_sigma:.2f} σ of the plant's; stand-in fault: "
-        f"{c.get('fault') or 'none'}, {c.get('current_limited')} current-limited updates; wall time {wall:.0f} s")
+    say(
+        f"   tracking error rms: PID alone {1e3 * rms_pid:.3f} mrad, with the feed-forward "
+        f"{1e3 * rms_ff:.3f} mrad"
+    )
+    say(
+        f"gains within {worst_pct:.3f} % and {worst_sigma:.2f} σ of the plant's; stand-in fault: "
+        f"{c.get('fault') or 'none'}, {c.get('current_limited')} current-limited updates; wall "
+        "time "
+        ""
+        ""
+        ""
+        f"{wall:.0f} s"
+    )
     say(f"bags, logs in {out}/")
     if not rms_ff < rms_pid:
-        causes.append(f"the identified feed-forward did not lower the tracking error ({1e3 * rms_ff:.3f} "
-                      f"vs {1e3 * rms_pid:.3f} mrad rms)")
+        causes.append(
+            f"the identified feed-forward did not lower the tracking error ({1e3 * rms_ff:.3f} "
+            f"vs {1e3 * rms_pid:.3f} mrad rms)"
+        )
     if c.get("fault"):
         causes.append(f"the stand-in stopped on a fault: {c['fault']}")
-    line, code = verdict_line(causes, f"gains within {100 * GAIN_BAR:.1f} % and {SIGMA_BAR:.0f} σ of "
-                              "the plant's, the feed-forward lowers the tracking error, no fault")
+    line, code = verdict_line(
+        causes,
+        f"gains within {100 * GAIN_BAR:.1f} % and {SIGMA_BAR:.0f} σ of "
+        "the plant's, the feed-forward lowers the tracking error, no fault",
+    )
     say(line)
     return code
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m orthoglide_sim.demos.excite", description=__doc__.splitlines()[0])
-    ap.add_argument("--periods", type=int, default=6, help=f"periods of {PERIOD_S:g} s per run (default 6: 30 s)")
+    ap = argparse.ArgumentParser(
+        prog="python -m orthoglide_sim.demos.excite", description=__doc__.splitlines()[0]
+    )
+    ap.add_argument(
+        "--periods",
+        type=int,
+        default=6,
+        help=f"periods of {PERIOD_S:g} s per run (default 6: 30 s)",
+    )
     ap.add_argument("--out", type=Path, default=Path("demo_out/excite"), help="output folder")
     args = ap.parse_args(argv)
     say(own_ros_domain())

@@ -2,7 +2,8 @@
 
 ``Graph`` owns the node processes (started with the `ros2 run` launchers of the venv, logs in a
 folder) and one client node in this process, spun on its own thread, through which it calls the
-services, sets parameters and listens to topics. Used by ``orthoglide_sim.demos.node_set`` and the tests of
+services, sets parameters and listens to topics. Used by ``orthoglide_sim.demos.node_set`` and the
+tests of
 the live graph; nothing here is numerical.
 """
 from __future__ import annotations
@@ -18,12 +19,12 @@ from pathlib import Path
 from typing import Any
 
 import rclpy
+from diagnostic_msgs.msg import DiagnosticArray
 from rclpy.executors import MultiThreadedExecutor
-from rclpy.signals import SignalHandlerOptions
 from rclpy.parameter import Parameter
 from rclpy.parameter_client import AsyncParameterClient
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
-from diagnostic_msgs.msg import DiagnosticArray
+from rclpy.signals import SignalHandlerOptions
 from sensor_msgs.msg import JointState
 
 from orthoglide_ident.errors import OrthoglideError
@@ -64,7 +65,7 @@ class Graph:
         self.procs: dict[str, subprocess.Popen] = {}
         self._logs: dict[str, Any] = {}
 
-    def __enter__(self) -> "Graph":
+    def __enter__(self) -> Graph:
         # no rclpy signal handlers: SIGTERM shut the context down under the running calls (chained
         # RCLError tracebacks); the caller's handlers (ros.processes.interrupt_on_signals) or
         # Python's default end the run, and __exit__ stops the nodes
@@ -76,7 +77,8 @@ class Graph:
         self.live: list[Any] = []  # orthoglide/identification/live messages (about 1 Hz)
         self.node.create_subscription(LiveIdentification, "orthoglide/identification/live",
                                       lambda m: self.live.append(m), 10)
-        self.ctc_figures: list[tuple[float, dict[str, str]]] = []  # (monotonic s, the ctc's /diagnostics values)
+        # (monotonic s, the ctc's /diagnostics values)
+        self.ctc_figures: list[tuple[float, dict[str, str]]] = []
         self.node.create_subscription(DiagnosticArray, "/diagnostics", self._on_diagnostics, 10)
         self.executor = MultiThreadedExecutor(num_threads=2)
         self.executor.add_node(self.node)
@@ -98,7 +100,8 @@ class Graph:
     # ---- processes -------------------------------------------------------------------------------
     def start(self, name: str, executable: str, params: dict[str, Any] | None = None,
               remap: dict[str, str] | None = None, params_file: Path | None = None) -> None:
-        """`ros2 run orthoglide_ident <executable> --ros-args -r __node:=<name> ...`, logged to <name>.log."""
+        """`ros2 run orthoglide_ident <executable> --ros-args -r __node:=<name> ...`, logged to
+        <name>.log."""
         args = [str(LAUNCHERS / executable), "--ros-args", "-r", f"__node:={name}"]
         if params_file is not None:
             args += ["--params-file", str(params_file)]
@@ -164,8 +167,11 @@ class Graph:
             node_name, AsyncParameterClient(self.node, node_name))
         if not client.wait_for_services(timeout_sec=30.0):
             raise GraphError(f"parameter services of {node_name} did not appear")
-        result = self._wait(client.set_parameters([Parameter(k, value=v) for k, v in values.items()]),
-                            10.0, f"{node_name} set_parameters")
+        result = self._wait(
+            client.set_parameters([Parameter(k, value=v) for k, v in values.items()]),
+            10.0,
+            f"{node_name} set_parameters",
+        )
         for (k, _), r in zip(values.items(), result.results):
             if not r.successful:
                 raise GraphError(f"{node_name} refused {k}: {r.reason}")
@@ -180,9 +186,18 @@ class Graph:
         return future.result()
 
     # ---- topics ----------------------------------------------------------------------------------
-    def _listen(self, msg_type: Any, topic: str, qos: Any, on_message: Any, done: Any, timeout: float,
-                failure: Any) -> float:
-        """Spin a short-lived node of its own subscribed to ``topic`` until ``done()``; seconds it took.
+    def _listen(
+        self,
+        msg_type: Any,
+        topic: str,
+        qos: Any,
+        on_message: Any,
+        done: Any,
+        timeout: float,
+        failure: Any,
+    ) -> float:
+        """Spin a short-lived node of its own subscribed to ``topic`` until ``done()``; seconds it
+        took.
         Its own node, so that nothing subscribes at 1 kHz in this process the rest of the time;
         GraphError with ``failure()`` after ``timeout`` s."""
         probe = rclpy.create_node("orthoglide_demo_probe")
@@ -198,32 +213,54 @@ class Graph:
             probe.destroy_node()
         return time.monotonic() - t0
 
-    def wait_for_messages(self, msg_type: Any, topic: str, count: int = 1, timeout: float = 30.0) -> float:
+    def wait_for_messages(
+        self, msg_type: Any, topic: str, count: int = 1, timeout: float = 30.0
+    ) -> float:
         """Seconds until ``count`` messages arrived on ``topic``."""
         got = [0]
-        return self._listen(msg_type, topic, QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE),
-                            lambda m: got.__setitem__(0, got[0] + 1), lambda: got[0] >= count, timeout,
-                            lambda: f"{got[0]} of {count} messages on {topic} within {timeout:.0f} s")
+        return self._listen(
+            msg_type,
+            topic,
+            QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE),
+            lambda m: got.__setitem__(0, got[0] + 1),
+            lambda: got[0] >= count,
+            timeout,
+            lambda: f"{got[0]} of {count} messages on {topic} within {timeout:.0f} s",
+        )
 
-    def wait_for_status(self, done: Any, timeout: float = 60.0, topic: str = "orthoglide/recorder/status") -> Any:
+    def wait_for_status(
+        self, done: Any, timeout: float = 60.0, topic: str = "orthoglide/recorder/status"
+    ) -> Any:
         """The first recorder status (latched) for which ``done(status)`` holds; GraphError with the
         last one seen after ``timeout`` s (a bound on a hang, not a figure)."""
         seen: list[Any] = []
         latched = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
                              durability=DurabilityPolicy.TRANSIENT_LOCAL)
-        self._listen(RecorderStatus, topic, latched, seen.append, lambda: bool(seen) and done(seen[-1]),
-                     timeout, lambda: f"recorder status not as awaited within {timeout:.0f} s: "
-                                      f"{seen[-1] if seen else 'none received'}")
+        self._listen(
+            RecorderStatus,
+            topic,
+            latched,
+            seen.append,
+            lambda: bool(seen) and done(seen[-1]),
+            timeout,
+            lambda: (
+                f"recorder status not as awaited within {timeout:.0f} s: "
+                f"{seen[-1] if seen else 'none received'}"
+            ),
+        )
         return seen[-1]
 
     def wait_for_match(self, publisher: Any, timeout: float = 30.0) -> None:
         """Until ``publisher`` (of this graph's node) is matched with a subscription: what it
-        publishes from then on reaches a subscriber (DDS matching is not instant after discovery)."""
+        publishes from then on reaches a subscriber (DDS matching is not instant after
+        discovery)."""
         t_end = time.monotonic() + timeout
         while publisher.get_subscription_count() < 1:
             if time.monotonic() > t_end:
                 self.check_alive()
-                raise GraphError(f"nothing subscribed to {publisher.topic_name} within {timeout:.0f} s")
+                raise GraphError(
+                    f"nothing subscribed to {publisher.topic_name} within {timeout:.0f} s"
+                )
             time.sleep(0.02)
 
     def driver_counters(self, timeout: float = 5.0) -> dict[str, str]:
@@ -236,8 +273,15 @@ class Graph:
                 if st.hardware_id == "orthoglide_sim":
                     got.update({kv.key: kv.value for kv in st.values})
 
-        self._listen(DiagnosticArray, "/diagnostics", 10, on_diagnostics, lambda: bool(got), timeout,
-                     lambda: f"no driver counters on /diagnostics within {timeout:.0f} s")
+        self._listen(
+            DiagnosticArray,
+            "/diagnostics",
+            10,
+            on_diagnostics,
+            lambda: bool(got),
+            timeout,
+            lambda: f"no driver counters on /diagnostics within {timeout:.0f} s",
+        )
         return got
 
     def _on_diagnostics(self, msg: DiagnosticArray) -> None:
@@ -260,7 +304,9 @@ class Graph:
                       for i in self.node.get_subscriptions_info_by_topic(name)):
             if time.monotonic() - t0 > timeout:
                 self.check_alive()
-                raise GraphError(f"{node_prefix} did not subscribe to {name} within {timeout:.0f} s")
+                raise GraphError(
+                    f"{node_prefix} did not subscribe to {name} within {timeout:.0f} s"
+                )
             time.sleep(0.05)
         self._wait_for_delivery(name, timeout)
         return time.monotonic() - t0
@@ -308,7 +354,8 @@ class Graph:
         return self.wait_for_messages(JointState, "orthoglide/joint_states", 1, timeout)
 
     def wait_for_feedforward(self, ticks: int = 200, timeout: float = 20.0) -> float:
-        """Until ``ticks`` feed-forward messages arrived (a ctc node fed with parameters is running)."""
+        """Until ``ticks`` feed-forward messages arrived (a ctc node fed with parameters is
+        running)."""
         return self.wait_for_messages(CurrentReference, "orthoglide/feedforward", ticks, timeout)
 
 

@@ -24,12 +24,12 @@ from pathlib import Path
 import numpy as np
 
 from orthoglide_ident.errors import OrthoglideError
+from orthoglide_ident.model.orthoglide.geometry import G_TAU_MANUFACTURER
+from orthoglide_ident.model.robots import load_robot
 from orthoglide_ident.ros.processes import Interrupted, interrupt_on_signals
 from orthoglide_ident.ros_client import live_line
 from orthoglide_sim.demos.graph import Graph, GraphError, own_ros_domain
 from orthoglide_sim.demos.verdict import GAIN_BAR, SIGMA_BAR, gain_causes, verdict_line
-from orthoglide_ident.model.orthoglide.geometry import G_TAU_MANUFACTURER
-from orthoglide_ident.model.robots import load_robot
 from orthoglide_sim.orthoglide.session import FF_HOLD_TICKS
 from orthoglide_sim.orthoglide.truth import load_parameters
 
@@ -37,7 +37,13 @@ ROOT = Path(__file__).resolve().parents[2]  # the project: config/ (installed be
 ORTHOGLIDE = load_robot("orthoglide")  # the robot these records are of
 
 PAYLOAD = 1.983
-TABLE4 = ("simple PID", "PID + vel. ff", "CTC, manuf. gains", "CTC, identif. gains", "CTC, gains +25 %")
+TABLE4 = (
+    "simple PID",
+    "PID + vel. ff",
+    "CTC, manuf. gains",
+    "CTC, identif. gains",
+    "CTC, gains +25 %",
+)
 SETTLE_S = 1.0  # after a change of controller or model, before measuring
 BLEND_S = 3.0  # a new trajectory blends in over 2 s (orthoglide_sim.orthoglide.session.BLEND_TIME)
 LIVE_PRINT_S = 10.0  # the live identification estimate is printed this often while recording
@@ -50,9 +56,18 @@ def say(msg: str = "") -> None:
 def start_graph(g: Graph, out: Path) -> None:
 
     config = ROOT / "config"
-    g.start("orthoglide_driver", "driver", {"trajectory": "exciting", "controller": "pid", "payload": "none"},
-            params_file=config / "driver.yaml")
-    g.start("orthoglide_recorder", "recorder", {"output_dir": str(out / "bags")}, params_file=config / "recorder.yaml")
+    g.start(
+        "orthoglide_driver",
+        "driver",
+        {"trajectory": "exciting", "controller": "pid", "payload": "none"},
+        params_file=config / "driver.yaml",
+    )
+    g.start(
+        "orthoglide_recorder",
+        "recorder",
+        {"output_dir": str(out / "bags")},
+        params_file=config / "recorder.yaml",
+    )
     g.start("orthoglide_identification", "identification", {"bag_dir": str(out / "bags")},
             params_file=config / "identification.yaml")
     g.start("orthoglide_ctc", "ctc", params_file=config / "ctc.yaml")
@@ -63,11 +78,20 @@ def start_graph(g: Graph, out: Path) -> None:
         f"(logs in {g.log_dir}/)")
 
 
-def record(g: Graph, name: str, condition: str, mass: float, seconds: float, quiet: bool = False) -> str:
-    from orthoglide_msgs.srv import StartRecording
+def record(
+    g: Graph, name: str, condition: str, mass: float, seconds: float, quiet: bool = False
+) -> str:
     from std_srvs.srv import Trigger
 
-    res = g.call(StartRecording, "orthoglide/recorder/start", condition=condition, payload_mass=mass, name=name)
+    from orthoglide_msgs.srv import StartRecording
+
+    res = g.call(
+        StartRecording,
+        "orthoglide/recorder/start",
+        condition=condition,
+        payload_mass=mass,
+        name=name,
+    )
     if not res.success:
         raise GraphError(f"recorder refused to start: {res.message}")
     t_end = time.monotonic() + seconds
@@ -109,10 +133,16 @@ def print_gains(res: object, seconds: float) -> None:
     parts = [x.strip() for x in res.message.split(";")]
     say(f"   answered in {seconds:.1f} s: " + "; ".join(
         [parts[0]] + [x for x in parts if x.startswith("current-loop")]))
-    say(f"   {'joint':<6} {'truth':>8} {'IDIM-TLS':>9} {'%sigma':>7} {'error':>8}   {'manufacturer':>12} {'error':>8}")
+    say(
+        f"   {'joint':<6} {'truth':>8} {'IDIM-TLS':>9} {'%sigma':>7} {'error':>8}   "
+        f"{'manufacturer':>12} {'error':>8}"
+    )
     for j, (g_id, rel, g_true) in enumerate(zip(p.drive_gains, p.drive_gains_rel_std, tp.g_tau)):
-        say(f"   q1{j + 1:<4} {g_true:8.1f} {g_id:9.1f} {100 * rel:6.2f}% {100 * (g_id / g_true - 1):+7.3f}%"
-            f"   {G_TAU_MANUFACTURER:12.1f} {100 * (G_TAU_MANUFACTURER / g_true - 1):+7.2f}%")
+        say(
+            f"   q1{j + 1:<4} {g_true:8.1f} {g_id:9.1f} {100 * rel:6.2f}% "
+            f"{100 * (g_id / g_true - 1):+7.3f}%"
+            f"   {G_TAU_MANUFACTURER:12.1f} {100 * (G_TAU_MANUFACTURER / g_true - 1):+7.2f}%"
+        )
 
 
 COUNTERS = ("ticks", "late", "feedforward_fresh", "feedforward_missing", "feedforward_expired")
@@ -134,7 +164,9 @@ def run_strategy(g: Graph, controller: str, name: str, seconds: float) -> tuple[
         figures = [f for f in g.ctc_figures_between(t0, t1) if f.get("lead_min_ms")]
         if figures:  # the worst second's minimum, the median of the seconds' medians
             counts["ctc_lead_min_ms"] = min(float(f["lead_min_ms"]) for f in figures)
-            counts["ctc_lead_median_ms"] = float(np.median([float(f["lead_median_ms"]) for f in figures]))
+            counts["ctc_lead_median_ms"] = float(
+                np.median([float(f["lead_median_ms"]) for f in figures])
+            )
     return errors, counts
 
 
@@ -162,9 +194,17 @@ def use_ctc(g: Graph, which: str) -> None:
 
     for name in ("orthoglide_ctc", "orthoglide_ctc_wls"):
         g.stop(name)
-    remap = {"orthoglide/identified_parameters": "orthoglide/identified_parameters/wls"} if which == "wls" else None
-    g.start("orthoglide_ctc" if which == "tls" else "orthoglide_ctc_wls", "ctc", params_file=ROOT / "config/ctc.yaml",
-            remap=remap)
+    remap = (
+        {"orthoglide/identified_parameters": "orthoglide/identified_parameters/wls"}
+        if which == "wls"
+        else None
+    )
+    g.start(
+        "orthoglide_ctc" if which == "tls" else "orthoglide_ctc_wls",
+        "ctc",
+        params_file=ROOT / "config/ctc.yaml",
+        remap=remap,
+    )
 
 
 def _health(c: dict) -> str:
@@ -172,10 +212,12 @@ def _health(c: dict) -> str:
     if c["feedforward_fresh"] or c["feedforward_missing"]:
         text += f", {c['feedforward_missing']} without a fresh feed-forward (previous one held)"
         if c["feedforward_expired"]:
-            text += f", {c['feedforward_expired']} of them past {FF_HOLD_TICKS} ticks: PID + vel. ff alone"
+            text += (f", {c['feedforward_expired']} of them past {FF_HOLD_TICKS} ticks: "
+                     "PID + vel. ff alone")
     if "ctc_cpu_percent" in c:
         if "ctc_lead_min_ms" in c:
-            text += f"; ctc: lead min {c['ctc_lead_min_ms']:.1f} / median {c['ctc_lead_median_ms']:.1f} ms,"
+            text += (f"; ctc: lead min {c['ctc_lead_min_ms']:.1f} / median "
+                     f"{c['ctc_lead_median_ms']:.1f} ms,")
         else:
             text += "; ctc:"
         text += f" CPU {c['ctc_cpu_percent']:.0f} % of a core"
@@ -189,23 +231,39 @@ def table4_over_ros(g: Graph, bags: list[str], seconds: float) -> tuple[dict, di
     for traj in ("test1", "test2"):
         g.set_params("orthoglide_driver", trajectory=traj, controller="pid")
         time.sleep(BLEND_S)
-        order = TABLE4 if traj == "test1" else TABLE4[::-1]  # keeps the ctc node in place between them
+        # keeps the ctc node in place between them
+        order = TABLE4 if traj == "test1" else TABLE4[::-1]
         for case in order:
             if case == "CTC, identif. gains":
                 use_ctc(g, "tls")
             elif case in ("CTC, manuf. gains", "CTC, gains +25 %"):
                 factor = 1.25 if "25" in case else 1.0
-                g.set_params("orthoglide_identification", wls_gains=[factor * G_TAU_MANUFACTURER] * 3)
+                g.set_params(
+                    "orthoglide_identification", wls_gains=[factor * G_TAU_MANUFACTURER] * 3
+                )
                 if "orthoglide_ctc_wls" not in g.procs:
                     use_ctc(g, "wls")
                 identify(g, bags, "wls")
             if case.startswith("CTC"):
                 g.wait_for_feedforward()  # the model of this case is feeding the driver
             controller = {"simple PID": "pid", "PID + vel. ff": "pid_ff"}.get(case, "ctc")
-            slug = case.lower().replace(" ", "_").replace(",", "").replace(".", "").replace("+", "plus").replace("%", "pc")
-            rows[traj, case], counts[traj, case] = run_strategy(g, controller, f"table4_{traj}_{slug}", seconds)
-            say(f"   {traj} {case:<20} rms " + " / ".join(f"{x:6.1f}" for x in _rms_um(rows[traj, case])) + " um"
-                + _health(counts[traj, case]))
+            slug = (
+                case.lower()
+                .replace(" ", "_")
+                .replace(",", "")
+                .replace(".", "")
+                .replace("+", "plus")
+                .replace("%", "pc")
+            )
+            rows[traj, case], counts[traj, case] = run_strategy(
+                g, controller, f"table4_{traj}_{slug}", seconds
+            )
+            say(
+                f"   {traj} {case:<20} rms "
+                + " / ".join(f"{x:6.1f}" for x in _rms_um(rows[traj, case]))
+                + " um"
+                + _health(counts[traj, case])
+            )
     g.set_params("orthoglide_driver", controller="pid")
     return rows, counts
 
@@ -217,8 +275,8 @@ def _rms_um(e: np.ndarray) -> np.ndarray:
 def in_process_ctc(tls_msg: object, seconds: float) -> dict:
     """The same split CTC (driver pid_ff + model feed-forward) without transport, per trajectory."""
     from orthoglide_ident.control import CTCParameters, feedforward_currents
-    from orthoglide_sim.orthoglide.record import simulate
     from orthoglide_sim.common.trajectories import get_trajectory
+    from orthoglide_sim.orthoglide.record import simulate
 
     model = CTCParameters.from_values(tls_msg.names, tls_msg.values, tls_msg.drive_gains, PAYLOAD,
                                       model=ORTHOGLIDE)
@@ -234,8 +292,14 @@ def in_process_ctc(tls_msg: object, seconds: float) -> dict:
 
 def print_table4(rows: dict, inproc: dict, counts: dict) -> None:
     say(f"\n   Tracking errors, payload {PAYLOAD} kg, over ROS 2 (um; paper Table 4 layout)")
-    say(f"   {'control strategy':<22} {'maximal error':^27} {'rms error':^27}  {'ticks: late, no fresh ff':>24}")
-    say(f"   {'':<22} {'joint 1':>8} {'joint 2':>8} {'joint 3':>8}  {'joint 1':>8} {'joint 2':>8} {'joint 3':>8}")
+    say(
+        f"   {'control strategy':<22} {'maximal error':^27} {'rms error':^27}  "
+        f"{'ticks: late, no fresh ff':>24}"
+    )
+    say(
+        f"   {'':<22} {'joint 1':>8} {'joint 2':>8} {'joint 3':>8}  {'joint 1':>8} {'joint 2':>8} "
+        f"{'joint 3':>8}"
+    )
     for traj in ("test1", "test2"):
         say(f"   {traj}")
         for case in TABLE4 + ("CTC in-process",):
@@ -247,18 +311,25 @@ def print_table4(rows: dict, inproc: dict, counts: dict) -> None:
             say(f"   {case:<22} " + " ".join(f"{x:8.1f}" for x in mx) + "  "
                 + " ".join(f"{x:8.1f}" for x in _rms_um(e)) + health)
     for traj in ("test1", "test2"):
-        pid, ctc, ref = (_rms_um(rows[traj, "simple PID"]), _rms_um(rows[traj, "CTC, identif. gains"]),
-                         _rms_um(inproc[traj]))
+        pid, ctc, ref = (
+            _rms_um(rows[traj, "simple PID"]),
+            _rms_um(rows[traj, "CTC, identif. gains"]),
+            _rms_um(inproc[traj]),
+        )
         say(f"   {traj}: PID / CTC rms " + ", ".join(f"{r:.0f}x" for r in pid / ctc)
             + "; CTC over ROS / in-process " + ", ".join(f"{r:.2f}" for r in ctc / ref))
     ctc_runs = [c for c in counts.values() if "ctc_cpu_percent" in c]
     if ctc_runs:
         cpu = [c["ctc_cpu_percent"] for c in ctc_runs]
-        text = f"   ctc node over its {len(ctc_runs)} runs: CPU {min(cpu):.0f}-{max(cpu):.0f} % of a core"
+        text = (f"   ctc node over its {len(ctc_runs)} runs: CPU {min(cpu):.0f}-{max(cpu):.0f} % "
+                "of a core")
         leads = [c for c in ctc_runs if "ctc_lead_min_ms" in c]
         if leads:
-            text += (f"; feed-forward sent ahead of its tick by min {min(c['ctc_lead_min_ms'] for c in leads):.1f} ms"
-                     f" (worst run), median {np.median([c['ctc_lead_median_ms'] for c in leads]):.1f} ms")
+            text += (
+                "; feed-forward sent ahead of its tick by min "
+                f"{min(c['ctc_lead_min_ms'] for c in leads):.1f} ms"
+                f" (worst run), median {np.median([c['ctc_lead_median_ms'] for c in leads]):.1f} ms"
+            )
         say(text)
 
 
@@ -280,8 +351,10 @@ def verdict(tls: object, rows: dict, inproc: dict, counts: dict) -> list[str]:
                           + ", ".join(f"{r:.2f}" for r in ratio) + f" (bar {OVER_ROS_BAR})")
     for (traj, case), c in sorted(counts.items()):
         if case.startswith("CTC") and c.get("feedforward_expired"):
-            causes.append(f"{traj} {case}: {c['feedforward_expired']} ticks past the "
-                          f"{FF_HOLD_TICKS}-tick feed-forward hold (the model's current never came)")
+            causes.append(
+                f"{traj} {case}: {c['feedforward_expired']} ticks past the "
+                f"{FF_HOLD_TICKS}-tick feed-forward hold (the model's current never came)"
+            )
     return causes
 
 
@@ -315,18 +388,29 @@ def run(out: Path, record_s: float, measure_s: float) -> int:
     if out.exists():
         shutil.rmtree(out)
     with Graph(out / "logs") as g:
-        say("1. Starting the node set: driver (simulated robot, real time), recorder, identification, ctc")
+        say(
+            "1. Starting the node set: driver (simulated robot, real time), recorder, "
+            "identification, ctc"
+        )
         start_graph(g, out)
-        say(f"2. Recording through orthoglide/recorder/start|stop: {record_s:.0f} s unloaded, then the "
-            f"{PAYLOAD} kg payload is mounted (driver parameter) and {record_s:.0f} s loaded")
+        say(
+            f"2. Recording through orthoglide/recorder/start|stop: {record_s:.0f} s unloaded, then "
+            "the "
+            f"{PAYLOAD} kg payload is mounted (driver parameter) and {record_s:.0f} s loaded"
+        )
         bags = [record(g, "unloaded", "unloaded", 0.0, record_s)]
         g.set_params("orthoglide_driver", payload=str(PAYLOAD), trajectory="exciting2")
         time.sleep(BLEND_S)
         cpu0, t0 = g.cpu_seconds(), time.monotonic()
         bags.append(record(g, "loaded", "loaded", PAYLOAD, record_s))
         cpu1, dt = g.cpu_seconds(), time.monotonic() - t0
-        say("   CPU while recording (% of one core): " + ", ".join(
-            f"{n.removeprefix('orthoglide_')} {100 * (cpu1[n] - cpu0.get(n, 0.0)) / dt:.0f}" for n in cpu1))
+        say(
+            "   CPU while recording (% of one core): "
+            + ", ".join(
+                f"{n.removeprefix('orthoglide_')} {100 * (cpu1[n] - cpu0.get(n, 0.0)) / dt:.0f}"
+                for n in cpu1
+            )
+        )
         time.sleep(1.5)  # the live identification folds in the last ticks of the recording
         say("3. orthoglide/identify with no bag named: IDIM-TLS on the live data (latched on "
             "orthoglide/identified_parameters), then on the recorded bags")
@@ -346,11 +430,16 @@ def run(out: Path, record_s: float, measure_s: float) -> int:
     print_table4(rows, inproc, counts)
     plot_table4(rows, out / "tracking_errors.png")
     report_plots(bags, out)
-    say(f"\nDone in {time.perf_counter() - t_start:.0f} s. Bags, plots ({out}/*.png) and node logs are in {out}/")
-    line, code = verdict_line(verdict(tls, rows, inproc, counts),
-                              f"gains within {100 * GAIN_BAR:.1f} % and {SIGMA_BAR:.0f} σ of the "
-                              f"plant's, CTC over ROS within {OVER_ROS_BAR}x of in-process, no tick "
-                              "past the feed-forward hold")
+    say(
+        f"\nDone in {time.perf_counter() - t_start:.0f} s. Bags, plots ({out}/*.png) and node logs "
+        f"are in {out}/"
+    )
+    line, code = verdict_line(
+        verdict(tls, rows, inproc, counts),
+        f"gains within {100 * GAIN_BAR:.1f} % and {SIGMA_BAR:.0f} σ of the "
+        f"plant's, CTC over ROS within {OVER_ROS_BAR}x of in-process, no tick "
+        "past the feed-forward hold",
+    )
     say(line)
     return code
 
@@ -364,9 +453,18 @@ def report_plots(bags: list[str], out: Path) -> None:
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m orthoglide_sim.demos.node_set", description=__doc__.splitlines()[0])
-    ap.add_argument("--record-seconds", type=float, default=45.0, help="s per recording (default 45)")
-    ap.add_argument("--measure-seconds", type=float, default=4.0, help="s per Table 4 run (default 4: two periods)")
+    ap = argparse.ArgumentParser(
+        prog="python -m orthoglide_sim.demos.node_set", description=__doc__.splitlines()[0]
+    )
+    ap.add_argument(
+        "--record-seconds", type=float, default=45.0, help="s per recording (default 45)"
+    )
+    ap.add_argument(
+        "--measure-seconds",
+        type=float,
+        default=4.0,
+        help="s per Table 4 run (default 4: two periods)",
+    )
     ap.add_argument("--out", type=Path, default=Path("demo_out/node_set"),
                     help="output folder, emptied first (default demo_out/node_set)")
     args = ap.parse_args(argv)
@@ -375,8 +473,11 @@ def main(argv: list[str] | None = None) -> int:
     try:
         return run(args.out, args.record_seconds, args.measure_seconds)
     except Interrupted as e:
-        print(f"demo: interrupted by {e}: the nodes were stopped; what was done so far is in {args.out}/",
-              file=sys.stderr)
+        print(
+            f"demo: interrupted by {e}: the nodes were stopped; what was done so far is in "
+            f"{args.out}/",
+            file=sys.stderr,
+        )
         return e.exit_code
     except OrthoglideError as e:
         print(f"demo: {e}", file=sys.stderr)

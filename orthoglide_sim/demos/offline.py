@@ -1,6 +1,7 @@
 """`make demo-offline`: the product's main job end to end on the built-in simulator.
 
-1. simulate the robot (independent Pinocchio closed-loop plant, 1 kHz PID, 1 um encoder, current noise) on
+1. simulate the robot (independent Pinocchio closed-loop plant, 1 kHz PID, 1 um encoder, current
+noise) on
    exciting trajectories without load, with the weighed 1.983 kg payload, with the second 1.136 kg
    payload, and on a smooth test trajectory for cross-validation;
 2. write each record as a tagged rosbag2/MCAP bag, as the recorder node would;
@@ -46,7 +47,10 @@ def _simulate_records(duration: float, out: Path, seed: int) -> tuple[dict[str, 
         ("loaded_1.136kg", "1.136", "exciting2", duration, seed + 2),
         ("validation_1.983kg", "1.983", "test2", min(duration, 20.0), seed + 3),
     ]
-    _say(f"1. Simulating {len(runs)} records on the plant (1 kHz controller, 4 kHz RK4, 1 um encoder, current noise)")
+    _say(
+        f"1. Simulating {len(runs)} records on the plant (1 kHz controller, 4 kHz RK4, 1 um "
+        "encoder, current noise)"
+    )
     paths, truth = {}, None
     for name, payload, traj, dur, s in runs:
         t0 = time.perf_counter()
@@ -62,7 +66,8 @@ def _simulate_records(duration: float, out: Path, seed: int) -> tuple[dict[str, 
         paths[name] = str(path)
         size = sum(f.stat().st_size for f in path.iterdir()) / 1e6
         _say(
-            f"   {name:<20} {traj:<10} {dur:5.0f} s  simulated in {t_sim:5.1f} s ({dur / t_sim:4.1f}x real time)"
+            f"   {name:<20} {traj:<10} {dur:5.0f} s  simulated in {t_sim:5.1f} s "
+            f"({dur / t_sim:4.1f}x real time)"
             f"  -> {path} ({size:.1f} MB)"
         )
     return paths, truth
@@ -71,7 +76,10 @@ def _simulate_records(duration: float, out: Path, seed: int) -> tuple[dict[str, 
 def _report_gains(res, g_true: np.ndarray) -> None:
     from orthoglide_ident.model.orthoglide.geometry import G_TAU_MANUFACTURER
 
-    _say(f"   {'joint':<6} {'truth':>8} {'IDIM-TLS':>9} {'%sigma':>7} {'error':>8}   {'manufacturer':>12} {'error':>8}")
+    _say(
+        f"   {'joint':<6} {'truth':>8} {'IDIM-TLS':>9} {'%sigma':>7} {'error':>8}   "
+        f"{'manufacturer':>12} {'error':>8}"
+    )
     for j, g in enumerate(res.drive_gains):
         err = 100 * (g.value / g_true[j] - 1)
         err_m = 100 * (G_TAU_MANUFACTURER / g_true[j] - 1)
@@ -106,7 +114,10 @@ def _report_validation(res) -> None:
     _say("\n3. Cross-validation on a record not used for identification (paper Fig. 5)")
     for v in res.validation:
         _say(f"   {v.get('bag', '')}")
-        _say(f"   {'joint':<6} {'measured rms':>13} {'residual rms':>13} {'relative':>9} {'x noise floor':>14}")
+        _say(
+            f"   {'joint':<6} {'measured rms':>13} {'residual rms':>13} {'relative':>9} "
+            f"{'x noise floor':>14}"
+        )
         for j in v.get("joints", []):
             _say(
                 f"   {j['joint']:<6} {j['measured_rms']:11.2f} N {j['residual_rms']:11.3f} N "
@@ -120,12 +131,16 @@ PAYLOAD_BAR = 0.01
 
 
 def _report_payload(paths: dict[str, str], g_id: np.ndarray) -> float:
-    """Print the WLS payload with the manufacturer's and the identified gains; returns the latter."""
+    """Print the WLS payload with the manufacturer's and the identified gains; returns the
+    latter."""
     from orthoglide_ident.identify.pipeline import identify
     from orthoglide_ident.model.orthoglide.geometry import G_TAU_MANUFACTURER
 
     _say("\n4. Payload check: IDIM-WLS re-identifies the 1.136 kg payload (paper: 1.09 vs 1.14 kg)")
-    for label, gains in (("manufacturer 2001 N/A", [G_TAU_MANUFACTURER] * 3), ("IDIM-TLS gains", list(g_id))):
+    for label, gains in (
+        ("manufacturer 2001 N/A", [G_TAU_MANUFACTURER] * 3),
+        ("IDIM-TLS gains", list(g_id)),
+    ):
         w = identify([paths["unloaded"], paths["loaded_1.136kg"]], method="wls", gains=gains,
                      model=ORTHOGLIDE)
         m = w.payloads[0] if w.payloads else w.payload_mass
@@ -170,7 +185,9 @@ def main(argv: list[str] | None = None) -> int:
         prog="python -m orthoglide_sim.demos.offline",
         description="Simulate, record, identify (IDIM-TLS) and validate, end to end.",
     )
-    ap.add_argument("--duration", type=float, default=60.0, help="seconds per exciting record (default 60)")
+    ap.add_argument(
+        "--duration", type=float, default=60.0, help="seconds per exciting record (default 60)"
+    )
     ap.add_argument("--out", type=Path, default=Path("demo_out/offline"),
                     help="output folder (default demo_out/offline)")
     ap.add_argument("--seed", type=int, default=0, help="noise seed (default 0)")

@@ -24,8 +24,8 @@ from pathlib import Path
 import numpy as np
 
 from orthoglide_ident.errors import OrthoglideError
+from orthoglide_sim.demos.graph import Graph, own_ros_domain
 from orthoglide_sim.demos.node_set import identify, live_vs_bags, record, say
-from orthoglide_sim.demos.graph import Graph, GraphError, own_ros_domain
 from orthoglide_sim.demos.verdict import GAIN_BAR, SIGMA_BAR, gain_causes, verdict_line
 
 ROOT = Path(__file__).resolve().parents[2]  # the project: config/ (installed beside the product)
@@ -49,7 +49,10 @@ def start_graph(g: Graph, out: Path) -> None:
     for topic in TOPICS:  # live from tick one
         g.wait_for_subscriber(topic, "orthoglide_identification")
         g.wait_for_subscriber(topic, "orthoglide_recorder")
-    say(f"   stand-in publishing {t:.1f} s after start; recorder and identification up (logs in {g.log_dir}/)")
+    say(
+        f"   stand-in publishing {t:.1f} s after start; recorder and identification up (logs in "
+        f"{g.log_dir}/)"
+    )
 
 
 def truth_gains() -> np.ndarray:
@@ -60,12 +63,18 @@ def truth_gains() -> np.ndarray:
 
 
 def print_gains(live, bags, g_true: np.ndarray) -> None:
-    say(f"   {'joint':<20} {'truth':>8} {'live':>9} {'bags':>9} {'%sigma':>7} {'error':>8}  {'nominal':>8}")
+    say(
+        f"   {'joint':<20} {'truth':>8} {'live':>9} {'bags':>9} {'%sigma':>7} {'error':>8}  "
+        f"{'nominal':>8}"
+    )
     nominal = (13.0, 13.0, 13.0, 9.3, 9.3, 9.3)
     for j, name in enumerate(bags.joint_names):
         g_l, g_b, rel = live.drive_gains[j], bags.drive_gains[j], bags.drive_gains_rel_std[j]
-        say(f"   {name:<20} {g_true[j]:8.3f} {g_l:9.3f} {g_b:9.3f} {100 * rel:6.3f}% "
-            f"{100 * (g_b / g_true[j] - 1):+7.3f}%  {nominal[j]:8.1f} ({100 * (nominal[j] / g_true[j] - 1):+.1f}%)")
+        say(
+            f"   {name:<20} {g_true[j]:8.3f} {g_l:9.3f} {g_b:9.3f} {100 * rel:6.3f}% "
+            f"{100 * (g_b / g_true[j] - 1):+7.3f}%  {nominal[j]:8.1f} "
+            f"({100 * (nominal[j] / g_true[j] - 1):+.1f}%)"
+        )
 
 
 def offline_cli(bag_paths: list[str]) -> str:
@@ -83,7 +92,10 @@ def run(out: Path, seconds: float) -> int:
     say(f"1. ros2_control stand-in ({ROBOT}), recorder and identification as processes")
     with Graph(out / "logs") as g:
         start_graph(g, out)
-        say(f"2. record {seconds:.0f} s unloaded, mount {PAYLOAD_KG} kg, record {seconds:.0f} s loaded")
+        say(
+            f"2. record {seconds:.0f} s unloaded, mount {PAYLOAD_KG} kg, record {seconds:.0f} s "
+            "loaded"
+        )
         bag_paths = [record(g, "unloaded", "unloaded", 0.0, seconds)]
         g.set_params(STANDIN, payload=PAYLOAD_KG, trajectory="exciting2")
         time.sleep(3.0)  # the new trajectory blends in over 2 s
@@ -97,15 +109,22 @@ def run(out: Path, seconds: float) -> int:
                              truth_gains())
         say(f"   live vs bags: {live_vs_bags(live, offline)}")
         c = g.driver_counters()  # the stand-in's /diagnostics
-        say(f"   stand-in so far: {c['ticks']} updates, dropped {c['dropped_joint_states']} joint_states and "
-            f"{c['dropped_dynamic_joint_states']} dynamic_joint_states over the whole run, {c['late']} late")
+        say(
+            f"   stand-in so far: {c['ticks']} updates, dropped {c['dropped_joint_states']} "
+            "joint_states and "
+            f"{c['dropped_dynamic_joint_states']} dynamic_joint_states over the whole run, "
+            f"{c['late']} late"
+        )
     cli = offline_cli(bag_paths)
     say(f"   offline CLI on the same bags: {cli}")
     if not cli.startswith("exit 0"):
         causes.append(f"the offline CLI on the recorded bags: {cli.splitlines()[0]}")
     say(f"bags, logs in {out}/")
-    line, code = verdict_line(causes, f"gains within {100 * GAIN_BAR:.1f} % and {SIGMA_BAR:.0f} σ of "
-                              "the plant's, the offline CLI answers on the recorded bags")
+    line, code = verdict_line(
+        causes,
+        f"gains within {100 * GAIN_BAR:.1f} % and {SIGMA_BAR:.0f} σ of "
+        "the plant's, the offline CLI answers on the recorded bags",
+    )
     say(line)
     return code
 
@@ -113,7 +132,9 @@ def run(out: Path, seconds: float) -> int:
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="python -m orthoglide_sim.demos.ros2_control",
                                  description=__doc__.splitlines()[0])
-    ap.add_argument("--record-seconds", type=float, default=30.0, help="s per recording (default 30)")
+    ap.add_argument(
+        "--record-seconds", type=float, default=30.0, help="s per recording (default 30)"
+    )
     ap.add_argument("--out", type=Path, default=Path("demo_out/ros2_control"), help="output folder")
     args = ap.parse_args(argv)
     say(own_ros_domain())

@@ -1,1 +1,2 @@
-"""The simulator's ROS 2 nodes: the Orthoglide driver, the ros2_control stand-in, its trajectory action."""
+"""The simulator's ROS 2 nodes: the Orthoglide driver, the ros2_control stand-in, its trajectory
+action."""

@@ -1,4 +1,6 @@
-"""Driver node: the simulated Orthoglide and its 1 kHz controller (`ros2 run orthoglide_ident driver`)."""
+"""Driver node: the simulated Orthoglide and its 1 kHz controller (`ros2 run orthoglide_ident
+driver`)."""
+
 from __future__ import annotations
 
 import gc
@@ -23,19 +25,22 @@ from orthoglide_ident.ros.params import Param, declare, from_command_line, on_se
 from orthoglide_ident.ros.spin import spin
 from orthoglide_msgs.msg import CurrentReference, JointSetpoint
 from orthoglide_sim.common.packed_messages import PackedMessage
-from orthoglide_sim.orthoglide.session import FF_HOLD_TICKS, DriverSession
-from orthoglide_sim.common.ticks_ahead import TicksAhead
 from orthoglide_sim.common.tick_clock import LATE_NS, TICK_NS, real_time_priority, sleep_until
+from orthoglide_sim.common.ticks_ahead import TicksAhead
+from orthoglide_sim.orthoglide.session import FF_HOLD_TICKS, DriverSession
 from orthoglide_sim.orthoglide.truth import load_parameters
 
 DOC = """\
 The simulated Orthoglide (orthoglide_sim: Pinocchio closed-loop plant, 1 um encoder, current noise)
 and its 1 kHz controller. Every tick k it publishes, with header.stamp = t_k:
   orthoglide/joint_states       sensor_msgs/JointState (q11..q13, position m)
-  orthoglide/current_reference  orthoglide_msgs/CurrentReference (q11..q13, current A) applied over the tick
+  orthoglide/current_reference  orthoglide_msgs/CurrentReference (q11..q13, current A) applied over
+  the tick
 and, setpoint_lead ticks ahead (stamp = the tick it is for):
-  orthoglide/setpoints          orthoglide_msgs/JointSetpoint (q_d, qd_d, qdd_d of the tracked reference)
-Inputs: orthoglide/feedforward (CurrentReference stamped for the tick it is for; controller ctc adds it
+  orthoglide/setpoints          orthoglide_msgs/JointSetpoint (q_d, qd_d, qdd_d of the tracked
+  reference)
+Inputs: orthoglide/feedforward (CurrentReference stamped for the tick it is for; controller ctc adds
+it
 to its PID with velocity feed-forward) and orthoglide/current_command (CurrentReference stamped with
 the joint state it was computed from; controller external applies the latest from the next tick, and
 holds the robot with its own PID until the first command and whenever commands stop for 0.1 s).
@@ -54,30 +59,75 @@ the first tick not yet computed, within 10 ms, and setpoints go out setpoint_lea
 setpoint_lead + 10 ticks ahead (orthoglide_sim/common/ticks_ahead.py)."""
 
 PARAMETERS = (
-    Param("robot", "", "empty or orthoglide: this driver; another robot (ur5, a robot YAML or a URDF): the "
-          "ros2_control stand-in instead (ros2 run orthoglide_ident driver --ros-args -p robot:=ur5 --help)"),
-    Param("payload", "none", "payload on the platform: none, 1.983, 1.136 or a mass in kg; set it while "
-          "running to mount or remove one", dynamic=True, any_type=True),
-    Param("trajectory", "exciting", "reference: exciting, exciting2, test1, test2 or a .json Fourier file; a "
-          "change blends in over 2 s", dynamic=True),
-    Param("controller", "pid", "pid | pid_ff (velocity feed-forward) | ctc (pid_ff + orthoglide/feedforward) | "
-          "external (orthoglide/current_command)", dynamic=True),
-    Param("current_limit", [1.0, 1.0, 1.0], "A per joint (one or three values): every current is clipped to it",
-          dynamic=True),
-    Param("setpoint_lead", 50, "ticks: orthoglide/setpoints are published this far ahead of their tick"),
+    Param(
+        "robot",
+        "",
+        "empty or orthoglide: this driver; another robot (ur5, a robot YAML or a URDF): the "
+        "ros2_control stand-in instead (ros2 run orthoglide_ident driver --ros-args -p robot:=ur5 "
+        "--help)",
+    ),
+    Param(
+        "payload",
+        "none",
+        "payload on the platform: none, 1.983, 1.136 or a mass in kg; set it while "
+        "running to mount or remove one",
+        dynamic=True,
+        any_type=True,
+    ),
+    Param(
+        "trajectory",
+        "exciting",
+        "reference: exciting, exciting2, test1, test2 or a .json Fourier file; a "
+        "change blends in over 2 s",
+        dynamic=True,
+    ),
+    Param(
+        "controller",
+        "pid",
+        "pid | pid_ff (velocity feed-forward) | ctc (pid_ff + orthoglide/feedforward) | "
+        "external (orthoglide/current_command)",
+        dynamic=True,
+    ),
+    Param(
+        "current_limit",
+        [1.0, 1.0, 1.0],
+        "A per joint (one or three values): every current is clipped to it",
+        dynamic=True,
+    ),
+    Param(
+        "setpoint_lead",
+        50,
+        "ticks: orthoglide/setpoints are published this far ahead of their tick",
+    ),
     Param("duration", 0.0, "s to run, 0 = until shut down"),
-    Param("realtime", True, "false: simulated time as fast as the plant runs, /clock published; ctc and "
-          "external then wait for their input of each tick (lockstep)"),
+    Param(
+        "realtime",
+        True,
+        "false: simulated time as fast as the plant runs, /clock published; ctc and "
+        "external then wait for their input of each tick (lockstep)",
+    ),
     Param("params_file", "", "YAML overriding the true plant parameters (config/plant.yaml)"),
-    Param("plant", "reduced", "the plant's integration: reduced (Pinocchio reduced to the 3 actuators once per "
-          "tick, RK4 compiled: ~1/8 of the CPU) or tree (the reference: Pinocchio's constraint dynamics on the "
-          "15-joint tree at every RK4 stage); they agree to 0.04 um and 0.02 mA (tests/sim/orthoglide/test_plant_cheap.py)"),
-    Param("rt_priority", 40, "SCHED_FIFO priority of the tick loop (1-99), as robot controllers run; 0: "
-          "normal scheduling. Needs CAP_SYS_NICE or an rtprio limit; without it the driver says so and goes on"),
+    Param(
+        "plant",
+        "reduced",
+        "the plant's integration: reduced (Pinocchio reduced to the 3 actuators once per "
+        "tick, RK4 compiled: ~1/8 of the CPU) or tree (the reference: Pinocchio's constraint "
+        "dynamics on the "
+        "15-joint tree at every RK4 stage); they agree to 0.04 um and 0.02 mA "
+        "(tests/sim/orthoglide/test_plant_cheap.py)",
+    ),
+    Param(
+        "rt_priority",
+        40,
+        "SCHED_FIFO priority of the tick loop (1-99), as robot controllers run; 0: "
+        "normal scheduling. Needs CAP_SYS_NICE or an rtprio limit; without it the driver says so "
+        "and goes on",
+    ),
     Param("seed", 0, "seed of the current noise"),
     Param("noise", True, "current noise on/off"),
 )
-JOINTS = list(JOINT_NAMES)  # the interface (docs/design/interfaces.md); the plant keeps its own truth
+# the interface (docs/design/interfaces.md); the plant keeps its own truth
+JOINTS = list(JOINT_NAMES)
 LOCKSTEP_TIMEOUT_S = 2.0
 STATUS_PERIOD_TICKS = 10_000  # a log line
 HISTORY_TICKS = 5000  # 5 s of ticks kept for resending to a subscriber that fell behind
@@ -88,7 +138,9 @@ DIAGNOSTICS_PERIOD_TICKS = 1_000  # a /diagnostics message
 
 
 def _usage() -> str:
-    return usage("usage: ros2 run orthoglide_ident driver [--ros-args -p NAME:=VALUE ...]", DOC, PARAMETERS)
+    return usage(
+        "usage: ros2 run orthoglide_ident driver [--ros-args -p NAME:=VALUE ...]", DOC, PARAMETERS
+    )
 
 
 class Driver(Node):
@@ -97,10 +149,22 @@ class Driver(Node):
     def __init__(self) -> None:
         super().__init__("orthoglide_driver")
         v = declare(self, PARAMETERS)
-        self.realtime, self.duration, self.rt_priority = v["realtime"], v["duration"], v["rt_priority"]
-        self.session = DriverSession(v["payload"], v["trajectory"], v["controller"],
-                                     load_parameters(v["params_file"] or None), v["seed"], v["noise"],
-                                     v["current_limit"], v["setpoint_lead"], v["plant"])
+        self.realtime, self.duration, self.rt_priority = (
+            v["realtime"],
+            v["duration"],
+            v["rt_priority"],
+        )
+        self.session = DriverSession(
+            v["payload"],
+            v["trajectory"],
+            v["controller"],
+            load_parameters(v["params_file"] or None),
+            v["seed"],
+            v["noise"],
+            v["current_limit"],
+            v["setpoint_lead"],
+            v["plant"],
+        )
         self.ahead = TicksAhead(self.session)
         self.lock = threading.Condition()
         self.finished = False
@@ -113,24 +177,42 @@ class Driver(Node):
         # gets the ticks its DDS reader missed resent from this history (depth 100 lost ~280 on a
         # 0.5 s stall; a history shorter than the stall loses the oldest ticks of it)
         self.pub_js = self.create_publisher(JointState, "orthoglide/joint_states", HISTORY_TICKS)
-        self.pub_cr = self.create_publisher(CurrentReference, "orthoglide/current_reference", HISTORY_TICKS)
+        self.pub_cr = self.create_publisher(
+            CurrentReference, "orthoglide/current_reference", HISTORY_TICKS
+        )
         self.pub_sp = self.create_publisher(JointSetpoint, "orthoglide/setpoints", HISTORY_TICKS)
         self.pub_clock = None if self.realtime else self.create_publisher(Clock, "/clock", 10)
         self.pub_diag = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
         # the per-tick messages serialised once, their stamps and values patched in each tick
         self.packed_js = PackedMessage(JointState, JOINTS, ["position"])
         self.packed_cr = PackedMessage(CurrentReference, JOINTS, ["current"])
-        self.packed_sp = PackedMessage(JointSetpoint, JOINTS, ["position", "velocity", "acceleration"])
+        self.packed_sp = PackedMessage(
+            JointSetpoint, JOINTS, ["position", "velocity", "acceleration"]
+        )
         inputs = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE)
         # taken in batches on a thread of their own, not one executor callback per message: less
         # CPU and GIL taken from the tick loop (orthoglide_ident.ros.batch)
-        self.taker = BatchTaker(self, [BatchTopic(CurrentReference, "orthoglide/current_command", inputs,
-                                                  lambda b: self._on_inputs(b, "command")),
-                                       BatchTopic(CurrentReference, "orthoglide/feedforward", inputs,
-                                                  lambda b: self._on_inputs(b, "feed-forward"))], period_s=0.0,
-                                # just below the tick loop: a feed-forward sent in time must not
-                                # wait for this thread behind the busy machine's processes
-                                rt_priority=self.rt_priority - 1 if self.realtime and self.rt_priority > 1 else 0)
+        self.taker = BatchTaker(
+            self,
+            [
+                BatchTopic(
+                    CurrentReference,
+                    "orthoglide/current_command",
+                    inputs,
+                    lambda b: self._on_inputs(b, "command"),
+                ),
+                BatchTopic(
+                    CurrentReference,
+                    "orthoglide/feedforward",
+                    inputs,
+                    lambda b: self._on_inputs(b, "feed-forward"),
+                ),
+            ],
+            period_s=0.0,
+            # just below the tick loop: a feed-forward sent in time must not
+            # wait for this thread behind the busy machine's processes
+            rt_priority=self.rt_priority - 1 if self.realtime and self.rt_priority > 1 else 0,
+        )
         self.create_service(Trigger, "~/reset", self._on_reset)
         on_set(self, PARAMETERS, self._apply)
         self.get_logger().info(
@@ -145,10 +227,16 @@ class Driver(Node):
 
     def _currents(self, msg, what: str):
         try:
-            return [msg.current[list(msg.name).index(j)] for j in JOINTS] if msg.name else list(msg.current)
+            return (
+                [msg.current[list(msg.name).index(j)] for j in JOINTS]
+                if msg.name
+                else list(msg.current)
+            )
         except ValueError:
-            self.get_logger().warning(f"ignored {what} without joints {', '.join(JOINTS)}: {list(msg.name)}",
-                                      throttle_duration_sec=5.0)
+            self.get_logger().warning(
+                f"ignored {what} without joints {', '.join(JOINTS)}: {list(msg.name)}",
+                throttle_duration_sec=5.0,
+            )
             return None
 
     def _on_inputs(self, batch: list, what: str) -> None:
@@ -173,8 +261,10 @@ class Driver(Node):
             except Exception:  # noqa: BLE001 - shutting down already: nothing more to give
                 return
             if not acked:
-                self.get_logger().warning(f"{pub.topic_name}: a subscriber had not received every tick "
-                                          f"{ACK_WAIT_S:g} s after the last one (stopped or too slow)")
+                self.get_logger().warning(
+                    f"{pub.topic_name}: a subscriber had not received every tick "
+                    f"{ACK_WAIT_S:g} s after the last one (stopped or too slow)"
+                )
 
     def _apply(self, changes) -> None:
         with self.lock:
@@ -196,12 +286,16 @@ class Driver(Node):
             was = self.session.fault
             if was and self.ahead.ticks:  # computed ahead: the ticks before it are not out yet
                 response.success = False
-                response.message = (f"the robot stops at a tick {len(self.ahead.ticks)} ms from now ({was}): "
-                                    "call reset again once it has")
+                response.message = (
+                    f"the robot stops at a tick {len(self.ahead.ticks)} ms from now ({was}): "
+                    "call reset again once it has"
+                )
                 return response
             self.session.reset()
         response.success = True
-        response.message = f"robot back on its reference (was stopped: {was})" if was else "no fault to clear"
+        response.message = (
+            f"robot back on its reference (was stopped: {was})" if was else "no fault to clear"
+        )
         self.get_logger().info(response.message)
         return response
 
@@ -214,15 +308,19 @@ class Driver(Node):
         states have a subscriber — a run faster than real time would otherwise be over before
         discovery — and, with an outside controller, until its input is there."""
         self._wait_for_subscriber(stop)
-        topic = {"ctc": "orthoglide/feedforward", "external": "orthoglide/current_command"}.get(self.session.controller)
+        topic = {"ctc": "orthoglide/feedforward", "external": "orthoglide/current_command"}.get(
+            self.session.controller
+        )
         if topic is None:
             return
         t_end = time.monotonic() + LOCKSTEP_TIMEOUT_S * 10
         while not self.count_publishers(topic) and time.monotonic() < t_end and not stop.is_set():
             stop.wait(0.05)
         if not self.count_publishers(topic):
-            self.get_logger().warning(f"no publisher on {self.resolve_topic_name(topic)}: ticks go on without "
-                                      f"their input after {LOCKSTEP_TIMEOUT_S} s each")
+            self.get_logger().warning(
+                f"no publisher on {self.resolve_topic_name(topic)}: ticks go on without "
+                f"their input after {LOCKSTEP_TIMEOUT_S} s each"
+            )
         time.sleep(0.2)  # discovery of the way back (its subscription to our joint states)
 
     def _wait_for_subscriber(self, stop: threading.Event) -> None:
@@ -274,7 +372,8 @@ class Driver(Node):
         while not stop.is_set() and (n_ticks is None or self.k < n_ticks):
             stopped = s.fault and not self.ahead.ticks  # the tick that stopped the plant is out
             if stopped and t_end is not None and (not self.realtime or time.monotonic_ns() > t_end):
-                break  # a run of given duration ends when its time is up, or stopped in simulated time
+                # a run of given duration ends when its time is up, or stopped in simulated time
+                break
             if stopped:
                 self._periodic()
                 self._idle_in_fault(stop)
@@ -368,8 +467,10 @@ class Driver(Node):
         self._periodic_at = k
         if self.session.fault is not None and not self.ahead.ticks and not self._said_fault:
             self._said_fault = True
-            self.get_logger().error(f"stopped: {self.session.fault}; call {self.get_name()}/reset to put "
-                                    "the robot back on its reference")
+            self.get_logger().error(
+                f"stopped: {self.session.fault}; call {self.get_name()}/reset to put "
+                "the robot back on its reference"
+            )
             self._publish_diagnostics()
             return
         if k // STATUS_PERIOD_TICKS > last // STATUS_PERIOD_TICKS:
@@ -387,9 +488,13 @@ class Driver(Node):
                   "controller": s.controller, "fault": s.fault or ""}
         level = DiagnosticStatus.ERROR if s.fault else (
             DiagnosticStatus.WARN if self.late > 0.01 * max(self.k, 1) else DiagnosticStatus.OK)
-        status = DiagnosticStatus(level=level, name=f"{self.get_fully_qualified_name()}: tick loop", hardware_id="orthoglide_sim",
-                                  message=s.fault or self._status(),
-                                  values=[KeyValue(key=k, value=str(v)) for k, v in values.items()])
+        status = DiagnosticStatus(
+            level=level,
+            name=f"{self.get_fully_qualified_name()}: tick loop",
+            hardware_id="orthoglide_sim",
+            message=s.fault or self._status(),
+            values=[KeyValue(key=k, value=str(v)) for k, v in values.items()],
+        )
         msg = DiagnosticArray(status=[status])
         msg.header.stamp = self.get_clock().now().to_msg()
         try:
@@ -411,10 +516,13 @@ class Driver(Node):
         if st.ff_used or st.ff_missing:
             text += f", feed-forward: {st.ff_used} fresh, {st.ff_missing} missing (held)"
             if st.ff_expired:
-                text += (f", {st.ff_expired} of them more than {FF_HOLD_TICKS} ticks after the last "
-                         "fresh one (PID + velocity feed-forward alone)")
+                text += (
+                    f", {st.ff_expired} of them more than {FF_HOLD_TICKS} ticks after the last "
+                    "fresh one (PID + velocity feed-forward alone)"
+                )
         if self.session.controller == "external" or st.command_ages:
-            text += f"; {st.age_summary()}; {st.no_command} ticks held by the PID without a fresh command"
+            text += (f"; {st.age_summary()}; {st.no_command} ticks held by the PID without a "
+                     "fresh command")
         return text
 
     def _summary(self) -> None:

@@ -1,6 +1,8 @@
-"""A ros2_control stand-in: a simulated serial arm publishing what joint_state_broadcaster publishes.
+"""A ros2_control stand-in: a simulated serial arm publishing what joint_state_broadcaster
+publishes.
 
-    ros2 run orthoglide_ident driver --ros-args -p robot:=ur5      (robot empty: the Orthoglide's driver)
+    ros2 run orthoglide_ident driver --ros-args -p robot:=ur5      (robot empty: the Orthoglide's
+    driver)
 """
 from __future__ import annotations
 
@@ -10,7 +12,6 @@ import threading
 import time
 
 import numpy as np
-from control_msgs.msg import DynamicJointState
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy, qos_profile_system_default
@@ -18,6 +19,7 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import String
 from std_srvs.srv import Trigger
 
+from control_msgs.msg import DynamicJointState
 from orthoglide_ident.ros.params import Param, declare, on_set, usage
 from orthoglide_ident.ros.spin import spin
 from orthoglide_sim.arms.session import ArmSession
@@ -49,30 +51,71 @@ feedback, the path and goal tolerances (abort with the reason) and cancel; a goa
 joints, or while one runs, is rejected (orthoglide_sim.nodes.trajectory_action)."""
 
 PARAMETERS = (
-    Param("robot", "ur5", "the arm: a bundled robot (ur5), a robot YAML or a URDF (serial arms only); "
-          "empty or orthoglide: the Orthoglide's driver instead"),
-    Param("payload", "none", "payload on the payload frame: none, 2.0 or 1.0 (the plant's payloads, kg; "
-          "params_file adds others); set it while running to mount or remove one", dynamic=True, any_type=True),
-    Param("trajectory", "exciting1", "reference: exciting1, exciting2 (the arm's designed exciting "
-          "trajectories), a .json Fourier file, or hold (at rest at the box centre until a "
-          "follow_joint_trajectory goal moves it); a change blends in over 2 s", dynamic=True),
-    Param("controller", "joint_trajectory_controller", "the joint_trajectory_controller's name: its action "
-          "is <controller>/follow_joint_trajectory (control_msgs/action/FollowJointTrajectory)"),
-    Param("path_tolerance", 0.0, "rad (m): default position tolerance along a goal's path, per joint; "
-          "0: none (a goal's path_tolerance overrides it)"),
+    Param(
+        "robot",
+        "ur5",
+        "the arm: a bundled robot (ur5), a robot YAML or a URDF (serial arms only); "
+        "empty or orthoglide: the Orthoglide's driver instead",
+    ),
+    Param(
+        "payload",
+        "none",
+        "payload on the payload frame: none, 2.0 or 1.0 (the plant's payloads, kg; "
+        "params_file adds others); set it while running to mount or remove one",
+        dynamic=True,
+        any_type=True,
+    ),
+    Param(
+        "trajectory",
+        "exciting1",
+        "reference: exciting1, exciting2 (the arm's designed exciting "
+        "trajectories), a .json Fourier file, or hold (at rest at the box centre until a "
+        "follow_joint_trajectory goal moves it); a change blends in over 2 s",
+        dynamic=True,
+    ),
+    Param(
+        "controller",
+        "joint_trajectory_controller",
+        "the joint_trajectory_controller's name: its action "
+        "is <controller>/follow_joint_trajectory (control_msgs/action/FollowJointTrajectory)",
+    ),
+    Param(
+        "path_tolerance",
+        0.0,
+        "rad (m): default position tolerance along a goal's path, per joint; "
+        "0: none (a goal's path_tolerance overrides it)",
+    ),
     Param("goal_tolerance", 0.0, "rad (m): default position tolerance at a goal's end; 0: none"),
-    Param("goal_time", 0.0, "s: a goal aborts when its end is not within tolerance this long after "
-          "its last point's time; 0: waits (JTC's constraints.goal_time)"),
+    Param(
+        "goal_time",
+        0.0,
+        "s: a goal aborts when its end is not within tolerance this long after "
+        "its last point's time; 0: waits (JTC's constraints.goal_time)",
+    ),
     Param("duration", 0.0, "s to run, 0 = until shut down"),
-    Param("drop_rate", 1.0e-4, "probability that a topic drops a tick (each topic on its own), as the "
-          "broadcaster's realtime publisher does when busy; 0: never"),
-    Param("joint_order", "shuffled", "hardware order: shuffled (by seed), urdf, or the names comma-separated"),
-    Param("extra_joints", ["gripper_finger_joint"], "joints published beside the arm's, at rest, with "
-          "position and velocity interfaces only (no current)"),
+    Param(
+        "drop_rate",
+        1.0e-4,
+        "probability that a topic drops a tick (each topic on its own), as the "
+        "broadcaster's realtime publisher does when busy; 0: never",
+    ),
+    Param(
+        "joint_order",
+        "shuffled",
+        "hardware order: shuffled (by seed), urdf, or the names comma-separated",
+    ),
+    Param(
+        "extra_joints",
+        ["gripper_finger_joint"],
+        "joints published beside the arm's, at rest, with "
+        "position and velocity interfaces only (no current)",
+    ),
     Param("seed", 0, "seed of the current noise, the drops and the shuffled order"),
     Param("noise", True, "current noise on/off"),
     Param("params_file", "", "YAML overriding the arm plant's truth (config/arm_plant.yaml)"),
-    Param("publish_description", True, "publish the arm's URDF on robot_description (transient local)"),
+    Param(
+        "publish_description", True, "publish the arm's URDF on robot_description (transient local)"
+    ),
     Param("rt_priority", 40, "SCHED_FIFO priority of the update loop (1-99), 0: normal scheduling"),
 )
 STATUS_PERIOD_TICKS = 10_000  # a log line
@@ -82,8 +125,11 @@ LATCHED = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL,
 
 
 def _usage() -> str:
-    return usage("usage: ros2 run orthoglide_ident driver --ros-args -p robot:=ur5 [-p NAME:=VALUE ...]",
-                 DOC, PARAMETERS)
+    return usage(
+        "usage: ros2 run orthoglide_ident driver --ros-args -p robot:=ur5 [-p NAME:=VALUE ...]",
+        DOC,
+        PARAMETERS,
+    )
 
 
 class Ros2ControlStandIn(Node):
@@ -95,16 +141,22 @@ class Ros2ControlStandIn(Node):
         self.duration, self.rt_priority = v["duration"], v["rt_priority"]
         self.session = ArmSession(v["robot"], v["payload"], v["trajectory"], v["seed"], v["noise"],
                                   v["params_file"] or None)
-        self.layout = BroadcasterLayout.of(self.session.joint_names, v["extra_joints"], v["joint_order"],
-                                           v["seed"])
+        self.layout = BroadcasterLayout.of(
+            self.session.joint_names, v["extra_joints"], v["joint_order"], v["seed"]
+        )
         self.dropper = TickDropper(v["drop_rate"], v["seed"])
         self.lock = threading.Lock()
         self.finished = False
         self.late = 0
         # the broadcaster's QoS: rclcpp::SystemDefaultsQoS() is this rmw profile
-        self.pubs = {"joint_states": self.create_publisher(JointState, "joint_states", qos_profile_system_default),
-                     "dynamic_joint_states": self.create_publisher(DynamicJointState, "dynamic_joint_states",
-                                                                   qos_profile_system_default)}
+        self.pubs = {
+            "joint_states": self.create_publisher(
+                JointState, "joint_states", qos_profile_system_default
+            ),
+            "dynamic_joint_states": self.create_publisher(
+                DynamicJointState, "dynamic_joint_states", qos_profile_system_default
+            ),
+        }
         self.pub_diag = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
         if v["publish_description"]:
             self.pub_desc = self.create_publisher(String, "robot_description", LATCHED)
@@ -116,9 +168,13 @@ class Ros2ControlStandIn(Node):
         self.jtc = TrajectoryActionServer(self, self.session, self.lock, v["controller"], tol)
         on_set(self, PARAMETERS, self._apply)
         self.get_logger().info(
-            f"{self.session.truth.arm.name}: joints {', '.join(self.layout.names)} (hardware order), "
-            f"payload {v['payload']}, trajectory {v['trajectory']}, drop rate {v['drop_rate']:g}; publishing "
-            f"{self.resolve_topic_name('joint_states')} and {self.resolve_topic_name('dynamic_joint_states')}")
+            f"{self.session.truth.arm.name}: joints {', '.join(self.layout.names)} (hardware "
+            "order), "
+            f"payload {v['payload']}, trajectory {v['trajectory']}, drop rate {v['drop_rate']:g}; "
+            "publishing "
+            f"{self.resolve_topic_name('joint_states')} and "
+            f"{self.resolve_topic_name('dynamic_joint_states')}"
+        )
 
     def _apply(self, changes) -> None:
         with self.lock:
@@ -134,7 +190,9 @@ class Ros2ControlStandIn(Node):
             was = self.session.fault
             self.session.reset()
         response.success = True
-        response.message = f"arm back on its reference (was stopped: {was})" if was else "no fault to clear"
+        response.message = (
+            f"arm back on its reference (was stopped: {was})" if was else "no fault to clear"
+        )
         self.get_logger().info(response.message)
         return response
 
@@ -184,18 +242,25 @@ class Ros2ControlStandIn(Node):
 
     def _status(self, ticks: int) -> str:
         d = self.dropper.dropped
-        return (f"{ticks} updates, dropped {d['joint_states']} joint_states and {d['dynamic_joint_states']} "
-                f"dynamic_joint_states, {self.late} late (> 0.5 ms), {self.session.saturated} current-limited")
+        return (
+            f"{ticks} updates, dropped {d['joint_states']} joint_states and "
+            f"{d['dynamic_joint_states']} "
+            f"dynamic_joint_states, {self.late} late (> 0.5 ms), {self.session.saturated} "
+            "current-limited"
+        )
 
     def _publish_diagnostics(self, ticks: int) -> None:
         d, s = self.dropper.dropped, self.session
         values = {"ticks": ticks, "late": self.late, "current_limited": s.saturated,
                   "dropped_joint_states": d["joint_states"],
                   "dropped_dynamic_joint_states": d["dynamic_joint_states"], "fault": s.fault or ""}
-        status = DiagnosticStatus(level=DiagnosticStatus.ERROR if s.fault else DiagnosticStatus.OK,
-                                  name=f"{self.get_fully_qualified_name()}: update loop",
-                                  hardware_id="orthoglide_sim", message=s.fault or self._status(ticks),
-                                  values=[KeyValue(key=k, value=str(v)) for k, v in values.items()])
+        status = DiagnosticStatus(
+            level=DiagnosticStatus.ERROR if s.fault else DiagnosticStatus.OK,
+            name=f"{self.get_fully_qualified_name()}: update loop",
+            hardware_id="orthoglide_sim",
+            message=s.fault or self._status(ticks),
+            values=[KeyValue(key=k, value=str(v)) for k, v in values.items()],
+        )
         msg = DiagnosticArray(status=[status])
         msg.header.stamp = self.get_clock().now().to_msg()
         try:

@@ -18,11 +18,11 @@ import time
 from typing import Any
 
 import numpy as np
-from control_msgs.action import FollowJointTrajectory
 from rclpy.action import ActionServer, CancelResponse, GoalResponse
 from rclpy.callback_groups import ReentrantCallbackGroup
 from trajectory_msgs.msg import JointTrajectoryPoint
 
+from control_msgs.action import FollowJointTrajectory
 from orthoglide_ident.errors import ConfigError
 from orthoglide_sim.arms.session import ArmSession
 from orthoglide_sim.common.joint_trajectory import Tolerances
@@ -72,14 +72,17 @@ def goal_tolerances(goal: Any, arm_joints: tuple[str, ...], defaults: Tolerances
         return np.array([given.get(j, 0.0) for j in arm_joints], float)
 
     goal_time = _seconds(goal.goal_time_tolerance) or defaults.goal_time
-    return Tolerances(Tolerances.merged(per_joint(goal.path_tolerance, "position"), defaults.path),
-                      Tolerances.merged(per_joint(goal.goal_tolerance, "position"), defaults.goal_position),
-                      Tolerances.merged(per_joint(goal.goal_tolerance, "velocity"), defaults.goal_velocity),
-                      goal_time)
+    return Tolerances(
+        Tolerances.merged(per_joint(goal.path_tolerance, "position"), defaults.path),
+        Tolerances.merged(per_joint(goal.goal_tolerance, "position"), defaults.goal_position),
+        Tolerances.merged(per_joint(goal.goal_tolerance, "velocity"), defaults.goal_velocity),
+        goal_time,
+    )
 
 
 class TrajectoryActionServer:
-    """FollowJointTrajectory on ``node`` for ``session`` (shared with the update loop under ``lock``)."""
+    """FollowJointTrajectory on ``node`` for ``session`` (shared with the update loop under
+    ``lock``)."""
 
     def __init__(self, node: Any, session: ArmSession, lock: threading.Lock, controller: str,
                  defaults: Tolerances) -> None:
@@ -87,9 +90,15 @@ class TrajectoryActionServer:
         self.joints = tuple(session.joint_names)
         self.busy = False
         self.name = f"{controller}/follow_joint_trajectory"
-        self.server = ActionServer(node, FollowJointTrajectory, self.name, self._execute,
-                                   goal_callback=self._on_goal, cancel_callback=lambda _: CancelResponse.ACCEPT,
-                                   callback_group=ReentrantCallbackGroup())
+        self.server = ActionServer(
+            node,
+            FollowJointTrajectory,
+            self.name,
+            self._execute,
+            goal_callback=self._on_goal,
+            cancel_callback=lambda _: CancelResponse.ACCEPT,
+            callback_group=ReentrantCallbackGroup(),
+        )
 
     def _on_goal(self, goal: Any) -> GoalResponse:
         try:
@@ -107,10 +116,17 @@ class TrajectoryActionServer:
         try:
             times, q, qd, qdd, effort = goal_arrays(handle.request, self.joints)
             with self.lock:
-                tracker = self.session.start_goal(times, q, qd, qdd,
-                                                  goal_tolerances(handle.request, self.joints, self.defaults),
-                                                  effort)
-            self.node.get_logger().info(f"{self.name}: goal of {len(times)} points, {times[-1]:.2f} s")
+                tracker = self.session.start_goal(
+                    times,
+                    q,
+                    qd,
+                    qdd,
+                    goal_tolerances(handle.request, self.joints, self.defaults),
+                    effort,
+                )
+            self.node.get_logger().info(
+                f"{self.name}: goal of {len(times)} points, {times[-1]:.2f} s"
+            )
             while tracker.status == "active":
                 if handle.is_cancel_requested:
                     with self.lock:
@@ -119,10 +135,15 @@ class TrajectoryActionServer:
                 self._feedback(handle, tracker)
                 time.sleep(FEEDBACK_PERIOD_S)
             result.error_code, result.error_string = tracker.code, tracker.reason
-            {"succeeded": handle.succeed, "canceled": handle.canceled}.get(tracker.status, handle.abort)()
+            {"succeeded": handle.succeed, "canceled": handle.canceled}.get(
+                tracker.status, handle.abort
+            )()
             self.node.get_logger().info(f"{self.name}: goal {tracker.status}: {tracker.reason}")
         except ConfigError as exc:
-            result.error_code, result.error_string = FollowJointTrajectory.Result.INVALID_GOAL, str(exc)
+            result.error_code, result.error_string = (
+                FollowJointTrajectory.Result.INVALID_GOAL,
+                str(exc),
+            )
             handle.abort()
         finally:
             self.busy = False
@@ -136,9 +157,14 @@ class TrajectoryActionServer:
         fb = FollowJointTrajectory.Feedback(joint_names=list(self.joints))
         fb.header.stamp = self.node.get_clock().now().to_msg()
         stamp = {"sec": int(t), "nanosec": int((t % 1) * 1e9)}
-        fb.desired = JointTrajectoryPoint(positions=desired[0].tolist(), velocities=desired[1].tolist(),
-                                          accelerations=desired[2].tolist())
-        fb.actual = JointTrajectoryPoint(positions=actual[0].tolist(), velocities=actual[1].tolist())
+        fb.desired = JointTrajectoryPoint(
+            positions=desired[0].tolist(),
+            velocities=desired[1].tolist(),
+            accelerations=desired[2].tolist(),
+        )
+        fb.actual = JointTrajectoryPoint(
+            positions=actual[0].tolist(), velocities=actual[1].tolist()
+        )
         fb.error = JointTrajectoryPoint(positions=(desired[0] - actual[0]).tolist(),
                                         velocities=(desired[1] - actual[1]).tolist())
         for p in (fb.desired, fb.actual, fb.error):

@@ -1,1 +1,2 @@
-"""The simulated Orthoglide: its own kinematics, closed-loop plant, truth, records and sample bags."""
+"""The simulated Orthoglide: its own kinematics, closed-loop plant, truth, records and sample
+bags."""

@@ -23,10 +23,12 @@ one period (``orthoglide_ident.model.orthoglide.base``: trajectories are designe
   within ~1.8 mm rms, and the closed loop's own current transients carry the rest.
 - ``cond``: cond(W) of one trajectory, the paper's criterion (each trajectory on its own).
 
-``python -m orthoglide_sim.orthoglide.excitation`` re-optimises and writes orthoglide_sim/data/exciting*.json.
+``python -m orthoglide_sim.orthoglide.excitation`` re-optimises and writes
+orthoglide_sim/data/exciting*.json.
 The gains search (random restarts or ``--start``, then a seeded (1+1) evolution strategy) is
 repeatable on one machine: the committed pair is ``--gains 2170,2100,2070 --seed 5 --start
-exciting1,exciting2`` run on the pair before it (git show 6f6803d:orthoglide_sim/data/exciting1.json).
+exciting1,exciting2`` run on the pair before it (git show
+6f6803d:orthoglide_sim/data/exciting1.json).
 Compare a new pair with :func:`predicted_gain_std` and :func:`predicted_delay_bias` before
 replacing the committed one.
 """
@@ -35,18 +37,25 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+from collections.abc import Callable
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import Callable
 
 import numpy as np
 from scipy.optimize import minimize
 
 from orthoglide_ident.errors import OrthoglideError, WorkspaceError
 from orthoglide_ident.identify.options import IdentifyOptions
+from orthoglide_sim.common.trajectories import (
+    A_MAX,
+    DATA_DIR,
+    Q_CENTER,
+    Q_HALF,
+    V_MAX,
+    FourierTrajectory,
+    get_trajectory,
+)
 from orthoglide_sim.orthoglide import kinematics as kin
-from orthoglide_sim.common.trajectories import (A_MAX, DATA_DIR, Q_CENTER, Q_HALF, V_MAX,
-                                         FourierTrajectory, get_trajectory)
 
 POSITION_LIMIT = 0.95 * Q_HALF  # m, excursion from the centre, a little inside the safe box
 COND_SOFT = 3.0e4  # cond(W) above which the gains criterion is penalised (warning at 1e5)
@@ -74,7 +83,9 @@ def scaled(traj: FourierTrajectory, n: int = 400) -> FourierTrajectory:
 
 
 def _shape_maker(K: int, w_f: float) -> Callable[[np.ndarray], FourierTrajectory]:
-    """x (6K: a then b, actuator by actuator) -> the trajectory of that shape, scaled to the limits."""
+    """x (6K: a then b, actuator by actuator) -> the trajectory of that shape, scaled to the
+    limits."""
+
     def make(x: np.ndarray) -> FourierTrajectory:
         a, b = x.reshape(2, 3, K)
         return scaled(FourierTrajectory(np.full(3, Q_CENTER), a, b, w_f))
@@ -100,7 +111,7 @@ class Design:
     g_tau: np.ndarray  # (3,) N/A a priori gains
 
     @classmethod
-    def default(cls) -> "Design":
+    def default(cls) -> Design:
         from orthoglide_ident.model.orthoglide.base import base_model
         from orthoglide_ident.model.orthoglide.geometry import G_TAU_MANUFACTURER
         from orthoglide_sim.orthoglide.truth import load_parameters
@@ -160,7 +171,9 @@ def predicted_delay_bias(unloaded: FourierTrajectory, loaded: FourierTrajectory,
     for traj, mass in ((unloaded, 0.0), (loaded, DESIGN_PAYLOAD_KG)):
         t = np.linspace(0.0, traj.period, n, endpoint=False)
         eps = 1e-5  # s, central difference of the currents (no reversal inside: masked)
-        v_dot = (_currents(design, traj, mass, t + eps) - _currents(design, traj, mass, t - eps)) / (2 * eps)
+        v_dot = (
+            _currents(design, traj, mass, t + eps) - _currents(design, traj, mass, t - eps)
+        ) / (2 * eps)
         keep = _away_from_reversals(traj, t).ravel()
         b = (delay * v_dot * design.g_tau[:, None]).ravel() * np.sqrt(_samples_per_row(n))
         blocks.append(_tls_rows(design, traj, mass, n)[keep])
@@ -177,7 +190,9 @@ def predicted_gain_std(unloaded: FourierTrajectory, loaded: FourierTrajectory,
     record), white current noise DESIGN_NOISE_A on every 1 kHz sample; cov = (g σ_i)² (AᵀA)⁻¹.
     """
     design = design or Design.default()
-    A = np.vstack([_tls_rows(design, unloaded, 0.0, n), _tls_rows(design, loaded, DESIGN_PAYLOAD_KG, n)])
+    A = np.vstack(
+        [_tls_rows(design, unloaded, 0.0, n), _tls_rows(design, loaded, DESIGN_PAYLOAD_KG, n)]
+    )
     cov_g = np.diag(np.linalg.inv(A.T @ A))[-3:]
     return 100.0 * DESIGN_NOISE_A * np.sqrt(cov_g)
 
@@ -237,7 +252,8 @@ def _local_search(f: Callable[[np.ndarray], float], x: np.ndarray, steps: int,
 
 def optimise(K: int = 5, period: float = 2.0, seed: int = 0, restarts: int = 12, maxiter: int = 30,
              verbose: bool = True) -> tuple[FourierTrajectory, float]:
-    """Best exciting trajectory found: random restarts, then a local search on the best (L-BFGS-B)."""
+    """Best exciting trajectory found: random restarts, then a local search on the best
+    (L-BFGS-B)."""
     regressor = _base_regressor()
     w_f = 2.0 * np.pi / period
     rng = np.random.default_rng(seed)
@@ -272,7 +288,9 @@ def platform_peaks(traj, duration: float | None = None, n: int = 4000) -> tuple[
     return float(np.linalg.norm(v, axis=1).max()), float(np.linalg.norm(a, axis=1).max())
 
 
-def workspace_report(lo: float = Q_CENTER - Q_HALF, hi: float = Q_CENTER + Q_HALF, n: int = 11) -> dict:
+def workspace_report(
+    lo: float = Q_CENTER - Q_HALF, hi: float = Q_CENTER + Q_HALF, n: int = 11
+) -> dict:
     """Worst singularity margins over a grid of the actuator box [lo, hi]^3."""
     g = np.linspace(lo, hi, n)
     Q = np.array(np.meshgrid(g, g, g)).reshape(3, -1).T
@@ -287,8 +305,12 @@ def workspace_report(lo: float = Q_CENTER - Q_HALF, hi: float = Q_CENTER + Q_HAL
 
 def _write(path: Path, traj: FourierTrajectory, **figures) -> None:
     v, a = platform_peaks(traj)
-    path.write_text(json.dumps(traj.to_dict() | figures | {"platform_peak_speed": v,
-                                                          "platform_peak_acceleration": a}, indent=1))
+    path.write_text(
+        json.dumps(
+            traj.to_dict() | figures | {"platform_peak_speed": v, "platform_peak_acceleration": a},
+            indent=1,
+        )
+    )
     print(f"{path}: cond {figures['condition_number']:.1f}, platform peak speed {v:.2f} m/s, "
           f"acceleration {a:.1f} m/s²")
 
@@ -305,15 +327,21 @@ def _gains_inputs(args) -> tuple[Design, tuple[FourierTrajectory, FourierTraject
         return design, None
     start = tuple(get_trajectory(name) for name in args.start.split(","))
     w_f = 2.0 * np.pi / args.period
-    if len(start) != 2 or any(not isinstance(t, FourierTrajectory) or t.a.shape != (3, args.harmonics)
-                              or not np.isclose(t.w_f, w_f) for t in start):
+    if len(start) != 2 or any(
+        not isinstance(t, FourierTrajectory)
+        or t.a.shape != (3, args.harmonics)
+        or not np.isclose(t.w_f, w_f)
+        for t in start
+    ):
         raise ValueError(f"--start needs two Fourier trajectories of {args.harmonics} harmonics "
                          f"and period {args.period} s (see --harmonics, --period)")
     return design, start
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m orthoglide_sim.orthoglide.excitation", description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(
+        prog="python -m orthoglide_sim.orthoglide.excitation", description=__doc__.splitlines()[0]
+    )
     ap.add_argument("--criterion", choices=["gains", "cond"], default="gains",
                     help="gains: the pair designed together for the gains' σ (default); "
                          "cond: each trajectory for cond(W) alone")

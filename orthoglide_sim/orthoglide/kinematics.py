@@ -50,9 +50,15 @@ def platform_position(q: np.ndarray) -> np.ndarray:
     h2 = D4**2 - np.sum((cc - S[..., 0, :]) ** 2, axis=-1, keepdims=True)
     unreachable = ~(h2[..., 0] > 0.0)
     if np.any(unreachable):
-        bad = np.asarray(q, dtype=float)[unreachable] if unreachable.ndim else np.asarray(q, dtype=float)
-        raise WorkspaceError(f"no assembly at q = {np.round(np.reshape(bad, (-1, 3))[0], 4).tolist()} m: "
-                            "the legs cannot reach a common platform position")
+        bad = (
+            np.asarray(q, dtype=float)[unreachable]
+            if unreachable.ndim
+            else np.asarray(q, dtype=float)
+        )
+        raise WorkspaceError(
+            f"no assembly at q = {np.round(np.reshape(bad, (-1, 3))[0], 4).tolist()} m: "
+            "the legs cannot reach a common platform position"
+        )
     return cc + np.sqrt(h2) * n / np.sqrt(nn)
 
 
@@ -96,7 +102,8 @@ def tree_state(q: np.ndarray, qd: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def singularity_margins(q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Dimensionless distances to singularity at q (..., 3): (min_i |u_i . e_i|, |det(u_1, u_2, u_3)|,
+    """Dimensionless distances to singularity at q (..., 3): (min_i |u_i . e_i|, |det(u_1, u_2,
+    u_3)|,
     1/cond(J_p)).
 
     - serial (leg) singularity: a bar perpendicular to its actuator <=> u_i . e_i -> 0;

@@ -1,6 +1,8 @@
-"""Write the sample bags: an unloaded and a 1.983 kg loaded record, tagged as the recorder tags them.
+"""Write the sample bags: an unloaded and a 1.983 kg loaded record, tagged as the recorder tags
+them.
 
-    python -m orthoglide_sim.orthoglide.make_bags [--duration 10] [--out bags] [--seed 0] [--profile realistic]
+    python -m orthoglide_sim.orthoglide.make_bags [--duration 10] [--out bags] [--seed 0] [--profile
+    realistic]
 
 The committed bags/ are 10 s each (small enough for git); `make bags DURATION=60` writes the
 2 x 60 s records the benchmarks and the paper use. ``--profile realistic`` simulates a drive with
@@ -28,28 +30,49 @@ RUNS = (  # name, payload, trajectory, seed offset
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m orthoglide_sim.orthoglide.make_bags", description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(
+        prog="python -m orthoglide_sim.orthoglide.make_bags", description=__doc__.splitlines()[0]
+    )
     ap.add_argument("--duration", type=float, default=10.0, help="seconds per record (default 10)")
     ap.add_argument("--out", type=Path, default=Path("bags"), help="output folder (default bags)")
     ap.add_argument("--seed", type=int, default=0, help="current-noise seed (default 0)")
     ap.add_argument("--profile", default=None,
                     help="plant profile: nominal (default), realistic, or one named in --params")
-    ap.add_argument("--params", default=None, help="YAML overriding the true parameters (config/plant.yaml)")
+    ap.add_argument(
+        "--params", default=None, help="YAML overriding the true parameters (config/plant.yaml)"
+    )
     args = ap.parse_args(argv)
     try:
         params = load_parameters(args.params)
         params.plant_profile(args.profile)  # unknown profile: say so before simulating
         args.out.mkdir(parents=True, exist_ok=True)
         for name, payload, trajectory, k in RUNS:
-            rec = simulate(args.duration, payload=payload, trajectory=trajectory, seed=args.seed + k,
-                           params=params, profile=args.profile)
+            rec = simulate(
+                args.duration,
+                payload=payload,
+                trajectory=trajectory,
+                seed=args.seed + k,
+                params=params,
+                profile=args.profile,
+            )
             path = args.out / name
             if path.exists():
                 shutil.rmtree(path)
             cond = "unloaded" if payload == "none" else "loaded"
-            bags.write_bag(path, rec.stamps_ns, rec.q, rec.v_tau, cond, rec.payload_mass,
-                           extra={"orthoglide.sim.trajectory": trajectory, "orthoglide.sim.seed": str(args.seed + k),
-                                  "orthoglide.sim.profile": rec.profile}, joint_names=ORTHOGLIDE.joint_names)
+            bags.write_bag(
+                path,
+                rec.stamps_ns,
+                rec.q,
+                rec.v_tau,
+                cond,
+                rec.payload_mass,
+                extra={
+                    "orthoglide.sim.trajectory": trajectory,
+                    "orthoglide.sim.seed": str(args.seed + k),
+                    "orthoglide.sim.profile": rec.profile,
+                },
+                joint_names=ORTHOGLIDE.joint_names,
+            )
             size = sum(f.stat().st_size for f in path.iterdir()) / 1e6
             print(f"{path}: {args.duration:g} s, {cond} {rec.payload_mass:g} kg, {trajectory}, "
                   f"profile {rec.profile}, {size:.1f} MB")

@@ -5,7 +5,8 @@ loop closure by J_t = J_k^-1 J_tk J_p, regressor): here Pinocchio's spatial-alge
 solve the constrained forward dynamics of the real topology.
 
 - The tree: per leg i, a prismatic joint q1i (body 1, the foot) and four revolute pivots q2i..q5i
-  (bodies 2..5), placed with the MDH transforms of Tables 1-2 (docs/design/conventions.md). The platform
+  (bodies 2..5), placed with the MDH transforms of Tables 1-2 (docs/design/conventions.md). The
+  platform
   (body 6) and payload (body 7) are fixed to body 5 of leg 1 at P; the rotor inertia ia is each
   actuator's armature. Gravity g = +9.80665 m/s² along y0.
 - The loops: body 5 of legs 2 and 3 is welded to the platform by two 6D Pinocchio constraint
@@ -31,7 +32,9 @@ ACTUATED = np.array([0, 5, 10])  # velocity indices of q11, q12, q13 in the tree
 _HP = 0.5 * np.pi
 
 
-def _mdh(gamma: float, b: float, alpha: float, d: float, theta: float = 0.0, r: float = 0.0) -> pin.SE3:
+def _mdh(
+    gamma: float, b: float, alpha: float, d: float, theta: float = 0.0, r: float = 0.0
+) -> pin.SE3:
     """Constant part of an MDH transform: Rot(z, gamma) Trans(z, b) Rot(x, alpha) Trans(x, d)
     Trans(z, r) Rot(z, theta); the joint variable then moves along / about the new z axis."""
     def rot(axis: str, t: float) -> np.ndarray:
@@ -40,15 +43,21 @@ def _mdh(gamma: float, b: float, alpha: float, d: float, theta: float = 0.0, r: 
             return np.array([[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]])
         return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
 
-    T = pin.SE3(rot("z", gamma), np.array([0.0, 0.0, b])) * pin.SE3(rot("x", alpha), np.array([d, 0.0, 0.0]))
+    T = pin.SE3(rot("z", gamma), np.array([0.0, 0.0, b])) * pin.SE3(
+        rot("x", alpha), np.array([d, 0.0, 0.0])
+    )
     return T * pin.SE3(rot("z", theta), np.array([0.0, 0.0, r]))
 
 
 # Table 1 (feet, r of 1_3 = q13 - a) and Table 2 (pivots 2..5 of every leg).
 FOOT_PLACEMENTS = (_mdh(0.0, 0.0, 0.0, 0.0), _mdh(_HP, kin.A, _HP, 0.0, 0.0, -kin.A),
                    _mdh(0.0, kin.A, -_HP, 0.0, -_HP, -kin.A))
-PIVOT_PLACEMENTS = (_mdh(0.0, 0.0, -_HP, 0.0), _mdh(0.0, 0.0, -_HP, 0.0), _mdh(0.0, 0.0, 0.0, kin.D4),
-                    _mdh(0.0, 0.0, _HP, 0.0))
+PIVOT_PLACEMENTS = (
+    _mdh(0.0, 0.0, -_HP, 0.0),
+    _mdh(0.0, 0.0, -_HP, 0.0),
+    _mdh(0.0, 0.0, 0.0, kin.D4),
+    _mdh(0.0, 0.0, _HP, 0.0),
+)
 
 
 def platform_in_body5(leg: int) -> pin.SE3:
@@ -75,7 +84,9 @@ class Plant:
     ``coulomb``: "smooth" (tanh, the plant) or "sign" (the identification model's friction).
     """
 
-    def __init__(self, params: TrueParameters, payload: str | float | None = "none", coulomb: str = "smooth"):
+    def __init__(
+        self, params: TrueParameters, payload: str | float | None = "none", coulomb: str = "smooth"
+    ):
         if coulomb not in ("smooth", "sign"):
             raise ValueError(f"coulomb must be 'smooth' or 'sign', got {coulomb!r}")
         self.params = params
@@ -88,13 +99,17 @@ class Plant:
                                      platform_in_body5(leg), self._joint5[0], platform_in_body5(0),
                                      pin.ReferenceFrame.LOCAL)
             for leg in (1, 2)])
-        self.constraint_data = pin.StdVec_RigidConstraintData([c.createData() for c in self.constraints])
+        self.constraint_data = pin.StdVec_RigidConstraintData(
+            [c.createData() for c in self.constraints]
+        )
         pin.initConstraintDynamics(self.model, self.data, self.constraints, self.constraint_data)
         self.prox = pin.ProximalSettings(1e-12, 0.0, 1)  # mu = 0: the exact KKT solution
         table = [[[params.values[f"{kind}_{j}{i}"] for j in range(1, 6)] for i in (1, 2, 3)]
                  for kind in ("fv", "fs", "tauoff")]
         self.fv, self.fs, self.tauoff = (np.ravel(t) for t in table)
-        self.v_s = np.tile([params.coulomb_velocity["prismatic"]] + 4 * [params.coulomb_velocity["revolute"]], 3)
+        self.v_s = np.tile(
+            [params.coulomb_velocity["prismatic"]] + 4 * [params.coulomb_velocity["revolute"]], 3
+        )
 
     @staticmethod
     def _build_tree(params: TrueParameters, chi_l: np.ndarray) -> tuple[pin.Model, list[int]]:
@@ -110,7 +125,8 @@ class Plant:
                 body = np.array([params.values[f"{kind}_{j}{i}"] for kind in INERTIAL])
                 model.appendBodyToJoint(parent, _inertia(body), pin.SE3.Identity())
             joint5.append(parent)
-        platform = np.array([params.values[f"{kind}_6"] for kind in INERTIAL]) + chi_l  # bodies 6 + 7 at P
+        # bodies 6 + 7 at P
+        platform = np.array([params.values[f"{kind}_6"] for kind in INERTIAL]) + chi_l
         model.appendBodyToJoint(joint5[0], _inertia(platform), platform_in_body5(0))
         armature = np.zeros(N_TREE)
         armature[ACTUATED] = [params.values[f"ia_1{i}"] for i in (1, 2, 3)]
@@ -137,7 +153,8 @@ class Plant:
 
     # ---- batch helpers (loops over samples; for set-up and tests) -------------------------------
     def forward_dynamics(self, q, qd, tau) -> np.ndarray:
-        """Actuator accelerations qdd (N, 3) m/s² under actuator forces tau (N, 3) N ((3,) -> (3,))."""
+        """Actuator accelerations qdd (N, 3) m/s² under actuator forces tau (N, 3) N ((3,) ->
+        (3,))."""
         q, qd, tau = (np.asarray(a, dtype=float) for a in (q, qd, tau))
         out = np.empty(np.broadcast_shapes(q.shape, qd.shape, tau.shape))
         for k in np.ndindex(out.shape[:-1]):
@@ -153,7 +170,9 @@ class Plant:
         for k in np.ndindex(out.shape[:-1]):
             Q, V = self.lift(q[k], qd[k])
             a0 = self.tree_acceleration(Q, V, np.zeros(3))[ACTUATED]
-            Minv = np.column_stack([self.tree_acceleration(Q, V, e)[ACTUATED] - a0 for e in np.eye(3)])
+            Minv = np.column_stack(
+                [self.tree_acceleration(Q, V, e)[ACTUATED] - a0 for e in np.eye(3)]
+            )
             out[k] = np.linalg.solve(Minv, qdd[k] - a0)
         return out
 

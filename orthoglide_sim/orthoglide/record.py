@@ -3,7 +3,8 @@
     rec = simulate(60.0, payload="1.983", trajectory="exciting", controller="pid")
     rec = simulate(30.0, payload="1.983", trajectory="exciting2", profile="realistic")
 
-``profile``: a plant profile of true_parameters ("nominal", the default, or "realistic": current-loop
+``profile``: a plant profile of true_parameters ("nominal", the default, or "realistic":
+current-loop
 lag, Stribeck breakaway, screw friction ripple, 2 mA current noise; see config/plant.yaml).
 
 ``python -m orthoglide_sim.orthoglide.record --help`` writes a record as a .npz file.
@@ -12,18 +13,17 @@ from __future__ import annotations
 
 import argparse
 import sys
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Callable
 
 import numpy as np
 
 from orthoglide_ident.errors import ConfigError, OrthoglideError
 from orthoglide_ident.model.orthoglide.geometry import JOINT_NAMES
+from orthoglide_sim.common.trajectories import get_trajectory
 from orthoglide_sim.orthoglide import simulator as sm
 from orthoglide_sim.orthoglide.plant import Plant
-from orthoglide_sim.common.trajectories import get_trajectory
 from orthoglide_sim.orthoglide.truth import TrueParameters, load_parameters
-
 
 
 @dataclass
@@ -87,12 +87,45 @@ def simulate(duration_s: float, payload: str | float = "none", trajectory: str =
     """
     if controller not in ("pid", "pid_ff", "ctc"):
         raise ConfigError(f"controller must be pid, pid_ff or ctc for a record, got {controller!r}")
-    params, prof, chi_l, plant, drive, (q_ref, qd_ref, qdd_ref), current_noise, encoder_noise, stamps = \
-        _setup(duration_s, payload, trajectory, seed, params, noise, start_ns, ripple, profile)
-    res = sm.simulate_closed_loop(q_ref, qd_ref, qdd_ref, plant, drive, controller, current_noise, feedforward,
-                                  prof.encoder_resolution, encoder_noise)
-    return SimRecord(stamps, res.q_meas, res.v_tau, res.q, res.qd, res.qdd, q_ref, float(chi_l[9]), chi_l,
-                     params, np.asarray(params.g_tau, float), trajectory, controller, profile=prof.name)
+    (
+        params,
+        prof,
+        chi_l,
+        plant,
+        drive,
+        (q_ref, qd_ref, qdd_ref),
+        current_noise,
+        encoder_noise,
+        stamps,
+    ) = _setup(duration_s, payload, trajectory, seed, params, noise, start_ns, ripple, profile)
+    res = sm.simulate_closed_loop(
+        q_ref,
+        qd_ref,
+        qdd_ref,
+        plant,
+        drive,
+        controller,
+        current_noise,
+        feedforward,
+        prof.encoder_resolution,
+        encoder_noise,
+    )
+    return SimRecord(
+        stamps,
+        res.q_meas,
+        res.v_tau,
+        res.q,
+        res.qd,
+        res.qdd,
+        q_ref,
+        float(chi_l[9]),
+        chi_l,
+        params,
+        np.asarray(params.g_tau, float),
+        trajectory,
+        controller,
+        profile=prof.name,
+    )
 
 
 def simulate_external(duration_s: float, command: Callable[[int, np.ndarray], np.ndarray],
@@ -105,8 +138,17 @@ def simulate_external(duration_s: float, command: Callable[[int, np.ndarray], np
     The plant starts on ``trajectory`` at t = 0 (q, qd); the trajectory is only the reference the
     controller is expected to follow (q_ref in the record). About 0.2 ms of wall time per tick.
     """
-    params, prof, chi_l, plant, drive, (q_ref, qd_ref, qdd_ref), current_noise, encoder_noise, stamps = \
-        _setup(duration_s, payload, trajectory, seed, params, noise, start_ns, ripple, profile)
+    (
+        params,
+        prof,
+        chi_l,
+        plant,
+        drive,
+        (q_ref, qd_ref, qdd_ref),
+        current_noise,
+        encoder_noise,
+        stamps,
+    ) = _setup(duration_s, payload, trajectory, seed, params, noise, start_ns, ripple, profile)
     N = len(stamps)
     sim = sm.Integrator(plant, drive, q_ref[0], qd_ref[0])
     q_meas, v_tau, q, qd, qdd = (np.empty((N, 3)) for _ in range(5))
@@ -116,23 +158,49 @@ def simulate_external(duration_s: float, command: Callable[[int, np.ndarray], np
                                 prof.encoder_resolution)
         v_tau[k] = command(k, q_meas[k])
         qdd[k] = sim.tick(v_tau[k] + current_noise[k])
-    return SimRecord(stamps, q_meas, v_tau, q, qd, qdd, q_ref, float(chi_l[9]), chi_l,
-                     params, np.asarray(params.g_tau, float), trajectory, "external", profile=prof.name)
+    return SimRecord(
+        stamps,
+        q_meas,
+        v_tau,
+        q,
+        qd,
+        qdd,
+        q_ref,
+        float(chi_l[9]),
+        chi_l,
+        params,
+        np.asarray(params.g_tau, float),
+        trajectory,
+        "external",
+        profile=prof.name,
+    )
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m orthoglide_sim.orthoglide.record",
-                                 description="Simulate a record of the Orthoglide and save it as .npz.")
+    ap = argparse.ArgumentParser(
+        prog="python -m orthoglide_sim.orthoglide.record",
+        description="Simulate a record of the Orthoglide and save it as .npz.",
+    )
     ap.add_argument("output", help="output .npz file")
     ap.add_argument("--duration", type=float, default=10.0, help="seconds (default 10)")
     ap.add_argument("--payload", default="none", help="none, 1.983, 1.136 or a mass in kg")
-    ap.add_argument("--trajectory", default="exciting", help="exciting, exciting2, test1, test2 or a .json")
+    ap.add_argument(
+        "--trajectory", default="exciting", help="exciting, exciting2, test1, test2 or a .json"
+    )
     ap.add_argument("--controller", default="pid", choices=["pid", "pid_ff"])
     ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--params", default=None, help="YAML overriding the true parameters (config/plant.yaml)")
-    ap.add_argument("--profile", default=None,
-                    help="plant profile: nominal, realistic or one named in --params (default: the YAML's or nominal)")
-    ap.add_argument("--no-noise", action="store_true", help="switch the current and encoder noise off")
+    ap.add_argument(
+        "--params", default=None, help="YAML overriding the true parameters (config/plant.yaml)"
+    )
+    ap.add_argument(
+        "--profile",
+        default=None,
+        help="plant profile: nominal, realistic or one named in --params (default: the YAML's or "
+             "nominal)",
+    )
+    ap.add_argument(
+        "--no-noise", action="store_true", help="switch the current and encoder noise off"
+    )
     args = ap.parse_args(argv)
     try:
         rec = simulate(args.duration, args.payload, args.trajectory, args.controller, args.seed,
@@ -140,12 +208,24 @@ def main(argv: list[str] | None = None) -> int:
     except OrthoglideError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
-    np.savez_compressed(args.output, stamps_ns=rec.stamps_ns, q=rec.q, v_tau=rec.v_tau, q_true=rec.q_true,
-                        qd_true=rec.qd_true, qdd_true=rec.qdd_true, g_tau=rec.g_tau,
-                        payload_mass=rec.payload_mass, joint_names=np.array(rec.joint_names),
-                        profile=rec.profile)
-    print(f"{args.output}: {len(rec.stamps_ns)} ticks, payload {rec.payload_mass} kg, g_tau {rec.g_tau.tolist()}, "
-          f"profile {rec.profile}")
+    np.savez_compressed(
+        args.output,
+        stamps_ns=rec.stamps_ns,
+        q=rec.q,
+        v_tau=rec.v_tau,
+        q_true=rec.q_true,
+        qd_true=rec.qd_true,
+        qdd_true=rec.qdd_true,
+        g_tau=rec.g_tau,
+        payload_mass=rec.payload_mass,
+        joint_names=np.array(rec.joint_names),
+        profile=rec.profile,
+    )
+    print(
+        f"{args.output}: {len(rec.stamps_ns)} ticks, payload {rec.payload_mass} kg, g_tau "
+        f"{rec.g_tau.tolist()}, "
+        f"profile {rec.profile}"
+    )
     return 0
 
 

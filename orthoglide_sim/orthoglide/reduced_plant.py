@@ -1,8 +1,10 @@
-"""The Orthoglide's plant at a small cost per tick: Pinocchio once per tick, the tick's RK4 compiled.
+"""The Orthoglide's plant at a small cost per tick: Pinocchio once per tick, the tick's RK4
+compiled.
 
 The reference (simulator.Integrator) calls Pinocchio's constraintDynamics on the 15-joint tree at
 every RK4 stage from Python: 4 steps x 4 stages = 16 calls and their numpy per 1 ms tick, most of
-the driver's CPU. ``ReducedIntegrator`` integrates the same plant (orthoglide_sim.orthoglide.plant: the same
+the driver's CPU. ``ReducedIntegrator`` integrates the same plant (orthoglide_sim.orthoglide.plant:
+the same
 Pinocchio model, loops, rotor inertias, tanh friction on the 15 tree joints, the same DriveModel)
 with the same RK4 steps, reduced to the three actuator coordinates (q, qd):
 
@@ -13,14 +15,16 @@ with the same RK4 steps, reduced to the three actuator coordinates (q, qd):
   matrix M (crba, rotor inertias as armature) in its data; M_a = G^T M G. Projecting the tree's
   constrained equation of motion on G (J_c G = 0 removes the loop forces) gives, exactly there,
       qdd = a_0 + M_a^-1 (F - G^T f(G qd)),
-  F the drive's forces on the actuated joints, f the tree joints' friction (fv qd + fs tanh + tauoff);
+  F the drive's forces on the actuated joints, f the tree joints' friction (fv qd + fs tanh +
+  tauoff);
 - over a tick, the RK4 stages evaluate the friction and the drive (stiff near zero velocity: tanh
   at 1 mm/s) at each stage's state as the reference does, while the smooth part X = (a_0, M_a^-1,
   G), which varies at the motion's own pace, is linear in time between its values at the tick's
   start and end: predictor-corrector, the tick integrated once with X held, X evaluated at the
   predicted end (which is the next tick's start), the tick integrated again. Its error is O(T^3)
   of X's own variation: 0.03 um and 0.02 mA from the reference along a 2 s exciting run, half of
-  what separates the reference from itself at twice its RK4 steps (tests/sim/orthoglide/test_plant_cheap.py).
+  what separates the reference from itself at twice its RK4 steps
+  (tests/sim/orthoglide/test_plant_cheap.py).
 
 Per tick: one Pinocchio call and two compiled ones (numba, cached on disk after the first
 compilation), instead of 16 Pinocchio calls and ~200 numpy operations. Independent of the
@@ -37,9 +41,11 @@ from orthoglide_sim.orthoglide import kinematics as kin
 from orthoglide_sim.orthoglide.plant import ACTUATED, N_TREE, Plant
 from orthoglide_sim.orthoglide.simulator import STROKE, SUBSTEPS, TICK, DriveModel, Integrator
 
-# The smooth part X of one state, flat for the compiled code: a_0 (3), M_a^-1 (3 x 3 rows), G (15 x 3 rows)
+# The smooth part X of one state, flat for the compiled code: a_0 (3), M_a^-1 (3 x 3 rows), G (15 x
+# 3 rows)
 N_SMOOTH = 12 + 3 * N_TREE
-_E, _FOOT, _R = kin.E_AXIS, kin.FOOT_BASE, kin.R_FOOT  # module constants: frozen into the compiled code
+# module constants: frozen into the compiled code
+_E, _FOOT, _R = kin.E_AXIS, kin.FOOT_BASE, kin.R_FOOT
 _D4, _D6 = kin.D4, kin.D6
 
 
@@ -62,7 +68,8 @@ def _tree(q, Q, G):
     u = np.empty((3, 3))
     for i in range(3):
         u[i] = (P - S[i]) / _D4
-    Jp = np.linalg.solve(u, np.diag(np.array([u[0] @ _E[0], u[1] @ _E[1], u[2] @ _E[2]])))  # dP = Jp dq
+    # dP = Jp dq
+    Jp = np.linalg.solve(u, np.diag(np.array([u[0] @ _E[0], u[1] @ _E[1], u[2] @ _E[2]])))
     G[:] = 0.0
     for i in range(3):
         w = _R[i].T @ u[i]  # bar direction in the foot frame
@@ -98,15 +105,19 @@ def _stage(s, q, qd, X, dX, current, fric, drive, dscal, drive_friction, V):
     rhs = np.empty(3)
     for j in range(3):
         rhs[j] = drive[0, j] * current[j]
-        if drive_friction:  # DriveModel.friction: (stribeck exp(-(qd/v_st)^2) + ripple sin(.)) tanh(qd/v_c)
-            level = drive[1, j] * np.exp(-(qd[j] * dscal[0]) ** 2) + drive[2, j] * np.sin(q[j] * dscal[1] + drive[3, j])
+        # DriveModel.friction: (stribeck exp(-(qd/v_st)^2) + ripple sin(.)) tanh(qd/v_c)
+        if drive_friction:
+            level = drive[1, j] * np.exp(-((qd[j] * dscal[0]) ** 2)) + drive[2, j] * np.sin(
+                q[j] * dscal[1] + drive[3, j]
+            )
             rhs[j] -= level * np.tanh(qd[j] * dscal[2])
     for r in range(V.shape[0]):
         b = 12 + 3 * r
         g0, g1, g2 = X[b] + s * dX[b], X[b + 1] + s * dX[b + 1], X[b + 2] + s * dX[b + 2]
         v = g0 * qd[0] + g1 * qd[1] + g2 * qd[2]
         V[r] = v
-        f = fric[0, r] * v + fric[1, r] * np.tanh(v * fric[2, r]) + fric[3, r]  # fv v + fs tanh(v/v_s) + tauoff
+        # fv v + fs tanh(v/v_s) + tauoff
+        f = fric[0, r] * v + fric[1, r] * np.tanh(v * fric[2, r]) + fric[3, r]
         rhs[0] -= g0 * f
         rhs[1] -= g1 * f
         rhs[2] -= g2 * f
@@ -135,9 +146,13 @@ def _integrate_tick(x, X, dX, currents, fric, drive, dscal, drive_friction, stro
         if k == 0:
             qdd0[:] = a1
         q2, qd2 = q + 0.5 * dt * qd, qd + 0.5 * dt * a1
-        a2 = _stage(s + 0.5 * h, q2, qd2, X, dX, currents[k, 1], fric, drive, dscal, drive_friction, V)
+        a2 = _stage(
+            s + 0.5 * h, q2, qd2, X, dX, currents[k, 1], fric, drive, dscal, drive_friction, V
+        )
         q3, qd3 = q + 0.5 * dt * qd2, qd + 0.5 * dt * a2
-        a3 = _stage(s + 0.5 * h, q3, qd3, X, dX, currents[k, 1], fric, drive, dscal, drive_friction, V)
+        a3 = _stage(
+            s + 0.5 * h, q3, qd3, X, dX, currents[k, 1], fric, drive, dscal, drive_friction, V
+        )
         q4, qd4 = q + dt * qd3, qd + dt * a3
         a4 = _stage(s + h, q4, qd4, X, dX, currents[k, 2], fric, drive, dscal, drive_friction, V)
         q += (dt / 6.0) * (qd + 2.0 * qd2 + 2.0 * qd3 + qd4)
@@ -158,7 +173,9 @@ def _correct(x, X, X_end, M, a0, G, currents, fric, drive, dscal, drive_friction
     """X_end from the end state's Pinocchio results, then the tick integrated with X linear from X
     to X_end (in place on x), and the tree configuration Q at the new state."""
     _smooth_end(x, M, a0, G, X_end)
-    qdd0, ok = _integrate_tick(x, X, X_end - X, currents, fric, drive, dscal, drive_friction, stroke)
+    qdd0, ok = _integrate_tick(
+        x, X, X_end - X, currents, fric, drive, dscal, drive_friction, stroke
+    )
     Gq = np.empty((N_TREE, 3))
     return qdd0, ok and _tree(x[0:3], Q, Gq)
 
@@ -184,11 +201,26 @@ class ReducedIntegrator(Integrator):
         self._Qe, self._G = np.empty(N_TREE), np.empty((N_TREE, 3))
         self._X = self.reduce(self.x)  # X at the tick's start
         # the compiled functions loaded (or compiled) now, not in the first tick (~0.1 s each)
-        args = (self._stages, self._fric, self._drive, self._dscal, self._drive_friction, self._stroke)
+        args = (
+            self._stages,
+            self._fric,
+            self._drive,
+            self._dscal,
+            self._drive_friction,
+            self._stroke,
+        )
         _predict(self.x.copy(), self._X, self._zero, *args, self._Qe, self._G)
         G0 = self._X[12:].reshape(N_TREE, 3).copy()
-        _correct(self.x.copy(), self._X, np.empty(N_SMOOTH), self.plant.data.M, self._X[0:3].copy(), G0, *args,
-                 self._Qe)
+        _correct(
+            self.x.copy(),
+            self._X,
+            np.empty(N_SMOOTH),
+            self.plant.data.M,
+            self._X[0:3].copy(),
+            G0,
+            *args,
+            self._Qe,
+        )
 
     @property
     def q(self) -> np.ndarray:
@@ -199,7 +231,8 @@ class ReducedIntegrator(Integrator):
         return self.x[3:6].copy()
 
     def reduce(self, x: np.ndarray) -> np.ndarray:
-        """X = (a_0, M_a^-1, G) (flat, N_SMOOTH) at the state x = (q, qd); sets the tree state Q, V."""
+        """X = (a_0, M_a^-1, G) (flat, N_SMOOTH) at the state x = (q, qd); sets the tree state Q,
+        V."""
         G, Q = np.empty((N_TREE, 3)), np.empty(N_TREE)
         if not _tree(x[0:3], Q, G):
             kin.platform_position(x[0:3])  # raises WorkspaceError with the reason
@@ -210,10 +243,12 @@ class ReducedIntegrator(Integrator):
         return X
 
     def _free_acceleration(self, Q: np.ndarray, V: np.ndarray) -> np.ndarray:
-        """a_0 (3,) under zero joint forces; leaves crba's M (upper triangle) in the plant's data."""
+        """a_0 (3,) under zero joint forces; leaves crba's M (upper triangle) in the plant's
+        data."""
         p = self.plant
-        return pin.constraintDynamics(p.model, p.data, Q, V, self._tau0, p.constraints, p.constraint_data,
-                                      p.prox)[ACTUATED]
+        return pin.constraintDynamics(
+            p.model, p.data, Q, V, self._tau0, p.constraints, p.constraint_data, p.prox
+        )[ACTUATED]
 
     def tick(self, current: np.ndarray) -> np.ndarray:
         """Integrate one tick under the reference ``current`` (3,) A; returns the actuator
@@ -224,7 +259,14 @@ class ReducedIntegrator(Integrator):
         else:  # motor current at (start, middle, end) of every RK4 step: u + (i0 - u) e^(-t/tau)
             i0 = u if self.current is None else self.current
             self._stages[:] = u + self._decay[:, :, None] * (i0 - u)
-        args = (self._stages, self._fric, self._drive, self._dscal, self._drive_friction, self._stroke)
+        args = (
+            self._stages,
+            self._fric,
+            self._drive,
+            self._dscal,
+            self._drive_friction,
+            self._stroke,
+        )
         x, G, X_end, Q = self.x.copy(), self._G, np.empty(N_SMOOTH), np.empty(N_TREE)
         ok = _predict(x, self._X, self._zero, *args, Q, G)
         if ok:  # Pinocchio at the predicted end; M is read from its data by _correct
@@ -238,18 +280,23 @@ class ReducedIntegrator(Integrator):
             kin.platform_position(x[0:3])
         self.x, self._X = x, X_end
         self.Q, self.V = Q, X_end[12:].reshape(N_TREE, 3) @ x[3:6]
-        self.current = u.copy() if self._decay is None else u + self._decay_tick * (self._stages[0, 0] - u)
+        self.current = (
+            u.copy() if self._decay is None else u + self._decay_tick * (self._stages[0, 0] - u)
+        )
         self.ticks += 1
         return qdd0
 
 
 def compile_now() -> None:
-    """Compile (or load) the compiled functions into numba's cache: one tick of the nominal plant."""
+    """Compile (or load) the compiled functions into numba's cache: one tick of the nominal
+    plant."""
     from orthoglide_sim.orthoglide.simulator import drive_model
     from orthoglide_sim.orthoglide.truth import load_parameters
 
     params = load_parameters()
-    ReducedIntegrator(Plant(params), drive_model(params), np.full(3, 0.04), np.zeros(3)).tick(np.zeros(3))
+    ReducedIntegrator(Plant(params), drive_model(params), np.full(3, 0.04), np.zeros(3)).tick(
+        np.zeros(3)
+    )
 
 
 if __name__ == "__main__":  # make setup

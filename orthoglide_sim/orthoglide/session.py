@@ -4,15 +4,18 @@ One controller tick k has three phases, so that the node can publish between the
 
     q_meas = session.measure()          encoder reading at t_k (1 um)
     v_tau  = session.control()          the controller's current for [t_k, t_k+1), limited
-    session.advance()                   the plant integrated over the tick (Pinocchio, RK4; ``plant``)
+    session.advance()                   the plant integrated over the tick (Pinocchio, RK4;
+    ``plant``)
 
-Controllers ("pid", "pid_ff", "ctc", "external", see orthoglide_sim.orthoglide.simulator): "ctc" adds the
+Controllers ("pid", "pid_ff", "ctc", "external", see orthoglide_sim.orthoglide.simulator): "ctc"
+adds the
 model feed-forward current offered for tick k (``offer_feedforward``) to the "pid_ff" law;
 A tick whose own feed-forward has not arrived holds the last one for at most FF_HOLD_TICKS (the
 model current of the reference 20 ms earlier: 4-5x closer than none), then runs on PID + velocity
 feed-forward alone until a fresh one comes: never a model current of a tick long past.
 "external" applies the latest current command (``offer_command``, zero-order hold) and holds the
-robot with its PID until the first command and whenever commands stop for INPUT_TIMEOUT_TICKS. The reference
+robot with its PID until the first command and whenever commands stop for INPUT_TIMEOUT_TICKS. The
+reference
 (``Reference``) is known ``lead`` ticks ahead, so a controller outside the driver can compute its
 feed-forward before the tick it is for. Payload, trajectory and controller can change while the
 session runs (a person mounting a payload, an operator switching the motion): trajectories blend
@@ -29,10 +32,10 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from orthoglide_ident.errors import ConfigError, OrthoglideError
+from orthoglide_sim.common.trajectories import get_trajectory
 from orthoglide_sim.orthoglide import simulator as sm
 from orthoglide_sim.orthoglide.plant import Plant
 from orthoglide_sim.orthoglide.reduced_plant import ReducedIntegrator
-from orthoglide_sim.common.trajectories import get_trajectory
 from orthoglide_sim.orthoglide.truth import TrueParameters, load_parameters
 
 BLEND_TIME = 2.0  # s, a new trajectory blends in over this time (quintic weight)
@@ -44,7 +47,8 @@ INPUT_TIMEOUT_TICKS = 100  # an outside command older than this is not used
 # passes that of none (velocity reversals flip the friction), and at 100 (the bound before) it is
 # 0.070-0.073 A; then PID + velocity feed-forward alone
 FF_HOLD_TICKS = 20
-# The plant's integration: "reduced" (Pinocchio reduced to the actuators once per tick, the RK4 steps
+# The plant's integration: "reduced" (Pinocchio reduced to the actuators once per tick, the RK4
+# steps
 # compiled: reduced_plant, the driver's default) or "tree" (the reference: Pinocchio's constraint
 # dynamics on the 15-joint tree at every RK4 stage, simulator.Integrator, ~8x the CPU)
 INTEGRATORS = {"reduced": ReducedIntegrator, "tree": sm.Integrator}
@@ -60,7 +64,9 @@ def parse_payload(value: object) -> str | float:
     try:
         mass = float(v)
     except ValueError:
-        raise ConfigError(f"payload must be none, 1.983, 1.136 or a mass in kg, got {value!r}") from None
+        raise ConfigError(
+            f"payload must be none, 1.983, 1.136 or a mass in kg, got {value!r}"
+        ) from None
     if not (0.0 < mass < 20.0):
         raise ConfigError(f"payload mass must be in (0, 20) kg, got {value!r}")
     return mass
@@ -96,8 +102,10 @@ class Reference:
         traj = self._resolve(name)  # ConfigError on an unknown name
         if len(self._chain) > 1:
             k1 = self._chain[-1][0] + round(BLEND_TIME / sm.TICK)
-            raise ConfigError(f"trajectory {self.name} is still blending in until tick {k1}; switch again "
-                              f"in {(k1 - k) * sm.TICK:.1f} s")
+            raise ConfigError(
+                f"trajectory {self.name} is still blending in until tick {k1}; switch again "
+                f"in {(k1 - k) * sm.TICK:.1f} s"
+            )
         self._chain.append((k, traj, name))
         self._cache.clear()
 
@@ -107,7 +115,9 @@ class Reference:
         if block not in self._cache:
             if len(self._cache) > 4:
                 self._cache.pop(min(self._cache))
-            self._cache[block] = self.evaluate(block * self.CACHE_TICKS + np.arange(self.CACHE_TICKS))
+            self._cache[block] = self.evaluate(
+                block * self.CACHE_TICKS + np.arange(self.CACHE_TICKS)
+            )
         i = k - block * self.CACHE_TICKS
         return tuple(v[i] for v in self._cache[block])
 
@@ -152,17 +162,27 @@ class DriverStats:
             return "no command applied"
         ages = sorted(self.command_ages.items())
         within_1 = sum(c for a, c in ages if a <= 1)
-        return (f"{n} commands applied, {100 * within_1 / n:.2f} % from the previous tick or newer, "
-                f"ages {', '.join(f'{a}: {c}' for a, c in ages[:6])}{' ...' if len(ages) > 6 else ''}")
+        return (
+            f"{n} commands applied, {100 * within_1 / n:.2f} % from the previous tick or newer, "
+            f"ages {', '.join(f'{a}: {c}' for a, c in ages[:6])}{' ...' if len(ages) > 6 else ''}"
+        )
 
 
 class DriverSession:
     """The simulated robot and its 1 kHz controller, one tick at a time (see the module doc)."""
 
-    def __init__(self, payload: str | float = "none", trajectory: str = "exciting", controller: str = "pid",
-                 params: TrueParameters | None = None, seed: int = 0, noise: bool = True,
-                 current_limit: float | list[float] = DEFAULT_CURRENT_LIMIT, lead: int = 50,
-                 plant: str = "reduced"):
+    def __init__(
+        self,
+        payload: str | float = "none",
+        trajectory: str = "exciting",
+        controller: str = "pid",
+        params: TrueParameters | None = None,
+        seed: int = 0,
+        noise: bool = True,
+        current_limit: float | list[float] = DEFAULT_CURRENT_LIMIT,
+        lead: int = 50,
+        plant: str = "reduced",
+    ):
         self.params = params or load_parameters()
         if plant not in INTEGRATORS:
             raise ConfigError(f"plant must be one of {', '.join(INTEGRATORS)}, got {plant!r}")
@@ -172,7 +192,9 @@ class DriverSession:
         self.reference = Reference(trajectory)
         self.current_limit = self._checked_limit(current_limit)
         if not (isinstance(lead, int) and 0 <= lead <= 10_000):
-            raise ConfigError(f"setpoint lead must be an integer number of ticks in [0, 10000], got {lead!r}")
+            raise ConfigError(
+                f"setpoint lead must be an integer number of ticks in [0, 10000], got {lead!r}"
+            )
         self.lead = lead
         self.rng = np.random.default_rng(seed)
         self.noise = bool(noise)
@@ -190,14 +212,22 @@ class DriverSession:
     @staticmethod
     def _checked_controller(controller: str) -> str:
         if controller not in sm.CONTROLLERS:
-            raise ConfigError(f"controller must be one of {', '.join(sm.CONTROLLERS)}, got {controller!r}")
+            raise ConfigError(
+                f"controller must be one of {', '.join(sm.CONTROLLERS)}, got {controller!r}"
+            )
         return controller
 
     @staticmethod
     def _checked_limit(limit: float | list[float]) -> np.ndarray:
-        lim = np.broadcast_to(np.asarray(limit, dtype=float), (3,)).copy() if np.size(limit) in (1, 3) else None
+        lim = (
+            np.broadcast_to(np.asarray(limit, dtype=float), (3,)).copy()
+            if np.size(limit) in (1, 3)
+            else None
+        )
         if lim is None or not np.all(np.isfinite(lim)) or np.any(lim <= 0):
-            raise ConfigError(f"current_limit must be one or three positive currents in A, got {limit!r}")
+            raise ConfigError(
+                f"current_limit must be one or three positive currents in A, got {limit!r}"
+            )
         return lim
 
     def set_controller(self, controller: str) -> None:
@@ -214,7 +244,8 @@ class DriverSession:
         self.sim = self.integrator(self.plant, self.drive, q, qd)
 
     def set_trajectory(self, name: str) -> int:
-        """Blend into trajectory ``name`` after the setpoints already published; returns its first tick."""
+        """Blend into trajectory ``name`` after the setpoints already published; returns its first
+        tick."""
         k_start = self.k + self.lead + 1
         self.reference.switch(name, k_start)
         return k_start
@@ -236,8 +267,15 @@ class DriverSession:
         """External mode: current (3,) A computed from the joint state of tick ``k_from``."""
         current = np.asarray(current, dtype=float)
         if current.shape != (3,) or not np.all(np.isfinite(current)):
-            self._stop(f"refused current command {np.asarray(current).tolist()} computed at tick {k_from}: "
-                       "not three finite currents")
+            self._stop(
+                f"refused current command {np.asarray(current).tolist()} computed at tick "
+                f"{k_from}: "
+                ""
+                ""
+                ""
+                ""
+                "not three finite currents"
+            )
             return
         if self._command is None or k_from >= self._command[0]:
             self._command = (k_from, current)
@@ -247,7 +285,10 @@ class DriverSession:
         current = np.asarray(current, dtype=float)
         if current.shape != (3,) or not np.all(np.isfinite(current)):
             if self.controller == "ctc":
-                self._stop(f"refused feed-forward {current.tolist()} for tick {k_for}: not three finite currents")
+                self._stop(
+                    f"refused feed-forward {current.tolist()} for tick {k_for}: not three finite "
+                    "currents"
+                )
             return
         if k_for >= self.k:
             self._feedforward[k_for] = current

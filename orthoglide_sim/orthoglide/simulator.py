@@ -36,8 +36,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from orthoglide_ident.errors import WorkspaceError
-from orthoglide_sim.orthoglide.plant import ACTUATED, Plant
 from orthoglide_ident.model.orthoglide.geometry import G_TAU_MANUFACTURER
+from orthoglide_sim.orthoglide.plant import ACTUATED, Plant
 from orthoglide_sim.orthoglide.truth import PROFILES, PlantProfile, TrueParameters
 
 TICK = 1.0e-3  # s, controller period (1 kHz)
@@ -87,8 +87,9 @@ class DriveModel:
             return np.zeros(3)
         s = np.tanh(np.asarray(qd) / self.coulomb_velocity)
         level = self.stribeck * np.exp(-(np.asarray(qd) / self.stribeck_velocity) ** 2)
-        level = level + self.ripple_amplitude * np.sin(2.0 * np.pi * np.asarray(q) / self.ripple_lead
-                                                       + self.ripple_phase)
+        level = level + self.ripple_amplitude * np.sin(
+            2.0 * np.pi * np.asarray(q) / self.ripple_lead + self.ripple_phase
+        )
         return level * s
 
     def force(self, current: np.ndarray, q: np.ndarray, qd: np.ndarray | None = None) -> np.ndarray:
@@ -121,13 +122,20 @@ def drive_model(params: TrueParameters, ripple: bool | None = None,
         amp, lead = PROFILES["realistic"].ripple_amplitude, PROFILES["realistic"].ripple_lead
     if ripple is False:
         amp = 0.0
-    return DriveModel(np.asarray(params.g_tau, dtype=float), amp * fs, lead,
-                      current_lag_s=prof.current_lag_s,
-                      stribeck=stribeck_amplitude(prof.stribeck_breakaway, v_s, prof.stribeck_velocity) * fs,
-                      stribeck_velocity=prof.stribeck_velocity, coulomb_velocity=v_s)
+    return DriveModel(
+        np.asarray(params.g_tau, dtype=float),
+        amp * fs,
+        lead,
+        current_lag_s=prof.current_lag_s,
+        stribeck=stribeck_amplitude(prof.stribeck_breakaway, v_s, prof.stribeck_velocity) * fs,
+        stribeck_velocity=prof.stribeck_velocity,
+        coulomb_velocity=v_s,
+    )
 
 
-def stribeck_amplitude(breakaway: float, coulomb_velocity: float, stribeck_velocity: float) -> float:
+def stribeck_amplitude(
+    breakaway: float, coulomb_velocity: float, stribeck_velocity: float
+) -> float:
     """Amplitude a (fraction of fs) of the Stribeck term for a breakaway force fs (1 + breakaway):
     the peak over qdot > 0 of tanh(qdot / v_s) (1 + a exp(-(qdot / v_st)^2)) is 1 + breakaway."""
     if breakaway <= 0:
@@ -191,7 +199,9 @@ class Integrator:
         return self.V[ACTUATED].copy()
 
     def _acceleration(self, Q: np.ndarray, V: np.ndarray, current: np.ndarray) -> np.ndarray:
-        return self.plant.tree_acceleration(Q, V, self.drive.force(current, Q[ACTUATED], V[ACTUATED]))
+        return self.plant.tree_acceleration(
+            Q, V, self.drive.force(current, Q[ACTUATED], V[ACTUATED])
+        )
 
     def tick(self, current: np.ndarray) -> np.ndarray:
         """Integrate one tick under the reference ``current`` (3,) A; returns the actuator
@@ -230,14 +240,18 @@ class Integrator:
     def _check(self, Q: np.ndarray, V: np.ndarray, current: np.ndarray) -> None:
         q = Q[ACTUATED]
         if not (np.all(np.isfinite(Q)) and np.all(np.isfinite(V))):
-            raise WorkspaceError(f"the simulated robot's state is not finite after tick {self.ticks} "
-                                 f"(current {np.round(current, 3).tolist()} A): stopped")
+            raise WorkspaceError(
+                f"the simulated robot's state is not finite after tick {self.ticks} "
+                f"(current {np.round(current, 3).tolist()} A): stopped"
+            )
         out = (q < STROKE[0]) | (q > STROKE[1])
         if np.any(out):
             j = int(np.argmax(out))
-            raise WorkspaceError(f"q1{j + 1} = {q[j] * 1e3:.1f} mm left the actuator stroke "
-                                 f"[{STROKE[0] * 1e3:.0f}, {STROKE[1] * 1e3:.0f}] mm at tick {self.ticks} "
-                                 f"(current {np.round(current, 3).tolist()} A): the simulated robot stopped")
+            raise WorkspaceError(
+                f"q1{j + 1} = {q[j] * 1e3:.1f} mm left the actuator stroke "
+                f"[{STROKE[0] * 1e3:.0f}, {STROKE[1] * 1e3:.0f}] mm at tick {self.ticks} "
+                f"(current {np.round(current, 3).tolist()} A): the simulated robot stopped"
+            )
 
 
 @dataclass
@@ -259,7 +273,7 @@ class PID:
         return (KP * e + KI * self.integral + KD * (qd_term - v_est)) / G_TAU_MANUFACTURER
 
     @classmethod
-    def preloaded(cls, plant: Plant, q0, qd0, qdd0, velocity_ff: bool = False) -> "PID":
+    def preloaded(cls, plant: Plant, q0, qd0, qdd0, velocity_ff: bool = False) -> PID:
         """A PID whose integrator already holds the force needed on the reference at t_0."""
         q0, qd0 = np.asarray(q0, float), np.asarray(qd0, float)
         tau0 = plant.inverse_dynamics(q0, qd0, np.asarray(qdd0, float))
@@ -275,11 +289,19 @@ class ClosedLoopResult:
     qdd: np.ndarray  # (N, 3) m/s², true, at t_k under the held force
 
 
-def simulate_closed_loop(q_ref, qd_ref, qdd_ref, plant: Plant, drive: DriveModel, controller: str = "pid",
-                         noise: np.ndarray | None = None, feedforward: np.ndarray | None = None,
-                         resolution: float = ENCODER_RESOLUTION,
-                         encoder_noise: np.ndarray | None = None,
-                         integrator: type[Integrator] = Integrator) -> ClosedLoopResult:
+def simulate_closed_loop(
+    q_ref,
+    qd_ref,
+    qdd_ref,
+    plant: Plant,
+    drive: DriveModel,
+    controller: str = "pid",
+    noise: np.ndarray | None = None,
+    feedforward: np.ndarray | None = None,
+    resolution: float = ENCODER_RESOLUTION,
+    encoder_noise: np.ndarray | None = None,
+    integrator: type[Integrator] = Integrator,
+) -> ClosedLoopResult:
     """Run the plant under "pid", "pid_ff" or "ctc" along a sampled reference (N, 3) at 1 kHz.
 
     ``noise`` (N, 3) A: current noise held with each tick's reference; ``feedforward`` (N, 3) A:
@@ -289,7 +311,9 @@ def simulate_closed_loop(q_ref, qd_ref, qdd_ref, plant: Plant, drive: DriveModel
     on the reference (q, qd at t_0) with the controller's integrator pre-loaded.
     """
     if controller not in ("pid", "pid_ff", "ctc"):
-        raise ValueError(f"controller must be 'pid', 'pid_ff' or 'ctc' for a recorded run, got {controller!r}")
+        raise ValueError(
+            f"controller must be 'pid', 'pid_ff' or 'ctc' for a recorded run, got {controller!r}"
+        )
     q_ref, qd_ref = np.asarray(q_ref, float), np.asarray(qd_ref, float)
     N = len(q_ref)
     noise = np.zeros((N, 3)) if noise is None else np.asarray(noise, float)
@@ -297,7 +321,8 @@ def simulate_closed_loop(q_ref, qd_ref, qdd_ref, plant: Plant, drive: DriveModel
     enc = None if encoder_noise is None else np.asarray(encoder_noise, float)
     sim = integrator(plant, drive, q_ref[0], qd_ref[0])
     pid = PID.preloaded(plant, q_ref[0], qd_ref[0], qdd_ref[0], velocity_ff=controller != "pid")
-    pid.integral = pid.integral - ff[0] * G_TAU_MANUFACTURER / KI  # the feed-forward brings its share
+    # the feed-forward brings its share
+    pid.integral = pid.integral - ff[0] * G_TAU_MANUFACTURER / KI
     out = ClosedLoopResult(*(np.empty((N, 3)) for _ in range(5)))
     for k in range(N):
         out.q[k], out.qd[k] = sim.q, sim.qd

@@ -12,7 +12,8 @@ current loop, Stribeck breakaway friction, ball-screw friction ripple at the scr
 the current and encoder noise. "nominal" (the default) has none of the unmodelled effects;
 "realistic" switches them on. Both are overridable, and more can be named, in YAML.
 
-This table is the plant's own truth, kept apart from the identification model on purpose (docs/design/architecture.md
+This table is the plant's own truth, kept apart from the identification model on purpose
+(docs/design/architecture.md
 §5): nothing here is derived from orthoglide_ident's regressor. Only interface facts are imported
 from it: joint names and the manufacturer's gain 637π N/A that a controller is configured with.
 
@@ -23,9 +24,10 @@ Names follow docs/design/conventions.md: ``<p>_<j><i>`` for body j of leg i, ``<
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any
 
 import numpy as np
 
@@ -70,7 +72,8 @@ LEG_BODIES: dict[int, dict[int, tuple[float, tuple, tuple, tuple]]] = {
 PLATFORM_BODY = (0.42, (0.003, 0.011, -0.006), (4.1e-4, 3.6e-4, 5.2e-4), (0.05, -0.08, 0.12))
 
 # Drive chain and joint friction, per leg: ia (kg, rotor + screw inertia seen at the foot),
-# then (fv, fs, tauoff) for joints 1 (prismatic: N·s/m, N, N) and 2..5 (pivots: N·m·s/rad, N·m, N·m).
+# then (fv, fs, tauoff) for joints 1 (prismatic: N·s/m, N, N) and 2..5 (pivots: N·m·s/rad, N·m,
+# N·m).
 ACTUATOR_INERTIA = {1: 4.85, 2: 4.62, 3: 5.05}
 JOINT_FRICTION: dict[int, dict[int, tuple[float, float, float]]] = {
     1: {1: (85.7, 35.2, 1.30), 2: (0.120, 0.210, 0.021), 3: (0.095, 0.180, -0.017),
@@ -99,7 +102,8 @@ COULOMB_VELOCITY = {"prismatic": 1.0e-3, "revolute": 5.0e-3}  # m/s, rad/s
 
 @dataclass(frozen=True)
 class PlantProfile:
-    """What lies between the controller and the ideal plant, beyond the IDIM (docs/design/simulator.md).
+    """What lies between the controller and the ideal plant, beyond the IDIM
+    (docs/design/simulator.md).
 
     Units: s, A, m, m/s; friction terms are fractions of each actuator's Coulomb level fs_1i.
     """
@@ -142,7 +146,8 @@ DEFAULT_PROFILE = "nominal"
 
 
 def inertial_from_rigid_body(mass: float, com, principal, tilt) -> np.ndarray:
-    """10 standard inertial parameters (xx..zz at the frame origin, mx, my, mz, m) of a rigid body."""
+    """10 standard inertial parameters (xx..zz at the frame origin, mx, my, mz, m) of a rigid
+    body."""
     c = np.asarray(com, dtype=float)
     rx, ry, rz = tilt
     Rx = np.array([[1, 0, 0], [0, math.cos(rx), -math.sin(rx)], [0, math.sin(rx), math.cos(rx)]])
@@ -199,7 +204,9 @@ class TrueParameters:
         """The profile ``name`` (default: ``self.profile``); ConfigError if unknown."""
         key = self.profile if name is None else str(name)
         if key not in self.profiles:
-            raise ConfigError(f"unknown plant profile {key!r}: use one of {', '.join(sorted(self.profiles))}")
+            raise ConfigError(
+                f"unknown plant profile {key!r}: use one of {', '.join(sorted(self.profiles))}"
+            )
         return self.profiles[key]
 
     @property
@@ -211,7 +218,8 @@ class TrueParameters:
         return np.array([self.values[n] for n in STANDARD_NAMES])
 
     def payload_vector(self, payload: str | float | None) -> np.ndarray:
-        """(10,) inertial parameters xx_7..m_7 of a payload: "none", "1.983", "1.136" or a mass in kg."""
+        """(10,) inertial parameters xx_7..m_7 of a payload: "none", "1.983", "1.136" or a mass in
+        kg."""
         if payload is None or payload == "none" or payload == 0 or payload == "0":
             return np.zeros(10)
         key = str(payload)
@@ -220,7 +228,9 @@ class TrueParameters:
         try:
             mass = float(payload)
         except (TypeError, ValueError):
-            raise ConfigError(f"unknown payload {payload!r}: use none, 1.983, 1.136 or a mass in kg")
+            raise ConfigError(
+                f"unknown payload {payload!r}: use none, 1.983, 1.136 or a mass in kg"
+            ) from None
         if not (0.0 < mass < 20.0):
             raise ConfigError(f"payload mass {mass} kg out of range (0, 20) kg")
         base = self.payloads.get("1.983", np.array(inertial_from_rigid_body(*PAYLOADS["1.983"])))
@@ -260,7 +270,9 @@ def _number(value: Any, where: str) -> float:
     return float(value)
 
 
-def apply_overrides(params: TrueParameters, data: Mapping[str, Any], source: str = "overrides") -> TrueParameters:
+def apply_overrides(
+    params: TrueParameters, data: Mapping[str, Any], source: str = "overrides"
+) -> TrueParameters:
     """Return ``params`` with the entries of ``data`` (same layout as config/plant.yaml) applied."""
     if not isinstance(data, Mapping):
         raise ConfigError(f"{source}: top level must be a mapping with keys {sorted(_TOP_KEYS)}")
@@ -269,7 +281,9 @@ def apply_overrides(params: TrueParameters, data: Mapping[str, Any], source: str
                           "profiles.<name>.screw_ripple {amplitude: fraction of fs, lead: m}")
     unknown = set(data) - _TOP_KEYS
     if unknown:
-        raise ConfigError(f"{source}: unknown key(s) {sorted(unknown)}; allowed: {sorted(_TOP_KEYS)}")
+        raise ConfigError(
+            f"{source}: unknown key(s) {sorted(unknown)}; allowed: {sorted(_TOP_KEYS)}"
+        )
     values = dict(params.values)
     g_tau = params.g_tau
     payloads = {k: v.copy() for k, v in params.payloads.items()}
@@ -284,7 +298,9 @@ def apply_overrides(params: TrueParameters, data: Mapping[str, Any], source: str
             raise ConfigError(f"{source}: g_tau must be positive, got {g_tau}")
     for name, v in (data.get("parameters") or {}).items():
         if name not in values:
-            raise ConfigError(f"{source}: unknown standard parameter {name!r} (e.g. xx_11, ia_12, m_6)")
+            raise ConfigError(
+                f"{source}: unknown standard parameter {name!r} (e.g. xx_11, ia_12, m_6)"
+            )
         values[name] = _number(v, f"{source}: parameters.{name}")
     for pname, pdata in (data.get("payloads") or {}).items():
         pname = str(pname)
@@ -293,14 +309,18 @@ def apply_overrides(params: TrueParameters, data: Mapping[str, Any], source: str
         vec = payloads.get(pname, np.zeros(10)).copy()
         for name, v in pdata.items():
             if name not in PAYLOAD_NAMES:
-                raise ConfigError(f"{source}: payloads.{pname}: unknown parameter {name!r} (xx_7..m_7)")
+                raise ConfigError(
+                    f"{source}: payloads.{pname}: unknown parameter {name!r} (xx_7..m_7)"
+                )
             vec[PAYLOAD_NAMES.index(name)] = _number(v, f"{source}: payloads.{pname}.{name}")
         if vec[9] <= 0:
             raise ConfigError(f"{source}: payloads.{pname}: m_7 must be positive")
         payloads[pname] = vec
     for name, v in (data.get("coulomb_velocity") or {}).items():
         if name not in coulomb:
-            raise ConfigError(f"{source}: coulomb_velocity: unknown key {name!r} (prismatic, revolute)")
+            raise ConfigError(
+                f"{source}: coulomb_velocity: unknown key {name!r} (prismatic, revolute)"
+            )
         coulomb[name] = _number(v, f"{source}: coulomb_velocity.{name}")
         if coulomb[name] <= 0:
             raise ConfigError(f"{source}: coulomb_velocity.{name} must be positive")

@@ -117,7 +117,7 @@ def test_no_velocity_column_is_nan_in_the_bag(tmp_path):
 def test_yaml_map_and_flags_agree(tmp_path, capsys):
     rec = _record(40)
     cols = {"time_ms": rec["t"] * 1e-6}
-    for k, j in enumerate(JOINTS):
+    for k in range(len(JOINTS)):
         cols[f"pos{k}"] = rec["q"][:, k]
         cols[f"tau{k}"] = rec["e"][:, k]
         cols[f"mode{k}"] = np.zeros(len(rec["t"]))

@@ -58,7 +58,8 @@ def test_an_imported_record_identifies_as_the_recorded_bag(recorded, tmp_path):
     amps = [imported(b, export_csv(b, tmp_path / f"{b.name}.csv"), tmp_path / f"{b.name}_A", "A")
             for b in recs]
     g_a, chi_a = summary(identify([str(b) for b in amps], model=robot))
-    assert np.array_equal(g_a, gains) and np.array_equal(chi_a, chi)  # the same numbers, bit for bit
+    # the same numbers, bit for bit
+    assert np.array_equal(g_a, gains) and np.array_equal(chi_a, chi)
     # the same log in N·m (current x nominal gain), tagged a torque: the same gains
     torques = [imported(b, export_csv(b, tmp_path / f"{b.name}_nm.csv", robot.nominal_gains),
                         tmp_path / f"{b.name}_Nm", "N·m") for b in recs]

@@ -35,8 +35,15 @@ def bag(tmp_path_factory: pytest.TempPathFactory) -> Path:
     n = 2000
     stamps = T0 + np.arange(n, dtype=np.int64) * 1_000_000
     rng = np.random.default_rng(5)
-    return bags.write_bag(tmp_path_factory.mktemp("cli") / "b", stamps, rng.normal(size=(n, 3)),
-                          rng.normal(size=(n, 3)), "unloaded", 0.0, joint_names=ORTHOGLIDE.joint_names)
+    return bags.write_bag(
+        tmp_path_factory.mktemp("cli") / "b",
+        stamps,
+        rng.normal(size=(n, 3)),
+        rng.normal(size=(n, 3)),
+        "unloaded",
+        0.0,
+        joint_names=ORTHOGLIDE.joint_names,
+    )
 
 
 def test_doctor_strict_message_order(bag: Path) -> None:

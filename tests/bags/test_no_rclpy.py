@@ -1,4 +1,5 @@
-"""The numerical core and the CLI import and work where rclpy cannot be imported (docs/design/architecture.md §2):
+"""The numerical core and the CLI import and work where rclpy cannot be imported
+(docs/design/architecture.md §2):
 every module of bags, identify and model, plus control, results and cli, in a fresh interpreter
 whose import system refuses rclpy; then the CLI runs."""
 

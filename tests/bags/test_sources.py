@@ -1,4 +1,5 @@
-"""Bags of a ros2_control robot (docs/design/architecture.md §3): /joint_states alone or with /dynamic_joint_states,
+"""Bags of a ros2_control robot (docs/design/architecture.md §3): /joint_states alone or with
+/dynamic_joint_states,
 joints in the hardware's order with an extra joint, read by name; the current by the order of
 preference (a DynamicJointState interface, the JointState effort, the CurrentReference) or by the
 bag's tag; a missing joint, interface or topic refused with a one-line reason."""

@@ -1,4 +1,5 @@
-"""The bag tag (docs/design/interfaces.md): payload frame, centre of mass and inertia beside condition and
+"""The bag tag (docs/design/interfaces.md): payload frame, centre of mass and inertia beside
+condition and
 mass, and the sources of q and the current; the same keys in metadata.yaml custom_data and in each
 file's ``orthoglide`` metadata record; bad values refused with a one-line reason."""
 

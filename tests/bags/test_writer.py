@@ -125,7 +125,8 @@ def test_a_robot_namespace_is_read_like_the_root(tmp_path):
             js = bags.encode_messages(bags.JOINT_STATE_TYPE, names, stamps, values)
             cr = bags.encode_messages(bags.CURRENT_REFERENCE_TYPE, names, stamps, values)
             for k, st in enumerate(stamps):
-                w.write(c_js, js[k].tobytes(), int(st) + n * 10**9, int(st))  # log times never go back
+                # log times never go back
+                w.write(c_js, js[k].tobytes(), int(st) + n * 10**9, int(st))
                 w.write(c_cr, cr[k].tobytes(), int(st) + n * 10**9 + 1, int(st))
         w.close()
 
@@ -134,7 +135,10 @@ def test_a_robot_namespace_is_read_like_the_root(tmp_path):
     np.testing.assert_array_equal(data.joint_states.stamps_ns, stamps)
     np.testing.assert_allclose(data.current_reference.current, values)
     info = bags.bag_info(tmp_path / "ns")
-    assert {t.topic for t in info.topics} == {"/robot2/orthoglide/joint_states", "/robot2/orthoglide/current_reference"}
+    assert {t.topic for t in info.topics} == {
+        "/robot2/orthoglide/joint_states",
+        "/robot2/orthoglide/current_reference",
+    }
     write(tmp_path / "two", ["/robot2", "/robot3"])
     with pytest.raises(BagError, match="robots"):
         bags.read_bag(tmp_path / "two")
@@ -151,7 +155,9 @@ def test_a_bag_stopped_early_is_kept_and_tagged_incomplete(tmp_path: Path) -> No
     reason = "unloaded run aborted: PATH_TOLERANCE_VIOLATED: elbow_joint ..."  # one line
     import yaml
 
-    custom = yaml.safe_load((tmp_path / "cut" / "metadata.yaml").read_text())["rosbag2_bagfile_information"]["custom_data"]
+    custom = yaml.safe_load((tmp_path / "cut" / "metadata.yaml").read_text())[
+        "rosbag2_bagfile_information"
+    ]["custom_data"]
     assert custom[bags.INCOMPLETE_KEY] == reason and custom[bags.CONDITION_KEY] == "unloaded"
     for where in (tmp_path / "cut", w.files[0].path):  # the directory, the lone file
         info = bags.bag_info(where)

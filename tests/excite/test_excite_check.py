@@ -5,8 +5,8 @@ import dataclasses
 
 import numpy as np
 import pytest
-
 from excite_robots import static_runs
+
 from orthoglide_ident.errors import ConfigError
 from orthoglide_ident.excite.check import check_trajectory
 from orthoglide_ident.excite.collision import CollisionModel
@@ -54,7 +54,9 @@ def test_each_joint_limit_tightened_is_caught(ur5, designed, kind, change):
     if kind == "position":  # the range shrunk to 0.1 rad around the start pose
         tight = dataclasses.replace(limits, lower=np.array(HOME) - 0.1, upper=np.array(HOME) + 0.1)
     else:
-        tight = dataclasses.replace(limits, **{k: getattr(limits, k) * f for k, f in change.items()})
+        tight = dataclasses.replace(
+            limits, **{k: getattr(limits, k) * f for k, f in change.items()}
+        )
     report = check_trajectory(designed.trajectory, robot, tight, col, Margins())
     assert failed(report) == {kind}, report.to_text()
 

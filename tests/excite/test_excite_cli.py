@@ -3,8 +3,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-
 from excite_robots import two_link_urdf
+
 from orthoglide_ident.cli import main
 from orthoglide_ident.excite.trajectory import load_trajectory
 
@@ -53,7 +53,9 @@ def test_check_passes_and_a_tighter_joint_limits_file_fails_it(designed, tmp_pat
     assert main(["excite", "check", str(out), "--robot", "ur5"]) == 0
     assert "every constraint keeps its margin" in capsys.readouterr().out
     lim = tmp_path / "limits.yaml"
-    lim.write_text("joint_limits:\n  wrist_2_joint: {has_velocity_limits: true, max_velocity: 0.2}\n")
+    lim.write_text(
+        "joint_limits:\n  wrist_2_joint: {has_velocity_limits: true, max_velocity: 0.2}\n"
+    )
     assert main(["excite", "check", str(out), "--robot", "ur5", "--joint-limits", str(lim)]) == 2
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and "breaks its limits: velocity" in err

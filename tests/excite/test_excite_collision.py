@@ -3,8 +3,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-
 from excite_robots import cube_stl, two_link_urdf
+
 from orthoglide_ident.errors import ConfigError
 from orthoglide_ident.excite.collision import CollisionModel
 from orthoglide_ident.model.robots import load_robot

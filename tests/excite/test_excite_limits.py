@@ -5,8 +5,8 @@ import math
 
 import numpy as np
 import pytest
-
 from excite_robots import two_link_urdf
+
 from orthoglide_ident.errors import ConfigError
 from orthoglide_ident.excite.limits import home_pose, read_limits
 from orthoglide_ident.model.robots import load_robot

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-
 from excite_robots import mimic_arm_urdf, static_runs
+
 from orthoglide_ident.excite.check import CHECK_STEP_S, check_trajectory
 from orthoglide_ident.excite.constraints import Margins
 from orthoglide_ident.excite.design import DesignOptions, design

@@ -5,9 +5,14 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from orthoglide_ident.excite.prediction import (RunSamples, noise_from_result,
-                                                nominal_base_values, predict, run_rows)
 from orthoglide_ident.errors import ConfigError
+from orthoglide_ident.excite.prediction import (
+    RunSamples,
+    noise_from_result,
+    nominal_base_values,
+    predict,
+    run_rows,
+)
 from orthoglide_ident.identify.observe.equations import Observations
 from orthoglide_ident.identify.solve.tls import idim_tls
 from orthoglide_ident.model.robot import Payload

@@ -7,8 +7,8 @@ import re
 
 import numpy as np
 import pytest
-
 from excite_robots import two_link_urdf
+
 from orthoglide_ident.errors import ExcitationError
 from orthoglide_ident.excite import prediction
 from orthoglide_ident.excite.collision import CollisionModel

@@ -28,7 +28,9 @@ def test_a_small_trajectory_passes(ur5):
 
 def test_another_robots_trajectory_is_refused(ur5):
     five = small_trajectory("five_bar", ("joint_1", "joint_2"), (2.1, 1.04))
-    with pytest.raises(ConfigError, match=r"t.yaml: the trajectory is for robot 'five_bar', not 'ur5'"):
+    with pytest.raises(
+        ConfigError, match=r"t.yaml: the trajectory is for robot 'five_bar', not 'ur5'"
+    ):
         plan.check_run(five, "unloaded", ur5, "t.yaml")
     renamed = replace(small_trajectory(), joints=("a", "b", "c", "d", "e", "f"))
     with pytest.raises(ConfigError, match="moves joints a, b"):
@@ -38,11 +40,15 @@ def test_another_robots_trajectory_is_refused(ur5):
 def test_nan_and_out_of_limit_runs_are_refused_with_the_joint_and_time(ur5):
     t = small_trajectory()
     bad = dict(t.runs)
-    bad["unloaded"] = replace(t.runs["unloaded"], q0=np.where(np.arange(6) == 2, np.nan, UR5_CENTRE))
+    bad["unloaded"] = replace(
+        t.runs["unloaded"], q0=np.where(np.arange(6) == 2, np.nan, UR5_CENTRE)
+    )
     with pytest.raises(ConfigError, match="not finite"):
         plan.check_run(replace(t, runs=bad), "unloaded", ur5, "t.yaml")
     bad["unloaded"] = replace(t.runs["unloaded"], q0=UR5_CENTRE + np.array([0, 0, 2.0, 0, 0, 0]))
-    with pytest.raises(ConfigError, match=r"takes elbow_joint above its upper limit at t = .* vs 3.1416 rad"):
+    with pytest.raises(
+        ConfigError, match=r"takes elbow_joint above its upper limit at t = .* vs 3.1416 rad"
+    ):
         plan.check_run(replace(t, runs=bad), "unloaded", ur5, "t.yaml")
     fast = small_trajectory(amplitude=3.0, period_s=1.0)
     with pytest.raises(ConfigError, match="faster than its velocity limit"):
@@ -78,7 +84,6 @@ def test_the_command_refuses_a_nan_or_out_of_limit_file_in_one_line(tmp_path, ro
     import subprocess
 
     import yaml
-
     from trajectories import write_small
 
     cli = Path(sys.prefix) / "bin" / "orthoglide-ident"
@@ -89,8 +94,16 @@ def test_the_command_refuses_a_nan_or_out_of_limit_file_in_one_line(tmp_path, ro
     doc = yaml.safe_load(good.read_text())
     doc["runs"]["unloaded"]["q0"][2] = 3.5  # the elbow beyond its ±π
     (tmp_path / "far.yaml").write_text(yaml.safe_dump(doc))
-    for name, reason in (("nan.yaml", "non-finite"), ("far.yaml", "elbow_joint above its upper limit")):
-        out = subprocess.run([str(cli), "excite", "run", str(tmp_path / name), "--condition", "unloaded"],
-                             capture_output=True, text=True, timeout=120, env=ros_env)
+    for name, reason in (
+        ("nan.yaml", "non-finite"),
+        ("far.yaml", "elbow_joint above its upper limit"),
+    ):
+        out = subprocess.run(
+            [str(cli), "excite", "run", str(tmp_path / name), "--condition", "unloaded"],
+            capture_output=True,
+            text=True,
+            timeout=120,
+            env=ros_env,
+        )
         assert out.returncode == 2 and reason in out.stderr and name in out.stderr, out.stderr
         assert len(out.stderr.strip().splitlines()) == 1

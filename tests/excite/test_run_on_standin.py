@@ -1,7 +1,8 @@
 """excite run against the ros2_control stand-in's follow_joint_trajectory action and the recorder:
 a run that succeeds leaves a complete bag; a tolerance violation aborts the goal and leaves the bag
 tagged incomplete with the reason; Ctrl-C cancels; a goal with other joints is rejected. Short
-trajectories (2 s); nothing here depends on the machine's speed (the stand-in's time is its ticks)."""
+trajectories (2 s); nothing here depends on the machine's speed (the stand-in's time is its
+ticks)."""
 from __future__ import annotations
 
 import subprocess
@@ -12,7 +13,6 @@ from pathlib import Path
 import numpy as np
 import pytest
 import yaml
-
 
 sys.path.insert(0, str(Path(__file__).parent))
 from trajectories import write_small  # noqa: E402
@@ -34,9 +34,15 @@ def graph(tmp_path_factory):
     tmp = tmp_path_factory.mktemp("standin")
     config = ROOT / "config" / "ros2_control.yaml"
     with Graph(tmp / "logs") as g:
-        g.start(STANDIN, "driver", {"robot": "ur5", "trajectory": "hold", "drop_rate": 0.0, "rt_priority": 0},
-                params_file=config)
-        g.start("orthoglide_recorder", "recorder", {"output_dir": str(tmp / "bags")}, params_file=config)
+        g.start(
+            STANDIN,
+            "driver",
+            {"robot": "ur5", "trajectory": "hold", "drop_rate": 0.0, "rt_priority": 0},
+            params_file=config,
+        )
+        g.start(
+            "orthoglide_recorder", "recorder", {"output_dir": str(tmp / "bags")}, params_file=config
+        )
         g.wait_for_messages(JointState, "joint_states", 1, timeout=60)
         g.wait_for_subscriber("/joint_states", "orthoglide_recorder")
         g.tmp = tmp
@@ -44,12 +50,15 @@ def graph(tmp_path_factory):
 
 
 def _excite(g, *args: str) -> subprocess.CompletedProcess:
-    return subprocess.run([str(CLI), "excite", "run", *args], capture_output=True, text=True, timeout=300,
-                          env=g.env)
+    return subprocess.run(
+        [str(CLI), "excite", "run", *args], capture_output=True, text=True, timeout=300, env=g.env
+    )
 
 
 def _tags(bag_path: str) -> dict:
-    return yaml.safe_load((Path(bag_path) / "metadata.yaml").read_text())["rosbag2_bagfile_information"]["custom_data"]
+    return yaml.safe_load((Path(bag_path) / "metadata.yaml").read_text())[
+        "rosbag2_bagfile_information"
+    ]["custom_data"]
 
 
 def test_a_run_that_succeeds_leaves_a_complete_bag(graph):
@@ -66,17 +75,24 @@ def test_a_run_that_succeeds_leaves_a_complete_bag(graph):
 
 def test_a_tolerance_violation_aborts_and_tags_the_bag_incomplete(graph):
     traj = write_small(graph.tmp / "t2.yaml", seed=1)
-    out = _excite(graph, str(traj), "--condition", "unloaded", "--path-tolerance", "1e-5", "--name", "bad")
+    out = _excite(
+        graph, str(traj), "--condition", "unloaded", "--path-tolerance", "1e-5", "--name", "bad"
+    )
     assert out.returncode == 1, out.stderr
     assert "PATH_TOLERANCE_VIOLATED" in out.stderr and "Traceback" not in out.stderr
     reason = _tags(graph.tmp / "bags" / "bad")[bags.INCOMPLETE_KEY]
-    assert reason.startswith("unloaded run aborted: PATH_TOLERANCE_VIOLATED") and "violated its path tolerance" in reason
+    assert (
+        reason.startswith("unloaded run aborted: PATH_TOLERANCE_VIOLATED")
+        and "violated its path tolerance" in reason
+    )
     assert bags.bag_info(graph.tmp / "bags" / "bad").incomplete == reason  # read back, kept
     assert any("tagged incomplete" in w for w in bags.read_bag(graph.tmp / "bags" / "bad").warnings)
 
 
 def test_a_trajectory_for_another_robot_is_refused_before_anything_moves(graph):
-    five = write_small(graph.tmp / "five.yaml", robot="five_bar", joints=("joint_1", "joint_2"), centre=(2.1, 1.04))
+    five = write_small(
+        graph.tmp / "five.yaml", robot="five_bar", joints=("joint_1", "joint_2"), centre=(2.1, 1.04)
+    )
     out = _excite(graph, str(five), "--condition", "unloaded", "--robot", "ur5")
     assert out.returncode == 2 and "is for robot 'five_bar', not 'ur5'" in out.stderr
     assert len(out.stderr.strip().splitlines()) == 1
@@ -89,12 +105,16 @@ def test_other_joints_are_rejected_and_ctrl_c_cancels(graph):
     traj = load_trajectory(write_small(graph.tmp / "t3.yaml"))
     pts = plan.excitation_points(traj, "unloaded")
     wrong = plan.Points(tuple(f"j{i}" for i in range(6)), pts.times, pts.q, pts.qd, pts.qdd)
-    out = send_goal(graph.node, ACTION, goal_message(wrong), pts.duration, spin=time.sleep)  # graph spins it
+    # graph spins it
+    out = send_goal(graph.node, ACTION, goal_message(wrong), pts.duration, spin=time.sleep)
     assert out.status == "rejected"
     from orthoglide_ident.excite.runner import ExcitationRunner, RunOptions
 
-    q_now = ExcitationRunner(graph.node, time.sleep, print, RunOptions()).current_position(pts.joint_names)
-    slow = plan.approach_points(q_now, pts.q[0], np.full(6, 0.01), pts.joint_names)  # a long, slow move
+    q_now = ExcitationRunner(graph.node, time.sleep, print, RunOptions()).current_position(
+        pts.joint_names
+    )
+    # a long, slow move
+    slow = plan.approach_points(q_now, pts.q[0], np.full(6, 0.01), pts.joint_names)
     state = {"accepted": False, "cancelled": False, "pressed": False}
 
     def spin(t):  # one Ctrl-C once the goal runs (its first feedback)
@@ -121,12 +141,24 @@ def test_the_excitation_node_runs_and_cancels_as_a_service(graph):
 
     traj = write_small(graph.tmp / "t4.yaml", periods=3, seed=4)
     graph.start("orthoglide_excitation", "excitation", {"robot": "ur5"})
-    res = graph.call(RunExcitation, "orthoglide/excitation/run", trajectory=str(traj), condition="unloaded",
-                     payload_mass=0.0, name="by_service")
+    res = graph.call(
+        RunExcitation,
+        "orthoglide/excitation/run",
+        trajectory=str(traj),
+        condition="unloaded",
+        payload_mass=0.0,
+        name="by_service",
+    )
     assert res.success, res.message
     assert res.bag_path.endswith("by_service") and bags.INCOMPLETE_KEY not in _tags(res.bag_path)
-    bad = graph.call(RunExcitation, "orthoglide/excitation/run", trajectory=str(graph.tmp / "none.yaml"),
-                     condition="unloaded", payload_mass=0.0, name="")
+    bad = graph.call(
+        RunExcitation,
+        "orthoglide/excitation/run",
+        trajectory=str(graph.tmp / "none.yaml"),
+        condition="unloaded",
+        payload_mass=0.0,
+        name="",
+    )
     assert not bad.success and "none.yaml" in bad.message and "\n" not in bad.message
     # a run cancelled by the service: started from a second client while the first waits
     import threading

@@ -5,8 +5,13 @@ import numpy as np
 import pytest
 
 from orthoglide_ident.errors import ConfigError
-from orthoglide_ident.excite.trajectory import (ExcitationRun, ExcitationTrajectory, load_trajectory,
-                                                rest_projection, save_trajectory)
+from orthoglide_ident.excite.trajectory import (
+    ExcitationRun,
+    ExcitationTrajectory,
+    load_trajectory,
+    rest_projection,
+    save_trajectory,
+)
 
 
 def _trajectory(seed: int = 0) -> ExcitationTrajectory:

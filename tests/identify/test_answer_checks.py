@@ -13,8 +13,7 @@ import pytest
 from orthoglide_ident import bags
 from orthoglide_ident.cli import main
 from orthoglide_ident.errors import ConfigError, ExcitationError
-from orthoglide_ident.identify import IdentifyOptions
-from orthoglide_ident.identify import identify, identify_records, read_record
+from orthoglide_ident.identify import IdentifyOptions, identify, identify_records, read_record
 from orthoglide_ident.identify.solve.tls import ExcitationLimits, gain_band_warnings
 from orthoglide_ident.model.robots import ROBOTS_DIR, load_robot
 from orthoglide_ident.results import json_text

@@ -10,13 +10,11 @@ import dataclasses
 
 import numpy as np
 import pytest
+from live_helpers import feed, rel_diff, rel_sigma_diff
+from synthetic import SyntheticModel, synthetic_record, true_gains
 
 from orthoglide_ident.errors import DataError
-from orthoglide_ident.identify import LiveIdentification
-from orthoglide_ident.identify import IdentifyOptions
-from orthoglide_ident.identify import Record, identify_records
-from synthetic import SyntheticModel, synthetic_record, true_gains
-from live_helpers import feed, rel_diff, rel_sigma_diff
+from orthoglide_ident.identify import IdentifyOptions, LiveIdentification, Record, identify_records
 
 ARM = SyntheticModel(n_joints=6, kind="revolute")
 STRONG = dict(amplitude=0.1, f_max=4.0)

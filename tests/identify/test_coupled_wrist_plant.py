@@ -98,9 +98,12 @@ def test_the_live_identification_of_the_plant_equals_its_bags_offline(simulated)
     arrival, the live result is the offline identification of the same runs' bags (read_record
     maps them), the same equations: to 1e-6 (measured 1.5e-9) with the paper's drive model
     (lag_model: off)."""
-    from orthoglide_ident.identify import LiveIdentification
-    from orthoglide_ident.identify import IdentifyOptions
-    from orthoglide_ident.identify import identify_records, read_record
+    from orthoglide_ident.identify import (
+        IdentifyOptions,
+        LiveIdentification,
+        identify_records,
+        read_record,
+    )
 
     truth, recs, paths, (joint_yaml, _) = simulated
     model = load_robot(str(joint_yaml))

@@ -11,16 +11,12 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from live_helpers import as_record, live_result
 
-from orthoglide_ident.identify import IdentifyOptions
-from orthoglide_ident.identify import Record, identify_records
+from orthoglide_ident.identify import IdentifyOptions, Record, identify_records
 from orthoglide_ident.model.robot import Payload
 from orthoglide_ident.model.robots import load_robot
 from orthoglide_sim.arms.record import simulate_arm
-
-from live_helpers import as_record, live_result
-
-
 
 
 @pytest.fixture(scope="module")

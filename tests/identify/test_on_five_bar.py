@@ -15,17 +15,16 @@ import json
 
 import numpy as np
 import pytest
+from live_helpers import as_record, live_result
 
 from orthoglide_ident.cli import main as cli_main
-from orthoglide_ident.identify import IdentifyOptions
-from orthoglide_ident.identify import Record, identify_records
+from orthoglide_ident.identify import IdentifyOptions, Record, identify_records
 from orthoglide_ident.model.robot import Payload
 from orthoglide_ident.model.robots import load_robot
 from orthoglide_sim.arms.bags import main as bags_main
 from orthoglide_sim.chains.description import load_chain
 from orthoglide_sim.chains.record import simulate_chain
 from orthoglide_sim.chains.truth import default_chain_truth
-from live_helpers import as_record, live_result
 
 
 def gain_errors(result, truth) -> tuple[np.ndarray, np.ndarray]:
@@ -40,7 +39,11 @@ def five_bar():
     runs = {"unloaded": simulate_chain(20.0, payload=None, trajectory="exciting1", seed=0),
             "1kg": simulate_chain(20.0, payload="1.0", trajectory="exciting2", seed=1),
             "0.5kg": simulate_chain(20.0, payload="0.5", trajectory="exciting1", seed=2)}
-    return load_robot("five_bar"), {k: as_record(v, k) for k, v in runs.items()}, runs["unloaded"].truth
+    return (
+        load_robot("five_bar"),
+        {k: as_record(v, k) for k, v in runs.items()},
+        runs["unloaded"].truth,
+    )
 
 
 @pytest.fixture(scope="module")
@@ -72,7 +75,9 @@ def test_five_bar_second_payload_by_wls_with_the_identified_gains(five_bar, tls)
     both below the true gains, make it 3.2 % light."""
     model, recs, _ = five_bar
     gains = [x.value for x in tls.drive_gains]
-    wls = identify_records([recs["unloaded"], recs["0.5kg"]], method="wls", gains=gains, model=model)
+    wls = identify_records(
+        [recs["unloaded"], recs["0.5kg"]], method="wls", gains=gains, model=model
+    )
     assert abs(wls.payload_mass.value / 0.5 - 1) < 0.002
     nominal = identify_records([recs["unloaded"], recs["0.5kg"]], method="wls", model=model)
     assert abs(nominal.payload_mass.value / 0.5 - 1) > 0.02
@@ -160,7 +165,10 @@ def test_a_transmission_on_the_closed_chain_gives_the_motors_gains(five_bar, tls
                 transmission={"actuators": ["ma", "mb"], "reduction": np.diag(n).tolist()})
     (tmp_path / "five_bar_geared.yaml").write_text(yaml.safe_dump(data))
     geared = load_robot(str(tmp_path / "five_bar_geared.yaml"))
-    assert geared.joint_names == ("ma", "mb") and geared.transmission.joints == ("joint_1", "joint_2")
+    assert geared.joint_names == ("ma", "mb") and geared.transmission.joints == (
+        "joint_1",
+        "joint_2",
+    )
     records = [motor_side(dataclasses.replace(recs[k], names_v=("ma", "mb"),
                                               v_tau=recs[k].v_tau * np.sign(n)), geared)
                for k in ("unloaded", "1kg")]
@@ -177,11 +185,17 @@ def test_a_transmission_on_the_closed_chain_gives_the_motors_gains(five_bar, tls
     for a, (name, nn) in enumerate(zip(("ma", "mb"), n)):
         for kind, power in (("fv", 2), ("fs", 1)):
             p = joint[model.standard_names[model.drive_columns(a)[kind]]]
-            assert abs(motor[f"{kind}_{name}"] * abs(nn) ** power - p.value) < 2 * abs(p.value) * p.rel_std
+            assert (
+                abs(motor[f"{kind}_{name}"] * abs(nn) ** power - p.value)
+                < 2 * abs(p.value) * p.rel_std
+            )
     # the feed-forward through N (one current per motor) is the joint-side model's
     t = np.arange(50) * 1e-3
     q = np.array([1.8708, 1.2708]) + 0.1 * np.sin(np.outer(t, [3.0, 4.0]))
-    qd, qdd = 0.1 * np.cos(np.outer(t, [3.0, 4.0])) * [3.0, 4.0], -0.1 * np.sin(np.outer(t, [3.0, 4.0])) * [9.0, 16.0]
+    qd, qdd = (
+        0.1 * np.cos(np.outer(t, [3.0, 4.0])) * [3.0, 4.0],
+        -0.1 * np.sin(np.outer(t, [3.0, 4.0])) * [9.0, 16.0],
+    )
     v_j = feedforward_currents(q, qd, qdd, CTCParameters.from_result(tls, 0.0, model=model))
     v_m = feedforward_currents(q, qd, qdd, CTCParameters.from_result(res, 0.0, model=geared))
     np.testing.assert_allclose((v_m * g_m) * n, v_j * g_j, rtol=2e-3)  # τ_j = Nᵀ τ_m

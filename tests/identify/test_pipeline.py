@@ -5,12 +5,10 @@ import json
 
 import numpy as np
 import pytest
+from synthetic import TRUE_CHI, TRUE_GAINS, SyntheticModel, synthetic_record
 
 from orthoglide_ident.errors import ConfigError, DataError, ExcitationError, IdentificationError
-from orthoglide_ident.identify import IdentifyOptions
-from orthoglide_ident.identify import Record, identify_records
-from synthetic import (TRUE_CHI, TRUE_GAINS, SyntheticModel,
-                                                 synthetic_record)
+from orthoglide_ident.identify import IdentifyOptions, Record, identify_records
 
 MODEL = SyntheticModel()
 STRONG = dict(amplitude=0.1, f_max=4.0)

@@ -17,12 +17,12 @@ continue; the published model was fitted to other trajectories: the comparison f
 from __future__ import annotations
 
 import numpy as np
+import panda_gaz2019 as P
 import pytest
 
 from orthoglide_ident.cli import main
 from orthoglide_ident.model.robots import load_robot
 
-import panda_gaz2019 as P
 GRAVITY_JOINTS = slice(1, 6)  # panda_joint2..6: gravity torques of 0.8-17 N·m rms held out
 
 

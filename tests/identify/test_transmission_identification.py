@@ -4,7 +4,8 @@ The robot: the UR5's links behind the issue's drive chains (gear ratios 32 … �
 turning with q5 + q6), rotor inertia, viscous and Coulomb friction and an offset on each motor's
 own velocity, and per-motor torque constants 3–4 % off the nominal ones. The records: 60 s
 unloaded + 60 s with the 2 kg payload (known: mass, CoM and inertia), 1 kHz, motor currents with
-the simulators' white noise (0.5 % of each motor's rms current, ArmTruth.current_noise_fraction). The joint torques are Pinocchio's RNEA of the truth's links (orthoglide_sim's
+the simulators' white noise (0.5 % of each motor's rms current, ArmTruth.current_noise_fraction).
+The joint torques are Pinocchio's RNEA of the truth's links (orthoglide_sim's
 UR5 truth, not the product's description), the motor terms added on the motor side:
 
     v_m = (N⁻ᵀ τ_j(q_j, q̇_j, q̈_j) + Ia q̈_m + fv q̇_m + fs sign(q̇_m) + off) / g_m + noise.
@@ -35,8 +36,8 @@ from orthoglide_ident.model.robot import Payload
 from orthoglide_ident.model.robots import ROBOTS_DIR, load_robot
 from orthoglide_sim.arms.description import load_arm
 from orthoglide_sim.arms.excitation import designed_trajectory
-from orthoglide_sim.arms.truth import load_truth
 from orthoglide_sim.arms.pinocchio_truth import truth_model
+from orthoglide_sim.arms.truth import load_truth
 
 RATE_HZ, DURATION_S = 1000.0, 60.0
 MOTORS = ("m1", "m2", "m3", "m4", "m5", "m6")
@@ -334,8 +335,7 @@ def test_live_identification_through_the_transmission_equals_offline(coupled):
     as motor_side() maps a bag, the live result is the offline one: the same equations, so
     to 1e-6 (measured: 5e-9 on the values, 1e-8 on the σ) with the paper's drive model
     (lag_model: off)."""
-    from orthoglide_ident.identify import LiveIdentification
-    from orthoglide_ident.identify import IdentifyOptions
+    from orthoglide_ident.identify import IdentifyOptions, LiveIdentification
 
     runs, payload, tx, tmp, _ = coupled
     model = load_robot(_robot_file(tmp, dict(tx, effort_side="joint"), "live_joint_side"))

@@ -19,7 +19,8 @@ URDF = f"""<?xml version="1.0"?>
   <link name="b"><inertial><origin xyz="0.1 0.0 0.01"/><mass value="1.0"/>
     <inertia ixx="0.003" ixy="0.0" ixz="0.0002" iyy="0.01" iyz="0.0" izz="0.01"/></inertial></link>
   <link name="c"><inertial><origin xyz="0.05 0.02 0.0"/><mass value="0.5"/>
-    <inertia ixx="0.001" ixy="0.0" ixz="0.0" iyy="0.002" iyz="0.0001" izz="0.002"/></inertial></link>
+    <inertia ixx="0.001" ixy="0.0" ixz="0.0" iyy="0.002" iyz="0.0001"
+    izz="0.002"/></inertial></link>
   <joint name="j1" type="revolute"><parent link="base"/><child link="a"/><origin xyz="0 0 0.1"/>
     <axis xyz="0 0 1"/><limit lower="-3" upper="3" effort="10" velocity="3"/></joint>
   <joint name="j2" type="revolute"><parent link="a"/><child link="b"/>

@@ -109,7 +109,9 @@ def test_four_bar_linkage_transmission():
            "vel": lambda j: np.array([j[0] * jr[0] * ar[0], (j[0] + j[1] * jr[1]) * ar[1]])}
     _check_maps(t, a2j, j2a)
     tau_a = np.array([0.3, -0.7])
-    ros2 = np.array([jr[0] * ar[0] * tau_a[0], jr[1] * (ar[1] * tau_a[1] - jr[0] * ar[0] * tau_a[0])])
+    ros2 = np.array(
+        [jr[0] * ar[0] * tau_a[0], jr[1] * (ar[1] * tau_a[1] - jr[0] * ar[0] * tau_a[0])]
+    )
     assert not np.allclose(t.to_joint_effort(tau_a), ros2)
 
 
@@ -125,8 +127,13 @@ def test_n_from_a_urdf_ros2_control_block(tmp_path):
     """A simple transmission (negative) on the base joint and a differential wrist: the robot
     is loaded in actuator space, motors named by the block, untouched joints 1:1."""
     simple = _elements("SimpleTransmission", [-48], [1], [0.1]).replace("j1", "shoulder_pan_joint")
-    diff = _elements("DifferentialTransmission", [1, 1], [32, 32], [0, 0]).replace(
-        "j1", "wrist_2_joint").replace("j2", "wrist_3_joint").replace("a1", "m5").replace("a2", "m6")
+    diff = (
+        _elements("DifferentialTransmission", [1, 1], [32, 32], [0, 0])
+        .replace("j1", "wrist_2_joint")
+        .replace("j2", "wrist_3_joint")
+        .replace("a1", "m5")
+        .replace("a2", "m6")
+    )
     robot = load_robot(_ur5_with_ros2_control(tmp_path, simple.replace("'t'", "'t0'") + diff))
     t = robot.transmission
     assert robot.joint_names == ("a1", "shoulder_lift_joint", "elbow_joint", "wrist_1_joint",
@@ -158,15 +165,21 @@ def test_n_from_the_robot_yaml(tmp_path):
     assert np.allclose(t.to_actuator_position(q_j)[:, 3], -48 * q_j[:, 3] + 0.5)
 
 
-@pytest.mark.parametrize("transmission, words", [
-    ({"reduction": [[1, 0], [0, 1]]}, "must be 6 × 6"),
-    ({"reduction": [[32, 32, 0, 0, 0, 0]] * 6}, "singular"),
-    ({"reduction": np.eye(6).tolist(), "actuators": ["m"] * 6}, "lists a name twice"),
-    ({"reduction": np.eye(6).tolist(), "gear": 3}, "unknown keys ['gear']"),
-    ({"reduction": np.eye(6).tolist(), "position_side": "motor"}, "position_side is joint|actuator"),
-    ({"reduction": [[1, "a"]]}, "every entry must be a number"),
-    ({"actuators": ["m1"]}, "reduction is missing"),
-])
+@pytest.mark.parametrize(
+    "transmission, words",
+    [
+        ({"reduction": [[1, 0], [0, 1]]}, "must be 6 × 6"),
+        ({"reduction": [[32, 32, 0, 0, 0, 0]] * 6}, "singular"),
+        ({"reduction": np.eye(6).tolist(), "actuators": ["m"] * 6}, "lists a name twice"),
+        ({"reduction": np.eye(6).tolist(), "gear": 3}, "unknown keys ['gear']"),
+        (
+            {"reduction": np.eye(6).tolist(), "position_side": "motor"},
+            "position_side is joint|actuator",
+        ),
+        ({"reduction": [[1, "a"]]}, "every entry must be a number"),
+        ({"actuators": ["m1"]}, "reduction is missing"),
+    ],
+)
 def test_bad_yaml_transmissions_say_why_in_one_line(tmp_path, transmission, words):
     path = _yaml_robot(tmp_path, transmission)
     with pytest.raises(ConfigError) as err:

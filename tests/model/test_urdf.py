@@ -2,25 +2,25 @@
 
 The Orthoglide's open tree carries every body's 10 parameters in its MDH frame (the platform
 merged into body 5 of leg 1 by Pinocchio); closed by two welds it is the closed-form model
-(tests/identify/validate/test_direct_dynamics.py). A URDF robot's own file gets its inertials replaced,
+(tests/identify/validate/test_direct_dynamics.py). A URDF robot's own file gets its inertials
+replaced,
 the links merged into a body emptied, friction in <dynamics>.
 """
 from __future__ import annotations
 
 import importlib
-
 import math
 import xml.etree.ElementTree as ET
 
 import numpy as np
 import pinocchio as pin
 import pytest
+from serial_arm import SerialArm
 
 from orthoglide_ident.errors import ConfigError
 from orthoglide_ident.model.forward import pin_inertia
 from orthoglide_ident.model.robots import load_robot
 from orthoglide_ident.model.urdf import rpy
-from serial_arm import SerialArm
 
 ROBOT = load_robot(None)
 GAINS = [2170.0, 2100.0, 2070.0]

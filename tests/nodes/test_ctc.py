@@ -9,8 +9,8 @@ import time
 
 import numpy as np
 import pytest
-
 from ff_reference import orthoglide_currents
+
 from orthoglide_ident.ros import processes as children  # children end with this process
 
 HANG_S = 120.0  # s: a bound on a hang (a busy machine takes what it takes), not a figure
@@ -22,14 +22,23 @@ def test_ctc_help_does_not_start_ros(capsys):
     assert main(["ctc", "--help"]) == 0
     out = capsys.readouterr().out
     assert out.startswith("usage:")
-    for word in ("orthoglide/setpoints", "orthoglide/feedforward", "identified_parameters", "payload_mass",
-                 "current_limit"):
+    for word in (
+        "orthoglide/setpoints",
+        "orthoglide/feedforward",
+        "identified_parameters",
+        "payload_mass",
+        "current_limit",
+    ):
         assert word in out
 
 
 def test_ctc_help_from_the_command_line():
-    out = children.run([sys.executable, "-m", "orthoglide_ident.nodes.ctc", "--help"], capture_output=True,
-                         text=True, timeout=60)
+    out = children.run(
+        [sys.executable, "-m", "orthoglide_ident.nodes.ctc", "--help"],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
     assert out.returncode == 0 and out.stdout.startswith("usage:")
 
 
@@ -59,8 +68,13 @@ class _CTCRun:
         from orthoglide_msgs.msg import CurrentReference, IdentifiedParameters, JointSetpoint
 
         self.rclpy = rclpy
-        self.proc = children.popen([sys.executable, "-m", "orthoglide_ident.nodes.ctc", "--ros-args", *args],
-                                     env=ros_env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+        self.proc = children.popen(
+            [sys.executable, "-m", "orthoglide_ident.nodes.ctc", "--ros-args", *args],
+            env=ros_env,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.STDOUT,
+            text=True,
+        )
         self.lines: list[str] = []
         threading.Thread(target=lambda: self.lines.extend(iter(self.proc.stdout.readline, "")),
                          daemon=True).start()
@@ -68,8 +82,9 @@ class _CTCRun:
         self.node = rclpy.create_node(client)
         latched = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL,
                              reliability=ReliabilityPolicy.RELIABLE)
-        self.pub_par = self.node.create_publisher(IdentifiedParameters, "/orthoglide/identified_parameters",
-                                                  latched)
+        self.pub_par = self.node.create_publisher(
+            IdentifiedParameters, "/orthoglide/identified_parameters", latched
+        )
         self.pub_sp = self.node.create_publisher(JointSetpoint, "/orthoglide/setpoints", 5000)
         self.node.create_subscription(CurrentReference, "/orthoglide/feedforward", on_feedforward,
                                       5000)  # every tick of a run, however late this test spins
@@ -83,10 +98,13 @@ class _CTCRun:
             self.rclpy.spin_once(self.node, timeout_sec=0.01)
 
     def spin_until(self, done, timeout: float, what: str) -> None:
-        """Spin until ``done()`` (no fixed waits: DDS discovery and delivery take what they take)."""
+        """Spin until ``done()`` (no fixed waits: DDS discovery and delivery take what they
+        take)."""
         t_end = time.monotonic() + timeout
         while not done():
-            assert time.monotonic() < t_end and self.proc.poll() is None, f"{what}; output:\n" + "".join(self.lines)
+            assert time.monotonic() < t_end and self.proc.poll() is None, (
+                f"{what}; output:\n" + "".join(self.lines)
+            )
             self.rclpy.spin_once(self.node, timeout_sec=0.01)
 
     def said(self, text: str) -> int:
@@ -106,13 +124,18 @@ class _CTCRun:
                                                   drive_gains=[float(g) for g in p.drive_gains],
                                                   payload_mass=1.983))
 
-    def publish_setpoint(self, ref, k: int, stamp_ns: int, order=(0, 1, 2), qdd_scale: float = 1.0) -> None:
+    def publish_setpoint(
+        self, ref, k: int, stamp_ns: int, order=(0, 1, 2), qdd_scale: float = 1.0
+    ) -> None:
         """Tick k of ``ref`` (q, qd, qdd arrays), joints in ``order``, then a 3 ms spin."""
         from orthoglide_msgs.msg import JointSetpoint
 
-        m = JointSetpoint(name=[f"q1{i + 1}" for i in order], position=[ref[0][k, i] for i in order],
-                          velocity=[ref[1][k, i] for i in order],
-                          acceleration=[qdd_scale * ref[2][k, i] for i in order])
+        m = JointSetpoint(
+            name=[f"q1{i + 1}" for i in order],
+            position=[ref[0][k, i] for i in order],
+            velocity=[ref[1][k, i] for i in order],
+            acceleration=[qdd_scale * ref[2][k, i] for i in order],
+        )
         m.header.stamp.sec, m.header.stamp.nanosec = divmod(stamp_ns, 10**9)
         self.pub_sp.publish(m)
         self.spin(0.003)
@@ -126,10 +149,11 @@ class _CTCRun:
 
 def test_ctc_node_waits_for_parameters_then_feeds_forward(ros_env):
     import rclpy  # noqa: F401
+    from test_control import true_params
+
     import orthoglide_msgs.msg  # noqa: F401
     from orthoglide_ident.control import feedforward_currents
     from orthoglide_sim.common.trajectories import get_trajectory
-    from test_control import true_params
 
     p = true_params()
     got: dict[int, list[float]] = {}
@@ -152,7 +176,9 @@ def test_ctc_node_waits_for_parameters_then_feeds_forward(ros_env):
         run.publish_parameters(p, [float(v) for v in p.chi_b])
         run.wait_for("parameters in", HANG_S)
         publish_setpoints(10, 30)
-        run.spin_until(lambda: set(range(10, 35)) <= {(s - t0) // 10**6 for s in got}, HANG_S, "not fed")
+        run.spin_until(
+            lambda: set(range(10, 35)) <= {(s - t0) // 10**6 for s in got}, HANG_S, "not fed"
+        )
     finally:
         run.close()
     # every tick from the parameters on is fed (setpoints kept from before them too, when their
@@ -168,8 +194,13 @@ def test_ctc_node_waits_for_parameters_then_feeds_forward(ros_env):
                                    atol=1e-9 * np.abs(independent).max())
 
 
-@pytest.mark.parametrize("args, reason", [(["-p", "batch:=0"], "parameter batch: must be >= 1"),
-                                          (["-p", "payload_mass:=heavy"], "parameter payload_mass: expected float")])
+@pytest.mark.parametrize(
+    "args, reason",
+    [
+        (["-p", "batch:=0"], "parameter batch: must be >= 1"),
+        (["-p", "payload_mass:=heavy"], "parameter payload_mass: expected float"),
+    ],
+)
 def test_ctc_node_bad_parameter_is_a_one_line_error(ros_env, args, reason):
     import rclpy  # noqa: F401
     out = children.run([sys.executable, "-m", "orthoglide_ident.nodes.ctc", "--ros-args", *args],
@@ -183,22 +214,31 @@ def test_ctc_node_clips_to_the_current_limit_and_stops_on_nan(ros_env):
     NaN parameters are refused (the previous ones stay); a NaN setpoint stops the feed-forward
     with the reason, and nothing more is published."""
     import rclpy  # noqa: F401
+    from test_control import true_params
+
     import orthoglide_msgs.msg  # noqa: F401
     from orthoglide_sim.common.trajectories import get_trajectory
-    from test_control import true_params
 
     p = true_params()
     got: list[list[float]] = []
-    run = _CTCRun(ros_env, ["-p", "batch:=2", "-p", "current_limit:=[0.5, 0.5, 0.5]"], "test_ctc_safety",
-                  lambda m: got.append(list(m.current)))
+    run = _CTCRun(
+        ros_env,
+        ["-p", "batch:=2", "-p", "current_limit:=[0.5, 0.5, 0.5]"],
+        "test_ctc_safety",
+        lambda m: got.append(list(m.current)),
+    )
     ref = get_trajectory("test2").evaluate(np.arange(60) * 1e-3)
 
-    def publish(values: list[float], first: int, answer: str, fed: int, qdd_scale: float = 1.0) -> None:
+    def publish(
+        values: list[float], first: int, answer: str, fed: int, qdd_scale: float = 1.0
+    ) -> None:
         """The parameters, until the node answers them (in or rejected), then 20 setpoints, until
         ``fed`` feed-forwards arrived."""
         before = run.said(answer)
         run.publish_parameters(p, values)
-        run.spin_until(lambda: run.said(answer) > before, HANG_S, f"the node never logged {answer!r}")
+        run.spin_until(
+            lambda: run.said(answer) > before, HANG_S, f"the node never logged {answer!r}"
+        )
         for k in range(first, first + 20):
             run.publish_setpoint(ref, k, 10**11 + k * 10**6, qdd_scale=qdd_scale)
         run.spin_until(lambda: len(got) >= fed, HANG_S, f"{len(got)} of {fed} feed-forwards")
@@ -211,9 +251,12 @@ def test_ctc_node_clips_to_the_current_limit_and_stops_on_nan(ros_env):
         publish([float("nan")] * len(p.names), 20, "rejected, keeping the previous ones", 35)
         n = len(got)
         assert np.max(np.abs(got)) == pytest.approx(0.5)  # still fed, with the old ones
-        publish([1000.0 * float(v) for v in p.chi_b], 40, "parameters in", 0, qdd_scale=float("nan"))
+        publish(
+            [1000.0 * float(v) for v in p.chi_b], 40, "parameters in", 0, qdd_scale=float("nan")
+        )
         run.wait_for("stopped: non-finite feed-forward", HANG_S)
-        assert len(got) <= n + 1 and run.proc.poll() is None  # the tick held back before the NaN, at most
+        # the tick held back before the NaN, at most
+        assert len(got) <= n + 1 and run.proc.poll() is None
     finally:
         run.close()
 
@@ -221,9 +264,9 @@ def test_ctc_node_clips_to_the_current_limit_and_stops_on_nan(ros_env):
 def test_ctc_node_with_consistent_uses_the_consistent_set_only(ros_env):
     import rclpy  # noqa: F401
     from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+    from test_control import true_params
 
     from orthoglide_msgs.msg import IdentifiedParameters
-    from test_control import true_params
 
     p = true_params()
     run = _CTCRun(ros_env, ["-p", "consistent:=true"], "test_ctc_consistent", lambda m: None)
@@ -250,15 +293,21 @@ def test_ctc_node_refuses_a_model_that_does_not_fit_and_keeps_the_old_one(ros_en
     drive gains for two joints: each refused with the reason in the log, and the feed-forward
     goes on from the model in use, to the last digit."""
     import rclpy  # noqa: F401
+    from test_control import true_params
+
     import orthoglide_msgs.msg  # noqa: F401
     from orthoglide_ident.control import feedforward_currents
     from orthoglide_msgs.msg import IdentifiedParameters
     from orthoglide_sim.common.trajectories import get_trajectory
-    from test_control import true_params
 
     p = true_params()
     got: dict[int, list[float]] = {}
-    run = _CTCRun(ros_env, ["-p", "batch:=2"], "test_ctc_unfit", lambda m: got.__setitem__(_stamp(m), list(m.current)))
+    run = _CTCRun(
+        ros_env,
+        ["-p", "batch:=2"],
+        "test_ctc_unfit",
+        lambda m: got.__setitem__(_stamp(m), list(m.current)),
+    )
     ref = get_trajectory("test2").evaluate(np.arange(70) * 1e-3)
     t0 = 100 * 10**9
     try:
@@ -267,20 +316,38 @@ def test_ctc_node_refuses_a_model_that_does_not_fit_and_keeps_the_old_one(ros_en
         run.spin_until(lambda: run.said("parameters in"), HANG_S, "no parameters in")
         for k in range(0, 20):
             run.publish_setpoint(ref, k, t0 + k * 10**6)
-        other_robot = IdentifiedParameters(names=["m_shoulder_link", "zz_upper_arm_link"], values=[3.7, 0.1],
-                                           drive_gains=[13.0] * 6, payload_mass=1.0)
+        other_robot = IdentifiedParameters(
+            names=["m_shoulder_link", "zz_upper_arm_link"],
+            values=[3.7, 0.1],
+            drive_gains=[13.0] * 6,
+            payload_mass=1.0,
+        )
         run.pub_par.publish(other_robot)
-        run.spin_until(lambda: run.said("rejected, keeping the previous ones: unknown base parameter name(s) "
-                                        "m_shoulder_link"), HANG_S, "the other robot's model was not refused")
+        run.spin_until(
+            lambda: run.said(
+                "rejected, keeping the previous ones: unknown base parameter name(s) "
+                "m_shoulder_link"
+            ),
+            HANG_S,
+            "the other robot's model was not refused",
+        )
         for k in range(20, 40):
             run.publish_setpoint(ref, k, t0 + k * 10**6)
         two_gains = IdentifiedParameters(names=list(p.names), values=[float(v) for v in p.chi_b],
                                          drive_gains=[2100.0, 2100.0], payload_mass=1.983)
         run.pub_par.publish(two_gains)
-        run.spin_until(lambda: run.said("drive_gains must be 3 positive numbers"), HANG_S, "two gains not refused")
+        run.spin_until(
+            lambda: run.said("drive_gains must be 3 positive numbers"),
+            HANG_S,
+            "two gains not refused",
+        )
         for k in range(40, 60):
             run.publish_setpoint(ref, k, t0 + k * 10**6)
-        run.spin_until(lambda: set(range(55)) <= {(s - t0) // 10**6 for s in got}, HANG_S, "feed-forward stopped")
+        run.spin_until(
+            lambda: set(range(55)) <= {(s - t0) // 10**6 for s in got},
+            HANG_S,
+            "feed-forward stopped",
+        )
     finally:
         run.close()
     expected = feedforward_currents(*ref, p)
@@ -299,12 +366,13 @@ def test_ctc_node_through_a_coupled_transmission_feeds_each_motor(ros_env, tmp_p
     current per motor out under the motors' names, the law's v_m = diag(g)⁻¹ N⁻ᵀ τ_j + motor
     terms (test_control), clipped to current_limit per motor."""
     import rclpy  # noqa: F401
+    from ff_reference import arm_currents
+    from test_control import COUPLED_N, _coupled_ur5
+
     import orthoglide_msgs.msg  # noqa: F401
     from orthoglide_ident.control import CTCParameters, feedforward_currents
-    from orthoglide_msgs.msg import IdentifiedParameters, JointSetpoint
-    from ff_reference import arm_currents
     from orthoglide_ident.model.robots import ROBOTS_DIR
-    from test_control import COUPLED_N, _coupled_ur5
+    from orthoglide_msgs.msg import IdentifiedParameters, JointSetpoint
 
     robot = _coupled_ur5(tmp_path)
     joints = robot.transmission.joints
@@ -340,11 +408,26 @@ def test_ctc_node_through_a_coupled_transmission_feeds_each_motor(ros_env, tmp_p
         run.close()
     expected = np.clip(feedforward_currents(q, qd, qdd, p), -np.array(limit), limit)
     # the same from Pinocchio's RNEA of the URDF through N, the motor terms by hand
-    independent = np.clip(arm_currents(robot, ROBOTS_DIR / "ur5.urdf", chi_st, None, p.drive_gains,
-                                       0.0, q, qd, qdd, reduction=COUPLED_N), -np.array(limit), limit)
+    independent = np.clip(
+        arm_currents(
+            robot,
+            ROBOTS_DIR / "ur5.urdf",
+            chi_st,
+            None,
+            p.drive_gains,
+            0.0,
+            q,
+            qd,
+            qdd,
+            reduction=COUPLED_N,
+        ),
+        -np.array(limit),
+        limit,
+    )
     for s, (names, v) in got.items():
         assert names == list(robot.joint_names)
-        np.testing.assert_allclose(v, expected[(s - t0) // 10**6], rtol=1e-9, atol=1e-12)  # transported
+        # transported
+        np.testing.assert_allclose(v, expected[(s - t0) // 10**6], rtol=1e-9, atol=1e-12)
         np.testing.assert_allclose(v, independent[(s - t0) // 10**6], rtol=1e-9, atol=1e-12)
     assert any(abs(v[5]) == pytest.approx(0.02) for _, v in got.values())
 
@@ -355,12 +438,12 @@ def test_ctc_monitor_brings_motor_side_positions_to_the_joints(ros_env, tmp_path
     with the joint-side setpoints, so a joint error of 10 / −20 µrad on the coupled wrist is
     logged as that, not as the 320 .. 960 µrad it makes on the motors."""
     import rclpy  # noqa: F401
-    import orthoglide_msgs.msg  # noqa: F401
     import yaml
     from sensor_msgs.msg import JointState
-
-    from orthoglide_msgs.msg import JointSetpoint
     from test_control import _coupled_ur5
+
+    import orthoglide_msgs.msg  # noqa: F401
+    from orthoglide_msgs.msg import JointSetpoint
 
     robot = _coupled_ur5(tmp_path)
     path = tmp_path / "ur5_coupled_ctc.yaml"
@@ -398,7 +481,10 @@ def test_ctc_monitor_brings_motor_side_positions_to_the_joints(ros_env, tmp_path
     finally:
         run.close()
     line = next(x for x in run.lines if "tracking error over" in x)
-    assert "rms 0.0 / 0.0 / 0.0 / 0.0 / 10.0 / 20.0 um, max 0.0 / 0.0 / 0.0 / 0.0 / 10.0 / 20.0 um" in line, line
+    assert (
+        "rms 0.0 / 0.0 / 0.0 / 0.0 / 10.0 / 20.0 um, max 0.0 / 0.0 / 0.0 / 0.0 / 10.0 / 20.0 um"
+        in line
+    ), line
 
 
 def test_ctc_node_states_its_lead_and_cpu_on_diagnostics_and_sums_up_at_exit(ros_env):
@@ -407,17 +493,25 @@ def test_ctc_node_states_its_lead_and_cpu_on_diagnostics_and_sums_up_at_exit(ros
     last line sums up the run (ticks sent, lead, CPU). No timing is asserted."""
     import rclpy  # noqa: F401
     from diagnostic_msgs.msg import DiagnosticArray
+    from test_control import true_params
 
     from orthoglide_msgs.msg import JointSetpoint
     from orthoglide_sim.common.trajectories import get_trajectory
-    from test_control import true_params
 
     p = true_params()
     got: set[int] = set()
     run = _CTCRun(ros_env, [], "test_ctc_diag_client", lambda m: got.add(_stamp(m)))
     figures: list[dict[str, str]] = []
-    run.node.create_subscription(DiagnosticArray, "/diagnostics", lambda m: figures.extend(
-        {kv.key: kv.value for kv in st.values} for st in m.status if st.hardware_id == "orthoglide_ctc"), 10)
+    run.node.create_subscription(
+        DiagnosticArray,
+        "/diagnostics",
+        lambda m: figures.extend(
+            {kv.key: kv.value for kv in st.values}
+            for st in m.status
+            if st.hardware_id == "orthoglide_ctc"
+        ),
+        10,
+    )
     n = 2500
     ref = get_trajectory("test2").evaluate(np.arange(n) * 1e-3)
     try:
@@ -433,10 +527,13 @@ def test_ctc_node_states_its_lead_and_cpu_on_diagnostics_and_sums_up_at_exit(ros
                 m.header.stamp.sec, m.header.stamp.nanosec = divmod(t0 + k * 10**6, 10**9)
                 run.pub_sp.publish(m)
         # the last ticks, fewer than a batch, go out as they near: no setpoint comes after them
-        run.spin_until(lambda: len(got) >= n - 1 and figures, HANG_S, "not every tick fed, or no diagnostics")
+        run.spin_until(
+            lambda: len(got) >= n - 1 and figures, HANG_S, "not every tick fed, or no diagnostics"
+        )
     finally:
         run.close()
-    assert got == {t0 + k * 10**6 for k in range(n - 1)}  # each tick once; the last has no successor
+    # each tick once; the last has no successor
+    assert got == {t0 + k * 10**6 for k in range(n - 1)}
     sent = [f for f in figures if f["lead_min_ms"]]  # a second with ticks sent
     assert sent and all(int(f["ticks_sent"]) > 0 and float(f["cpu_percent"]) >= 0 for f in sent)
     assert all(float(f["lead_min_ms"]) <= float(f["lead_median_ms"]) for f in sent)
@@ -444,4 +541,6 @@ def test_ctc_node_states_its_lead_and_cpu_on_diagnostics_and_sums_up_at_exit(ros
     while not (summary := [ln for ln in run.lines if "ctc: " in ln and "ticks sent" in ln]):
         assert time.monotonic() < t_end, "".join(run.lines[-5:])
         time.sleep(0.05)
-    assert summary and "lead at sending min" in summary[-1] and "ctc CPU" in summary[-1], "".join(run.lines[-5:])
+    assert summary and "lead at sending min" in summary[-1] and "ctc CPU" in summary[-1], "".join(
+        run.lines[-5:]
+    )

@@ -9,7 +9,6 @@ import threading
 import time
 
 import numpy as np
-
 import rclpy
 
 ROBOT = "ur5_mount"
@@ -21,6 +20,7 @@ def _stamp(m) -> int:
 
 
 def test_trajectory_points_carry_the_feed_forward(ros_env):
+    from ff_reference import arm_currents, random_standard_set
     from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
     from trajectory_msgs.msg import JointTrajectory
 
@@ -29,8 +29,6 @@ def test_trajectory_points_carry_the_feed_forward(ros_env):
     from orthoglide_msgs.msg import CurrentReference, IdentifiedParameters, JointSetpoint
     from orthoglide_sim.arms.description import load_arm
     from orthoglide_sim.arms.excitation import designed_trajectory
-
-    from ff_reference import arm_currents, random_standard_set
 
     model = load_robot(ROBOT)
     chi_st, bodies = random_standard_set(model, seed=0)  # a physically consistent arm
@@ -42,32 +40,73 @@ def test_trajectory_points_carry_the_feed_forward(ros_env):
     # the same from Pinocchio's RNEA and the drive terms by hand (tests/ff_reference.py)
     independent = arm_currents(model, model.description.path, chi_st, bodies, gains, 2.5, *ref)
 
-    proc = subprocess.Popen([sys.executable, "-m", "orthoglide_ident.nodes.ctc", "--ros-args", "-p", f"robot:={ROBOT}",
-                             "-p", "trajectory_topic:=joint_trajectory_controller/joint_trajectory",
-                             "-p", "current_limit:=[100.0]", "-p", "batch:=5", "-p", "trajectory_overlap:=40"],
-                            env=ros_env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    proc = subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "orthoglide_ident.nodes.ctc",
+            "--ros-args",
+            "-p",
+            f"robot:={ROBOT}",
+            "-p",
+            "trajectory_topic:=joint_trajectory_controller/joint_trajectory",
+            "-p",
+            "current_limit:=[100.0]",
+            "-p",
+            "batch:=5",
+            "-p",
+            "trajectory_overlap:=40",
+        ],
+        env=ros_env,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+    )
     lines: list[str] = []
-    threading.Thread(target=lambda: lines.extend(iter(proc.stdout.readline, "")), daemon=True).start()
+    threading.Thread(
+        target=lambda: lines.extend(iter(proc.stdout.readline, "")), daemon=True
+    ).start()
     rclpy.init()
     node = rclpy.create_node("test_ctc_trajectory")
     traj: list = []
     ff: dict[int, list[float]] = {}
     try:
-        latched = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL, reliability=ReliabilityPolicy.RELIABLE)
-        pub_par = node.create_publisher(IdentifiedParameters, "/orthoglide/identified_parameters", latched)
+        latched = QoSProfile(
+            depth=1,
+            durability=DurabilityPolicy.TRANSIENT_LOCAL,
+            reliability=ReliabilityPolicy.RELIABLE,
+        )
+        pub_par = node.create_publisher(
+            IdentifiedParameters, "/orthoglide/identified_parameters", latched
+        )
         pub_sp = node.create_publisher(JointSetpoint, "/orthoglide/setpoints", 100)
-        node.create_subscription(JointTrajectory, "/joint_trajectory_controller/joint_trajectory", traj.append, 100)
+        node.create_subscription(
+            JointTrajectory, "/joint_trajectory_controller/joint_trajectory", traj.append, 100
+        )
         node.create_subscription(CurrentReference, "/orthoglide/feedforward",
                                  lambda m: ff.__setitem__(_stamp(m), list(m.current)), 100)
-        pub_par.publish(IdentifiedParameters(names=list(model.names), values=[float(v) for v in values],
-                                             drive_gains=[float(g) for g in gains], payload_mass=2.5))
+        pub_par.publish(
+            IdentifiedParameters(
+                names=list(model.names),
+                values=[float(v) for v in values],
+                drive_gains=[float(g) for g in gains],
+                payload_mass=2.5,
+            )
+        )
         t_end = time.monotonic() + 60
-        while not any("parameters in" in x for x in lines) or node.count_subscribers("/orthoglide/setpoints") < 1:
+        while (
+            not any("parameters in" in x for x in lines)
+            or node.count_subscribers("/orthoglide/setpoints") < 1
+        ):
             assert time.monotonic() < t_end and proc.poll() is None, "".join(lines)
             rclpy.spin_once(node, timeout_sec=0.05)
         for k in range(60):
-            m = JointSetpoint(name=list(model.joint_names), position=list(ref[0][k]), velocity=list(ref[1][k]),
-                              acceleration=list(ref[2][k]))
+            m = JointSetpoint(
+                name=list(model.joint_names),
+                position=list(ref[0][k]),
+                velocity=list(ref[1][k]),
+                acceleration=list(ref[2][k]),
+            )
             m.header.stamp.sec, m.header.stamp.nanosec = divmod(T0 + k * 10**6, 10**9)
             pub_sp.publish(m)
             rclpy.spin_once(node, timeout_sec=0.003)

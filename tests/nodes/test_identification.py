@@ -20,7 +20,9 @@ NODE = "from orthoglide_ident.nodes.identification import main; import sys; sys.
 def node(spawn_python):
     proc = spawn_python(NODE, "--ros-args", "-p", f"bag_dir:={BAGS}")
     yield proc
-    assert proc.poll() is None, "the node died: " + (proc.communicate()[1] if proc.poll() is not None else "")
+    assert proc.poll() is None, "the node died: " + (
+        proc.communicate()[1] if proc.poll() is not None else ""
+    )
 
 
 @pytest.fixture
@@ -90,8 +92,12 @@ def test_identify_service_answers_and_latches_the_result(node, client):
 
     # a late subscriber still gets the result (transient local, depth 1)
     got = []
-    qos = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL, reliability=ReliabilityPolicy.RELIABLE)
-    n.create_subscription(IdentifiedParameters, "/orthoglide/identified_parameters", got.append, qos)
+    qos = QoSProfile(
+        depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL, reliability=ReliabilityPolicy.RELIABLE
+    )
+    n.create_subscription(
+        IdentifiedParameters, "/orthoglide/identified_parameters", got.append, qos
+    )
     t0 = time.time()
     while not got and time.time() - t0 < 20:
         rclpy.spin_once(n, timeout_sec=0.2)
@@ -102,7 +108,9 @@ def test_identify_service_answers_and_latches_the_result(node, client):
     assert not bad.success and "loaded" in bad.message and "\n" not in bad.message
     missing = call(n, cli, bags=["/nonexistent/bag"])
     assert not missing.success and "\n" not in missing.message and missing.message
-    wrong_mass = call(n, cli, bags=[str(BAGS / "unloaded"), str(BAGS / "loaded")], payload_mass=1.136)
+    wrong_mass = call(
+        n, cli, bags=[str(BAGS / "unloaded"), str(BAGS / "loaded")], payload_mass=1.136
+    )
     assert not wrong_mass.success and "1.136" in wrong_mass.message
 
 
@@ -111,7 +119,9 @@ def consistent_node(spawn_python):
     proc = spawn_python(NODE, "--ros-args", "-p", f"bag_dir:={BAGS}", "-p", "consistent:=true",
                         "-p", "live:=false")
     yield proc
-    assert proc.poll() is None, "the node died: " + (proc.communicate()[1] if proc.poll() is not None else "")
+    assert proc.poll() is None, "the node died: " + (
+        proc.communicate()[1] if proc.poll() is not None else ""
+    )
 
 
 def test_option_consistent_answers_with_real_bodies_and_latches_them(consistent_node, client):
@@ -140,9 +150,9 @@ def test_option_consistent_answers_with_real_bodies_and_latches_them(consistent_
 
 def test_a_call_while_busy_is_refused_at_once(node, client):
     n, cli = client
-    from orthoglide_msgs.srv import Identify
-
     import rclpy
+
+    from orthoglide_msgs.srv import Identify
 
     futures = []
     for _ in range(2):
@@ -157,8 +167,15 @@ def test_a_call_while_busy_is_refused_at_once(node, client):
 
 
 def test_help_needs_no_ros():
-    out = children.run([sys.executable, "-c", NODE, "--help"], capture_output=True, text=True, timeout=30)
-    assert out.returncode == 0 and out.stdout.startswith("usage:") and "orthoglide/identify" in out.stdout and "orthoglide/identification/live" in out.stdout
+    out = children.run(
+        [sys.executable, "-c", NODE, "--help"], capture_output=True, text=True, timeout=30
+    )
+    assert (
+        out.returncode == 0
+        and out.stdout.startswith("usage:")
+        and "orthoglide/identify" in out.stdout
+        and "orthoglide/identification/live" in out.stdout
+    )
 
 
 def test_live_identification_warns_and_survives_nan_and_wrong_names(spawn_python, tmp_path):
@@ -181,9 +198,15 @@ def test_live_identification_warns_and_survives_nan_and_wrong_names(spawn_python
     n = rclpy.create_node("test_live_feeder")
     try:
         live: list = []
-        n.create_subscription(LiveIdentification, "/orthoglide/identification/live", live.append, 10)
+        n.create_subscription(
+            LiveIdentification, "/orthoglide/identification/live", live.append, 10
+        )
         status: list = []
-        latched = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL, reliability=ReliabilityPolicy.RELIABLE)
+        latched = QoSProfile(
+            depth=1,
+            durability=DurabilityPolicy.TRANSIENT_LOCAL,
+            reliability=ReliabilityPolicy.RELIABLE,
+        )
         n.create_subscription(RecorderStatus, "/orthoglide/recorder/status", status.append, latched)
         pub_js = n.create_publisher(JointState, "/orthoglide/joint_states", 1000)
         pub_cr = n.create_publisher(CurrentReference, "/orthoglide/current_reference", 1000)
@@ -193,7 +216,9 @@ def test_live_identification_warns_and_survives_nan_and_wrong_names(spawn_python
         for cli in (start, stop, ident):
             assert cli.wait_for_service(timeout_sec=60)
         t_end = time.time() + 30
-        while (n.count_subscribers("/orthoglide/joint_states") < 2 or not status) and time.time() < t_end:
+        while (
+            n.count_subscribers("/orthoglide/joint_states") < 2 or not status
+        ) and time.time() < t_end:
             rclpy.spin_once(n, timeout_sec=0.1)
         fut = start.call_async(StartRecording.Request(condition="unloaded", name="bad_data"))
         rclpy.spin_until_future_complete(n, fut, timeout_sec=30)
@@ -205,10 +230,18 @@ def test_live_identification_warns_and_survives_nan_and_wrong_names(spawn_python
             q = rec.q[k].copy()
             if 1000 <= k < 1005:
                 q[1] = float("nan")
-            js = JointState(name=["a", "b", "c"] if 2000 <= k < 2010 else names, position=[float(x) for x in q])
-            js.header.stamp.sec, js.header.stamp.nanosec = divmod(int(rec.stamps_ns[k]) + 10**9, 10**9)
+            js = JointState(
+                name=["a", "b", "c"] if 2000 <= k < 2010 else names, position=[float(x) for x in q]
+            )
+            js.header.stamp.sec, js.header.stamp.nanosec = divmod(
+                int(rec.stamps_ns[k]) + 10**9, 10**9
+            )
             pub_js.publish(js)
-            pub_cr.publish(CurrentReference(header=js.header, name=names, current=[float(x) for x in rec.v_tau[k]]))
+            pub_cr.publish(
+                CurrentReference(
+                    header=js.header, name=names, current=[float(x) for x in rec.v_tau[k]]
+                )
+            )
             if k % 50 == 0:
                 rclpy.spin_once(n, timeout_sec=0.0)
                 time.sleep(0.04)  # paces the publisher (about 1.25 kHz), within the queue depths
@@ -222,8 +255,11 @@ def test_live_identification_warns_and_survives_nan_and_wrong_names(spawn_python
         warnings = " | ".join(w for m in live for w in m.warnings)
         assert "lost" in warnings and ("NaN" in warnings or "non-finite" in warnings), warnings
         assert "names" in warnings, warnings
-        assert live[-1].unloaded_seconds > 1.5 and live[-1].status.startswith("unloaded only"), live[-1]
-        fut = ident.call_async(Identify.Request())  # the live data: no payload yet, refused with the reason
+        assert live[-1].unloaded_seconds > 1.5 and live[-1].status.startswith("unloaded only"), (
+            live[-1]
+        )
+        # the live data: no payload yet, refused with the reason
+        fut = ident.call_async(Identify.Request())
         rclpy.spin_until_future_complete(n, fut, timeout_sec=60)
         res = fut.result()
         assert not res.success and "loaded" in res.message and "\n" not in res.message
@@ -242,15 +278,23 @@ def test_option_changes_with_a_wrong_type_or_value_are_refused_with_a_reason(nod
     assert cli.wait_for_service(timeout_sec=30)
 
     def set_one(name, **value):
-        fut = cli.call_async(SetParameters.Request(parameters=[Parameter(name=name, value=ParameterValue(**value))]))
+        fut = cli.call_async(
+            SetParameters.Request(parameters=[Parameter(name=name, value=ParameterValue(**value))])
+        )
         rclpy.spin_until_future_complete(n, fut, timeout_sec=30)
         return fut.result().results[0]
 
     bad_type = set_one("filter_currents", type=ParameterType.PARAMETER_STRING, string_value="maybe")
-    assert not bad_type.successful and "filter_currents" in bad_type.reason and "bool" in bad_type.reason
+    assert (
+        not bad_type.successful
+        and "filter_currents" in bad_type.reason
+        and "bool" in bad_type.reason
+    )
     bad_value = set_one("r_sigma", type=ParameterType.PARAMETER_DOUBLE, double_value=0.5)
     assert not bad_value.successful and "r_sigma" in bad_value.reason
-    assert set_one("filter_currents", type=ParameterType.PARAMETER_BOOL, bool_value=False).successful
+    assert set_one(
+        "filter_currents", type=ParameterType.PARAMETER_BOOL, bool_value=False
+    ).successful
     # `ros2 param set /orthoglide_identification lag_model off`: YAML's false, meant as the word
     assert set_one("lag_model", type=ParameterType.PARAMETER_BOOL, bool_value=False).successful
     on = set_one("lag_model", type=ParameterType.PARAMETER_BOOL, bool_value=True)
@@ -271,12 +315,17 @@ def test_a_bag_deleted_before_it_is_read_and_a_restart_without_live_data(node, c
     for f in (tmp_path / "loaded").glob("*.mcap"):
         f.unlink()
     res = call(n, cli, bags=pair)
-    assert not res.success and res.message == f"{pair[1]}: files listed in metadata.yaml are missing: loaded_0.mcap"
+    assert (
+        not res.success
+        and res.message == f"{pair[1]}: files listed in metadata.yaml are missing: loaded_0.mcap"
+    )
     shutil.rmtree(tmp_path / "loaded")
     res = call(n, cli, bags=pair)
     assert not res.success and res.message.startswith(f"{pair[1]}: no such bag")
     res = call(n, cli)  # no bag named, no live data since this node started: bag_dir's recordings
-    assert res.success and res.message.endswith("; from 2 bag(s) of bag_dir (no live data)"), res.message
+    assert res.success and res.message.endswith("; from 2 bag(s) of bag_dir (no live data)"), (
+        res.message
+    )
     assert node.poll() is None
 
 
@@ -285,9 +334,9 @@ def test_a_partial_answer_succeeds_says_which_and_is_not_latched(spawn_python, t
     reply names the gain not determined and why, the message carries the flags, and the
     latched topic (what the ctc takes) stays empty."""
     import rclpy
+    from axial_payload import write_axial_bags
     from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 
-    from axial_payload import write_axial_bags
     from orthoglide_msgs.msg import IdentifiedParameters
     from orthoglide_msgs.srv import Identify
 

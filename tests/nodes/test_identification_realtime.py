@@ -14,7 +14,6 @@ import numpy as np
 
 from orthoglide_ident.ros import processes as children  # children end with this process
 
-
 ROOT = Path(__file__).resolve().parents[2]
 BAGS = ROOT / "bags"
 T0 = 10**12  # the recording's stamps (ns): the sample bag's, shifted off zero
@@ -67,20 +66,29 @@ def _lines_until(proc, text: str, timeout: float) -> str:
     return out
 
 
-def test_a_slow_live_update_delays_neither_services_nor_intake_nor_the_ctc(spawn_python, ros_env, tmp_path):
+def test_a_slow_live_update_delays_neither_services_nor_intake_nor_the_ctc(
+    spawn_python, ros_env, tmp_path
+):
     import rclpy
     from rclpy.parameter_client import AsyncParameterClient
     from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
     from sensor_msgs.msg import JointState
-
-    from orthoglide_ident.bags import read_bag
-    from orthoglide_msgs.msg import CurrentReference, IdentifiedParameters, JointSetpoint, RecorderStatus
-    from orthoglide_msgs.srv import Identify
-    from orthoglide_sim.common.trajectories import get_trajectory
     from test_control import true_params
 
+    from orthoglide_ident.bags import read_bag
+    from orthoglide_msgs.msg import (
+        CurrentReference,
+        IdentifiedParameters,
+        JointSetpoint,
+        RecorderStatus,
+    )
+    from orthoglide_msgs.srv import Identify
+    from orthoglide_sim.common.trajectories import get_trajectory
+
     entered, release = tmp_path / "entered", tmp_path / "release"
-    node = spawn_python(HOOKED_NODE, str(entered), str(release), "--ros-args", "-p", f"bag_dir:={BAGS}")
+    node = spawn_python(
+        HOOKED_NODE, str(entered), str(release), "--ros-args", "-p", f"bag_dir:={BAGS}"
+    )
     ctc = children.popen([sys.executable, "-m", "orthoglide_ident.nodes.ctc"], env=ros_env,
                          stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     bag = read_bag(BAGS / "unloaded")
@@ -98,35 +106,72 @@ def test_a_slow_live_update_delays_neither_services_nor_intake_nor_the_ctc(spawn
         pub_status = client.create_publisher(RecorderStatus, "/orthoglide/recorder/status", latched)
         pub_js = client.create_publisher(JointState, "/orthoglide/joint_states", stream)
         pub_cr = client.create_publisher(CurrentReference, "/orthoglide/current_reference", stream)
-        pub_par = client.create_publisher(IdentifiedParameters, "/orthoglide/identified_parameters", latched)
+        pub_par = client.create_publisher(
+            IdentifiedParameters, "/orthoglide/identified_parameters", latched
+        )
         pub_sp = client.create_publisher(JointSetpoint, "/orthoglide/setpoints", stream)
         fed_forward: set[int] = set()
-        client.create_subscription(CurrentReference, "/orthoglide/feedforward", lambda m: fed_forward.add(
-            m.header.stamp.sec * 10**9 + m.header.stamp.nanosec), stream)
+        client.create_subscription(
+            CurrentReference,
+            "/orthoglide/feedforward",
+            lambda m: fed_forward.add(m.header.stamp.sec * 10**9 + m.header.stamp.nanosec),
+            stream,
+        )
         identify = client.create_client(Identify, "/orthoglide/identify")
         params = AsyncParameterClient(client, "orthoglide_identification")
-        assert identify.wait_for_service(timeout_sec=60) and params.wait_for_services(timeout_sec=60)
-        _spin_until(rclpy, client, lambda: all(client.count_subscribers(t) >= 1 for t in (
-            "/orthoglide/joint_states", "/orthoglide/current_reference", "/orthoglide/recorder/status",
-            "/orthoglide/setpoints")), 60, "the nodes never subscribed")
+        assert identify.wait_for_service(timeout_sec=60) and params.wait_for_services(
+            timeout_sec=60
+        )
+        _spin_until(
+            rclpy,
+            client,
+            lambda: all(
+                client.count_subscribers(t) >= 1
+                for t in (
+                    "/orthoglide/joint_states",
+                    "/orthoglide/current_reference",
+                    "/orthoglide/recorder/status",
+                    "/orthoglide/setpoints",
+                )
+            ),
+            60,
+            "the nodes never subscribed",
+        )
         p = true_params()  # the ctc fed with a model, as after an identification
-        pub_par.publish(IdentifiedParameters(names=list(p.names), values=[float(x) for x in p.chi_b],
-                                             drive_gains=[float(g) for g in p.drive_gains], payload_mass=1.983))
+        pub_par.publish(
+            IdentifiedParameters(
+                names=list(p.names),
+                values=[float(x) for x in p.chi_b],
+                drive_gains=[float(g) for g in p.drive_gains],
+                payload_mass=1.983,
+            )
+        )
         pubs = (pub_status, pub_js, pub_cr, pub_par, pub_sp)  # DDS matching after discovery
-        _spin_until(rclpy, client, lambda: all(
-            p.get_subscription_count() >= max(1, client.count_subscribers(p.topic_name)) for p in pubs),
-            60, "the publishers never matched their subscribers")
+        _spin_until(
+            rclpy,
+            client,
+            lambda: all(
+                p.get_subscription_count() >= max(1, client.count_subscribers(p.topic_name))
+                for p in pubs
+            ),
+            60,
+            "the publishers never matched their subscribers",
+        )
 
         def publish_ticks(a: int, b: int) -> None:
             for k in range(a, b):
                 js = JointState(name=names, position=[float(x) for x in q[k]])
                 js.header.stamp.sec, js.header.stamp.nanosec = divmod(int(stamps[k]), 10**9)
                 pub_js.publish(js)
-                pub_cr.publish(CurrentReference(header=js.header, name=names, current=[float(x) for x in v[k]]))
+                pub_cr.publish(
+                    CurrentReference(header=js.header, name=names, current=[float(x) for x in v[k]])
+                )
                 if k % 100 == 0:
                     rclpy.spin_once(client, timeout_sec=0.0)
 
-        status = RecorderStatus(recording=True, condition="unloaded", bag_path=str(tmp_path / "slow"))
+        status = RecorderStatus(
+            recording=True, condition="unloaded", bag_path=str(tmp_path / "slow")
+        )
         status.first_tick.sec, status.first_tick.nanosec = divmod(int(stamps[0]), 10**9)
         pub_status.publish(status)
         publish_ticks(0, n_first)
@@ -137,8 +182,12 @@ def test_a_slow_live_update_delays_neither_services_nor_intake_nor_the_ctc(spawn
         got = params.get_parameters(["method"])
         _spin_until(rclpy, client, got.done, 60, "the parameter service waited for the live update")
         assert got.result().values[0].string_value == "tls"
-        answer = identify.call_async(Identify.Request(bags=[str(BAGS / "unloaded"), str(BAGS / "loaded")]))
-        _spin_until(rclpy, client, answer.done, 120, "orthoglide/identify waited for the live update")
+        answer = identify.call_async(
+            Identify.Request(bags=[str(BAGS / "unloaded"), str(BAGS / "loaded")])
+        )
+        _spin_until(
+            rclpy, client, answer.done, 120, "orthoglide/identify waited for the live update"
+        )
         assert answer.result().success, answer.result().message
         ref = get_trajectory("test2").evaluate(np.arange(1000) * 1e-3)
         t_sp = time.time_ns() + 10**9
@@ -147,7 +196,9 @@ def test_a_slow_live_update_delays_neither_services_nor_intake_nor_the_ctc(spawn
                                acceleration=list(ref[2][k]))
             sp.header.stamp.sec, sp.header.stamp.nanosec = divmod(t_sp + k * 10**6, 10**9)
             pub_sp.publish(sp)
-        _spin_until(rclpy, client, lambda: len(fed_forward) >= 999, 60, "the ctc did not feed every tick")
+        _spin_until(
+            rclpy, client, lambda: len(fed_forward) >= 999, 60, "the ctc did not feed every tick"
+        )
         assert fed_forward == {t_sp + k * 10**6 for k in range(999)}
         assert not release.exists()  # all of the above while the update was held
 

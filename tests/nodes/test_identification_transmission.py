@@ -18,7 +18,6 @@ import numpy as np
 import pytest
 import yaml
 
-
 pytestmark = pytest.mark.slow
 
 SECONDS = 15.0  # per run: every per-motor gain within 0.1 % of the plant's (offline, 15 s + 15 s)
@@ -72,7 +71,9 @@ def _record(g, pubs, name: str, mass: float, messages) -> str:
 
     from orthoglide_msgs.srv import StartRecording
 
-    res = g.call(StartRecording, "orthoglide/recorder/start", condition=name, payload_mass=mass, name=name)
+    res = g.call(
+        StartRecording, "orthoglide/recorder/start", condition=name, payload_mass=mass, name=name
+    )
     assert res.success, res.message
     _publish(pubs, messages)
     time.sleep(1.0)  # the last messages reach the recorder before it stops
@@ -82,25 +83,36 @@ def _record(g, pubs, name: str, mass: float, messages) -> str:
 
 
 def test_identified_live_and_from_bags_named_by_motor(plant, tmp_path):
-    from control_msgs.msg import DynamicJointState
     from rclpy.qos import QoSProfile, ReliabilityPolicy
     from sensor_msgs.msg import JointState
 
+    from control_msgs.msg import DynamicJointState
     from orthoglide_ident import bags as bagio
     from orthoglide_ident.identify import IdentifyOptions
     from orthoglide_ident.identify import identify as identify_offline
     from orthoglide_ident.model.robots import load_robot
-    from orthoglide_sim.demos.node_set import identify
     from orthoglide_sim.demos.graph import Graph
+    from orthoglide_sim.demos.node_set import identify
 
     robot, truth, runs = plant
     out = tmp_path / "bags"
     with Graph(tmp_path / "logs") as g:
-        g.start("orthoglide_recorder", "recorder", {"output_dir": str(out), "topics": ["joint_states",
-                                                                                    "dynamic_joint_states"]})
-        g.start("orthoglide_identification", "identification",
-                {"robot": str(robot), "bag_dir": str(out), "lag_model": "off",
-                 "joint_states_topic": "joint_states", "dynamic_joint_states_topic": "dynamic_joint_states"})
+        g.start(
+            "orthoglide_recorder",
+            "recorder",
+            {"output_dir": str(out), "topics": ["joint_states", "dynamic_joint_states"]},
+        )
+        g.start(
+            "orthoglide_identification",
+            "identification",
+            {
+                "robot": str(robot),
+                "bag_dir": str(out),
+                "lag_model": "off",
+                "joint_states_topic": "joint_states",
+                "dynamic_joint_states_topic": "dynamic_joint_states",
+            },
+        )
         qos = QoSProfile(depth=20000, reliability=ReliabilityPolicy.RELIABLE)
         pubs = (g.node.create_publisher(JointState, "joint_states", qos),
                 g.node.create_publisher(DynamicJointState, "dynamic_joint_states", qos))
@@ -115,11 +127,15 @@ def test_identified_live_and_from_bags_named_by_motor(plant, tmp_path):
         g.check_alive()
     said = " | ".join(w for m in estimates for w in m.warnings)
 
-    offline = identify_offline(paths, model=load_robot(str(robot)), options=IdentifyOptions(lag_model="off"))
+    offline = identify_offline(
+        paths, model=load_robot(str(robot)), options=IdentifyOptions(lag_model="off")
+    )
     # every tick published is in the bags (the live data are those ticks: live = offline below)
     for path, (_, msgs) in zip(paths, runs.values()):
         data = bagio.read_bag(path)
-        assert data.positions.stamps_ns.shape[0] == data.current.stamps_ns.shape[0] == len(msgs), path
+        assert data.positions.stamps_ns.shape[0] == data.current.stamps_ns.shape[0] == len(msgs), (
+            path
+        )
     # named by motor: the results, the latched message and the live estimate
     assert list(offline.joint_names) == MOTORS
     for res in (live, from_bags):

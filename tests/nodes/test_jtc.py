@@ -1,5 +1,6 @@
 """The ctc node's outlet to a joint_trajectory_controller: the JointTrajectory bytes rclpy would
-send, the feed-forward in the controller's units, one update ahead, messages that start in the past."""
+send, the feed-forward in the controller's units, one update ahead, messages that start in the
+past."""
 from __future__ import annotations
 
 import numpy as np
@@ -7,7 +8,6 @@ import pytest
 
 from orthoglide_ident.errors import ConfigError
 from orthoglide_ident.nodes._jtc import TrajectoryOutlet, encode_joint_trajectory
-
 
 NAMES = ("shoulder_pan_joint", "b", "elbow", "wrist_1", "w2", "wrist_3_joint")
 T0 = 1_796_000_000 * 10**9 + 123_456_000
@@ -29,7 +29,9 @@ def test_encoding_is_what_rclpy_serialises(n):
     times = np.arange(n) * 1_000_000 + (n > 1) * 999_999_000  # crosses a second
     raw = encode_joint_trajectory(T0, NAMES, times, *arrays)
     msg = _deserialize(raw)
-    assert msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec == T0 and msg.header.frame_id == ""
+    assert (
+        msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec == T0 and msg.header.frame_id == ""
+    )
     assert tuple(msg.joint_names) == NAMES and len(msg.points) == n
     for k, p in enumerate(msg.points):
         for field, arr in zip(("positions", "velocities", "accelerations", "effort"), arrays):
@@ -41,13 +43,19 @@ def test_encoding_is_what_rclpy_serialises(n):
 
 def _feed(outlet: TrajectoryOutlet, first: int, n: int, gains):
     stamps = T0 + (first + np.arange(n)) * 1_000_000
-    ref = np.stack([np.full((n, 6), k, float) for k in range(3)], axis=1) + (first + np.arange(n))[:, None, None]
+    ref = (
+        np.stack([np.full((n, 6), k, float) for k in range(3)], axis=1)
+        + (first + np.arange(n))[:, None, None]
+    )
     v_ff = 0.1 * (first + np.arange(n))[:, None] * np.ones(6)
     return outlet.message(stamps, ref, v_ff, gains), stamps, ref, v_ff
 
 
 def test_effort_units_and_the_one_update_shift():
-    nominal, gains = np.array([13.0, 13, 13, 9.3, 9.3, 9.3]), np.array([13.5, 12.6, 13.4, 8.9, 9.7, 9.1])
+    nominal, gains = (
+        np.array([13.0, 13, 13, 9.3, 9.3, 9.3]),
+        np.array([13.5, 12.6, 13.4, 8.9, 9.7, 9.1]),
+    )
     for effort, scale in (("nominal", nominal), ("torque", gains), ("current", np.ones(6))):
         outlet = TrajectoryOutlet(NAMES, effort, nominal, overlap=100)
         raw, stamps, ref, v_ff = _feed(outlet, 0, 10, gains)

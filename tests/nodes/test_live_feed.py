@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import threading
 
-
 from orthoglide_ident.model.robots import load_robot
 
 ORTHOGLIDE = load_robot("orthoglide")  # the robot these records are of
@@ -109,7 +108,8 @@ def test_a_recorder_killed_and_restarted_ends_the_recording_it_left():
             feed.buffers["q"].append(_raw(JointState, t0 + k * 10**6))
             feed.buffers["v"].append(_raw(CurrentReference, t0 + k * 10**6))
         feed.turn()
-        feed.on_status(RecorderStatus(recording=False, bag_path="", message="idle"))  # the new recorder
+        # the new recorder
+        feed.on_status(RecorderStatus(recording=False, bag_path="", message="idle"))
         feed.turn()
         assert spy.stopped and feed.bag is None
         want = [t0 + k * 10**6 for k in range(50)]
@@ -149,7 +149,9 @@ def test_a_stop_and_the_next_start_between_two_feeds_lose_nothing():
                               first_tick=first.first_tick)  # a new message, as DDS delivers
         stop.last_tick.sec, stop.last_tick.nanosec = divmod(t0 + 999 * ms, 10**9)
         feed.on_status(stop)
-        second = RecorderStatus(recording=True, condition="loaded", payload_mass=1.0, bag_path="/bags/b")
+        second = RecorderStatus(
+            recording=True, condition="loaded", payload_mass=1.0, bag_path="/bags/b"
+        )
         second.first_tick.sec, second.first_tick.nanosec = divmod(t0 + 1020 * ms, 10**9)
         for k in range(1000, 1400):  # between the recordings, then the second's
             feed.buffers["q"].append(_raw(JointState, t0 + k * ms))
@@ -179,8 +181,14 @@ def test_the_first_message_of_each_topic_is_said_once():
     try:
         feed = LiveFeed(node, _Spy(), threading.Lock(), robot=ORTHOGLIDE, worker=False)
         logger = type("L", (), {"info": lambda self, m: said.append(m)})()
-        feed.node = type("N", (), {"get_logger": lambda self: logger,
-                                   "resolve_topic_name": lambda self, t: node.resolve_topic_name(t)})()
+        feed.node = type(
+            "N",
+            (),
+            {
+                "get_logger": lambda self: logger,
+                "resolve_topic_name": lambda self, t: node.resolve_topic_name(t),
+            },
+        )()
         take = feed._intake("q", None).on_batch
         for k in range(3):
             take([(_raw(JointState, 10**12 + k), 0, 0)])

@@ -14,14 +14,11 @@ import time
 
 import numpy as np
 import pytest
-
-from orthoglide_ident.identify import LiveIdentification
-from orthoglide_ident.identify import IdentifyOptions
-from orthoglide_ident.identify import identify
-from orthoglide_ident.model.robots import load_robot
-
 import rclpy
 from ros2_control_records import ROBOT, standin_records, write_record_bag  # noqa: E402
+
+from orthoglide_ident.identify import IdentifyOptions, LiveIdentification, identify
+from orthoglide_ident.model.robots import load_robot
 
 FEED_TICKS = 250  # messages handed to the feed between two feed() calls (a BatchTaker wake-up)
 
@@ -43,7 +40,9 @@ def records():
 def _status(bag: str, rec, recording: bool):
     from orthoglide_msgs.msg import RecorderStatus
 
-    m = RecorderStatus(recording=recording, condition=rec.condition, payload_mass=rec.payload_mass, bag_path=bag)
+    m = RecorderStatus(
+        recording=recording, condition=rec.condition, payload_mass=rec.payload_mass, bag_path=bag
+    )
     for field, ns in (("first_tick", rec.messages[0][0]), ("last_tick", rec.messages[-1][0])):
         getattr(m, field).sec, getattr(m, field).nanosec = divmod(ns, 10**9)
     return m
@@ -90,27 +89,40 @@ def test_live_equals_offline_from_both_current_sources(node, records, tmp_path):
 
     opts = IdentifyOptions(lag_model="off")  # the same equations live and offline (test_live.py)
     # (A): the same ticks as (B) pairs, the current from the JointState effort alone
-    only_js = {n: dataclasses.replace(r, messages=[(t, a if b is not None else None, None)
-                                                   for t, a, b in r.messages]) for n, r in records.items()}
+    only_js = {
+        n: dataclasses.replace(
+            r, messages=[(t, a if b is not None else None, None) for t, a, b in r.messages]
+        )
+        for n, r in records.items()
+    }
     bags_b = [str(write_record_bag(tmp_path / f"{n}_b", r)) for n, r in records.items()]
-    bags_a = [str(write_record_bag(tmp_path / f"{n}_a", r, dynamic=False)) for n, r in only_js.items()]
+    bags_a = [
+        str(write_record_bag(tmp_path / f"{n}_a", r, dynamic=False)) for n, r in only_js.items()
+    ]
     offline_b = identify(bags_b, model=load_robot(ROBOT), options=opts)
     offline_a = identify(bags_a, model=load_robot(ROBOT), options=opts)
     live_b, warn_b = run_live(node, records, LiveTopics("joint_states"), opts)
-    live_a, warn_a = run_live(node, only_js, LiveTopics("joint_states", dynamic_joint_states=""), opts)
+    live_a, warn_a = run_live(
+        node, only_js, LiveTopics("joint_states", dynamic_joint_states=""), opts
+    )
 
     # (A) JointState.effort and (B) DynamicJointState carry the same numbers: identical results
     np.testing.assert_array_equal(_gains(offline_a), _gains(offline_b))
     np.testing.assert_array_equal(_gains(live_a), _gains(live_b))
     sources = [{b.get("sources") for b in r.diagnostics["bags"]} for r in (offline_a, offline_b)]
-    assert sources[0] == {"q from /joint_states position (JointState); current from /joint_states effort "
-                          "(JointState)"}, sources
-    assert sources[1] == {"q from /joint_states position (JointState); current from /dynamic_joint_states "
-                          "interface 'current' (DynamicJointState)"}, sources
+    assert sources[0] == {
+        "q from /joint_states position (JointState); current from /joint_states effort (JointState)"
+    }, sources
+    assert sources[1] == {
+        "q from /joint_states position (JointState); current from /dynamic_joint_states "
+        "interface 'current' (DynamicJointState)"
+    }, sources
     # live = offline (the 1e-6), every base parameter too
     assert _rel(_gains(live_b), _gains(offline_b)) < 1e-6
     off = {p.name: p.value for p in offline_b.parameters}
-    big = [p for p in live_b.parameters if abs(off[p.name]) > 1e-3 * max(abs(v) for v in off.values())]
+    big = [
+        p for p in live_b.parameters if abs(off[p.name]) > 1e-3 * max(abs(v) for v in off.values())
+    ]
     assert _rel([p.value for p in big], [off[p.name] for p in big]) < 1e-6
     # and right: the plant's gains, through the hardware order and the gripper joint
     g_true = records["loaded"].g_tau
@@ -175,7 +187,9 @@ def test_a_new_robot_model_during_a_recording_leaves_it_out(node, short_records)
         assert spy.started == ["run-1"] and spy.q and spy.v  # DJS chosen, fed
         spy2 = _Spy()
         feed.replace(spy2, load_robot(ROBOT))
-        assert any("the robot model changed to ur5 during run-1" in w for w in feed.warnings), feed.warnings
+        assert any("the robot model changed to ur5 during run-1" in w for w in feed.warnings), (
+            feed.warnings
+        )
         feed.on_status(_status("run-1", rec, True))  # the recorder's next status of the same run
         feed.turn()  # the worker applies it (here: when the test says)
         assert spy2.started == []  # left out: not restarted half-way through
@@ -197,16 +211,21 @@ def test_a_recording_without_a_current_is_left_out_with_the_reason(node, short_r
         feed.turn()  # the worker applies it (here: when the test says)
         names = rec.layout.names
         for stamp, _, _ in rec.messages[:300]:  # positions only: no effort, no other topic
-            feed.buffers["q"].append(bags.encode_joint_states(names, np.array([stamp]),
-                                                              np.zeros((1, len(names))))[0].tobytes())
+            feed.buffers["q"].append(
+                bags.encode_joint_states(names, np.array([stamp]), np.zeros((1, len(names))))[
+                    0
+                ].tobytes()
+            )
         feed.turn()
         assert feed.bag == "run-1" and not feed.warnings  # waiting for a current a moment
         feed.waiting_since = time.monotonic() - 2.0
         feed.turn()
         assert feed.bag is None and spy.v == []
-        assert feed.warnings == ["live identification leaves run-1 out: no current for shoulder_pan_joint, "
-                                 "shoulder_lift_joint, elbow_joint, wrist_1_joint, wrist_2_joint, "
-                                 "wrist_3_joint: /joint_states carries no effort"]
+        assert feed.warnings == [
+            "live identification leaves run-1 out: no current for shoulder_pan_joint, "
+            "shoulder_lift_joint, elbow_joint, wrist_1_joint, wrist_2_joint, "
+            "wrist_3_joint: /joint_states carries no effort"
+        ]
         feed.on_status(_status("run-1", rec, True))  # not tried again every second
         feed.turn()  # the worker applies it (here: when the test says)
         assert spy.started == ["run-1"]
@@ -223,8 +242,11 @@ def test_a_best_effort_publisher_is_followed(node):
     spy, feed = _spy_feed(node, None)
     pub_node = rclpy.create_node("best_effort_publisher")
     try:
-        pub = pub_node.create_publisher(JointState, "/joint_states",
-                                        QoSProfile(depth=10, reliability=ReliabilityPolicy.BEST_EFFORT))
+        pub = pub_node.create_publisher(
+            JointState,
+            "/joint_states",
+            QoSProfile(depth=10, reliability=ReliabilityPolicy.BEST_EFFORT),
+        )
         t_end = time.monotonic() + 20
         while feed.reliability["q"] != ReliabilityPolicy.BEST_EFFORT:
             assert time.monotonic() < t_end, "the publisher was never seen"

@@ -14,14 +14,15 @@ import time
 from pathlib import Path
 
 import pytest
+import rclpy
 
 from orthoglide_ident.ros import processes as children  # children end with this process
 
-import rclpy
-
 ROOT = Path(__file__).resolve().parents[2]
 RECORDER = "from orthoglide_ident.nodes.recorder import main; import sys; sys.exit(main())"
-IDENTIFICATION = "from orthoglide_ident.nodes.identification import main; import sys; sys.exit(main())"
+IDENTIFICATION = (
+    "from orthoglide_ident.nodes.identification import main; import sys; sys.exit(main())"
+)
 
 
 def _call(node, cli, request, timeout=60.0):
@@ -97,7 +98,8 @@ def test_parameter_types_are_lenient_and_bad_values_are_one_line(ros_env):
             args += ["-p", p]
         return children.run(args, env=ros_env, capture_output=True, text=True, timeout=60)
 
-    ok = run("orthoglide_sim.nodes.driver", "duration:=1", "realtime:=false", "payload:=2")  # ints for floats
+    # ints for floats
+    ok = run("orthoglide_sim.nodes.driver", "duration:=1", "realtime:=false", "payload:=2")
     assert ok.returncode == 0 and "1000 ticks" in ok.stderr, ok.stderr
     bad = run("orthoglide_ident.nodes.recorder", "queue_depth:=-5")
     assert bad.returncode == 2 and "queue_depth" in bad.stderr and "Traceback" not in bad.stderr
@@ -113,7 +115,9 @@ def test_essential_answer_and_wls_keeps_the_latched_tls(spawn_python, node):
     from orthoglide_msgs.msg import IdentifiedParameters
     from orthoglide_msgs.srv import Identify
 
-    spawn_python(IDENTIFICATION, "--ros-args", "-p", f"bag_dir:={ROOT / 'bags'}", "-p", "live:=false")
+    spawn_python(
+        IDENTIFICATION, "--ros-args", "-p", f"bag_dir:={ROOT / 'bags'}", "-p", "live:=false"
+    )
     cli = node.create_client(Identify, "/orthoglide/identify")
     bags = [str(ROOT / "bags/unloaded"), str(ROOT / "bags/loaded")]
     tls = _call(node, cli, Identify.Request(bags=bags), timeout=120)
@@ -123,13 +127,20 @@ def test_essential_answer_and_wls_keeps_the_latched_tls(spawn_python, node):
     wls = _call(node, cli, Identify.Request(bags=bags, method="wls"), timeout=120)
     assert wls.success and wls.parameters.method == "wls", wls.message
     got: dict[str, list] = {"tls": [], "wls": []}
-    latched = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL, reliability=ReliabilityPolicy.RELIABLE)
-    node.create_subscription(IdentifiedParameters, "/orthoglide/identified_parameters", got["tls"].append, latched)
-    node.create_subscription(IdentifiedParameters, "/orthoglide/identified_parameters/wls", got["wls"].append, latched)
+    latched = QoSProfile(
+        depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL, reliability=ReliabilityPolicy.RELIABLE
+    )
+    node.create_subscription(
+        IdentifiedParameters, "/orthoglide/identified_parameters", got["tls"].append, latched
+    )
+    node.create_subscription(
+        IdentifiedParameters, "/orthoglide/identified_parameters/wls", got["wls"].append, latched
+    )
     t_end = time.time() + 20
     while not (got["tls"] and got["wls"]) and time.time() < t_end:
         rclpy.spin_once(node, timeout_sec=0.1)
-    assert got["tls"][-1].method == "tls" and len(got["tls"][-1].names) < 61  # the essential TLS, last TLS call
+    # the essential TLS, last TLS call
+    assert got["tls"][-1].method == "tls" and len(got["tls"][-1].names) < 61
     assert got["wls"][-1].method == "wls"
 
 
@@ -141,7 +152,9 @@ def test_namespace_moves_the_recorder_and_empty_or_refused_recordings_fail(spawn
 
     from orthoglide_msgs.srv import StartRecording
 
-    rec = spawn_python(RECORDER, "--ros-args", "-r", "__ns:=/robot2", "-p", f"output_dir:={tmp_path}")
+    rec = spawn_python(
+        RECORDER, "--ros-args", "-r", "__ns:=/robot2", "-p", f"output_dir:={tmp_path}"
+    )
     start = node.create_client(StartRecording, "/robot2/orthoglide/recorder/start")
     stop = node.create_client(Trigger, "/robot2/orthoglide/recorder/stop")
     res = _call(node, start, StartRecording.Request(condition="loaded", payload_mass=0.0, name="x"))
@@ -171,7 +184,9 @@ BAD_PARAMETER_FILES = [
 ]
 
 
-@pytest.mark.parametrize("module", ["orthoglide_ident.nodes.identification", "orthoglide_ident.nodes.ctc"])
+@pytest.mark.parametrize(
+    "module", ["orthoglide_ident.nodes.identification", "orthoglide_ident.nodes.ctc"]
+)
 @pytest.mark.parametrize("text, reason", BAD_PARAMETER_FILES)
 def test_a_bad_parameter_file_is_one_line_and_exit_2(ros_env, tmp_path, module, text, reason):
     """What rcl refused with a traceback (broken YAML, a missing file) or ignored silently (not a
@@ -179,8 +194,13 @@ def test_a_bad_parameter_file_is_one_line_and_exit_2(ros_env, tmp_path, module, 
     f = tmp_path / "params.yaml"
     if text is not None:
         f.write_text(text)
-    out = children.run([sys.executable, "-m", module, "--ros-args", "--params-file", str(f)], env=ros_env,
-                       capture_output=True, text=True, timeout=60)
+    out = children.run(
+        [sys.executable, "-m", module, "--ros-args", "--params-file", str(f)],
+        env=ros_env,
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
     assert out.returncode == 2, out.stderr
     assert reason in out.stderr and str(f) in out.stderr, out.stderr
     assert len(out.stderr.strip().splitlines()) == 1 and "Traceback" not in out.stderr
@@ -191,12 +211,31 @@ def test_a_parameter_file_with_a_bad_value_or_a_typo(ros_env, tmp_path):
     typo) is warned about and the node runs."""
     f = tmp_path / "identification.yaml"
     f.write_text("/**:\n  ros__parameters:\n    decimation: -3\n")
-    out = children.run([sys.executable, "-m", "orthoglide_ident.nodes.identification", "--ros-args",
-                        "--params-file", str(f)], env=ros_env, capture_output=True, text=True, timeout=60)
-    assert out.returncode == 2 and "decimation" in out.stderr and "Traceback" not in out.stderr, out.stderr
+    out = children.run(
+        [
+            sys.executable,
+            "-m",
+            "orthoglide_ident.nodes.identification",
+            "--ros-args",
+            "--params-file",
+            str(f),
+        ],
+        env=ros_env,
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert out.returncode == 2 and "decimation" in out.stderr and "Traceback" not in out.stderr, (
+        out.stderr
+    )
     f.write_text("/**:\n  ros__parameters:\n    batch: 5\n    curent_limit: [0.5, 0.5, 0.5]\n")
-    proc = children.popen([sys.executable, "-m", "orthoglide_ident.nodes.ctc", "--ros-args", "--params-file",
-                           str(f)], env=ros_env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    proc = children.popen(
+        [sys.executable, "-m", "orthoglide_ident.nodes.ctc", "--ros-args", "--params-file", str(f)],
+        env=ros_env,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+    )
     watchdog = threading.Timer(60, proc.terminate)  # the line never coming must not hang the test
     watchdog.start()
     try:
@@ -205,7 +244,9 @@ def test_a_parameter_file_with_a_bad_value_or_a_typo(ros_env, tmp_path):
             lines.append(line)
             if "ignored parameter" in line:
                 break
-        assert "ignored parameter(s) this node does not have: curent_limit (a typo?" in lines[-1], lines
+        assert "ignored parameter(s) this node does not have: curent_limit (a typo?" in lines[-1], (
+            lines
+        )
     finally:
         watchdog.cancel()
         proc.terminate()

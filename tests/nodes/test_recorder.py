@@ -19,10 +19,10 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import stop_processes
 
 from orthoglide_ident import bags
 from orthoglide_ident.bags import Recording
-from conftest import stop_processes
 from orthoglide_ident.ros import processes as children  # children end with this process
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -51,7 +51,10 @@ def mcap_messages(files, condition: str, mass: str, channels: list | None = None
         with f.open("rb") as fh:
             reader = make_reader(fh, validate_crcs=True)
             meta = {m.name: m.metadata for m in reader.iter_metadata()}
-            assert meta["orthoglide"] == {"orthoglide.condition": condition, "orthoglide.payload_mass": mass}
+            assert meta["orthoglide"] == {
+                "orthoglide.condition": condition,
+                "orthoglide.payload_mass": mass,
+            }
             total += sum(1 for _ in reader.iter_messages())
             if channels is not None:
                 channels.extend(reader.get_summary().channels.values())
@@ -160,7 +163,8 @@ def client():
     rclpy.shutdown()
 
 
-LAUNCHER = Path(sys.prefix) / "lib" / "orthoglide_ident" / "recorder"  # = ros2 run orthoglide_ident recorder
+# = ros2 run orthoglide_ident recorder
+LAUNCHER = Path(sys.prefix) / "lib" / "orthoglide_ident" / "recorder"
 
 
 @pytest.fixture
@@ -285,13 +289,22 @@ def test_sigkill_leaves_readable_bag(client, spawn_recorder, ros_env) -> None:
     assert res.success, res.message
     pub = _publish(ros_env, 4.0)
     assert pub.stdout is not None and pub.stdout.readline().startswith("publishing")
-    from orthoglide_msgs.msg import RecorderStatus  # ~2 s written (a status about once a second)
     from rclpy.qos import DurabilityPolicy, QoSProfile
+
+    from orthoglide_msgs.msg import RecorderStatus  # ~2 s written (a status about once a second)
     seen = []
-    sub = client.ros_node.create_subscription(RecorderStatus, "/orthoglide/recorder/status", seen.append,
-                                              QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL))
+    sub = client.ros_node.create_subscription(
+        RecorderStatus,
+        "/orthoglide/recorder/status",
+        seen.append,
+        QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL),
+    )
     deadline = time.monotonic() + 60  # a bound on a hang
-    while not (seen and seen[-1].ticks_written >= 2000) and time.monotonic() < deadline and pub.poll() is None:
+    while (
+        not (seen and seen[-1].ticks_written >= 2000)
+        and time.monotonic() < deadline
+        and pub.poll() is None
+    ):
         rclpy.spin_once(client.ros_node, timeout_sec=0.1)
     client.ros_node.destroy_subscription(sub)
     proc.kill()
@@ -333,10 +346,9 @@ def driver_bag(client, tmp_path_factory, request):
 
     Returns (bag path, stop message, ticks the driver says it published, the stamp of its first
     tick, stamps an independent listener received)."""
-    from sensor_msgs.msg import JointState
-    from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
-
     from conftest import ros_environment
+    from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
+    from sensor_msgs.msg import JointState
 
     tmp = tmp_path_factory.mktemp("driver_bag")
     env = ros_environment()
@@ -453,13 +465,20 @@ def test_record_from_driver_loses_nothing(driver_bag) -> None:
     got: dict[str, list] = {bags.JOINT_STATES_TOPIC: [], bags.CURRENT_REFERENCE_TOPIC: []}
     with AnyReader([bag]) as reader:
         assert {c.topic for c in reader.connections} >= set(got)
-        for conn, _, raw in reader.messages(connections=[c for c in reader.connections if c.topic in got]):
+        for conn, _, raw in reader.messages(
+            connections=[c for c in reader.connections if c.topic in got]
+        ):
             msg = reader.deserialize(raw, conn.msgtype)
             vals = msg.position if conn.topic == bags.JOINT_STATES_TOPIC else msg.current
             got[conn.topic].append(
                 (msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec, np.array(vals)))
-    for topic, values in ((bags.JOINT_STATES_TOPIC, q_all), (bags.CURRENT_REFERENCE_TOPIC, cur_all)):
-        np.testing.assert_array_equal(np.array([s for s, _ in got[topic]], dtype=np.int64), stamps[topic])
+    for topic, values in (
+        (bags.JOINT_STATES_TOPIC, q_all),
+        (bags.CURRENT_REFERENCE_TOPIC, cur_all),
+    ):
+        np.testing.assert_array_equal(
+            np.array([s for s, _ in got[topic]], dtype=np.int64), stamps[topic]
+        )
         np.testing.assert_array_equal(np.stack([v for _, v in got[topic]]), values)
 
     # the mcap library, CRCs validated: the tag record in each file, every message

@@ -6,7 +6,8 @@ answer, the status topic, the log) and that nothing that reached the recorder is
 - a callback that raises (injected): answered with the reason, the node goes on;
 - a thread the node needs dies (injected): the node exits 1 instead of staying up deaf;
 - the source vanishing mid-recording (kill -9): the status says so, the data are kept;
-- a file-size limit (RLIMIT_FSIZE): the recording stops with the reason, the bag is readable up to it;
+- a file-size limit (RLIMIT_FSIZE): the recording stops with the reason, the bag is readable up to
+it;
 - kill -9 of the recorder and a restart: the bag it left open is reindexed, with a log line.
 """
 from __future__ import annotations
@@ -17,12 +18,10 @@ import time
 from pathlib import Path
 
 import numpy as np
+import rclpy
+from test_recorder import _publish, _sent, client, spawn_recorder  # noqa: E402,F401  (fixtures)
 
 from orthoglide_ident import bags
-
-import rclpy
-
-from test_recorder import _publish, _sent, client, spawn_recorder  # noqa: E402,F401  (fixtures)
 
 JS = bags.JOINT_STATES_TOPIC
 
@@ -58,16 +57,21 @@ def test_a_failed_stop_then_a_good_one_both_answer(client, spawn_recorder, ros_e
     assert proc.poll() is None and "Traceback" not in _log(tmp_path)
 
 
-def test_second_stop_stop_without_recording_and_two_starts_at_once(client, spawn_recorder, tmp_path):
+def test_second_stop_stop_without_recording_and_two_starts_at_once(
+    client, spawn_recorder, tmp_path
+):
     from orthoglide_msgs.srv import StartRecording
 
     spawn_recorder()
     client.wait_ready()
     res = client.stop()
     assert not res.success and res.message == "not recording"
-    # two starts sent together: the services are served one at a time, one wins, the other is told why
-    futs = [client.start_cli.call_async(StartRecording.Request(condition="unloaded", name=f"twin{i}"))
-            for i in (0, 1)]
+    # two starts sent together: the services are served one at a time, one wins, the other is told
+    # why
+    futs = [
+        client.start_cli.call_async(StartRecording.Request(condition="unloaded", name=f"twin{i}"))
+        for i in (0, 1)
+    ]
     deadline = time.monotonic() + 30
     while not all(f.done() for f in futs):
         assert time.monotonic() < deadline, "the starts were not answered"
@@ -105,7 +109,9 @@ sys.exit(recorder.main(["recorder", *sys.argv[1:]]))
 """
 
 
-def test_a_callback_that_raises_is_answered_and_the_node_goes_on(client, spawn_python, ros_env, tmp_path):
+def test_a_callback_that_raises_is_answered_and_the_node_goes_on(
+    client, spawn_python, ros_env, tmp_path
+):
     """Faults injected in the start service (first call) and the status timer (second tick): the
     start is answered success false with the reason, one log line each without a traceback, and
     the next recording keeps every tick."""
@@ -118,17 +124,27 @@ def test_a_callback_that_raises_is_answered_and_the_node_goes_on(client, spawn_p
     assert res.success, res.message
     n = _sent(_publish(ros_env, 2.5))  # the status timer's second tick raises meanwhile
     res = client.stop()
-    assert res.success and f"wrote {n} /orthoglide/current_reference, {n} /orthoglide/joint_states" in res.message
+    assert (
+        res.success
+        and f"wrote {n} /orthoglide/current_reference, {n} /orthoglide/joint_states" in res.message
+    )
     assert len(_stamps(res.message.split(":")[0])) == n
     rec.send_signal(signal.SIGINT)
     out, err = rec.communicate(timeout=30)
     assert rec.returncode == 0, err
-    lines = [ln for ln in err.splitlines() if "failed:" in ln]  # in either order: the timer runs on its own
+    # in either order: the timer runs on its own
+    lines = [ln for ln in err.splitlines() if "failed:" in ln]
     assert len(lines) == 2, err
-    assert any("service orthoglide/recorder/start failed: RuntimeError: injected fault in on_start; answered "
-               "success: false, the node goes on" in ln for ln in lines), lines
-    assert any("status_tick failed: KeyError: 'injected fault in the status timer'; the node goes on" in ln
-               for ln in lines), lines
+    assert any(
+        "service orthoglide/recorder/start failed: RuntimeError: injected fault in on_start; "
+        "answered "
+        "success: false, the node goes on" in ln
+        for ln in lines
+    ), lines
+    assert any(
+        "status_tick failed: KeyError: 'injected fault in the status timer'; the node goes on" in ln
+        for ln in lines
+    ), lines
     assert "Traceback" not in err
 
 
@@ -149,8 +165,11 @@ def test_a_node_whose_intake_died_exits_1_rather_than_stay_deaf(spawn_python, tm
     rec = spawn_python(DEAF, "--ros-args", "-p", f"output_dir:={tmp_path / 'bags'}")
     out, err = rec.communicate(timeout=60)
     assert rec.returncode == 1, err
-    assert "cannot go on: its intake of /orthoglide/joint_states, /orthoglide/current_reference failed: " \
-           "ValueError: injected: the wait set cannot be built; exiting with code 1" in err
+    assert (
+        "cannot go on: its intake of /orthoglide/joint_states, /orthoglide/current_reference "
+        "failed: "
+        "ValueError: injected: the wait set cannot be built; exiting with code 1" in err
+    )
     assert "Traceback" not in err
 
 
@@ -161,8 +180,14 @@ def _status_listener(client):
     from orthoglide_msgs.msg import RecorderStatus
 
     got: list = []
-    qos = QoSProfile(depth=10, durability=DurabilityPolicy.TRANSIENT_LOCAL, reliability=ReliabilityPolicy.RELIABLE)
-    sub = client.ros_node.create_subscription(RecorderStatus, "/orthoglide/recorder/status", got.append, qos)
+    qos = QoSProfile(
+        depth=10,
+        durability=DurabilityPolicy.TRANSIENT_LOCAL,
+        reliability=ReliabilityPolicy.RELIABLE,
+    )
+    sub = client.ros_node.create_subscription(
+        RecorderStatus, "/orthoglide/recorder/status", got.append, qos
+    )
     return got, sub
 
 
@@ -173,8 +198,9 @@ def _spin_until(client, done, timeout: float, what: str) -> None:
         rclpy.spin_once(client.ros_node, timeout_sec=0.1)
 
 
-def test_the_source_vanishing_is_in_the_status_and_the_data_are_kept(client, spawn_recorder, ros_env,
-                                                                     tmp_path):
+def test_the_source_vanishing_is_in_the_status_and_the_data_are_kept(
+    client, spawn_recorder, ros_env, tmp_path
+):
     """The publisher killed (SIGKILL) mid-recording: the status says no message arrives (0.5 s
     after the last one, at its next tick); the stop keeps every tick that arrived, closed and
     without a gap."""
@@ -188,7 +214,12 @@ def test_the_source_vanishing_is_in_the_status_and_the_data_are_kept(client, spa
     _spin_until(client, lambda: got and got[-1].ticks_written > 500, 30, "nothing recorded")
     pub.kill()
     pub.wait(10)
-    _spin_until(client, lambda: "no message on" in got[-1].message, 30, "the status never said the source stopped")
+    _spin_until(
+        client,
+        lambda: "no message on" in got[-1].message,
+        30,
+        "the status never said the source stopped",
+    )
     silent = got[-1]
     assert silent.recording
     assert "no message on /orthoglide/current_reference for" in silent.message
@@ -197,12 +228,17 @@ def test_the_source_vanishing_is_in_the_status_and_the_data_are_kept(client, spa
     assert res.success, res.message
     client.ros_node.destroy_subscription(sub)
     js = _stamps(tmp_path / "bags" / "vanished")
-    assert f"wrote {len(js)} /orthoglide/current_reference, {len(js)} /orthoglide/joint_states" in res.message
+    assert (
+        f"wrote {len(js)} /orthoglide/current_reference, {len(js)} /orthoglide/joint_states"
+        in res.message
+    )
     assert bags.bag_info(tmp_path / "bags" / "vanished").closed
     assert len(js) >= silent.ticks_written  # all the status had counted, and what came after
 
 
-def test_a_file_size_limit_ends_the_recording_with_the_reason(client, spawn_recorder, ros_env, tmp_path):
+def test_a_file_size_limit_ends_the_recording_with_the_reason(
+    client, spawn_recorder, ros_env, tmp_path
+):
     """RLIMIT_FSIZE (what a full disk does to a write) set on the running recorder: the recording
     stops with the reason on the status and in the stop's answer, the node goes on, and the bag
     reads up to the failure without a gap."""
@@ -215,15 +251,27 @@ def test_a_file_size_limit_ends_the_recording_with_the_reason(client, spawn_reco
     res = client.start("unloaded", 0.0, "full")
     assert res.success, res.message
     pub = _publish(ros_env, 5.0)
-    _spin_until(client, lambda: got and not got[-1].recording and got[-1].bag_path == res.bag_path, 60,
-                "the recording did not end at the file-size limit")
+    _spin_until(
+        client,
+        lambda: got and not got[-1].recording and got[-1].bag_path == res.bag_path,
+        60,
+        "the recording did not end at the file-size limit",
+    )
     ended = got[-1].message
-    assert "ended by a write error" in ended and "File too large" in ended and "what was written is kept" in ended
+    assert (
+        "ended by a write error" in ended
+        and "File too large" in ended
+        and "what was written is kept" in ended
+    )
     res_stop = client.stop()
-    assert not res_stop.success and res_stop.message == f"not recording (the last recording ended: {ended})"
+    assert (
+        not res_stop.success
+        and res_stop.message == f"not recording (the last recording ended: {ended})"
+    )
     _sent(pub)
     client.ros_node.destroy_subscription(sub)
-    data = bags.read_bag(res.bag_path)  # cut at the failure: read to its last complete chunk, with a warning
+    # cut at the failure: read to its last complete chunk, with a warning
+    data = bags.read_bag(res.bag_path)
     assert len(data.warnings) == 1 and "not closed" in data.warnings[0]
     assert len(data.joint_states.stamps_ns) > 100
     assert bags.find_gaps(data.joint_states.stamps_ns).missing == 0

@@ -3,15 +3,12 @@
 on the recorder's status, where the live identification takes them from."""
 from __future__ import annotations
 
-from rclpy.qos import QoSProfile, ReliabilityPolicy
-
 import subprocess
 import sys
 import time
 
 import numpy as np
-
-
+from rclpy.qos import QoSProfile, ReliabilityPolicy
 
 # reliable, the whole run kept unacknowledged: a recorder slow to take its first batch (opening
 # its bag) under load must not lose a test's ticks to the publisher's short history
@@ -19,7 +16,11 @@ WHOLE_RUN = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE)
 
 
 def test_the_payload_shape_goes_into_the_tag_and_the_status(tmp_path, ros_env):
-    from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy, qos_profile_system_default
+    from rclpy.qos import (
+        DurabilityPolicy,
+        QoSProfile,
+        ReliabilityPolicy,
+    )
     from sensor_msgs.msg import JointState
     from std_srvs.srv import Trigger
 
@@ -65,7 +66,8 @@ def test_the_payload_shape_goes_into_the_tag_and_the_status(tmp_path, ros_env):
     payload = status_payload(status)
     assert payload.frame == "tool0" and payload.com == (0.03, -0.02, 0.06) and payload.mass == 2.0
     data = bags.read_bag(tmp_path / "bags" / "shaped")
-    assert len(data.positions.stamps_ns) == 300  # every tick, though /dynamic_joint_states never came
+    # every tick, though /dynamic_joint_states never came
+    assert len(data.positions.stamps_ns) == 300
     tags = data.tags
     assert tags.payload_frame == "tool0"
     assert np.allclose(tags.payload_com, (0.03, -0.02, 0.06))
@@ -117,7 +119,11 @@ def test_what_is_known_of_the_payload_is_tagged_per_start(tmp_path, ros_env):
     """``record start --payload-known point``: tagged orthoglide.payload_known point and on the
     status (the live identification reads it there); the next loaded start without the flag is
     tagged with its mass only (Sect. 4.3: CoM and inertia unknown), nothing carried over."""
-    from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy, qos_profile_system_default
+    from rclpy.qos import (
+        DurabilityPolicy,
+        QoSProfile,
+        ReliabilityPolicy,
+    )
     from sensor_msgs.msg import JointState
     from std_srvs.srv import Trigger
 

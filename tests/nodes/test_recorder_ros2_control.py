@@ -3,12 +3,10 @@ dynamic_joint_states recorded with the QoS the broadcaster offers, ticks counted
 the ticks a topic dropped counted as missing."""
 from __future__ import annotations
 
-from rclpy.qos import QoSProfile, ReliabilityPolicy
-
 import time
 
 import numpy as np
-
+from rclpy.qos import QoSProfile, ReliabilityPolicy
 
 TICKS, DROPPED_JS, DROPPED_DJS = 600, (100, 101, 350), (200,)
 
@@ -19,10 +17,10 @@ WHOLE_RUN = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE)
 
 
 def test_records_the_broadcasters_topics(tmp_path):
-    from control_msgs.msg import DynamicJointState
     from sensor_msgs.msg import JointState
     from std_srvs.srv import Trigger
 
+    from control_msgs.msg import DynamicJointState
     from orthoglide_ident import bags
     from orthoglide_ident._install_ament import ROOT
     from orthoglide_msgs.srv import StartRecording
@@ -30,8 +28,14 @@ def test_records_the_broadcasters_topics(tmp_path):
     from orthoglide_sim.common.broadcaster import BroadcasterLayout
     from orthoglide_sim.demos.graph import Graph
 
-    arm = ("shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint", "wrist_1_joint", "wrist_2_joint",
-           "wrist_3_joint")
+    arm = (
+        "shoulder_pan_joint",
+        "shoulder_lift_joint",
+        "elbow_joint",
+        "wrist_1_joint",
+        "wrist_2_joint",
+        "wrist_3_joint",
+    )
     layout = BroadcasterLayout.of(arm, ["gripper_finger_joint"], "shuffled", seed=0)
     t0 = 1_796_000_000 * 10**9
     with Graph(tmp_path / "logs") as g:
@@ -41,7 +45,13 @@ def test_records_the_broadcasters_topics(tmp_path):
                 params_file=ROOT / "config" / "ros2_control.yaml")
         g.wait_for_match(js)  # the recorder's subscriptions, matched with these publishers
         g.wait_for_match(djs)
-        res = g.call(StartRecording, "orthoglide/recorder/start", condition="unloaded", payload_mass=0.0, name="r")
+        res = g.call(
+            StartRecording,
+            "orthoglide/recorder/start",
+            condition="unloaded",
+            payload_mass=0.0,
+            name="r",
+        )
         assert res.success, res.message
         g.wait_for_status(lambda s: s.recording and s.bag_path == res.bag_path)
         for k in range(TICKS):
@@ -52,8 +62,12 @@ def test_records_the_broadcasters_topics(tmp_path):
             if k not in DROPPED_DJS:
                 djs.publish(b)
             time.sleep(0.001)  # about 1 kHz, as the broadcaster publishes
-        last = (TICKS - 1) if TICKS - 1 not in DROPPED_JS else max(set(range(TICKS)) - set(DROPPED_JS))
-        g.wait_for_status(lambda s: s.last_tick.sec * 10**9 + s.last_tick.nanosec == t0 + last * 1_000_000)
+        last = (
+            (TICKS - 1) if TICKS - 1 not in DROPPED_JS else max(set(range(TICKS)) - set(DROPPED_JS))
+        )
+        g.wait_for_status(
+            lambda s: s.last_tick.sec * 10**9 + s.last_tick.nanosec == t0 + last * 1_000_000
+        )
         stop = g.call(Trigger, "orthoglide/recorder/stop")
     assert stop.success, stop.message
     # ticks written and missing are the joint_states' (the first JointState topic of `topics`)

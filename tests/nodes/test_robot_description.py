@@ -24,8 +24,14 @@ def test_a_urdf_text_is_loaded_once_by_its_hash(tmp_path):
     assert len(list(tmp_path.glob("*.urdf"))) == 1
     assert load_robot_description(URDF, tmp_path) is a  # published again: the same model
     other = URDF.replace('name="ur5"', 'name="ur5_b"', 1)
-    assert load_robot_description(other, tmp_path).name == "ur5_b" and len(list(tmp_path.glob("*.urdf"))) == 2
-    for bad, reason in (("<robot name='x'", "not valid XML"), ("<sdf/>", r"not a URDF \(root element <sdf>")):
+    assert (
+        load_robot_description(other, tmp_path).name == "ur5_b"
+        and len(list(tmp_path.glob("*.urdf"))) == 2
+    )
+    for bad, reason in (
+        ("<robot name='x'", "not valid XML"),
+        ("<sdf/>", r"not a URDF \(root element <sdf>"),
+    ):
         with pytest.raises(ConfigError, match=reason) as e:
             load_robot_description(bad, tmp_path)
         assert "\n" not in str(e.value)
@@ -34,7 +40,9 @@ def test_a_urdf_text_is_loaded_once_by_its_hash(tmp_path):
 class _Node:
     """The identification node (robot empty) and a client that publishes robot_description."""
 
-    def __init__(self, ros_env: dict, tmp_path: Path, args: list[str] = (), urdf: str = URDF) -> None:
+    def __init__(
+        self, ros_env: dict, tmp_path: Path, args: list[str] = (), urdf: str = URDF
+    ) -> None:
         import rclpy
         from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
         from std_msgs.msg import String
@@ -42,15 +50,28 @@ class _Node:
         from orthoglide_msgs.srv import Identify
 
         env = dict(ros_env, XDG_CACHE_HOME=str(tmp_path / "cache"))
-        code = "from orthoglide_ident.nodes.identification import main; import sys; sys.exit(main())"
-        self.proc = subprocess.Popen([sys.executable, "-c", code, "--ros-args", "-p", "live:=false", *args],
-                                     env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+        code = (
+            "from orthoglide_ident.nodes.identification import main; import sys; sys.exit(main())"
+        )
+        self.proc = subprocess.Popen(
+            [sys.executable, "-c", code, "--ros-args", "-p", "live:=false", *args],
+            env=env,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.STDOUT,
+            text=True,
+        )
         self.lines: list[str] = []
-        threading.Thread(target=lambda: self.lines.extend(iter(self.proc.stdout.readline, "")), daemon=True).start()
+        threading.Thread(
+            target=lambda: self.lines.extend(iter(self.proc.stdout.readline, "")), daemon=True
+        ).start()
         self.rclpy = rclpy
         rclpy.init()
         self.node = rclpy.create_node("test_robot_description")
-        latched = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL, reliability=ReliabilityPolicy.RELIABLE)
+        latched = QoSProfile(
+            depth=1,
+            durability=DurabilityPolicy.TRANSIENT_LOCAL,
+            reliability=ReliabilityPolicy.RELIABLE,
+        )
         self.pub = self.node.create_publisher(String, "/robot_description", latched)
         self.pub.publish(String(data=urdf))
         self.cli = self.node.create_client(Identify, "/orthoglide/identify")
@@ -81,10 +102,12 @@ def test_the_node_takes_the_published_urdf(ros_env, tmp_path):
     n = _Node(ros_env, tmp_path)
     try:
         n.wait_log("robot from robot_description: ur5, 6 joints shoulder_pan_joint")
-        res = n.identify([str(ROOT / "bags" / "unloaded"), str(ROOT / "bags" / "loaded")])  # Orthoglide bags
+        # Orthoglide bags
+        res = n.identify([str(ROOT / "bags" / "unloaded"), str(ROOT / "bags" / "loaded")])
     finally:
         n.close()
-    assert not res.success and "'shoulder_pan_joint'" in res.message, res.message  # the UR5's joints now
+    # the UR5's joints now
+    assert not res.success and "'shoulder_pan_joint'" in res.message, res.message
 
 
 @pytest.mark.slow
@@ -93,13 +116,19 @@ def test_identifies_a_ur5_from_the_published_urdf(ros_env, tmp_path):
     shape in the tag), identified with the URDF from robot_description, which has no nominal gains
     (1 N·m/A: gain_range_ratio widened to admit 13.5): every gain within 0.5 % of the plant's."""
     import rclpy  # noqa: F401
+
     from orthoglide_sim.arms.bags import write_record
     from orthoglide_sim.arms.record import simulate_arm
 
     recs = [simulate_arm(20.0, "ur5_mount", payload=None, trajectory="exciting1", seed=0),
             simulate_arm(20.0, "ur5_mount", payload="2.0", trajectory="exciting2", seed=1)]
     bags = [str(write_record(tmp_path / name, r)) for name, r in zip(("u", "l"), recs)]
-    n = _Node(ros_env, tmp_path, ["-p", "gain_range_ratio:=20.0"], (ROBOTS_DIR / "ur5_mount.urdf").read_text())
+    n = _Node(
+        ros_env,
+        tmp_path,
+        ["-p", "gain_range_ratio:=20.0"],
+        (ROBOTS_DIR / "ur5_mount.urdf").read_text(),
+    )
     try:
         n.wait_log("robot from robot_description")
         res = n.identify(bags)

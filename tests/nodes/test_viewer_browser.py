@@ -7,7 +7,6 @@ import time
 
 import numpy as np
 import pytest
-
 from headless_browser import FOXGLOVE_PAGE_JS, HeadlessPage, find_browser
 
 G_TRUE = np.array([2170.0, 2100.0, 2070.0])  # N/A, the simulator's drive gains
@@ -17,7 +16,9 @@ def _viewer_url(g, timeout: float = 60.0) -> str:
     t_end = time.monotonic() + timeout
     while time.monotonic() < t_end:
         g.check_alive()
-        m = re.search(r"Foxglove view on (ws://[\d.]+:\d+)", (g.log_dir / "orthoglide_viewer.log").read_text())
+        m = re.search(
+            r"Foxglove view on (ws://[\d.]+:\d+)", (g.log_dir / "orthoglide_viewer.log").read_text()
+        )
         if m:
             return m.group(1)
         time.sleep(0.1)
@@ -31,17 +32,21 @@ def _wait(page: HeadlessPage, expression: str, timeout: float = 30.0):
         if value:
             return value
         time.sleep(0.2)
-    raise AssertionError(f"never true in the page: {expression}; page state: {page.evaluate('window.fx')}")
+    raise AssertionError(
+        f"never true in the page: {expression}; page state: {page.evaluate('window.fx')}"
+    )
 
 
 @pytest.mark.slow
 def test_a_browser_page_receives_the_live_gains_during_a_recording(tmp_path):
     binary = find_browser()
     if binary is None:
-        pytest.skip("chromium-headless-shell is not installed (apt-get install -y chromium-headless-shell; "
-                    ".ci/run installs it when apt can reach Debian's packages)")
-    from orthoglide_sim.demos.node_set import record
+        pytest.skip(
+            "chromium-headless-shell is not installed (apt-get install -y chromium-headless-shell; "
+            ".ci/run installs it when apt can reach Debian's packages)"
+        )
     from orthoglide_sim.demos.graph import Graph
+    from orthoglide_sim.demos.node_set import record
 
     with Graph(tmp_path / "logs") as g:
         g.start("orthoglide_driver", "driver", {"trajectory": "exciting", "controller": "pid"})
@@ -77,7 +82,8 @@ def test_a_browser_page_receives_the_live_gains_during_a_recording(tmp_path):
     assert any(m["status"].startswith("unloaded only") for m in fx["live"])  # before the payload
     last = solved[-1]
     stamp = last["stamp"]
-    assert int(last["log_time"]) == stamp["sec"] * 10**9 + stamp["nanosec"]  # exact: BigInt, not a double
+    # exact: BigInt, not a double
+    assert int(last["log_time"]) == stamp["sec"] * 10**9 + stamp["nanosec"]
     gains = np.array([x["value"] for x in last["gains"]])
     assert [x["joint"] for x in last["gains"]] == ["q11", "q12", "q13"]
     assert np.all(np.abs(gains / G_TRUE - 1) < 0.02), gains

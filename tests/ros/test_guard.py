@@ -7,11 +7,10 @@ import threading
 import time
 
 import pytest
+import rclpy
 
 from orthoglide_ident.errors import ConfigError
 from orthoglide_ident.ros.spin import check_params_files
-
-import rclpy
 
 
 def test_raising_callbacks_are_logged_once_answered_and_the_node_goes_on(capfd):
@@ -57,7 +56,10 @@ def test_raising_callbacks_are_logged_once_answered_and_the_node_goes_on(capfd):
             rclpy.spin_until_future_complete(client_node, fut, timeout_sec=20)
             assert fut.done()
             res = fut.result()
-            assert not res.success and res.message == "internal error: ZeroDivisionError: division by zero"
+            assert (
+                not res.success
+                and res.message == "internal error: ZeroDivisionError: division by zero"
+            )
         deadline = time.monotonic() + 20
         while pub.get_subscription_count() < 1 and time.monotonic() < deadline:
             time.sleep(0.05)
@@ -69,7 +71,8 @@ def test_raising_callbacks_are_logged_once_answered_and_the_node_goes_on(capfd):
         n = len(ticks)
         while len(ticks) < n + 3 and time.monotonic() < deadline:
             time.sleep(0.05)
-        assert len(ticks) >= n + 3 and spinner.is_alive()  # the timer goes on firing, the executor spinning
+        # the timer goes on firing, the executor spinning
+        assert len(ticks) >= n + 3 and spinner.is_alive()
     finally:
         executor.shutdown()
         spinner.join(5)
@@ -80,10 +83,19 @@ def test_raising_callbacks_are_logged_once_answered_and_the_node_goes_on(capfd):
     err = capfd.readouterr().err
     lines = [ln for ln in err.splitlines() if "failed:" in ln]
     # one line per failing callback, then one per REPEAT_LOG_S at most (repeats counted, not logged)
-    assert len([ln for ln in lines if "service guard_test failed: ZeroDivisionError" in ln]) == 1, lines
-    timer = [ln for ln in lines if "on_timer failed: RuntimeError: timer bug; the node goes on" in ln]
-    assert 1 <= len(timer) <= 1 + elapsed / REPEAT_LOG_S and len(timer) < len(ticks), (timer, len(ticks))
-    assert len([ln for ln in lines if "guard_topic failed: ValueError: cannot parse 'bad'" in ln]) == 1
+    assert len([ln for ln in lines if "service guard_test failed: ZeroDivisionError" in ln]) == 1, (
+        lines
+    )
+    timer = [
+        ln for ln in lines if "on_timer failed: RuntimeError: timer bug; the node goes on" in ln
+    ]
+    assert 1 <= len(timer) <= 1 + elapsed / REPEAT_LOG_S and len(timer) < len(ticks), (
+        timer,
+        len(ticks),
+    )
+    assert (
+        len([ln for ln in lines if "guard_topic failed: ValueError: cannot parse 'bad'" in ln]) == 1
+    )
     assert "Traceback" not in err
 
 
@@ -91,10 +103,13 @@ def test_a_parameter_file_is_checked_before_rcl_reads_it(tmp_path):
     good = tmp_path / "good.yaml"
     good.write_text("/**:\n  ros__parameters:\n    batch: 5\n")
     check_params_files(["ctc", "--ros-args", "--params-file", str(good), "-p", "batch:=3"])
-    check_params_files(["ctc", "--params-file", "not/ros/args.yaml"])  # outside --ros-args: not ours
+    # outside --ros-args: not ours
+    check_params_files(["ctc", "--params-file", "not/ros/args.yaml"])
     bad = tmp_path / "bad.yaml"
     bad.write_text("orthoglide_ctc:\n  ros__parameters: [batch]\n")
     with pytest.raises(ConfigError, match="is not a ROS 2 parameter file"):
         check_params_files(["ctc", "--ros-args", "-p", "x:=1", "--params-file", str(bad)])
-    with pytest.raises(ConfigError, match="cannot read parameter file .*missing.yaml: No such file"):
+    with pytest.raises(
+        ConfigError, match="cannot read parameter file .*missing.yaml: No such file"
+    ):
         check_params_files(["ctc", "--ros-args", "--params-file", str(tmp_path / "missing.yaml")])

@@ -19,9 +19,10 @@ from orthoglide_ident.ros import processes as children
 from orthoglide_ident.ros.processes import _ros2_launcher
 
 
-
 def test_a_ros2_launcher_is_recognised_and_nothing_else():
-    assert _ros2_launcher(["/venv/bin/python3.11", "/venv/bin/ros2", "launch", "orthoglide_ident", "x.py"])
+    assert _ros2_launcher(
+        ["/venv/bin/python3.11", "/venv/bin/ros2", "launch", "orthoglide_ident", "x.py"]
+    )
     assert _ros2_launcher(["ros2", "run", "orthoglide_ident", "recorder"])
     assert not _ros2_launcher(["/bin/bash"])
     assert not _ros2_launcher(["python", "-m", "pytest", "tests/ros2"])
@@ -77,15 +78,29 @@ def test_a_burst_of_stop_signals_ends_a_node_cleanly(tmp_path, ros_env):
     and a signal arriving inside it waited for its lock forever: a node up and deaf."""
     log = tmp_path / "recorder.log"
     with open(log, "w") as err:
-        node = children.popen([sys.executable, "-m", "orthoglide_ident.nodes.recorder", "--ros-args",
-                               "-p", f"output_dir:={tmp_path / 'bags'}"], env=ros_env, stderr=err)
+        node = children.popen(
+            [
+                sys.executable,
+                "-m",
+                "orthoglide_ident.nodes.recorder",
+                "--ros-args",
+                "-p",
+                f"output_dir:={tmp_path / 'bags'}",
+            ],
+            env=ros_env,
+            stderr=err,
+        )
     try:
         deadline = time.monotonic() + 60
         while "recorder ready" not in log.read_text():
             assert time.monotonic() < deadline and node.poll() is None, log.read_text()
             time.sleep(0.1)
         t_end = time.monotonic() + 2.0  # signals spread over the handler's run (2 cores): nested
-        while time.monotonic() < t_end and node.poll() is None and "stopping on" not in log.read_text():
+        while (
+            time.monotonic() < t_end
+            and node.poll() is None
+            and "stopping on" not in log.read_text()
+        ):
             for sig in (signal.SIGTERM, signal.SIGINT, signal.SIGHUP):
                 try:
                     os.kill(node.pid, sig)

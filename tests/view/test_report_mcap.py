@@ -1,4 +1,6 @@
-"""``report --mcap``: the identification's plots as an MCAP file, read back with the mcap library."""
+"""``report --mcap``: the identification's plots as an MCAP file, read back with the mcap
+library."""
+
 from __future__ import annotations
 
 import json
@@ -10,15 +12,16 @@ from mcap.reader import make_reader
 
 from orthoglide_ident.cli import main
 from orthoglide_ident.identify import identify
+from orthoglide_ident.model.robots import load_robot
 from orthoglide_ident.report import validation_for_plot
 from orthoglide_ident.view.convergence import gain_convergence, record_seconds
 from orthoglide_ident.view.report_mcap import write_report_mcap
-from orthoglide_ident.model.robots import load_robot
 
 ORTHOGLIDE = load_robot("orthoglide")  # the robot these records are of
 
 ROOT = Path(__file__).resolve().parents[2]
-BAGS = [str(ROOT / "bags" / "unloaded"), str(ROOT / "bags" / "loaded")]  # the simulator's, 10 s each
+# the simulator's, 10 s each
+BAGS = [str(ROOT / "bags" / "unloaded"), str(ROOT / "bags" / "loaded")]
 
 
 @pytest.fixture(scope="module")
@@ -32,7 +35,7 @@ def _read(path: Path):
         summary = reader.get_summary()
         messages: dict[str, list] = {}
         times: list[int] = []
-        for schema, channel, message in reader.iter_messages(log_time_order=False):
+        for _schema, channel, message in reader.iter_messages(log_time_order=False):
             messages.setdefault(channel.topic, []).append(json.loads(message.data))
             times.append(message.log_time)
         meta = {m.name: m.metadata for m in reader.iter_metadata()}
@@ -48,8 +51,13 @@ def test_the_mcap_holds_forces_residual_and_convergence_with_json_schemas(result
     for schema, channel in topics.values():  # what Foxglove needs to decode and name the fields
         assert schema.encoding == "jsonschema" and channel.message_encoding == "json"
         assert json.loads(schema.data)["type"] == "object"
-    counts = {topics[t][1].topic: n for t, n in
-              ((summary.channels[i].topic, n) for i, n in summary.statistics.channel_message_counts.items())}
+    counts = {
+        topics[t][1].topic: n
+        for t, n in (
+            (summary.channels[i].topic, n)
+            for i, n in summary.statistics.channel_message_counts.items()
+        )
+    }
     val, crossed = validation_for_plot(result)
     assert not crossed  # no validation bag: the last identification record, as torques.png
     assert counts["/orthoglide/report/forces"] == val.t.shape[0]  # every decimated row
@@ -64,9 +72,11 @@ def test_the_mcap_holds_forces_residual_and_convergence_with_json_schemas(result
     np.testing.assert_allclose(forces[k]["measured"], val.tau_measured[:, k])
     np.testing.assert_allclose(forces[k]["residual"], val.tau_measured[:, k] - val.tau_model[:, k])
     resid = np.array([m["residual"] for m in forces]).T
-    keep = result.observations[-1].keep  # the rows the identification used (not at velocity reversals)
+    # the rows the identification used (not at velocity reversals)
+    keep = result.observations[-1].keep
     rms = [np.sqrt(np.mean(r[k] ** 2)) for r, k in zip(resid, keep)]
-    np.testing.assert_allclose(rms, val.residual_rms, rtol=1e-9)  # the figure in torques.png's titles
+    # the figure in torques.png's titles
+    np.testing.assert_allclose(rms, val.residual_rms, rtol=1e-9)
 
 
 def test_the_convergence_ends_on_the_identified_gains(result, tmp_path):

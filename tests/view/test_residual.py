@@ -1,15 +1,17 @@
-"""The live force residual: measured g_τ v_τ against the identified model, from the positions alone."""
+"""The live force residual: measured g_τ v_τ against the identified model, from the positions
+alone."""
+
 from __future__ import annotations
 
 import numpy as np
 import pytest
+from coupled_view import G_MOTORS, MOTORS, N_WRIST, coupled_model, coupled_record
+from synthetic import synthetic_record, trajectory
 
 from orthoglide_ident.errors import ConfigError, OrthoglideError
 from orthoglide_ident.identify.observe.filtering import filter_horizon
 from orthoglide_ident.model.robots import load_robot
 from orthoglide_ident.view.residual import ForceResidual
-from coupled_view import G_MOTORS, MOTORS, N_WRIST, coupled_model, coupled_record
-from synthetic import synthetic_record, trajectory
 
 SECONDS = 4.0
 AMPLITUDE = 0.04  # m: the Orthoglide's safe box
@@ -25,7 +27,9 @@ def orthoglide():
 
 def _record(orthoglide, payload=1.983):
     bm, chi, g = orthoglide
-    return synthetic_record(SECONDS, payload, model=bm, chi=chi, g_tau=g, noise=False, amplitude=AMPLITUDE)
+    return synthetic_record(
+        SECONDS, payload, model=bm, chi=chi, g_tau=g, noise=False, amplitude=AMPLITUDE
+    )
 
 
 def _feed(res: ForceResidual, rec, batch: int, order=("q", "v"), names=None):
@@ -43,15 +47,19 @@ def _residual(orthoglide, m7_model=1.983, batch=37, rec=None):
     bm, chi, g = orthoglide
     rec = rec or _record(orthoglide)
     res = ForceResidual(bm)
-    res.set_parameters(["q13", "q11", "q12"], list(g[[2, 0, 1]]), list(bm.names), list(chi))  # any order
+    # any order
+    res.set_parameters(["q13", "q11", "q12"], list(g[[2, 0, 1]]), list(bm.names), list(chi))
     res.set_payload(m7_model)
     return rec, _feed(res, rec, batch)
 
 
 def _far_from_reversals(rec, blocks, v_min=0.03):
     """Blocks whose joints all move faster than v_min: the model's sign() friction, like the
-    identification's, jumps at a velocity reversal that the filtered states smear over a few ticks."""
-    _, qd, _ = trajectory((np.array([b.stamp_ns for b in blocks]) - rec.stamps_q_ns[0]) * 1e-9, 0, AMPLITUDE)
+    identification's, jumps at a velocity reversal that the filtered states smear over a few
+    ticks."""
+    _, qd, _ = trajectory(
+        (np.array([b.stamp_ns for b in blocks]) - rec.stamps_q_ns[0]) * 1e-9, 0, AMPLITUDE
+    )
     return np.abs(qd) > v_min
 
 
@@ -59,14 +67,16 @@ def test_model_force_matches_the_measured_force_of_a_model_consistent_record(ort
     rec, blocks = _residual(orthoglide)
     ticks = len(rec.stamps_q_ns)
     H = filter_horizon(1e-3, 100.0, 4)
-    assert len(blocks) == (ticks - 2 * H - 1) // 20  # every block with its filter context, none twice
+    # every block with its filter context, none twice
+    assert len(blocks) == (ticks - 2 * H - 1) // 20
     assert all(b.ticks == 20 for b in blocks)
     meas = np.array([b.measured for b in blocks])
     resid = meas - np.array([b.model for b in blocks])
     far = _far_from_reversals(rec, blocks)
     rms = np.sqrt(np.mean(meas ** 2, axis=0))
     assert np.all(rms > 20.0)  # N: the forces are real
-    for j in range(3):  # the derivative filter's error only: < 0.2 % of the force away from reversals
+    # the derivative filter's error only: < 0.2 % of the force away from reversals
+    for j in range(3):
         assert np.sqrt(np.mean(resid[far[:, j], j] ** 2)) < 2e-3 * rms[j]
 
 
@@ -78,9 +88,11 @@ def test_a_payload_left_out_of_the_model_shows_as_its_force(orthoglide):
     diff = np.array([b.model for b in with_payload]) - np.array([b.model for b in without])
     t = (np.array([b.stamp_ns for b in with_payload]) - rec.stamps_q_ns[0]) * 1e-9
     q, qd, qdd = trajectory(t, 0, AMPLITUDE)
-    expected = 1.983 * bm.payload_mass_column(q, qd, qdd).reshape(3, -1).T  # at the block's middle tick
+    # at the block's middle tick
+    expected = 1.983 * bm.payload_mass_column(q, qd, qdd).reshape(3, -1).T
     assert np.abs(diff).max() > 5.0  # N: gravity on q13 and the payload's inertia
-    assert np.abs(diff - expected).max() < 0.01 * np.abs(expected).max()  # a 20 ms mean of a smooth force
+    # a 20 ms mean of a smooth force
+    assert np.abs(diff - expected).max() < 0.01 * np.abs(expected).max()
 
 
 def test_blocks_do_not_depend_on_how_the_ticks_arrive(orthoglide):
@@ -92,7 +104,9 @@ def test_blocks_do_not_depend_on_how_the_ticks_arrive(orthoglide):
     b = _feed(res, rec, 7, order=("v", "q"))  # currents first, small batches
     assert [x.stamp_ns for x in a] == [x.stamp_ns for x in b]
     np.testing.assert_allclose([x.model for x in a], [x.model for x in b], rtol=1e-9, atol=1e-9)
-    np.testing.assert_allclose([x.measured for x in a], [x.measured for x in b], rtol=1e-9, atol=1e-9)
+    np.testing.assert_allclose(
+        [x.measured for x in a], [x.measured for x in b], rtol=1e-9, atol=1e-9
+    )
 
 
 def test_a_gap_restarts_the_filter_and_no_block_spans_it(orthoglide):
@@ -183,7 +197,9 @@ def test_a_transmission_gives_the_residual_per_motor_and_per_joint(coupled):
     assert np.all(rms > 0.01)  # N·m at the motor shafts: the forces are real
     # the derivative filter's error only (no sign() friction here; five-point differences of
     # sinusoids below 0.4 Hz: ~(ωT)⁴ ≈ 1e-12, measured 2e-11 of each motor's force)
-    assert np.all(np.sqrt(np.mean(resid ** 2, axis=0)) < 1e-6 * rms), np.sqrt(np.mean(resid ** 2, axis=0)) / rms
+    assert np.all(np.sqrt(np.mean(resid**2, axis=0)) < 1e-6 * rms), (
+        np.sqrt(np.mean(resid**2, axis=0)) / rms
+    )
     joint = np.array([b.joint_residual for b in blocks])
     np.testing.assert_allclose(joint, resid @ N_WRIST, rtol=1e-12, atol=1e-15)
     # without the transmission's offsets and coupling (positions taken as the motors'), it fails

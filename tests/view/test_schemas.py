@@ -15,8 +15,15 @@ from orthoglide_ident.view import schemas
 from orthoglide_ident.view.decimate import StampDecimator, cdr_stamps
 
 ROOT = Path(__file__).resolve().parents[2]
-_TYPES = {"object": dict, "array": list, "string": str, "boolean": bool, "integer": int, "number": (int, float),
-          "null": type(None)}
+_TYPES = {
+    "object": dict,
+    "array": list,
+    "string": str,
+    "boolean": bool,
+    "integer": int,
+    "number": (int, float),
+    "null": type(None),
+}
 
 
 def conforms(value, schema: dict, where: str = "$") -> None:
@@ -24,8 +31,11 @@ def conforms(value, schema: dict, where: str = "$") -> None:
     types = schema.get("type", [])
     types = [types] if isinstance(types, str) else types
     if types:
-        ok = any(isinstance(value, _TYPES[t]) and not (t in ("integer", "number") and isinstance(value, bool))
-                 for t in types) or (value is None and "number" in types)  # null: a non-finite number
+        ok = any(
+            isinstance(value, _TYPES[t])
+            and not (t in ("integer", "number") and isinstance(value, bool))
+            for t in types
+        ) or (value is None and "number" in types)  # null: a non-finite number
         assert ok, f"{where}: {value!r} is not {types}"
     if isinstance(value, dict):
         for key in schema.get("required", []):
@@ -33,7 +43,9 @@ def conforms(value, schema: dict, where: str = "$") -> None:
         for key, sub in schema.get("properties", {}).items():
             if key in value:
                 conforms(value[key], sub, f"{where}.{key}")
-        assert set(value) <= set(schema.get("properties", value)), f"{where}: fields beyond the schema"
+        assert set(value) <= set(schema.get("properties", value)), (
+            f"{where}: fields beyond the schema"
+        )
     if isinstance(value, list) and "items" in schema:
         for i, item in enumerate(value):
             conforms(item, schema["items"], f"{where}[{i}]")
@@ -47,26 +59,59 @@ STAMP = 1_796_221_347_705_600_829  # ns: more digits than a double holds
 
 
 def _messages() -> dict[str, dict]:
-    live = {"status": "gains known to 0.14 %", "enough_data": True, "joint_names": ["q11", "q12", "q13"],
-            "drive_gains": [2170.0, 2100.0, 2070.0], "drive_gains_rel_std": [0.0014, 0.0011, 0.0008],
-            "unloaded_seconds": 15.0, "loaded_seconds": 9.0, "singular_ratio": 0.01, "condition_number": math.inf,
-            "residual_rms": [0.5, 0.4, 0.3], "lag": 0.9, "warnings": ["lost 3 ticks", "NaN dropped"]}
-    status = {"recording": True, "condition": "loaded", "payload_mass": 1.983, "bag_path": "bags/loaded_1",
-              "ticks_written": 14415, "ticks_missing": 2, "first_tick": _time(STAMP), "last_tick": _time(STAMP),
-              "message": "recording loaded"}
-    ident = {"method": "tls", "joint_names": ["q11", "q12", "q13"], "drive_gains": [2176.8, 2100.3, 2064.0],
-             "drive_gains_rel_std": [0.0014, 0.0011, 0.0008], "names": ["m_6R", "fv_1R"], "values": [1.2, 80.0],
-             "rel_std": [0.01, -1.0], "payload_mass": 1.983, "residual_rms": 0.53, "condition_number": 2.6e4,
-             "source_bags": ["live"]}
+    live = {
+        "status": "gains known to 0.14 %",
+        "enough_data": True,
+        "joint_names": ["q11", "q12", "q13"],
+        "drive_gains": [2170.0, 2100.0, 2070.0],
+        "drive_gains_rel_std": [0.0014, 0.0011, 0.0008],
+        "unloaded_seconds": 15.0,
+        "loaded_seconds": 9.0,
+        "singular_ratio": 0.01,
+        "condition_number": math.inf,
+        "residual_rms": [0.5, 0.4, 0.3],
+        "lag": 0.9,
+        "warnings": ["lost 3 ticks", "NaN dropped"],
+    }
+    status = {
+        "recording": True,
+        "condition": "loaded",
+        "payload_mass": 1.983,
+        "bag_path": "bags/loaded_1",
+        "ticks_written": 14415,
+        "ticks_missing": 2,
+        "first_tick": _time(STAMP),
+        "last_tick": _time(STAMP),
+        "message": "recording loaded",
+    }
+    ident = {
+        "method": "tls",
+        "joint_names": ["q11", "q12", "q13"],
+        "drive_gains": [2176.8, 2100.3, 2064.0],
+        "drive_gains_rel_std": [0.0014, 0.0011, 0.0008],
+        "names": ["m_6R", "fv_1R"],
+        "values": [1.2, 80.0],
+        "rel_std": [0.01, -1.0],
+        "payload_mass": 1.983,
+        "residual_rms": 0.53,
+        "condition_number": 2.6e4,
+        "source_bags": ["live"],
+    }
     return {
-        schemas.JOINT_STATES: schemas.joint_values(STAMP, ["q11", "q12", "q13"], position=[0.01, 0.02, math.nan]),
+        schemas.JOINT_STATES: schemas.joint_values(
+            STAMP, ["q11", "q12", "q13"], position=[0.01, 0.02, math.nan]
+        ),
         schemas.CURRENT_REFERENCE: schemas.joint_values(STAMP, ["a", "b"], current=[0.1, -0.2]),
-        schemas.SETPOINTS: schemas.joint_values(STAMP, ["q11"], position=[0.0], velocity=[0.1], acceleration=[2.0]),
+        schemas.SETPOINTS: schemas.joint_values(
+            STAMP, ["q11"], position=[0.0], velocity=[0.1], acceleration=[2.0]
+        ),
         schemas.LIVE: schemas.live(STAMP, live),
         schemas.RECORDER_STATUS: schemas.recorder_status(STAMP, status),
         schemas.IDENTIFIED: schemas.identified(STAMP, ident),
         schemas.FORCES: schemas.forces(STAMP, ["q11", "q12"], [10.0, 20.0], [9.5, 21.0], 20),
-        schemas.REPORT_CONVERGENCE: schemas.convergence(STAMP, 5.0, 5.0, 5.0, ["q11"], [2170.0], [0.002]),
+        schemas.REPORT_CONVERGENCE: schemas.convergence(
+            STAMP, 5.0, 5.0, 5.0, ["q11"], [2170.0], [0.002]
+        ),
     }
 
 
@@ -82,22 +127,39 @@ def test_gains_carry_sigma_and_the_band_as_numbers():
     live = _messages()[schemas.LIVE]
     g = live["gains"][0]
     assert g["joint"] == "q11" and g["value"] == 2170.0
-    assert g["sigma"] == pytest.approx(2170.0 * 0.0014) and g["rel_std_percent"] == pytest.approx(0.14)
-    assert g["low"] == pytest.approx(2170.0 - g["sigma"]) and g["high"] == pytest.approx(2170.0 + g["sigma"])
+    assert g["sigma"] == pytest.approx(2170.0 * 0.0014) and g["rel_std_percent"] == pytest.approx(
+        0.14
+    )
+    assert g["low"] == pytest.approx(2170.0 - g["sigma"]) and g["high"] == pytest.approx(
+        2170.0 + g["sigma"]
+    )
     assert live["warnings"] == "lost 3 ticks | NaN dropped" and live["condition_number"] is None
     assert _messages()[schemas.JOINT_STATES]["position"][2] is None
     params = _messages()[schemas.IDENTIFIED]["parameters"]
     assert params[1]["rel_std_percent"] is None  # -1: undefined in the message
     forces = _messages()[schemas.FORCES]
     assert forces["residual"] == [0.5, -1.0]
-    empty = schemas.live(STAMP, {**_messages_live_fields(), "drive_gains": [], "drive_gains_rel_std": []})
+    empty = schemas.live(
+        STAMP, {**_messages_live_fields(), "drive_gains": [], "drive_gains_rel_std": []}
+    )
     assert empty["gains"] == []  # not solvable yet
 
 
 def _messages_live_fields():
-    return {"status": "collecting", "enough_data": False, "joint_names": ["q11"], "drive_gains": [],
-            "drive_gains_rel_std": [], "unloaded_seconds": 0.0, "loaded_seconds": 0.0, "singular_ratio": math.nan,
-            "condition_number": math.nan, "residual_rms": [], "lag": 0.0, "warnings": []}
+    return {
+        "status": "collecting",
+        "enough_data": False,
+        "joint_names": ["q11"],
+        "drive_gains": [],
+        "drive_gains_rel_std": [],
+        "unloaded_seconds": 0.0,
+        "loaded_seconds": 0.0,
+        "singular_ratio": math.nan,
+        "condition_number": math.nan,
+        "residual_rms": [],
+        "lag": 0.0,
+        "warnings": [],
+    }
 
 
 def test_decimation_keeps_the_first_message_of_each_period_whatever_the_batches():
@@ -105,7 +167,9 @@ def test_decimation_keeps_the_first_message_of_each_period_whatever_the_batches(
     expected = np.flatnonzero(stamps % 20_000_000 == 0)
     for batch in (1, 7, 100, 1000):
         d = StampDecimator(20_000_000)
-        got = np.concatenate([a + d.pick(stamps[a:a + batch]) for a in range(0, len(stamps), batch)])
+        got = np.concatenate(
+            [a + d.pick(stamps[a : a + batch]) for a in range(0, len(stamps), batch)]
+        )
         np.testing.assert_array_equal(got, expected)
     d = StampDecimator(20_000_000)
     d.pick(stamps[:500])
@@ -134,12 +198,19 @@ def foxglove_parses(schema: dict, where: str) -> None:
     arrays, strings without a contentEncoding other than base64 (none here)."""
     assert schema.get("type") == "object", where
     for name, prop in schema["properties"].items():
-        assert isinstance(prop.get("type"), str) and prop["type"] in _FOXGLOVE_TYPES, (where, name, prop)
+        assert isinstance(prop.get("type"), str) and prop["type"] in _FOXGLOVE_TYPES, (
+            where,
+            name,
+            prop,
+        )
         if prop["type"] == "object":
             foxglove_parses(prop, f"{where}.{name}")
         if prop["type"] == "array":
             item = prop["items"]
-            assert isinstance(item.get("type"), str) and item["type"] in _FOXGLOVE_TYPES[:-1], (where, name)
+            assert isinstance(item.get("type"), str) and item["type"] in _FOXGLOVE_TYPES[:-1], (
+                where,
+                name,
+            )
             if item["type"] == "object":
                 foxglove_parses(item, f"{where}.{name}[]")
 
@@ -162,7 +233,9 @@ def test_the_layout_plots_fields_that_exist():
     panels = layout["configById"]
     seen = set()
     for pid, cfg in panels.items():
-        paths = [p["value"] for p in cfg.get("paths", [])] + ([cfg["topicPath"]] if "topicPath" in cfg else [])
+        paths = [p["value"] for p in cfg.get("paths", [])] + (
+            [cfg["topicPath"]] if "topicPath" in cfg else []
+        )
         for value in paths:
             topic, _, path = value.partition(".")
             assert topic in topics, (pid, value)
@@ -171,9 +244,16 @@ def test_the_layout_plots_fields_that_exist():
                 assert "number" in leaf["type"], (pid, value)  # something a plot can draw
             seen.add(topic)
     # gains ± σ, measured vs model force (live and report), positions, currents, status: one view
-    assert {"/orthoglide/identification/live", "/orthoglide/report/convergence", "/orthoglide/forces",
-            "/orthoglide/report/forces", "/orthoglide/joint_states", "/orthoglide/current_reference",
-            "/orthoglide/recorder/status", "/orthoglide/identified_parameters"} <= seen
+    assert {
+        "/orthoglide/identification/live",
+        "/orthoglide/report/convergence",
+        "/orthoglide/forces",
+        "/orthoglide/report/forces",
+        "/orthoglide/joint_states",
+        "/orthoglide/current_reference",
+        "/orthoglide/recorder/status",
+        "/orthoglide/identified_parameters",
+    } <= seen
 
     def leaves(node):
         return [node] if isinstance(node, str) else leaves(node["first"]) + leaves(node["second"])

@@ -38,19 +38,20 @@ The other periods' mean is free of the row's own noise.)
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Sequence
 
 import numpy as np
 
-from orthoglide_ident.identify.solve.factors import RecordFactors
 from orthoglide_ident.identify.observe.stream import model_block
+from orthoglide_ident.identify.solve.factors import RecordFactors
 from orthoglide_ident.identify.solve.uncertainty import WAVELENGTHS_M, Uncertainty, spectrum_peaks
 
 
 @dataclass(frozen=True)
 class RippleTerm:
-    """Two columns of joint ``joint`` (its index): a ripple of wavelength ``wavelength_m``; ``index``
+    """Two columns of joint ``joint`` (its index): a ripple of wavelength ``wavelength_m``;
+    ``index``
     is its wavelength in the residual's position spectrum (WAVELENGTHS_M) when the columns are
     built from the moments, None when they are in the equations (DriveTermsModel)."""
 
@@ -213,14 +214,15 @@ class DriveTermsModel:
         return out
 
     def regressor(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> np.ndarray:
-        """[W | lag (zero: it needs the currents) | ripple] (n_j N, n_b + k), rows joint by joint."""
+        """[W | lag (zero: it needs the currents) | ripple] (n_j N, n_b + k), rows joint by
+        joint."""
         X = self.observation_block(q, qd, qdd)[:-1]
         return X.transpose(1, 2, 0).reshape(-1, X.shape[0])
 
     def payload_mass_column(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> np.ndarray:
         return self.base.payload_mass_column(q, qd, qdd)
 
-    def with_payload(self, payload) -> "DriveTermsModel":
+    def with_payload(self, payload) -> DriveTermsModel:
         """The same drive terms on the base model bound to ``payload`` (RobotModel.with_payload)."""
         base = self.base.with_payload(payload)
         return self if base is self.base else DriveTermsModel(base, self.lead_m,

@@ -162,7 +162,7 @@ class PayloadUnknownsModel:
     def random_states(self, n: int, seed: int = 0):
         return self.base.random_states(n, seed)
 
-    def with_payload(self, payload: Payload) -> "PayloadUnknownsModel":
+    def with_payload(self, payload: Payload) -> PayloadUnknownsModel:
         """The model of a loaded record carrying ``payload``: its known part in W_kl, its
         unknown kinds in W_ul (ConfigError when they regroup otherwise at its frame)."""
         if payload.unknown and (payload.frame or self.payload_frame) != \
@@ -185,7 +185,7 @@ class PayloadUnknownsModel:
         return PayloadUnknownsModel(self.base, self.basis, self.payload,
                                     tuple(self.columns[c] for c in columns))
 
-    def at_frame(self, frame: str) -> "PayloadUnknownsModel":
+    def at_frame(self, frame: str) -> PayloadUnknownsModel:
         """The same columns named and regrouped as at ``frame`` (a loaded payload's)."""
         if (frame or self.payload_frame) == (self.basis.frame or self.payload_frame):
             return self
@@ -199,7 +199,7 @@ class PayloadUnknownsModel:
         return getattr(self.base, name)
 
 
-_BASES: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()  # model -> its basis
+_BASES: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()  # model -> its basis
 
 
 def with_payload_unknowns(model):

@@ -37,16 +37,22 @@ import json
 import logging
 import math
 import time
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Mapping, Sequence
+from typing import Any
 
 import numpy as np
 
 from orthoglide_ident.errors import ConfigError, IdentificationError
 from orthoglide_ident.identify.consistency import lmi
-from orthoglide_ident.identify.consistency.pseudo_inertia import (MARGIN, Layout, clean, layout,
-                                                      min_eigenvalues)
+from orthoglide_ident.identify.consistency.pseudo_inertia import (
+    MARGIN,
+    Layout,
+    clean,
+    layout,
+    min_eigenvalues,
+)
 from orthoglide_ident.model.inertia import at_com
 
 log = logging.getLogger("orthoglide_ident.identify")
@@ -330,7 +336,7 @@ class ConsistencyResult:
     def to_json(self) -> dict[str, Any]:
         out: dict[str, Any] = {
             "constraints": "pseudo-inertia of every body ⪰ 0 (Wensing, Kim & Slotine 2018), "
-                           "ia, fv, fs ≥ 0; scaled pseudo-inertias ⪰ %g 1" % MARGIN,
+                           f"ia, fv, fs ≥ 0; scaled pseudo-inertias ⪰ {MARGIN:g} 1",
             "prior": self.lay.prior_source + ("; elsewhere a weak default: a solid sphere of "
                                               "radius 0.05 m at each body frame's origin with "
                                               "the body's mass, no rotor inertia or friction"),
@@ -499,7 +505,9 @@ def mass_warnings(c: ConsistencyResult, model, res) -> list[str]:
         cause = ("the gains are not known (WLS with a bare URDF's 1 per unit scales every mass "
                  "by 1/g): give --gains, e.g. a TLS identification's")
     elif res.method == "wls":
-        cause = "the gains given (or the nominal ones) are not the drives', or the description is wrong"
+        cause = (
+            "the gains given (or the nominal ones) are not the drives', or the description is wrong"
+        )
     else:
         cause = "the description's masses are not the robot's, or the payload tag is wrong"
     return [f"--consistent: bodies far from the description's masses: {', '.join(off)}: {cause}"]

@@ -29,8 +29,8 @@ every other inertial parameter 0), and no rotor inertia or friction.
 """
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Mapping
 
 import numpy as np
 
@@ -96,7 +96,7 @@ class Layout:
         for i in self.nonneg:
             rows.append(np.eye(n)[i])
             what.append(f"{self.names[i]} >= 0")
-        for body, (m_ref, L_ref), R in zip(self.bodies, self.body_scale, self.bounding_radius()):
+        for body, (_m_ref, L_ref), R in zip(self.bodies, self.body_scale, self.bounding_radius()):
             r = np.zeros(n)
             r[body.inertial[_I["m"]]] = (R / L_ref) ** 2
             for k in ("xx", "yy", "zz"):
@@ -180,7 +180,7 @@ def layout(robot, prior: Mapping[str, float] | np.ndarray | None = None,
     scale[drive] = np.maximum(np.where(given[drive], np.abs(values[drive]),
                                        _drive_scale(robot, chi_b)[drive]), 1.0)
     B_s, b_s = np.eye(n), np.where(given, values, 0.0) / scale
-    for body, (m_ref, L_ref) in zip(robot.bodies, body_scale):  # weak default: xx − 0.4 R² m...
+    for body, (_m_ref, L_ref) in zip(robot.bodies, body_scale):  # weak default: xx − 0.4 R² m...
         for k in ("xx", "yy", "zz"):
             if not given[body.inertial[_I[k]]]:
                 B_s[body.inertial[_I[k]], body.inertial[_I["m"]]] = -0.4 * (

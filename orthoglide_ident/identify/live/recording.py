@@ -16,21 +16,28 @@ With the current-loop lag in the model, a segment's ticks first pass its
 """
 from __future__ import annotations
 
-from typing import Callable, Sequence
+from collections.abc import Callable, Sequence
 
 import numpy as np
 
 from orthoglide_ident.errors import OrthoglideError
 from orthoglide_ident.identify.columns.current_lag import LiveLagInstrument, without_instrument
+from orthoglide_ident.identify.diagnostics import bag_report
+from orthoglide_ident.identify.observe.stream import DecimatedRows, SegmentStream
 from orthoglide_ident.identify.options import IdentifyOptions
 from orthoglide_ident.identify.records.pairing import Paired, TopicBuffer, pair_upto
-from orthoglide_ident.identify.diagnostics import bag_report
 from orthoglide_ident.identify.records.record import Record
 from orthoglide_ident.identify.records.segments import SegmentReport
-from orthoglide_ident.ticks import (BREAK_HIGH, BREAK_LOW, OFF_GRID_TOL, StepStats, find_breaks,
-                                    find_breaks_local, step_stats)
-from orthoglide_ident.identify.observe.stream import DecimatedRows, SegmentStream
 from orthoglide_ident.model.transmission import Transmission
+from orthoglide_ident.ticks import (
+    BREAK_HIGH,
+    BREAK_LOW,
+    OFF_GRID_TOL,
+    StepStats,
+    find_breaks,
+    find_breaks_local,
+    step_stats,
+)
 
 PERIOD_SAMPLES = 200  # paired ticks whose median step sets the period
 MAX_STEP_VALUES = 10_000  # distinct stamp steps kept to recompute the record's median

@@ -1,4 +1,5 @@
-"""Online identification: the offline pipeline fed while the recordings run (docs/design/architecture.md §1, §7).
+"""Online identification: the offline pipeline fed while the recordings run
+(docs/design/architecture.md §1, §7).
 
     live = LiveIdentification(IdentifyOptions.from_yaml("config/identification.yaml"),
                               model=load_robot("orthoglide"))  # the robot: always passed
@@ -32,28 +33,34 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Sequence
 
 import numpy as np
 
-from orthoglide_ident.errors import (ConfigError, ExcitationError, IdentificationError,
-                                     OrthoglideError)
+from orthoglide_ident.errors import (
+    ConfigError,
+    ExcitationError,
+    IdentificationError,
+    OrthoglideError,
+)
 from orthoglide_ident.identify.columns.current_lag import MAX_SEARCH_S
-from orthoglide_ident.identify.diagnostics import finish_result
 from orthoglide_ident.identify.columns.drive_terms import observation_model, screw_mask
-from orthoglide_ident.identify.solve.factors import RecordFactors
+from orthoglide_ident.identify.columns.payload_unknowns import (
+    check_one_payload,
+    unknowns_of,
+    with_payload_unknowns,
+)
+from orthoglide_ident.identify.diagnostics import finish_result
 from orthoglide_ident.identify.live.recording import LiveRecording
-from orthoglide_ident.identify.solve.methods import DEFAULT_METHOD, solve
-from orthoglide_ident.identify.observe.rows import (IdentificationModel, observe,
-                                                    with_known_payload)
-from orthoglide_ident.identify.options import IdentifyOptions
-from orthoglide_ident.identify.columns.payload_unknowns import (check_one_payload, unknowns_of,
-                                                        with_payload_unknowns)
-from orthoglide_ident.identify.records.record import payload_knowledge
-from orthoglide_ident.identify.solve.answer import limits, min_rows, tls_model
+from orthoglide_ident.identify.observe.rows import IdentificationModel, observe, with_known_payload
 from orthoglide_ident.identify.observe.sampling import AUTO_HELD, SLOW_STEP_S
 from orthoglide_ident.identify.observe.stream import DecimatedRows
+from orthoglide_ident.identify.options import IdentifyOptions
+from orthoglide_ident.identify.records.record import payload_knowledge
+from orthoglide_ident.identify.solve.answer import limits, min_rows, tls_model
+from orthoglide_ident.identify.solve.factors import RecordFactors
+from orthoglide_ident.identify.solve.methods import DEFAULT_METHOD, solve
 from orthoglide_ident.identify.solve.tls import check_excitation
 from orthoglide_ident.model.robot import Payload
 from orthoglide_ident.results import IdentificationResult

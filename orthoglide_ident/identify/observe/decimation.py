@@ -20,8 +20,8 @@ determines, so peak memory is set by the chunk length, not the record length.
 """
 from __future__ import annotations
 
+from collections.abc import Callable, Mapping
 from functools import lru_cache
-from typing import Callable, Mapping
 
 import numpy as np
 

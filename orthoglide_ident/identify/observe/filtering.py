@@ -63,7 +63,8 @@ def derivative_filter(
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """q̂, q̂̇, q̂̈ at the sample instants: zero-phase low-pass then central differences.
 
-    ``q: (n, n_j)`` in m or rad, sampled every ``period_s``; returns three ``(n, n_j)`` arrays in m, m/s,
+    ``q: (n, n_j)`` in m or rad, sampled every ``period_s``; returns three ``(n, n_j)`` arrays in m,
+    m/s,
     m/s². The first and last samples carry the filter's edge transient: callers trim them.
     """
     qf = zero_phase_butterworth(np.asarray(q, dtype=float), period_s, cutoff_hz, order)

@@ -3,7 +3,8 @@
 At a reversal of joint j the model switches fs_j·sign(q̇_j) in one sample, while the drive's
 friction turns smoothly (and the zero-order hold averages the switch over a tick). The mismatch
 is up to 2·fs (tens of N) on one or two samples — tens of times the current noise — and the
-decimation filter would spread it over its window. docs/design/method.md: it biases the payload mass by
+decimation filter would spread it over its window. docs/design/method.md: it biases the payload mass
+by
 ~1.5 % when ignored.
 
 Cure without losing the high-acceleration samples that sit at reversals: for each joint, the
@@ -171,7 +172,8 @@ class Decision:
 class ReversalTracker:
     """:func:`find_reversals` on a stream of q̂̇ blocks, with the same runs and decisions.
 
-    ``update(qd_block)`` takes the next states (n_new, n_j), m/s or rad/s; ``update(None, n_total)`` ends the
+    ``update(qd_block)`` takes the next states (n_new, n_j), m/s or rad/s; ``update(None, n_total)``
+    ends the
     segment. Decided groups come out in order (``pop_decisions``); ``final_upto(j)`` is the state
     index below which joint j's bridges and drops are all known (what a consumer may use now).
     """

@@ -13,20 +13,33 @@ import time
 import numpy as np
 
 from orthoglide_ident.identify.columns.current_lag import lag_instrument, without_instrument
-from orthoglide_ident.identify.observe.decimation import decimate_chunked, decimated_count
 from orthoglide_ident.identify.columns.drive_terms import screw_mask
-from orthoglide_ident.identify.observe.time_base import states_at_half_tick
-from orthoglide_ident.identify.observe.equations import Observations
-from orthoglide_ident.identify.options import IdentifyOptions
 from orthoglide_ident.identify.columns.payload_unknowns import unknowns_of
+from orthoglide_ident.identify.observe.decimation import decimate_chunked, decimated_count
+from orthoglide_ident.identify.observe.equations import Observations
+from orthoglide_ident.identify.observe.reversals import (
+    anchor_samples,
+    bridge,
+    find_reversals,
+    rows_clear,
+    velocity_deadband,
+)
+from orthoglide_ident.identify.observe.sampling import (
+    at_sampling,
+    record_sampling,
+    robot_file_sampling,
+    sampled_shift_s,
+)
+from orthoglide_ident.identify.observe.stream import (
+    DecimatedRows,
+    SegmentStream,
+    lag_rows,
+    model_block,
+)
+from orthoglide_ident.identify.observe.time_base import choose_velocity, states_at_half_tick
+from orthoglide_ident.identify.options import IdentifyOptions
 from orthoglide_ident.identify.records.record import Record, record_payload
-from orthoglide_ident.identify.observe.reversals import (anchor_samples, bridge, find_reversals,
-                                                 rows_clear, velocity_deadband)
 from orthoglide_ident.identify.records.segments import Segment, SegmentReport, split_record
-from orthoglide_ident.identify.observe.stream import DecimatedRows, SegmentStream, lag_rows, model_block
-from orthoglide_ident.identify.observe.sampling import (at_sampling, record_sampling,
-                                                        robot_file_sampling, sampled_shift_s)
-from orthoglide_ident.identify.observe.time_base import choose_velocity
 from orthoglide_ident.model.robot import Payload, RobotModel
 
 log = logging.getLogger("orthoglide_ident.identify")

@@ -31,9 +31,9 @@ meets it: the rows equal the sample-rate path's bridged ones, to the approximati
 """
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from functools import lru_cache
-from typing import Callable
 
 import numpy as np
 

@@ -29,13 +29,21 @@ import numpy as np
 from orthoglide_ident.errors import DataError
 from orthoglide_ident.identify.observe.decimation import fir_decimate_last, fir_taps
 from orthoglide_ident.identify.observe.filtering import filter_horizon, zero_phase_butterworth
-from orthoglide_ident.identify.options import IdentifyOptions
+from orthoglide_ident.identify.observe.reversals import (
+    ReversalTracker,
+    anchor_samples,
+    bridge_weights,
+    velocity_deadband,
+)
+from orthoglide_ident.identify.observe.sampling import (
+    at_sampling,
+    record_sampling,
+    robot_file_sampling,
+    sampled_shift_s,
+)
 from orthoglide_ident.identify.observe.smooth_rows import BridgeCorrections, smooth_columns_at_rows
-from orthoglide_ident.identify.observe.sampling import (at_sampling, record_sampling,
-                                                        robot_file_sampling, sampled_shift_s)
 from orthoglide_ident.identify.observe.time_base import states_on_stamps
-from orthoglide_ident.identify.observe.reversals import (ReversalTracker, anchor_samples, bridge_weights,
-                                                 velocity_deadband)
+from orthoglide_ident.identify.options import IdentifyOptions
 
 
 @dataclass
@@ -60,7 +68,7 @@ class DecimatedRows:
     def r(self) -> int:
         return int(self.X.shape[2])
 
-    def write(self, r0: int, rows: "DecimatedRows") -> int:
+    def write(self, r0: int, rows: DecimatedRows) -> int:
         """Copy ``rows`` into this (preallocated) block at decimated sample r0; the next r0."""
         r1 = r0 + rows.r
         self.X[:, :, r0:r1] = rows.X
@@ -73,7 +81,7 @@ class DecimatedRows:
         return r1
 
     @staticmethod
-    def empty(n_cols: int, n_j: int, with_keep: bool) -> "DecimatedRows":
+    def empty(n_cols: int, n_j: int, with_keep: bool) -> DecimatedRows:
         return DecimatedRows(np.zeros((n_cols, n_j, 0)), np.zeros((n_j, 0), bool) if with_keep
                              else None, np.zeros(0), np.zeros((0, n_j)), np.zeros((0, n_j)))
 
@@ -130,7 +138,8 @@ class SegmentStream:
     """Samples of one continuous segment in, its decimated equations out, block by block.
 
     ``push(stamps_ns, q, v_tau)`` appends consecutive ticks (q m or rad, v_tau A, both (m, n_j);
-    v_tau (m, 2 n_j) with the lag instrument beside it, :func:`lag_rows`) and returns the rows that became
+    v_tau (m, 2 n_j) with the lag instrument beside it, :func:`lag_rows`) and returns the rows that
+    became
     final; ``finish()`` ends the segment (edge trim, last rows).
     Offline, ``push_states`` takes the states of the whole segment filtered at once instead
     (one FFT per segment, as before block processing existed). Either way the concatenation of
@@ -252,7 +261,9 @@ class SegmentStream:
         a, b = trim + S - w0, trim + s_new - w0
         v = self._v[w0 - r0:w1 - r0]
         if self.opts.filter_currents:  # the same window and filter as q: rows as offline's
-            v = zero_phase_butterworth(v, self.T, self.opts.filter_cutoff_hz, self.opts.filter_order)
+            v = zero_phase_butterworth(
+                v, self.T, self.opts.filter_cutoff_hz, self.opts.filter_order
+            )
         self.times["filtering"] += time.perf_counter() - t0
         self._add_states(self._st[trim + S - r0:trim + s_new - r0], qh[a:b], qdh[a:b], qddh[a:b],
                          v[a:b])

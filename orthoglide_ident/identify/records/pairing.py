@@ -1,4 +1,5 @@
-"""The two recorded topics as they arrive, checked on arrival and paired by stamp (docs/design/method.md).
+"""The two recorded topics as they arrive, checked on arrival and paired by stamp
+(docs/design/method.md).
 
 ``/orthoglide/joint_states`` (q) and ``/orthoglide/current_reference`` (v_tau) carry the same
 header stamp for the same controller tick but arrive independently, a few ticks apart, in
@@ -11,8 +12,8 @@ NaN/inf, lost ticks, samples out of order or too late, currents near saturation.
 """
 from __future__ import annotations
 
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
-from typing import Callable, Sequence
 
 import numpy as np
 

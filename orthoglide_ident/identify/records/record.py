@@ -10,9 +10,9 @@ from __future__ import annotations
 
 import dataclasses
 import logging
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Sequence
 
 import numpy as np
 
@@ -60,7 +60,7 @@ class Record:
     def from_arrays(cls, source: str, stamps_ns: np.ndarray, q: np.ndarray, v_tau: np.ndarray,
                     condition: str, payload_mass: float, joint_names: Sequence[str],
                     payload: Payload | None = None, current_sampling: str | None = None
-                    ) -> "Record":
+                    ) -> Record:
         """A record whose positions and currents share stamps and ``joint_names`` (the robot's,
         ``RobotModel.joint_names``); ``current_sampling`` as a bag's tag would say it."""
         names = tuple(joint_names)

@@ -1,4 +1,5 @@
-"""Pair joint positions with current references by stamp and split the record at gaps (docs/design/method.md).
+"""Pair joint positions with current references by stamp and split the record at gaps
+(docs/design/method.md).
 
 The controller publishes q (``/orthoglide/joint_states``) and v_tau
 (``/orthoglide/current_reference``) with the same header stamp for the same tick, as ros2_control's
@@ -15,8 +16,8 @@ ticks holding them are removed and become gaps like any other missing tick.
 """
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Sequence
 
 import numpy as np
 
@@ -128,8 +129,10 @@ def _checked_columns(arr: np.ndarray, stamps: np.ndarray, names: Sequence[str], 
     """``arr`` (n, n_j) with its columns in ``joint_names`` order; DataError on a wrong shape or
     names (``arr`` has one column per name in ``names``)."""
     if arr.ndim != 2 or arr.shape[0] != stamps.shape[0] or arr.shape[1] != len(names):
-        raise DataError(f"{topic} holds an array of shape {arr.shape} for {stamps.shape[0]} stamps; "
-                        f"expected ({stamps.shape[0]}, {len(names)})")
+        raise DataError(
+            f"{topic} holds an array of shape {arr.shape} for {stamps.shape[0]} stamps; "
+            f"expected ({stamps.shape[0]}, {len(names)})"
+        )
     perm = column_order(names, topic, joint_names)
     if perm is None:
         return arr
@@ -206,8 +209,16 @@ def _breaks(stamps: np.ndarray, finite: np.ndarray, rep: SegmentReport, source: 
     return brk
 
 
-def _segments(stamps: np.ndarray, qp: np.ndarray, vp: np.ndarray, finite: np.ndarray, brk: np.ndarray,
-              min_samples: int, rep: SegmentReport, qdp: np.ndarray | None = None) -> list[Segment]:
+def _segments(
+    stamps: np.ndarray,
+    qp: np.ndarray,
+    vp: np.ndarray,
+    finite: np.ndarray,
+    brk: np.ndarray,
+    min_samples: int,
+    rep: SegmentReport,
+    qdp: np.ndarray | None = None,
+) -> list[Segment]:
     starts = np.concatenate(([0], np.flatnonzero(brk) + 1))
     ends = np.concatenate((np.flatnonzero(brk) + 1, [stamps.shape[0]]))
     segments: list[Segment] = []
@@ -262,8 +273,14 @@ def split_record(
     rep.n_joint_states = int(stamps_q_ns.shape[0])
     rep.n_current_reference = int(stamps_v_ns.shape[0])
     joint_names = tuple(joint_names) or tuple(str(n) for n in names_q)
-    q = _checked_columns(np.asarray(q, dtype=float), stamps_q_ns, names_q, f"{source}: joint_states",
-                         joint_names, rep)
+    q = _checked_columns(
+        np.asarray(q, dtype=float),
+        stamps_q_ns,
+        names_q,
+        f"{source}: joint_states",
+        joint_names,
+        rep,
+    )
     v_tau = _checked_columns(np.asarray(v_tau, dtype=float), stamps_v_ns, names_v,
                              f"{source}: current_reference", joint_names, rep)
     iq = None
@@ -276,8 +293,10 @@ def split_record(
     n_bad = int(finite.shape[0] - np.count_nonzero(finite))
     if n_bad and nonfinite == "error":
         first = (stamps[~finite][0] - stamps[0]) * 1e-9
-        raise DataError(f"{source}: {n_bad} samples hold NaN or inf (first at t = {first:.3f} s into the "
-                        "record); fix the recording or set nonfinite: drop to treat them as gaps")
+        raise DataError(
+            f"{source}: {n_bad} samples hold NaN or inf (first at t = {first:.3f} s into the "
+            "record); fix the recording or set nonfinite: drop to treat them as gaps"
+        )
     rep.n_nonfinite_dropped = n_bad
     segments = _segments(stamps, qp, vp, finite, _breaks(stamps, finite, rep, source), min_samples,
                          rep, None if qd is None else qd[iq])

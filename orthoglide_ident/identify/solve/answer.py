@@ -12,22 +12,29 @@ import dataclasses
 import logging
 import math
 import time
+from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Any, Sequence
+from typing import Any
 
 import numpy as np
 
 from orthoglide_ident.errors import ExcitationError, IdentificationError
 from orthoglide_ident.identify.columns import drive_terms
+from orthoglide_ident.identify.columns.payload_unknowns import unknowns_of
 from orthoglide_ident.identify.observe import joint_units
+from orthoglide_ident.identify.options import IdentifyOptions
 from orthoglide_ident.identify.solve import partial
 from orthoglide_ident.identify.solve.essential import EssentialResult, essential_parameters
 from orthoglide_ident.identify.solve.factors import RecordFactors
-from orthoglide_ident.identify.options import IdentifyOptions
-from orthoglide_ident.identify.columns.payload_unknowns import unknowns_of
-from orthoglide_ident.identify.solve.tls import (ExcitationLimits, TLSProblem, TLSSolution,
-                                           check_excitation, check_gains, check_subspace,
-                                           require_loaded_and_unloaded)
+from orthoglide_ident.identify.solve.tls import (
+    ExcitationLimits,
+    TLSProblem,
+    TLSSolution,
+    check_excitation,
+    check_gains,
+    check_subspace,
+    require_loaded_and_unloaded,
+)
 from orthoglide_ident.identify.solve.uncertainty import diagnose, ripple_warning_start
 from orthoglide_ident.identify.solve.wls import WLSSolution, idim_wls
 from orthoglide_ident.results import Estimate, IdentificationResult, PayloadMass, lag_text
@@ -300,11 +307,17 @@ def _drive_notes(result: IdentificationResult, ripples: list, lags: list,
         result.warnings = [w for w in result.warnings
                            if not w.startswith(ripple_warning_start(r.joint))]
         result.warnings.append(
-            f"{r.joint}: a {'friction' if r.friction else 'force'} ripple of ±{r.amplitude_n:.2g} N "
+            f"{r.joint}: a {'friction' if r.friction else 'force'} ripple of ±{r.amplitude_n:.2g} "
+            "N "
+            ""
+            ""
+            ""
+            ""
             f"(σ {r.amplitude_std_n:.1g} N) at a {1e3 * r.wavelength_m:.1f} mm period of its "
             "position was found in the residual and added to the model (ripple_model: auto; "
             "screw_lead_m models it at a given lead); the gains and parameters are those of "
-            "the model with it")
+            "the model with it"
+        )
 
 
 def tls_model(factors: list[RecordFactors], model, opts: IdentifyOptions) -> tuple[_Model, Any]:

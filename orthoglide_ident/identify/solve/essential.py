@@ -6,7 +6,8 @@ parameter at a time (never a drive gain or a payload mass):
 - ``"paper"``: the paper's rule. The parameter with the largest relative standard deviation (of
   eqs. 38-39) is cancelled and the model identified again, until max(%σ)/min(%σ) < r_σ (the paper
   uses 10; the gains' and payload's %σ take part in the ratio). On the Orthoglide this rule can
-  cancel parameters the gains lean on: 13 parameters kept moved two gains by 3-6 % (docs/design/method.md).
+  cancel parameters the gains lean on: 13 parameters kept moved two gains by 3-6 %
+  (docs/design/method.md).
 - ``"keep_gains"`` (the default): the same order (largest honest %σ first) and the same stopping
   ratio, but a cancellation is accepted only if the protected quantities — the drive gains (TLS)
   or the estimated payload masses (WLS) — stay within their tolerance of the base model's values
@@ -20,8 +21,8 @@ model, cumulative (:class:`EssentialStep`).
 """
 from __future__ import annotations
 
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
-from typing import Callable, Sequence, Union
 
 import numpy as np
 
@@ -29,7 +30,7 @@ from orthoglide_ident.errors import OrthoglideError
 from orthoglide_ident.identify.solve.tls import TLSSolution
 from orthoglide_ident.identify.solve.wls import WLSSolution
 
-Solution = Union[TLSSolution, WLSSolution]
+Solution = TLSSolution | WLSSolution
 METHODS = ("keep_gains", "paper")
 
 

@@ -114,7 +114,7 @@ class RecordFactors:
             self.sources.append(source)
 
     @classmethod
-    def from_observations(cls, obs: Observations) -> "RecordFactors":
+    def from_observations(cls, obs: Observations) -> RecordFactors:
         """The factors of one record's decimated equations."""
         n_j, _, n_b = obs.W.shape
         f = cls(obs.condition, float(obs.payload_mass), n_b, [obs.source], n_joints=n_j,
@@ -137,7 +137,7 @@ class RecordFactors:
                               None if obs.qd is None else obs.qd[a:b])
         return f
 
-    def without_columns(self, cols: np.ndarray) -> "RecordFactors":
+    def without_columns(self, cols: np.ndarray) -> RecordFactors:
         """These factors without the columns ``cols`` (the lag's, when a segment used has no
         instrument): R[:, keep]ᵀ R[:, keep] is the Gram of the columns left, exactly, whatever
         the dropped ones held; same rows, and the moments of the columns left."""
@@ -148,7 +148,7 @@ class RecordFactors:
                              self.rows.copy(), self.n_samples,
                              {k: m.without_columns(keep) for k, m in self.moments.items()})
 
-    def only_joints(self, idx: np.ndarray) -> "RecordFactors":
+    def only_joints(self, idx: np.ndarray) -> RecordFactors:
         """These factors with the equations of the joints ``idx`` only (a partial answer: the
         rows of a joint whose gain the data do not fix are left out with that gain)."""
         idx = np.asarray(idx, dtype=int)

@@ -159,7 +159,7 @@ def idim_iv(blocks: list[Observations], chi0: np.ndarray, g0: np.ndarray,
     c = theta.shape[0]
     sigma = _joint_sigma(rows, _residuals(rows, theta, n_j), n_j, c)
     it = 0
-    for it in range(1, max_iterations + 1):
+    for it in range(1, max_iterations + 1):  # noqa: B007  (it: the iterations taken, returned)
         A, bvec, _ = _sums(rows, theta, sigma, n_j)
         try:
             new = np.linalg.solve(A, bvec)

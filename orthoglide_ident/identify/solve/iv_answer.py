@@ -20,10 +20,18 @@ from orthoglide_ident.identify.columns import drive_terms
 from orthoglide_ident.identify.options import IdentifyOptions
 from orthoglide_ident.identify.solve.answer import Solved, limits, tls_model, tls_result
 from orthoglide_ident.identify.solve.factors import RecordFactors
-from orthoglide_ident.identify.solve.iv import (CROSS_CHECK_SIGMAS, IVSolution, disagreement,
-                                                idim_iv, observations_of)
-from orthoglide_ident.identify.solve.tls import (TLSSolution, check_gains,
-                                                 require_loaded_and_unloaded)
+from orthoglide_ident.identify.solve.iv import (
+    CROSS_CHECK_SIGMAS,
+    IVSolution,
+    disagreement,
+    idim_iv,
+    observations_of,
+)
+from orthoglide_ident.identify.solve.tls import (
+    TLSSolution,
+    check_gains,
+    require_loaded_and_unloaded,
+)
 
 log = logging.getLogger("orthoglide_ident.identify")
 

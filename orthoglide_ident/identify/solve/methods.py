@@ -13,17 +13,23 @@ these tables; a new method (instrumental variables, say) is its own module plus 
 """
 from __future__ import annotations
 
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import Callable, Sequence
 
 from orthoglide_ident.errors import IdentificationError
+from orthoglide_ident.identify.columns.payload_unknowns import unknowns_of
+from orthoglide_ident.identify.options import IdentifyOptions
+from orthoglide_ident.identify.solve.answer import (
+    Solved,
+    check_length,
+    check_rows,
+    friction_sign_warnings,
+    solve_tls,
+    solve_wls,
+)
 from orthoglide_ident.identify.solve.factors import RecordFactors
 from orthoglide_ident.identify.solve.iv_answer import cross_check, solve_iv
-from orthoglide_ident.identify.options import IdentifyOptions
 from orthoglide_ident.identify.solve.payload_report import split_payload
-from orthoglide_ident.identify.columns.payload_unknowns import unknowns_of
-from orthoglide_ident.identify.solve.answer import (Solved, check_length, check_rows,
-                                             friction_sign_warnings, solve_tls, solve_wls)
 
 __all__ = ["DEFAULT_METHOD", "METHODS", "REFINEMENTS", "Method", "Refinement", "get", "solve"]
 

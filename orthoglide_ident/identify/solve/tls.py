@@ -10,7 +10,8 @@ Several loaded records may be stacked, each with its own weighed mass: the last 
 The solution is the right singular vector of the smallest singular value (eqs. 35-36), scaled so
 that its last component is 1. Eq. (34)'s closest compatible system is the errors-in-variables
 answer only when the columns carry equal noise: by default (``noisy_columns="per-joint"``) W and
-W_kl are taken as exact and each current column is scaled to its joint's noise (issue 43). Rows of joint j are weighted by 1/σ_j (Sect. 4.2), σ_j from a first
+W_kl are taken as exact and each current column is scaled to its joint's noise (issue 43). Rows of
+joint j are weighted by 1/σ_j (Sect. 4.2), σ_j from a first
 unweighted solution. Standard deviations by eqs. (37)-(39) (``rel_std_paper``) and the honest
 ones that also cover correlated residuals (``rel_std``, uncertainty.py).
 
@@ -26,9 +27,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from orthoglide_ident.errors import ExcitationError, IdentificationError
-from orthoglide_ident.identify.solve.factors import RecordFactors, as_factors
 from orthoglide_ident.identify.observe.equations import Observations
 from orthoglide_ident.identify.options import ExcitationLimits
+from orthoglide_ident.identify.solve.factors import RecordFactors, as_factors
 from orthoglide_ident.identify.solve.uncertainty import Uncertainty, evaluate
 
 
@@ -36,7 +37,8 @@ from orthoglide_ident.identify.solve.uncertainty import Uncertainty, evaluate
 class TLSSolution:
     """Result of one IDIM-TLS solve over the active base parameters.
 
-    ``chi (n,)`` active base parameters, ``g_tau (n_j,)`` N/A or N·m/A; ``cov`` over ``[chi, g_tau]``: the
+    ``chi (n,)`` active base parameters, ``g_tau (n_j,)`` N/A or N·m/A; ``cov`` over ``[chi,
+    g_tau]``: the
     honest covariance (uncertainty.py: the largest of eq. 39, the stationary-correlation and the
     block sandwich), ``cov_paper`` that of eq. (39); ``rel_std`` = σ/|value| as a fraction (honest),
     ``rel_std_paper`` the paper's; residuals in N.

@@ -36,9 +36,9 @@ solution, so it is evaluated for whatever solution the solver picks, without the
 """
 from __future__ import annotations
 
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
 from functools import lru_cache
-from typing import Callable, Iterable, Sequence
 
 import numpy as np
 
@@ -121,7 +121,7 @@ class ResidualMoments:
     def n_blocks(self) -> int:
         return len(self.blocks)
 
-    def without_columns(self, keep: np.ndarray) -> "ResidualMoments":
+    def without_columns(self, keep: np.ndarray) -> ResidualMoments:
         """The moments of the columns ``keep`` only (RecordFactors.without_columns)."""
         ix = np.ix_(keep, keep)
         tail = None if self._tail is None else (self._tail[0][:, :, keep], self._tail[1],
@@ -135,7 +135,7 @@ class ResidualMoments:
             self.spectrum_rows.copy(), tail, self.screws, self.reversal[(slice(None),) + ix],
             self.reversal_rows.copy(), tuple(a.copy() for a in self.reversal_state))
 
-    def only_joints(self, idx: np.ndarray) -> "ResidualMoments":
+    def only_joints(self, idx: np.ndarray) -> ResidualMoments:
         """The moments of the joints ``idx`` only (RecordFactors.only_joints: a partial answer)."""
         tail = None if self._tail is None else (self._tail[0][idx], self._tail[1],
                                                 self._tail[2][idx])
@@ -151,7 +151,8 @@ class ResidualMoments:
     def fold(self, X: np.ndarray, keep: np.ndarray | None, t: np.ndarray,
              q: np.ndarray | None = None, qd: np.ndarray | None = None) -> None:
         """Fold decimated rows ``X: (n_c, n_j, r)`` at instants ``t: (r,)`` s (in time order,
-        after the rows already folded), ``keep: (n_j, r)`` or None, positions/velocities (r, n_j)."""
+        after the rows already folded), ``keep: (n_j, r)`` or None, positions/velocities (r,
+        n_j)."""
         if X.shape[2]:
             self.fold_rows(np.array(X.transpose(1, 2, 0), order="C"), keep, t, q, qd)  # a copy
 
@@ -574,7 +575,9 @@ def spectrum_peaks(unc: Uncertainty, joint_names: tuple[str, ...],
             a = unc.spectrum[j, kind]
             i = int(np.argmax(a))
             med = float(np.median(a))
-            if a[i] > PEAK_RATIO * med and a[i] > PEAK_FLOOR * float(unc.spectrum_floor[j, kind, i]):
+            if a[i] > PEAK_RATIO * med and a[i] > PEAK_FLOOR * float(
+                unc.spectrum_floor[j, kind, i]
+            ):
                 if best is None or a[i] > 1.5 * best.amplitude_n:
                     best = SpectrumPeak(name, float(WAVELENGTHS_M[i]), float(a[i]), med, kind == 1)
         if best is not None:
@@ -601,7 +604,9 @@ def diagnose(unc: Uncertainty, decimation: int, n_params: int, joint_names: tupl
     ac = unc.autocorrelation[:, 1:]
     dev = np.abs(ac - white[None, :])
     var_paper = np.diag(unc.cov_paper)
-    inflation = np.sqrt(np.maximum(np.diag(unc.cov), 0.0) / np.where(var_paper > 0, var_paper, np.inf))
+    inflation = np.sqrt(
+        np.maximum(np.diag(unc.cov), 0.0) / np.where(var_paper > 0, var_paper, np.inf)
+    )
     d: dict = {
         "method": "largest of eqs. (38)-(39), a stationary-correlation sandwich (lags 1.."
                   f"{LAGS} rows) and a block sandwich (blocks of {unc.block_s:g} s)",
@@ -632,12 +637,17 @@ def diagnose(unc: Uncertainty, decimation: int, n_params: int, joint_names: tupl
     peaks = spectrum_peaks(unc, joint_names, screws)
     d["position_spectrum_peaks"] = [p.to_json() for p in peaks]
     for p in peaks:
-        what = ("a friction ripple (it turns with the velocity), e.g. of the ball screw at its lead"
-                if p.sign_modulated else "a position-dependent force, e.g. a cogging or screw ripple")
+        what = (
+            "a friction ripple (it turns with the velocity), e.g. of the ball screw at its lead"
+            if p.sign_modulated
+            else "a position-dependent force, e.g. a cogging or screw ripple"
+        )
         warnings.append(
-            f"{ripple_warning_start(p.joint)} with a {1e3 * p.wavelength_m:.1f} mm period (±{p.amplitude_n:.2g} N, "
+            f"{ripple_warning_start(p.joint)} with a {1e3 * p.wavelength_m:.1f} mm period "
+            f"(±{p.amplitude_n:.2g} N, "
             f"{p.amplitude_n / max(p.median_n, 1e-12):.0f}x the spectrum's median): {what} "
-            "that the IDIM does not model")
+            "that the IDIM does not model"
+        )
     return d, warnings
 
 

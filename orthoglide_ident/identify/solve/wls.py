@@ -12,8 +12,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from orthoglide_ident.errors import ExcitationError, IdentificationError
-from orthoglide_ident.identify.solve.factors import RecordFactors, as_factors
 from orthoglide_ident.identify.observe.equations import Observations
+from orthoglide_ident.identify.solve.factors import RecordFactors, as_factors
 from orthoglide_ident.identify.solve.uncertainty import Uncertainty, evaluate
 
 

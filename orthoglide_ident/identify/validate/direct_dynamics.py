@@ -22,7 +22,8 @@ Orthoglide's (a closed chain from a robot YAML) is not simulated: the record's e
 from __future__ import annotations
 
 import math
-from typing import Any, Sequence
+from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 

@@ -15,12 +15,24 @@ import re
 import numpy as np
 
 from orthoglide_ident.errors import ConfigError
-from orthoglide_ident.model.base_parameters import (COEF_TOL, QR_EPS, BaseParameter,
-                                                    NamedByParameters)
-from orthoglide_ident.model.orthoglide.geometry import (A, G_TAU_MANUFACTURER, JOINT_NAMES, PAPER,
-                                                       Geometry)
-from orthoglide_ident.model.orthoglide.idim import (observation_block, observation_columns,
-                                                   standard_regressor)
+from orthoglide_ident.model.base_parameters import (
+    COEF_TOL,
+    QR_EPS,
+    BaseParameter,
+    NamedByParameters,
+)
+from orthoglide_ident.model.orthoglide.geometry import (
+    G_TAU_MANUFACTURER,
+    JOINT_NAMES,
+    PAPER,
+    A,
+    Geometry,
+)
+from orthoglide_ident.model.orthoglide.idim import (
+    observation_block,
+    observation_columns,
+    standard_regressor,
+)
 from orthoglide_ident.model.orthoglide.kinematics import igm
 from orthoglide_ident.model.orthoglide.parameters import (
     INERTIAL,
@@ -117,7 +129,11 @@ class BaseModel(NamedByParameters, RobotModel):
         terms = []
         for b, col in enumerate(kept):
             t = [(STANDARD_NAMES[col], 1.0)]
-            t += [(STANDARD_NAMES[c], float(beta[b, n])) for n, c in enumerate(dropped) if beta[b, n] != 0.0]
+            t += [
+                (STANDARD_NAMES[c], float(beta[b, n]))
+                for n, c in enumerate(dropped)
+                if beta[b, n] != 0.0
+            ]
             terms.append(tuple(t))
         self.parameters = [
             BaseParameter(
@@ -128,7 +144,9 @@ class BaseModel(NamedByParameters, RobotModel):
             )
             for col, t in zip(kept, terms)
         ]
-        self.rank_gap = float(d[keep].min() / max(d[~keep].max(), 1e-300)) if (~keep).any() else np.inf
+        self.rank_gap = (
+            float(d[keep].min() / max(d[~keep].max(), 1e-300)) if (~keep).any() else np.inf
+        )
 
     # --- what callers asked by type before: the closed tree's URDF, labels, forward model ----
     @property
@@ -175,7 +193,9 @@ class BaseModel(NamedByParameters, RobotModel):
     def legs(self) -> list[tuple[int, ...]]:
         return [p.legs for p in self.parameters]
 
-    def observation(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def observation(
+        self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
         """(W (3 N, n_b), W_kl (3 N,)) in one pass: base columns and the payload-mass column m_7."""
         X = observation_columns(q, qd, qdd, self.columns, with_payload_mass=True,
                                 geom=self.geometry)
@@ -192,11 +212,12 @@ class BaseModel(NamedByParameters, RobotModel):
         return observation_columns(q, qd, qdd, self.columns, geom=self.geometry)
 
     def payload_mass_column(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> np.ndarray:
-        """W_kl (3 N,): efforts per kg of payload (eq. 29); the other 9 payload parameters have no effect."""
+        """W_kl (3 N,): efforts per kg of payload (eq. 29); the other 9 payload parameters have no
+        effect."""
         return observation_columns(q, qd, qdd, [], with_payload_mass=True,
                                    geom=self.geometry)[:, 0]
 
-    def with_payload(self, payload: Payload) -> "BaseModel":
+    def with_payload(self, payload: Payload) -> BaseModel:
         """The platform only translates, so a payload's only effect is its mass: the same model
         (its column is per kg); ConfigError for a payload fixed elsewhere than the platform."""
         if payload.frame not in ("", PAYLOAD_FRAME):
@@ -215,7 +236,8 @@ class BaseModel(NamedByParameters, RobotModel):
     def table(self) -> str:
         w = max(len(n) for n in self.names)
         lines = [
-            f"{self.n_b} base parameters of the Orthoglide IDIM (of {N_ST} standard; eq. 23 column order, "
+            f"{self.n_b} base parameters of the Orthoglide IDIM (of {N_ST} standard; eq. 23 column "
+            "order, "
             f"QR threshold {QR_EPS:g})",
             f"{'#':>3}  {'name':<{w}}  {'legs':<7}  expression",
         ]

@@ -4,7 +4,7 @@ as its plant in orthoglide_sim closes the loops; the product does not import the
 """
 from __future__ import annotations
 
-from typing import Sequence
+from collections.abc import Sequence
 
 import numpy as np
 import pinocchio as pin

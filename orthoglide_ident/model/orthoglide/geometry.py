@@ -1,6 +1,7 @@
 """Orthoglide geometry (paper Sect. 5.1, Tables 1-2, eq. 41) and physical constants.
 
-Each leg i is described in its own *leg frame*, the MDH frame of its foot (frame 1_i): its axes are a
+Each leg i is described in its own *leg frame*, the MDH frame of its foot (frame 1_i): its axes are
+a
 cyclic permutation of the base axes, so the three legs have identical equations in leg coordinates
 and differ only by the rotation ``R_LEG[i]``, the foot offset ``FOOT_OFFSET[i]`` and the gravity
 direction. See docs/design/conventions.md.
@@ -62,8 +63,10 @@ class Geometry:
 
     def __post_init__(self) -> None:
         if not (0 < self.d6 < self.d4 and 0 < self.a and self.g0 >= 0):
-            raise ConfigError(f"Orthoglide geometry a = {self.a}, d4 = {self.d4}, d6 = {self.d6} m, "
-                              f"g = {self.g0} m/s²: needs a > 0, 0 < d6 < d4 and g >= 0")
+            raise ConfigError(
+                f"Orthoglide geometry a = {self.a}, d4 = {self.d4}, d6 = {self.d6} m, "
+                f"g = {self.g0} m/s²: needs a > 0, 0 < d6 < d4 and g >= 0"
+            )
         a = self.a
         gravity = np.array([0.0, self.g0, 0.0])
         object.__setattr__(self, "foot_offset", np.array([[0.0, 0.0, 0.0], [0.0, a, -a],

@@ -28,8 +28,11 @@ import numpy as np
 
 from orthoglide_ident.model.orthoglide.geometry import PAPER, Geometry
 from orthoglide_ident.model.orthoglide.kinematics import TreeState, as_samples, tree_state
-from orthoglide_ident.model.orthoglide.leg_closed_form import (closed_form_columns, has_closed_form,
-                                                              leg_state)
+from orthoglide_ident.model.orthoglide.leg_closed_form import (
+    closed_form_columns,
+    has_closed_form,
+    leg_state,
+)
 from orthoglide_ident.model.orthoglide.parameters import LEG_PARAMETERS, N_LEGS, N_ST, N_ST_LEG
 
 _ALPHA = {2: -np.pi / 2, 3: -np.pi / 2, 4: 0.0, 5: np.pi / 2}  # MDH alpha of frames 2..5 (Table 2)
@@ -42,7 +45,9 @@ def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 
 def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    return np.stack([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
+    return np.stack(
+        [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+    )
 
 
 def _in_frame(R: tuple[np.ndarray, np.ndarray, np.ndarray], v: np.ndarray) -> np.ndarray:
@@ -89,10 +94,12 @@ def _wrench(kind: str, w: np.ndarray, wd: np.ndarray, vd: np.ndarray):
 def leg_columns(state: TreeState, wanted: Sequence[int]) -> dict[int, np.ndarray]:
     """Actuated-effort columns (3 actuators, 3 legs, N) of the leg parameters ``wanted`` (0..65).
 
-    The three legs obey the same equations in their own frames (docs/design/conventions.md), so they are
+    The three legs obey the same equations in their own frames (docs/design/conventions.md), so they
+    are
     computed side by side along a leg axis: a third of the array operations of a leg-by-leg loop.
     """
-    qt, qdt, qddt = (np.transpose(x, (2, 1, 0)) for x in (state.qt, state.qdt, state.qddt))  # (5, 3 legs, N)
+    # (5, 3 legs, N)
+    qt, qdt, qddt = (np.transpose(x, (2, 1, 0)) for x in (state.qt, state.qdt, state.qddt))
     J_t = np.transpose(state.J_t, (2, 3, 1, 0))  # (5 tree joints, 3 actuators, 3 legs, N)
     shape = qt.shape[1:]
     wanted = set(wanted)
@@ -131,7 +138,11 @@ def leg_columns(state: TreeState, wanted: Sequence[int]) -> dict[int, np.ndarray
         inertial = {c: kind for c, kind in cols.items() if kind in _INERTIA + _MS + ("m",)}
         if inertial:
             Rk = R[k - 1]
-            wk, wdk, vdk = _in_frame(Rk, w[k - 1]), _in_frame(Rk, wd[k - 1]), _in_frame(Rk, acc[k - 1] - g)
+            wk, wdk, vdk = (
+                _in_frame(Rk, w[k - 1]),
+                _in_frame(Rk, wd[k - 1]),
+                _in_frame(Rk, acc[k - 1] - g),
+            )
             # Body Jacobian G_k = S_k J_t: (F part, N part) per actuator c, each (3, 3 legs, N).
             GF = [np.zeros((3,) + shape) for _ in range(3)]
             GN = [np.zeros((3,) + shape) for _ in range(3)]
@@ -151,7 +162,8 @@ def leg_columns(state: TreeState, wanted: Sequence[int]) -> dict[int, np.ndarray
                 F, Nm = _wrench(kind, wk, wdk, vdk)
                 out[col] = np.stack(
                     [
-                        (_dot(GF[c], F) if F is not None else 0.0) + (_dot(GN[c], Nm) if Nm is not None else 0.0)
+                        (_dot(GF[c], F) if F is not None else 0.0)
+                        + (_dot(GN[c], Nm) if Nm is not None else 0.0)
                         for c in range(3)
                     ]
                 )
@@ -159,7 +171,12 @@ def leg_columns(state: TreeState, wanted: Sequence[int]) -> dict[int, np.ndarray
             if col in inertial:
                 continue
             # Drive inertia and friction of tree joint k, mapped by row k of J_t (eq. 15).
-            x = {"ia": qddt[0], "fv": qdt[k - 1], "fs": np.sign(qdt[k - 1]), "tauoff": np.ones(shape)}[kind]
+            x = {
+                "ia": qddt[0],
+                "fv": qdt[k - 1],
+                "fs": np.sign(qdt[k - 1]),
+                "tauoff": np.ones(shape),
+            }[kind]
             out[col] = J_t[k - 1] * x
     return out
 

@@ -1,7 +1,9 @@
-"""Orthoglide kinematics: IGM, FGM, passive joints, A_p, B_p, J_p, J_k, J_t (paper eqs. 3-9, 15, 41).
+"""Orthoglide kinematics: IGM, FGM, passive joints, A_p, B_p, J_p, J_k, J_t (paper eqs. 3-9, 15,
+41).
 
 All functions are vectorised over N samples: ``q, qd, qdd`` are (N, 3) arrays (q11, q12, q13) in m,
-m/s, m/s²; ``geom`` is the robot's :class:`~geometry.Geometry` (the paper's by default). Leg quantities are computed in each leg's own frame (geometry.R_LEG), where the three
+m/s, m/s²; ``geom`` is the robot's :class:`~geometry.Geometry` (the paper's by default). Leg
+quantities are computed in each leg's own frame (geometry.R_LEG), where the three
 legs obey the same equations:
 
     foot point   O_1i = FOOT_OFFSET[i] + q1i z                       (Table 1)
@@ -59,7 +61,8 @@ def to_base(u: np.ndarray) -> np.ndarray:
 
 
 def inv3(M: np.ndarray) -> np.ndarray:
-    """Inverse of stacked 3x3 matrices (..., 3, 3) by cofactors (much faster than batched LAPACK)."""
+    """Inverse of stacked 3x3 matrices (..., 3, 3) by cofactors (much faster than batched
+    LAPACK)."""
     a, b, c = M[..., 0, 0], M[..., 0, 1], M[..., 0, 2]
     d, e, f = M[..., 1, 0], M[..., 1, 1], M[..., 1, 2]
     g, h, i = M[..., 2, 0], M[..., 2, 1], M[..., 2, 2]
@@ -77,7 +80,11 @@ def matvec(M: np.ndarray, v: np.ndarray) -> np.ndarray:
 
 
 def matmat(M: np.ndarray, B: np.ndarray) -> np.ndarray:
-    return M[..., :, 0, None] * B[..., None, 0, :] + M[..., :, 1, None] * B[..., None, 1, :] + M[..., :, 2, None] * B[..., None, 2, :]
+    return (
+        M[..., :, 0, None] * B[..., None, 0, :]
+        + M[..., :, 1, None] * B[..., None, 1, :]
+        + M[..., :, 2, None] * B[..., None, 2, :]
+    )
 
 
 def foot_points(q: np.ndarray, geom: Geometry = PAPER) -> np.ndarray:
@@ -98,14 +105,16 @@ def fgm(q: np.ndarray, geom: Geometry = PAPER) -> np.ndarray:
     """Forward geometric model: platform point P (N, 3) from q by the three sphere intersections.
 
     f_p of eq. (41): |P - c_i|² = d4² with c_i = O_1i + d6 e_i. Differences of the spheres give a
-    line; the real robot's assembly mode is the intersection on the side of the plane (c_1, c_2, c_3)
+    line; the real robot's assembly mode is the intersection on the side of the plane (c_1, c_2,
+    c_3)
     that holds P = (0, 0, a) at q = 0.
     """
     q = as_samples(q, "q")
     c = to_base(foot_points(q, geom)) + geom.d6 * E_AXIS  # base coords (N, 3, 3)
     n = np.cross(c[:, 1] - c[:, 0], c[:, 2] - c[:, 0])
     n /= np.sqrt(n[:, 0] ** 2 + n[:, 1] ** 2 + n[:, 2] ** 2)[:, None]
-    # Linear part: 2 (c_i - c_1) . P = |c_i|² - |c_1|², i = 2, 3, plus n . P = n . c_1 (a point of the line).
+    # Linear part: 2 (c_i - c_1) . P = |c_i|² - |c_1|², i = 2, 3, plus n . P = n . c_1 (a point of
+    # the line).
     L = np.stack([2 * (c[:, 1] - c[:, 0]), 2 * (c[:, 2] - c[:, 0]), n], axis=1)
     sq = (c * c).sum(-1)
     h = np.stack([sq[:, 1] - sq[:, 0], sq[:, 2] - sq[:, 0], (n * c[:, 0]).sum(-1)], axis=1)
@@ -137,7 +146,9 @@ def igm(P: np.ndarray, geom: Geometry = PAPER) -> np.ndarray:
     r2 = geom.d4**2 - Pl[:, :, 0] ** 2 - Pl[:, :, 1] ** 2
     if np.any(r2 < 0):
         k = int(np.flatnonzero(np.any(r2 < 0, axis=1))[0])
-        raise WorkspaceError(f"P = {np.round(P[k], 4).tolist()} m (sample {k}) is out of reach of a leg")
+        raise WorkspaceError(
+            f"P = {np.round(P[k], 4).tolist()} m (sample {k}) is out of reach of a leg"
+        )
     return Pl[:, :, 2] - geom.d6 - np.sqrt(r2)
 
 
@@ -151,14 +162,17 @@ def check_regular(q: np.ndarray, u: np.ndarray, U: np.ndarray, d4: float) -> Non
     if np.any(serial < SERIAL_MARGIN):
         k, i = np.argwhere(serial < SERIAL_MARGIN)[0]
         raise SingularityError(
-            f"q = {np.round(q[k], 4).tolist()} m (sample {k}) is at a serial singularity of leg {i + 1}: "
-            f"its bar is nearly perpendicular to the actuator (|u.e|/d4 = {serial[k, i]:.3g} < {SERIAL_MARGIN})"
+            f"q = {np.round(q[k], 4).tolist()} m (sample {k}) is at a serial singularity of leg "
+            f"{i + 1}: "
+            f"its bar is nearly perpendicular to the actuator (|u.e|/d4 = {serial[k, i]:.3g} < "
+            f"{SERIAL_MARGIN})"
         )
     parallel = np.abs(np.linalg.det(U)) / d4**3
     if np.any(parallel < PARALLEL_MARGIN):
         k = int(np.flatnonzero(parallel < PARALLEL_MARGIN)[0])
         raise SingularityError(
-            f"q = {np.round(q[k], 4).tolist()} m (sample {k}) is at a parallel singularity: the three bars are "
+            f"q = {np.round(q[k], 4).tolist()} m (sample {k}) is at a parallel singularity: the "
+            "three bars are "
             f"nearly coplanar (|det(u_1, u_2, u_3)|/d4³ = {parallel[k]:.3g} < {PARALLEL_MARGIN})"
         )
 
@@ -199,7 +213,8 @@ def _bar_derivatives(q2: np.ndarray, q3: np.ndarray, d4: float):
 
 def tree_state(q: np.ndarray, qd: np.ndarray, qdd: np.ndarray, check: bool = True,
                geom: Geometry = PAPER) -> TreeState:
-    """All platform and tree coordinates, velocities, accelerations and Jacobians from (q, qd, qdd)."""
+    """All platform and tree coordinates, velocities, accelerations and Jacobians from (q, qd,
+    qdd)."""
     q, qd, qdd = (as_samples(x, name) for x, name in ((q, "q"), (qd, "qd"), (qdd, "qdd")))
     N = q.shape[0]
     P = fgm(q, geom)
@@ -244,7 +259,9 @@ def tree_state(q: np.ndarray, qd: np.ndarray, qdd: np.ndarray, check: bool = Tru
     qt = five(q, q2, q3)
     qdt = five(qd123[:, :, 0], qd123[:, :, 1], qd123[:, :, 2])
     qddt = five(qdd123[:, :, 0], qdd123[:, :, 1], qdd123[:, :, 2])
-    J_t = np.stack([J123[:, :, 0], J123[:, :, 1], J123[:, :, 2], -J123[:, :, 2], -J123[:, :, 1]], axis=2)
+    J_t = np.stack(
+        [J123[:, :, 0], J123[:, :, 1], J123[:, :, 2], -J123[:, :, 2], -J123[:, :, 1]], axis=2
+    )
     assert J_t.shape == (N, 3, 5, 3)
     return TreeState(P=P, Pd=Pd, Pdd=Pdd, qt=qt, qdt=qdt, qddt=qddt, J_p=J_p, J_t=J_t, u=u,
                      geom=geom)

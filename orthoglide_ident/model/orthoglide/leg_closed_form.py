@@ -19,14 +19,25 @@ both in the body frame. Agrees with the generic recursion to round-off
 """
 from __future__ import annotations
 
-from typing import Callable, Iterable
+from collections.abc import Callable, Iterable
 
 import numpy as np
 
-from orthoglide_ident.model.orthoglide.geometry import (PAPER, PARALLEL_MARGIN, R_LEG,
-                                                       SERIAL_MARGIN, Geometry)
-from orthoglide_ident.model.orthoglide.kinematics import (_TO_BASE, _TO_LEG, TreeState,
-                                                         check_regular, fgm, to_leg)
+from orthoglide_ident.model.orthoglide.geometry import (
+    PAPER,
+    PARALLEL_MARGIN,
+    R_LEG,
+    SERIAL_MARGIN,
+    Geometry,
+)
+from orthoglide_ident.model.orthoglide.kinematics import (
+    _TO_BASE,
+    _TO_LEG,
+    TreeState,
+    check_regular,
+    fgm,
+    to_leg,
+)
 from orthoglide_ident.model.orthoglide.parameters import LEG_PARAMETERS
 
 Column = Callable[["_Leg"], np.ndarray]
@@ -50,7 +61,7 @@ class _Leg:
         self._cache: dict[str, object] = {}
 
     @classmethod
-    def from_tree_state(cls, s: TreeState) -> "_Leg":
+    def from_tree_state(cls, s: TreeState) -> _Leg:
         qt, qdt, qddt = (np.ascontiguousarray(np.moveaxis(x, 0, -1)) for x in (s.qt, s.qdt, s.qddt))
         J = np.ascontiguousarray(np.moveaxis(s.J_t, 0, -1))
         V = np.moveaxis(s.J_p[:, _TO_LEG, :], 0, -1)
@@ -157,7 +168,7 @@ def _inertia3(kind: str) -> Column:
 
 def _my3(L: _Leg) -> np.ndarray:  # F = ω̇ × e_y + ω × (ω × e_y), N = e_y × v̇
     (wx, wy, wz), (ax, ay, az) = L.w3()
-    GF, GN, (vx, vy, vz) = L.GF3(), L.GN3(), L.vd3()
+    GF, GN, (vx, _vy, vz) = L.GF3(), L.GN3(), L.vd3()
     F = (-az + wx * wy, -(wx * wx + wz * wz), ax + wy * wz)
     return GF[0] * F[0] + GF[1] * F[1] + GF[2] * F[2] + GN[0] * vz - GN[2] * vx
 

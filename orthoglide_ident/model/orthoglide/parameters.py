@@ -1,7 +1,9 @@
 """Names and order of the standard dynamic parameters (paper Sect. 2.2, docs/design/conventions.md).
 
-Canonical order of the 208 robot parameters: leg 1 bodies 1..5, leg 2 bodies 1..5, leg 3 bodies 1..5,
-then the platform (body 6). Each leg body has the inertia at its frame origin (6), first moments (3),
+Canonical order of the 208 robot parameters: leg 1 bodies 1..5, leg 2 bodies 1..5, leg 3 bodies
+1..5,
+then the platform (body 6). Each leg body has the inertia at its frame origin (6), first moments
+(3),
 mass, then the joint's drive/friction terms: ``ia`` (actuated joint 1 only), ``fv``, ``fs``,
 ``tauoff``. The payload (body 7) has 10 inertial parameters kept apart (W_ul, W_kl of eq. 29).
 """

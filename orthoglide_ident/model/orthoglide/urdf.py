@@ -11,14 +11,24 @@ from __future__ import annotations
 
 import math
 import xml.etree.ElementTree as ET
-from typing import Sequence
+from collections.abc import Sequence
 
 import numpy as np
 
 from orthoglide_ident.model.robot import RobotModel
-from orthoglide_ident.model.urdf import (EFFORT_LIMIT, SPEED_LIMIT, fmt_num, fmt_vec,
-                                         header_comment, inertial_element, joint_comment,
-                                         mujoco_compiler, rpy, set_dynamics, xml_text)
+from orthoglide_ident.model.urdf import (
+    EFFORT_LIMIT,
+    SPEED_LIMIT,
+    fmt_num,
+    fmt_vec,
+    header_comment,
+    inertial_element,
+    joint_comment,
+    mujoco_compiler,
+    rpy,
+    set_dynamics,
+    xml_text,
+)
 
 __all__ = ["PLATFORM_LINK", "joint_labels", "orthoglide_urdf", "platform_in_body5"]
 
@@ -67,12 +77,30 @@ def orthoglide_urdf(robot: RobotModel, chi_st: np.ndarray, gains: Sequence[float
     values = dict(zip(robot.standard_names, (float(x) for x in chi_st)))
     inertial = {b.frame: np.asarray(chi_st)[list(b.inertial)] for b in robot.bodies}
     root = ET.Element("robot", name="orthoglide_identified")
-    root.append(ET.Comment(header_comment(robot, gains, (
-        "Open tree of the Orthoglide: per leg i a prismatic foot q1i and pivots q2i..q5i in the "
-        "MDH frames of docs/design/conventions.md (link body_<j><i> = frame j_i), the platform fixed to "
-        "body 5 of leg 1 at P. The loops are closed by the product's model, not by this file: "
-        "body 5 of legs 2 and 3 is welded to the platform (links platform_on_leg2/3 coincide "
-        f"with platform on the robot). Gravity: {G0} m/s² along +y of base_link (y0 down)."))))
+    root.append(
+        ET.Comment(
+            header_comment(
+                robot,
+                gains,
+                (
+                    "Open tree of the Orthoglide: per leg i a prismatic foot q1i and pivots "
+                    "q2i..q5i in the "
+                    "MDH frames of docs/design/conventions.md (link body_<j><i> = frame j_i), the "
+                    "platform fixed to "
+                    "body 5 of leg 1 at P. The loops are closed by the product's model, not by "
+                    "this "
+                    ""
+                    ""
+                    ""
+                    "file: "
+                    "body 5 of legs 2 and 3 is welded to the platform (links platform_on_leg2/3 "
+                    "coincide "
+                    f"with platform on the robot). Gravity: {G0} m/s² along +y of base_link (y0 "
+                    "down)."
+                ),
+            )
+        )
+    )
     ET.SubElement(root, "link", name="base_link")
     for i in range(3):
         parent = "base_link"

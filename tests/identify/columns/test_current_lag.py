@@ -2,14 +2,18 @@
 ``lag_model: auto``)."""
 import numpy as np
 import pytest
+from simulated import simulated_pair
 
 from orthoglide_ident.errors import ConfigError
-from orthoglide_ident.identify.columns.current_lag import (MAX_SEARCH_S, MIN_PERIODS, LiveLagInstrument,
-                                                   find_period, lag_instrument)
-from orthoglide_ident.identify import IdentifyOptions
-from orthoglide_ident.identify import Record, identify_records
+from orthoglide_ident.identify import IdentifyOptions, Record, identify_records
+from orthoglide_ident.identify.columns.current_lag import (
+    MAX_SEARCH_S,
+    MIN_PERIODS,
+    LiveLagInstrument,
+    find_period,
+    lag_instrument,
+)
 from orthoglide_ident.model.robots import load_robot
-from simulated import simulated_pair
 
 ORTHOGLIDE = load_robot("orthoglide")  # the robot these records are of
 
@@ -85,8 +89,11 @@ def test_lag_of_the_realistic_drive_identified_despite_the_current_noise(realist
     assert "torques.png" in [p.name for p in write_report(res, tmp_path)]
     g = np.array([x.value for x in res.drive_gains])
     s = np.array([x.rel_std for x in res.drive_gains])
-    off = identify_records(realistic_pair, options=IdentifyOptions(screw_lead_m=0.01,
-                                                                   lag_model="off"), model=ORTHOGLIDE)
+    off = identify_records(
+        realistic_pair,
+        options=IdentifyOptions(screw_lead_m=0.01, lag_model="off"),
+        model=ORTHOGLIDE,
+    )
     assert off.current_lag == []
     s_off = np.array([x.rel_std for x in off.drive_gains])
     assert np.all(s < 1.25 * s_off)
@@ -109,8 +116,9 @@ def test_records_that_do_not_repeat_keep_the_papers_model(realistic_pair):
     for recs in ([cut(r) for r in realistic_pair], [cut(realistic_pair[0]), realistic_pair[1]]):
         on = identify_records(recs, options=IdentifyOptions(check_excitation=False),
                               model=ORTHOGLIDE)
-        off = identify_records(recs, options=IdentifyOptions(lag_model="off",
-                                                             check_excitation=False), model=ORTHOGLIDE)
+        off = identify_records(
+            recs, options=IdentifyOptions(lag_model="off", check_excitation=False), model=ORTHOGLIDE
+        )
         assert on.current_lag == []
         assert on.diagnostics["bags"][0]["n_not_repeating"] == 1
         assert [p.name for p in on.parameters] == [p.name for p in off.parameters]

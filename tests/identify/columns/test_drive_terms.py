@@ -3,11 +3,10 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-
-from orthoglide_ident.identify.columns.drive_terms import DriveTermsModel, observation_model
-from orthoglide_ident.identify import IdentifyOptions
-from orthoglide_ident.identify import identify_records
 from synthetic import TRUE_CHI, TRUE_GAINS, SyntheticModel, synthetic_record, trajectory
+
+from orthoglide_ident.identify import IdentifyOptions, identify_records
+from orthoglide_ident.identify.columns.drive_terms import DriveTermsModel, observation_model
 
 LEAD = 0.010  # m
 # N, per joint: cos and sin coefficients of sign(q̇_j) (c cos + s sin)(2π q_j / λ); amplitude

@@ -16,15 +16,17 @@ import numpy as np
 import pytest
 
 from orthoglide_ident.errors import IdentificationError, ModelError
-from orthoglide_ident.identify import IdentifyOptions
-from orthoglide_ident.identify.columns.payload_unknowns import (payload_basis, unknowns_of,
-                                                        with_payload_unknowns)
-from orthoglide_ident.identify import Record, identify, identify_records
+from orthoglide_ident.identify import IdentifyOptions, Record, identify, identify_records
+from orthoglide_ident.identify.columns.payload_unknowns import (
+    payload_basis,
+    unknowns_of,
+    with_payload_unknowns,
+)
 from orthoglide_ident.model.robot import INERTIAL_KINDS, PAYLOAD_UNKNOWN, Payload, RobotModel
 from orthoglide_ident.model.robots import load_robot
+from orthoglide_sim.arms.description import load_arm
 from orthoglide_sim.arms.record import simulate_arm
 from orthoglide_sim.arms.truth import OFFSET_COM, OFFSET_PAYLOAD, load_truth, with_offset_payload
-from orthoglide_sim.arms.description import load_arm
 
 
 def _record(sim, name: str, payload: Payload | None) -> Record:
@@ -204,8 +206,7 @@ def test_a_payload_that_does_not_act_cannot_scale(ur5):
 def test_live_follows_the_offline_answer(ur5):
     """The live identification, told the mass only (as the recorder's status carries it), folds
     the same equations and reports the same payload as offline."""
-    from live_helpers import rel_diff
-    from live_helpers import live_result
+    from live_helpers import live_result, rel_diff
 
     model, un, lo, _, _ = ur5
     opts = IdentifyOptions(lag_model="off")
@@ -223,8 +224,12 @@ def test_cross_validation_uses_the_identified_payload(ur5):
     model, un, lo, _, _ = ur5
     loaded = _record(lo, "loaded", None)
     res = identify_records([un, loaded], model=model, validation=[loaded])
-    point = identify_records([un, loaded], model=model, validation=[loaded], options=IdentifyOptions(
-        payload_known="point", check_excitation=False))
+    point = identify_records(
+        [un, loaded],
+        model=model,
+        validation=[loaded],
+        options=IdentifyOptions(payload_known="point", check_excitation=False),
+    )
     err = np.array([j["relative_error"] for j in res.validation[0]["joints"]])
     err_point = np.array([j["relative_error"] for j in point.validation[0]["joints"]])
     assert err.max() < 0.01 and err_point[-1] > 5 * err[-1]

@@ -15,10 +15,9 @@ import pytest
 
 from orthoglide_ident import cli
 from orthoglide_ident.errors import ConfigError, SolverError
+from orthoglide_ident.identify import IdentifyOptions, identify, identify_records
 from orthoglide_ident.identify.consistency import fit as C
 from orthoglide_ident.identify.consistency import lmi
-from orthoglide_ident.identify import IdentifyOptions
-from orthoglide_ident.identify import identify, identify_records
 from orthoglide_ident.identify.consistency.pseudo_inertia import MARGIN, layout, min_eigenvalues
 from orthoglide_ident.model.inertia import at_com, from_com, pseudo_inertia
 from orthoglide_ident.model.robots import load_robot

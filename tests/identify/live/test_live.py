@@ -5,14 +5,18 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
-from orthoglide_ident.errors import ExcitationError, IdentificationError
-from orthoglide_ident.identify import LiveIdentification
-from orthoglide_ident.identify import IdentifyOptions
-from orthoglide_ident.identify import Record, identify_records, read_record
-from orthoglide_ident.model.robots import load_robot
 from live_helpers import feed, rel_diff, rel_sigma_diff
 from simulated import simulated_pair
+
+from orthoglide_ident.errors import ExcitationError, IdentificationError
+from orthoglide_ident.identify import (
+    IdentifyOptions,
+    LiveIdentification,
+    Record,
+    identify_records,
+    read_record,
+)
+from orthoglide_ident.model.robots import load_robot
 
 ORTHOGLIDE = load_robot("orthoglide")  # the robot these records are of
 
@@ -192,8 +196,15 @@ def test_simulated_records_with_a_real_gap(sim_records):
     unloaded, loaded = sim_records
     keep = np.ones(len(loaded.stamps_q_ns), bool)
     keep[6000:6200] = False  # 0.2 s lost on both topics in the middle of the loaded record
-    gappy = Record.from_arrays(loaded.source, loaded.stamps_q_ns[keep], loaded.q[keep],
-                               loaded.v_tau[keep], "loaded", loaded.payload_mass, joint_names=ORTHOGLIDE.joint_names)
+    gappy = Record.from_arrays(
+        loaded.source,
+        loaded.stamps_q_ns[keep],
+        loaded.q[keep],
+        loaded.v_tau[keep],
+        "loaded",
+        loaded.payload_mass,
+        joint_names=ORTHOGLIDE.joint_names,
+    )
     off = identify_records([unloaded, gappy], options=PAPER_DRIVE, model=ORTHOGLIDE)
     live = LiveIdentification(PAPER_DRIVE, model=ORTHOGLIDE)
     warnings = feed(live, unloaded, (10,), 2) + feed(live, gappy, (10, 37), 3, seed=1)
@@ -328,8 +339,18 @@ def test_live_lag_left_out_when_a_segment_does_not_repeat(realistic_records):
     """A record shorter than 4 periods: the segment's held ticks come out at its end without an
     instrument, the user is told, and the identification is the paper's drive model's, as
     offline (pipeline._lag_or_paper) — also when an earlier recording had the instrument."""
-    cut = [Record.from_arrays(r.source, r.stamps_q_ns[:5000], r.q[:5000], r.v_tau[:5000],
-                              r.condition, r.payload_mass, joint_names=ORTHOGLIDE.joint_names) for r in realistic_records]
+    cut = [
+        Record.from_arrays(
+            r.source,
+            r.stamps_q_ns[:5000],
+            r.q[:5000],
+            r.v_tau[:5000],
+            r.condition,
+            r.payload_mass,
+            joint_names=ORTHOGLIDE.joint_names,
+        )
+        for r in realistic_records
+    ]
     for recs in (cut, [realistic_records[0], cut[1]]):
         opts = IdentifyOptions(check_excitation=False)
         live = LiveIdentification(opts, model=ORTHOGLIDE)

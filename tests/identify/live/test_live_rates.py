@@ -8,13 +8,13 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-
 from live_helpers import rel_diff
+from synthetic import SyntheticModel, synthetic_record
+
 from orthoglide_ident.identify.live.session import LiveIdentification
 from orthoglide_ident.identify.options import IdentifyOptions
 from orthoglide_ident.identify.pipeline import identify_records
 from orthoglide_ident.ticks import StepStats, step_stats
-from synthetic import SyntheticModel, synthetic_record
 
 MODEL = SyntheticModel()
 CONFIG = IdentifyOptions.from_yaml("config/identification.yaml")  # what the node starts with
@@ -107,7 +107,7 @@ def test_the_steps_are_shown_while_recording(rate):
 def test_live_through_a_transmission_at_93hz(tmp_path):
     """The coupled wrist (joint-side positions and efforts mapped to the motors on arrival)
     logged at ~93 Hz: live = offline (motor_side of the same records) to 1e-9, gains by motor."""
-    from identify.test_transmission_identification import MOTORS, N, OFFSET, _robot_file, _runs
+    from identify.test_transmission_identification import MOTORS, OFFSET, N, _robot_file, _runs
 
     from orthoglide_ident.identify.records.record import Record, motor_side
     from orthoglide_ident.model.robot import Payload

@@ -4,8 +4,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from orthoglide_ident.identify.observe.decimation import (decimate, decimate_chunked, decimate_fir,
-                                                  fir_output_range, fir_taps)
+from orthoglide_ident.identify.observe.decimation import (
+    decimate,
+    decimate_chunked,
+    decimate_fir,
+    fir_output_range,
+    fir_taps,
+)
 from orthoglide_ident.identify.observe.filtering import derivative_filter, half_tick
 from orthoglide_ident.identify.observe.time_base import states_at_half_tick
 

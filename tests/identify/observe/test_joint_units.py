@@ -6,8 +6,8 @@ from __future__ import annotations
 import numpy as np
 import yaml
 
-from orthoglide_ident.identify.observe import joint_units
 from orthoglide_ident.identify.columns.drive_terms import DriveTermsModel
+from orthoglide_ident.identify.observe import joint_units
 from orthoglide_ident.identify.solve.partial import Subsystem
 from orthoglide_ident.model.robots import ROBOTS_DIR, load_robot
 

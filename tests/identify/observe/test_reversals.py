@@ -2,11 +2,10 @@
 from __future__ import annotations
 
 import numpy as np
-
-from orthoglide_ident.identify import IdentifyOptions
-from orthoglide_ident.identify import identify_records
-from orthoglide_ident.identify.observe.reversals import bridge, find_reversals, rows_clear
 from synthetic import SyntheticModel, synthetic_record
+
+from orthoglide_ident.identify import IdentifyOptions, identify_records
+from orthoglide_ident.identify.observe.reversals import bridge, find_reversals, rows_clear
 
 
 def test_bridge_removes_the_sign_step_and_keeps_the_linear_relation():

@@ -11,23 +11,21 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from live_helpers import as_record
 
+from orthoglide_ident.identify import IdentifyOptions, identify_records
+from orthoglide_ident.identify.columns.drive_terms import observation_model
+from orthoglide_ident.identify.columns.payload_unknowns import with_payload_unknowns
 from orthoglide_ident.identify.observe import smooth_rows
-
 from orthoglide_ident.identify.observe import stream as stream_mod
 from orthoglide_ident.identify.observe.decimation import fir_decimate_last, fir_taps
-from orthoglide_ident.identify.columns.drive_terms import observation_model
-from orthoglide_ident.identify.observe.time_base import states_at_half_tick
-from orthoglide_ident.identify.observe.rows import observe
-from orthoglide_ident.identify import IdentifyOptions
-from orthoglide_ident.identify.columns.payload_unknowns import with_payload_unknowns
-from orthoglide_ident.identify import identify_records
 from orthoglide_ident.identify.observe.reversals import bridge_weights
+from orthoglide_ident.identify.observe.rows import observe
 from orthoglide_ident.identify.observe.smooth_rows import BridgeCorrections, anchor_points
 from orthoglide_ident.identify.observe.stream import SegmentStream
+from orthoglide_ident.identify.observe.time_base import states_at_half_tick
 from orthoglide_ident.model.robots import load_robot
 from orthoglide_sim.arms.record import simulate_arm
-from live_helpers import as_record
 
 SECONDS = 8.0  # per record: the answer's σ is then ~4x the 2 x 60 s bags'
 
@@ -211,8 +209,11 @@ def test_two_anchor_points_are_exact_for_a_quadratic_along_a_line():
     """x̄ ± √M2 β: the mean of any quadratic function of states that move on a straight line
     over the anchor (the second-order term the unscented transform keeps)."""
     k = np.arange(40.0)
-    x = (0.3 + 0.01 * k[:, None] * np.array([[1.0, -2.0]]), 0.5 - 0.02 * k[:, None] * np.ones((1, 2)),
-         np.zeros((40, 2)))
+    x = (
+        0.3 + 0.01 * k[:, None] * np.array([[1.0, -2.0]]),
+        0.5 - 0.02 * k[:, None] * np.ones((1, 2)),
+        np.zeros((40, 2)),
+    )
     pts = anchor_points(lambda idx: tuple(v[idx] for v in x), np.array([3, 10]), np.array([33, 11]))
     f = lambda y: y[0] ** 2 - 3.0 * y[1] * y[2] + y[3]  # noqa: E731 (q0, q1, qd0, qd1 rows)
     full = np.hstack(x).T  # (6, 40)

@@ -3,13 +3,13 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from synthetic import SyntheticModel, synthetic_record
 
-from orthoglide_ident.identify.observe.decimation import fir_decimate_last, fir_taps
-from orthoglide_ident.identify.observe.time_base import states_at_half_tick
 from orthoglide_ident.identify import IdentifyOptions
+from orthoglide_ident.identify.observe.decimation import fir_decimate_last, fir_taps
 from orthoglide_ident.identify.observe.reversals import ReversalTracker, find_reversals
 from orthoglide_ident.identify.observe.stream import SegmentStream
-from synthetic import SyntheticModel, synthetic_record
+from orthoglide_ident.identify.observe.time_base import states_at_half_tick
 
 
 def _velocities(rng: np.random.Generator, n: int) -> np.ndarray:

@@ -10,8 +10,8 @@ import pytest
 from orthoglide_ident.errors import DataError
 from orthoglide_ident.identify import IdentifyOptions
 from orthoglide_ident.identify.observe.filtering import filtered_states
-from orthoglide_ident.identify.records.segments import Segment, split_record
 from orthoglide_ident.identify.observe.time_base import choose_velocity, states_on_stamps
+from orthoglide_ident.identify.records.segments import Segment, split_record
 from orthoglide_ident.ticks import find_breaks_local, step_stats
 
 F = np.array([0.3, 1.1, 2.3, 3.0])
@@ -282,7 +282,10 @@ def test_5_khz_and_the_same_decimated_to_1_khz_agree_within_their_sigma():
 
     a = identify_records(fast, model=model)
     b = identify_records([to_1khz(r) for r in fast], model=model)
-    assert a.diagnostics["bags"][0]["decimation"] == 50 and b.diagnostics["bags"][0]["decimation"] == 10
+    assert (
+        a.diagnostics["bags"][0]["decimation"] == 50
+        and b.diagnostics["bags"][0]["decimation"] == 10
+    )
     for x, y in zip(a.drive_gains, b.drive_gains):
         assert abs(x.value - y.value) < x.value * max(x.rel_std, y.rel_std)
     for x, y in zip(a.parameters, b.parameters):
@@ -349,7 +352,9 @@ def test_identification_with_the_recorded_velocity():
     bad = [dataclasses.replace(r, qd=1.1 * r.qd) for r in with_qd]  # a velocity 10 % off
     res = identify_records(bad, model=SyntheticModel(), options=IdentifyOptions(
         check_excitation=False, velocity_source="auto"))
-    assert res.diagnostics["bags"][0]["velocity"].startswith("derived from q (velocity_source: auto")
+    assert res.diagnostics["bags"][0]["velocity"].startswith(
+        "derived from q (velocity_source: auto"
+    )
 
 
 def test_live_blocks_on_an_uneven_clock_give_the_offline_rows():
@@ -357,8 +362,8 @@ def test_live_blocks_on_an_uneven_clock_give_the_offline_rows():
     uneven record match those of the whole segment filtered at once."""
     from synthetic import SyntheticModel, synthetic_record
 
-    from orthoglide_ident.identify.observe.time_base import states_at_half_tick
     from orthoglide_ident.identify.observe.stream import SegmentStream
+    from orthoglide_ident.identify.observe.time_base import states_at_half_tick
 
     rec = synthetic_record(30.0, 0.0, seed=3, amplitude=0.1, f_max=3.0, steps_ns=_clock(30.0))
     model = SyntheticModel()

@@ -11,14 +11,13 @@ import re
 
 import numpy as np
 import pytest
+from live_helpers import as_record
 
 from orthoglide_ident.cli import main
 from orthoglide_ident.errors import DataError, ExcitationError, IdentificationError
 from orthoglide_ident.identify.pipeline import identify_records
 from orthoglide_ident.model.robots import load_robot
 from orthoglide_sim.arms.record import simulate_arm
-
-from live_helpers import as_record
 
 UR5 = load_robot("ur5")
 

@@ -5,7 +5,9 @@ is the generator's gains; the paper's TLS puts joints 5-7 several of its σ from
 from __future__ import annotations
 
 import numpy as np
+import panda_arm as P
 import pytest
+from synthetic import TRUE_GAINS, SyntheticModel, synthetic_record
 
 from orthoglide_ident.cli import build_parser
 from orthoglide_ident.errors import ConfigError, IdentificationError
@@ -15,8 +17,6 @@ from orthoglide_ident.identify.solve import methods
 from orthoglide_ident.identify.solve.factors import RecordFactors
 from orthoglide_ident.identify.solve.iv import observations_of
 from orthoglide_ident.model.robots import load_robot
-import panda_arm as P
-from synthetic import TRUE_GAINS, SyntheticModel, synthetic_record
 
 SECONDS, NOISE = 20.0, 0.01
 

@@ -6,13 +6,13 @@ import dataclasses
 
 import numpy as np
 import pytest
+from synthetic import TRUE_GAINS, SyntheticModel, synthetic_record
 
 from orthoglide_ident.cli import build_parser
 from orthoglide_ident.errors import IdentificationError
-from orthoglide_ident.identify.solve import methods
 from orthoglide_ident.identify import identify_records
+from orthoglide_ident.identify.solve import methods
 from orthoglide_ident.identify.solve.answer import solve_wls
-from synthetic import TRUE_GAINS, SyntheticModel, synthetic_record
 
 MODEL = SyntheticModel()
 

@@ -7,12 +7,11 @@ import math
 
 import numpy as np
 import pytest
-
 from axial_payload import write_axial_bags
+
 from orthoglide_ident.cli import main
 from orthoglide_ident.errors import ExcitationError
-from orthoglide_ident.identify import IdentifyOptions
-from orthoglide_ident.identify import identify
+from orthoglide_ident.identify import IdentifyOptions, identify
 from orthoglide_ident.model.robots import load_robot
 
 

@@ -5,10 +5,14 @@ import numpy as np
 import pytest
 
 from orthoglide_ident.errors import ExcitationError, IdentificationError
-from orthoglide_ident.identify.solve.essential import essential_parameters
 from orthoglide_ident.identify.observe.equations import Observations
-from orthoglide_ident.identify.solve.tls import (ExcitationLimits, TLSProblem, check_excitation,
-                                           idim_tls)
+from orthoglide_ident.identify.solve.essential import essential_parameters
+from orthoglide_ident.identify.solve.tls import (
+    ExcitationLimits,
+    TLSProblem,
+    check_excitation,
+    idim_tls,
+)
 from orthoglide_ident.identify.solve.wls import idim_wls
 
 G = np.array([2170.0, 2100.0, 2070.0])

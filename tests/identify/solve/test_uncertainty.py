@@ -7,14 +7,18 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from orthoglide_ident.identify.solve.essential import essential_parameters
-from orthoglide_ident.identify.solve import uncertainty
-from orthoglide_ident.identify.solve.factors import RecordFactors, qr_r
-from orthoglide_ident.identify.observe.equations import Observations
 from orthoglide_ident.identify import identify_records, read_record
+from orthoglide_ident.identify.observe.equations import Observations
+from orthoglide_ident.identify.solve import uncertainty
+from orthoglide_ident.identify.solve.essential import essential_parameters
+from orthoglide_ident.identify.solve.factors import RecordFactors, qr_r
 from orthoglide_ident.identify.solve.tls import TLSProblem
-from orthoglide_ident.identify.solve.uncertainty import (LAGS, ResidualMoments, diagnose,
-                                                   fir_white_autocorrelation)
+from orthoglide_ident.identify.solve.uncertainty import (
+    LAGS,
+    ResidualMoments,
+    diagnose,
+    fir_white_autocorrelation,
+)
 from orthoglide_ident.identify.solve.wls import idim_wls
 from orthoglide_ident.model.robots import load_robot
 
@@ -260,8 +264,9 @@ def test_essential_keeps_the_gains_and_says_what_each_cancellation_cost(bag_resu
     # the paper's rule, still available, moves the gains further on the same data
     from orthoglide_ident.identify import IdentifyOptions
 
-    paper = identify_records(recs, essential=True,
-                             options=IdentifyOptions(essential_method="paper"), model=ORTHOGLIDE).essential
+    paper = identify_records(
+        recs, essential=True, options=IdentifyOptions(essential_method="paper"), model=ORTHOGLIDE
+    ).essential
     gp = np.array([x.value for x in paper.drive_gains])
     assert paper.diagnostics["method"] == "paper"
     assert np.abs(gp / g - 1).max() > np.abs(ge / g - 1).max()
@@ -334,7 +339,9 @@ def test_a_residual_at_current_reversals_is_said_and_folded_as_at_once():
         obs.v_tau[:] += 20 * 2e-4 * np.sign(obs.v_tau) * _flips(obs.v_tau)
     hit = TLSProblem(blocks).solve()
     names = ("q11", "q12", "q13")
-    assert np.all(np.abs(clean.uncertainty.reversal_ratio - 1) < 0.3), clean.uncertainty.reversal_ratio
+    assert np.all(np.abs(clean.uncertainty.reversal_ratio - 1) < 0.3), (
+        clean.uncertainty.reversal_ratio
+    )
     assert np.all(hit.uncertainty.reversal_ratio > 5), hit.uncertainty.reversal_ratio
     for sol, said in ((clean, 0), (hit, 3)):
         d, warnings = diagnose(sol.uncertainty, 10, 4, names, gain_index=slice(4, 7))

@@ -6,12 +6,11 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from coupled_records import MOTORS, N, coupled_records, robot_file
 
 from orthoglide_ident.identify import IdentifyOptions, identify_records
 from orthoglide_ident.identify.records.record import motor_side
 from orthoglide_ident.model.robots import load_robot
-
-from coupled_records import MOTORS, N, coupled_records, robot_file
 
 UR5_JOINTS = ["shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint", "wrist_1_joint",
               "wrist_2_joint", "wrist_3_joint"]

@@ -12,8 +12,8 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
-
 import test_idim as ref
+
 from orthoglide_ident.errors import ConfigError
 from orthoglide_ident.model.orthoglide.base import base_model
 from orthoglide_ident.model.orthoglide.geometry import Geometry

@@ -1,7 +1,8 @@
 """The IDIM against an independent inverse dynamics, and its base parameters against the paper.
 
 The independent reference below shares no code with orthoglide_ident.model: body poses come from a
-generic MDH chain (Tables 1-2) fed with the passive angles solved from the platform point, velocities
+generic MDH chain (Tables 1-2) fed with the passive angles solved from the platform point,
+velocities
 and accelerations from jax automatic differentiation of those poses along a trajectory, and joint
 efforts from the principle of virtual power with body Jacobians dp/dq.
 """
@@ -23,7 +24,11 @@ jax.config.update("jax_enable_x64", True)
 a, d4, d6, g0 = 0.34, 0.31, 0.03, 9.80665
 GRAV = jnp.array([0.0, g0, 0.0])
 # Table 1 (with r_13 = q13 - a) and Table 2: (gamma, b, alpha, d, theta_offset, r_offset)
-FOOT = [(0, 0, 0, 0, 0, 0), (np.pi / 2, a, np.pi / 2, 0, 0, -a), (0, a, -np.pi / 2, 0, -np.pi / 2, -a)]
+FOOT = [
+    (0, 0, 0, 0, 0, 0),
+    (np.pi / 2, a, np.pi / 2, 0, 0, -a),
+    (0, a, -np.pi / 2, 0, -np.pi / 2, -a),
+]
 PIVOTS = [(-np.pi / 2, 0.0), (-np.pi / 2, 0.0), (0.0, d4), (np.pi / 2, 0.0)]  # (alpha, d) of 2..5
 
 
@@ -46,7 +51,8 @@ def mdh(gamma, b, alpha, d, theta, r):
 
 
 def platform_point(q):
-    """Sphere intersection, solved by Newton iterations from the isotropic point (not the closed form)."""
+    """Sphere intersection, solved by Newton iterations from the isotropic point (not the closed
+    form)."""
     feet = [mdh(*FOOT[i][:4], FOOT[i][4], q[i] + FOOT[i][5]) for i in range(3)]
     c = jnp.stack([T[:3, 3] + d6 * T[:3, 2] for T in feet])
     P = jnp.array([0.0, 0.0, a])
@@ -134,7 +140,11 @@ def test_idim_matches_independent_virtual_power():
     ref_fn = jax.jit(reference_tau)
     for n in range(q.shape[0]):
         ref = np.asarray(ref_fn(q[n], qd[n], qdd[n], jnp.asarray(chi), jnp.asarray(chi_l)))
-        assert np.max(np.abs(tau_model[n] - ref)) <= 1e-8 * np.max(np.abs(ref)), (n, tau_model[n], ref)
+        assert np.max(np.abs(tau_model[n] - ref)) <= 1e-8 * np.max(np.abs(ref)), (
+            n,
+            tau_model[n],
+            ref,
+        )
 
 
 def test_kinematics_consistent_and_loops_closed():
@@ -158,7 +168,9 @@ def test_base_regressor_reproduces_standard_model():
     chi, _ = random_physical(12)
     W_st, W_l = standard_regressor(q, qd, qdd)
     W_b, w_m7 = bm.observation(q, qd, qdd)
-    np.testing.assert_allclose(W_b @ bm.base_values(chi), W_st @ chi, rtol=0, atol=1e-9 * np.abs(W_st @ chi).max())
+    np.testing.assert_allclose(
+        W_b @ bm.base_values(chi), W_st @ chi, rtol=0, atol=1e-9 * np.abs(W_st @ chi).max()
+    )
     np.testing.assert_allclose(w_m7, W_l[:, 9])
     np.testing.assert_allclose(bm.regressor(q, qd, qdd), W_b)
 

@@ -1,4 +1,5 @@
-"""Closed-form leg columns and component-first kinematics (model/orthoglide/leg_closed_form.py) against
+"""Closed-form leg columns and component-first kinematics (model/orthoglide/leg_closed_form.py)
+against
 the generic Newton-Euler recursion (idim.leg_columns, kinematics.tree_state)."""
 from __future__ import annotations
 
@@ -9,7 +10,11 @@ from orthoglide_ident.errors import SingularityError
 from orthoglide_ident.model.orthoglide import idim
 from orthoglide_ident.model.orthoglide.base import base_model, random_states
 from orthoglide_ident.model.orthoglide.kinematics import tree_state
-from orthoglide_ident.model.orthoglide.leg_closed_form import CLOSED_FORM, closed_form_columns, leg_state
+from orthoglide_ident.model.orthoglide.leg_closed_form import (
+    CLOSED_FORM,
+    closed_form_columns,
+    leg_state,
+)
 
 
 def test_closed_forms_equal_the_generic_recursion():

@@ -1,6 +1,7 @@
 """The Orthoglide described to the general model (robots/orthoglide_general.yaml: the MDH tree of
 Tables 1-2 in a URDF, legs 2 and 3 closed on the platform by 6D loops) against the paper's closed
-form (model/orthoglide/base.py): the same standard rows, the same 61 base parameters, the same identification
+form (model/orthoglide/base.py): the same standard rows, the same 61 base parameters, the same
+identification
 on the sample bags.
 
 The two share no kinematics: the closed form solves the loops by hand (eqs. 5-9, 41) and writes

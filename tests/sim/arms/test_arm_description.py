@@ -7,9 +7,12 @@ import pytest
 from orthoglide_ident.errors import ConfigError
 from orthoglide_sim.arms.description import load_arm, rpy_matrix
 
-LINK = '<link name="{0}"><inertial><mass value="1"/><inertia ixx="1" iyy="1" izz="1"/></inertial></link>'
-JOINT = ('<joint name="{0}" type="revolute"><parent link="{1}"/><child link="{2}"/><axis xyz="0 0 1"/>'
-         '<limit lower="-1" upper="1" velocity="2" effort="10"/></joint>')
+LINK = ('<link name="{0}"><inertial><mass value="1"/>'
+        '<inertia ixx="1" iyy="1" izz="1"/></inertial></link>')
+JOINT = (
+    '<joint name="{0}" type="revolute"><parent link="{1}"/><child link="{2}"/><axis xyz="0 0 1"/>'
+    '<limit lower="-1" upper="1" velocity="2" effort="10"/></joint>'
+)
 
 
 def test_ur5_as_bundled():

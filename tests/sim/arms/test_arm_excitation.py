@@ -13,8 +13,8 @@ from orthoglide_ident.errors import ConfigError
 from orthoglide_sim.arms import excitation as ax
 from orthoglide_sim.arms.description import load_arm
 from orthoglide_sim.arms.limits import MotionLimits, motion_limits
-from orthoglide_sim.arms.truth import GRAVITY, default_truth
 from orthoglide_sim.arms.pinocchio_truth import ArmRegressor, TruthDynamics, urdf_model
+from orthoglide_sim.arms.truth import GRAVITY, default_truth
 
 NAMES = ("exciting1", "exciting2")
 
@@ -56,7 +56,9 @@ def test_designed_trajectory_beats_random_fourier_series(arm, regressor, name):
     stored = json.loads((ax.design_path(arm.name, NAMES.index(name) + 1)).read_text())
     assert cond == pytest.approx(stored["condition_number"], rel=1e-6)
     lim = motion_limits(arm)
-    random = [ax.condition_number(ax.random_trajectory(lim, seed), regressor.base) for seed in range(8)]
+    random = [
+        ax.condition_number(ax.random_trajectory(lim, seed), regressor.base) for seed in range(8)
+    ]
     print(f"{name}: cond {cond:.0f}, random {np.round(random)}")
     assert cond < 0.8 * min(random)
 
@@ -83,12 +85,19 @@ def test_safe_box_keeps_the_arm_above_its_mounting_plane(arm):
 def test_regressor_times_standard_parameters_is_the_truths_dynamics(arm, regressor):
     truth = default_truth(arm)
     rng = np.random.default_rng(5)
-    q, qd, qdd = rng.uniform(-3, 3, (100, 6)), rng.normal(0, 2, (100, 6)), rng.normal(0, 10, (100, 6))
+    q, qd, qdd = (
+        rng.uniform(-3, 3, (100, 6)),
+        rng.normal(0, 2, (100, 6)),
+        rng.normal(0, 10, (100, 6)),
+    )
     for payload in (None, truth.payload("2.0")):
         tau = TruthDynamics(truth, payload).torques(q, qd, qdd, friction=True)
         W = regressor.standard(q, qd, qdd)
         assert W.shape == (600, 84) and len(regressor.names) == 84
-        assert np.abs(W @ regressor.standard_vector(truth, payload) - tau.T.ravel()).max() < 1e-9 * np.abs(tau).max()
+        assert (
+            np.abs(W @ regressor.standard_vector(truth, payload) - tau.T.ravel()).max()
+            < 1e-9 * np.abs(tau).max()
+        )
     B = regressor.base(q, qd, qdd)
     assert np.linalg.matrix_rank(B) == B.shape[1] == np.linalg.matrix_rank(W)
 
@@ -104,8 +113,14 @@ def test_optimiser_takes_any_regressor_and_number_of_joints():
         W[:m, -1] = qdd[:, 1]  # joint 0 feels joint 1's acceleration
         return W
 
-    lim = MotionLimits(np.zeros(2), np.array([1.0, 0.5]), np.array([2.0, 1.0]), np.array([10.0, 8.0]),
-                       np.full(2, -2.0), np.full(2, 2.0))
+    lim = MotionLimits(
+        np.zeros(2),
+        np.array([1.0, 0.5]),
+        np.array([2.0, 1.0]),
+        np.array([10.0, 8.0]),
+        np.full(2, -2.0),
+        np.full(2, 2.0),
+    )
     start = ax.condition_number(ax.random_trajectory(lim, 0, K=3, period=2.0), regressor)
     traj, cond = ax.optimise(regressor, lim, K=3, period=2.0, seed=0, restarts=3, steps=60)
     assert traj.a.shape == (2, 3) and cond == pytest.approx(ax.condition_number(traj, regressor))

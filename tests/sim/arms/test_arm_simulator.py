@@ -16,9 +16,9 @@ from orthoglide_sim.arms.bags import main as bags_main
 from orthoglide_sim.arms.description import load_arm
 from orthoglide_sim.arms.excitation import designed_trajectory
 from orthoglide_sim.arms.limits import motion_limits
+from orthoglide_sim.arms.plant import MujocoPlant
 from orthoglide_sim.arms.record import simulate_arm
 from orthoglide_sim.arms.truth import default_truth
-from orthoglide_sim.arms.plant import MujocoPlant
 
 SECONDS = 2.0
 
@@ -136,7 +136,9 @@ def test_bags_of_the_three_runs(tmp_path):
         if mass:
             payload = default_truth(load_arm("ur5")).payload(f"{mass:.1f}")
             assert custom["orthoglide.payload_frame"] == "tool0"
-            assert np.array_equal(np.array(custom["orthoglide.payload_com"].split(), float), payload.body.com)
+            assert np.array_equal(
+                np.array(custom["orthoglide.payload_com"].split(), float), payload.body.com
+            )
             assert len(custom["orthoglide.payload_inertia"].split()) == 6
         else:
             assert "orthoglide.payload_frame" not in custom

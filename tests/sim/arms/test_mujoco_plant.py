@@ -8,9 +8,9 @@ import pytest
 
 from orthoglide_ident.errors import ConfigError
 from orthoglide_sim.arms.description import load_arm
-from orthoglide_sim.arms.truth import RigidBody, apply_overrides, default_truth, load_truth
-from orthoglide_sim.arms.plant import PAYLOAD_BODY, MujocoPlant
 from orthoglide_sim.arms.pinocchio_truth import TruthDynamics
+from orthoglide_sim.arms.plant import PAYLOAD_BODY, MujocoPlant
+from orthoglide_sim.arms.truth import RigidBody, apply_overrides, default_truth, load_truth
 
 PAYLOADS = (None, "2.0", "1.0")
 
@@ -22,7 +22,11 @@ def truth():
 
 def _random_states(n: int, seed: int = 7):
     rng = np.random.default_rng(seed)
-    return rng.uniform(-np.pi, np.pi, (n, 6)), rng.normal(0, 2.0, (n, 6)), rng.normal(0, 10.0, (n, 6))
+    return (
+        rng.uniform(-np.pi, np.pi, (n, 6)),
+        rng.normal(0, 2.0, (n, 6)),
+        rng.normal(0, 10.0, (n, 6)),
+    )
 
 
 def test_truth_every_standard_parameter_non_trivial_and_off_nominal(truth):
@@ -107,7 +111,11 @@ def test_friction_loss_is_a_bounded_coulomb_force(truth):
 
 
 def test_yaml_overrides_reach_the_plant(truth):
-    body = {"mass": 0.2, "com": [0.001, 0.002, 0.003], "inertia": [0.02, 0.0, 0.0, 0.02, 0.0, 0.035]}
+    body = {
+        "mass": 0.2,
+        "com": [0.001, 0.002, 0.003],
+        "inertia": [0.02, 0.0, 0.0, 0.02, 0.0, 0.035],
+    }
     pay = {"frame": "wrist_3_link", "mass": 3.0, "com": [0.0, 0.0, 0.1],
            "inertia": [0.01, 0.001, 0.0, 0.01, 0.0, 0.005]}
     t = apply_overrides(truth, {"joints": {"elbow_joint": {"g_tau": 12.0, "frictionloss": 3.0}},
@@ -159,4 +167,6 @@ def test_true_gains_follow_the_robot_files_nominal_gains():
     """The UR5's URDF alone has nominal gains 1: the true ones are the same few % off them."""
     bare = default_truth(load_arm("orthoglide_ident/robots/ur5.urdf"))
     full = default_truth(load_arm("ur5"))
-    assert np.allclose(bare.drive_array("g_tau"), full.drive_array("g_tau") / full.arm.nominal_gains)
+    assert np.allclose(
+        bare.drive_array("g_tau"), full.drive_array("g_tau") / full.arm.nominal_gains
+    )

@@ -27,7 +27,9 @@ def test_the_current_loop_is_the_second_order_step_response(zeta):
     w = 2 * np.pi * f
     wd = w * np.sqrt(1 - zeta**2)
     t = dt * np.arange(1, 41)
-    exact = 1 - np.exp(-zeta * w * t) * (np.cos(wd * t) + zeta / np.sqrt(1 - zeta**2) * np.sin(wd * t))
+    exact = 1 - np.exp(-zeta * w * t) * (
+        np.cos(wd * t) + zeta / np.sqrt(1 - zeta**2) * np.sin(wd * t)
+    )
     np.testing.assert_allclose(got, exact, rtol=0, atol=1e-12)
 
 

@@ -11,14 +11,18 @@ from orthoglide_ident.errors import ConfigError, WorkspaceError
 from orthoglide_ident.model.robot import Payload
 from orthoglide_ident.model.robots import load_robot
 from orthoglide_sim.arms import simulator as asim
+from orthoglide_sim.arms.excitation import designed_trajectory
+from orthoglide_sim.arms.plant import PAYLOAD_BODY, TIMESTEP
 from orthoglide_sim.arms.truth import RigidBody
 from orthoglide_sim.chains.description import is_closed_chain, load_chain
+from orthoglide_sim.chains.pinocchio_truth import (
+    ChainDynamics,
+    rigid_loop_currents,
+    standard_vector,
+)
 from orthoglide_sim.chains.plant import LOOP_SOLIMP, ChainPlant
-from orthoglide_sim.chains.truth import apply_chain_overrides, default_chain_truth, load_chain_truth
-from orthoglide_sim.arms.plant import PAYLOAD_BODY, TIMESTEP
-from orthoglide_sim.arms.excitation import designed_trajectory
 from orthoglide_sim.chains.record import simulate_chain
-from orthoglide_sim.chains.pinocchio_truth import ChainDynamics, rigid_loop_currents, standard_vector
+from orthoglide_sim.chains.truth import apply_chain_overrides, default_chain_truth, load_chain_truth
 
 PAYLOADS = (None, "1.0", "0.5")
 
@@ -38,7 +42,9 @@ def payload_of(truth, name) -> Payload | None:
     if p is None:
         return None
     I = p.body.inertia
-    return Payload(p.mass, p.frame, tuple(p.body.com), (I[0, 0], I[0, 1], I[0, 2], I[1, 1], I[1, 2], I[2, 2]))
+    return Payload(
+        p.mass, p.frame, tuple(p.body.com), (I[0, 0], I[0, 1], I[0, 2], I[1, 1], I[1, 2], I[2, 2])
+    )
 
 
 def closed_states(plant: ChainPlant, robot, n: int, seed: int):
@@ -72,7 +78,11 @@ def test_truth_every_standard_parameter_non_trivial_and_off_nominal(truth):
             moved = np.abs(true[a:b] - nominal[a:b])
             assert np.all(moved > 0.01 * np.maximum(np.abs(nominal[a:b]), 0.1 * s)), (j.child, a)
     off = truth.drive_array("g_tau") / chain.nominal_gains - 1
-    assert np.all(np.abs(off) > 0.02) and np.all(np.abs(off) < 0.06) and len(set(np.round(off, 6))) == 2
+    assert (
+        np.all(np.abs(off) > 0.02)
+        and np.all(np.abs(off) < 0.06)
+        and len(set(np.round(off, 6))) == 2
+    )
     for key in ("armature", "damping", "frictionloss", "offset"):
         assert np.all(truth.drive_array(key) != 0), key
     for key in ("damping", "frictionloss", "offset"):
@@ -111,7 +121,10 @@ def test_exact_constrained_dynamics_equals_the_models_rows(truth, robot, payload
     """Pinocchio's constraintDynamics of the truth (rigid loop) at the plant's states: the
     product's standard rows times the truth's standard parameters (with the payload's known
     column) give back the applied torques, to round-off. Friction loss off on both sides."""
-    plant, dyn = ChainPlant(truth, truth.payload(payload)), ChainDynamics(truth, truth.payload(payload))
+    plant, dyn = (
+        ChainPlant(truth, truth.payload(payload)),
+        ChainDynamics(truth, truth.payload(payload)),
+    )
     q, qd, tau = closed_states(plant, robot, 40, seed=5)
     qdd = np.empty_like(q)
     for k in range(len(q)):
@@ -128,7 +141,10 @@ def test_exact_constrained_dynamics_equals_the_models_rows(truth, robot, payload
 
 def _softness_error(truth, robot, payload, seed=5, n=40, solimp=None) -> np.ndarray:
     """Per state: |Gᵀ M G (q̈_a MuJoCo - q̈_a exact)| / max|τ| (the torque the softness is worth)."""
-    plant, dyn = ChainPlant(truth, truth.payload(payload)), ChainDynamics(truth, truth.payload(payload))
+    plant, dyn = (
+        ChainPlant(truth, truth.payload(payload)),
+        ChainDynamics(truth, truth.payload(payload)),
+    )
     if solimp is not None:
         plant.model.eq_solimp[0] = solimp
     plant.model.opt.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_FRICTIONLOSS)
@@ -186,7 +202,9 @@ def test_inverse_dynamics_inverts_the_plant(truth, robot):
     plant = ChainPlant(truth, truth.payload("0.5"))
     q, qd, tau = closed_states(plant, robot, 10, seed=2)
     plant.model.opt.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_FRICTIONLOSS)
-    qdd = np.array([mujoco_forward(plant, q[k], qd[k], tau[k])[2][plant.dof] for k in range(len(q))])
+    qdd = np.array(
+        [mujoco_forward(plant, q[k], qd[k], tau[k])[2][plant.dof] for k in range(len(q))]
+    )
     plant.model.opt.disableflags &= ~int(mujoco.mjtDisableBit.mjDSBL_FRICTIONLOSS)
     got = plant.inverse_dynamics(q, qd, qdd)
     assert np.abs(got - tau).max() < 1e-9 * np.abs(tau).max()  # measured 6e-11
@@ -243,7 +261,10 @@ def test_bad_overrides_get_a_one_line_reason(truth, data, reason):
 
 def test_description_of_the_closed_chain():
     chain = load_chain("five_bar")
-    assert chain.joint_names == ("joint_1", "joint_2") and chain.passive_names == ("joint_3", "joint_4")
+    assert chain.joint_names == ("joint_1", "joint_2") and chain.passive_names == (
+        "joint_3",
+        "joint_4",
+    )
     assert chain.tree_joints == ("joint_1", "joint_3", "joint_2", "joint_4")
     assert [(lp.frame_a, lp.frame_b, lp.kind) for lp in chain.loops] == [("tip", "tip_2", "point")]
     assert chain.payload_frame == "tip" and np.allclose(chain.nominal_gains, 0.5)

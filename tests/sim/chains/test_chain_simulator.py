@@ -160,6 +160,8 @@ def test_bags_of_the_three_runs(tmp_path, truth):
         if mass:
             payload = truth.payload(f"{mass:.1f}")
             assert custom["orthoglide.payload_frame"] == "tip"
-            assert np.array_equal(np.array(custom["orthoglide.payload_com"].split(), float), payload.body.com)
+            assert np.array_equal(
+                np.array(custom["orthoglide.payload_com"].split(), float), payload.body.com
+            )
         else:
             assert "orthoglide.payload_frame" not in custom

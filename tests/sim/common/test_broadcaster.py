@@ -47,7 +47,8 @@ def test_one_update_two_messages_one_stamp():
     assert tuple(m.name) == lay.names == tuple(d.joint_names)
     for slot, name in enumerate(lay.names):
         iv = d.interface_values[slot]
-        if name == GRIPPER:  # at rest, no current interface: effort NaN, as the broadcaster fills it
+        # at rest, no current interface: effort NaN, as the broadcaster fills it
+        if name == GRIPPER:
             assert (m.position[slot], m.velocity[slot]) == (0.0, 0.0) and np.isnan(m.effort[slot])
             assert list(iv.interface_names) == ["position", "velocity"]
             continue

@@ -14,8 +14,11 @@ from trajectories import small_trajectory  # noqa: E402
 from orthoglide_ident.errors import ConfigError  # noqa: E402
 from orthoglide_ident.excite import run as plan  # noqa: E402
 from orthoglide_sim.arms.session import ArmSession  # noqa: E402
-from orthoglide_sim.common.joint_trajectory import (PATH_TOLERANCE_VIOLATED, JointTrajectory,  # noqa: E402
-                                             Tolerances)
+from orthoglide_sim.common.joint_trajectory import (  # noqa: E402
+    PATH_TOLERANCE_VIOLATED,
+    JointTrajectory,
+    Tolerances,
+)
 
 
 def test_interpolation_passes_through_the_points_and_matches_the_series_between_them():
@@ -31,7 +34,9 @@ def test_interpolation_passes_through_the_points_and_matches_the_series_between_
     assert np.abs(q_i - q_s).max() < 1e-8 and np.abs(qd_i - qd_s).max() < 1e-6
     assert np.abs(qdd_i - qdd_s).max() < 1e-3 * np.abs(qdd_s).max()
     after = jt.evaluate(np.array([traj.duration + 1.0]))  # holds the last point at rest
-    np.testing.assert_allclose(after[0][0], pts.q[-1]) and np.testing.assert_array_equal(after[1], 0)
+    np.testing.assert_allclose(after[0][0], pts.q[-1]) and np.testing.assert_array_equal(
+        after[1], 0
+    )
 
 
 def test_points_must_increase_in_time():

@@ -5,8 +5,7 @@ from __future__ import annotations
 import time
 
 from orthoglide_ident.ticks import TICK_NS
-from orthoglide_sim.common import broadcaster
-from orthoglide_sim.common import tick_clock
+from orthoglide_sim.common import broadcaster, tick_clock
 
 
 def test_sleep_until_never_returns_before_the_deadline():
@@ -37,4 +36,8 @@ def test_the_real_time_priority_is_logged_either_way():
     tick_clock.real_time_priority(0, log, "update loop")  # priority 0 is refused by SCHED_FIFO
     assert len(log.lines) == 1
     level, text = log.lines[0]
-    assert level == "warning" and "no real-time priority for the update loop" in text and "rt_priority:=0" in text
+    assert (
+        level == "warning"
+        and "no real-time priority for the update loop" in text
+        and "rt_priority:=0" in text
+    )

@@ -1,4 +1,5 @@
-"""Ticks computed ahead (orthoglide_sim.common.ticks_ahead) are the very ticks of a tick-by-tick run:
+"""Ticks computed ahead (orthoglide_sim.common.ticks_ahead) are the very ticks of a tick-by-tick
+run:
 the same states, currents, noise, setpoints and counters, under pid and under ctc with
 feed-forwards that come early, short and late; a change applies from the first tick not yet
 computed; a fault ends the ticks handed out at the tick that caused it. The driver node's order
@@ -7,8 +8,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from orthoglide_sim.orthoglide.session import DriverSession
 from orthoglide_sim.common.ticks_ahead import TicksAhead
+from orthoglide_sim.orthoglide.session import DriverSession
 
 
 def _by_tick(s: DriverSession, n: int, arrivals: dict[int, list] | None = None) -> dict:
@@ -51,11 +52,16 @@ def _same(a: dict, b: dict) -> None:
     np.testing.assert_array_equal(np.array(a["q"]), np.array(b["q"]))
     np.testing.assert_array_equal(np.array(a["v"]), np.array(b["v"]))
     assert [k for k, _ in a["sp"]] == [k for k, _ in b["sp"]]
-    np.testing.assert_array_equal(np.array([sp for _, sp in a["sp"]]), np.array([sp for _, sp in b["sp"]]))
+    np.testing.assert_array_equal(
+        np.array([sp for _, sp in a["sp"]]), np.array([sp for _, sp in b["sp"]])
+    )
 
 
 def test_pid_ticks_computed_in_blocks_are_the_tick_by_tick_ones():
-    runs = [DriverSession(payload="1.983", trajectory="exciting", controller="pid", seed=3) for _ in range(2)]
+    runs = [
+        DriverSession(payload="1.983", trajectory="exciting", controller="pid", seed=3)
+        for _ in range(2)
+    ]
     refills: list = []
     _same(_ahead(runs[0], 95, refills=refills), _by_tick(runs[1], 95))
     assert refills[:3] == [(0, 10), (10, 10), (20, 10)]  # ten at a time, once every ten ticks
@@ -112,7 +118,8 @@ def test_a_fault_ends_the_ticks_at_the_one_that_caused_it():
     s = DriverSession(payload="none", trajectory="exciting", controller="pid", noise=False,
                       current_limit=50.0)
     ahead = TicksAhead(s, 10)
-    s.pid.current = lambda *args: np.array([50.0, 0.0, 0.0])  # full current on one axis: off the stroke
+    # full current on one axis: off the stroke
+    s.pid.current = lambda *args: np.array([50.0, 0.0, 0.0])
     ks = []
     for _ in range(200):
         ahead.refill()
@@ -120,7 +127,8 @@ def test_a_fault_ends_the_ticks_at_the_one_that_caused_it():
             break
         ks.append(ahead.take().k)
     assert s.fault and "stroke" in s.fault
-    assert ks == list(range(len(ks))) and s.k == ks[-1]  # the last one out is the tick that stopped it
+    # the last one out is the tick that stopped it
+    assert ks == list(range(len(ks))) and s.k == ks[-1]
 
 
 def test_a_refused_input_stops_the_plant_after_the_ticks_already_computed():

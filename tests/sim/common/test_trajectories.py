@@ -4,8 +4,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from orthoglide_sim.orthoglide import kinematics as kin
 from orthoglide_sim.common.trajectories import Q_CENTER, Q_HALF, TEST_TRAJECTORIES, get_trajectory
+from orthoglide_sim.orthoglide import kinematics as kin
 
 NAMES = ["exciting1", "exciting2", "test1", "test2"]
 

@@ -13,21 +13,29 @@ import yaml
 
 from orthoglide_ident.bags import read_bag
 from orthoglide_ident.errors import ConfigError
-from orthoglide_sim.coupled.record import (
-    current_limits, simulate_coupled, write_coupled_bag, write_robot_files)
-from orthoglide_sim.coupled.check import torque_balance
 from orthoglide_sim.arms.description import load_arm
-from orthoglide_sim.coupled.truth import REDUCTION, default_coupled_truth, simple_transmission_truth
-from orthoglide_sim.coupled.plant import CoupledPlant
 from orthoglide_sim.arms.pinocchio_truth import truth_model
 from orthoglide_sim.arms.transmission_urdf import (
-    SIMPLE, read_simple_transmissions, write_simple_transmission_robot)
+    SIMPLE,
+    read_simple_transmissions,
+    write_simple_transmission_robot,
+)
+from orthoglide_sim.coupled.check import torque_balance
+from orthoglide_sim.coupled.plant import CoupledPlant
+from orthoglide_sim.coupled.record import (
+    current_limits,
+    simulate_coupled,
+    write_coupled_bag,
+    write_robot_files,
+)
+from orthoglide_sim.coupled.truth import REDUCTION, default_coupled_truth, simple_transmission_truth
 
 # rad/s at the motor: outside this band every motor's soft Coulomb friction (mujoco_plant's
 # FRICTION_TIMECONST on the tendon) has reached fs; measured: it turns through zero within
 # 0.1 rad/s of motor velocity (0.002-0.003 rad/s at the joint)
 SLIDING = 0.5
-BALANCE_TOL = 1e-12  # relative to the largest joint torque: round-off of two implementations (measured 1e-15)
+# relative to the largest joint torque: round-off of two implementations (measured 1e-15)
+BALANCE_TOL = 1e-12
 
 
 @pytest.fixture(scope="module")
@@ -51,7 +59,10 @@ def test_truth_is_the_issue_drive_chain(truth):
     for key in ("inertia", "viscous", "coulomb"):
         assert np.all(truth.motor_array(key) > 0)
     # the joints carry nothing: armature, friction and offset are the motors'
-    assert all(d.armature == d.damping == d.frictionloss == d.offset == 0 for d in truth.rigid.drives.values())
+    assert all(
+        d.armature == d.damping == d.frictionloss == d.offset == 0
+        for d in truth.rigid.drives.values()
+    )
 
 
 def test_mass_matrix_holds_the_rotors_through_n(truth):
@@ -66,7 +77,9 @@ def test_mass_matrix_holds_the_rotors_through_n(truth):
     M_rigid = pin.crba(model, data, q)
     M_rigid = np.triu(M_rigid) + np.triu(M_rigid, 1).T
     N = truth.reduction
-    assert np.allclose(M, M_rigid + N.T @ np.diag(truth.motor_array("inertia")) @ N, rtol=0, atol=1e-12)
+    assert np.allclose(
+        M, M_rigid + N.T @ np.diag(truth.motor_array("inertia")) @ N, rtol=0, atol=1e-12
+    )
 
 
 def test_motor_velocities_are_n_times_the_joint_velocities(rec):
@@ -75,7 +88,9 @@ def test_motor_velocities_are_n_times_the_joint_velocities(rec):
     assert scale > 10.0  # the motors turn
     assert np.abs(rec.qd_motor_true - rec.qd_true @ N.T).max() <= 1e-12 * scale
     # the coupled motor turns with q5 + q6
-    assert np.allclose(rec.qd_motor_true[:, 5], 32 * (rec.qd_true[:, 4] + rec.qd_true[:, 5]), rtol=0, atol=1e-10)
+    assert np.allclose(
+        rec.qd_motor_true[:, 5], 32 * (rec.qd_true[:, 4] + rec.qd_true[:, 5]), rtol=0, atol=1e-10
+    )
 
 
 def test_torque_balance_equals_pinocchio_rnea(rec):
@@ -89,7 +104,10 @@ def test_torque_balance_equals_pinocchio_rnea(rec):
 
 def test_joint_and_motor_positions_agree_through_n(rec):
     t, N = rec.truth, rec.truth.reduction
-    assert np.abs(rec.q_motor - (rec.q_joint @ N.T + t.motor_offset)).max() < 1e-12 * np.abs(rec.q_motor).max()
+    assert (
+        np.abs(rec.q_motor - (rec.q_joint @ N.T + t.motor_offset)).max()
+        < 1e-12 * np.abs(rec.q_motor).max()
+    )
     # the encoders read the true motor angles to half a count; the joint side is N⁻¹ of that
     half = t.encoder_resolution / 2
     assert np.all(np.abs(rec.q_motor - t.motor_positions(rec.q_true)) <= half * (1 + 1e-6))
@@ -117,7 +135,9 @@ def test_current_limits_and_noise(rec, truth):
     assert rec.saturated_ticks == 0
     assert np.all(np.abs(rec.v_tau).max(axis=0) < current_limits(truth))
     rms = np.sqrt(np.mean(rec.v_tau ** 2, axis=0))
-    assert np.all(rec.current_noise_std > 0.001 * rms) and np.all(rec.current_noise_std < 0.02 * rms)
+    assert np.all(rec.current_noise_std > 0.001 * rms) and np.all(
+        rec.current_noise_std < 0.02 * rms
+    )
 
 
 def test_bags_on_both_sides_agree_through_n(rec, tmp_path):
@@ -132,7 +152,10 @@ def test_bags_on_both_sides_agree_through_n(rec, tmp_path):
     assert np.abs(qm - (qj @ N.T + t.motor_offset)).max() < 1e-12 * np.abs(qm).max()
     custom = yaml.safe_load((tmp_path / "actuator" / "metadata.yaml").read_text())[
         "rosbag2_bagfile_information"]["custom_data"]
-    assert custom["orthoglide.position_side"] == "actuator" and custom["orthoglide.effort_side"] == "actuator"
+    assert (
+        custom["orthoglide.position_side"] == "actuator"
+        and custom["orthoglide.effort_side"] == "actuator"
+    )
     with pytest.raises(ConfigError, match="position_side"):
         write_coupled_bag(tmp_path / "x", rec, "motor")
     # joint-side efforts: Nᵀ (g_nominal v), N·m, tagged as torques; back to the currents exactly
@@ -157,13 +180,16 @@ def test_robot_files_carry_the_transmission(truth, tmp_path):
 
 def test_simple_transmissions_with_negative_reductions(tmp_path):
     """One motor per joint behind diag(32, -32, 45, -48, 45, -32), written as ros2_control
-    SimpleTransmissions in the URDF: read back, q_j = q_a / n + x holds on the bags of both sides."""
+    SimpleTransmissions in the URDF: read back, q_j = q_a / n + x holds on the bags of both
+    sides."""
     truth = simple_transmission_truth()
     urdf, robot_yaml = write_simple_transmission_robot(tmp_path, truth)
     text = urdf.read_text()
     assert text.count(SIMPLE) == 6 and "<mechanical_reduction>-48.0</mechanical_reduction>" in text
     N, offset = read_simple_transmissions(text, truth.arm.joint_names)
-    assert np.array_equal(N, truth.reduction) and np.allclose(offset, truth.motor_offset, rtol=0, atol=1e-15)
+    assert np.array_equal(N, truth.reduction) and np.allclose(
+        offset, truth.motor_offset, rtol=0, atol=1e-15
+    )
     arm = load_arm(str(robot_yaml))  # the URDF still loads as the same serial arm
     assert arm.joint_names == truth.arm.joint_names
     pin.buildModelFromXML(text)
@@ -171,7 +197,9 @@ def test_simple_transmissions_with_negative_reductions(tmp_path):
     joint = read_bag(write_coupled_bag(tmp_path / "joint", rec, "joint")).positions.position
     motor = read_bag(write_coupled_bag(tmp_path / "actuator", rec, "actuator")).positions.position
     n = np.diag(N)
-    x = np.array([float(e.findtext("offset")) for e in ET.fromstring(text).iter("joint") if e.get("role")])
+    x = np.array(
+        [float(e.findtext("offset")) for e in ET.fromstring(text).iter("joint") if e.get("role")]
+    )
     assert np.abs(joint - (motor / n + x)).max() < 1e-12
     for k in np.flatnonzero(n < 0):  # those motors turn against their joints
         assert np.corrcoef(np.diff(joint[:, k]), np.diff(motor[:, k]))[0, 1] < -0.999

@@ -16,7 +16,6 @@ import pytest
 from orthoglide_ident.ros import processes as children  # children end with this process
 
 
-
 def _children_of(pid: int) -> set[int]:
     out: set[int] = set()
     for task in Path(f"/proc/{pid}/task").iterdir():
@@ -38,9 +37,15 @@ def _alive(pids: set[int]) -> set[int]:
 
 
 def _start_demo(ros_env: dict[str, str], out: Path) -> tuple[subprocess.Popen, list[str], set[int]]:
-    """The demo, until its node set is up; (process, its stdout lines so far, the node processes)."""
-    demo = children.popen([sys.executable, "-m", "orthoglide_sim.demos.node_set", "--out", str(out)], env=ros_env,
-                          stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    """The demo, until its node set is up; (process, its stdout lines so far, the node
+    processes)."""
+    demo = children.popen(
+        [sys.executable, "-m", "orthoglide_sim.demos.node_set", "--out", str(out)],
+        env=ros_env,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
     lines: list[str] = []
     watchdog = threading.Timer(120, demo.kill)  # never hang the run on a demo that does not start
     watchdog.start()
@@ -71,7 +76,9 @@ def test_sigterm_stops_the_demo_and_its_nodes_with_one_line(ros_env, tmp_path):
     _, err = demo.communicate(timeout=60)
     assert demo.returncode == 128 + signal.SIGTERM, err
     assert err.strip().splitlines() == [
-        f"demo: interrupted by SIGTERM: the nodes were stopped; what was done so far is in {tmp_path / 'out'}/"]
+        "demo: interrupted by SIGTERM: the nodes were stopped; what was done so far is in "
+        f"{tmp_path / 'out'}/"
+    ]
     assert not _wait_gone(nodes, 10)
     for log in (tmp_path / "out" / "logs").glob("*.log"):
         assert "Traceback" not in log.read_text(), log

@@ -10,7 +10,6 @@ import re
 
 import pytest
 
-
 ROW = re.compile(r"^\s+(\w+_joint)\s+([\d.]+)\s+([\d.]+)\s+([\d.]+)%\s+([+-][\d.]+)%$", re.M)
 
 
@@ -28,5 +27,8 @@ def test_excite_run_identify_and_feed_forward_on_the_simulated_ur5(tmp_path, cap
     for joint, _, _, sigma, error in rows:
         assert abs(float(error)) < 0.5, (joint, error)
         assert abs(float(error)) < 3.0 * float(sigma), (joint, error, sigma)
-    pid, ff = map(float, re.search(r"PID alone ([\d.]+) mrad, with the feed-forward ([\d.]+) mrad", out).groups())
+    pid, ff = map(
+        float,
+        re.search(r"PID alone ([\d.]+) mrad, with the feed-forward ([\d.]+) mrad", out).groups(),
+    )
     assert ff < 0.7 * pid

@@ -13,11 +13,12 @@ import numpy as np
 import pytest
 
 from orthoglide_ident.errors import ConfigError
-from orthoglide_sim.orthoglide.session import DriverSession
-from orthoglide_sim.common.trajectories import Q_CENTER, Q_HALF, get_trajectory
 from orthoglide_ident.ros import processes as children  # children end with this process
+from orthoglide_sim.common.trajectories import Q_CENTER, Q_HALF, get_trajectory
+from orthoglide_sim.orthoglide.session import DriverSession
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[3] / "bench"))  # the bench's outside controller
+# the bench's outside controller
+sys.path.insert(0, str(Path(__file__).resolve().parents[3] / "bench"))
 
 
 def test_driver_help_does_not_start_ros(capsys):
@@ -25,8 +26,16 @@ def test_driver_help_does_not_start_ros(capsys):
 
     assert main(["driver", "--help"]) == 0
     out = capsys.readouterr().out
-    for name in ("payload", "trajectory", "controller", "realtime", "setpoint_lead", "current_limit",
-                 "orthoglide/setpoints", "orthoglide/feedforward"):
+    for name in (
+        "payload",
+        "trajectory",
+        "controller",
+        "realtime",
+        "setpoint_lead",
+        "current_limit",
+        "orthoglide/setpoints",
+        "orthoglide/feedforward",
+    ):
         assert name in out
 
 
@@ -44,7 +53,9 @@ def _run(s: DriverSession, n: int) -> tuple[np.ndarray, np.ndarray]:
 def test_session_tracks_its_trajectory_and_knows_the_setpoints_ahead():
     s = DriverSession(payload="1.136", trajectory="test1", controller="pid", lead=20)
     q, ref = _run(s, 300)
-    np.testing.assert_allclose(ref, get_trajectory("test1").evaluate(np.arange(300) * 1e-3)[0], atol=1e-15)
+    np.testing.assert_allclose(
+        ref, get_trajectory("test1").evaluate(np.arange(300) * 1e-3)[0], atol=1e-15
+    )
     assert np.sqrt(np.mean((q - ref) ** 2)) < 2e-3  # PID: ~1 mm on test1
     assert s.k == 300 and s.setpoint(s.k + s.lead)[0].shape == (3,)
 
@@ -57,8 +68,9 @@ def test_trajectory_change_blends_in_inside_the_box():
     _, ref = _run(s, 3000)
     assert np.all(ref >= Q_CENTER - Q_HALF - 1e-12) and np.all(ref <= Q_CENTER + Q_HALF + 1e-12)
     assert np.abs(np.diff(ref, axis=0)).max() < 2e-3  # continuous: < 2 m/s between ticks
-    np.testing.assert_allclose(ref[-1], get_trajectory("test2").evaluate((s.k - 1 - k_start) * 1e-3)[0][0],
-                               atol=1e-12)
+    np.testing.assert_allclose(
+        ref[-1], get_trajectory("test2").evaluate((s.k - 1 - k_start) * 1e-3)[0][0], atol=1e-12
+    )
     with pytest.raises(ConfigError, match="unknown trajectory"):
         s.set_trajectory("nope")
 
@@ -75,7 +87,9 @@ def test_payload_mounted_while_running_changes_the_plant():
 
 
 def test_external_commands_limits_and_faults():
-    s = DriverSession(controller="external", trajectory="test1", noise=False, current_limit=[0.5, 0.5, 0.5])
+    s = DriverSession(
+        controller="external", trajectory="test1", noise=False, current_limit=[0.5, 0.5, 0.5]
+    )
     q = s.measure()
     v = s.control(q)  # no command yet: the driver's PID holds the robot
     assert s.stats.no_command == 1
@@ -94,7 +108,8 @@ def test_external_commands_limits_and_faults():
 
 
 def test_session_plant_option_reduced_by_default_or_the_tree_reference():
-    """plant:=reduced (default) and plant:=tree run the same session to within the encoder's count."""
+    """plant:=reduced (default) and plant:=tree run the same session to within the encoder's
+    count."""
     from orthoglide_sim.orthoglide.reduced_plant import ReducedIntegrator
     from orthoglide_sim.orthoglide.simulator import Integrator
 
@@ -117,14 +132,14 @@ def test_packed_messages_read_back_by_rclpy_and_rosbags():
     Padding bytes may differ: CDR leaves them free."""
     from builtin_interfaces.msg import Time
     from rclpy.serialization import deserialize_message
+    from rosbags.typesys import Stores, get_types_from_msg, get_typestore
     from sensor_msgs.msg import JointState
 
     from orthoglide_msgs.msg import CurrentReference, JointSetpoint
     from orthoglide_sim.common.packed_messages import PackedMessage
 
-    from rosbags.typesys import Stores, get_types_from_msg, get_typestore
-
-    store = get_typestore(Stores.ROS2_JAZZY)  # rosbags' own, the project's two types from their files
+    # rosbags' own, the project's two types from their files
+    store = get_typestore(Stores.ROS2_JAZZY)
     for name in ("CurrentReference", "JointSetpoint"):
         text = (Path(__file__).parents[3] / f"msg_defs/orthoglide_msgs/msg/{name}.msg").read_text()
         store.register(get_types_from_msg(text, f"orthoglide_msgs/msg/{name}"))
@@ -166,21 +181,56 @@ def test_driver_node_first_tick_stamps_and_setpoints(ros_env):
     node = rclpy.create_node("test_driver_listener")
     js, cr, sp, first = [], [], {}, {}
     qos = QoSProfile(depth=5000, reliability=ReliabilityPolicy.RELIABLE)
-    node.create_subscription(JointState, "/orthoglide/joint_states",
-                             lambda m: (first.setdefault("js", time.monotonic()), js.append(_stamp(m))), qos)
-    node.create_subscription(CurrentReference, "/orthoglide/current_reference",
-                             lambda m: (first.setdefault("cr", time.monotonic()), cr.append(_stamp(m))), qos)
+    node.create_subscription(
+        JointState,
+        "/orthoglide/joint_states",
+        lambda m: (first.setdefault("js", time.monotonic()), js.append(_stamp(m))),
+        qos,
+    )
+    node.create_subscription(
+        CurrentReference,
+        "/orthoglide/current_reference",
+        lambda m: (first.setdefault("cr", time.monotonic()), cr.append(_stamp(m))),
+        qos,
+    )
     node.create_subscription(JointSetpoint, "/orthoglide/setpoints",
                              lambda m: sp.setdefault(_stamp(m), (len(js), list(m.position))), qos)
     diag = []
-    node.create_subscription(DiagnosticArray, "/diagnostics",
-                             lambda m: diag.extend({kv.key: kv.value for kv in st.values} for st in m.status
-                                                   if st.hardware_id == "orthoglide_sim"), 10)
+    node.create_subscription(
+        DiagnosticArray,
+        "/diagnostics",
+        lambda m: diag.extend(
+            {kv.key: kv.value for kv in st.values}
+            for st in m.status
+            if st.hardware_id == "orthoglide_sim"
+        ),
+        10,
+    )
     t0 = time.monotonic()
-    proc = children.popen([sys.executable, "-m", "orthoglide_sim.nodes.driver", "--ros-args",
-                             "-p", "realtime:=false", "-p", "duration:=3.0", "-p", "trajectory:=test1",
-                             "-p", "controller:=pid", "-p", "payload:=1.983", "-p", "setpoint_lead:=20"],
-                            env=ros_env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    proc = children.popen(
+        [
+            sys.executable,
+            "-m",
+            "orthoglide_sim.nodes.driver",
+            "--ros-args",
+            "-p",
+            "realtime:=false",
+            "-p",
+            "duration:=3.0",
+            "-p",
+            "trajectory:=test1",
+            "-p",
+            "controller:=pid",
+            "-p",
+            "payload:=1.983",
+            "-p",
+            "setpoint_lead:=20",
+        ],
+        env=ros_env,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+    )
     try:
         t_end = time.monotonic() + 120
         while proc.poll() is None and time.monotonic() < t_end:
@@ -203,14 +253,17 @@ def test_driver_node_first_tick_stamps_and_setpoints(ros_env):
     assert np.all(np.mod(common, 1_000_000) == 0)  # simulated time: stamps on the 1 kHz grid
     ref = get_trajectory("test1")
     stamps = sorted(sp)[:500]
-    np.testing.assert_allclose([sp[s][1] for s in stamps], ref.evaluate(np.array(stamps) * 1e-9)[0], atol=1e-12)
+    np.testing.assert_allclose(
+        [sp[s][1] for s in stamps], ref.evaluate(np.array(stamps) * 1e-9)[0], atol=1e-12
+    )
     ahead = [s / 1e6 - sp[s][0] for s in stamps[100:]]  # tick of the setpoint - ticks received then
     assert np.median(ahead) >= 10
     # once a second (every 1000 ticks); in simulated time the first one can go out before this
     # subscriber is matched (volatile, like every /diagnostics publisher), the last one cannot
     ticks = [int(d["ticks"]) for d in diag]
     assert ticks and ticks[-1] == 3000 and all(t % 1000 == 0 for t in ticks), diag
-    assert diag[-1]["controller"] == "pid" and diag[-1]["late"] == "0", diag  # no deadlines in simulated time
+    # no deadlines in simulated time
+    assert diag[-1]["controller"] == "pid" and diag[-1]["late"] == "0", diag
 
 
 def test_external_mode_lockstep_applies_each_command_at_its_tick(ros_env):
@@ -218,9 +271,8 @@ def test_external_mode_lockstep_applies_each_command_at_its_tick(ros_env):
     joint state of tick k and applies it at tick k (age 0), the outside PID keeping the robot on
     its setpoints."""
     import rclpy
-    from rclpy.executors import SingleThreadedExecutor
-
     from driver_realtime import ExternalController
+    from rclpy.executors import SingleThreadedExecutor
 
     rclpy.init()
     node = rclpy.create_node("test_external_controller")
@@ -228,10 +280,26 @@ def test_external_mode_lockstep_applies_each_command_at_its_tick(ros_env):
     ex = SingleThreadedExecutor()
     ex.add_node(node)
     threading.Thread(target=ex.spin, daemon=True).start()
-    proc = children.popen([sys.executable, "-m", "orthoglide_sim.nodes.driver", "--ros-args",
-                             "-p", "realtime:=false", "-p", "duration:=1.5", "-p", "controller:=external",
-                             "-p", "trajectory:=test1"],
-                            env=ros_env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    proc = children.popen(
+        [
+            sys.executable,
+            "-m",
+            "orthoglide_sim.nodes.driver",
+            "--ros-args",
+            "-p",
+            "realtime:=false",
+            "-p",
+            "duration:=1.5",
+            "-p",
+            "controller:=external",
+            "-p",
+            "trajectory:=test1",
+        ],
+        env=ros_env,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+    )
     try:
         out = proc.communicate(timeout=120)[0]
         time.sleep(0.3)
@@ -257,7 +325,6 @@ def test_external_mode_real_time_applies_commands_from_the_next_tick(ros_env):
     import rclpy  # noqa: F401
     from driver_realtime import external_run
 
-    import rclpy
 
     rclpy.init()
     node = rclpy.create_node("test_external_realtime")
@@ -273,7 +340,9 @@ def test_external_mode_real_time_applies_commands_from_the_next_tick(ros_env):
     # how many commands arrive in time is the machine's (60 of 3000 with the load average at 7
     # on 2 cores, > 2000 when quiet): only that some did, and how the driver applied them
     assert len(ages) >= 10, ext["log_tail"]
-    print(f"ages: median {np.median(ages)}, {np.mean(ages <= 1) * 100:.1f} % <= 1; late {ext['late']}")
+    print(
+        f"ages: median {np.median(ages)}, {np.mean(ages <= 1) * 100:.1f} % <= 1; late {ext['late']}"
+    )
     assert ages.min() >= 1, ext["log_tail"]
     stopped = [line for line in ext["log_tail"] if "stopped" in line]
     if stopped:  # a loop closed too late lost the robot: stopped at the stroke, with the reason
@@ -325,15 +394,32 @@ def test_real_time_fault_then_reset_then_on_again(ros_env):
     js: list[int] = []
     faults: list[dict] = []  # the driver's /diagnostics values while it is stopped
     qos = QoSProfile(depth=5000, reliability=ReliabilityPolicy.RELIABLE)
-    node.create_subscription(JointState, "/orthoglide/joint_states", lambda m: js.append(_stamp(m)), qos)
+    node.create_subscription(
+        JointState, "/orthoglide/joint_states", lambda m: js.append(_stamp(m)), qos
+    )
     node.create_subscription(DiagnosticArray, "/diagnostics", lambda m: faults.extend(
         v for v in ({kv.key: kv.value for kv in st.values} for st in m.status
                     if st.hardware_id == "orthoglide_sim") if v["fault"]), 10)
     pub = node.create_publisher(CurrentReference, "/orthoglide/feedforward", qos)
     reset = node.create_client(Trigger, "/orthoglide_driver/reset")
-    proc = children.popen([sys.executable, "-m", "orthoglide_sim.nodes.driver", "--ros-args",
-                           "-p", "controller:=ctc", "-p", "trajectory:=test1", "-p", "rt_priority:=0"],
-                          env=ros_env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    proc = children.popen(
+        [
+            sys.executable,
+            "-m",
+            "orthoglide_sim.nodes.driver",
+            "--ros-args",
+            "-p",
+            "controller:=ctc",
+            "-p",
+            "trajectory:=test1",
+            "-p",
+            "rt_priority:=0",
+        ],
+        env=ros_env,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+    )
 
     def spin_until(ready, timeout=60.0):
         t_end = time.monotonic() + timeout

@@ -11,13 +11,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-
 LAUNCHER = Path(sys.prefix) / "lib" / "orthoglide_ident" / "driver"
 NAME = "ros2_control_standin"
 
 
 def _run(*args: str, env=None) -> subprocess.CompletedProcess:
-    return subprocess.run([str(LAUNCHER), *args], capture_output=True, text=True, timeout=120, env=env)
+    return subprocess.run(
+        [str(LAUNCHER), *args], capture_output=True, text=True, timeout=120, env=env
+    )
 
 
 def test_robot_parameter_chooses_the_stand_in_or_the_orthoglide(ros_env, tmp_path):
@@ -29,14 +30,18 @@ def test_robot_parameter_chooses_the_stand_in_or_the_orthoglide(ros_env, tmp_pat
         assert out.returncode == 0 and "The simulated Orthoglide" in out.stdout, out.stdout[:300]
     params = tmp_path / "p.yaml"  # a parameter file chooses it too (ros2 launch passes one)
     params.write_text(f"{NAME}:\n  ros__parameters:\n    robot: ur5\n")
-    out = _run("--ros-args", "--params-file", str(params), "-r", f"__node:={NAME}", "--help", env=ros_env)
+    out = _run(
+        "--ros-args", "--params-file", str(params), "-r", f"__node:={NAME}", "--help", env=ros_env
+    )
     assert "joint_state_broadcaster" in out.stdout
 
 
 def test_bad_robot_or_parameter_is_a_one_line_reason(ros_env):
-    for args, reason in ((("-p", "robot:=no_such_robot"), "robot 'no_such_robot': no such file"),
-                         (("-p", "robot:=ur5", "-p", "payload:=heavy"), "payload 'heavy'"),
-                         (("-p", "robot:=ur5", "-p", "drop_rate:=1.5"), "drop_rate must be in [0, 1)")):
+    for args, reason in (
+        (("-p", "robot:=no_such_robot"), "robot 'no_such_robot': no such file"),
+        (("-p", "robot:=ur5", "-p", "payload:=heavy"), "payload 'heavy'"),
+        (("-p", "robot:=ur5", "-p", "drop_rate:=1.5"), "drop_rate must be in [0, 1)"),
+    ):
         out = _run("--ros-args", *args, env=ros_env)
         assert out.returncode == 2, out.stderr
         assert reason in out.stderr and "Traceback" not in out.stderr, out.stderr
@@ -47,22 +52,33 @@ def _stamp(m) -> int:
 
 
 def test_publishes_the_broadcasters_topics_with_its_qos(tmp_path):
-    from control_msgs.msg import DynamicJointState
-    from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy, qos_profile_system_default
+    from rclpy.qos import (
+        DurabilityPolicy,
+        QoSProfile,
+        ReliabilityPolicy,
+        qos_profile_system_default,
+    )
     from sensor_msgs.msg import JointState
     from std_msgs.msg import String
 
+    from control_msgs.msg import DynamicJointState
     from orthoglide_ident.model.robots import ROBOTS_DIR
     from orthoglide_sim.demos.graph import Graph
 
     got: dict[str, list] = {"js": [], "djs": [], "desc": []}
     stream = QoSProfile(depth=5000, reliability=ReliabilityPolicy.RELIABLE)
-    latched = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
+    latched = QoSProfile(
+        depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL
+    )
     with Graph(tmp_path / "logs") as g:
         g.node.create_subscription(JointState, "joint_states", got["js"].append, stream)
-        g.node.create_subscription(DynamicJointState, "dynamic_joint_states", got["djs"].append, stream)
+        g.node.create_subscription(
+            DynamicJointState, "dynamic_joint_states", got["djs"].append, stream
+        )
         g.node.create_subscription(String, "robot_description", got["desc"].append, latched)
-        reference = g.node.create_publisher(JointState, "qos_reference", qos_profile_system_default)
+        _reference = g.node.create_publisher(
+            JointState, "qos_reference", qos_profile_system_default
+        )
         g.start(NAME, "driver", {"robot": "ur5_mount", "drop_rate": 0.01, "rt_priority": 0})
         g.wait_for_messages(JointState, "joint_states", 200, timeout=60)
         offered = [i.qos_profile for i in g.node.get_publishers_info_by_topic("/joint_states")]
@@ -76,16 +92,26 @@ def test_publishes_the_broadcasters_topics_with_its_qos(tmp_path):
         time.sleep(0.3)
     # rclcpp::SystemDefaultsQoS(), as the broadcaster's: the rmw's defaults (Fast DDS: reliable,
     # transient local, keep last 1); one publisher per topic
-    assert len(offered) == 1 and offered[0].reliability == mine.reliability == ReliabilityPolicy.RELIABLE
+    assert (
+        len(offered) == 1
+        and offered[0].reliability == mine.reliability == ReliabilityPolicy.RELIABLE
+    )
     assert offered[0].durability == mine.durability
     assert got["desc"] and got["desc"][0].data == (ROBOTS_DIR / "ur5_mount.urdf").read_text()
     js, djs = got["js"], got["djs"]
     names = tuple(js[0].name)
-    assert "gripper_finger_joint" in names[1:-1] and names[:2] != ("shoulder_pan_joint", "shoulder_lift_joint")
-    assert all(tuple(m.name) == names for m in js) and all(tuple(m.joint_names) == names for m in djs)
+    assert "gripper_finger_joint" in names[1:-1] and names[:2] != (
+        "shoulder_pan_joint",
+        "shoulder_lift_joint",
+    )
+    assert all(tuple(m.name) == names for m in js) and all(
+        tuple(m.joint_names) == names for m in djs
+    )
     g_slot = names.index("gripper_finger_joint")
     assert all(np.isnan(m.effort[g_slot]) for m in js[:50])
-    assert [list(iv.interface_names) for iv in djs[0].interface_values].count(["position", "velocity"]) == 1
+    assert [list(iv.interface_names) for iv in djs[0].interface_values].count(
+        ["position", "velocity"]
+    ) == 1
     # one update, one stamp: where both came, both carry the same values
     by_stamp = {_stamp(m): m for m in djs}
     both = [m for m in js if _stamp(m) in by_stamp]

@@ -8,8 +8,8 @@ import pytest
 
 from orthoglide_ident.control import CTCParameters, feedforward_currents
 from orthoglide_ident.model.robots import load_robot
-from orthoglide_sim.orthoglide.record import simulate
 from orthoglide_sim.common.trajectories import get_trajectory
+from orthoglide_sim.orthoglide.record import simulate
 
 ORTHOGLIDE = load_robot("orthoglide")  # the robot these records are of
 

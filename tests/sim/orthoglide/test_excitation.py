@@ -3,10 +3,19 @@ from __future__ import annotations
 
 import numpy as np
 
-from orthoglide_sim.orthoglide.excitation import (COND_SOFT, DESIGN_DELAY_S, Design, _local_search,
-                                       criterion, main, optimise_pair, predicted_delay_bias,
-                                       predicted_gain_std, scaled)
 from orthoglide_sim.common.trajectories import FourierTrajectory, get_trajectory
+from orthoglide_sim.orthoglide.excitation import (
+    COND_SOFT,
+    DESIGN_DELAY_S,
+    Design,
+    _local_search,
+    criterion,
+    main,
+    optimise_pair,
+    predicted_delay_bias,
+    predicted_gain_std,
+    scaled,
+)
 
 
 def test_committed_pair_predicts_the_gains_to_a_seventh_of_a_percent():
@@ -58,8 +67,8 @@ def test_scaled_trajectory_sits_on_a_limit():
                                     rng.normal(size=(3, 4)), 2 * np.pi / 1.5))
     t = np.linspace(0.0, traj.period, 2000, endpoint=False)
     q, qd, qdd = traj.evaluate(t)
-    from orthoglide_sim.orthoglide.excitation import POSITION_LIMIT
     from orthoglide_sim.common.trajectories import A_MAX, V_MAX
+    from orthoglide_sim.orthoglide.excitation import POSITION_LIMIT
     ratios = [np.ptp(q, 0).max() / (2 * POSITION_LIMIT), np.abs(qd).max() / V_MAX,
               np.abs(qdd).max() / A_MAX]
     assert max(ratios) > 0.99 and max(ratios) < 1.01, ratios

@@ -1,4 +1,6 @@
-"""Plant physics (Pinocchio): the closed loops hold, energy balance, the integrator, the workspace."""
+"""Plant physics (Pinocchio): the closed loops hold, energy balance, the integrator, the
+workspace."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -31,13 +33,21 @@ def test_isotropic_configuration_and_loops_closed():
         Q, V = plant.lift(q, qd)
         pin.forwardKinematics(plant.model, plant.data, Q, V)
         P = kin.platform_position(q)
-        for leg in range(3):  # every leg's body 5 carries the platform frame at P, parallel to the base
+        # every leg's body 5 carries the platform frame at P, parallel to the base
+        for leg in range(3):
             oMp = plant.data.oMi[plant._joint5[leg]] * platform_in_body5(leg)
-            assert np.abs(oMp.translation - P).max() < 1e-13 and np.abs(oMp.rotation - np.eye(3)).max() < 1e-13
+            assert (
+                np.abs(oMp.translation - P).max() < 1e-13
+                and np.abs(oMp.rotation - np.eye(3)).max() < 1e-13
+            )
         # the lifted velocities satisfy the loop constraints (no relative motion of the welds)
         for cm in plant.constraints:
-            v1 = pin.getFrameVelocity(plant.model, plant.data, cm.joint1_id, cm.joint1_placement, pin.WORLD)
-            v2 = pin.getFrameVelocity(plant.model, plant.data, cm.joint2_id, cm.joint2_placement, pin.WORLD)
+            v1 = pin.getFrameVelocity(
+                plant.model, plant.data, cm.joint1_id, cm.joint1_placement, pin.WORLD
+            )
+            v2 = pin.getFrameVelocity(
+                plant.model, plant.data, cm.joint2_id, cm.joint2_placement, pin.WORLD
+            )
             assert np.abs((v1 - v2).vector).max() < 1e-12
 
 
@@ -49,14 +59,18 @@ def test_energy_balance_without_friction_instantaneous():
     for q, qd in zip(*_random_states(4, seed=1)):
         tau = rng.uniform(-200.0, 200.0, 3)
         qdd = plant.forward_dynamics(q, qd, tau)
-        dE = (plant.energy(q + h * qd, qd + h * qdd) - plant.energy(q - h * qd, qd - h * qdd)) / (2 * h)
+        dE = (plant.energy(q + h * qd, qd + h * qdd) - plant.energy(q - h * qd, qd - h * qdd)) / (
+            2 * h
+        )
         power = float(qd @ tau)
         assert abs(dE - power) < 1e-6 * (abs(power) + 1.0), (dE, power)
 
 
 def test_energy_conserved_by_the_integrator_without_friction_or_force():
     plant = _frictionless()
-    sim = sm.Integrator(plant, sm.drive_model(load_parameters(), ripple=False), [0.03, 0.05, 0.02], [0.6, -0.5, 0.4])
+    sim = sm.Integrator(
+        plant, sm.drive_model(load_parameters(), ripple=False), [0.03, 0.05, 0.02], [0.6, -0.5, 0.4]
+    )
     E0 = plant.energy(sim.q, sim.qd)
     for _ in range(100):  # 0.1 s, with a re-projection on the closed loop on the way
         sim.tick(np.zeros(3))

@@ -1,9 +1,11 @@
-"""The driver's cheap plant (reduced_plant.ReducedIntegrator) against the reference (simulator.Integrator:
+"""The driver's cheap plant (reduced_plant.ReducedIntegrator) against the reference
+(simulator.Integrator:
 Pinocchio's constraint dynamics on the 15-joint tree at every RK4 stage), on the same inputs.
 
 Bounds and why:
 - exact reduction: at any state the reduced dynamics' accelerations are the tree's constrained ones
-  (round-off: 1e-9 relative, the brief asked 1e-6); its compiled kinematics are kinematics.tree_state's;
+  (round-off: 1e-9 relative, the brief asked 1e-6); its compiled kinematics are
+  kinematics.tree_state's;
 - the same closed-loop PID run (2 s of an exciting trajectory, payload 1.983 kg, noise off) with an
   encoder of negligible resolution: positions within 0.1 um (a tenth of the encoder's count) and
   currents within 0.1 mA (a tenth of the current noise's sigma) at every tick (measured: 0.034 um,
@@ -22,11 +24,11 @@ import pytest
 
 from orthoglide_ident.errors import WorkspaceError
 from orthoglide_ident.model.orthoglide.geometry import G_TAU_MANUFACTURER
+from orthoglide_sim.common.trajectories import get_trajectory
 from orthoglide_sim.orthoglide import kinematics as kin
 from orthoglide_sim.orthoglide import simulator as sm
 from orthoglide_sim.orthoglide.plant import Plant
 from orthoglide_sim.orthoglide.reduced_plant import ReducedIntegrator, _tree
-from orthoglide_sim.common.trajectories import get_trajectory
 from orthoglide_sim.orthoglide.truth import PROFILES, load_parameters
 
 TP = load_parameters()
@@ -36,7 +38,11 @@ COUNT = PROFILES["nominal"].encoder_resolution  # m
 
 def _states(n: int, seed: int):
     rng = np.random.default_rng(seed)
-    return rng.uniform(-0.03, 0.11, (n, 3)), rng.uniform(-1.0, 1.0, (n, 3)), rng.uniform(-0.3, 0.3, (n, 3))
+    return (
+        rng.uniform(-0.03, 0.11, (n, 3)),
+        rng.uniform(-1.0, 1.0, (n, 3)),
+        rng.uniform(-0.3, 0.3, (n, 3)),
+    )
 
 
 def test_compiled_kinematics_are_the_simulators():
@@ -65,8 +71,12 @@ def test_accelerations_at_random_states_are_the_tree_constrained_ones(profile):
 def _closed_loop(profile: str, resolution: float):
     q, qd, qdd = get_trajectory("exciting").evaluate(np.arange(2000) * sm.TICK)
     plant, drive = Plant(TP, "1.983"), sm.drive_model(TP, profile=profile)
-    return [sm.simulate_closed_loop(q, qd, qdd, plant, drive, "pid", resolution=resolution, integrator=integ)
-            for integ in (sm.Integrator, ReducedIntegrator)]
+    return [
+        sm.simulate_closed_loop(
+            q, qd, qdd, plant, drive, "pid", resolution=resolution, integrator=integ
+        )
+        for integ in (sm.Integrator, ReducedIntegrator)
+    ]
 
 
 @pytest.mark.parametrize("profile", ["nominal", "realistic"])
@@ -84,8 +94,12 @@ def test_same_closed_loop_run_with_the_1um_encoder():
     assert np.max(np.abs(dm)) <= COUNT * (1 + 1e-6)
     # the PID (simulator.PID, linear, same reference and pre-load) answers the reading differences
     dm_prev = np.vstack([np.zeros((1, 3)), dm[:-1]])
-    answer = -(sm.KP * dm + sm.KI * sm.TICK * np.cumsum(dm, axis=0) + sm.KD * (dm - dm_prev) / sm.TICK)
-    np.testing.assert_allclose(red.v_tau - ref.v_tau, answer / G_TAU_MANUFACTURER, rtol=0, atol=1e-9)
+    answer = -(
+        sm.KP * dm + sm.KI * sm.TICK * np.cumsum(dm, axis=0) + sm.KD * (dm - dm_prev) / sm.TICK
+    )
+    np.testing.assert_allclose(
+        red.v_tau - ref.v_tau, answer / G_TAU_MANUFACTURER, rtol=0, atol=1e-9
+    )
     assert np.sqrt(np.mean((red.v_tau - ref.v_tau) ** 2)) < NOISE_STD
 
 

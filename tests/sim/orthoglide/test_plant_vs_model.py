@@ -1,4 +1,5 @@
-"""The plant (Pinocchio: P + 4R legs closed by 6D constraints, orthoglide_sim.orthoglide.plant) and the
+"""The plant (Pinocchio: P + 4R legs closed by 6D constraints, orthoglide_sim.orthoglide.plant) and
+the
 identification model (Newton-Euler tree + loop closure, orthoglide_ident.model) agree on random
 states, loaded and unloaded, parameter by parameter."""
 from __future__ import annotations
@@ -6,11 +7,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from orthoglide_ident.model.orthoglide import idim
 from orthoglide_sim.orthoglide import kinematics as kin
 from orthoglide_sim.orthoglide.plant import Plant
 from orthoglide_sim.orthoglide.truth import apply_overrides, load_parameters
-
-from orthoglide_ident.model.orthoglide import idim
 
 
 def _random_states(n: int, seed: int = 1):
@@ -29,13 +29,16 @@ def _random_states(n: int, seed: int = 1):
 
 @pytest.mark.parametrize("payload", ["none", "1.983"])
 def test_plant_forward_dynamics_matches_model(payload):
-    """Forward dynamics under random forces, then the model's W_st chi_st + W_l chi_l gives them back."""
+    """Forward dynamics under random forces, then the model's W_st chi_st + W_l chi_l gives them
+    back."""
     tp = load_parameters()
     q, qd, _ = _random_states(12)
     tau = np.random.default_rng(2).uniform(-300.0, 300.0, q.shape)
     qdd = Plant(tp, payload, coulomb="sign").forward_dynamics(q, qd, tau)
     W_st, W_l = idim.standard_regressor(q, qd, qdd)
-    tau_model = (W_st @ tp.standard_vector() + W_l @ tp.payload_vector(payload)).reshape(3, len(q)).T
+    tau_model = (
+        (W_st @ tp.standard_vector() + W_l @ tp.payload_vector(payload)).reshape(3, len(q)).T
+    )
     rel = np.abs(tau_model - tau).max() / np.abs(tau).max()
     assert rel < 1e-9, rel
 

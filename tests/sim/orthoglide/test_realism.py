@@ -45,10 +45,15 @@ def test_current_lag_delays_the_force_by_tau():
     # the motor current after a reference step reaches 1 - 1/e of it at t = tau
     i = d.motor_current(np.zeros(3), np.ones(3), tau)
     assert np.allclose(i, 1.0 - np.exp(-1.0))
-    # integrated over a tick: the velocity lags the ideal drive's by the impulse g u tau (1 - e^(-T/tau))
+    # integrated over a tick: the velocity lags the ideal drive's by the impulse g u tau (1 -
+    # e^(-T/tau))
     lag_only = sm.DriveModel(d.g_tau, current_lag_s=tau)
     plant = Plant(TP)
-    q, qd, u = np.array([0.03, 0.05, 0.04]), np.array([0.3, -0.2, 0.25]), np.array([0.2, -0.1, 0.15])
+    q, qd, u = (
+        np.array([0.03, 0.05, 0.04]),
+        np.array([0.3, -0.2, 0.25]),
+        np.array([0.2, -0.1, 0.15]),
+    )
     lagged = sm.Integrator(plant, lag_only, q, qd, current0=np.zeros(3))
     ideal = sm.Integrator(plant, sm.DriveModel(d.g_tau), q, qd)
     lagged.tick(u)

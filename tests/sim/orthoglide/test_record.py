@@ -33,7 +33,8 @@ def test_encoder_quantisation_applied(rec):
 
 def test_zero_order_hold_between_ticks(rec):
     """The recorded truth at t_k+1 is what integrating the plant from t_k under the held force
-    g_tau (v_tau[k] + noise[k]) gives; with the noise regenerated from the seed it matches exactly."""
+    g_tau (v_tau[k] + noise[k]) gives; with the noise regenerated from the seed it matches
+    exactly."""
     rng = np.random.default_rng(1)
     noise = rng.normal(0.0, sm.CURRENT_NOISE_STD, (500, 3))
     plant, drive = Plant(rec.params, "1.983"), sm.drive_model(rec.params)

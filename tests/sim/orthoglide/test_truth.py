@@ -1,4 +1,6 @@
-"""True parameter table: complete, physically consistent, overridable from YAML with clear errors."""
+"""True parameter table: complete, physically consistent, overridable from YAML with clear
+errors."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -50,7 +52,9 @@ def test_yaml_override(tmp_path):
     assert real.stribeck_breakaway == 0.25 and real.current_lag_s == 1.2e-4
     shipped = load_parameters("config/plant.yaml")
     assert shipped.values["fs_13"] == 24.1
-    assert shipped.profile == "nominal" and shipped.plant_profile("realistic") == PROFILES["realistic"]
+    assert (
+        shipped.profile == "nominal" and shipped.plant_profile("realistic") == PROFILES["realistic"]
+    )
     assert shipped.plant_profile("nominal") == PROFILES["nominal"]
 
 
