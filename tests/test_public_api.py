@@ -32,6 +32,7 @@ API = {
         "BagTags",
         "BagWriter",
         "COM_KEY",
+        "CdrTemplate",  # the one CDR template patcher (the bags' encoders, the driver's messages)
         "CONDITIONS",
         "CONDITION_KEY",
         "CURRENT_REFERENCE_TOPIC",
