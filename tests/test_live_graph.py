@@ -197,10 +197,8 @@ def test_each_node_stopped_for_a_second_while_recording_loses_nothing(tmp_path):
         len(js),
         published,
     )
-    assert (
-        "0 missing on /orthoglide/current_reference, 0 missing on /orthoglide/joint_states"
-        in stop.message
-    )
+    assert "0 missing on /orthoglide/current_reference" in stop.message, stop.message
+    assert "0 missing on /orthoglide/joint_states" in stop.message, stop.message
     assert (
         f"wrote {len(js)} /orthoglide/current_reference, {len(js)} /orthoglide/joint_states"
         in stop.message

@@ -325,6 +325,10 @@ class Graph:
         msg_type = getattr(importlib.import_module(f"{package}.{kind}"), type_name)
         got = [0]
         any_reliability = QoSProfile(depth=10, reliability=ReliabilityPolicy.BEST_EFFORT)
+        if all(p.qos_profile.durability == DurabilityPolicy.TRANSIENT_LOCAL for p in publishers):
+            # a latched topic (a status published on change): its last message comes on matching
+            any_reliability = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
+                                         durability=DurabilityPolicy.TRANSIENT_LOCAL)
         self._listen(msg_type, name, any_reliability, lambda m: got.__setitem__(0, 1),
                      lambda: got[0] > 0, timeout,
                      lambda: f"no message on {name} within {timeout:.0f} s of its subscriber")
