@@ -91,12 +91,56 @@ def _wrench(kind: str, w: np.ndarray, wd: np.ndarray, vd: np.ndarray):
     return vd, None  # mass
 
 
+def _leg_recursion(state: TreeState, qt, qdt, qddt, frame1: tuple) -> tuple:
+    """Forward recursion in leg coordinates (body 1, the foot, only translates along z):
+    per body its frame R, angular velocity w and acceleration wd, origin acceleration acc, and
+    r_bar = O_4 - O_1 = d4 x_3. Every array (3, 3 legs, N)."""
+    ez = frame1[2]
+    zero = np.zeros_like(ez)
+    R = [frame1]
+    w, wd, acc = [zero], [zero], [ez * qddt[0]]
+    r_bar = None
+    for k in range(2, 6):
+        Rk = _child_frame(R[-1], _ALPHA[k], qt[k - 1])
+        zk = Rk[2]
+        if k == 4:
+            r_bar = state.geom.d4 * R[-1][0]
+            acc.append(acc[-1] + _cross(wd[-1], r_bar) + _cross(w[-1], _cross(w[-1], r_bar)))
+        else:
+            acc.append(acc[-1])
+        w.append(w[-1] + zk * qdt[k - 1])
+        wd.append(wd[-1] + zk * qddt[k - 1] + _cross(w[-2], zk * qdt[k - 1]))
+        R.append(Rk)
+    return R, w, wd, acc, r_bar
+
+
+def _body_jacobian(k: int, R: list, r_bar, J_t: np.ndarray, shape: tuple) -> tuple[list, list]:
+    """Body k's Jacobian G_k = S_k J_t in its own frame: (F part, N part) per actuator c, each
+    (3, 3 legs, N)."""
+    Rk = R[k - 1]
+    GF = [np.zeros((3,) + shape) for _ in range(3)]
+    GN = [np.zeros((3,) + shape) for _ in range(3)]
+    for j in range(1, k + 1):
+        if j == 1:
+            sF, sN = _in_frame(Rk, R[0][2]), None
+        else:
+            axis_j = _in_frame(Rk, R[j - 1][2])
+            sF = _cross(axis_j, _in_frame(Rk, r_bar)) if (k >= 4 and j <= 3) else None
+            sN = axis_j
+        for c in range(3):
+            if sF is not None:
+                GF[c] += sF * J_t[j - 1, c]
+            if sN is not None:
+                GN[c] += sN * J_t[j - 1, c]
+    return GF, GN
+
+
 def leg_columns(state: TreeState, wanted: Sequence[int]) -> dict[int, np.ndarray]:
     """Actuated-effort columns (3 actuators, 3 legs, N) of the leg parameters ``wanted`` (0..65).
 
-    The three legs obey the same equations in their own frames (docs/design/conventions.md), so they
-    are
-    computed side by side along a leg axis: a third of the array operations of a leg-by-leg loop.
+    The three legs obey the same equations in their own frames (docs/design/conventions.md), so
+    they are computed side by side along a leg axis: a third of the array operations of a
+    leg-by-leg loop.
     """
     # (5, 3 legs, N)
     qt, qdt, qddt = (np.transpose(x, (2, 1, 0)) for x in (state.qt, state.qdt, state.qddt))
@@ -110,23 +154,7 @@ def leg_columns(state: TreeState, wanted: Sequence[int]) -> dict[int, np.ndarray
         return np.broadcast_to(e, (3,) + shape)
 
     ez = axis(2)
-    zero = np.zeros((3,) + shape)
-
-    # Forward recursion in leg coordinates (body 1, the foot, only translates along z).
-    R = [(axis(0), axis(1), ez)]
-    w, wd, acc = [zero], [zero], [ez * qddt[0]]
-    r_bar = None  # O_4 - O_1 = d4 x_3
-    for k in range(2, 6):
-        Rk = _child_frame(R[-1], _ALPHA[k], qt[k - 1])
-        zk = Rk[2]
-        if k == 4:
-            r_bar = state.geom.d4 * R[-1][0]
-            acc.append(acc[-1] + _cross(wd[-1], r_bar) + _cross(w[-1], _cross(w[-1], r_bar)))
-        else:
-            acc.append(acc[-1])
-        w.append(w[-1] + zk * qdt[k - 1])
-        wd.append(wd[-1] + zk * qddt[k - 1] + _cross(w[-2], zk * qdt[k - 1]))
-        R.append(Rk)
+    R, w, wd, acc, r_bar = _leg_recursion(state, qt, qdt, qddt, (axis(0), axis(1), ez))
 
     g = state.geom.gravity_leg.T[:, :, None]  # (3 components, 3 legs, 1)
     out: dict[int, np.ndarray] = {}
@@ -143,21 +171,7 @@ def leg_columns(state: TreeState, wanted: Sequence[int]) -> dict[int, np.ndarray
                 _in_frame(Rk, wd[k - 1]),
                 _in_frame(Rk, acc[k - 1] - g),
             )
-            # Body Jacobian G_k = S_k J_t: (F part, N part) per actuator c, each (3, 3 legs, N).
-            GF = [np.zeros((3,) + shape) for _ in range(3)]
-            GN = [np.zeros((3,) + shape) for _ in range(3)]
-            for j in range(1, k + 1):
-                if j == 1:
-                    sF, sN = _in_frame(Rk, ez), None
-                else:
-                    axis_j = _in_frame(Rk, R[j - 1][2])
-                    sF = _cross(axis_j, _in_frame(Rk, r_bar)) if (k >= 4 and j <= 3) else None
-                    sN = axis_j
-                for c in range(3):
-                    if sF is not None:
-                        GF[c] += sF * J_t[j - 1, c]
-                    if sN is not None:
-                        GN[c] += sN * J_t[j - 1, c]
+            GF, GN = _body_jacobian(k, R, r_bar, J_t, shape)
             for col, kind in inertial.items():
                 F, Nm = _wrench(kind, wk, wdk, vdk)
                 out[col] = np.stack(
