@@ -22,6 +22,7 @@ from orthoglide_sim.arms.limits import MotionLimits, motion_limits
 from orthoglide_sim.arms.plant import MujocoPlant
 from orthoglide_sim.arms.truth import ArmPayload, ArmTruth, load_truth
 from orthoglide_sim.arms.unmodelled import DriveState, Unmodelled
+from orthoglide_sim.common.closed_loop import quantise
 from orthoglide_sim.common.trajectories import FourierTrajectory
 
 NOISE_STRIDE = 10  # ticks between the reference samples the rms current is taken over
@@ -113,11 +114,11 @@ def simulate_arm(duration_s: float, robot: str = "ur5", payload: str | None = No
     current_limit = np.array([j.effort for j in arm.joints]) / arm.nominal_gains
     torque0 = plant.inverse_dynamics(q_ref[:1], qd_ref[:1], qdd_ref[:1], friction=True)[0]
     inertia = asim.joint_inertia(MujocoPlant(truth), limits.centre)  # tuned once, unloaded
-    pid = asim.ArmPID.tuned(
+    pid = asim.arm_pid(
         inertia,
         arm.nominal_gains,
         current_limit,
-        asim.quantise(q_ref[0] - qd_ref[0] * asim.TICK, truth.encoder_resolution),
+        quantise(q_ref[0] - qd_ref[0] * asim.TICK, truth.encoder_resolution),
         qd_ref[0],
         torque0,
     )
@@ -126,7 +127,7 @@ def simulate_arm(duration_s: float, robot: str = "ur5", payload: str | None = No
     if effects is not None and effects.any:
         drive = _drive_state(plant, effects, inertia, torque0, q_ref[0], qd_ref[0], qdd_ref[0],
                              arm.nominal_gains)
-    res = asim.run_closed_loop(plant, pid, q_ref, qd_ref, noise_a, limits, drive)
+    res = asim.run_arm(plant, pid, q_ref, qd_ref, noise_a, limits, drive)
     stamps = start_ns + np.arange(N, dtype=np.int64) * int(round(asim.TICK * 1e9))
     return ArmRecord(
         stamps,

@@ -30,6 +30,7 @@ from orthoglide_sim.arms.record import (
 from orthoglide_sim.chains.description import load_chain
 from orthoglide_sim.chains.plant import ChainPlant
 from orthoglide_sim.chains.truth import ChainTruth, load_chain_truth
+from orthoglide_sim.common.closed_loop import PID, quantise
 from orthoglide_sim.common.trajectories import FourierTrajectory
 
 
@@ -41,7 +42,7 @@ class ChainRecord(ArmRecord):
     loop_error: np.ndarray  # (N,) m, max |e| of the loops after each tick
 
 
-def tuned_pid(plant: ChainPlant, q0: np.ndarray, qd0: np.ndarray, qdd0: np.ndarray) -> asim.ArmPID:
+def tuned_pid(plant: ChainPlant, q0: np.ndarray, qd0: np.ndarray, qdd0: np.ndarray) -> PID:
     """The arm's PID for the chain: tuned once on the unloaded chain's reduced inertia at the
     box centre, its integrator pre-loaded with the torque the reference (q0, qd0, qdd0) needs
     on ``plant`` (the plant starts on the reference)."""
@@ -50,11 +51,11 @@ def tuned_pid(plant: ChainPlant, q0: np.ndarray, qd0: np.ndarray, qdd0: np.ndarr
     current_limit = np.array([j.effort for j in chain.joints]) / chain.nominal_gains
     torque0 = plant.inverse_dynamics(q0[None], qd0[None], qdd0[None], friction=True)[0]
     inertia = ChainPlant(truth).actuated_inertia(motion_limits(chain).centre)
-    return asim.ArmPID.tuned(
+    return asim.arm_pid(
         inertia,
         chain.nominal_gains,
         current_limit,
-        asim.quantise(q0 - qd0 * asim.TICK, truth.encoder_resolution),
+        quantise(q0 - qd0 * asim.TICK, truth.encoder_resolution),
         qd0,
         torque0,
     )
@@ -85,7 +86,7 @@ def simulate_chain(duration_s: float, robot: str = "five_bar", payload: str | No
     noise_a = white * std if noise else np.zeros((N, chain.n))
     pid = tuned_pid(plant, q_ref[0], qd_ref[0], qdd_ref[0])
     plant.reset(q_ref[0], qd_ref[0])
-    res = asim.run_closed_loop(plant, pid, q_ref, qd_ref, noise_a, limits)
+    res = asim.run_arm(plant, pid, q_ref, qd_ref, noise_a, limits)
     stamps = start_ns + np.arange(N, dtype=np.int64) * int(round(asim.TICK * 1e9))
     return ChainRecord(
         stamps,

@@ -149,22 +149,15 @@ def simulate_external(duration_s: float, command: Callable[[int, np.ndarray], np
         encoder_noise,
         stamps,
     ) = _setup(duration_s, payload, trajectory, seed, params, noise, start_ns, ripple, profile)
-    N = len(stamps)
     sim = sm.Integrator(plant, drive, q_ref[0], qd_ref[0])
-    q_meas, v_tau, q, qd, qdd = (np.empty((N, 3)) for _ in range(5))
-    for k in range(N):
-        q[k], qd[k] = sim.q, sim.qd
-        q_meas[k] = sm.quantise(q[k] if encoder_noise is None else q[k] + encoder_noise[k],
-                                prof.encoder_resolution)
-        v_tau[k] = command(k, q_meas[k])
-        qdd[k] = sim.tick(v_tau[k] + current_noise[k])
+    res = sm.run_integrator(sim, command, current_noise, prof.encoder_resolution, encoder_noise)
     return SimRecord(
         stamps,
-        q_meas,
-        v_tau,
-        q,
-        qd,
-        qdd,
+        res.q_meas,
+        res.v_tau,
+        res.q,
+        res.qd,
+        res.logged,
         q_ref,
         float(chi_l[9]),
         chi_l,

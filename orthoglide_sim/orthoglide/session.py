@@ -32,6 +32,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from orthoglide_ident.errors import ConfigError, OrthoglideError
+from orthoglide_sim.common.closed_loop import quantise
 from orthoglide_sim.common.trajectories import get_trajectory
 from orthoglide_sim.orthoglide import simulator as sm
 from orthoglide_sim.orthoglide.plant import Plant
@@ -254,7 +255,8 @@ class DriverSession:
         q0, qd0, qdd0 = (v[0] for v in self.reference.evaluate(self.k))
         self.plant = Plant(self.params, self.payload)
         self.sim = self.integrator(self.plant, self.drive, q0, qd0)
-        self.pid = sm.PID.preloaded(self.plant, q0, qd0, qdd0, velocity_ff=self.controller != "pid")
+        self.pid = sm.preloaded_pid(self.plant, q0, qd0, qdd0,
+                                   velocity_ff=self.controller != "pid")
 
     def reset(self) -> None:
         """Clear a fault: the robot is put back on the reference of the current tick."""
@@ -323,7 +325,7 @@ class DriverSession:
 
     def measure(self) -> np.ndarray:
         """q_meas (3,) m of tick k: the 1 um encoder reading."""
-        return sm.quantise(self.sim.q)
+        return quantise(self.sim.q, sm.ENCODER_RESOLUTION)
 
     def setpoint(self, k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(q_d, qd_d, qdd_d) (3,) each, of tick k (any tick up to k + lead is final)."""
