@@ -43,8 +43,8 @@ class BroadcasterLayout:
         self.interfaces = tuple(
             ARM_INTERFACES if c >= 0 else EXTRA_INTERFACES for c in self.arm_column
         )
-        self._js = bags.MessageTemplate.joint_state(self.names)
-        self._djs = bags.MessageTemplate.dynamic_joint_state(self.names, self.interfaces)
+        self._js = bags.encoding.MessageTemplate.joint_state(self.names)
+        self._djs = bags.encoding.MessageTemplate.dynamic_joint_state(self.names, self.interfaces)
         self._js_from = self._sources(self._js.columns)
         self._djs_from = self._sources(self._djs.columns)
 

@@ -40,7 +40,7 @@ from orthoglide_sim.common.trajectories import FourierTrajectory
 from orthoglide_sim.coupled.plant import CoupledPlant
 from orthoglide_sim.coupled.truth import CoupledTruth, default_coupled_truth
 
-SIDES = bags.SIDES
+SIDES = bags.tags.SIDES
 
 
 @dataclass
