@@ -44,14 +44,19 @@ SUBSTEPS = int(round(TICK / TIMESTEP))  # MuJoCo steps per tick
 VELOCITY_FILTER = 2.0e-3  # s, first-order low-pass of the velocity estimate (1 / (5 OMEGA))
 
 
-def joint_inertia(plant: MujocoPlant, q: np.ndarray) -> np.ndarray:
-    """(n,) diagonal of the plant's mass matrix (armature included) at q, kg·m²."""
+def mass_matrix(plant: MujocoPlant, q: np.ndarray) -> np.ndarray:
+    """(n, n) MuJoCo's mass matrix (armature included) of the plant's joints at q."""
     d = mujoco.MjData(plant.model)
     d.qpos[plant.dof] = q
     mujoco.mj_forward(plant.model, d)
     M = np.zeros((plant.model.nv, plant.model.nv))
     mujoco.mj_fullM(plant.model, d, M)
-    return np.diag(M)[plant.dof]
+    return M[np.ix_(plant.dof, plant.dof)]
+
+
+def joint_inertia(plant: MujocoPlant, q: np.ndarray) -> np.ndarray:
+    """(n,) diagonal of the plant's mass matrix (armature included) at q, kg·m²."""
+    return np.diag(mass_matrix(plant, q))
 
 
 def arm_pid(inertia: np.ndarray, nominal_gain: np.ndarray, current_limit: np.ndarray,

@@ -24,7 +24,6 @@ import shutil
 from dataclasses import dataclass
 from pathlib import Path
 
-import mujoco
 import numpy as np
 import yaml
 
@@ -33,7 +32,7 @@ from orthoglide_ident.errors import ConfigError
 from orthoglide_ident.model import robots
 from orthoglide_sim.arms import simulator as asim
 from orthoglide_sim.arms.limits import MotionLimits, motion_limits
-from orthoglide_sim.arms.record import NOISE_STRIDE, reference_of, trajectory_name
+from orthoglide_sim.arms.record import NOISE_STRIDE, TrackedRun, reference_of, trajectory_name
 from orthoglide_sim.arms.truth import ArmPayload
 from orthoglide_sim.common.closed_loop import PID, LoopResult, quantise, run_closed_loop
 from orthoglide_sim.common.trajectories import FourierTrajectory
@@ -44,7 +43,7 @@ SIDES = bags.tags.SIDES
 
 
 @dataclass
-class CoupledRecord:
+class CoupledRecord(TrackedRun):
     """One run; arrays per controller tick (K, n): joint columns in ``truth.arm.joint_names``
     order, motor columns in the rows of N."""
 
@@ -64,24 +63,11 @@ class CoupledRecord:
     seed: int
     saturated_ticks: int
 
-    @property
-    def payload_mass(self) -> float:
-        return 0.0 if self.payload is None else self.payload.mass
-
-    @property
-    def tracking_rms(self) -> np.ndarray:
-        """(n,) rms of q_true - q_ref, rad (joint side)."""
-        return np.sqrt(np.mean((self.q_true - self.q_ref) ** 2, axis=0))
 
 
 def motor_inertia(plant: CoupledPlant, q: np.ndarray) -> np.ndarray:
     """(n,) diagonal of the mass matrix in motor coordinates, N⁻ᵀ M(q) N⁻¹ (rotors included)."""
-    d = mujoco.MjData(plant.model)
-    d.qpos[plant.dof] = q
-    mujoco.mj_forward(plant.model, d)
-    M = np.zeros((plant.model.nv, plant.model.nv))
-    mujoco.mj_fullM(plant.model, d, M)
-    M = M[np.ix_(plant.dof, plant.dof)]
+    M = asim.mass_matrix(plant, q)
     Ninv = np.linalg.inv(plant.truth.reduction)
     return np.diag(Ninv.T @ M @ Ninv)
 

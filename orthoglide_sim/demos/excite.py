@@ -30,8 +30,8 @@ from pathlib import Path
 import numpy as np
 
 from orthoglide_ident.errors import OrthoglideError
-from orthoglide_sim.demos.graph import Graph, own_ros_domain
-from orthoglide_sim.demos.node_set import ROOT, say
+from orthoglide_sim.demos.graph import Graph
+from orthoglide_sim.demos.node_set import ROOT, run_demo, say
 from orthoglide_sim.demos.verdict import GAIN_BAR, SIGMA_BAR, gain_causes, verdict_line
 
 ROBOT = "ur5_mount"  # the UR5 with a payload mount off the last axis (orthoglide_ident/robots)
@@ -303,12 +303,7 @@ def main(argv: list[str] | None = None) -> int:
     )
     ap.add_argument("--out", type=Path, default=Path("demo_out/excite"), help="output folder")
     args = ap.parse_args(argv)
-    say(own_ros_domain())
-    try:
-        return run(args.out, args.periods)
-    except (OrthoglideError, KeyboardInterrupt) as e:
-        print(f"demo: {e or 'interrupted'}", file=sys.stderr)
-        return 2
+    return run_demo(run, args.out, args.periods)
 
 
 if __name__ == "__main__":

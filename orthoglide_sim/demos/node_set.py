@@ -19,6 +19,7 @@ import argparse
 import shutil
 import sys
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -51,6 +52,17 @@ LIVE_PRINT_S = 10.0  # the live identification estimate is printed this often wh
 
 def say(msg: str = "") -> None:
     print(msg, flush=True)
+
+
+def run_demo(run: Callable[..., int], *args) -> int:
+    """A demo's ``run(*args)`` on its own ROS domain (said first); an OrthoglideError or Ctrl-C
+    ends it with exit code 2 and its reason on one line."""
+    say(own_ros_domain())
+    try:
+        return run(*args)
+    except (OrthoglideError, KeyboardInterrupt) as e:
+        print(f"demo: {e or 'interrupted'}", file=sys.stderr)
+        return 2
 
 
 def start_graph(g: Graph, out: Path) -> None:

@@ -241,18 +241,18 @@ def simulate_closed_loop(
     pid = preloaded_pid(plant, q_ref[0], qd_ref[0], qdd_ref[0], velocity_ff=controller != "pid")
     # the feed-forward brings its share
     pid.integral = pid.integral - ff[0] * G_TAU_MANUFACTURER / KI
-    res = run_integrator(sim, lambda k, q: pid.current(q, q_ref[k], qd_ref[k]) + ff[k], noise,
-                         resolution, enc)
-    return ClosedLoopResult(res.q_meas, res.v_tau, res.q, res.qd, res.logged)
+    return run_integrator(sim, lambda k, q: pid.current(q, q_ref[k], qd_ref[k]) + ff[k], noise,
+                          resolution, enc)
 
 
 def run_integrator(sim: Integrator, control, noise: np.ndarray, resolution: float,
-                   encoder_noise: np.ndarray | None = None):
+                   encoder_noise: np.ndarray | None = None) -> ClosedLoopResult:
     """The common closed loop on the Orthoglide's integrator: the encoder reads the actuators,
-    each tick logs the actuator accelerations at its start (``logged``)."""
+    each tick's actuator accelerations at its start are logged (``qdd``)."""
     def read():
         q = sim.q
         return q, sim.qd, q
 
-    return run_closed_loop(read, control, lambda k, current: sim.tick(current), noise,
-                           resolution, encoder_noise)
+    res = run_closed_loop(read, control, lambda k, current: sim.tick(current), noise,
+                          resolution, encoder_noise)
+    return ClosedLoopResult(res.q_meas, res.v_tau, res.q, res.qd, res.logged)

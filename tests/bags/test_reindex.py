@@ -18,21 +18,14 @@ import yaml
 from rosbags.highlevel import AnyReaderError
 
 from orthoglide_ident import bags
+from orthoglide_ident.bags import topics
 from orthoglide_ident.bags.encoding import encode_messages
-from orthoglide_ident.bags.topics import (
-    CURRENT_REFERENCE_TOPIC,
-    CURRENT_REFERENCE_TYPE,
-    JOINT_STATE_TYPE,
-    JOINT_STATES_TOPIC,
-    msgdef_and_hash,
-    qos_profile,
-)
 from orthoglide_ident.errors import BagError
 from orthoglide_ident.ros import processes as children  # children end with this process
 
 NAMES = ("q11", "q12", "q13")
 T0 = 1_700_000_000_000_000_000
-BEST_EFFORT = [qos_profile("best_effort", "volatile", "keep_last", 5)]
+BEST_EFFORT = [topics.qos_profile("best_effort", "volatile", "keep_last", 5)]
 
 
 def _killed_bag(path: Path, n: int, split_duration_s: float | None = None) -> int:
@@ -40,13 +33,13 @@ def _killed_bag(path: Path, n: int, split_duration_s: float | None = None) -> in
     chunk, metadata.yaml the placeholder written at open. Returns the messages left on disk."""
     stamps = T0 + np.arange(n, dtype=np.int64) * 1_000_000
     rng = np.random.default_rng(3)
-    js = encode_messages(JOINT_STATE_TYPE, NAMES, stamps, rng.normal(size=(n, 3)))
-    cr = encode_messages(CURRENT_REFERENCE_TYPE, NAMES, stamps, rng.normal(size=(n, 3)))
+    js = encode_messages(topics.JOINT_STATE_TYPE, NAMES, stamps, rng.normal(size=(n, 3)))
+    cr = encode_messages(topics.CURRENT_REFERENCE_TYPE, NAMES, stamps, rng.normal(size=(n, 3)))
     w = bags.BagWriter(path, bags.BagTags("loaded", 2.5), split_duration_s=split_duration_s,
                        custom_data={"sim.seed": "3"}).open()
     placeholder = (path / "metadata.yaml").read_text()
-    a = w.add_topic(JOINT_STATES_TOPIC, JOINT_STATE_TYPE, qos=BEST_EFFORT)
-    b = w.add_topic(CURRENT_REFERENCE_TOPIC, CURRENT_REFERENCE_TYPE)
+    a = w.add_topic(topics.JOINT_STATES_TOPIC, topics.JOINT_STATE_TYPE, qos=BEST_EFFORT)
+    b = w.add_topic(topics.CURRENT_REFERENCE_TOPIC, topics.CURRENT_REFERENCE_TYPE)
     for i, t in enumerate(stamps.tolist()):
         w.write(a, js[i].tobytes(), t)
         w.write(b, cr[i].tobytes(), t)
@@ -89,11 +82,11 @@ def test_reindex_killed_recording(tmp_path: Path) -> None:
     assert info["message_count"] == 4000 and info["relative_file_paths"] == ["killed_0.mcap"]
     assert info["duration"]["nanoseconds"] == 1_999_000_000
     assert info["starting_time"]["nanoseconds_since_epoch"] == T0
-    topics = {t["topic_metadata"]["name"]: t for t in info["topics_with_message_count"]}
-    assert topics[JOINT_STATES_TOPIC]["message_count"] == 2000
-    js_meta = topics[JOINT_STATES_TOPIC]["topic_metadata"]
+    by_name = {t["topic_metadata"]["name"]: t for t in info["topics_with_message_count"]}
+    assert by_name[topics.JOINT_STATES_TOPIC]["message_count"] == 2000
+    js_meta = by_name[topics.JOINT_STATES_TOPIC]["topic_metadata"]
     assert js_meta["offered_qos_profiles"] == BEST_EFFORT
-    assert js_meta["type_description_hash"] == msgdef_and_hash(JOINT_STATE_TYPE)[1]
+    assert js_meta["type_description_hash"] == topics.msgdef_and_hash(topics.JOINT_STATE_TYPE)[1]
     assert info["custom_data"] == {"sim.seed": "3", "orthoglide.condition": "loaded",
                                    "orthoglide.payload_mass": "2.5"}
     assert _rosbags_count(bag) == 4000
