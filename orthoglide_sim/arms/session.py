@@ -7,7 +7,7 @@ node can publish each tick as it happens and change the payload or the trajector
     tick = s.tick()        # k, q_meas (encoder), velocity estimate, v_tau (A) held over [t_k,
     t_k+1)
     s.set_payload("2.0")   # mounted now: the motion goes on from the same state
-    s.set_trajectory("exciting2", s.k)   # blends in over 2 s (session.BLEND_TIME)
+    s.set_trajectory("exciting2", s.k)   # blends in over 2 s (common.reference.BLEND_TIME)
     goal = s.start_goal(times, q, qd, qdd, tolerances)   # a FollowJointTrajectory goal from now on
     s.cancel_goal()                       # ... or let it run: goal.status, goal.reason
 
@@ -48,7 +48,7 @@ from orthoglide_sim.common.joint_trajectory import (
     JointTrajectory,
     Tolerances,
 )
-from orthoglide_sim.orthoglide.session import Reference
+from orthoglide_sim.common.reference import Reference
 
 NOISE_BLOCK = 1000  # ticks of current noise drawn at once (the same stream as one draw of all)
 # m, a point-mass payload is a sphere this size (its inertia ~1e-3 of the noise)

@@ -46,7 +46,7 @@ TABLE4 = (
     "CTC, gains +25 %",
 )
 SETTLE_S = 1.0  # after a change of controller or model, before measuring
-BLEND_S = 3.0  # a new trajectory blends in over 2 s (orthoglide_sim.orthoglide.session.BLEND_TIME)
+BLEND_S = 3.0  # a new trajectory blends in over 2 s (orthoglide_sim.common.reference.BLEND_TIME)
 LIVE_PRINT_S = 10.0  # the live identification estimate is printed this often while recording
 
 
