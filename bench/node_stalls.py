@@ -84,7 +84,7 @@ def stalled_recording(g, node: str, stall: float, statuses: list) -> dict:
         "live_lag": max((m.lag for m in live), default=float("nan")),
         "live_warnings": sum(len(m.warnings) for m in live),
         "written": len(js),
-        "missing": bags.find_gaps(js).missing if len(js) else -1,
+        "missing": bags.info.find_gaps(js).missing if len(js) else -1,
         "ok": stop.success,
     }
 

@@ -1,6 +1,7 @@
 """Bag write and read speed: orthoglide_ident.bags vs rosbags, on N bags of D seconds at 1 kHz.
 
     python bench/read_speed.py [--seconds 60] [--bags 2] [--layouts orthoglide,joint_states,...]
+                               [--json PATH]   (the tables for bench/write_benchmarks.py)
 
 For each layout, a small table: write_bag time and msg/s (the official MCAP writer underneath),
 read_bag time and msg/s, the official MCAP reader merely iterating the same messages (what our
@@ -19,6 +20,7 @@ docs/benchmarks.md yardstick), the ratio, and peak RSS. Layouts:
 from __future__ import annotations
 
 import argparse
+import json
 import resource
 import sys
 import tempfile
@@ -35,6 +37,7 @@ UR5 = ("shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint", "wrist_1_join
        "wrist_2_joint", "wrist_3_joint")
 HW_ORDER = ("wrist_3_joint", "elbow_joint", "gripper_finger_joint", "shoulder_pan_joint",
             "wrist_1_joint", "shoulder_lift_joint", "wrist_2_joint")
+EMITS_JSON = True  # --json PATH: the figures for bench/write_benchmarks.py
 LAYOUTS = ("orthoglide", "joint_states", "dynamic_joint_states", "variable")
 
 
@@ -59,14 +62,15 @@ def _variable_bag(path: Path, stamps: np.ndarray, q: np.ndarray, v: np.ndarray) 
 
     store = bags._types.typestore()
     T, H = store.types["builtin_interfaces/msg/Time"], store.types["std_msgs/msg/Header"]
-    JS, DJS = store.types[bags.JOINT_STATE_TYPE], store.types[bags.DYNAMIC_JOINT_STATE_TYPE]
+    JS = store.types[bags.topics.JOINT_STATE_TYPE]
+    DJS = store.types[bags.topics.DYNAMIC_JOINT_STATE_TYPE]
     IV = store.types[bags._types.INTERFACE_VALUE_TYPE]
     col = {j: UR5.index(j) for j in UR5}
     with Writer(path, version=9, storage_plugin=StoragePlugin.MCAP) as w:
         w.set_custom_data("orthoglide.condition", "unloaded")
         w.set_custom_data("orthoglide.payload_mass", "0")
-        a = w.add_connection("/joint_states", bags.JOINT_STATE_TYPE, typestore=store)
-        b = w.add_connection("/dynamic_joint_states", bags.DYNAMIC_JOINT_STATE_TYPE,
+        a = w.add_connection("/joint_states", bags.topics.JOINT_STATE_TYPE, typestore=store)
+        b = w.add_connection("/dynamic_joint_states", bags.topics.DYNAMIC_JOINT_STATE_TYPE,
                              typestore=store)
         for i, t in enumerate(stamps.tolist()):
             hdr = H(stamp=T(sec=t // 10**9, nanosec=t % 10**9),
@@ -83,9 +87,9 @@ def _variable_bag(path: Path, stamps: np.ndarray, q: np.ndarray, v: np.ndarray) 
                 if i % 50 == 7:
                     names, vals = names + [f"temperature_{i:07d}"], vals + [40.0]
                 ivs.append(IV(interface_names=names, values=np.array(vals)))
-            w.write(a, t, bytes(store.serialize_cdr(js, bags.JOINT_STATE_TYPE)))
+            w.write(a, t, bytes(store.serialize_cdr(js, bags.topics.JOINT_STATE_TYPE)))
             djs = DJS(header=hdr, joint_names=list(HW_ORDER), interface_values=ivs)
-            w.write(b, t, bytes(store.serialize_cdr(djs, bags.DYNAMIC_JOINT_STATE_TYPE)))
+            w.write(b, t, bytes(store.serialize_cdr(djs, bags.topics.DYNAMIC_JOINT_STATE_TYPE)))
 
 
 def _write(layout: str, path: Path, i: int, n: int, rng: np.random.Generator) -> int:
@@ -107,7 +111,7 @@ def _write(layout: str, path: Path, i: int, n: int, rng: np.random.Generator) ->
     return n * (2 if layout == "dynamic_joint_states" else 1)
 
 
-def _bench(layout: str, seconds: float, n_bags: int, skip_rosbags: bool) -> None:
+def _bench(layout: str, seconds: float, n_bags: int, skip_rosbags: bool) -> dict:
     from orthoglide_ident import bags
 
     n = int(seconds * 1000)
@@ -150,6 +154,11 @@ def _bench(layout: str, seconds: float, n_bags: int, skip_rosbags: bool) -> None
     if not skip_rosbags:
         print(f"read_bag / rosbags time ratio: {t_read / rows[-1][1]:.3f}")
     print(f"peak RSS after read_bag: {rss:.0f} MiB")
+    ratio = f", read_bag / rosbags {t_read / rows[-1][1]:.3f}" if not skip_rosbags else ""
+    return {"title": f"{layout}: {n_bags} bags x {seconds:g} s at 1 kHz, {msgs} messages, "
+                     f"{size / 1e6:.1f} MB{ratio}, peak RSS {rss:.0f} MiB",
+            "columns": ["operation", "time [s]", "msg/s"],
+            "rows": [[name, f"{t:.3f}", f"{msgs / t:,.0f}"] for name, t in rows]}
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -161,13 +170,15 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument(
         "--skip-rosbags", action="store_true", help="do not time the rosbags deserialiser"
     )
+    ap.add_argument("--json", type=Path, help="also write the tables here (write_benchmarks.py)")
     a = ap.parse_args(argv)
     layouts = [x for x in a.layouts.split(",") if x]
     unknown = [x for x in layouts if x not in LAYOUTS]
     if unknown:
         ap.error(f"unknown layout {unknown[0]!r}: use {', '.join(LAYOUTS)}")
-    for layout in layouts:
-        _bench(layout, a.seconds, a.bags, a.skip_rosbags)
+    tables = [_bench(layout, a.seconds, a.bags, a.skip_rosbags) for layout in layouts]
+    if a.json:
+        a.json.write_text(json.dumps({"tables": tables}, indent=1) + "\n")
     return 0
 
 

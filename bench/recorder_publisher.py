@@ -40,8 +40,8 @@ def main(argv: list[str] | None = None) -> int:
     qos = QoSProfile(
         history=HistoryPolicy.KEEP_LAST, depth=5000, reliability=ReliabilityPolicy.RELIABLE
     )
-    pub_js = node.create_publisher(JointState, bags.JOINT_STATES_TOPIC, qos)
-    pub_cr = node.create_publisher(CurrentReference, bags.CURRENT_REFERENCE_TOPIC, qos)
+    pub_js = node.create_publisher(JointState, bags.topics.JOINT_STATES_TOPIC, qos)
+    pub_cr = node.create_publisher(CurrentReference, bags.topics.CURRENT_REFERENCE_TOPIC, qos)
     deadline = time.monotonic() + 20
     while (
         min(pub_js.get_subscription_count(), pub_cr.get_subscription_count()) < a.wait_subscribers
@@ -62,8 +62,9 @@ def main(argv: list[str] | None = None) -> int:
         ticks = np.arange(k, k + m)
         stamps = t0_ns + np.rint(ticks * period * 1e9).astype(np.int64)
         q = 0.05 * np.sin(np.outer(ticks * period, [1.0, 1.3, 1.7]))
-        js = bags.encode_messages(bags.JOINT_STATE_TYPE, names, stamps, q)
-        cr = bags.encode_messages(bags.CURRENT_REFERENCE_TYPE, names, stamps, 0.1 * q)
+        encode, topics = bags.encoding.encode_messages, bags.topics
+        js = encode(topics.JOINT_STATE_TYPE, names, stamps, q)
+        cr = encode(topics.CURRENT_REFERENCE_TYPE, names, stamps, 0.1 * q)
         for i in range(m):
             delay = start + (k + i) * period - time.monotonic()
             if delay > 0:

@@ -155,11 +155,11 @@ def run(
             pub_s=(last - first) / 1e9,
             lost_js=sent - len(js),
             lost_cr=sent - len(cr),
-            gaps=bags.find_gaps(js, 1e6).missing + bags.find_gaps(cr, 1e6).missing,
+            gaps=bags.info.find_gaps(js, 1e6).missing + bags.info.find_gaps(cr, 1e6).missing,
             same=len(js) == len(cr) and bool((js == cr).all()),
             where={
-                "js": bags.find_gaps(js, 1e6).where,
-                "cr": bags.find_gaps(cr, 1e6).where,
+                "js": bags.info.find_gaps(js, 1e6).where,
+                "cr": bags.info.find_gaps(cr, 1e6).where,
             },
             cpu=cpu,
             rss0=rss0,
@@ -198,7 +198,7 @@ def run(
     stop = client.stop()
     data = bags.read_bag(res.bag_path)
     got_js, got_cr = len(data.joint_states.stamps_ns), len(data.current_reference.stamps_ns)
-    gaps = bags.find_gaps(data.joint_states.stamps_ns, 1e9 / rate).missing
+    gaps = bags.info.find_gaps(data.joint_states.stamps_ns, 1e9 / rate).missing
     js, cr = data.joint_states.stamps_ns, data.current_reference.stamps_ns
     size = sum(f.stat().st_size for f in Path(res.bag_path).glob("*.mcap"))
     return dict(

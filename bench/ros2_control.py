@@ -147,7 +147,7 @@ def effort_only_copy(path: str, out: Path) -> str:
     data = bags.read_bag(path)
     both = set(int(s) for s in data.current.stamps_ns)
     with bags.BagWriter(out, data.tags) as w:
-        ch = w.add_topic("/joint_states", bags.JOINT_STATE_TYPE)
+        ch = w.add_topic("/joint_states", bags.topics.JOINT_STATE_TYPE)
         for f in sorted(Path(path).glob("*.mcap")):
             with open(f, "rb") as fh:
                 for _, _channel, msg in make_reader(fh).iter_messages(topics=["/joint_states"]):

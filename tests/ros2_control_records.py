@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from orthoglide_ident import bags
+from orthoglide_ident.bags.topics import DYNAMIC_JOINT_STATE_TYPE, JOINT_STATE_TYPE
 from orthoglide_sim.arms.session import ArmSession
 from orthoglide_sim.common.broadcaster import BroadcasterLayout, TickDropper, broadcast
 
@@ -61,9 +62,9 @@ def write_record_bag(path: Path, rec: StandinRecord, dynamic: bool = True) -> Pa
     False: /joint_states only, the effort then carries the current)."""
     tags = bags.BagTags.checked(rec.condition, rec.payload_mass)
     with bags.BagWriter(path, tags) as w:
-        js = w.add_topic("/joint_states", bags.JOINT_STATE_TYPE)
+        js = w.add_topic("/joint_states", JOINT_STATE_TYPE)
         djs = (
-            w.add_topic("/dynamic_joint_states", bags.DYNAMIC_JOINT_STATE_TYPE) if dynamic else None
+            w.add_topic("/dynamic_joint_states", DYNAMIC_JOINT_STATE_TYPE) if dynamic else None
         )
         for stamp, a, b in rec.messages:
             if a is not None:

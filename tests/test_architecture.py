@@ -298,3 +298,17 @@ def test_the_product_never_imports_the_simulator():
     offenders = [f"{_rel(p)}:{line} imports {mod}" for p in _modules(PRODUCT)
                  for mod, _, line in _imports(p) if mod.split(".")[0] == "orthoglide_sim"]
     assert not offenders, "\n".join(offenders)
+
+
+SIM_ROBOT_ROOMS = ("orthoglide", "arms", "chains", "coupled")
+
+
+def test_the_simulators_common_room_imports_no_robot_room():
+    """orthoglide_sim/common/ (the closed loop, PID, quantiser, drive model every robot runs)
+    sits below the robot rooms: a robot's session reaches it through a protocol."""
+    offenders = [f"{_rel(p)}:{line} imports {mod}"
+                 for p in _modules(ROOT / "orthoglide_sim" / "common")
+                 for mod, _, line in _imports(p)
+                 if mod.split(".")[:1] == ["orthoglide_sim"]
+                 and mod.split(".")[1:2] and mod.split(".")[1] in SIM_ROBOT_ROOMS]
+    assert not offenders, "\n".join(offenders)

@@ -193,7 +193,7 @@ def test_each_node_stopped_for_a_second_while_recording_loses_nothing(tmp_path):
     # by len(js) plus at most the two counter reads' delays (diagnostics once a second, <= 1000
     # ticks each) and the calls' — whatever the machine's speed (a loaded one ticks late)
     published = int(after["ticks"]) - int(before["ticks"])
-    assert bags.find_gaps(js).missing == 0 and published - 3000 <= len(js) <= published, (
+    assert bags.info.find_gaps(js).missing == 0 and published - 3000 <= len(js) <= published, (
         len(js),
         published,
     )

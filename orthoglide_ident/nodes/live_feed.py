@@ -33,13 +33,13 @@ from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import JointState
 
-from orthoglide_ident.bags import (
+from orthoglide_ident.bags.reader import decode_messages
+from orthoglide_ident.bags.sources import CURRENT_SOURCES
+from orthoglide_ident.bags.topics import (
     CURRENT_REFERENCE_TYPE,
     DYNAMIC_JOINT_STATE_TYPE,
     JOINT_STATE_TYPE,
-    decode_messages,
 )
-from orthoglide_ident.bags.sources import CURRENT_SOURCES
 from orthoglide_ident.errors import OrthoglideError
 from orthoglide_ident.identify.live.session import LiveIdentification
 from orthoglide_ident.identify.records.record import effort_channels, torque_as_current

@@ -22,8 +22,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from orthoglide_ident.bags import DYNAMIC_JOINT_STATE_TYPE, JOINT_STATE_TYPE, decode_messages
+from orthoglide_ident.bags.reader import decode_messages
 from orthoglide_ident.bags.sources import CURRENT_SOURCES, DEFAULT_INTERFACE, POSITION
+from orthoglide_ident.bags.topics import DYNAMIC_JOINT_STATE_TYPE, JOINT_STATE_TYPE
 from orthoglide_ident.errors import DataError
 
 SOURCE_WAIT_S = 1.0  # s after the recording's first joint state, waiting for a preferred topic

@@ -26,6 +26,7 @@ from std_srvs.srv import Trigger
 
 from orthoglide_ident import bags
 from orthoglide_ident.bags.recording import Recording, open_bag
+from orthoglide_ident.bags.reindex import left_open
 from orthoglide_ident.bags.sources import INPUT_SOURCES
 from orthoglide_ident.errors import BagError, ConfigError, OrthoglideError
 from orthoglide_ident.ros.batch import BatchTaker, BatchTopic
@@ -145,10 +146,10 @@ STOP_DRAIN_S = 2.0  # at stop, the intake has this long to hand over what it hol
 SILENT_S = 0.5  # a required topic silent this long while recording: the status says so
 # topics a controller publishes every tick, subscribed before they have a publisher: the
 # Orthoglide's, and ros2_control's joint_state_broadcaster's (relative: the node's namespace)
-TICK_TOPICS = (("orthoglide/joint_states", bags.JOINT_STATE_TYPE),
-               ("orthoglide/current_reference", bags.CURRENT_REFERENCE_TYPE),
-               ("joint_states", bags.JOINT_STATE_TYPE),
-               ("dynamic_joint_states", bags.DYNAMIC_JOINT_STATE_TYPE))
+TICK_TOPICS = (("orthoglide/joint_states", bags.topics.JOINT_STATE_TYPE),
+               ("orthoglide/current_reference", bags.topics.CURRENT_REFERENCE_TYPE),
+               ("joint_states", bags.topics.JOINT_STATE_TYPE),
+               ("dynamic_joint_states", bags.topics.DYNAMIC_JOINT_STATE_TYPE))
 STAMPED_TYPES = tuple(dict.fromkeys(s.msgtype for s in INPUT_SOURCES))  # bags.sources' table
 
 
@@ -157,7 +158,7 @@ def _qos_dict(qos: Any) -> dict[str, Any]:
         ns = int(getattr(d, "nanoseconds", 0))
         return {"sec": ns // 1_000_000_000, "nsec": ns % 1_000_000_000}
 
-    return bags.qos_profile(
+    return bags.topics.qos_profile(
         qos.reliability.name.lower(),
         qos.durability.name.lower(),
         qos.history.name.lower(),
@@ -293,7 +294,7 @@ class RecorderNode(Node):
         rec.add_topic(
             topic,
             self.subs[topic][1],
-            [_qos_dict(i.qos_profile) for i in infos] or bags.default_qos(),
+            [_qos_dict(i.qos_profile) for i in infos] or bags.topics.default_qos(),
         )
 
     def discover(self) -> None:
@@ -381,7 +382,7 @@ class RecorderNode(Node):
         if folder in self.checked_dirs:
             return
         self.checked_dirs.add(folder)
-        for bag in bags.left_open(folder):
+        for bag in left_open(folder):
             try:
                 result = bags.reindex(bag)
             except BagError as exc:
@@ -413,7 +414,7 @@ class RecorderNode(Node):
             (
                 t
                 for t in self.required
-                if t in self.subs and self.subs[t][1] == bags.JOINT_STATE_TYPE
+                if t in self.subs and self.subs[t][1] == bags.topics.JOINT_STATE_TYPE
             ),
             self.resolve_topic_name("orthoglide/joint_states"),
         )

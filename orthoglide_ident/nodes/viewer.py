@@ -14,13 +14,13 @@ from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.serialization import deserialize_message
 from sensor_msgs.msg import JointState
 
-from orthoglide_ident.bags import (
+from orthoglide_ident.bags.reader import decode_messages
+from orthoglide_ident.bags.sources import CURRENT_SOURCES, DEFAULT_INTERFACE
+from orthoglide_ident.bags.topics import (
     CURRENT_REFERENCE_TYPE,
     DYNAMIC_JOINT_STATE_TYPE,
     JOINT_STATE_TYPE,
-    decode_messages,
 )
-from orthoglide_ident.bags.sources import CURRENT_SOURCES, DEFAULT_INTERFACE
 from orthoglide_ident.errors import ConfigError, OrthoglideError
 from orthoglide_ident.identify.records.record import torque_as_current
 from orthoglide_ident.model.robots import load_robot

@@ -38,6 +38,7 @@ from orthoglide_sim.arms.record import (
     trajectory_name,
 )
 from orthoglide_sim.arms.truth import ArmTruth, load_truth
+from orthoglide_sim.common.closed_loop import run_closed_loop
 from orthoglide_sim.common.trajectories import FourierTrajectory
 
 OMEGA_T = 0.1  # the PID's bandwidth x the mean tick, at most (0.1 at 1 kHz: 100 rad/s)
@@ -83,20 +84,6 @@ def point_sampled(rec: ArmRecord, strides: tuple[int, ...] | int, print_resoluti
                                q_ref=rec.q_ref[idx], current=rec.current[idx])
 
 
-class _VariablePID(asim.ArmPID):
-    """arm_simulator's PID with the tick length as an argument."""
-
-    def step(self, q_meas: np.ndarray, q_ref: np.ndarray, qd_ref: np.ndarray, dt: float,
-             tau_v: float) -> np.ndarray:
-        e = q_ref - q_meas
-        self.integral = self.integral + e * dt
-        v_est = (q_meas - self.q_prev) / dt
-        self.q_prev = q_meas
-        self.v_filtered = self.v_filtered + dt / (dt + tau_v) * (v_est - self.v_filtered)
-        torque = self.kp * e + self.ki * self.integral + self.kd * (qd_ref - self.v_filtered)
-        return np.clip(torque / self.nominal_gain, -self.current_limit, self.current_limit)
-
-
 def simulate_arm_log(duration_s: float, steps_ns: np.ndarray, robot: str = "ur5",
                      payload: str | None = None, trajectory: str | FourierTrajectory = "exciting1",
                      seed: int = 0, print_resolution: float = 1e-4, timestep: float = 2.5e-4,
@@ -124,26 +111,25 @@ def simulate_arm_log(duration_s: float, steps_ns: np.ndarray, robot: str = "ur5"
     torque0 = plant.inverse_dynamics(q_ref[:1], qd_ref[:1], qdd_ref[:1], friction=True)[0]
     inertia = asim.joint_inertia(MujocoPlant(truth), limits.centre)
     omega = min(asim.OMEGA, OMEGA_T / T)
-    pid = _VariablePID.tuned(inertia, arm.nominal_gains, current_limit, q_ref[0], qd_ref[0],
-                             torque0, omega=omega)
     tau_v = asim.VELOCITY_FILTER * asim.OMEGA / omega
+    pid = asim.arm_pid(inertia, arm.nominal_gains, current_limit, q_ref[0], qd_ref[0], torque0,
+                       omega=omega, velocity_filter=tau_v)
     plant.reset(q_ref[0], qd_ref[0])
-    g_tau = truth.drive_array("g_tau")
-    out = {k: np.empty((N, arm.n)) for k in ("q", "qd", "q_meas", "v", "cur")}
-    saturated = 0
-    for k in range(N):
-        out["q"][k], out["qd"][k] = plant.q, plant.qd
-        out["q_meas"][k] = asim.quantise(plant.q, truth.encoder_resolution)
-        dt = steps_ns[k - 1] * 1e-9 if k else T
-        v = pid.step(out["q_meas"][k], q_ref[k], qd_ref[k], dt, tau_v)
-        out["v"][k], out["cur"][k] = v, v + noise[k]
-        saturated += bool(np.any(np.abs(v) >= pid.current_limit))
-        plant.step(g_tau * out["cur"][k], int(sub[k]))  # held until the next tick
-        asim._check(plant, limits, k, v)
+    arm_drives = asim.ArmDrives(plant, limits)
+
+    def control(k: int, q_meas: np.ndarray) -> np.ndarray:
+        dt = steps_ns[k - 1] * 1e-9 if k else T  # the tick just ended
+        return pid.current(q_meas, q_ref[k], qd_ref[k], dt)
+
+    def advance(k: int, current: np.ndarray) -> None:  # held until the next tick
+        arm_drives.advance(k, current, int(sub[k]))
+
+    out = run_closed_loop(arm_drives.read, control, advance, noise, truth.encoder_resolution,
+                          current_limit=pid.current_limit)
     printed = (
-        out["q_meas"]
+        out.q_meas
         if not print_resolution
-        else np.round(out["q_meas"] / print_resolution) * print_resolution
+        else np.round(out.q_meas / print_resolution) * print_resolution
     )
-    return ArmRecord(stamps, printed, out["v"], truth, load, out["q"], out["qd"], q_ref,
-                     out["cur"], std, trajectory_name(trajectory), seed, saturated)
+    return ArmRecord(stamps, printed, out.v_tau, truth, load, out.q, out.qd, q_ref, out.current,
+                     std, trajectory_name(trajectory), seed, out.saturated)

@@ -22,13 +22,27 @@ from orthoglide_sim.arms.limits import MotionLimits, motion_limits
 from orthoglide_sim.arms.plant import MujocoPlant
 from orthoglide_sim.arms.truth import ArmPayload, ArmTruth, load_truth
 from orthoglide_sim.arms.unmodelled import DriveState, Unmodelled
+from orthoglide_sim.common.closed_loop import LoopResult, quantise
 from orthoglide_sim.common.trajectories import FourierTrajectory
 
 NOISE_STRIDE = 10  # ticks between the reference samples the rms current is taken over
 
 
+class TrackedRun:
+    """What a record of a run tells of its tracking (fields payload, q_true, q_ref)."""
+
+    @property
+    def payload_mass(self) -> float:
+        return 0.0 if self.payload is None else self.payload.mass
+
+    @property
+    def tracking_rms(self) -> np.ndarray:
+        """(n,) rms of q_true - q_ref, rad (the joint side)."""
+        return np.sqrt(np.mean((self.q_true - self.q_ref) ** 2, axis=0))
+
+
 @dataclass
-class ArmRecord:
+class ArmRecord(TrackedRun):
     """One simulated run; arrays per controller tick (N, n), columns in ``joint_names`` order."""
 
     stamps_ns: np.ndarray  # (N,) int64, t_k in ns from start_ns
@@ -48,15 +62,6 @@ class ArmRecord:
     @property
     def joint_names(self) -> tuple[str, ...]:
         return self.truth.arm.joint_names
-
-    @property
-    def payload_mass(self) -> float:
-        return 0.0 if self.payload is None else self.payload.mass
-
-    @property
-    def tracking_rms(self) -> np.ndarray:
-        """(n,) rms of q_true - q_ref, rad."""
-        return np.sqrt(np.mean((self.q_true - self.q_ref) ** 2, axis=0))
 
 
 def reference_of(arm, trajectory: str | FourierTrajectory) -> FourierTrajectory:
@@ -100,24 +105,16 @@ def simulate_arm(duration_s: float, robot: str = "ur5", payload: str | None = No
     truth = truth or load_truth(load_arm(robot))
     arm, load = truth.arm, truth.payload(payload)
     limits, plant = limits or motion_limits(arm), MujocoPlant(truth, load)
-    N = int(round(duration_s / asim.TICK))
-    q_ref, qd_ref, qdd_ref = reference_of(arm, trajectory).evaluate(np.arange(N) * asim.TICK)
-    std = current_noise_std(
-        plant, q_ref[::NOISE_STRIDE], qd_ref[::NOISE_STRIDE], qdd_ref[::NOISE_STRIDE]
-    )
-    noise_a = (
-        np.random.default_rng(seed).normal(0.0, 1.0, (N, arm.n)) * std
-        if noise
-        else np.zeros((N, arm.n))
-    )
+    (q_ref, qd_ref, qdd_ref), noise_a, std = reference_and_noise(plant, trajectory, duration_s,
+                                                                 seed, noise)
     current_limit = np.array([j.effort for j in arm.joints]) / arm.nominal_gains
     torque0 = plant.inverse_dynamics(q_ref[:1], qd_ref[:1], qdd_ref[:1], friction=True)[0]
     inertia = asim.joint_inertia(MujocoPlant(truth), limits.centre)  # tuned once, unloaded
-    pid = asim.ArmPID.tuned(
+    pid = asim.arm_pid(
         inertia,
         arm.nominal_gains,
         current_limit,
-        asim.quantise(q_ref[0] - qd_ref[0] * asim.TICK, truth.encoder_resolution),
+        quantise(q_ref[0] - qd_ref[0] * asim.TICK, truth.encoder_resolution),
         qd_ref[0],
         torque0,
     )
@@ -126,23 +123,35 @@ def simulate_arm(duration_s: float, robot: str = "ur5", payload: str | None = No
     if effects is not None and effects.any:
         drive = _drive_state(plant, effects, inertia, torque0, q_ref[0], qd_ref[0], qdd_ref[0],
                              arm.nominal_gains)
-    res = asim.run_closed_loop(plant, pid, q_ref, qd_ref, noise_a, limits, drive)
-    stamps = start_ns + np.arange(N, dtype=np.int64) * int(round(asim.TICK * 1e9))
-    return ArmRecord(
-        stamps,
-        res.q_meas,
-        res.v_tau,
-        truth,
-        load,
-        res.q,
-        res.qd,
-        q_ref,
-        res.current,
-        std if noise else np.zeros(arm.n),
-        trajectory_name(trajectory),
-        seed,
-        res.saturated,
-    )
+    res = asim.run_arm(plant, pid, q_ref, qd_ref, noise_a, limits, drive)
+    return ArmRecord(**record_fields(res, truth, load, q_ref, std, trajectory, seed, start_ns))
+
+
+def reference_and_noise(plant: MujocoPlant, trajectory: str | FourierTrajectory,
+                        duration_s: float, seed: int, noise: bool) -> tuple:
+    """The reference (q, qd, qdd) (N, n) at 1 kHz over ``duration_s``, the current noise (N, n)
+    A drawn from ``seed`` and its std (n,): white, the truth's fraction of each joint's rms
+    current along the reference (current_noise_std); zeros without ``noise``."""
+    arm = plant.truth.arm
+    N = int(round(duration_s / asim.TICK))
+    q_ref, qd_ref, qdd_ref = reference_of(arm, trajectory).evaluate(np.arange(N) * asim.TICK)
+    s = slice(None, None, NOISE_STRIDE)
+    std = current_noise_std(plant, q_ref[s], qd_ref[s], qdd_ref[s])
+    if not noise:
+        return (q_ref, qd_ref, qdd_ref), np.zeros((N, arm.n)), np.zeros(arm.n)
+    white = np.random.default_rng(seed).normal(0.0, 1.0, (N, arm.n))
+    return (q_ref, qd_ref, qdd_ref), white * std, std
+
+
+def record_fields(res: LoopResult, truth: ArmTruth, load: ArmPayload | None, q_ref: np.ndarray,
+                  std: np.ndarray, trajectory: str | FourierTrajectory, seed: int,
+                  start_ns: int) -> dict:
+    """ArmRecord's fields of one closed-loop run at 1 kHz from ``start_ns``."""
+    stamps = start_ns + np.arange(len(q_ref), dtype=np.int64) * int(round(asim.TICK * 1e9))
+    return dict(stamps_ns=stamps, q=res.q_meas, v_tau=res.v_tau, truth=truth, payload=load,
+                q_true=res.q, qd_true=res.qd, q_ref=q_ref, current=res.current,
+                current_noise_std=std, trajectory=trajectory_name(trajectory), seed=seed,
+                saturated_ticks=res.saturated)
 
 
 def _drive_state(plant: MujocoPlant, effects: Unmodelled, inertia: np.ndarray, torque0: np.ndarray,

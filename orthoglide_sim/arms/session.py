@@ -7,7 +7,7 @@ node can publish each tick as it happens and change the payload or the trajector
     tick = s.tick()        # k, q_meas (encoder), velocity estimate, v_tau (A) held over [t_k,
     t_k+1)
     s.set_payload("2.0")   # mounted now: the motion goes on from the same state
-    s.set_trajectory("exciting2", s.k)   # blends in over 2 s (session.BLEND_TIME)
+    s.set_trajectory("exciting2", s.k)   # blends in over 2 s (common.reference.BLEND_TIME)
     goal = s.start_goal(times, q, qd, qdd, tolerances)   # a FollowJointTrajectory goal from now on
     s.cancel_goal()                       # ... or let it run: goal.status, goal.reason
 
@@ -40,6 +40,7 @@ from orthoglide_sim.arms.truth import ArmPayload, ArmTruth, RigidBody, load_trut
 from orthoglide_sim.chains.description import load_chain
 from orthoglide_sim.chains.plant import ChainPlant
 from orthoglide_sim.chains.truth import ChainTruth, load_chain_truth
+from orthoglide_sim.common.closed_loop import quantise
 from orthoglide_sim.common.joint_trajectory import (
     PATH_TOLERANCE_VIOLATED,
     GoalTracker,
@@ -47,7 +48,7 @@ from orthoglide_sim.common.joint_trajectory import (
     JointTrajectory,
     Tolerances,
 )
-from orthoglide_sim.orthoglide.session import Reference
+from orthoglide_sim.common.reference import Reference
 
 NOISE_BLOCK = 1000  # ticks of current noise drawn at once (the same stream as one draw of all)
 # m, a point-mass payload is a sphere this size (its inertia ~1e-3 of the noise)
@@ -120,9 +121,10 @@ class ArmSession:
         q, qd, qdd = (v[:1] for v in self.reference.evaluate(self.k))
         torque0 = self.plant.inverse_dynamics(q, qd, qdd, friction=True)[0]
         res = self.truth.encoder_resolution
-        self.pid = asim.ArmPID.tuned(self.inertia, self.truth.arm.nominal_gains, self.current_limit,
-                                     asim.quantise(q[0] - qd[0] * asim.TICK, res), qd[0], torque0)
+        self.pid = asim.arm_pid(self.inertia, self.truth.arm.nominal_gains, self.current_limit,
+                                quantise(q[0] - qd[0] * asim.TICK, res), qd[0], torque0)
         self.plant.reset(q[0], qd[0])
+        self.drives = asim.ArmDrives(self.plant, self.limits)
 
     # ---- changes while running ---------------------------------------------------------------
     def set_payload(self, name: object) -> None:
@@ -132,6 +134,7 @@ class ArmSession:
         q, qd = self.plant.q, self.plant.qd
         self.payload, self.plant = load, self.Plant(self.truth, load)
         self.plant.reset(q, qd)
+        self.drives = asim.ArmDrives(self.plant, self.limits)
 
     def _trajectory(self, name: str):
         """A reference by name: hold, a goal's (internal), or the arm's designed ones."""
@@ -197,12 +200,12 @@ class ArmSession:
         return self._noise[i]
 
     def tick(self) -> ArmTick | None:
-        """Tick k as run_closed_loop runs it: encoder reading, PID current, the drive's torque
-        held over the tick (SUBSTEPS MuJoCo steps); None while in fault."""
+        """Tick k as the common closed loop runs it: encoder reading, PID current, the drive's
+        torque held over the tick (SUBSTEPS MuJoCo steps); None while in fault."""
         if self.fault is not None:
             return None
         k = self.k
-        q_meas = asim.quantise(self.plant.q, self.truth.encoder_resolution)
+        q_meas = quantise(self.drives.read()[2], self.truth.encoder_resolution)
         q_ref, qd_ref, qdd_ref = self.reference.at(k)
         if self.goal is not None and self.goal.status == "active":
             self.goal.update((k - self._goal_k0) * asim.TICK, q_meas, self.pid.v_filtered.copy(),
@@ -218,9 +221,8 @@ class ArmSession:
                     v + effort / self.pid.nominal_gain, -self.current_limit, self.current_limit
                 )
         self.saturated += bool(np.any(np.abs(v) >= self.pid.current_limit))
-        self.plant.step(self.g_tau * (v + self._noise_at(k)), asim.SUBSTEPS)
         try:
-            asim._check(self.plant, self.limits, k, v)
+            self.drives.advance(k, v + self._noise_at(k))
         except WorkspaceError as exc:
             self.fault = str(exc)
             if self.goal is not None and self.goal.status == "active":

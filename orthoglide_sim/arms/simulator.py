@@ -1,6 +1,7 @@
 """The simulated serial arm's 1 kHz controller and drive around the MuJoCo plant.
 
-Per tick k (t_k = k TICK), as orthoglide_sim/orthoglide/simulator.py does for the Orthoglide:
+Per tick k (t_k = k TICK), the common closed loop (orthoglide_sim/common/closed_loop.py) that the
+Orthoglide runs too:
 
 1. the encoder reads q_meas = quantise(q(t_k)) (``ArmTruth.encoder_resolution``);
 2. the joint PID with velocity feed-forward, a triple pole at -ω (ω = OMEGA = 100 rad/s, the
@@ -23,8 +24,6 @@ robot that leaves its workspace is an error, not a number.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import mujoco
 import numpy as np
 
@@ -32,131 +31,113 @@ from orthoglide_ident.errors import WorkspaceError
 from orthoglide_sim.arms.limits import MotionLimits
 from orthoglide_sim.arms.plant import TIMESTEP, MujocoPlant
 from orthoglide_sim.arms.unmodelled import DriveState
+from orthoglide_sim.common.closed_loop import (
+    OMEGA,
+    PID,
+    TICK,
+    LoopResult,
+    run_closed_loop,
+)
+from orthoglide_sim.common.drive import DriveModel
 
-TICK = 1.0e-3  # s, controller period (1 kHz)
 SUBSTEPS = int(round(TICK / TIMESTEP))  # MuJoCo steps per tick
-OMEGA = 100.0  # rad/s, bandwidth of the linear part
 VELOCITY_FILTER = 2.0e-3  # s, first-order low-pass of the velocity estimate (1 / (5 OMEGA))
 
 
-def quantise(q: np.ndarray, resolution: np.ndarray) -> np.ndarray:
-    """Encoder reading: q rounded to the nearest count, per joint."""
-    return np.round(q / resolution) * resolution
-
-
-def joint_inertia(plant: MujocoPlant, q: np.ndarray) -> np.ndarray:
-    """(n,) diagonal of the plant's mass matrix (armature included) at q, kg·m²."""
+def mass_matrix(plant: MujocoPlant, q: np.ndarray) -> np.ndarray:
+    """(n, n) MuJoCo's mass matrix (armature included) of the plant's joints at q."""
     d = mujoco.MjData(plant.model)
     d.qpos[plant.dof] = q
     mujoco.mj_forward(plant.model, d)
     M = np.zeros((plant.model.nv, plant.model.nv))
     mujoco.mj_fullM(plant.model, d, M)
-    return np.diag(M)[plant.dof]
+    return M[np.ix_(plant.dof, plant.dof)]
 
 
-@dataclass
-class ArmPID:
-    """The 1 kHz joint PID (see the module docstring); arrays (n,), torques N·m, currents A."""
-
-    kp: np.ndarray
-    ki: np.ndarray
-    kd: np.ndarray
-    nominal_gain: np.ndarray  # N·m/A
-    current_limit: np.ndarray  # A
-    q_prev: np.ndarray  # last encoder reading
-    integral: np.ndarray  # ∫ e dt, rad·s
-    v_filtered: np.ndarray  # low-passed velocity estimate, rad/s
-    alpha: float = 1.0  # velocity filter coefficient, TICK / (TICK + tau_v); 1 = no filter
-
-    @classmethod
-    def tuned(cls, inertia: np.ndarray, nominal_gain: np.ndarray, current_limit: np.ndarray,
-              q0: np.ndarray, qd0: np.ndarray, torque0: np.ndarray, omega: float = OMEGA,
-              velocity_filter: float = VELOCITY_FILTER) -> ArmPID:
-        """Triple pole at -omega on each joint's ``inertia``; the integrator pre-loaded with the
-        torque ``torque0`` the reference needs at t_0 (the plant starts on the reference)."""
-        J = np.asarray(inertia, float)
-        ki = J * omega**3
-        return cls(3 * J * omega**2, ki, 3 * J * omega, np.asarray(nominal_gain, float),
-                   np.asarray(current_limit, float), np.asarray(q0, float).copy(), torque0 / ki,
-                   np.asarray(qd0, float).copy(), TICK / (TICK + velocity_filter))
-
-    def current(self, q_meas: np.ndarray, q_ref: np.ndarray, qd_ref: np.ndarray) -> np.ndarray:
-        """One tick: the current reference v_tau (n,) A."""
-        e = q_ref - q_meas
-        self.integral = self.integral + e * TICK
-        v_est = (q_meas - self.q_prev) / TICK
-        self.q_prev = q_meas
-        self.v_filtered = self.v_filtered + self.alpha * (v_est - self.v_filtered)
-        torque = self.kp * e + self.ki * self.integral + self.kd * (qd_ref - self.v_filtered)
-        return np.clip(torque / self.nominal_gain, -self.current_limit, self.current_limit)
+def joint_inertia(plant: MujocoPlant, q: np.ndarray) -> np.ndarray:
+    """(n,) diagonal of the plant's mass matrix (armature included) at q, kg·m²."""
+    return np.diag(mass_matrix(plant, q))
 
 
-@dataclass
-class LoopResult:
-    """Per tick (N, n): what the controller logged and what the plant did."""
+def arm_pid(inertia: np.ndarray, nominal_gain: np.ndarray, current_limit: np.ndarray,
+            q_prev: np.ndarray, qd0: np.ndarray, torque0: np.ndarray, omega: float = OMEGA,
+            velocity_filter: float = VELOCITY_FILTER) -> PID:
+    """The joint PID of the module docstring (torques N·m, currents A, arrays (n,)): triple pole
+    at -omega on each joint's ``inertia``, velocity feed-forward, D on the low-passed velocity
+    (starting at ``qd0``), clipped to ``current_limit``; the integrator pre-loaded with the
+    torque ``torque0`` the reference needs at t_0 (the plant starts on the reference)."""
+    return PID.tuned(np.asarray(inertia, float), np.asarray(nominal_gain, float),
+                     np.asarray(q_prev, float).copy(), torque0, omega, velocity_ff=True,
+                     current_limit=np.asarray(current_limit, float),
+                     velocity_filter=velocity_filter, v0=qd0)
 
-    q_meas: np.ndarray  # encoder readings, rad
-    v_tau: np.ndarray  # current references, A (held over [t_k, t_k+1))
-    q: np.ndarray  # true positions at t_k, rad
-    qd: np.ndarray  # true velocities at t_k, rad/s
-    current: np.ndarray  # currents in the motors over the tick: v_tau + noise, A
-    saturated: int  # ticks at which some joint's current reference hit its limit
 
-
-def _check(plant: MujocoPlant, limits: MotionLimits, k: int, v_tau: np.ndarray) -> None:
+def check_limits(plant: MujocoPlant, limits: MotionLimits, k: int, current: np.ndarray) -> None:
+    """WorkspaceError if the arm left its stop limits or its state is not finite after tick k."""
     q, qd = plant.q, plant.qd
     names = plant.truth.arm.joint_names
     diverged = plant.data.warning[mujoco.mjtWarning.mjWARN_BADQACC].number > 0
     if diverged or not (np.all(np.isfinite(q)) and np.all(np.isfinite(qd))):
         raise WorkspaceError(f"the simulated arm's state is not finite after tick {k} (current "
-                             f"{np.round(v_tau, 3).tolist()} A): stopped")
+                             f"{np.round(current, 3).tolist()} A): stopped")
     out = (q < limits.stop_lower) | (q > limits.stop_upper)
     if np.any(out):
         j = int(np.argmax(out))
         raise WorkspaceError(
             f"{names[j]} = {q[j]:.3f} left its limits [{limits.stop_lower[j]:.3f}, "
             f"{limits.stop_upper[j]:.3f}] at tick {k} (current "
-            f"{np.round(v_tau, 3).tolist()} A): the simulated arm stopped"
+            f"{np.round(current, 3).tolist()} A): the simulated arm stopped"
         )
 
 
-def run_closed_loop(plant: MujocoPlant, pid: ArmPID, q_ref: np.ndarray, qd_ref: np.ndarray,
-                    noise: np.ndarray, limits: MotionLimits,
-                    drive: DriveState | None = None) -> LoopResult:
-    """Track the sampled reference (N, n) from the plant's current state; ``noise`` (N, n) A;
-    ``drive``: the unmodelled effects' states (orthoglide_sim/arms/unmodelled.py), None: none."""
-    N, n = q_ref.shape
-    g_tau = plant.truth.drive_array("g_tau")
-    resolution = plant.truth.encoder_resolution
-    out = LoopResult(*(np.empty((N, n)) for _ in range(5)), saturated=0)
-    for k in range(N):
-        out.q[k], out.qd[k] = plant.q, plant.qd
+class ArmDrives:
+    """The arm's side of the common closed loop: what the encoders read (``read``) and one tick
+    of the drives and the MuJoCo plant (``advance``), stopped at the stop limits.
+
+    ``effects``: the unmodelled effects' states (orthoglide_sim/arms/unmodelled.py), None: none.
+    """
+
+    def __init__(self, plant: MujocoPlant, limits: MotionLimits,
+                 effects: DriveState | None = None):
+        self.plant, self.limits, self.effects = plant, limits, effects
+        self.drive = DriveModel(plant.truth.drive_array("g_tau"))
         # the encoder is on the motor: behind a spring or a gap, the motor's angle
-        behind = drive is not None and drive.fx.two_mass
-        out.q_meas[k] = quantise(drive.theta if behind else out.q[k], resolution)
-        v = pid.current(out.q_meas[k], q_ref[k], qd_ref[k])
-        out.v_tau[k] = v
-        out.current[k] = v + noise[k]
-        out.saturated += bool(np.any(np.abs(v) >= pid.current_limit))
-        if drive is None:
-            plant.step(g_tau * out.current[k], SUBSTEPS)
+        self.behind = effects is not None and effects.fx.two_mass
+
+    def read(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        q = self.plant.q
+        return q, self.plant.qd, self.effects.theta if self.behind else q
+
+    def advance(self, k: int, current: np.ndarray, steps: int = SUBSTEPS) -> None:
+        """The current (n,) A held over ``steps`` MuJoCo steps; WorkspaceError off the limits."""
+        if self.effects is None:
+            self.plant.step(self.drive.force(current, self.plant.q), steps)
         else:
-            _step_unmodelled(plant, drive, g_tau, out.current[k])
-        _check(plant, limits, k, v)
-    return out
+            self._step_unmodelled(current, steps)
+        check_limits(self.plant, self.limits, k, current)
+
+    def _step_unmodelled(self, current: np.ndarray, steps: int) -> None:
+        """One tick of single MuJoCo steps, the unmodelled effects updated at every step."""
+        plant, fx = self.plant, self.effects
+        for _ in range(steps):
+            q, qd = plant.q, plant.qd
+            motor_torque = self.drive.force(fx.current(current), q)
+            on_link = fx.stribeck(qd)
+            if fx.fx.two_mass:
+                spring = fx.spring(q, qd)
+                fx.advance_motor(motor_torque, spring)
+                on_link = on_link + spring
+            else:
+                on_link = on_link + motor_torque
+            plant.step(on_link, 1)
 
 
-def _step_unmodelled(plant: MujocoPlant, drive: DriveState, g_tau: np.ndarray,
-                     current: np.ndarray) -> None:
-    """One tick of SUBSTEPS steps, the unmodelled effects updated at every step."""
-    for _ in range(SUBSTEPS):
-        motor_torque = g_tau * drive.current(current)
-        q, qd = plant.q, plant.qd
-        on_link = drive.stribeck(qd)
-        if drive.fx.two_mass:
-            spring = drive.spring(q, qd)
-            drive.advance_motor(motor_torque, spring)
-            on_link = on_link + spring
-        else:
-            on_link = on_link + motor_torque
-        plant.step(on_link, 1)
+def run_arm(plant: MujocoPlant, pid: PID, q_ref: np.ndarray, qd_ref: np.ndarray,
+            noise: np.ndarray, limits: MotionLimits,
+            drive: DriveState | None = None) -> LoopResult:
+    """Track the sampled reference (N, n) from the plant's current state under the common closed
+    loop; ``noise`` (N, n) A; ``drive``: the unmodelled effects' states, None: none."""
+    arm = ArmDrives(plant, limits, drive)
+    return run_closed_loop(arm.read, lambda k, q: pid.current(q, q_ref[k], qd_ref[k]),
+                           arm.advance, noise, plant.truth.encoder_resolution,
+                           current_limit=pid.current_limit)

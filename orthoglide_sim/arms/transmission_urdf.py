@@ -16,18 +16,30 @@ from __future__ import annotations
 
 import xml.etree.ElementTree as ET
 from pathlib import Path
+from typing import Protocol
 
 import numpy as np
 import yaml
 
 from orthoglide_ident.errors import ConfigError
 from orthoglide_ident.model import robots
-from orthoglide_sim.coupled.truth import CoupledTruth
+from orthoglide_sim.arms.description import ArmDescription
 
 SIMPLE = "transmission_interface/SimpleTransmission"
 
 
-def ros2_control_block(truth: CoupledTruth, name: str) -> str:
+class DriveChainTruth(Protocol):
+    """What is read of a drive chain's truth (coupled.truth.CoupledTruth): q_m = N q + offset."""
+
+    arm: ArmDescription
+    reduction: np.ndarray  # N (n, n)
+    motor_offset: np.ndarray  # (n,) rad
+    actuators: tuple[str, ...]
+
+    def motor_array(self, key: str) -> np.ndarray: ...
+
+
+def ros2_control_block(truth: DriveChainTruth, name: str) -> str:
     """The ``<ros2_control>`` element of ``truth``'s drive chain; ConfigError unless N is
     diagonal (a coupled chain is not a set of SimpleTransmissions)."""
     N = truth.reduction
@@ -73,7 +85,7 @@ def read_simple_transmissions(
     return np.diag(red), -red * np.array([x[j] for j in joint_names])
 
 
-def write_simple_transmission_robot(folder: str | Path, truth: CoupledTruth,
+def write_simple_transmission_robot(folder: str | Path, truth: DriveChainTruth,
                                     stem: str = "ur5_simple_transmission") -> tuple[Path, Path]:
     """``<stem>.urdf`` (the UR5's URDF with the ``<ros2_control>`` block) and ``<stem>.yaml``
     (ur5.yaml naming it; ``nominal_gains`` per motor, N·m/A at the shaft) in ``folder``."""

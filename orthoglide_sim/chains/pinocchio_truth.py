@@ -164,6 +164,7 @@ def rigid_loop_currents(truth: ChainTruth, payload: ArmPayload | None, q_ref: np
     from orthoglide_sim.arms.plant import TIMESTEP
     from orthoglide_sim.chains.plant import ChainPlant
     from orthoglide_sim.chains.record import tuned_pid
+    from orthoglide_sim.common.closed_loop import quantise
 
     plant, dyn = ChainPlant(truth, payload), ChainDynamics(truth, payload)
     pid = tuned_pid(plant, q_ref[0], qd_ref[0], qdd_ref[0])
@@ -172,7 +173,7 @@ def rigid_loop_currents(truth: ChainTruth, payload: ArmPayload | None, q_ref: np
     g, res = truth.drive_array("g_tau"), truth.encoder_resolution
     out = np.empty_like(q_ref)
     for k in range(len(q_ref)):
-        out[k] = pid.current(asim.quantise(q[plant.dof], res), q_ref[k], qd_ref[k])
+        out[k] = pid.current(quantise(q[plant.dof], res), q_ref[k], qd_ref[k])
         q, v = dyn.rk4(q, v, g * out[k], TIMESTEP, asim.SUBSTEPS)
         q = plant.assemble(q[plant.dof], q)
         v = plant.rate_map(q) @ v[plant.dof]

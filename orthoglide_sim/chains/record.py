@@ -20,16 +20,11 @@ import numpy as np
 from orthoglide_ident.errors import ConfigError
 from orthoglide_sim.arms import simulator as asim
 from orthoglide_sim.arms.limits import MotionLimits, motion_limits
-from orthoglide_sim.arms.record import (
-    NOISE_STRIDE,
-    ArmRecord,
-    current_noise_std,
-    reference_of,
-    trajectory_name,
-)
+from orthoglide_sim.arms.record import ArmRecord, record_fields, reference_and_noise
 from orthoglide_sim.chains.description import load_chain
 from orthoglide_sim.chains.plant import ChainPlant
 from orthoglide_sim.chains.truth import ChainTruth, load_chain_truth
+from orthoglide_sim.common.closed_loop import PID, quantise
 from orthoglide_sim.common.trajectories import FourierTrajectory
 
 
@@ -41,7 +36,7 @@ class ChainRecord(ArmRecord):
     loop_error: np.ndarray  # (N,) m, max |e| of the loops after each tick
 
 
-def tuned_pid(plant: ChainPlant, q0: np.ndarray, qd0: np.ndarray, qdd0: np.ndarray) -> asim.ArmPID:
+def tuned_pid(plant: ChainPlant, q0: np.ndarray, qd0: np.ndarray, qdd0: np.ndarray) -> PID:
     """The arm's PID for the chain: tuned once on the unloaded chain's reduced inertia at the
     box centre, its integrator pre-loaded with the torque the reference (q0, qd0, qdd0) needs
     on ``plant`` (the plant starts on the reference)."""
@@ -50,11 +45,11 @@ def tuned_pid(plant: ChainPlant, q0: np.ndarray, qd0: np.ndarray, qdd0: np.ndarr
     current_limit = np.array([j.effort for j in chain.joints]) / chain.nominal_gains
     torque0 = plant.inverse_dynamics(q0[None], qd0[None], qdd0[None], friction=True)[0]
     inertia = ChainPlant(truth).actuated_inertia(motion_limits(chain).centre)
-    return asim.ArmPID.tuned(
+    return asim.arm_pid(
         inertia,
         chain.nominal_gains,
         current_limit,
-        asim.quantise(q0 - qd0 * asim.TICK, truth.encoder_resolution),
+        quantise(q0 - qd0 * asim.TICK, truth.encoder_resolution),
         qd0,
         torque0,
     )
@@ -77,31 +72,11 @@ def simulate_chain(duration_s: float, robot: str = "five_bar", payload: str | No
     truth = truth or load_chain_truth(load_chain(robot))
     chain, load = truth.arm, truth.payload(payload)
     limits, plant = limits or motion_limits(chain), ChainPlant(truth, load)
-    N = int(round(duration_s / asim.TICK))
-    q_ref, qd_ref, qdd_ref = reference_of(chain, trajectory).evaluate(np.arange(N) * asim.TICK)
-    s = slice(None, None, NOISE_STRIDE)
-    std = current_noise_std(plant, q_ref[s], qd_ref[s], qdd_ref[s])
-    white = np.random.default_rng(seed).normal(0.0, 1.0, (N, chain.n))
-    noise_a = white * std if noise else np.zeros((N, chain.n))
+    (q_ref, qd_ref, qdd_ref), noise_a, std = reference_and_noise(plant, trajectory, duration_s,
+                                                                 seed, noise)
     pid = tuned_pid(plant, q_ref[0], qd_ref[0], qdd_ref[0])
     plant.reset(q_ref[0], qd_ref[0])
-    res = asim.run_closed_loop(plant, pid, q_ref, qd_ref, noise_a, limits)
-    stamps = start_ns + np.arange(N, dtype=np.int64) * int(round(asim.TICK * 1e9))
-    return ChainRecord(
-        stamps,
-        res.q_meas,
-        res.v_tau,
-        truth,
-        load,
-        res.q,
-        res.qd,
-        q_ref,
-        res.current,
-        std if noise else np.zeros(chain.n),
-        trajectory_name(trajectory),
-        seed,
-        res.saturated,
-        np.array(plant.tree_log),
-        np.array(plant.loop_errors),
-    )
+    res = asim.run_arm(plant, pid, q_ref, qd_ref, noise_a, limits)
+    return ChainRecord(**record_fields(res, truth, load, q_ref, std, trajectory, seed, start_ns),
+                       q_tree=np.array(plant.tree_log), loop_error=np.array(plant.loop_errors))
 

@@ -1,2 +1,2 @@
-"""What every simulated robot shares: the 1 kHz clock, ticks ahead, packed messages,
-trajectories."""
+"""What every simulated robot shares: the one closed loop, PID and quantiser (closed_loop), the
+drive model (drive), the 1 kHz clock, ticks ahead, packed messages, trajectories."""

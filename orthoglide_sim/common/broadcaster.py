@@ -19,17 +19,32 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from typing import Protocol
 
 import numpy as np
 
 from orthoglide_ident import bags
 from orthoglide_ident.errors import ConfigError
-from orthoglide_sim.arms.session import ArmSession, ArmTick
 from orthoglide_sim.common.tick_clock import TICK_NS
 
 ARM_INTERFACES = ("position", "velocity", "current")
 EXTRA_INTERFACES = ("position", "velocity")
 TOPICS = ("joint_states", "dynamic_joint_states")  # relative: the controller manager's namespace
+
+
+class Tick(Protocol):
+    """What the drives report at tick k (arms.session.ArmTick), (n,) each."""
+
+    k: int
+    position: np.ndarray  # rad (m): the encoder reading at t_k
+    velocity: np.ndarray  # rad/s (m/s): the controller's velocity estimate
+    current: np.ndarray  # A: the current reference over [t_k, t_k+1)
+
+
+class Ticking(Protocol):
+    """A session ticked one update at a time (arms.session.ArmSession)."""
+
+    def tick(self) -> Tick | None: ...
 
 
 class BroadcasterLayout:
@@ -43,8 +58,8 @@ class BroadcasterLayout:
         self.interfaces = tuple(
             ARM_INTERFACES if c >= 0 else EXTRA_INTERFACES for c in self.arm_column
         )
-        self._js = bags.MessageTemplate.joint_state(self.names)
-        self._djs = bags.MessageTemplate.dynamic_joint_state(self.names, self.interfaces)
+        self._js = bags.encoding.MessageTemplate.joint_state(self.names)
+        self._djs = bags.encoding.MessageTemplate.dynamic_joint_state(self.names, self.interfaces)
         self._js_from = self._sources(self._js.columns)
         self._djs_from = self._sources(self._djs.columns)
 
@@ -95,7 +110,7 @@ class BroadcasterLayout:
         out[extra] = np.where(which[extra] == 2, np.nan, 0.0)
         return out
 
-    def encode(self, stamp_ns: int, tick: ArmTick) -> tuple[bytes, bytes]:
+    def encode(self, stamp_ns: int, tick: Tick) -> tuple[bytes, bytes]:
         """CDR bytes of (JointState, DynamicJointState) for ``tick`` stamped ``stamp_ns``: one
         update, one stamp; extra joints at rest at 0 (m or rad), their effort NaN."""
         state = np.stack([tick.position, tick.velocity, tick.current])
@@ -125,7 +140,7 @@ class TickDropper:
         return tuple(not d for d in drop)
 
 
-def broadcast(session: ArmSession, n_ticks: int, layout: BroadcasterLayout, dropper: TickDropper,
+def broadcast(session: Ticking, n_ticks: int, layout: BroadcasterLayout, dropper: TickDropper,
               start_ns: int) -> list[tuple[int, bytes | None, bytes | None]]:
     """What the stand-in publishes over ``n_ticks`` updates, without ROS (tests, benches): per
     update (stamp, joint_states bytes, dynamic_joint_states bytes), None where a topic dropped

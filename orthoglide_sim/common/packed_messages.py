@@ -24,7 +24,7 @@ from typing import Any
 import numpy as np
 from rclpy.serialization import deserialize_message, serialize_message
 
-from orthoglide_ident.bags import CdrTemplate
+from orthoglide_ident.bags.encoding import CdrTemplate
 
 _STAMP = struct.Struct("<iI")
 _SENTINEL_SEC, _SENTINEL_NSEC = 0x5EC5EC5E, 0x0A5EC0DE  # found once in the serialised template

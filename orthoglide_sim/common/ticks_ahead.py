@@ -24,11 +24,9 @@ draws, counters): tests/sim/common/test_ticks_ahead.py.
 from __future__ import annotations
 
 from collections import deque
-from typing import NamedTuple
+from typing import NamedTuple, Protocol
 
 import numpy as np
-
-from orthoglide_sim.orthoglide.session import DriverSession
 
 AHEAD_TICKS = 10  # computed together at most: 10 ms, the longest a parameter change waits
 
@@ -39,10 +37,22 @@ class Tick(NamedTuple):
     v_tau: np.ndarray  # (3,) A, the current held over [t_k, t_k+1)
 
 
+class Session(Protocol):
+    """What TicksAhead asks of a tick-by-tick session (orthoglide.session.DriverSession)."""
+
+    k: int  # the next tick
+    lead: int  # ticks the setpoints go out ahead
+    fault: str | None  # why the plant stopped; None while it runs
+
+    def ready_ahead(self, limit: int) -> int: ...
+    def setpoint(self, k: int) -> tuple: ...
+    def step(self) -> tuple[np.ndarray, np.ndarray]: ...
+
+
 class TicksAhead:
     """Ticks of ``session`` computed before their deadline (``block`` at most at a time)."""
 
-    def __init__(self, session: DriverSession, block: int = AHEAD_TICKS):
+    def __init__(self, session: Session, block: int = AHEAD_TICKS):
         self.session = session
         self.block = block
         self.ticks: deque[Tick] = deque()

@@ -24,7 +24,6 @@ import shutil
 from dataclasses import dataclass
 from pathlib import Path
 
-import mujoco
 import numpy as np
 import yaml
 
@@ -33,17 +32,18 @@ from orthoglide_ident.errors import ConfigError
 from orthoglide_ident.model import robots
 from orthoglide_sim.arms import simulator as asim
 from orthoglide_sim.arms.limits import MotionLimits, motion_limits
-from orthoglide_sim.arms.record import NOISE_STRIDE, reference_of, trajectory_name
+from orthoglide_sim.arms.record import NOISE_STRIDE, TrackedRun, reference_of, trajectory_name
 from orthoglide_sim.arms.truth import ArmPayload
+from orthoglide_sim.common.closed_loop import PID, LoopResult, quantise, run_closed_loop
 from orthoglide_sim.common.trajectories import FourierTrajectory
 from orthoglide_sim.coupled.plant import CoupledPlant
 from orthoglide_sim.coupled.truth import CoupledTruth, default_coupled_truth
 
-SIDES = bags.SIDES
+SIDES = bags.tags.SIDES
 
 
 @dataclass
-class CoupledRecord:
+class CoupledRecord(TrackedRun):
     """One run; arrays per controller tick (K, n): joint columns in ``truth.arm.joint_names``
     order, motor columns in the rows of N."""
 
@@ -63,24 +63,11 @@ class CoupledRecord:
     seed: int
     saturated_ticks: int
 
-    @property
-    def payload_mass(self) -> float:
-        return 0.0 if self.payload is None else self.payload.mass
-
-    @property
-    def tracking_rms(self) -> np.ndarray:
-        """(n,) rms of q_true - q_ref, rad (joint side)."""
-        return np.sqrt(np.mean((self.q_true - self.q_ref) ** 2, axis=0))
 
 
 def motor_inertia(plant: CoupledPlant, q: np.ndarray) -> np.ndarray:
     """(n,) diagonal of the mass matrix in motor coordinates, N⁻ᵀ M(q) N⁻¹ (rotors included)."""
-    d = mujoco.MjData(plant.model)
-    d.qpos[plant.dof] = q
-    mujoco.mj_forward(plant.model, d)
-    M = np.zeros((plant.model.nv, plant.model.nv))
-    mujoco.mj_fullM(plant.model, d, M)
-    M = M[np.ix_(plant.dof, plant.dof)]
+    M = asim.mass_matrix(plant, q)
     Ninv = np.linalg.inv(plant.truth.reduction)
     return np.diag(Ninv.T @ M @ Ninv)
 
@@ -91,23 +78,23 @@ def current_limits(truth: CoupledTruth) -> np.ndarray:
     return effort / (np.abs(np.diag(truth.reduction)) * truth.motor_array("nominal_gain"))
 
 
-def _run(plant: CoupledPlant, pid: asim.ArmPID, qm_ref: np.ndarray, qdm_ref: np.ndarray,
-         noise: np.ndarray, limits: MotionLimits) -> dict[str, np.ndarray]:
-    """The closed loop from the plant's state; per tick what the drive saw, sent and did."""
-    K, n = qm_ref.shape
-    res = plant.truth.encoder_resolution
-    out = {k: np.empty((K, n)) for k in ("q_motor", "v", "cur", "q", "qd", "qd_m")}
-    saturated = 0
-    for k in range(K):
-        out["q"][k], out["qd"][k], out["qd_m"][k] = plant.q, plant.qd, plant.qd_motor
-        out["q_motor"][k] = asim.quantise(plant.q_motor, res)
-        v = pid.current(out["q_motor"][k], qm_ref[k], qdm_ref[k])
-        out["v"][k], out["cur"][k] = v, v + noise[k]
-        saturated += bool(np.any(np.abs(v) >= pid.current_limit))
-        plant.step(out["cur"][k], asim.SUBSTEPS)
-        asim._check(plant, limits, k, v)
-    out["saturated"] = saturated
-    return out
+def _run(plant: CoupledPlant, pid: PID, qm_ref: np.ndarray, qdm_ref: np.ndarray,
+         noise: np.ndarray, limits: MotionLimits) -> LoopResult:
+    """The common closed loop on the motor side; ``logged``: the motors' velocities at t_k. The
+    drive (the motor's gain and offset) is MuJoCo's actuator on the tendon: ``plant.step`` takes
+    the currents."""
+    def read():
+        return plant.q, plant.qd, plant.q_motor
+
+    def advance(k: int, current: np.ndarray) -> np.ndarray:
+        qd_motor = plant.qd_motor
+        plant.step(current, asim.SUBSTEPS)
+        asim.check_limits(plant, limits, k, current)
+        return qd_motor
+
+    return run_closed_loop(read, lambda k, q: pid.current(q, qm_ref[k], qdm_ref[k]), advance,
+                           noise, plant.truth.encoder_resolution,
+                           current_limit=pid.current_limit)
 
 
 def simulate_coupled(duration_s: float, payload: str | None = None,
@@ -133,17 +120,17 @@ def simulate_coupled(duration_s: float, payload: str | None = None,
     noise_a = np.random.default_rng(seed).normal(0.0, 1.0, (K, arm.n)) * std
     torque0 = plant.motor_torques(q_ref[:1], qd_ref[:1], qdd_ref[:1])[0]
     inertia = motor_inertia(CoupledPlant(truth), limits.centre)  # tuned once, unloaded
-    q_prev = asim.quantise(
+    q_prev = quantise(
         truth.motor_positions(q_ref[0] - qd_ref[0] * asim.TICK), truth.encoder_resolution
     )
-    pid = asim.ArmPID.tuned(inertia, truth.motor_array("nominal_gain"), current_limits(truth),
-                            q_prev, qdm_ref[0], torque0)
+    pid = asim.arm_pid(inertia, truth.motor_array("nominal_gain"), current_limits(truth),
+                       q_prev, qdm_ref[0], torque0)
     plant.reset(q_ref[0], qd_ref[0])
     out = _run(plant, pid, qm_ref, qdm_ref, noise_a, limits)
     stamps = np.arange(K, dtype=np.int64) * int(round(asim.TICK * 1e9))
-    return CoupledRecord(stamps, out["q_motor"], truth.joint_positions(out["q_motor"]), out["v"],
-                         out["cur"], out["q"], out["qd"], out["qd_m"], q_ref, truth, load, std,
-                         trajectory_name(trajectory), seed, out["saturated"])
+    return CoupledRecord(stamps, out.q_meas, truth.joint_positions(out.q_meas), out.v_tau,
+                         out.current, out.q, out.qd, out.logged, q_ref, truth, load, std,
+                         trajectory_name(trajectory), seed, out.saturated)
 
 
 def joint_efforts(rec: CoupledRecord) -> np.ndarray:

@@ -7,6 +7,7 @@ from collections.abc import Sequence
 # 0.5 % of the plant's truth and within 3 of its own σ.
 GAIN_BAR = 0.005
 SIGMA_BAR = 3.0
+GAIN_BARS = f"gains within {100 * GAIN_BAR:.1f} % and {SIGMA_BAR:.0f} σ of the plant's"
 
 
 def gain_causes(names: Sequence[str], values: Sequence[float], rel_std: Sequence[float],
@@ -21,8 +22,9 @@ def gain_causes(names: Sequence[str], values: Sequence[float], rel_std: Sequence
     return causes
 
 
-def verdict_line(causes: Sequence[str], bars: str) -> tuple[str, int]:
-    """The verdict line and the demo's exit code (1 when it failed)."""
+def verdict_line(causes: Sequence[str], *bars: str) -> tuple[str, int]:
+    """The verdict line and the demo's exit code (1 when it failed); ``bars``: the demo's own,
+    said after the gains' (GAIN_BARS)."""
     if not causes:
-        return f"verdict: pass ({bars})", 0
+        return f"verdict: pass ({', '.join((GAIN_BARS, *bars))})", 0
     return "verdict: FAIL: " + "; ".join(causes), 1

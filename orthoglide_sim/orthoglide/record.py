@@ -23,7 +23,7 @@ from orthoglide_ident.model.orthoglide.geometry import JOINT_NAMES
 from orthoglide_sim.common.trajectories import get_trajectory
 from orthoglide_sim.orthoglide import simulator as sm
 from orthoglide_sim.orthoglide.plant import Plant
-from orthoglide_sim.orthoglide.truth import TrueParameters, load_parameters
+from orthoglide_sim.orthoglide.truth import PlantProfile, TrueParameters, load_parameters
 
 
 @dataclass
@@ -52,8 +52,31 @@ class SimRecord:
         return self.v_tau * self.g_tau
 
 
-def _setup(duration_s, payload, trajectory, seed, params, noise, start_ns, ripple, profile):
+@dataclass
+class _Run:
     """What every simulated run needs: plant and drive parameters, reference, noise, stamps."""
+
+    params: TrueParameters
+    prof: PlantProfile
+    chi_l: np.ndarray  # (10,) the payload's standard parameters
+    plant: Plant
+    drive: sm.DriveModel
+    reference: tuple[np.ndarray, np.ndarray, np.ndarray]  # q_ref, qd_ref, qdd_ref (N, 3)
+    current_noise: np.ndarray  # (N, 3) A
+    encoder_noise: np.ndarray | None  # (N, 3) m
+    stamps: np.ndarray  # (N,) ns
+
+    def record(self, res: sm.ClosedLoopResult, trajectory: str, controller: str) -> SimRecord:
+        """The record of this run's closed loop."""
+        return SimRecord(self.stamps, res.q_meas, res.v_tau, res.q, res.qd, res.qdd,
+                         self.reference[0], float(self.chi_l[9]), self.chi_l, self.params,
+                         np.asarray(self.params.g_tau, float), trajectory, controller,
+                         profile=self.prof.name)
+
+
+def _setup(duration_s, payload, trajectory, seed, params, noise, start_ns, ripple,
+           profile) -> _Run:
+    """The run's plant, drive, reference, noise and stamps."""
     if not (duration_s > 0):
         raise ConfigError(f"duration must be positive, got {duration_s}")
     params = params or load_parameters()
@@ -68,7 +91,7 @@ def _setup(duration_s, payload, trajectory, seed, params, noise, start_ns, rippl
     encoder_noise = rng.normal(0.0, prof.encoder_noise_std, (N, 3)) \
         if noise and prof.encoder_noise_std > 0 else None
     stamps = start_ns + np.arange(N, dtype=np.int64) * int(round(sm.TICK * 1e9))
-    return params, prof, chi_l, plant, drive, reference, current_noise, encoder_noise, stamps
+    return _Run(params, prof, chi_l, plant, drive, reference, current_noise, encoder_noise, stamps)
 
 
 def simulate(duration_s: float, payload: str | float = "none", trajectory: str = "exciting",
@@ -87,45 +110,11 @@ def simulate(duration_s: float, payload: str | float = "none", trajectory: str =
     """
     if controller not in ("pid", "pid_ff", "ctc"):
         raise ConfigError(f"controller must be pid, pid_ff or ctc for a record, got {controller!r}")
-    (
-        params,
-        prof,
-        chi_l,
-        plant,
-        drive,
-        (q_ref, qd_ref, qdd_ref),
-        current_noise,
-        encoder_noise,
-        stamps,
-    ) = _setup(duration_s, payload, trajectory, seed, params, noise, start_ns, ripple, profile)
-    res = sm.simulate_closed_loop(
-        q_ref,
-        qd_ref,
-        qdd_ref,
-        plant,
-        drive,
-        controller,
-        current_noise,
-        feedforward,
-        prof.encoder_resolution,
-        encoder_noise,
-    )
-    return SimRecord(
-        stamps,
-        res.q_meas,
-        res.v_tau,
-        res.q,
-        res.qd,
-        res.qdd,
-        q_ref,
-        float(chi_l[9]),
-        chi_l,
-        params,
-        np.asarray(params.g_tau, float),
-        trajectory,
-        controller,
-        profile=prof.name,
-    )
+    run = _setup(duration_s, payload, trajectory, seed, params, noise, start_ns, ripple, profile)
+    res = sm.simulate_closed_loop(*run.reference, run.plant, run.drive, controller,
+                                  run.current_noise, feedforward, run.prof.encoder_resolution,
+                                  run.encoder_noise)
+    return run.record(res, trajectory, controller)
 
 
 def simulate_external(duration_s: float, command: Callable[[int, np.ndarray], np.ndarray],
@@ -138,42 +127,12 @@ def simulate_external(duration_s: float, command: Callable[[int, np.ndarray], np
     The plant starts on ``trajectory`` at t = 0 (q, qd); the trajectory is only the reference the
     controller is expected to follow (q_ref in the record). About 0.2 ms of wall time per tick.
     """
-    (
-        params,
-        prof,
-        chi_l,
-        plant,
-        drive,
-        (q_ref, qd_ref, qdd_ref),
-        current_noise,
-        encoder_noise,
-        stamps,
-    ) = _setup(duration_s, payload, trajectory, seed, params, noise, start_ns, ripple, profile)
-    N = len(stamps)
-    sim = sm.Integrator(plant, drive, q_ref[0], qd_ref[0])
-    q_meas, v_tau, q, qd, qdd = (np.empty((N, 3)) for _ in range(5))
-    for k in range(N):
-        q[k], qd[k] = sim.q, sim.qd
-        q_meas[k] = sm.quantise(q[k] if encoder_noise is None else q[k] + encoder_noise[k],
-                                prof.encoder_resolution)
-        v_tau[k] = command(k, q_meas[k])
-        qdd[k] = sim.tick(v_tau[k] + current_noise[k])
-    return SimRecord(
-        stamps,
-        q_meas,
-        v_tau,
-        q,
-        qd,
-        qdd,
-        q_ref,
-        float(chi_l[9]),
-        chi_l,
-        params,
-        np.asarray(params.g_tau, float),
-        trajectory,
-        "external",
-        profile=prof.name,
-    )
+    run = _setup(duration_s, payload, trajectory, seed, params, noise, start_ns, ripple, profile)
+    q_ref, qd_ref, _ = run.reference
+    sim = sm.Integrator(run.plant, run.drive, q_ref[0], qd_ref[0])
+    res = sm.run_integrator(sim, command, run.current_noise, run.prof.encoder_resolution,
+                            run.encoder_noise)
+    return run.record(res, trajectory, "external")
 
 
 def main(argv: list[str] | None = None) -> int:

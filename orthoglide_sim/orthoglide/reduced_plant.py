@@ -201,14 +201,7 @@ class ReducedIntegrator(Integrator):
         self._Qe, self._G = np.empty(N_TREE), np.empty((N_TREE, 3))
         self._X = self.reduce(self.x)  # X at the tick's start
         # the compiled functions loaded (or compiled) now, not in the first tick (~0.1 s each)
-        args = (
-            self._stages,
-            self._fric,
-            self._drive,
-            self._dscal,
-            self._drive_friction,
-            self._stroke,
-        )
+        args = self._compiled_args
         _predict(self.x.copy(), self._X, self._zero, *args, self._Qe, self._G)
         G0 = self._X[12:].reshape(N_TREE, 3).copy()
         _correct(
@@ -221,6 +214,13 @@ class ReducedIntegrator(Integrator):
             *args,
             self._Qe,
         )
+
+    @property
+    def _compiled_args(self) -> tuple:
+        """What the compiled steps take after the state: the stage currents, friction, drive,
+        their scales, the drive's own friction on or off, the stroke."""
+        return (self._stages, self._fric, self._drive, self._dscal, self._drive_friction,
+                self._stroke)
 
     @property
     def q(self) -> np.ndarray:
@@ -259,14 +259,7 @@ class ReducedIntegrator(Integrator):
         else:  # motor current at (start, middle, end) of every RK4 step: u + (i0 - u) e^(-t/tau)
             i0 = u if self.current is None else self.current
             self._stages[:] = u + self._decay[:, :, None] * (i0 - u)
-        args = (
-            self._stages,
-            self._fric,
-            self._drive,
-            self._dscal,
-            self._drive_friction,
-            self._stroke,
-        )
+        args = self._compiled_args
         x, G, X_end, Q = self.x.copy(), self._G, np.empty(N_SMOOTH), np.empty(N_TREE)
         ok = _predict(x, self._X, self._zero, *args, Q, G)
         if ok:  # Pinocchio at the predicted end; M is read from its data by _correct

@@ -1,4 +1,5 @@
-"""Sampled-data simulation: 1 kHz controller with zero-order hold, plant integrated by RK4.
+"""Sampled-data simulation: 1 kHz controller with zero-order hold, plant integrated by RK4 (the
+common closed loop, PID, quantiser and drive model of orthoglide_sim/common/ on the Orthoglide).
 
 Timing of one controller tick k (t_k = k T, T = 1 ms):
   1. the encoder is read: q_meas[k] = round(q(t_k) / 1 um) * 1 um;
@@ -31,80 +32,34 @@ current with the manufacturer's gain 637 pi ~ 2001 N/A: v_tau = F / 2001.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
 from orthoglide_ident.errors import WorkspaceError
 from orthoglide_ident.model.orthoglide.geometry import G_TAU_MANUFACTURER
+from orthoglide_sim.common.closed_loop import (
+    OMEGA,
+    PID,
+    TICK,
+    quantise,
+    run_closed_loop,
+    triple_pole,
+)
+from orthoglide_sim.common.drive import DriveModel, stribeck_amplitude
 from orthoglide_sim.orthoglide.plant import ACTUATED, Plant
 from orthoglide_sim.orthoglide.truth import PROFILES, PlantProfile, TrueParameters
 
-TICK = 1.0e-3  # s, controller period (1 kHz)
 SUBSTEPS = 4  # RK4 steps per tick (4 kHz): 0.05 um from a 20 kHz integration over 2 s
 RELIFT_TICKS = 100  # ticks between exact re-projections of the tree on the closed loop
 ENCODER_RESOLUTION = PROFILES["nominal"].encoder_resolution  # m
 CURRENT_NOISE_STD = PROFILES["nominal"].current_noise_std  # A, white, held over the tick
-OMEGA = 100.0  # rad/s, bandwidth of the linear part
 M_NOMINAL = 10.0  # kg
-KP = 3.0 * M_NOMINAL * OMEGA**2
-KD = 3.0 * M_NOMINAL * OMEGA
-KI = M_NOMINAL * OMEGA**3
+KP, KI, KD = triple_pole(M_NOMINAL, OMEGA)
 CONTROLLERS = ("pid", "pid_ff", "ctc", "external")
 # Mechanical stroke of each actuator (m): the safe box [-0.04, 0.12] of the trajectories plus
 # 20 mm. Beyond it a real Orthoglide hits its end stops; the simulator stops with an error.
 STROKE = (-0.06, 0.14)
-
-
-@dataclass(frozen=True)
-class DriveModel:
-    """What lies between the current reference and the plant's joints: true gains, current loop,
-    and the screw's friction beyond the plant's (fv, fs tanh, tauoff) of the actuated joints.
-
-    The drive's friction, per actuator, on top of the plant's: (a_st exp(-(qd / v_st)^2)
-    + a_r sin(2 pi q / lead + phase)) tanh(qd / v_s), i.e. a Stribeck term (``stribeck`` = a_st,
-    set by ``stribeck_amplitude`` from the breakaway force wanted) and the ball screw's friction
-    ripple (``ripple_amplitude`` = a_r at the screw lead), both turning with the plant's smooth
-    Coulomb sign. Forces in N, (3,) or scalars. All zero: an ideal drive.
-    """
-
-    g_tau: np.ndarray  # (3,) true drive gains N/A
-    ripple_amplitude: np.ndarray | float = 0.0  # N, (3,) or scalar; 0 = off
-    ripple_lead: float = 0.01  # m
-    ripple_phase: np.ndarray = field(default_factory=lambda: np.array([0.0, 2.1, 4.2]))
-    current_lag_s: float = 0.0  # s, first-order current loop time constant; 0 = ideal
-    stribeck: np.ndarray | float = 0.0  # N, (3,) or scalar, Stribeck amplitude; 0 = off
-    stribeck_velocity: float = 3.0e-3  # m/s
-    coulomb_velocity: float = 1.0e-3  # m/s, the plant's smooth sign (tanh) scale
-
-    @property
-    def has_friction(self) -> bool:
-        return bool(np.any(self.ripple_amplitude) or np.any(self.stribeck))
-
-    def friction(self, q: np.ndarray, qd: np.ndarray) -> np.ndarray:
-        """The drive's own friction (3,) N at actuator positions q, velocities qd (against qd)."""
-        if not self.has_friction:
-            return np.zeros(3)
-        s = np.tanh(np.asarray(qd) / self.coulomb_velocity)
-        level = self.stribeck * np.exp(-(np.asarray(qd) / self.stribeck_velocity) ** 2)
-        level = level + self.ripple_amplitude * np.sin(
-            2.0 * np.pi * np.asarray(q) / self.ripple_lead + self.ripple_phase
-        )
-        return level * s
-
-    def force(self, current: np.ndarray, q: np.ndarray, qd: np.ndarray | None = None) -> np.ndarray:
-        """Actuator forces (3,) N for the current in the motors (3,) A at actuator positions q (and
-        velocities qd, needed when the drive has friction of its own)."""
-        f = self.g_tau * current
-        if self.has_friction:
-            f = f - self.friction(q, np.zeros(3) if qd is None else qd)
-        return f
-
-    def motor_current(self, i0: np.ndarray, u: np.ndarray, t: float | np.ndarray) -> np.ndarray:
-        """Motor current (3,) A a time t (s) after the reference stepped to the held u, from i0."""
-        if self.current_lag_s <= 0.0:
-            return np.asarray(u, float) + 0.0 * np.asarray(i0, float)
-        return u + (i0 - u) * np.exp(-np.asarray(t) / self.current_lag_s)
 
 
 def drive_model(params: TrueParameters, ripple: bool | None = None,
@@ -131,28 +86,6 @@ def drive_model(params: TrueParameters, ripple: bool | None = None,
         stribeck_velocity=prof.stribeck_velocity,
         coulomb_velocity=v_s,
     )
-
-
-def stribeck_amplitude(
-    breakaway: float, coulomb_velocity: float, stribeck_velocity: float
-) -> float:
-    """Amplitude a (fraction of fs) of the Stribeck term for a breakaway force fs (1 + breakaway):
-    the peak over qdot > 0 of tanh(qdot / v_s) (1 + a exp(-(qdot / v_st)^2)) is 1 + breakaway."""
-    if breakaway <= 0:
-        return 0.0
-    v = np.linspace(1e-3, 6.0, 6000) * max(stribeck_velocity, coulomb_velocity)
-    s, g = np.tanh(v / coulomb_velocity), np.exp(-(v / stribeck_velocity) ** 2)
-    lo, hi = 0.0, 1.0
-    while np.max(s * (1.0 + hi * g)) < 1.0 + breakaway:
-        hi *= 2.0
-    for _ in range(60):
-        mid = 0.5 * (lo + hi)
-        lo, hi = (mid, hi) if np.max(s * (1.0 + mid * g)) < 1.0 + breakaway else (lo, mid)
-    return 0.5 * (lo + hi)
-
-
-def quantise(q: np.ndarray, resolution: float = ENCODER_RESOLUTION) -> np.ndarray:
-    return np.round(np.asarray(q) / resolution) * resolution
 
 
 class Integrator:
@@ -254,30 +187,14 @@ class Integrator:
             )
 
 
-@dataclass
-class PID:
-    """The 1 kHz linear part: PID on the quantised position, D on the measurement's backward
-    difference, force converted to current with the manufacturer's gain."""
-
-    q_meas_prev: np.ndarray  # (3,) m
-    integral: np.ndarray  # (3,) m s, integral of the position error
-    velocity_ff: bool = False  # True: "pid_ff" (Kd acts on qd_ref - v_est)
-
-    def current(self, q_meas: np.ndarray, q_ref: np.ndarray, qd_ref: np.ndarray) -> np.ndarray:
-        """One controller tick: v_tau (3,) A."""
-        e = q_ref - q_meas
-        self.integral = self.integral + e * TICK
-        v_est = (q_meas - self.q_meas_prev) / TICK
-        self.q_meas_prev = q_meas
-        qd_term = qd_ref if self.velocity_ff else 0.0
-        return (KP * e + KI * self.integral + KD * (qd_term - v_est)) / G_TAU_MANUFACTURER
-
-    @classmethod
-    def preloaded(cls, plant: Plant, q0, qd0, qdd0, velocity_ff: bool = False) -> PID:
-        """A PID whose integrator already holds the force needed on the reference at t_0."""
-        q0, qd0 = np.asarray(q0, float), np.asarray(qd0, float)
-        tau0 = plant.inverse_dynamics(q0, qd0, np.asarray(qdd0, float))
-        return cls(quantise(q0) - qd0 * TICK, tau0 / KI, velocity_ff)
+def preloaded_pid(plant: Plant, q0, qd0, qdd0, velocity_ff: bool = False) -> PID:
+    """The 1 kHz linear part on the nominal mass, force converted to current with the
+    manufacturer's gain, its integrator already holding the force needed on the reference at
+    t_0."""
+    q0, qd0 = np.asarray(q0, float), np.asarray(qd0, float)
+    tau0 = plant.inverse_dynamics(q0, qd0, np.asarray(qdd0, float))
+    return PID.tuned(M_NOMINAL, G_TAU_MANUFACTURER, quantise(q0, ENCODER_RESOLUTION) - qd0 * TICK,
+                     tau0, OMEGA, velocity_ff)
 
 
 @dataclass
@@ -302,7 +219,8 @@ def simulate_closed_loop(
     encoder_noise: np.ndarray | None = None,
     integrator: type[Integrator] = Integrator,
 ) -> ClosedLoopResult:
-    """Run the plant under "pid", "pid_ff" or "ctc" along a sampled reference (N, 3) at 1 kHz.
+    """Run the plant under "pid", "pid_ff" or "ctc" along a sampled reference (N, 3) at 1 kHz
+    (the common closed loop, orthoglide_sim/common/closed_loop.py).
 
     ``noise`` (N, 3) A: current noise held with each tick's reference; ``feedforward`` (N, 3) A:
     the model feed-forward current of "ctc" for each tick; ``resolution`` (m) and
@@ -320,13 +238,21 @@ def simulate_closed_loop(
     ff = np.zeros((N, 3)) if feedforward is None else np.asarray(feedforward, float)
     enc = None if encoder_noise is None else np.asarray(encoder_noise, float)
     sim = integrator(plant, drive, q_ref[0], qd_ref[0])
-    pid = PID.preloaded(plant, q_ref[0], qd_ref[0], qdd_ref[0], velocity_ff=controller != "pid")
+    pid = preloaded_pid(plant, q_ref[0], qd_ref[0], qdd_ref[0], velocity_ff=controller != "pid")
     # the feed-forward brings its share
     pid.integral = pid.integral - ff[0] * G_TAU_MANUFACTURER / KI
-    out = ClosedLoopResult(*(np.empty((N, 3)) for _ in range(5)))
-    for k in range(N):
-        out.q[k], out.qd[k] = sim.q, sim.qd
-        out.q_meas[k] = quantise(out.q[k] if enc is None else out.q[k] + enc[k], resolution)
-        out.v_tau[k] = pid.current(out.q_meas[k], q_ref[k], qd_ref[k]) + ff[k]
-        out.qdd[k] = sim.tick(out.v_tau[k] + noise[k])
-    return out
+    return run_integrator(sim, lambda k, q: pid.current(q, q_ref[k], qd_ref[k]) + ff[k], noise,
+                          resolution, enc)
+
+
+def run_integrator(sim: Integrator, control, noise: np.ndarray, resolution: float,
+                   encoder_noise: np.ndarray | None = None) -> ClosedLoopResult:
+    """The common closed loop on the Orthoglide's integrator: the encoder reads the actuators,
+    each tick's actuator accelerations at its start are logged (``qdd``)."""
+    def read():
+        q = sim.q
+        return q, sim.qd, q
+
+    res = run_closed_loop(read, control, lambda k, current: sim.tick(current), noise,
+                          resolution, encoder_noise)
+    return ClosedLoopResult(res.q_meas, res.v_tau, res.q, res.qd, res.logged)

@@ -11,6 +11,7 @@ import pytest
 
 from orthoglide_ident import bags
 from orthoglide_ident.bags.csv_import import ColumnMap, import_csv, read_csv
+from orthoglide_ident.bags.reader import decode_messages
 from orthoglide_ident.cli import main
 from orthoglide_ident.errors import ConfigError, DataError
 
@@ -52,7 +53,7 @@ def recorded_velocity(bag: Path) -> np.ndarray:
     for f in sorted(bag.glob("*.mcap")):
         with open(f, "rb") as stream:
             raw += [m.data for _, _, m in make_reader(stream).iter_messages(["/joint_states"])]
-    return bags.decode_messages(raw, bags.JOINT_STATE_TYPE, "velocity")[2]
+    return decode_messages(raw, bags.topics.JOINT_STATE_TYPE, "velocity")[2]
 
 
 def run(capsys, *args: str) -> tuple[int, str, str]:

@@ -19,6 +19,8 @@ import pytest
 import yaml
 
 from orthoglide_ident import bags
+from orthoglide_ident.bags import topics
+from orthoglide_ident.bags.encoding import encode_messages
 
 NAMES = ("q11", "q12", "q13")
 T0 = 1_700_000_000_000_000_000
@@ -34,8 +36,8 @@ def _record(n: int = N, seed: int = 1) -> tuple[np.ndarray, np.ndarray, np.ndarr
 
 def _encoded(stamps: np.ndarray, q: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return (
-        bags.encode_messages(bags.JOINT_STATE_TYPE, NAMES, stamps, q),
-        bags.encode_messages(bags.CURRENT_REFERENCE_TYPE, NAMES, stamps, v),
+        encode_messages(topics.JOINT_STATE_TYPE, NAMES, stamps, q),
+        encode_messages(topics.CURRENT_REFERENCE_TYPE, NAMES, stamps, v),
     )
 
 
@@ -58,9 +60,9 @@ def test_reads_rosbags_mcap_bag(tmp_path: Path) -> None:
     with Writer(path, version=9, storage_plugin=StoragePlugin.MCAP) as w:
         w.set_custom_data("orthoglide.condition", "loaded")
         w.set_custom_data("orthoglide.payload_mass", "1.136")
-        a = w.add_connection(bags.JOINT_STATES_TOPIC, bags.JOINT_STATE_TYPE, typestore=store)
+        a = w.add_connection(topics.JOINT_STATES_TOPIC, topics.JOINT_STATE_TYPE, typestore=store)
         b = w.add_connection(
-            bags.CURRENT_REFERENCE_TOPIC, bags.CURRENT_REFERENCE_TYPE, typestore=store
+            topics.CURRENT_REFERENCE_TOPIC, topics.CURRENT_REFERENCE_TYPE, typestore=store
         )
         for i, t in enumerate(stamps.tolist()):
             w.write(a, t, js[i].tobytes())
@@ -90,10 +92,10 @@ def _mcap_file(path: Path, compression: str, index: bool = True, chunked: bool =
         w.add_metadata("orthoglide", bags.BagTags("unloaded", 0.0).to_dict())
         channels = []
         for topic, msgtype in (
-            (bags.JOINT_STATES_TOPIC, bags.JOINT_STATE_TYPE),
-            (bags.CURRENT_REFERENCE_TOPIC, bags.CURRENT_REFERENCE_TYPE),
+            (topics.JOINT_STATES_TOPIC, topics.JOINT_STATE_TYPE),
+            (topics.CURRENT_REFERENCE_TOPIC, topics.CURRENT_REFERENCE_TYPE),
         ):
-            sid = w.register_schema(msgtype, "ros2msg", bags.msgdef_and_hash(msgtype)[0].encode())
+            sid = w.register_schema(msgtype, "ros2msg", topics.msgdef_and_hash(msgtype)[0].encode())
             channels.append(w.register_channel(topic, "cdr", sid))
         for i, t in enumerate(stamps.tolist()):
             w.add_message(channels[0], t, js[i].tobytes(), t, i)
@@ -141,9 +143,9 @@ def split_bag(tmp_path_factory: pytest.TempPathFactory) -> Path:
     path = tmp_path_factory.mktemp("ours") / "split"
     w = bags.BagWriter(path, bags.BagTags("loaded", 2.5), chunk_duration_s=0.1,
                        split_duration_s=0.5, custom_data={"note": "interop"}).open()
-    a = w.add_topic(bags.JOINT_STATES_TOPIC, bags.JOINT_STATE_TYPE,
-                    qos=[bags.qos_profile("best_effort", depth=10, history="keep_last")])
-    b = w.add_topic(bags.CURRENT_REFERENCE_TOPIC, bags.CURRENT_REFERENCE_TYPE)
+    a = w.add_topic(topics.JOINT_STATES_TOPIC, topics.JOINT_STATE_TYPE,
+                    qos=[topics.qos_profile("best_effort", depth=10, history="keep_last")])
+    b = w.add_topic(topics.CURRENT_REFERENCE_TOPIC, topics.CURRENT_REFERENCE_TYPE)
     for i, t in enumerate(stamps.tolist()):
         w.write(a, js[i].tobytes(), t + 20_000, t + 10_000)  # received 20 µs after the tick
         w.write(b, cr[i].tobytes(), t + 30_000, t + 10_000)
@@ -159,12 +161,12 @@ def test_rosbags_reads_our_split_bag(split_bag: Path) -> None:
     with AnyReader([split_bag]) as reader:
         conns = {c.topic: c for c in reader.connections}
         assert reader.message_count == 2 * N
-        assert conns[bags.CURRENT_REFERENCE_TOPIC].digest == bags.msgdef_and_hash(
-            bags.CURRENT_REFERENCE_TYPE)[1]
-        qos = conns[bags.JOINT_STATES_TOPIC].ext.offered_qos_profiles
+        assert conns[topics.CURRENT_REFERENCE_TOPIC].digest == topics.msgdef_and_hash(
+            topics.CURRENT_REFERENCE_TYPE)[1]
+        qos = conns[topics.JOINT_STATES_TOPIC].ext.offered_qos_profiles
         assert qos[0].reliability == QosReliability.BEST_EFFORT and qos[0].depth == 10
         got = [reader.deserialize(raw, c.msgtype).position
-               for c, _, raw in reader.messages(connections=[conns[bags.JOINT_STATES_TOPIC]])]
+               for c, _, raw in reader.messages(connections=[conns[topics.JOINT_STATES_TOPIC]])]
     np.testing.assert_array_equal(np.array(got), q)
 
 
@@ -243,7 +245,7 @@ def test_current_reference_definition_matches_rosidl() -> None:
         return [" ".join(ln.split("#")[0].split()) for ln in text.splitlines()
                 if ln.split("#")[0].strip()]
 
-    msgdef, type_hash = bags.msgdef_and_hash(bags.CURRENT_REFERENCE_TYPE)
+    msgdef, type_hash = topics.msgdef_and_hash(topics.CURRENT_REFERENCE_TYPE)
     ours = msgdef.split("=" * 80)[0]
     assert fields(ours) == fields(msg_file.read_text())
     assert "MSG: std_msgs/Header" in msgdef and "MSG: builtin_interfaces/Time" in msgdef
@@ -251,4 +253,4 @@ def test_current_reference_definition_matches_rosidl() -> None:
     if generated.is_file():
         hashes = {h["type_name"]: h["hash_string"]
                   for h in json.loads(generated.read_text())["type_hashes"]}
-        assert type_hash == hashes[bags.CURRENT_REFERENCE_TYPE]
+        assert type_hash == hashes[topics.CURRENT_REFERENCE_TYPE]

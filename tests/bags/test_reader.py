@@ -9,6 +9,15 @@ import pytest
 import yaml
 
 from orthoglide_ident import bags
+from orthoglide_ident.bags.encoding import encode_messages
+from orthoglide_ident.bags.info import find_gaps
+from orthoglide_ident.bags.topics import (
+    CURRENT_REFERENCE_TOPIC,
+    CURRENT_REFERENCE_TYPE,
+    JOINT_STATE_TYPE,
+    JOINT_STATES_TOPIC,
+    msgdef_and_hash,
+)
 from orthoglide_ident.errors import BagError, DataError
 from orthoglide_ident.model.robots import load_robot
 
@@ -62,12 +71,12 @@ def test_layout_and_tags_on_disk(loaded_bag) -> None:
     assert meta["custom_data"]["orthoglide.payload_mass"] == "1.136"
     assert meta["custom_data"]["sim.seed"] == "0"
     topics = {t["topic_metadata"]["name"]: t for t in meta["topics_with_message_count"]}
-    assert topics[bags.JOINT_STATES_TOPIC]["message_count"] == 3000
-    assert topics[bags.CURRENT_REFERENCE_TOPIC]["topic_metadata"][
+    assert topics[JOINT_STATES_TOPIC]["message_count"] == 3000
+    assert topics[CURRENT_REFERENCE_TOPIC]["topic_metadata"][
         "type_description_hash"
     ].startswith("RIHS01_")
     assert (
-        topics[bags.JOINT_STATES_TOPIC]["topic_metadata"]["offered_qos_profiles"][0]["reliability"]
+        topics[JOINT_STATES_TOPIC]["topic_metadata"]["offered_qos_profiles"][0]["reliability"]
         == "reliable"
     )
 
@@ -83,8 +92,8 @@ def test_mcap_library_reads_with_crcs(loaded_bag) -> None:
         assert summary is not None and summary.statistics.message_count == 6000
         assert summary.chunk_indexes and all(c.compression == "zstd" for c in summary.chunk_indexes)
         assert {s.name for s in summary.schemas.values()} == {
-            bags.JOINT_STATE_TYPE,
-            bags.CURRENT_REFERENCE_TYPE,
+            JOINT_STATE_TYPE,
+            CURRENT_REFERENCE_TYPE,
         }
         assert all("offered_qos_profiles" in c.metadata for c in summary.channels.values())
         meta = [(m.name, m.metadata) for m in reader.iter_metadata()]
@@ -104,12 +113,12 @@ def test_rosbags_reads_and_agrees(loaded_bag) -> None:
     with AnyReader([path]) as reader:
         conns = {c.topic: c for c in reader.connections}
         assert (
-            conns[bags.CURRENT_REFERENCE_TOPIC].digest
-            == bags.msgdef_and_hash(bags.CURRENT_REFERENCE_TYPE)[1]
+            conns[CURRENT_REFERENCE_TOPIC].digest
+            == msgdef_and_hash(CURRENT_REFERENCE_TYPE)[1]
         )
         got = [
             reader.deserialize(raw, c.msgtype)
-            for c, _, raw in reader.messages(connections=[conns[bags.CURRENT_REFERENCE_TOPIC]])
+            for c, _, raw in reader.messages(connections=[conns[CURRENT_REFERENCE_TOPIC]])
         ]
     assert len(got) == len(stamps)
     np.testing.assert_array_equal(np.array([m.current for m in got]), v)
@@ -180,14 +189,14 @@ def _stream_bag(
     stamps, q, v = _record(n)
     w = bags.BagWriter(path, tags, **kw).open()
     enc = {
-        bags.JOINT_STATES_TOPIC: bags.encode_messages(bags.JOINT_STATE_TYPE, NAMES, stamps, q),
-        bags.CURRENT_REFERENCE_TOPIC: bags.encode_messages(
-            bags.CURRENT_REFERENCE_TYPE, NAMES, stamps, v
+        JOINT_STATES_TOPIC: encode_messages(JOINT_STATE_TYPE, NAMES, stamps, q),
+        CURRENT_REFERENCE_TOPIC: encode_messages(
+            CURRENT_REFERENCE_TYPE, NAMES, stamps, v
         ),
     }
     types = {
-        bags.JOINT_STATES_TOPIC: bags.JOINT_STATE_TYPE,
-        bags.CURRENT_REFERENCE_TOPIC: bags.CURRENT_REFERENCE_TYPE,
+        JOINT_STATES_TOPIC: JOINT_STATE_TYPE,
+        CURRENT_REFERENCE_TOPIC: CURRENT_REFERENCE_TYPE,
     }
     cids = {t: w.add_topic(t, types[t]) for t in topics}
     for i in range(n):
@@ -198,13 +207,13 @@ def _stream_bag(
 
 
 def test_missing_topic(tmp_path: Path) -> None:
-    _stream_bag(tmp_path / "b", bags.BagTags("unloaded", 0.0), (bags.JOINT_STATES_TOPIC,))
+    _stream_bag(tmp_path / "b", bags.BagTags("unloaded", 0.0), (JOINT_STATES_TOPIC,))
     with pytest.raises(BagError, match="/orthoglide/current_reference is missing"):
         bags.read_bag(tmp_path / "b")
 
 
 def test_untagged_and_contradictory(tmp_path: Path) -> None:
-    topics = (bags.JOINT_STATES_TOPIC, bags.CURRENT_REFERENCE_TOPIC)
+    topics = (JOINT_STATES_TOPIC, CURRENT_REFERENCE_TOPIC)
     _stream_bag(tmp_path / "b", bags.BagTags("unloaded", 0.0), topics)
     meta = tmp_path / "b" / "metadata.yaml"
     doc = yaml.safe_load(meta.read_text())
@@ -250,7 +259,7 @@ def test_write_bag_checks_input(tmp_path: Path) -> None:
 
 
 def test_split_loses_nothing(tmp_path: Path) -> None:
-    topics = (bags.JOINT_STATES_TOPIC, bags.CURRENT_REFERENCE_TOPIC)
+    topics = (JOINT_STATES_TOPIC, CURRENT_REFERENCE_TOPIC)
     w = _stream_bag(
         tmp_path / "s",
         bags.BagTags("unloaded", 0.0),
@@ -264,7 +273,7 @@ def test_split_loses_nothing(tmp_path: Path) -> None:
     data = bags.read_bag(tmp_path / "s")
     np.testing.assert_array_equal(data.joint_states.stamps_ns, _record(2000)[0])
     assert len(data.current_reference.stamps_ns) == 2000
-    assert w.counts == {bags.JOINT_STATES_TOPIC: 2000, bags.CURRENT_REFERENCE_TOPIC: 2000}
+    assert w.counts == {JOINT_STATES_TOPIC: 2000, CURRENT_REFERENCE_TOPIC: 2000}
     for f in files:  # every part carries the tag
         assert bags.read_bag(f).tags == bags.BagTags("unloaded", 0.0)
     from rosbags.highlevel import AnyReader
@@ -280,11 +289,11 @@ def test_gaps_reported(tmp_path: Path) -> None:
     bags.write_bag(tmp_path / "g", stamps[keep], q[keep], v[keep], "unloaded", 0,
                    joint_names=ORTHOGLIDE.joint_names)
     info = bags.bag_info(tmp_path / "g")
-    js = next(t for t in info.topics if t.topic == bags.JOINT_STATES_TOPIC)
+    js = next(t for t in info.topics if t.topic == JOINT_STATES_TOPIC)
     assert js.gaps is not None and js.gaps.missing == 4
     assert [n for _, n in js.gaps.where] == [1, 3]
     assert info.closed and "4 missing ticks" in info.to_text()
-    assert bags.find_gaps(stamps).missing == 0
+    assert find_gaps(stamps).missing == 0
 
 
 def test_other_layouts_fall_back(tmp_path: Path) -> None:
@@ -292,12 +301,12 @@ def test_other_layouts_fall_back(tmp_path: Path) -> None:
 
     store = bags._types.typestore()
     T, H = store.types["builtin_interfaces/msg/Time"], store.types["std_msgs/msg/Header"]
-    JS = store.types[bags.JOINT_STATE_TYPE]
-    CR = store.types[bags.CURRENT_REFERENCE_TYPE]
+    JS = store.types[JOINT_STATE_TYPE]
+    CR = store.types[CURRENT_REFERENCE_TYPE]
     stamps, q, v = _record(20)
     w = bags.BagWriter(tmp_path / "o", bags.BagTags("unloaded", 0.0)).open()
-    a = w.add_topic(bags.JOINT_STATES_TOPIC, bags.JOINT_STATE_TYPE)
-    b = w.add_topic(bags.CURRENT_REFERENCE_TOPIC, bags.CURRENT_REFERENCE_TYPE)
+    a = w.add_topic(JOINT_STATES_TOPIC, JOINT_STATE_TYPE)
+    b = w.add_topic(CURRENT_REFERENCE_TOPIC, CURRENT_REFERENCE_TYPE)
     for i, t in enumerate(stamps):
         hdr = H(
             stamp=T(sec=int(t // 10**9), nanosec=int(t % 10**9)), frame_id="base" if i % 3 else ""
@@ -310,9 +319,9 @@ def test_other_layouts_fall_back(tmp_path: Path) -> None:
             velocity=np.ones(3) if i % 2 else np.zeros(0),
             effort=np.zeros(0),
         )
-        w.write(a, bytes(store.serialize_cdr(js, bags.JOINT_STATE_TYPE)), int(t))
+        w.write(a, bytes(store.serialize_cdr(js, JOINT_STATE_TYPE)), int(t))
         cr = CR(header=hdr, name=list(NAMES), current=v[i])
-        w.write(b, bytes(store.serialize_cdr(cr, bags.CURRENT_REFERENCE_TYPE)), int(t))
+        w.write(b, bytes(store.serialize_cdr(cr, CURRENT_REFERENCE_TYPE)), int(t))
     w.close()
     data = bags.read_bag(tmp_path / "o")
     np.testing.assert_array_equal(data.joint_states.position, q)
@@ -333,12 +342,12 @@ def test_rclpy_serialisation_matches(tmp_path: Path) -> None:
         msg.name = list(NAMES)
         msg.position = row.tolist()
         raws.append(rclpy_ser.serialize_message(msg))
-    lay = bags._cdr.layout(raws[0], bags.JOINT_STATE_TYPE)
+    lay = bags._cdr.layout(raws[0], JOINT_STATE_TYPE)
     assert lay is not None and lay.names == NAMES
     w = bags.BagWriter(tmp_path / "r", bags.BagTags("unloaded", 0.0)).open()
-    a = w.add_topic(bags.JOINT_STATES_TOPIC, bags.JOINT_STATE_TYPE)
-    b = w.add_topic(bags.CURRENT_REFERENCE_TOPIC, bags.CURRENT_REFERENCE_TYPE)
-    cr = bags.encode_messages(bags.CURRENT_REFERENCE_TYPE, NAMES, stamps, v)
+    a = w.add_topic(JOINT_STATES_TOPIC, JOINT_STATE_TYPE)
+    b = w.add_topic(CURRENT_REFERENCE_TOPIC, CURRENT_REFERENCE_TYPE)
+    cr = encode_messages(CURRENT_REFERENCE_TYPE, NAMES, stamps, v)
     for i, raw in enumerate(raws):
         w.write(a, raw, int(stamps[i]))
         w.write(b, cr[i].tobytes(), int(stamps[i]))
@@ -346,6 +355,6 @@ def test_rclpy_serialisation_matches(tmp_path: Path) -> None:
     data = bags.read_bag(tmp_path / "r")
     np.testing.assert_array_equal(data.joint_states.position, q)
     np.testing.assert_array_equal(data.joint_states.stamps_ns, stamps)
-    ours = bags.encode_messages(bags.JOINT_STATE_TYPE, NAMES, stamps[:1], q[:1])[0].tobytes()
+    ours = encode_messages(JOINT_STATE_TYPE, NAMES, stamps[:1], q[:1])[0].tobytes()
     back = rclpy_ser.deserialize_message(ours, JointState)
     assert list(back.name) == list(NAMES) and np.array_equal(back.position, q[0])

@@ -18,12 +18,14 @@ import yaml
 from rosbags.highlevel import AnyReaderError
 
 from orthoglide_ident import bags
+from orthoglide_ident.bags import topics
+from orthoglide_ident.bags.encoding import encode_messages
 from orthoglide_ident.errors import BagError
 from orthoglide_ident.ros import processes as children  # children end with this process
 
 NAMES = ("q11", "q12", "q13")
 T0 = 1_700_000_000_000_000_000
-BEST_EFFORT = [bags.qos_profile("best_effort", "volatile", "keep_last", 5)]
+BEST_EFFORT = [topics.qos_profile("best_effort", "volatile", "keep_last", 5)]
 
 
 def _killed_bag(path: Path, n: int, split_duration_s: float | None = None) -> int:
@@ -31,13 +33,13 @@ def _killed_bag(path: Path, n: int, split_duration_s: float | None = None) -> in
     chunk, metadata.yaml the placeholder written at open. Returns the messages left on disk."""
     stamps = T0 + np.arange(n, dtype=np.int64) * 1_000_000
     rng = np.random.default_rng(3)
-    js = bags.encode_messages(bags.JOINT_STATE_TYPE, NAMES, stamps, rng.normal(size=(n, 3)))
-    cr = bags.encode_messages(bags.CURRENT_REFERENCE_TYPE, NAMES, stamps, rng.normal(size=(n, 3)))
+    js = encode_messages(topics.JOINT_STATE_TYPE, NAMES, stamps, rng.normal(size=(n, 3)))
+    cr = encode_messages(topics.CURRENT_REFERENCE_TYPE, NAMES, stamps, rng.normal(size=(n, 3)))
     w = bags.BagWriter(path, bags.BagTags("loaded", 2.5), split_duration_s=split_duration_s,
                        custom_data={"sim.seed": "3"}).open()
     placeholder = (path / "metadata.yaml").read_text()
-    a = w.add_topic(bags.JOINT_STATES_TOPIC, bags.JOINT_STATE_TYPE, qos=BEST_EFFORT)
-    b = w.add_topic(bags.CURRENT_REFERENCE_TOPIC, bags.CURRENT_REFERENCE_TYPE)
+    a = w.add_topic(topics.JOINT_STATES_TOPIC, topics.JOINT_STATE_TYPE, qos=BEST_EFFORT)
+    b = w.add_topic(topics.CURRENT_REFERENCE_TOPIC, topics.CURRENT_REFERENCE_TYPE)
     for i, t in enumerate(stamps.tolist()):
         w.write(a, js[i].tobytes(), t)
         w.write(b, cr[i].tobytes(), t)
@@ -80,11 +82,11 @@ def test_reindex_killed_recording(tmp_path: Path) -> None:
     assert info["message_count"] == 4000 and info["relative_file_paths"] == ["killed_0.mcap"]
     assert info["duration"]["nanoseconds"] == 1_999_000_000
     assert info["starting_time"]["nanoseconds_since_epoch"] == T0
-    topics = {t["topic_metadata"]["name"]: t for t in info["topics_with_message_count"]}
-    assert topics[bags.JOINT_STATES_TOPIC]["message_count"] == 2000
-    js_meta = topics[bags.JOINT_STATES_TOPIC]["topic_metadata"]
+    by_name = {t["topic_metadata"]["name"]: t for t in info["topics_with_message_count"]}
+    assert by_name[topics.JOINT_STATES_TOPIC]["message_count"] == 2000
+    js_meta = by_name[topics.JOINT_STATES_TOPIC]["topic_metadata"]
     assert js_meta["offered_qos_profiles"] == BEST_EFFORT
-    assert js_meta["type_description_hash"] == bags.msgdef_and_hash(bags.JOINT_STATE_TYPE)[1]
+    assert js_meta["type_description_hash"] == topics.msgdef_and_hash(topics.JOINT_STATE_TYPE)[1]
     assert info["custom_data"] == {"sim.seed": "3", "orthoglide.condition": "loaded",
                                    "orthoglide.payload_mass": "2.5"}
     assert _rosbags_count(bag) == 4000

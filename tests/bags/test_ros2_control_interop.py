@@ -18,6 +18,7 @@ import numpy as np
 import pytest
 
 from orthoglide_ident import bags
+from orthoglide_ident.bags.topics import DYNAMIC_JOINT_STATE_TYPE, JOINT_STATE_TYPE
 
 ROOT = Path(__file__).resolve().parents[2]
 JOINTS = ("joint_a", "joint_b", "joint_c")
@@ -51,7 +52,7 @@ def rosbags_bag(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
     store = _store_from_msg_files()
     T, H = store.types["builtin_interfaces/msg/Time"], store.types["std_msgs/msg/Header"]
-    JS, DJS = store.types[bags.JOINT_STATE_TYPE], store.types[bags.DYNAMIC_JOINT_STATE_TYPE]
+    JS, DJS = store.types[JOINT_STATE_TYPE], store.types[DYNAMIC_JOINT_STATE_TYPE]
     IV = store.types["control_msgs/msg/InterfaceValue"]
     stamps, q, v = _record()
     col = {j: JOINTS.index(j) for j in JOINTS}
@@ -59,8 +60,8 @@ def rosbags_bag(tmp_path_factory: pytest.TempPathFactory) -> Path:
     with Writer(path, version=9, storage_plugin=StoragePlugin.MCAP) as w:
         w.set_custom_data("orthoglide.condition", "unloaded")
         w.set_custom_data("orthoglide.payload_mass", "0")
-        a = w.add_connection("/joint_states", bags.JOINT_STATE_TYPE, typestore=store)
-        b = w.add_connection("/dynamic_joint_states", bags.DYNAMIC_JOINT_STATE_TYPE,
+        a = w.add_connection("/joint_states", JOINT_STATE_TYPE, typestore=store)
+        b = w.add_connection("/dynamic_joint_states", DYNAMIC_JOINT_STATE_TYPE,
                              typestore=store)
         for i, t in enumerate(stamps.tolist()):
             hdr = H(stamp=T(sec=t // 10**9, nanosec=t % 10**9),
@@ -79,10 +80,10 @@ def rosbags_bag(tmp_path_factory: pytest.TempPathFactory) -> Path:
                 if i % 31 == 5:  # one-off interfaces, more shapes than the bulk decoder caches
                     names, vals = names + [f"temperature_{i:04d}"], vals + [40.0]
                 ivs.append(IV(interface_names=names, values=np.array(vals)))
-            w.write(a, t, bytes(store.serialize_cdr(js, bags.JOINT_STATE_TYPE)))
+            w.write(a, t, bytes(store.serialize_cdr(js, JOINT_STATE_TYPE)))
             w.write(b, t + 1, bytes(store.serialize_cdr(DJS(header=hdr, joint_names=list(HW),
                                                             interface_values=ivs),
-                                                        bags.DYNAMIC_JOINT_STATE_TYPE)))
+                                                        DYNAMIC_JOINT_STATE_TYPE)))
     return path
 
 
@@ -189,8 +190,8 @@ def test_mcap_library_reads_our_ros2_control_bag_with_crcs(our_bag: Path) -> Non
         reader = make_reader(fh, validate_crcs=True)
         summary = reader.get_summary()
         assert summary is not None
-        assert {s.name for s in summary.schemas.values()} == {bags.JOINT_STATE_TYPE,
-                                                               bags.DYNAMIC_JOINT_STATE_TYPE}
+        assert {s.name for s in summary.schemas.values()} == {JOINT_STATE_TYPE,
+                                                               DYNAMIC_JOINT_STATE_TYPE}
         assert {c.topic: c.metadata["topic_type_hash"] for c in summary.channels.values()}[
             "/dynamic_joint_states"] == DJS_HASH
         times = [m.log_time for _, _, m in reader.iter_messages(log_time_order=False)]

@@ -12,6 +12,14 @@ import numpy as np
 import pytest
 
 from orthoglide_ident import bags
+from orthoglide_ident.bags.encoding import encode_dynamic_joint_states, encode_joint_states
+from orthoglide_ident.bags.reader import decode_messages
+from orthoglide_ident.bags.topics import (
+    DYNAMIC_JOINT_STATE_TYPE,
+    DYNAMIC_JOINT_STATES_TOPIC,
+    JOINT_STATE_TYPE,
+    ROS2_CONTROL_JOINT_STATES_TOPIC,
+)
 from orthoglide_ident.errors import BagError
 from orthoglide_ident.model.robots import load_robot
 
@@ -140,8 +148,8 @@ def test_a_missing_joint_or_interface_is_a_one_line_reason(two_layouts) -> None:
 def test_a_missing_topic_is_a_one_line_reason(tmp_path: Path) -> None:
     stamps, q, v = _record(50)
     w = bags.BagWriter(tmp_path / "dyn_only", bags.BagTags("unloaded", 0.0)).open()
-    cid = w.add_topic(bags.DYNAMIC_JOINT_STATES_TOPIC, bags.DYNAMIC_JOINT_STATE_TYPE)
-    rows = bags.encode_dynamic_joint_states(UR5, [("current",)] * 6, stamps, {"current": v})
+    cid = w.add_topic(DYNAMIC_JOINT_STATES_TOPIC, DYNAMIC_JOINT_STATE_TYPE)
+    rows = encode_dynamic_joint_states(UR5, [("current",)] * 6, stamps, {"current": v})
     for k, t in enumerate(stamps):
         w.write(cid, rows[k].tobytes(), int(t))
     w.close()
@@ -149,8 +157,8 @@ def test_a_missing_topic_is_a_one_line_reason(tmp_path: Path) -> None:
                        match=r"no joint_states topic .* \(found: /dynamic_joint_states\)"):
         bags.read_bag(tmp_path / "dyn_only")
     w = bags.BagWriter(tmp_path / "q_only", bags.BagTags("unloaded", 0.0)).open()
-    cid = w.add_topic(bags.ROS2_CONTROL_JOINT_STATES_TOPIC, bags.JOINT_STATE_TYPE)
-    rows = bags.encode_joint_states(UR5, stamps, q)
+    cid = w.add_topic(ROS2_CONTROL_JOINT_STATES_TOPIC, JOINT_STATE_TYPE)
+    rows = encode_joint_states(UR5, stamps, q)
     for k, t in enumerate(stamps):
         w.write(cid, rows[k].tobytes(), int(t))
     w.close()
@@ -166,10 +174,10 @@ def test_the_tag_names_the_sources(tmp_path: Path) -> None:
     stamps, q, v = _record()
     tags = bags.BagTags.checked("unloaded", 0, current_source="/joint_states effort")
     w = bags.BagWriter(tmp_path / "t", tags).open()
-    js = w.add_topic(bags.ROS2_CONTROL_JOINT_STATES_TOPIC, bags.JOINT_STATE_TYPE)
-    dj = w.add_topic(bags.DYNAMIC_JOINT_STATES_TOPIC, bags.DYNAMIC_JOINT_STATE_TYPE)
-    a = bags.encode_joint_states(UR5, stamps, q, effort=2 * v)
-    b = bags.encode_dynamic_joint_states(UR5, [("current",)] * 6, stamps, {"current": v})
+    js = w.add_topic(ROS2_CONTROL_JOINT_STATES_TOPIC, JOINT_STATE_TYPE)
+    dj = w.add_topic(DYNAMIC_JOINT_STATES_TOPIC, DYNAMIC_JOINT_STATE_TYPE)
+    a = encode_joint_states(UR5, stamps, q, effort=2 * v)
+    b = encode_dynamic_joint_states(UR5, [("current",)] * 6, stamps, {"current": v})
     for k, t in enumerate(stamps):
         w.write(js, a[k].tobytes(), int(t))
         w.write(dj, b[k].tobytes(), int(t))
@@ -180,7 +188,7 @@ def test_the_tag_names_the_sources(tmp_path: Path) -> None:
     assert bags.read_bag(tmp_path / "t", interface="current").current.current.tolist() == v.tolist()
     bad = bags.BagTags.checked("unloaded", 0, current_source="/robot/dynamic_joint_states current")
     w = bags.BagWriter(tmp_path / "bad", bad).open()
-    js = w.add_topic(bags.ROS2_CONTROL_JOINT_STATES_TOPIC, bags.JOINT_STATE_TYPE)
+    js = w.add_topic(ROS2_CONTROL_JOINT_STATES_TOPIC, JOINT_STATE_TYPE)
     for k, t in enumerate(stamps[:10]):
         w.write(js, a[k].tobytes(), int(t))
     w.close()
@@ -192,16 +200,16 @@ def test_the_tag_names_the_sources(tmp_path: Path) -> None:
 def test_decode_messages_of_each_type() -> None:
     """What the live nodes get from raw subscriptions: the same decoding as the bags'."""
     stamps, q, v = _record(20)
-    raw = [r.tobytes() for r in bags.encode_dynamic_joint_states(
+    raw = [r.tobytes() for r in encode_dynamic_joint_states(
         UR5, [("position", "current")] * 6, stamps, {"position": q, "current": v})]
-    st, names, vals = bags.decode_messages(raw, bags.DYNAMIC_JOINT_STATE_TYPE)
+    st, names, vals = decode_messages(raw, DYNAMIC_JOINT_STATE_TYPE)
     assert names == UR5
     np.testing.assert_array_equal(st, stamps)
     np.testing.assert_array_equal(vals, v)
-    raw = [r.tobytes() for r in bags.encode_joint_states(UR5, stamps, q, 0 * q, v)]
-    _, names, vals = bags.decode_messages(raw, bags.JOINT_STATE_TYPE, "effort")
+    raw = [r.tobytes() for r in encode_joint_states(UR5, stamps, q, 0 * q, v)]
+    _, names, vals = decode_messages(raw, JOINT_STATE_TYPE, "effort")
     np.testing.assert_array_equal(vals, v)
-    _, _, vals = bags.decode_messages(raw, bags.JOINT_STATE_TYPE)
+    _, _, vals = decode_messages(raw, JOINT_STATE_TYPE)
     np.testing.assert_array_equal(vals, q)
 
 

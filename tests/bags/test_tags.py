@@ -156,11 +156,11 @@ def test_recorder_requests_are_checked() -> None:
 
 def test_effort_unit_tag_round_trips_and_is_checked() -> None:
     t = bags.BagTags.checked("unloaded", 0, effort_unit="torque")
-    assert t.to_dict()[bags.EFFORT_UNIT_KEY] == "torque"
+    assert t.to_dict()[bags.tags.EFFORT_UNIT_KEY] == "torque"
     assert bags.BagTags.from_dict(t.to_dict(), "x") == t
-    assert bags.EFFORT_UNIT_KEY not in bags.BagTags.checked("unloaded", 0).to_dict()
+    assert bags.tags.EFFORT_UNIT_KEY not in bags.BagTags.checked("unloaded", 0).to_dict()
     with pytest.raises(BagError, match="x: invalid tag: effort_unit 'Nm': use 'A'"):
-        bags.BagTags.from_dict({**t.to_dict(), bags.EFFORT_UNIT_KEY: "Nm"}, "x")
+        bags.BagTags.from_dict({**t.to_dict(), bags.tags.EFFORT_UNIT_KEY: "Nm"}, "x")
 
 
 def test_signal_sides_round_trip_in_both_places(tmp_path: Path) -> None:
@@ -176,13 +176,13 @@ def test_signal_sides_round_trip_in_both_places(tmp_path: Path) -> None:
         "rosbag2_bagfile_information"]["custom_data"]
     record = _file_record(next(p.glob("*.mcap")))
     for where in (custom, record):
-        assert where[bags.POSITION_SIDE_KEY] == "actuator"
-        assert where[bags.EFFORT_SIDE_KEY] == "joint"
+        assert where[bags.tags.POSITION_SIDE_KEY] == "actuator"
+        assert where[bags.tags.EFFORT_SIDE_KEY] == "joint"
     tags = bags.read_bag(p).tags
     assert (tags.position_side, tags.effort_side) == ("actuator", "joint")
     assert "positions actuator-side, efforts joint-side" in tags.describe()
     plain = bags.BagTags.checked("unloaded", 0).to_dict()
-    assert bags.POSITION_SIDE_KEY not in plain and bags.EFFORT_SIDE_KEY not in plain
+    assert bags.tags.POSITION_SIDE_KEY not in plain and bags.tags.EFFORT_SIDE_KEY not in plain
     with pytest.raises(ConfigError, match="position_side 'motor': use 'joint' or 'actuator'"):
         bags.BagTags.checked("unloaded", 0, position_side="motor")
 
@@ -195,7 +195,7 @@ def test_sides_given_in_custom_data_only_agree_with_the_files(tmp_path: Path) ->
     meta = p / "metadata.yaml"
     doc = yaml.safe_load(meta.read_text())
     custom = doc["rosbag2_bagfile_information"]["custom_data"]
-    custom[bags.POSITION_SIDE_KEY] = "actuator"
+    custom[bags.tags.POSITION_SIDE_KEY] = "actuator"
     meta.write_text(yaml.safe_dump(doc))
     assert bags.read_bag(p).tags.position_side == "actuator"
     q = bags.write_bag(tmp_path / "c", T0 + np.arange(50, dtype=np.int64) * 1_000_000,
@@ -203,7 +203,7 @@ def test_sides_given_in_custom_data_only_agree_with_the_files(tmp_path: Path) ->
                        position_side="joint")
     meta = q / "metadata.yaml"
     doc = yaml.safe_load(meta.read_text())
-    doc["rosbag2_bagfile_information"]["custom_data"][bags.POSITION_SIDE_KEY] = "actuator"
+    doc["rosbag2_bagfile_information"]["custom_data"][bags.tags.POSITION_SIDE_KEY] = "actuator"
     meta.write_text(yaml.safe_dump(doc))
     with pytest.raises(BagError, match="contradictory tags: .* positions actuator-side, .* "
                                        "positions joint-side"):

@@ -9,6 +9,14 @@ import numpy as np
 import pytest
 
 from orthoglide_ident import bags
+from orthoglide_ident.bags.encoding import encode_messages
+from orthoglide_ident.bags.tags import CONDITION_KEY, INCOMPLETE_KEY
+from orthoglide_ident.bags.topics import (
+    CURRENT_REFERENCE_TOPIC,
+    CURRENT_REFERENCE_TYPE,
+    JOINT_STATE_TYPE,
+    JOINT_STATES_TOPIC,
+)
 from orthoglide_ident.errors import BagError, DataError
 
 NAMES = ("q11", "q12", "q13")
@@ -18,9 +26,9 @@ T0 = 1_700_000_000_000_000_000
 def _open(path: Path, **kw) -> tuple[bags.BagWriter, int, np.ndarray, np.ndarray]:
     n = 3000
     stamps = T0 + np.arange(n, dtype=np.int64) * 1_000_000
-    msgs = bags.encode_messages(bags.JOINT_STATE_TYPE, NAMES, stamps, np.zeros((n, 3)))
+    msgs = encode_messages(JOINT_STATE_TYPE, NAMES, stamps, np.zeros((n, 3)))
     w = bags.BagWriter(path, bags.BagTags("unloaded", 0.0), **kw).open()
-    return w, w.add_topic(bags.JOINT_STATES_TOPIC, bags.JOINT_STATE_TYPE), stamps, msgs
+    return w, w.add_topic(JOINT_STATES_TOPIC, JOINT_STATE_TYPE), stamps, msgs
 
 
 def _chunk_indexes(f: Path) -> list:
@@ -120,10 +128,10 @@ def test_a_robot_namespace_is_read_like_the_root(tmp_path):
     def write(path, prefixes):
         w = bags.BagWriter(path, bags.BagTags("unloaded", 0.0)).open()
         for n, prefix in enumerate(prefixes):
-            c_js = w.add_topic(prefix + bags.JOINT_STATES_TOPIC, bags.JOINT_STATE_TYPE)
-            c_cr = w.add_topic(prefix + bags.CURRENT_REFERENCE_TOPIC, bags.CURRENT_REFERENCE_TYPE)
-            js = bags.encode_messages(bags.JOINT_STATE_TYPE, names, stamps, values)
-            cr = bags.encode_messages(bags.CURRENT_REFERENCE_TYPE, names, stamps, values)
+            c_js = w.add_topic(prefix + JOINT_STATES_TOPIC, JOINT_STATE_TYPE)
+            c_cr = w.add_topic(prefix + CURRENT_REFERENCE_TOPIC, CURRENT_REFERENCE_TYPE)
+            js = encode_messages(JOINT_STATE_TYPE, names, stamps, values)
+            cr = encode_messages(CURRENT_REFERENCE_TYPE, names, stamps, values)
             for k, st in enumerate(stamps):
                 # log times never go back
                 w.write(c_js, js[k].tobytes(), int(st) + n * 10**9, int(st))
@@ -158,7 +166,7 @@ def test_a_bag_stopped_early_is_kept_and_tagged_incomplete(tmp_path: Path) -> No
     custom = yaml.safe_load((tmp_path / "cut" / "metadata.yaml").read_text())[
         "rosbag2_bagfile_information"
     ]["custom_data"]
-    assert custom[bags.INCOMPLETE_KEY] == reason and custom[bags.CONDITION_KEY] == "unloaded"
+    assert custom[INCOMPLETE_KEY] == reason and custom[CONDITION_KEY] == "unloaded"
     for where in (tmp_path / "cut", w.files[0].path):  # the directory, the lone file
         info = bags.bag_info(where)
         assert info.incomplete == reason and info.tags == bags.BagTags("unloaded", 0.0)

@@ -19,6 +19,7 @@ from trajectories import write_small  # noqa: E402
 
 from orthoglide_ident import bags  # noqa: E402
 from orthoglide_ident._install_ament import ROOT  # noqa: E402
+from orthoglide_ident.bags.tags import CONDITION_KEY, FRAME_KEY, INCOMPLETE_KEY, MASS_KEY
 from orthoglide_ident.excite import run as plan  # noqa: E402
 from orthoglide_sim.demos.graph import Graph  # noqa: E402
 
@@ -67,8 +68,8 @@ def test_a_run_that_succeeds_leaves_a_complete_bag(graph):
     assert out.returncode == 0, out.stderr
     assert "moving to the start pose" in out.stderr and "loaded run complete" in out.stderr
     custom = _tags(graph.tmp / "bags" / "ok")
-    assert custom[bags.CONDITION_KEY] == "loaded" and custom[bags.MASS_KEY] == "2"
-    assert custom[bags.FRAME_KEY] == "tool0" and bags.INCOMPLETE_KEY not in custom
+    assert custom[CONDITION_KEY] == "loaded" and custom[MASS_KEY] == "2"
+    assert custom[FRAME_KEY] == "tool0" and INCOMPLETE_KEY not in custom
     data = bags.read_bag(graph.tmp / "bags" / "ok")
     assert data.tags.condition == "loaded"
 
@@ -80,7 +81,7 @@ def test_a_tolerance_violation_aborts_and_tags_the_bag_incomplete(graph):
     )
     assert out.returncode == 1, out.stderr
     assert "PATH_TOLERANCE_VIOLATED" in out.stderr and "Traceback" not in out.stderr
-    reason = _tags(graph.tmp / "bags" / "bad")[bags.INCOMPLETE_KEY]
+    reason = _tags(graph.tmp / "bags" / "bad")[INCOMPLETE_KEY]
     assert (
         reason.startswith("unloaded run aborted: PATH_TOLERANCE_VIOLATED")
         and "violated its path tolerance" in reason
@@ -150,7 +151,7 @@ def test_the_excitation_node_runs_and_cancels_as_a_service(graph):
         name="by_service",
     )
     assert res.success, res.message
-    assert res.bag_path.endswith("by_service") and bags.INCOMPLETE_KEY not in _tags(res.bag_path)
+    assert res.bag_path.endswith("by_service") and INCOMPLETE_KEY not in _tags(res.bag_path)
     bad = graph.call(
         RunExcitation,
         "orthoglide/excitation/run",
@@ -176,4 +177,4 @@ def test_the_excitation_node_runs_and_cancels_as_a_service(graph):
     assert graph.call(Trigger, "orthoglide/excitation/cancel").success
     t.join(timeout=120)
     assert answers and not answers[0].success and "cancel requested" in answers[0].message
-    assert _tags(bag)[bags.INCOMPLETE_KEY].startswith("loaded run interrupted: cancel requested")
+    assert _tags(bag)[INCOMPLETE_KEY].startswith("loaded run interrupted: cancel requested")

@@ -51,9 +51,10 @@ def plant(tmp_path_factory):
                                                      ("loaded", PAYLOAD, "exciting2"))):
         rec = simulate_coupled(SECONDS, payload=payload, trajectory=trajectory, seed=i, truth=truth)
         stamps = rec.stamps_ns + START_NS + i * 100 * 10**9
-        js = bags.encode_joint_states(truth.arm.joint_names, stamps, rec.q_joint)
-        djs = bags.encode_dynamic_joint_states(MOTORS, [["position", "current"]] * 6, stamps,
-                                               {"position": rec.q_motor, "current": rec.v_tau})
+        js = bags.encoding.encode_joint_states(truth.arm.joint_names, stamps, rec.q_joint)
+        djs = bags.encoding.encode_dynamic_joint_states(
+            MOTORS, [["position", "current"]] * 6, stamps,
+            {"position": rec.q_motor, "current": rec.v_tau})
         runs[name] = (rec.payload_mass, [(a.tobytes(), b.tobytes()) for a, b in zip(js, djs)])
     return path, truth, runs
 

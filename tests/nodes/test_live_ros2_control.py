@@ -211,11 +211,9 @@ def test_a_recording_without_a_current_is_left_out_with_the_reason(node, short_r
         feed.turn()  # the worker applies it (here: when the test says)
         names = rec.layout.names
         for stamp, _, _ in rec.messages[:300]:  # positions only: no effort, no other topic
-            feed.buffers["q"].append(
-                bags.encode_joint_states(names, np.array([stamp]), np.zeros((1, len(names))))[
-                    0
-                ].tobytes()
-            )
+            msg = bags.encoding.encode_joint_states(names, np.array([stamp]),
+                                                    np.zeros((1, len(names))))[0]
+            feed.buffers["q"].append(msg.tobytes())
         feed.turn()
         assert feed.bag == "run-1" and not feed.warnings  # waiting for a current a moment
         feed.waiting_since = time.monotonic() - 2.0

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from orthoglide_ident import bags
+from orthoglide_ident.bags.encoding import encode_dynamic_joint_states, encode_joint_states
 from orthoglide_ident.errors import DataError
 from orthoglide_ident.nodes.live_sources import (
     DYNAMIC,
@@ -28,7 +28,7 @@ RESOLVED = {
 def _js(effort: bool = True, names=HW) -> bytes:
     n = len(names)
     e = np.array([[0.1, np.nan, 0.3]])[:, :n] if effort else None
-    return bags.encode_joint_states(
+    return encode_joint_states(
         names, np.array([10**9]), np.zeros((1, n)), np.zeros((1, n)), e
     )[0].tobytes()
 
@@ -36,7 +36,7 @@ def _js(effort: bool = True, names=HW) -> bytes:
 def _djs(gripper_current: bool = False, arm=("position", "velocity", "current")) -> bytes:
     ifaces = [arm, ("position", "velocity", "current") if gripper_current else ("position",), arm]
     vals = {i: np.ones((1, 3)) for i in ("position", "velocity", "current", "torque")}
-    return bags.encode_dynamic_joint_states(HW, ifaces, np.array([10**9]), vals)[0].tobytes()
+    return encode_dynamic_joint_states(HW, ifaces, np.array([10**9]), vals)[0].tobytes()
 
 
 JOINT_STATES_TOPICS = LiveTopics("joint_states")

@@ -23,6 +23,14 @@ from conftest import stop_processes
 
 from orthoglide_ident import bags
 from orthoglide_ident.bags import Recording
+from orthoglide_ident.bags.encoding import encode_messages
+from orthoglide_ident.bags.info import find_gaps
+from orthoglide_ident.bags.topics import (
+    CURRENT_REFERENCE_TOPIC,
+    JOINT_STATE_TYPE,
+    JOINT_STATES_TOPIC,
+    default_qos,
+)
 from orthoglide_ident.ros import processes as children  # children end with this process
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -70,18 +78,18 @@ def test_disk_full_ends_recording_and_keeps_data(
         tmp_path / "full", bags.BagTags("unloaded", 0.0), chunk_duration_s=0.1
     ).open()
     log = _Log()
-    rec = Recording(writer, {bags.JOINT_STATES_TOPIC}, 1000.0, log)
-    rec.add_topic(bags.JOINT_STATES_TOPIC, bags.JOINT_STATE_TYPE, bags.default_qos())
+    rec = Recording(writer, {JOINT_STATES_TOPIC}, 1000.0, log)
+    rec.add_topic(JOINT_STATES_TOPIC, JOINT_STATE_TYPE, default_qos())
     stamps = 10**18 + np.arange(2000, dtype=np.int64) * 1_000_000
-    msgs = bags.encode_messages(
-        bags.JOINT_STATE_TYPE, ("q11", "q12", "q13"), stamps, np.zeros((2000, 3))
+    msgs = encode_messages(
+        JOINT_STATE_TYPE, ("q11", "q12", "q13"), stamps, np.zeros((2000, 3))
     )
     for i in range(1000):
         rec.queue.append(
-            (bags.JOINT_STATES_TOPIC, msgs[i].tobytes(), int(stamps[i]), int(stamps[i]))
+            (JOINT_STATES_TOPIC, msgs[i].tobytes(), int(stamps[i]), int(stamps[i]))
         )
     deadline = time.monotonic() + 60
-    while rec.queue or writer.counts.get(bags.JOINT_STATES_TOPIC, 0) < 1000:  # all 1000 written
+    while rec.queue or writer.counts.get(JOINT_STATES_TOPIC, 0) < 1000:  # all 1000 written
         assert time.monotonic() < deadline, "the writer thread did not write 1000 messages in 60 s"
         time.sleep(0.01)
     f = writer._file
@@ -93,7 +101,7 @@ def test_disk_full_ends_recording_and_keeps_data(
     monkeypatch.setattr(f, "_out", full)
     for i in range(1000, 2000):
         rec.queue.append(
-            (bags.JOINT_STATES_TOPIC, msgs[i].tobytes(), int(stamps[i]), int(stamps[i]))
+            (JOINT_STATES_TOPIC, msgs[i].tobytes(), int(stamps[i]), int(stamps[i]))
         )
     message = rec.stop()
     assert "write error" in message and "No space left" in message and "kept" in message
@@ -253,7 +261,7 @@ def test_misuse_record_split_and_read_back(client, spawn_recorder, ros_env, tmp_
     data = bags.read_bag(bag)
     assert data.tags == bags.BagTags("loaded", 1.136) and data.warnings == []
     assert len(data.joint_states.stamps_ns) == n == len(data.current_reference.stamps_ns)
-    assert bags.find_gaps(data.joint_states.stamps_ns).missing == 0
+    assert find_gaps(data.joint_states.stamps_ns).missing == 0
     np.testing.assert_array_equal(data.joint_states.stamps_ns, data.current_reference.stamps_ns)
 
     channels = []
@@ -279,7 +287,7 @@ def test_signal_closes_bag(client, spawn_recorder, ros_env, sig: signal.Signals)
     assert proc.wait(15) == 0
     info = bags.bag_info(res.bag_path)
     assert info.closed and info.tags == bags.BagTags("unloaded", 0.0)
-    assert {t.topic: t.count for t in info.topics}[bags.JOINT_STATES_TOPIC] == n
+    assert {t.topic: t.count for t in info.topics}[JOINT_STATES_TOPIC] == n
 
 
 def test_sigkill_leaves_readable_bag(client, spawn_recorder, ros_env) -> None:
@@ -319,7 +327,7 @@ def test_sigkill_leaves_readable_bag(client, spawn_recorder, ros_env) -> None:
     )
     n = len(data.joint_states.stamps_ns)
     assert n >= 1000  # ~2 s recorded, at most one 0.5 s chunk lost
-    assert bags.find_gaps(data.joint_states.stamps_ns).missing == 0
+    assert find_gaps(data.joint_states.stamps_ns).missing == 0
     info = bags.bag_info(res.bag_path)
     assert not info.closed and "NOT CLOSED" in info.to_text()
 
@@ -368,7 +376,7 @@ def driver_bag(client, tmp_path_factory, request):
         qos = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=10000,
                          reliability=ReliabilityPolicy.RELIABLE)
         sub = node.create_subscription(
-            JointState, bags.JOINT_STATES_TOPIC,
+            JointState, JOINT_STATES_TOPIC,
             lambda m: heard.append(m.header.stamp.sec * 10**9 + m.header.stamp.nanosec), qos)
 
         def spin() -> None:
@@ -436,12 +444,12 @@ def test_record_from_driver_loses_nothing(driver_bag) -> None:
     # then starts both topics on the first tick both delivered (bags.recording.TickAligner).
     data = bags.read_bag(bag)
     assert data.tags == bags.BagTags("unloaded", 0.0) and data.warnings == []
-    stamps = {bags.JOINT_STATES_TOPIC: data.joint_states.stamps_ns,
-              bags.CURRENT_REFERENCE_TOPIC: data.current_reference.stamps_ns}
+    stamps = {JOINT_STATES_TOPIC: data.joint_states.stamps_ns,
+              CURRENT_REFERENCE_TOPIC: data.current_reference.stamps_ns}
     for topic, st in stamps.items():
         assert st[-1] == last, f"the driver's last ticks are not in the bag ({topic})"
         assert (st[0] - first) % 1_000_000 == 0 and st[0] > first  # started mid-stream
-        assert np.all(np.diff(st) == 1_000_000) and bags.find_gaps(st).missing == 0, topic
+        assert np.all(np.diff(st) == 1_000_000) and find_gaps(st).missing == 0, topic
         np.testing.assert_array_equal(st, heard[heard >= st[0]])
     js_all, cr_all = stamps.values()
     np.testing.assert_array_equal(js_all, cr_all)  # the same ticks on both topics, first to last
@@ -462,19 +470,19 @@ def test_record_from_driver_loses_nothing(driver_bag) -> None:
     # rosbags: deserialises every message to the same stamps and values
     from rosbags.highlevel import AnyReader
 
-    got: dict[str, list] = {bags.JOINT_STATES_TOPIC: [], bags.CURRENT_REFERENCE_TOPIC: []}
+    got: dict[str, list] = {JOINT_STATES_TOPIC: [], CURRENT_REFERENCE_TOPIC: []}
     with AnyReader([bag]) as reader:
         assert {c.topic for c in reader.connections} >= set(got)
         for conn, _, raw in reader.messages(
             connections=[c for c in reader.connections if c.topic in got]
         ):
             msg = reader.deserialize(raw, conn.msgtype)
-            vals = msg.position if conn.topic == bags.JOINT_STATES_TOPIC else msg.current
+            vals = msg.position if conn.topic == JOINT_STATES_TOPIC else msg.current
             got[conn.topic].append(
                 (msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec, np.array(vals)))
     for topic, values in (
-        (bags.JOINT_STATES_TOPIC, q_all),
-        (bags.CURRENT_REFERENCE_TOPIC, cur_all),
+        (JOINT_STATES_TOPIC, q_all),
+        (CURRENT_REFERENCE_TOPIC, cur_all),
     ):
         np.testing.assert_array_equal(
             np.array([s for s, _ in got[topic]], dtype=np.int64), stamps[topic]
@@ -507,13 +515,13 @@ def test_info_cli_on_driver_bag(driver_bag) -> None:
     cmd = [str(exe)] if exe.exists() else [sys.executable, "-m", "orthoglide_ident.cli"]
     bag = driver_bag[0]
     data = bags.read_bag(bag)
-    counts = {bags.JOINT_STATES_TOPIC: len(data.joint_states.stamps_ns),
-              bags.CURRENT_REFERENCE_TOPIC: len(data.current_reference.stamps_ns)}
+    counts = {JOINT_STATES_TOPIC: len(data.joint_states.stamps_ns),
+              CURRENT_REFERENCE_TOPIC: len(data.current_reference.stamps_ns)}
     out = children.run([*cmd, "info", str(bag)], capture_output=True, text=True, timeout=60)
     assert out.returncode == 0, out.stderr
     text = out.stdout
     assert "unloaded, payload 0 kg" in text and "NOT CLOSED" not in text and "closed" in text
-    for topic in (bags.JOINT_STATES_TOPIC, bags.CURRENT_REFERENCE_TOPIC):
+    for topic in (JOINT_STATES_TOPIC, CURRENT_REFERENCE_TOPIC):
         line = next(ln for ln in text.splitlines() if ln.strip().startswith(topic))
         assert f" {counts[topic]} msgs" in line and "1000.0 Hz" in line, line
     assert text.count("no missing ticks (period 1.000 ms)") == 2

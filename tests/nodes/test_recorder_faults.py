@@ -22,15 +22,16 @@ import rclpy
 from test_recorder import _publish, _sent, client, spawn_recorder  # noqa: E402,F401  (fixtures)
 
 from orthoglide_ident import bags
+from orthoglide_ident.bags.info import find_gaps
 
-JS = bags.JOINT_STATES_TOPIC
+JS = bags.topics.JOINT_STATES_TOPIC
 
 
 def _stamps(bag) -> np.ndarray:
     data = bags.read_bag(bag)
     js, cr = data.joint_states.stamps_ns, data.current_reference.stamps_ns
     np.testing.assert_array_equal(js, cr)  # the same ticks on both topics
-    assert bags.find_gaps(js).missing == 0  # none missing in between
+    assert find_gaps(js).missing == 0  # none missing in between
     return js
 
 
@@ -274,7 +275,7 @@ def test_a_file_size_limit_ends_the_recording_with_the_reason(
     data = bags.read_bag(res.bag_path)
     assert len(data.warnings) == 1 and "not closed" in data.warnings[0]
     assert len(data.joint_states.stamps_ns) > 100
-    assert bags.find_gaps(data.joint_states.stamps_ns).missing == 0
+    assert find_gaps(data.joint_states.stamps_ns).missing == 0
     assert sum(f.stat().st_size for f in Path(res.bag_path).glob("*.mcap")) <= limit
     resource.prlimit(proc.pid, resource.RLIMIT_FSIZE, (soft, hard))  # space again: recording works
     assert client.start("unloaded", 0.0, "after").success
@@ -312,7 +313,7 @@ def test_kill_9_and_a_restart_reindex_the_bag_left_open(client, spawn_recorder, 
     after = bags.read_bag(res.bag_path)
     assert after.warnings == []
     np.testing.assert_array_equal(after.joint_states.stamps_ns, before.joint_states.stamps_ns)
-    assert bags.find_gaps(after.joint_states.stamps_ns).missing == 0
+    assert find_gaps(after.joint_states.stamps_ns).missing == 0
     from rosbags.highlevel import AnyReader
 
     with AnyReader([Path(res.bag_path)]) as reader:  # metadata.yaml rebuilt: rosbags counts them

@@ -192,7 +192,8 @@ def test_the_robot_file_s_signal_sides_go_into_the_tag(tmp_path):
     sides = robot_sides(str(path))
     assert sides == {"position_side": "joint", "effort_side": "actuator"}
     tag = bags.BagTags.checked("unloaded", 0.0, **sides).to_dict()
-    assert tag[bags.POSITION_SIDE_KEY] == "joint" and tag[bags.EFFORT_SIDE_KEY] == "actuator"
+    assert tag[bags.tags.POSITION_SIDE_KEY] == "joint"
+    assert tag[bags.tags.EFFORT_SIDE_KEY] == "actuator"
     plain = tmp_path / "ur5.urdf"
     plain.write_text(urdf)
     assert robot_sides(str(plain)) == {} and robot_sides("") == {}

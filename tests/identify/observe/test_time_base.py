@@ -297,21 +297,21 @@ def _bag_with_velocity(path, with_velocity: bool):
 
     store = bags._types.typestore()
     T, H = store.types["builtin_interfaces/msg/Time"], store.types["std_msgs/msg/Header"]
-    JS = store.types[bags.JOINT_STATE_TYPE]
-    CR = store.types[bags.CURRENT_REFERENCE_TYPE]
+    JS = store.types[bags.topics.JOINT_STATE_TYPE]
+    CR = store.types[bags.topics.CURRENT_REFERENCE_TYPE]
     st = 10**18 + stamps_of(np.tile([10, 12], 50) * 1_000_000)
     q, qd, _ = multisine((st - st[0]) * 1e-9)
     names = ["q11", "q12", "q13"]
     w = bags.BagWriter(path, bags.BagTags("unloaded", 0.0)).open()
-    a = w.add_topic(bags.JOINT_STATES_TOPIC, bags.JOINT_STATE_TYPE)
-    b = w.add_topic(bags.CURRENT_REFERENCE_TOPIC, bags.CURRENT_REFERENCE_TYPE)
+    a = w.add_topic(bags.topics.JOINT_STATES_TOPIC, bags.topics.JOINT_STATE_TYPE)
+    b = w.add_topic(bags.topics.CURRENT_REFERENCE_TOPIC, bags.topics.CURRENT_REFERENCE_TYPE)
     for i, t in enumerate(st.tolist()):
         hdr = H(stamp=T(sec=t // 10**9, nanosec=t % 10**9), frame_id="")
         js = JS(header=hdr, name=names, position=np.repeat(q[i], 3),
                 velocity=np.repeat(qd[i], 3) if with_velocity else np.zeros(0), effort=np.zeros(0))
-        w.write(a, bytes(store.serialize_cdr(js, bags.JOINT_STATE_TYPE)), t)
+        w.write(a, bytes(store.serialize_cdr(js, bags.topics.JOINT_STATE_TYPE)), t)
         cr = CR(header=hdr, name=names, current=np.zeros(3))
-        w.write(b, bytes(store.serialize_cdr(cr, bags.CURRENT_REFERENCE_TYPE)), t)
+        w.write(b, bytes(store.serialize_cdr(cr, bags.topics.CURRENT_REFERENCE_TYPE)), t)
     w.close()
     return np.repeat(qd, 3, axis=1)
 

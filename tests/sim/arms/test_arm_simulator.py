@@ -107,17 +107,17 @@ def test_non_finite_state_is_a_workspace_error(truth, tmp_path, monkeypatch):
     plant = MujocoPlant(truth)
     limits = motion_limits(truth.arm)
     q = np.tile(limits.centre, (3, 1))
-    pid = asim.ArmPID.tuned(np.ones(6), truth.arm.nominal_gains, np.full(6, np.inf), q[0],
+    pid = asim.arm_pid(np.ones(6), truth.arm.nominal_gains, np.full(6, np.inf), q[0],
                             np.zeros(6), np.zeros(6))
     plant.reset(q[0], np.zeros(6))
     noise = np.full((3, 6), np.nan)
     with pytest.raises(WorkspaceError, match="not finite"):
-        asim.run_closed_loop(plant, pid, q, np.zeros((3, 6)), noise, limits)
+        asim.run_arm(plant, pid, q, np.zeros((3, 6)), noise, limits)
     assert not list(tmp_path.iterdir())
 
 
 def test_current_limit_clips_the_reference(truth):
-    pid = asim.ArmPID.tuned(np.ones(6), truth.arm.nominal_gains, np.full(6, 2.0), np.zeros(6),
+    pid = asim.arm_pid(np.ones(6), truth.arm.nominal_gains, np.full(6, 2.0), np.zeros(6),
                             np.zeros(6), np.zeros(6))
     v = pid.current(np.zeros(6), np.array([1.0, -1.0, 1e-6, 0, 0, 0]), np.zeros(6))
     assert v[0] == 2.0 and v[1] == -2.0 and 0 < v[2] < 2.0

@@ -39,8 +39,8 @@ def test_one_update_two_messages_one_stamp():
     tick, stamp = _tick(), 1_796_000_000_123_000_000
     js, djs = lay.encode(stamp, tick)
     store = typestore()
-    m = store.deserialize_cdr(js, bags.JOINT_STATE_TYPE)
-    d = store.deserialize_cdr(djs, bags.DYNAMIC_JOINT_STATE_TYPE)
+    m = store.deserialize_cdr(js, bags.topics.JOINT_STATE_TYPE)
+    d = store.deserialize_cdr(djs, bags.topics.DYNAMIC_JOINT_STATE_TYPE)
     for msg in (m, d):
         assert msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec == stamp
         assert msg.header.frame_id == ""
@@ -71,8 +71,8 @@ def test_per_update_bytes_equal_the_bulk_encoders():
 
     st = np.array([stamp])
     p, v, c = slots(tick.position, 0.0), slots(tick.velocity, 0.0), slots(tick.current, np.nan)
-    assert js == bags.encode_joint_states(lay.names, st, p, v, c)[0].tobytes()
-    assert djs == bags.encode_dynamic_joint_states(lay.names, lay.interfaces, st, {
+    assert js == bags.encoding.encode_joint_states(lay.names, st, p, v, c)[0].tobytes()
+    assert djs == bags.encoding.encode_dynamic_joint_states(lay.names, lay.interfaces, st, {
         "position": p, "velocity": v, "current": c})[0].tobytes()
 
 

@@ -21,6 +21,16 @@ from orthoglide_sim.orthoglide.session import DriverSession
 sys.path.insert(0, str(Path(__file__).resolve().parents[3] / "bench"))
 
 
+def _start_driver(children, ros_env, **params):
+    """The driver node as a child process, ``-p name:=value`` for each keyword in order; its
+    output on stdout."""
+    args = [sys.executable, "-m", "orthoglide_sim.nodes.driver", "--ros-args"]
+    for name, value in params.items():
+        args += ["-p", f"{name}:={value}"]
+    return children.popen(args, env=ros_env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+                          text=True)
+
+
 def test_driver_help_does_not_start_ros(capsys):
     from orthoglide_sim.nodes.driver import main
 
@@ -207,30 +217,8 @@ def test_driver_node_first_tick_stamps_and_setpoints(ros_env):
         10,
     )
     t0 = time.monotonic()
-    proc = children.popen(
-        [
-            sys.executable,
-            "-m",
-            "orthoglide_sim.nodes.driver",
-            "--ros-args",
-            "-p",
-            "realtime:=false",
-            "-p",
-            "duration:=3.0",
-            "-p",
-            "trajectory:=test1",
-            "-p",
-            "controller:=pid",
-            "-p",
-            "payload:=1.983",
-            "-p",
-            "setpoint_lead:=20",
-        ],
-        env=ros_env,
-        stdout=subprocess.PIPE,
-        stderr=subprocess.STDOUT,
-        text=True,
-    )
+    proc = _start_driver(children, ros_env, realtime="false", duration="3.0", trajectory="test1",
+                         controller="pid", payload="1.983", setpoint_lead="20")
     try:
         t_end = time.monotonic() + 120
         while proc.poll() is None and time.monotonic() < t_end:
@@ -280,26 +268,8 @@ def test_external_mode_lockstep_applies_each_command_at_its_tick(ros_env):
     ex = SingleThreadedExecutor()
     ex.add_node(node)
     threading.Thread(target=ex.spin, daemon=True).start()
-    proc = children.popen(
-        [
-            sys.executable,
-            "-m",
-            "orthoglide_sim.nodes.driver",
-            "--ros-args",
-            "-p",
-            "realtime:=false",
-            "-p",
-            "duration:=1.5",
-            "-p",
-            "controller:=external",
-            "-p",
-            "trajectory:=test1",
-        ],
-        env=ros_env,
-        stdout=subprocess.PIPE,
-        stderr=subprocess.STDOUT,
-        text=True,
-    )
+    proc = _start_driver(children, ros_env, realtime="false", duration="1.5",
+                         controller="external", trajectory="test1")
     try:
         out = proc.communicate(timeout=120)[0]
         time.sleep(0.3)
@@ -402,24 +372,7 @@ def test_real_time_fault_then_reset_then_on_again(ros_env):
                     if st.hardware_id == "orthoglide_sim") if v["fault"]), 10)
     pub = node.create_publisher(CurrentReference, "/orthoglide/feedforward", qos)
     reset = node.create_client(Trigger, "/orthoglide_driver/reset")
-    proc = children.popen(
-        [
-            sys.executable,
-            "-m",
-            "orthoglide_sim.nodes.driver",
-            "--ros-args",
-            "-p",
-            "controller:=ctc",
-            "-p",
-            "trajectory:=test1",
-            "-p",
-            "rt_priority:=0",
-        ],
-        env=ros_env,
-        stdout=subprocess.PIPE,
-        stderr=subprocess.STDOUT,
-        text=True,
-    )
+    proc = _start_driver(children, ros_env, controller="ctc", trajectory="test1", rt_priority="0")
 
     def spin_until(ready, timeout=60.0):
         t_end = time.monotonic() + timeout
