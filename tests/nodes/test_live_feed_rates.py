@@ -70,12 +70,12 @@ def _status(bag: str, rec, recording: bool):
     return m
 
 
-def _live(node, recs: dict, dynamic: bool = False):
+def _live(node, recs: dict, dynamic: bool = False, options: IdentifyOptions = OPTIONS):
     from orthoglide_ident.nodes.live_feed import LiveFeed
     from orthoglide_ident.nodes.live_sources import LiveTopics
 
     model = load_robot(ROBOT)
-    live = LiveIdentification(OPTIONS, model=model)
+    live = LiveIdentification(options, model=model)
     topics = LiveTopics("joint_states", "", "dynamic_joint_states" if dynamic else "")
     feed = LiveFeed(node, live, threading.Lock(), topics, robot=model, worker=False)
     try:
@@ -132,3 +132,22 @@ def test_dynamic_joint_states_at_93hz(node, records, tmp_path):
         "interface 'current' (DynamicJointState)"}
     dg, dp = max_rel_diff(_live(node, recs, dynamic=True).result(), offline)
     assert dg < 1e-9 and dp < 1e-9, (dg, dp)
+
+
+@pytest.mark.parametrize("dynamic", [False, True])
+def test_untagged_93hz_read_as_offline_auto_reads_it(node, records, tmp_path, dynamic):
+    """current_sampling: auto on both sides (no pin): the ~93 Hz log of the 1 kHz stand-in
+    (each kept current the loop's own at that tick) is read by live at stop as `identify`
+    reads the bags (its held and sampled readings, the better residual kept): the same answer
+    to 1e-9 and the same line saying which reading. Before, live read it held only."""
+    auto = OPTIONS.replace(current_sampling="auto")
+    recs = {n: _at_rate(r, "uneven_93Hz", i, dynamic=dynamic)
+            for i, (n, r) in enumerate(records.items())}
+    bags = [str(write_record_bag(tmp_path / n, r, dynamic=dynamic)) for n, r in recs.items()]
+    offline = identify(bags, model=load_robot(ROBOT), options=auto)
+    res = _live(node, recs, dynamic=dynamic, options=auto).result()
+    dg, dp = max_rel_diff(res, offline)
+    assert dg < 1e-9 and dp < 1e-9, (dg, dp)
+    line = next(w for w in offline.warnings if w.startswith("current_sampling: auto on"))
+    assert line.replace(str(tmp_path) + "/", "") in [w.replace(str(tmp_path) + "/", "")
+                                                    for w in res.warnings]
