@@ -151,3 +151,44 @@ def test_untagged_93hz_read_as_offline_auto_reads_it(node, records, tmp_path, dy
     line = next(w for w in offline.warnings if w.startswith("current_sampling: auto on"))
     assert line.replace(str(tmp_path) + "/", "") in [w.replace(str(tmp_path) + "/", "")
                                                     for w in res.warnings]
+
+
+def test_the_last_ticks_of_an_intake_behind_still_reach_the_recording(node, records, monkeypatch,
+                                                                       tmp_path):
+    """An intake 1.5 s behind when the recorder stops (beside a CPU hog): the recording waits
+    for its last ticks and equals the bag. Before, it ended 1 s after the stop without them,
+    silently (live != bags by ~1e-4 over the graph)."""
+    from orthoglide_ident.nodes import live_feed
+    from orthoglide_ident.nodes.live_feed import LiveFeed
+    from orthoglide_ident.nodes.live_sources import LiveTopics
+
+    now = [1000.0]
+    monkeypatch.setattr(live_feed.time, "monotonic", lambda: now[0])  # the test's clock
+    recs = {n: _at_rate(r, "1kHz", i) for i, (n, r) in enumerate(records.items())}
+    bags = [str(write_record_bag(tmp_path / n, r, dynamic=False)) for n, r in recs.items()]
+    offline = identify(bags, model=load_robot(ROBOT), options=OPTIONS)
+    model = load_robot(ROBOT)
+    live = LiveIdentification(OPTIONS, model=model)
+    feed = LiveFeed(node, live, threading.Lock(), LiveTopics("joint_states", "", ""),
+                    robot=model, worker=False)
+    behind = 1500  # ticks (1.5 s) not yet taken by the intake when the stop arrives
+    try:
+        for name, rec in recs.items():
+            feed.on_status(_status(name, rec, True))
+            feed.turn()
+            msgs = [js for _, js, _ in rec.messages]
+            for k in range(0, len(msgs) - behind, FEED):
+                feed.buffers["q"].extend(msgs[k:min(k + FEED, len(msgs) - behind)])
+                feed.turn()
+            feed.on_status(_status(name, rec, False))
+            feed.turn()
+            now[0] += 1.5  # the intake is still behind 1.5 s after the stop
+            feed.turn()
+            assert feed.bag == name, "ended before its last ticks arrived"
+            feed.buffers["q"].extend(msgs[len(msgs) - behind:])
+            feed.turn()
+            assert feed.bag is None
+    finally:
+        feed.close()
+    dg, dp = max_rel_diff(live.result(), offline)
+    assert dg < 1e-9 and dp < 1e-9, (dg, dp)
