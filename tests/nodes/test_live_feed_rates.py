@@ -23,9 +23,8 @@ pytest.importorskip("control_msgs.msg")
 from ros2_control_records import ROBOT, standin_records, write_record_bag  # noqa: E402
 
 # the node's options (config/identification.yaml); 12 s at ~93 Hz do not determine a UR5's
-# gains: the checks would refuse both answers, and equality, not accuracy, is the point here
 # gains: the checks would refuse both answers, and equality, not accuracy, is the point here;
-# an untagged slow log read held alike (live reads it held; offline auto also tries sampled)
+# an untagged slow log read held on both here (auto on both: test_untagged_93hz_read_as_...)
 OPTIONS = IdentifyOptions.from_yaml("config/identification.yaml").replace(
     check_excitation=False, partial_answers=False, current_sampling="held")
 LOST = (200, 201, 650)  # samples of the subsampled record the logger lost

@@ -18,7 +18,10 @@ runs through a :class:`~stream.SegmentStream` about every ``live_block_s`` of da
 filtering, W, reversal bridging and FIR decimation as ``observe.observe``, exact across blocks.
 The decimated equations are folded into per-condition, per-joint R factors (factors.py), so
 memory and CPU per second of data stay constant; ``result()`` solves them with the offline
-solver (solve.py). Non-finite samples are dropped and split the record (offline
+solver (solve.py); the raw samples of the recording under way are kept until its stop only,
+where offline's record checks run on them (validate/records.py: a recording refused there is
+left out and result() answers with the reason until the next recording starts). Non-finite
+samples are dropped and split the record (offline
 ``nonfinite: drop``); nothing here raises on bad or insufficient data: warnings and ``status``
 say what is wrong. Never imports rclpy.
 
