@@ -76,7 +76,7 @@ def test_a_93hz_arm_through_the_recorder_and_the_identification(tmp_path):
     recs = {n: _at_93hz(r, i) for i, (n, r) in enumerate(
         standin_records(seconds=12.0, drop_rate=0.0).items())}
     # 12 s at ~93 Hz do not determine a UR5's gains: the checks are off on both sides; the
-    # untagged slow log read held on both (live reads it held; offline auto also tries sampled)
+    # untagged slow log read held on both (auto on both: tests/nodes/test_live_feed_rates.py)
     checks = {"check_excitation": False, "partial_answers": False, "current_sampling": "held"}
     config = ROOT / "config"
     with Graph(tmp_path / "logs") as g:

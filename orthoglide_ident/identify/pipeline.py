@@ -39,33 +39,29 @@ from orthoglide_ident.identify.observe.sampling import (
     SLOW_STEP_S,
     best_reading,
     lag_says_sampled,
-    loop_half_ticks,
 )
 from orthoglide_ident.identify.options import IdentifyOptions
 from orthoglide_ident.identify.records.record import Record, read_record, record_payload
-from orthoglide_ident.identify.records.robot_checks import (
-    check_positions,
-    motion_warnings,
-    robot_of,
-)
+from orthoglide_ident.identify.records.robot_checks import robot_of
 from orthoglide_ident.identify.solve.answer import Solved, min_rows
 from orthoglide_ident.identify.solve.factors import RecordFactors
 from orthoglide_ident.identify.solve.methods import DEFAULT_METHOD, get, solve
 from orthoglide_ident.identify.validate.agreement import disagreement
 from orthoglide_ident.identify.validate.cross_validation import ValidationResult, cross_validate
-from orthoglide_ident.identify.validate.joint_side import (
-    LONGER,
-    current_noise,
-    joint_side_rms,
-    misfit,
-    misfit_lines,
+from orthoglide_ident.identify.validate.joint_side import joint_side_rms
+from orthoglide_ident.identify.validate.records import (
+    check_record,
+    fingerprint,
+    misfit_warnings,
+    noise_by_joint,
+    other_readings,
 )
 from orthoglide_ident.model.robot import Payload
 from orthoglide_ident.results import IdentificationResult
 
 log = logging.getLogger("orthoglide_ident.identify")
 
-__all__ = ["Record", "identify", "identify_records", "observe", "read_record",
+__all__ = ["Record", "fingerprint", "identify", "identify_records", "observe", "read_record",
            "resolve_payload"]
 
 
@@ -120,84 +116,34 @@ def _observe_all(records: Iterable[Record], model: IdentificationModel, opts: Id
     seen: dict[str, tuple[str, int]] = {}  # fingerprint -> source, first stamp
     partial = [] if partial is None else partial
     for rec in records:
-        key = fingerprint(rec)
-        if key in seen:  # the same data twice would count its equations twice (σ too small)
-            warnings.append(_copy_line(rec, *seen[key]))
-            log.info("%s", warnings[-1])
+        new, lines = check_record(rec, model, seen)  # positions beyond the limits: refused
+        if not new:  # a copy: counted once
+            warnings.extend(lines)
+            log.info("%s", lines[-1])
             continue
-        seen[key] = (rec.source, _first_stamp(rec))
         m = resolve_payload(rec, payload_mass, opts.payload_tolerance_kg)
         p = record_payload(rec, m, opts.payload_known)
         if p is not None:
             partial.append((rec.source, p))
             check_one_payload(partial)
-        check_positions(rec, model)  # degrees read as radians, another robot: refused
         bag_names.append(rec.source)
-        warnings.extend(rec.warnings + motion_warnings(rec, model))
+        warnings.extend(lines)
         obs, rep, ts = observe(rec, model, opts, m)
         add_timings(ts)
         check_moves(obs, model, opts, "bag")
         blocks.append(obs)
         reports.append(bag_report(rep, rec.source, rec.condition, m, obs.rows_per_joint(),
                                   rec.sources))
-        noise = _noise_by_joint(rec, model)
+        noise = noise_by_joint(rec, model)
         reports[-1]["_current_noise"] = noise  # popped after the solve
         if alts is not None:
-            alts.append(_other_readings(rec, model, opts, m, rep))
+            alts.append(other_readings(rec, model, opts, m, rep))
             for _, _, other in alts[-1] or ():  # the same record read otherwise: the same noise
                 other["_current_noise"] = noise
         del rec  # a lazily read bag's raw samples can go now
     if not blocks:
         raise IdentificationError("no bag given")
     return blocks, reports, warnings, bag_names
-
-
-def _first_stamp(rec: Record) -> int:
-    return int(min(rec.stamps_q_ns[0], rec.stamps_v_ns[0]))
-
-
-def _other_readings(rec: Record, model: IdentificationModel, opts: IdentifyOptions, m: float,
-                    rep) -> list | None:
-    """A slow record's other readings as sampled (half tick s, rows, report) when its reading
-    is open: auto read it held (then sampled at the stamp and at the loop's possible half
-    ticks), or it is sampled with its loop's rate unknown (the half ticks); else None."""
-    if rep.period_s <= SLOW_STEP_S:
-        return None
-    auto_held = rep.current_sampling_why.startswith(AUTO_HELD)
-    if not auto_held and not (rep.current_sampling == "sampled" and opts.current_loop_hz <= 0):
-        return None
-    shifts = loop_half_ticks(rep.period_s, opts.current_loop_hz)
-    shifts = ((0.0,) if auto_held and opts.current_loop_hz <= 0 else ()) + shifts
-    out = []
-    for d in shifts:
-        o, r, _ = observe(rec, model, opts.replace(current_sampling="sampled",
-                                                   current_loop_hz=0.5 / d if d else 0.0), m)
-        out.append((d, o, bag_report(r, rec.source, rec.condition, m, o.rows_per_joint(),
-                                     rec.sources)))
-    return out
-
-
-def fingerprint(rec: Record) -> str:
-    """What identifies a record's data whatever its path and clock: a digest of its positions,
-    currents and stamps counted from its first one (the same bag given twice, a copy of it,
-    the same log exported again with another clock origin) and of its tag (the same data
-    tagged with another payload is not a copy: the payload checks judge it)."""
-    import hashlib
-
-    h = hashlib.sha256(f"{rec.condition} {rec.payload_mass!r} {rec.payload!r}".encode())
-    t0 = _first_stamp(rec)
-    for a in (np.asarray(rec.stamps_q_ns) - t0, rec.q, np.asarray(rec.stamps_v_ns) - t0,
-              rec.v_tau):
-        h.update(np.ascontiguousarray(a).tobytes())
-    return h.hexdigest()
-
-
-def _copy_line(rec: Record, first: str, first_t0: int) -> str:
-    """The warning of a record that holds the same data as ``first`` (counted once)."""
-    shift = (_first_stamp(rec) - first_t0) * 1e-9
-    clock = f"; its clock starts {shift:+.6g} s from that one's" if shift else ""
-    return (f"{rec.source} is the same record as {first} (the same positions and currents at "
-            f"the same steps{clock}): counted once")
 
 
 def check_moves(obs: Observations, model: IdentificationModel, opts: IdentifyOptions,
@@ -303,7 +249,7 @@ def _identify_once(
                                 decimation_cutoff_hz=reports[0]["decimation_cutoff_hz"])
         m, b = _lag_or_paper(m, b, reports, o)
         factors = [RecordFactors.from_observations(x) for x in b]
-        chains.append(disagreement(b, m.nominal_gains, list(m.joint_names)))
+        chains.append(disagreement(factors, m.nominal_gains, list(m.joint_names)))
         try:
             return m, b, o, solve(factors, m, o, method, gains, essential, bag_names)
         except (ExcitationError, IdentificationError) as exc:  # two drive chains: the cause
@@ -410,31 +356,16 @@ def _lag_or_paper(model: IdentificationModel, blocks: list[Observations],
     return observation_model(model, opts.screw_lead_m, False), out
 
 
-def _noise_by_joint(rec: Record, model: IdentificationModel) -> tuple[np.ndarray, float]:
-    """(white-noise σ of the record's current per model joint, A, NaN if absent; log rate)."""
-    sigma, rate = current_noise(rec.v_tau, rec.stamps_v_ns)
-    col = {n: k for k, n in enumerate(rec.names_v)}
-    return np.array([sigma[col[n]] if n in col else np.nan for n in model.joint_names]), rate
-
-
 def _joint_side_residual(result: IdentificationResult, blocks: list[Observations],
                          solved: Solved, model: IdentificationModel,
                          reports: list[dict[str, Any]], opts: IdentifyOptions) -> None:
     """Behind a transmission, the residual per joint, joint-side (Nᵀ ε), into ``result``, and
-    the motors fitted far worse than their current noise said (a reduction typed wrong)."""
+    the motors fitted far worse than their current noise said (validate/records.py)."""
     noises = [r.pop("_current_noise") for r in reports]
     t = getattr(robot_of(model), "transmission", None)
     if t is None or solved.chi.shape[0] != blocks[0].W.shape[2]:
         return
-    noise = np.sqrt(np.nanmean([n ** 2 for n, _ in noises], axis=0))
-    ratio = misfit(result.residual_rms, solved.g_tau, noise, float(np.median(
-        [r for _, r in noises])), opts.decimation_cutoff_hz)
-    lines, advice = misfit_lines(ratio, list(model.joint_names))
-    result.warnings.extend(lines)
-    if advice:  # an undetermined gain's cause is then the drive chain, not the motion
-        for g in result.drive_gains:
-            g.reason = g.reason.replace(LONGER, advice)
-        result.warnings = [w.replace(LONGER, advice) for w in result.warnings]
+    misfit_warnings(result, solved.g_tau, model, noises, opts)
     masses = [next((p.value for p in result.payloads if b.source in p.bags), b.payload_mass)
               if result.method == "wls" else b.payload_mass for b in blocks]
     rms, _ = joint_side_rms(blocks, solved.chi, solved.g_tau, masses, t.N)

@@ -311,7 +311,8 @@ class IdentificationNode(Node):
         if not request.bags and self.live is not None:
             with self.live_lock:
                 est = self.live.estimate()
-                if est.seconds_loaded + est.seconds_unloaded > 0:
+                # a recording refused by the record checks is answered with its reason
+                if est.seconds_loaded + est.seconds_unloaded > 0 or self.live.refused:
                     self.source = (
                         f"the live data ({est.seconds_unloaded:.0f} s unloaded, "
                         f"{est.seconds_loaded:.0f} s "

@@ -60,7 +60,10 @@ FEED_PERIOD_S = 0.1
 ESTIMATE_PERIOD_S = 1.0
 IDLE_BUFFER = 5000  # messages kept per topic while nothing records: the recorder may start first
 BACKLOG_S = 300.0  # s of a recording's messages kept per topic while the worker is busy (at 1 kHz)
-STOP_WAIT_S = 1.0  # after the recorder stopped, wait this long at most for its last ticks here
+# after the recorder stopped, wait this long at most for its last ticks here (a bound for a last
+# tick the source dropped on one topic; the ticks an intake still behind has not taken arrive
+# well within it: 1 s ended a recording beside a CPU hog without them, silently)
+STOP_WAIT_S = 10.0
 # messages DDS holds for this node while it is stalled (5 s at 1 kHz), as the recorder
 STREAM_DEPTH = 5000
 QOS_CHECK_PERIOD_S = 1.0  # how often the publishers' offered reliability is looked at
@@ -321,7 +324,18 @@ class LiveFeed:
         # buffer only means its last messages may still be on their way)
         done = all(self.seen.get(key, 0) >= (self.last or 0) for key in used)
         if self.last is not None and (done or time.monotonic() - self.stopped_at > STOP_WAIT_S):
+            if not done:
+                self._short(used)
             self._finish()
+
+    def _short(self, used: tuple[str, ...]) -> None:
+        """Say which topics' last ticks had not come STOP_WAIT_S after the recorder stopped."""
+        late = [f"{self.TOPICS[k][0]} (" + (f"{(self.last - self.seen[k]) * 1e-6:.0f} ms)"
+                                             if k in self.seen else "all)")
+                for k in used if self.seen.get(k, 0) < self.last]
+        self._say([f"{self.bag}: its last ticks on {', '.join(late)} had not reached live "
+                   f"identification {STOP_WAIT_S:g} s after the recorder stopped: the live data "
+                   "end earlier than its bag (identify the bag for the exact result)"])
 
     def _used(self) -> tuple[str, ...]:
         return ("q",) if self.source == EFFORT else ("q", self.source)

@@ -250,6 +250,15 @@ class Graph:
         )
         return seen[-1]
 
+    def latched(self, msg_type: Any, topic: str, timeout: float = 30.0) -> Any:
+        """The message a latched (transient local) ``topic`` holds now."""
+        seen: list[Any] = []
+        qos = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
+                         durability=DurabilityPolicy.TRANSIENT_LOCAL)
+        self._listen(msg_type, topic, qos, seen.append, lambda: bool(seen), timeout,
+                     lambda: f"nothing latched on {topic} within {timeout:.0f} s")
+        return seen[-1]
+
     def wait_for_match(self, publisher: Any, timeout: float = 30.0) -> None:
         """Until ``publisher`` (of this graph's node) is matched with a subscription: what it
         publishes from then on reaches a subscriber (DDS matching is not instant after

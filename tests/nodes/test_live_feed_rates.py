@@ -23,9 +23,8 @@ pytest.importorskip("control_msgs.msg")
 from ros2_control_records import ROBOT, standin_records, write_record_bag  # noqa: E402
 
 # the node's options (config/identification.yaml); 12 s at ~93 Hz do not determine a UR5's
-# gains: the checks would refuse both answers, and equality, not accuracy, is the point here
 # gains: the checks would refuse both answers, and equality, not accuracy, is the point here;
-# an untagged slow log read held alike (live reads it held; offline auto also tries sampled)
+# an untagged slow log read held on both here (auto on both: test_untagged_93hz_read_as_...)
 OPTIONS = IdentifyOptions.from_yaml("config/identification.yaml").replace(
     check_excitation=False, partial_answers=False, current_sampling="held")
 LOST = (200, 201, 650)  # samples of the subsampled record the logger lost
@@ -70,12 +69,12 @@ def _status(bag: str, rec, recording: bool):
     return m
 
 
-def _live(node, recs: dict, dynamic: bool = False):
+def _live(node, recs: dict, dynamic: bool = False, options: IdentifyOptions = OPTIONS):
     from orthoglide_ident.nodes.live_feed import LiveFeed
     from orthoglide_ident.nodes.live_sources import LiveTopics
 
     model = load_robot(ROBOT)
-    live = LiveIdentification(OPTIONS, model=model)
+    live = LiveIdentification(options, model=model)
     topics = LiveTopics("joint_states", "", "dynamic_joint_states" if dynamic else "")
     feed = LiveFeed(node, live, threading.Lock(), topics, robot=model, worker=False)
     try:
@@ -131,4 +130,64 @@ def test_dynamic_joint_states_at_93hz(node, records, tmp_path):
         "q from /joint_states position (JointState); current from /dynamic_joint_states "
         "interface 'current' (DynamicJointState)"}
     dg, dp = max_rel_diff(_live(node, recs, dynamic=True).result(), offline)
+    assert dg < 1e-9 and dp < 1e-9, (dg, dp)
+
+
+@pytest.mark.parametrize("dynamic", [False, True])
+def test_untagged_93hz_read_as_offline_auto_reads_it(node, records, tmp_path, dynamic):
+    """current_sampling: auto on both sides (no pin): the ~93 Hz log of the 1 kHz stand-in
+    (each kept current the loop's own at that tick) is read by live at stop as `identify`
+    reads the bags (its held and sampled readings, the better residual kept): the same answer
+    to 1e-9 and the same line saying which reading. Before, live read it held only."""
+    auto = OPTIONS.replace(current_sampling="auto")
+    recs = {n: _at_rate(r, "uneven_93Hz", i, dynamic=dynamic)
+            for i, (n, r) in enumerate(records.items())}
+    bags = [str(write_record_bag(tmp_path / n, r, dynamic=dynamic)) for n, r in recs.items()]
+    offline = identify(bags, model=load_robot(ROBOT), options=auto)
+    res = _live(node, recs, dynamic=dynamic, options=auto).result()
+    dg, dp = max_rel_diff(res, offline)
+    assert dg < 1e-9 and dp < 1e-9, (dg, dp)
+    line = next(w for w in offline.warnings if w.startswith("current_sampling: auto on"))
+    assert line.replace(str(tmp_path) + "/", "") in [w.replace(str(tmp_path) + "/", "")
+                                                    for w in res.warnings]
+
+
+def test_the_last_ticks_of_an_intake_behind_still_reach_the_recording(node, records, monkeypatch,
+                                                                       tmp_path):
+    """An intake 1.5 s behind when the recorder stops (beside a CPU hog): the recording waits
+    for its last ticks and equals the bag. Before, it ended 1 s after the stop without them,
+    silently (live != bags by ~1e-4 over the graph)."""
+    from orthoglide_ident.nodes import live_feed
+    from orthoglide_ident.nodes.live_feed import LiveFeed
+    from orthoglide_ident.nodes.live_sources import LiveTopics
+
+    now = [1000.0]
+    monkeypatch.setattr(live_feed.time, "monotonic", lambda: now[0])  # the test's clock
+    recs = {n: _at_rate(r, "1kHz", i) for i, (n, r) in enumerate(records.items())}
+    bags = [str(write_record_bag(tmp_path / n, r, dynamic=False)) for n, r in recs.items()]
+    offline = identify(bags, model=load_robot(ROBOT), options=OPTIONS)
+    model = load_robot(ROBOT)
+    live = LiveIdentification(OPTIONS, model=model)
+    feed = LiveFeed(node, live, threading.Lock(), LiveTopics("joint_states", "", ""),
+                    robot=model, worker=False)
+    behind = 1500  # ticks (1.5 s) not yet taken by the intake when the stop arrives
+    try:
+        for name, rec in recs.items():
+            feed.on_status(_status(name, rec, True))
+            feed.turn()
+            msgs = [js for _, js, _ in rec.messages]
+            for k in range(0, len(msgs) - behind, FEED):
+                feed.buffers["q"].extend(msgs[k:min(k + FEED, len(msgs) - behind)])
+                feed.turn()
+            feed.on_status(_status(name, rec, False))
+            feed.turn()
+            now[0] += 1.5  # the intake is still behind 1.5 s after the stop
+            feed.turn()
+            assert feed.bag == name, "ended before its last ticks arrived"
+            feed.buffers["q"].extend(msgs[len(msgs) - behind:])
+            feed.turn()
+            assert feed.bag is None
+    finally:
+        feed.close()
+    dg, dp = max_rel_diff(live.result(), offline)
     assert dg < 1e-9 and dp < 1e-9, (dg, dp)

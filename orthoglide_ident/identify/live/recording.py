@@ -5,12 +5,13 @@ Fed by :class:`~live.LiveIdentification`. The tick period is set from the first
 steady clock (the offline pipeline takes the median over the whole record: the same for a
 controller's regular ticks; a different median at the end is warned about), the mean of the
 steps between gaps on an uneven one (a ~100 Hz logger's 10/12/14 ms). An uneven clock's mean
-is known only at the end: its samples are kept (a logger's rate: small) and at stop the
-recording is rebuilt from them by the offline observation itself (rows.observe), so that the
-answer is the offline one on the same samples. A
-step outside (0.5, 1.5) periods ends the segment under way (ticks.find_breaks); a segment
-becomes a :class:`~stream.SegmentStream` once it is long enough to be kept
-(``IdentifyOptions.min_segment_samples``), and its decimated rows go to ``fold`` as they come.
+is known only at the end: every sample received is kept until the stop, where the record
+checks run on them (validate/records.py, as offline) and an uneven clock's recording is rebuilt
+from them by the offline observation itself (rows.observe), so that the answer is the offline one
+on the same samples. A step outside (0.5, 1.5) periods ends the segment under way
+(ticks.find_breaks); a segment becomes a :class:`~stream.SegmentStream` once it is long enough
+to be kept (``IdentifyOptions.min_segment_samples``),
+and its decimated rows go to ``fold`` as they come.
 With the current-loop lag in the model, a segment's ticks first pass its
 :class:`~current_lag.LiveLagInstrument`, which holds them until the trajectory has repeated.
 """
@@ -73,7 +74,9 @@ class LiveRecording:
         (q_names, q_map), (v_names, v_map) = channel_maps(names, transmission)
         self.q = TopicBuffer("joint_states", q_names, to_model=q_map)
         self.v = TopicBuffer("current_reference", v_names, limit=limit, to_model=v_map)
-        self.q.kept, self.v.kept = [], []  # until the clock is known steady (_set_period)
+        # every sample taken, until the stop: the record checks (validate/records.py) and an
+        # uneven clock's rebuild run on them, then they go (release)
+        self.q.kept, self.v.kept = [], []
         self.uneven = False  # the first PERIOD_SAMPLES steps are off their median grid
         self.seconds = 0.0  # of equations folded in (decimated rows x their period)
         self.rep = SegmentReport()
@@ -197,8 +200,8 @@ class LiveRecording:
 
     def _period_rule(self, stamps: np.ndarray) -> float:
         """The offline period (segments._breaks) of the first stamps, ns: the median step on a
-        steady clock (its samples are then not kept), the mean step between gaps on an uneven
-        one (kept; no lag instrument, as offline: a period is a number of ticks)."""
+        steady clock, the mean step between gaps on an uneven one (its recording observed again
+        at stop; no lag instrument, as offline: a period is a number of ticks)."""
         dt = np.diff(stamps)
         med = float(np.median(dt))
         if med <= 0:
@@ -207,14 +210,17 @@ class LiveRecording:
         steps = step_stats(stamps, mean_over=~brk)
         self.uneven = steps.uneven
         if not self.uneven:
-            self.q.kept = self.v.kept = None
             return med
         self.lag = False  # as observe's _currents: no lag instrument on an uneven clock
         return steps.mean_s * 1e9
 
+    def release(self) -> None:
+        """The samples kept go (after the stop's checks and rebuild)."""
+        self.q.kept = self.v.kept = None
+
     def raw_record(self) -> Record | None:
-        """The samples kept (an uneven clock's), as the bag holds them: a Record in the model's
-        channels, or None when they were not kept."""
+        """The samples received, as the bag holds them: a Record in the model's channels, or
+        None when too few (or released)."""
         q, v = self.q.kept_samples(), self.v.kept_samples()
         if q is None or v is None or q[0].shape[0] < 2:
             return None

@@ -18,7 +18,10 @@ runs through a :class:`~stream.SegmentStream` about every ``live_block_s`` of da
 filtering, W, reversal bridging and FIR decimation as ``observe.observe``, exact across blocks.
 The decimated equations are folded into per-condition, per-joint R factors (factors.py), so
 memory and CPU per second of data stay constant; ``result()`` solves them with the offline
-solver (solve.py). Non-finite samples are dropped and split the record (offline
+solver (solve.py); the raw samples of the recording under way are kept until its stop only,
+where offline's record checks run on them (validate/records.py: a recording refused there is
+left out and result() answers with the reason until the next recording starts). Non-finite
+samples are dropped and split the record (offline
 ``nonfinite: drop``); nothing here raises on bad or insufficient data: warnings and ``status``
 say what is wrong. Never imports rclpy.
 
@@ -40,6 +43,7 @@ import numpy as np
 
 from orthoglide_ident.errors import (
     ConfigError,
+    DataError,
     ExcitationError,
     IdentificationError,
     OrthoglideError,
@@ -54,7 +58,7 @@ from orthoglide_ident.identify.columns.payload_unknowns import (
 from orthoglide_ident.identify.diagnostics import finish_result
 from orthoglide_ident.identify.live.recording import LiveRecording
 from orthoglide_ident.identify.observe.rows import IdentificationModel, observe, with_known_payload
-from orthoglide_ident.identify.observe.sampling import AUTO_HELD, SLOW_STEP_S
+from orthoglide_ident.identify.observe.sampling import best_reading
 from orthoglide_ident.identify.observe.stream import DecimatedRows
 from orthoglide_ident.identify.options import IdentifyOptions
 from orthoglide_ident.identify.records.record import payload_knowledge
@@ -62,6 +66,13 @@ from orthoglide_ident.identify.solve.answer import limits, min_rows, tls_model
 from orthoglide_ident.identify.solve.factors import RecordFactors
 from orthoglide_ident.identify.solve.methods import DEFAULT_METHOD, solve
 from orthoglide_ident.identify.solve.tls import check_excitation
+from orthoglide_ident.identify.validate.agreement import disagreement
+from orthoglide_ident.identify.validate.records import (
+    check_record,
+    misfit_warnings,
+    noise_by_joint,
+    other_readings,
+)
 from orthoglide_ident.model.robot import Payload
 from orthoglide_ident.results import IdentificationResult
 
@@ -171,6 +182,13 @@ class LiveIdentification:
         self._log: list[str] = []
         self._n_ignored = 0
         self._version = _Version()
+        # what the record checks keep (validate/records.py, as offline): the recordings' content
+        # fingerprints, their current noise, an untagged slow log's other readings, and the
+        # refusal of the last recording (answered until the next recording starts)
+        self._seen: dict[str, tuple[str, int]] = {}
+        self._noises: dict[LiveRecording, tuple[np.ndarray, float]] = {}
+        self._alts: dict[LiveRecording, list] = {}
+        self.refused: str | None = None
 
     # --- recordings ---------------------------------------------------------------------------
     @property
@@ -196,6 +214,7 @@ class LiveIdentification:
             self._warn([f"{self._current.source}: still recording when {source} started: "
                         "stopped"])
             self.stop_recording()
+        self.refused = None  # a recording refused is left out; the next one is answered again
         lag = getattr(self.model, "lag_column", None) is not None and not self._lag_left_out()
         model = self.model
         if condition == "loaded":
@@ -208,21 +227,54 @@ class LiveIdentification:
         self._recordings.append(self._current)
 
     def stop_recording(self) -> list[str]:
-        """End the record under way: pair and process everything received; its warnings."""
+        """End the record under way: pair and process everything received, run the offline
+        record checks on it (validate/records.check_record: positions beyond the limits refuse
+        it, a copy of an earlier one is counted once) and, on an uneven clock, observe it again
+        by the offline rules; its warnings."""
         rec, self._current = self._current, None
         if rec is None:
             return []
-        return self._warn(rec.close() + self._rebuild(rec))
-
-    def _rebuild(self, rec: LiveRecording) -> list[str]:
-        """An uneven clock's recording (its samples kept) observed again whole by the offline
-        rules (rows.observe: the period is the mean step of the whole record, gaps against the
-        local step, no lag instrument) and its factors replaced: live = offline at its end."""
+        out = rec.close()
         record = rec.raw_record()
-        if record is None or rec.period_ns is None:
-            return []
+        if record is not None:
+            out += self._check(rec, record)
+            if rec in self._factors and rec.uneven:
+                out += self._rebuild(rec, record)
+        rec.release()
+        return self._warn(out)
+
+    def _check(self, rec: LiveRecording, record) -> list[str]:
+        """The offline record checks on what was received; a refused recording or a copy is
+        left out of the live data (its equations dropped), the refusal kept for result()."""
+        try:
+            new, lines = check_record(record, self.model, self._seen)
+        except DataError as exc:
+            self.refused = str(exc).splitlines()[0]
+            self._leave_out(rec)
+            return [f"{self.refused} (refused: left out of the live data)"]
+        if not new:
+            self._leave_out(rec)
+            return lines
+        self._noises[rec] = noise_by_joint(record, self.model)
+        return lines
+
+    def _leave_out(self, rec: LiveRecording) -> None:
+        """A recording's equations out of the live data, as if it had not been recorded."""
+        if self._factors.pop(rec, None) is not None:
+            self._version.n += 1
+        self._seconds[rec.condition] -= rec.seconds
+        self._recordings.remove(rec)
+        self._payloads = [(s, p) for s, p in self._payloads if s != rec.source]
+
+    def _rebuild(self, rec: LiveRecording, record) -> list[str]:
+        """An uneven clock's recording observed again whole by the offline rules (rows.observe:
+        the period is the mean step of the whole record, gaps against the local step, no lag
+        instrument) and its factors replaced: live = offline at its end. An untagged slow log
+        (current_sampling: auto) is also read sampled (validate/records.other_readings), and
+        result() keeps the better reading by offline's rule (sampling.best_reading)."""
         try:
             obs, rep, _ = observe(record, self.model, self.opts, rec.payload_mass)
+            alts = other_readings(record, self.model, self.opts, rec.payload_mass, rep)
         except OrthoglideError as exc:  # the streamed equations stay; say why
             return [f"{rec.source}: not observed again by the offline rules ({exc}): the "
                     "equations of its uneven clock streamed with its first steps' mean are used"]
@@ -231,14 +283,9 @@ class LiveIdentification:
         rec.adopt(rep, obs.rows_per_joint(), obs.n_samples, seconds)
         self._seconds[rec.condition] += seconds
         self._factors[rec] = RecordFactors.from_observations(obs)
+        if alts:
+            self._alts[rec] = [(d, RecordFactors.from_observations(o), r) for d, o, r in alts]
         self._version.n += 1
-        if rep.current_sampling_why.startswith(AUTO_HELD) and rep.period_s > SLOW_STEP_S:
-            # offline, an untagged slow log is also read sampled and the better reading kept
-            # (pipeline._solve_reading); live reads it held only: say so, and how to agree
-            return [f"{rec.source}: read held (current_sampling: auto, untagged, steps of "
-                    f"{1e3 * rep.period_s:.1f} ms); identify on the bags also tries it sampled "
-                    "and may answer otherwise: set current_sampling (held | sampled) to have "
-                    "both read it alike (docs/guide/sampling.md)"]
         return []
 
     def add_joint_states(self, stamps_ns: Sequence[int] | np.ndarray, names: Sequence[str],
@@ -349,30 +396,75 @@ class LiveIdentification:
         """IDIM-TLS (or WLS with ``gains`` N/A) on everything folded in: the IdentificationResult
         ``identify_records`` gives on the same records (once they are stopped). ``payload_mass``
         (kg) checks the masses given to start_recording, as ``--payload-mass`` checks bag tags.
-        Raises the product's errors with a one-line reason (e.g. no loaded data)."""
-        factors = self._folded()
-        if not factors:
+        Raises the product's errors with a one-line reason (e.g. no loaded data, the last
+        recording refused by the record checks)."""
+        if self.refused is not None:
+            raise DataError(f"{self.refused} (the recording is left out of the live data: "
+                            "record it again)")
+        recs = [r for r in self._recordings
+                if r in self._factors and self._factors[r].n_samples > 0]
+        if not recs:
             raise IdentificationError("no equations yet: record the trajectories unloaded and "
                                       "loaded with the weighed payload")
         if payload_mass is not None:
-            factors = self._with_payload(factors, payload_mass)
-        factors, model = self._solvable(factors)
-        solved = solve(factors, model, self.opts, method, gains, essential,
-                       [r.source for r in self._recordings if r.n_decimated])
-        reports = [r.report() for r in self._recordings]
-        finish_result(solved.result, solved, reports, list(self._log), self.opts,
-                      dict(solved.timings))
-        return solved.result
+            self._with_payload(recs, payload_mass)
+        chains: list[str] = []
 
-    def _with_payload(self, factors: list[RecordFactors], mass: float) -> list[RecordFactors]:
+        def solve_rows(factors: list[RecordFactors], reports: list[dict]) -> tuple:
+            """As pipeline's: the records' drive chains compared on the rows solved."""
+            if payload_mass is not None:
+                factors = [dataclasses.replace(f, payload_mass=payload_mass) if f.loaded
+                           else f for f in factors]
+            factors, model = self._solvable(factors)
+            chains.append(disagreement(factors, model.nominal_gains, list(model.joint_names)))
+            try:
+                return model, factors, self.opts, solve(
+                    factors, model, self.opts, method, gains, essential,
+                    [r.source for r in self._recordings if r.n_decimated])
+            except (ExcitationError, IdentificationError) as exc:  # two drive chains: the cause
+                if chains[-1]:
+                    raise type(exc)(f"{chains[-1]} (the solve then says: {exc})") from None
+                raise
+
+        warnings = list(self._log)
+        (model, factors, _, solved), reports = self._solve_reading(solve_rows, recs, warnings)
+        result = solved.result
+        if chains[-1]:
+            result.warnings.append(chains[-1])
+        if solved.chi.shape[0] == factors[0].n_b:  # behind a transmission: a reduction misfit
+            cutoff = reports[0].get("decimation_cutoff_hz") or recs[0].opts.decimation_cutoff_hz
+            misfit_warnings(result, solved.g_tau, model,
+                            [self._noises[r] for r in recs if r in self._noises],
+                            dataclasses.replace(self.opts, decimation_cutoff_hz=cutoff))
+        finish_result(result, solved, reports, warnings, self.opts, dict(solved.timings))
+        return result
+
+    def _solve_reading(self, solve_rows, recs: list[LiveRecording], warnings: list[str]
+                       ) -> tuple[tuple, list[dict]]:
+        """``solve_rows`` on the recordings as read, or, with an untagged slow log among them,
+        on the best of its readings by offline's rule (sampling.best_reading); the line saying
+        which reading the answer used into ``warnings``."""
+        factors = [self._factors[r] for r in recs]
+        alts = [self._alts.get(r) for r in recs]
+        if not any(alts):  # every recording's report, those without equations too
+            reports = [r.report() for r in self._recordings]
+            return solve_rows(factors, reports), reports
+        reports = [r.report() for r in recs]
+        out, reports, line = best_reading(solve_rows, factors, reports, alts)
+        warnings.append(line)
+        return out, reports
+
+    def _with_payload(self, recs: list[LiveRecording], mass: float) -> None:
+        """IdentificationError when ``mass`` is not the one the loaded recordings were made with
+        (as --payload-mass checks bag tags)."""
         if not (math.isfinite(mass) and mass > 0):
             raise IdentificationError(f"payload mass must be a positive mass in kg, not {mass}")
-        for f in factors:
-            if f.loaded and abs(f.payload_mass - mass) > self.opts.payload_tolerance_kg:
+        for r in recs:
+            if r.condition == "loaded" and \
+                    abs(r.payload_mass - mass) > self.opts.payload_tolerance_kg:
                 raise IdentificationError(
-                    f"{f.source} was recorded with a payload of {f.payload_mass:g} kg but "
+                    f"{r.source} was recorded with a payload of {r.payload_mass:g} kg but "
                     f"{mass:g} kg is asked; check which payload was mounted")
-        return [dataclasses.replace(f, payload_mass=mass) if f.loaded else f for f in factors]
 
     def estimate(self) -> LiveEstimate:
         """Gains ± σ and a one-line status from the data folded in so far (never raises)."""
@@ -399,6 +491,8 @@ class LiveIdentification:
                     gain_units=tuple(j.gain_unit for j in model.joints))
         loaded = any(f.loaded for f in factors)
         unloaded = any(not f.loaded for f in factors)
+        if self.refused is not None:
+            return LiveEstimate(f"refused: {self.refused}", **base)
         if not factors:
             return LiveEstimate(self._collecting(), **base)
         now = self._current.condition if self._current is not None else None

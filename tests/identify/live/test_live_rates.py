@@ -133,7 +133,7 @@ def test_live_through_a_transmission_at_93hz(tmp_path):
         p = payload if cond == "loaded" else None
         recs.append(Record(cond, r["stamps"][k], joints, r["q_j"][k], r["stamps"][k], joints,
                            r["v"][k] @ N, cond, p.mass if p else 0.0, payload=p))
-    # read alike: live reads an untagged slow log held, offline auto also tries it sampled
+    # read held on both (auto is tested on its own: test_live_reads_a_slow_untagged_log_as_...)
     opts = CONFIG.replace(check_excitation=False, partial_answers=False, current_sampling="held")
     off = identify_records([motor_side(r, model) for r in recs], options=opts, model=model)
     live = LiveIdentification(opts, model=model)
@@ -150,8 +150,57 @@ def test_live_through_a_transmission_at_93hz(tmp_path):
     assert dg < 1e-9 and dp < 1e-9, (dg, dp)
 
 
-def test_live_says_when_it_reads_a_slow_untagged_log_held():
-    """current_sampling: auto on a ~93 Hz untagged log: live reads it held and says that
-    offline may read it otherwise (a difference the user can close with the option)."""
-    live = _live(_records("uneven_93Hz"), 97)
-    assert any("read held (current_sampling: auto, untagged" in w for w in live.result().warnings)
+def _logged(rec, seed: int):
+    """A ~93 Hz logger of a 1 kHz loop: every 10th, 12th or 14th tick kept as it is (each
+    current the loop's own at that tick, point-sampled), untagged."""
+    steps = np.random.default_rng(seed).choice([10, 12, 14], len(rec.stamps_q_ns) // 10,
+                                               p=[.8, .1, .1])
+    k = np.cumsum(np.concatenate([[0], steps]))
+    k = k[k < len(rec.stamps_q_ns)]
+    return type(rec)(rec.source, rec.stamps_q_ns[k], rec.names_q, rec.q[k], rec.stamps_v_ns[k],
+                     rec.names_v, rec.v_tau[k], rec.condition, rec.payload_mass)
+
+
+def test_live_reads_a_slow_untagged_log_as_offline_auto_does():
+    """current_sampling: auto on a ~93 Hz untagged log (no pin on either side): at stop live
+    applies offline's rule (held and sampled readings, the better residual kept), so its answer
+    equals identify_records' to 1e-9 and says which reading it used. Before, live read it held
+    only while offline chose sampled (1e-3 apart)."""
+    opts = CONFIG.replace(check_excitation=False, partial_answers=False)
+    assert opts.current_sampling == "auto"
+    records = [_logged(r, i) for i, r in enumerate(_records("1kHz"))]
+    off = identify_records(records, options=opts, model=MODEL)
+    live = LiveIdentification(opts, model=MODEL)
+    for rec in records:
+        live.start_recording(rec.source, rec.condition, rec.payload_mass)
+        for a in range(0, len(rec.stamps_q_ns), 97):
+            live.add_joint_states(rec.stamps_q_ns[a:a + 97], rec.names_q, rec.q[a:a + 97])
+            live.add_current_reference(rec.stamps_v_ns[a:a + 97], rec.names_v,
+                                       rec.v_tau[a:a + 97])
+        live.stop_recording()
+    res = live.result()
+    dg, dp = rel_diff(off, res)
+    assert dg < 1e-9 and dp < 1e-9, (dg, dp)
+    line = next(w for w in off.warnings if w.startswith("current_sampling: auto on"))
+    assert line in res.warnings  # the same reading, said the same way
+    assert [b["current_sampling"] for b in res.diagnostics["bags"]] == \
+        [b["current_sampling"] for b in off.diagnostics["bags"]] == ["sampled"] * 2
+
+
+def test_live_counts_a_copy_once_as_offline_does():
+    """The same run recorded again with its clock shifted (content fingerprint, validate/
+    records.check_record): live says so and counts it once, as identify_records does; the
+    answers equal. Before, live counted it twice (σ too small)."""
+    opts = CONFIG.replace(check_excitation=False, partial_answers=False)
+    a, b = _records("500Hz")
+    shift = 1_700_000_000 * 10**9
+    copy = type(a)("copy", a.stamps_q_ns + shift, a.names_q, a.q, a.stamps_v_ns + shift,
+                   a.names_v, a.v_tau, a.condition, a.payload_mass)
+    off = identify_records([a, copy, b], options=opts, model=MODEL)
+    live = _live([a, copy, b], 97)
+    res = live.result()
+    dg, dp = rel_diff(off, res)
+    assert dg < 1e-9 and dp < 1e-9, (dg, dp)
+    said = [w for w in res.warnings if w.startswith("copy is the same record as 500Hz-0")]
+    assert said and said[0] in off.warnings
+    assert [d["bag"] for d in res.diagnostics["bags"]] == ["500Hz-0", "500Hz-1"]
