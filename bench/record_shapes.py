@@ -9,8 +9,10 @@ imported, not copied):
   tick) and ~250 Hz (every 3/4/5th) point-sampled from that 1 kHz loop, the loop's current as
   it is ("raw") and low-passed below the log's Nyquist frequency ("smooth"); a controller at
   the log rate on a 10/12 ms clock (91 Hz, held);
-- the example-robot-data Panda (7 axes, fingers fixed), 1 kHz, a 1 kg payload known by its mass
-  only, at 0.5/1/2/5 % current noise;
+- the example-robot-data Panda (7 axes), 1 kHz, at 0.5/1/2/5 % current noise, a payload known
+  by its mass only: tests/panda_arm.py's (the fingers fixed in the URDF, 1 kg, noise a share of
+  each joint's rms current) and tests/locked_panda.py's (the URDF as it comes, the fingers
+  locked by the robot file's locked_joints, 2 kg, noise a share of the rms over the joints);
 - the UR10 (32.7 kg) with a 2.8 kg payload of unknown CoM, 90.9 Hz on a 10/12 ms clock, q printed
   to 1e-4 rad (one unloaded/loaded pair).
 
@@ -23,10 +25,12 @@ with the records read held and read sampled ("-": no lag identified, e.g. uneven
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import logging
 import os
 import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -34,6 +38,8 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 
+import locked_panda as L  # noqa: E402
+import numpy as np  # noqa: E402
 import panda_arm as P  # noqa: E402
 from logger_sampling import simulated, smooth, to_record  # noqa: E402
 from tls_vs_iv import NOISE_LEVELS  # noqa: E402
@@ -67,6 +73,18 @@ def ur5_shapes(seconds: float, cache: Path | None):
             ("UR5 ~250 Hz pt, raw", rec("250", pt(KEEP_3_4_5, 250.0, raw)), g),
             ("UR5 ~250 Hz pt, smooth", rec("250s", pt(KEEP_3_4_5, 250.0, smooth)), g),
             ("UR5 91 Hz held", rec("91", held), g)]
+
+
+def locked_panda_shapes(seconds: float):
+    """The Panda as it comes (full URDF, bench/locked_panda.py's generator: 2 kg at the TCP),
+    its fingers locked by the robot file, the payload told by its mass only; the current
+    noise a share of the rms current over the joints of the noise-free records."""
+    clean = [dataclasses.replace(r, payload=None) for r in L.records(seconds, 0.0)]  # mass only
+    rms = float(np.sqrt(np.mean(np.concatenate([r.v_tau for r in clean]) ** 2)))
+    rng = np.random.default_rng(0)
+    return [(f"Panda locked {100 * n:g} % noise",
+             [dataclasses.replace(r, v_tau=r.v_tau + n * rms * rng.standard_normal(r.v_tau.shape))
+              for r in clean], L.TRUE_GAINS) for n in NOISE_LEVELS]
 
 
 def other_shapes(panda_s: float, ur10_s: float):
@@ -161,6 +179,9 @@ def main(argv: list[str] | None = None) -> int:
     shapes = [(s, ur5) for s in ur5_shapes(ur5_s, args.cache)]
     shapes += [(s, ur10 if s[0].startswith("UR10") else panda)
                for s in other_shapes(panda_s, ur10_s)]
+    folder = tempfile.TemporaryDirectory()
+    locked = load_robot(L.robot_file(Path(folder.name)))
+    shapes += [(s, locked) for s in locked_panda_shapes(panda_s)]
     rows, lags = [], {}
     for (name, recs, truth), model in shapes:
         for method, label in (("tls", "TLS"), ("iv", "IV")):
