@@ -42,10 +42,13 @@ def widen(result, other, f_q: float, f2: float, max_rel_std: float) -> str | Non
     """Each determined gain of ``result`` with its σ widened by its change in ``other`` (the
     same records at the derivative filter's cut-off ``f2`` instead of ``f_q``); beyond
     ``max_rel_std`` it is not determined. Returns the warning line, None when no gain moved
-    by more than its σ."""
+    by more than its σ (a gain ``other`` leaves not determined is named: no bound)."""
     moved = []
     for g, h in zip(result.drive_gains, other.drive_gains):
-        if not (g.determined and h.determined and math.isfinite(h.value) and g.value):
+        if g.determined and not (h.determined and math.isfinite(h.value)):
+            moved.append(f"{g.name} not determined at {f2:.3g} Hz (no bound)")
+            continue
+        if not (g.determined and g.value):
             continue
         delta = abs(h.value / g.value - 1.0)
         sigma = math.hypot(g.rel_std, delta)

@@ -26,6 +26,11 @@ def test_widen_adds_the_move_in_quadrature_and_refuses_beyond_the_bound():
     assert res.drive_gains[1].rel_std == pytest.approx(math.hypot(0.002, 2e-5))
     assert not res.drive_gains[2].determined and "16.7 to 25 Hz" in res.drive_gains[2].reason
     assert "j0" in line and "j1 " not in line  # j1 moved less than its σ: not listed
+    # a gain the second solve leaves not determined keeps its σ and is named
+    res, other = _result([10.0], [0.001]), _result([10.0], [0.001])
+    other.drive_gains[0].determined = False
+    assert "j0 not determined at 25 Hz" in widen(res, other, 16.7, 25.0, 0.05)
+    assert res.drive_gains[0].determined and res.drive_gains[0].rel_std == 0.001
 
 
 def test_the_second_cut_off_stays_below_the_nyquist_frequency():
