@@ -22,7 +22,7 @@ from typing import Any
 
 import numpy as np
 
-from orthoglide_ident.errors import ExcitationError, IdentificationError
+from orthoglide_ident.errors import ExcitationError, IdentificationError, OrthoglideError
 from orthoglide_ident.identify.columns.drive_terms import observation_model
 from orthoglide_ident.identify.columns.payload_unknowns import (
     check_one_payload,
@@ -45,6 +45,7 @@ from orthoglide_ident.identify.records.record import Record, read_record, record
 from orthoglide_ident.identify.records.robot_checks import robot_of
 from orthoglide_ident.identify.solve.answer import Solved, min_rows
 from orthoglide_ident.identify.solve.factors import RecordFactors
+from orthoglide_ident.identify.solve.filter_bound import bound_filter_bias
 from orthoglide_ident.identify.solve.methods import DEFAULT_METHOD, get, solve
 from orthoglide_ident.identify.validate.agreement import disagreement
 from orthoglide_ident.identify.validate.cross_validation import ValidationResult, cross_validate
@@ -187,15 +188,38 @@ def identify_records(
                   model=model)
         result = _identify_once(records, options=opts, validation=list(validation), **kw)
         why = sampling_rerun(result, opts)
-        if why is None:
-            return result
-        log.info("%s", why)
-        again = _identify_once(records, options=opts.replace(current_sampling="sampled"),
-                               validation=list(validation), **kw)
-        again.warnings.insert(0, why)
-        return again
+        if why is not None:
+            log.info("%s", why)
+            result = _identify_once(records, options=opts.replace(current_sampling="sampled"),
+                                    validation=list(validation), **kw)
+            result.warnings.insert(0, why)
+        _bound_filter_bias(result, records, opts, kw)
+        return result
     return _identify_once(records, payload_mass, method, gains, essential, opts, model=model,
                           validation=validation)
+
+
+def _bound_filter_bias(result: IdentificationResult, records: Iterable[Record],
+                       opts: IdentifyOptions, kw: dict) -> None:
+    """A slow log's gains with the derivative filter's bias bound in their σ
+    (solve/filter_bound.py): the same ``records`` (read once, only then), read as ``result``
+    read them, solved again at a higher cut-off."""
+    bags = result.diagnostics.get("bags", [])
+    readings = {b.get("current_sampling") for b in bags}
+    shifts = {float(b.get("current_shift_ms", 0.0)) for b in bags}
+    reading = readings.pop() if len(readings) == 1 else opts.current_sampling
+    shift = shifts.pop() if len(shifts) == 1 else 0.0
+
+    def solve_again(f_q: float, f_d: float) -> IdentificationResult | None:
+        o = opts.replace(filter_cutoff_hz=f_q, decimation_cutoff_hz=f_d, cross_check="none",
+                         current_sampling=reading,
+                         current_loop_hz=0.5e3 / shift if shift > 0 else opts.current_loop_hz)
+        try:
+            return _identify_once(records, options=o, **dict(kw, essential=False))
+        except OrthoglideError:
+            return None
+
+    bound_filter_bias(result, solve_again, SLOW_STEP_S, opts.max_gain_rel_std)
 
 
 def sampling_rerun(result: IdentificationResult, opts: IdentifyOptions) -> str | None:
@@ -440,6 +464,8 @@ def identify(
                                validation=lazily(validation_bags))
         res.warnings.insert(0, why)
         res.diagnostics["timings_s"]["first_reading_held"] = round(t_first, 4)
+    _bound_filter_bias(res, lazily(bag_paths), opts, dict(payload_mass=payload_mass,
+                                                         method=method, gains=gains, model=model))
     # reading happens inside identify_records' loop: its total already includes it
     res.diagnostics["timings_s"]["read"] = round(t_read[0], 4)
     return res
