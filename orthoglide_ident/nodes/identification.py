@@ -102,7 +102,8 @@ NODE_PARAMETERS = (
         "",
         "path: after each successful identification with every gain determined, write the "
         "identified robot there as an MJCF for MuJoCo (consistent inertials, armature, damping, "
-        "frictionloss, motor gears; implies the option consistent) and say it in the reply; "
+        "frictionloss, motor gears; implies the option consistent, which needs the payload's "
+        "CoM and inertia: its tag or the option payload_known) and say it in the reply; "
         "empty: off",
         dynamic=True,
     ),

@@ -213,6 +213,16 @@ class Graph:
             probe.destroy_node()
         return time.monotonic() - t0
 
+    def latched(self, msg_type: Any, topic: str, match: Any, timeout: float = 30.0) -> Any:
+        """The first message on the latched ``topic`` for which ``match(msg)`` holds."""
+        seen: list[Any] = []
+        latched = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
+                             durability=DurabilityPolicy.TRANSIENT_LOCAL)
+        self._listen(msg_type, topic, latched, seen.append,
+                     lambda: any(match(m) for m in seen), timeout,
+                     lambda: f"no matching message on {topic} within {timeout:.0f} s")
+        return next(m for m in seen if match(m))
+
     def wait_for_messages(
         self, msg_type: Any, topic: str, count: int = 1, timeout: float = 30.0
     ) -> float:
