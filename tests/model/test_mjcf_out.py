@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 import yaml
 
+from orthoglide_ident.model.mjcf_check import inverse_dynamics_rms
 from orthoglide_ident.model.mjcf_check import model_torques as _model_torques
 from orthoglide_ident.model.mjcf_check import mujoco_torques as _mujoco_torques
 from orthoglide_ident.model.mjcf_check import rms_error as _rms_error
@@ -85,6 +86,7 @@ def test_coupled_wrist_mjcf_reproduces_the_model(tmp_path):
     tau_m = np.linalg.solve(np.asarray(COUPLED, float).T, tau_j.T).T  # τ_j = Nᵀ τ_m
     ref = _model_torques(robot, chi, q_m, qd_m, qdd_m)
     assert np.all(_rms_error(ref, tau_m) < RTOL)
+    assert np.all(inverse_dynamics_rms(text, robot, chi, q_m, qd_m, qdd_m) < RTOL)  # the same
     m = mujoco.MjModel.from_xml_string(text)  # motor a's control u gives τ_j = Nᵀ (g ⊙ u)
     d = mujoco.MjData(m)
     d.ctrl[:] = 0.01  # A: within the URDF's joint effort limits (actuatorfrcrange)
