@@ -69,6 +69,24 @@ __all__ = ["Record", "identify", "identify_records", "observe", "read_record",
            "resolve_payload"]
 
 
+Progress = Callable[..., None]  # (stage, done, total, unit): progress.Stages or a test's
+
+
+def _tell(progress: Progress | None, what: str, done: float, total: float, unit: str) -> None:
+    if progress is not None:
+        progress(what, done, total, unit)
+
+
+def _size_mb(path: str | Path) -> float:
+    """A bag's size in MB (a directory's files summed); 0 when it cannot be told."""
+    p = Path(path)
+    try:
+        files = [p] if p.is_file() else [f for f in p.rglob("*") if f.is_file()]
+        return sum(f.stat().st_size for f in files) / 1e6
+    except OSError:
+        return 0.0
+
+
 def resolve_payload(rec: Record, payload_mass: float | None, tol: float) -> float:
     """Known payload mass of a record (kg); IdentificationError on a missing or wrong tag."""
     if rec.condition not in ("loaded", "unloaded"):
@@ -226,6 +244,7 @@ def identify_records(
     *,
     model: IdentificationModel,
     validation: Iterable[Record] = (),
+    progress: Progress | None = None,
 ) -> IdentificationResult:
     """Identify from records; see :func:`identify`. With ``current_sampling: auto`` records
     in memory whose identified lag comes out negative are read again as sampled
@@ -238,7 +257,7 @@ def identify_records(
     _check_request(opts, method, payload_mass)
     if isinstance(records, Sequence):  # auto may read them again, as sampled
         kw = dict(payload_mass=payload_mass, method=method, gains=gains, essential=essential,
-                  model=model)
+                  model=model, progress=progress)
         result = _identify_once(records, options=opts, validation=list(validation), **kw)
         why = sampling_rerun(result, opts)
         if why is None:
@@ -249,7 +268,7 @@ def identify_records(
         again.warnings.insert(0, why)
         return again
     return _identify_once(records, payload_mass, method, gains, essential, opts, model=model,
-                          validation=validation)
+                          validation=validation, progress=progress)
 
 
 def sampling_rerun(result: IdentificationResult, opts: IdentifyOptions) -> str | None:
@@ -275,6 +294,7 @@ def _identify_once(
     *,
     model: IdentificationModel,
     validation: Iterable[Record] = (),
+    progress: Progress | None = None,
 ) -> IdentificationResult:
     """:func:`identify_records` with each record's current sampling as resolved once."""
     opts = options or IdentifyOptions()
@@ -305,7 +325,8 @@ def _identify_once(
         factors = [RecordFactors.from_observations(x) for x in b]
         chains.append(disagreement(b, m.nominal_gains, list(m.joint_names)))
         try:
-            return m, b, o, solve(factors, m, o, method, gains, essential, bag_names)
+            return m, b, o, solve(factors, m, o, method, gains, essential, bag_names,
+                                  progress=progress)
         except (ExcitationError, IdentificationError) as exc:  # two drive chains: the cause
             if chains[-1]:
                 raise type(exc)(f"{chains[-1]} (the solve then says: {exc})") from None
@@ -474,6 +495,7 @@ def identify(
     *,
     model: IdentificationModel,
     validation_bags: Sequence[str | Path] = (),
+    progress: Progress | None = None,
 ) -> IdentificationResult:
     """Identify drive gains and base parameters from tagged bags (docs/design/architecture.md).
 
@@ -482,31 +504,43 @@ def identify(
     methods.METHODS: "tls" (gains identified, payload known) or "wls" (``gains`` given in N/A or
     N·m/A, default the robot's nominal ones; payload mass of loaded bags estimated);
     ``essential`` adds the essential-parameter reduction (Sect. 5.2). ``validation_bags`` are
-    cross-validated, not used for identification.
+    cross-validated, not used for identification. ``progress(stage, done, total, unit)``
+    (progress.Stages at the CLI's edge; None: silent) hears how far each long step is.
     """
     if not bag_paths:
         raise IdentificationError("no bag given")
     t_read = [0.0]
     opts = options or IdentifyOptions()
 
-    def lazily(paths: Sequence[str | Path]) -> Iterator[Record]:
-        for p in paths:
+    def lazily(paths: Sequence[str | Path], what: str) -> Iterator[Record]:
+        if not paths:
+            return
+        sizes = [_size_mb(p) for p in paths]  # a record's reading and observing go with its size
+        for k, p in enumerate(paths):
+            _tell(progress, what, sum(sizes[:k]), sum(sizes), "MB")
             log.info("reading %s", p)
             t0 = time.perf_counter()
             rec = read_record(p, model, opts)
             log.info("%s: %s", p, rec.sources)
             t_read[0] += time.perf_counter() - t0
-            yield rec
+            yield rec  # observed before the next one is asked for
+        _tell(progress, what, sum(sizes), sum(sizes), "MB")
 
-    res = identify_records(lazily(bag_paths), payload_mass, method, gains, essential, opts,
-                           model=model, validation=lazily(validation_bags))
+    def records() -> Iterator[Record]:
+        return lazily(bag_paths, "reading and observing the records")
+
+    def validation() -> Iterator[Record]:
+        return lazily(validation_bags, "reading and observing the validation records")
+
+    res = identify_records(records(), payload_mass, method, gains, essential, opts,
+                           model=model, validation=validation(), progress=progress)
     why = sampling_rerun(res, opts)
     if why is not None:  # read the bags again, as sampled at their stamps
         log.info("%s", why)
         t_first = res.diagnostics["timings_s"].get("total", 0.0)
-        res = identify_records(lazily(bag_paths), payload_mass, method, gains, essential,
+        res = identify_records(records(), payload_mass, method, gains, essential,
                                opts.replace(current_sampling="sampled"), model=model,
-                               validation=lazily(validation_bags))
+                               validation=validation(), progress=progress)
         res.warnings.insert(0, why)
         res.diagnostics["timings_s"]["first_reading_held"] = round(t_first, 4)
     # reading happens inside identify_records' loop: its total already includes it
