@@ -142,17 +142,22 @@ class StageAwareHandler(logging.StreamHandler):
 class Stages:
     """``stages(what, done, total, unit)``: one :class:`ProgressLine` per stage of a long
     computation, the previous erased when the stage changes (``total`` 0: the stage's name
-    alone). Passed as ``progress`` from the command's edge; ``clock`` is for tests."""
+    alone); a stage taken up again (between two records' own stages) keeps its start, so its time
+    left stays an estimate over all its work. Passed as ``progress`` from the command's edge;
+    ``clock`` is for tests."""
 
     def __init__(self, stream: TextIO | None = None, clock=time.monotonic):
         self.stream, self.clock = stream, clock
         self.line: ProgressLine | None = None
+        self._lines: dict[str, ProgressLine] = {}
 
     def __call__(self, what: str, done: float = 0.0, total: float = 0.0,
                  unit: str = "") -> None:
         if self.line is None or self.line.what != what:
             self.close()
-            self.line = ProgressLine(what, total, unit, self.stream, self.clock)
+            self.line = self._lines.get(what) or ProgressLine(what, total, unit, self.stream,
+                                                              self.clock)
+            self._lines[what] = self.line
         self.line.update(done, total)
 
     def close(self) -> None:

@@ -121,7 +121,8 @@ def _check_request(opts: IdentifyOptions, method: str, payload_mass: float | Non
 
 def _observe_all(records: Iterable[Record], model: IdentificationModel, opts: IdentifyOptions,
                  payload_mass: float | None, add_timings: Callable[[dict[str, float]], None],
-                 partial: list[tuple[str, Payload]] | None = None, alts: list | None = None
+                 partial: list[tuple[str, Payload]] | None = None, alts: list | None = None,
+                 progress: Progress | None = None
                  ) -> tuple[list[Observations], list[dict[str, Any]], list[str], list[str]]:
     """Each record to its observation rows (one record's raw samples in memory at a time):
     the rows, the per-bag reports, the warnings and the bag names; the loaded records'
@@ -152,7 +153,7 @@ def _observe_all(records: Iterable[Record], model: IdentificationModel, opts: Id
         check_positions(rec, model)  # degrees read as radians, another robot: refused
         bag_names.append(rec.source)
         warnings.extend(rec.warnings + motion_warnings(rec, model))
-        obs, rep, ts = observe(rec, model, opts, m)
+        obs, rep, ts = observe(rec, model, opts, m, progress)
         add_timings(ts)
         check_moves(obs, model, opts, "bag")
         blocks.append(obs)
@@ -310,7 +311,7 @@ def _identify_once(
     payloads: list[tuple[str, Payload]] = []
     alts: list = []  # per record, its other readings when open (observe/sampling.py)
     blocks, reports, warnings, bag_names = _observe_all(records, model, opts, payload_mass, add,
-                                                        payloads, alts)
+                                                        payloads, alts, progress)
     t_solve = time.perf_counter()
 
     chains: list[str] = []  # the records' drive chains compared on the rows solved
@@ -520,7 +521,7 @@ def identify(
             _tell(progress, what, sum(sizes[:k]), sum(sizes), "MB")
             log.info("reading %s", p)
             t0 = time.perf_counter()
-            rec = read_record(p, model, opts)
+            rec = read_record(p, model, opts, progress)
             log.info("%s: %s", p, rec.sources)
             t_read[0] += time.perf_counter() - t0
             yield rec  # observed before the next one is asked for

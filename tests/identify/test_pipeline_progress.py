@@ -43,6 +43,9 @@ def test_identify_shows_its_stages_on_a_terminal(tmp_path, monkeypatch, capsys):
     assert drawn == list(STAGES), err[-2000:]
     assert "\rreading and observing the records: 0 % (0/1.91 MB)" in err  # by the bags' size
     assert "\rphysical consistency (LMI fits): 0 % (0/4 steps)" in err
+    for name in ("unloaded", "loaded"):  # within a record: its chunks read, its samples observed
+        assert re.search(rf"\rreading {name}_0\.mcap: \d+ % \(\d+/\d+ chunks\)", err), err[:3000]
+        assert re.search(rf"\robserving {name}: \d+ % \(\d+/10000 samples\)", err)
     assert "orthoglide-ident: reading" in err
     assert not re.search(r"\r[^\r\n]+orthoglide-ident: ", err)  # a log line erases it first
     tail = err.rsplit("\n", 1)[-1]  # after the last log line: a progress line erased, or none
@@ -72,3 +75,18 @@ def test_the_subset_search_tells_its_trials():
     assert best is None and len(tried) == every == 14
     assert heard == [("searching the gains the data fix", k, 14, "subsets")
                      for k in range(1, 15)]
+
+
+def test_a_stage_taken_up_again_keeps_its_start():
+    """Between two records' own stages the records' stage comes back with its own start: its
+    time left is over all its work (8 s for 2 of 10 MB: 32 s left), not since it came back."""
+    out, t = Tty(), [0.0]
+    stages = progress.Stages(stream=out, clock=lambda: t[0])
+    stages("records", 0, 10, "MB")
+    t[0] = 3.0
+    stages("reading r0.mcap", 5, 10, "chunks")
+    t[0] = 8.0
+    stages("records", 2, 10, "MB")
+    stages.close()
+    assert "\rrecords: 20 % (2/10 MB), 32 s left" in out.getvalue()
+    assert "\rreading r0.mcap: 50 % (5/10 chunks), 0 s left" in out.getvalue()
