@@ -41,8 +41,9 @@ def test_service_mjcf_out_on_both_sides(spawn_python, ros_env, tmp_path, ur5_bag
                  "sys.exit(main())", "--ros-args", "-p", "robot:=ur5", "-p", "live:=false",
                  "-p", f"bag_dir:={tmp_path}", "-p", f"mjcf_out:={node_file}")
     client_file, served = tmp_path / "client" / "ur5.xml", tmp_path / "served.json"
+    urdf = tmp_path / "client" / "ur5.urdf"
     out = cli(ros_env, "identify", "--service", *ur5_bags, "--robot", "ur5", "--mjcf-out",
-              str(client_file), "--json", str(served))
+              str(client_file), "--urdf-out", str(urdf), "--json", str(served))
     assert out.returncode == 0, (out.stdout, out.stderr)
     assert f"MJCF written to {node_file}" in out.stdout  # the reply says where
     assert f"wrote {client_file}" in out.stderr
@@ -55,6 +56,9 @@ def test_service_mjcf_out_on_both_sides(spawn_python, ros_env, tmp_path, ur5_bag
         rms = inverse_dynamics_rms(f.read_text(), robot, chi, q, qd, qdd)
         assert np.all(rms < RMS_BAR), (f, rms)
     assert client_file.read_text() == node_file.read_text()  # one answer, one robot, one file
+    masses = [i for i, n in enumerate(robot.standard_names) if n.startswith("m_")]
+    from_urdf = load_robot(str(urdf)).standard_values()  # the URDF's inertials, read back
+    np.testing.assert_allclose(from_urdf[masses], chi[masses], rtol=1e-6)
 
 
 def test_service_mjcf_out_needs_the_robot(ros_env, tmp_path):
