@@ -7,7 +7,6 @@ Shared by the offline path (pipeline.py) and, through stream.py, the live one.
 """
 from __future__ import annotations
 
-import functools
 import logging
 import time
 from collections.abc import Callable
@@ -88,8 +87,9 @@ def observe(rec: Record, model: IdentificationModel, opts: IdentifyOptions,
     log.info("%s: joint velocity %s", rec.source, rep.velocity)
     log.info("%s: current %s (%s)", rec.source, rep.current_sampling, rep.current_sampling_why)
     decimate = _segments_fir if opts.decimation_filter == "fir" else _segments_iir
-    tell = None if progress is None else functools.partial(
-        progress, f"observing {Path(rec.source).name}", unit="samples")
+    what = f"observing {Path(rec.source).name}"
+    tell = None if progress is None else (lambda done, total: progress(what, done, total,
+                                                                       "samples"))
     rows, n_bridged, n_unbridged = decimate(segments, model, opts, rep, times, tell)
     n_b = len(model.names)
     # views of the (n_b + 2, n_j, r) rows: W (n_j, r, n_b), v_tau and w_m (n_j, r), no copies

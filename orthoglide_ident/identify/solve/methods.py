@@ -118,13 +118,13 @@ def solve(factors: list[RecordFactors], model, opts: IdentifyOptions,
             "--consistent needs the payload's CoM and inertia: with only its mass known they are "
             "identified (Sect. 4.3); tag them or give --payload-known point")
     tell = progress or (lambda *a: None)
-    tell(f"solving (IDIM-{m.name.upper()})")
+    tell(f"solving (IDIM-{m.name.upper()})", 0, 0, "")  # a stage with nothing to count
     # a method that reports its own steps (TLS: the subset search) takes the progress too
     out = m.solve(factors, model, opts, gains, essential, list(bags),
                   **({"progress": progress} if progress is not None and m.name == "tls" else {}))
     if method == "tls" and opts.cross_check == "iv" and out.result.complete:
         # after TLS, IDIM-IV's gains beside (issue 43); marked only when the checks are on
-        tell("cross-checking by IDIM-IV")
+        tell("cross-checking by IDIM-IV", 0, 0, "")
         cross_check(out, factors, model, opts.check_excitation)
     split_payload(out.result, model)
     out.result.warnings.extend(friction_sign_warnings(out.result))
