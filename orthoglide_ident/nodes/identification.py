@@ -319,8 +319,9 @@ class IdentificationNode(Node):
             return
         self.answer(result, method, essential, response)
         if response.success and self.param("mjcf_out"):
-            response.message += "; " + self.write_mjcf(result, robot, self.param("mjcf_out"))
-            self.get_logger().info(response.message.rsplit("; ", 1)[1])
+            said = self.write_mjcf(result, robot, self.param("mjcf_out"))
+            response.message += "; " + said
+            self.get_logger().info(said)
 
     def write_mjcf(self, result: IdentificationResult, robot: Any, path: str) -> str:
         """Parameter mjcf_out: the identified robot as an MJCF (model/mjcf_out.py); what became
@@ -328,8 +329,9 @@ class IdentificationNode(Node):
         if result.consistency is None:
             return (f"MJCF not written to {path}: "
                     + ("a partial answer" if not result.complete else "no consistent set"))
-        try:
-            notes = write_mjcf(path, robot, result.consistency.answer.chi_st,
+        try:  # its folder made first (the path may have been set since the start)
+            notes = write_mjcf(prepare_output(path, "parameter mjcf_out"), robot,
+                               result.consistency.answer.chi_st,
                                [g.value for g in result.drive_gains])
         except OrthoglideError as e:
             return f"MJCF not written to {path}: {e}"
