@@ -67,3 +67,16 @@ def test_service_mjcf_out_needs_the_robot(ros_env, tmp_path):
               timeout=60)
     assert out.returncode == 2 and "give --robot" in out.stderr, (out.stdout, out.stderr)
     assert len(out.stderr.strip().splitlines()) == 1 and not (tmp_path / "x.xml").exists()
+
+
+def test_the_node_says_why_it_wrote_no_mjcf(tmp_path):
+    """A partial answer (no consistent set: the standard parameters need every gain) writes
+    nothing and the reply says so, the identification still a success."""
+    from types import SimpleNamespace
+
+    from orthoglide_ident.nodes.identification import IdentificationNode
+
+    path = tmp_path / "x.xml"
+    partial = SimpleNamespace(consistency=None, complete=False)
+    said = IdentificationNode.write_mjcf(None, partial, load_robot("ur5"), str(path))
+    assert said == f"MJCF not written to {path}: a partial answer" and not path.exists()
