@@ -46,7 +46,7 @@ from orthoglide_ident.model.robots import (
     bundled_robots,
     load_robot_from_args,
 )
-from orthoglide_ident.progress import set_quiet
+from orthoglide_ident.progress import StageAwareHandler, Stages, set_quiet, shown
 
 PROG = "orthoglide-ident"
 EXIT_OK, EXIT_BUG, EXIT_BAD_INPUT, EXIT_INTERRUPTED, EXIT_BROKEN_PIPE = 0, 1, 2, 130, 141
@@ -224,7 +224,7 @@ def build_parser() -> argparse.ArgumentParser:
 def _setup_logging(quiet: bool) -> None:
     log = logging.getLogger("orthoglide_ident")
     log.handlers[:] = []
-    h = logging.StreamHandler(sys.stderr)
+    h = StageAwareHandler(sys.stderr)  # a log line erases the progress line first
     h.setFormatter(logging.Formatter(f"{PROG}: %(message)s"))
     log.addHandler(h)
     log.setLevel(logging.WARNING if quiet else logging.INFO)
@@ -264,9 +264,14 @@ def _run_identify(args: argparse.Namespace):
     if args.payload_mass is not None and not (math.isfinite(args.payload_mass)
                                               and args.payload_mass > 0):
         raise ConfigError(f"--payload-mass must be a positive mass in kg, not {args.payload_mass}")
-    return identify(args.bags, payload_mass=args.payload_mass, method=method, gains=gains,
-                    essential=args.essential, options=opts, model=robot,
-                    validation_bags=args.validate)
+    progress = Stages() if shown() else None  # a terminal's stages; piped: none at all
+    try:
+        return identify(args.bags, payload_mass=args.payload_mass, method=method, gains=gains,
+                        essential=args.essential, options=opts, model=robot,
+                        validation_bags=args.validate, progress=progress)
+    finally:
+        if progress is not None:
+            progress.close()
 
 
 def _write_json(path: str, doc: dict) -> None:

@@ -1,18 +1,25 @@
-"""A progress line for long work (``excite design``, ``import``): how far, and the time left.
+"""A progress line for long work (``excite design``, ``import``, ``identify``): how far, and the
+time left.
 
 Shown on a terminal only (standard error a tty), rewritten in place at most every
 REDRAW_S seconds and erased when done; nothing at all when standard error is piped or redirected,
 or after ``set_quiet(True)`` (``-q``). The time left is the elapsed time per unit of work so far
 times the units left (the caller may revise the total as it learns it).
+
+Work in stages (``identify``) takes a :class:`Stages` from the command's edge: the numerical core
+calls its ``progress`` argument (None: silent, the default) with the stage and how far it is,
+never printing itself. A log line written meanwhile (``StageAwareHandler``) erases the progress
+line first and draws it again below itself.
 """
 from __future__ import annotations
 
+import logging
 import sys
 import time
 from typing import TextIO
 
 REDRAW_S = 0.2  # s between redraws
-_state = {"quiet": False}
+_state: dict = {"quiet": False, "line": None}  # the line drawn now, if any
 
 
 def set_quiet(quiet: bool) -> None:
@@ -70,8 +77,16 @@ class ProgressLine:
         self._drawn = now
         self._draw(self.text(now))
 
+    def redraw(self) -> None:
+        """Draw the line now (after a message printed above it)."""
+        if self.enabled:
+            self._drawn = self.clock()
+            self._draw(self.text(self._drawn))
+
     def text(self, now: float | None = None) -> str:
         now = self.clock() if now is None else now
+        if self.total <= 0:  # a stage with nothing to count: its name
+            return f"{self.what} ..."
         frac = min(1.0, self.done / self.total) if self.total > 0 else 0.0
         left = ""
         if 0 < self.done < self.total:
@@ -86,6 +101,7 @@ class ProgressLine:
         self.stream.write("\r" + text + pad)
         self.stream.flush()
         self._width = len(text)
+        _state["line"] = self
 
     def close(self) -> None:
         """Erase the line (the caller says the outcome on a line of its own)."""
@@ -93,8 +109,63 @@ class ProgressLine:
             self.stream.write("\r" + " " * self._width + "\r")
             self.stream.flush()
             self._width = 0
+        self._drawn = -float("inf")  # drawn again at the next update
+        if _state["line"] is self:
+            _state["line"] = None
 
     def __enter__(self) -> ProgressLine:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+
+def clear_line() -> ProgressLine | None:
+    """Erase the progress line drawn now, if any (before a message of its own line); that line."""
+    line = _state["line"]
+    if line is not None:
+        line.close()
+    return line
+
+
+class StageAwareHandler(logging.StreamHandler):
+    """A log handler that erases the progress line before its message and draws it again
+    below."""
+
+    def emit(self, record: logging.LogRecord) -> None:
+        line = clear_line()
+        super().emit(record)
+        if line is not None:
+            line.redraw()
+
+
+class Stages:
+    """``stages(what, done, total, unit)``: one :class:`ProgressLine` per stage of a long
+    computation, the previous erased when the stage changes (``total`` 0: the stage's name
+    alone); a stage taken up again (between two records' own stages) keeps its start, so its time
+    left stays an estimate over all its work. Passed as ``progress`` from the command's edge;
+    ``clock`` is for tests."""
+
+    def __init__(self, stream: TextIO | None = None, clock=time.monotonic):
+        self.stream, self.clock = stream, clock
+        self.line: ProgressLine | None = None
+        self._lines: dict[str, ProgressLine] = {}
+
+    def __call__(self, what: str, done: float = 0.0, total: float = 0.0,
+                 unit: str = "") -> None:
+        if self.line is None or self.line.what != what:
+            self.close()
+            self.line = self._lines.get(what) or ProgressLine(what, total, unit, self.stream,
+                                                              self.clock)
+            self._lines[what] = self.line
+        self.line.update(done, total)
+
+    def close(self) -> None:
+        if self.line is not None:
+            self.line.close()
+            self.line = None
+
+    def __enter__(self) -> Stages:
         return self
 
     def __exit__(self, *exc) -> None:

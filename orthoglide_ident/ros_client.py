@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 import time
 from pathlib import Path
 from typing import Any
@@ -206,7 +207,8 @@ def set_payload_shape(c: Client, args: argparse.Namespace) -> None:
 
 
 SERVICE_FLAGS_REFUSED = (  # identify flags the node takes from its own parameters, not a call
-    ("robot", "--robot", "the node's parameter robot"),
+    ("robot", "--robot", "the node's parameter robot (--robot goes with --mjcf-out or "
+     "--urdf-out: the robot the client writes the node's answer into)"),
     ("gains", "--gains", "the node's parameter wls_gains"),
     ("payload_known", "--payload-known", "the recorder's payload_known tag or the node's option"),
     ("r_sigma", "--r-sigma", "the node's parameter r_sigma"),
@@ -214,32 +216,44 @@ SERVICE_FLAGS_REFUSED = (  # identify flags the node takes from its own paramete
     ("validate", "--validate", "an offline identify with the bags"),
     ("consistent", "--consistent", "the node's parameter consistent (the consistent set is "
      "latched on orthoglide/identified_parameters/consistent)"),
-    ("urdf_out", "--urdf-out", "an offline identify --consistent with the bags"),
-    ("mjcf_out", "--mjcf-out", "an offline identify --consistent with the bags"),
 )
+WRITTEN_HERE = (("mjcf_out", "--mjcf-out"), ("urdf_out", "--urdf-out"))  # from the node's JSON
 JSON_WAIT_S = 10.0  # the JSON is published before the reply: it is there or on its way
 
 
 def refuse_service_flags(args: argparse.Namespace) -> None:
     """One line naming the first flag the service cannot carry (Identify.srv is fixed): never
     ignored silently."""
+    writes = [flag for attr, flag in WRITTEN_HERE if getattr(args, attr, None)]
     for attr, flag, where in SERVICE_FLAGS_REFUSED:
-        if getattr(args, attr, None):
+        if getattr(args, attr, None) and not (attr == "robot" and writes):
             raise ServiceError(f"identify --service: {flag} is not sent to the node; use {where}")
+    if writes and not getattr(args, "robot", None):
+        raise ServiceError(f"identify --service {writes[0]}: give --robot, the robot the node "
+                           "identifies (the file is written here from the node's answer and that "
+                           "description)")
 
 
 def identify_service(args: argparse.Namespace) -> Any:
     """Call orthoglide/identify; the IdentifiedParameters of the answer. With ``--json FILE`` the
-    answer's JSON (the node's orthoglide/identify/json, the same document as an offline run's)."""
+    answer's JSON (the node's orthoglide/identify/json, the same document as an offline run's);
+    with ``--mjcf-out``/``--urdf-out FILE`` the identified robot written here from that JSON
+    into ``--robot``'s description (:func:`write_identified`)."""
     from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
     from std_msgs.msg import String
 
     from orthoglide_msgs.srv import Identify
 
     refuse_service_flags(args)
+    robot = None
+    if getattr(args, "mjcf_out", None) or getattr(args, "urdf_out", None):
+        from orthoglide_ident.model.robots import load_robot_from_args
+
+        robot = load_robot_from_args(args)  # a bad robot: refused before the node works
+    want_json = bool(args.json) or robot is not None
     docs: list = []
     with Client(args.namespace) as c:
-        if args.json:  # subscribed before the call: the answer's JSON cannot pass unseen
+        if want_json:  # subscribed before the call: the answer's JSON cannot pass unseen
             qos = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL,
                              reliability=ReliabilityPolicy.RELIABLE)
             c.node.create_subscription(String, "orthoglide/identify/json",
@@ -247,7 +261,7 @@ def identify_service(args: argparse.Namespace) -> Any:
         res = c.call(Identify, "orthoglide/identify", timeout=600.0, bags=list(args.bags or []),
                      payload_mass=float(args.payload_mass or 0.0), method=args.method or "",
                      essential=bool(args.essential))
-        if res.success and args.json:
+        if res.success and want_json:
             stamp = {"sec": res.parameters.header.stamp.sec,
                      "nanosec": res.parameters.header.stamp.nanosec}
             doc = _wait_for(c, docs, lambda d: d.get("stamp") == stamp, JSON_WAIT_S)
@@ -259,7 +273,31 @@ def identify_service(args: argparse.Namespace) -> Any:
     print(res.message)
     if args.json:
         _write_json(args.json, doc["result"])
+    if robot is not None:
+        write_identified(args, robot, doc["result"])
     return res.parameters
+
+
+def write_identified(args: argparse.Namespace, robot: Any, result: dict) -> None:
+    """``--mjcf-out`` / ``--urdf-out`` from the node's answer (``identify --json``'s document):
+    its consistent standard parameters and drive gains in ``robot``'s description."""
+    from orthoglide_ident.model.mjcf_out import answer_of_json, write_mjcf
+
+    for attr, flag in WRITTEN_HERE:
+        path = getattr(args, attr, None)
+        if not path:
+            continue
+        chi, gains = answer_of_json(result, robot, f"identify --service {flag}")
+        if attr == "mjcf_out":
+            notes = write_mjcf(path, robot, chi, gains)
+        else:
+            notes = []
+            try:
+                Path(path).write_text(robot.identified_urdf(chi, gains))
+            except OSError as exc:
+                raise ServiceError(f"cannot write {path}: {exc.strerror or exc}") from None
+        print(f"orthoglide-ident: wrote {path} (the node's consistent parameters)"
+              + "".join(f"; {n}" for n in notes), file=sys.stderr)
 
 
 def _wait_for(c: Client, got: list, match: Any, timeout: float) -> Any | None:

@@ -147,7 +147,8 @@ def _split_index(f: Path) -> tuple[int, str]:
     return (int(tail) if tail.isdigit() else -1, f.name)
 
 
-def _scan_bag(path: str | Path, decode: bool) -> _Scan:
+def _scan_bag(path: str | Path, decode: bool,
+              progress: Callable[..., None] | None = None) -> _Scan:
     bag, files, info, warnings = bag_files(path)
     topics: dict[str, TopicSeries] = {}
     decoders: dict[str, Decoder] = {}
@@ -156,7 +157,8 @@ def _scan_bag(path: str | Path, decode: bool) -> _Scan:
     tag_problem = ""
     closing: list[str] = []  # orthoglide.incomplete of the files' closing rosbag2 records
     for fpath in files:
-        status, tag, problem = _scan_file(fpath, topics, decoders, decode, warnings, closing)
+        status, tag, problem = _scan_file(fpath, topics, decoders, decode, warnings, closing,
+                                          progress)
         statuses.append(status)
         file_tags.append((fpath, tag))
         tag_problem = tag_problem or problem
@@ -191,9 +193,11 @@ def _scan_file(
     decode: bool,
     warnings: list[str],
     closing: list[str] | None = None,
+    progress: Callable[..., None] | None = None,
 ) -> tuple[FileStatus, BagTags | None, str]:
     """Read one .mcap into ``topics``: its status, its tag and the problem with its tag (and
-    appended to ``closing``: the ``orthoglide.incomplete`` of its rosbag2 records, "" if none)."""
+    appended to ``closing``: the ``orthoglide.incomplete`` of its rosbag2 records, "" if none);
+    ``progress(stage, done, total, unit)`` hears the chunks read."""
     res = _mcap.scan(fpath)
     try:
         tag, problem = _file_tag(fpath, res.metadata)
@@ -205,6 +209,8 @@ def _scan_file(
         status = FileStatus(fpath, res.size, res.closed, 0, 0)
         for arr, per, in_chunk in _mcap.iter_messages(res, warnings):
             status.chunks += in_chunk
+            if progress is not None:
+                progress(f"reading {fpath.name}", status.chunks, len(res.chunks), "chunks")
             for cid, offs in per.items():
                 _take(res, cid, arr, offs, topics, decoders, decode, status)
         status.lost = res.loss()
@@ -321,8 +327,9 @@ def decode_messages(raw: Sequence[bytes], msgtype: str, field: str | None = None
 def read_bag(path: str | Path, *, require_tags: bool = True, interface: str | None = None,
              joints: Sequence[str] | None = None,
              position_joints: Sequence[str] | None = None,
-             channels: Callable[[BagTags | None], tuple[Sequence[str], Sequence[str]]] | None = None
-             ) -> BagData:
+             channels: Callable[[BagTags | None], tuple[Sequence[str], Sequence[str]]]
+             | None = None,
+             progress: Callable[..., None] | None = None) -> BagData:
     """Read q and the current of one bag (a rosbag2 directory or a lone .mcap file).
 
     The sources follow the bag's tag, else the order of preference of :mod:`.sources`: a
@@ -337,9 +344,10 @@ def read_bag(path: str | Path, *, require_tags: bool = True, interface: str | No
     Raises BagError when the bag is unreadable, has no joint states or no current, or (with
     ``require_tags``) is untagged or carries contradictory tags; DataError when joint names
     change inside a topic. A bag cut short by a crash is read up to its last complete chunk,
-    with a warning in ``BagData.warnings``.
+    with a warning in ``BagData.warnings``. ``progress(stage, done, total, unit)`` (None:
+    silent) hears the chunks read.
     """
-    scan = _scan_bag(path, decode=True)
+    scan = _scan_bag(path, decode=True, progress=progress)
     if require_tags and scan.tags is None:
         raise BagError(scan.tag_problem)
     warnings = list(scan.warnings)

@@ -19,6 +19,7 @@ from typing import Any
 
 from orthoglide_ident import ros_client
 from orthoglide_ident.excite import run as plan
+from orthoglide_ident.model.robots import add_description_options, load_robot_from_args
 
 EXIT_INCOMPLETE = 1
 
@@ -39,7 +40,9 @@ def add_run_command(excite_sub: Any) -> None:
     p.add_argument("--payload-mass", type=float, default=None, metavar="KG",
                    help="loaded: the weighed payload (default: the file's loaded payload mass)")
     p.add_argument("--robot", default=None, metavar="FILE",
-                   help="the robot (URDF or robot YAML; default: the file's robot)")
+                   help="the robot (URDF, .urdf.xacro, MJCF or robot YAML; default: the file's "
+                        "robot)")
+    add_description_options(p)  # --xacro-arg, --package-dir: as identify and excite design
     p.add_argument(
         "--controller",
         default="joint_trajectory_controller",
@@ -71,14 +74,18 @@ def _say(text: str) -> None:
     print(f"excite run: {text}", file=sys.stderr, flush=True)
 
 
+def run_robot(args: argparse.Namespace, traj):
+    """The run's robot, resolved at the command's edge: ``--robot`` (else the trajectory file's)
+    with ``--xacro-arg`` and ``--package-dir`` (flags.py's grammar, model/robots.py)."""
+    return load_robot_from_args(args, args.robot or traj.robot)
+
+
 def run_command(args: argparse.Namespace) -> int:
     from orthoglide_ident.excite.runner import ExcitationRunner, RunOptions
     from orthoglide_ident.excite.trajectory import load_trajectory
-    from orthoglide_ident.model.robots import load_robot
 
     traj = load_trajectory(args.trajectory)
-    # the robot is resolved here, at the command's edge
-    robot = load_robot(args.robot or traj.robot)
+    robot = run_robot(args, traj)
     options = RunOptions(
         args.controller,
         args.joint_states,

@@ -66,6 +66,24 @@ __all__ = ["Record", "fingerprint", "identify", "identify_records", "observe", "
            "resolve_payload"]
 
 
+Progress = Callable[..., None]  # (stage, done, total, unit): progress.Stages or a test's
+
+
+def _tell(progress: Progress | None, what: str, done: float, total: float, unit: str) -> None:
+    if progress is not None:
+        progress(what, done, total, unit)
+
+
+def _size_mb(path: str | Path) -> float:
+    """A bag's size in MB (a directory's files summed); 0 when it cannot be told."""
+    p = Path(path)
+    try:
+        files = [p] if p.is_file() else [f for f in p.rglob("*") if f.is_file()]
+        return sum(f.stat().st_size for f in files) / 1e6
+    except OSError:
+        return 0.0
+
+
 def resolve_payload(rec: Record, payload_mass: float | None, tol: float) -> float:
     """Known payload mass of a record (kg); IdentificationError on a missing or wrong tag."""
     if rec.condition not in ("loaded", "unloaded"):
@@ -100,7 +118,8 @@ def _check_request(opts: IdentifyOptions, method: str, payload_mass: float | Non
 
 def _observe_all(records: Iterable[Record], model: IdentificationModel, opts: IdentifyOptions,
                  payload_mass: float | None, add_timings: Callable[[dict[str, float]], None],
-                 partial: list[tuple[str, Payload]] | None = None, alts: list | None = None
+                 partial: list[tuple[str, Payload]] | None = None, alts: list | None = None,
+                 progress: Progress | None = None
                  ) -> tuple[list[Observations], list[dict[str, Any]], list[str], list[str]]:
     """Each record to its observation rows (one record's raw samples in memory at a time):
     the rows, the per-bag reports, the warnings and the bag names; the loaded records'
@@ -129,7 +148,7 @@ def _observe_all(records: Iterable[Record], model: IdentificationModel, opts: Id
             check_one_payload(partial)
         bag_names.append(rec.source)
         warnings.extend(lines)
-        obs, rep, ts = observe(rec, model, opts, m)
+        obs, rep, ts = observe(rec, model, opts, m, progress)
         add_timings(ts)
         check_moves(obs, model, opts, "bag")
         blocks.append(obs)
@@ -173,6 +192,7 @@ def identify_records(
     *,
     model: IdentificationModel,
     validation: Iterable[Record] = (),
+    progress: Progress | None = None,
 ) -> IdentificationResult:
     """Identify from records; see :func:`identify`. With ``current_sampling: auto`` records
     in memory whose identified lag comes out negative are read again as sampled
@@ -185,7 +205,7 @@ def identify_records(
     _check_request(opts, method, payload_mass)
     if isinstance(records, Sequence):  # auto may read them again, as sampled
         kw = dict(payload_mass=payload_mass, method=method, gains=gains, essential=essential,
-                  model=model)
+                  model=model, progress=progress)
         result = _identify_once(records, options=opts, validation=list(validation), **kw)
         why = sampling_rerun(result, opts)
         if why is not None:
@@ -196,7 +216,7 @@ def identify_records(
         _bound_filter_bias(result, records, opts, kw)
         return result
     return _identify_once(records, payload_mass, method, gains, essential, opts, model=model,
-                          validation=validation)
+                          validation=validation, progress=progress)
 
 
 def _bound_filter_bias(result: IdentificationResult, records: Iterable[Record],
@@ -245,6 +265,7 @@ def _identify_once(
     *,
     model: IdentificationModel,
     validation: Iterable[Record] = (),
+    progress: Progress | None = None,
 ) -> IdentificationResult:
     """:func:`identify_records` with each record's current sampling as resolved once."""
     opts = options or IdentifyOptions()
@@ -260,7 +281,7 @@ def _identify_once(
     payloads: list[tuple[str, Payload]] = []
     alts: list = []  # per record, its other readings when open (observe/sampling.py)
     blocks, reports, warnings, bag_names = _observe_all(records, model, opts, payload_mass, add,
-                                                        payloads, alts)
+                                                        payloads, alts, progress)
     t_solve = time.perf_counter()
 
     chains: list[str] = []  # the records' drive chains compared on the rows solved
@@ -275,7 +296,8 @@ def _identify_once(
         factors = [RecordFactors.from_observations(x) for x in b]
         chains.append(disagreement(factors, m.nominal_gains, list(m.joint_names)))
         try:
-            return m, b, o, solve(factors, m, o, method, gains, essential, bag_names)
+            return m, b, o, solve(factors, m, o, method, gains, essential, bag_names,
+                                  progress=progress)
         except (ExcitationError, IdentificationError) as exc:  # two drive chains: the cause
             if chains[-1]:
                 raise type(exc)(f"{chains[-1]} (the solve then says: {exc})") from None
@@ -429,6 +451,7 @@ def identify(
     *,
     model: IdentificationModel,
     validation_bags: Sequence[str | Path] = (),
+    progress: Progress | None = None,
 ) -> IdentificationResult:
     """Identify drive gains and base parameters from tagged bags (docs/design/architecture.md).
 
@@ -437,31 +460,43 @@ def identify(
     methods.METHODS: "tls" (gains identified, payload known) or "wls" (``gains`` given in N/A or
     N·m/A, default the robot's nominal ones; payload mass of loaded bags estimated);
     ``essential`` adds the essential-parameter reduction (Sect. 5.2). ``validation_bags`` are
-    cross-validated, not used for identification.
+    cross-validated, not used for identification. ``progress(stage, done, total, unit)``
+    (progress.Stages at the CLI's edge; None: silent) hears how far each long step is.
     """
     if not bag_paths:
         raise IdentificationError("no bag given")
     t_read = [0.0]
     opts = options or IdentifyOptions()
 
-    def lazily(paths: Sequence[str | Path]) -> Iterator[Record]:
-        for p in paths:
+    def lazily(paths: Sequence[str | Path], what: str) -> Iterator[Record]:
+        if not paths:
+            return
+        sizes = [_size_mb(p) for p in paths]  # a record's reading and observing go with its size
+        for k, p in enumerate(paths):
+            _tell(progress, what, sum(sizes[:k]), sum(sizes), "MB")
             log.info("reading %s", p)
             t0 = time.perf_counter()
-            rec = read_record(p, model, opts)
+            rec = read_record(p, model, opts, progress)
             log.info("%s: %s", p, rec.sources)
             t_read[0] += time.perf_counter() - t0
-            yield rec
+            yield rec  # observed before the next one is asked for
+        _tell(progress, what, sum(sizes), sum(sizes), "MB")
 
-    res = identify_records(lazily(bag_paths), payload_mass, method, gains, essential, opts,
-                           model=model, validation=lazily(validation_bags))
+    def records() -> Iterator[Record]:
+        return lazily(bag_paths, "reading and observing the records")
+
+    def validation() -> Iterator[Record]:
+        return lazily(validation_bags, "reading and observing the validation records")
+
+    res = identify_records(records(), payload_mass, method, gains, essential, opts,
+                           model=model, validation=validation(), progress=progress)
     why = sampling_rerun(res, opts)
     if why is not None:  # read the bags again, as sampled at their stamps
         log.info("%s", why)
         t_first = res.diagnostics["timings_s"].get("total", 0.0)
-        res = identify_records(lazily(bag_paths), payload_mass, method, gains, essential,
+        res = identify_records(records(), payload_mass, method, gains, essential,
                                opts.replace(current_sampling="sampled"), model=model,
-                               validation=lazily(validation_bags))
+                               validation=validation(), progress=progress)
         res.warnings.insert(0, why)
         res.diagnostics["timings_s"]["first_reading_held"] = round(t_first, 4)
     _bound_filter_bias(res, lazily(bag_paths), opts, dict(payload_mass=payload_mass,

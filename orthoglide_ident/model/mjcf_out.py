@@ -194,6 +194,9 @@ def identified_spec(robot, chi_st: np.ndarray, gains: Sequence[float]):
                           "equality constraints) is not written yet: use --urdf-out or the JSON")
     notes: list[str] = []
     jm = getattr(robot, "joint_model", robot)
+    if getattr(jm, "description", None) is None:  # the closed-form Orthoglide: no bodies to write
+        raise ConfigError(f"--mjcf-out: robot {robot.name} has no URDF or MJCF description to "
+                          "write the identified bodies into: give --robot a described one")
     if jm.description.path.suffix.lower() == ".xml":
         spec = _mjcf_with_inertials(robot, jm, chi_st)
     else:
@@ -254,3 +257,27 @@ def write_mjcf(path: str | Path, robot, chi_st: np.ndarray, gains: Sequence[floa
     except OSError as exc:
         raise ConfigError(f"cannot write {path}: {exc.strerror or exc}") from None
     return notes
+
+
+def answer_of_json(doc: dict, robot, where: str) -> tuple[np.ndarray, list[float]]:
+    """(χ_st in ``robot.standard_names`` order, drive gains) of an ``identify --json`` document
+    (the identification node's ``orthoglide/identify/json`` result) for ``robot``; ConfigError
+    naming ``where`` when it holds no consistent set or is another robot's."""
+    joints = list(doc.get("joint_names") or [])
+    if joints != list(robot.joint_names):
+        raise ConfigError(f"{where}: the answer is robot {doc.get('robot')!r}'s (joints "
+                          f"{', '.join(joints)}), not {robot.name}'s "
+                          f"({', '.join(robot.joint_names)}): give the robot the node identifies")
+    standard = (doc.get("consistency") or {}).get("standard")
+    if not isinstance(standard, dict):
+        why = "a partial answer" if doc.get("complete") is False else "no consistent set"
+        raise ConfigError(f"{where}: the answer holds {why}; MuJoCo needs physically consistent "
+                          "inertials (the node's parameter consistent: true, every gain "
+                          "determined)")
+    missing = [n for n in robot.standard_names if n not in standard]
+    if missing:
+        raise ConfigError(f"{where}: the answer has no {', '.join(missing[:3])}"
+                          f"{' ...' if len(missing) > 3 else ''} of robot {robot.name}: give the "
+                          "robot the node identifies")
+    chi = np.array([float(standard[n]) for n in robot.standard_names])
+    return chi, [float(g["value"]) for g in doc["drive_gains"]]

@@ -17,10 +17,12 @@ from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from std_msgs.msg import String
 
 from orthoglide_ident.errors import ConfigError, OrthoglideError
+from orthoglide_ident.flags import prepare_output
 from orthoglide_ident.identify.live.session import LiveIdentification
 from orthoglide_ident.identify.options import IdentifyOptions
 from orthoglide_ident.identify.pipeline import identify
 from orthoglide_ident.identify.solve.methods import METHODS, REFINEMENTS, get
+from orthoglide_ident.model.mjcf_out import write_mjcf
 from orthoglide_ident.model.robots import load_robot, load_robot_description
 from orthoglide_ident.nodes.live_feed import LiveFeed
 from orthoglide_ident.nodes.live_sources import LiveTopics
@@ -93,6 +95,16 @@ NODE_PARAMETERS = (
         [0.0],
         "N/A (N·m/A for revolute joints), the drive gains IDIM-WLS uses, one "
         "per joint; [0.0]: the robot's nominal (manufacturer's) gains, the Orthoglide's 637 pi",
+        dynamic=True,
+    ),
+    Param(
+        "mjcf_out",
+        "",
+        "path: after each successful identification with every gain determined, write the "
+        "identified robot there as an MJCF for MuJoCo (consistent inertials, armature, damping, "
+        "frictionloss, motor gears; implies the option consistent, which needs the payload's "
+        "CoM and inertia: its tag or the option payload_known) and say it in the reply; "
+        "empty: off",
         dynamic=True,
     ),
     Param(
@@ -174,6 +186,8 @@ class IdentificationNode(Node):
         super().__init__("orthoglide_identification")
         declare(self, PARAMETERS)
         self.options()  # bad option values stop the node at start with a one-line reason
+        if self.param("mjcf_out"):  # its folder made now, or a one-line refusal at start
+            prepare_output(self.param("mjcf_out"), "parameter mjcf_out")
         self.robot = load_robot(self.param("robot"))  # a bad robot file: one line, exit 2
         self._check_gains(self.param("wls_gains"))
         latched = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL,
@@ -269,6 +283,8 @@ class IdentificationNode(Node):
         ``changes`` (a ``ros2 param set`` being checked) in place of their current values."""
         values = {p.name: self.param(p.name) for p in OPTION_PARAMETERS}
         values.update((k, v) for k, v in (changes or {}).items() if k in OPTION_NAMES)
+        if (changes or {}).get("mjcf_out", self.param("mjcf_out")):
+            values["consistent"] = True  # MuJoCo needs physically consistent inertials
         return IdentifyOptions.from_mapping(values, source="parameters")
 
     def on_identify(
@@ -289,6 +305,7 @@ class IdentificationNode(Node):
     def run(self, request: Identify.Request, response: Identify.Response) -> None:
         method = request.method or self.param("method")
         essential = bool(request.essential or self.param("essential"))
+        robot = self.robot  # the one identified (robot_description may replace it meanwhile)
         try:
             with CoreLog(self.get_logger()):  # records read, ripple, lags: in the node's log
                 result = self.identify(request, method, essential)
@@ -301,6 +318,24 @@ class IdentificationNode(Node):
             self.get_logger().error(response.message)
             return
         self.answer(result, method, essential, response)
+        if response.success and self.param("mjcf_out"):
+            said = self.write_mjcf(result, robot, self.param("mjcf_out"))
+            response.message += "; " + said
+            self.get_logger().info(said)
+
+    def write_mjcf(self, result: IdentificationResult, robot: Any, path: str) -> str:
+        """Parameter mjcf_out: the identified robot as an MJCF (model/mjcf_out.py); what became
+        of it, for the reply."""
+        if result.consistency is None:
+            return (f"MJCF not written to {path}: "
+                    + ("a partial answer" if not result.complete else "no consistent set"))
+        try:  # its folder made first (the path may have been set since the start)
+            notes = write_mjcf(prepare_output(path, "parameter mjcf_out"), robot,
+                               result.consistency.answer.chi_st,
+                               [g.value for g in result.drive_gains])
+        except OrthoglideError as e:
+            return f"MJCF not written to {path}: {e}"
+        return f"MJCF written to {path}" + "".join(f" ({n})" for n in notes)
 
     def identify(
         self, request: Identify.Request, method: str, essential: bool

@@ -213,6 +213,20 @@ class Graph:
             probe.destroy_node()
         return time.monotonic() - t0
 
+    def latched(
+        self, msg_type: Any, topic: str, match: Any = None, timeout: float = 30.0
+    ) -> Any:
+        """The first message on the latched (transient local) ``topic`` for which ``match(msg)``
+        holds; without ``match``, the message it holds now."""
+        match = match or (lambda _m: True)
+        seen: list[Any] = []
+        latched = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
+                             durability=DurabilityPolicy.TRANSIENT_LOCAL)
+        self._listen(msg_type, topic, latched, seen.append,
+                     lambda: any(match(m) for m in seen), timeout,
+                     lambda: f"no matching message on {topic} within {timeout:.0f} s")
+        return next(m for m in seen if match(m))
+
     def wait_for_messages(
         self, msg_type: Any, topic: str, count: int = 1, timeout: float = 30.0
     ) -> float:
@@ -248,15 +262,6 @@ class Graph:
                 f"{seen[-1] if seen else 'none received'}"
             ),
         )
-        return seen[-1]
-
-    def latched(self, msg_type: Any, topic: str, timeout: float = 30.0) -> Any:
-        """The message a latched (transient local) ``topic`` holds now."""
-        seen: list[Any] = []
-        qos = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
-                         durability=DurabilityPolicy.TRANSIENT_LOCAL)
-        self._listen(msg_type, topic, qos, seen.append, lambda: bool(seen), timeout,
-                     lambda: f"nothing latched on {topic} within {timeout:.0f} s")
         return seen[-1]
 
     def wait_for_match(self, publisher: Any, timeout: float = 30.0) -> None:

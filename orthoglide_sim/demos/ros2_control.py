@@ -8,7 +8,10 @@
    payload mount while the arm runs (a stand-in parameter), record a loaded run;
 3. identify: live (orthoglide/identify with no bag) and from the bags (the service, then the
    offline CLI `orthoglide-ident identify --robot ur5_mount`): the drive gains next to the plant's
-   truth, live against offline, the ticks the stand-in dropped against the gaps the bags hold.
+   truth, live against offline, the ticks the stand-in dropped against the gaps the bags hold;
+4. the identified robot for MuJoCo: the identification node writes ``identified.xml`` (its
+   parameter mjcf_out); MuJoCo loads it and its inverse dynamics along the unloaded record is
+   the node's identified (consistent) model's within 1 % rms per joint (model/mjcf_check.py).
 
     python -m orthoglide_sim.demos.ros2_control [--record-seconds 30] [--out demo_out/ros2_control]
 """
@@ -23,6 +26,8 @@ from pathlib import Path
 
 import numpy as np
 
+from orthoglide_ident.errors import OrthoglideError
+from orthoglide_ident.model.mjcf_check import RMS_BAR, inverse_dynamics_rms
 from orthoglide_sim.demos.graph import Graph
 from orthoglide_sim.demos.node_set import identify, live_vs_bags, record, run_demo, say
 from orthoglide_sim.demos.verdict import gain_causes, verdict_line
@@ -32,6 +37,8 @@ ROBOT = "ur5_mount"  # the UR5 with a payload mount off the last axis (orthoglid
 PAYLOAD_KG = 2.5  # a point mass at the mount: what the recorder's mass-only tag describes
 TOPICS = ("joint_states", "dynamic_joint_states")
 STANDIN = "ros2_control_standin"
+MJCF_NAME = "identified.xml"  # the node's mjcf_out, in the demo's output folder
+STATE_STEP = 10  # every 10th sample of the record (100 Hz) for the MJCF's check
 
 
 def start_graph(g: Graph, out: Path) -> None:
@@ -42,7 +49,10 @@ def start_graph(g: Graph, out: Path) -> None:
             params_file=config / "ros2_control.yaml")
     g.start("orthoglide_recorder", "recorder", {"output_dir": str(out / "bags")},
             params_file=config / "ros2_control.yaml")
-    g.start("orthoglide_identification", "identification", {"bag_dir": str(out / "bags")},
+    g.start("orthoglide_identification", "identification",
+            {"bag_dir": str(out / "bags"), "mjcf_out": str(out / MJCF_NAME),
+             # the consistent bodies MuJoCo needs take the payload whole: it is a point mass
+             "payload_known": "point"},
             params_file=config / "ros2_control.yaml")
     t = g.wait_for_messages(JointState, "joint_states", 1, timeout=60.0)
     for topic in TOPICS:  # live from tick one
@@ -85,6 +95,58 @@ def offline_cli(bag_paths: list[str]) -> str:
     return f"exit {run.returncode}\n" + "\n".join(f"      {x}" for x in lines)
 
 
+def node_json(g: Graph, stamp) -> dict:
+    """The node's answer of this ``stamp`` as ``identify --json`` writes it (its latched
+    orthoglide/identify/json)."""
+    import json
+
+    from std_msgs.msg import String
+
+    want = {"sec": stamp.sec, "nanosec": stamp.nanosec}
+    msg = g.latched(String, "orthoglide/identify/json",
+                    lambda m: json.loads(m.data).get("stamp") == want)
+    return json.loads(msg.data)["result"]
+
+
+def record_states(bag: str, robot) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(q, q̇, q̈) along a recorded run: its positions every STATE_STEP samples, the rates by
+    central differences (any states serve: both models are evaluated at the same ones)."""
+    from orthoglide_ident.identify.records.record import read_record
+
+    rec = read_record(bag, robot)
+    cols = [list(rec.names_q).index(j) for j in robot.joint_names]
+    t = np.asarray(rec.stamps_q_ns, float)[::STATE_STEP] * 1e-9
+    q = np.asarray(rec.q)[::STATE_STEP, cols]
+    qd = np.gradient(q, t, axis=0)
+    return q[2:-2], qd[2:-2], np.gradient(qd, t, axis=0)[2:-2]
+
+
+def check_mjcf(path: Path, result: dict, bag: str) -> tuple[str, list[str]]:
+    """MuJoCo loads the node's MJCF, and its inverse dynamics along ``bag``'s states is the
+    identified model's (``result``: the node's JSON) within RMS_BAR per joint; (line, causes)."""
+    import mujoco
+
+    from orthoglide_ident.model.mjcf_out import answer_of_json
+    from orthoglide_ident.model.robots import load_robot
+
+    if not path.is_file():
+        return f"{path} not written", [f"{path.name} not written by the node (mjcf_out)"]
+    try:
+        m = mujoco.MjModel.from_xml_path(str(path))
+        robot = load_robot(ROBOT)
+        chi, _ = answer_of_json(result, robot, str(path))
+    except (ValueError, OrthoglideError) as e:
+        return f"{path}: {e}", [f"{path.name}: {' '.join(str(e).split())}"]
+    q, qd, qdd = record_states(bag, robot)
+    rms = inverse_dynamics_rms(path.read_text(), robot, chi, q, qd, qdd)
+    line = (f"{path}: MuJoCo loads it ({m.njnt} joints, {m.nu} motors); its inverse dynamics "
+            f"along {len(q)} states of the unloaded run vs the identified model: "
+            + ", ".join(f"{j} {100 * r:.1e} %" for j, r in zip(robot.joint_names, rms)) + " rms")
+    bad = [f"{path.name}: {j} {100 * r:.2f} % rms from the identified model (bar "
+           f"{100 * RMS_BAR:.0f} %)" for j, r in zip(robot.joint_names, rms) if not r <= RMS_BAR]
+    return line, bad
+
+
 def run(out: Path, seconds: float) -> int:
     if out.exists():
         shutil.rmtree(out)
@@ -102,7 +164,9 @@ def run(out: Path, seconds: float) -> int:
         time.sleep(1.5)
         say("3. identify (IDIM-TLS): live data and bags, against the plant's truth")
         live = identify(g, []).parameters
-        offline = identify(g, bag_paths).parameters
+        answer = identify(g, bag_paths)
+        offline = answer.parameters
+        result = node_json(g, offline.header.stamp)
         print_gains(live, offline, truth_gains())
         causes = gain_causes(offline.joint_names, offline.drive_gains, offline.drive_gains_rel_std,
                              truth_gains())
@@ -114,12 +178,21 @@ def run(out: Path, seconds: float) -> int:
             f"{c['dropped_dynamic_joint_states']} dynamic_joint_states over the whole run, "
             f"{c['late']} late"
         )
+    say(f"4. the identified robot for MuJoCo: {answer.message.rsplit('; ', 1)[-1]}")
+    line, causes_mjcf = check_mjcf(out / MJCF_NAME, result, bag_paths[0])
+    say(f"   {line}")
+    causes += causes_mjcf
     cli = offline_cli(bag_paths)
     say(f"   offline CLI on the same bags: {cli}")
     if not cli.startswith("exit 0"):
         causes.append(f"the offline CLI on the recorded bags: {cli.splitlines()[0]}")
     say(f"bags, logs in {out}/")
-    line, code = verdict_line(causes, "the offline CLI answers on the recorded bags")
+    line, code = verdict_line(
+        causes,
+        f"{MJCF_NAME} loads in MuJoCo and moves as the identified model within "
+        f"{100 * RMS_BAR:.0f} % rms per joint",
+        "the offline CLI answers on the recorded bags",
+    )
     say(line)
     return code
 

@@ -11,6 +11,10 @@ import numpy as np
 import pytest
 import yaml
 
+from orthoglide_ident.model.mjcf_check import inverse_dynamics_rms
+from orthoglide_ident.model.mjcf_check import model_torques as _model_torques
+from orthoglide_ident.model.mjcf_check import mujoco_torques as _mujoco_torques
+from orthoglide_ident.model.mjcf_check import rms_error as _rms_error
 from orthoglide_ident.model.mjcf_out import identified_mjcf
 from orthoglide_ident.model.robots import ROBOTS_DIR, load_robot
 
@@ -32,33 +36,6 @@ def _identified_like(robot, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
         elif kind == "tauoff":
             chi[i] = 0.2
     return chi, rng.uniform(5.0, 15.0, robot.n_joints)
-
-
-def _model_torques(robot, chi, q, qd, qdd) -> np.ndarray:
-    """(m, n) actuator-side torques of the model without Coulomb friction and offsets."""
-    rigid = chi.copy()
-    rigid[[i for i, n in enumerate(robot.standard_names) if n.startswith(("fs_", "tauoff_"))]] = 0
-    return (robot.standard_regressor(q, qd, qdd) @ rigid).reshape(robot.n_joints, -1).T
-
-
-def _mujoco_torques(text: str, joints, q, qd, qdd) -> np.ndarray:
-    """(m, n) joint torques of mj_inverse at joint-side states."""
-    m = mujoco.MjModel.from_xml_string(text)
-    off = mujoco.mjtDisableBit
-    m.opt.disableflags |= off.mjDSBL_FRICTIONLOSS | off.mjDSBL_CONTACT | off.mjDSBL_LIMIT
-    d = mujoco.MjData(m)
-    ids = [m.joint(j).id for j in joints]
-    qa, va = m.jnt_qposadr[ids], m.jnt_dofadr[ids]
-    out = np.empty_like(q)
-    for k in range(q.shape[0]):
-        d.qpos[qa], d.qvel[va], d.qacc[va] = q[k], qd[k], qdd[k]
-        mujoco.mj_inverse(m, d)
-        out[k] = d.qfrc_inverse[va]
-    return out
-
-
-def _rms_error(ref: np.ndarray, got: np.ndarray) -> np.ndarray:
-    return np.sqrt(np.mean((got - ref) ** 2, axis=0) / np.mean(ref ** 2, axis=0))
 
 
 def test_ur5_mjcf_reproduces_the_model(tmp_path):
@@ -109,6 +86,7 @@ def test_coupled_wrist_mjcf_reproduces_the_model(tmp_path):
     tau_m = np.linalg.solve(np.asarray(COUPLED, float).T, tau_j.T).T  # τ_j = Nᵀ τ_m
     ref = _model_torques(robot, chi, q_m, qd_m, qdd_m)
     assert np.all(_rms_error(ref, tau_m) < RTOL)
+    assert np.all(inverse_dynamics_rms(text, robot, chi, q_m, qd_m, qdd_m) < RTOL)  # the same
     m = mujoco.MjModel.from_xml_string(text)  # motor a's control u gives τ_j = Nᵀ (g ⊙ u)
     d = mujoco.MjData(m)
     d.ctrl[:] = 0.01  # A: within the URDF's joint effort limits (actuatorfrcrange)

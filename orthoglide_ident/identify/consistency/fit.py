@@ -37,7 +37,7 @@ import json
 import logging
 import math
 import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -401,12 +401,21 @@ def held_masses(result, factors: Sequence) -> list[float]:
 
 def analyse(result, factors: Sequence, chi_rows: np.ndarray, joint_sigma: np.ndarray, model,
             prior_weight: float = PRIOR_WEIGHT, under_constraints: bool = True,
-            prior: Mapping[str, float] | np.ndarray | None = None) -> ConsistencyResult:
+            prior: Mapping[str, float] | np.ndarray | None = None,
+            progress: Callable[..., None] | None = None) -> ConsistencyResult:
     """The consistency step on a solved identification (``result`` with its covariance; the
     records' ``factors`` and their ``chi_rows`` over every column, drive terms included;
     ``joint_sigma`` the solve's row weights): the exact-consistency check, the projection and,
-    with ``under_constraints``, the identification under the LMIs with the gains held."""
+    with ``under_constraints``, the identification under the LMIs with the gains held.
+    ``progress(stage, done, total, unit)`` hears the fits done (None: silent)."""
     t0 = time.perf_counter()
+    steps = 4 if under_constraints else 2  # check, projection (, rows' normal form, fit)
+
+    def tell(done: int) -> None:
+        if progress is not None:
+            progress("physical consistency (LMI fits)", done, steps, "steps")
+
+    tell(0)
     robot = getattr(model, "base", model)  # a DriveTermsModel wraps the robot
     chi_hat, cov, kappa, std = _base_answer(result, robot)
     n_b, K = robot.n_b, np.asarray(robot.K, float)
@@ -414,7 +423,9 @@ def analyse(result, factors: Sequence, chi_rows: np.ndarray, joint_sigma: np.nda
     S_bb, S_gb = cov[:n_b, :n_b], cov[n_b:, :n_b]
     W = whitening(S_bb)
     findings = check_exact(lay, K, W, W @ chi_hat)
+    tell(1)
     proj = solve_fit(lay, K, W, W @ chi_hat, prior_weight, "projection onto consistent parameters")
+    tell(2)
     d = proj.chi_b - chi_hat
     g = np.array([x.value for x in result.drive_gains], float)
     given = bool(result.drive_gains_given)
@@ -428,8 +439,10 @@ def analyse(result, factors: Sequence, chi_rows: np.ndarray, joint_sigma: np.nda
     ident, d2_ident = None, None
     if under_constraints:
         nf = normal_form(factors, n_b, g, masses, np.asarray(joint_sigma, float))
+        tell(3)
         ident = solve_fit(lay, K, nf.R22, -nf.r2, prior_weight,
                           "identification under the consistency constraints")
+        tell(4)
         rms["identification"] = residual_rms(factors, np.r_[ident.chi_b, nf.theta(ident.chi_b)],
                                              g, masses)
         d2_ident = float(np.sum((W @ (ident.chi_b - chi_hat)) ** 2))
@@ -469,14 +482,14 @@ def read_prior(path: str) -> dict[str, float] | None:
 MASS_RATIO_WARN = 2.0  # a body's consistent mass this far from the description's is said
 
 
-def attach(solved, model, opts) -> None:
+def attach(solved, model, opts, progress: Callable[..., None] | None = None) -> None:
     """The consistency step on a :class:`~solve.Solved` (option ``consistent``): the result's
     ``consistency`` (projection and identification under the constraints)."""
     res = solved.result
     res.consistency = analyse(res, solved.factors, solved.chi_rows,
                               np.asarray(solved.solver["joint_sigma"], float), model,
                               opts.consistency_prior_weight,
-                              prior=read_prior(opts.consistency_prior))
+                              prior=read_prior(opts.consistency_prior), progress=progress)
     res.warnings.extend(mass_warnings(res.consistency, model, res))
     held = [b["body"] for b in res.consistency.bodies_json() if b["at_prior"]
             and any(n.startswith("m_") for n in b["at_prior"])]

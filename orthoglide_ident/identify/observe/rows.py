@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import logging
 import time
+from collections.abc import Callable
+from pathlib import Path
 
 import numpy as np
 
@@ -52,8 +54,10 @@ IdentificationModel = RobotModel
 
 
 def observe(rec: Record, model: IdentificationModel, opts: IdentifyOptions,
-            payload_mass: float) -> tuple[Observations, SegmentReport, dict[str, float]]:
-    """Segments, derivative filtering, W and parallel decimation of one record (§6.1-3).
+            payload_mass: float, progress: Callable[..., None] | None = None
+            ) -> tuple[Observations, SegmentReport, dict[str, float]]:
+    """Segments, derivative filtering, W and parallel decimation of one record (§6.1-3);
+    ``progress(stage, done, total, unit)`` (None: silent) hears the samples done.
 
     A loaded record's payload column is that of its payload's known part (``rec.payload``:
     frame, centre of mass and inertia per kg; eq. 33's W_kl generalised), its unknown parameters'
@@ -83,7 +87,10 @@ def observe(rec: Record, model: IdentificationModel, opts: IdentifyOptions,
     log.info("%s: joint velocity %s", rec.source, rep.velocity)
     log.info("%s: current %s (%s)", rec.source, rep.current_sampling, rep.current_sampling_why)
     decimate = _segments_fir if opts.decimation_filter == "fir" else _segments_iir
-    rows, n_bridged, n_unbridged = decimate(segments, model, opts, rep, times)
+    what = f"observing {Path(rec.source).name}"
+    tell = None if progress is None else (lambda done, total: progress(what, done, total,
+                                                                       "samples"))
+    rows, n_bridged, n_unbridged = decimate(segments, model, opts, rep, times, tell)
     n_b = len(model.names)
     # views of the (n_b + 2, n_j, r) rows: W (n_j, r, n_b), v_tau and w_m (n_j, r), no copies
     obs = Observations(rec.source, str(rec.condition), payload_mass,
@@ -124,8 +131,10 @@ def with_known_payload(model, payload: Payload):
 
 
 def _segments_fir(segments: list[Segment], model: IdentificationModel, opts: IdentifyOptions,
-                  rep: SegmentReport, times: dict[str, float]) -> tuple[DecimatedRows, int, int]:
-    """Every segment through a :class:`SegmentStream`, pushed ``chunk_samples`` at a time.
+                  rep: SegmentReport, times: dict[str, float],
+                  tell: Callable[..., None] | None = None) -> tuple[DecimatedRows, int, int]:
+    """Every segment through a :class:`SegmentStream`, pushed ``chunk_samples`` at a time
+    (``tell(done, total)``: the samples done, None: silent).
 
     The decimated rows of each segment are known in advance: they are written once into their
     final ``(n_b + 2, n_j, r)`` array (no lists of parts, no concatenated copies).
@@ -141,7 +150,7 @@ def _segments_fir(segments: list[Segment], model: IdentificationModel, opts: Ide
                         else None, np.empty(r), np.empty((r, n_j)), np.empty((r, n_j)))
     t_start = int(segments[0].stamps_ns[0])
     n_bridged = n_unbridged = 0
-    r0 = 0
+    r0, done, total = 0, 0, sum(len(seg) for seg in segments)
     for seg in segments:
         stream = SegmentStream(model, opts, T, t_start, n_b)
         t0 = time.perf_counter()
@@ -154,7 +163,10 @@ def _segments_fir(segments: list[Segment], model: IdentificationModel, opts: Ide
         for a in range(0, stamps.shape[0], opts.chunk_samples):
             b = a + opts.chunk_samples
             r0 = out.write(r0, stream.push_states(stamps[a:b], *(x[a:b] for x in states)))
+            if tell is not None:
+                tell(done + min(b, stamps.shape[0]), total)
         r0 = out.write(r0, stream.finish())
+        done += len(seg)
         n_bridged += stream.n_bridged
         n_unbridged += stream.n_unbridged
         for k, v in stream.times.items():
@@ -186,8 +198,10 @@ def _currents(seg: Segment, model: IdentificationModel, rep: SegmentReport,
 
 
 def _segments_iir(segments: list[Segment], model: IdentificationModel, opts: IdentifyOptions,
-                  rep: SegmentReport, times: dict[str, float]) -> tuple[DecimatedRows, int, int]:
-    """MATLAB-like Chebyshev decimation (cheby1): whole segments, W produced in chunks.
+                  rep: SegmentReport, times: dict[str, float],
+                  tell: Callable[..., None] | None = None) -> tuple[DecimatedRows, int, int]:
+    """MATLAB-like Chebyshev decimation (cheby1): whole segments, W produced in chunks
+    (``tell(done, total)``: the samples of the segments done, None: silent).
 
     The IIR depends on the whole segment, so this path (offline only) keeps the chunked
     producer of decimation.decimate_chunked; bridges are applied chunk by chunk.
@@ -199,7 +213,8 @@ def _segments_iir(segments: list[Segment], model: IdentificationModel, opts: Ide
     times["filtering"] = times["regressor+decimation"] = 0.0
     n_bridged = n_unbridged = 0
     t_start = int(segments[0].stamps_ns[0])
-    for seg in segments:
+    total = sum(len(seg) for seg in segments)
+    for k, seg in enumerate(segments):
         t1 = time.perf_counter()
         qh, qdh, qddh, v = states_at_half_tick(seg.q, _currents(seg, model, rep, t_start), T,
                                                opts.filter_cutoff_hz,
@@ -241,6 +256,8 @@ def _segments_iir(segments: list[Segment], model: IdentificationModel, opts: Ide
         if zones is not None:
             parts["keep"].append(rows_clear(zones.drop, n_d, r, "cheby1").T)
         times["regressor+decimation"] += time.perf_counter() - t2
+        if tell is not None:
+            tell(sum(len(x) for x in segments[:k + 1]), total)
     keep = np.concatenate(parts["keep"], axis=1) if parts["keep"] else None
     return (DecimatedRows(np.concatenate(parts["X"], axis=2), keep, np.concatenate(parts["t"]),
                           np.concatenate(parts["q"]), np.concatenate(parts["qd"])),

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import dataclasses
 import logging
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -69,14 +69,15 @@ class Record:
 
 
 def read_record(path: str | Path, model: RobotModel,
-                opts: IdentifyOptions | None = None) -> Record:
+                opts: IdentifyOptions | None = None,
+                progress: Callable[..., None] | None = None) -> Record:
     """Read a tagged bag (directory or lone .mcap) into a :class:`Record`: the robot's joints
     (``model``) by name from whichever topics hold them (bags.sources:
     a DynamicJointState interface, the JointState effort or the CurrentReference), the payload's
     frame, centre of mass and inertia from the tag. An effort that is a torque or force (the
     bag's tag ``orthoglide.effort_unit: torque``, or the option ``effort_unit: torque`` for a bag
     whose tag does not say) is turned into a current with the nominal gains. BagError if
-    unusable."""
+    unusable. ``progress(stage, done, total, unit)`` (None: silent) hears the chunks read."""
     from orthoglide_ident import bags
 
     opts = opts or IdentifyOptions()
@@ -86,7 +87,8 @@ def read_record(path: str | Path, model: RobotModel,
         sides[:] = tagged_sides(model, tags, str(path))
         return _channels(model, "position", sides[0]), _channels(model, "effort", sides[1])
 
-    data = bags.read_bag(path, channels=channels, interface=opts.current_interface or None)
+    data = bags.read_bag(path, channels=channels, interface=opts.current_interface or None,
+                         progress=progress)
     tags, current = data.tags, data.current
     v_tau, sources = current.current, data.sources.describe()
     qd = data.velocity if opts.velocity_source != "derived" else None

@@ -12,7 +12,7 @@ import dataclasses
 import logging
 import math
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -339,9 +339,10 @@ def tls_model(factors: list[RecordFactors], model, opts: IdentifyOptions) -> tup
 
 
 def solve_tls(factors: list[RecordFactors], model, opts: IdentifyOptions, essential: bool,
-              bags: list[str]) -> Solved:
+              bags: list[str], progress: Callable[..., None] | None = None) -> Solved:
     """IDIM-TLS (eqs. 33-39), excitation checked, optionally the essential parameters; a
-    partial answer (partial.py) when the data fix only some gains."""
+    partial answer (partial.py) when the data fix only some gains (``progress`` hears the
+    subset search)."""
     require_loaded_and_unloaded(factors, "IDIM-TLS")
     log.info("IDIM-TLS on %d equations × %d unknowns", sum(f.n_rows for f in factors),
              factors[0].n_b + model.n_joints + 1)
@@ -349,7 +350,7 @@ def solve_tls(factors: list[RecordFactors], model, opts: IdentifyOptions, essent
     left_out = partial.hardly_moved(factors, model, opts, min_rows(factors[0].n_b)) \
         if partial_ok else {}
     if left_out:
-        return _solve_partial(factors, model, opts, bags, left_out, essential)
+        return _solve_partial(factors, model, opts, bags, left_out, essential, progress)
     m, base = tls_model(factors, model, opts)
     sol = m.full
     if opts.check_excitation:
@@ -358,9 +359,9 @@ def solve_tls(factors: list[RecordFactors], model, opts: IdentifyOptions, essent
         except ExcitationError as exc:
             if not _not_separated(sol, limits(model, opts)):
                 raise
-            left_out = _search(factors, model, opts, {}, str(exc))
+            left_out = _search(factors, model, opts, {}, str(exc), progress)
         if left_out:
-            return _solve_partial(factors, model, opts, bags, left_out, essential)
+            return _solve_partial(factors, model, opts, bags, left_out, essential, progress)
         band_warnings = check_excitation(sol, limits(model, opts), m.names, model.joint_names)
     view, ripples, lags = m.view(sol)
     result = tls_result(model, view, factors, opts, bags)
@@ -473,7 +474,7 @@ def _weights_shift(t: partial.Trial, factors: list[RecordFactors], model,
 
 
 def _search(factors: list[RecordFactors], model, opts: IdentifyOptions, left_out: dict[int, str],
-            why: str) -> dict[int, str]:
+            why: str, progress: Callable[..., None] | None = None) -> dict[int, str]:
     """The gains to leave out beside ``left_out`` (joint index -> reason) so that the rest is an
     answer: the largest such subset of the free gains (partial.search_subsets). ExcitationError
     with ``why`` (the full set's failure) when no subset is one."""
@@ -485,7 +486,7 @@ def _search(factors: list[RecordFactors], model, opts: IdentifyOptions, left_out
         with np.errstate(over="ignore", divide="ignore", invalid="ignore"):  # failed trials' σ
             return _failure(*partial.reduce(factors, model, out), opts)
 
-    best, tried = partial.search_subsets(free, trial, model.joint_names)
+    best, tried = partial.search_subsets(free, trial, model.joint_names, progress=progress)
     if best is None:
         raise ExcitationError(
             ("no drive gain is determined: " if left_out else "") + why + "; nor is any subset "
@@ -513,7 +514,8 @@ def _left_out_text(names: Sequence[str], left_out: dict[int, str]) -> list[str]:
 
 
 def _solve_partial(factors: list[RecordFactors], model, opts: IdentifyOptions, bags: list[str],
-                   left_out: dict[int, str], essential: bool) -> Solved:
+                   left_out: dict[int, str], essential: bool,
+                   progress: Callable[..., None] | None = None) -> Solved:
     """IDIM-TLS on the joints whose gains the data fix (partial.py): their rows only, the
     columns only the others' rows held left out; judged as a full answer is, on that
     subsystem. The result lists every joint, those left out "not determined" with the reason."""
@@ -532,7 +534,7 @@ def _solve_partial(factors: list[RecordFactors], model, opts: IdentifyOptions, b
             why = "; ".join(_left_out_text(names, left_out)) + f"; and without them {exc}"
             if not _not_separated(sol, limits(sub, opts)):
                 raise ExcitationError("no drive gain is determined: " + why) from None
-            left_out.update(_search(factors, model, opts, left_out, why))
+            left_out.update(_search(factors, model, opts, left_out, why, progress))
             continue
         if not new:
             break

@@ -57,8 +57,8 @@ class Refinement:
     topic: str = ""  # where the identification node latches it, if on a topic of its own
 
 
-def _tls(factors, model, opts, gains, essential, bags) -> Solved:
-    return solve_tls(factors, model, opts, essential, bags)
+def _tls(factors, model, opts, gains, essential, bags, progress=None) -> Solved:
+    return solve_tls(factors, model, opts, essential, bags, progress)
 
 
 def _iv(factors, model, opts, gains, essential, bags) -> Solved:
@@ -99,10 +99,13 @@ def get(name: str) -> Method:
 
 def solve(factors: list[RecordFactors], model, opts: IdentifyOptions,
           method: str = DEFAULT_METHOD, gains: Sequence[float] | None = None,
-          essential: bool = False, bags: Sequence[str] = ()) -> Solved:
+          essential: bool = False, bags: Sequence[str] = (),
+          progress: Callable[..., None] | None = None) -> Solved:
     """The method on the factors, the payload's identified parameters split from the robot's
     (a payload known by its mass, Sect. 4.3), then the consistent set when ``opts.consistent``;
-    raises the product's errors with a reason."""
+    raises the product's errors with a reason. ``progress(stage, done, total, unit)`` (None:
+    silent) hears the stages: the solve, the partial answer's subset search (TLS), the IV
+    cross-check, the consistency fits."""
     m = get(method)
     if not factors:
         raise IdentificationError("no bag given")
@@ -114,9 +117,14 @@ def solve(factors: list[RecordFactors], model, opts: IdentifyOptions,
         raise IdentificationError(
             "--consistent needs the payload's CoM and inertia: with only its mass known they are "
             "identified (Sect. 4.3); tag them or give --payload-known point")
-    out = m.solve(factors, model, opts, gains, essential, list(bags))
+    tell = progress or (lambda *a: None)
+    tell(f"solving (IDIM-{m.name.upper()})", 0, 0, "")  # a stage with nothing to count
+    # a method that reports its own steps (TLS: the subset search) takes the progress too
+    out = m.solve(factors, model, opts, gains, essential, list(bags),
+                  **({"progress": progress} if progress is not None and m.name == "tls" else {}))
     if method == "tls" and opts.cross_check == "iv" and out.result.complete:
         # after TLS, IDIM-IV's gains beside (issue 43); marked only when the checks are on
+        tell("cross-checking by IDIM-IV", 0, 0, "")
         cross_check(out, factors, model, opts.check_excitation)
     split_payload(out.result, model)
     out.result.warnings.extend(friction_sign_warnings(out.result))
@@ -126,5 +134,5 @@ def solve(factors: list[RecordFactors], model, opts: IdentifyOptions,
     elif opts.consistent:  # physically consistent standard parameters behind the answer
         from orthoglide_ident.identify.consistency.fit import attach
 
-        attach(out, model, opts)
+        attach(out, model, opts, progress)
     return out

@@ -245,18 +245,24 @@ def nested_shift(t: Trial, smaller: Trial, names: Sequence[str]) -> str | None:
 
 
 def search_subsets(free: Sequence[int], trial: Callable[[frozenset[int]], Trial],
-                   names: Sequence[str], exact_max: int = EXACT_SEARCH_MAX
-                   ) -> tuple[Trial | None, dict]:
+                   names: Sequence[str], exact_max: int = EXACT_SEARCH_MAX,
+                   progress: Callable[..., None] | None = None) -> tuple[Trial | None, dict]:
     """The largest subset of ``free`` (the full set already failed) whose trial is an answer
     and honest beside its own subsets (:func:`nested_shift`), the least s_c/s_(c-1) among
     those of that size; None if no subset is. Every subset, largest first, up to ``exact_max``
     free gains; beyond, greedy: the gain whose removal lowers s_c/s_(c-1) most is dropped, one
-    at a time. Also returns every trial made, by subset."""
+    at a time. Also returns every trial made, by subset. ``progress`` hears the trials made of
+    the most the search may make (it stops at the first answer)."""
     tried: dict[frozenset[int], Trial] = {}
+    n = len(free)
+    most = 2 ** n - 2 if n <= exact_max else n * (n + 1) // 2  # every proper subset; greedy
 
     def run(kept: frozenset[int]) -> Trial:
         if kept not in tried:
             tried[kept] = trial(kept)
+            if progress is not None:
+                progress("searching the gains the data fix", len(tried), max(most, len(tried)),
+                         "subsets")
         return tried[kept]
 
     def answer(trials: list[Trial]) -> Trial | None:
