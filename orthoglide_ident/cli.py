@@ -38,7 +38,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from orthoglide_ident import import_command, ros_client
-from orthoglide_ident.errors import ConfigError, OrthoglideError
+from orthoglide_ident.errors import ConfigError, IdentificationError, OrthoglideError
 from orthoglide_ident.flags import prepare_outputs
 from orthoglide_ident.identify.solve.methods import DEFAULT_METHOD, METHODS
 from orthoglide_ident.model.robots import (
@@ -283,8 +283,18 @@ def _write_json(path: str, doc: dict) -> None:
         raise ConfigError(f"cannot write {path}: {exc.strerror or exc}") from None
 
 
+def _consistent_set(res, flag: str):
+    """The consistent standard parameters behind ``res``, or a one-line refusal saying why
+    there are none (a partial answer: they need every gain)."""
+    if res.consistency is None:
+        why = "a partial answer" if not res.complete else "no consistent set was found"
+        raise IdentificationError(f"{flag} not written: {why} (see the warnings above)")
+    return res.consistency.answer.chi_st
+
+
 def _write_urdf(path: str, res, args: argparse.Namespace) -> None:
     """The consistent identified model as a URDF (RobotModel.identified_urdf)."""
+    _consistent_set(res, "--urdf-out")
     text = load_robot_from_args(args).identified_urdf(res.consistency.answer.chi_st,
                                                       [g.value for g in res.drive_gains])
     try:
@@ -298,6 +308,7 @@ def _write_mjcf(path: str, res, args: argparse.Namespace) -> None:
     """The consistent identified robot as an MJCF (model/mjcf_out.py)."""
     from orthoglide_ident.model.mjcf_out import write_mjcf
 
+    _consistent_set(res, "--mjcf-out")
     notes = write_mjcf(path, load_robot_from_args(args), res.consistency.answer.chi_st,
                        [g.value for g in res.drive_gains])
     log = logging.getLogger("orthoglide_ident")

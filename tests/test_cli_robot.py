@@ -73,6 +73,11 @@ def test_a_payload_tagged_with_its_mass_only(tmp_path):
     assert point.returncode == 0, point.stderr  # a partial answer: no torque on the wrist_3 axis
     assert "g_tau wrist_3_joint       not determined: the payload adds almost no torque" \
         in point.stdout, point.stdout
+    urdf = tmp_path / "identified.urdf"  # a partial answer has no consistent set: said, no file
+    out = cli("identify", "--robot", "ur5", *bags, "--payload-known", "point", "--urdf-out",
+              str(urdf), "-q")
+    assert out.returncode == 2 and "Traceback" not in out.stderr, out.stderr
+    assert "--urdf-out not written: a partial answer" in out.stderr and not urdf.exists()
     bad = cli("identify", "--robot", "ur5", *bags, "--payload-known", "com", "-q")
     assert bad.returncode == 2 and "payload_known com needs the payload's centre of mass" \
         in bad.stderr

@@ -499,8 +499,9 @@ def identify(
                                validation=validation(), progress=progress)
         res.warnings.insert(0, why)
         res.diagnostics["timings_s"]["first_reading_held"] = round(t_first, 4)
-    _bound_filter_bias(res, lazily(bag_paths), opts, dict(payload_mass=payload_mass,
-                                                         method=method, gains=gains, model=model))
+    again = lazily(bag_paths, "reading the records again (a slow log's filter bound)")
+    _bound_filter_bias(res, again, opts, dict(payload_mass=payload_mass, method=method,
+                                              gains=gains, model=model))
     # reading happens inside identify_records' loop: its total already includes it
     res.diagnostics["timings_s"]["read"] = round(t_read[0], 4)
     return res

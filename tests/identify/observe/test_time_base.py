@@ -234,7 +234,11 @@ def test_an_uneven_91_hz_record_gives_the_true_gains_with_default_options():
                                 stamps_v_ns=r.stamps_q_ns[0] + np.arange(len(r.q)) * 10_000_000)
             for r in recs]
     old = identify_records(flat, model=model, options=IdentifyOptions(check_excitation=False))
-    assert np.abs(_gain_errors(old)).max() > 10 * np.abs(_gain_errors(res)).max()
+    # off by ~% where still given; the slow log's filter bound (solve/filter_bound.py) may
+    # mark such gains not determined (NaN): either way never as good as the true stamps
+    err_old = np.abs(_gain_errors(old))
+    assert np.all(np.isnan(err_old) | (err_old > 0)) and (
+        np.isnan(err_old).any() or err_old.max() > 10 * np.abs(_gain_errors(res)).max())
 
 
 def test_a_gap_in_an_uneven_record_splits_it():
