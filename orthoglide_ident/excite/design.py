@@ -96,6 +96,8 @@ CHECK_EVALS = 20  # one 1 ms check and the final prediction, in evaluations
 COLLISION_EVERY = 4  # the search's distances on every 4th sample: meshes cost ~30 ms a pose
 BOUND_FACTOR = 1.0  # pairs whose bounding spheres are a margin apart: their bound is enough
 CLEAR_FACTOR, CLEAR_TRIES = 1.5, 200  # a start pose nobody chose clears 1.5 margins
+SEARCHES = ("walk", "gradient")  # the random walk alone; then polished with gradients
+POLISH_STARTS = 3  # the walk's best and the best random shapes, polished (gradient.py)
 
 
 @dataclass(frozen=True)
@@ -119,10 +121,15 @@ class DesignOptions:
     max_condition: float | None = None  # κ beyond which a direction is not excited
     # (None: prediction.MAX_CONDITION)
     time_limit_s: float | None = None  # the search returns its best so far after this
+    search: str = "walk"  # SEARCHES
+
 
     def __post_init__(self) -> None:
         if self.max_condition is None:
             object.__setattr__(self, "max_condition", prediction.MAX_CONDITION)
+        if self.search not in SEARCHES:
+            raise ConfigError(f"--search must be one of {', '.join(SEARCHES)}, not "
+                              f"{self.search!r}")
         if self.time_limit_s is not None and not self.time_limit_s > 0:
             raise ConfigError(f"--time-limit must be a positive number of seconds, not "
                               f"{self.time_limit_s:g}")
@@ -187,6 +194,7 @@ class Problem:
         self.runs = (("unloaded", None), ("loaded", options.payload))
         self.ell = np.arange(1, self.L + 1, dtype=float)
         self.evals = 0  # evaluations so far (the expected duration)
+        self.starts: list[tuple[float, np.ndarray]] = []  # feasible random shapes (score, x)
 
     @property
     def size(self) -> int:
@@ -224,8 +232,10 @@ class Problem:
                                     self.opt.periods, runs)
 
     def evaluate(self, x: np.ndarray) -> Evaluation:
+        return self.evaluate_trajectory(self.trajectory(x))
+
+    def evaluate_trajectory(self, traj: ExcitationTrajectory) -> Evaluation:
         self.evals += 1
-        traj = self.trajectory(x)
         F, violation, worst = 0.0, 0.0, None
         for name, payload in self.runs:
             q, qd, qdd = traj.evaluate(name, self.t)
@@ -260,9 +270,12 @@ class Problem:
         return crit if math.isfinite(crit) else math.inf
 
     def final_prediction(self, x: np.ndarray) -> Prediction:
+        return self.prediction_of(self.trajectory(x))
+
+    def prediction_of(self, traj: ExcitationTrajectory) -> Prediction:
         """The design's prediction, the cap (``max_condition``) judging which directions it
         excites."""
-        traj, F = self.trajectory(x), 0.0
+        F = 0.0
         for name, payload in self.runs:
             q, qd, qdd = traj.evaluate(name, self.t)
             X, tau = run_rows(self.robot, self.chi_b, self.gains,
@@ -452,6 +465,7 @@ def search(problem: Problem, progress: Callable[[str], None] | None = None,
         line.update(evals, evals / (r + 1) * opt.restarts + opt.steps)
         if ev.violation == 0 and math.isfinite(ev.criterion):
             randoms.append(ev)
+            problem.starts.append((ev.score, x))
         if best is None or ev.score < best.score:
             best_x, best = x, ev
         if r == 0:
@@ -593,14 +607,29 @@ def design(robot, limits: JointLimits, collision, options: DesignOptions,
     x, best, randoms = search(problem, steps, clock, say)
     if best.violation > 0 or best.prediction is None:
         raise _refusal(best)
-    x, traj, report = repaired(problem, x, say)
-    pred = problem.final_prediction(x)
+    target = problem
+    if options.search == "gradient" and not clock.out():
+        target, x = polished(problem, x, best, say)
+    x, traj, report = repaired(target, x, say)
+    pred = problem.prediction_of(traj)
     if pred.undetermined_gains.all():
         raise ExcitationError("no drive gain is determined by any motion within the limits: "
                               + "; ".join(u.to_text() for u in pred.unexcited))
     for u in pred.unexcited:
         say(f"not excited: {u.to_text()}")
     return Design(traj, report, pred, problem.criterion(pred), randoms, clock.elapsed, problem)
+
+
+def polished(problem: Problem, x: np.ndarray, best: Evaluation, say: Callable[[str], None]):
+    """(gradient.Polish, its v): the walk's best ``x`` and the best random shapes polished
+    by SLSQP with analytic gradients (gradient.py), the gains ``best`` determines kept."""
+    from orthoglide_ident.excite.gradient import polish
+
+    ranked = [y for _, y in sorted(problem.starts, key=lambda s: s[0])]
+    determined = np.isfinite(best.prediction.gain_rel_std)
+    nlp, v, _ = polish(problem, [x] + ranked[:POLISH_STARTS - 1], SEARCH_CAP, COND_WEIGHT,
+                       determined, say)
+    return nlp, v
 
 
 def payload_options(problem: Problem, traj: ExcitationTrajectory, masses: list[float]

@@ -1,0 +1,114 @@
+"""The search with gradients (issue 46, excite/gradient.py): the analytic gradients of the
+criterion's terms and of the effort constraints against central finite differences of the
+product's own prediction (prediction.run_rows, information, from_information: not the code
+under test), and the polished design passes the 1 ms check or is repaired."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from excite_robots import two_link_urdf
+
+from orthoglide_ident.excite.check import check_trajectory
+from orthoglide_ident.excite.design import (
+    COND_WEIGHT,
+    SEARCH_CAP,
+    DesignOptions,
+    Problem,
+    design,
+)
+from orthoglide_ident.excite.gradient import Polish
+from orthoglide_ident.excite.limits import read_limits
+from orthoglide_ident.excite.prediction import (
+    RunSamples,
+    from_information,
+    information,
+    run_rows,
+)
+from orthoglide_ident.model.robot import Payload
+from orthoglide_ident.model.robots import load_robot
+
+FD_STEP = 1e-6  # on the reduced coefficients (rad/s) and the amplitudes
+REL_TOL = 1e-5
+
+
+def _reference(nlp: Polish, v: np.ndarray) -> np.ndarray:
+    """[log σ(g_j)/g_j, log κ, τ_j(t)/τ_max,j of both runs] of v by the prediction module."""
+    p = nlp.problem
+    traj, F, taus = nlp.trajectory(v), 0.0, []
+    for name, payload in p.runs:
+        q, qd, qdd = traj.evaluate(name, p.t)
+        qd[p.t == 0], qdd[p.t == 0] = 0.0, 0.0  # at rest (|q̇(0)| ~ 1e-17: sign(q̇) would flip)
+        X, tau = run_rows(p.robot, p.chi_b, p.gains, RunSamples(q, qd, qdd, traj.duration,
+                                                                 payload))
+        F = F + information(X, tau, p.gains, p.opt.noise_a, 1000.0 * traj.duration / len(p.t),
+                            p.lag_rate(tau))
+        taus.append((tau / nlp.effort[:, None]).ravel())
+    pred = from_information(F, p.chi_b, p.gains, p.opt.noise_a, SEARCH_CAP)
+    return np.concatenate([np.log(pred.gain_rel_std), [math.log(pred.condition_kept)]] + taus)
+
+
+def _analytic(nlp: Polish, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    t = nlp.terms(v)
+    # per run: slack − u, then slack + u (u = τ/τ_max): the second halves, whose Jacobian is +∂u
+    u = t["effort"].reshape(2, 2, -1)[:, 1].ravel() - (1 - nlp.opt.margins.effort)
+    J = t["effort_jac"].reshape(2, 2, -1, nlp.size)[:, 1].reshape(-1, nlp.size)
+    return np.concatenate([t["vals"], u]), np.concatenate([t["grad"], J])
+
+
+@pytest.mark.parametrize("robot_name,harmonics", [("ur5", 3), ("two_link", 3)])
+def test_gradients_match_finite_differences(tmp_path, robot_name, harmonics):
+    if robot_name == "two_link":
+        robot = load_robot(str(two_link_urdf(tmp_path)))
+        limits = read_limits(robot)
+        payload = Payload(0.5, "", (0.02, 0.0, 0.05), (1e-3, 0, 0, 1e-3, 0, 1e-3))
+    else:
+        robot = load_robot("ur5")
+        limits = read_limits(robot)
+        payload = Payload(2.0, "tool0", (0.035, -0.025, 0.06), (4e-3, 0, 0, 4e-3, 0, 2.5e-3))
+    opt = DesignOptions(payload, np.full(robot.n_joints, 0.02), harmonics=harmonics, samples=24)
+    problem = Problem(robot, limits, None, opt)
+    nlp = Polish(problem, SEARCH_CAP, COND_WEIGHT, np.ones(robot.n_joints, bool))
+    rng = np.random.default_rng(7)
+    x = np.concatenate([rng.normal(size=problem.size - 2), [0.3, -0.2]])
+    v = nlp.start(x)
+    vals, J = _analytic(nlp, v)
+    lazy = nlp.terms(v + 0.0, grad=False)  # the line search's values, without the partials
+    np.testing.assert_array_equal(np.append(lazy["vals"], lazy["effort"]),
+                                  np.append(nlp.terms(v)["vals"], nlp.terms(v)["effort"]))
+    np.testing.assert_allclose(vals, _reference(nlp, v), rtol=1e-9, atol=1e-12)
+    fd = np.empty_like(J)
+    for k in range(nlp.size - 1):  # the epigraph variable t enters no term
+        e = np.zeros(nlp.size)
+        e[k] = FD_STEP
+        fd[:, k] = (_reference(nlp, v + e) - _reference(nlp, v - e)) / (2 * FD_STEP)
+    fd[:, -1] = 0.0
+    # the efforts at t = 0 (at rest at P whatever v): a null gradient, up to FD rounding
+    at_rest = np.zeros(len(J), bool)
+    at_rest[robot.n_joints + 1:] = np.tile(problem.t == 0, 2 * robot.n_joints)
+    assert np.abs(J[at_rest]).max() == 0.0 and np.abs(fd[at_rest]).max() < 1e-8
+    J, fd = J[~at_rest], fd[~at_rest]
+    err = np.linalg.norm(J - fd, axis=1) / np.linalg.norm(fd, axis=1)
+    assert err.max() < REL_TOL, (err.argmax(), err.max())
+
+
+def test_polished_design_passes_the_1ms_check(tmp_path):
+    urdf = two_link_urdf(tmp_path)
+    y = tmp_path / "arm.yaml"
+    y.write_text(f"name: two_link\ndescription: {urdf.name}\nexcitation:\n"
+                 "  acceleration_limits: 10.0\n")
+    robot = load_robot(str(y))
+    limits = read_limits(robot)
+    collision = None
+    kw = dict(periods=2, restarts=4, steps=20, samples=20)
+    walk = design(robot, limits, collision, DesignOptions(Payload(0.5), np.full(2, 0.02), **kw),
+                  progress=lambda _: None)
+    said = []
+    d = design(robot, limits, collision, DesignOptions(Payload(0.5), np.full(2, 0.02),
+                                                       search="gradient", **kw),
+               progress=said.append)
+    # the 1 ms check again, independently of the design's own report
+    assert check_trajectory(d.trajectory, robot, limits, collision, d.problem.opt.margins).ok
+    assert any(s.startswith("gradient polish") for s in said)
+    assert d.criterion <= walk.criterion + 1e-9
