@@ -78,6 +78,9 @@ def _add_design(p: argparse.ArgumentParser) -> None:
     p.add_argument("--steps", type=int, default=400, help="search steps after (default 400)")
     p.add_argument("--time-limit", type=float, metavar="S",
                    help="stop searching after S s and keep the best design so far")
+    p.add_argument("--search", choices=("walk", "gradient"), default="walk",
+                   help="walk: random shapes and a random walk; gradient: then its best shapes "
+                        "polished by SLSQP with analytic gradients (default walk)")
     p.add_argument("--pose", metavar="J=V,...",
                    help="start and end pose (joint=value, m or rad); default the robot file's "
                         "excitation.home, else the middle of each joint's range")
@@ -181,7 +184,8 @@ def _design(args: argparse.Namespace, robot: RobotModel) -> int:
     robot.with_payload(payload)  # ConfigError now for a frame the robot lacks
     opt = DesignOptions(payload, noise, args.period, args.periods, args.harmonics, args.seed,
                         args.restarts, args.steps, target=args.target_sigma / 100.0,
-                        pose=_pose(args.pose), time_limit_s=args.time_limit)
+                        pose=_pose(args.pose), time_limit_s=args.time_limit,
+                        search=args.search)
     _log.info("designing for robot %s: %d joints, %d base parameters, %s collision pairs",
               robot.name, robot.n_joints, robot.n_b, collision.n_pairs if collision.mode != "skip"
               else "no")

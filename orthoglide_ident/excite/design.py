@@ -472,6 +472,7 @@ def search(problem: Problem, progress: Callable[[str], None] | None = None,
             note("expected duration ~"
                  + duration_text(expected_seconds(problem, clock.elapsed / problem.evals))
                  + f" ({opt.restarts} random shapes, {opt.steps} steps"
+                 + (", then the gradient polish" if opt.search == "gradient" else "")
                  + (f", stopping at {opt.time_limit_s:g} s" if opt.time_limit_s else "") + ")")
         if clock.out():
             note(f"time limit {opt.time_limit_s:g} s: stopping after {r + 1} random shapes")

@@ -50,7 +50,7 @@ from orthoglide_ident.excite.trajectory import ExcitationRun, ExcitationTrajecto
 H_Q, H_QD = 1e-6, 1e-6  # central-difference steps of the regressor in q (rad, m) and q̇
 ALPHA_MIN = 0.05  # the smallest amplitude the NLP may give a run
 MAX_ITER = 40  # SLSQP iterations per start
-BACKTRACKS = 4  # halvings towards the start when the polished shape breaks a checked constraint
+BACKTRACKS = 8  # SLSQP iterates tried back from its answer when it breaks a checked constraint
 
 
 @dataclass(frozen=True)
@@ -99,24 +99,20 @@ def regressor_partials(model, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray
                        ) -> tuple[np.ndarray, np.ndarray]:
     """X = [W | W_payload] (p, n, m) and ∂X/∂x (3, n, p, n, m) per sample, x = q, q̇, q̈ of each
     actuated joint: q̈ exactly (X affine in q̈: a unit step), q and q̇ by central differences
-    (H_Q, H_QD). 5n + 1 observation blocks, whatever the number of harmonics: one call on the
-    stacked samples for a serial robot (its per-call cost dominates at 100 samples), one per
-    block for a closed chain (its loops are closed from the previous sample)."""
-    n, E = q.shape[1], np.eye(q.shape[1])
-    steps = [(0, 0.0, None)] + [(k, s * h, i) for k, h in ((0, H_Q), (1, H_QD))
-                                for s in (1.0, -1.0) for i in range(n)] + \
-        [(2, 1.0, i) for i in range(n)]
-    states = []
-    for k, h, i in steps:
-        x = [q, qd, qdd]
-        if i is not None:
-            x[k] = x[k] + h * E[i]
-        states.append(x)
-    if getattr(model, "closure", None) is None:
-        X = model.observation_block(*(np.concatenate(c) for c in zip(*states)))
-        X = np.stack(np.split(X, len(steps), axis=2))
-    else:
-        X = np.stack([model.observation_block(*x) for x in states])
+    (H_Q, H_QD). The 5n + 1 states of each sample are stacked next to it in one call of the
+    observation block, whatever the number of harmonics (its per-call cost dominates at 100
+    samples; a closed chain's loops, warm-started from the previous sample, stay on one branch)."""
+    m, n = q.shape
+    E = np.eye(n)
+    z = np.zeros((1, n))
+    # offsets (S, n) of q, q̇, q̈: the sample, ± H_Q e_i, ± H_QD e_i, + e_i
+    dq = np.concatenate([z, H_Q * E, -H_Q * E, np.zeros((3 * n, n))])
+    dqd = np.concatenate([np.zeros((1 + 2 * n, n)), H_QD * E, -H_QD * E, np.zeros((n, n))])
+    dqdd = np.concatenate([np.zeros((1 + 4 * n, n)), E])
+    S = dq.shape[0]
+    states = [(x[:, None, :] + d[None]).reshape(m * S, n) for x, d in
+              ((q, dq), (qd, dqd), (qdd, dqdd))]
+    X = np.moveaxis(model.observation_block(*states).reshape(-1, n, m, S), 3, 0)
     X0 = X[0]
     dX = np.empty((3, n) + X0.shape)
     dX[0] = (X[1:1 + n] - X[1 + n:1 + 2 * n]) / (2 * H_Q)
@@ -169,7 +165,7 @@ def sensitivities(rows: RunRows, G: np.ndarray, gains: np.ndarray) -> np.ndarray
     df = 2 Σ_j tr(G A_jᵀ dA_j) (the adjoint: no dF per coefficient)."""
     n, m, c = rows.A.shape
     n_b = rows.chi.shape[0] - 1
-    B = 2.0 * np.einsum("jtc,fcd->fjtd", rows.A, G)  # ∂f/∂A_j[t, :]
+    B = 2.0 * np.moveaxis(np.tensordot(rows.A, G, axes=([2], [1])), 2, 0)  # ∂f/∂A_j[t, :]
     omega = np.zeros((G.shape[0], n_b + 1, n, m))
     omega[:, :n_b] = np.moveaxis(B[..., :n_b], 3, 1) * rows.scale[None, None, :, None]
     j = np.arange(n)
@@ -179,7 +175,11 @@ def sensitivities(rows: RunRows, G: np.ndarray, gains: np.ndarray) -> np.ndarray
         beta = beta - (np.roll(lag, -1, -1) - np.roll(lag, 1, -1)) / (2.0 * rows.dt)
     beta = np.moveaxis(beta, 0, 1) * (rows.scale / gains)[None, :, None]
     omega += beta[:, None] * rows.chi[None, :, None, None]
-    return np.einsum("fpjt,kipjt->fkit", omega, rows.dX)
+    f, (k, ni) = omega.shape[0], rows.dX.shape[:2]
+    # Σ_pj Ω[f,p,j,t] ∂X[p,j,t]/∂x_ki(t): one matrix product per sample t
+    out = np.matmul(omega.reshape(f, -1, m).transpose(2, 0, 1),
+                    rows.dX.reshape(k * ni, -1, m).transpose(2, 1, 0))
+    return out.transpose(1, 2, 0).reshape(f, k, ni, m)
 
 
 def to_coefficients(phi: np.ndarray, sens: np.ndarray, S: np.ndarray, alpha: float
@@ -308,7 +308,10 @@ class Polish:
         """(1 − margin) ∓ τ_j(t)/τ_max,j ≥ 0 on the grid and its Jacobian: τ = X χ̃, so
         ∂τ/∂x = (∂X/∂x) χ̃ through the same Fourier chain rule."""
         T = rr.tau_partials() / self.effort[None, None, :, None]
-        gS = alpha[r] * np.einsum("kijt,ktc->jtic", T, self.basis.phi)
+        k, n, _, m = T.shape
+        gS = alpha[r] * np.matmul(T.transpose(3, 2, 1, 0).reshape(m, n * n, k),
+                                  self.basis.phi.transpose(1, 0, 2)
+                                  ).reshape(m, n, n, -1).transpose(1, 0, 2, 3)
         ga = np.einsum("kijt,ktc,ic->jt", T, self.basis.phi, S)
         J = np.zeros((rr.tau.size, self.size))
         J[:, :S.size] = gS.reshape(rr.tau.size, S.size)
@@ -359,38 +362,55 @@ class Polish:
         y[self.n * self.basis.k + k] *= factor
         return y
 
-    def solve(self, v0: np.ndarray) -> np.ndarray:
-        """SLSQP from v0 (MAX_ITER iterations); v0 back when the model fails on the way."""
+    def solve(self, v0: np.ndarray) -> list[np.ndarray]:
+        """SLSQP's iterates from v0 (MAX_ITER iterations), the last first; [v0] when the model
+        fails on the way."""
         bounds = [(None, None)] * (self.size - 3) + [(ALPHA_MIN, 1.0)] * 2 + [(None, None)]
+        path = [v0]
         try:
             res = minimize(self.objective, v0, jac=self.objective_grad, method="SLSQP",
                            bounds=bounds, constraints=[{"type": "ineq", "fun": self.constraints,
                                                         "jac": self.constraints_jac}],
-                           options={"maxiter": MAX_ITER, "ftol": 1e-6})
+                           options={"maxiter": MAX_ITER, "ftol": 1e-6},
+                           callback=lambda v: path.append(np.array(v)))
         except ModelError:
-            return v0
-        return res.x if np.all(np.isfinite(res.x)) else v0
+            return [v0]
+        path.append(res.x)
+        return [v for v in path[::-1] if np.all(np.isfinite(v))]
+
+
+def _distinct(starts: list[np.ndarray]) -> list[np.ndarray]:
+    out: list[np.ndarray] = []
+    for x in starts:
+        if not any(np.array_equal(x, y) for y in out):
+            out.append(x)
+    return out
 
 
 def polish(problem, starts: list[np.ndarray], cap: float, cond_weight: float,
            determined: np.ndarray, say: Callable[[str], None]):
     """(the Polish, its best v, its Evaluation) over ``starts`` (design.Problem's x): each
-    solved, then evaluated as the walk evaluates (collision, working mode) and moved back
-    towards its start, halving, while it breaks a constraint; None when no start improves."""
+    solved, then evaluated as the walk evaluates (collision, working mode); where SLSQP's
+    answer breaks one of those, its last iterate that does not and improves on the start
+    (at most BACKTRACKS of them tried), else the start."""
     nlp = Polish(problem, cap, cond_weight, determined)
     best = None
-    for x in starts:
+    for x in _distinct(starts):
         v0 = nlp.start(x)
         ev0 = problem.evaluate_trajectory(nlp.trajectory(v0))
-        v = nlp.solve(v0)
-        for _ in range(BACKTRACKS + 1):
-            ev = problem.evaluate_trajectory(nlp.trajectory(v))
-            if ev.violation == 0 and math.isfinite(ev.criterion):
+        v, ev, broken = v0, ev0, []
+        for y in nlp.solve(v0)[:BACKTRACKS + 1]:
+            e = problem.evaluate_trajectory(nlp.trajectory(y))
+            if e.violation == 0 and e.score < ev0.score:
+                v, ev = y, e
                 break
-            v = 0.5 * (v0 + v)
-        if not (ev.violation == 0 and ev.score < ev0.score):
-            v, ev = v0, ev0
-        say(f"gradient polish: criterion {ev0.criterion:.4f} -> {ev.criterion:.4f}")
+            broken.append(e)
+        say(f"gradient polish: criterion {ev0.criterion:.4f} -> {ev.criterion:.4f}"
+            + (f" ({len(broken)} iterates back: {_why(broken[0])})" if broken else ""))
         if best is None or ev.score < best[1].score:
             best = (v, ev)
     return nlp, best[0], best[1]
+
+
+def _why(ev) -> str:
+    return "a checked constraint broken" if ev.worst is None else ev.worst.kind
