@@ -629,7 +629,7 @@ def polished(problem: Problem, x: np.ndarray, best: Evaluation, say: Callable[[s
     ranked = [y for _, y in sorted(problem.starts, key=lambda s: s[0])]
     determined = np.isfinite(best.prediction.gain_rel_std)
     nlp, v, _ = polish(problem, [x] + ranked[:POLISH_STARTS - 1], SEARCH_CAP, COND_WEIGHT,
-                       determined, say)
+                       determined, say, COLLISION_EVERY)
     return nlp, v
 
 

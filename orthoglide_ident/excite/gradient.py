@@ -46,10 +46,15 @@ from orthoglide_ident.errors import ModelError
 from orthoglide_ident.excite.constraints import payload_dict
 from orthoglide_ident.excite.prediction import RATE_HZ, periodic_rate
 from orthoglide_ident.excite.trajectory import ExcitationRun, ExcitationTrajectory
+from orthoglide_ident.model.pinocchio_model import MAX_RATE_GROWTH
 
 H_Q, H_QD = 1e-6, 1e-6  # central-difference steps of the regressor in q (rad, m) and q̇
 ALPHA_MIN = 0.05  # the smallest amplitude the NLP may give a run
 MAX_ITER = 40  # SLSQP iterations per start
+H_DIST = 1e-4  # rad or m: central differences of the bodies' distances (GJK ~1e-8 m)
+COLLISION_SCALE = 0.02  # m: a distance constraint normalised like design.VIOLATION_SCALE's
+WORKING_MODE_SCALE = 0.05  # rad or m: a passive joint's room, likewise
+NEAR_VIOLATION, INSIDE = 1e-3, 1e-3  # normalised violation of an iterate on a limit; α cut
 BACKTRACKS = 8  # SLSQP iterates tried back from its answer when it breaks a checked constraint
 
 
@@ -222,8 +227,10 @@ class Polish:
     ``determined`` kept in the epigraph, the directions beyond ``cap`` left out. Also what
     design.repaired needs of a problem: ``trajectory(v)``, ``with_alpha(v, k, factor)``."""
 
-    def __init__(self, problem, cap: float, cond_weight: float, determined: np.ndarray):
+    def __init__(self, problem, cap: float, cond_weight: float, determined: np.ndarray,
+                 collision_every: int = 1):
         p = problem
+        self.every = collision_every
         self.problem, self.cap, self.cond_weight = p, cap, cond_weight
         self.robot, self.limits, self.collision, self.opt, self.runs = (
             p.robot, p.limits, p.collision, p.opt, p.runs)
@@ -287,7 +294,8 @@ class Polish:
             slack = 1.0 - self.opt.margins.effort
             eff = np.concatenate([np.concatenate([slack - x, slack + x])
                                   for x in np.split(u, len(rows))])
-            self._cache = (key, {"vals": vals, "grad": None, "effort": eff})
+            self._cache = (key, {"vals": vals, "grad": None, "effort": eff,
+                                 "collision": self._collision(S, alpha, False)[0]})
             return self._cache[1]
         grad = np.zeros((len(vals), self.size))
         eff_c, eff_J = [], []
@@ -298,8 +306,9 @@ class Polish:
             c, J = self._effort(rr, S, alpha, r)
             eff_c.append(c)
             eff_J.append(J)
+        c, J = self._collision(S, alpha, True)
         out = {"vals": vals, "grad": grad, "effort": np.concatenate(eff_c),
-               "effort_jac": np.concatenate(eff_J)}
+               "effort_jac": np.concatenate(eff_J), "collision": c, "collision_jac": J}
         self._cache = (key, out)
         return out
 
@@ -320,6 +329,51 @@ class Polish:
         slack = 1.0 - self.opt.margins.effort
         return np.concatenate([slack - u, slack + u]), np.concatenate([-J, J])
 
+    def _pose_slacks(self, q: np.ndarray) -> np.ndarray:
+        """(m, K) normalised slacks of poses q (m, n) that only the pose sets: the smallest
+        distance over the checked pairs less its margin; for a closed chain, its passive
+        joints' distance to their limits (working mode) and its rate growth, as
+        constraints.TreeStates.mode_slacks."""
+        p, mg, out = self.problem, self.opt.margins, []
+        Q, G = p.tree.configurations(q)
+        if self.collision is not None and self.collision.mode != "skip":
+            d = self.collision.distances(Q).min(axis=1, initial=math.inf)
+            out.append((d - mg.collision) / COLLISION_SCALE)
+        if G is not None:
+            for j in p.tree.passive:
+                room = np.minimum(Q[:, j.iq] - j.lower, j.upper - Q[:, j.iq])
+                out.append((room - mg.working_mode) / WORKING_MODE_SCALE)
+            out.append(1.0 - G / (MAX_RATE_GROWTH * p.tree.g_ref) - mg.rate_growth)
+        return np.column_stack(out) if out else np.zeros((len(q), 0))
+
+    def _collision(self, S: np.ndarray, alpha: np.ndarray, grad: bool
+                   ) -> tuple[np.ndarray, np.ndarray | None]:
+        """The pose slacks (``_pose_slacks``) ≥ 0 on every ``collision_every``-th sample of both
+        runs and (``grad``) their Jacobian: ∂/∂q_i by central differences (H_DIST) of the
+        distances and closures, through q_i = P_i + α Φ₀ s_i."""
+        p = self.problem
+        if (self.collision is None or self.collision.mode == "skip") and p.tree.closure is None:
+            return np.zeros(0), np.zeros((0, self.size))
+        phi0 = self.basis.phi[0, ::self.every]
+        cs, Js = [], []
+        for r in range(2):
+            q = p.P + alpha[r] * (phi0 @ S.T)
+            m, n = q.shape
+            offsets = np.concatenate([np.zeros((1, n)), H_DIST * np.eye(n), -H_DIST * np.eye(n)])
+            pts = (q[:, None, :] + offsets[None]) if grad else q[:, None, :]
+            d = self._pose_slacks(pts.reshape(-1, n))
+            d = d.reshape(m, pts.shape[1], -1)  # (m, 1 [+ 2n], K)
+            cs.append(d[:, 0].ravel())
+            if not grad:
+                continue
+            g = (d[:, 1:1 + n] - d[:, 1 + n:]) / (2 * H_DIST)  # ∂/∂q (m, n, K)
+            J = np.zeros((m, d.shape[2], self.size))
+            J[:, :, :S.size] = alpha[r] * np.einsum("tik,tc->tkic", g, phi0).reshape(
+                m, d.shape[2], -1)
+            J[:, :, S.size + r] = np.einsum("tik,tc,ic->tk", g, phi0, S)
+            Js.append(J.reshape(-1, self.size))
+        return np.concatenate(cs), (np.concatenate(Js) if grad else None)
+
     def objective(self, v: np.ndarray) -> float:
         return float(v[-1] + self.cond_weight * self.terms(v, False)["vals"][-1])
 
@@ -330,13 +384,14 @@ class Polish:
 
     def constraints(self, v: np.ndarray) -> np.ndarray:
         t = self.terms(v, False)
-        return np.concatenate([v[-1] - t["vals"][:-1], self.b + self.M @ v, t["effort"]])
+        return np.concatenate([v[-1] - t["vals"][:-1], self.b + self.M @ v, t["effort"],
+                               t["collision"]])
 
     def constraints_jac(self, v: np.ndarray) -> np.ndarray:
         t = self.terms(v)
         J = -t["grad"][:-1]
         J[:, -1] = 1.0
-        return np.concatenate([J, self.M, t["effort_jac"]])
+        return np.concatenate([J, self.M, t["effort_jac"], t["collision_jac"]])
 
     def start(self, x: np.ndarray) -> np.ndarray:
         """v of the walk's x (design.Problem): its scaled shape, amplitudes, t at its worst gain."""
@@ -388,19 +443,19 @@ def _distinct(starts: list[np.ndarray]) -> list[np.ndarray]:
 
 
 def polish(problem, starts: list[np.ndarray], cap: float, cond_weight: float,
-           determined: np.ndarray, say: Callable[[str], None]):
+           determined: np.ndarray, say: Callable[[str], None], collision_every: int = 1):
     """(the Polish, its best v, its Evaluation) over ``starts`` (design.Problem's x): each
     solved, then evaluated as the walk evaluates (collision, working mode); where SLSQP's
     answer breaks one of those, its last iterate that does not and improves on the start
     (at most BACKTRACKS of them tried), else the start."""
-    nlp = Polish(problem, cap, cond_weight, determined)
+    nlp = Polish(problem, cap, cond_weight, determined, collision_every)
     best = None
     for x in _distinct(starts):
         v0 = nlp.start(x)
         ev0 = problem.evaluate_trajectory(nlp.trajectory(v0))
         v, ev, broken = v0, ev0, []
         for y in nlp.solve(v0)[:BACKTRACKS + 1]:
-            e = problem.evaluate_trajectory(nlp.trajectory(y))
+            y, e = _inside(nlp, y)
             if e.violation == 0 and e.score < ev0.score:
                 v, ev = y, e
                 break
@@ -410,6 +465,16 @@ def polish(problem, starts: list[np.ndarray], cap: float, cond_weight: float,
         if best is None or ev.score < best[1].score:
             best = (v, ev)
     return nlp, best[0], best[1]
+
+
+def _inside(nlp: Polish, v: np.ndarray):
+    """(v, its evaluation), v's amplitudes lowered by INSIDE when SLSQP left it on a limit up to
+    rounding (an SQP iterate meets its constraints only to its tolerance)."""
+    ev = nlp.problem.evaluate_trajectory(nlp.trajectory(v))
+    if 0 < ev.violation < NEAR_VIOLATION:
+        v = nlp.with_alpha(nlp.with_alpha(v, 0, 1 - INSIDE), 1, 1 - INSIDE)
+        ev = nlp.problem.evaluate_trajectory(nlp.trajectory(v))
+    return v, ev
 
 
 def _why(ev) -> str:

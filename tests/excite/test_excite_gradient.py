@@ -11,6 +11,7 @@ import pytest
 from excite_robots import two_link_urdf
 
 from orthoglide_ident.excite.check import check_trajectory
+from orthoglide_ident.excite.collision import CollisionModel
 from orthoglide_ident.excite.design import (
     COND_WEIGHT,
     SEARCH_CAP,
@@ -115,3 +116,36 @@ def test_polished_design_passes_the_1ms_check(tmp_path):
     assert check_trajectory(d.trajectory, robot, limits, collision, d.problem.opt.margins).ok
     assert any(s.startswith("gradient polish") for s in said)
     assert d.criterion <= walk.criterion + 1e-9
+
+
+def test_collision_gradient_matches_finite_differences():
+    """The distance constraints (smallest distance over the UR5's mesh pairs, every 4th sample)
+    against central differences of CollisionModel.distances on the trajectory's poses; looser
+    (1e-3) than the rest: the analytic side is itself a difference of GJK distances."""
+    robot = load_robot("ur5")
+    collision = CollisionModel(robot, "mesh")
+    opt = DesignOptions(Payload(2.0, "tool0"), np.full(robot.n_joints, 0.02), harmonics=2,
+                        samples=24)
+    problem = Problem(robot, read_limits(robot), collision, opt)
+    nlp = Polish(problem, SEARCH_CAP, COND_WEIGHT, np.ones(robot.n_joints, bool), 4)
+    x = np.concatenate([np.random.default_rng(3).normal(size=problem.size - 2), [0.3, -0.2]])
+    v = nlp.start(x)
+
+    def distances(w: np.ndarray) -> np.ndarray:
+        traj, out = nlp.trajectory(w), []
+        for name, _ in problem.runs:
+            Q, _ = problem.tree.configurations(traj.evaluate(name, problem.t[::4])[0])
+            out.append(collision.distances(Q).min(axis=1))
+        return np.concatenate(out)
+
+    t = nlp.terms(v)
+    np.testing.assert_allclose(t["collision"] * 0.02 + 0.02, distances(v), atol=1e-9)
+    fd = np.empty_like(t["collision_jac"])
+    for k in range(nlp.size):
+        e = np.zeros(nlp.size)
+        e[k] = 1e-5
+        fd[:, k] = (distances(v + e) - distances(v - e)) / 2e-5 / 0.02
+    moving = np.linalg.norm(fd, axis=1) > 1e-6  # t = 0: at P whatever v
+    err = np.linalg.norm(t["collision_jac"] - fd, axis=1)[moving] / \
+        np.linalg.norm(fd, axis=1)[moving]
+    assert moving.sum() >= 8 and err.max() < 1e-3, err
