@@ -153,7 +153,7 @@ def main() -> int:
     ap.add_argument("--robots", default="ur5,five_bar")
     ap.add_argument("--seeds", type=int, default=3)
     ap.add_argument("--restarts", type=int, default=20)
-    ap.add_argument("--steps", type=int, default=400)
+    ap.add_argument("--steps", type=int, default=None)
     ap.add_argument("--search", default="walk", help="walk | gradient (excite/gradient.py)")
     args = ap.parse_args()
     for name in args.robots.split(","):

@@ -117,7 +117,7 @@ def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--robots", default="ur5,five_bar,ur10,panda")
     ap.add_argument("--restarts", type=int, default=20)
-    ap.add_argument("--steps", type=int, default=400)
+    ap.add_argument("--steps", type=int, default=None)
     ap.add_argument("--time-limit", type=float, default=None)
     ap.add_argument("--collision", default="mesh")
     ap.add_argument("--search", default="walk", help="walk | gradient (excite/gradient.py)")

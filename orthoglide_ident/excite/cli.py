@@ -75,7 +75,8 @@ def _add_design(p: argparse.ArgumentParser) -> None:
     p.add_argument("--periods", type=int, default=12, help="periods per run (default 12)")
     p.add_argument("--harmonics", type=int, default=5, help="per joint (default 5)")
     p.add_argument("--restarts", type=int, default=20, help="random shapes first (default 20)")
-    p.add_argument("--steps", type=int, default=400, help="search steps after (default 400)")
+    p.add_argument("--steps", type=int, default=None,
+                   help="random-walk steps after (default 400; 0 with --search gradient)")
     p.add_argument("--time-limit", type=float, metavar="S",
                    help="stop searching after S s and keep the best design so far")
     p.add_argument("--search", choices=("walk", "gradient"), default="walk",

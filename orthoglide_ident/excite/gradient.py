@@ -53,6 +53,7 @@ ALPHA_MIN = 0.05  # the smallest amplitude the NLP may give a run
 MAX_ITER = 40  # SLSQP iterations per start
 H_DIST = 1e-4  # rad or m: central differences of the bodies' distances (GJK ~1e-8 m)
 COLLISION_SCALE = 0.02  # m: a distance constraint normalised like design.VIOLATION_SCALE's
+POSE_BOUND = 2.5  # margins: pairs further apart than this get their bounding spheres' bound
 WORKING_MODE_SCALE = 0.05  # rad or m: a passive joint's room, likewise
 NEAR_VIOLATION, INSIDE = 1e-3, 1e-3  # normalised violation of an iterate on a limit; α cut
 BACKTRACKS = 8  # SLSQP iterates tried back from its answer when it breaks a checked constraint
@@ -337,7 +338,10 @@ class Polish:
         p, mg, out = self.problem, self.opt.margins, []
         Q, G = p.tree.configurations(q)
         if self.collision is not None and self.collision.mode != "skip":
-            d = self.collision.distances(Q).min(axis=1, initial=math.inf)
+            # exact for the pairs whose bounding spheres are within POSE_BOUND margins, their
+            # bound beyond (inactive there): coal's mesh distances cost ~0.3 ms a pair
+            d = self.collision.distances_above(Q, POSE_BOUND * mg.collision).min(
+                axis=1, initial=math.inf)
             out.append((d - mg.collision) / COLLISION_SCALE)
         if G is not None:
             for j in p.tree.passive:
@@ -434,7 +438,7 @@ class Polish:
         return [v for v in path[::-1] if np.all(np.isfinite(v))]
 
 
-def _distinct(starts: list[np.ndarray]) -> list[np.ndarray]:
+def distinct(starts: list[np.ndarray]) -> list[np.ndarray]:
     out: list[np.ndarray] = []
     for x in starts:
         if not any(np.array_equal(x, y) for y in out):
@@ -450,18 +454,22 @@ def polish(problem, starts: list[np.ndarray], cap: float, cond_weight: float,
     (at most BACKTRACKS of them tried), else the start."""
     nlp = Polish(problem, cap, cond_weight, determined, collision_every)
     best = None
-    for x in _distinct(starts):
+    for x in starts:
         v0 = nlp.start(x)
         ev0 = problem.evaluate_trajectory(nlp.trajectory(v0))
         v, ev, broken = v0, ev0, []
-        for y in nlp.solve(v0)[:BACKTRACKS + 1]:
+        path = nlp.solve(v0)
+        if len(path) == 1:
+            say(f"gradient polish: no step from {ev0.criterion:.4f} (the model failed on the way)")
+        for y in path[:BACKTRACKS + 1] if len(path) > 1 else ():
             y, e = _inside(nlp, y)
             if e.violation == 0 and e.score < ev0.score:
                 v, ev = y, e
                 break
             broken.append(e)
-        say(f"gradient polish: criterion {ev0.criterion:.4f} -> {ev.criterion:.4f}"
-            + (f" ({len(broken)} iterates back: {_why(broken[0])})" if broken else ""))
+        if len(path) > 1:
+            say(f"gradient polish: criterion {ev0.criterion:.4f} -> {ev.criterion:.4f}"
+                + (f" ({len(broken)} iterates back: {_why(broken[0])})" if broken else ""))
         if best is None or ev.score < best[1].score:
             best = (v, ev)
     return nlp, best[0], best[1]
