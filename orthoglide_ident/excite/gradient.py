@@ -53,6 +53,7 @@ ALPHA_MIN = 0.05  # the smallest amplitude the NLP may give a run
 MAX_ITER = 40  # SLSQP iterations per start
 H_DIST = 1e-4  # rad or m: central differences of the bodies' distances (GJK ~1e-8 m)
 COLLISION_SCALE = 0.02  # m: a distance constraint normalised like design.VIOLATION_SCALE's
+NEAR_SLACK = 3.0  # normalised pose slack (3 × 2 cm, 3 × 0.05 rad) within which it is derived
 POSE_BOUND = 2.5  # margins: pairs further apart than this get their bounding spheres' bound
 WORKING_MODE_SCALE = 0.05  # rad or m: a passive joint's room, likewise
 NEAR_VIOLATION, INSIDE = 1e-3, 1e-3  # normalised violation of an iterate on a limit; α cut
@@ -363,17 +364,22 @@ class Polish:
         for r in range(2):
             q = p.P + alpha[r] * (phi0 @ S.T)
             m, n = q.shape
-            offsets = np.concatenate([np.zeros((1, n)), H_DIST * np.eye(n), -H_DIST * np.eye(n)])
-            pts = (q[:, None, :] + offsets[None]) if grad else q[:, None, :]
-            d = self._pose_slacks(pts.reshape(-1, n))
-            d = d.reshape(m, pts.shape[1], -1)  # (m, 1 [+ 2n], K)
-            cs.append(d[:, 0].ravel())
+            d0 = self._pose_slacks(q)  # (m, K)
+            cs.append(d0.ravel())
             if not grad:
                 continue
-            g = (d[:, 1:1 + n] - d[:, 1 + n:]) / (2 * H_DIST)  # ∂/∂q (m, n, K)
-            J = np.zeros((m, d.shape[2], self.size))
+            # ∂/∂q (m, n, K) where a slack is within NEAR_SLACK: 0 where none is (inactive;
+            # an iterate that comes near gets its gradient there)
+            near = (d0 < NEAR_SLACK).any(axis=1)
+            g = np.zeros((m, n, d0.shape[1]))
+            if near.any():
+                h = H_DIST * np.eye(n)
+                pts = np.concatenate([q[near][:, None] + h, q[near][:, None] - h], axis=1)
+                d = self._pose_slacks(pts.reshape(-1, n)).reshape(near.sum(), 2 * n, -1)
+                g[near] = (d[:, :n] - d[:, n:]) / (2 * H_DIST)
+            J = np.zeros((m, d0.shape[1], self.size))
             J[:, :, :S.size] = alpha[r] * np.einsum("tik,tc->tkic", g, phi0).reshape(
-                m, d.shape[2], -1)
+                m, d0.shape[1], -1)
             J[:, :, S.size + r] = np.einsum("tik,tc,ic->tk", g, phi0, S)
             Js.append(J.reshape(-1, self.size))
         return np.concatenate(cs), (np.concatenate(Js) if grad else None)
