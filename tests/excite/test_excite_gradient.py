@@ -153,3 +153,23 @@ def test_collision_gradient_matches_finite_differences():
     err = np.linalg.norm(t["collision_jac"] - fd, axis=1)[moving] / \
         np.linalg.norm(fd, axis=1)[moving]
     assert moving.sum() >= 4 and err.max() < 1e-3, (moving.sum(), err)
+
+
+def test_cli_search_gradient_writes_a_checked_design(tmp_path, capsys):
+    from orthoglide_ident.cli import main
+    from orthoglide_ident.excite.trajectory import load_trajectory
+
+    urdf = two_link_urdf(tmp_path)
+    y = tmp_path / "arm.yaml"
+    y.write_text(f"name: two_link\ndescription: {urdf.name}\nexcitation:\n"
+                 "  acceleration_limits: 10.0\n")
+    out = tmp_path / "traj.yaml"
+    assert main(["excite", "design", "--robot", str(y), "--payload-mass", "0.5", "--out",
+                 str(out), "--restarts", "2", "--periods", "2", "--search", "gradient",
+                 "--collision", "skip"]) == 0
+    traj = load_trajectory(out)
+    assert all(v["ok"] for v in traj.extra["margins"]["worst"].values())
+    with pytest.raises(SystemExit) as exc:  # argparse: one line naming the choices
+        main(["excite", "design", "--robot", str(y), "--payload-mass", "0.5", "--out", str(out),
+              "--search", "newton"])
+    assert exc.value.code == 2 and "choose from 'walk', 'gradient'" in capsys.readouterr().err
