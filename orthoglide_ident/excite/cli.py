@@ -79,9 +79,9 @@ def _add_design(p: argparse.ArgumentParser) -> None:
                    help="random-walk steps after (default 400; 0 with --search gradient)")
     p.add_argument("--time-limit", type=float, metavar="S",
                    help="stop searching after S s and keep the best design so far")
-    p.add_argument("--search", choices=("walk", "gradient"), default="walk",
-                   help="walk: random shapes and a random walk; gradient: then its best shapes "
-                        "polished by SLSQP with analytic gradients (default walk)")
+    p.add_argument("--search", choices=("walk", "gradient"), default="gradient",
+                   help="gradient: the best random shape polished by SLSQP with analytic "
+                        "gradients; walk: random shapes then a random walk (default gradient)")
     p.add_argument("--pose", metavar="J=V,...",
                    help="start and end pose (joint=value, m or rad); default the robot file's "
                         "excitation.home, else the middle of each joint's range")

@@ -125,7 +125,7 @@ class DesignOptions:
     max_condition: float | None = None  # κ beyond which a direction is not excited
     # (None: prediction.MAX_CONDITION)
     time_limit_s: float | None = None  # the search returns its best so far after this
-    search: str = "walk"  # SEARCHES
+    search: str = "gradient"  # SEARCHES (docs/benchmarks.md: better σ and κ on every arm)
 
 
     def __post_init__(self) -> None:
