@@ -64,7 +64,7 @@ def plant_payload(truth, name: str) -> Payload:
                    (I[0, 0], I[0, 1], I[0, 2], I[1, 1], I[1, 2], I[2, 2]))
 
 
-def designed(robot_name: str, restarts: int, steps: int, search: str = "walk"):
+def designed(robot_name: str, restarts: int, steps: int | None, search: str = "gradient"):
     robot = load_robot(robot_name)
     truth = robot_truth(robot_name)
     limits = read_limits(robot)
@@ -154,7 +154,7 @@ def main() -> int:
     ap.add_argument("--seeds", type=int, default=3)
     ap.add_argument("--restarts", type=int, default=20)
     ap.add_argument("--steps", type=int, default=None)
-    ap.add_argument("--search", default="walk", help="walk | gradient (excite/gradient.py)")
+    ap.add_argument("--search", default="gradient", help="gradient | walk (excite/gradient.py)")
     args = ap.parse_args()
     for name in args.robots.split(","):
         robot, truth, limits, collision, d = designed(name, args.restarts, args.steps,

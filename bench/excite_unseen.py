@@ -120,7 +120,7 @@ def main() -> None:
     ap.add_argument("--steps", type=int, default=None)
     ap.add_argument("--time-limit", type=float, default=None)
     ap.add_argument("--collision", default="mesh")
-    ap.add_argument("--search", default="walk", help="walk | gradient (excite/gradient.py)")
+    ap.add_argument("--search", default="gradient", help="gradient | walk (excite/gradient.py)")
     ap.add_argument("--acceleration", type=float, default=None,
                     help="rad/s² for every joint of an unseen arm (default: derived)")
     args = ap.parse_args()
