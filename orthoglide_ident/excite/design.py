@@ -19,7 +19,9 @@ regressor direction pass for the gains).
 Search: the best of ``restarts`` random shapes (each made feasible by lowering its α), then
 ``steps`` of a seeded (1+1) evolution strategy (a Gaussian step kept when J drops; step ×1.5
 on success, ×0.9 on failure), which copes with the kinks of the scaling and the penalties.
-Repeatable for a seed on one machine; ``time_limit_s`` keeps the best so far.
+Repeatable for a seed on one machine; ``time_limit_s`` keeps the best so far. With ``search``
+"gradient" (the default) the walk takes no steps unless asked, and its best shape is polished by
+SLSQP with analytic gradients (gradient.py), then checked and repaired on the 1 ms grid alike.
 
 The condition cap (``max_condition``, prediction.MAX_CONDITION) judges the design, not the
 path: during the search only the directions null up to rounding (prediction.STRUCTURAL) are

@@ -1,5 +1,5 @@
-"""A search with gradients (``excite design --search gradient``): the random walk's best shapes
-polished by SLSQP with analytic gradients of the criterion and of the constraints.
+"""A search with gradients (``excite design --search gradient``, the default): the best random
+shape polished by SLSQP with analytic gradients of the criterion and of the constraints.
 
 Variables v = [s, α_u, α_l, t]: the shape's Fourier coefficients s (per joint, in the subspace
 at rest at the period's ends: Σ_l a_l = 0, Σ_l l b_l = 0, trajectory.rest_projection), one
@@ -28,10 +28,13 @@ by its adjoint (tr(G dF) = 2 Σ_j tr(G A_jᵀ dA_j), G = ∂f/∂F), so no dF pe
 formed; ∂ log σ_j² / ∂F = −F⁺e_j e_jᵀF⁺ / σ_j², ∂ log κ / ∂F through the column scaling D and
 the extreme eigenpairs of D F D.
 
-Self-collision, a closed chain's working mode and rate growth are not in the NLP: the polished
-shape is evaluated as the walk evaluates (design.Problem.evaluate_trajectory) and, when it breaks
-one of them, moved back towards its start (halving the step) until it does not; the 1 ms check
-and its repair (design.repaired) follow as for the walk.
+Self-collision (the smallest distance over the checked pairs), a closed chain's working mode
+and its rate growth are constraints on every 4th sample (every sample for a closed chain), their
+gradients by central differences in q of the distances and closures (only where within
+NEAR_SLACK: elsewhere inactive). The answer is evaluated as the walk evaluates
+(design.Problem.evaluate_trajectory); where it breaks a constraint the solver's previous
+iterates are tried. The 1 ms check and its repair (design.repaired: the amplitude lowered
+while a limit is broken between the coarse samples) follow as for the walk.
 """
 from __future__ import annotations
 
