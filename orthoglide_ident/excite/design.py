@@ -618,7 +618,7 @@ def design(robot, limits: JointLimits, collision, options: DesignOptions,
         raise _refusal(best)
     target = problem
     if options.search == "gradient" and not clock.out():
-        target, x = polished(problem, x, best, say)
+        target, x = polished(problem, x, best, say, clock)
     x, traj, report = repaired(target, x, say)
     pred = problem.prediction_of(traj)
     if pred.undetermined_gains.all():
@@ -629,7 +629,8 @@ def design(robot, limits: JointLimits, collision, options: DesignOptions,
     return Design(traj, report, pred, problem.criterion(pred), randoms, clock.elapsed, problem)
 
 
-def polished(problem: Problem, x: np.ndarray, best: Evaluation, say: Callable[[str], None]):
+def polished(problem: Problem, x: np.ndarray, best: Evaluation, say: Callable[[str], None],
+             clock: Clock | None = None):
     """(gradient.Polish, its v): the walk's best ``x`` and the best random shapes polished
     by SLSQP with analytic gradients (gradient.py), the gains ``best`` determines kept."""
     from orthoglide_ident.excite.gradient import distinct, polish
@@ -639,7 +640,7 @@ def polished(problem: Problem, x: np.ndarray, best: Evaluation, say: Callable[[s
     # a closed chain's working mode is checked on every sample (Problem.slacks)
     every = COLLISION_EVERY if problem.tree.closure is None else 1
     nlp, v, _ = polish(problem, distinct([x] + ranked)[:POLISH_STARTS], SEARCH_CAP,
-                       COND_WEIGHT, determined, say, every)
+                       COND_WEIGHT, determined, say, every, clock)
     return nlp, v
 
 

@@ -233,9 +233,9 @@ class Polish:
     design.repaired needs of a problem: ``trajectory(v)``, ``with_alpha(v, k, factor)``."""
 
     def __init__(self, problem, cap: float, cond_weight: float, determined: np.ndarray,
-                 collision_every: int = 1):
+                 collision_every: int = 1, clock=None):
         p = problem
-        self.every = collision_every
+        self.every, self.clock = collision_every, clock
         self.problem, self.cap, self.cond_weight = p, cap, cond_weight
         self.robot, self.limits, self.collision, self.opt, self.runs = (
             p.robot, p.limits, p.collision, p.opt, p.runs)
@@ -435,15 +435,22 @@ class Polish:
         fails on the way."""
         bounds = [(None, None)] * (self.size - 3) + [(ALPHA_MIN, 1.0)] * 2 + [(None, None)]
         path = [v0]
+
+        def step(v: np.ndarray) -> None:  # the iterates, and the time limit (the best so far)
+            path.append(np.array(v))
+            if self.clock is not None and self.clock.out():
+                raise StopIteration
+
         try:
             res = minimize(self.objective, v0, jac=self.objective_grad, method="SLSQP",
                            bounds=bounds, constraints=[{"type": "ineq", "fun": self.constraints,
                                                         "jac": self.constraints_jac}],
-                           options={"maxiter": MAX_ITER, "ftol": 1e-6},
-                           callback=lambda v: path.append(np.array(v)))
+                           options={"maxiter": MAX_ITER, "ftol": 1e-6}, callback=step)
+            path.append(res.x)
         except ModelError:
             return [v0]
-        path.append(res.x)
+        except StopIteration:
+            pass
         return [v for v in path[::-1] if np.all(np.isfinite(v))]
 
 
@@ -456,12 +463,13 @@ def distinct(starts: list[np.ndarray]) -> list[np.ndarray]:
 
 
 def polish(problem, starts: list[np.ndarray], cap: float, cond_weight: float,
-           determined: np.ndarray, say: Callable[[str], None], collision_every: int = 1):
+           determined: np.ndarray, say: Callable[[str], None], collision_every: int = 1,
+           clock=None):
     """(the Polish, its best v, its Evaluation) over ``starts`` (design.Problem's x): each
     solved, then evaluated as the walk evaluates (collision, working mode); where SLSQP's
     answer breaks one of those, its last iterate that does not and improves on the start
     (at most BACKTRACKS of them tried), else the start."""
-    nlp = Polish(problem, cap, cond_weight, determined, collision_every)
+    nlp = Polish(problem, cap, cond_weight, determined, collision_every, clock)
     best = None
     for x in starts:
         v0 = nlp.start(x)
