@@ -637,6 +637,8 @@ def polished(problem: Problem, x: np.ndarray, best: Evaluation, say: Callable[[s
 
     ranked = [y for _, y in sorted(problem.starts, key=lambda s: s[0])]
     determined = np.isfinite(best.prediction.gain_rel_std)
+    if not determined.any():  # nothing to climb: the refusal follows (design)
+        return problem, x
     # a closed chain's working mode is checked on every sample (Problem.slacks)
     every = COLLISION_EVERY if problem.tree.closure is None else 1
     nlp, v, _ = polish(problem, distinct([x] + ranked)[:POLISH_STARTS], SEARCH_CAP,
