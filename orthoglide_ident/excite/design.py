@@ -104,6 +104,9 @@ POLISH_STARTS = 1  # the walk's best (with 0 steps: the best random shape) polis
 # random-walk steps by default: the polish climbs further from the best random shapes than
 # from the walk's end (UR5: −5.83 after 400 steps, −6.22 after none)
 STEPS = {"walk": 400, "gradient": 0}
+# an SLSQP iteration in walk evaluations (its regressor partials, distance gradients, line
+# search; measured: UR5 ~10, Panda ~33)
+POLISH_EVALS_PER_ITER = 20
 
 
 @dataclass(frozen=True)
@@ -441,9 +444,13 @@ class Clock:
 
 def expected_seconds(problem: Problem, per_eval: float) -> float:
     """The search's duration at ``per_eval`` s per evaluation: each random start's evaluations
-    (1 + its amplitude cuts, ~3 on average), the steps, the 1 ms checks (~20 evaluations)."""
+    (1 + its amplitude cuts, ~3 on average), the steps, the gradient polish's iterations
+    (~POLISH_EVALS_PER_ITER each), the 1 ms checks (~20 evaluations)."""
+    from orthoglide_ident.excite.gradient import MAX_ITER
+
     opt = problem.opt
-    return per_eval * (EVALS_PER_START * opt.restarts + opt.steps + CHECK_EVALS)
+    polish = POLISH_STARTS * MAX_ITER * POLISH_EVALS_PER_ITER if opt.search == "gradient" else 0
+    return per_eval * (EVALS_PER_START * opt.restarts + opt.steps + polish + CHECK_EVALS)
 
 
 def search(problem: Problem, progress: Callable[[str], None] | None = None,
