@@ -169,6 +169,7 @@ def test_cli_search_gradient_writes_a_checked_design(tmp_path, capsys):
                  "--collision", "skip"]) == 0
     traj = load_trajectory(out)
     assert all(v["ok"] for v in traj.extra["margins"]["worst"].values())
+    assert traj.extra["design"]["search"] == "gradient" and traj.extra["design"]["steps"] == 0
     with pytest.raises(SystemExit) as exc:  # argparse: one line naming the choices
         main(["excite", "design", "--robot", str(y), "--payload-mass", "0.5", "--out", str(out),
               "--search", "newton"])
