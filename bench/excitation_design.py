@@ -2,6 +2,7 @@
 
     PYTHONPATH=. .venv/bin/python bench/excitation_design.py [--robots ur5,five_bar] [--seeds 3]
                                                              [--restarts 20] [--steps 400]
+                                                             [--search walk|gradient]
 
 Per robot, the design with its defaults (12 periods of 5 s per run, 5 harmonics, the plant's
 payload with its known CoM and inertia: UR5 2 kg, five-bar 1 kg) and:
@@ -63,14 +64,14 @@ def plant_payload(truth, name: str) -> Payload:
                    (I[0, 0], I[0, 1], I[0, 2], I[1, 1], I[1, 2], I[2, 2]))
 
 
-def designed(robot_name: str, restarts: int, steps: int):
+def designed(robot_name: str, restarts: int, steps: int | None, search: str = "gradient"):
     robot = load_robot(robot_name)
     truth = robot_truth(robot_name)
     limits = read_limits(robot)
     collision = CollisionModel(robot, "mesh")
     opt = DesignOptions(plant_payload(truth, PAYLOADS[robot_name]),
                         np.full(robot.n_joints, DEFAULT_CURRENT_NOISE), restarts=restarts,
-                        steps=steps)
+                        steps=steps, search=search)
     d = design(robot, limits, collision, opt, progress=lambda s: print("  " + s, file=sys.stderr))
     return robot, truth, limits, collision, d
 
@@ -152,10 +153,12 @@ def main() -> int:
     ap.add_argument("--robots", default="ur5,five_bar")
     ap.add_argument("--seeds", type=int, default=3)
     ap.add_argument("--restarts", type=int, default=20)
-    ap.add_argument("--steps", type=int, default=400)
+    ap.add_argument("--steps", type=int, default=None)
+    ap.add_argument("--search", default="gradient", help="gradient | walk (excite/gradient.py)")
     args = ap.parse_args()
     for name in args.robots.split(","):
-        robot, truth, limits, collision, d = designed(name, args.restarts, args.steps)
+        robot, truth, limits, collision, d = designed(name, args.restarts, args.steps,
+                                                      args.search)
         print_design(name, d)
         if args.seeds:
             achieved(robot, truth, d, limits, collision, args.seeds)

@@ -3,6 +3,7 @@ bundled UR5 and five-bar.
 
     PYTHONPATH=. .venv/bin/python bench/excite_unseen.py [--robots ur10,panda,...] [--restarts R]
                                                          [--steps S] [--collision mesh|skip]
+                                                         [--search walk|gradient]
 
 Times: the design's wall time and this process's CPU time (the machine is shared: the CPU
 time compares runs made under different loads). Each unseen arm is used as its URDF comes
@@ -91,7 +92,7 @@ def run(name: str, args, folder: Path) -> None:
         collision = CollisionModel(robot, args.collision, [str(SHARE)])
         extra = {"time_limit_s": args.time_limit} if args.time_limit else {}
         opt = DesignOptions(payload, np.full(robot.n_joints, 0.02), restarts=args.restarts,
-                            steps=args.steps, **extra)
+                            steps=args.steps, search=args.search, **extra)
         d = design(robot, limits, collision, opt,
                    progress=lambda s: print(f"  {name}: {s}", file=sys.stderr))
     except OrthoglideError as exc:
@@ -116,13 +117,15 @@ def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--robots", default="ur5,five_bar,ur10,panda")
     ap.add_argument("--restarts", type=int, default=20)
-    ap.add_argument("--steps", type=int, default=400)
+    ap.add_argument("--steps", type=int, default=None)
     ap.add_argument("--time-limit", type=float, default=None)
     ap.add_argument("--collision", default="mesh")
+    ap.add_argument("--search", default="gradient", help="gradient | walk (excite/gradient.py)")
     ap.add_argument("--acceleration", type=float, default=None,
                     help="rad/s² for every joint of an unseen arm (default: derived)")
     args = ap.parse_args()
-    print(f"restarts {args.restarts}, steps {args.steps}, collision {args.collision}, "
+    print(f"restarts {args.restarts}, steps {args.steps}, search {args.search}, "
+          f"collision {args.collision}, "
           f"time limit {args.time_limit}, acceleration {args.acceleration or 'derived'}")
     with tempfile.TemporaryDirectory() as tmp:
         for name in args.robots.split(","):

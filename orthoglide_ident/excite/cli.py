@@ -75,9 +75,13 @@ def _add_design(p: argparse.ArgumentParser) -> None:
     p.add_argument("--periods", type=int, default=12, help="periods per run (default 12)")
     p.add_argument("--harmonics", type=int, default=5, help="per joint (default 5)")
     p.add_argument("--restarts", type=int, default=20, help="random shapes first (default 20)")
-    p.add_argument("--steps", type=int, default=400, help="search steps after (default 400)")
+    p.add_argument("--steps", type=int, default=None,
+                   help="random-walk steps after (default 400; 0 with --search gradient)")
     p.add_argument("--time-limit", type=float, metavar="S",
                    help="stop searching after S s and keep the best design so far")
+    p.add_argument("--search", choices=("walk", "gradient"), default="gradient",
+                   help="gradient: the best random shape polished by SLSQP with analytic "
+                        "gradients; walk: random shapes then a random walk (default gradient)")
     p.add_argument("--pose", metavar="J=V,...",
                    help="start and end pose (joint=value, m or rad); default the robot file's "
                         "excitation.home, else the middle of each joint's range")
@@ -181,7 +185,8 @@ def _design(args: argparse.Namespace, robot: RobotModel) -> int:
     robot.with_payload(payload)  # ConfigError now for a frame the robot lacks
     opt = DesignOptions(payload, noise, args.period, args.periods, args.harmonics, args.seed,
                         args.restarts, args.steps, target=args.target_sigma / 100.0,
-                        pose=_pose(args.pose), time_limit_s=args.time_limit)
+                        pose=_pose(args.pose), time_limit_s=args.time_limit,
+                        search=args.search)
     _log.info("designing for robot %s: %d joints, %d base parameters, %s collision pairs",
               robot.name, robot.n_joints, robot.n_b, collision.n_pairs if collision.mode != "skip"
               else "no")

@@ -19,7 +19,9 @@ regressor direction pass for the gains).
 Search: the best of ``restarts`` random shapes (each made feasible by lowering its α), then
 ``steps`` of a seeded (1+1) evolution strategy (a Gaussian step kept when J drops; step ×1.5
 on success, ×0.9 on failure), which copes with the kinks of the scaling and the penalties.
-Repeatable for a seed on one machine; ``time_limit_s`` keeps the best so far.
+Repeatable for a seed on one machine; ``time_limit_s`` keeps the best so far. With ``search``
+"gradient" (the default) the walk takes no steps unless asked, and its best shape is polished by
+SLSQP with analytic gradients (gradient.py), then checked and repaired on the 1 ms grid alike.
 
 The condition cap (``max_condition``, prediction.MAX_CONDITION) judges the design, not the
 path: during the search only the directions null up to rounding (prediction.STRUCTURAL) are
@@ -96,6 +98,15 @@ CHECK_EVALS = 20  # one 1 ms check and the final prediction, in evaluations
 COLLISION_EVERY = 4  # the search's distances on every 4th sample: meshes cost ~30 ms a pose
 BOUND_FACTOR = 1.0  # pairs whose bounding spheres are a margin apart: their bound is enough
 CLEAR_FACTOR, CLEAR_TRIES = 1.5, 200  # a start pose nobody chose clears 1.5 margins
+SEARCHES = ("walk", "gradient")  # the random walk alone; then polished with gradients
+POLISH_STARTS = 1  # the walk's best (with 0 steps: the best random shape) polished
+# (gradient.py); a 2nd start, the next random shape, gains 0.06 on the UR5 for twice the time
+# random-walk steps by default: the polish climbs further from the best random shapes than
+# from the walk's end (UR5: −5.83 after 400 steps, −6.22 after none)
+STEPS = {"walk": 400, "gradient": 0}
+# an SLSQP iteration in walk evaluations (its regressor partials, distance gradients, line
+# search; measured: UR5 ~10, Panda ~33)
+POLISH_EVALS_PER_ITER = 20
 
 
 @dataclass(frozen=True)
@@ -111,7 +122,7 @@ class DesignOptions:
     harmonics: int = 5
     seed: int = 0
     restarts: int = 20
-    steps: int = 400
+    steps: int | None = None  # None: STEPS[search]
     samples: int = 100  # per period, for the criterion and the penalties
     margins: Margins = field(default_factory=Margins)
     target: float = 0.002
@@ -119,10 +130,17 @@ class DesignOptions:
     max_condition: float | None = None  # κ beyond which a direction is not excited
     # (None: prediction.MAX_CONDITION)
     time_limit_s: float | None = None  # the search returns its best so far after this
+    search: str = "gradient"  # SEARCHES (docs/benchmarks.md: better σ and κ on every arm)
+
 
     def __post_init__(self) -> None:
         if self.max_condition is None:
             object.__setattr__(self, "max_condition", prediction.MAX_CONDITION)
+        if self.search not in SEARCHES:
+            raise ConfigError(f"--search must be one of {', '.join(SEARCHES)}, not "
+                              f"{self.search!r}")
+        if self.steps is None:
+            object.__setattr__(self, "steps", STEPS[self.search])
         if self.time_limit_s is not None and not self.time_limit_s > 0:
             raise ConfigError(f"--time-limit must be a positive number of seconds, not "
                               f"{self.time_limit_s:g}")
@@ -187,6 +205,7 @@ class Problem:
         self.runs = (("unloaded", None), ("loaded", options.payload))
         self.ell = np.arange(1, self.L + 1, dtype=float)
         self.evals = 0  # evaluations so far (the expected duration)
+        self.starts: list[tuple[float, np.ndarray]] = []  # feasible random shapes (score, x)
 
     @property
     def size(self) -> int:
@@ -224,8 +243,10 @@ class Problem:
                                     self.opt.periods, runs)
 
     def evaluate(self, x: np.ndarray) -> Evaluation:
+        return self.evaluate_trajectory(self.trajectory(x))
+
+    def evaluate_trajectory(self, traj: ExcitationTrajectory) -> Evaluation:
         self.evals += 1
-        traj = self.trajectory(x)
         F, violation, worst = 0.0, 0.0, None
         for name, payload in self.runs:
             q, qd, qdd = traj.evaluate(name, self.t)
@@ -260,9 +281,12 @@ class Problem:
         return crit if math.isfinite(crit) else math.inf
 
     def final_prediction(self, x: np.ndarray) -> Prediction:
+        return self.prediction_of(self.trajectory(x))
+
+    def prediction_of(self, traj: ExcitationTrajectory) -> Prediction:
         """The design's prediction, the cap (``max_condition``) judging which directions it
         excites."""
-        traj, F = self.trajectory(x), 0.0
+        F = 0.0
         for name, payload in self.runs:
             q, qd, qdd = traj.evaluate(name, self.t)
             X, tau = run_rows(self.robot, self.chi_b, self.gains,
@@ -420,9 +444,13 @@ class Clock:
 
 def expected_seconds(problem: Problem, per_eval: float) -> float:
     """The search's duration at ``per_eval`` s per evaluation: each random start's evaluations
-    (1 + its amplitude cuts, ~3 on average), the steps, the 1 ms checks (~20 evaluations)."""
+    (1 + its amplitude cuts, ~3 on average), the steps, the gradient polish's iterations
+    (~POLISH_EVALS_PER_ITER each), the 1 ms checks (~20 evaluations)."""
+    from orthoglide_ident.excite.gradient import MAX_ITER
+
     opt = problem.opt
-    return per_eval * (EVALS_PER_START * opt.restarts + opt.steps + CHECK_EVALS)
+    polish = POLISH_STARTS * MAX_ITER * POLISH_EVALS_PER_ITER if opt.search == "gradient" else 0
+    return per_eval * (EVALS_PER_START * opt.restarts + opt.steps + polish + CHECK_EVALS)
 
 
 def search(problem: Problem, progress: Callable[[str], None] | None = None,
@@ -452,12 +480,14 @@ def search(problem: Problem, progress: Callable[[str], None] | None = None,
         line.update(evals, evals / (r + 1) * opt.restarts + opt.steps)
         if ev.violation == 0 and math.isfinite(ev.criterion):
             randoms.append(ev)
+            problem.starts.append((ev.score, x))
         if best is None or ev.score < best.score:
             best_x, best = x, ev
         if r == 0:
             note("expected duration ~"
                  + duration_text(expected_seconds(problem, clock.elapsed / problem.evals))
                  + f" ({opt.restarts} random shapes, {opt.steps} steps"
+                 + (", then the gradient polish" if opt.search == "gradient" else "")
                  + (f", stopping at {opt.time_limit_s:g} s" if opt.time_limit_s else "") + ")")
         if clock.out():
             note(f"time limit {opt.time_limit_s:g} s: stopping after {r + 1} random shapes")
@@ -593,14 +623,34 @@ def design(robot, limits: JointLimits, collision, options: DesignOptions,
     x, best, randoms = search(problem, steps, clock, say)
     if best.violation > 0 or best.prediction is None:
         raise _refusal(best)
-    x, traj, report = repaired(problem, x, say)
-    pred = problem.final_prediction(x)
+    target = problem
+    if options.search == "gradient" and not clock.out():
+        target, x = polished(problem, x, best, say, clock)
+    x, traj, report = repaired(target, x, say)
+    pred = problem.prediction_of(traj)
     if pred.undetermined_gains.all():
         raise ExcitationError("no drive gain is determined by any motion within the limits: "
                               + "; ".join(u.to_text() for u in pred.unexcited))
     for u in pred.unexcited:
         say(f"not excited: {u.to_text()}")
     return Design(traj, report, pred, problem.criterion(pred), randoms, clock.elapsed, problem)
+
+
+def polished(problem: Problem, x: np.ndarray, best: Evaluation, say: Callable[[str], None],
+             clock: Clock | None = None):
+    """(gradient.Polish, its v): the walk's best ``x`` and the best random shapes polished
+    by SLSQP with analytic gradients (gradient.py), the gains ``best`` determines kept."""
+    from orthoglide_ident.excite.gradient import distinct, polish
+
+    ranked = [y for _, y in sorted(problem.starts, key=lambda s: s[0])]
+    determined = np.isfinite(best.prediction.gain_rel_std)
+    if not determined.any():  # nothing to climb: the refusal follows (design)
+        return problem, x
+    # a closed chain's working mode is checked on every sample (Problem.slacks)
+    every = COLLISION_EVERY if problem.tree.closure is None else 1
+    nlp, v, _ = polish(problem, distinct([x] + ranked)[:POLISH_STARTS], SEARCH_CAP,
+                       COND_WEIGHT, determined, say, every, clock)
+    return nlp, v
 
 
 def payload_options(problem: Problem, traj: ExcitationTrajectory, masses: list[float]

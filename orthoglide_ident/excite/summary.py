@@ -65,7 +65,7 @@ def extras(d: Design, limits, collision, noise_source: str) -> dict[str, Any]:
     locked = locked_values(d.problem.robot)
     return {
         "design": {"seed": opt.seed, "harmonics": opt.harmonics, "restarts": opt.restarts,
-                   "steps": opt.steps, "samples_per_period": opt.samples,
+                   "steps": opt.steps, "search": opt.search, "samples_per_period": opt.samples,
                    "start_pose": d.problem.P.tolist(),
                    "criterion": f"log max_j σ(g_j)/g_j + {COND_WEIGHT:g} log κ",
                    "criterion_value": d.criterion,
