@@ -20,7 +20,10 @@ The decimated equations are folded into per-condition, per-joint R factors (fact
 memory and CPU per second of data stay constant; ``result()`` solves them with the offline
 solver (solve.py); the raw samples of the recording under way are kept until its stop only,
 where offline's record checks run on them (validate/records.py: a recording refused there is
-left out and result() answers with the reason until the next recording starts). Non-finite
+left out and result() answers with the reason until the next recording starts); a recording
+slower than SLOW_STEP_S keeps its samples (a few kB/s), which result() solves again at a higher
+derivative filter's cut-off to bound its bias in the gains' σ, as offline (solve/filter_bound.py;
+estimate() streams without). Non-finite
 samples are dropped and split the record (offline
 ``nonfinite: drop``); nothing here raises on bad or insufficient data: warnings and ``status``
 say what is wrong. Never imports rclpy.
