@@ -140,8 +140,10 @@ def test_dynamic_joint_states_at_93hz(node, records, tmp_path):
     assert {b["sources"] for b in offline.diagnostics["bags"]} == {
         "q from /joint_states position (JointState); current from /dynamic_joint_states "
         "interface 'current' (DynamicJointState)"}
-    dg, dp = max_rel_diff(_live(node, recs, dynamic=True).result(), offline)
+    res = _live(node, recs, dynamic=True).result()
+    dg, dp = max_rel_diff(res, offline)
     assert dg < 1e-9 and dp < 1e-9, (dg, dp)
+    assert sigma_diff(res, offline) < 1e-9
 
 
 @pytest.mark.parametrize("dynamic", [False, True])
