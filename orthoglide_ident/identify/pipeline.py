@@ -45,7 +45,7 @@ from orthoglide_ident.identify.records.record import Record, read_record, record
 from orthoglide_ident.identify.records.robot_checks import robot_of
 from orthoglide_ident.identify.solve.answer import Solved, min_rows
 from orthoglide_ident.identify.solve.factors import RecordFactors
-from orthoglide_ident.identify.solve.filter_bound import bound_filter_bias
+from orthoglide_ident.identify.solve.filter_bound import bound_filter_bias, second_options
 from orthoglide_ident.identify.solve.methods import DEFAULT_METHOD, get, solve
 from orthoglide_ident.identify.validate.agreement import disagreement
 from orthoglide_ident.identify.validate.cross_validation import ValidationResult, cross_validate
@@ -224,16 +224,9 @@ def _bound_filter_bias(result: IdentificationResult, records: Iterable[Record],
     """A slow log's gains with the derivative filter's bias bound in their σ
     (solve/filter_bound.py): the same ``records`` (read once, only then), read as ``result``
     read them, solved again at a higher cut-off."""
-    bags = result.diagnostics.get("bags", [])
-    readings = {b.get("current_sampling") for b in bags}
-    shifts = {float(b.get("current_shift_ms", 0.0)) for b in bags}
-    reading = readings.pop() if len(readings) == 1 else opts.current_sampling
-    shift = shifts.pop() if len(shifts) == 1 else 0.0
 
     def solve_again(f_q: float, f_d: float) -> IdentificationResult | None:
-        o = opts.replace(filter_cutoff_hz=f_q, decimation_cutoff_hz=f_d, cross_check="none",
-                         current_sampling=reading,
-                         current_loop_hz=0.5e3 / shift if shift > 0 else opts.current_loop_hz)
+        o = second_options(result.diagnostics.get("bags", []), opts, f_q, f_d)
         try:
             return _identify_once(records, options=o, **dict(kw, essential=False))
         except OrthoglideError:

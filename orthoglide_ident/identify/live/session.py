@@ -20,7 +20,10 @@ The decimated equations are folded into per-condition, per-joint R factors (fact
 memory and CPU per second of data stay constant; ``result()`` solves them with the offline
 solver (solve.py); the raw samples of the recording under way are kept until its stop only,
 where offline's record checks run on them (validate/records.py: a recording refused there is
-left out and result() answers with the reason until the next recording starts). Non-finite
+left out and result() answers with the reason until the next recording starts); a recording
+slower than SLOW_STEP_S keeps its samples (a few kB/s), which result() solves again at a higher
+derivative filter's cut-off to bound its bias in the gains' σ, as offline (solve/filter_bound.py;
+estimate() streams without). Non-finite
 samples are dropped and split the record (offline
 ``nonfinite: drop``); nothing here raises on bad or insufficient data: warnings and ``status``
 say what is wrong. Never imports rclpy.
@@ -55,15 +58,16 @@ from orthoglide_ident.identify.columns.payload_unknowns import (
     unknowns_of,
     with_payload_unknowns,
 )
-from orthoglide_ident.identify.diagnostics import finish_result
+from orthoglide_ident.identify.diagnostics import bag_report, finish_result
 from orthoglide_ident.identify.live.recording import LiveRecording
 from orthoglide_ident.identify.observe.rows import IdentificationModel, observe, with_known_payload
-from orthoglide_ident.identify.observe.sampling import best_reading
+from orthoglide_ident.identify.observe.sampling import SLOW_STEP_S, best_reading
 from orthoglide_ident.identify.observe.stream import DecimatedRows
 from orthoglide_ident.identify.options import IdentifyOptions
 from orthoglide_ident.identify.records.record import payload_knowledge
 from orthoglide_ident.identify.solve.answer import limits, min_rows, tls_model
 from orthoglide_ident.identify.solve.factors import RecordFactors
+from orthoglide_ident.identify.solve.filter_bound import bound_filter_bias, second_options
 from orthoglide_ident.identify.solve.methods import DEFAULT_METHOD, solve
 from orthoglide_ident.identify.solve.tls import check_excitation
 from orthoglide_ident.identify.validate.agreement import disagreement
@@ -188,6 +192,10 @@ class LiveIdentification:
         self._seen: dict[str, tuple[str, int]] = {}
         self._noises: dict[LiveRecording, tuple[np.ndarray, float]] = {}
         self._alts: dict[LiveRecording, list] = {}
+        # a slow recording's samples (step above SLOW_STEP_S: a few kB/s), kept past its stop:
+        # result() observes them again at the derivative filter's second cut-off to bound its
+        # bias in the gains' σ, as offline (solve/filter_bound.py)
+        self._slow: dict[LiveRecording, object] = {}
         self.refused: str | None = None
 
     # --- recordings ---------------------------------------------------------------------------
@@ -240,6 +248,8 @@ class LiveIdentification:
             out += self._check(rec, record)
             if rec in self._factors and rec.uneven:
                 out += self._rebuild(rec, record)
+            if rec in self._factors and rec.report()["period_s"] > SLOW_STEP_S:
+                self._slow[rec] = record  # small at this rate; result()'s second solve
         rec.release()
         return self._warn(out)
 
@@ -262,6 +272,7 @@ class LiveIdentification:
         """A recording's equations out of the live data, as if it had not been recorded."""
         if self._factors.pop(rec, None) is not None:
             self._version.n += 1
+        self._slow.pop(rec, None)
         self._seconds[rec.condition] -= rec.seconds
         self._recordings.remove(rec)
         self._payloads = [(s, p) for s, p in self._payloads if s != rec.source]
@@ -410,7 +421,8 @@ class LiveIdentification:
             self._with_payload(recs, payload_mass)
         chains: list[str] = []
 
-        def solve_rows(factors: list[RecordFactors], reports: list[dict]) -> tuple:
+        def solve_rows(factors: list[RecordFactors], reports: list[dict],
+                       opts: IdentifyOptions = self.opts, essential: bool = essential) -> tuple:
             """As pipeline's: the records' drive chains compared on the rows solved."""
             if payload_mass is not None:
                 factors = [dataclasses.replace(f, payload_mass=payload_mass) if f.loaded
@@ -418,8 +430,8 @@ class LiveIdentification:
             factors, model = self._solvable(factors)
             chains.append(disagreement(factors, model.nominal_gains, list(model.joint_names)))
             try:
-                return model, factors, self.opts, solve(
-                    factors, model, self.opts, method, gains, essential,
+                return model, factors, opts, solve(
+                    factors, model, opts, method, gains, essential,
                     [r.source for r in self._recordings if r.n_decimated])
             except (ExcitationError, IdentificationError) as exc:  # two drive chains: the cause
                 if chains[-1]:
@@ -427,7 +439,9 @@ class LiveIdentification:
                 raise
 
         warnings = list(self._log)
-        (model, factors, _, solved), reports = self._solve_reading(solve_rows, recs, warnings)
+        readings = [(self._factors[r], r.report(), self._alts.get(r)) for r in recs]
+        (model, factors, _, solved), reports = self._solve_reading(
+            solve_rows, readings, warnings, [r.report() for r in self._recordings])
         result = solved.result
         if chains[-1]:
             result.warnings.append(chains[-1])
@@ -437,19 +451,49 @@ class LiveIdentification:
                             [self._noises[r] for r in recs if r in self._noises],
                             dataclasses.replace(self.opts, decimation_cutoff_hz=cutoff))
         finish_result(result, solved, reports, warnings, self.opts, dict(solved.timings))
+        bound_filter_bias(result, self._solve_again(solve_rows, recs, result), SLOW_STEP_S,
+                          self.opts.max_gain_rel_std)
         return result
 
-    def _solve_reading(self, solve_rows, recs: list[LiveRecording], warnings: list[str]
-                       ) -> tuple[tuple, list[dict]]:
-        """``solve_rows`` on the recordings as read, or, with an untagged slow log among them,
-        on the best of its readings by offline's rule (sampling.best_reading); the line saying
-        which reading the answer used into ``warnings``."""
-        factors = [self._factors[r] for r in recs]
-        alts = [self._alts.get(r) for r in recs]
+    def _solve_again(self, solve_rows, recs: list[LiveRecording], result: IdentificationResult):
+        """filter_bound's ``solve_again`` on the live data: the slow recordings' samples kept
+        observed again by the offline rules at the second cut-offs, read as ``result`` read
+        them (filter_bound.second_options); None (said) when a recording's are not kept (a
+        fast one among slow ones) or refused there."""
+        def again(f_q: float, f_d: float) -> IdentificationResult | None:
+            o = second_options(result.diagnostics.get("bags", []), self.opts, f_q, f_d)
+            if any(r not in self._slow for r in recs):
+                return None
+            try:
+                readings = [self._observe(r, o) for r in recs]
+                return self._solve_reading(
+                    lambda f, r: solve_rows(f, r, o, False), readings, [])[0][3].result
+            except OrthoglideError:
+                return None
+        return again
+
+    def _observe(self, rec: LiveRecording, o: IdentifyOptions) -> tuple:
+        """A kept recording observed by the offline rules with ``o``: (factors, report, its
+        other readings when open), as ``_solve_reading`` takes them."""
+        record = self._slow[rec]
+        obs, rep, _ = observe(record, self.model, o, rec.payload_mass)
+        alts = other_readings(record, self.model, o, rec.payload_mass, rep)
+        return (RecordFactors.from_observations(obs),
+                bag_report(rep, rec.source, rec.condition, rec.payload_mass,
+                           obs.rows_per_joint()),
+                alts and [(d, RecordFactors.from_observations(x), r) for d, x, r in alts])
+
+    def _solve_reading(self, solve_rows, readings: list[tuple], warnings: list[str],
+                       every: list[dict] | None = None) -> tuple[tuple, list[dict]]:
+        """``solve_rows`` on the recordings' ``readings`` ((factors, report, other readings or
+        None) each) as read, or, with an untagged slow log among them, on the best of its
+        readings by offline's rule (sampling.best_reading); the line saying which reading the
+        answer used into ``warnings`` (``every``: the reports of every recording, those without
+        equations too, when none is open)."""
+        factors, reports, alts = (list(x) for x in zip(*readings))
         if not any(alts):  # every recording's report, those without equations too
-            reports = [r.report() for r in self._recordings]
+            reports = every or reports
             return solve_rows(factors, reports), reports
-        reports = [r.report() for r in recs]
         out, reports, line = best_reading(solve_rows, factors, reports, alts)
         warnings.append(line)
         return out, reports
@@ -560,3 +604,4 @@ class LiveIdentification:
             est.status = (f"gains known to {100 * worst:.2f} %: keep recording (enough below "
                           f"{100 * opts.live_enough_gain_rel_std:g} %)")
         return est
+

@@ -38,6 +38,20 @@ def second_cutoff(bags: list[dict]) -> tuple[float, float] | None:
     return f2, min(float(b["decimation_cutoff_hz"]) for b in bags)
 
 
+def second_options(bags: list[dict], opts, f_q: float, f_d: float):
+    """The options of the second solve of the records whose ``diagnostics["bags"]`` are
+    ``bags``: the cut-offs (f_q, f_d), the records read as the first solve read them (its
+    reading and half tick when one for all, else ``opts``'), no IV cross-check. Offline and
+    live (live/session.py, which observes each slow recording at stop with these) call it."""
+    readings = {b.get("current_sampling") for b in bags}
+    shifts = {float(b.get("current_shift_ms", 0.0)) for b in bags}
+    reading = readings.pop() if len(readings) == 1 else opts.current_sampling
+    shift = shifts.pop() if len(shifts) == 1 else 0.0
+    return opts.replace(filter_cutoff_hz=f_q, decimation_cutoff_hz=f_d, cross_check="none",
+                        current_sampling=reading,
+                        current_loop_hz=0.5e3 / shift if shift > 0 else opts.current_loop_hz)
+
+
 def widen(result, other, f_q: float, f2: float, max_rel_std: float) -> str | None:
     """Each determined gain of ``result`` with its σ widened by its change in ``other`` (the
     same records at the derivative filter's cut-off ``f2`` instead of ``f_q``); beyond
