@@ -23,13 +23,8 @@ from typing import Any
 import numpy as np
 
 from orthoglide_ident.errors import ExcitationError, IdentificationError
-from orthoglide_ident.identify.columns.drive_terms import observation_model
-from orthoglide_ident.identify.columns.payload_unknowns import (
-    check_one_payload,
-    unknowns_of,
-    used_columns,
-    with_payload_unknowns,
-)
+from orthoglide_ident.identify.columns.layout import ColumnLayout, column_layout, solve_model
+from orthoglide_ident.identify.columns.payload_unknowns import check_one_payload, used_columns
 from orthoglide_ident.identify.diagnostics import bag_report, finish_result
 from orthoglide_ident.identify.observe.equations import Observations
 from orthoglide_ident.identify.observe.rows import IdentificationModel, observe
@@ -43,11 +38,7 @@ from orthoglide_ident.identify.observe.sampling import (
 )
 from orthoglide_ident.identify.options import IdentifyOptions
 from orthoglide_ident.identify.records.record import Record, read_record, record_payload
-from orthoglide_ident.identify.records.robot_checks import (
-    check_positions,
-    motion_warnings,
-    robot_of,
-)
+from orthoglide_ident.identify.records.robot_checks import check_positions, motion_warnings
 from orthoglide_ident.identify.solve.answer import Solved, min_rows
 from orthoglide_ident.identify.solve.factors import RecordFactors
 from orthoglide_ident.identify.solve.methods import DEFAULT_METHOD, get, solve
@@ -101,8 +92,9 @@ def _check_request(opts: IdentifyOptions, method: str, payload_mass: float | Non
             f"--payload-mass must be a positive mass in kg, not {payload_mass}")
 
 
-def _observe_all(records: Iterable[Record], model: IdentificationModel, opts: IdentifyOptions,
-                 payload_mass: float | None, add_timings: Callable[[dict[str, float]], None],
+def _observe_all(records: Iterable[Record], model: IdentificationModel, layout: ColumnLayout,
+                 opts: IdentifyOptions, payload_mass: float | None,
+                 add_timings: Callable[[dict[str, float]], None],
                  partial: list[tuple[str, Payload]] | None = None, alts: list | None = None
                  ) -> tuple[list[Observations], list[dict[str, Any]], list[str], list[str]]:
     """Each record to its observation rows (one record's raw samples in memory at a time):
@@ -134,7 +126,7 @@ def _observe_all(records: Iterable[Record], model: IdentificationModel, opts: Id
         check_positions(rec, model)  # degrees read as radians, another robot: refused
         bag_names.append(rec.source)
         warnings.extend(rec.warnings + motion_warnings(rec, model))
-        obs, rep, ts = observe(rec, model, opts, m)
+        obs, rep, ts = observe(rec, model, opts, m, layout=layout)
         add_timings(ts)
         check_moves(obs, model, opts, "bag")
         blocks.append(obs)
@@ -143,7 +135,7 @@ def _observe_all(records: Iterable[Record], model: IdentificationModel, opts: Id
         noise = _noise_by_joint(rec, model)
         reports[-1]["_current_noise"] = noise  # popped after the solve
         if alts is not None:
-            alts.append(_other_readings(rec, model, opts, m, rep))
+            alts.append(_other_readings(rec, model, layout, opts, m, rep))
             for _, _, other in alts[-1] or ():  # the same record read otherwise: the same noise
                 other["_current_noise"] = noise
         del rec  # a lazily read bag's raw samples can go now
@@ -156,8 +148,8 @@ def _first_stamp(rec: Record) -> int:
     return int(min(rec.stamps_q_ns[0], rec.stamps_v_ns[0]))
 
 
-def _other_readings(rec: Record, model: IdentificationModel, opts: IdentifyOptions, m: float,
-                    rep) -> list | None:
+def _other_readings(rec: Record, model: IdentificationModel, layout: ColumnLayout,
+                    opts: IdentifyOptions, m: float, rep) -> list | None:
     """A slow record's other readings as sampled (half tick s, rows, report) when its reading
     is open: auto read it held (then sampled at the stamp and at the loop's possible half
     ticks), or it is sampled with its loop's rate unknown (the half ticks); else None."""
@@ -171,7 +163,8 @@ def _other_readings(rec: Record, model: IdentificationModel, opts: IdentifyOptio
     out = []
     for d in shifts:
         o, r, _ = observe(rec, model, opts.replace(current_sampling="sampled",
-                                                   current_loop_hz=0.5 / d if d else 0.0), m)
+                                                   current_loop_hz=0.5 / d if d else 0.0), m,
+                          layout=layout)
         out.append((d, o, bag_report(r, rec.source, rec.condition, m, o.rows_per_joint(),
                                      rec.sources)))
     return out
@@ -280,8 +273,8 @@ def _identify_once(
     opts = options or IdentifyOptions()
     timings: dict[str, float] = {}
     t_all = time.perf_counter()
-    model = observation_model(with_payload_unknowns(model), opts.screw_lead_m,
-                              opts.lag_model == "auto")
+    # the columns beside W, once: the robot itself is never wrapped (columns/layout.py)
+    layout = column_layout(model, opts.screw_lead_m, opts.lag_model == "auto")
 
     def add(ts: dict[str, float]) -> None:
         for k, v in ts.items():
@@ -289,30 +282,31 @@ def _identify_once(
 
     payloads: list[tuple[str, Payload]] = []
     alts: list = []  # per record, its other readings when open (observe/sampling.py)
-    blocks, reports, warnings, bag_names = _observe_all(records, model, opts, payload_mass, add,
-                                                        payloads, alts)
+    blocks, reports, warnings, bag_names = _observe_all(records, model, layout, opts,
+                                                        payload_mass, add, payloads, alts)
     t_solve = time.perf_counter()
 
     chains: list[str] = []  # the records' drive chains compared on the rows solved
 
     def solve_rows(blocks, reports):
-        m, b = _payload_or_not(model, blocks, opts, payloads)
+        cols, b = _payload_or_not(model, layout, blocks, payloads)
         # the first record's rate fixes what the solve needs in samples (the σ's decimation gain)
         o = dataclasses.replace(opts, filter_cutoff_hz=reports[0]["filter_cutoff_hz"],
                                 decimation=reports[0]["decimation"],
                                 decimation_cutoff_hz=reports[0]["decimation_cutoff_hz"])
-        m, b = _lag_or_paper(m, b, reports, o)
+        cols, b = _lag_or_paper(cols, b, reports)
         factors = [RecordFactors.from_observations(x) for x in b]
-        chains.append(disagreement(b, m.nominal_gains, list(m.joint_names)))
+        chains.append(disagreement(b, model.nominal_gains, list(model.joint_names)))
         try:
-            return m, b, o, solve(factors, m, o, method, gains, essential, bag_names)
+            return cols, b, o, solve(factors, solve_model(model, cols), o, method, gains,
+                                     essential, bag_names)
         except (ExcitationError, IdentificationError) as exc:  # two drive chains: the cause
             if chains[-1]:
                 raise type(exc)(f"{chains[-1]} (the solve then says: {exc})") from None
             raise
 
-    (model, blocks, opts, solved), reports = _solve_reading(solve_rows, blocks, reports, alts,
-                                                            warnings)
+    (solved_layout, blocks, opts, solved), reports = _solve_reading(solve_rows, blocks, reports,
+                                                                    alts, warnings)
     chain = chains[-1]
     add(solved.timings)
     timings["solve"] = time.perf_counter() - t_solve - timings.get("essential", 0.0)
@@ -322,7 +316,8 @@ def _identify_once(
     _joint_side_residual(result, blocks, solved, model, reports, opts)
 
     t_v = time.perf_counter()
-    vals = _validate(validation, solved, model, _as_read(opts, reports), payload_mass)
+    vals = _validate(validation, solved, model, solved_layout, _as_read(opts, reports),
+                     payload_mass)
     if vals:
         timings["validation"] = time.perf_counter() - t_v
     for v in vals:
@@ -366,48 +361,43 @@ def _as_read(opts: IdentifyOptions, reports: list[dict[str, Any]]) -> IdentifyOp
                         current_loop_hz=0.5e3 / shift_ms if shift_ms > 0 else opts.current_loop_hz)
 
 
-def _payload_or_not(model: IdentificationModel, blocks: list[Observations],
-                    opts: IdentifyOptions, payloads: list[tuple[str, Payload]]
-                    ) -> tuple[IdentificationModel, list[Observations]]:
-    """The model and rows with only the unknown payload columns some loaded record fills (a
+def _payload_or_not(model: IdentificationModel, layout: ColumnLayout,
+                    blocks: list[Observations], payloads: list[tuple[str, Payload]]
+                    ) -> tuple[ColumnLayout, list[Observations]]:
+    """The layout and rows with only the unknown payload columns some loaded record fills (a
     payload known by its mass, Sect. 4.3), named at that payload's frame: with every payload
     known, the rows are the robot's own (zero columns would make W_tot rank deficient)."""
-    pu = unknowns_of(model)
-    if pu is None:
-        return model, blocks
-    start, n = pu.payload_slice.start, len(pu.columns)
+    if not layout.has_payload_unknowns:
+        return layout, blocks
+    start, n = layout.payload_slice.start, layout.n_payload
     keep = used_columns([b.W for b in blocks], start, n)
     frames = {p.frame for _, p in payloads if p.unknown}
-    reduced = pu.keeping(keep)
+    reduced = layout.keeping(keep)
     if keep and frames:
-        reduced = reduced.at_frame(frames.pop())
-    if len(keep) == n and reduced is pu:
-        return model, blocks
+        reduced = reduced.at_frame(model, frames.pop())
     drop = [start + k for k in range(n) if k not in keep]
     if drop:
         blocks = [dataclasses.replace(b, W=np.delete(b.W, drop, axis=2)) for b in blocks]
-    lag = getattr(model, "lag_column", None) is not None
-    return observation_model(reduced, opts.screw_lead_m, lag), blocks
+    return reduced, blocks
 
 
-def _lag_or_paper(model: IdentificationModel, blocks: list[Observations],
-                  reports: list[dict[str, Any]], opts: IdentifyOptions
-                  ) -> tuple[IdentificationModel, list[Observations]]:
-    """The model and rows with the lag columns only when every segment used had its instrument:
+def _lag_or_paper(layout: ColumnLayout, blocks: list[Observations],
+                  reports: list[dict[str, Any]]) -> tuple[ColumnLayout, list[Observations]]:
+    """The layout and rows with the lag columns only when every segment used had its instrument:
     rows with a zero lag column would still hold the lag's force and bias τ and the gains
     (a third of the rows without it halved τ on the simulator). Otherwise the paper's model."""
-    col = getattr(model, "lag_column", None)
+    col = layout.lag_column
     if col is None:
-        return model, blocks
+        return layout, blocks
     lacking = [f"{r['bag']} ({r['n_not_repeating']} of {r['n_segments']} segments)"
                for r in reports if r.get("n_not_repeating")]
     if not lacking:
-        return model, blocks
+        return layout, blocks
     log.info("the current-loop lag is not modelled: %s do not repeat a periodic trajectory "
              "(lag_model: auto needs every segment to)", ", ".join(lacking))
-    cols = np.r_[col:col + model.n_joints]
+    cols = np.r_[col:col + len(layout.joint_names)]
     out = [dataclasses.replace(b, W=np.delete(b.W, cols, axis=2)) for b in blocks]
-    return observation_model(model, opts.screw_lead_m, False), out
+    return layout.without_lag(), out
 
 
 def _noise_by_joint(rec: Record, model: IdentificationModel) -> tuple[np.ndarray, float]:
@@ -423,7 +413,7 @@ def _joint_side_residual(result: IdentificationResult, blocks: list[Observations
     """Behind a transmission, the residual per joint, joint-side (Nᵀ ε), into ``result``, and
     the motors fitted far worse than their current noise said (a reduction typed wrong)."""
     noises = [r.pop("_current_noise") for r in reports]
-    t = getattr(robot_of(model), "transmission", None)
+    t = model.transmission
     if t is None or solved.chi.shape[0] != blocks[0].W.shape[2]:
         return
     noise = np.sqrt(np.nanmean([n ** 2 for n, _ in noises], axis=0))
@@ -443,14 +433,16 @@ def _joint_side_residual(result: IdentificationResult, blocks: list[Observations
 
 
 def _validate(records: Iterable[Record], solved: Solved, model: IdentificationModel,
-              opts: IdentifyOptions, payload_mass: float | None) -> list[ValidationResult]:
-    """Cross-validation (Fig. 5) of the solution on records not used to identify it."""
+              layout: ColumnLayout, opts: IdentifyOptions, payload_mass: float | None
+              ) -> list[ValidationResult]:
+    """Cross-validation (Fig. 5) of the solution on records not used to identify it, observed
+    with the columns solved (``layout``)."""
     result, out = solved.result, []
     for rec in records:
         m = resolve_payload(rec, payload_mass, opts.payload_tolerance_kg)
         if rec.condition == "loaded" and result.method == "wls" and result.payloads:
             m = next((p.value for p in result.payloads if p.tagged == m), m)
-        obs, _, _ = observe(rec, model, opts, m)
+        obs, _, _ = observe(rec, model, opts, m, layout=layout)
         check_moves(obs, model, opts, "validation bag")
         out.append(cross_validate(obs, solved.chi, solved.g_tau, m,
                                   np.asarray(result.residual_rms), joint_names=model.joint_names))
@@ -458,7 +450,7 @@ def _validate(records: Iterable[Record], solved: Solved, model: IdentificationMo
             from orthoglide_ident.identify.validate.direct_dynamics import validate
 
             result.consistency.direct_dynamics.append(validate(
-                rec, getattr(model, "base", model), result.consistency.answer.chi_st,
+                rec, model, result.consistency.answer.chi_st,
                 solved.g_tau, m, opts))
     return out
 

@@ -43,7 +43,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from orthoglide_ident.identify.observe.stream import model_block
 from orthoglide_ident.identify.solve.factors import RecordFactors
 from orthoglide_ident.identify.solve.uncertainty import WAVELENGTHS_M, Uncertainty, spectrum_peaks
 
@@ -173,7 +172,7 @@ class DriveTermsModel:
         n, m, k = self.n_base, q.shape[0], self.terms.n_extra
         if out is None:
             out = np.empty((n + k + 1, self.n_joints, m))
-        model_block(self.base, q, qd, qdd, out[:n + 1])
+        self.base.observation_block(q, qd, qdd, out=out[:n + 1])
         out[n + k] = out[n]  # W_kl goes last
         out[n:n + k] = 0.0
         r0 = n + self.terms.lag
