@@ -23,7 +23,7 @@ from typing import Any
 import numpy as np
 
 from orthoglide_ident.errors import ExcitationError, IdentificationError
-from orthoglide_ident.identify.columns.layout import ColumnLayout, column_layout, solve_model
+from orthoglide_ident.identify.columns.layout import ColumnLayout, column_layout
 from orthoglide_ident.identify.columns.payload_unknowns import check_one_payload, used_columns
 from orthoglide_ident.identify.diagnostics import bag_report, finish_result
 from orthoglide_ident.identify.observe.equations import Observations
@@ -298,8 +298,8 @@ def _identify_once(
         factors = [RecordFactors.from_observations(x) for x in b]
         chains.append(disagreement(b, model.nominal_gains, list(model.joint_names)))
         try:
-            return cols, b, o, solve(factors, solve_model(model, cols), o, method, gains,
-                                     essential, bag_names)
+            return cols, b, o, solve(factors, model, o, method, gains, essential, bag_names,
+                                     layout=cols)
         except (ExcitationError, IdentificationError) as exc:  # two drive chains: the cause
             if chains[-1]:
                 raise type(exc)(f"{chains[-1]} (the solve then says: {exc})") from None

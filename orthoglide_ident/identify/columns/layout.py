@@ -291,16 +291,3 @@ def bound_to(robot, layout: ColumnLayout, payload: Payload):
                 f"{basis.frame or robot.payload_frame}, or its CoM and inertia")
     return robot.with_payload(payload.known_part())
 
-
-def solve_model(robot, layout: ColumnLayout):
-    """The model the solve room reads until it reads the layout itself: the robot with the
-    layout's names (payload_unknowns.PayloadUnknownsModel, drive_terms.DriveTermsModel)."""
-    from orthoglide_ident.identify.columns.drive_terms import DriveTermsModel
-    from orthoglide_ident.identify.columns.payload_unknowns import PayloadUnknownsModel
-
-    model = robot
-    if layout.basis is not None:
-        model = PayloadUnknownsModel(robot, layout.basis, None, layout.payload_columns)
-    if layout.n_extra:
-        model = DriveTermsModel(model, layout.lead_m, bool(layout.terms.lag))
-    return model

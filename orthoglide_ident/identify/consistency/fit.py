@@ -399,7 +399,7 @@ def held_masses(result, factors: Sequence) -> list[float]:
     return [float(est.get(f.payload_mass, f.payload_mass)) if f.loaded else 0.0 for f in factors]
 
 
-def analyse(result, factors: Sequence, chi_rows: np.ndarray, joint_sigma: np.ndarray, model,
+def analyse(result, factors: Sequence, chi_rows: np.ndarray, joint_sigma: np.ndarray, robot,
             prior_weight: float = PRIOR_WEIGHT, under_constraints: bool = True,
             prior: Mapping[str, float] | np.ndarray | None = None) -> ConsistencyResult:
     """The consistency step on a solved identification (``result`` with its covariance; the
@@ -407,7 +407,6 @@ def analyse(result, factors: Sequence, chi_rows: np.ndarray, joint_sigma: np.nda
     ``joint_sigma`` the solve's row weights): the exact-consistency check, the projection and,
     with ``under_constraints``, the identification under the LMIs with the gains held."""
     t0 = time.perf_counter()
-    robot = getattr(model, "base", model)  # a DriveTermsModel wraps the robot
     chi_hat, cov, kappa, std = _base_answer(result, robot)
     n_b, K = robot.n_b, np.asarray(robot.K, float)
     lay = layout(robot, prior, chi_hat)

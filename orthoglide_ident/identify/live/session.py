@@ -46,12 +46,7 @@ from orthoglide_ident.errors import (
 )
 from orthoglide_ident.identify.columns.current_lag import MAX_SEARCH_S
 from orthoglide_ident.identify.columns.drive_terms import screw_mask
-from orthoglide_ident.identify.columns.layout import (
-    ColumnLayout,
-    bound_to,
-    column_layout,
-    solve_model,
-)
+from orthoglide_ident.identify.columns.layout import ColumnLayout, bound_to, column_layout
 from orthoglide_ident.identify.columns.payload_unknowns import (
     check_one_payload,
 )
@@ -361,9 +356,8 @@ class LiveIdentification:
         if payload_mass is not None:
             factors = self._with_payload(factors, payload_mass)
         factors, layout = self._solvable(factors)
-        solved = solve(factors, solve_model(self.model, layout), self.opts, method, gains,
-                       essential,
-                       [r.source for r in self._recordings if r.n_decimated])
+        solved = solve(factors, self.model, self.opts, method, gains, essential,
+                       [r.source for r in self._recordings if r.n_decimated], layout=layout)
         reports = [r.report() for r in self._recordings]
         finish_result(solved.result, solved, reports, list(self._log), self.opts,
                       dict(solved.timings))
@@ -439,7 +433,7 @@ class LiveIdentification:
         opts = self.opts
         try:
             factors, layout = self._solvable(factors)
-            m, _ = tls_model(factors, solve_model(self.model, layout), opts)  # as result()
+            m, _ = tls_model(factors, self.model, layout, opts)  # as result() solves it
             sol = m.full
         except (OrthoglideError, np.linalg.LinAlgError) as exc:
             return LiveEstimate(f"not identifiable yet: {exc}", **base)

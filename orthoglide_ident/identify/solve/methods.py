@@ -9,7 +9,7 @@ and the result field that holds them. The CLI, the node, the offline and the liv
 these tables; a new method (instrumental variables, say) is its own module plus one row here.
 
     method = get("tls")                     # IdentificationError for an unknown name
-    solved = solve(factors, model, opts, "wls", gains=[2001.2] * 3)
+    solved = solve(factors, robot, opts, "wls", gains=[2001.2] * 3, layout=layout)
 """
 from __future__ import annotations
 
@@ -17,7 +17,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 from orthoglide_ident.errors import IdentificationError
-from orthoglide_ident.identify.columns.payload_unknowns import unknowns_of
+from orthoglide_ident.identify.columns.layout import ColumnLayout, plain_layout
 from orthoglide_ident.identify.options import IdentifyOptions
 from orthoglide_ident.identify.solve.answer import (
     Solved,
@@ -43,7 +43,8 @@ class Method:
     gains_given: bool  # True: the drive gains are an input (--gains), the payload mass estimated
     result_fields: tuple[str, ...]  # what IdentificationResult fields it fills beyond the common
     topic: str  # where the identification node latches its answer (orthoglide_msgs)
-    solve: Callable[..., Solved]  # (factors, model, opts, gains, essential, bags) -> Solved
+    # (factors, robot, layout, opts, gains, essential, bags) -> Solved
+    solve: Callable[..., Solved]
 
 
 @dataclass(frozen=True)
@@ -57,12 +58,12 @@ class Refinement:
     topic: str = ""  # where the identification node latches it, if on a topic of its own
 
 
-def _tls(factors, model, opts, gains, essential, bags) -> Solved:
-    return solve_tls(factors, model, opts, essential, bags)
+def _tls(factors, model, layout, opts, gains, essential, bags) -> Solved:
+    return solve_tls(factors, model, layout, opts, essential, bags)
 
 
-def _iv(factors, model, opts, gains, essential, bags) -> Solved:
-    return solve_iv(factors, model, opts, gains, essential, bags)
+def _iv(factors, model, layout, opts, gains, essential, bags) -> Solved:
+    return solve_iv(factors, model, layout, opts, gains, essential, bags)
 
 
 METHODS: dict[str, Method] = {m.name: m for m in (
@@ -99,10 +100,14 @@ def get(name: str) -> Method:
 
 def solve(factors: list[RecordFactors], model, opts: IdentifyOptions,
           method: str = DEFAULT_METHOD, gains: Sequence[float] | None = None,
-          essential: bool = False, bags: Sequence[str] = ()) -> Solved:
+          essential: bool = False, bags: Sequence[str] = (), *,
+          layout: ColumnLayout | None = None) -> Solved:
     """The method on the factors, the payload's identified parameters split from the robot's
     (a payload known by its mass, Sect. 4.3), then the consistent set when ``opts.consistent``;
-    raises the product's errors with a reason."""
+    raises the product's errors with a reason. ``model``: the robot; ``layout``: the columns of
+    the factors (columns/layout.py; default the robot's own, nothing beside W)."""
+    if layout is None:
+        layout = plain_layout(model)
     m = get(method)
     if not factors:
         raise IdentificationError("no bag given")
@@ -110,15 +115,15 @@ def solve(factors: list[RecordFactors], model, opts: IdentifyOptions,
         check_rows(factors, model, opts)
     else:  # TLS: a joint that hardly moved is a partial answer, a short record is refused
         check_length(factors, opts)
-    if opts.consistent and unknowns_of(model) is not None:
+    if opts.consistent and layout.has_payload_unknowns:
         raise IdentificationError(
             "--consistent needs the payload's CoM and inertia: with only its mass known they are "
             "identified (Sect. 4.3); tag them or give --payload-known point")
-    out = m.solve(factors, model, opts, gains, essential, list(bags))
+    out = m.solve(factors, model, layout, opts, gains, essential, list(bags))
     if method == "tls" and opts.cross_check == "iv" and out.result.complete:
         # after TLS, IDIM-IV's gains beside (issue 43); marked only when the checks are on
         cross_check(out, factors, model, opts.check_excitation)
-    split_payload(out.result, model)
+    split_payload(out.result, layout)
     out.result.warnings.extend(friction_sign_warnings(out.result))
     if opts.consistent and not out.result.complete:
         out.result.warnings.append("--consistent is not run on a partial answer: the standard "
