@@ -426,7 +426,7 @@ def _joint_side_residual(result: IdentificationResult, blocks: list[Observations
             g.reason = g.reason.replace(LONGER, advice)
         result.warnings = [w.replace(LONGER, advice) for w in result.warnings]
     masses = [next((p.value for p in result.payloads if b.source in p.bags), b.payload_mass)
-              if result.method == "wls" else b.payload_mass for b in blocks]
+              if get(result.method).gains_given else b.payload_mass for b in blocks]
     rms, _ = joint_side_rms(blocks, solved.chi, solved.g_tau, masses, t.N)
     result.residual_rms_joint_side = rms
     result.residual_joint_names = list(t.joints)
@@ -440,7 +440,7 @@ def _validate(records: Iterable[Record], solved: Solved, model: IdentificationMo
     result, out = solved.result, []
     for rec in records:
         m = resolve_payload(rec, payload_mass, opts.payload_tolerance_kg)
-        if rec.condition == "loaded" and result.method == "wls" and result.payloads:
+        if rec.condition == "loaded" and get(result.method).gains_given and result.payloads:
             m = next((p.value for p in result.payloads if p.tagged == m), m)
         obs, _, _ = observe(rec, model, opts, m, layout=layout)
         check_moves(obs, model, opts, "validation bag")

@@ -31,7 +31,8 @@ from orthoglide_ident.identify.solve.factors import RecordFactors
 from orthoglide_ident.identify.solve.iv_answer import cross_check, solve_iv
 from orthoglide_ident.identify.solve.payload_report import split_payload
 
-__all__ = ["DEFAULT_METHOD", "METHODS", "REFINEMENTS", "Method", "Refinement", "get", "solve"]
+__all__ = ["CROSS_CHECKS", "DEFAULT_METHOD", "METHODS", "REFINEMENTS", "Method", "Refinement",
+           "get", "solve"]
 
 
 @dataclass(frozen=True)
@@ -45,6 +46,9 @@ class Method:
     topic: str  # where the identification node latches its answer (orthoglide_msgs)
     # (factors, robot, layout, opts, gains, essential, bags) -> Solved
     solve: Callable[..., Solved]
+    cross_checked: bool = False  # its complete answer is cross-checked (options.cross_check)
+    cross_checks: bool = False  # it can cross-check another method's answer (--cross-check NAME)
+    gains_converge: bool = False  # the report shows its gains converging as the records grow
 
 
 @dataclass(frozen=True)
@@ -69,15 +73,19 @@ def _iv(factors, model, layout, opts, gains, essential, bags) -> Solved:
 METHODS: dict[str, Method] = {m.name: m for m in (
     Method("tls", "IDIM-TLS (eqs. 33-39): drive gains and base parameters at once, scaled by the "
                   "known payload mass", False,
-           ("drive_gains", "payload_mass"), "orthoglide/identified_parameters", _tls),
+           ("drive_gains", "payload_mass"), "orthoglide/identified_parameters", _tls,
+           cross_checked=True, gains_converge=True),
     Method("wls", "IDIM-WLS (eqs. 24-28): drive gains given (default the robot's nominal ones), "
                   "payload mass of the loaded records estimated", True,
            ("payloads",), "orthoglide/identified_parameters/wls", solve_wls),
     Method("iv", "IDIM-IV (Janot et al. 2014): drive gains and base parameters by instrumental "
                  "variables (the identified model's currents), scaled by the known payload mass; "
                  "unbiased when the joints' current noise differs", False,
-           ("drive_gains", "payload_mass"), "orthoglide/identified_parameters/iv", _iv),
+           ("drive_gains", "payload_mass"), "orthoglide/identified_parameters/iv", _iv,
+           cross_checks=True),
 )}
+# the values of options.cross_check other than "none": the methods that can cross-check
+CROSS_CHECKS: tuple[str, ...] = tuple(m.name for m in METHODS.values() if m.cross_checks)
 DEFAULT_METHOD = "tls"
 
 REFINEMENTS: dict[str, Refinement] = {r.name: r for r in (
@@ -120,7 +128,7 @@ def solve(factors: list[RecordFactors], model, opts: IdentifyOptions,
             "--consistent needs the payload's CoM and inertia: with only its mass known they are "
             "identified (Sect. 4.3); tag them or give --payload-known point")
     out = m.solve(factors, model, layout, opts, gains, essential, list(bags))
-    if method == "tls" and opts.cross_check == "iv" and out.result.complete:
+    if m.cross_checked and opts.cross_check in CROSS_CHECKS and out.result.complete:
         # after TLS, IDIM-IV's gains beside (issue 43); marked only when the checks are on
         cross_check(out, factors, model, opts.check_excitation)
     split_payload(out.result, layout)
