@@ -300,3 +300,27 @@ def test_the_reading_kept_is_the_one_whose_residual_is_least():
     assert case({"held": 1.0, "s0": 0.9, "s5": 0.5}, refused={"s0", "s5"})[0] == "held"
     with pytest.raises(ExcitationError, match="held refused"):
         case({}, refused={"held", "s0", "s5"})
+
+
+def test_the_robot_file_says_the_sampling_with_the_lag_modelled(tmp_path):
+    """With lag_model auto (the default) the observation still reads the robot file's
+    current_sampling: the robot is passed itself beside its column layout (issue 44), where a
+    drive-terms wrapper used to hide its description (the record was read held)."""
+    from orthoglide_ident.identify.columns.layout import column_layout
+    from orthoglide_ident.identify.observe.rows import observe
+    from orthoglide_ident.identify.records.record import Record
+    from orthoglide_ident.model.robots import ROBOTS_DIR, load_robot
+
+    text = (ROBOTS_DIR / "ur5.yaml").read_text()
+    (tmp_path / "ur5.urdf").write_text((ROBOTS_DIR / "ur5.urdf").read_text())
+    (tmp_path / "ur5.yaml").write_text(text + "\ncurrent_sampling: sampled\n")
+    robot = load_robot(str(tmp_path / "ur5.yaml"))
+    st = np.arange(3000, dtype=np.int64) * 1_000_000  # 3 s at 1 kHz
+    t = st * 1e-9
+    q = 0.3 * np.sin(2 * np.pi * 0.5 * t[:, None] + np.arange(robot.n_joints))
+    rec = Record.from_arrays("r", st, q, 0.1 * np.cos(2 * np.pi * 0.5 * t[:, None] + 0 * q),
+                             "unloaded", 0.0, robot.joint_names)
+    layout = column_layout(robot, 0.0, lag=True)
+    assert layout.lag_column is not None  # the columns of lag_model auto
+    _, rep, _ = observe(rec, robot, IdentifyOptions(), 0.0, layout=layout)
+    assert rep.current_sampling == "sampled", rep.current_sampling_why
