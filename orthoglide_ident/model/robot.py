@@ -180,6 +180,10 @@ class RobotModel(abc.ABC):
     # W's columns that are not smooth functions of the filtered states (a friction's sign(q̇)),
     # built at the sample rate (identify/observe/smooth_rows.py); None: the robot does not say
     rough_columns: tuple[int, ...] | None = None
+    # the robot file's description (model/robot_file.RobotDescription); None: none (closed form)
+    description = None
+    # behind a transmission, the joints' own model (model/actuator_space.py); None: no joint side
+    joint_model = None
 
     @abc.abstractmethod
     def observation_block(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray,

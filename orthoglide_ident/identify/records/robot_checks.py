@@ -30,7 +30,8 @@ DEG = math.pi / 180.0
 def _limits_by_name(robot) -> dict:
     """Actuated joints by name: the robot's (motors behind a transmission) and, behind a
     transmission, the joints' too (a record may hold either side)."""
-    out = {j.name: j for j in getattr(getattr(robot, "joint_model", None), "joints", ())}
+    joint_side = robot.joint_model
+    out = {j.name: j for j in joint_side.joints} if joint_side is not None else {}
     out.update({j.name: j for j in robot.joints})
     return out
 
