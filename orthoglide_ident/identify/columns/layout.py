@@ -15,7 +15,7 @@ of a payload (eq. 31). Beside W sit the columns this product adds, in this order
 A :class:`ColumnLayout` says which of these a run holds, their names and where they sit; it is
 built once (:func:`column_layout`) and shared by the offline path (pipeline.py) and the live one
 (live/session.py). The robot is never wrapped: code that builds a block is given the robot and
-the layout (:func:`observation_block`); a loaded record's payload binds the robot
+the layout (:meth:`ColumnLayout.observation_block`); a loaded record's payload binds the robot
 (:func:`bound_to`). What the solve keeps of the columns (those some record fills, the lag when
 every segment had its instrument) is a layout derived once (:meth:`ColumnLayout.keeping`,
 :meth:`ColumnLayout.without_lag`). docs/design/adding_a_column_kind.md: how to add a kind.
