@@ -40,7 +40,7 @@ from pathlib import Path
 from orthoglide_ident import import_command, ros_client
 from orthoglide_ident.errors import ConfigError, IdentificationError, OrthoglideError
 from orthoglide_ident.flags import prepare_outputs
-from orthoglide_ident.identify.solve.methods import DEFAULT_METHOD, METHODS
+from orthoglide_ident.identify.solve.methods import CROSS_CHECKS, DEFAULT_METHOD, METHODS
 from orthoglide_ident.model.robots import (
     add_description_options,
     bundled_robots,
@@ -118,7 +118,7 @@ def _add_identify_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--gains", metavar="G1,G2,...|FILE.json",
                    help="drive gains (N/A, N·m/A for a revolute joint) for --method wls: one per "
                         "joint, or a JSON file (e.g. the --json output of a TLS identification)")
-    p.add_argument("--cross-check", choices=("iv", "none"), default=None,
+    p.add_argument("--cross-check", choices=CROSS_CHECKS + ("none",), default=None,
                    help="after --method tls, IDIM-IV from its answer: a gain further than 3 "
                         "combined σ from IV's is not determined, with the reason (default iv)")
     p.add_argument("--essential", action="store_true",

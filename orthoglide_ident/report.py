@@ -32,7 +32,7 @@ def validation_for_plot(res: IdentificationResult) -> tuple[ValidationResult | N
         return None, False
     g = np.array([g.value for g in res.drive_gains])
     m = block.payload_mass
-    if block.loaded and res.method == "wls" and res.payloads:
+    if block.loaded and res.drive_gains_given and res.payloads:  # the masses estimated
         m = next((p.value for p in res.payloads if block.source in p.bags), m)
     return cross_validate(block, chi, g, m, np.asarray(res.residual_rms),
                           joint_names=tuple(res.joint_names)), False

@@ -166,7 +166,9 @@ class IdentificationResult:
     method: str  # "tls" | "wls" | "iv"
     joint_names: list[str]
     drive_gains: list[Estimate]  # name = joint name
-    drive_gains_given: bool  # True for WLS (gains were an input, rel_std 0)
+    # the method's gains_given (identify/solve/methods.METHODS): True for WLS (gains were an
+    # input, rel_std 0, the payload masses estimated)
+    drive_gains_given: bool
     parameters: list[Estimate]
     payload_mass: PayloadMass | None
     payloads: list[PayloadMass]
@@ -400,7 +402,7 @@ class IdentificationResult:
                       "payload mass)"}
         lines = [head.get(self.method, self.method)]
         variant = self.diagnostics.get("solver", {}).get("tls_noisy_columns")
-        if self.method == "tls" and variant:
+        if variant:  # only a TLS solve says which columns it takes as noisy
             lines.append({"currents": "mixed LS-TLS: W exact, errors in the current references",
                           "all": "TLS of eqs. (35)-(36): errors in every column of W_tot",
                           "per-joint": "mixed LS-TLS, each current column scaled to its noise"}
@@ -479,10 +481,10 @@ class IdentificationResult:
         steps = d.get("steps", [])
         if not steps:
             return out
-        prot = "g_tau" if self.method == "tls" else "m_7"
+        prot = "m_7" if self.drive_gains_given else "g_tau"
         n_prot = len(steps[0].get("shift", [])) or 3
-        labels = (list(self.joint_names) if self.method == "tls"
-                  else [f"{p.tagged:g}kg" for p in self.payloads])[:n_prot]
+        labels = ([f"{p.tagged:g}kg" for p in self.payloads] if self.drive_gains_given
+                  else list(self.joint_names))[:n_prot]
         tol = d.get("tolerance", [])
         out.append(f"what each cancellation cost (cumulative from the base model; tolerance on "
                    f"{prot}: " + ", ".join(f"{100 * t:.2f} %" for t in tol) + "):")

@@ -133,7 +133,7 @@ class IdentifyOptions:
     ripple_model: str = "auto"
     # m, the ball screws' lead (a datasheet value) when known: each joint then gets the friction
     # ripple's two columns at that period, built at the sample rate and decimated with W
-    # (drive_terms.DriveTermsModel); 0: unknown, left to ripple_model
+    # (columns/layout.py); 0: unknown, left to ripple_model
     screw_lead_m: float = 0.0
     # each joint's current-loop lag (the drive applies g_τ (v_τ - τ v̇_τ)): "auto" adds a column
     # per joint when every segment repeats a periodic trajectory, its instrument the mean of v̇_τ

@@ -23,13 +23,8 @@ from typing import Any
 import numpy as np
 
 from orthoglide_ident.errors import ExcitationError, IdentificationError, OrthoglideError
-from orthoglide_ident.identify.columns.drive_terms import observation_model
-from orthoglide_ident.identify.columns.payload_unknowns import (
-    check_one_payload,
-    unknowns_of,
-    used_columns,
-    with_payload_unknowns,
-)
+from orthoglide_ident.identify.columns.layout import ColumnLayout, column_layout
+from orthoglide_ident.identify.columns.payload_unknowns import check_one_payload, used_columns
 from orthoglide_ident.identify.diagnostics import bag_report, finish_result
 from orthoglide_ident.identify.observe.equations import Observations
 from orthoglide_ident.identify.observe.rows import IdentificationModel, observe
@@ -42,7 +37,6 @@ from orthoglide_ident.identify.observe.sampling import (
 )
 from orthoglide_ident.identify.options import IdentifyOptions
 from orthoglide_ident.identify.records.record import Record, read_record, record_payload
-from orthoglide_ident.identify.records.robot_checks import robot_of
 from orthoglide_ident.identify.solve.answer import Solved, min_rows
 from orthoglide_ident.identify.solve.factors import RecordFactors
 from orthoglide_ident.identify.solve.filter_bound import bound_filter_bias, second_options
@@ -116,8 +110,9 @@ def _check_request(opts: IdentifyOptions, method: str, payload_mass: float | Non
             f"--payload-mass must be a positive mass in kg, not {payload_mass}")
 
 
-def _observe_all(records: Iterable[Record], model: IdentificationModel, opts: IdentifyOptions,
-                 payload_mass: float | None, add_timings: Callable[[dict[str, float]], None],
+def _observe_all(records: Iterable[Record], model: IdentificationModel, layout: ColumnLayout,
+                 opts: IdentifyOptions, payload_mass: float | None,
+                 add_timings: Callable[[dict[str, float]], None],
                  partial: list[tuple[str, Payload]] | None = None, alts: list | None = None,
                  progress: Progress | None = None
                  ) -> tuple[list[Observations], list[dict[str, Any]], list[str], list[str]]:
@@ -148,7 +143,7 @@ def _observe_all(records: Iterable[Record], model: IdentificationModel, opts: Id
             check_one_payload(partial)
         bag_names.append(rec.source)
         warnings.extend(lines)
-        obs, rep, ts = observe(rec, model, opts, m, progress)
+        obs, rep, ts = observe(rec, model, opts, m, progress, layout=layout)
         add_timings(ts)
         check_moves(obs, model, opts, "bag")
         blocks.append(obs)
@@ -157,7 +152,7 @@ def _observe_all(records: Iterable[Record], model: IdentificationModel, opts: Id
         noise = noise_by_joint(rec, model)
         reports[-1]["_current_noise"] = noise  # popped after the solve
         if alts is not None:
-            alts.append(other_readings(rec, model, opts, m, rep))
+            alts.append(other_readings(rec, model, opts, m, rep, layout=layout))
             for _, _, other in alts[-1] or ():  # the same record read otherwise: the same noise
                 other["_current_noise"] = noise
         del rec  # a lazily read bag's raw samples can go now
@@ -264,8 +259,8 @@ def _identify_once(
     opts = options or IdentifyOptions()
     timings: dict[str, float] = {}
     t_all = time.perf_counter()
-    model = observation_model(with_payload_unknowns(model), opts.screw_lead_m,
-                              opts.lag_model == "auto")
+    # the columns beside W, once: the robot itself is never wrapped (columns/layout.py)
+    layout = column_layout(model, opts.screw_lead_m, opts.lag_model == "auto")
 
     def add(ts: dict[str, float]) -> None:
         for k, v in ts.items():
@@ -273,31 +268,32 @@ def _identify_once(
 
     payloads: list[tuple[str, Payload]] = []
     alts: list = []  # per record, its other readings when open (observe/sampling.py)
-    blocks, reports, warnings, bag_names = _observe_all(records, model, opts, payload_mass, add,
-                                                        payloads, alts, progress)
+    blocks, reports, warnings, bag_names = _observe_all(records, model, layout, opts,
+                                                        payload_mass, add, payloads, alts,
+                                                        progress)
     t_solve = time.perf_counter()
 
     chains: list[str] = []  # the records' drive chains compared on the rows solved
 
     def solve_rows(blocks, reports):
-        m, b = _payload_or_not(model, blocks, opts, payloads)
+        cols, b = _payload_or_not(model, layout, blocks, payloads)
         # the first record's rate fixes what the solve needs in samples (the σ's decimation gain)
         o = dataclasses.replace(opts, filter_cutoff_hz=reports[0]["filter_cutoff_hz"],
                                 decimation=reports[0]["decimation"],
                                 decimation_cutoff_hz=reports[0]["decimation_cutoff_hz"])
-        m, b = _lag_or_paper(m, b, reports, o)
+        cols, b = _lag_or_paper(cols, b, reports)
         factors = [RecordFactors.from_observations(x) for x in b]
-        chains.append(disagreement(factors, m.nominal_gains, list(m.joint_names)))
+        chains.append(disagreement(factors, model.nominal_gains, list(model.joint_names)))
         try:
-            return m, b, o, solve(factors, m, o, method, gains, essential, bag_names,
-                                  progress=progress)
+            return cols, b, o, solve(factors, model, o, method, gains, essential, bag_names,
+                                     progress=progress, layout=cols)
         except (ExcitationError, IdentificationError) as exc:  # two drive chains: the cause
             if chains[-1]:
                 raise type(exc)(f"{chains[-1]} (the solve then says: {exc})") from None
             raise
 
-    (model, blocks, opts, solved), reports = _solve_reading(solve_rows, blocks, reports, alts,
-                                                            warnings)
+    (solved_layout, blocks, opts, solved), reports = _solve_reading(solve_rows, blocks, reports,
+                                                                    alts, warnings)
     chain = chains[-1]
     add(solved.timings)
     timings["solve"] = time.perf_counter() - t_solve - timings.get("essential", 0.0)
@@ -307,7 +303,8 @@ def _identify_once(
     _joint_side_residual(result, blocks, solved, model, reports, opts)
 
     t_v = time.perf_counter()
-    vals = _validate(validation, solved, model, _as_read(opts, reports), payload_mass)
+    vals = _validate(validation, solved, model, solved_layout, _as_read(opts, reports),
+                     payload_mass)
     if vals:
         timings["validation"] = time.perf_counter() - t_v
     for v in vals:
@@ -351,48 +348,43 @@ def _as_read(opts: IdentifyOptions, reports: list[dict[str, Any]]) -> IdentifyOp
                         current_loop_hz=0.5e3 / shift_ms if shift_ms > 0 else opts.current_loop_hz)
 
 
-def _payload_or_not(model: IdentificationModel, blocks: list[Observations],
-                    opts: IdentifyOptions, payloads: list[tuple[str, Payload]]
-                    ) -> tuple[IdentificationModel, list[Observations]]:
-    """The model and rows with only the unknown payload columns some loaded record fills (a
+def _payload_or_not(model: IdentificationModel, layout: ColumnLayout,
+                    blocks: list[Observations], payloads: list[tuple[str, Payload]]
+                    ) -> tuple[ColumnLayout, list[Observations]]:
+    """The layout and rows with only the unknown payload columns some loaded record fills (a
     payload known by its mass, Sect. 4.3), named at that payload's frame: with every payload
     known, the rows are the robot's own (zero columns would make W_tot rank deficient)."""
-    pu = unknowns_of(model)
-    if pu is None:
-        return model, blocks
-    start, n = pu.payload_slice.start, len(pu.columns)
+    if not layout.has_payload_unknowns:
+        return layout, blocks
+    start, n = layout.payload_slice.start, layout.n_payload
     keep = used_columns([b.W for b in blocks], start, n)
     frames = {p.frame for _, p in payloads if p.unknown}
-    reduced = pu.keeping(keep)
+    reduced = layout.keeping(keep)
     if keep and frames:
-        reduced = reduced.at_frame(frames.pop())
-    if len(keep) == n and reduced is pu:
-        return model, blocks
+        reduced = reduced.at_frame(model, frames.pop())
     drop = [start + k for k in range(n) if k not in keep]
     if drop:
         blocks = [dataclasses.replace(b, W=np.delete(b.W, drop, axis=2)) for b in blocks]
-    lag = getattr(model, "lag_column", None) is not None
-    return observation_model(reduced, opts.screw_lead_m, lag), blocks
+    return reduced, blocks
 
 
-def _lag_or_paper(model: IdentificationModel, blocks: list[Observations],
-                  reports: list[dict[str, Any]], opts: IdentifyOptions
-                  ) -> tuple[IdentificationModel, list[Observations]]:
-    """The model and rows with the lag columns only when every segment used had its instrument:
+def _lag_or_paper(layout: ColumnLayout, blocks: list[Observations],
+                  reports: list[dict[str, Any]]) -> tuple[ColumnLayout, list[Observations]]:
+    """The layout and rows with the lag columns only when every segment used had its instrument:
     rows with a zero lag column would still hold the lag's force and bias τ and the gains
     (a third of the rows without it halved τ on the simulator). Otherwise the paper's model."""
-    col = getattr(model, "lag_column", None)
+    col = layout.lag_column
     if col is None:
-        return model, blocks
+        return layout, blocks
     lacking = [f"{r['bag']} ({r['n_not_repeating']} of {r['n_segments']} segments)"
                for r in reports if r.get("n_not_repeating")]
     if not lacking:
-        return model, blocks
+        return layout, blocks
     log.info("the current-loop lag is not modelled: %s do not repeat a periodic trajectory "
              "(lag_model: auto needs every segment to)", ", ".join(lacking))
-    cols = np.r_[col:col + model.n_joints]
+    cols = np.r_[col:col + len(layout.joint_names)]
     out = [dataclasses.replace(b, W=np.delete(b.W, cols, axis=2)) for b in blocks]
-    return observation_model(model, opts.screw_lead_m, False), out
+    return layout.without_lag(), out
 
 
 def _joint_side_residual(result: IdentificationResult, blocks: list[Observations],
@@ -401,26 +393,28 @@ def _joint_side_residual(result: IdentificationResult, blocks: list[Observations
     """Behind a transmission, the residual per joint, joint-side (Nᵀ ε), into ``result``, and
     the motors fitted far worse than their current noise said (validate/records.py)."""
     noises = [r.pop("_current_noise") for r in reports]
-    t = getattr(robot_of(model), "transmission", None)
+    t = model.transmission
     if t is None or solved.chi.shape[0] != blocks[0].W.shape[2]:
         return
     misfit_warnings(result, solved.g_tau, model, noises, opts)
     masses = [next((p.value for p in result.payloads if b.source in p.bags), b.payload_mass)
-              if result.method == "wls" else b.payload_mass for b in blocks]
+              if get(result.method).gains_given else b.payload_mass for b in blocks]
     rms, _ = joint_side_rms(blocks, solved.chi, solved.g_tau, masses, t.N)
     result.residual_rms_joint_side = rms
     result.residual_joint_names = list(t.joints)
 
 
 def _validate(records: Iterable[Record], solved: Solved, model: IdentificationModel,
-              opts: IdentifyOptions, payload_mass: float | None) -> list[ValidationResult]:
-    """Cross-validation (Fig. 5) of the solution on records not used to identify it."""
+              layout: ColumnLayout, opts: IdentifyOptions, payload_mass: float | None
+              ) -> list[ValidationResult]:
+    """Cross-validation (Fig. 5) of the solution on records not used to identify it, observed
+    with the columns solved (``layout``)."""
     result, out = solved.result, []
     for rec in records:
         m = resolve_payload(rec, payload_mass, opts.payload_tolerance_kg)
-        if rec.condition == "loaded" and result.method == "wls" and result.payloads:
+        if rec.condition == "loaded" and get(result.method).gains_given and result.payloads:
             m = next((p.value for p in result.payloads if p.tagged == m), m)
-        obs, _, _ = observe(rec, model, opts, m)
+        obs, _, _ = observe(rec, model, opts, m, layout=layout)
         check_moves(obs, model, opts, "validation bag")
         out.append(cross_validate(obs, solved.chi, solved.g_tau, m,
                                   np.asarray(result.residual_rms), joint_names=model.joint_names))
@@ -428,7 +422,7 @@ def _validate(records: Iterable[Record], solved: Solved, model: IdentificationMo
             from orthoglide_ident.identify.validate.direct_dynamics import validate
 
             result.consistency.direct_dynamics.append(validate(
-                rec, getattr(model, "base", model), result.consistency.answer.chi_st,
+                rec, model, result.consistency.answer.chi_st,
                 solved.g_tau, m, opts))
     return out
 

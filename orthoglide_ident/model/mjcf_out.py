@@ -193,7 +193,7 @@ def identified_spec(robot, chi_st: np.ndarray, gains: Sequence[float]):
         raise ConfigError(f"--mjcf-out: robot {robot.name} is a closed chain; its MJCF (loops as "
                           "equality constraints) is not written yet: use --urdf-out or the JSON")
     notes: list[str] = []
-    jm = getattr(robot, "joint_model", robot)
+    jm = robot if robot.joint_model is None else robot.joint_model
     if getattr(jm, "description", None) is None:  # the closed-form Orthoglide: no bodies to write
         raise ConfigError(f"--mjcf-out: robot {robot.name} has no URDF or MJCF description to "
                           "write the identified bodies into: give --robot a described one")

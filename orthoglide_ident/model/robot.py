@@ -162,7 +162,8 @@ class RobotModel(abc.ABC):
     joints: tuple[ActuatedJoint, ...]
     standard_names: tuple[str, ...]  # every standard parameter: bodies' inertial, joints' drive
     bodies: tuple[Body, ...]
-    payload_frame: str  # where a payload is mounted unless its tag names another frame
+    # where a payload is mounted unless its tag names another frame; None: no payload frame
+    payload_frame: str | None = None
     names: list[str]  # base parameters
     expressions: list[str]  # each base parameter's regrouping of standard ones
     K: np.ndarray  # (n_b, n_st): chi_b = K chi_st (eq. 21)
@@ -176,6 +177,13 @@ class RobotModel(abc.ABC):
     # joints of the description fixed before anything else (robot file ``locked_joints``, their
     # mimics, joints left out of actuated_joints): model/locked_joints.LockedJoint
     locked_joints: tuple = ()
+    # W's columns that are not smooth functions of the filtered states (a friction's sign(q̇)),
+    # built at the sample rate (identify/observe/smooth_rows.py); None: the robot does not say
+    rough_columns: tuple[int, ...] | None = None
+    # the robot file's description (model/robot_file.RobotDescription); None: none (closed form)
+    description = None
+    # behind a transmission, the joints' own model (model/actuator_space.py); None: no joint side
+    joint_model = None
 
     @abc.abstractmethod
     def observation_block(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray,

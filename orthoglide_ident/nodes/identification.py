@@ -21,7 +21,7 @@ from orthoglide_ident.flags import prepare_output
 from orthoglide_ident.identify.live.session import LiveIdentification
 from orthoglide_ident.identify.options import IdentifyOptions
 from orthoglide_ident.identify.pipeline import identify
-from orthoglide_ident.identify.solve.methods import METHODS, REFINEMENTS, get
+from orthoglide_ident.identify.solve.methods import DEFAULT_METHOD, METHODS, REFINEMENTS, get
 from orthoglide_ident.model.mjcf_out import write_mjcf
 from orthoglide_ident.model.robots import load_robot, load_robot_description
 from orthoglide_ident.nodes.live_feed import LiveFeed
@@ -81,7 +81,7 @@ NODE_PARAMETERS = (
     Param("bag_dir", "bags", "where to look for bags when a request names none"),
     Param(
         "method",
-        "tls",
+        DEFAULT_METHOD,
         "tls: gains identified, payload mass known; wls: gains given (wls_gains), "
         "payload mass estimated",
     ),

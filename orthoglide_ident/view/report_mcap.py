@@ -23,6 +23,7 @@ import numpy as np
 
 from orthoglide_ident.errors import ConfigError
 from orthoglide_ident.identify.options import IdentifyOptions
+from orthoglide_ident.identify.solve.methods import METHODS
 from orthoglide_ident.identify.solve.tls import ExcitationLimits
 from orthoglide_ident.report import validation_for_plot
 from orthoglide_ident.results import IdentificationResult
@@ -48,7 +49,8 @@ def report_messages(
     joints = list(res.joint_names)
     end = max((record_seconds(o) for o in res.observations), default=0.0)
     out: dict[str, list[tuple[int, dict]]] = {c: [] for c in CHANNELS}
-    if res.method == "tls" and res.observations:
+    method = METHODS.get(res.method)
+    if method is not None and method.gains_converge and res.observations:
         for p in gain_convergence(res.observations, weighting=opts.get("weighting", True),
                                   noisy_columns=opts.get("tls_noisy_columns", "all"),
                                   limits=_limits(opts, res.nominal_gains), joint_names=joints):

@@ -147,3 +147,17 @@ def test_options_from_yaml(tmp_path):
     p.write_text("decimation: many\n")
     with pytest.raises(ConfigError, match="decimation"):
         IdentifyOptions.from_yaml(p)
+
+
+def test_the_result_says_the_robots_locked_joints_with_drive_terms_modelled():
+    """A drive term in the equations (a screw's ripple at a given lead) and a robot with a
+    locked joint: the result names it, as without the term (the robot is passed itself beside
+    its column layout, issue 44, where a drive-terms wrapper used to hide it)."""
+    from orthoglide_ident.model.locked_joints import LISTED, LockedJoint
+
+    class Locked(SyntheticModel):
+        locked_joints = (LockedJoint("finger", 0.03, "prismatic", LISTED),)
+
+    res = identify_records(_pair(False), model=Locked(),
+                           options=IdentifyOptions(screw_lead_m=0.010))
+    assert res.locked_joints == [Locked.locked_joints[0].to_json()]

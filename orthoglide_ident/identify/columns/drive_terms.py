@@ -16,7 +16,7 @@ with the records (Σ x w e^(-iφ), Σ w², Σ w² e^(-2iφ)), so the augmented s
 and live. Its σ are eq. (39)'s, scaled unknown by unknown by the base model's honest / eq. (39)
 variance ratio (the block moments hold no ripple columns).
 
-When the lead is known (``screw_lead_m``, a datasheet value), :class:`DriveTermsModel` computes
+When the lead is known (``screw_lead_m``, a datasheet value), the column layout (layout.py) has
 the columns sign(q̂̇_j) cos(2π q̂_j/λ), sign(q̂̇_j) sin(2π q̂_j/λ) at the sample rate, beside W, and
 the decimation filters them with W (the paper's parallel filtering, eqs. 19-20, applied to the
 drive term too) instead of weighting the decimated rows by H: no approximation where |q̇|/λ
@@ -43,7 +43,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from orthoglide_ident.identify.observe.stream import model_block
 from orthoglide_ident.identify.solve.factors import RecordFactors
 from orthoglide_ident.identify.solve.uncertainty import WAVELENGTHS_M, Uncertainty, spectrum_peaks
 
@@ -53,7 +52,7 @@ class RippleTerm:
     """Two columns of joint ``joint`` (its index): a ripple of wavelength ``wavelength_m``;
     ``index``
     is its wavelength in the residual's position spectrum (WAVELENGTHS_M) when the columns are
-    built from the moments, None when they are in the equations (DriveTermsModel)."""
+    built from the moments, None when they are in the equations (layout.ColumnLayout)."""
 
     joint: int
     wavelength_m: float
@@ -137,108 +136,6 @@ def screw_joints(model) -> list[int]:
 def screw_mask(model) -> tuple[bool, ...]:
     """Per joint, whether its position spectrum is looked at for a screw ripple."""
     return tuple(joint.kind == "prismatic" for joint in model.joints)
-
-
-class DriveTermsModel:
-    """The pipeline's model with drive terms in the equations: columns [W | lag | ripple | W_kl].
-
-    ``lag``: each joint's current-loop lag, one column in its own rows (zero in the others'),
-    which the stream fills with the lag instrument (current_lag.py) at ``lag_column`` + j.
-    ``lead_m`` > 0: each prismatic joint's screw friction ripple at that lead, the columns
-    sign(q̂̇_j) cos(2π q̂_j/λ) and sign(q̂̇_j) sin(2π q̂_j/λ) in its own rows. Both are built at the
-    sample rate with W, so the stream decimates (and bridges at reversals) them as it does W.
-    The robot's joints, gains and payload frame are the base model's (``model.joints`` ...)."""
-
-    def __init__(self, model, lead_m: float = 0.0, lag: bool = False):
-        self.base, self.lead_m = model, float(lead_m)
-        self.n_base = len(model.names)
-        self.joints, self.name = model.joints, model.name
-        self.joint_names, self.n_joints = model.joint_names, model.n_joints
-        self.nominal_gains = model.nominal_gains
-        self.nominal_gains_given = model.nominal_gains_given
-        names = self.joint_names
-        ripples = tuple(RippleTerm(j, self.lead_m, True) for j in screw_joints(model)) \
-            if lead_m > 0 else ()
-        self.terms = Terms(ripples, self.n_joints if lag else 0)
-        self.lag_column = self.n_base if lag else None
-        self.names = list(model.names) + self.terms.names(names)
-        self.expressions = list(getattr(model, "expressions", [""] * self.n_base)) + [
-            f"τ g_τ {j}: v̇τ {j} averaged over the other periods" for j in names if lag] + [
-            f"sign(q̇ {names[t.joint]}) {f}(2π {names[t.joint]} / {self.lead_m:g} m)"
-            for t in self.terms.ripples for f in ("cos", "sin")]
-
-    def observation_block(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray,
-                          out: np.ndarray | None = None) -> np.ndarray:
-        """[W | lag (zero) | ripple | W_kl] of states (m, n_j) as (n_b + k + 1, n_j, m)."""
-        n, m, k = self.n_base, q.shape[0], self.terms.n_extra
-        if out is None:
-            out = np.empty((n + k + 1, self.n_joints, m))
-        model_block(self.base, q, qd, qdd, out[:n + 1])
-        out[n + k] = out[n]  # W_kl goes last
-        out[n:n + k] = 0.0
-        r0 = n + self.terms.lag
-        self._ripples(q, qd, out[r0:])
-        return out
-
-    def _ripples(self, q: np.ndarray, qd: np.ndarray, out: np.ndarray) -> None:
-        """The ripple columns sign(q̂̇_j) cos, sin(2π q̂_j/λ) into ``out`` (2 per term, n_j, m),
-        each in its joint's rows (the others left as they are: zero)."""
-        phi = (2.0 * np.pi / self.lead_m) * np.asarray(q) if self.terms.ripples else None
-        s = np.sign(qd)
-        for i, t in enumerate(self.terms.ripples):
-            j = t.joint
-            out[2 * i, j] = s[:, j] * np.cos(phi[:, j])
-            out[2 * i + 1, j] = s[:, j] * np.sin(phi[:, j])
-
-    @property
-    def rough_columns(self) -> tuple[int, ...] | None:
-        """Columns that are not smooth functions of the filtered states (identify/stream.py):
-        the robot's, the lag's (the currents' instrument) and the ripple's (sign(q̂̇)); None
-        when the robot does not say."""
-        base = getattr(self.base, "rough_columns", None)
-        if base is None:
-            return None
-        return tuple(base) + tuple(range(self.n_base, self.n_base + self.terms.n_extra))
-
-    def rough_block(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray,
-                    out: np.ndarray | None = None) -> np.ndarray:
-        """The :attr:`rough_columns` (lag zero: the stream fills it) as (k, n_j, m)."""
-        n_r = len(self.base.rough_columns)
-        k, m = self.terms.n_extra, np.shape(q)[0]
-        if out is None:
-            out = np.empty((n_r + k, self.n_joints, m))
-        self.base.rough_block(q, qd, qdd, out[:n_r])
-        out[n_r:] = 0.0
-        r0 = n_r + self.terms.lag
-        self._ripples(q, qd, out[r0:])
-        return out
-
-    def regressor(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> np.ndarray:
-        """[W | lag (zero: it needs the currents) | ripple] (n_j N, n_b + k), rows joint by
-        joint."""
-        X = self.observation_block(q, qd, qdd)[:-1]
-        return X.transpose(1, 2, 0).reshape(-1, X.shape[0])
-
-    def payload_mass_column(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> np.ndarray:
-        return self.base.payload_mass_column(q, qd, qdd)
-
-    def with_payload(self, payload) -> DriveTermsModel:
-        """The same drive terms on the base model bound to ``payload`` (RobotModel.with_payload)."""
-        base = self.base.with_payload(payload)
-        return self if base is self.base else DriveTermsModel(base, self.lead_m,
-                                                              bool(self.terms.lag))
-
-
-def observation_model(model, lead_m: float, lag: bool = False):
-    """``model`` with the drive terms in the equations: the screw ripple columns when the lead
-    is known (``lead_m`` > 0), the current-loop lag columns when ``lag``."""
-    if isinstance(model, DriveTermsModel):
-        if model.lead_m == float(lead_m) and bool(model.terms.lag) == bool(lag):
-            return model
-        model = model.base
-    if lead_m > 0 or lag:
-        return DriveTermsModel(model, lead_m, lag)
-    return model
 
 
 def can_model(factors: list[RecordFactors], terms: Terms) -> bool:

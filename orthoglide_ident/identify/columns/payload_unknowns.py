@@ -21,19 +21,19 @@ only translates: only the mass acts, χ_ul is empty and nothing changes). χ_ul 
 regrouping with the robot's χ: its columns are zero in the unloaded rows, which fix χ alone.
 An unknown column that depends on the mass column would bias the scale: refused.
 
-:class:`PayloadUnknownsModel` wraps a robot model with the χ_ul columns after its base columns,
+The column layout (layout.py) puts the χ_ul columns after the robot's base columns,
 [W | W_ul | W_kl]: zero in an unloaded record and in a loaded one whose payload is known in full
-(their rows are those of today's model; ``drop_unused`` removes the columns no record fills).
+(their rows are those of the robot's own model; :func:`used_columns` finds those some record
+fills, the others are dropped before the solve).
 """
 from __future__ import annotations
 
 import math
-import weakref
 from dataclasses import dataclass
 
 import numpy as np
 
-from orthoglide_ident.errors import ConfigError, IdentificationError, ModelError
+from orthoglide_ident.errors import IdentificationError, ModelError
 from orthoglide_ident.model.base_parameters import base_parameters
 from orthoglide_ident.model.robot import INERTIAL_KINDS, PAYLOAD_UNKNOWN, Payload
 
@@ -89,147 +89,6 @@ def payload_basis(model, frame: str) -> PayloadBasis:
     return PayloadBasis(frame, tuple(p.standard.rsplit("_", 1)[0] for p in params),
                         base.K[1:, 1:], tuple(p.name for p in params),
                         tuple(p.expression for p in params))
-
-
-class PayloadUnknownsModel:
-    """A robot model with the unknown payload parameters' columns: [W | W_ul | W_kl].
-
-    Bound to no payload (unloaded) its W_ul columns are zero; ``with_payload`` gives the model
-    of a loaded record: W_ul filled for a payload known by its mass (or mass and CoM), W_kl of
-    its known part. The robot's sizes and names are the base model's, plus ``payload_names``.
-    """
-
-    def __init__(self, model, basis: PayloadBasis, payload: Payload | None = None,
-                 columns: tuple[int, ...] | None = None):
-        self.base, self.basis, self.payload = model, basis, payload
-        self.columns = tuple(range(basis.n)) if columns is None else tuple(columns)
-        self.n_base = len(model.names)
-        self.joints, self.name = model.joints, model.name
-        self.joint_names, self.n_joints = model.joint_names, model.n_joints
-        self.nominal_gains = model.nominal_gains
-        self.payload_frame = model.payload_frame
-        self.payload_names = [basis.names[k] for k in self.columns]
-        self.payload_expressions = [basis.expressions[k] for k in self.columns]
-        self.names = list(model.names) + self.payload_names
-        self.expressions = list(getattr(model, "expressions", [""] * self.n_base)) \
-            + self.payload_expressions
-
-    @property
-    def payload_slice(self) -> slice:
-        """Where χ_ul sits among the unknowns (after the robot's base parameters)."""
-        return slice(self.n_base, self.n_base + len(self.columns))
-
-    def observation_block(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray,
-                          out: np.ndarray | None = None) -> np.ndarray:
-        """[W | W_ul | W_kl] of states (m, n_j) as (n_b + n_ul + 1, n_j, m)."""
-        n, k, m = self.n_base, len(self.columns), np.shape(q)[0]
-        if out is None:
-            out = np.empty((n + k + 1, self.n_joints, m))
-        if self.payload is None or not self.payload.unknown or not k:
-            self.base.observation_block(q, qd, qdd, out=out[:n + 1])
-            out[n + k] = out[n]  # W_kl goes last
-            out[n:n + k] = 0.0
-            return out
-        X = self.base.observation_and_payload_block(q, qd, qdd, self.payload.frame)
-        out[:n] = X[:n]
-        out[n + k] = X[n]
-        for i, c in enumerate(self.columns):
-            kind = self.basis.kinds[c]
-            out[n + i] = X[n + 1 + INERTIAL_KINDS.index(kind)] if kind in self.payload.unknown \
-                else 0.0
-        return out
-
-    @property
-    def rough_columns(self) -> tuple[int, ...] | None:
-        """The robot's rough columns (identify/stream.py): among W's, the same indices; the
-        payload's columns W_ul, W_kl are smooth. None when the robot does not say."""
-        return getattr(self.base, "rough_columns", None)
-
-    def rough_block(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray,
-                    out: np.ndarray | None = None) -> np.ndarray:
-        return self.base.rough_block(q, qd, qdd, out)
-
-    def regressor(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> np.ndarray:
-        X = self.observation_block(q, qd, qdd)[:-1]
-        return X.reshape(X.shape[0], -1).T
-
-    def payload_mass_column(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> np.ndarray:
-        return self.observation_block(q, qd, qdd)[-1].reshape(-1)
-
-    def payload_standard_block(self, q, qd, qdd, frame: str):
-        return self.base.payload_standard_block(q, qd, qdd, frame)
-
-    def random_states(self, n: int, seed: int = 0):
-        return self.base.random_states(n, seed)
-
-    def with_payload(self, payload: Payload) -> PayloadUnknownsModel:
-        """The model of a loaded record carrying ``payload``: its known part in W_kl, its
-        unknown kinds in W_ul (ConfigError when they regroup otherwise at its frame)."""
-        if payload.unknown and (payload.frame or self.payload_frame) != \
-                (self.basis.frame or self.payload_frame):
-            other = payload_basis(self.base, payload.frame)
-            if other.kinds != self.basis.kinds:
-                raise ConfigError(
-                    f"a payload known by its mass at {payload.frame} has identifiable parameters "
-                    f"{list(other.kinds)}, not those at {self.basis.frame or self.payload_frame} "
-                    f"({list(self.basis.kinds)}): give orthoglide.payload_frame as "
-                    f"{self.basis.frame or self.payload_frame}, or its CoM and inertia")
-        bound = self.base.with_payload(payload.known_part())
-        return PayloadUnknownsModel(bound, self.basis, payload, self.columns)
-
-    def keeping(self, columns: tuple[int, ...]):
-        """The model with only these of its payload columns (indices into ``self.columns``);
-        the base model itself when none is left."""
-        if not columns:
-            return self.base
-        return PayloadUnknownsModel(self.base, self.basis, self.payload,
-                                    tuple(self.columns[c] for c in columns))
-
-    def at_frame(self, frame: str) -> PayloadUnknownsModel:
-        """The same columns named and regrouped as at ``frame`` (a loaded payload's)."""
-        if (frame or self.payload_frame) == (self.basis.frame or self.payload_frame):
-            return self
-        return PayloadUnknownsModel(self.base, payload_basis(self.base, frame), self.payload,
-                                    self.columns)
-
-    # what else the pipeline reads from a robot model
-    def __getattr__(self, name: str):
-        if name == "base":
-            raise AttributeError(name)
-        return getattr(self.base, name)
-
-
-_BASES: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()  # model -> its basis
-
-
-def with_payload_unknowns(model):
-    """``model`` with the columns of a payload known by its mass (at its payload frame), when
-    any of its parameters other than the mass acts; else ``model`` unchanged. The basis is
-    found once per model (a closed chain's random states take a while)."""
-    if isinstance(model, PayloadUnknownsModel) or getattr(model, "payload_frame", None) is None:
-        return model
-    try:
-        basis = _BASES.get(model, False)
-    except TypeError:  # a model that cannot be weakly referenced: found each time
-        basis = False
-    if basis is False:
-        probe = model.payload_standard_block(*model.random_states(2, STATES_SEED),
-                                             model.payload_frame)
-        basis = None if probe is None else payload_basis(model, "")
-        try:
-            _BASES[model] = basis
-        except TypeError:
-            pass
-    return PayloadUnknownsModel(model, basis) if basis is not None and basis.n else model
-
-
-def unknowns_of(model) -> PayloadUnknownsModel | None:
-    """The PayloadUnknownsModel inside ``model`` (wrapped by the drive terms, or itself)."""
-    while model is not None:
-        if isinstance(model, PayloadUnknownsModel):
-            return model
-        model = model.__dict__.get("base") if hasattr(model, "__dict__") else None
-    return None
 
 
 def used_columns(W: list[np.ndarray], start: int, n: int) -> tuple[int, ...]:

@@ -392,14 +392,15 @@ def _base_answer(result, robot) -> tuple[np.ndarray, np.ndarray, float, np.ndarr
 
 
 def held_masses(result, factors: Sequence) -> list[float]:
-    """The payload mass each record is held at (kg): known (TLS) or the WLS estimate of its tag."""
-    if result.method != "wls":
+    """The payload mass each record is held at (kg): known (gains identified) or, the gains given
+    (WLS), the estimate of its tag."""
+    if not result.drive_gains_given:
         return [float(f.payload_mass) if f.loaded else 0.0 for f in factors]
     est = {p.tagged: p.value for p in result.payloads}
     return [float(est.get(f.payload_mass, f.payload_mass)) if f.loaded else 0.0 for f in factors]
 
 
-def analyse(result, factors: Sequence, chi_rows: np.ndarray, joint_sigma: np.ndarray, model,
+def analyse(result, factors: Sequence, chi_rows: np.ndarray, joint_sigma: np.ndarray, robot,
             prior_weight: float = PRIOR_WEIGHT, under_constraints: bool = True,
             prior: Mapping[str, float] | np.ndarray | None = None,
             progress: Callable[..., None] | None = None) -> ConsistencyResult:
@@ -416,7 +417,6 @@ def analyse(result, factors: Sequence, chi_rows: np.ndarray, joint_sigma: np.nda
             progress("physical consistency (LMI fits)", done, steps, "steps")
 
     tell(0)
-    robot = getattr(model, "base", model)  # a DriveTermsModel wraps the robot
     chi_hat, cov, kappa, std = _base_answer(result, robot)
     n_b, K = robot.n_b, np.asarray(robot.K, float)
     lay = layout(robot, prior, chi_hat)
@@ -514,10 +514,10 @@ def mass_warnings(c: ConsistencyResult, model, res) -> list[str]:
             off.append(f"{body.name} {m:.3g} kg (description {p:.3g} kg)")
     if not off:
         return []
-    if res.method == "wls" and not model.nominal_gains_given:
+    if res.drive_gains_given and not model.nominal_gains_given:
         cause = ("the gains are not known (WLS with a bare URDF's 1 per unit scales every mass "
                  "by 1/g): give --gains, e.g. a TLS identification's")
-    elif res.method == "wls":
+    elif res.drive_gains_given:
         cause = (
             "the gains given (or the nominal ones) are not the drives', or the description is wrong"
         )

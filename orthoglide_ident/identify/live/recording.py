@@ -60,14 +60,18 @@ def channel_maps(names: tuple[str, ...], t: Transmission | None) -> tuple[Channe
 
 
 class LiveRecording:
-    """A record under way: two topic buffers, the segment being built, its report."""
+    """A record under way: two topic buffers, the segment being built, its report.
+
+    ``model``: the robot bound to the record's payload ``bound`` (columns/layout.bound_to,
+    whose unknown kinds fill W_ul); ``layout``: the columns beside W (columns/layout.py)."""
 
     def __init__(self, source: str, condition: str, payload_mass: float, opts: IdentifyOptions,
-                 model, n_b: int, fold: Fold, lag: bool = False,
-                 transmission: Transmission | None = None, payload=None):
+                 model, layout, fold: Fold, lag: bool = False,
+                 transmission: Transmission | None = None, payload=None, bound=None):
         self.source, self.condition, self.payload_mass = source, condition, payload_mass
         self.payload = payload  # as start_recording was given it (the tag's), for the rebuild
-        self.opts, self.model, self.n_b, self._fold = opts, model, n_b, fold
+        self.opts, self.model, self.layout, self._fold = opts, model, layout, fold
+        self.bound = bound
         limit = opts.current_warn_fraction * opts.current_limit_a
         self.joint_names = names = tuple(model.joint_names)
         n_j = len(names)
@@ -276,7 +280,7 @@ class LiveRecording:
             if self._lag.repeats is False:
                 self._not_repeating(out)
             s, q, v = ticks
-        elif getattr(self.model, "lag_column", None) is not None:
+        elif self.layout.lag_column is not None:
             v = without_instrument(v)  # the lag is left out: see LiveIdentification
         self._to_stream(s, q, v, out)
 
@@ -289,8 +293,8 @@ class LiveRecording:
             self._seg.append((s, q, v))
             if self._seg_len < self.opts.min_segment_samples(self.period_ns * 1e-9):
                 return
-            self._stream = SegmentStream(self.model, self.opts, self.period_ns * 1e-9,
-                                         self._t0_ns, self.n_b)
+            self._stream = SegmentStream(self.model, self.layout, self.opts,
+                                         self.period_ns * 1e-9, self._t0_ns, self.bound)
             parts, self._seg = self._seg, []
             self._rows(self._stream.push(*(np.concatenate(x) for x in zip(*parts))), out)
         except OrthoglideError as exc:

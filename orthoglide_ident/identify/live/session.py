@@ -52,15 +52,14 @@ from orthoglide_ident.errors import (
     OrthoglideError,
 )
 from orthoglide_ident.identify.columns.current_lag import MAX_SEARCH_S
-from orthoglide_ident.identify.columns.drive_terms import observation_model, screw_mask
+from orthoglide_ident.identify.columns.drive_terms import screw_mask
+from orthoglide_ident.identify.columns.layout import ColumnLayout, bound_to, column_layout
 from orthoglide_ident.identify.columns.payload_unknowns import (
     check_one_payload,
-    unknowns_of,
-    with_payload_unknowns,
 )
 from orthoglide_ident.identify.diagnostics import bag_report, finish_result
 from orthoglide_ident.identify.live.recording import LiveRecording
-from orthoglide_ident.identify.observe.rows import IdentificationModel, observe, with_known_payload
+from orthoglide_ident.identify.observe.rows import IdentificationModel, observe
 from orthoglide_ident.identify.observe.sampling import SLOW_STEP_S, best_reading
 from orthoglide_ident.identify.observe.stream import DecimatedRows
 from orthoglide_ident.identify.options import IdentifyOptions
@@ -172,11 +171,11 @@ class LiveIdentification:
             raise ConfigError("live identification needs decimation_filter: fir (cheby1's IIR "
                               "decimation depends on the whole segment)")
         # a transmission's joint-side channels are mapped to its motors on arrival (issue 33)
-        self.transmission = getattr(model, "transmission", None)
-        self.model = observation_model(with_payload_unknowns(model), self.opts.screw_lead_m,
-                                       self.opts.lag_model == "auto")
+        self.transmission = model.transmission
+        self.model = model  # the robot itself; the columns beside its W: the layout, built once
+        self.layout = column_layout(model, self.opts.screw_lead_m, self.opts.lag_model == "auto")
         self._payloads: list[tuple[str, Payload]] = []  # the loaded recordings' (Sect. 4.3)
-        self.n_b = len(self.model.names)
+        self.n_b = self.layout.n_columns
         self._factors: dict[LiveRecording, RecordFactors] = {}  # one per record, as offline
         self._seconds: dict[str, float] = {"loaded": 0.0, "unloaded": 0.0}
         self._recordings: list[LiveRecording] = []
@@ -223,15 +222,15 @@ class LiveIdentification:
                         "stopped"])
             self.stop_recording()
         self.refused = None  # a recording refused is left out; the next one is answered again
-        lag = getattr(self.model, "lag_column", None) is not None and not self._lag_left_out()
-        model = self.model
+        lag = self.layout.lag_column is not None and not self._lag_left_out()
+        model, bound = self.model, None
         if condition == "loaded":
             p = payload_knowledge(source, payload, mass, self.opts.payload_known)
             check_one_payload(self._payloads + [(source, p)])
             self._payloads.append((source, p))
-            model = with_known_payload(model, p)
-        self._current = LiveRecording(source, condition, mass, self.opts, model, self.n_b,
-                                      self._fold, lag, self.transmission, payload)
+            model, bound = bound_to(model, self.layout, p), p
+        self._current = LiveRecording(source, condition, mass, self.opts, model, self.layout,
+                                      self._fold, lag, self.transmission, payload, bound)
         self._recordings.append(self._current)
 
     def stop_recording(self) -> list[str]:
@@ -284,8 +283,10 @@ class LiveIdentification:
         (current_sampling: auto) is also read sampled (validate/records.other_readings), and
         result() keeps the better reading by offline's rule (sampling.best_reading)."""
         try:
-            obs, rep, _ = observe(record, self.model, self.opts, rec.payload_mass)
-            alts = other_readings(record, self.model, self.opts, rec.payload_mass, rep)
+            obs, rep, _ = observe(record, self.model, self.opts, rec.payload_mass,
+                                  layout=self.layout)
+            alts = other_readings(record, self.model, self.opts, rec.payload_mass, rep,
+                                  layout=self.layout)
         except OrthoglideError as exc:  # the streamed equations stay; say why
             return [f"{rec.source}: not observed again by the offline rules ({exc}): the "
                     "equations of its uneven clock streamed with its first steps' mean are used"]
@@ -366,35 +367,34 @@ class LiveIdentification:
         """A segment used did not repeat a periodic trajectory: no lag instrument for its rows."""
         return any(r.rep.n_not_repeating for r in self._recordings)
 
-    def _solvable(self, factors: list[RecordFactors]) -> tuple[list[RecordFactors], object]:
-        """The factors and model to solve: without the lag columns when a segment used has no
+    def _solvable(self, factors: list[RecordFactors]
+                  ) -> tuple[list[RecordFactors], ColumnLayout]:
+        """The factors and layout to solve: without the lag columns when a segment used has no
         instrument (pipeline._lag_or_paper: all or nothing, the paper's drive model)."""
-        factors, model = self._payload_columns(factors)
-        col = getattr(model, "lag_column", None)
+        factors, layout = self._payload_columns(factors)
+        col = layout.lag_column
         if col is None or not self._lag_left_out():
-            return factors, model
-        cols = np.arange(col, col + model.n_joints)
-        return ([f.without_columns(cols) for f in factors],
-                observation_model(model, self.opts.screw_lead_m, False))
+            return factors, layout
+        cols = np.arange(col, col + self.model.n_joints)
+        return [f.without_columns(cols) for f in factors], layout.without_lag()
 
     def _payload_columns(self, factors: list[RecordFactors]
-                         ) -> tuple[list[RecordFactors], object]:
+                         ) -> tuple[list[RecordFactors], ColumnLayout]:
         """Without the unknown payload columns no recording fills (pipeline._payload_or_not)."""
-        pu = unknowns_of(self.model)
-        if pu is None:
-            return factors, self.model
-        start, n = pu.payload_slice.start, len(pu.columns)
+        layout = self.layout
+        if not layout.has_payload_unknowns:
+            return factors, layout
+        start, n = layout.payload_slice.start, layout.n_payload
         keep = tuple(k for k in range(n)
                      if any(np.any(R[:, start + k]) for f in factors for R in f.R))
-        reduced = pu.keeping(keep)
+        reduced = layout.keeping(keep)
         frames = {p.frame for _, p in self._payloads if p.unknown}
         if keep and frames:
-            reduced = reduced.at_frame(frames.pop())
+            reduced = reduced.at_frame(self.model, frames.pop())
         drop = np.array([start + k for k in range(n) if k not in keep], dtype=int)
         if drop.size:
             factors = [f.without_columns(drop) for f in factors]
-        lag = getattr(self.model, "lag_column", None) is not None
-        return factors, observation_model(reduced, self.opts.screw_lead_m, lag)
+        return factors, reduced
 
     @property
     def lag_s(self) -> float:
@@ -427,12 +427,13 @@ class LiveIdentification:
             if payload_mass is not None:
                 factors = [dataclasses.replace(f, payload_mass=payload_mass) if f.loaded
                            else f for f in factors]
-            factors, model = self._solvable(factors)
+            factors, layout = self._solvable(factors)
+            model = self.model
             chains.append(disagreement(factors, model.nominal_gains, list(model.joint_names)))
             try:
                 return model, factors, opts, solve(
                     factors, model, opts, method, gains, essential,
-                    [r.source for r in self._recordings if r.n_decimated])
+                    [r.source for r in self._recordings if r.n_decimated], layout=layout)
             except (ExcitationError, IdentificationError) as exc:  # two drive chains: the cause
                 if chains[-1]:
                     raise type(exc)(f"{chains[-1]} (the solve then says: {exc})") from None
@@ -476,8 +477,8 @@ class LiveIdentification:
         """A kept recording observed by the offline rules with ``o``: (factors, report, its
         other readings when open), as ``_solve_reading`` takes them."""
         record = self._slow[rec]
-        obs, rep, _ = observe(record, self.model, o, rec.payload_mass)
-        alts = other_readings(record, self.model, o, rec.payload_mass, rep)
+        obs, rep, _ = observe(record, self.model, o, rec.payload_mass, layout=self.layout)
+        alts = other_readings(record, self.model, o, rec.payload_mass, rep, layout=self.layout)
         return (RecordFactors.from_observations(obs),
                 bag_report(rep, rec.source, rec.condition, rec.payload_mass,
                            obs.rows_per_joint()),
@@ -571,8 +572,8 @@ class LiveIdentification:
         """TLS on the factors; status from the excitation checks (IdentifyOptions limits)."""
         opts = self.opts
         try:
-            factors, model = self._solvable(factors)
-            m, _ = tls_model(factors, model, opts)  # as result() solves it
+            factors, layout = self._solvable(factors)
+            m, _ = tls_model(factors, self.model, layout, opts)  # as result() solves it
             sol = m.full
         except (OrthoglideError, np.linalg.LinAlgError) as exc:
             return LiveEstimate(f"not identifiable yet: {exc}", **base)

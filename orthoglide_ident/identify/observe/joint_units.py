@@ -26,6 +26,8 @@ paper's solve unchanged.
 """
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
 
 from orthoglide_ident.model.robot import DRIVE_KINDS
@@ -37,19 +39,16 @@ assert set(DRIVE_KINDS) <= set(POWERS)
 
 def transmission_scale(model) -> np.ndarray | None:
     """s_a = max_j |N_aj| for each of ``model``'s equations (its "joints", the motors), or None
-    without a transmission. ``model`` may be wrapped (drive terms, payload unknowns: ``base``;
-    a partial answer's subsystem: ``full`` and ``joint_idx``)."""
-    for _ in range(6):
-        t = getattr(model, "transmission", None)
-        if t is not None:
-            return np.max(np.abs(t.N), axis=1)
-        if hasattr(model, "joint_idx") and hasattr(model, "full"):
-            s = transmission_scale(model.full)
-            return None if s is None else s[np.asarray(model.joint_idx, int)]
-        model = vars(model).get("base") if hasattr(model, "__dict__") else None
-        if model is None:
-            break
-    return None
+    without a transmission. ``model``: the robot, or a partial answer's subsystem
+    (solve/partial.Subsystem: its robot ``full``, the motors kept ``joint_idx``)."""
+    kept = None
+    if hasattr(model, "joint_idx") and hasattr(model, "full"):
+        model, kept = model.full, np.asarray(model.joint_idx, int)
+    t = model.transmission
+    if t is None:
+        return None
+    s = np.max(np.abs(t.N), axis=1)
+    return s if kept is None else s[kept]
 
 
 def equation_scale(model) -> np.ndarray | None:
@@ -57,15 +56,15 @@ def equation_scale(model) -> np.ndarray | None:
     return transmission_scale(model)
 
 
-def column_scale(model, n_cols: int) -> np.ndarray | None:
+def column_scale(model, n_cols: int, names: Sequence[str] | None = None) -> np.ndarray | None:
     """(n_cols + n_j + 1,) C with W_tot C in joint-side units: over the ``n_cols`` columns of W
-    (``model.names``, then any the solver appended, left as they are), the gains and the payload
-    column (1). A column named ``<kind>_<actuator>`` (POWERS) gets 1/s_a^power, a gain 1/s_a.
-    None without a transmission."""
+    (``names``, default ``model.names``; then any the solver appended, left as they are), the
+    gains and the payload column (1). A column named ``<kind>_<actuator>`` (POWERS) gets
+    1/s_a^power, a gain 1/s_a. None without a transmission."""
     s = transmission_scale(model)
     if s is None:
         return None
-    names = list(model.names)[:n_cols]
+    names = list(model.names if names is None else names)[:n_cols]
     joints = list(model.joint_names)
     c = np.ones(n_cols + len(joints) + 1)
     for k, name in enumerate(names):

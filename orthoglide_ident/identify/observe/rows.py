@@ -1,8 +1,9 @@
 """Observation: one record's segments to filtered, decimated rows of [W | W_payload, v_τ] (§6.1-3).
 
 Segments (segments.py) → derivative filter at the half tick (filtering.py) → W of the robot
-(``model.observation_block``) → velocity-reversal bridging (reversals.py) → parallel decimation
-(decimation.py, or stream.py block by block for the FIR filter, as the live path runs it).
+(``RobotModel.observation_block``) with the columns beside it (columns/layout.py) →
+velocity-reversal bridging (reversals.py) → parallel decimation (decimation.py, or stream.py
+block by block for the FIR filter, as the live path runs it).
 Shared by the offline path (pipeline.py) and, through stream.py, the live one.
 """
 from __future__ import annotations
@@ -10,13 +11,14 @@ from __future__ import annotations
 import logging
 import time
 from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from orthoglide_ident.identify.columns.current_lag import lag_instrument, without_instrument
 from orthoglide_ident.identify.columns.drive_terms import screw_mask
-from orthoglide_ident.identify.columns.payload_unknowns import unknowns_of
+from orthoglide_ident.identify.columns.layout import ColumnLayout, bound_to
 from orthoglide_ident.identify.observe.decimation import decimate_chunked, decimated_count
 from orthoglide_ident.identify.observe.equations import Observations
 from orthoglide_ident.identify.observe.reversals import (
@@ -36,7 +38,6 @@ from orthoglide_ident.identify.observe.stream import (
     DecimatedRows,
     SegmentStream,
     lag_rows,
-    model_block,
 )
 from orthoglide_ident.identify.observe.time_base import choose_velocity, states_at_half_tick
 from orthoglide_ident.identify.options import IdentifyOptions
@@ -46,26 +47,28 @@ from orthoglide_ident.model.robot import Payload, RobotModel
 
 log = logging.getLogger("orthoglide_ident.identify")
 
-__all__ = ["observe", "with_known_payload"]
+__all__ = ["observe"]
 
 # What the observation needs from the robot (model/robot.py): sizes, names, nominal gains, the
-# IDIM block [W | W_payload]; also a DriveTermsModel wrapping one (drive_terms.py).
+# IDIM block [W | W_payload]; the columns beside W are the layout's (columns/layout.py).
 IdentificationModel = RobotModel
 
 
 def observe(rec: Record, model: IdentificationModel, opts: IdentifyOptions,
-            payload_mass: float, progress: Callable[..., None] | None = None
+            payload_mass: float, progress: Callable[..., None] | None = None, *,
+            layout: ColumnLayout
             ) -> tuple[Observations, SegmentReport, dict[str, float]]:
     """Segments, derivative filtering, W and parallel decimation of one record (§6.1-3);
     ``progress(stage, done, total, unit)`` (None: silent) hears the samples done.
 
-    A loaded record's payload column is that of its payload's known part (``rec.payload``:
-    frame, centre of mass and inertia per kg; eq. 33's W_kl generalised), its unknown parameters'
-    columns W_ul beside W (payload_unknowns.py, Sect. 4.3), through ``model.with_payload``."""
+    ``model``: the robot; ``layout``: the columns beside its W (columns/layout.py). A loaded
+    record's payload column is that of its payload's known part (``rec.payload``: frame, centre
+    of mass and inertia per kg; eq. 33's W_kl generalised), its unknown parameters' columns W_ul
+    beside W (payload_unknowns.py, Sect. 4.3): the robot bound by layout.bound_to."""
     times: dict[str, float] = {}
     payload = record_payload(rec, payload_mass, opts.payload_known)
     if payload is not None:
-        model = with_known_payload(model, payload)
+        model = bound_to(model, layout, payload)
     t0 = time.perf_counter()
     step = _mean_step_guess(rec.stamps_q_ns)
     opts = opts.at_rate(1.0 / step)
@@ -90,8 +93,9 @@ def observe(rec: Record, model: IdentificationModel, opts: IdentifyOptions,
     what = f"observing {Path(rec.source).name}"
     tell = None if progress is None else (lambda done, total: progress(what, done, total,
                                                                        "samples"))
-    rows, n_bridged, n_unbridged = decimate(segments, model, opts, rep, times, tell)
-    n_b = len(model.names)
+    cols = _Columns(model, layout, payload)
+    rows, n_bridged, n_unbridged = decimate(segments, cols, opts, rep, times, tell)
+    n_b = layout.n_columns
     # views of the (n_b + 2, n_j, r) rows: W (n_j, r, n_b), v_tau and w_m (n_j, r), no copies
     obs = Observations(rec.source, str(rec.condition), payload_mass,
                        rows.X[:n_b].transpose(1, 2, 0), rows.X[n_b + 1], rows.X[n_b],
@@ -121,16 +125,17 @@ def _mean_step_guess(stamps_ns: np.ndarray) -> float:
     return float(np.mean(ok)) * 1e-9 if ok.size else med
 
 
-def with_known_payload(model, payload: Payload):
-    """``model`` bound to a loaded record's payload: the whole payload for a model with the
-    unknown payload columns (payload_unknowns.py), its known part for one without (the
-    Orthoglide's: only the mass acts, whatever else is known)."""
-    if unknowns_of(model) is not None:
-        return model.with_payload(payload)
-    return model.with_payload(payload.known_part())
+@dataclass(frozen=True)
+class _Columns:
+    """What one record's rows are built from: the robot bound to its payload, the layout, the
+    payload (whose unknown kinds fill W_ul)."""
+
+    robot: IdentificationModel
+    layout: ColumnLayout
+    payload: Payload | None
 
 
-def _segments_fir(segments: list[Segment], model: IdentificationModel, opts: IdentifyOptions,
+def _segments_fir(segments: list[Segment], cols: _Columns, opts: IdentifyOptions,
                   rep: SegmentReport, times: dict[str, float],
                   tell: Callable[..., None] | None = None) -> tuple[DecimatedRows, int, int]:
     """Every segment through a :class:`SegmentStream`, pushed ``chunk_samples`` at a time
@@ -139,7 +144,7 @@ def _segments_fir(segments: list[Segment], model: IdentificationModel, opts: Ide
     The decimated rows of each segment are known in advance: they are written once into their
     final ``(n_b + 2, n_j, r)`` array (no lists of parts, no concatenated copies).
     """
-    n_b, n_j = len(model.names), model.n_joints
+    n_b, n_j = cols.layout.n_columns, cols.robot.n_joints
     T = rep.period_s
     trim = int(round(opts.edge_trim_s / T))
     zoh = 1 if opts.zoh_shift else 0
@@ -152,9 +157,9 @@ def _segments_fir(segments: list[Segment], model: IdentificationModel, opts: Ide
     n_bridged = n_unbridged = 0
     r0, done, total = 0, 0, sum(len(seg) for seg in segments)
     for seg in segments:
-        stream = SegmentStream(model, opts, T, t_start, n_b)
+        stream = SegmentStream(cols.robot, cols.layout, opts, T, t_start, cols.payload)
         t0 = time.perf_counter()
-        states = states_at_half_tick(seg.q, _currents(seg, model, rep, t_start), T,
+        states = states_at_half_tick(seg.q, _currents(seg, cols.layout, rep, t_start), T,
                                      opts.filter_cutoff_hz, opts.filter_order, trim,
                                      opts.zoh_shift, opts.filter_currents, seg.stamps_ns, seg.qd,
                                      sampled_shift_s(opts))
@@ -176,12 +181,12 @@ def _segments_fir(segments: list[Segment], model: IdentificationModel, opts: Ide
     return out, n_bridged, n_unbridged
 
 
-def _currents(seg: Segment, model: IdentificationModel, rep: SegmentReport,
+def _currents(seg: Segment, layout: ColumnLayout, rep: SegmentReport,
               t_start: int) -> np.ndarray:
-    """The segment's v_τ (m, n_j), with the lag instrument beside it (m, 2 n_j) when the model has
-    lag columns: zero when the segment does not repeat a periodic trajectory (counted in
+    """The segment's v_τ (m, n_j), with the lag instrument beside it (m, 2 n_j) when the layout
+    has lag columns: zero when the segment does not repeat a periodic trajectory (counted in
     ``rep``; identify_records then leaves the lag out). ``t_start``: the record's first stamp."""
-    if getattr(model, "lag_column", None) is None:
+    if layout.lag_column is None:
         return seg.v_tau
     if rep.steps is not None and rep.steps.uneven:  # a period is a number of ticks: none here
         log.info("segment at %.1f s of the record: uneven steps, no lag instrument",
@@ -197,7 +202,7 @@ def _currents(seg: Segment, model: IdentificationModel, rep: SegmentReport,
     return np.hstack([seg.v_tau, z])
 
 
-def _segments_iir(segments: list[Segment], model: IdentificationModel, opts: IdentifyOptions,
+def _segments_iir(segments: list[Segment], cols: _Columns, opts: IdentifyOptions,
                   rep: SegmentReport, times: dict[str, float],
                   tell: Callable[..., None] | None = None) -> tuple[DecimatedRows, int, int]:
     """MATLAB-like Chebyshev decimation (cheby1): whole segments, W produced in chunks
@@ -216,7 +221,7 @@ def _segments_iir(segments: list[Segment], model: IdentificationModel, opts: Ide
     total = sum(len(seg) for seg in segments)
     for k, seg in enumerate(segments):
         t1 = time.perf_counter()
-        qh, qdh, qddh, v = states_at_half_tick(seg.q, _currents(seg, model, rep, t_start), T,
+        qh, qdh, qddh, v = states_at_half_tick(seg.q, _currents(seg, cols.layout, rep, t_start), T,
                                                opts.filter_cutoff_hz,
                                                opts.filter_order, trim, opts.zoh_shift,
                                                opts.filter_currents, seg.stamps_ns, seg.qd,
@@ -227,7 +232,7 @@ def _segments_iir(segments: list[Segment], model: IdentificationModel, opts: Ide
         times["filtering"] += t2 - t1
         zones = None
         if opts.velocity_deadband_mps > 0:
-            zones = find_reversals(qdh, velocity_deadband(model, opts.velocity_deadband_mps),
+            zones = find_reversals(qdh, velocity_deadband(cols.robot, opts.velocity_deadband_mps),
                                    max(1, int(round(opts.reversal_max_bridge_s / T))),
                                    int(round(opts.reversal_margin_s / T)))
             zones.anchor = anchor_samples(T)
@@ -239,9 +244,10 @@ def _segments_iir(segments: list[Segment], model: IdentificationModel, opts: Ide
             pad = 0 if zones is None else zones.margin_needed
             a2, b2 = max(0, a - pad), min(qh.shape[0], b + pad)
             m = b2 - a2
-            blk = np.empty((len(model.names) + 1, model.n_joints, m))
-            model_block(model, qh[a2:b2], qdh[a2:b2], qddh[a2:b2], blk)
-            v_tau = lag_rows(model, blk, v[a2:b2])
+            blk = np.empty((cols.layout.n_columns + 1, cols.robot.n_joints, m))
+            cols.layout.observation_block(cols.robot, qh[a2:b2], qdh[a2:b2], qddh[a2:b2], blk,
+                                          cols.payload)
+            v_tau = lag_rows(cols.layout, blk, v[a2:b2])
             out = {"X": np.concatenate([blk, v_tau.T[None]]).transpose(2, 1, 0)}
             if zones is not None:
                 bridge(zones, a2, out)

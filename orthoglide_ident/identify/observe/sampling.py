@@ -58,11 +58,10 @@ NEGATIVE_LAG_SIGMAS = 3.0  # τ below -this x its σ on most joints: no current 
 
 def robot_file_sampling(model: Any) -> str | None:
     """The robot file's ``current_sampling`` (held | sampled), None when it says nothing."""
-    for m in (model, getattr(model, "joint_model", None)):
-        desc = getattr(m, "description", None)
-        value = getattr(desc, "current_sampling", None)
-        if value is not None:
-            return value
+    for m in (model, model.joint_model):  # behind a transmission, the joints' file
+        desc = None if m is None else m.description
+        if desc is not None and desc.current_sampling is not None:
+            return desc.current_sampling
     return None
 
 

@@ -15,7 +15,7 @@ identification (1 kHz samples pushed about once a second) both run a segment thr
   order, each reading the anchors left by the previous one;
 - parallel decimation (eqs. 19-20): FIR output i (state i n_d + 4 n_d) is computed once the
   8 n_d + 1 states of its window are final, from the kept samples only;
-- ``regressor_at: rows`` with a model that names its rough columns (a serial/tree robot): only
+- ``regressor_at: rows`` with a robot that names its rough columns (a serial/tree robot): only
   those and v_tau are held at the sample rate; W's smooth columns are built at the decimated
   rows from the filtered states, the bridges' part on them added (smooth_rows.py).
 """
@@ -86,17 +86,11 @@ class DecimatedRows:
                              else None, np.zeros(0), np.zeros((0, n_j)), np.zeros((0, n_j)))
 
 
-def model_block(model, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray,
-                out: np.ndarray) -> None:
-    """Write [W | W_kl] of states (m, n_j) into ``out: (n_b + 1, n_j, m)``."""
-    model.observation_block(q, qd, qdd, out=out)
-
-
-def lag_rows(model, block: np.ndarray, currents: np.ndarray) -> np.ndarray:
-    """v_τ of ``currents`` (m, n_j), or (m, 2 n_j) = [v_τ | lag instrument] for a model with
-    lag columns (drive_terms.DriveTermsModel), whose instrument goes into ``block``'s
+def lag_rows(layout, block: np.ndarray, currents: np.ndarray) -> np.ndarray:
+    """v_τ of ``currents`` (m, n_j), or (m, 2 n_j) = [v_τ | lag instrument] for a layout with
+    lag columns (columns/layout.py), whose instrument goes into ``block``'s
     (n_b + 1, n_j, m) lag rows, joint j's in its own rows; v_τ returned."""
-    col = getattr(model, "lag_column", None)
+    col = layout.lag_column
     n_j = block.shape[1]
     if col is not None and currents.shape[1] == 2 * n_j:
         for j in range(n_j):
@@ -104,12 +98,12 @@ def lag_rows(model, block: np.ndarray, currents: np.ndarray) -> np.ndarray:
     return currents[:, :n_j]
 
 
-def _rough_columns(model, opts: IdentifyOptions) -> np.ndarray | None:
+def _rough_columns(layout, opts: IdentifyOptions) -> np.ndarray | None:
     """The columns the stream builds at the sample rate when the others are built at the
-    decimated rows (``regressor_at: rows``, a model that names them, n_d > 1); else None."""
+    decimated rows (``regressor_at: rows``, a robot that names them, n_d > 1); else None."""
     if opts.regressor_at != "rows" or opts.decimation <= 1:
         return None
-    rough = getattr(model, "rough_columns", None)
+    rough = layout.rough_columns
     return None if rough is None else np.asarray(rough, int)
 
 
@@ -124,14 +118,14 @@ def _fir_nonzero_rows(x: np.ndarray, n_d: int, r: int) -> np.ndarray:
     return out.reshape(x.shape[:-1] + (r,))
 
 
-def _lag_rows_at(model, rough: np.ndarray | None) -> list[int]:
+def _lag_rows_at(layout, rough: np.ndarray | None) -> list[int]:
     """Where joint j's lag instrument goes in the rough buffer (``rough``'s position of the
-    model's lag column j); none without the lag or the rough buffer."""
-    col = getattr(model, "lag_column", None)
+    layout's lag column j); none without the lag or the rough buffer."""
+    col = layout.lag_column
     if col is None or rough is None:
         return []
     where = {int(c): i for i, c in enumerate(rough)}
-    return [where[col + j] for j in range(model.n_joints)]
+    return [where[col + j] for j in range(len(layout.joint_names))]
 
 
 class SegmentStream:
@@ -144,10 +138,14 @@ class SegmentStream:
     Offline, ``push_states`` takes the states of the whole segment filtered at once instead
     (one FFT per segment, as before block processing existed). Either way the concatenation of
     everything returned is the same to round-off (~1e-12 relative), whatever the block sizes.
-    ``n_b``: columns of W; ``t0_ns``: the record's first stamp (for the rows' instants).
+    ``robot``: bound to the record's payload (columns/layout.bound_to); ``layout``: the columns
+    beside W (columns/layout.ColumnLayout: W has ``layout.n_columns`` of them), ``payload`` the
+    record's, whose unknown kinds fill W_ul; ``t0_ns``: the record's first stamp (for the rows'
+    instants).
     """
 
-    def __init__(self, model, opts: IdentifyOptions, period_s: float, t0_ns: int, n_b: int):
+    def __init__(self, robot, layout, opts: IdentifyOptions, period_s: float, t0_ns: int,
+                 payload=None):
         if opts.decimation_filter != "fir":
             raise DataError("block-by-block processing needs decimation_filter: fir (cheby1's "
                             "IIR depends on the whole segment)")
@@ -155,10 +153,12 @@ class SegmentStream:
         # live, the option (or the robot file) says how the current relates to its stamps;
         # offline, observe() has resolved the record's already (idempotent)
         opts = at_sampling(opts, record_sampling(None, opts.current_sampling,
-                                                 robot_file_sampling(model))[0])
+                                                 robot_file_sampling(robot))[0])
         self.shift = sampled_shift_s(opts)  # s, a sampled current's loop half tick
-        self.model, self.opts, self.T, self.t0_ns, self.n_b = model, opts, period_s, t0_ns, n_b
-        self.n_j = n_j = model.n_joints
+        self.robot, self.layout, self.payload = robot, layout, payload
+        self.opts, self.T, self.t0_ns, self.n_b = opts, period_s, t0_ns, layout.n_columns
+        n_b = self.n_b
+        self.n_j = n_j = robot.n_joints
         self.zoh = 1 if opts.zoh_shift else 0
         self.trim = int(round(opts.edge_trim_s / period_s))
         self.M = filter_horizon(period_s, opts.filter_cutoff_hz, opts.filter_order)
@@ -168,13 +168,13 @@ class SegmentStream:
         self.anchor = anchor_samples(period_s)  # samples averaged each side of a bridge
         if opts.velocity_deadband_mps > 0:
             self.tracker = ReversalTracker(
-                velocity_deadband(model, opts.velocity_deadband_mps),
+                velocity_deadband(robot, opts.velocity_deadband_mps),
                 max(1, int(round(opts.reversal_max_bridge_s / period_s))),
                 int(round(opts.reversal_margin_s / period_s)), n_j)
-        self.rough = _rough_columns(model, opts)  # None: every column at every sample
-        self._lag_at = _lag_rows_at(model, self.rough)
+        self.rough = _rough_columns(layout, opts)  # None: every column at every sample
+        self._lag_at = _lag_rows_at(layout, self.rough)
         self._corr = None if self.rough is None else BridgeCorrections(
-            lambda q, qd, qdd, out: model_block(model, q, qd, qdd, out), n_b + 1, self.rough, n_j)
+            self._block, n_b + 1, self.rough, n_j)
         self.pending: list[list] = [[] for _ in range(n_j)]  # decisions waiting for anchors
         self.n_raw = 0  # ticks received
         self.n_states: int | None = None  # known once the segment has ended
@@ -193,6 +193,10 @@ class SegmentStream:
         self._qs = np.zeros((0, 3 * n_j))  # q̂, q̂̇, q̂̈ of the states
         self._i_out = 0  # next decimated output
         self.times = {"filtering": 0.0, "regressor": 0.0, "decimation": 0.0}  # s, wall clock
+
+    def _block(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray, out: np.ndarray) -> None:
+        """[W | columns beside it | W_kl] of states (m, n_j) into ``out`` (n_b + 1, n_j, m)."""
+        self.layout.observation_block(self.robot, q, qd, qdd, out, self.payload)
 
     # --- input --------------------------------------------------------------------------------
     def push(self, stamps_ns: np.ndarray, q: np.ndarray, v_tau: np.ndarray) -> DecimatedRows:
@@ -283,10 +287,10 @@ class SegmentStream:
         k = X.shape[0] - 1  # v_tau's row
         if self.rough is None:
             block = X[:k, :, pos:pos + m]
-            model_block(self.model, q, qd, qdd, block)
-            X[k, :, pos:pos + m] = lag_rows(self.model, block, np.asarray(v_tau)).T
+            self._block(q, qd, qdd, block)
+            X[k, :, pos:pos + m] = lag_rows(self.layout, block, np.asarray(v_tau)).T
         else:  # the rough columns only: the others are built at the decimated rows
-            self.model.rough_block(q, qd, qdd, out=X[:k, :, pos:pos + m])
+            self.layout.rough_block(self.robot, q, qd, qdd, out=X[:k, :, pos:pos + m])
             X[k, :, pos:pos + m] = v_tau[:, :n_j].T
             if v_tau.shape[1] == 2 * n_j:  # the lag instrument in joint j's rows
                 for j, row in enumerate(self._lag_at):
@@ -427,8 +431,7 @@ class SegmentStream:
         n_j = self.n_j
         x = np.ascontiguousarray(self._qs[a:b].T)
         out = np.empty((self.n_b + 2, n_j, r))
-        smooth_columns_at_rows(lambda q, qd, qdd, o: model_block(self.model, q, qd, qdd, o),
-                               x, self.n_d, r, self.T, out[:self.n_b + 1])
+        smooth_columns_at_rows(self._block, x, self.n_d, r, self.T, out[:self.n_b + 1])
         self._corr.add_to(out, self._i_out, self.n_d, fir_taps(self.n_d))
         out[self.rough] = Xr[:-1]
         out[self.n_b + 1] = Xr[-1]

@@ -27,18 +27,11 @@ ROBUST_QUANTILE = 0.999  # of |q̇| and |τ|: one spike or a missed sample is no
 DEG = math.pi / 180.0
 
 
-def robot_of(model):
-    """The robot under the identification's wrappers (payload unknowns, drive terms)."""
-    while getattr(model, "base", None) is not None and hasattr(model.base, "joints"):
-        model = model.base
-    return model
-
-
-def _limits_by_name(model) -> dict:
-    """Actuated joints by name: the model's (motors behind a transmission) and, behind a
+def _limits_by_name(robot) -> dict:
+    """Actuated joints by name: the robot's (motors behind a transmission) and, behind a
     transmission, the joints' too (a record may hold either side)."""
-    robot = robot_of(model)
-    out = {j.name: j for j in getattr(getattr(robot, "joint_model", None), "joints", ())}
+    joint_side = robot.joint_model
+    out = {j.name: j for j in joint_side.joints} if joint_side is not None else {}
     out.update({j.name: j for j in robot.joints})
     return out
 
@@ -77,7 +70,7 @@ def _motor_side_twice(rec, model, by_name) -> str:
     """The cause when a record's positions were motor-side already but read as joint-side (the
     robot file or the bag's tag says joint): mapped back through the reduction, every motor is
     inside its box. "" otherwise."""
-    t = getattr(robot_of(model), "transmission", None)
+    t = model.transmission
     if t is None or MAPPED not in (rec.sources or ""):
         return ""
     raw = t.to_joint_position(np.asarray(rec.q, float))  # the values the record held
@@ -149,10 +142,9 @@ def motion_warnings(rec, model) -> list[str]:
     return out
 
 
-def effort_limits(model) -> dict[str, float]:
+def effort_limits(robot) -> dict[str, float]:
     """The description's effort limits (N·m or N) of the joints a Pinocchio model holds (a
     motor behind a transmission: none, its torque is not a joint's); {} for other models."""
-    robot = robot_of(model)
     pin_model = getattr(robot, "model", None)
     if pin_model is None or not hasattr(pin_model, "effortLimit"):
         return {}

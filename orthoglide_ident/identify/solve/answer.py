@@ -20,7 +20,6 @@ import numpy as np
 
 from orthoglide_ident.errors import ExcitationError, IdentificationError
 from orthoglide_ident.identify.columns import drive_terms
-from orthoglide_ident.identify.columns.payload_unknowns import unknowns_of
 from orthoglide_ident.identify.observe import joint_units
 from orthoglide_ident.identify.options import IdentifyOptions
 from orthoglide_ident.identify.solve import partial
@@ -48,7 +47,7 @@ class Solved:
 
     result: IdentificationResult
     chi: np.ndarray  # (n_b,) base parameters, zero where cancelled; + the drive terms' whose
-    # columns the equations hold (DriveTermsModel): what cross-validation multiplies
+    # columns the equations hold (columns/layout.py): what cross-validation multiplies
     g_tau: np.ndarray  # (n_j,) N/A or N·m/A, identified (TLS) or given (WLS)
     solver: dict[str, Any] = field(default_factory=dict)
     tls: TLSSolution | None = None
@@ -106,11 +105,13 @@ def _gains_estimates(joint_names: Sequence[str], g: np.ndarray, rel: np.ndarray 
             for i, j in enumerate(joint_names)]
 
 
-def _param_estimates(model, sol: TLSSolution | WLSSolution) -> list[Estimate]:
+def _param_estimates(cols, sol: TLSSolution | WLSSolution) -> list[Estimate]:
+    """The identified unknowns beside the gains, named by ``cols`` (a ColumnLayout, or a
+    partial answer's Subsystem)."""
     idx = np.flatnonzero(sol.active)
-    exprs = list(getattr(model, "expressions", [""] * len(model.names)))
+    exprs = list(cols.expressions)
     paper = sol.rel_std_paper
-    return [Estimate(str(model.names[k]), float(sol.chi[i]), float(sol.rel_std[i]),
+    return [Estimate(str(cols.names[k]), float(sol.chi[i]), float(sol.rel_std[i]),
                      str(exprs[k]) if k < len(exprs) else "",
                      float(paper[i]) if paper is not None else None)
             for i, k in enumerate(idx)]
@@ -177,9 +178,10 @@ def _sources(factors: list[RecordFactors], mass: float) -> list[str]:
             for s in f.sources]
 
 
-def tls_result(model, sol: TLSSolution, factors: list[RecordFactors], opts: IdentifyOptions,
-               bags: list[str]) -> IdentificationResult:
-    """The result of an IDIM-TLS solve (payload masses known)."""
+def tls_result(model, cols, sol: TLSSolution, factors: list[RecordFactors],
+               opts: IdentifyOptions, bags: list[str]) -> IdentificationResult:
+    """The result of an IDIM-TLS solve (payload masses known): ``model`` the robot, ``cols`` its
+    columns (columns/layout.ColumnLayout, or a partial answer's Subsystem, both)."""
     n, n_j = sol.chi.shape[0], model.n_joints
     payloads = [PayloadMass(m, opts.payload_mass_std_kg / m, True, m, _sources(factors, m))
                 for m in sorted({f.payload_mass for f in factors if f.loaded})]
@@ -189,7 +191,7 @@ def tls_result(model, sol: TLSSolution, factors: list[RecordFactors], opts: Iden
                                      None if sol.rel_std_paper is None
                                      else sol.rel_std_paper[n:n + n_j]),
         drive_gains_given=False,
-        parameters=_param_estimates(model, sol), payload_mass=payloads[0] if payloads else None,
+        parameters=_param_estimates(cols, sol), payload_mass=payloads[0] if payloads else None,
         payloads=payloads, condition_number=sol.condition_number,
         residual_rms=[float(x) for x in sol.residual_rms], bags=bags, **_robot_fields(model),
         covariance=sol.cov, covariance_paper=sol.cov_paper,
@@ -198,14 +200,14 @@ def tls_result(model, sol: TLSSolution, factors: list[RecordFactors], opts: Iden
 
 def _robot_fields(model) -> dict[str, Any]:
     """The result's robot name and per-joint units (RobotModel)."""
-    return {"robot": str(getattr(model, "name", "")),
+    return {"robot": str(model.name),
             "gain_units": [j.gain_unit for j in model.joints],
             "effort_units": [j.effort_unit for j in model.joints],
             "nominal_gains": [float(j.nominal_gain) for j in model.joints],
-            "locked_joints": [lj.to_json() for lj in getattr(model, "locked_joints", ())]}
+            "locked_joints": [lj.to_json() for lj in model.locked_joints]}
 
 
-def wls_result(model, sol: WLSSolution, g_tau: np.ndarray, factors: list[RecordFactors],
+def wls_result(model, cols, sol: WLSSolution, g_tau: np.ndarray, factors: list[RecordFactors],
                bags: list[str]) -> IdentificationResult:
     """The result of an IDIM-WLS solve (gains given, payload masses estimated)."""
     n = sol.chi.shape[0]
@@ -216,7 +218,7 @@ def wls_result(model, sol: WLSSolution, g_tau: np.ndarray, factors: list[RecordF
     return IdentificationResult(
         method="wls", joint_names=list(model.joint_names),
         drive_gains=_gains_estimates(model.joint_names, g_tau, None),
-        drive_gains_given=True, parameters=_param_estimates(model, sol),
+        drive_gains_given=True, parameters=_param_estimates(cols, sol),
         payload_mass=payloads[0] if payloads else None, payloads=payloads,
         condition_number=sol.condition_number, residual_rms=[float(x) for x in sol.residual_rms],
         bags=bags, **_robot_fields(model), covariance=sol.cov,
@@ -252,10 +254,10 @@ class _Model:
         return drive_terms.split(sol, self.n_b, self.terms, self.joint_names, self.gains)
 
 
-def _set_up(factors: list[RecordFactors], model, opts: IdentifyOptions, base, make_solver,
+def _set_up(factors: list[RecordFactors], model, cols, opts: IdentifyOptions, base, make_solver,
             gains: np.ndarray | None = None) -> _Model:
-    """The model to report: the base one with the drive terms already in the equations (a
-    DriveTermsModel: lag, ripple at a given lead), and the ripple columns the base residual's
+    """The model to report: the base one with the drive terms already in the equations (the
+    layout's: lag, ripple at a given lead), and the ripple columns the base residual's
     position spectrum calls for when no lead is given (built from the moments).
 
     ``make_solver(factors) -> solve(active, reweight)`` builds a solver on (augmented) factors.
@@ -263,10 +265,10 @@ def _set_up(factors: list[RecordFactors], model, opts: IdentifyOptions, base, ma
     n_cols = factors[0].n_b
     names = tuple(model.joint_names)
     base_solve = make_solver(factors)
-    # the drive terms in the equations: a DriveTermsModel's, or a partial answer's (partial.py)
-    in_rows = getattr(model, "terms", None) or drive_terms.Terms()
+    # the drive terms in the equations: the layout's, or a partial answer's (partial.py)
+    in_rows = cols.terms
     n_b = n_cols - in_rows.n_extra
-    plain = _Model(lambda act: base_solve(act, False), base, n_b, in_rows, list(model.names),
+    plain = _Model(lambda act: base_solve(act, False), base, n_b, in_rows, list(cols.names),
                    n_cols, names, gains, factors)
     if in_rows.ripples or opts.ripple_model != "auto":
         return plain
@@ -283,7 +285,7 @@ def _set_up(factors: list[RecordFactors], model, opts: IdentifyOptions, base, ma
     return _Model(lambda act: drive_terms.transfer_inflation(aug_solve(act, False), base, n_cols,
                                                              k),
                   full, n_b, drive_terms.Terms(found.ripples, in_rows.lag),
-                  list(model.names) + found.names(names), n_cols, names, gains, aug_factors)
+                  list(cols.names) + found.names(names), n_cols, names, gains, aug_factors)
 
 
 def _drive_notes(result: IdentificationResult, ripples: list, lags: list,
@@ -320,14 +322,16 @@ def _drive_notes(result: IdentificationResult, ripples: list, lags: list,
         )
 
 
-def tls_model(factors: list[RecordFactors], model, opts: IdentifyOptions) -> tuple[_Model, Any]:
+def tls_model(factors: list[RecordFactors], model, cols, opts: IdentifyOptions
+              ) -> tuple[_Model, Any]:
     """The IDIM-TLS solve a result reports (with the ripple columns the residual calls for), not
     checked for excitation; and the base model's solution (whose residual the diagnostics
-    describe). Shared by :func:`solve_tls` and the live estimate."""
+    describe). ``model``: the robot; ``cols``: its columns (columns/layout.ColumnLayout, or a
+    partial answer's Subsystem). Shared by :func:`solve_tls` and the live estimate."""
     def problem_of(fs):  # a motor's equations in joint-side units (joint_units.py)
         return TLSProblem(fs, opts.weighting, noisy_columns=opts.tls_noisy_columns,
                           row_scale=joint_units.equation_scale(model),
-                          column_scale=joint_units.column_scale(model, fs[0].n_b))
+                          column_scale=joint_units.column_scale(model, fs[0].n_b, cols.names))
 
     problem = problem_of(factors)
     base = problem.solve()
@@ -335,11 +339,12 @@ def tls_model(factors: list[RecordFactors], model, opts: IdentifyOptions) -> tup
     def make_solver(fs):
         return (problem if fs is factors else problem_of(fs)).solve
 
-    return _set_up(factors, model, opts, base, make_solver), base
+    return _set_up(factors, model, cols, opts, base, make_solver), base
 
 
-def solve_tls(factors: list[RecordFactors], model, opts: IdentifyOptions, essential: bool,
-              bags: list[str], progress: Callable[..., None] | None = None) -> Solved:
+def solve_tls(factors: list[RecordFactors], model, cols, opts: IdentifyOptions,
+              essential: bool, bags: list[str],
+              progress: Callable[..., None] | None = None) -> Solved:
     """IDIM-TLS (eqs. 33-39), excitation checked, optionally the essential parameters; a
     partial answer (partial.py) when the data fix only some gains (``progress`` hears the
     subset search)."""
@@ -350,21 +355,22 @@ def solve_tls(factors: list[RecordFactors], model, opts: IdentifyOptions, essent
     left_out = partial.hardly_moved(factors, model, opts, min_rows(factors[0].n_b)) \
         if partial_ok else {}
     if left_out:
-        return _solve_partial(factors, model, opts, bags, left_out, essential, progress)
-    m, base = tls_model(factors, model, opts)
+        return _solve_partial(factors, model, cols, opts, bags, left_out, essential, progress)
+    m, base = tls_model(factors, model, cols, opts)
     sol = m.full
     if opts.check_excitation:
         try:
-            left_out = _undetermined(factors, model, opts, m, sol) if partial_ok else {}
+            left_out = _undetermined(factors, model, cols, opts, m, sol) if partial_ok else {}
         except ExcitationError as exc:
             if not _not_separated(sol, limits(model, opts)):
                 raise
-            left_out = _search(factors, model, opts, {}, str(exc), progress)
+            left_out = _search(factors, model, cols, opts, {}, str(exc), progress)
         if left_out:
-            return _solve_partial(factors, model, opts, bags, left_out, essential, progress)
+            return _solve_partial(factors, model, cols, opts, bags, left_out, essential,
+                                  progress)
         band_warnings = check_excitation(sol, limits(model, opts), m.names, model.joint_names)
     view, ripples, lags = m.view(sol)
-    result = tls_result(model, view, factors, opts, bags)
+    result = tls_result(model, cols, view, factors, opts, bags)
     if opts.check_excitation:
         result.warnings.extend(band_warnings)
     _uncertainty(result, base, model, opts, gains=True)
@@ -379,7 +385,7 @@ def solve_tls(factors: list[RecordFactors], model, opts: IdentifyOptions, essent
         log.info("essential parameters (%s, r_sigma = %g)", opts.essential_method, opts.r_sigma)
         ess = _essential(m, opts, [f"g_tau {j}" for j in model.joint_names])
         ess_view, ess_ripples, ess_lags = m.view(ess.solution)
-        result.essential = tls_result(model, ess_view, factors, opts, bags)
+        result.essential = tls_result(model, cols, ess_view, factors, opts, bags)
         result.essential.ripple = [r.to_json() for r in ess_ripples]
         result.essential.current_lag = [x.to_json() for x in ess_lags]
         _note_essential(m.names, result, ess)
@@ -387,13 +393,13 @@ def solve_tls(factors: list[RecordFactors], model, opts: IdentifyOptions, essent
     return out
 
 
-def _undetermined(factors: list[RecordFactors], model, opts: IdentifyOptions, m: _Model,
+def _undetermined(factors: list[RecordFactors], model, cols, opts: IdentifyOptions, m: _Model,
                   sol: TLSSolution) -> dict[int, str]:
     """Gains of a solve the data do not fix (partial.py), by joint index, with the reason: the
     payload adds almost no torque on the axis; else, eq. (37) holding, a σ above the limit."""
     names = model.joint_names
     left_out = partial.little_payload(factors, m.view(sol)[0].g_tau, names, opts.min_payload_share,
-                                      _payload_unknowns(model, sol))
+                                      _payload_unknowns(cols, sol))
     if left_out:
         return left_out
     lim = limits(model, opts)
@@ -407,12 +413,14 @@ def _not_separated(sol: TLSSolution, lim: ExcitationLimits) -> bool:
     return sol.singular_ratio > lim.max_singular_ratio or sol.condition_number > lim.max_condition
 
 
-def _failure(factors: list[RecordFactors], model, opts: IdentifyOptions) -> partial.Trial:
-    """``model``'s (a subsystem's) solve on ``factors`` judged as a full answer is: why it is
-    not one (eq. 37, condition, payload share, honest σ, sign), or None."""
+def _failure(factors: list[RecordFactors], model: partial.Subsystem, opts: IdentifyOptions
+             ) -> partial.Trial:
+    """``model``'s (a subsystem's: its robot and its columns) solve on ``factors`` judged as a
+    full answer is: why it is not one (eq. 37, condition, payload share, honest σ, sign), or
+    None."""
     kept = frozenset(int(j) for j in model.joint_idx)
     try:
-        m, _ = tls_model(factors, model, opts)
+        m, _ = tls_model(factors, model, model, opts)
     except ExcitationError as exc:  # a direction without the payload, a singular Ŵ_tot
         return partial.Trial(kept, math.inf, str(exc))
     sol, names = m.full, model.joint_names
@@ -453,7 +461,7 @@ def _weights_shift(t: partial.Trial, factors: list[RecordFactors], model,
     model fits the records; a shift beyond noise is a model error (e.g. the regressor of
     coarsely printed positions at a low rate) that biases the answer beyond its σ."""
     try:
-        m, _ = tls_model(factors, model, dataclasses.replace(opts, weighting=False))
+        m, _ = tls_model(factors, model, model, dataclasses.replace(opts, weighting=False))
     except ExcitationError:
         return t
     sol = m.full
@@ -473,8 +481,9 @@ def _weights_shift(t: partial.Trial, factors: list[RecordFactors], model,
         advice="log positions finer than their print, or at a higher rate")
 
 
-def _search(factors: list[RecordFactors], model, opts: IdentifyOptions, left_out: dict[int, str],
-            why: str, progress: Callable[..., None] | None = None) -> dict[int, str]:
+def _search(factors: list[RecordFactors], model, cols, opts: IdentifyOptions,
+            left_out: dict[int, str], why: str,
+            progress: Callable[..., None] | None = None) -> dict[int, str]:
     """The gains to leave out beside ``left_out`` (joint index -> reason) so that the rest is an
     answer: the largest such subset of the free gains (partial.search_subsets). ExcitationError
     with ``why`` (the full set's failure) when no subset is one."""
@@ -484,7 +493,7 @@ def _search(factors: list[RecordFactors], model, opts: IdentifyOptions, left_out
         out = dict(left_out)
         out.update({j: "" for j in free if j not in kept})
         with np.errstate(over="ignore", divide="ignore", invalid="ignore"):  # failed trials' σ
-            return _failure(*partial.reduce(factors, model, out), opts)
+            return _failure(*partial.reduce(factors, model, cols, out), opts)
 
     best, tried = partial.search_subsets(free, trial, model.joint_names, progress=progress)
     if best is None:
@@ -498,14 +507,13 @@ def _search(factors: list[RecordFactors], model, opts: IdentifyOptions, left_out
     return partial.search_reasons(best, free, trial, tried, model.joint_names)
 
 
-def _payload_unknowns(model, sol: TLSSolution) -> tuple[slice, np.ndarray] | None:
+def _payload_unknowns(cols, sol: TLSSolution) -> tuple[slice, np.ndarray] | None:
     """The columns of a payload known by its mass and their identified χ_ul (none otherwise)."""
-    pu = unknowns_of(model)
-    if pu is None:
+    if not cols.has_payload_unknowns:
         return None
     chi = np.zeros(sol.active.shape[0])
     chi[sol.active] = sol.chi
-    return pu.payload_slice, chi[pu.payload_slice]
+    return cols.payload_slice, chi[cols.payload_slice]
 
 
 def _left_out_text(names: Sequence[str], left_out: dict[int, str]) -> list[str]:
@@ -513,8 +521,8 @@ def _left_out_text(names: Sequence[str], left_out: dict[int, str]) -> list[str]:
             for j, r in sorted(left_out.items())]
 
 
-def _solve_partial(factors: list[RecordFactors], model, opts: IdentifyOptions, bags: list[str],
-                   left_out: dict[int, str], essential: bool,
+def _solve_partial(factors: list[RecordFactors], model, cols, opts: IdentifyOptions,
+                   bags: list[str], left_out: dict[int, str], essential: bool,
                    progress: Callable[..., None] | None = None) -> Solved:
     """IDIM-TLS on the joints whose gains the data fix (partial.py): their rows only, the
     columns only the others' rows held left out; judged as a full answer is, on that
@@ -525,23 +533,23 @@ def _solve_partial(factors: list[RecordFactors], model, opts: IdentifyOptions, b
             raise ExcitationError("no drive gain is determined: "
                                   + "; ".join(_left_out_text(names, left_out)))
         log.info("partial answer: %s", "; ".join(f"{names[j]} left out" for j in left_out))
-        fs, sub = partial.reduce(factors, model, left_out)
-        m, base = tls_model(fs, sub, opts)
+        fs, sub = partial.reduce(factors, model, cols, left_out)
+        m, base = tls_model(fs, sub, sub, opts)
         sol = m.full
         try:  # eq. (37) on the subsystem of the determined gains
-            new = _undetermined(fs, sub, opts, m, sol)
+            new = _undetermined(fs, sub, sub, opts, m, sol)
         except ExcitationError as exc:
             why = "; ".join(_left_out_text(names, left_out)) + f"; and without them {exc}"
             if not _not_separated(sol, limits(sub, opts)):
                 raise ExcitationError("no drive gain is determined: " + why) from None
-            left_out.update(_search(factors, model, opts, left_out, why, progress))
+            left_out.update(_search(factors, model, cols, opts, left_out, why, progress))
             continue
         if not new:
             break
         left_out.update({int(sub.joint_idx[k]): r for k, r in new.items()})
     band_warnings = check_gains(sol, limits(sub, opts), sub.joint_names)
     view, ripples, lags = m.view(sol)
-    result = tls_result(sub, view, fs, opts, bags)
+    result = tls_result(sub, sub, view, fs, opts, bags)
     result.warnings.extend(band_warnings)
     _uncertainty(result, base, sub, opts, gains=True)
     _drive_notes(result, ripples, lags, m.terms, sub.joint_names)
@@ -588,7 +596,7 @@ def manufacturer_or_given(gains: Sequence[float] | None, model) -> np.ndarray:
     return g
 
 
-def solve_wls(factors: list[RecordFactors], model, opts: IdentifyOptions,
+def solve_wls(factors: list[RecordFactors], model, cols, opts: IdentifyOptions,
               gains: Sequence[float] | None, essential: bool, bags: list[str]) -> Solved:
     """IDIM-WLS (eqs. 24-28) with given gains, payload masses estimated."""
     g = manufacturer_or_given(gains, model)
@@ -601,9 +609,9 @@ def solve_wls(factors: list[RecordFactors], model, opts: IdentifyOptions,
             return idim_wls(fs, g, active=act, weighting=opts.weighting, row_scale=rows)
         return solve_active
 
-    m = _set_up(factors, model, opts, base, make_solver, g)
+    m = _set_up(factors, model, cols, opts, base, make_solver, g)
     view, ripples, lags = m.view(m.full)
-    result = wls_result(model, view, g, factors, bags)
+    result = wls_result(model, cols, view, g, factors, bags)
     result.warnings.extend(payload_tag_warnings(result, model, gains is not None))
     _uncertainty(result, base, model, opts, gains=False)
     _drive_notes(result, ripples, lags, m.terms, model.joint_names)
@@ -614,7 +622,7 @@ def solve_wls(factors: list[RecordFactors], model, opts: IdentifyOptions,
         t0 = time.perf_counter()
         ess = _essential(m, opts, [f"m_7 ({mass:g} kg)" for mass in base.payload_groups])
         ess_view, ess_ripples, ess_lags = m.view(ess.solution)
-        result.essential = wls_result(model, ess_view, g, factors, bags)
+        result.essential = wls_result(model, cols, ess_view, g, factors, bags)
         result.essential.ripple = [r.to_json() for r in ess_ripples]
         result.essential.current_lag = [x.to_json() for x in ess_lags]
         _note_essential(m.names, result, ess)

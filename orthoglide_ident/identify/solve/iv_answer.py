@@ -61,24 +61,24 @@ def iv_from(factors: list[RecordFactors], chi0: np.ndarray, g0: np.ndarray) -> I
     return idim_iv(observations_of(factors), chi0, g0)
 
 
-def solve_iv(factors: list[RecordFactors], model, opts: IdentifyOptions, gains, essential: bool,
-             bags: list[str]) -> Solved:
+def solve_iv(factors: list[RecordFactors], model, cols, opts: IdentifyOptions, gains,
+             essential: bool, bags: list[str]) -> Solved:
     """IDIM-IV (iv.py) from the per-joint TLS answer; the gains' σ and signs checked as TLS's."""
     require_loaded_and_unloaded(factors, "IDIM-IV")
     observations_of(factors)  # refused before the TLS start when the rows are not kept
     start_opts = dataclasses.replace(opts, tls_noisy_columns="per-joint")
-    _, base = tls_model(factors, model, start_opts)
+    _, base = tls_model(factors, model, cols, start_opts)
     log.info("IDIM-IV from the per-joint TLS answer on %d equations",
              sum(f.n_rows for f in factors))
     iv = iv_from(factors, base.chi_full(), base.g_tau)
     sol = _as_tls(iv, base)
-    terms = getattr(model, "terms", None) or drive_terms.Terms()
+    terms = cols.terms
     n_b = sol.chi.shape[0] - terms.n_extra
     view, _, lags = drive_terms.split(sol, n_b, terms, model.joint_names) if terms else \
         (sol, [], [])
     if opts.check_excitation:
         band_warnings = check_gains(view, limits(model, opts), model.joint_names)
-    result = tls_result(model, view, factors, opts, bags)
+    result = tls_result(model, cols, view, factors, opts, bags)
     result.method = "iv"
     if opts.check_excitation:
         result.warnings.extend(band_warnings)

@@ -9,7 +9,7 @@ and the result field that holds them. The CLI, the node, the offline and the liv
 these tables; a new method (instrumental variables, say) is its own module plus one row here.
 
     method = get("tls")                     # IdentificationError for an unknown name
-    solved = solve(factors, model, opts, "wls", gains=[2001.2] * 3)
+    solved = solve(factors, robot, opts, "wls", gains=[2001.2] * 3, layout=layout)
 """
 from __future__ import annotations
 
@@ -17,7 +17,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 from orthoglide_ident.errors import IdentificationError
-from orthoglide_ident.identify.columns.payload_unknowns import unknowns_of
+from orthoglide_ident.identify.columns.layout import ColumnLayout, plain_layout
 from orthoglide_ident.identify.options import IdentifyOptions
 from orthoglide_ident.identify.solve.answer import (
     Solved,
@@ -31,7 +31,8 @@ from orthoglide_ident.identify.solve.factors import RecordFactors
 from orthoglide_ident.identify.solve.iv_answer import cross_check, solve_iv
 from orthoglide_ident.identify.solve.payload_report import split_payload
 
-__all__ = ["DEFAULT_METHOD", "METHODS", "REFINEMENTS", "Method", "Refinement", "get", "solve"]
+__all__ = ["CROSS_CHECKS", "DEFAULT_METHOD", "METHODS", "REFINEMENTS", "Method", "Refinement",
+           "get", "solve"]
 
 
 @dataclass(frozen=True)
@@ -43,7 +44,12 @@ class Method:
     gains_given: bool  # True: the drive gains are an input (--gains), the payload mass estimated
     result_fields: tuple[str, ...]  # what IdentificationResult fields it fills beyond the common
     topic: str  # where the identification node latches its answer (orthoglide_msgs)
-    solve: Callable[..., Solved]  # (factors, model, opts, gains, essential, bags) -> Solved
+    # (factors, robot, layout, opts, gains, essential, bags) -> Solved
+    solve: Callable[..., Solved]
+    cross_checked: bool = False  # its complete answer is cross-checked (options.cross_check)
+    cross_checks: bool = False  # it can cross-check another method's answer (--cross-check NAME)
+    gains_converge: bool = False  # the report shows its gains converging as the records grow
+    reports_progress: bool = False  # its solve takes a ``progress`` (TLS: the subset search)
 
 
 @dataclass(frozen=True)
@@ -57,26 +63,30 @@ class Refinement:
     topic: str = ""  # where the identification node latches it, if on a topic of its own
 
 
-def _tls(factors, model, opts, gains, essential, bags, progress=None) -> Solved:
-    return solve_tls(factors, model, opts, essential, bags, progress)
+def _tls(factors, model, layout, opts, gains, essential, bags, progress=None) -> Solved:
+    return solve_tls(factors, model, layout, opts, essential, bags, progress)
 
 
-def _iv(factors, model, opts, gains, essential, bags) -> Solved:
-    return solve_iv(factors, model, opts, gains, essential, bags)
+def _iv(factors, model, layout, opts, gains, essential, bags) -> Solved:
+    return solve_iv(factors, model, layout, opts, gains, essential, bags)
 
 
 METHODS: dict[str, Method] = {m.name: m for m in (
     Method("tls", "IDIM-TLS (eqs. 33-39): drive gains and base parameters at once, scaled by the "
                   "known payload mass", False,
-           ("drive_gains", "payload_mass"), "orthoglide/identified_parameters", _tls),
+           ("drive_gains", "payload_mass"), "orthoglide/identified_parameters", _tls,
+           cross_checked=True, gains_converge=True, reports_progress=True),
     Method("wls", "IDIM-WLS (eqs. 24-28): drive gains given (default the robot's nominal ones), "
                   "payload mass of the loaded records estimated", True,
            ("payloads",), "orthoglide/identified_parameters/wls", solve_wls),
     Method("iv", "IDIM-IV (Janot et al. 2014): drive gains and base parameters by instrumental "
                  "variables (the identified model's currents), scaled by the known payload mass; "
                  "unbiased when the joints' current noise differs", False,
-           ("drive_gains", "payload_mass"), "orthoglide/identified_parameters/iv", _iv),
+           ("drive_gains", "payload_mass"), "orthoglide/identified_parameters/iv", _iv,
+           cross_checks=True),
 )}
+# the values of options.cross_check other than "none": the methods that can cross-check
+CROSS_CHECKS: tuple[str, ...] = tuple(m.name for m in METHODS.values() if m.cross_checks)
 DEFAULT_METHOD = "tls"
 
 REFINEMENTS: dict[str, Refinement] = {r.name: r for r in (
@@ -100,12 +110,16 @@ def get(name: str) -> Method:
 def solve(factors: list[RecordFactors], model, opts: IdentifyOptions,
           method: str = DEFAULT_METHOD, gains: Sequence[float] | None = None,
           essential: bool = False, bags: Sequence[str] = (),
-          progress: Callable[..., None] | None = None) -> Solved:
+          progress: Callable[..., None] | None = None, *,
+          layout: ColumnLayout | None = None) -> Solved:
     """The method on the factors, the payload's identified parameters split from the robot's
     (a payload known by its mass, Sect. 4.3), then the consistent set when ``opts.consistent``;
-    raises the product's errors with a reason. ``progress(stage, done, total, unit)`` (None:
-    silent) hears the stages: the solve, the partial answer's subset search (TLS), the IV
-    cross-check, the consistency fits."""
+    raises the product's errors with a reason. ``model``: the robot; ``layout``: the columns of
+    the factors (columns/layout.py; default the robot's own, nothing beside W).
+    ``progress(stage, done, total, unit)`` (None: silent) hears the stages: the solve, the
+    partial answer's subset search (TLS), the cross-check, the consistency fits."""
+    if layout is None:
+        layout = plain_layout(model)
     m = get(method)
     if not factors:
         raise IdentificationError("no bag given")
@@ -113,20 +127,21 @@ def solve(factors: list[RecordFactors], model, opts: IdentifyOptions,
         check_rows(factors, model, opts)
     else:  # TLS: a joint that hardly moved is a partial answer, a short record is refused
         check_length(factors, opts)
-    if opts.consistent and unknowns_of(model) is not None:
+    if opts.consistent and layout.has_payload_unknowns:
         raise IdentificationError(
             "--consistent needs the payload's CoM and inertia: with only its mass known they are "
             "identified (Sect. 4.3); tag them or give --payload-known point")
     tell = progress or (lambda *a: None)
     tell(f"solving (IDIM-{m.name.upper()})", 0, 0, "")  # a stage with nothing to count
     # a method that reports its own steps (TLS: the subset search) takes the progress too
-    out = m.solve(factors, model, opts, gains, essential, list(bags),
-                  **({"progress": progress} if progress is not None and m.name == "tls" else {}))
-    if method == "tls" and opts.cross_check == "iv" and out.result.complete:
+    out = m.solve(factors, model, layout, opts, gains, essential, list(bags),
+                  **({"progress": progress} if progress is not None and m.reports_progress
+                     else {}))
+    if m.cross_checked and opts.cross_check in CROSS_CHECKS and out.result.complete:
         # after TLS, IDIM-IV's gains beside (issue 43); marked only when the checks are on
-        tell("cross-checking by IDIM-IV", 0, 0, "")
+        tell(f"cross-checking by IDIM-{opts.cross_check.upper()}", 0, 0, "")
         cross_check(out, factors, model, opts.check_excitation)
-    split_payload(out.result, model)
+    split_payload(out.result, layout)
     out.result.warnings.extend(friction_sign_warnings(out.result))
     if opts.consistent and not out.result.complete:
         out.result.warnings.append("--consistent is not run on a partial answer: the standard "

@@ -36,6 +36,8 @@ from typing import Any
 
 import numpy as np
 
+from orthoglide_ident.identify.columns.drive_terms import Terms
+from orthoglide_ident.identify.columns.layout import ColumnLayout
 from orthoglide_ident.identify.solve.factors import RecordFactors
 
 RANK_TOL = 1e-9  # column-scaled R: a diagonal below this times the largest is a lost column
@@ -117,32 +119,34 @@ def lost_columns(factors: list[RecordFactors]) -> np.ndarray:
 
 @dataclass
 class Subsystem:
-    """The model seen through the kept joints and base-parameter columns (what tls_result and
-    the solve read from a model: names, joints, units, nominal gains)."""
+    """The robot and its columns seen through the kept joints and columns: what tls_result and
+    the solve read from a robot (joints, units, nominal gains) and from a column layout (names,
+    expressions, drive terms; columns/layout.py). A payload's unknowns are not told apart."""
 
-    full: Any
+    full: Any  # the robot
     joint_idx: np.ndarray
     col_idx: np.ndarray
+    columns: ColumnLayout  # the full problem's
+    has_payload_unknowns = False
 
     def __post_init__(self) -> None:
         self.name = self.full.name
         self.joints = tuple(self.full.joints[j] for j in self.joint_idx)
-        self.names = [self.full.names[c] for c in self.col_idx]
-        exprs = list(getattr(self.full, "expressions", [""] * len(self.full.names)))
+        self.locked_joints = self.full.locked_joints
+        self.names = [self.columns.names[c] for c in self.col_idx]
+        exprs = self.columns.expressions
         self.expressions = [exprs[c] if c < len(exprs) else "" for c in self.col_idx]
         self.nominal_gains_given = self.full.nominal_gains_given
         self.terms = self._lag_terms()
 
-    def _lag_terms(self) -> Any:
+    def _lag_terms(self) -> Terms:
         """The current-loop lag columns the equations still hold, as drive terms (one per kept
         joint, last: the full model's layout without the left-out joints'); none otherwise
         (a ripple at a given lead stays a plain column)."""
-        from orthoglide_ident.identify.columns.drive_terms import Terms
-
-        full = getattr(self.full, "terms", None)
+        full = self.columns.terms
         if not full or full.ripples or not full.lag:
             return Terms()
-        n_b = len(self.full.names) - full.n_extra
+        n_b = len(self.columns.names) - full.n_extra
         lag_cols = [c for c in self.col_idx.tolist() if c >= n_b]
         want = [n_b + int(j) for j in self.joint_idx]
         return Terms(lag=len(want)) if lag_cols == want else Terms()
@@ -160,16 +164,17 @@ class Subsystem:
         return np.asarray(self.full.nominal_gains, float)[self.joint_idx]
 
 
-def reduce(factors: list[RecordFactors], model, left_out: dict[int, str]
+def reduce(factors: list[RecordFactors], model, columns: ColumnLayout, left_out: dict[int, str]
            ) -> tuple[list[RecordFactors], Subsystem]:
-    """The factors and model of the joints not ``left_out``, without the columns they lose."""
+    """The factors and subsystem of the joints not ``left_out``, without the columns they lose
+    (``model`` the robot, ``columns`` its layout)."""
     kept = np.array([j for j in range(model.n_joints) if j not in left_out], dtype=int)
     fs = [f.only_joints(kept) for f in factors]
     lost = lost_columns(fs)
     if lost.size:
         fs = [f.without_columns(lost) for f in fs]
     cols = np.setdiff1d(np.arange(factors[0].n_b), lost)
-    return fs, Subsystem(model, kept, cols)
+    return fs, Subsystem(model, kept, cols, columns)
 
 
 def expand(result, model, sub: Subsystem, left_out: dict[int, str]) -> None:
@@ -196,7 +201,7 @@ def expand(result, model, sub: Subsystem, left_out: dict[int, str]) -> None:
     result.warnings.insert(0, "partial answer: " + result.not_determined_text()
                            + "; the other gains are identified without their rows (not latched "
                            "for the ctc: it takes only a full answer)")
-    lost = [n for c, n in enumerate(model.names) if c not in set(sub.col_idx.tolist())]
+    lost = [n for c, n in enumerate(sub.columns.names) if c not in set(sub.col_idx.tolist())]
     if lost:
         result.warnings.insert(1, "base parameters not determined without those rows (not "
                                "reported): " + ", ".join(lost))

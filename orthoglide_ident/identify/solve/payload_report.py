@@ -10,44 +10,47 @@ from __future__ import annotations
 
 import numpy as np
 
-from orthoglide_ident.identify.columns.payload_unknowns import unknowns_of
+from orthoglide_ident.identify.columns.layout import ColumnLayout
 from orthoglide_ident.results import IdentificationResult, PayloadParameters
 
 FIRST_MOMENTS = ("mx", "my", "mz")
 INERTIA = ("xx", "xy", "xz", "yy", "yz", "zz")
 
 
-def split_payload(result: IdentificationResult, model) -> None:
-    """Move χ_ul out of ``result.parameters`` into ``result.payload`` (and its essential one)."""
+def split_payload(result: IdentificationResult, layout: ColumnLayout) -> None:
+    """Move χ_ul (``layout.payload_slice``) out of ``result.parameters`` into ``result.payload``
+    (and its essential one)."""
     if result.essential is not None:
-        split_payload(result.essential, model)
-    pu = unknowns_of(model)
-    if pu is None or not pu.payload_names:
+        split_payload(result.essential, layout)
+    if not layout.payload_names:
         return
-    names = list(pu.payload_names)
+    names = list(layout.payload_names)
     at = {p.name: i for i, p in enumerate(result.parameters)}
     idx = [at[n] for n in names if n in at]
     if not idx or result.payload_mass is None:
         result.parameters = [p for p in result.parameters if p.name not in names]
         return
     value, C = _values_and_cov(result, idx)
-    kinds = {pu.basis.kinds[c]: k for k, c in enumerate(pu.columns)
-             if names[k] in at and _alone(pu, c)}
+    basis = layout.basis
+    kinds = {basis.kinds[c]: k for k, c in enumerate(layout.payload_columns)
+             if names[k] in at and _alone(basis.K, c)}
     pos = {name: i for i, name in enumerate(n for n in names if n in at)}
     kinds = {kind: pos[names[k]] for kind, k in kinds.items()}
-    known = "mass" if any(pu.basis.kinds[c] in FIRST_MOMENTS for c in pu.columns) else "com"
+    known = "mass" if any(basis.kinds[c] in FIRST_MOMENTS for c in layout.payload_columns) \
+        else "com"
     com, com_std, inertia, inertia_std = _com_and_inertia(value, C, kinds, known)
     result.payload = PayloadParameters(
-        frame=pu.basis.frame or pu.payload_frame, mass=float(value[-1]), known=known,
+        frame=basis.frame or layout.payload_frame, mass=float(value[-1]), known=known,
         parameters=[result.parameters[i] for i in idx],
         std=[float(np.sqrt(max(C[i, i], 0.0))) for i in range(len(idx))],
         com=com, com_std=com_std, inertia=inertia, inertia_std=inertia_std)
     result.parameters = [p for p in result.parameters if p.name not in names]
 
 
-def _alone(pu, c: int) -> bool:
-    """Whether payload column c is one parameter, not a regrouping of several."""
-    row = pu.basis.K[c]
+def _alone(K: np.ndarray, c: int) -> bool:
+    """Whether payload column c is one parameter, not a regrouping of several (a row of the
+    basis' K)."""
+    row = K[c]
     return int(np.count_nonzero(row)) == 1
 
 

@@ -17,6 +17,7 @@ import hashlib
 
 import numpy as np
 
+from orthoglide_ident.identify.columns.layout import ColumnLayout
 from orthoglide_ident.identify.diagnostics import bag_report
 from orthoglide_ident.identify.observe.rows import IdentificationModel, observe
 from orthoglide_ident.identify.observe.sampling import AUTO_HELD, SLOW_STEP_S, loop_half_ticks
@@ -25,7 +26,6 @@ from orthoglide_ident.identify.records.record import Record
 from orthoglide_ident.identify.records.robot_checks import (
     check_positions,
     motion_warnings,
-    robot_of,
 )
 from orthoglide_ident.identify.validate.joint_side import (
     LONGER,
@@ -86,7 +86,7 @@ def misfit_warnings(result: IdentificationResult, g_tau: np.ndarray, model: Iden
     """Behind a transmission, the motors fitted far worse than their current noise said (a
     reduction typed wrong) into ``result``'s warnings, and the undetermined gains' advice
     changed to say so. False when the robot has no transmission (nothing to say)."""
-    if getattr(robot_of(model), "transmission", None) is None or not noises:
+    if model.transmission is None or not noises:
         return False
     noise = np.sqrt(np.nanmean([n ** 2 for n, _ in noises], axis=0))
     ratio = misfit(result.residual_rms, g_tau, noise, float(np.median(
@@ -101,7 +101,7 @@ def misfit_warnings(result: IdentificationResult, g_tau: np.ndarray, model: Iden
 
 
 def other_readings(rec: Record, model: IdentificationModel, opts: IdentifyOptions, m: float,
-                   rep) -> list | None:
+                   rep, *, layout: ColumnLayout) -> list | None:
     """A slow record's other readings as sampled (half tick s, rows, report) when its reading
     is open: auto read it held (then sampled at the stamp and at the loop's possible half
     ticks), or it is sampled with its loop's rate unknown (the half ticks); else None."""
@@ -115,7 +115,8 @@ def other_readings(rec: Record, model: IdentificationModel, opts: IdentifyOption
     out = []
     for d in shifts:
         o, r, _ = observe(rec, model, opts.replace(current_sampling="sampled",
-                                                   current_loop_hz=0.5 / d if d else 0.0), m)
+                                                   current_loop_hz=0.5 / d if d else 0.0), m,
+                          layout=layout)
         out.append((d, o, bag_report(r, rec.source, rec.condition, m, o.rows_per_joint(),
                                      rec.sources)))
     return out

@@ -1,4 +1,5 @@
-"""The screw friction ripple at a known lead (drive_terms.DriveTermsModel, ``screw_lead_m``)."""
+"""The screw friction ripple at a known lead (its columns in the layout, columns/layout.py;
+``screw_lead_m``)."""
 from __future__ import annotations
 
 import numpy as np
@@ -6,7 +7,7 @@ import pytest
 from synthetic import TRUE_CHI, TRUE_GAINS, SyntheticModel, synthetic_record, trajectory
 
 from orthoglide_ident.identify import IdentifyOptions, identify_records
-from orthoglide_ident.identify.columns.drive_terms import DriveTermsModel, observation_model
+from orthoglide_ident.identify.columns.layout import column_layout
 
 LEAD = 0.010  # m
 # N, per joint: cos and sin coefficients of sign(q̇_j) (c cos + s sin)(2π q_j / λ); amplitude
@@ -14,13 +15,21 @@ LEAD = 0.010  # m
 RIPPLE = np.array([0.30, -0.25, 0.10, 0.45, -0.35, -0.20])
 
 
+class _RippleTruth(SyntheticModel):
+    """The synthetic drive with a friction ripple at LEAD: its regressor [W | ripple] (the
+    layout's columns), for the records' truth."""
+
+    def regressor(self, q, qd, qdd):
+        return column_layout(self, LEAD).regressor(self, q, qd, qdd)
+
+
 def test_ripple_columns_sit_in_their_own_joint_rows_beside_W():
     base = SyntheticModel()
-    model = DriveTermsModel(base, LEAD)
+    layout = column_layout(base, LEAD)
     q, qd, qdd = trajectory(np.linspace(0.0, 2.0, 500), seed=3)
-    X = model.observation_block(q, qd, qdd)
+    X = layout.observation_block(base, q, qd, qdd)
     n = len(base.names)
-    assert X.shape == (n + 7, 3, 500) and len(model.names) == n + 6
+    assert X.shape == (n + 7, 3, 500) and len(layout.names) == n + 6
     W = base.regressor(q, qd, qdd).reshape(3, 500, n).transpose(2, 0, 1)
     np.testing.assert_array_equal(X[:n], W)
     np.testing.assert_array_equal(X[-1], base.payload_mass_column(q, qd, qdd).reshape(3, 500))
@@ -30,11 +39,12 @@ def test_ripple_columns_sit_in_their_own_joint_rows_beside_W():
         np.testing.assert_allclose(X[n + 2 * j + 1, j], np.sign(qd[:, j]) * np.sin(phi[:, j]))
         others = [k for k in range(3) if k != j]
         assert not X[n + 2 * j:n + 2 * j + 2, others].any()
-    assert observation_model(model, LEAD) is model and observation_model(base, 0.0) is base
+    assert layout.ripple_slice == slice(n, n + 6) and layout.lag_column is None
+    assert column_layout(base, 0.0).names == base.names  # no lead: the robot's own columns
 
 
 def _ripple_records(noise: bool):
-    model = DriveTermsModel(SyntheticModel(), LEAD)
+    model = _RippleTruth()
     chi = np.concatenate([TRUE_CHI, RIPPLE])
     return [synthetic_record(20.0, m, seed=s, noise=noise, model=model, chi=chi)
             for m, s in ((0.0, 1), (1.983, 2))]
@@ -98,7 +108,7 @@ def test_a_lead_that_is_not_in_metres_is_refused(lead):
 def test_cross_validation_predicts_with_the_ripple():
     """A record kept out of the identification is predicted with the identified ripple too:
     residual ≤ 0.012 N measured with the lead, 0.29-0.31 N (the ripple itself) without."""
-    model = DriveTermsModel(SyntheticModel(), LEAD)
+    model = _RippleTruth()
     val = synthetic_record(10.0, 1.983, seed=9, noise=False, model=model,
                            chi=np.concatenate([TRUE_CHI, RIPPLE]))
     rms = {}

@@ -1,12 +1,12 @@
 """identify/joint_units.py: a motor's equations in joint-side units (s_a = max_j |N_aj|): the
-scale found through the pipeline's wrappers, each column's power by its name, none without a
-transmission (the paper's solve, bit for bit)."""
+scale of the robot and of a partial answer's subsystem, each column's power by its name (the
+column layout's, lag included), none without a transmission (the paper's solve, bit for bit)."""
 from __future__ import annotations
 
 import numpy as np
 import yaml
 
-from orthoglide_ident.identify.columns.drive_terms import DriveTermsModel
+from orthoglide_ident.identify.columns.layout import column_layout, plain_layout
 from orthoglide_ident.identify.observe import joint_units
 from orthoglide_ident.identify.solve.partial import Subsystem
 from orthoglide_ident.model.robots import ROBOTS_DIR, load_robot
@@ -26,11 +26,11 @@ def _model(tmp_path):
     return load_robot(path)
 
 
-def test_the_scale_is_each_motor_s_largest_reduction_through_the_wrappers(tmp_path):
+def test_the_scale_is_each_motor_s_largest_reduction(tmp_path):
     model = _model(tmp_path)
     np.testing.assert_array_equal(joint_units.transmission_scale(model), S)
-    np.testing.assert_array_equal(joint_units.equation_scale(DriveTermsModel(model, lag=True)), S)
-    sub = Subsystem(model, np.array([0, 3, 5]), np.arange(len(model.names)))
+    np.testing.assert_array_equal(joint_units.equation_scale(model), S)
+    sub = Subsystem(model, np.array([0, 3, 5]), np.arange(len(model.names)), plain_layout(model))
     np.testing.assert_array_equal(joint_units.transmission_scale(sub), S[[0, 3, 5]])
     plain = load_robot(ROBOTS_DIR / "ur5.yaml")
     assert joint_units.equation_scale(plain) is None
@@ -39,9 +39,9 @@ def test_the_scale_is_each_motor_s_largest_reduction_through_the_wrappers(tmp_pa
 
 def test_each_motor_column_gets_its_kind_s_power(tmp_path):
     """ia, fv: 1/s², fs, tauoff, a lag: 1/s, the gains 1/s, rigid and payload columns 1."""
-    model = DriveTermsModel(_model(tmp_path), lag=True)
-    names = list(model.names)
-    c = joint_units.column_scale(model, len(names))
+    model = _model(tmp_path)
+    names = column_layout(model, lag=True).names
+    c = joint_units.column_scale(model, len(names), names)
     assert c.shape == (len(names) + 7,)
     for k, name in enumerate(names):
         kind, _, motor = name.partition("_")

@@ -203,24 +203,25 @@ def test_live_blocks_of_a_sampled_current_give_the_offline_rows():
     t_k + 1 / (2 current_loop_hz), not at the half tick; its rows equal the offline ones."""
     from synthetic import SyntheticModel, synthetic_record
 
+    from orthoglide_ident.identify.columns.layout import plain_layout
     from orthoglide_ident.identify.observe.stream import SegmentStream
     from orthoglide_ident.identify.observe.time_base import states_at_half_tick
 
     opts = IdentifyOptions(current_sampling="sampled", current_loop_hz=4000.0).at_rate(1e3)
     rec = synthetic_record(4.0, 0.0, seed=3, amplitude=0.1, f_max=4.0)
     model, T = SyntheticModel(), 1e-3
-    n_b, trim = len(model.names), int(round(opts.edge_trim_s / T))
+    trim = int(round(opts.edge_trim_s / T))
     states = states_at_half_tick(rec.q, rec.v_tau, T, opts.filter_cutoff_hz, opts.filter_order,
                                  trim, False, opts.filter_currents, rec.stamps_q_ns,
                                  shift_s=1.25e-4)
     stamps = rec.stamps_q_ns[trim:trim + states[0].shape[0]]
     t0 = int(rec.stamps_q_ns[0])
-    whole = SegmentStream(model, opts, T, t0, n_b)
+    whole = SegmentStream(model, plain_layout(model), opts, T, t0)
     ref = [whole.push_states(stamps, *states), whole.finish()]
     held = states_at_half_tick(rec.q, rec.v_tau, T, opts.filter_cutoff_hz, opts.filter_order,
                                trim, True, opts.filter_currents)
     assert held[0].shape[0] == states[0].shape[0] - 1  # the held reading's rows differ
-    blocks = SegmentStream(model, opts, T, t0, n_b)
+    blocks = SegmentStream(model, plain_layout(model), opts, T, t0)
     got = [blocks.push(rec.stamps_q_ns[a:a + 700], rec.q[a:a + 700], rec.v_tau[a:a + 700])
            for a in range(0, rec.q.shape[0], 700)] + [blocks.finish()]
     X0 = np.concatenate([r.X for r in ref], axis=2)
@@ -299,3 +300,27 @@ def test_the_reading_kept_is_the_one_whose_residual_is_least():
     assert case({"held": 1.0, "s0": 0.9, "s5": 0.5}, refused={"s0", "s5"})[0] == "held"
     with pytest.raises(ExcitationError, match="held refused"):
         case({}, refused={"held", "s0", "s5"})
+
+
+def test_the_robot_file_says_the_sampling_with_the_lag_modelled(tmp_path):
+    """With lag_model auto (the default) the observation still reads the robot file's
+    current_sampling: the robot is passed itself beside its column layout (issue 44), where a
+    drive-terms wrapper used to hide its description (the record was read held)."""
+    from orthoglide_ident.identify.columns.layout import column_layout
+    from orthoglide_ident.identify.observe.rows import observe
+    from orthoglide_ident.identify.records.record import Record
+    from orthoglide_ident.model.robots import ROBOTS_DIR, load_robot
+
+    text = (ROBOTS_DIR / "ur5.yaml").read_text()
+    (tmp_path / "ur5.urdf").write_text((ROBOTS_DIR / "ur5.urdf").read_text())
+    (tmp_path / "ur5.yaml").write_text(text + "\ncurrent_sampling: sampled\n")
+    robot = load_robot(str(tmp_path / "ur5.yaml"))
+    st = np.arange(3000, dtype=np.int64) * 1_000_000  # 3 s at 1 kHz
+    t = st * 1e-9
+    q = 0.3 * np.sin(2 * np.pi * 0.5 * t[:, None] + np.arange(robot.n_joints))
+    rec = Record.from_arrays("r", st, q, 0.1 * np.cos(2 * np.pi * 0.5 * t[:, None] + 0 * q),
+                             "unloaded", 0.0, robot.joint_names)
+    layout = column_layout(robot, 0.0, lag=True)
+    assert layout.lag_column is not None  # the columns of lag_model auto
+    _, rep, _ = observe(rec, robot, IdentifyOptions(), 0.0, layout=layout)
+    assert rep.current_sampling == "sampled", rep.current_sampling_why

@@ -14,10 +14,8 @@ import pytest
 from live_helpers import as_record
 
 from orthoglide_ident.identify import IdentifyOptions, identify_records
-from orthoglide_ident.identify.columns.drive_terms import observation_model
-from orthoglide_ident.identify.columns.payload_unknowns import with_payload_unknowns
+from orthoglide_ident.identify.columns.layout import column_layout, plain_layout
 from orthoglide_ident.identify.observe import smooth_rows
-from orthoglide_ident.identify.observe import stream as stream_mod
 from orthoglide_ident.identify.observe.decimation import fir_decimate_last, fir_taps
 from orthoglide_ident.identify.observe.reversals import bridge_weights
 from orthoglide_ident.identify.observe.rows import observe
@@ -73,7 +71,7 @@ def _full_rate_smooth(self, Xr, a, b, r):
     """_smooth_at_rows with the smooth columns built at every sample and filtered."""
     n_j, x = self.n_j, self._qs[a:b]
     W = np.empty((self.n_b + 1, n_j, b - a))
-    stream_mod.model_block(self.model, x[:, :n_j], x[:, n_j:2 * n_j], x[:, 2 * n_j:], W)
+    self._block(x[:, :n_j], x[:, n_j:2 * n_j], x[:, 2 * n_j:], W)
     out = np.empty((self.n_b + 2, n_j, r))
     out[:self.n_b + 1] = fir_decimate_last(W, self.n_d, r)
     self._corr.add_to(out, self._i_out, self.n_d, fir_taps(self.n_d))
@@ -85,12 +83,13 @@ def _full_rate_smooth(self, Xr, a, b, r):
 def test_the_bridges_on_the_smooth_columns_are_those_of_the_sample_rate_path(ur5, monkeypatch):
     model, recs = ur5
     rec = recs[1]
-    m = observation_model(with_payload_unknowns(model), 0.0, True)
-    old, rep, _ = observe(rec, m, IdentifyOptions(regressor_at="samples"), 2.0)
+    layout = column_layout(model, 0.0, True)
+    old, rep, _ = observe(rec, model, IdentifyOptions(regressor_at="samples"), 2.0,
+                          layout=layout)
     assert rep.n_reversal_bridged > 100  # the record has bridges to check
     monkeypatch.setattr(SegmentStream, "_smooth_at_rows", _full_rate_smooth)
     monkeypatch.setattr(BridgeCorrections, "exact_anchors", True)
-    new, _, _ = observe(rec, m, IdentifyOptions(regressor_at="rows"), 2.0)
+    new, _, _ = observe(rec, model, IdentifyOptions(regressor_at="rows"), 2.0, layout=layout)
     scale = np.abs(old.W).max(axis=(0, 1)) + 1e-300
     assert np.max(np.abs(old.W - new.W) / scale) < 1e-12
     np.testing.assert_allclose(new.v_tau, old.v_tau, rtol=0, atol=1e-12)
@@ -101,16 +100,16 @@ def test_blocks_give_the_rows_of_the_whole_segment(ur5):
     model, recs = ur5
     rec = recs[0]
     opts = IdentifyOptions(regressor_at="rows").at_rate(1000.0)
-    T, n_b = 1e-3, len(model.names)
+    T = 1e-3
     t0 = int(rec.stamps_q_ns[0])
-    whole = SegmentStream(model, opts, T, t0, n_b)
+    whole = SegmentStream(model, plain_layout(model), opts, T, t0)
     assert whole.rough is not None  # the rows path is the one checked
     trim = int(round(opts.edge_trim_s / T))
     states = states_at_half_tick(rec.q, rec.v_tau, T, opts.filter_cutoff_hz, opts.filter_order,
                                  trim, opts.zoh_shift, opts.filter_currents)
     stamps = rec.stamps_q_ns[trim:trim + states[0].shape[0]]
     parts = [whole.push_states(stamps, *states), whole.finish()]
-    live = SegmentStream(model, opts, T, t0, n_b)
+    live = SegmentStream(model, plain_layout(model), opts, T, t0)
     for a in range(0, rec.q.shape[0], 700):
         parts.append(live.push(rec.stamps_q_ns[a:a + 700], rec.q[a:a + 700],
                                rec.v_tau[a:a + 700]))

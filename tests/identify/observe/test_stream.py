@@ -6,6 +6,7 @@ import pytest
 from synthetic import SyntheticModel, synthetic_record
 
 from orthoglide_ident.identify import IdentifyOptions
+from orthoglide_ident.identify.columns.layout import plain_layout
 from orthoglide_ident.identify.observe.decimation import fir_decimate_last, fir_taps
 from orthoglide_ident.identify.observe.reversals import ReversalTracker, find_reversals
 from orthoglide_ident.identify.observe.stream import SegmentStream
@@ -73,14 +74,14 @@ def test_raw_blocks_give_the_rows_of_the_whole_segment(opts):
     opts = opts.at_rate(1e3)
     rec = synthetic_record(6.0, 0.0, seed=3, amplitude=0.1, f_max=4.0)
     model = SyntheticModel()
-    T, n_b = 1e-3, len(model.names)
+    T = 1e-3
     trim = int(round(opts.edge_trim_s / T))
-    whole = SegmentStream(model, opts, T, 0, n_b)
+    whole = SegmentStream(model, plain_layout(model), opts, T, 0)
     states = states_at_half_tick(rec.q, rec.v_tau, T, opts.filter_cutoff_hz, opts.filter_order,
                                  trim, opts.zoh_shift, opts.filter_currents)
     stamps = rec.stamps_q_ns[trim:trim + states[0].shape[0]]
     ref = [whole.push_states(stamps, *states), whole.finish()]
-    blocks = SegmentStream(model, opts, T, 0, n_b)
+    blocks = SegmentStream(model, plain_layout(model), opts, T, 0)
     rng = np.random.default_rng(4)
     got, a = [], 0
     while a < len(stamps) + 2 * trim + 1:

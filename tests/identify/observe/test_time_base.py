@@ -366,6 +366,7 @@ def test_live_blocks_on_an_uneven_clock_give_the_offline_rows():
     uneven record match those of the whole segment filtered at once."""
     from synthetic import SyntheticModel, synthetic_record
 
+    from orthoglide_ident.identify.columns.layout import plain_layout
     from orthoglide_ident.identify.observe.stream import SegmentStream
     from orthoglide_ident.identify.observe.time_base import states_at_half_tick
 
@@ -374,12 +375,12 @@ def test_live_blocks_on_an_uneven_clock_give_the_offline_rows():
     T = float(np.mean(np.diff(rec.stamps_q_ns))) * 1e-9
     opts = IdentifyOptions(velocity_deadband_mps=0.0).at_rate(1 / T)
     trim = int(round(opts.edge_trim_s / T))
-    whole = SegmentStream(model, opts, T, 0, len(model.names))
+    whole = SegmentStream(model, plain_layout(model), opts, T, 0)
     states = states_at_half_tick(rec.q, rec.v_tau, T, opts.filter_cutoff_hz, opts.filter_order,
                                  trim, opts.zoh_shift, opts.filter_currents, rec.stamps_q_ns)
     a = whole.push_states(rec.stamps_q_ns[trim:trim + states[0].shape[0]], *states).X
     a = np.concatenate([a, whole.finish().X], axis=2)
-    live = SegmentStream(model, opts, T, 0, len(model.names))
+    live = SegmentStream(model, plain_layout(model), opts, T, 0)
     parts, i = [], 0
     for n in np.random.default_rng(0).integers(50, 400, 100):
         parts.append(live.push(rec.stamps_q_ns[i:i + n], rec.q[i:i + n], rec.v_tau[i:i + n]).X)
