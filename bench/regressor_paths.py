@@ -1,14 +1,15 @@
-"""Where the model's rows come from, timed where they are used (issue 48): the vectorised
-recursive Newton–Euler regressor (model/rnea_regressor.py) against Pinocchio's
-``computeJointTorqueRegressor`` called per sample (tree_regressor.py's other path).
+"""The model's rows timed where they are used (issue 48): Pinocchio's
+``computeJointTorqueRegressor`` called per sample (model/tree_regressor.py). Until this round a
+vectorised recursive Newton–Euler regressor (model/rnea_regressor.py) stood beside it; its
+figures against Pinocchio's are in docs/benchmarks.md ("Pinocchio's regressor only").
 
     python bench/regressor_paths.py [--repeat 3] [--seconds 20]
 
-For each path: ``identify`` (IDIM-TLS, the simulated UR5's unloaded and 2 kg records of
+``identify`` (IDIM-TLS, the simulated UR5's unloaded and 2 kg records of
 ``--seconds`` s each, and the locked Panda's, tests/locked_panda.py, as long), ``excite design``
 (the UR5, 2 kg, 2 periods, 5 random shapes, 50 steps), and the bare observation matrix of
-20 000 samples: best wall and CPU time over ``--repeat``. The model is loaded anew per path
-(its QR on random states uses the rows too: timed as "load"; the other stages reuse it).
+20 000 samples: best wall and CPU time over ``--repeat``. "load": the model loaded anew (its QR
+on random states uses the rows too); the other stages reuse it.
 """
 from __future__ import annotations
 
@@ -29,11 +30,10 @@ from live_helpers import as_record  # noqa: E402
 
 from orthoglide_ident.cli import main as cli  # noqa: E402
 from orthoglide_ident.identify import identify_records  # noqa: E402
-from orthoglide_ident.model import robots, tree_regressor  # noqa: E402
+from orthoglide_ident.model import robots  # noqa: E402
 from orthoglide_ident.model.robots import load_robot  # noqa: E402
 from orthoglide_sim.arms.record import simulate_arm  # noqa: E402
 
-PATHS = {"vectorised": tree_regressor.supported, "pinocchio": lambda model: False}
 DESIGN = ("--payload-mass", "2", "--periods", "2", "--restarts", "5", "--steps", "50")
 
 
@@ -72,16 +72,10 @@ def main() -> None:
     args = ap.parse_args()
     with tempfile.TemporaryDirectory() as d:
         todo = cases(args.seconds, Path(d))
-        times = {}
-        for path, supported in PATHS.items():
-            tree_regressor.supported = supported
-            for name, f in todo.items():
-                times[name, path] = best(f, args.repeat)
-        tree_regressor.supported = PATHS["vectorised"]
-    print(f"{'stage':<22} {'vectorised wall/cpu':>22} {'pinocchio wall/cpu':>22} {'cpu ratio':>10}")
-    for name in todo:
-        (wv, cv), (wp, cp) = times[name, "vectorised"], times[name, "pinocchio"]
-        print(f"{name:<22} {wv:>10.2f}s/{cv:>8.2f}s {wp:>10.2f}s/{cp:>8.2f}s {cp / cv:>10.2f}")
+        times = {name: best(f, args.repeat) for name, f in todo.items()}
+    print(f"{'stage':<22} {'wall':>8} {'cpu':>8}")
+    for name, (wall, cpu) in times.items():
+        print(f"{name:<22} {wall:>7.2f}s {cpu:>7.2f}s")
 
 
 if __name__ == "__main__":
