@@ -9,8 +9,6 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-pytestmark = pytest.mark.skipif(not L.installed(), reason="example-robot-data not installed")
-
 
 def full_urdf_torques(truth, q, qd, qdd, finger: float = L.FINGER) -> np.ndarray:
     """τ of the arm joints by Pinocchio on the full URDF (9 joints, fingers at ``finger``), every
