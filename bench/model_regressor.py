@@ -5,8 +5,7 @@ Prints wall and CPU time and samples/s for [W | payload column], the form the id
 uses, for the Orthoglide's closed form and for the general (Pinocchio) model of the bundled
 robots: the UR5 (serial, 6 joints), the planar five-bar and the Orthoglide described to the
 general model (closed chains: Newton on the loops per sample, then Gᵀ projection). Each general
-model's rows come from the vectorised recursive Newton–Euler regressor (model/rnea_regressor.py);
-the line "per sample" below it times the same rows from Pinocchio's regressor called per sample.
+model's rows come from Pinocchio's regressor called per sample (model/tree_regressor.py).
 
 The closed form runs on random states (the platform in a ±0.1 m cube); the general models on a
 smooth 1 kHz trajectory inside the joint limits (sinusoids per joint), which is what recorded
@@ -23,7 +22,6 @@ import numpy as np
 
 from orthoglide_ident.model.orthoglide.base import base_model, random_states
 from orthoglide_ident.model.robots import load_robot
-from orthoglide_ident.model.tree_regressor import TreeRegressor
 
 GENERAL = ("ur5", "five_bar", "orthoglide_general")
 RATE_HZ = 1000.0
@@ -83,16 +81,6 @@ def main() -> None:
         out = np.empty((robot.n_b + 1, robot.n_joints, args.samples))
         walls, cpus, _ = timed(lambda: robot.observation_block(q, qd, qdd, out=out), args.repeat)
         lines.append(row(name, args.samples, out.shape, walls, cpus))
-        if robot._rows._rnea is not None:  # the same rows from Pinocchio's per-sample regressor
-            vectorised = robot._rows
-            robot._rows = TreeRegressor(robot.model, robot.actuated, robot._fixed_frames,
-                                        robot.closure, vectorised=False)
-            try:
-                walls, cpus, _ = timed(lambda: robot.observation_block(q, qd, qdd, out=out),
-                                       args.repeat)
-            finally:
-                robot._rows = vectorised
-            lines.append(row("  per sample", args.samples, out.shape, walls, cpus))
     print("models:\n  " + "\n  ".join(loads))
     print(f"{'robot':<20} {'samples':>9} {'[W | W_l]':>16} {'wall best':>10} {'wall median':>12} "
           f"{'cpu best':>9} {'samples/s':>11}")

@@ -3,13 +3,11 @@
 The open tree's joint-torque regressor Y (nv × 10 per joint body) and, for a body fixed to a
 frame (a link kept as a body of its own), the frame's body regressor Φ_f with the frame's
 Jacobian J_f (LOCAL), whose product J_fᵀ Φ_f is that body's contribution to the tree's joint
-forces, come from rnea_regressor.py for a whole chunk of samples at once (numpy, 1-DOF
-joints), else from Pinocchio's C++ sample by sample (``computeJointTorqueRegressor``,
-``frameBodyRegressor``, ``computeFrameJacobian``: multi-DOF joints, and the reference the
-vectorised path is tested against). The payload, rigidly fixed to one joint's body, needs neither:
-its
-column is that body's columns of Y times its parameters in the joint's frame. Everything else is
-numpy over a chunk of samples:
+forces, come from Pinocchio's C++ sample by sample (``computeJointTorqueRegressor``,
+``frameBodyRegressor``, ``computeFrameJacobian``; a numpy recursion over whole chunks was no
+faster where the rows are used: bench/regressor_paths.py). The payload, rigidly fixed to one
+joint's body, needs neither: its column is that body's columns of Y times its parameters in the
+joint's frame. Everything else is numpy over a chunk of samples:
 picking the columns asked for, the drive columns (ia q̈ of an actuated joint — the regressor
 omits armature — and fv q̇, fs sign(q̇), tauoff of each joint with friction), and the
 projection onto the actuated joints, τ_a = Gᵀ τ_t (closure.py; a serial robot's G selects its
@@ -30,14 +28,12 @@ import numpy as np
 import pinocchio as pin
 
 from orthoglide_ident.model.closure import Closure, TreeStates
-from orthoglide_ident.model.rnea_regressor import RneaRegressor, supported
 from orthoglide_ident.model.robot import INERTIAL_KINDS
 from orthoglide_ident.model.tree import TreeJoint, set_joint
 
 _PIN_ORDER = ("m", "mx", "my", "mz", "xx", "xy", "yy", "xz", "yz", "zz")
 PIN_INDEX = tuple(_PIN_ORDER.index(k) for k in INERTIAL_KINDS)  # INERTIAL_KINDS -> Pinocchio
 CHUNK = 512  # samples per pass: the (chunk, nv, 10 n_bodies) regressor buffer stays small
-VECTOR_CHUNK_VALUES = 1_000_000  # vectorised path: samples per pass so that Y holds ~this many
 
 
 @dataclass(frozen=True)
@@ -94,18 +90,13 @@ class TreeRegressor:
 
     ``frames``: Pinocchio frame ids of the bodies fixed to frames (slot k = frames[k]);
     ``closure``: the loops' tree states, None for a serial/tree robot whose movable joints are
-    all actuated; ``vectorised``: the numpy recursion over a chunk (when every joint is 1-DOF)
-    instead of Pinocchio per sample. Not thread-safe (one ``Data``): the owner serialises calls.
+    all actuated. Not thread-safe (one ``Data``): the owner serialises calls.
     """
 
     def __init__(self, model: pin.Model, actuated: Sequence[TreeJoint], frames: Sequence[int],
                  closure: Closure | None,
-                 mimics: Sequence[tuple[TreeJoint, int, float, float]] = (),
-                 vectorised: bool = True):
+                 mimics: Sequence[tuple[TreeJoint, int, float, float]] = ()):
         self.model, self.data = model, model.createData()
-        self._rnea = RneaRegressor(model) if vectorised and supported(model) else None
-        n_y = 10 * (model.njoints - 1) * model.nv
-        self._chunk = max(CHUNK, VECTOR_CHUNK_VALUES // n_y) if self._rnea else CHUNK
         self.actuated, self.frames, self.closure = tuple(actuated), tuple(frames), closure
         self.S_a = np.array([j.iv for j in actuated])
         self._row = {j.iv: a for a, j in enumerate(actuated)}  # actuated index of a v index
@@ -184,19 +175,16 @@ class TreeRegressor:
         drive = [(n, c) for n, c in enumerate(columns) if c.source == "drive"]
         want_y = any(c.source == "joint" for c in columns) or payload is not None
         slots = sorted({c.index for c in columns if c.source == "frame"})
-        n_y = 10 * (self.model.njoints - 1) if want_y and self._rnea is None else 0
+        n_y = 10 * (self.model.njoints - 1) if want_y else 0
         buf = None
-        for s in range(0, q.shape[0], self._chunk):
-            e = min(q.shape[0], s + self._chunk)
+        for s in range(0, q.shape[0], CHUNK):
+            e = min(q.shape[0], s + CHUNK)
             if buf is None or buf.Q.shape[0] != e - s:
                 buf = _Chunk(e - s, self.model.nq, self.model.nv, n_y, len(self.frames),
                              len(self.actuated), self.closure is not None)
             self._states(buf, q[s:e], qd[s:e], qdd[s:e])
-            if not inertial and payload is None:
-                pass  # drive columns only (e.g. the rough ones, identify/stream.py): no regressor
-            elif self._rnea is not None:
-                self._vectorised(buf, columns, inertial, payload, out[:, :, s:e])
-            else:
+            if inertial or payload is not None:  # drive columns only (identify/stream.py's
+                # rough ones) need no regressor
                 self._per_sample(buf, columns, inertial, payload, slots, want_y, out[:, :, s:e])
             for n, c in drive:
                 self._drive(buf, c, qdd[s:e], out[n, :, s:e])
@@ -217,46 +205,6 @@ class TreeRegressor:
             f = buf.Y[:, :, 10 * (joint - 1):10 * joint] @ chi  # (m, nv, k): Y_j χ_l
             out[len(columns):len(columns) + chi.shape[1]] = \
                 self._project(buf, f).transpose(2, 1, 0)
-
-    def _vectorised(self, c: _Chunk, columns: Sequence[Column], inertial: list[int],
-                    payload: tuple[int, np.ndarray] | None, out: np.ndarray) -> None:
-        """Inertial and payload columns of a chunk from the vectorised recursion: each body's
-        efforts for the parameter vectors asked of it (unit vectors; χ_l for the payload),
-        then Gᵀ (or the actuated rows)."""
-        rnea, m = self._rnea, c.Q.shape[0]
-        kin = rnea.kinematics(c.Q, c.V, c.A)
-        asks: dict[tuple[str, int], list[tuple[int, np.ndarray]]] = {}
-        for n in inertial:
-            col = columns[n]
-            asks.setdefault((col.source, col.index), []).append((n, np.eye(10)[col.pin_column]))
-        k = 0
-        if payload is not None:  # its k columns: one per parameter vector
-            joint, chi = _payload_matrix(payload)
-            k = chi.shape[1]
-            asks.setdefault(("joint", joint), []).extend(
-                (len(columns) + i, chi[:, i]) for i in range(k))
-        serial = c.G is None and self._identity
-        T = out if serial else np.empty((len(columns) + k, self.model.nv, m))
-        for (source, index), items in asks.items():
-            P = np.stack([p for _, p in items], axis=1)
-            path, E = rnea.body_efforts(kin, index, P) if source == "joint" else \
-                rnea.frame_efforts(kin, self.frames[index], P)
-            rows = slice(path[0], path[-1] + 1) if path == tuple(range(path[0], path[-1] + 1)) \
-                else list(path)
-            for (n, _), e in zip(items, E):  # tree efforts: column, joint, sample
-                T[n] = 0.0
-                T[n, rows] = e
-        if serial:
-            return
-        wanted = inertial + list(range(len(columns), len(columns) + k))
-        if c.G is None and self._G0 is not None:  # mimic joints: τ_l + r τ_m
-            out[wanted] = np.einsum("va,wvm->wam", self._G0, T[wanted])
-            return
-        if c.G is None:
-            out[wanted] = T[wanted][:, self.S_a]
-            return
-        Gt = c.G.transpose(1, 2, 0)  # (nv, n_a, m)
-        out[wanted] = sum(T[wanted, v][:, None, :] * Gt[v][None] for v in range(T.shape[1]))
 
     def _inertial(self, c: _Chunk, columns: Sequence[Column]) -> np.ndarray:
         """Tree forces (m, nv, n) of inertial columns, from Y and the frames' J_fᵀ Φ_f."""

@@ -4,6 +4,9 @@ YAML's actuated joints, nominal drive gains and payload frame.
     arm = load_arm("ur5")          # a bundled robot name, a robot YAML or a URDF
     arm.joint_names, arm.urdf_text, arm.inertials["upper_arm_link"].mass
 
+A robot YAML's ``locked_joints: {joint: value}`` (a gripper's fingers) and the URDF mimic joints
+that follow them are held at those values (``ArmDescription.locked``): the plant welds them there.
+
 The URDF is read here with the standard library's XML parser, apart from both dynamics engines
 that load it too (MuJoCo for the plant, Pinocchio for the check and the regressor). Only the
 robot YAML's location rules come from the product (``orthoglide_ident.model.robots``).
@@ -14,7 +17,7 @@ from __future__ import annotations
 
 import math
 import xml.etree.ElementTree as ET
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -76,6 +79,7 @@ class ArmDescription:
     joints: tuple[ArmJoint, ...]
     inertials: dict[str, LinkInertial]  # link name -> URDF inertial (links without one: absent)
     payload_frame: str
+    locked: dict[str, float] = field(default_factory=dict)  # joint -> value held (m or rad)
 
     @property
     def joint_names(self) -> tuple[str, ...]:
@@ -151,11 +155,28 @@ def arm_joint(el: ET.Element, kind: str, child: str, gain: float) -> ArmJoint:
                     lower, upper, get("velocity", "inf"), get("effort", "inf"), gain)
 
 
+def locked_values(joints, listed: dict, where: str) -> dict[str, float]:
+    """The robot file's ``locked_joints`` and the URDF mimic joints following them (r·v + o)."""
+    kinds = {j[0]: j[1] for j in joints}
+    locked = {}
+    for name, value in (listed or {}).items():
+        if kinds.get(name) not in MOVABLE:
+            raise ConfigError(f"{where}: locked joint {name!r} is not a movable joint of the URDF")
+        locked[str(name)] = float(value)
+    for name, _, _, _, el in joints:
+        mimic = el.find("mimic")
+        if mimic is not None and mimic.get("joint") in locked and name not in locked:
+            locked[name] = (float(mimic.get("multiplier", "1")) * locked[mimic.get("joint")]
+                            + float(mimic.get("offset", "0")))
+    return locked
+
+
 def _serial_joints(
-    joints, actuated: list[str], gains: list[float], where: str
+    joints, actuated: list[str], gains: list[float], where: str, locked: dict[str, float]
 ) -> tuple[ArmJoint, ...]:
-    """The movable joints in chain order; ConfigError unless they form one chain, all actuated."""
-    movable = [j for j in joints if j[1] in MOVABLE]
+    """The movable joints in chain order, the locked ones left out; ConfigError unless they form
+    one chain, all actuated."""
+    movable = [j for j in joints if j[1] in MOVABLE and j[0] not in locked]
     names = [j[0] for j in movable]
     if sorted(names) != sorted(actuated):
         raise ConfigError(f"{where}: the arm simulator needs every movable joint actuated; movable "
@@ -199,12 +220,14 @@ def load_arm(spec: str | Path = "ur5") -> ArmDescription:
     joints, inertials = parse_urdf(text, str(urdf_path))
     movable = [j[0] for j in joints if j[1] in MOVABLE]
     actuated = [str(a) for a in data.get("actuated_joints") or movable]
-    gains = [float(g) for g in data.get("nominal_gains") or [1.0] * len(actuated)]
+    given = data.get("nominal_gains") or 1.0
+    gains = [float(g) for g in (given if isinstance(given, list) else [given] * len(actuated))]
     if len(gains) != len(actuated):
         raise ConfigError(
             f"robot file {path}: {len(gains)} nominal gains for {len(actuated)} joints"
         )
-    arm_joints = _serial_joints(joints, actuated, gains, str(path))
+    locked = locked_values(joints, data.get("locked_joints"), str(path))
+    arm_joints = _serial_joints(joints, actuated, gains, str(path), locked)
     name = str(data.get("name") or urdf_path.stem)
     frame = str(data.get("payload_frame") or arm_joints[-1].child)
-    return ArmDescription(name, urdf_path, text, arm_joints, inertials, frame)
+    return ArmDescription(name, urdf_path, text, arm_joints, inertials, frame, locked)

@@ -12,12 +12,14 @@ body masses, centres of mass and full inertia tensors equal the truth to round-o
 MuJoCo options: gravity ``arm_truth.GRAVITY`` along -z; RK4 at TIMESTEP (4 steps per 1 kHz
 tick: against 1/32 ms steps the velocity after a tick differs by 2e-9 to 1e-7 rad/s rms on the
 UR5's exciting motion, an equivalent torque below 1e-3 of the current noise's); no contacts
-(geometry is stripped: ``discardvisual``, no geoms), no joint-limit
+(geometry is stripped: ``discardvisual``, collision meshes removed, no contacts), no joint-limit
 constraints (leaving the limits is the simulator's WorkspaceError instead); the inertials exactly
 as given (``balanceinertia="false"``, ``inertiafromgeom="false"``, static links not fused so the
 payload frame exists). Friction loss is MuJoCo's soft constraint (time constant
 FRICTION_TIMECONST): it turns smoothly through zero velocity within ~0.01 rad/s, as a real
-joint's friction does, and is fs sign(q̇) outside that band.
+joint's friction does, and is fs sign(q̇) outside that band. A locked joint (``arm.locked``: a
+gripper's fingers) is welded: its body moved to the locked value along the joint's axis, the joint
+and the mimic constraint MuJoCo made of it deleted.
 """
 from __future__ import annotations
 
@@ -70,6 +72,37 @@ def _set_inertial(body, rb: RigidBody) -> None:
     body.fullinertia = [I[0, 0], I[1, 1], I[2, 2], I[0, 1], I[0, 2], I[1, 2]]
 
 
+def _strip_meshes(spec: mujoco.MjSpec) -> None:
+    """Collision meshes removed (contacts are off, inertials explicit: they play no part, and a
+    package:// mesh file need not be found)."""
+    for geom in [g for g in spec.geoms if g.type == mujoco.mjtGeom.mjGEOM_MESH]:
+        spec.delete(geom)
+    for mesh in list(spec.meshes):
+        spec.delete(mesh)
+
+
+def _weld(spec: mujoco.MjSpec, locked: dict[str, float]) -> None:
+    """Each locked joint's body moved to the joint's value (a slide along, a hinge about its
+    axis in the body frame), then the joint and any equality naming it deleted."""
+    for eq in [e for e in spec.equalities if e.name1 in locked or e.name2 in locked]:
+        spec.delete(eq)
+    for name, value in locked.items():
+        joint = spec.joint(name)
+        if joint is None:
+            raise ConfigError(f"locked joint {name!r} is not a joint of the MuJoCo model")
+        body, axis = joint.parent, np.asarray(joint.axis, float)
+        R = np.empty(9)
+        mujoco.mju_quat2Mat(R, np.asarray(body.quat, float))
+        if joint.type == mujoco.mjtJoint.mjJNT_SLIDE:
+            body.pos = np.asarray(body.pos, float) + R.reshape(3, 3) @ axis * value
+        else:
+            turn, quat = np.empty(4), np.empty(4)
+            mujoco.mju_axisAngle2Quat(turn, axis / np.linalg.norm(axis), value)
+            mujoco.mju_mulQuat(quat, np.asarray(body.quat, float), turn)
+            body.quat = quat
+        spec.delete(joint)
+
+
 def build_spec(truth: ArmTruth, payload: ArmPayload | None = None) -> mujoco.MjSpec:
     """The MuJoCo specification of the arm with the truth's numbers (and ``payload`` as a body
     welded to its frame)."""
@@ -77,6 +110,8 @@ def build_spec(truth: ArmTruth, payload: ArmPayload | None = None) -> mujoco.MjS
         spec = mujoco.MjSpec.from_string(_mujoco_urdf(truth.arm.urdf_text))
     except ValueError as exc:
         raise ConfigError(f"MuJoCo cannot load {truth.arm.urdf_path}: {exc}") from None
+    _strip_meshes(spec)
+    _weld(spec, truth.arm.locked)
     spec.option.timestep = TIMESTEP
     spec.option.integrator = mujoco.mjtIntegrator.mjINT_RK4
     spec.option.gravity = [0.0, 0.0, -truth.gravity]

@@ -90,14 +90,15 @@ def simulate_arm(duration_s: float, robot: str = "ur5", payload: str | None = No
                  trajectory: str | FourierTrajectory = "exciting1", seed: int = 0,
                  truth: ArmTruth | None = None, noise: bool = True, start_ns: int = 0,
                  limits: MotionLimits | None = None,
-                 effects: Unmodelled | None = None) -> ArmRecord:
+                 effects: Unmodelled | None = None, omega: float = asim.OMEGA) -> ArmRecord:
     """The arm tracking ``trajectory`` for ``duration_s`` s under the 1 kHz PID (arm_simulator).
 
     robot: a bundled name, robot YAML or URDF (ignored when ``truth`` is given); payload: None,
     "2.0", "1.0" or another of ``truth.payloads``; trajectory: "exciting1", "exciting2", a .json
     or a FourierTrajectory (designed_runs.py: a run the product designed); limits: the stop
     limits (default arm_limits.motion_limits); effects: drive effects the identification's model
-    lacks (orthoglide_sim/arms/unmodelled.py), None: the plant the model describes.
+    lacks (orthoglide_sim/arms/unmodelled.py), None: the plant the model describes; omega: the
+    PID's bandwidth, rad/s (simulator.ArmPID.tuned).
     Raises ConfigError on bad arguments, WorkspaceError if the arm leaves its stop limits.
     """
     if not duration_s > 0:
@@ -117,6 +118,7 @@ def simulate_arm(duration_s: float, robot: str = "ur5", payload: str | None = No
         quantise(q_ref[0] - qd_ref[0] * asim.TICK, truth.encoder_resolution),
         qd_ref[0],
         torque0,
+        omega,
     )
     plant.reset(q_ref[0], qd_ref[0])
     drive = None

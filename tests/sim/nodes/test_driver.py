@@ -3,6 +3,7 @@ commands applied from the next tick, lockstep in simulated time."""
 from __future__ import annotations
 
 import os
+import re
 import subprocess
 import sys
 import threading
@@ -170,6 +171,12 @@ def test_packed_messages_read_back_by_rclpy_and_rosbags():
             assert (back.header.stamp.sec, back.header.stamp.nanosec) == (sec, nsec)
             for f, v in zip(fields, values):
                 np.testing.assert_array_equal(getattr(back, f), v)
+
+
+TICK_NS = 1_000_000  # the driver's 1 kHz tick
+# s, a bound against a hang only: beside two CPU hogs on 2 cores the driver took over 60 s to
+# publish its first 300 ticks and over 30 s to end on SIGTERM
+HANG_S = 300.0
 
 
 def _stamp(m) -> int:
@@ -350,7 +357,9 @@ def test_real_time_fault_then_reset_then_on_again(ros_env):
     """Real time, ctc, ticks computed ahead: a NaN feed-forward stops the robot (said once; the
     ticks published are those /diagnostics counts at the stop, none after), reset puts it back and
     the ticks go on with later stamps; a second reset with no fault says so. Every wait is for an
-    event (a bound only against a hang): the machine's speed changes how long, not what."""
+    event (a bound only against a hang): the machine's speed changes how long, not what. The
+    checks are on stamps, not on list positions: under load the subscription may match after the
+    driver's first ticks, so the first stamp heard need not be tick 0."""
     import rclpy
     from diagnostic_msgs.msg import DiagnosticArray
     from rclpy.qos import QoSProfile, ReliabilityPolicy
@@ -374,7 +383,7 @@ def test_real_time_fault_then_reset_then_on_again(ros_env):
     reset = node.create_client(Trigger, "/orthoglide_driver/reset")
     proc = _start_driver(children, ros_env, controller="ctc", trajectory="test1", rt_priority="0")
 
-    def spin_until(ready, timeout=60.0):
+    def spin_until(ready, timeout=HANG_S):
         t_end = time.monotonic() + timeout
         while not ready() and time.monotonic() < t_end and proc.poll() is None:
             rclpy.spin_once(node, timeout_sec=0.01)
@@ -387,24 +396,35 @@ def test_real_time_fault_then_reset_then_on_again(ros_env):
 
     try:
         assert spin_until(lambda: len(js) > 300)
+        # a message sent before the driver's subscription is matched is lost (volatile QoS): the
+        # loaded machine's slow discovery, not the driver, was why no fault came
+        assert spin_until(lambda: pub.get_subscription_count() > 0)
         msg = CurrentReference(name=["q11", "q12", "q13"], current=[float("nan"), 0.0, 0.0])
-        msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(js[-1] + 100_000_000, 1_000_000_000)
+        t_nan = js[-1] + 100 * TICK_NS
+        msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(t_nan, 1_000_000_000)
         pub.publish(msg)
-        assert spin_until(lambda: faults)  # stopped: its counters with the fault
-        assert reset.wait_for_service(timeout_sec=60.0)
+        assert spin_until(lambda: faults)  # stopped on receipt: its counters with the fault
+        assert reset.wait_for_service(timeout_sec=HANG_S)
         first = call_reset()
         assert first.success and "was stopped: refused feed-forward" in first.message, first.message
         n_stopped = int(faults[0]["ticks"])
-        assert spin_until(lambda: len(js) > n_stopped + 300)
+        # the driver's tick of a stamp: the fault names the tick the NaN was stamped for
+        k_nan = int(re.search(r"for tick (-?\d+)", faults[0]["fault"]).group(1))
+        start_ns = t_nan - k_nan * TICK_NS
+        t_stop = start_ns + (n_stopped - 1) * TICK_NS  # its last tick published before the stop
+        assert spin_until(lambda: sum(t > t_stop for t in js[-301:]) > 300)
         again = call_reset()
         assert again.success and again.message == "no fault to clear"
     finally:
         proc.terminate()
-        out = proc.communicate(timeout=30)[0]
+        out = proc.communicate(timeout=HANG_S)[0]
         node.destroy_node()
         rclpy.shutdown()
-    steps = np.diff(js)
-    assert np.all(steps > 0)  # the stamps go on after the stop: later, never repeated
-    gaps = np.flatnonzero(steps != 1_000_000)  # on the 1 kHz grid but across the stop
-    assert len(gaps) == 1 and gaps[0] + 1 == n_stopped, (gaps, n_stopped)  # nothing after the stop
+    stamps = np.array(js)
+    assert np.all(np.diff(stamps) > 0)  # the stamps go on after the stop: later, never repeated
+    before, after = stamps[stamps <= t_stop], stamps[stamps > t_stop]
+    # every tick heard before the stop on the 1 kHz grid up to the driver's count at the stop,
+    # tick n_stopped - 1; nothing published between it and the reset
+    assert np.all(np.diff(before) == TICK_NS) and before[-1] == t_stop, (before[-3:], t_stop)
+    assert after[0] - t_stop > TICK_NS and np.all(np.diff(after) == TICK_NS)
     assert out.count("]: stopped: refused feed-forward") == 1, out
