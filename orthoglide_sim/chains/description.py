@@ -131,5 +131,6 @@ def load_chain(spec: str | Path = "five_bar") -> ChainDescription:
     gravity = tuple(float(g) for g in data.get("gravity", DEFAULT_GRAVITY))
     name = str(data.get("name") or urdf_path.stem)
     frame = str(data.get("payload_frame") or act[-1].child)
-    return ChainDescription(name, urdf_path, text, act, inertials, frame, passive,
-                            tuple(j[0] for j in movable), loops, reference, gravity)
+    return ChainDescription(name, urdf_path, text, act, inertials, frame, passive=passive,
+                            tree_joints=tuple(j[0] for j in movable), loops=loops,
+                            reference=reference, gravity=gravity)
