@@ -92,5 +92,5 @@ def test_design_says_its_expected_duration_first(tmp_path):
     assert p.returncode == 0, p.stderr
     lines = p.stderr.splitlines()
     assert lines[1].startswith("orthoglide-ident: expected duration ~")
-    assert "(2 random shapes, 8 steps)" in lines[1]
+    assert "(2 random shapes, 8 steps" in lines[1]
     assert "\r" not in p.stderr and "step 8/8" not in p.stderr  # piped: no progress, no steps
