@@ -12,7 +12,7 @@ body masses, centres of mass and full inertia tensors equal the truth to round-o
 MuJoCo options: gravity ``arm_truth.GRAVITY`` along -z; RK4 at TIMESTEP (4 steps per 1 kHz
 tick: against 1/32 ms steps the velocity after a tick differs by 2e-9 to 1e-7 rad/s rms on the
 UR5's exciting motion, an equivalent torque below 1e-3 of the current noise's); no contacts
-(geometry is stripped: ``discardvisual``, no geoms), no joint-limit
+(geometry is stripped: ``discardvisual`` and the <collision> elements, no geoms), no joint-limit
 constraints (leaving the limits is the simulator's WorkspaceError instead); the inertials exactly
 as given (``balanceinertia="false"``, ``inertiafromgeom="false"``, static links not fused so the
 payload frame exists). Friction loss is MuJoCo's soft constraint (time constant
@@ -55,6 +55,8 @@ def _mujoco_urdf(text: str) -> str:
             'discardvisual="true" autolimits="true"/></mujoco>')
     text = re.sub(r"<!--.*?-->", "", text, flags=re.S)  # a comment may name <robot> or <mujoco>
     text = re.sub(r"<mujoco\b[^>]*/>|<mujoco\b.*?</mujoco>", "", text, count=1, flags=re.S)
+    # no contacts, so no geoms: a collision mesh MuJoCo cannot open (package://) is dropped too
+    text = re.sub(r"<collision\b[^>]*/>|<collision\b.*?</collision>", "", text, flags=re.S)
     start = text.find("<robot")
     end = text.find(">", start)
     if start < 0 or end < 0:
