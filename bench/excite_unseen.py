@@ -7,8 +7,9 @@ bundled UR5 and five-bar.
 
 Times: the design's wall time and this process's CPU time (the machine is shared: the CPU
 time compares runs made under different loads). Each unseen arm is used as its URDF comes, with
-no hand edit: a gripper joint is fixed by the product's own ``locked_joints`` key in a two-line
-robot file a user would write (the Panda's fingers, the Z1's and the SO-101's grippers), with
+no hand edit: where the URDF alone cannot be used, a three-line robot file a user would write
+(FILE_KEYS) fixes a gripper by the product's ``locked_joints`` key (the Panda's fingers, the
+Z1's and the SO-101's grippers) or gives a continuous joint a range (the Kinova's), with
 a 1 kg payload on its last link and nothing else: no acceleration limits (the derived default;
 ``--acceleration`` gives every joint one, as a joint_limits file would), no start pose (the
 file's, else mid-range out of self-collision). Per robot: design time, the predicted worst
@@ -69,21 +70,25 @@ UNSEEN = {"ur10": "ur_description/urdf/ur10_robot.urdf",
           "z1": "z1_description/urdf/z1.urdf",
           "kinova": "kinova_description/robots/kinova.urdf",
           "so101": "so_arm_description/urdf/so101.urdf"}
-LOCKED = {"panda": {"panda_finger_joint1": 0.0},  # the fingers (finger 2 mimics 1), closed
-          "z1": {"jointGripper": 0.0},  # the gripper's jaw, closed
-          "so101": {"gripper": 0.0}}
+# The robot-file keys a user adds when the URDF alone cannot be used (docs/guide/robot_files.md):
+# a gripper's joints locked (model/locked_joints.py), continuous joints given a range.
+CONTINUOUS = "[-3.1416, 3.1416]"  # rad: one turn for a continuous joint (the URDF gives none)
+FILE_KEYS = {"panda": "locked_joints: {panda_finger_joint1: 0.0}",  # finger 2 mimics 1; closed
+             "z1": "locked_joints: {jointGripper: 0.0}",  # the gripper's jaw, closed
+             "so101": "locked_joints: {gripper: 0.0}",
+             "kinova": "excitation: {position_limits: {" + ", ".join(
+                 f"j2s6s200_joint_{k}: {CONTINUOUS}" for k in (1, 4, 6)) + "}}"}
 BUNDLED = {"ur5": Payload(2.0, "tool0", (0.035, -0.025, 0.06), (4e-3, 0, 0, 4e-3, 0, 2.5e-3)),
            "five_bar": Payload(1.0, "tip", (0.01, 0.0, 0.02), (1e-4, 0, 0, 1e-4, 0, 1e-4))}
 UNSEEN_PAYLOAD_KG = 1.0
 
 
 def unseen_spec(name: str, folder: Path) -> Path:
-    """The arm's URDF, or a robot file in ``folder`` locking its gripper (``locked_joints``)."""
-    if name not in LOCKED:
+    """The arm's URDF, or a robot file in ``folder`` with its FILE_KEYS."""
+    if name not in FILE_KEYS:
         return ERD / UNSEEN[name]
     out = folder / f"{name}.yaml"
-    out.write_text(f"name: {name}\ndescription: {ERD / UNSEEN[name]}\n"
-                   f"locked_joints: {LOCKED[name]}\n")
+    out.write_text(f"name: {name}\ndescription: {ERD / UNSEEN[name]}\n{FILE_KEYS[name]}\n")
     return out
 
 
