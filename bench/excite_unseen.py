@@ -55,6 +55,7 @@ from orthoglide_ident.excite.prediction import (  # noqa: E402
     predict,
 )
 from orthoglide_ident.excite.summary import with_extras  # noqa: E402
+from orthoglide_ident.excite.trajectory import save_trajectory  # noqa: E402
 from orthoglide_ident.identify import identify_records  # noqa: E402
 from orthoglide_ident.model.robot import Payload  # noqa: E402
 from orthoglide_ident.model.robots import load_robot  # noqa: E402
@@ -170,6 +171,8 @@ def achieved(name: str, args, folder: Path) -> None:
                         restarts=args.restarts, steps=args.steps, search=args.search)
     d = design(robot, limits, collision, opt, progress=lambda s: print("  " + s, file=sys.stderr))
     traj = with_extras(d, limits, collision, "default")
+    if args.out:
+        save_trajectory(traj, args.out)
     t = np.linspace(0.0, traj.period_s, 400, endpoint=False)
     pilot, white = simulated(traj, truth, robot, key, 100)
     noises = {"design default": np.full(robot.n_joints, DEFAULT_CURRENT_NOISE),
@@ -215,6 +218,7 @@ def main() -> None:
     ap.add_argument("--achieved", default=None, help="predicted vs achieved σ on this arm")
     ap.add_argument("--seeds", type=int, default=3)
     ap.add_argument("--payload-kg", type=float, default=2.0, help="with --achieved")
+    ap.add_argument("--out", default=None, help="with --achieved: the trajectory file written")
     ap.add_argument("--restarts", type=int, default=20)
     ap.add_argument("--steps", type=int, default=None)
     ap.add_argument("--time-limit", type=float, default=None)
