@@ -16,11 +16,12 @@ file's, else mid-range out of self-collision). Per robot: design time, the predi
 gain σ and κ of the design against the median of the random feasible shapes, the smallest
 slack to the margins on the 1 ms grid, or the refusal.
 
-``--achieved ur10 --seeds 3 --payload-kg 2``: predicted vs achieved σ on the arm's simulated
-runs. The design (defaults, a ``--payload-kg`` point mass on the last link, the design's default
-current noise) is tracked by the MuJoCo plant built from the URDF alone
+``--achieved ur10 --seeds 3 --payload-kg 2 [--payload-com X,Y,Z]``: predicted vs achieved σ on
+the arm's simulated runs. The design (defaults, a ``--payload-kg`` point mass on the last link,
+or the simulator's offset body with its CoM and inertia given, the design's default current
+noise) is tracked by the MuJoCo plant built from the URDF alone
 (orthoglide_sim.arms: its own inertials perturbed by the seeded rule, gains 2-6 % off nominal,
-friction, rotor inertia, 0.5 % white current noise, encoders; the same point mass welded to the
+friction, rotor inertia, 0.5 % white current noise, encoders; the same payload welded to the
 last link) and identified by ``identify_records``. The prediction (eq. 39 at the nominal model)
 is given with three noise assumptions: the design's default (DEFAULT_CURRENT_NOISE), the
 simulation's white current noise, and the equation error of a pilot identification of the
@@ -60,6 +61,7 @@ from orthoglide_ident.identify import identify_records  # noqa: E402
 from orthoglide_ident.model.robot import Payload  # noqa: E402
 from orthoglide_ident.model.robots import load_robot  # noqa: E402
 from orthoglide_sim.arms.session import resolve_payload, robot_truth  # noqa: E402
+from orthoglide_sim.arms.truth import with_offset_payload  # noqa: E402
 from orthoglide_sim.demos.designed_runs import simulate_designed  # noqa: E402
 
 SHARE = Path(sys.prefix) / "lib/python3.11/site-packages/cmeel.prefix/share"
@@ -158,15 +160,38 @@ def simulated(traj, truth, robot, load: str, seed: int):
     return res, (u.current_noise_std, lo.current_noise_std)
 
 
+def plant_and_payload(spec: str, mass: float, com: str | None):
+    """The plant's truth from the URDF with a payload named "load", and the design's Payload:
+    a point mass at the last link's origin, or (``com`` "x,y,z" m) the simulator's offset body
+    there (with_offset_payload), its CoM and inertia given to the design (--payload-com)."""
+    truth = robot_truth(spec)
+    if com is None:
+        point = resolve_payload(truth, f"{mass:g}")
+        return replace(truth, payloads={**truth.payloads, "load": point}), Payload(mass)
+    truth = with_offset_payload(truth, mass, tuple(float(c) for c in com.split(",")),
+                                name="load")
+    body = truth.payloads["load"].body
+    I = body.inertia
+    return truth, Payload(mass, "", tuple(body.com),
+                          (I[0, 0], I[0, 1], I[0, 2], I[1, 1], I[1, 2], I[2, 2]))
+
+
+def pilot_noise(pilot, robot) -> np.ndarray:
+    """--noise-from of the pilot identification; NaN where it leaves a gain undetermined."""
+    try:
+        return noise_from_result(pilot.to_json(), robot.joint_names, "pilot")
+    except OrthoglideError as exc:
+        print(f"  pilot residual: {exc}", file=sys.stderr)
+        return np.full(robot.n_joints, np.nan)
+
+
 def achieved(name: str, args, folder: Path) -> None:
     """Predicted vs achieved σ of the gains of arm ``name`` (module docstring)."""
     spec = str(unseen_spec(name, folder))
-    robot, key = load_robot(spec), f"{args.payload_kg:g}"
-    truth = robot_truth(spec)
-    truth = replace(truth, payloads={**truth.payloads, key: resolve_payload(truth, key)})
+    robot = load_robot(spec)
+    truth, load = plant_and_payload(spec, args.payload_kg, args.payload_com)
     limits = read_limits(robot)
     collision = CollisionModel(robot, args.collision, [str(SHARE)])
-    load = Payload(args.payload_kg)
     opt = DesignOptions(load, np.full(robot.n_joints, DEFAULT_CURRENT_NOISE),
                         restarts=args.restarts, steps=args.steps, search=args.search)
     d = design(robot, limits, collision, opt, progress=lambda s: print("  " + s, file=sys.stderr))
@@ -174,10 +199,9 @@ def achieved(name: str, args, folder: Path) -> None:
     if args.out:
         save_trajectory(traj, args.out)
     t = np.linspace(0.0, traj.period_s, 400, endpoint=False)
-    pilot, white = simulated(traj, truth, robot, key, 100)
+    pilot, white = simulated(traj, truth, robot, "load", 100)
     noises = {"design default": np.full(robot.n_joints, DEFAULT_CURRENT_NOISE),
-              "sim white": list(white),
-              "pilot residual": noise_from_result(pilot.to_json(), robot.joint_names, "pilot")}
+              "sim white": list(white), "pilot residual": pilot_noise(pilot, robot)}
     pred = {}
     for label, noise in noises.items():
         per_run = noise if isinstance(noise, list) else [noise, noise]
@@ -186,12 +210,13 @@ def achieved(name: str, args, folder: Path) -> None:
         pred[label] = predict(robot, runs, per_run[0], lag=True,
                               period_s=traj.period_s).gain_rel_std
     g_true, errs, paper, honest = truth.drive_array("g_tau"), [], [], []
+    num = lambda v: np.nan if v is None else v  # noqa: E731  (an undetermined gain)
     for seed in range(args.seeds):
-        res, _ = simulated(traj, truth, robot, key, seed)
-        errs.append(np.array([x.value for x in res.drive_gains]) / g_true - 1)
-        paper.append([x.rel_std_paper for x in res.drive_gains])
-        honest.append([x.rel_std for x in res.drive_gains])
-    errs, paper, honest = map(np.array, (errs, paper, honest))
+        res, _ = simulated(traj, truth, robot, "load", seed)
+        errs.append(np.array([num(x.value) for x in res.drive_gains]) / g_true - 1)
+        paper.append([num(x.rel_std_paper) for x in res.drive_gains])
+        honest.append([num(x.rel_std) for x in res.drive_gains])
+    errs, paper, honest = (np.array(x, float) for x in (errs, paper, honest))
     print_achieved(name, d, robot, pred, noises, errs, paper, honest)
 
 
@@ -218,6 +243,8 @@ def main() -> None:
     ap.add_argument("--achieved", default=None, help="predicted vs achieved σ on this arm")
     ap.add_argument("--seeds", type=int, default=3)
     ap.add_argument("--payload-kg", type=float, default=2.0, help="with --achieved")
+    ap.add_argument("--payload-com", default=None, metavar="X,Y,Z",
+                    help="with --achieved: an offset payload (m), else a point mass")
     ap.add_argument("--out", default=None, help="with --achieved: the trajectory file written")
     ap.add_argument("--restarts", type=int, default=20)
     ap.add_argument("--steps", type=int, default=None)
