@@ -172,8 +172,8 @@ def plant_and_payload(spec: str, mass: float, com: str | None):
                                 name="load")
     body = truth.payloads["load"].body
     I = body.inertia
-    return truth, Payload(mass, "", tuple(body.com),
-                          (I[0, 0], I[0, 1], I[0, 2], I[1, 1], I[1, 2], I[2, 2]))
+    return truth, Payload(mass, "", tuple(map(float, body.com)), tuple(
+        float(I[a, b]) for a, b in ((0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2))))
 
 
 def pilot_noise(pilot, robot) -> np.ndarray:
