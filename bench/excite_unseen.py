@@ -60,9 +60,16 @@ from orthoglide_ident.excite.trajectory import save_trajectory  # noqa: E402
 from orthoglide_ident.identify import identify_records  # noqa: E402
 from orthoglide_ident.model.robot import Payload  # noqa: E402
 from orthoglide_ident.model.robots import load_robot  # noqa: E402
+from orthoglide_sim.arms.plant import MujocoPlant  # noqa: E402
+from orthoglide_sim.arms.record import simulate_arm  # noqa: E402
 from orthoglide_sim.arms.session import resolve_payload, robot_truth  # noqa: E402
+from orthoglide_sim.arms.simulator import joint_inertia  # noqa: E402
 from orthoglide_sim.arms.truth import with_offset_payload  # noqa: E402
-from orthoglide_sim.demos.designed_runs import simulate_designed  # noqa: E402
+from orthoglide_sim.demos.designed_runs import (  # noqa: E402
+    fourier,
+    simulate_designed,
+    stop_limits,
+)
 
 SHARE = Path(sys.prefix) / "lib/python3.11/site-packages/cmeel.prefix/share"
 ERD = SHARE / "example-robot-data/robots"
@@ -151,12 +158,31 @@ def run(name: str, args, folder: Path) -> None:
           + (f"  not excited: {'; '.join(gone)}" if gone else ""))
 
 
-def simulated(traj, truth, robot, load: str, seed: int):
+def softest_pose(traj, run: str, truth) -> np.ndarray:
+    """The pose of ``run`` (sampled every 50 ms) where the unloaded plant's joint inertias are
+    smallest (least Σ log M_jj): a PID tuned there is not too stiff anywhere on the run."""
+    q = traj.evaluate(run, np.arange(0.0, traj.period_s, 0.05))[0]
+    plant = MujocoPlant(truth)
+    return q[int(np.argmin([np.log(joint_inertia(plant, x)).sum() for x in q]))]
+
+
+def simulated(traj, truth, robot, load: str, seed: int, tune: str = "start"):
     """The unloaded and loaded runs of ``traj`` on the plant (noise seeds 2·seed, 2·seed + 1),
-    their identification and the simulation's white current noise (n,) A of each run."""
-    u = simulate_designed(traj, "unloaded", truth, None, seed=2 * seed)
-    lo = simulate_designed(traj, "loaded", truth, load, seed=2 * seed + 1)
+    their identification, the simulation's white current noise (n,) A of each run and its
+    saturated ticks. ``tune``: the PID tuned at the run's start pose (simulate_designed), or at
+    its softest pose (softest_pose)."""
+    recs = []
+    for k, (run, pl) in enumerate((("unloaded", None), ("loaded", load))):
+        if tune == "start":
+            recs.append(simulate_designed(traj, run, truth, pl, seed=2 * seed + k))
+            continue
+        limits = replace(stop_limits(traj, run), centre=softest_pose(traj, run, truth))
+        recs.append(simulate_arm(traj.duration, payload=pl, trajectory=fourier(traj, run),
+                                 seed=2 * seed + k, truth=truth, limits=limits))
+    u, lo = recs
     res = identify_records([as_record(u, f"u{seed}"), as_record(lo, f"l{seed}")], model=robot)
+    print(f"  seed {seed}: saturated ticks {u.saturated_ticks} + {lo.saturated_ticks} of "
+          f"{2 * len(u.q)}", file=sys.stderr)
     return res, (u.current_noise_std, lo.current_noise_std)
 
 
@@ -199,7 +225,7 @@ def achieved(name: str, args, folder: Path) -> None:
     if args.out:
         save_trajectory(traj, args.out)
     t = np.linspace(0.0, traj.period_s, 400, endpoint=False)
-    pilot, white = simulated(traj, truth, robot, "load", 100)
+    pilot, white = simulated(traj, truth, robot, "load", 100, args.tune)
     noises = {"design default": np.full(robot.n_joints, DEFAULT_CURRENT_NOISE),
               "sim white": list(white), "pilot residual": pilot_noise(pilot, robot)}
     pred = {}
@@ -212,7 +238,7 @@ def achieved(name: str, args, folder: Path) -> None:
     g_true, errs, paper, honest = truth.drive_array("g_tau"), [], [], []
     num = lambda v: np.nan if v is None else v  # noqa: E731  (an undetermined gain)
     for seed in range(args.seeds):
-        res, _ = simulated(traj, truth, robot, "load", seed)
+        res, _ = simulated(traj, truth, robot, "load", seed, args.tune)
         errs.append(np.array([num(x.value) for x in res.drive_gains]) / g_true - 1)
         paper.append([num(x.rel_std_paper) for x in res.drive_gains])
         honest.append([num(x.rel_std) for x in res.drive_gains])
@@ -245,6 +271,8 @@ def main() -> None:
     ap.add_argument("--payload-kg", type=float, default=2.0, help="with --achieved")
     ap.add_argument("--payload-com", default=None, metavar="X,Y,Z",
                     help="with --achieved: an offset payload (m), else a point mass")
+    ap.add_argument("--tune", default="start", help="with --achieved: start | softest, the "
+                    "pose the simulated PID is tuned at (simulated)")
     ap.add_argument("--out", default=None, help="with --achieved: the trajectory file written")
     ap.add_argument("--restarts", type=int, default=20)
     ap.add_argument("--steps", type=int, default=None)
