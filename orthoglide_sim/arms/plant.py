@@ -57,6 +57,8 @@ def _mujoco_urdf(text: str) -> str:
             'discardvisual="true" autolimits="true"/></mujoco>')
     text = re.sub(r"<!--.*?-->", "", text, flags=re.S)  # a comment may name <robot> or <mujoco>
     text = re.sub(r"<mujoco\b[^>]*/>|<mujoco\b.*?</mujoco>", "", text, count=1, flags=re.S)
+    # no contacts, so no geoms: a collision mesh MuJoCo cannot open (package://) is dropped too
+    text = re.sub(r"<collision\b[^>]*/>|<collision\b.*?</collision>", "", text, flags=re.S)
     start = text.find("<robot")
     end = text.find(">", start)
     if start < 0 or end < 0:
@@ -70,15 +72,6 @@ def _set_inertial(body, rb: RigidBody) -> None:
     body.mass = rb.mass
     body.ipos = rb.com
     body.fullinertia = [I[0, 0], I[1, 1], I[2, 2], I[0, 1], I[0, 2], I[1, 2]]
-
-
-def _strip_meshes(spec: mujoco.MjSpec) -> None:
-    """Collision meshes removed (contacts are off, inertials explicit: they play no part, and a
-    package:// mesh file need not be found)."""
-    for geom in [g for g in spec.geoms if g.type == mujoco.mjtGeom.mjGEOM_MESH]:
-        spec.delete(geom)
-    for mesh in list(spec.meshes):
-        spec.delete(mesh)
 
 
 def _weld(spec: mujoco.MjSpec, locked: dict[str, float]) -> None:
@@ -110,7 +103,6 @@ def build_spec(truth: ArmTruth, payload: ArmPayload | None = None) -> mujoco.MjS
         spec = mujoco.MjSpec.from_string(_mujoco_urdf(truth.arm.urdf_text))
     except ValueError as exc:
         raise ConfigError(f"MuJoCo cannot load {truth.arm.urdf_path}: {exc}") from None
-    _strip_meshes(spec)
     _weld(spec, truth.arm.locked)
     spec.option.timestep = TIMESTEP
     spec.option.integrator = mujoco.mjtIntegrator.mjINT_RK4

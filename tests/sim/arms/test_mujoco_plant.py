@@ -2,6 +2,9 @@
 Pinocchio's RNEA of the same truth (two independent implementations), friction loss realistic."""
 from __future__ import annotations
 
+import importlib.metadata
+from pathlib import Path
+
 import mujoco
 import numpy as np
 import pytest
@@ -170,3 +173,31 @@ def test_true_gains_follow_the_robot_files_nominal_gains():
     assert np.allclose(
         bare.drive_array("g_tau"), full.drive_array("g_tau") / full.arm.nominal_gains
     )
+
+
+def _erd_urdf(path: str):
+    """A URDF of the example-robot-data wheel, None if it is not installed."""
+    try:
+        dist = importlib.metadata.distribution("example-robot-data")
+    except importlib.metadata.PackageNotFoundError:
+        return None
+    p = Path(dist.locate_file(f"cmeel.prefix/share/example-robot-data/robots/{path}"))
+    return p if p.is_file() else None
+
+
+UR3_ERD = _erd_urdf("ur_description/urdf/ur3_robot.urdf")
+
+
+@pytest.mark.skipif(UR3_ERD is None, reason="example-robot-data is not installed")
+def test_a_urdf_with_package_collision_meshes_builds_its_plant():
+    """The example-robot-data UR3 (collision meshes at package:// URIs MuJoCo cannot open): its
+    plant builds without geoms and agrees with Pinocchio's RNEA of the same truth."""
+    text = UR3_ERD.read_text()
+    assert "package://" in text and "<collision" in text
+    truth = default_truth(load_arm(str(UR3_ERD)))
+    plant = MujocoPlant(truth)
+    assert plant.model.ngeom == 0
+    q, qd, qdd = _random_states(100)
+    a = plant.inverse_dynamics(q, qd, qdd, friction=True)
+    b = TruthDynamics(truth, None).torques(q, qd, qdd, friction=True)
+    assert np.abs(a - b).max() <= 1e-9 * np.abs(b).max()
