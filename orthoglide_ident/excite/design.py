@@ -66,12 +66,14 @@ from orthoglide_ident.excite.prediction import (
     from_information,
     information,
     nominal_base_values,
+    not_loaded_text,
     periodic_rate,
     run_rows,
+    unloaded,
 )
 from orthoglide_ident.excite.trajectory import ExcitationRun, ExcitationTrajectory, rest_projection
 from orthoglide_ident.identify.columns.current_lag import MIN_PERIODS
-from orthoglide_ident.identify.options import DEFAULT_FILTER_CUTOFF_HZ
+from orthoglide_ident.identify.options import DEFAULT_FILTER_CUTOFF_HZ, MIN_PAYLOAD_SHARE
 from orthoglide_ident.model.robot import Payload
 from orthoglide_ident.progress import ProgressLine, duration_text
 
@@ -131,6 +133,9 @@ class DesignOptions:
     # (None: prediction.MAX_CONDITION)
     time_limit_s: float | None = None  # the search returns its best so far after this
     search: str = "gradient"  # SEARCHES (docs/benchmarks.md: better σ and κ on every arm)
+    # a gain the payload adds less than this share of its torque to is not excited (the
+    # identification's rule: IdentifyOptions.min_payload_share)
+    min_payload_share: float = MIN_PAYLOAD_SHARE
 
 
     def __post_init__(self) -> None:
@@ -251,8 +256,8 @@ class Problem:
         for name, payload in self.runs:
             q, qd, qdd = traj.evaluate(name, self.t)
             try:
-                X, tau = run_rows(self.robot, self.chi_b, self.gains,
-                                  RunSamples(q, qd, qdd, traj.duration, payload))
+                X, tau = rows = run_rows(self.robot, self.chi_b, self.gains,
+                                         RunSamples(q, qd, qdd, traj.duration, payload))
                 slacks = self.slacks(q, qd, qdd, tau.T, name)
             except ModelError as exc:
                 return Evaluation(math.inf, math.inf, None, reason=f"{name} run: {exc}")
@@ -264,13 +269,21 @@ class Problem:
             F = F + information(X, tau, self.gains, self.opt.noise_a,
                                 RATE_HZ * traj.duration / len(self.t), self.lag_rate(tau))
         # the search sees every direction but those null up to rounding (prediction.STRUCTURAL)
-        pred = self.predict(F, SEARCH_CAP)
+        # and designs for the gains the payload scales (the loaded run's rows: the last)
+        pred = self.loaded_gains(self.predict(F, SEARCH_CAP), rows)
         return Evaluation(self.criterion(pred), violation, pred,
                           None if worst is None else worst[1])
 
     def predict(self, F: np.ndarray, cap: float) -> Prediction:
         names = list(self.robot.names) + [f"g({j})" for j in self.robot.joint_names]
         return from_information(F, self.chi_b, self.gains, self.opt.noise_a, cap, names)
+
+    def loaded_gains(self, pred: Prediction, loaded: tuple[np.ndarray, np.ndarray],
+                     payload: Payload | None = None) -> Prediction:
+        """``pred`` without the gains the payload does not scale on the ``loaded`` run's rows
+        (X, τ), by the identification's rule (prediction.unloaded)."""
+        mass = (payload or self.opt.payload).mass
+        return unloaded(pred, *loaded, mass, self.robot.joint_names, self.opt.min_payload_share)
 
     def criterion(self, pred: Prediction) -> float:
         """J (module docstring) of the gains and directions the motion can reach; beyond the
@@ -289,11 +302,11 @@ class Problem:
         F = 0.0
         for name, payload in self.runs:
             q, qd, qdd = traj.evaluate(name, self.t)
-            X, tau = run_rows(self.robot, self.chi_b, self.gains,
-                              RunSamples(q, qd, qdd, traj.duration, payload))
+            X, tau = rows = run_rows(self.robot, self.chi_b, self.gains,
+                                     RunSamples(q, qd, qdd, traj.duration, payload))
             F = F + information(X, tau, self.gains, self.opt.noise_a,
                                 RATE_HZ * traj.duration / len(self.t), self.lag_rate(tau))
-        pred = self.predict(F, self.opt.max_condition)
+        pred = self.loaded_gains(self.predict(F, self.opt.max_condition), rows)
         if not pred.unexcited:
             return pred
         try:
@@ -630,9 +643,12 @@ def design(robot, limits: JointLimits, collision, options: DesignOptions,
     pred = problem.prediction_of(traj)
     if pred.undetermined_gains.all():
         raise ExcitationError("no drive gain is determined by any motion within the limits: "
-                              + "; ".join(u.to_text() for u in pred.unexcited))
+                              + "; ".join([u.to_text() for u in pred.unexcited]
+                                          + [not_loaded_text(j) for j in pred.not_loaded]))
     for u in pred.unexcited:
         say(f"not excited: {u.to_text()}")
+    for j in pred.not_loaded:
+        say(f"not excited: {not_loaded_text(j)}")
     return Design(traj, report, pred, problem.criterion(pred), randoms, clock.elapsed, problem)
 
 
@@ -664,12 +680,13 @@ def payload_options(problem: Problem, traj: ExcitationTrajectory, masses: list[f
         F, ok = 0.0, True
         for name, payload in (("unloaded", None), ("loaded", load)):
             q, qd, qdd = traj.evaluate(name, problem.t)
-            X, tau = run_rows(problem.robot, problem.chi_b, problem.gains,
-                              RunSamples(q, qd, qdd, traj.duration, payload))
+            X, tau = rows = run_rows(problem.robot, problem.chi_b, problem.gains,
+                                     RunSamples(q, qd, qdd, traj.duration, payload))
             ok &= bool(np.all(np.abs(tau.T) <= problem.limits.effort *
                               (1 - problem.opt.margins.effort)))
             F = F + information(X, tau, problem.gains, problem.opt.noise_a,
                                 RATE_HZ * traj.duration / len(problem.t), problem.lag_rate(tau))
-        out.append((m, problem.predict(F, problem.opt.max_condition) if ok else None))
+        out.append((m, problem.loaded_gains(problem.predict(F, problem.opt.max_condition), rows,
+                                            load) if ok else None))
     return out
 
