@@ -40,6 +40,7 @@ def test_a_bare_mass_on_the_ur5_leaves_wrist_3_out_and_an_offset_one_keeps_it(tm
     assert pred["gain_rel_std"]["wrist_3_joint"] is None
     assert any(NOT_EXCITED in u for u in pred["not_excited"])
     assert pred["payload_share"]["wrist_3_joint"] < 1e-9
+    assert pred["for_target"].endswith("gives every determined gain ≤ 0.2 %")
     others = [v for j, v in pred["gain_rel_std"].items() if j != "wrist_3_joint"]
     assert all(v is not None and v > 0 for v in others)
     # the worst-gain σ the search and the summary work with is that of the others
@@ -49,6 +50,7 @@ def test_a_bare_mass_on_the_ur5_leaves_wrist_3_out_and_an_offset_one_keeps_it(tm
     assert "adds almost no torque" not in text
     assert all(v is not None for v in pred["gain_rel_std"].values())
     assert min(pred["payload_share"].values()) >= MIN_PAYLOAD_SHARE
+    assert pred["for_target"].endswith("gives every gain ≤ 0.2 %")
 
 
 def _pinocchio_share(model: pin.Model, frame: str, mass: float, com, q, qd, qdd, tau):
