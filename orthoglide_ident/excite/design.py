@@ -65,6 +65,7 @@ from orthoglide_ident.excite.prediction import (
     excitation_ratio,
     from_information,
     information,
+    loaded_share,
     nominal_base_values,
     not_loaded_text,
     periodic_rate,
@@ -74,6 +75,7 @@ from orthoglide_ident.excite.prediction import (
 from orthoglide_ident.excite.trajectory import ExcitationRun, ExcitationTrajectory, rest_projection
 from orthoglide_ident.identify.columns.current_lag import MIN_PERIODS
 from orthoglide_ident.identify.options import DEFAULT_FILTER_CUTOFF_HZ, MIN_PAYLOAD_SHARE
+from orthoglide_ident.identify.solve.partial import payload_too_small
 from orthoglide_ident.model.robot import Payload
 from orthoglide_ident.progress import ProgressLine, duration_text
 
@@ -211,6 +213,12 @@ class Problem:
         self.ell = np.arange(1, self.L + 1, dtype=float)
         self.evals = 0  # evaluations so far (the expected duration)
         self.starts: list[tuple[float, np.ndarray]] = []  # feasible random shapes (score, x)
+        try:  # the gains the search leaves out (loaded_gains): a share told, below the rule
+            share = self.free_payload_share()
+            self.unloadable = np.isfinite(share) & payload_too_small(share,
+                                                                     options.min_payload_share)
+        except ModelError:  # a closed chain that does not assemble at random poses: none
+            self.unloadable = np.zeros(self.n, bool)
 
     @property
     def size(self) -> int:
@@ -270,7 +278,7 @@ class Problem:
                                 RATE_HZ * traj.duration / len(self.t), self.lag_rate(tau))
         # the search sees every direction but those null up to rounding (prediction.STRUCTURAL)
         # and designs for the gains the payload scales (the loaded run's rows: the last)
-        pred = self.loaded_gains(self.predict(F, SEARCH_CAP), rows)
+        pred = self.loaded_gains(self.predict(F, SEARCH_CAP), rows, search=True)
         return Evaluation(self.criterion(pred), violation, pred,
                           None if worst is None else worst[1])
 
@@ -279,11 +287,22 @@ class Problem:
         return from_information(F, self.chi_b, self.gains, self.opt.noise_a, cap, names)
 
     def loaded_gains(self, pred: Prediction, loaded: tuple[np.ndarray, np.ndarray],
-                     payload: Payload | None = None) -> Prediction:
+                     payload: Payload | None = None, search: bool = False) -> Prediction:
         """``pred`` without the gains the payload does not scale on the ``loaded`` run's rows
-        (X, τ), by the identification's rule (prediction.unloaded)."""
-        mass = (payload or self.opt.payload).mass
-        return unloaded(pred, *loaded, mass, self.robot.joint_names, self.opt.min_payload_share)
+        (X, τ) by the identification's rule (prediction.loaded_share); ``search``: those no
+        motion lets it scale instead (``unloadable``), a fixed set: no shape gains by unloading
+        a joint whose σ is the worst."""
+        share = loaded_share(*loaded, (payload or self.opt.payload).mass)
+        low = self.unloadable if search else payload_too_small(share, self.opt.min_payload_share)
+        return unloaded(pred, share, low, self.robot.joint_names)
+
+    def free_payload_share(self) -> np.ndarray:
+        """The loaded run's payload share on free random motion (free_motion_information's
+        samples): what any motion lets the payload add (0 on an axis through a point mass)."""
+        q, qd, qdd = self.free_samples(np.random.default_rng(FREE_SEED))
+        return loaded_share(*run_rows(self.robot, self.chi_b, self.gains,
+                                      RunSamples(q, qd, qdd, 1.0, self.opt.payload)),
+                            self.opt.payload.mass)
 
     def criterion(self, pred: Prediction) -> float:
         """J (module docstring) of the gains and directions the motion can reach; beyond the
@@ -323,10 +342,7 @@ class Problem:
         speeds and accelerations up to the limits, both runs): what the description allows
         on any motion, to tell a dependence of the description from one of the motion."""
         rng = np.random.default_rng(FREE_SEED)
-        m = FREE_SAMPLES
-        q = rng.uniform(self.limits.lower, self.limits.upper, (m, self.n))
-        qd = self.limits.velocity * rng.uniform(-1, 1, (m, self.n))
-        qdd = self.limits.acceleration * rng.uniform(-1, 1, (m, self.n))
+        q, qd, qdd = self.free_samples(rng)
         F = 0.0
         for _, payload in self.runs:
             X, tau = run_rows(self.robot, self.chi_b, self.gains,
@@ -336,6 +352,14 @@ class Problem:
                 np.abs(tau).mean(axis=1, keepdims=True) * self.w_f
             F = F + information(X, tau, self.gains, self.opt.noise_a, 1.0, rate)
         return F
+
+    def free_samples(self, rng: np.random.Generator):
+        """FREE_SAMPLES random (q, q̇, q̈): positions in range, rates up to the limits."""
+        m = FREE_SAMPLES
+        q = rng.uniform(self.limits.lower, self.limits.upper, (m, self.n))
+        qd = self.limits.velocity * rng.uniform(-1, 1, (m, self.n))
+        qdd = self.limits.acceleration * rng.uniform(-1, 1, (m, self.n))
+        return q, qd, qdd
 
     def lag_rate(self, tau: np.ndarray) -> np.ndarray | None:
         """τ̇ for the current-loop lag terms the identification adds on periodic records

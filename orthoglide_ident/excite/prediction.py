@@ -38,7 +38,7 @@ from typing import Any
 import numpy as np
 
 from orthoglide_ident.errors import ExcitationError
-from orthoglide_ident.identify.solve.partial import payload_share, payload_too_small
+from orthoglide_ident.identify.solve.partial import payload_share
 from orthoglide_ident.model.robot import Payload
 
 RATE_HZ = 1000.0  # the records' sample rate the prediction is for
@@ -269,14 +269,17 @@ def predict(robot, runs: Sequence[RunSamples], noise_a: np.ndarray | float,
         f"g({j})" for j in robot.joint_names], strict=True)
 
 
-def unloaded(pred: Prediction, X: np.ndarray, tau: np.ndarray, mass: float,
-             joints: Sequence[str], min_share: float) -> Prediction:
-    """``pred`` with the gains the payload does not scale on the loaded run (its rows X, nominal
-    efforts τ, payload ``mass``) left out, σ = inf: the identification's rule on the same
-    torques (min_payload_share, identify/solve/partial.py), which would refuse them. A point
-    mass at the flange adds no torque on a wrist axis through it, whatever the motion."""
-    share = payload_share(np.sum((mass * X[-1]) ** 2, axis=1), np.sum(tau ** 2, axis=1))
-    low = payload_too_small(share, min_share)
+def loaded_share(X: np.ndarray, tau: np.ndarray, mass: float) -> np.ndarray:
+    """Per joint, the payload's share of the rms torque on a loaded run (its rows X, nominal
+    efforts τ, payload ``mass``): what the identification's rule judges (min_payload_share,
+    identify/solve/partial.py). A point mass on a joint's axis adds no torque on it."""
+    return payload_share(np.sum((mass * X[-1]) ** 2, axis=1), np.sum(tau ** 2, axis=1))
+
+
+def unloaded(pred: Prediction, share: np.ndarray, low: np.ndarray, joints: Sequence[str]
+             ) -> Prediction:
+    """``pred`` with the gains ``low`` (those the payload does not scale: the identification
+    would refuse them) left out, σ = inf; ``share`` each joint's payload share."""
     return dataclasses.replace(pred, gain_rel_std=np.where(low, math.inf, pred.gain_rel_std),
                                not_loaded=tuple(j for j, x in zip(joints, low) if x),
                                payload_share=share)

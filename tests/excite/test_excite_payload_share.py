@@ -69,12 +69,12 @@ def _pinocchio_share(model: pin.Model, frame: str, mass: float, com, q, qd, qdd,
 
 @pytest.mark.parametrize("com,min_share", [((0.0, 0.0, 0.0), MIN_PAYLOAD_SHARE),
                                            (OFFSET, MIN_PAYLOAD_SHARE),
-                                           ((0.0, 0.0, 0.0), 0.2)])
+                                           ((0.0, 0.0, 0.0), 0.15)])
 def test_the_design_and_the_identification_give_the_same_verdict(com, min_share):
     """On the designed loaded run's states and nominal torques, the identification's rule
     (partial.little_payload on R factors of the rows [W | W_kl | v_τ]) leaves out the very
     gains the design names; the shares agree with Pinocchio's RNEA with and without the mass.
-    At 20 % the rule bites on joints of the arm too, not only wrist_3."""
+    At 15 % the rule bites on joints of the arm too, not only wrist_3."""
     robot = load_robot("ur5")
     payload = Payload(1.0, com=com)
     d = design(robot, read_limits(robot), None,
@@ -95,6 +95,12 @@ def test_the_design_and_the_identification_give_the_same_verdict(com, min_share)
     assert ("wrist_3_joint" in d.prediction.not_loaded) == (not any(com))
     if min_share > MIN_PAYLOAD_SHARE:
         assert len(d.prediction.not_loaded) > 1
+    # the search leaves out one fixed set (those free motion does not load), though the random
+    # shapes' own verdicts differ at 15 %: no shape gains by unloading a joint
+    starts = [e.prediction for e in d.random if e.prediction is not None]
+    assert len({e.not_loaded for e in starts}) == 1
+    if min_share > MIN_PAYLOAD_SHARE:
+        assert len({tuple(e.payload_share < min_share) for e in starts}) > 1
     share = _pinocchio_share(robot.model, robot.payload_frame, payload.mass, com,
                              q, qd, qdd, tau)
     assert np.allclose(d.prediction.payload_share, share, rtol=1e-6, atol=1e-9)
