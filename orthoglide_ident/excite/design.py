@@ -29,9 +29,12 @@ left out, and a candidate beyond the cap pays OVER_CAP_WEIGHT · log(κ / cap) o
 the search climbs towards it. The final design's directions still beyond the cap are named
 with their cause (the description's own dependence, tested on random motion free of the
 limits; the motion's limits; a gain the payload does not scale) and left out of its
-prediction; it is refused only when no gain is determined. A refusal names the constraint the
-best candidate breaks, with its value. A start pose nobody chose is moved out of collision
-(``clear_start``).
+prediction; it is refused only when no gain is determined. A gain the payload adds less than
+``min_payload_share`` of its torque to on the loaded run is refused by the identification
+(identify/solve/partial.py): the design names it too and leaves it out of J (the search, a fixed
+set: those free random motion does not load; the final design, its own loaded run). A refusal
+names the constraint the best candidate breaks, with its value. A start pose nobody chose is
+moved out of collision (``clear_start``).
 """
 from __future__ import annotations
 
