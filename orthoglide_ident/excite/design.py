@@ -29,9 +29,12 @@ left out, and a candidate beyond the cap pays OVER_CAP_WEIGHT · log(κ / cap) o
 the search climbs towards it. The final design's directions still beyond the cap are named
 with their cause (the description's own dependence, tested on random motion free of the
 limits; the motion's limits; a gain the payload does not scale) and left out of its
-prediction; it is refused only when no gain is determined. A refusal names the constraint the
-best candidate breaks, with its value. A start pose nobody chose is moved out of collision
-(``clear_start``).
+prediction; it is refused only when no gain is determined. A gain the payload adds less than
+``min_payload_share`` of its torque to on the loaded run is refused by the identification
+(identify/solve/partial.py): the design names it too and leaves it out of J (the search, a fixed
+set: those free random motion does not load; the final design, its own loaded run). A refusal
+names the constraint the best candidate breaks, with its value. A start pose nobody chose is
+moved out of collision (``clear_start``).
 """
 from __future__ import annotations
 
@@ -65,13 +68,17 @@ from orthoglide_ident.excite.prediction import (
     excitation_ratio,
     from_information,
     information,
+    loaded_share,
     nominal_base_values,
+    not_loaded_text,
     periodic_rate,
     run_rows,
+    unloaded,
 )
 from orthoglide_ident.excite.trajectory import ExcitationRun, ExcitationTrajectory, rest_projection
 from orthoglide_ident.identify.columns.current_lag import MIN_PERIODS
-from orthoglide_ident.identify.options import DEFAULT_FILTER_CUTOFF_HZ
+from orthoglide_ident.identify.options import DEFAULT_FILTER_CUTOFF_HZ, MIN_PAYLOAD_SHARE
+from orthoglide_ident.identify.solve.partial import payload_too_small
 from orthoglide_ident.model.robot import Payload
 from orthoglide_ident.progress import ProgressLine, duration_text
 
@@ -131,6 +138,9 @@ class DesignOptions:
     # (None: prediction.MAX_CONDITION)
     time_limit_s: float | None = None  # the search returns its best so far after this
     search: str = "gradient"  # SEARCHES (docs/benchmarks.md: better σ and κ on every arm)
+    # a gain the payload adds less than this share of its torque to is not excited (the
+    # identification's rule: IdentifyOptions.min_payload_share)
+    min_payload_share: float = MIN_PAYLOAD_SHARE
 
 
     def __post_init__(self) -> None:
@@ -206,6 +216,12 @@ class Problem:
         self.ell = np.arange(1, self.L + 1, dtype=float)
         self.evals = 0  # evaluations so far (the expected duration)
         self.starts: list[tuple[float, np.ndarray]] = []  # feasible random shapes (score, x)
+        try:  # the gains the search leaves out (loaded_gains): a share told, below the rule
+            share = self.free_payload_share()
+            self.unloadable = np.isfinite(share) & payload_too_small(share,
+                                                                     options.min_payload_share)
+        except ModelError:  # a closed chain that does not assemble at random poses: none
+            self.unloadable = np.zeros(self.n, bool)
 
     @property
     def size(self) -> int:
@@ -251,8 +267,8 @@ class Problem:
         for name, payload in self.runs:
             q, qd, qdd = traj.evaluate(name, self.t)
             try:
-                X, tau = run_rows(self.robot, self.chi_b, self.gains,
-                                  RunSamples(q, qd, qdd, traj.duration, payload))
+                X, tau = rows = run_rows(self.robot, self.chi_b, self.gains,
+                                         RunSamples(q, qd, qdd, traj.duration, payload))
                 slacks = self.slacks(q, qd, qdd, tau.T, name)
             except ModelError as exc:
                 return Evaluation(math.inf, math.inf, None, reason=f"{name} run: {exc}")
@@ -264,13 +280,32 @@ class Problem:
             F = F + information(X, tau, self.gains, self.opt.noise_a,
                                 RATE_HZ * traj.duration / len(self.t), self.lag_rate(tau))
         # the search sees every direction but those null up to rounding (prediction.STRUCTURAL)
-        pred = self.predict(F, SEARCH_CAP)
+        # and designs for the gains the payload scales (the loaded run's rows: the last)
+        pred = self.loaded_gains(self.predict(F, SEARCH_CAP), rows, search=True)
         return Evaluation(self.criterion(pred), violation, pred,
                           None if worst is None else worst[1])
 
     def predict(self, F: np.ndarray, cap: float) -> Prediction:
         names = list(self.robot.names) + [f"g({j})" for j in self.robot.joint_names]
         return from_information(F, self.chi_b, self.gains, self.opt.noise_a, cap, names)
+
+    def loaded_gains(self, pred: Prediction, loaded: tuple[np.ndarray, np.ndarray],
+                     payload: Payload | None = None, search: bool = False) -> Prediction:
+        """``pred`` without the gains the payload does not scale on the ``loaded`` run's rows
+        (X, τ) by the identification's rule (prediction.loaded_share); ``search``: those no
+        motion lets it scale instead (``unloadable``), a fixed set: no shape gains by unloading
+        a joint whose σ is the worst."""
+        share = loaded_share(*loaded, (payload or self.opt.payload).mass)
+        low = self.unloadable if search else payload_too_small(share, self.opt.min_payload_share)
+        return unloaded(pred, share, low, self.robot.joint_names)
+
+    def free_payload_share(self) -> np.ndarray:
+        """The loaded run's payload share on free random motion (free_motion_information's
+        samples): what any motion lets the payload add (0 on an axis through a point mass)."""
+        q, qd, qdd = self.free_samples(np.random.default_rng(FREE_SEED))
+        return loaded_share(*run_rows(self.robot, self.chi_b, self.gains,
+                                      RunSamples(q, qd, qdd, 1.0, self.opt.payload)),
+                            self.opt.payload.mass)
 
     def criterion(self, pred: Prediction) -> float:
         """J (module docstring) of the gains and directions the motion can reach; beyond the
@@ -289,11 +324,11 @@ class Problem:
         F = 0.0
         for name, payload in self.runs:
             q, qd, qdd = traj.evaluate(name, self.t)
-            X, tau = run_rows(self.robot, self.chi_b, self.gains,
-                              RunSamples(q, qd, qdd, traj.duration, payload))
+            X, tau = rows = run_rows(self.robot, self.chi_b, self.gains,
+                                     RunSamples(q, qd, qdd, traj.duration, payload))
             F = F + information(X, tau, self.gains, self.opt.noise_a,
                                 RATE_HZ * traj.duration / len(self.t), self.lag_rate(tau))
-        pred = self.predict(F, self.opt.max_condition)
+        pred = self.loaded_gains(self.predict(F, self.opt.max_condition), rows)
         if not pred.unexcited:
             return pred
         try:
@@ -310,10 +345,7 @@ class Problem:
         speeds and accelerations up to the limits, both runs): what the description allows
         on any motion, to tell a dependence of the description from one of the motion."""
         rng = np.random.default_rng(FREE_SEED)
-        m = FREE_SAMPLES
-        q = rng.uniform(self.limits.lower, self.limits.upper, (m, self.n))
-        qd = self.limits.velocity * rng.uniform(-1, 1, (m, self.n))
-        qdd = self.limits.acceleration * rng.uniform(-1, 1, (m, self.n))
+        q, qd, qdd = self.free_samples(rng)
         F = 0.0
         for _, payload in self.runs:
             X, tau = run_rows(self.robot, self.chi_b, self.gains,
@@ -323,6 +355,14 @@ class Problem:
                 np.abs(tau).mean(axis=1, keepdims=True) * self.w_f
             F = F + information(X, tau, self.gains, self.opt.noise_a, 1.0, rate)
         return F
+
+    def free_samples(self, rng: np.random.Generator):
+        """FREE_SAMPLES random (q, q̇, q̈): positions in range, rates up to the limits."""
+        m = FREE_SAMPLES
+        q = rng.uniform(self.limits.lower, self.limits.upper, (m, self.n))
+        qd = self.limits.velocity * rng.uniform(-1, 1, (m, self.n))
+        qdd = self.limits.acceleration * rng.uniform(-1, 1, (m, self.n))
+        return q, qd, qdd
 
     def lag_rate(self, tau: np.ndarray) -> np.ndarray | None:
         """τ̇ for the current-loop lag terms the identification adds on periodic records
@@ -630,9 +670,12 @@ def design(robot, limits: JointLimits, collision, options: DesignOptions,
     pred = problem.prediction_of(traj)
     if pred.undetermined_gains.all():
         raise ExcitationError("no drive gain is determined by any motion within the limits: "
-                              + "; ".join(u.to_text() for u in pred.unexcited))
+                              + "; ".join([u.to_text() for u in pred.unexcited]
+                                          + [not_loaded_text(j) for j in pred.not_loaded]))
     for u in pred.unexcited:
         say(f"not excited: {u.to_text()}")
+    for j in pred.not_loaded:
+        say(f"not excited: {not_loaded_text(j)}")
     return Design(traj, report, pred, problem.criterion(pred), randoms, clock.elapsed, problem)
 
 
@@ -664,12 +707,13 @@ def payload_options(problem: Problem, traj: ExcitationTrajectory, masses: list[f
         F, ok = 0.0, True
         for name, payload in (("unloaded", None), ("loaded", load)):
             q, qd, qdd = traj.evaluate(name, problem.t)
-            X, tau = run_rows(problem.robot, problem.chi_b, problem.gains,
-                              RunSamples(q, qd, qdd, traj.duration, payload))
+            X, tau = rows = run_rows(problem.robot, problem.chi_b, problem.gains,
+                                     RunSamples(q, qd, qdd, traj.duration, payload))
             ok &= bool(np.all(np.abs(tau.T) <= problem.limits.effort *
                               (1 - problem.opt.margins.effort)))
             F = F + information(X, tau, problem.gains, problem.opt.noise_a,
                                 RATE_HZ * traj.duration / len(problem.t), problem.lag_rate(tau))
-        out.append((m, problem.predict(F, problem.opt.max_condition) if ok else None))
+        out.append((m, problem.loaded_gains(problem.predict(F, problem.opt.max_condition), rows,
+                                            load) if ok else None))
     return out
 

@@ -29,6 +29,7 @@ load, their κ): the prediction is for the rest, those unknowns' σ infinite ("n
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -37,6 +38,7 @@ from typing import Any
 import numpy as np
 
 from orthoglide_ident.errors import ExcitationError
+from orthoglide_ident.identify.solve.partial import payload_share
 from orthoglide_ident.model.robot import Payload
 
 RATE_HZ = 1000.0  # the records' sample rate the prediction is for
@@ -70,6 +72,10 @@ class Prediction:
     noise_a: np.ndarray  # (n_j,) A
     unexcited: tuple[Unexcited, ...] = ()  # directions beyond the cap, left out (σ = inf)
     condition_kept: float = math.nan  # κ of the directions kept
+    # the gains the payload does not scale by the identification's rule (``unloaded``): the
+    # joints' names and the payload's share of their rms torque on the loaded run
+    not_loaded: tuple[str, ...] = ()
+    payload_share: np.ndarray | None = None
 
     @property
     def undetermined_gains(self) -> np.ndarray:
@@ -93,7 +99,15 @@ class Prediction:
                 "base_rel_std": {n: num(s) for n, s in zip(names, self.base_rel_std)},
                 "condition_number": num(self.condition),
                 "condition_number_excited": num(self.condition_kept),
-                "not_excited": [u.to_text() for u in self.unexcited]}
+                "not_excited": [u.to_text() for u in self.unexcited]
+                + [not_loaded_text(j) for j in self.not_loaded],
+                **({} if self.payload_share is None else {"payload_share": {
+                    j: num(s) for j, s in zip(joints, self.payload_share)}})}
+
+
+def not_loaded_text(joint: str) -> str:
+    return (f"the payload adds almost no torque on {joint}'s axis (a payload offset from the "
+            "flange, e.g. --payload-com X,Y,Z, would)")
 
 
 def nominal_base_values(robot) -> np.ndarray:
@@ -253,6 +267,22 @@ def predict(robot, runs: Sequence[RunSamples], noise_a: np.ndarray | float,
                             np.asarray(r.noise_a, float), RATE_HZ * r.seconds / r.q.shape[0], rate)
     return from_information(F, chi_b, gains, noise, names=list(robot.names) + [
         f"g({j})" for j in robot.joint_names], strict=True)
+
+
+def loaded_share(X: np.ndarray, tau: np.ndarray, mass: float) -> np.ndarray:
+    """Per joint, the payload's share of the rms torque on a loaded run (its rows X, nominal
+    efforts τ, payload ``mass``): what the identification's rule judges (min_payload_share,
+    identify/solve/partial.py). A point mass on a joint's axis adds no torque on it."""
+    return payload_share(np.sum((mass * X[-1]) ** 2, axis=1), np.sum(tau ** 2, axis=1))
+
+
+def unloaded(pred: Prediction, share: np.ndarray, low: np.ndarray, joints: Sequence[str]
+             ) -> Prediction:
+    """``pred`` with the gains ``low`` (those the payload does not scale: the identification
+    would refuse them) left out, σ = inf; ``share`` each joint's payload share."""
+    return dataclasses.replace(pred, gain_rel_std=np.where(low, math.inf, pred.gain_rel_std),
+                               not_loaded=tuple(j for j, x in zip(joints, low) if x),
+                               payload_share=share)
 
 
 def periods_needed(pred: Prediction, periods: int, target: float) -> int:

@@ -33,8 +33,9 @@ def payload_table(d: Design) -> list[dict[str, Any]]:
     return out
 
 
-def sentence(seconds: float, mass: float, worst: float, target: float) -> str:
-    return (f"{seconds:g} s unloaded + {seconds:g} s with {mass:g} kg gives every gain "
+def sentence(seconds: float, mass: float, worst: float, target: float,
+             every: str = "every gain") -> str:
+    return (f"{seconds:g} s unloaded + {seconds:g} s with {mass:g} kg gives {every} "
             f"≤ {100 * max(worst, target):.3g} %")
 
 
@@ -51,7 +52,8 @@ def prediction_dict(d: Design, noise_source: str) -> dict[str, Any]:
         "seconds_per_run_for_target": k * opt.period_s,
         "for_target": sentence(k * opt.period_s, opt.payload.mass,
                                pred.worst_determined_gain() * math.sqrt(opt.periods / k),
-                               opt.target),
+                               opt.target, "every determined gain"
+                               if pred.undetermined_gains.any() else "every gain"),
         "payloads": payload_table(d),
     })
     return doc

@@ -25,6 +25,8 @@ RATE_TO_FILTER = 5.0  # below 500 Hz, f_m / 5 (0.4 of the Nyquist frequency)
 DECIMATION_TO_FILTER = 0.4  # decimation cut-off / derivative filter cut-off (40 / 100 Hz)
 DEFAULT_BRIDGE_S = 0.02  # longest velocity-reversal run bridged (s), from 150 Hz up
 MIN_BRIDGE_SAMPLES = 3  # below: that many samples
+MIN_PAYLOAD_SHARE = 0.01  # fraction of a joint's rms torque the payload must add (partial.py;
+# the design applies it too: excite/design.py)
 DEPRECATED = {"decimation": "decimation_cutoff_hz (Hz)", "chunk_samples": "chunk_s (s)"}
 
 # keys of config/identification.yaml that are the node's or a request's, not pipeline options
@@ -159,7 +161,7 @@ class IdentifyOptions:
     # max_gain_rel_std) is reported "not determined" with the reason, the others identified
     # without its rows; false: all or nothing (an error, as before)
     partial_answers: bool = True
-    min_payload_share: float = 0.01  # fraction of a joint's rms torque
+    min_payload_share: float = MIN_PAYLOAD_SHARE
     # drive gains outside [nominal / ratio, nominal x ratio] of the robot file's nominal
     # (manufacturer's) gains are a warning (no band when the file gives none: a bare URDF);
     # gain_min / gain_max > 0 set absolute bounds instead, an error (N/A, N·m/A)

@@ -40,9 +40,12 @@ def test_unseen_ur10_designs_within_its_urdf_limits_on_the_1ms_grid():
                progress=lambda _: None)
     assert d.check.ok, d.check.to_text()
     # measured (bench/excite_unseen.py): 0.96 % against a random median of 4.6 %
-    random = [e.prediction.worst_gain for e in d.random if e.prediction is not None]
-    assert np.all(np.isfinite(d.prediction.gain_rel_std))
-    assert d.prediction.worst_gain < np.median(random)
+    # a bare mass at its flange sits on both wrist axes: no torque on them, gains not excited
+    # (the identification's rule, tests/excite/test_excite_payload_share.py); the rest designed
+    random = [e.prediction.worst_determined_gain() for e in d.random if e.prediction is not None]
+    assert d.prediction.not_loaded == ("wrist_2_joint", "wrist_3_joint")
+    assert np.all(np.isfinite(d.prediction.gain_rel_std[:4]))
+    assert d.prediction.worst_determined_gain() < np.median(random)
     assert d.check.by_kind()["collision"].value > 0.0
     # the URDF's own limits, read by Pinocchio, on every 1 ms tick of both runs
     model = pin.buildModelFromUrdf(str(urdf))

@@ -76,8 +76,21 @@ def payload_shares(factors: list[RecordFactors], g_tau: np.ndarray,
                 tau = tau + f.R[j][:, unknown[0]] @ unknown[1]
             pay[j] += float(np.sum(tau ** 2))
             cur[j] += float(np.sum(f.R[j][:, n_b + 1] ** 2))
+    return payload_share(pay, np.asarray(g_tau, float) ** 2 * cur)
+
+
+def payload_share(payload_sq: np.ndarray, torque_sq: np.ndarray) -> np.ndarray:
+    """Per joint, rms payload torque / rms joint torque over the same loaded rows, from their
+    sums of squares Σ τ_payload² and Σ τ² (the identification's records, or a design's
+    predicted loaded run: excite/design.py)."""
     with np.errstate(divide="ignore", invalid="ignore"):
-        return np.sqrt(pay) / (np.abs(g_tau) * np.sqrt(cur))
+        return np.sqrt(np.asarray(payload_sq, float)) / np.sqrt(np.asarray(torque_sq, float))
+
+
+def payload_too_small(share: np.ndarray, min_share: float) -> np.ndarray:
+    """The rule of ``min_payload_share``: the joints whose gain the payload does not scale
+    (a share below it, or none: no loaded rows)."""
+    return ~(np.asarray(share, float) >= min_share)
 
 
 def little_payload(factors: list[RecordFactors], g_tau: np.ndarray, names: Sequence[str],
@@ -85,10 +98,11 @@ def little_payload(factors: list[RecordFactors], g_tau: np.ndarray, names: Seque
                    ) -> dict[int, str]:
     """Joints the payload adds less than ``min_share`` of their torque to."""
     share = payload_shares(factors, g_tau, unknown)
+    low = payload_too_small(share, min_share)
     return {j: (f"the payload adds almost no torque on that axis ({100 * share[j]:.2g} % of its "
                 f"torque, below min_payload_share {100 * min_share:g} %): record with the "
                 "payload offset from that axis (or heavier), so that it loads that joint")
-            for j, name in enumerate(names) if not share[j] >= min_share}
+            for j, name in enumerate(names) if low[j]}
 
 
 def weak_gain(rel_std: np.ndarray, names: Sequence[str], limit: float) -> dict[int, str]:
