@@ -60,9 +60,9 @@ from orthoglide_ident.excite.trajectory import save_trajectory  # noqa: E402
 from orthoglide_ident.identify import identify_records  # noqa: E402
 from orthoglide_ident.model.robot import Payload  # noqa: E402
 from orthoglide_ident.model.robots import load_robot  # noqa: E402
+from orthoglide_sim.arm_or_chain.session import resolve_payload, robot_truth  # noqa: E402
 from orthoglide_sim.arms.plant import MujocoPlant  # noqa: E402
 from orthoglide_sim.arms.record import simulate_arm  # noqa: E402
-from orthoglide_sim.arms.session import resolve_payload, robot_truth  # noqa: E402
 from orthoglide_sim.arms.simulator import joint_inertia  # noqa: E402
 from orthoglide_sim.arms.truth import with_offset_payload  # noqa: E402
 from orthoglide_sim.demos.designed_runs import (  # noqa: E402

@@ -28,7 +28,7 @@ class FakeTerminal(io.StringIO):
 
 
 def simulated_bags(folder: Path, seconds: float) -> list[str]:
-    from orthoglide_sim.arms.bags import write_record
+    from orthoglide_sim.arm_or_chain.bags import write_record
     from orthoglide_sim.arms.record import simulate_arm
 
     out = []

@@ -93,7 +93,7 @@ def rosbags_read(paths: list[Path]) -> tuple[float, int]:
 
 def arm_bags(d: Path, robot: str, seconds: float) -> tuple[list[Path], str]:
     """An unloaded and a 2 kg loaded bag of the simulated arm (reused when already in ``d``)."""
-    from orthoglide_sim.arms.bags import write_record
+    from orthoglide_sim.arm_or_chain.bags import write_record
     from orthoglide_sim.arms.record import simulate_arm
 
     paths = []

@@ -41,7 +41,7 @@ SUB = 4  # MuJoCo steps per 1 ms tick, as the simulated robots'
 def _records(kind: str, seconds: float, folder: Path):
     """(robot spec, bags, the unloaded record's joint-side states and current references)."""
     if kind == "ur5":
-        from orthoglide_sim.arms.bags import write_record
+        from orthoglide_sim.arm_or_chain.bags import write_record
         from orthoglide_sim.arms.record import simulate_arm
 
         runs = [simulate_arm(seconds, "ur5", payload=p, trajectory=t, seed=s)

@@ -2,7 +2,7 @@
 
 The 2 kg payload's centre of mass is on the wrist_3 axis (tool0's z, 6 cm out) and its inertia
 about that axis is tiny: the loaded record fixes the scale of five gains, not wrist_3's. Written
-as bags the way ``python -m orthoglide_sim.arms.bags --params`` writes them.
+as bags the way ``python -m orthoglide_sim.arm_or_chain.bags --params`` writes them.
 """
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
-from orthoglide_sim.arms.bags import write_record
+from orthoglide_sim.arm_or_chain.bags import write_record
 from orthoglide_sim.arms.description import load_arm
 from orthoglide_sim.arms.record import simulate_arm
 from orthoglide_sim.arms.truth import apply_overrides, load_truth

@@ -15,7 +15,7 @@ import numpy as np
 
 from orthoglide_ident import bags
 from orthoglide_ident.bags.topics import DYNAMIC_JOINT_STATE_TYPE, JOINT_STATE_TYPE
-from orthoglide_sim.arms.session import ArmSession
+from orthoglide_sim.arm_or_chain.session import ArmSession
 from orthoglide_sim.common.broadcaster import BroadcasterLayout, TickDropper, broadcast
 
 ROBOT = "ur5_mount"

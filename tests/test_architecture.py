@@ -11,7 +11,8 @@ calls.
 - the product's rooms stand in layers (``LAYERS``, low to high): no import reaches up a layer, but
   the few listed in ``KNOWN_UPWARD`` with their reason (the list only shrinks: a listed import that
   is gone fails too);
-- no import goes round a circle, in the product or the simulator;
+- no import goes round a circle, in the product or the simulator, between modules nor between
+  the simulator's rooms; the simulator's rooms stand in layers too (``SIM_LAYERS``);
 - the product never imports the simulator.
 Imports inside functions count as much as those at the top.
 """
@@ -223,9 +224,9 @@ def _import_graph(*roots: Path) -> dict[str, set[str]]:
     return graph
 
 
-def _layer(module: str) -> int:
+def _layer(module: str, layers: list[list[str]] = LAYERS) -> int:
     best, best_len = -1, -1
-    for i, rooms in enumerate(LAYERS):
+    for i, rooms in enumerate(layers):
         for room in rooms:
             hit = module == room or module.startswith(room + ".")
             if hit and len(room) > best_len:
@@ -301,6 +302,39 @@ def test_the_product_never_imports_the_simulator():
 
 
 SIM_ROBOT_ROOMS = ("orthoglide", "arms", "chains", "coupled")
+# The simulator's rooms, low to high (the same rule as LAYERS): a closed chain and the coupled
+# wrists build on the serial arm; choosing between an arm and a chain by a robot's name sits
+# above both (arm_or_chain/), so that arms/ never imports chains/ (issue 44).
+SIM_LAYERS = [
+    ["orthoglide_sim.__init__", "orthoglide_sim.common"],
+    ["orthoglide_sim.orthoglide", "orthoglide_sim.arms"],
+    ["orthoglide_sim.chains", "orthoglide_sim.coupled"],
+    ["orthoglide_sim.arm_or_chain"],
+    ["orthoglide_sim.nodes"],
+    ["orthoglide_sim.demos"],
+]
+
+
+def _room(module: str) -> str:
+    """A module's room: ``orthoglide_sim.arms.plant`` -> ``orthoglide_sim.arms``."""
+    return ".".join(module.split(".")[:2])
+
+
+def test_no_import_goes_round_a_circle_between_the_simulators_rooms():
+    rooms: dict[str, set[str]] = {}
+    for a, targets in _import_graph(ROOT / "orthoglide_sim").items():
+        rooms.setdefault(_room(a), set()).update(_room(b) for b in targets if _room(b) != _room(a))
+    assert {"orthoglide_sim.arms", "orthoglide_sim.chains"} <= set(rooms)
+    circles = _circles(rooms)
+    assert not circles, "\n".join(" -> ".join(c) for c in circles)
+
+
+def test_no_import_reaches_up_a_layer_of_the_simulator():
+    graph = _import_graph(ROOT / "orthoglide_sim")
+    upward = sorted((a, b) for a, targets in graph.items() for b in targets
+                    if _layer(b, SIM_LAYERS) > _layer(a, SIM_LAYERS))
+    assert not upward, "imports that reach up a layer:\n" + "\n".join(f"{a} -> {b}"
+                                                                       for a, b in upward)
 
 
 def test_the_simulators_common_room_imports_no_robot_room():

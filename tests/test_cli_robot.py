@@ -10,7 +10,7 @@ import sys
 import numpy as np
 import pytest
 
-from orthoglide_sim.arms.bags import write_record
+from orthoglide_sim.arm_or_chain.bags import write_record
 from orthoglide_sim.arms.description import load_arm
 from orthoglide_sim.arms.record import simulate_arm
 from orthoglide_sim.arms.truth import OFFSET_COM, OFFSET_PAYLOAD, load_truth, with_offset_payload

@@ -26,7 +26,7 @@ def cli(ros_env, *args: str, timeout: float = 180.0) -> subprocess.CompletedProc
 @pytest.fixture(scope="module")
 def ur5_bags(tmp_path_factory) -> list[str]:
     """6 s of the simulated UR5 unloaded and with a 2 kg payload, as bags."""
-    from orthoglide_sim.arms.bags import write_record
+    from orthoglide_sim.arm_or_chain.bags import write_record
     from orthoglide_sim.arms.record import simulate_arm
 
     root = tmp_path_factory.mktemp("ur5_bags")

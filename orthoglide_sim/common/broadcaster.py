@@ -33,7 +33,7 @@ TOPICS = ("joint_states", "dynamic_joint_states")  # relative: the controller ma
 
 
 class Tick(Protocol):
-    """What the drives report at tick k (arms.session.ArmTick), (n,) each."""
+    """What the drives report at tick k (arm_or_chain.session.ArmTick), (n,) each."""
 
     k: int
     position: np.ndarray  # rad (m): the encoder reading at t_k
@@ -42,7 +42,7 @@ class Tick(Protocol):
 
 
 class Ticking(Protocol):
-    """A session ticked one update at a time (arms.session.ArmSession)."""
+    """A session ticked one update at a time (arm_or_chain.session.ArmSession)."""
 
     def tick(self) -> Tick | None: ...
 

@@ -72,8 +72,8 @@ def cell_limits(path: Path) -> Path:
     stand-in's protective stop; the URDF's and the robot file's limits for the rest."""
     import yaml
 
+    from orthoglide_sim.arm_or_chain.session import robot_truth
     from orthoglide_sim.arms.limits import motion_limits, ros2_joint_limits
-    from orthoglide_sim.arms.session import robot_truth
 
     arm = robot_truth(ROBOT).arm
     path.write_text(
@@ -154,7 +154,7 @@ def identify(bags: list[Path], out: Path) -> dict:
 
 
 def truth_gains():
-    from orthoglide_sim.arms.session import robot_truth
+    from orthoglide_sim.arm_or_chain.session import robot_truth
 
     return robot_truth(ROBOT).drive_array("g_tau")
 

@@ -22,7 +22,7 @@ from std_srvs.srv import Trigger
 from control_msgs.msg import DynamicJointState
 from orthoglide_ident.ros.params import Param, declare, on_set, usage
 from orthoglide_ident.ros.spin import spin
-from orthoglide_sim.arms.session import ArmSession
+from orthoglide_sim.arm_or_chain.session import ArmSession
 from orthoglide_sim.common.broadcaster import TOPICS, BroadcasterLayout, TickDropper
 from orthoglide_sim.common.joint_trajectory import Tolerances
 from orthoglide_sim.common.tick_clock import LATE_NS, TICK_NS, real_time_priority, sleep_until

@@ -24,7 +24,7 @@ from trajectory_msgs.msg import JointTrajectoryPoint
 
 from control_msgs.action import FollowJointTrajectory
 from orthoglide_ident.errors import ConfigError
-from orthoglide_sim.arms.session import ArmSession
+from orthoglide_sim.arm_or_chain.session import ArmSession
 from orthoglide_sim.common.joint_trajectory import Tolerances
 
 FEEDBACK_PERIOD_S = 0.05

@@ -21,7 +21,7 @@ from orthoglide_ident.cli import main as cli_main
 from orthoglide_ident.identify import IdentifyOptions, Record, identify_records
 from orthoglide_ident.model.robot import Payload
 from orthoglide_ident.model.robots import load_robot
-from orthoglide_sim.arms.bags import main as bags_main
+from orthoglide_sim.arm_or_chain.bags import main as bags_main
 from orthoglide_sim.chains.description import load_chain
 from orthoglide_sim.chains.record import simulate_chain
 from orthoglide_sim.chains.truth import default_chain_truth

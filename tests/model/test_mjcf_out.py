@@ -119,7 +119,7 @@ def test_identify_writes_an_mjcf_that_reproduces_the_identified_ur5(tmp_path):
     import subprocess
     import sys
 
-    from orthoglide_sim.arms.bags import write_record
+    from orthoglide_sim.arm_or_chain.bags import write_record
     from orthoglide_sim.arms.record import simulate_arm
 
     runs = [simulate_arm(10.0, "ur5", payload=p, trajectory=t, seed=s)

@@ -10,7 +10,7 @@ from orthoglide_ident.model.robots import ROBOTS_DIR, resolve
 
 def test_a_folder_named_ur5_does_not_shadow_the_bundled_ur5(tmp_path, monkeypatch, caplog):
     monkeypatch.chdir(tmp_path)
-    (tmp_path / "ur5").mkdir()  # `python -m orthoglide_sim.arms.bags --robot ur5 --out ur5`
+    (tmp_path / "ur5").mkdir()  # `python -m orthoglide_sim.arm_or_chain.bags --robot ur5 --out ur5`
     with caplog.at_level(logging.WARNING, logger="orthoglide_ident"):
         assert resolve("ur5") == ROBOTS_DIR / "ur5.yaml"
     said = " ".join(r.getMessage() for r in caplog.records)

@@ -24,7 +24,7 @@ def test_records_the_broadcasters_topics(tmp_path):
     from orthoglide_ident import bags
     from orthoglide_ident._install_ament import ROOT
     from orthoglide_msgs.srv import StartRecording
-    from orthoglide_sim.arms.session import ArmTick
+    from orthoglide_sim.arm_or_chain.session import ArmTick
     from orthoglide_sim.common.broadcaster import BroadcasterLayout
     from orthoglide_sim.demos.graph import Graph
 

@@ -117,7 +117,7 @@ def test_identifies_a_ur5_from_the_published_urdf(ros_env, tmp_path):
     (1 N·m/A: gain_range_ratio widened to admit 13.5): every gain within 0.5 % of the plant's."""
     import rclpy  # noqa: F401
 
-    from orthoglide_sim.arms.bags import write_record
+    from orthoglide_sim.arm_or_chain.bags import write_record
     from orthoglide_sim.arms.record import simulate_arm
 
     recs = [simulate_arm(20.0, "ur5_mount", payload=None, trajectory="exciting1", seed=0),

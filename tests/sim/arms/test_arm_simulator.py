@@ -11,8 +11,8 @@ import yaml
 
 from orthoglide_ident.bags import read_bag
 from orthoglide_ident.errors import WorkspaceError
+from orthoglide_sim.arm_or_chain.bags import main as bags_main
 from orthoglide_sim.arms import simulator as asim
-from orthoglide_sim.arms.bags import main as bags_main
 from orthoglide_sim.arms.description import load_arm
 from orthoglide_sim.arms.excitation import designed_trajectory
 from orthoglide_sim.arms.limits import motion_limits

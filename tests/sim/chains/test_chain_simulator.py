@@ -14,9 +14,9 @@ from orthoglide_ident.bags import read_bag
 from orthoglide_ident.errors import WorkspaceError
 from orthoglide_ident.model.closure import TreeStates
 from orthoglide_ident.model.robots import load_robot
+from orthoglide_sim.arm_or_chain.bags import main as bags_main
 from orthoglide_sim.arms import excitation as ax
 from orthoglide_sim.arms import simulator as asim
-from orthoglide_sim.arms.bags import main as bags_main
 from orthoglide_sim.arms.limits import motion_limits
 from orthoglide_sim.chains.description import load_chain
 from orthoglide_sim.chains.plant import ChainPlant

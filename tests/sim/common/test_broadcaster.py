@@ -8,7 +8,7 @@ import pytest
 from orthoglide_ident import bags
 from orthoglide_ident.bags._types import typestore
 from orthoglide_ident.errors import ConfigError
-from orthoglide_sim.arms.session import ArmTick
+from orthoglide_sim.arm_or_chain.session import ArmTick
 from orthoglide_sim.common.broadcaster import BroadcasterLayout, TickDropper
 
 ARM = ("shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint", "wrist_1_joint", "wrist_2_joint",

@@ -1,4 +1,5 @@
-"""Tick-by-tick simulation of a serial arm and its 1 kHz PID for the ros2_control stand-in (no ROS).
+"""Tick-by-tick simulation of a serial arm or a closed chain (a robot by name) and its 1 kHz PID
+for the ros2_control stand-in (no ROS).
 
 The same plant, controller and noise as ``arm_record.simulate_arm``, one tick per call, so that a
 node can publish each tick as it happens and change the payload or the trajectory while it runs:

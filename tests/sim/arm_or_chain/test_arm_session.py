@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from orthoglide_ident.errors import ConfigError
+from orthoglide_sim.arm_or_chain.session import POINT_RADIUS, ArmSession, resolve_payload
 from orthoglide_sim.arms.record import simulate_arm
-from orthoglide_sim.arms.session import POINT_RADIUS, ArmSession, resolve_payload
 
 SECONDS = 1.5
 
@@ -66,7 +66,7 @@ def test_a_closed_chain_runs_in_the_session_too():
     equality-constrained loop) as it runs the UR5: tracking, no fault, the 1 kg payload mounted."""
     import numpy as np
 
-    from orthoglide_sim.arms.session import ArmSession
+    from orthoglide_sim.arm_or_chain.session import ArmSession
     from orthoglide_sim.chains.plant import ChainPlant
 
     s = ArmSession("five_bar", payload="1.0", seed=1)

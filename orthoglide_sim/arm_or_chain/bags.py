@@ -2,9 +2,9 @@
 check), tagged as the recorder tags them, the payloads' frame, centre of mass and inertia in the
 tag.
 
-    python -m orthoglide_sim.arms.bags --robot ur5 --duration 60 --out DIR [--seed 0] [--params
-    YAML]
-    python -m orthoglide_sim.arms.bags --robot five_bar --duration 60 --out DIR
+    python -m orthoglide_sim.arm_or_chain.bags --robot ur5 --duration 60 --out DIR [--seed 0]
+        [--params YAML]
+    python -m orthoglide_sim.arm_or_chain.bags --robot five_bar --duration 60 --out DIR
 
 A serial arm (arm_record, MuJoCo): bags DIR/unloaded, DIR/loaded_2kg, DIR/loaded_1kg. A closed
 chain (a robot YAML with loops: chain_record, MuJoCo with its loops as equality constraints):
@@ -65,7 +65,7 @@ def write_record(path: Path, rec: ArmRecord, mass_only: bool = False) -> Path:
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(
-        prog="python -m orthoglide_sim.arms.bags", description=__doc__.splitlines()[0]
+        prog="python -m orthoglide_sim.arm_or_chain.bags", description=__doc__.splitlines()[0]
     )
     ap.add_argument(
         "--robot", default="ur5", help="bundled robot name, robot YAML or URDF (default ur5)"
