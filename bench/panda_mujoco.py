@@ -1,7 +1,7 @@
 """A 7-axis MuJoCo plant end to end (issue 48): the example-robot-data Panda, fingers locked,
 ``excite design`` with its defaults and the 2 kg payload's mass, the unloaded and the loaded run
 simulated on MuJoCo (the plant's own parameters, gains 2-6 % off nominal, rotor inertia,
-friction; tests/panda_mujoco.py), identified by IDIM-TLS through the robot file.
+friction; tests/panda_mujoco_plant.py), identified by IDIM-TLS through the robot file.
 
     python bench/panda_mujoco.py [--fast] [--seeds 0,1,2]
 
@@ -22,7 +22,7 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 import numpy as np  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
-import panda_mujoco as P  # noqa: E402
+import panda_mujoco_plant as P  # noqa: E402
 
 
 def report(seed: int, run: P.RunFigures) -> None:

@@ -57,8 +57,11 @@ URDF = """<?xml version="1.0"?>
 
 @dataclass(frozen=True)
 class Description:
+    """The parts of a robot file's description (model/robot_file.py) the product reads."""
+
     path: Path
     gravity: tuple[float, float, float] = (0.0, 0.0, -9.80665)
+    current_sampling: str | None = None  # the robot file says nothing (auto decides)
 
 
 class SerialRobot(RobotModel):

@@ -1,5 +1,5 @@
 """A 7-axis MuJoCo plant end to end (issue 48): the example-robot-data Panda, fingers locked,
-designed for, simulated and identified (tests/panda_mujoco.py). First that the plant is the
+designed for, simulated and identified (tests/panda_mujoco_plant.py). First that the plant is the
 Panda with its fingers where the robot file locks them: MuJoCo's inverse dynamics of the welded
 plant against Pinocchio's RNEA of the full URDF (fingers as joints of their own at 0.03 m)."""
 from __future__ import annotations
@@ -54,7 +54,7 @@ def test_the_panda_designed_simulated_identified_within_three_honest_sigma(tmp_p
     """excite design (2 periods, a short search), 10 s unloaded + 10 s with 2 kg on MuJoCo,
     IDIM-TLS: every gain determined, within 0.2 % and 3 σ of the plant's, which the nominal
     gains miss by 2-6 %."""
-    import panda_mujoco as P
+    import panda_mujoco_plant as P
 
     run = P.end_to_end(tmp_path, P.DESIGN_FAST, seed=0)
     assert run.saturated_ticks == 0  # the drives stayed within their current limits
