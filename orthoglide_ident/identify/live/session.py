@@ -64,6 +64,7 @@ from orthoglide_ident.identify.observe.sampling import SLOW_STEP_S, best_reading
 from orthoglide_ident.identify.observe.stream import DecimatedRows
 from orthoglide_ident.identify.options import IdentifyOptions
 from orthoglide_ident.identify.records.record import payload_knowledge
+from orthoglide_ident.identify.records.robot_checks import current_at_limit
 from orthoglide_ident.identify.solve.answer import limits, min_rows, tls_model
 from orthoglide_ident.identify.solve.factors import RecordFactors
 from orthoglide_ident.identify.solve.filter_bound import bound_filter_bias, second_options
@@ -75,6 +76,7 @@ from orthoglide_ident.identify.validate.records import (
     misfit_warnings,
     noise_by_joint,
     other_readings,
+    undetermine_at_limit,
 )
 from orthoglide_ident.model.robot import Payload
 from orthoglide_ident.results import IdentificationResult
@@ -190,6 +192,7 @@ class LiveIdentification:
         # refusal of the last recording (answered until the next recording starts)
         self._seen: dict[str, tuple[str, int]] = {}
         self._noises: dict[LiveRecording, tuple[np.ndarray, float]] = {}
+        self._at_limit: dict[LiveRecording, dict[str, str]] = {}  # current_at_limit's
         self._alts: dict[LiveRecording, list] = {}
         # a slow recording's samples (step above SLOW_STEP_S: a few kB/s), kept past its stop:
         # result() observes them again at the derivative filter's second cut-off to bound its
@@ -265,6 +268,7 @@ class LiveIdentification:
             self._leave_out(rec)
             return lines
         self._noises[rec] = noise_by_joint(record, self.model)
+        self._at_limit[rec] = current_at_limit(record, chatter_only=True)
         return lines
 
     def _leave_out(self, rec: LiveRecording) -> None:
@@ -451,6 +455,7 @@ class LiveIdentification:
             misfit_warnings(result, solved.g_tau, model,
                             [self._noises[r] for r in recs if r in self._noises],
                             dataclasses.replace(self.opts, decimation_cutoff_hz=cutoff))
+        undetermine_at_limit(result, [self._at_limit.get(r, {}) for r in recs])
         finish_result(result, solved, reports, warnings, self.opts, dict(solved.timings))
         bound_filter_bias(result, self._solve_again(solve_rows, recs, result), SLOW_STEP_S,
                           self.opts.max_gain_rel_std)
