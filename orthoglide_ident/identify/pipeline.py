@@ -46,6 +46,7 @@ from orthoglide_ident.identify.validate.agreement import disagreement
 from orthoglide_ident.identify.validate.cross_validation import ValidationResult, cross_validate
 from orthoglide_ident.identify.validate.joint_side import joint_side_rms
 from orthoglide_ident.identify.validate.records import (
+    by_joint,
     check_record,
     fingerprint,
     misfit_warnings,
@@ -284,7 +285,8 @@ def _identify_once(
                                 decimation=reports[0]["decimation"],
                                 decimation_cutoff_hz=reports[0]["decimation_cutoff_hz"])
         cols, b = _lag_or_paper(cols, b, reports)
-        factors = [RecordFactors.from_observations(x) for x in b]
+        factors = [dataclasses.replace(RecordFactors.from_observations(x), at_limit=by_joint(
+            model, r.get("_at_limit", {}))) for x, r in zip(b, reports)]
         chains.append(disagreement(factors, model.nominal_gains, list(model.joint_names)))
         try:
             return cols, b, o, solve(factors, model, o, method, gains, essential, bag_names,
@@ -303,7 +305,7 @@ def _identify_once(
     if chain:
         result.warnings.append(chain)
     _joint_side_residual(result, blocks, solved, model, reports, opts)
-    undetermine_at_limit(result, [r.pop("_at_limit") for r in reports])
+    undetermine_at_limit(result, [r.pop("_at_limit", {}) for r in reports])
 
     t_v = time.perf_counter()
     vals = _validate(validation, solved, model, solved_layout, _as_read(opts, reports),

@@ -72,6 +72,7 @@ from orthoglide_ident.identify.solve.methods import DEFAULT_METHOD, solve
 from orthoglide_ident.identify.solve.tls import check_excitation
 from orthoglide_ident.identify.validate.agreement import disagreement
 from orthoglide_ident.identify.validate.records import (
+    by_joint,
     check_record,
     misfit_warnings,
     noise_by_joint,
@@ -433,6 +434,9 @@ class LiveIdentification:
                            else f for f in factors]
             factors, layout = self._solvable(factors)
             model = self.model
+            if len(factors) == len(recs):  # one per recording, in recs' order
+                factors = [dataclasses.replace(f, at_limit=by_joint(
+                    model, self._at_limit.get(r, {}))) for f, r in zip(factors, recs)]
             chains.append(disagreement(factors, model.nominal_gains, list(model.joint_names)))
             try:
                 return model, factors, opts, solve(

@@ -13,15 +13,17 @@ answer with zz_1R 0.028 instead of 0.734, and a TLS refusal blaming the payload.
 
 Joints without limits (infinite, or the description gives none) are not checked.
 
-- a current that sits at ± its extreme on more than ``AT_EXTREME_SHARE`` of the samples, or jumps
-  by more than ``SWING`` of its range from one sample to the next on more than ``SWING_SHARE``
-  of them, is a controller chattering at its current limit (``current_at_limit``; no limit
-  needed: a clipped current's plateau is its own extreme). The chatter dithers the joint's
-  velocity through zero (0.13-0.26 rad/s rms at ~250 Hz on a simulated UR10), which smooths its
-  Coulomb friction: the friction is no longer the model's fs sign(q̇) of the filtered velocity,
-  and the gains come out biased (UR10: 0.5-0.7 %, 4-7 honest σ; without Coulomb friction in the
-  plant, the same chatter leaves them within 1 σ). A warning names the joint; a chattering
-  joint's gain is not marked determined (validate/records.py).
+- a current that sits at ± its extreme on more than ``AT_EXTREME_SHARE`` of the samples is a
+  controller at its current limit (``current_at_limit``; no limit needed: a clipped reference's
+  plateau is its own extreme), chattering there when it also jumps by more than ``SWING`` of its
+  range from one sample to the next on more than ``SWING_SHARE`` of them. The chatter dithers the
+  joint's velocity through zero (0.13-0.26 rad/s rms at ~250 Hz on a simulated UR10), which
+  smooths its Coulomb friction: the friction is no longer the model's fs sign(q̇) of the filtered
+  velocity, and the gains come out biased (UR10: 0.5-0.7 %, 4-7 honest σ; without Coulomb friction
+  in the plant, the same chatter leaves them within 1 σ); through the mass matrix the other
+  joints' velocities are dithered too (wrist 2 3.2 σ off with the chattering rows left out). A
+  warning names the joint; with a chattering joint no gain is marked determined
+  (solve/partial.at_limit, validate/records.py).
 """
 from __future__ import annotations
 
@@ -174,6 +176,8 @@ def current_at_limit(rec, chatter_only: bool = False) -> dict[str, str]:
             continue
         at = float(np.mean(np.abs(col) >= (1.0 - EXTREME_BAND) * top))
         swing = float(np.mean(np.abs(np.diff(col)) > SWING * float(np.ptp(col))))
+        if at <= AT_EXTREME_SHARE:  # noise jumps too, but not at a plateau
+            continue
         if swing > SWING_SHARE:
             out[name] = (f"{rec.source}: joint {name}'s current jumps by over {SWING:g} of its "
                          f"range in one sample on {100 * swing:.1f} % of the samples (at ±"
@@ -181,7 +185,7 @@ def current_at_limit(rec, chatter_only: bool = False) -> dict[str, str]:
                          "at its current limit, whose dither smooths the joint's Coulomb "
                          "friction (not the model's fs sign(q̇)): its gain is not determined; "
                          "lower that joint's controller bandwidth and record again")
-        elif at > AT_EXTREME_SHARE and not chatter_only:
+        elif not chatter_only:
             out[name] = (f"{rec.source}: joint {name}'s current sits at ±{top:.4g}, its extreme, "
                          f"on {100 * at:.1f} % of the samples: a controller at its current "
                          "limit (the motion asks more than the drive gives)")

@@ -76,6 +76,12 @@ def check_record(rec: Record, model: IdentificationModel, seen: dict[str, tuple[
     return True, list(rec.warnings) + motion_warnings(rec, model)
 
 
+def by_joint(model: IdentificationModel, at_limit: dict[str, str]) -> dict[int, str]:
+    """current_at_limit's joint names -> why, as the model's joint indices -> why."""
+    idx = {n: j for j, n in enumerate(model.joint_names)}
+    return {idx[n]: why for n, why in at_limit.items() if n in idx}
+
+
 def undetermine_at_limit(result: IdentificationResult, at_limit: list[dict[str, str]]) -> None:
     """Each gain of a joint named in ``at_limit`` (per record, current_at_limit's joint -> why)
     not determined, value and σ NaN as a partial answer's, the first record's reason: a current
@@ -84,6 +90,9 @@ def undetermine_at_limit(result: IdentificationResult, at_limit: list[dict[str, 
     for d in at_limit:
         for name, line in d.items():
             why.setdefault(name, line)
+    if why:  # the others' velocities dithered through the coupling (solve/partial.at_limit)
+        first = next(iter(why.values()))
+        why.update({g.name: first for g in result.drive_gains if g.name not in why})
     for g in result.drive_gains:
         if g.determined and g.name in why:
             g.value, g.rel_std, g.rel_std_paper = float("nan"), float("nan"), None

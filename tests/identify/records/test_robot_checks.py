@@ -159,17 +159,21 @@ def _chattering(rec, joint: int, source: str):
     return _with(rec, source, v_tau=v)
 
 
-def test_a_current_chattering_at_its_limit_is_said_and_its_gain_not_determined(recs):
-    """Issue 43's rule: a chattering current dithers the friction the model does not have (UR10:
-    gains 4-7 σ off, marked determined). Before: no word, every gain determined."""
+def test_a_current_chattering_at_its_limit_is_said_and_no_gain_determined(recs):
+    """Issue 43's rule: a chattering current dithers the friction the model does not have, of its
+    joint and through the coupling of the others (UR10: gains 3-7 σ off, marked determined).
+    Before: no word, every gain determined."""
+    from orthoglide_ident.identify.records.robot_checks import motion_warnings
+
     unloaded, loaded = recs
     chat = _chattering(loaded, 2, "ur5_chatter/loaded")
-    res = identify_records([unloaded, chat], model=UR5)
-    said = [w for w in res.warnings if w.startswith("ur5_chatter/loaded: joint elbow_joint")]
-    assert said and "chattering at its current limit" in said[0]
-    elbow = res.drive_gains[2]
-    assert not elbow.determined and elbow.reason == said[0]
-    assert all(g.determined for k, g in enumerate(res.drive_gains) if k != 2)
+    said = [w for w in motion_warnings(chat, UR5) if w.startswith("ur5_chatter/loaded: joint")]
+    assert len(said) == 1 and said[0].startswith("ur5_chatter/loaded: joint elbow_joint's")
+    assert "chattering at its current limit" in said[0]
+    with pytest.raises(ExcitationError) as err:
+        identify_records([unloaded, chat], model=UR5)
+    msg = str(err.value)
+    assert msg.startswith("no drive gain is determined") and said[0] in msg and "\n" not in msg
 
 
 def test_a_smooth_current_or_a_sinusoid_is_not_called_chattering(recs):
