@@ -188,3 +188,15 @@ def test_a_smooth_current_or_a_sinusoid_is_not_called_chattering(recs):
     said = current_at_limit(_with(unloaded, "clipped", v_tau=clipped))
     assert set(said) == set(unloaded.names_v) and "sits at ±1" in said["elbow_joint"]
     assert not current_at_limit(_with(unloaded, "clipped", v_tau=clipped), chatter_only=True)
+
+
+def test_the_live_identification_says_the_same_of_a_chattering_current(recs):
+    from live_helpers import live_result
+
+    from orthoglide_ident.identify import IdentifyOptions
+
+    unloaded, loaded = recs
+    chat = _chattering(loaded, 2, "ur5_chatter/loaded")
+    with pytest.raises(ExcitationError) as err:
+        live_result(UR5, [unloaded, chat], IdentifyOptions())
+    assert "ur5_chatter/loaded: joint elbow_joint's current jumps" in str(err.value)
