@@ -10,6 +10,10 @@ Orthoglide runs too:
    with any payload), D on a low-passed velocity (VELOCITY_FILTER):
        torque = Kp e + Ki ∫e + Kd (q̇_ref - v_est),  Kp = 3 J ω², Kd = 3 J ω, Ki = J ω³,
    e = q_ref - q_meas, v_est the backward difference of q_meas;
+   On an arm where that PID would be over MAX_STIFFNESS times too stiff somewhere along the run
+   (ρ(M(q)⁻¹ diag J), stiffness: the inertia down tenfold, or the joints' coupling) the same
+   triple pole is placed on the mass matrix at the measured pose instead (ScheduledPID), as a
+   big arm's controller does; the joint PID chattered at its current limit there;
 3. the current reference v_tau = torque / g_nominal (the manufacturer's gain the controller is
    configured with), clipped to the drive's current limit (URDF effort / g_nominal);
 4. the drive applies g_tau (v_tau + noise) (the true gain, white current noise held over the
