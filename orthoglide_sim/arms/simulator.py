@@ -49,9 +49,10 @@ VELOCITY_FILTER = 2.0e-3  # s, first-order low-pass of the velocity estimate (1 
 # ρ(M(q)⁻¹ diag(J)) along a run above this: the decentralised PID tuned on J is that many times
 # too stiff somewhere (inertia down, or the joints' coupling), its loop at 1 kHz unstable, the
 # current chattering at its limit: the arm gets the mass-matrix PID (ScheduledPID) instead.
-# Measured along the references: UR5 3.2-3.5 (stable), UR10 designed 15.1 (chattering on 53 %
-# of the ticks, dithered friction biasing its gains 4-7 σ: docs/benchmarks.md)
-MAX_STIFFNESS = 6.0
+# Measured along the references: UR3 designed 2.6, UR5 3.2-3.5, Panda designed 7.6 (all stable,
+# unsaturated), UR10 designed 15.1 (chattering on 53 % of the ticks, dithered friction biasing
+# its gains 4-7 σ: docs/benchmarks.md)
+MAX_STIFFNESS = 10.0
 
 
 def mass_matrix(plant: MujocoPlant, q: np.ndarray) -> np.ndarray:

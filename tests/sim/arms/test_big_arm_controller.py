@@ -103,3 +103,13 @@ def test_a_ur10_record_chattering_at_its_limit_is_refused_naming_the_joints(ur10
     assert msg.startswith("no drive gain is determined")
     for joint in ("shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint"):
         assert f"ur10_0: joint {joint}'s current jumps" in msg
+
+
+def test_the_ur5_keeps_its_joint_pid_and_its_records():
+    """ρ 3.2-3.5 along the UR5's runs: the records the other tests pin are the joint PID's."""
+    a = simulate_arm(0.3, "ur5", trajectory="exciting1", seed=0)
+    b = simulate_arm(0.3, "ur5", trajectory="exciting1", seed=0, scheduled=False)
+    assert np.array_equal(a.v_tau, b.v_tau) and np.array_equal(a.q, b.q)
+    c = simulate_arm(0.3, "ur5", trajectory="exciting1", seed=0, scheduled=True)
+    assert not np.array_equal(a.v_tau, c.v_tau)
+    assert np.abs(c.q_true - c.q_ref).max() < 1e-3  # the scheduled PID tracks the UR5 too
