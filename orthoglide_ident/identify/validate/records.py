@@ -29,6 +29,7 @@ from orthoglide_ident.identify.records.robot_checks import (
     check_positions,
     motion_warnings,
 )
+from orthoglide_ident.identify.solve.methods import get
 from orthoglide_ident.identify.validate.joint_side import (
     LONGER,
     current_noise,
@@ -86,6 +87,8 @@ def undetermine_at_limit(result: IdentificationResult, at_limit: list[dict[str, 
     """Each gain of a joint named in ``at_limit`` (per record, current_at_limit's joint -> why)
     not determined, value and σ NaN as a partial answer's, the first record's reason: a current
     chattering at its limit biases the gain beyond its σ (records/robot_checks.py)."""
+    if get(result.method).gains_given:  # the gains are an input, not identified here
+        return
     why: dict[str, str] = {}
     for d in at_limit:
         for name, line in d.items():

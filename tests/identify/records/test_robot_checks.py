@@ -200,3 +200,12 @@ def test_the_live_identification_says_the_same_of_a_chattering_current(recs):
     with pytest.raises(ExcitationError) as err:
         live_result(UR5, [unloaded, chat], IdentifyOptions())
     assert "ur5_chatter/loaded: joint elbow_joint's current jumps" in str(err.value)
+
+
+def test_wls_with_given_gains_says_a_chattering_current_and_keeps_the_gains(recs):
+    unloaded, loaded = recs
+    chat = _chattering(loaded, 2, "ur5_chatter/loaded")
+    res = identify_records([unloaded, chat], model=UR5, method="wls", gains=UR5.nominal_gains)
+    assert any(w.startswith("ur5_chatter/loaded: joint elbow_joint's current jumps")
+               for w in res.warnings)
+    assert all(g.determined for g in res.drive_gains)  # an input, not identified
