@@ -272,7 +272,8 @@ def main() -> None:
     ap.add_argument("--payload-com", default=None, metavar="X,Y,Z",
                     help="with --achieved: an offset payload (m), else a point mass")
     ap.add_argument("--tune", default="start", help="with --achieved: start | softest, the "
-                    "pose the simulated PID is tuned at (simulated)")
+                    "pose the simulated joint PID is tuned at (simulated; an arm where it would "
+                    "be too stiff gets the mass-matrix PID: simulator.MAX_STIFFNESS)")
     ap.add_argument("--out", default=None, help="with --achieved: the trajectory file written")
     ap.add_argument("--restarts", type=int, default=20)
     ap.add_argument("--steps", type=int, default=None)

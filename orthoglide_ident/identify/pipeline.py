@@ -37,6 +37,7 @@ from orthoglide_ident.identify.observe.sampling import (
 )
 from orthoglide_ident.identify.options import IdentifyOptions
 from orthoglide_ident.identify.records.record import Record, read_record, record_payload
+from orthoglide_ident.identify.records.robot_checks import current_at_limit
 from orthoglide_ident.identify.solve.answer import Solved, min_rows
 from orthoglide_ident.identify.solve.factors import RecordFactors
 from orthoglide_ident.identify.solve.filter_bound import bound_filter_bias, second_options
@@ -45,11 +46,13 @@ from orthoglide_ident.identify.validate.agreement import disagreement
 from orthoglide_ident.identify.validate.cross_validation import ValidationResult, cross_validate
 from orthoglide_ident.identify.validate.joint_side import joint_side_rms
 from orthoglide_ident.identify.validate.records import (
+    by_joint,
     check_record,
     fingerprint,
     misfit_warnings,
     noise_by_joint,
     other_readings,
+    undetermine_at_limit,
 )
 from orthoglide_ident.model.robot import Payload
 from orthoglide_ident.results import IdentificationResult
@@ -149,12 +152,12 @@ def _observe_all(records: Iterable[Record], model: IdentificationModel, layout: 
         blocks.append(obs)
         reports.append(bag_report(rep, rec.source, rec.condition, m, obs.rows_per_joint(),
                                   rec.sources))
-        noise = noise_by_joint(rec, model)
-        reports[-1]["_current_noise"] = noise  # popped after the solve
+        noise, at_limit = noise_by_joint(rec, model), current_at_limit(rec, chatter_only=True)
+        reports[-1].update(_current_noise=noise, _at_limit=at_limit)  # popped after the solve
         if alts is not None:
             alts.append(other_readings(rec, model, opts, m, rep, layout=layout))
             for _, _, other in alts[-1] or ():  # the same record read otherwise: the same noise
-                other["_current_noise"] = noise
+                other.update(_current_noise=noise, _at_limit=at_limit)
         del rec  # a lazily read bag's raw samples can go now
     if not blocks:
         raise IdentificationError("no bag given")
@@ -282,7 +285,8 @@ def _identify_once(
                                 decimation=reports[0]["decimation"],
                                 decimation_cutoff_hz=reports[0]["decimation_cutoff_hz"])
         cols, b = _lag_or_paper(cols, b, reports)
-        factors = [RecordFactors.from_observations(x) for x in b]
+        factors = [dataclasses.replace(RecordFactors.from_observations(x), at_limit=by_joint(
+            model, r.get("_at_limit", {}))) for x, r in zip(b, reports)]
         chains.append(disagreement(factors, model.nominal_gains, list(model.joint_names)))
         try:
             return cols, b, o, solve(factors, model, o, method, gains, essential, bag_names,
@@ -301,6 +305,7 @@ def _identify_once(
     if chain:
         result.warnings.append(chain)
     _joint_side_residual(result, blocks, solved, model, reports, opts)
+    undetermine_at_limit(result, [r.pop("_at_limit", {}) for r in reports])
 
     t_v = time.perf_counter()
     vals = _validate(validation, solved, model, solved_layout, _as_read(opts, reports),

@@ -26,6 +26,7 @@ from orthoglide_sim.common.closed_loop import LoopResult, quantise
 from orthoglide_sim.common.trajectories import FourierTrajectory
 
 NOISE_STRIDE = 10  # ticks between the reference samples the rms current is taken over
+STIFFNESS_STRIDE = 50  # ticks between the reference poses the PID's stiffness is checked at
 
 
 class TrackedRun:
@@ -90,7 +91,8 @@ def simulate_arm(duration_s: float, robot: str = "ur5", payload: str | None = No
                  trajectory: str | FourierTrajectory = "exciting1", seed: int = 0,
                  truth: ArmTruth | None = None, noise: bool = True, start_ns: int = 0,
                  limits: MotionLimits | None = None,
-                 effects: Unmodelled | None = None, omega: float = asim.OMEGA) -> ArmRecord:
+                 effects: Unmodelled | None = None, omega: float = asim.OMEGA,
+                 scheduled: bool | None = None) -> ArmRecord:
     """The arm tracking ``trajectory`` for ``duration_s`` s under the 1 kHz PID (arm_simulator).
 
     robot: a bundled name, robot YAML or URDF (ignored when ``truth`` is given); payload: None,
@@ -98,7 +100,9 @@ def simulate_arm(duration_s: float, robot: str = "ur5", payload: str | None = No
     or a FourierTrajectory (designed_runs.py: a run the product designed); limits: the stop
     limits (default arm_limits.motion_limits); effects: drive effects the identification's model
     lacks (orthoglide_sim/arms/unmodelled.py), None: the plant the model describes; omega: the
-    PID's bandwidth, rad/s (simulator.ArmPID.tuned).
+    PID's bandwidth, rad/s (simulator.arm_pid); scheduled: the mass-matrix PID
+    (simulator.ScheduledPID) or the joint PID tuned once at ``limits.centre``; None: the former
+    where the latter is over MAX_STIFFNESS times too stiff along the reference (simulator.py).
     Raises ConfigError on bad arguments, WorkspaceError if the arm leaves its stop limits.
     """
     if not duration_s > 0:
@@ -110,16 +114,15 @@ def simulate_arm(duration_s: float, robot: str = "ur5", payload: str | None = No
                                                                  seed, noise)
     current_limit = np.array([j.effort for j in arm.joints]) / arm.nominal_gains
     torque0 = plant.inverse_dynamics(q_ref[:1], qd_ref[:1], qdd_ref[:1], friction=True)[0]
-    inertia = asim.joint_inertia(MujocoPlant(truth), limits.centre)  # tuned once, unloaded
-    pid = asim.arm_pid(
-        inertia,
-        arm.nominal_gains,
-        current_limit,
-        quantise(q_ref[0] - qd_ref[0] * asim.TICK, truth.encoder_resolution),
-        qd_ref[0],
-        torque0,
-        omega,
-    )
+    unloaded = MujocoPlant(truth)
+    inertia = asim.joint_inertia(unloaded, limits.centre)  # tuned once, unloaded
+    q_prev = quantise(q_ref[0] - qd_ref[0] * asim.TICK, truth.encoder_resolution)
+    if scheduled is None:  # too stiff somewhere along the run: the mass-matrix PID
+        scheduled = asim.stiffness(unloaded, q_ref[::STIFFNESS_STRIDE], inertia) > \
+            asim.MAX_STIFFNESS
+    make = (lambda *a: asim.ScheduledPID(unloaded, *a)) if scheduled else \
+        (lambda *a: asim.arm_pid(inertia, *a))
+    pid = make(arm.nominal_gains, current_limit, q_prev, qd_ref[0], torque0, omega)
     plant.reset(q_ref[0], qd_ref[0])
     drive = None
     if effects is not None and effects.any:

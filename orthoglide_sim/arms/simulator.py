@@ -10,6 +10,10 @@ Orthoglide runs too:
    with any payload), D on a low-passed velocity (VELOCITY_FILTER):
        torque = Kp e + Ki ∫e + Kd (q̇_ref - v_est),  Kp = 3 J ω², Kd = 3 J ω, Ki = J ω³,
    e = q_ref - q_meas, v_est the backward difference of q_meas;
+   On an arm where that PID would be over MAX_STIFFNESS times too stiff somewhere along the run
+   (ρ(M(q)⁻¹ diag J), stiffness: the inertia down tenfold, or the joints' coupling) the same
+   triple pole is placed on the mass matrix at the measured pose instead (ScheduledPID), as a
+   big arm's controller does; the joint PID chattered at its current limit there;
 3. the current reference v_tau = torque / g_nominal (the manufacturer's gain the controller is
    configured with), clipped to the drive's current limit (URDF effort / g_nominal);
 4. the drive applies g_tau (v_tau + noise) (the true gain, white current noise held over the
@@ -42,6 +46,13 @@ from orthoglide_sim.common.drive import DriveModel
 
 SUBSTEPS = int(round(TICK / TIMESTEP))  # MuJoCo steps per tick
 VELOCITY_FILTER = 2.0e-3  # s, first-order low-pass of the velocity estimate (1 / (5 OMEGA))
+# ρ(M(q)⁻¹ diag(J)) along a run above this: the decentralised PID tuned on J is that many times
+# too stiff somewhere (inertia down, or the joints' coupling), its loop at 1 kHz unstable, the
+# current chattering at its limit: the arm gets the mass-matrix PID (ScheduledPID) instead.
+# Measured along the references: UR3 designed 2.6, UR5 3.2-3.5, Panda designed 7.6 (all stable,
+# unsaturated), UR10 designed 15.1 (chattering on 53 % of the ticks, dithered friction biasing
+# its gains 4-7 σ: docs/benchmarks.md)
+MAX_STIFFNESS = 10.0
 
 
 def mass_matrix(plant: MujocoPlant, q: np.ndarray) -> np.ndarray:
@@ -70,6 +81,50 @@ def arm_pid(inertia: np.ndarray, nominal_gain: np.ndarray, current_limit: np.nda
                      np.asarray(q_prev, float).copy(), torque0, omega, velocity_ff=True,
                      current_limit=np.asarray(current_limit, float),
                      velocity_filter=velocity_filter, v0=qd0)
+
+
+def stiffness(plant: MujocoPlant, q: np.ndarray, inertia: np.ndarray) -> float:
+    """max over the poses q (m, n) of ρ(M(q)⁻¹ diag(inertia)): how much stiffer than tuned the
+    decentralised PID on ``inertia`` is there (1: as tuned)."""
+    D = np.diag(np.asarray(inertia, float))
+    return max(float(np.abs(np.linalg.eigvals(np.linalg.solve(mass_matrix(plant, x), D))).max())
+               for x in np.atleast_2d(q))
+
+
+class ScheduledPID:
+    """The triple pole at -omega on the mass matrix at the measured pose (what a big arm's
+    controller does: its inertia varies tenfold along a run): per tick
+        torque = M(q_meas) (3 ω² e + 3 ω (q̇_ref - v_est)) + τ_I,  τ_I += diag M(q_meas) ω³ e dt,
+    v_est low-passed as arm_pid's, the current clipped as arm_pid's. ``plant``: the unloaded
+    plant the controller's model is (as arm_pid is tuned unloaded); τ_I starts at ``torque0``."""
+
+    def __init__(self, plant: MujocoPlant, nominal_gain: np.ndarray, current_limit: np.ndarray,
+                 q_prev: np.ndarray, qd0: np.ndarray, torque0: np.ndarray,
+                 omega: float = OMEGA, velocity_filter: float = VELOCITY_FILTER):
+        self.model, self.dof = plant.model, plant.dof
+        self.data = mujoco.MjData(plant.model)
+        self.M = np.zeros((plant.model.nv, plant.model.nv))
+        self.nominal_gain, self.current_limit = nominal_gain, np.asarray(current_limit, float)
+        self.q_prev, self.v_filtered = np.asarray(q_prev, float).copy(), np.array(qd0, float)
+        self.tau_i, self.omega, self.velocity_filter = np.array(torque0, float), omega, \
+            velocity_filter
+
+    def mass(self, q: np.ndarray) -> np.ndarray:
+        self.data.qpos[self.dof] = q
+        mujoco.mj_forward(self.model, self.data)
+        mujoco.mj_fullM(self.model, self.data, self.M)
+        return self.M[np.ix_(self.dof, self.dof)]
+
+    def current(self, q_meas: np.ndarray, q_ref: np.ndarray, qd_ref: np.ndarray,
+                dt: float = TICK) -> np.ndarray:
+        M, w, e = self.mass(q_meas), self.omega, q_ref - q_meas
+        self.tau_i = self.tau_i + np.diag(M) * w**3 * e * dt
+        v_est = (q_meas - self.q_prev) / dt
+        self.q_prev = q_meas
+        self.v_filtered = self.v_filtered + dt / (dt + self.velocity_filter) * (
+            v_est - self.v_filtered)
+        tau = M @ (3 * w**2 * e + 3 * w * (qd_ref - self.v_filtered)) + self.tau_i
+        return np.clip(tau / self.nominal_gain, -self.current_limit, self.current_limit)
 
 
 def check_limits(plant: MujocoPlant, limits: MotionLimits, k: int, current: np.ndarray) -> None:
@@ -132,7 +187,7 @@ class ArmDrives:
             plant.step(on_link, 1)
 
 
-def run_arm(plant: MujocoPlant, pid: PID, q_ref: np.ndarray, qd_ref: np.ndarray,
+def run_arm(plant: MujocoPlant, pid: PID | ScheduledPID, q_ref: np.ndarray, qd_ref: np.ndarray,
             noise: np.ndarray, limits: MotionLimits,
             drive: DriveState | None = None) -> LoopResult:
     """Track the sampled reference (N, n) from the plant's current state under the common closed

@@ -64,6 +64,7 @@ from orthoglide_ident.identify.observe.sampling import SLOW_STEP_S, best_reading
 from orthoglide_ident.identify.observe.stream import DecimatedRows
 from orthoglide_ident.identify.options import IdentifyOptions
 from orthoglide_ident.identify.records.record import payload_knowledge
+from orthoglide_ident.identify.records.robot_checks import current_at_limit
 from orthoglide_ident.identify.solve.answer import limits, min_rows, tls_model
 from orthoglide_ident.identify.solve.factors import RecordFactors
 from orthoglide_ident.identify.solve.filter_bound import bound_filter_bias, second_options
@@ -71,10 +72,12 @@ from orthoglide_ident.identify.solve.methods import DEFAULT_METHOD, solve
 from orthoglide_ident.identify.solve.tls import check_excitation
 from orthoglide_ident.identify.validate.agreement import disagreement
 from orthoglide_ident.identify.validate.records import (
+    by_joint,
     check_record,
     misfit_warnings,
     noise_by_joint,
     other_readings,
+    undetermine_at_limit,
 )
 from orthoglide_ident.model.robot import Payload
 from orthoglide_ident.results import IdentificationResult
@@ -190,6 +193,7 @@ class LiveIdentification:
         # refusal of the last recording (answered until the next recording starts)
         self._seen: dict[str, tuple[str, int]] = {}
         self._noises: dict[LiveRecording, tuple[np.ndarray, float]] = {}
+        self._at_limit: dict[LiveRecording, dict[str, str]] = {}  # current_at_limit's
         self._alts: dict[LiveRecording, list] = {}
         # a slow recording's samples (step above SLOW_STEP_S: a few kB/s), kept past its stop:
         # result() observes them again at the derivative filter's second cut-off to bound its
@@ -265,6 +269,7 @@ class LiveIdentification:
             self._leave_out(rec)
             return lines
         self._noises[rec] = noise_by_joint(record, self.model)
+        self._at_limit[rec] = current_at_limit(record, chatter_only=True)
         return lines
 
     def _leave_out(self, rec: LiveRecording) -> None:
@@ -429,6 +434,9 @@ class LiveIdentification:
                            else f for f in factors]
             factors, layout = self._solvable(factors)
             model = self.model
+            if len(factors) == len(recs):  # one per recording, in recs' order
+                factors = [dataclasses.replace(f, at_limit=by_joint(
+                    model, self._at_limit.get(r, {}))) for f, r in zip(factors, recs)]
             chains.append(disagreement(factors, model.nominal_gains, list(model.joint_names)))
             try:
                 return model, factors, opts, solve(
@@ -451,6 +459,7 @@ class LiveIdentification:
             misfit_warnings(result, solved.g_tau, model,
                             [self._noises[r] for r in recs if r in self._noises],
                             dataclasses.replace(self.opts, decimation_cutoff_hz=cutoff))
+        undetermine_at_limit(result, [self._at_limit.get(r, {}) for r in recs])
         finish_result(result, solved, reports, warnings, self.opts, dict(solved.timings))
         bound_filter_bias(result, self._solve_again(solve_rows, recs, result), SLOW_STEP_S,
                           self.opts.max_gain_rel_std)

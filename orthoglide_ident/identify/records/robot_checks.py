@@ -12,6 +12,18 @@ answer with zz_1R 0.028 instead of 0.734, and a TLS refusal blaming the payload.
   naming the joint (a wrong unit, a wrong gain or another robot; the record is still used).
 
 Joints without limits (infinite, or the description gives none) are not checked.
+
+- a current that sits at ± its extreme on more than ``AT_EXTREME_SHARE`` of the samples is a
+  controller at its current limit (``current_at_limit``; no limit needed: a clipped reference's
+  plateau is its own extreme), chattering there when it also jumps by more than ``SWING`` of its
+  range from one sample to the next on more than ``SWING_SHARE`` of them. The chatter dithers the
+  joint's velocity through zero (0.13-0.26 rad/s rms at ~250 Hz on a simulated UR10), which
+  smooths its Coulomb friction: the friction is no longer the model's fs sign(q̇) of the filtered
+  velocity, and the gains come out biased (UR10: 0.5-0.7 %, 4-7 honest σ; without Coulomb friction
+  in the plant, the same chatter leaves them within 1 σ); through the mass matrix the other
+  joints' velocities are dithered too (wrist 2 3.2 σ off with the chattering rows left out). A
+  warning names the joint; with a chattering joint no gain is marked determined
+  (solve/partial.at_limit, validate/records.py).
 """
 from __future__ import annotations
 
@@ -25,6 +37,14 @@ POSITION_MARGIN = 0.1  # of the joint's range: encoders overshoot a soft limit, 
 FAR_BEYOND = 2.0  # x the velocity or effort limit: beyond any overshoot a controller allows
 ROBUST_QUANTILE = 0.999  # of |q̇| and |τ|: one spike or a missed sample is not a verdict
 DEG = math.pi / 180.0
+# a current at its extreme: within this fraction of its largest |v_τ| (a clipped reference is
+# exactly there; a sinusoid of constant amplitude is within 1e-4 of its peak 0.9 % of the time)
+EXTREME_BAND = 1.0e-4
+# ... on more than this share of the samples (measured: 23-35 % on the simulated UR10's
+# chattering shoulder and elbow)
+AT_EXTREME_SHARE = 0.03
+SWING = 0.25  # of a current's range in one sample: a switch, not a motion
+SWING_SHARE = 0.01  # of the samples (measured: 0 on stable runs, 12-28 % chattering)
 
 
 def _limits_by_name(robot) -> dict:
@@ -139,6 +159,36 @@ def motion_warnings(rec, model) -> list[str]:
                        f"{j.nominal_gain:g} is {tau:.4g} {j.effort_unit}, {tau / lim:.3g} times "
                        f"its effort limit {lim:.4g} {j.effort_unit}: a current unit (mA?), a "
                        "torque logged as a current, or other nominal gains?")
+    return out + list(current_at_limit(rec).values())
+
+
+def current_at_limit(rec, chatter_only: bool = False) -> dict[str, str]:
+    """Joints (by ``rec.names_v``) whose current sits at its extreme or chatters (module
+    docstring), each with one line naming the record and the joint; ``chatter_only``: only the
+    chattering ones (the gains not determined: a current held at its limit without chatter is
+    still the current applied)."""
+    cur = np.asarray(rec.v_tau, float)
+    out = {}
+    for k, name in enumerate(rec.names_v):
+        col = cur[:, k][np.isfinite(cur[:, k])]
+        top = float(np.abs(col).max()) if col.size > 2 else 0.0
+        if top == 0.0:
+            continue
+        at = float(np.mean(np.abs(col) >= (1.0 - EXTREME_BAND) * top))
+        swing = float(np.mean(np.abs(np.diff(col)) > SWING * float(np.ptp(col))))
+        if at <= AT_EXTREME_SHARE:  # noise jumps too, but not at a plateau
+            continue
+        if swing > SWING_SHARE:
+            out[name] = (f"{rec.source}: joint {name}'s current jumps by over {SWING:g} of its "
+                         f"range in one sample on {100 * swing:.1f} % of the samples (at ±"
+                         f"{top:.4g}, its extreme, on {100 * at:.1f} %): a controller chattering "
+                         "at its current limit, whose dither smooths the joint's Coulomb "
+                         "friction (not the model's fs sign(q̇)): its gain is not determined; "
+                         "lower that joint's controller bandwidth and record again")
+        elif not chatter_only:
+            out[name] = (f"{rec.source}: joint {name}'s current sits at ±{top:.4g}, its extreme, "
+                         f"on {100 * at:.1f} % of the samples: a controller at its current "
+                         "limit (the motion asks more than the drive gives)")
     return out
 
 

@@ -352,8 +352,8 @@ def solve_tls(factors: list[RecordFactors], model, cols, opts: IdentifyOptions,
     log.info("IDIM-TLS on %d equations × %d unknowns", sum(f.n_rows for f in factors),
              factors[0].n_b + model.n_joints + 1)
     partial_ok = opts.partial_answers and opts.check_excitation and model.n_joints > 1
-    left_out = partial.hardly_moved(factors, model, opts, min_rows(factors[0].n_b)) \
-        if partial_ok else {}
+    left_out = {**partial.hardly_moved(factors, model, opts, min_rows(factors[0].n_b)),
+                **partial.at_limit(factors, model)} if partial_ok else {}
     if left_out:
         return _solve_partial(factors, model, cols, opts, bags, left_out, essential, progress)
     m, base = tls_model(factors, model, cols, opts)

@@ -55,6 +55,9 @@ class RecordFactors:
     moments: dict[str, ResidualMoments] = field(default_factory=dict)
     n_joints: int = 0
     observations: Observations | None = None  # the rows themselves, offline (IDIM-IV needs them)
+    # joints whose current chattered at its limit in these records, with why (their rows and
+    # gains are left out of IDIM-TLS: records/robot_checks.current_at_limit)
+    at_limit: dict[int, str] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         if not self.n_joints:

@@ -8,6 +8,8 @@
   whatever its clock, is counted once);
 - ``other_readings``: an untagged slow log's other readings as sampled (observe/sampling.py),
   among which ``sampling.best_reading`` chooses by the residual;
+- ``undetermine_at_limit``: the gains of joints whose current chattered at its limit in some
+  record (records/robot_checks.current_at_limit) not marked determined, with that reason;
 - ``noise_by_joint`` and ``misfit_warnings``: behind a transmission, the motors fitted far worse
   than their current noise says (a reduction typed wrong, validate/joint_side.py).
 """
@@ -27,6 +29,7 @@ from orthoglide_ident.identify.records.robot_checks import (
     check_positions,
     motion_warnings,
 )
+from orthoglide_ident.identify.solve.methods import get
 from orthoglide_ident.identify.validate.joint_side import (
     LONGER,
     current_noise,
@@ -72,6 +75,31 @@ def check_record(rec: Record, model: IdentificationModel, seen: dict[str, tuple[
     check_positions(rec, model)  # degrees read as radians, another robot: refused
     seen[key] = (rec.source, first_stamp(rec))
     return True, list(rec.warnings) + motion_warnings(rec, model)
+
+
+def by_joint(model: IdentificationModel, at_limit: dict[str, str]) -> dict[int, str]:
+    """current_at_limit's joint names -> why, as the model's joint indices -> why."""
+    idx = {n: j for j, n in enumerate(model.joint_names)}
+    return {idx[n]: why for n, why in at_limit.items() if n in idx}
+
+
+def undetermine_at_limit(result: IdentificationResult, at_limit: list[dict[str, str]]) -> None:
+    """Each gain of a joint named in ``at_limit`` (per record, current_at_limit's joint -> why)
+    not determined, value and σ NaN as a partial answer's, the first record's reason: a current
+    chattering at its limit biases the gain beyond its σ (records/robot_checks.py)."""
+    if get(result.method).gains_given:  # the gains are an input, not identified here
+        return
+    why: dict[str, str] = {}
+    for d in at_limit:
+        for name, line in d.items():
+            why.setdefault(name, line)
+    if why:  # the others' velocities dithered through the coupling (solve/partial.at_limit)
+        first = next(iter(why.values()))
+        why.update({g.name: first for g in result.drive_gains if g.name not in why})
+    for g in result.drive_gains:
+        if g.determined and g.name in why:
+            g.value, g.rel_std, g.rel_std_paper = float("nan"), float("nan"), None
+            g.determined, g.reason = False, why[g.name]
 
 
 def noise_by_joint(rec: Record, model: IdentificationModel) -> tuple[np.ndarray, float]:

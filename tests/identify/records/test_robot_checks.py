@@ -148,3 +148,64 @@ def test_a_payload_tagged_wrong_is_not_taken_for_a_drive_chain(recs):
                   payload=dataclasses.replace(loaded.payload, mass=1.0))
     res = identify_records([unloaded, wrong], model=UR5, method="wls")
     assert not [w for w in res.warnings if "drive chain" in w]
+
+
+def _chattering(rec, joint: int, source: str):
+    """``rec`` with joint ``joint``'s current switching ± half its clip level every sample and
+    clipped there (a controller at its current limit, as the simulated UR10's shoulder was)."""
+    v = rec.v_tau.copy()
+    lim = 1.2 * np.abs(v[:, joint]).max()
+    v[:, joint] = np.clip(v[:, joint] + 0.5 * lim * (-1.0) ** np.arange(len(v)), -lim, lim)
+    return _with(rec, source, v_tau=v)
+
+
+def test_a_current_chattering_at_its_limit_is_said_and_no_gain_determined(recs):
+    """Issue 43's rule: a chattering current dithers the friction the model does not have, of its
+    joint and through the coupling of the others (UR10: gains 3-7 σ off, marked determined).
+    Before: no word, every gain determined."""
+    from orthoglide_ident.identify.records.robot_checks import motion_warnings
+
+    unloaded, loaded = recs
+    chat = _chattering(loaded, 2, "ur5_chatter/loaded")
+    said = [w for w in motion_warnings(chat, UR5) if w.startswith("ur5_chatter/loaded: joint")]
+    assert len(said) == 1 and said[0].startswith("ur5_chatter/loaded: joint elbow_joint's")
+    assert "chattering at its current limit" in said[0]
+    with pytest.raises(ExcitationError) as err:
+        identify_records([unloaded, chat], model=UR5)
+    msg = str(err.value)
+    assert msg.startswith("no drive gain is determined") and said[0] in msg and "\n" not in msg
+
+
+def test_a_smooth_current_or_a_sinusoid_is_not_called_chattering(recs):
+    from orthoglide_ident.identify.records.robot_checks import current_at_limit
+
+    unloaded, loaded = recs
+    assert not current_at_limit(unloaded) and not current_at_limit(loaded)
+    t = np.arange(6000) * 1e-3  # a constant-amplitude sinusoid: 0.9 % within 1e-4 of its peak
+    sine = np.repeat(np.sin(2 * np.pi * 0.5 * t)[:, None], 6, axis=1)
+    assert not current_at_limit(_with(unloaded, "sine", v_tau=sine))
+    clipped = np.clip(1.25 * sine, -1.0, 1.0)  # held at ±1 on 41 % of the samples, no chatter
+    said = current_at_limit(_with(unloaded, "clipped", v_tau=clipped))
+    assert set(said) == set(unloaded.names_v) and "sits at ±1" in said["elbow_joint"]
+    assert not current_at_limit(_with(unloaded, "clipped", v_tau=clipped), chatter_only=True)
+
+
+def test_the_live_identification_says_the_same_of_a_chattering_current(recs):
+    from live_helpers import live_result
+
+    from orthoglide_ident.identify import IdentifyOptions
+
+    unloaded, loaded = recs
+    chat = _chattering(loaded, 2, "ur5_chatter/loaded")
+    with pytest.raises(ExcitationError) as err:
+        live_result(UR5, [unloaded, chat], IdentifyOptions())
+    assert "ur5_chatter/loaded: joint elbow_joint's current jumps" in str(err.value)
+
+
+def test_wls_with_given_gains_says_a_chattering_current_and_keeps_the_gains(recs):
+    unloaded, loaded = recs
+    chat = _chattering(loaded, 2, "ur5_chatter/loaded")
+    res = identify_records([unloaded, chat], model=UR5, method="wls", gains=UR5.nominal_gains)
+    assert any(w.startswith("ur5_chatter/loaded: joint elbow_joint's current jumps")
+               for w in res.warnings)
+    assert all(g.determined for g in res.drive_gains)  # an input, not identified
