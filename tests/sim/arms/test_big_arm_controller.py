@@ -24,10 +24,10 @@ from orthoglide_ident.excite.summary import with_extras
 from orthoglide_ident.identify import identify_records
 from orthoglide_ident.model.robot import Payload
 from orthoglide_ident.model.robots import load_robot
+from orthoglide_sim.arm_or_chain.session import robot_truth
 from orthoglide_sim.arms import simulator as asim
 from orthoglide_sim.arms.plant import MujocoPlant
 from orthoglide_sim.arms.record import simulate_arm
-from orthoglide_sim.arms.session import robot_truth
 from orthoglide_sim.arms.truth import with_offset_payload
 from orthoglide_sim.demos.designed_runs import fourier, stop_limits
 
