@@ -16,6 +16,7 @@ from pathlib import Path
 
 import numpy as np
 import pinocchio as pin
+from example_robots import urdf
 
 from orthoglide_ident.identify.records.record import Record
 from orthoglide_ident.model.robot import Payload
@@ -43,9 +44,7 @@ def share_dir() -> Path:
 
 def urdf_path() -> Path:
     """panda.urdf of the example-robot-data wheel (its cmeel prefix), as it comes."""
-    dist = importlib.metadata.distribution("example-robot-data")
-    return Path(dist.locate_file("cmeel.prefix/share/example-robot-data/robots/"
-                                 "panda_description/urdf/panda.urdf"))
+    return urdf("panda_description/urdf/panda.urdf")
 
 
 def installed() -> bool:

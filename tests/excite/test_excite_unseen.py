@@ -3,12 +3,12 @@ example-robot-data UR10 (no acceleration limits, no start pose, collision meshes
 with the defaults and stays within its URDF's limits on the 1 ms grid, collision-free."""
 from __future__ import annotations
 
-import importlib.metadata
 from pathlib import Path
 
 import numpy as np
 import pinocchio as pin
 import pytest
+from example_robots import urdf
 
 from orthoglide_ident.excite.collision import CollisionModel
 from orthoglide_ident.excite.design import DesignOptions, design
@@ -17,25 +17,18 @@ from orthoglide_ident.excite.prediction import DEFAULT_CURRENT_NOISE
 from orthoglide_ident.model.robot import Payload
 from orthoglide_ident.model.robots import load_robot
 
-ROBOTS = "cmeel.prefix/share/example-robot-data/robots"
 TICK = 1e-3  # s, the controller's grid the design is checked on
 
 
-def ur10_urdf() -> Path | None:
-    try:
-        dist = importlib.metadata.distribution("example-robot-data")
-    except importlib.metadata.PackageNotFoundError:
-        return None
-    path = Path(dist.locate_file(f"{ROBOTS}/ur_description/urdf/ur10_robot.urdf"))
-    return path if path.is_file() else None
+def ur10_urdf() -> Path:
+    return urdf("ur_description/urdf/ur10_robot.urdf")
 
 
 @pytest.mark.slow
-@pytest.mark.skipif(ur10_urdf() is None, reason="example-robot-data is not installed")
 def test_unseen_ur10_designs_within_its_urdf_limits_on_the_1ms_grid():
-    urdf = ur10_urdf()
-    robot = load_robot(str(urdf))
-    d = design(robot, read_limits(robot), CollisionModel(robot, "mesh", [str(urdf.parents[4])]),
+    path = ur10_urdf()
+    robot = load_robot(str(path))
+    d = design(robot, read_limits(robot), CollisionModel(robot, "mesh", [str(path.parents[4])]),
                DesignOptions(Payload(1.0), np.full(robot.n_joints, DEFAULT_CURRENT_NOISE)),
                progress=lambda _: None)
     assert d.check.ok, d.check.to_text()
@@ -48,7 +41,7 @@ def test_unseen_ur10_designs_within_its_urdf_limits_on_the_1ms_grid():
     assert d.prediction.worst_determined_gain() < np.median(random)
     assert d.check.by_kind()["collision"].value > 0.0
     # the URDF's own limits, read by Pinocchio, on every 1 ms tick of both runs
-    model = pin.buildModelFromUrdf(str(urdf))
+    model = pin.buildModelFromUrdf(str(path))
     lo, hi, vmax = model.lowerPositionLimit, model.upperPositionLimit, model.velocityLimit
     for run in ("unloaded", "loaded"):
         t = np.arange(0.0, d.trajectory.duration, TICK)

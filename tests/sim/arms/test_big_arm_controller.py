@@ -8,11 +8,11 @@ determined (issue 43's rule broken; docs/benchmarks.md).
 """
 from __future__ import annotations
 
-import importlib.metadata
 from pathlib import Path
 
 import numpy as np
 import pytest
+from example_robots import urdf
 from live_helpers import as_record
 
 from orthoglide_ident.errors import ExcitationError
@@ -31,17 +31,11 @@ from orthoglide_sim.arms.record import simulate_arm
 from orthoglide_sim.arms.truth import with_offset_payload
 from orthoglide_sim.demos.designed_runs import fourier, stop_limits
 
-ROBOTS = "cmeel.prefix/share/example-robot-data/robots"
 SECONDS = 20.0  # s per run: the bias was 3.7-4.0 σ at 20 s + 20 s already
 
 
-def ur10_urdf() -> Path | None:
-    try:
-        dist = importlib.metadata.distribution("example-robot-data")
-    except importlib.metadata.PackageNotFoundError:
-        return None
-    path = Path(dist.locate_file(f"{ROBOTS}/ur_description/urdf/ur10_robot.urdf"))
-    return path if path.is_file() else None
+def ur10_urdf() -> Path:
+    return urdf("ur_description/urdf/ur10_robot.urdf")
 
 
 @pytest.fixture(scope="module")
@@ -77,7 +71,6 @@ def errors(ur10, recs):
 
 
 @pytest.mark.slow
-@pytest.mark.skipif(ur10_urdf() is None, reason="example-robot-data is not installed")
 def test_the_ur10_gets_the_mass_matrix_pid_and_its_gains_are_within_three_sigma(ur10):
     _, truth, traj = ur10
     q = traj.evaluate("unloaded", np.arange(0.0, traj.period_s, 0.05))[0]
@@ -91,7 +84,6 @@ def test_the_ur10_gets_the_mass_matrix_pid_and_its_gains_are_within_three_sigma(
 
 
 @pytest.mark.slow
-@pytest.mark.skipif(ur10_urdf() is None, reason="example-robot-data is not installed")
 def test_a_ur10_record_chattering_at_its_limit_is_refused_naming_the_joints(ur10):
     """The joint PID tuned at the start pose (the simulator's old controller): its records'
     gains were 3-7 σ off, marked determined; now no gain is, each chattering joint named."""

@@ -2,12 +2,10 @@
 Pinocchio's RNEA of the same truth (two independent implementations), friction loss realistic."""
 from __future__ import annotations
 
-import importlib.metadata
-from pathlib import Path
-
 import mujoco
 import numpy as np
 import pytest
+from example_robots import urdf
 
 from orthoglide_ident.errors import ConfigError
 from orthoglide_sim.arms.description import load_arm
@@ -175,26 +173,13 @@ def test_true_gains_follow_the_robot_files_nominal_gains():
     )
 
 
-def _erd_urdf(path: str):
-    """A URDF of the example-robot-data wheel, None if it is not installed."""
-    try:
-        dist = importlib.metadata.distribution("example-robot-data")
-    except importlib.metadata.PackageNotFoundError:
-        return None
-    p = Path(dist.locate_file(f"cmeel.prefix/share/example-robot-data/robots/{path}"))
-    return p if p.is_file() else None
-
-
-UR3_ERD = _erd_urdf("ur_description/urdf/ur3_robot.urdf")
-
-
-@pytest.mark.skipif(UR3_ERD is None, reason="example-robot-data is not installed")
 def test_a_urdf_with_package_collision_meshes_builds_its_plant():
     """The example-robot-data UR3 (collision meshes at package:// URIs MuJoCo cannot open): its
     plant builds without geoms and agrees with Pinocchio's RNEA of the same truth."""
-    text = UR3_ERD.read_text()
+    ur3 = urdf("ur_description/urdf/ur3_robot.urdf")
+    text = ur3.read_text()
     assert "package://" in text and "<collision" in text
-    truth = default_truth(load_arm(str(UR3_ERD)))
+    truth = default_truth(load_arm(str(ur3)))
     plant = MujocoPlant(truth)
     assert plant.model.ngeom == 0
     q, qd, qdd = _random_states(100)
