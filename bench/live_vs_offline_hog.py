@@ -34,6 +34,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import numpy as np  # noqa: E402
 import yaml  # noqa: E402
+from nodes_at_any_rate import rel  # noqa: E402  (bench/: live vs offline, relative)
 
 from orthoglide_ident import bags  # noqa: E402
 from orthoglide_ident.identify.live.session import LiveIdentification  # noqa: E402
@@ -153,13 +154,6 @@ def live_answer(node, robot: str, runs: dict, dynamic: bool, opts: IdentifyOptio
             return live.result(), max(waits)
     finally:
         feed.close()
-
-
-def rel(a, b) -> tuple[float, float]:
-    ga, gb = (np.array([g.value for g in r.drive_gains]) for r in (a, b))
-    pa, pb = (np.array([p.value for p in r.parameters]) for r in (a, b))
-    big = np.abs(pb) > 1e-3 * np.abs(pb).max()
-    return float(np.max(np.abs(ga / gb - 1))), float(np.max(np.abs(pa[big] / pb[big] - 1)))
 
 
 def one(node, robot, runs, rate, layout, opts, tmp: Path) -> str:
