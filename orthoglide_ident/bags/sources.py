@@ -197,6 +197,18 @@ def choose_sources(topics: Mapping[str, TopicSeries], path: Path, *, tags: BagTa
     return BagSources(position, current)
 
 
+def missing_joint_text(missing: str, topic: str, names: Sequence[str],
+                       joints: Sequence[str]) -> str:
+    """Why ``missing`` (one of the robot's ``joints``) is not in ``topic``, which carries
+    ``names``; when the topic carries the robot's other joints, the likely cause: a joint of the
+    description the controller does not drive (a gripper's, a tool changer's)."""
+    text = f"joint {missing!r} is not in {topic} (it has: {', '.join(names) or 'no joints'})"
+    if any(j in names for j in joints):
+        text += ("; a gripper's or a tool's joint the logs do not carry? lock it in a robot file "
+                 "(locked_joints: docs/guide/locked_joints.md)")
+    return text
+
+
 def take_joints(s: TopicSeries, src: Source, joints: Sequence[str] | None,
                 path: Path) -> tuple[tuple[str, ...], np.ndarray]:
     """(joint names, values (N, k)) of ``src``: every joint that has the field, or ``joints`` in
@@ -205,8 +217,8 @@ def take_joints(s: TopicSeries, src: Source, joints: Sequence[str] | None,
     if joints is not None and len(have) != len(joints):
         missing = next(j for j in joints if j not in have)
         if missing not in (s.names or ()):
-            raise BagError(f"{path}: joint {missing!r} is not in {src.topic} (it has: "
-                           f"{', '.join(s.names or ()) or 'no joints'})")
+            raise BagError(f"{path}: "
+                           + missing_joint_text(missing, src.topic, s.names or (), joints))
         has = [f for j, f in s.columns if j == missing]
         raise BagError(f"{path}: joint {missing!r} has no {src.field} in {src.topic} (it has: "
                        f"{', '.join(has) or 'nothing'})")

@@ -23,7 +23,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from orthoglide_ident.bags.reader import decode_messages
-from orthoglide_ident.bags.sources import CURRENT_SOURCES, DEFAULT_INTERFACE, POSITION
+from orthoglide_ident.bags.sources import (
+    CURRENT_SOURCES,
+    DEFAULT_INTERFACE,
+    POSITION,
+    missing_joint_text,
+)
 from orthoglide_ident.bags.topics import DYNAMIC_JOINT_STATE_TYPE, JOINT_STATE_TYPE
 from orthoglide_ident.errors import DataError
 
@@ -82,7 +87,7 @@ def _effort(raw: bytes, joints: Sequence[str], topic: str) -> bool:
     all_names = decode_messages([raw], JOINT_STATE_TYPE)[1]
     missing = [j for j in joints if j not in all_names]
     if missing:
-        raise DataError(f"joint {missing[0]!r} is not in {topic} (it has: {', '.join(all_names)})")
+        raise DataError(missing_joint_text(missing[0], topic, all_names, joints))
     if not all(j in names for j in joints):
         return False
     return bool(np.isfinite(values[0, [names.index(j) for j in joints]]).all())

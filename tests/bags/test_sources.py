@@ -137,6 +137,12 @@ def test_a_missing_joint_or_interface_is_a_one_line_reason(two_layouts) -> None:
         bags.read_bag(two_layouts["joint_states"], joints=UR5 + ("forearm_joint",))
     assert "joint 'forearm_joint' is not in /joint_states" in str(exc.value)
     assert "\n" not in str(exc.value)
+    # the robot's other joints are there: likely a gripper's joint, locked_joints named
+    assert "lock it in a robot file (locked_joints" in str(exc.value)
+    with pytest.raises(BagError) as exc:  # none of the robot's joints: another robot, no hint
+        bags.read_bag(two_layouts["joint_states"], joints=("q11", "q12", "q13"))
+    assert "joint 'q11' is not in /joint_states" in str(exc.value)
+    assert "locked_joints" not in str(exc.value)
     with pytest.raises(BagError) as exc:
         bags.read_bag(two_layouts["dynamic_joint_states"],
                       joints=("elbow_joint", "gripper_finger_joint"))
