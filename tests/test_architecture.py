@@ -105,6 +105,22 @@ def test_no_isinstance_on_a_robot_class(room):
     assert not offenders, "\n".join(offenders)
 
 
+ROBOT_NAMES = {"robot", "model", "jm", "arm"}  # what the product calls a RobotModel
+
+
+def test_the_robot_is_never_probed_for_an_attribute():
+    """RobotModel declares every attribute the product reads (None or () where a robot has
+    none): a getattr(robot, "x", default) would hide a robot that lacks it."""
+    offenders = []
+    for p in _modules(PRODUCT):
+        for node in ast.walk(ast.parse(p.read_text())):
+            if (isinstance(node, ast.Call) and getattr(node.func, "id", None) in (
+                    "getattr", "hasattr") and node.args
+                    and isinstance(node.args[0], ast.Name) and node.args[0].id in ROBOT_NAMES):
+                offenders.append(f"{_rel(p)}:{node.lineno}: {node.func.id}({node.args[0].id}, …)")
+    assert not offenders, "\n".join(offenders)
+
+
 def test_the_robot_is_resolved_at_the_edges_only():
     offenders = []
     for p in _modules(PRODUCT):

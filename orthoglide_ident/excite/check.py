@@ -79,7 +79,7 @@ def verify_robot(traj: ExcitationTrajectory, robot, where: str) -> None:
 
 def locked_values(robot) -> dict[str, float]:
     """The robot's locked joints as the trajectory file keeps them: joint -> m or rad."""
-    return {lj.name: float(lj.value) for lj in getattr(robot, "locked_joints", ())}
+    return {lj.name: float(lj.value) for lj in robot.locked_joints}
 
 
 def nominal_efforts(robot, payload, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> np.ndarray:

@@ -179,7 +179,7 @@ class CollisionModel:
         self.always_near: list[str] = []
         self.meshes = any(isinstance(g.geometry, coal.BVHModelBase)
                           for g in self.geom.geometryObjects)
-        if not disabled and getattr(robot, "closure", None) is None:
+        if not disabled and robot.closure is None:
             self._drop_always_near()
 
     def _random_configurations(self) -> np.ndarray:

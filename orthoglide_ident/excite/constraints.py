@@ -119,7 +119,7 @@ def mimic_slacks(limits, margins: Margins, q: np.ndarray, qd: np.ndarray, qdd: n
     """Each mimic joint's own position, velocity and acceleration slacks (limits.py), where
     it gives them; its effort is its leader's motor's (in the leader's column)."""
     out = []
-    for m in getattr(limits, "mimics", ()):
+    for m in limits.mimics:
         qm, qdm, qddm = (x[:, None] for x in m.motion(q, qd, qdd))
         if math.isfinite(m.lower) and math.isfinite(m.upper):
             out.append(worst("position", np.minimum(qm - m.lower, m.upper - qm),
@@ -159,7 +159,7 @@ class TreeStates:
 
     def __init__(self, robot):
         self.robot = robot
-        self.closure = getattr(robot, "closure", None)
+        self.closure = robot.closure
         self.passive = [j for j in robot.tree_joints if j not in robot.actuated and j.one_dof
                         and math.isfinite(j.lower) and math.isfinite(j.upper)]
         self.g_ref = self._g_ref() if self.closure is not None else math.nan
@@ -218,7 +218,7 @@ def collision_slack(collision, Q: np.ndarray, margins: Margins, t: np.ndarray,
         D = collision.distances(Q)
     elif bound is not None:  # the search: exact only for pairs within ``bound``
         D = collision.distances_above(Q, bound)
-    elif qd is not None and len(t) > 1 and getattr(collision.robot, "closure", None) is None:
+    elif qd is not None and len(t) > 1 and collision.robot.closure is None:
         D = collision.distances_along(Q, qd, float(t[1] - t[0]), margins.collision)
     else:
         D = collision.distances(Q)

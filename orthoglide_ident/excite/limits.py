@@ -121,12 +121,12 @@ class JointLimits:
 
 def excitation_section(model) -> tuple[dict[str, Any], Path]:
     """The robot file's ``excitation`` mapping (checked for unknown keys) and its folder."""
-    desc = getattr(model, "description", None)
-    if desc is None or not hasattr(desc, "path"):
+    desc = model.description
+    if desc is None:
         raise ConfigError(f"robot {model.name}: exciting trajectories need a robot described by a "
                           "URDF (--robot FILE.urdf, a robot YAML or a bundled name such as ur5; "
                           "for the Orthoglide: orthoglide_general)")
-    section = dict(getattr(desc, "excitation", {}) or {})
+    section = dict(desc.excitation)
     unknown = sorted(set(section) - set(EXCITATION_KEYS))
     if unknown:
         raise ConfigError(f"robot {model.name}: excitation: unknown keys {unknown} (known: "
@@ -262,14 +262,14 @@ def read_limits(model, joint_limits_file: str | Path | None = None,
 
 
 def _mimic_names(model) -> tuple[str, ...]:
-    return tuple(j.name for j, *_ in getattr(model, "mimic_rows", ()))
+    return tuple(j.name for j, *_ in model.mimic_rows)
 
 
 def _mimic_limits(model, from_file: dict[str, dict[str, float]]) -> tuple[MimicLimits, ...]:
     """Each mimic joint's own limits: the URDF's range and velocity, the joint_limits file's
     range, velocity and acceleration over them (inf where neither gives one)."""
     out = []
-    for j, a, r, o in getattr(model, "mimic_rows", ()):
+    for j, a, r, o in model.mimic_rows:
         own = {"lower": j.lower, "upper": j.upper,
                "velocity": j.velocity if j.velocity > 0 else math.inf, "acceleration": math.inf}
         own.update({k: from_file[k][j.name] for k in own if j.name in from_file.get(k, {})})

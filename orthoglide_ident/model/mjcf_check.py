@@ -49,7 +49,7 @@ def inverse_dynamics_rms(text: str, robot, chi_st: np.ndarray, q, qd, qdd) -> np
     """(n,) relative rms per actuator of the MJCF's inverse dynamics against the model's, at
     the robot's (actuator-side) states; behind a transmission the joint-side forces are taken
     back to the motors (τ_j = Nᵀ τ_m)."""
-    t = getattr(robot, "transmission", None)
+    t = robot.transmission
     ref = model_torques(robot, chi_st, q, qd, qdd)
     if t is None:
         return rms_error(ref, mujoco_torques(text, list(robot.joint_names), q, qd, qdd))

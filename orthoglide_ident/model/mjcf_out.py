@@ -99,7 +99,7 @@ def _set_joint(joint, ia: float, fv: float, fs: float) -> None:
 def _drives(robot, chi_st: np.ndarray) -> list[dict[str, float]]:
     """Per actuator (motor side for a transmission) its ia, fv, fs, tauoff."""
     values = np.asarray(chi_st, float)
-    t = getattr(robot, "transmission", None)
+    t = robot.transmission
     if t is None:
         return [{k: float(values[i]) for k, i in robot.drive_columns(a).items()}
                 for a in range(robot.n_joints)]
@@ -189,12 +189,12 @@ def identified_spec(robot, chi_st: np.ndarray, gains: Sequence[float]):
     """(MjSpec of the identified robot, notes for the user); module docstring."""
     import mujoco
 
-    if getattr(robot, "closure", None) is not None:
+    if robot.closure is not None:
         raise ConfigError(f"--mjcf-out: robot {robot.name} is a closed chain; its MJCF (loops as "
                           "equality constraints) is not written yet: use --urdf-out or the JSON")
     notes: list[str] = []
     jm = robot if robot.joint_model is None else robot.joint_model
-    if getattr(jm, "description", None) is None:  # the closed-form Orthoglide: no bodies to write
+    if jm.description is None:  # the closed-form Orthoglide: no bodies to write
         raise ConfigError(f"--mjcf-out: robot {robot.name} has no URDF or MJCF description to "
                           "write the identified bodies into: give --robot a described one")
     if jm.description.path.suffix.lower() == ".xml":
@@ -204,7 +204,7 @@ def identified_spec(robot, chi_st: np.ndarray, gains: Sequence[float]):
     spec.modelname = robot.name
     spec.option.gravity = list(robot.gravity)
     drives, limits = _drives(robot, chi_st), _current_limits(robot)
-    t = getattr(robot, "transmission", None)
+    t = robot.transmission
     N = np.eye(robot.n_joints) if t is None else np.asarray(t.N, float)
     joints = list(robot.joint_names) if t is None else list(t.joints)
     names = list(robot.joint_names) if t is None else list(t.actuators)

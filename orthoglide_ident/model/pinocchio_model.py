@@ -525,6 +525,18 @@ class PinocchioRobot(NamedByParameters, RobotModel):
                          "states within the joint limits: check the limits and the reference")
 
     # --- nominal values from the description ---------------------------------------------
+    def effort_limits(self) -> dict[str, float]:
+        """The URDF's ``<limit effort>`` (N·m or N) of each actuated joint that gives one."""
+        out = {}
+        for j in self.joints:
+            if not self.model.existJointName(j.name):
+                continue
+            iv = self.model.joints[self.model.getJointId(j.name)].idx_v
+            lim = float(self.model.effortLimit[iv])
+            if math.isfinite(lim) and lim > 0:
+                out[j.name] = lim
+        return out
+
     def standard_values(self) -> np.ndarray:
         """χ_st of the description itself (``standard_names`` order): inertials of the links,
         ia = armature, fv = damping, fs = friction of each joint, tauoff = 0."""

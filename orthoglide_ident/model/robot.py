@@ -184,6 +184,10 @@ class RobotModel(abc.ABC):
     description = None
     # behind a transmission, the joints' own model (model/actuator_space.py); None: no joint side
     joint_model = None
+    # a closed chain's loop closure (model/closure.Closure); None: an open tree
+    closure = None
+    # (mimic joint, its leader's actuated index, multiplier, offset) of each URDF mimic joint
+    mimic_rows: tuple = ()
 
     @abc.abstractmethod
     def observation_block(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray,
@@ -212,6 +216,16 @@ class RobotModel(abc.ABC):
         self.observation_block(q, qd, qdd, out=out[:n + 1])
         out[n + 1:] = self.payload_standard_block(q, qd, qdd, frame)
         return out
+
+    def standard_values(self) -> np.ndarray | None:
+        """χ_st of the robot's description (``standard_names`` order), the consistency step's
+        prior; None when there is no description to read (the Orthoglide's closed form)."""
+        return None
+
+    def effort_limits(self) -> dict[str, float]:
+        """The description's effort limits (N·m or N) per actuated joint that has one; {}
+        when the description gives none or the actuators are motors behind a transmission."""
+        return {}
 
     @abc.abstractmethod
     def standard_regressor(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> np.ndarray:
@@ -287,6 +301,13 @@ class RobotModel(abc.ABC):
         gains (``effort_unit: torque``); a joint the model lacks (a gripper) is left as it is."""
         gains = dict(zip(self.joint_names, self.nominal_gains))
         return np.asarray(effort, float) / [gains.get(n, 1.0) for n in names]
+
+    @property
+    def motor_scale(self) -> np.ndarray | None:
+        """s_a = max_j |N_aj| of each motor behind a transmission (identify/observe/
+        joint_units.py: its unknowns in joint-side units); None without a transmission."""
+        t = self.transmission
+        return None if t is None else np.max(np.abs(np.asarray(t.N, float)), axis=1)
 
     @property
     def gain_units(self) -> tuple[str, ...]:

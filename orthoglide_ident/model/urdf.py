@@ -122,7 +122,7 @@ def _unit(robot: RobotModel, joint_name: str) -> str:
 # ------------------------------------------------------------------ a URDF robot's own file
 def source_urdf(robot: RobotModel) -> Path:
     """The URDF a general robot was built from (its description); ConfigError otherwise."""
-    path = getattr(getattr(robot, "description", None), "path", None)
+    path = None if robot.description is None else robot.description.path
     if path is None or Path(path).suffix.lower() != ".urdf":
         raise ConfigError(f"--urdf-out: robot {robot.name} is not described by a URDF "
                           f"({path or 'no description file'}); write the standard parameters "
@@ -185,7 +185,7 @@ def replace_inertials(urdf_text: str, robot: RobotModel, chi_st: np.ndarray,
     body they are fixed to)."""
     root = ET.fromstring(urdf_text, parser=ET.XMLParser(target=ET.TreeBuilder(
         insert_comments=True)))
-    lock_joints(root, getattr(robot, "locked_joints", ()))
+    lock_joints(root, robot.locked_joints)
     links = {el.get("name"): el for el in root.findall("link")}
     values = dict(zip(robot.standard_names, (float(x) for x in chi_st)))
     frames = {b.frame or b.name for b in robot.bodies}

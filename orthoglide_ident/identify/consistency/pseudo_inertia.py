@@ -133,8 +133,8 @@ def prior_vector(robot, prior: Mapping[str, float] | np.ndarray | None) -> tuple
     or a mapping name -> value, some names only), else the robot's ``standard_values()`` (its
     description), else nothing (the weak default everywhere)."""
     names = list(robot.standard_names)
-    if prior is None and callable(getattr(robot, "standard_values", None)):
-        return np.asarray(robot.standard_values(), float), "the robot's description"
+    if prior is None and (values := robot.standard_values()) is not None:
+        return np.asarray(values, float), "the robot's description"
     if prior is None:
         return np.full(len(names), np.nan), "weak default"
     if isinstance(prior, Mapping):

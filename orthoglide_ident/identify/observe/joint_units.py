@@ -40,15 +40,8 @@ assert set(DRIVE_KINDS) <= set(POWERS)
 def transmission_scale(model) -> np.ndarray | None:
     """s_a = max_j |N_aj| for each of ``model``'s equations (its "joints", the motors), or None
     without a transmission. ``model``: the robot, or a partial answer's subsystem
-    (solve/partial.Subsystem: its robot ``full``, the motors kept ``joint_idx``)."""
-    kept = None
-    if hasattr(model, "joint_idx") and hasattr(model, "full"):
-        model, kept = model.full, np.asarray(model.joint_idx, int)
-    t = model.transmission
-    if t is None:
-        return None
-    s = np.max(np.abs(t.N), axis=1)
-    return s if kept is None else s[kept]
+    (solve/partial.Subsystem: the motors it keeps); both say it as ``motor_scale``."""
+    return model.motor_scale
 
 
 def equation_scale(model) -> np.ndarray | None:

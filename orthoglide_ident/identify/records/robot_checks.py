@@ -146,7 +146,7 @@ def motion_warnings(rec, model) -> list[str]:
                            f"{v / j.velocity_limit:.3g} times its velocity limit "
                            f"{j.velocity_limit:.4g} {j.unit}/s: a position unit, a clock unit or "
                            "another robot?")
-    limits = effort_limits(model)
+    limits = model.effort_limits()
     cur = np.asarray(rec.v_tau, float)
     for k, j in _columns(rec.names_v, by_name):
         lim = limits.get(j.name, math.inf)
@@ -189,21 +189,4 @@ def current_at_limit(rec, chatter_only: bool = False) -> dict[str, str]:
             out[name] = (f"{rec.source}: joint {name}'s current sits at ±{top:.4g}, its extreme, "
                          f"on {100 * at:.1f} % of the samples: a controller at its current "
                          "limit (the motion asks more than the drive gives)")
-    return out
-
-
-def effort_limits(robot) -> dict[str, float]:
-    """The description's effort limits (N·m or N) of the joints a Pinocchio model holds (a
-    motor behind a transmission: none, its torque is not a joint's); {} for other models."""
-    pin_model = getattr(robot, "model", None)
-    if pin_model is None or not hasattr(pin_model, "effortLimit"):
-        return {}
-    out = {}
-    for j in robot.joints:
-        if not pin_model.existJointName(j.name):
-            continue
-        iv = pin_model.joints[pin_model.getJointId(j.name)].idx_v
-        lim = float(pin_model.effortLimit[iv])
-        if math.isfinite(lim) and lim > 0:
-            out[j.name] = lim
     return out

@@ -197,7 +197,7 @@ def _finish(rows: list[_Rows], theta: np.ndarray, sigma: np.ndarray, n_j: int,
 def observations_of(factors: list) -> list[Observations]:
     """The decimated rows behind the factors (RecordFactors.observations); IdentificationError
     when they were not kept (the live estimate folds rows into R and drops them)."""
-    obs = [getattr(f, "observations", None) for f in factors]
+    obs = [f.observations for f in factors]
     if any(o is None for o in obs):
         raise IdentificationError("IDIM-IV needs the records' decimated rows, which only the "
                                   "offline identification keeps (orthoglide-ident identify)")

@@ -170,6 +170,8 @@ class Subsystem:
         exprs = self.columns.expressions
         self.expressions = [exprs[c] if c < len(exprs) else "" for c in self.col_idx]
         self.nominal_gains_given = self.full.nominal_gains_given
+        s_a = self.full.motor_scale
+        self.motor_scale = None if s_a is None else s_a[self.joint_idx]
         self.terms = self._lag_terms()
 
     def _lag_terms(self) -> Terms:

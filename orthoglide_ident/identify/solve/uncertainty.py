@@ -430,7 +430,7 @@ class _Folded:
 def _fold(factors: list, layout: LayoutFn, z: np.ndarray, w2: np.ndarray, c: int) -> _Folded:
     acc = _Folded(len(factors[0].R))
     for fi, f in enumerate(factors):
-        moments = getattr(f, "moments", {}) or {}
+        moments = f.moments
         for j in range(acc.n_j):
             T = layout(f, j)
             v = T @ z
