@@ -1,22 +1,22 @@
-"""Numerical identification pipeline (paper Sects. 3-4). Never imports rclpy.
+"""Numerical identification (paper Sects. 3-4). Never imports rclpy.
 
     from orthoglide_ident.identify import identify, IdentifyOptions
     from orthoglide_ident.model.robots import load_robot
-    robot = load_robot("orthoglide")                           # or a URDF, a robot YAML
+    robot = load_robot("ur5")                                   # a bundled name, a URDF, a YAML
     res = identify(["bags/unloaded", "bags/loaded"], model=robot)  # IDIM-TLS, payload from tags
-    res.to_json(); res.to_text(); res.message_fields()         # docs/design/interfaces.md JSON,
-    table, msg fields
+    res.to_json(); res.to_text(); res.message_fields()          # docs/design/interfaces.md
 
-Rooms by concern (docs/design/architecture.md §1): reading records (records: bags → Record),
-observation
-(observe, with segments, filtering, reversals, decimation, stream, drive_terms, current_lag: a
-record → decimated rows of [W | W_payload, v_τ]), equations (factors: per-joint R factors),
-solving (methods: the table of methods, dispatching to solve → tls / wls, uncertainty,
-essential, consistency), results (diagnostics, validation, direct_dynamics). The offline path
-(pipeline) and the live one (live, live_recording, pairing) share the observation and solving
-rooms; neither imports the other. options holds the tuning (config/identification.yaml).
+Rooms by concern (docs/design/architecture.md), in the order a record goes through them:
+``records/`` (bags and logs → Record, pairing, segments, the robot's checks), ``observe/``
+(filtering, time base, sampling, reversals, decimation, smooth rows: a record → decimated rows
+of [W | W_payload, v_τ]), ``columns/`` (the layout beside W: drive terms, current-loop lag,
+payload unknowns), ``solve/`` (per-joint R factors, the methods table, TLS, WLS, IV, partial
+answers, essential parameters, uncertainty), ``consistency/`` (physically consistent
+parameters), ``validate/`` (record checks, cross-validation, direct dynamics). The offline
+orchestration is ``pipeline.py``; the live one ``live/`` (shares every room above, never
+``pipeline``). ``options.py`` holds the tuning (config/identification.yaml).
 
-    live = LiveIdentification(model=robot)           # see identify/live.py
+    live = LiveIdentification(model=robot)                      # identify/live/session.py
     live.start_recording("run-1", "unloaded"); live.add_joint_states(...); ...
 """
 from orthoglide_ident.identify.live.session import LiveEstimate, LiveIdentification
