@@ -197,8 +197,7 @@ LAYERS = [
     ["orthoglide_ident.identify.__init__"],  # the identify face
     ["orthoglide_ident.report", "orthoglide_ident.control", "orthoglide_ident.excite",
      "orthoglide_ident.feedforward_schedule", "orthoglide_ident.import_command",
-     "orthoglide_ident.ros", "orthoglide_ident.ros_client",
-     "orthoglide_ident.model.mjcf_out"],  # the identified robot for MuJoCo: reads excite's limits
+     "orthoglide_ident.ros", "orthoglide_ident.ros_client"],
     ["orthoglide_ident.view"],
     ["orthoglide_ident.nodes", "orthoglide_ident.cli", "orthoglide_ident._install_ament"],
 ]

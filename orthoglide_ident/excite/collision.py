@@ -27,7 +27,7 @@ import pinocchio as pin
 
 from orthoglide_ident.errors import ConfigError
 from orthoglide_ident.excite.limits import COLLISION_MODES as MODES
-from orthoglide_ident.excite.limits import excitation_section
+from orthoglide_ident.model.robot_file import excitation_section
 from orthoglide_ident.model.tree import set_joint
 
 COLLISION_KEYS = ("primitives", "disabled_pairs", "srdf", "floor", "boxes")

@@ -32,6 +32,7 @@ from typing import Any
 import numpy as np
 
 from orthoglide_ident.errors import ConfigError
+from orthoglide_ident.model.robot_file import excitation_section, per_joint
 from orthoglide_ident.yaml_files import load_yaml
 
 # self-collision bodies of a design (excite/collision.py): here, so that the CLI's parser needs
@@ -46,8 +47,6 @@ ROS2_KEYS = {"lower": ("has_position_limits", "min_position"),
              "effort": ("has_effort_limits", "max_effort")}
 ACCEL_SAFETY = 0.5  # the fraction of the effort limit a derived acceleration limit spends
 DERIVED_SOURCE = f"derived: {ACCEL_SAFETY:g} × effort limit / the joint's inertia at home"
-EXCITATION_KEYS = ("position_limits", "velocity_limits", "acceleration_limits", "effort_limits",
-                   "current_limits", "home", "collision")
 
 
 @dataclass(frozen=True)
@@ -117,45 +116,6 @@ class JointLimits:
             raise ConfigError(f"{where}: limits.joints needs {', '.join(KINDS)} for every joint "
                               f"({exc})") from None
         return cls(joints, sources=dict(d.get("sources") or {}), **vals)
-
-
-def excitation_section(model) -> tuple[dict[str, Any], Path]:
-    """The robot file's ``excitation`` mapping (checked for unknown keys) and its folder."""
-    desc = model.description
-    if desc is None:
-        raise ConfigError(f"robot {model.name}: exciting trajectories need a robot described by a "
-                          "URDF (--robot FILE.urdf, a robot YAML or a bundled name such as ur5; "
-                          "for the Orthoglide: orthoglide_general)")
-    section = dict(desc.excitation)
-    unknown = sorted(set(section) - set(EXCITATION_KEYS))
-    if unknown:
-        raise ConfigError(f"robot {model.name}: excitation: unknown keys {unknown} (known: "
-                          f"{', '.join(EXCITATION_KEYS)})")
-    return section, desc.path.parent
-
-
-def per_joint(value: Any, joints: tuple[str, ...], what: str, width: int = 1) -> dict[str, Any]:
-    """A robot-file value given as one number for all joints, a list in joint order, or a
-    mapping joint -> value (``width`` 2: [lower, upper] pairs) -> {joint: value}."""
-    def number(x: Any) -> Any:
-        xs = x if width > 1 else [x]
-        if not isinstance(xs, (list, tuple)) or len(xs) != width or not all(
-                isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
-                for v in xs):
-            raise ConfigError(f"{what}: expected {'a number' if width == 1 else f'{width} numbers'}"
-                              f" per joint, got {x!r}")
-        return tuple(float(v) for v in xs) if width > 1 else float(x)
-
-    if isinstance(value, dict):
-        bad = sorted(set(value) - set(joints))
-        if bad:
-            raise ConfigError(f"{what}: {bad} are not actuated joints ({', '.join(joints)})")
-        return {str(k): number(v) for k, v in value.items()}
-    if isinstance(value, list) and (width == 1 or (value and isinstance(value[0], list))):
-        if len(value) != len(joints):
-            raise ConfigError(f"{what}: {len(value)} values for {len(joints)} joints")
-        return {j: number(v) for j, v in zip(joints, value)}
-    return {j: number(value) for j in joints}
 
 
 def ros2_joint_limits(path: str | Path, joints: tuple[str, ...]) -> dict[str, dict[str, float]]:

@@ -29,6 +29,7 @@ from pathlib import Path
 import numpy as np
 
 from orthoglide_ident.errors import ConfigError
+from orthoglide_ident.model.robot_file import excitation_section, per_joint
 from orthoglide_ident.model.xacro_files import with_absolute_meshes
 
 # s, the friction-loss constraint's time constant: the identified Coulomb law fs·sign(q̇) turns
@@ -69,8 +70,6 @@ def _urdf_for_mujoco(text: str, source: Path, notes: list[str]) -> str:
 
 def _current_limits(robot) -> dict[str, float]:
     """Actuator name -> its current limit (A) from the robot file's excitation section."""
-    from orthoglide_ident.excite.limits import excitation_section, per_joint
-
     try:
         section, _ = excitation_section(robot)
     except ConfigError:
