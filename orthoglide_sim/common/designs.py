@@ -17,6 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
+from orthoglide_ident.errors import ConfigError
 from orthoglide_ident.excite.limits import JointLimits, read_limits
 from orthoglide_ident.model.robot import Payload
 
@@ -83,7 +84,10 @@ def design_and_write(robot, limits: JointLimits, args: argparse.Namespace, prefi
     for run, name in RUN_FILES.items():
         path = args.out_dir / f"{prefix}{name}.json"
         doc = d.trajectory.series(run).to_dict() | {"run": run} | figures
-        path.write_text(json.dumps(doc, indent=1) + "\n")
+        try:
+            path.write_text(json.dumps(doc, indent=1) + "\n")
+        except OSError as exc:
+            raise ConfigError(f"cannot write {path}: {exc.strerror or exc}") from None
         paths.append(path)
     print(f"wrote {', '.join(map(str, paths))}: worst gain σ "
           f"{100 * pred.worst_determined_gain():.3g} % ({d.trajectory.duration:g} s per run at "

@@ -29,3 +29,8 @@ def test_redesign_command_writes_the_json(tmp_path, capsys):
         assert np.all(np.abs(qd) <= box.velocity) and np.all(np.abs(qdd) <= box.acceleration)
     assert design.main(["--robot", "nope"]) == 2
     assert capsys.readouterr().err.strip().startswith("error: robot 'nope'")
+    missing = tmp_path / "no" / "such"
+    assert design.main(["--robot", "ur5", "--restarts", "1", "--steps", "0", "--harmonics", "2",
+                        "--search", "walk", "--out-dir", str(missing)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith(f"error: cannot write {missing}")
