@@ -17,7 +17,7 @@ only through the size of the currents) and the manufacturer's gains.
 (``orthoglide_general``, the same robot as the closed form), inside the safe box (≤ V_MAX,
 ≤ A_MAX per actuator), and writes it as exciting1/2.json (common/designs.py): the same as
 ``orthoglide-ident excite design --robot orthoglide_general --joint-limits BOX.yaml --collision
-skip --payload-mass 1.983 --period 1.5 --harmonics 6``.
+skip --payload-mass 1.983 --period 1.5 --periods 20 --harmonics 6 --current-noise 0.001``.
 """
 from __future__ import annotations
 
