@@ -35,6 +35,7 @@ from orthoglide_sim.chains.plant import ChainPlant
 from orthoglide_sim.chains.record import simulate_chain
 from orthoglide_sim.chains.truth import apply_chain_overrides, default_chain_truth
 
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests"))  # live_helpers
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests" / "identify"))
 from test_on_arm import as_record  # noqa: E402  (the record a bag of the run holds)
 

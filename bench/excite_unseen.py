@@ -66,7 +66,6 @@ from orthoglide_sim.arms.record import simulate_arm  # noqa: E402
 from orthoglide_sim.arms.simulator import joint_inertia  # noqa: E402
 from orthoglide_sim.arms.truth import with_offset_payload  # noqa: E402
 from orthoglide_sim.demos.designed_runs import (  # noqa: E402
-    fourier,
     simulate_designed,
     stop_limits,
 )
@@ -177,7 +176,7 @@ def simulated(traj, truth, robot, load: str, seed: int, tune: str = "start"):
             recs.append(simulate_designed(traj, run, truth, pl, seed=2 * seed + k))
             continue
         limits = replace(stop_limits(traj, run), centre=softest_pose(traj, run, truth))
-        recs.append(simulate_arm(traj.duration, payload=pl, trajectory=fourier(traj, run),
+        recs.append(simulate_arm(traj.duration, payload=pl, trajectory=traj.series(run),
                                  seed=2 * seed + k, truth=truth, limits=limits))
     u, lo = recs
     res = identify_records([as_record(u, f"u{seed}"), as_record(lo, f"l{seed}")], model=robot)

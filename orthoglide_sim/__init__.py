@@ -5,8 +5,8 @@
 - ``plant``: Lagrange's equations by automatic differentiation (inverse/forward dynamics, energy).
 - ``simulator``: 10 kHz RK4 plant, 1 kHz controllers (pid, pid_ff, external) with zero-order hold,
   1 um encoder quantisation, current noise, optional screw ripple.
-- ``trajectories`` / ``excitation``: Fourier exciting trajectories (optimised for cond(W)), test
-  trajectories, the safe workspace box.
+- ``trajectories`` / ``excitation``: the stored exciting trajectories (the product's
+  ``FourierSeries``, designed by ``orthoglide_ident.excite``), test trajectories, the safe box.
 - ``record``: ``simulate(...) -> SimRecord`` for bags and benchmarks; ``session`` + ``driver_node``:
   the ROS 2 driver.
 """

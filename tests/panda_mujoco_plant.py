@@ -27,7 +27,7 @@ from orthoglide_ident.model.robots import load_robot
 from orthoglide_sim.arms.description import load_arm
 from orthoglide_sim.arms.record import simulate_arm
 from orthoglide_sim.arms.truth import load_truth
-from orthoglide_sim.demos.designed_runs import fourier, stop_limits
+from orthoglide_sim.demos.designed_runs import stop_limits
 
 PAYLOAD = "2.0"  # the truth's 2 kg off-centre body at the payload frame (truth.PAYLOADS)
 # rad/s, the PID's bandwidth: at the UR5's 100 the Panda's joints 1-4 (rotor inertia 0.19 kg·m²,
@@ -77,7 +77,7 @@ def end_to_end(folder: Path, options: tuple[str, ...] = DESIGN_FAST, seed: int =
     traj = load_trajectory(design(folder, robot_file, options, seed))
     t.append(time.perf_counter())
     truth = load_truth(load_arm(robot_file))
-    recs = [simulate_arm(traj.duration, payload=payload, trajectory=fourier(traj, run),
+    recs = [simulate_arm(traj.duration, payload=payload, trajectory=traj.series(run),
                          seed=seed + k, truth=truth, limits=stop_limits(traj, run), omega=OMEGA)
             for k, (run, payload) in enumerate((("unloaded", None), ("loaded", PAYLOAD)))]
     t.append(time.perf_counter())

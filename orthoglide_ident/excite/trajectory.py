@@ -46,6 +46,40 @@ def rest_projection(a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarra
 
 
 @dataclass(frozen=True)
+class FourierSeries:
+    """The finite Fourier series of the module docstring, one per joint, periodic in t: the one
+    trajectory type of the product's designs and of the simulator's stored references."""
+
+    q0: np.ndarray  # (n,) rad or m
+    a: np.ndarray  # (n, L) rad/s or m/s
+    b: np.ndarray  # (n, L)
+    w_f: float  # rad/s, ω_f
+
+    @property
+    def period(self) -> float:
+        return 2.0 * math.pi / self.w_f
+
+    def evaluate(self, t) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """q, q̇, q̈ at times ``t`` (s): each (m, n)."""
+        t = np.atleast_1d(np.asarray(t, float))
+        kw = self.w_f * np.arange(1, self.a.shape[1] + 1)
+        s, c = np.sin(np.outer(t, kw)), np.cos(np.outer(t, kw))
+        q = self.q0 + s @ (self.a / kw).T - c @ (self.b / kw).T
+        qd = c @ self.a.T + s @ self.b.T
+        qdd = -s @ (self.a * kw).T + c @ (self.b * kw).T
+        return q, qd, qdd
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"kind": "fourier", "q0": self.q0.tolist(), "a": self.a.tolist(),
+                "b": self.b.tolist(), "w_f": self.w_f}
+
+    @classmethod
+    def from_dict(cls, d: dict[str, Any]) -> FourierSeries:
+        return cls(np.array(d["q0"], float), np.array(d["a"], float), np.array(d["b"], float),
+                   float(d["w_f"]))
+
+
+@dataclass(frozen=True)
 class ExcitationRun:
     """One run: its Fourier coefficients (n joints × L harmonics) and, when loaded, the payload
     the user mounts (``mass`` kg, ``frame``, and ``com`` m / ``inertia`` kg·m² when known)."""
@@ -88,18 +122,18 @@ class ExcitationTrajectory:
             raise ConfigError(f"the trajectory has no {name!r} run (has {', '.join(self.runs)})")
         return self.runs[name]
 
-    def evaluate(self, name: str, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """q, q̇, q̈ of run ``name`` at times ``t`` (s from its start): each (m, n)."""
+    def series(self, name: str) -> FourierSeries:
+        """Run ``name`` as a periodic Fourier series (what a plant tracks over its duration)."""
         r = self.run(name)
+        return FourierSeries(r.q0, r.a, r.b, self.w_f)
+
+    def evaluate(self, name: str, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """q, q̇, q̈ of run ``name`` at times ``t`` (s from its start): each (m, n); outside
+        [0, duration] the start pose at rest."""
         t = np.atleast_1d(np.asarray(t, float))
         inside = (t >= 0.0) & (t <= self.duration)
-        tt = np.where(inside, t, 0.0)
-        kw = self.w_f * np.arange(1, r.a.shape[1] + 1)
-        s, c = np.sin(np.outer(tt, kw)), np.cos(np.outer(tt, kw))
-        q = r.q0 + s @ (r.a / kw).T - c @ (r.b / kw).T
-        qd = (c @ r.a.T + s @ r.b.T) * inside[:, None]
-        qdd = (-s @ (r.a * kw).T + c @ (r.b * kw).T) * inside[:, None]
-        return q, qd, qdd
+        q, qd, qdd = self.series(name).evaluate(np.where(inside, t, 0.0))
+        return q, qd * inside[:, None], qdd * inside[:, None]
 
     def start_pose(self, name: str) -> np.ndarray:
         """(n,) q(0) = q(duration) of run ``name``: where it starts and ends at rest."""

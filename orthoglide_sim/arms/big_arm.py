@@ -16,13 +16,13 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
+from orthoglide_ident.excite import FourierSeries
 from orthoglide_sim.arms.description import load_arm
 from orthoglide_sim.arms.excitation import random_trajectory
 from orthoglide_sim.arms.limits import motion_limits
 from orthoglide_sim.arms.log import clock_10_12, simulate_arm_log
 from orthoglide_sim.arms.record import ArmRecord
 from orthoglide_sim.arms.truth import ArmTruth, load_truth, with_offset_payload
-from orthoglide_sim.common.trajectories import FourierTrajectory
 
 UR10_FILE = Path(__file__).resolve().parents[1] / "data" / "ur10" / "ur10.yaml"
 PAYLOAD = "2.8"  # the payload's name in the truth
@@ -47,10 +47,10 @@ def big_arm_truth() -> ArmTruth:
     return with_offset_payload(truth, PAYLOAD_MASS, PAYLOAD_COM, name=PAYLOAD)
 
 
-def gentle_trajectory(truth: ArmTruth, seed: int, reach: float = REACH) -> FourierTrajectory:
+def gentle_trajectory(truth: ArmTruth, seed: int, reach: float = REACH) -> FourierSeries:
     """A random Fourier shape at ``reach`` of the limits (amplitudes scaled about the centre)."""
     full = random_trajectory(motion_limits(truth.arm), seed)
-    return FourierTrajectory(full.q0, full.a * reach, full.b * reach, full.w_f)
+    return FourierSeries(full.q0, full.a * reach, full.b * reach, full.w_f)
 
 
 def simulate_pair(seed: int, duration_s: float = 60.0, reach: float = REACH,

@@ -26,6 +26,7 @@ from __future__ import annotations
 import numpy as np
 
 from orthoglide_ident.errors import ConfigError
+from orthoglide_ident.excite import FourierSeries
 from orthoglide_sim.arms import simulator as asim
 from orthoglide_sim.arms.description import load_arm
 from orthoglide_sim.arms.limits import motion_limits
@@ -39,7 +40,6 @@ from orthoglide_sim.arms.record import (
 )
 from orthoglide_sim.arms.truth import ArmTruth, load_truth
 from orthoglide_sim.common.closed_loop import run_closed_loop
-from orthoglide_sim.common.trajectories import FourierTrajectory
 
 OMEGA_T = 0.1  # the PID's bandwidth x the mean tick, at most (0.1 at 1 kHz: 100 rad/s)
 
@@ -85,7 +85,7 @@ def point_sampled(rec: ArmRecord, strides: tuple[int, ...] | int, print_resoluti
 
 
 def simulate_arm_log(duration_s: float, steps_ns: np.ndarray, robot: str = "ur5",
-                     payload: str | None = None, trajectory: str | FourierTrajectory = "exciting1",
+                     payload: str | None = None, trajectory: str | FourierSeries = "exciting1",
                      seed: int = 0, print_resolution: float = 1e-4, timestep: float = 2.5e-4,
                      truth: ArmTruth | None = None) -> ArmRecord:
     """The arm under a PID that ticks at ``steps_ns`` (each a multiple of ``timestep``); the

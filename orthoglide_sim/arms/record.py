@@ -15,6 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from orthoglide_ident.errors import ConfigError
+from orthoglide_ident.excite import FourierSeries
 from orthoglide_sim.arms import simulator as asim
 from orthoglide_sim.arms.description import load_arm
 from orthoglide_sim.arms.excitation import designed_trajectory
@@ -23,7 +24,6 @@ from orthoglide_sim.arms.plant import MujocoPlant
 from orthoglide_sim.arms.truth import ArmPayload, ArmTruth, load_truth
 from orthoglide_sim.arms.unmodelled import DriveState, Unmodelled
 from orthoglide_sim.common.closed_loop import LoopResult, quantise
-from orthoglide_sim.common.trajectories import FourierTrajectory
 
 NOISE_STRIDE = 10  # ticks between the reference samples the rms current is taken over
 STIFFNESS_STRIDE = 50  # ticks between the reference poses the PID's stiffness is checked at
@@ -65,16 +65,16 @@ class ArmRecord(TrackedRun):
         return self.truth.arm.joint_names
 
 
-def reference_of(arm, trajectory: str | FourierTrajectory) -> FourierTrajectory:
-    """A trajectory given by name (designed_trajectory) or as a FourierTrajectory itself."""
+def reference_of(arm, trajectory: str | FourierSeries) -> FourierSeries:
+    """A trajectory given by name (designed_trajectory) or as a FourierSeries itself."""
     return (
         trajectory
-        if isinstance(trajectory, FourierTrajectory)
+        if isinstance(trajectory, FourierSeries)
         else designed_trajectory(arm, trajectory)
     )
 
 
-def trajectory_name(trajectory: str | FourierTrajectory) -> str:
+def trajectory_name(trajectory: str | FourierSeries) -> str:
     return trajectory if isinstance(trajectory, str) else "designed"
 
 
@@ -88,7 +88,7 @@ def current_noise_std(
 
 
 def simulate_arm(duration_s: float, robot: str = "ur5", payload: str | None = None,
-                 trajectory: str | FourierTrajectory = "exciting1", seed: int = 0,
+                 trajectory: str | FourierSeries = "exciting1", seed: int = 0,
                  truth: ArmTruth | None = None, noise: bool = True, start_ns: int = 0,
                  limits: MotionLimits | None = None,
                  effects: Unmodelled | None = None, omega: float = asim.OMEGA,
@@ -97,7 +97,7 @@ def simulate_arm(duration_s: float, robot: str = "ur5", payload: str | None = No
 
     robot: a bundled name, robot YAML or URDF (ignored when ``truth`` is given); payload: None,
     "2.0", "1.0" or another of ``truth.payloads``; trajectory: "exciting1", "exciting2", a .json
-    or a FourierTrajectory (designed_runs.py: a run the product designed); limits: the stop
+    or a FourierSeries (designed_runs.py: a run the product designed); limits: the stop
     limits (default arm_limits.motion_limits); effects: drive effects the identification's model
     lacks (orthoglide_sim/arms/unmodelled.py), None: the plant the model describes; omega: the
     PID's bandwidth, rad/s (simulator.arm_pid); scheduled: the mass-matrix PID
@@ -132,7 +132,7 @@ def simulate_arm(duration_s: float, robot: str = "ur5", payload: str | None = No
     return ArmRecord(**record_fields(res, truth, load, q_ref, std, trajectory, seed, start_ns))
 
 
-def reference_and_noise(plant: MujocoPlant, trajectory: str | FourierTrajectory,
+def reference_and_noise(plant: MujocoPlant, trajectory: str | FourierSeries,
                         duration_s: float, seed: int, noise: bool) -> tuple:
     """The reference (q, qd, qdd) (N, n) at 1 kHz over ``duration_s``, the current noise (N, n)
     A drawn from ``seed`` and its std (n,): white, the truth's fraction of each joint's rms
@@ -149,7 +149,7 @@ def reference_and_noise(plant: MujocoPlant, trajectory: str | FourierTrajectory,
 
 
 def record_fields(res: LoopResult, truth: ArmTruth, load: ArmPayload | None, q_ref: np.ndarray,
-                  std: np.ndarray, trajectory: str | FourierTrajectory, seed: int,
+                  std: np.ndarray, trajectory: str | FourierSeries, seed: int,
                   start_ns: int) -> dict:
     """ArmRecord's fields of one closed-loop run at 1 kHz from ``start_ns``."""
     stamps = start_ns + np.arange(len(q_ref), dtype=np.int64) * int(round(asim.TICK * 1e9))

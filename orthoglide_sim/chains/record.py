@@ -18,6 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from orthoglide_ident.errors import ConfigError
+from orthoglide_ident.excite import FourierSeries
 from orthoglide_sim.arms import simulator as asim
 from orthoglide_sim.arms.limits import MotionLimits, motion_limits
 from orthoglide_sim.arms.record import ArmRecord, record_fields, reference_and_noise
@@ -25,7 +26,6 @@ from orthoglide_sim.chains.description import load_chain
 from orthoglide_sim.chains.plant import ChainPlant
 from orthoglide_sim.chains.truth import ChainTruth, load_chain_truth
 from orthoglide_sim.common.closed_loop import PID, quantise
-from orthoglide_sim.common.trajectories import FourierTrajectory
 
 
 @dataclass
@@ -56,14 +56,14 @@ def tuned_pid(plant: ChainPlant, q0: np.ndarray, qd0: np.ndarray, qdd0: np.ndarr
 
 
 def simulate_chain(duration_s: float, robot: str = "five_bar", payload: str | None = None,
-                   trajectory: str | FourierTrajectory = "exciting1", seed: int = 0,
+                   trajectory: str | FourierSeries = "exciting1", seed: int = 0,
                    truth: ChainTruth | None = None, noise: bool = True, start_ns: int = 0,
                    limits: MotionLimits | None = None) -> ChainRecord:
     """The chain tracking ``trajectory`` for ``duration_s`` s under the 1 kHz PID.
 
     robot: a bundled name or robot YAML with loops (ignored when ``truth`` is given); payload:
     None or one of ``truth.payloads`` ("1.0", "0.5" for the five-bar); trajectory: "exciting1",
-    "exciting2" (data/<robot>_exciting<k>.json), a .json or a FourierTrajectory; limits: the stop
+    "exciting2" (data/<robot>_exciting<k>.json), a .json or a FourierSeries; limits: the stop
     limits (default arm_limits.motion_limits). Raises ConfigError on bad
     arguments, WorkspaceError if the robot leaves its limits or its loops break.
     """

@@ -4,11 +4,11 @@ Exciting trajectories (paper Sect. 3.2, refs [24, 25], Fig. 4): per actuator a f
 
     q_i(t) = q0_i + sum_{k=1..K} a_ik / (k w_f) sin(k w_f t) - b_ik / (k w_f) cos(k w_f t)
 
-whose coefficients are optimised for the condition number of the base observation matrix (see
-``orthoglide_sim.orthoglide.excitation``), under the workspace box, velocity and acceleration limits
-and a
-margin from singularities. Test trajectories (Fig. 6): smooth point-to-point motions (quintic
-blends, zero velocity and acceleration at every via point).
+the product's one type, ``orthoglide_ident.excite.FourierSeries``; the stored ones (data/*.json,
+``kind: fourier``) were designed inside the workspace box, velocity and acceleration limits and
+a margin from singularities (``orthoglide_sim.orthoglide.excitation``). Test trajectories
+(Fig. 6): smooth point-to-point motions (quintic blends, zero velocity and acceleration at every
+via point).
 
 All trajectories are evaluated by ``evaluate(t) -> (q, qd, qdd)``, each (N, 3) in m, m/s, m/s².
 """
@@ -21,6 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from orthoglide_ident.errors import ConfigError
+from orthoglide_ident.excite import FourierSeries
 
 # Safe actuator box (m): Q_CENTER - Q_HALF <= q1i <= Q_CENTER + Q_HALF, i.e. [-0.04, 0.12] m on each
 # actuator (see excitation.workspace_report()). Everywhere in it the bars stay within ~28 deg of
@@ -34,48 +35,6 @@ V_MAX = 0.8  # m/s, actuator speed limit for exciting trajectories
 A_MAX = 14.0  # m/s², actuator acceleration limit for exciting trajectories
 
 DATA_DIR = Path(__file__).resolve().parents[1] / "data"
-
-
-@dataclass(frozen=True)
-class FourierTrajectory:
-    """Finite Fourier series per actuator (period 2 pi / w_f)."""
-
-    q0: np.ndarray  # (3,) m
-    a: np.ndarray  # (3, K) m/s
-    b: np.ndarray  # (3, K) m/s
-    w_f: float  # rad/s
-
-    @property
-    def period(self) -> float:
-        return 2.0 * np.pi / self.w_f
-
-    def evaluate(self, t) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        t = np.atleast_1d(np.asarray(t, dtype=float))
-        K = self.a.shape[1]
-        kw = self.w_f * np.arange(1, K + 1)  # (K,)
-        s, c = np.sin(np.outer(t, kw)), np.cos(np.outer(t, kw))  # (N, K)
-        q = self.q0 + s @ (self.a / kw).T - c @ (self.b / kw).T
-        qd = c @ self.a.T + s @ self.b.T
-        qdd = -s @ (self.a * kw).T + c @ (self.b * kw).T
-        return q, qd, qdd
-
-    def to_dict(self) -> dict:
-        return {
-            "kind": "fourier",
-            "q0": self.q0.tolist(),
-            "a": self.a.tolist(),
-            "b": self.b.tolist(),
-            "w_f": self.w_f,
-        }
-
-    @classmethod
-    def from_dict(cls, d: dict) -> FourierTrajectory:
-        return cls(
-            np.array(d["q0"], float),
-            np.array(d["a"], float),
-            np.array(d["b"], float),
-            float(d["w_f"]),
-        )
 
 
 def _quintic(s):
@@ -124,9 +83,9 @@ TEST_TRAJECTORIES = {
 }
 
 
-def load_fourier(path: str | Path) -> FourierTrajectory:
+def load_fourier(path: str | Path) -> FourierSeries:
     try:
-        return FourierTrajectory.from_dict(json.loads(Path(path).read_text()))
+        return FourierSeries.from_dict(json.loads(Path(path).read_text()))
     except (OSError, ValueError, KeyError, TypeError) as exc:
         raise ConfigError(f"cannot load Fourier trajectory {path}: {exc}") from None
 

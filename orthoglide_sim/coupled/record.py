@@ -29,13 +29,13 @@ import yaml
 
 from orthoglide_ident import bags
 from orthoglide_ident.errors import ConfigError
+from orthoglide_ident.excite import FourierSeries
 from orthoglide_ident.model import robots
 from orthoglide_sim.arms import simulator as asim
 from orthoglide_sim.arms.limits import MotionLimits, motion_limits
 from orthoglide_sim.arms.record import NOISE_STRIDE, TrackedRun, reference_of, trajectory_name
 from orthoglide_sim.arms.truth import ArmPayload
 from orthoglide_sim.common.closed_loop import PID, LoopResult, quantise, run_closed_loop
-from orthoglide_sim.common.trajectories import FourierTrajectory
 from orthoglide_sim.coupled.plant import CoupledPlant
 from orthoglide_sim.coupled.truth import CoupledTruth, default_coupled_truth
 
@@ -98,10 +98,10 @@ def _run(plant: CoupledPlant, pid: PID, qm_ref: np.ndarray, qdm_ref: np.ndarray,
 
 
 def simulate_coupled(duration_s: float, payload: str | None = None,
-                     trajectory: str | FourierTrajectory = "exciting1", seed: int = 0,
+                     trajectory: str | FourierSeries = "exciting1", seed: int = 0,
                      truth: CoupledTruth | None = None, noise: bool = True) -> CoupledRecord:
     """The coupled-wrist UR5 tracking ``trajectory`` (a UR5 exciting trajectory by name, a .json
-    or a FourierTrajectory) for ``duration_s`` s; payload None, "2.0", "1.0" (arm_truth's).
+    or a FourierSeries) for ``duration_s`` s; payload None, "2.0", "1.0" (arm_truth's).
     ConfigError on bad arguments, WorkspaceError if the arm leaves its stop limits."""
     if not duration_s > 0:
         raise ConfigError(f"duration must be positive, got {duration_s}")

@@ -3,8 +3,9 @@
     traj = load_trajectory("ur5_traj.yaml")
     rec = simulate_designed(traj, "loaded", truth, payload="2.0", seed=1)   # ArmRecord/ChainRecord
 
-A run of the trajectory file is a FourierTrajectory of the simulator (the same series: q0, a, b,
-ω_f; periodic, at rest at t = 0), tracked by the plant's 1 kHz PID for the run's duration. The
+A run of the trajectory file is tracked as its periodic Fourier series (``traj.series(run)``:
+the one type the simulator's stored trajectories are, at rest at t = 0) by the plant's 1 kHz PID
+for the run's duration. The
 stop limits are those the design was checked against (the file's ``limits``: the URDF's and the
 robot file's), not the simulator's hand-written boxes (arm_limits), which a design for the whole
 range leaves; the PID is tuned at the run's start pose.
@@ -18,13 +19,6 @@ from orthoglide_ident.excite.trajectory import ExcitationTrajectory
 from orthoglide_sim.arms.limits import MotionLimits
 from orthoglide_sim.arms.truth import ArmTruth
 from orthoglide_sim.chains.truth import ChainTruth
-from orthoglide_sim.common.trajectories import FourierTrajectory
-
-
-def fourier(traj: ExcitationTrajectory, run: str) -> FourierTrajectory:
-    """Run ``run`` of ``traj`` as the simulator's FourierTrajectory."""
-    r = traj.run(run)
-    return FourierTrajectory(r.q0.copy(), r.a.copy(), r.b.copy(), traj.w_f)
 
 
 def stop_limits(traj: ExcitationTrajectory, run: str) -> MotionLimits:
@@ -52,7 +46,7 @@ def simulate_designed(traj: ExcitationTrajectory, run: str, truth: ArmTruth,
         raise ConfigError(f"the trajectory's joints {list(traj.joints)} are not the plant's "
                           f"{list(truth.arm.joint_names)}")
     seconds = duration_s or traj.duration
-    kw = dict(payload=payload, trajectory=fourier(traj, run), seed=seed, truth=truth,
+    kw = dict(payload=payload, trajectory=traj.series(run), seed=seed, truth=truth,
               noise=noise, start_ns=start_ns, limits=stop_limits(traj, run))
     if isinstance(truth, ChainTruth):
         from orthoglide_sim.chains.record import simulate_chain

@@ -50,6 +50,28 @@ def test_holds_the_start_pose_outside_the_run():
     assert np.allclose(q, traj.start_pose("loaded")) and not qd.any() and not qdd.any()
 
 
+def test_a_run_as_its_periodic_series():
+    """``series(run)``: the run inside [0, duration], periodic beyond it (what a plant tracks),
+    its derivatives those of its positions (finite differences); JSON round trip."""
+    from orthoglide_ident.excite import FourierSeries
+
+    traj = _trajectory(4)
+    s = traj.series("loaded")
+    assert isinstance(s, FourierSeries) and s.period == pytest.approx(traj.period_s)
+    t = np.linspace(0.0, traj.duration, 97)
+    for x, y in zip(s.evaluate(t), traj.evaluate("loaded", t)):
+        assert np.array_equal(x, y)
+    later = s.evaluate(t + 7 * traj.period_s)
+    assert all(np.allclose(x, y, atol=1e-12) for x, y in zip(later, s.evaluate(t)))
+    h = 1e-6
+    (q_p, qd_p, _), (q_m, qd_m, _) = s.evaluate(t + h), s.evaluate(t - h)
+    _, qd, qdd = s.evaluate(t)
+    assert np.allclose((q_p - q_m) / (2 * h), qd, atol=1e-7)
+    assert np.allclose((qd_p - qd_m) / (2 * h), qdd, atol=1e-6)
+    back = FourierSeries.from_dict(s.to_dict())
+    assert all(np.array_equal(x, y) for x, y in zip(back.evaluate(t), s.evaluate(t)))
+
+
 def test_round_trip(tmp_path):
     traj = _trajectory(3)
     path = tmp_path / "traj.yaml"

@@ -1,6 +1,6 @@
-"""The serial arm's exciting trajectories: periodic, inside the UR5's safe box, better
-conditioned than random Fourier series; the optimiser for any regressor and number of joints;
-the regressor it is given for now equals the truth's inverse dynamics."""
+"""The serial arm's stored exciting trajectories: periodic, inside the UR5's safe box, better
+conditioned than random Fourier series; the regressor cond(W) is measured on equals the truth's
+inverse dynamics. (Their design: the product's designer, tests/sim/arm_or_chain.)"""
 from __future__ import annotations
 
 import json
@@ -12,7 +12,7 @@ import pytest
 from orthoglide_ident.errors import ConfigError
 from orthoglide_sim.arms import excitation as ax
 from orthoglide_sim.arms.description import load_arm
-from orthoglide_sim.arms.limits import MotionLimits, motion_limits
+from orthoglide_sim.arms.limits import motion_limits
 from orthoglide_sim.arms.pinocchio_truth import ArmRegressor, TruthDynamics, urdf_model
 from orthoglide_sim.arms.truth import GRAVITY, default_truth
 
@@ -100,31 +100,6 @@ def test_regressor_times_standard_parameters_is_the_truths_dynamics(arm, regress
         )
     B = regressor.base(q, qd, qdd)
     assert np.linalg.matrix_rank(B) == B.shape[1] == np.linalg.matrix_rank(W)
-
-
-def test_optimiser_takes_any_regressor_and_number_of_joints():
-    """Two joints and a hand-written regressor (inertia, viscous, Coulomb, gravity per joint)."""
-    def regressor(q, qd, qdd):
-        cols = [qdd[:, 0], qd[:, 0], np.sign(qd[:, 0]), np.cos(q[:, 0]), qdd[:, 1], qd[:, 1]]
-        m = q.shape[0]
-        W = np.zeros((2 * m, len(cols) + 1))
-        for c, col in enumerate(cols):
-            W[(0 if c < 4 else m):(m if c < 4 else 2 * m), c] = col
-        W[:m, -1] = qdd[:, 1]  # joint 0 feels joint 1's acceleration
-        return W
-
-    lim = MotionLimits(
-        np.zeros(2),
-        np.array([1.0, 0.5]),
-        np.array([2.0, 1.0]),
-        np.array([10.0, 8.0]),
-        np.full(2, -2.0),
-        np.full(2, 2.0),
-    )
-    start = ax.condition_number(ax.random_trajectory(lim, 0, K=3, period=2.0), regressor)
-    traj, cond = ax.optimise(regressor, lim, K=3, period=2.0, seed=0, restarts=3, steps=60)
-    assert traj.a.shape == (2, 3) and cond == pytest.approx(ax.condition_number(traj, regressor))
-    assert cond < start
 
 
 def test_missing_trajectory_says_how_to_design_it(arm):

@@ -29,7 +29,7 @@ from orthoglide_sim.arms import simulator as asim
 from orthoglide_sim.arms.plant import MujocoPlant
 from orthoglide_sim.arms.record import simulate_arm
 from orthoglide_sim.arms.truth import with_offset_payload
-from orthoglide_sim.demos.designed_runs import fourier, stop_limits
+from orthoglide_sim.demos.designed_runs import stop_limits
 
 SECONDS = 20.0  # s per run: the bias was 3.7-4.0 σ at 20 s + 20 s already
 
@@ -57,7 +57,7 @@ def ur10():
 
 def runs(ur10, **kw):
     robot, truth, traj = ur10
-    return [simulate_arm(SECONDS, payload=pl, trajectory=fourier(traj, run), seed=k, truth=truth,
+    return [simulate_arm(SECONDS, payload=pl, trajectory=traj.series(run), seed=k, truth=truth,
                          limits=stop_limits(traj, run), **kw)
             for k, (run, pl) in enumerate((("unloaded", None), ("loaded", "load")))]
 
