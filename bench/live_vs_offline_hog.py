@@ -37,9 +37,7 @@ import yaml  # noqa: E402
 from nodes_at_any_rate import rel  # noqa: E402  (bench/: live vs offline, relative)
 
 from orthoglide_ident import bags  # noqa: E402
-from orthoglide_ident.identify.live.session import LiveIdentification  # noqa: E402
-from orthoglide_ident.identify.options import IdentifyOptions  # noqa: E402
-from orthoglide_ident.identify.pipeline import identify  # noqa: E402
+from orthoglide_ident.identify import IdentifyOptions, LiveIdentification, identify  # noqa: E402
 from orthoglide_ident.model.robots import load_robot  # noqa: E402
 
 RATES = ("1kHz", "500Hz", "uneven_93Hz")
