@@ -80,6 +80,11 @@ def run(name: str, args: list[str]) -> dict:
             "commit": commit(), "load": f"{os.getloadavg()[1]:.1f}"}
 
 
+def _row(cells: list) -> str:
+    """One markdown table row; a ``|`` inside a cell (``|err|/σ``) escaped."""
+    return "| " + " | ".join(str(c).replace("|", "\\|") for c in cells) + " |"
+
+
 def render(doc: dict) -> str:
     """One section's markdown, between its markers."""
     name = doc["bench"]
@@ -90,9 +95,8 @@ def render(doc: dict) -> str:
     for table in doc.get("tables", []):
         if table.get("title"):
             lines += [f"{table['title']}:", ""]
-        lines += ["| " + " | ".join(table["columns"]) + " |",
-                  "|" + "---|" * len(table["columns"])]
-        lines += ["| " + " | ".join(str(c) for c in row) + " |" for row in table["rows"]]
+        lines += [_row(table["columns"]), "|" + "---|" * len(table["columns"])]
+        lines += [_row(row) for row in table["rows"]]
         lines.append("")
     notes = [f"- {note}" for note in doc.get("notes", [])]
     lines += notes
