@@ -65,6 +65,7 @@ def commit() -> str:
 def run(name: str, args: list[str]) -> dict:
     """Run bench/NAME.py (with --json when it emits JSON); its output as a saved document."""
     cmd = [sys.executable, str(BENCH / f"{name}.py"), *args]
+    ran = commit()  # the code as the bench starts (the tree may change while it runs)
     with tempfile.TemporaryDirectory() as tmp:
         js = Path(tmp) / "out.json"
         if emits_json(name):
@@ -77,7 +78,7 @@ def run(name: str, args: list[str]) -> dict:
     shown = ["python", f"bench/{name}.py", *args]
     return {"bench": name, "command": " ".join(shown), **doc,
             "date": datetime.datetime.now(datetime.UTC).strftime("%Y-%m-%d %H:%M UTC"),
-            "commit": commit(), "load": f"{os.getloadavg()[1]:.1f}"}
+            "commit": ran, "load": f"{os.getloadavg()[1]:.1f}"}
 
 
 def _row(cells: list) -> str:
