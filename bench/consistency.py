@@ -32,7 +32,6 @@ import numpy as np
 from _figures import Figures, add_json_option
 
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from orthoglide_ident.errors import OrthoglideError  # noqa: E402

@@ -34,9 +34,6 @@ import time
 from pathlib import Path
 
 import numpy as np
-
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-
 from gain_bound import gain_rel_std_bound  # noqa: E402
 
 from orthoglide_ident.errors import OrthoglideError  # noqa: E402

@@ -35,7 +35,6 @@ from pathlib import Path
 from orthoglide_ident.ros import processes as children  # children end with this process
 
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from identify_data import record  # noqa: E402
@@ -142,17 +141,17 @@ def main() -> int:
     t_rosbags, n_msgs = rosbags_read(paths)
 
     js = d / "result.json"
-    env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    env = dict(os.environ, PYTHONPATH=os.environ.get("PYTHONPATH") or str(ROOT))
     # The CLI reports its own peak RSS (VmHWM, reset at exec): RUSAGE_CHILDREN would count the
     # forked copy of this (large, bag-writing) process before exec.
     code = ("import sys\nfrom orthoglide_ident.cli import main\nrc = main(sys.argv[1:])\n"
             "hwm = [l for l in open('/proc/self/status') if l.startswith('VmHWM')][0]\n"
             "sys.stderr.write('PEAK ' + hwm.split()[1] + '\\n')\nsys.exit(rc)")
-    cmd = [sys.executable, "-c", code, "identify", *map(str, paths), "--json", str(js), "-q"]
+    cmd = [sys.executable, "-P", "-c", code, "identify", *map(str, paths), "--json", str(js), "-q"]
     if args.robot:
         cmd += ["--robot", args.robot]
     t0 = time.perf_counter()
-    # cwd=ROOT: `python -c` puts the working directory first on sys.path
+    # -P: `python -c` would put the working directory first on sys.path; PYTHONPATH decides
     proc = children.run(cmd, env=env, capture_output=True, text=True, cwd=ROOT)
     t_cli = time.perf_counter() - t0
     peak = [ln for ln in proc.stderr.splitlines() if ln.startswith("PEAK ")]

@@ -34,6 +34,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import numpy as np  # noqa: E402
 import yaml  # noqa: E402
+from busy_machine import cpu_hog  # noqa: E402  (bench/: the busy processes)
 from nodes_at_any_rate import rel  # noqa: E402  (bench/: live vs offline, relative)
 
 from orthoglide_ident import bags  # noqa: E402
@@ -177,10 +178,6 @@ def main() -> None:
     ap.add_argument("--hogs", type=int, default=2)
     args = ap.parse_args()
     import rclpy
-
-    # after orthoglide_ident's import: busy_machine puts this tree first on sys.path, and an
-    # older tree's figures (PYTHONPATH) must come from that tree's package
-    from busy_machine import cpu_hog
 
     opts = IdentifyOptions.from_yaml(str(ROOT / "config/identification.yaml")).replace(
         check_excitation=False, partial_answers=False, lag_model="off")
