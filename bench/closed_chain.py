@@ -36,8 +36,8 @@ from orthoglide_sim.chains.plant import ChainPlant
 from orthoglide_sim.chains.record import simulate_chain
 from orthoglide_sim.chains.truth import apply_chain_overrides, default_chain_truth
 
-sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests" / "identify"))
-from test_on_arm import as_record  # noqa: E402  (the record a bag of the run holds)
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests"))
+from live_helpers import as_record  # noqa: E402  (the record a bag of the run holds)
 
 EMITS_JSON = True  # --json PATH: the figures for bench/write_benchmarks.py
 BEFORE = ("60 s + 60 s (1 kg at the tip), 3 seeds (issue 31): gains within 0.0006–0.0074 % (bar "
