@@ -83,3 +83,11 @@ def test_a_bench_figures_go_through_the_one_helper_with_units_and_before(tmp_pat
     alone = [b for b in emitting if "from _figures import" not in (ROOT / "bench" / f"{b}.py")
              .read_text()]
     assert not alone, f"{alone} write their JSON without bench/_figures.py"
+
+
+def test_the_page_opens_with_how_to_regenerate_and_names_every_json_bench():
+    head = wb.PAGE.read_text().split(wb.ANCHOR)[0]
+    assert "bench/write_benchmarks.py" in head and "Regenerate" in head
+    emitting = [p.stem for p in sorted((ROOT / "bench").glob("*.py"))
+                if not p.stem.startswith("_") and wb.emits_json(p.stem)]
+    assert [b for b in emitting if f"`{b}`" not in head] == []
