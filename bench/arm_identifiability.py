@@ -83,7 +83,7 @@ def main() -> None:
     print(
         f"UR5, {args.seconds:g} s unloaded + {args.seconds:g} s with 2 kg; gain error (%) per joint"
     )
-    figs = Figures(before="new (issue 24)")
+    figs = Figures(before="new")
     table = figs.table(f"gain error, UR5, {args.seconds:g} s unloaded + {args.seconds:g} s with "
                        f"2 kg (the simulator's own regressor, {CUTOFF:g} Hz filter)",
                        ["case", *(f"{j} [%]" for j in truth.arm.joint_names)])

@@ -27,7 +27,7 @@ from orthoglide_sim.arms.truth import default_truth
 RECORD_S = 60.0  # s per record the σ is predicted for
 N_PERIOD = 500  # samples per period for the σ
 EMITS_JSON = True  # --json PATH: the figures for bench/write_benchmarks.py
-BEFORE = ("new (issue 24); the last hand-written run, quiet: 10.4x / 11.1x real time (unloaded "
+BEFORE = ("new; the last hand-written run, quiet: 10.4x / 11.1x real time (unloaded "
           "/ 2 kg), tracking rms 0.02–0.13 mrad, max 0.65 mrad; cond(W) 494 / 569 vs random "
           "median 1461; σ 0.004–0.015 %")
 FIGS = Figures(before=BEFORE)

@@ -40,8 +40,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests"))
 from live_helpers import as_record  # noqa: E402  (the record a bag of the run holds)
 
 EMITS_JSON = True  # --json PATH: the figures for bench/write_benchmarks.py
-BEFORE = ("60 s + 60 s (1 kg at the tip), 3 seeds (issue 31): gains within 0.0006–0.0074 % (bar "
-          "1 %); WLS 0.5 kg 0.49996–0.50005 kg")
+BEFORE = ("the last hand-written run, 60 s + 60 s (1 kg at the tip), 3 seeds: gains within "
+          "0.0006–0.0074 % (bar 1 %); WLS 0.5 kg 0.49996–0.50005 kg")
 
 
 def _row(label: str, values, fmt: str = "{:9.3f}") -> str:

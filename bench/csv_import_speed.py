@@ -63,7 +63,7 @@ def main() -> None:
     print(f"{'parse (read_csv)':<28}{parse:8.2f}{args.rows / parse:12.3g}")
     print(f"{'import (parse + write bag)':<28}{total:8.2f}{args.rows / total:12.3g}")
     print(f"peak RSS {rss:.0f} MiB; q {rec.q.shape}")
-    figs = Figures(before="new (issue 36)")
+    figs = Figures(before="new")
     table = figs.table(f"rows {args.rows}, joints {args.joints}, file {size:.1f} MB"
                        f"{' (gzip)' if args.gzip else ''}, peak RSS {rss:.0f} MiB",
                        ["stage", ("time", "s"), "rows/s"])

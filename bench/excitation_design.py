@@ -57,7 +57,7 @@ from orthoglide_sim.demos.designed_runs import simulate_designed  # noqa: E402
 
 PAYLOADS = {"ur5": "2.0", "five_bar": "1.0"}  # the plants' off-centre payload bodies
 EMITS_JSON = True  # --json PATH: the figures for bench/write_benchmarks.py
-FIGS = Figures(before="new (issue 40); walk → gradient search: docs/benchmarks.md, issue 46")
+FIGS = Figures(before="new; the walk search before the gradient one: docs/benchmarks.md, issue 46")
 
 
 def plant_payload(truth, name: str) -> Payload:
