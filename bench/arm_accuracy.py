@@ -26,11 +26,20 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 
+from _figures import Figures, add_json_option  # noqa: E402
 from identify.test_on_arm import as_record  # noqa: E402
 
 from orthoglide_ident.identify import identify_records  # noqa: E402
 from orthoglide_ident.model.robots import load_robot  # noqa: E402
 from orthoglide_sim.arms.record import simulate_arm  # noqa: E402
+
+EMITS_JSON = True  # --json PATH: the figures for bench/write_benchmarks.py
+BEFORE = {  # what the figures were, by the description the product is given
+    "": "new (issue 24)",
+    "orthoglide_ident/robots/ur5.urdf": "refused: \"implausible (expected 0.1-10)\" (issue 32)",
+}
+COLUMNS = ["seed", ("worst gain error", "%"), ("max |z|", "σ"), ("σ, mean", "%"),
+           ("WLS 1 kg error", "%"), ("with the nominal gains", "%"), ("identify", "s")]
 
 
 def one_seed(robot: str, seconds: float, seed: int, model) -> dict:
@@ -65,6 +74,7 @@ def main() -> int:
     ap.add_argument("--seeds", type=int, default=5)
     ap.add_argument("--model", default="", help="the robot file the product is given (default "
                     "--robot); e.g. orthoglide_ident/robots/ur5.urdf, the plain URDF")
+    add_json_option(ap)
     args = ap.parse_args()
     model = load_robot(args.model or args.robot)
     print(
@@ -74,23 +84,35 @@ def main() -> int:
     )
     print(f"{'seed':>4} {'worst gain err %':>16} {'max |z|':>8} {'σ % (mean)':>10} "
           f"{'WLS 1 kg err %':>14} {'nominal gains %':>15} {'identify s':>10}")
+    figs = Figures(before=BEFORE.get(args.model, ""))
+    table = figs.table(f"{args.robot} given as {args.model or args.robot}: {args.seconds:g} s "
+                       f"unloaded + {args.seconds:g} s with 2 kg (TLS), 1 kg for WLS", COLUMNS)
     rows = []
     for seed in range(args.seeds):
         r = one_seed(args.robot, args.seconds, seed, model)
         rows.append(r)
-        print(f"{seed:>4} {100 * np.abs(r['err']).max():>16.3f} {np.abs(r['z']).max():>8.2f} "
-              f"{100 * r['sigma'].mean():>10.3f} {100 * r['wls']:>+14.3f} "
-              f"{100 * r['wls_nominal']:>+15.3f} {r['t']:>10.2f}")
+        cells = (f"{100 * np.abs(r['err']).max():.3f}", f"{np.abs(r['z']).max():.2f}",
+                 f"{100 * r['sigma'].mean():.3f}", f"{100 * r['wls']:+.3f}",
+                 f"{100 * r['wls_nominal']:+.3f}", f"{r['t']:.2f}")
+        print(f"{seed:>4} {cells[0]:>16} {cells[1]:>8} {cells[2]:>10} {cells[3]:>14} "
+              f"{cells[4]:>15} {cells[5]:>10}")
+        table.row(seed, *cells)
     err = np.array([r["err"] for r in rows])
     z = np.abs(np.array([r["z"] for r in rows]))
-    print("gain error mean ± sd (%): " + ", ".join(
-        f"{j} {100 * m:+.3f} ± {100 * s:.3f}" for j, m, s in
-        zip(model.joint_names, err.mean(0), err.std(0, ddof=1) if len(rows) > 1 else 0 * err[0])))
-    print(f"gains within 2 honest σ: {100 * np.mean(z <= 2):.0f} %, within 3: "
-          f"{100 * np.mean(z <= 3):.0f} % (max {z.max():.2f}); worst gain "
-          f"{100 * np.abs(err).max():.3f} % (bar 0.5 %); WLS 1 kg worst "
-          f"{100 * max(abs(r['wls']) for r in rows):.3f} % (bar 2 %), with nominal gains "
-          f"{100 * max(abs(r['wls_nominal']) for r in rows):.3f} %")
+    for line in (
+        "gain error mean ± sd (%): " + ", ".join(
+            f"{j} {100 * m:+.3f} ± {100 * s:.3f}" for j, m, s in zip(
+                model.joint_names, err.mean(0),
+                err.std(0, ddof=1) if len(rows) > 1 else 0 * err[0])),
+        f"gains within 2 honest σ: {100 * np.mean(z <= 2):.0f} %, within 3: "
+        f"{100 * np.mean(z <= 3):.0f} % (max {z.max():.2f}); worst gain "
+        f"{100 * np.abs(err).max():.3f} % (bar 0.5 %); WLS 1 kg worst "
+        f"{100 * max(abs(r['wls']) for r in rows):.3f} % (bar 2 %), with nominal gains "
+        f"{100 * max(abs(r['wls_nominal']) for r in rows):.3f} %",
+    ):
+        print(line)
+        figs.note(line)
+    figs.write(args.json)
     return 0
 
 

@@ -17,6 +17,7 @@ from __future__ import annotations
 import argparse
 
 import numpy as np
+from _figures import Figures, add_json_option
 from scipy.ndimage import minimum_filter1d
 from scipy.signal import butter, filtfilt
 
@@ -30,6 +31,7 @@ CUTOFF = 25.0  # Hz, low-pass of q and v_tau
 DECIMATE = 10
 EDGE = 200  # ticks dropped at each end (filter start-up)
 REVERSAL_SPEED = 0.03  # rad/s
+EMITS_JSON = True  # --json PATH: the figures for bench/write_benchmarks.py
 
 
 def tls_rows(rec: ArmRecord, reg: ArmRegressor, margin_ticks: int, source: str = "q") -> np.ndarray:
@@ -73,6 +75,7 @@ def gains(
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seconds", type=float, default=60.0, help="per record (default 60)")
+    add_json_option(ap)
     args = ap.parse_args()
     truth = default_truth(load_arm("ur5"))
     reg = ArmRegressor(truth.arm)
@@ -80,10 +83,15 @@ def main() -> None:
     print(
         f"UR5, {args.seconds:g} s unloaded + {args.seconds:g} s with 2 kg; gain error (%) per joint"
     )
+    figs = Figures(before="new")
+    table = figs.table(f"gain error, UR5, {args.seconds:g} s unloaded + {args.seconds:g} s with "
+                       f"2 kg (the simulator's own regressor, {CUTOFF:g} Hz filter)",
+                       ["case", *(f"{j} [%]" for j in truth.arm.joint_names)])
     print(
         f"  {'nominal gains':<36}"
         + " ".join(f"{v:7.3f}" for v in 100 * (truth.arm.nominal_gains / g_true - 1))
     )
+    table.row("nominal gains", *(f"{v:.3f}" for v in 100 * (truth.arm.nominal_gains / g_true - 1)))
     for noise in (False, True):
         recs = [
             simulate_arm(args.seconds, payload=p, trajectory=t, seed=s, truth=truth, noise=noise)
@@ -93,6 +101,8 @@ def main() -> None:
             g = gains(recs, reg, margin)
             label = f"{'noisy' if noise else 'noise-free'}, reversals ±{margin} ms"
             print(f"  {label:<36}" + " ".join(f"{v:7.3f}" for v in 100 * (g / g_true - 1)))
+            table.row(label, *(f"{v:.3f}" for v in 100 * (g / g_true - 1)))
+    figs.write(args.json)
 
 
 if __name__ == "__main__":

@@ -15,6 +15,7 @@ import argparse
 import time
 
 import numpy as np
+from _figures import Figures, add_json_option
 
 from orthoglide_sim.arms import excitation as ax
 from orthoglide_sim.arms.description import load_arm
@@ -25,6 +26,11 @@ from orthoglide_sim.arms.truth import default_truth
 
 RECORD_S = 60.0  # s per record the σ is predicted for
 N_PERIOD = 500  # samples per period for the σ
+EMITS_JSON = True  # --json PATH: the figures for bench/write_benchmarks.py
+BEFORE = ("new; the last hand-written run, quiet: 10.4x / 11.1x real time (unloaded "
+          "/ 2 kg), tracking rms 0.02–0.13 mrad, max 0.65 mrad; cond(W) 494 / 569 vs random "
+          "median 1461; σ 0.004–0.015 %")
+FIGS = Figures(before=BEFORE)
 
 
 def _row(label: str, values, fmt: str = "{:8.3f}") -> str:
@@ -34,17 +40,22 @@ def _row(label: str, values, fmt: str = "{:8.3f}") -> str:
 def speed_and_tracking(truth, seconds: float) -> dict:
     """Simulate both records; print their figures; return the noise σ per record."""
     noise = {}
+    table = FIGS.table(f"{seconds:g} s records, per joint", ["figure", *truth.arm.joint_names])
     for payload, traj in ((None, "exciting1"), ("2.0", "exciting2")):
         t0 = time.perf_counter()
         rec = simulate_arm(seconds, payload=payload, trajectory=traj, seed=0, truth=truth)
         wall = time.perf_counter() - t0
         name = f"{traj}, {rec.payload_mass:g} kg"
-        print(f"{name}: {seconds:g} s simulated in {wall:.2f} s = {seconds / wall:.1f}x real time, "
-              f"{rec.saturated_ticks} saturated ticks")
-        print(_row("tracking rms (mrad)", 1e3 * rec.tracking_rms))
-        print(_row("tracking max (mrad)", 1e3 * np.abs(rec.q_true - rec.q_ref).max(0)))
-        print(_row("v_tau rms (A)", np.sqrt(np.mean(rec.v_tau**2, axis=0))))
-        print(_row("current noise σ (mA)", 1e3 * rec.current_noise_std))
+        line = (f"{name}: {seconds:g} s simulated in {wall:.2f} s = {seconds / wall:.1f}x real "
+                f"time, {rec.saturated_ticks} saturated ticks")
+        print(line)
+        FIGS.note(line)
+        for label, x in (("tracking rms (mrad)", 1e3 * rec.tracking_rms),
+                         ("tracking max (mrad)", 1e3 * np.abs(rec.q_true - rec.q_ref).max(0)),
+                         ("v_tau rms (A)", np.sqrt(np.mean(rec.v_tau**2, axis=0))),
+                         ("current noise σ (mA)", 1e3 * rec.current_noise_std)):
+            print(_row(label, x))
+            table.row(f"{name}: {label}", *(f"{v:.3f}" for v in x))
         noise[payload] = rec.current_noise_std
     return noise
 
@@ -55,15 +66,15 @@ def excitation(arm, reg: ArmRegressor) -> None:
         [ax.condition_number(ax.random_trajectory(lim, s), reg.base) for s in range(20)]
     )
     print(f"cond(W), {len(reg.base_columns)} base columns, {ax.SAMPLES} samples per period:")
+    designed = []
     for name in ("exciting1", "exciting2"):
-        print(
-            f"  {name:<28}{ax.condition_number(ax.designed_trajectory(arm, name), reg.base):8.1f}"
-        )
-    print(
-        f"  {'random Fourier (20 seeds)':<28}median {np.median(random):.1f}, best "
-        f"{random.min():.1f}, "
-        f"worst {random.max():.1f}"
-    )
+        designed.append((name, ax.condition_number(ax.designed_trajectory(arm, name), reg.base)))
+        print(f"  {name:<28}{designed[-1][1]:8.1f}")
+    line = (f"median {np.median(random):.1f}, best {random.min():.1f}, worst "
+            f"{random.max():.1f}")
+    print(f"  {'random Fourier (20 seeds)':<28}{line}")
+    FIGS.note(f"cond(W) {', '.join(f'{n} {c:.1f}' for n, c in designed)}; random Fourier (20 "
+              f"seeds) {line}")
 
 
 def _tls_rows(truth, reg, traj_name: str, payload, sigma: np.ndarray) -> np.ndarray:
@@ -96,6 +107,7 @@ def predicted_gain_std(truth, reg, noise: dict) -> np.ndarray:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seconds", type=float, default=10.0, help="simulated seconds per record")
+    add_json_option(ap)
     args = ap.parse_args()
     arm = load_arm("ur5")
     truth = default_truth(arm)
@@ -109,6 +121,10 @@ def main() -> None:
         "noise:"
     )
     print(_row("σ(g_tau) (%)", sigma))
+    FIGS.table(f"predicted gain σ, {RECORD_S:g} s unloaded + {RECORD_S:g} s with 2 kg, 0.5 % "
+               "current noise", ["", *arm.joint_names]).row(
+        "σ(g_tau) [%]", *(f"{v:.3f}" for v in sigma))
+    FIGS.write(args.json)
 
 
 if __name__ == "__main__":

@@ -53,7 +53,6 @@ from contextlib import contextmanager
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 HOG_CODE = "while True: pass"
@@ -106,7 +105,7 @@ def identify_figures(bag_sets: dict[str, list[Path]], repeat: int) -> dict[str, 
     for robot, paths in bag_sets.items():
         argv = ["identify", *map(str, paths), "-q"] + (
             ["--robot", robot] if robot != "orthoglide" else [])
-        cmd = [sys.executable, "-m", "orthoglide_ident.cli", *argv]
+        cmd = [sys.executable, "-P", "-m", "orthoglide_ident.cli", *argv]  # -P: PYTHONPATH decides
         env = {k: v for k, v in os.environ.items()
                if k not in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")}
         identify_in_process(argv)  # imports, once
@@ -170,6 +169,7 @@ def demo_figures(record_s: float, out_dir: Path) -> dict[str, float]:
     proc = subprocess.run(
         [
             sys.executable,
+            "-P",  # not the working directory first: PYTHONPATH decides
             "-m",
             "orthoglide_sim.demos.node_set",
             "--record-seconds",

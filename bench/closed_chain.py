@@ -22,6 +22,7 @@ from pathlib import Path
 
 import mujoco
 import numpy as np
+from _figures import Figures, add_json_option
 
 from orthoglide_ident.identify import identify_records
 from orthoglide_ident.model.robots import load_robot
@@ -35,9 +36,12 @@ from orthoglide_sim.chains.plant import ChainPlant
 from orthoglide_sim.chains.record import simulate_chain
 from orthoglide_sim.chains.truth import apply_chain_overrides, default_chain_truth
 
-sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests"))  # live_helpers
-sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests" / "identify"))
-from test_on_arm import as_record  # noqa: E402  (the record a bag of the run holds)
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests"))
+from live_helpers import as_record  # noqa: E402  (the record a bag of the run holds)
+
+EMITS_JSON = True  # --json PATH: the figures for bench/write_benchmarks.py
+BEFORE = ("the last hand-written run, 60 s + 60 s (1 kg at the tip), 3 seeds: gains within "
+          "0.0006–0.0074 % (bar 1 %); WLS 0.5 kg 0.49996–0.50005 kg")
 
 
 def _row(label: str, values, fmt: str = "{:9.3f}") -> str:
@@ -132,23 +136,31 @@ def closed_loop_softness(truth, seconds: float) -> None:
     print(_row("Δv_tau max / noise σ", np.abs(diff).max(0) / noisy, "{:9.1e}"))
 
 
-def excitation(chain, robot) -> None:
+def excitation(figs: Figures, chain, robot) -> None:
     lim = motion_limits(chain)
     random = np.array([ax.condition_number(ax.random_trajectory(lim, s), robot.regressor)
                        for s in range(20)])
     print(f"cond(W), {robot.n_b} base columns, {ax.SAMPLES} samples per period:")
+    designed = []
     for name in ("exciting1", "exciting2"):
         cond = ax.condition_number(ax.designed_trajectory(chain, name), robot.regressor)
+        designed.append(cond)
         print(f"  {name:<30}{cond:9.1f}")
     print(
         f"  {'random Fourier (20 seeds)':<30}median {np.median(random):.1f}, best "
         f"{random.min():.1f}, "
         f"worst {random.max():.1f}"
     )
+    figs.note(f"cond(W) of the designed trajectories {', '.join(f'{c:.1f}' for c in designed)} "
+              f"vs random Fourier median {np.median(random):.1f} (20 seeds)")
 
 
-def identification(truth, robot, seconds: float, seeds: int) -> None:
+def identification(figs: Figures, truth, robot, seconds: float, seeds: int) -> None:
     g_true = truth.drive_array("g_tau")
+    table = figs.table(
+        f"identification, {seconds:g} s unloaded + {seconds:g} s with 1 kg (TLS), 0.5 kg by WLS",
+        ["seed", ("gain errors", "%"), ("σ", "%"), ("max |error|/σ", "σ"), "s_c/s_c-1",
+         ("WLS 0.5 kg, identified / nominal gains", "kg"), ("identify", "s")])
     print(f"identification, {seconds:g} s unloaded + {seconds:g} s with 1 kg (TLS), 0.5 kg by WLS:")
     print(f"  {'seed':<5}{'error (%)':>20}{'σ (%)':>20}{'error/σ':>16}{'s_c/s_c-1':>11}"
           f"{'WLS 0.5 kg (identified / nominal gains)':>42}{'time (s)':>10}")
@@ -174,12 +186,17 @@ def identification(truth, robot, seconds: float, seeds: int) -> None:
             + f"{ratio:11.3f}{wls.payload_mass.value:21.5f} / {nominal.payload_mass.value:.5f} kg"
             + f"{wall:10.1f}"
         )
+        table.row(seed, ", ".join(f"{100 * e:+.4f}" for e in err),
+                  ", ".join(f"{100 * x:.4f}" for x in sigma), f"{np.abs(err / sigma).max():.2f}",
+                  f"{ratio:.3f}", f"{wls.payload_mass.value:.5f} / "
+                  f"{nominal.payload_mass.value:.5f}", f"{wall:.1f}")
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seconds", type=float, default=20.0, help="simulated seconds per record")
     ap.add_argument("--seeds", type=int, default=3, help="identifications (noise seeds)")
+    add_json_option(ap)
     args = ap.parse_args()
     chain = load_chain("five_bar")
     truth, robot = default_chain_truth(chain), load_robot("five_bar")
@@ -193,8 +210,10 @@ def main() -> None:
     noise = speed_and_tracking(truth, args.seconds)
     softness(truth, robot, noise)
     closed_loop_softness(truth, min(args.seconds, 5.0))
-    excitation(chain, robot)
-    identification(truth, robot, args.seconds, args.seeds)
+    figs = Figures(before=BEFORE)
+    excitation(figs, chain, robot)
+    identification(figs, truth, robot, args.seconds, args.seeds)
+    figs.write(args.json)
 
 
 if __name__ == "__main__":

@@ -29,9 +29,9 @@ import time
 from pathlib import Path
 
 import numpy as np
+from _figures import Figures, add_json_option
 
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from orthoglide_ident.errors import OrthoglideError  # noqa: E402
@@ -43,6 +43,8 @@ from orthoglide_ident.identify.consistency.pseudo_inertia import INERTIAL_KINDS 
 from orthoglide_ident.identify.validate.direct_dynamics import validate as direct_validate  # noqa: E402
 from orthoglide_ident.model.robots import load_robot  # noqa: E402
 
+EMITS_JSON = True  # --json PATH: the figures for bench/write_benchmarks.py
+BEFORE = "new (issue 28)"
 PAYLOAD = 1.983
 CAD_ERROR = 0.2  # the CAD-like prior: every inertial parameter within ±20 %
 AMPLITUDE, F_MAX = 1.5, 2.0  # model-generated records: sums of sines, rad (m) and Hz
@@ -101,7 +103,8 @@ def _rms(x) -> float:
     return float(np.sqrt(np.mean(np.square(x))))
 
 
-def report(name: str, f: dict) -> list[str]:
+def report(name: str, f: dict, figs: Figures | None = None) -> list[str]:
+    """The printed lines of one case; its table and the rest as notes in ``figs``."""
     c, doc, res = f["c"], f["doc"], f["res"]
     g = np.array([x.value for x in res.drive_gains])
     s = np.array([x.rel_std for x in res.drive_gains]) * g
@@ -123,6 +126,7 @@ def report(name: str, f: dict) -> list[str]:
     rows = (("unconstrained (TLS)", "unconstrained", None, "unconstrained"),
             ("projection", "projection", doc["projection"], "projection"),
             ("identified under the LMIs", "identification", doc["identification"], "identified"))
+    cells = []
     for label, key, fit, tkey in rows:
         r = c.residual_rms[key]
         d2 = f"{fit['mahalanobis_d2']:12.3g}" if fit else f"{0.0:12.3g}"
@@ -130,6 +134,8 @@ def report(name: str, f: dict) -> list[str]:
         inc = f"{100 * fit['residual_increase']:+10.3f}%" if fit else f"{'-':>11}"
         lines.append(f"  {label:<26} {'/'.join(f'{x:.4g}' for x in r):>22} {inc} {d2} {sh} "
                      f"{f['d2_truth'][tkey]:12.4g}")
+        cells.append([label, "/".join(f"{x:.4g}" for x in r), inc.strip(), d2.strip(),
+                      sh.strip(), f"{f['d2_truth'][tkey]:.4g}"])
     lines.append("  projection moved the gains " + ", ".join(f"{j} {v:+.2f}σ"
                                                              for j, v in moved.items()))
     lines.append(f"  solve: {c.seconds:.3f} s (check {c.findings.solve_s:.3f}, projection "
@@ -144,6 +150,12 @@ def report(name: str, f: dict) -> list[str]:
                      + ", ".join(f"{j['joint']} {1e3 * j['rms_error']:.3f} m{j['unit']} "
                                  f"({100 * j['relative']:.2f} % of the drift)"
                                  for j in d["joints"]))
+    if figs is not None:  # the table; the other lines as notes
+        table = figs.table(lines[0].removeprefix("== "), ["answer", ("residual rms", unit),
+                           "Δ residual", "d² (answer)", "max shift", "d² to truth"])
+        for row in cells:
+            table.row(*row)
+        figs.notes += [f"{name}: {x.strip()}" for x in lines[1:3] + lines[len(rows) + 4:]]
     return lines
 
 
@@ -155,21 +167,25 @@ def main() -> int:
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--cache", type=Path)
     ap.add_argument("--prior", choices=("none", "cad"), default="none")
+    add_json_option(ap)
     args = ap.parse_args()
+    figs = Figures(before=BEFORE)
     try:
         robot = _robot(args.robot)
         if robot.name != "orthoglide":
             lines = report(f"{args.robot}, model-generated records",
-                           model_case(robot, args.seconds, args.seed))
+                           model_case(robot, args.seconds, args.seed), figs)
             print("\n".join(lines))
+            figs.write(args.json)
             return 0
         for profile in args.profiles.split(","):
             f = orthoglide_case(profile, args.seconds, args.seed, args.cache, args.prior)
-            print("\n".join(report(f"{profile}, {args.seconds:g} s + {args.seconds:g} s", f)),
-                  flush=True)
+            print("\n".join(report(f"{profile}, {args.seconds:g} s + {args.seconds:g} s", f,
+                                    figs)), flush=True)
     except OrthoglideError as exc:
         print(f"consistency bench: {exc}", file=sys.stderr)
         return 2
+    figs.write(args.json)
     return 0
 
 

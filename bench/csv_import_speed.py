@@ -17,8 +17,11 @@ import time
 from pathlib import Path
 
 import numpy as np
+from _figures import Figures, add_json_option
 
 from orthoglide_ident.bags.csv_import import ColumnMap, import_csv, read_csv
+
+EMITS_JSON = True  # --json PATH: the figures for bench/write_benchmarks.py
 
 
 def write_log(path: Path, rows: int, joints: int, compress: bool) -> Path:
@@ -38,6 +41,7 @@ def main() -> None:
     ap.add_argument("--rows", type=int, default=1_000_000)
     ap.add_argument("--joints", type=int, default=7)
     ap.add_argument("--gzip", action="store_true", help="a .csv.gz log")
+    add_json_option(ap)
     args = ap.parse_args()
     cmap = ColumnMap(velocity="{joint}.qd", effort="{joint}.tau", effort_unit="N·m")
     with tempfile.TemporaryDirectory() as d:
@@ -59,6 +63,13 @@ def main() -> None:
     print(f"{'parse (read_csv)':<28}{parse:8.2f}{args.rows / parse:12.3g}")
     print(f"{'import (parse + write bag)':<28}{total:8.2f}{args.rows / total:12.3g}")
     print(f"peak RSS {rss:.0f} MiB; q {rec.q.shape}")
+    figs = Figures(before="new")
+    table = figs.table(f"rows {args.rows}, joints {args.joints}, file {size:.1f} MB"
+                       f"{' (gzip)' if args.gzip else ''}, peak RSS {rss:.0f} MiB",
+                       ["stage", ("time", "s"), "rows/s"])
+    table.row("parse (read_csv)", f"{parse:.2f}", f"{args.rows / parse:.3g}")
+    table.row("import (parse + write bag)", f"{total:.2f}", f"{args.rows / total:.3g}")
+    figs.write(args.json)
 
 
 if __name__ == "__main__":

@@ -28,6 +28,7 @@ import sys
 import time
 
 import numpy as np
+from _figures import Figures, add_json_option
 
 from orthoglide_ident.control import CTCParameters, feedforward_currents
 from orthoglide_ident.identify import identify
@@ -39,6 +40,8 @@ from orthoglide_sim.orthoglide.record import simulate
 ORTHOGLIDE = load_robot("orthoglide")  # the robot these records are of
 
 PAYLOAD = "1.983"
+EMITS_JSON = True  # --json PATH: the figures for bench/write_benchmarks.py
+FIGS = Figures()
 
 
 def true_model(m7: float) -> CTCParameters:
@@ -99,6 +102,9 @@ def print_table(rows: dict, cases: list[str], title: str) -> None:
         f"{'':<{w}}  {'joint 1':>8}{'joint 2':>9}{'joint 3':>9}  "
         f"{'joint 1':>8}{'joint 2':>9}{'joint 3':>9}"
     )
+    table = FIGS.table(title, ["trajectory", "control strategy",
+                               *(f"max error, joint {j} [µm]" for j in (1, 2, 3)),
+                               *(f"rms, joint {j} [µm]" for j in (1, 2, 3))])
     for traj_name in ("test1", "test2"):
         print(traj_name)
         for case in cases:
@@ -110,6 +116,7 @@ def print_table(rows: dict, cases: list[str], title: str) -> None:
                     + " "
                     + "".join(f"{v:9.1f}" for v in rms)
                 )
+                table.row(traj_name, case, *(f"{v:.1f}" for v in (*mx, *rms)))
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -126,6 +133,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument(
         "--ros", action="store_true", help="also run the table through the live node set"
     )
+    add_json_option(ap)
     args = ap.parse_args(argv)
     t0 = time.perf_counter()
     ctc = models(args.bags)
@@ -149,14 +157,19 @@ def main(argv: list[str] | None = None) -> int:
     )
     for traj_name in ("test1", "test2"):
         pid, c = rows[traj_name, "simple PID"][1], rows[traj_name, "CTC, identif. gains"][1]
-        print(f"  {traj_name}: rms PID / CTC identified " + ", ".join(f"{r:.0f}x" for r in pid / c)
-              + " (paper Table 4: 29x, 29x, 8.4x on trajectory 1, 38-43x on trajectory 2)")
+        line = (f"{traj_name}: rms PID / CTC identified " + ", ".join(f"{r:.0f}x" for r in pid / c)
+                + " (paper Table 4: 29x, 29x, 8.4x on trajectory 1, 38-43x on trajectory 2)")
+        print(f"  {line}")
+        FIGS.note(line)
     cost = feedforward_cost(ctc["CTC, identif. gains"])
-    print(f"feed-forward compute per tick (batches of 10): p50 {np.percentile(cost, 50):.3f} ms, "
-          f"p99 {np.percentile(cost, 99):.3f} ms")
+    line = (f"feed-forward compute per tick (batches of 10): p50 {np.percentile(cost, 50):.3f} "
+            f"ms, p99 {np.percentile(cost, 99):.3f} ms")
+    print(line)
+    FIGS.note(line)
     if args.ros:
         ros_table(args.bags, args.duration, rows)
     print(f"total {time.perf_counter() - t0:.0f} s")
+    FIGS.write(args.json)
     return 0
 
 
@@ -181,11 +194,13 @@ def ros_table(bags: list[str], duration: float, inproc: dict) -> None:
     print_table(ros, list(demo.TABLE4), "Over ROS 2 (encoder position - setpoint, um)")
     for traj_name in ("test1", "test2"):
         r, i = ros[traj_name, "CTC, identif. gains"][1], inproc[traj_name, "CTC, identif. gains"][1]
-        print(
-            f"  {traj_name}: CTC identified over ROS / in-process "
-            + ", ".join(f"{x:.2f}" for x in r / i)
-        )
-    print("  driver: " + " | ".join(line.split("]: ")[-1] for line in log if "ticks" in line))
+        line = f"{traj_name}: CTC identified over ROS / in-process " + ", ".join(
+            f"{x:.2f}" for x in r / i)
+        print(f"  {line}")
+        FIGS.note(line)
+    line = "driver: " + " | ".join(ln.split("]: ")[-1] for ln in log if "ticks" in ln)
+    print(f"  {line}")
+    FIGS.note(line)
 
 
 if __name__ == "__main__":

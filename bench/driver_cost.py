@@ -34,7 +34,11 @@ import tempfile
 import time
 from pathlib import Path
 
+from _figures import Figures, add_json_option
+
 PARTS = ("plant", "controller", "publish", "wait", "rest", "threads")
+EMITS_JSON = True  # --json PATH: the figures for bench/write_benchmarks.py
+BEFORE = "73–81 % of a core (before the reduced plant and the ticks computed ahead)"
 
 
 def _timed(fn, totals: dict, key: str):
@@ -170,6 +174,7 @@ def main(argv: list[str] | None = None) -> int:
     )
     ap.add_argument("--child", default=None, help=argparse.SUPPRESS)
     ap.add_argument("--plain", action="store_true", help=argparse.SUPPRESS)
+    add_json_option(ap)
     args, rest = ap.parse_known_args(argv)
     if args.child:
         return child(args.child, rest, args.plain)
@@ -196,20 +201,27 @@ def main(argv: list[str] | None = None) -> int:
         f"{args.plant or 'default'}) with recorder, identification, ctc running; CPU per tick (us):"
     )
     print(f"  {'':<11}" + "".join(f"{name:>16}" for name in columns))
+    figs = Figures(before=BEFORE)
+    table = figs.table(f"driver at 1 kHz for {args.seconds:g} s ({args.controller}, payload "
+                       f"{args.payload}, plant {args.plant or 'default'}) with recorder, "
+                       "identification, ctc running", ["CPU per tick [µs]", *columns])
     splits = {name: split(r) for name, (r, _, _) in columns.items()}
     for k in PARTS + ("total",):
         cells = [sum(sp.values()) if k == "total" else sp[k] for sp in splits.values()]
         print(f"  {k:<11}" + "".join(f"{c:16.1f}" for c in cells))
+        table.row(k, *(f"{c:.1f}" for c in cells))
     rows = {"process CPU, % of a core (timed)": lambda r, p: 100 * r["process_ns"] / r["wall_ns"],
             "process CPU, % of a core (untimed)": lambda r, p: 100 * p["process_ns"] / p["wall_ns"],
             "late ticks (untimed run)": lambda r, p: p["late"]}
     for label, f in rows.items():
         print(f"  {label:<36}" + "".join(f"{f(r, p):8.0f}" for r, p, _ in columns.values()))
-    print(
-        "  load average: "
-        + ", ".join(f"{name} {load:.1f}" for name, (_, _, load) in columns.items())
-        + "; bar (issue 35): the untimed run <= 25 % of a core, also beside the hog"
-    )
+        table.row(label, *(f"{f(r, p):.0f}" for r, p, _ in columns.values()))
+    line = ("load average: "
+            + ", ".join(f"{name} {load:.1f}" for name, (_, _, load) in columns.items())
+            + "; bar (issue 35): the untimed run <= 25 % of a core, also beside the hog")
+    print(f"  {line}")
+    figs.note(line)
+    figs.write(args.json)
     return 0
 
 

@@ -31,6 +31,7 @@ from pathlib import Path
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import numpy as np  # noqa: E402
+from _figures import Figures, add_json_option  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 
@@ -55,6 +56,8 @@ from orthoglide_sim.chains.record import simulate_chain  # noqa: E402
 from orthoglide_sim.demos.designed_runs import simulate_designed  # noqa: E402
 
 PAYLOADS = {"ur5": "2.0", "five_bar": "1.0"}  # the plants' off-centre payload bodies
+EMITS_JSON = True  # --json PATH: the figures for bench/write_benchmarks.py
+FIGS = Figures(before="new; the walk search before the gradient one: docs/benchmarks.md, issue 46")
 
 
 def plant_payload(truth, name: str) -> Payload:
@@ -84,6 +87,13 @@ def print_design(name: str, d) -> None:
           f"{d.problem.opt.steps} steps; wall time on the shared 2-core machine)")
     print(f"  {'':<24}{'criterion':>10}{'worst gain σ %':>16}{'κ':>9}")
     print(f"  {'designed':<24}{d.criterion:>10.3f}{100 * p.worst_gain:>16.4f}{p.condition:>9.1f}")
+    table = FIGS.table(f"{name}: designed in {d.seconds:.1f} s ({d.problem.opt.restarts} "
+                       f"restarts, {d.problem.opt.steps} steps)",
+                       ["", "criterion", ("worst gain σ", "%"), "κ"])
+    table.row("designed", f"{d.criterion:.3f}", f"{100 * p.worst_gain:.4f}", f"{p.condition:.1f}")
+    table.row(f"random feasible (median of {len(rand)})", f"{med(lambda e: e.criterion):.3f}",
+              f"{100 * med(lambda e: e.prediction.worst_gain):.4f}",
+              f"{med(lambda e: e.prediction.condition):.1f}")
     print(
         f"  {f'random feasible (median of {len(rand)})':<24}"
         f"{med(lambda e: e.criterion):>10.3f}{100 * med(lambda e: e.prediction.worst_gain):>16.4f}"
@@ -93,6 +103,8 @@ def print_design(name: str, d) -> None:
     for kind, s in d.check.by_kind().items():
         print(f"    {kind:<13} {s.value:>9.4g} {s.required:>7.3g} {s.value - s.required:>+9.4g}  "
               f"{s.where}")
+        FIGS.note(f"{name}, 1 ms check, {kind}: worst slack {s.value:.4g}, margin kept "
+                  f"{s.required:.3g}, worst - margin {s.value - s.required:+.4g} ({s.where})")
 
 
 def previous_record_noise(robot, truth) -> np.ndarray:
@@ -137,6 +149,13 @@ def achieved(robot, truth, d, limits, collision, seeds: int) -> None:
           f"{seeds} seeds:")
     print(f"    {'joint':<20}{'predicted':>10}{'eq. 39':>9}{'honest':>9}{'sd(err)':>9}"
           f"{'mean err':>10}{'eq39/pred':>10}{'pred same':>10}{'eq39/same':>10}")
+    table = FIGS.table(f"{robot.name}: predicted vs achieved σ of the gains, {traj.duration:g} s + "
+                       f"{traj.duration:g} s, {seeds} seeds (predicted: noise from a previous "
+                       "identification of the simulator's own records; pred same: from seed 0's "
+                       "identification of these runs)",
+                       ["joint", ("predicted", "%"), ("eq. 39", "%"), ("honest", "%"),
+                        ("sd(err)", "%"), ("mean err", "%"), "eq39/pred", ("pred same", "%"),
+                        "eq39/same"])
     for j, name in enumerate(robot.joint_names):
         print(
             f"    {name:<20}{100 * pred[:, j].mean():>10.4f}{100 * paper[:, j].mean():>9.4f}"
@@ -144,6 +163,11 @@ def achieved(robot, truth, d, limits, collision, seeds: int) -> None:
             f"{paper[:, j].mean() / pred[:, j].mean():>10.2f}{100 * same[j]:>10.4f}"
             f"{paper[:, j].mean() / same[j]:>10.2f}"
         )
+        table.row(name, f"{100 * pred[:, j].mean():.4f}", f"{100 * paper[:, j].mean():.4f}",
+                  f"{100 * honest[:, j].mean():.4f}", f"{100 * sd[j]:.4f}",
+                  f"{100 * errs[:, j].mean():+.4f}",
+                  f"{paper[:, j].mean() / pred[:, j].mean():.2f}", f"{100 * same[j]:.4f}",
+                  f"{paper[:, j].mean() / same[j]:.2f}")
     print("  (predicted: noise from a previous identification of the simulator's own records; "
           "pred same: from seed 0's identification of these runs)")
 
@@ -155,6 +179,7 @@ def main() -> int:
     ap.add_argument("--restarts", type=int, default=20)
     ap.add_argument("--steps", type=int, default=None)
     ap.add_argument("--search", default="gradient", help="gradient | walk (excite/gradient.py)")
+    add_json_option(ap)
     args = ap.parse_args()
     for name in args.robots.split(","):
         robot, truth, limits, collision, d = designed(name, args.restarts, args.steps,
@@ -162,6 +187,7 @@ def main() -> int:
         print_design(name, d)
         if args.seeds:
             achieved(robot, truth, d, limits, collision, args.seeds)
+    FIGS.write(args.json)
     return 0
 
 

@@ -34,9 +34,7 @@ import time
 from pathlib import Path
 
 import numpy as np
-
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-
+from _figures import Figures, add_json_option  # noqa: E402
 from gain_bound import gain_rel_std_bound  # noqa: E402
 
 from orthoglide_ident.errors import OrthoglideError  # noqa: E402
@@ -48,6 +46,9 @@ from orthoglide_ident.identify import (  # noqa: E402
 from orthoglide_ident.model.robots import load_robot  # noqa: E402
 
 ORTHOGLIDE = load_robot("orthoglide")  # the robot these records are of
+EMITS_JSON = True  # --json PATH: the figures for bench/write_benchmarks.py
+COLUMNS = ["case", "seed", ("gain error q11, q12, q13", "%"), ("err/σ paper", "σ"),
+           ("err/σ honest", "σ"), ("1.136 kg by WLS", "%"), ("essential Δg", "%"), ("run", "s")]
 
 PAYLOAD = 1.983
 SECOND_PAYLOAD = 1.136
@@ -237,6 +238,7 @@ def main() -> int:
                          f"{PAYLOAD:g}, the paper's): the gains' σ scales as 1 / payload")
     ap.add_argument("--set", action="append", default=[], metavar="OPTION=VALUE",
                     help="an identification option (config/identification.yaml key)")
+    add_json_option(ap)
     args = ap.parse_args()
     import yaml
 
@@ -246,6 +248,8 @@ def main() -> int:
          for k, v in (a.split("=", 1) for a in args.set)}, "--set")
     names, chi_true = true_base_parameters()
     report: list[str] = []
+    figs = Figures()
+    table = figs.table(f"per seed, {args.payload:g} kg payload", COLUMNS)
     print(f"{'case':>16} {'seed':>4} {'err% q11':>9} {'q12':>7} {'q13':>7} {'err/σ paper':>17} "
           f"{'err/σ honest':>17} {'m1.136%':>8} {'ess Δg%':>8} {'s':>4}")
     for profile in args.profiles.split(","):
@@ -266,10 +270,17 @@ def main() -> int:
                       + " ".join(f"{x:+5.1f}" for x in r["z_honest"])
                       + f" {r['m_id']:+8.2f} {np.abs(r['ess_shift']).max():8.3f} "
                       + f"{r['t_sim'] + r['t_id']:4.0f}", flush=True)
+                table.row(f"{profile} {seconds:g} s", seed,
+                          ", ".join(f"{x:+.3f}" for x in r["gain_err"]),
+                          ", ".join(f"{x:+.1f}" for x in r["z_paper"]),
+                          ", ".join(f"{x:+.1f}" for x in r["z_honest"]), f"{r['m_id']:+.2f}",
+                          f"{np.abs(r['ess_shift']).max():.3f}", f"{r['t_sim'] + r['t_id']:.0f}")
             if rows:
                 report += summary(profile, seconds, rows)
     print()
     print("\n".join(report))
+    figs.notes += [" ".join(line.split()) for line in report]
+    figs.write(args.json)
     return 0
 
 

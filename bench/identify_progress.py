@@ -17,8 +17,7 @@ import time
 from pathlib import Path
 
 from orthoglide_ident import progress
-from orthoglide_ident.identify.options import IdentifyOptions
-from orthoglide_ident.identify.pipeline import identify
+from orthoglide_ident.identify import IdentifyOptions, identify
 from orthoglide_ident.model.robots import load_robot
 
 

@@ -35,15 +35,22 @@ from pathlib import Path
 from orthoglide_ident.ros import processes as children  # children end with this process
 
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
+from _figures import Figures, add_json_option  # noqa: E402
 from identify_data import record  # noqa: E402
 
 from orthoglide_ident import bags  # noqa: E402
 from orthoglide_ident.model.robots import load_robot  # noqa: E402
 
 ORTHOGLIDE = load_robot("orthoglide")  # the robot these records are of
+EMITS_JSON = True  # --json PATH: the figures for bench/write_benchmarks.py
+BEFORE = {  # the figures before, by robot (docs/benchmarks.md's table as it was)
+    "": "0.65–0.83, 1.1–2.4 s",
+    "ur5": "2026-12-02, quiet: identify 2.1–2.4 s end to end vs rosbags 1.6–2.5 s, ratio "
+           "0.83–1.47; regressor + decimation 0.9–1.0 s, solve 0.21–0.31 s, start-up 0.54–0.65 s; "
+           "295–301 MiB; the Orthoglide 0.53–0.66",
+}
 
 
 # the same read as a program of its own (what a user runs: interpreter and imports included)
@@ -114,6 +121,7 @@ def main() -> int:
     ap.add_argument("--bags", nargs=2, help="use these two bags (unloaded, loaded) instead")
     ap.add_argument("--robot", default="", help="a simulated arm (e.g. ur5) instead of the "
                     "Orthoglide; passed to identify --robot")
+    add_json_option(ap)
     args = ap.parse_args()
 
     tmp = tempfile.TemporaryDirectory()
@@ -142,17 +150,17 @@ def main() -> int:
     t_rosbags, n_msgs = rosbags_read(paths)
 
     js = d / "result.json"
-    env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    env = dict(os.environ, PYTHONPATH=os.environ.get("PYTHONPATH") or str(ROOT))
     # The CLI reports its own peak RSS (VmHWM, reset at exec): RUSAGE_CHILDREN would count the
     # forked copy of this (large, bag-writing) process before exec.
     code = ("import sys\nfrom orthoglide_ident.cli import main\nrc = main(sys.argv[1:])\n"
             "hwm = [l for l in open('/proc/self/status') if l.startswith('VmHWM')][0]\n"
             "sys.stderr.write('PEAK ' + hwm.split()[1] + '\\n')\nsys.exit(rc)")
-    cmd = [sys.executable, "-c", code, "identify", *map(str, paths), "--json", str(js), "-q"]
+    cmd = [sys.executable, "-P", "-c", code, "identify", *map(str, paths), "--json", str(js), "-q"]
     if args.robot:
         cmd += ["--robot", args.robot]
     t0 = time.perf_counter()
-    # cwd=ROOT: `python -c` puts the working directory first on sys.path
+    # -P: `python -c` would put the working directory first on sys.path; PYTHONPATH decides
     proc = children.run(cmd, env=env, capture_output=True, text=True, cwd=ROOT)
     t_cli = time.perf_counter() - t0
     peak = [ln for ln in proc.stderr.splitlines() if ln.startswith("PEAK ")]
@@ -166,15 +174,22 @@ def main() -> int:
 
     print(f"\nidentify speed — 2 x {args.seconds:g} s at 1 kHz ({n_msgs} messages; {source})")
     print(f"{'step':<34}{'time (s)':>10}")
+    figs = Figures(before=BEFORE.get(args.robot, ""))
+    table = figs.table(f"identify speed — 2 x {args.seconds:g} s at 1 kHz ({n_msgs} messages; "
+                       f"{source})", ["step", ("time", "s")])
     print(f"{'rosbags AnyReader+deserialize_cdr':<34}{t_rosbags:>10.2f}")
     print(f"{'orthoglide-ident identify (total)':<34}{t_cli:>10.2f}")
+    table.row("rosbags AnyReader+deserialize_cdr", f"{t_rosbags:.2f}")
+    table.row("orthoglide-ident identify (total)", f"{t_cli:.2f}")
     for k in ("model", "read", "segments", "filtering", "regressor+decimation", "solve",
               "essential"):
         if k in steps:
             aim = "  (aim ≤ 0.5 s for 2 x 60 s)" if k == "regressor+decimation" else ""
             print(f"{'  ' + k:<34}{steps[k]:>10.2f}{aim}")
+            table.row(f"{k}{aim}", f"{steps[k]:.2f}")
     startup = t_cli - steps.get("total", 0.0)
     print(f"{'  start-up (imports) and output':<34}{startup:>10.2f}")
+    table.row("start-up (imports) and output", f"{startup:.2f}")
     argv = ["identify", *map(str, paths), "-q"] + (["--robot", args.robot] if args.robot else [])
     identify_in_process(argv)  # imports
     t_in = identify_in_process(argv)
@@ -182,15 +197,20 @@ def main() -> int:
     bar = "0.6 (6-DOF arm)" if args.robot else "0.5"
     print(f"{'identify in this process':<34}{t_in:>10.2f}")
     print(f"{'rosbags read as a program':<34}{t_rosbags_p:>10.2f}")
-    print(
-        f"ratio identify / rosbags read, both in-process: {t_in / t_rosbags:.2f}  (bar: <= {bar}, "
-        "issue 35)"
-    )
-    print(f"ratio identify / rosbags read, both programs: {t_cli / t_rosbags_p:.2f}; identify "
-          f"program / in-process read: {t_cli / t_rosbags:.2f}")
-    print(f"peak RSS of identify: {rss_mb:.0f} MiB  (bar: < 1024 MiB)")
+    table.row("identify in this process", f"{t_in:.2f}")
+    table.row("rosbags read as a program", f"{t_rosbags_p:.2f}")
     g = [x["value"] for x in doc["drive_gains"]]
-    print(f"gains ({doc['units']['drive_gains']}): " + ", ".join(f"{v:.4g}" for v in g))
+    for line in (
+        f"ratio identify / rosbags read, both in-process: {t_in / t_rosbags:.2f}  (bar: <= {bar}, "
+        "issue 35)",
+        f"ratio identify / rosbags read, both programs: {t_cli / t_rosbags_p:.2f}; identify "
+        f"program / in-process read: {t_cli / t_rosbags:.2f}",
+        f"peak RSS of identify: {rss_mb:.0f} MiB  (bar: < 1024 MiB)",
+        f"gains ({doc['units']['drive_gains']}): " + ", ".join(f"{v:.4g}" for v in g),
+    ):
+        print(line)
+        figs.note(line)
+    figs.write(args.json)
     return 0
 
 

@@ -30,9 +30,9 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 import numpy as np  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
+from _figures import Figures, add_json_option  # noqa: E402
 from identify_data import record  # noqa: E402
 from identify_speed import rosbags_read  # noqa: E402
 
@@ -48,6 +48,8 @@ from orthoglide_ident.identify import (  # noqa: E402
 from orthoglide_ident.model.robots import load_robot  # noqa: E402
 
 ORTHOGLIDE = load_robot("orthoglide")  # the robot these records are of
+EMITS_JSON = True  # --json PATH: the figures for bench/write_benchmarks.py
+FIGS = Figures(before="nothing live")
 
 # N/A, the plant's drive gains (docs/design/simulator.md)
 G_TRUE = np.array([2170.0, 2100.0, 2070.0])
@@ -173,11 +175,14 @@ def main() -> int:
     ap.add_argument("--realtime", action="store_true", help="pace the 10 ms feed at 1 kHz")
     ap.add_argument("--png", default=str(Path(tempfile.gettempdir()) / "live_identification.png"),
                     help="convergence plot (PNG)")
+    add_json_option(ap)
     args = ap.parse_args()
 
     with tempfile.TemporaryDirectory(prefix="live-bench-") as tmp:
         paths, source = get_bags(args, tmp)
-        return run(args, paths, source)
+        rc = run(args, paths, source)
+    FIGS.write(args.json)
+    return rc
 
 
 def run(args, paths: list[Path], source: str) -> int:
@@ -186,6 +191,9 @@ def run(args, paths: list[Path], source: str) -> int:
     secs = sum(len(r.stamps_q_ns) for r in records) * 1e-3
     print(f"\nlive identification — {secs:.0f} s at 1 kHz in {len(recs)} recordings ({source})")
     print(f"{'batch':>8} {'CPU s':>7} {'% of a core':>12} {'lag p50 s':>10} {'lag max s':>10}")
+    table = FIGS.table(f"live identification — {secs:.0f} s at 1 kHz in {len(recs)} recordings "
+                       f"({source})", ["batch", ("CPU", "s"), ("CPU", "% of a core"),
+                                       ("lag p50", "s"), ("lag max", "s")])
     trace10, live10 = [], None
     for batch in (1, 10, 100):
         live = LiveIdentification(model=ORTHOGLIDE)
@@ -193,6 +201,8 @@ def run(args, paths: list[Path], source: str) -> int:
         lags = np.array([r["lag"] for r in trace])
         print(f"{batch:>6}ms {cpu:7.2f} {100 * cpu / t_data:11.2f}% {np.median(lags):10.2f} "
               f"{lags.max():10.2f}")
+        table.row(f"{batch} ms", f"{cpu:.2f}", f"{100 * cpu / t_data:.2f}",
+                  f"{np.median(lags):.2f}", f"{lags.max():.2f}")
         if batch == 10:
             trace10, live10 = trace, live
     rows = convergence_table(trace10)
@@ -202,29 +212,35 @@ def run(args, paths: list[Path], source: str) -> int:
 
     res, off = live10.result(), identify_records(recs,
                                                  model=ORTHOGLIDE)  # lag_model: auto, the default
-    print(f"\nlive result() vs identify_records on the same recordings (lag_model: auto, the "
-          f"live lag instrument from the previous periods only): max difference "
-          f"{in_sigma(res.drive_gains, off.drive_gains):.2f} σ on the gains, "
-          f"{in_sigma(res.parameters, off.parameters):.2f} σ on the base parameters; current-loop "
-          "lag live " + ", ".join(f"{a['tau_ms']:.3f}" for a in res.current_lag) + " ms, offline "
-          + ", ".join(f"{b['tau_ms']:.3f}" for b in off.current_lag) + " ms")
+    line = (f"live result() vs identify_records on the same recordings (lag_model: auto, the "
+            f"live lag instrument from the previous periods only): max difference "
+            f"{in_sigma(res.drive_gains, off.drive_gains):.2f} σ on the gains, "
+            f"{in_sigma(res.parameters, off.parameters):.2f} σ on the base parameters; "
+            "current-loop lag live " + ", ".join(f"{a['tau_ms']:.3f}" for a in res.current_lag)
+            + " ms, offline " + ", ".join(f"{b['tau_ms']:.3f}" for b in off.current_lag) + " ms")
+    print(f"\n{line}")
+    FIGS.note(line)
     paper = IdentifyOptions(lag_model="off")
     live = LiveIdentification(paper, model=ORTHOGLIDE)
     play(live, recs, 100)
     res, off = live.result(), identify_records(recs, options=paper, model=ORTHOGLIDE)
     dg = max(abs(a.value / b.value - 1) for a, b in zip(res.drive_gains, off.drive_gains))
     dp = max(abs(a.value / b.value - 1) for a, b in zip(res.parameters, off.parameters))
-    print(f"the same equations (lag_model: off): max relative difference {dg:.1e} on the "
-          f"gains, {dp:.1e} on the base parameters")
+    line = (f"the same equations (lag_model: off): max relative difference {dg:.1e} on the "
+            f"gains, {dp:.1e} on the base parameters")
+    print(line)
+    FIGS.note(line)
 
     t_ros, n_msgs = rosbags_read(paths)
     t0 = time.perf_counter()
     offline = identify(paths, model=ORTHOGLIDE)
     t_id = time.perf_counter() - t0
     steps = offline.diagnostics["timings_s"]
-    print(f"\noffline, same run: identify {t_id:.2f} s in-process (regressor+decimation "
-          f"{steps['regressor+decimation']:.2f} s) vs rosbags deserialising the {n_msgs} "
-          f"messages {t_ros:.2f} s: ratio {t_id / t_ros:.2f}")
+    line = (f"offline, same run: identify {t_id:.2f} s in-process (regressor+decimation "
+            f"{steps['regressor+decimation']:.2f} s) vs rosbags deserialising the {n_msgs} "
+            f"messages {t_ros:.2f} s: ratio {t_id / t_ros:.2f}")
+    print(f"\n{line}")
+    FIGS.note(line)
     print("gains (N/A): " + ", ".join(f"{g.value:.1f}" for g in offline.drive_gains))
     return 0
 

@@ -33,21 +33,18 @@ sys.path.insert(0, str(ROOT / "tests"))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import numpy as np  # noqa: E402
-import yaml  # noqa: E402
+from busy_machine import cpu_hog  # noqa: E402  (bench/: the busy processes)
+from coupled_topics import coupled_topics  # noqa: E402  (tests/: the coupled-wrist arm's topics)
 from nodes_at_any_rate import rel  # noqa: E402  (bench/: live vs offline, relative)
 
 from orthoglide_ident import bags  # noqa: E402
-from orthoglide_ident.identify.live.session import LiveIdentification  # noqa: E402
-from orthoglide_ident.identify.options import IdentifyOptions  # noqa: E402
-from orthoglide_ident.identify.pipeline import identify  # noqa: E402
+from orthoglide_ident.identify import IdentifyOptions, LiveIdentification, identify  # noqa: E402
 from orthoglide_ident.model.robots import load_robot  # noqa: E402
 
 RATES = ("1kHz", "500Hz", "uneven_93Hz")
 LAYOUTS = ("effort", "dynamic", "transmission")
 LOST = (200, 201, 650)  # samples of each logged record lost
 SPEED = 10.0  # x real time: the intake hands over 0.1 s of data every 10 ms
-MOTORS = [f"m{k + 1}" for k in range(6)]
-START_NS = 1_796_000_000 * 10**9
 DONE_BOUND_S = 60.0
 
 
@@ -69,34 +66,16 @@ def standin_runs(seconds: float) -> tuple[str, dict]:
 
 
 def coupled_runs(seconds: float, out: Path) -> tuple[str, dict]:
-    """The coupled-wrist arm (tests/nodes/test_identification_transmission.py's plant)."""
-    from orthoglide_sim.coupled.record import simulate_coupled, write_robot_files
-    from orthoglide_sim.coupled.truth import default_coupled_truth
-
-    truth = default_coupled_truth()
-    joint_yaml, _ = write_robot_files(out, truth)
-    robot = yaml.safe_load(joint_yaml.read_text())
-    robot["transmission"]["actuators"] = MOTORS
-    path = out / "ur5_coupled_m.yaml"
-    path.write_text(yaml.safe_dump(robot, sort_keys=False))
-    runs = {}
-    for i, (name, payload, trajectory) in enumerate((("unloaded", None, "exciting1"),
-                                                     ("loaded", "2.0", "exciting2"))):
-        rec = simulate_coupled(seconds, payload=payload, trajectory=trajectory, seed=i,
-                               truth=truth)
-        stamps = rec.stamps_ns + START_NS + i * 100 * 10**9
-        js = bags.encode_joint_states(truth.arm.joint_names, stamps, rec.q_joint)
-        djs = bags.encode_dynamic_joint_states(MOTORS, [["position", "current"]] * 6, stamps,
-                                               {"position": rec.q_motor, "current": rec.v_tau})
-        runs[name] = (name, rec.payload_mass,
-                      [(int(s), a.tobytes(), b.tobytes()) for s, a, b in zip(stamps, js, djs)])
-    return str(path), runs
+    """The coupled-wrist arm (tests/coupled_topics.py: the node test's plant and topics)."""
+    path, _, runs = coupled_topics(out, seconds)
+    return str(path), {n: (n, r.payload_mass, [(int(s), a, b) for s, a, b in zip(
+        r.stamps_ns, r.joint_states, r.dynamic_joint_states)]) for n, r in runs.items()}
 
 
 def write_bag(path: Path, condition: str, mass: float, messages: list, dynamic: bool) -> str:
     with bags.BagWriter(path, bags.BagTags.checked(condition, mass)) as w:
-        js = w.add_topic("/joint_states", bags.JOINT_STATE_TYPE)
-        djs = w.add_topic("/dynamic_joint_states", bags.DYNAMIC_JOINT_STATE_TYPE) \
+        js = w.add_topic("/joint_states", bags.topics.JOINT_STATE_TYPE)
+        djs = w.add_topic("/dynamic_joint_states", bags.topics.DYNAMIC_JOINT_STATE_TYPE) \
             if dynamic else None
         for stamp, a, b in messages:
             w.write(js, a, stamp)
@@ -179,10 +158,6 @@ def main() -> None:
     ap.add_argument("--hogs", type=int, default=2)
     args = ap.parse_args()
     import rclpy
-
-    # after orthoglide_ident's import: busy_machine puts this tree first on sys.path, and an
-    # older tree's figures (PYTHONPATH) must come from that tree's package
-    from busy_machine import cpu_hog
 
     opts = IdentifyOptions.from_yaml(str(ROOT / "config/identification.yaml")).replace(
         check_excitation=False, partial_answers=False, lag_model="off")

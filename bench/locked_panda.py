@@ -22,8 +22,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 import locked_panda as L  # noqa: E402
 
 from orthoglide_ident.errors import OrthoglideError  # noqa: E402
-from orthoglide_ident.identify.options import IdentifyOptions  # noqa: E402
-from orthoglide_ident.identify.pipeline import identify_records  # noqa: E402
+from orthoglide_ident.identify import IdentifyOptions, identify_records  # noqa: E402
 from orthoglide_ident.model.robots import load_robot  # noqa: E402
 
 NOISES_A = (0.002, 0.01, 0.02, 0.05)

@@ -21,15 +21,12 @@ from __future__ import annotations
 import argparse
 import contextlib
 import io
-import sys
 import tempfile
 import time
 from pathlib import Path
 
 import mujoco
 import numpy as np
-
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from orthoglide_ident.cli import main as cli_main  # noqa: E402
 from orthoglide_ident.model.robots import load_robot  # noqa: E402

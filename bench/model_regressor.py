@@ -19,12 +19,16 @@ import argparse
 import time
 
 import numpy as np
+from _figures import Figures, add_json_option
 
 from orthoglide_ident.model.orthoglide.base import base_model, random_states
 from orthoglide_ident.model.robots import load_robot
 
 GENERAL = ("ur5", "five_bar", "orthoglide_general")
 RATE_HZ = 1000.0
+EMITS_JSON = True  # --json PATH: the figures for bench/write_benchmarks.py
+COLUMNS = ["robot", "samples", "[W | W_l]", ("wall best", "s"), ("wall median", "s"),
+           ("cpu best", "s"), "samples/s"]
 
 
 def trajectory(robot, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -52,10 +56,16 @@ def timed(f, repeat: int) -> tuple[list[float], list[float], np.ndarray]:
     return walls, cpus, out
 
 
-def row(name: str, n: int, shape: tuple, walls: list[float], cpus: list[float]) -> str:
+def row(name: str, n: int, shape: tuple, walls: list[float], cpus: list[float]) -> list[str]:
+    """The cells of one robot's row (COLUMNS)."""
     best = min(walls)
-    return (f"{name:<20} {n:>9} {str(shape):>16} {best:>9.3f}s {np.median(walls):>11.3f}s "
-            f"{min(cpus):>8.3f}s {n / best:>11,.0f}")
+    return [name, str(n), str(shape), f"{best:.3f}", f"{np.median(walls):.3f}",
+            f"{min(cpus):.3f}", f"{n / best:,.0f}"]
+
+
+def printed(cells: list[str]) -> str:
+    name, n, shape, best, median, cpu, rate = cells
+    return f"{name:<20} {n:>9} {shape:>16} {best:>9}s {median:>11}s {cpu:>8}s {rate:>11}"
 
 
 def main() -> None:
@@ -64,6 +74,7 @@ def main() -> None:
     ap.add_argument("--samples", type=int, default=120_000)
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--robots", default=",".join(GENERAL), help="general-model robots to time")
+    add_json_option(ap)
     args = ap.parse_args()
     t0 = time.perf_counter()
     bm = base_model()
@@ -84,7 +95,13 @@ def main() -> None:
     print("models:\n  " + "\n  ".join(loads))
     print(f"{'robot':<20} {'samples':>9} {'[W | W_l]':>16} {'wall best':>10} {'wall median':>12} "
           f"{'cpu best':>9} {'samples/s':>11}")
-    print("\n".join(lines))
+    print("\n".join(printed(cells) for cells in lines))
+    figs = Figures(before="new (issues 3, 24)")
+    table = figs.table(f"{args.samples} samples → [W | W_l], best of {args.repeat}", COLUMNS)
+    for cells in lines:
+        table.row(*cells)
+    figs.notes += [f"model load: {x}" for x in loads]
+    figs.write(args.json)
 
 
 if __name__ == "__main__":

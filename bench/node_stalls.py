@@ -20,6 +20,10 @@ import tempfile
 import time
 from pathlib import Path
 
+from _figures import Figures, add_json_option
+
+EMITS_JSON = True  # --json PATH: the figures for bench/write_benchmarks.py
+
 NODES = ("orthoglide_driver", "orthoglide_recorder", "orthoglide_identification", "orthoglide_ctc")
 
 
@@ -92,6 +96,7 @@ def stalled_recording(g, node: str, stall: float, statuses: list) -> dict:
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--stall", type=float, default=1.0, help="s each node is stopped (SIGSTOP)")
+    add_json_option(ap)
     a = ap.parse_args(argv)
     os.environ.update(
         ROS_DOMAIN_ID=str(215 + os.getpid() % 18), ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST"
@@ -131,9 +136,17 @@ def main(argv: list[str] | None = None) -> int:
     )
     print(f"{'node':<15} {'ticks':>6} {'missing':>7} {'late':>5} {'ff held':>7} {'live lag s':>10} "
           f"{'live warn':>9}  recorder status said")
+    figs = Figures()
+    table = figs.table(f"each node stopped (SIGSTOP) {a.stall:g} s while recording, under the "
+                       "CTC, one recording each", ["node", "ticks", "missing", "late", "ff held",
+                                                   ("live lag", "s"), "live warn",
+                                                   "recorder status said"])
     for r in rows:
         print(f"{r['node']:<15} {r['written']:>6} {r['missing']:>7} {r['late']:>5} {r['held']:>7} "
               f"{r['live_lag']:>10.1f} {r['live_warnings']:>9}  {r['status']}")
+        table.row(r["node"], r["written"], r["missing"], r["late"], r["held"],
+                  f"{r['live_lag']:.1f}", r["live_warnings"], r["status"])
+    figs.write(a.json)
     return 0 if all(r["ok"] and r["missing"] == 0 for r in rows) else 1
 
 

@@ -31,9 +31,7 @@ sys.path.insert(0, str(ROOT / "tests"))
 import numpy as np  # noqa: E402
 
 from orthoglide_ident.bags.info import TickCounter  # noqa: E402
-from orthoglide_ident.identify.live.session import LiveIdentification  # noqa: E402
-from orthoglide_ident.identify.options import IdentifyOptions  # noqa: E402
-from orthoglide_ident.identify.pipeline import identify  # noqa: E402
+from orthoglide_ident.identify import IdentifyOptions, LiveIdentification, identify  # noqa: E402
 from orthoglide_ident.model.robots import load_robot  # noqa: E402
 
 LOST = (200, 201, 650, 1400, 1401, 1402)  # samples of each logged record lost: 6 per record

@@ -20,6 +20,7 @@ import sys
 import time
 
 import numpy as np
+from _figures import Figures, add_json_option
 
 from orthoglide_ident.errors import OrthoglideError
 from orthoglide_ident.identify import IdentifyOptions, Record, identify_records
@@ -27,6 +28,11 @@ from orthoglide_ident.model.robots import load_robot
 from orthoglide_sim.arms.description import load_arm
 from orthoglide_sim.arms.record import simulate_arm
 from orthoglide_sim.arms.truth import OFFSET_COM, OFFSET_PAYLOAD, load_truth, with_offset_payload
+
+EMITS_JSON = True  # --json PATH: the figures for bench/write_benchmarks.py
+BEFORE = "before issue 32, the payload taken for a point mass at the flange: the last two columns"
+COLUMNS = ["seed", ("worst gain", "%"), ("max |z|", "σ"), ("CoM error x, y, z", "mm"),
+           ("CoM max |z|", "σ"), ("identify", "s"), ("point: worst gain", "%"), "point, checked"]
 
 
 def _record(sim, name: str) -> Record:
@@ -70,6 +76,7 @@ def main() -> int:
     ap.add_argument("--robot", default="ur5")
     ap.add_argument("--seconds", type=float, default=60.0)
     ap.add_argument("--seeds", type=int, default=3)
+    add_json_option(ap)
     args = ap.parse_args()
     model = load_robot(args.robot)
     truth = with_offset_payload(load_truth(load_arm(args.robot)))
@@ -78,6 +85,10 @@ def main() -> int:
           f"tagged with its mass only; {args.seeds} seeds")
     print(f"{'seed':>4} {'worst gain %':>12} {'max |z|':>7} {'CoM err mm (x, y, z)':>22} "
           f"{'max |z|':>7} {'identify s':>10} | {'point: worst gain %':>19}  checked")
+    figs = Figures(before=BEFORE)
+    table = figs.table(f"{args.robot}: {args.seconds:g} s unloaded + {args.seconds:g} s with 2 kg, "
+                       f"CoM {', '.join(f'{1e3 * c:g}' for c in OFFSET_COM)} mm in "
+                       f"{truth.arm.payload_frame}, tagged with its mass only", COLUMNS)
     rows = []
     for seed in range(args.seeds):
         r = one_seed(args.robot, args.seconds, seed, model, truth)
@@ -86,16 +97,24 @@ def main() -> int:
         print(f"{seed:>4} {100 * np.abs(r['err']).max():>12.3f} {np.abs(r['z']).max():>7.2f} "
               f"{com:>22} {np.abs(r['com_z']).max():>7.2f} {r['t']:>10.2f} | "
               f"{100 * np.abs(r['point_err']).max():>19.2f}  {r['point_refused']}")
+        table.row(seed, f"{100 * np.abs(r['err']).max():.3f}", f"{np.abs(r['z']).max():.2f}", com,
+                  f"{np.abs(r['com_z']).max():.2f}", f"{r['t']:.2f}",
+                  f"{100 * np.abs(r['point_err']).max():.2f}", r["point_refused"])
     err = np.array([r["err"] for r in rows])
     z = np.abs(np.array([r["z"] for r in rows]))
     com = np.abs(np.array([r["com_err"] for r in rows]))
     point = np.abs(np.array([r["point_err"] for r in rows]))
-    print(f"mass only: worst gain {100 * np.abs(err).max():.3f} % (bar 0.5 %), gains within 3 "
-          f"honest σ: {100 * np.mean(z <= 3):.0f} % (max {z.max():.2f}); CoM worst "
-          f"{1e3 * com.max():.2f} mm (bar 5 mm), within 3 σ: "
-          f"{100 * np.mean(np.abs(np.array([r['com_z'] for r in rows])) <= 3):.0f} %")
-    print(f"point mass at the flange (payload_known: point, checks off): worst gain "
-          f"{100 * point.max():.2f} %, mean worst {100 * point.max(axis=1).mean():.2f} %")
+    for line in (
+        f"mass only: worst gain {100 * np.abs(err).max():.3f} % (bar 0.5 %), gains within 3 "
+        f"honest σ: {100 * np.mean(z <= 3):.0f} % (max {z.max():.2f}); CoM worst "
+        f"{1e3 * com.max():.2f} mm (bar 5 mm), within 3 σ: "
+        f"{100 * np.mean(np.abs(np.array([r['com_z'] for r in rows])) <= 3):.0f} %",
+        f"point mass at the flange (payload_known: point, checks off): worst gain "
+        f"{100 * point.max():.2f} %, mean worst {100 * point.max(axis=1).mean():.2f} %",
+    ):
+        print(line)
+        figs.note(line)
+    figs.write(args.json)
     return 0
 
 

@@ -21,6 +21,7 @@ import time
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import numpy as np  # noqa: E402
+from _figures import Figures, add_json_option  # noqa: E402
 
 from orthoglide_ident.identify import (
     IdentifyOptions,  # noqa: E402
@@ -31,6 +32,11 @@ from orthoglide_ident.identify.observe.filtering import derivative_filter  # noq
 from orthoglide_ident.identify.observe.time_base import states_on_stamps  # noqa: E402
 from orthoglide_ident.model.robots import load_robot  # noqa: E402
 from orthoglide_sim.arms.log import clock_10_12, clock_uniform, simulate_arm_log  # noqa: E402
+
+EMITS_JSON = True  # --json PATH: the figures for bench/write_benchmarks.py
+BEFORE = ("refused at 91 Hz (the 100 Hz cut-off above Nyquist); with an options file, velocities "
+          "+10 % (the median step as the period); 5 kHz vs 1 kHz with the bridges' anchors in "
+          "samples: up to 4.3 σ")
 
 
 def to_record(rec, name: str) -> Record:
@@ -70,7 +76,7 @@ def gains_table(res, truth_g: np.ndarray, names) -> list[str]:
     return out
 
 
-def uneven_case(duration: float, model) -> None:
+def uneven_case(figs: Figures, duration: float, model) -> None:
     t0 = time.perf_counter()
     recs = [simulate_arm_log(duration, clock_10_12(duration), payload=p, trajectory=tr, seed=s)
             for p, tr, s in ((None, "exciting1", 0), ("2.0", "exciting2", 1))]
@@ -78,14 +84,26 @@ def uneven_case(duration: float, model) -> None:
           f"1e-4 rad, default options (simulated in {time.perf_counter() - t0:.0f} s)")
     for r in recs:
         now, before = velocity_errors(r)
-        print(f"  velocity rms error ({'loaded' if r.payload else 'unloaded'}): on the stamps "
-              + " ".join(f"{100 * x:.3f}" for x in now) + " %; median step as the period "
-              + " ".join(f"{100 * x:.2f}" for x in before) + " %")
+        line = (f"velocity rms error ({'loaded' if r.payload else 'unloaded'}): on the stamps "
+                + " ".join(f"{100 * x:.3f}" for x in now) + " %; median step as the period "
+                + " ".join(f"{100 * x:.2f}" for x in before) + " %")
+        print(f"  {line}")
+        figs.note(f"{duration:g} s at 10/12 ms, {line}")
     res = identify_records([to_record(r, f"uneven_{i}") for i, r in enumerate(recs)], model=model)
-    print("\n".join(gains_table(res, recs[0].truth.drive_array("g_tau"), model.joint_names)))
+    truth = recs[0].truth.drive_array("g_tau")
+    print("\n".join(gains_table(res, truth, model.joint_names)))
+    table = figs.table(f"UR5 {duration:g} s + {duration:g} s at 10/12 ms (mean 90.9 Hz), q printed "
+                       "to 1e-4 rad, default options", ["joint", "gain", "truth", ("error", "%"),
+                                                        ("|error|", "σ"), ("σ", "%")])
+    for g, t, n in zip(res.drive_gains, truth, model.joint_names):
+        e = g.value / t - 1.0
+        table.row(n, f"{g.value:.4f}", f"{t:.4f}", f"{100 * e:+.3f}", f"{abs(e) / g.rel_std:.2f}",
+                  f"{100 * g.rel_std:.3f}")
     d = res.diagnostics["bags"][0]
-    print(f"  options at this rate: filter {d['filter_cutoff_hz']:.4g} Hz, decimation by "
-          f"{d['decimation']} (cut-off {d['decimation_cutoff_hz']:.4g} Hz)")
+    line = (f"options at this rate: filter {d['filter_cutoff_hz']:.4g} Hz, decimation by "
+            f"{d['decimation']} (cut-off {d['decimation_cutoff_hz']:.4g} Hz)")
+    print(f"  {line}")
+    figs.note(f"{duration:g} s at 10/12 ms, {line}")
 
 
 def decimate_to_1khz(rec):
@@ -98,7 +116,7 @@ def decimate_to_1khz(rec):
                                qd_true=rec.qd_true[:n:5])
 
 
-def fast_case(duration: float, model) -> None:
+def fast_case(figs: Figures, duration: float, model) -> None:
     t0 = time.perf_counter()
     recs = [simulate_arm_log(duration, clock_uniform(duration, 5000.0), payload=p, trajectory=tr,
                              seed=s, print_resolution=0.0, timestep=1e-4)
@@ -117,16 +135,23 @@ def fast_case(duration: float, model) -> None:
         s = max(abs(x.value * x.rel_std), abs(y.value * y.rel_std), 1e-300)
         diffs.append((abs(x.value - y.value) / s, x.name))
     truth = recs[0].truth.drive_array("g_tau")
+    table = figs.table(f"UR5 {duration:g} s + {duration:g} s at 5 kHz vs the same decimated to "
+                       "1 kHz: gain error ± σ", ["joint", ("5 kHz", "%"), ("1 kHz", "%"),
+                                                 ("apart", "σ")])
     for x, y, t, (k, _), n in zip(a.drive_gains, b.drive_gains, truth, diffs, model.joint_names):
         print(
             f"  {n:<22} 5 kHz {100 * (x.value / t - 1):+7.3f} % ± {100 * x.rel_std:.3f} %   "
             f"1 kHz {100 * (y.value / t - 1):+7.3f} % ± {100 * y.rel_std:.3f} %   {k:.2f} σ apart"
         )
+        table.row(n, f"{100 * (x.value / t - 1):+.3f} ± {100 * x.rel_std:.3f}",
+                  f"{100 * (y.value / t - 1):+.3f} ± {100 * y.rel_std:.3f}", f"{k:.2f}")
     params = diffs[len(a.drive_gains):]
     worst = max(params)
-    print(f"  gains: largest difference {max(diffs[:len(a.drive_gains)])[0]:.2f} σ; base "
-          f"parameters: {sum(k <= 1 for k, _ in params)} of {len(params)} within 1 σ, largest "
-          f"{worst[0]:.2f} σ ({worst[1]})")
+    line = (f"gains: largest difference {max(diffs[:len(a.drive_gains)])[0]:.2f} σ; base "
+            f"parameters: {sum(k <= 1 for k, _ in params)} of {len(params)} within 1 σ, largest "
+            f"{worst[0]:.2f} σ ({worst[1]})")
+    print(f"  {line}")
+    figs.note(f"5 kHz vs 1 kHz, {line}")
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -134,13 +159,16 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--duration", type=float, default=60.0, help="s per uneven record (60)")
     ap.add_argument("--fast-duration", type=float, default=20.0, help="s per 5 kHz record (20)")
     ap.add_argument("--skip", choices=("uneven", "fast"), default=None)
+    add_json_option(ap)
     args = ap.parse_args(argv)
     logging.basicConfig(level=logging.WARNING, stream=sys.stderr)
     model = load_robot("ur5")
+    figs = Figures(before=BEFORE)
     if args.skip != "uneven":
-        uneven_case(args.duration, model)
+        uneven_case(figs, args.duration, model)
     if args.skip != "fast":
-        fast_case(args.fast_duration, model)
+        fast_case(figs, args.fast_duration, model)
+    figs.write(args.json)
     return 0
 
 

@@ -45,8 +45,7 @@ from logger_sampling import simulated, smooth, to_record  # noqa: E402
 from tls_vs_iv import NOISE_LEVELS  # noqa: E402
 
 from orthoglide_ident.errors import OrthoglideError  # noqa: E402
-from orthoglide_ident.identify.options import IdentifyOptions  # noqa: E402
-from orthoglide_ident.identify.pipeline import identify_records  # noqa: E402
+from orthoglide_ident.identify import IdentifyOptions, identify_records  # noqa: E402
 from orthoglide_ident.model.robots import load_robot  # noqa: E402
 from orthoglide_sim.arms.big_arm import (  # noqa: E402
     UR10_FILE,

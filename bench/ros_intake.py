@@ -14,8 +14,13 @@ import subprocess
 import sys
 import threading
 import time
+from pathlib import Path
+
+from _figures import Figures, add_json_option
 
 from orthoglide_ident.ros import processes as children  # children end with this process
+
+EMITS_JSON = True  # --json PATH: the figures for bench/write_benchmarks.py
 
 
 def measure(node, seconds: float, counter: list[int]) -> tuple[float, float]:
@@ -28,6 +33,7 @@ def measure(node, seconds: float, counter: list[int]) -> tuple[float, float]:
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seconds", type=float, default=5.0)
+    add_json_option(ap)
     args = ap.parse_args(argv)
     import rclpy
     from rclpy.executors import SingleThreadedExecutor
@@ -95,7 +101,18 @@ def main(argv: list[str] | None = None) -> int:
     print(f"{'intake':<34} {'msgs/s':>8} {'% of one core':>14}")
     print(f"{'rclpy executor, one callback each':<34} {rate_ex:8.0f} {cpu_ex:14.1f}")
     print(f"{'BatchTaker (ros/batch.py)':<34} {rate_b:8.0f} {cpu_b:14.1f}")
+    write_figures(args.json, args.seconds, [("rclpy executor, one callback each", rate_ex, cpu_ex),
+                                            ("BatchTaker (ros/batch.py)", rate_b, cpu_b)])
     return 0
+
+
+def write_figures(path: Path | None, seconds: float, rows: list) -> None:
+    figs = Figures()
+    table = figs.table(f"the driver's three 1 kHz topics taken for {seconds:g} s",
+                       ["intake", "msgs/s", ("CPU", "% of one core")])
+    for name, rate, cpu in rows:
+        table.row(name, f"{rate:.0f}", f"{cpu:.1f}")
+    figs.write(path)
 
 
 if __name__ == "__main__":

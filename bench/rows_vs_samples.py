@@ -3,6 +3,7 @@
     PYTHONPATH=. .venv/bin/python bench/rows_vs_samples.py [--robot R] BAG... [--method wls]
     PYTHONPATH=. .venv/bin/python bench/rows_vs_samples.py --ur5 DIR      # MuJoCo UR5, 2 x 60 s
     PYTHONPATH=. .venv/bin/python bench/rows_vs_samples.py --panda        # Gaz et al.'s record
+    PYTHONPATH=. .venv/bin/python bench/rows_vs_samples.py [--json PATH]  # both (a temporary DIR)
 
 Runs `orthoglide-ident identify` twice on the same records, with config/identification.yaml's
 ``regressor_at: rows`` (the default) and ``samples`` (the exact path, eqs. 19-20 as written), and
@@ -26,12 +27,20 @@ import tempfile
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from _figures import Figures, add_json_option  # noqa: E402
 
 from orthoglide_ident.cli import main as cli_main  # noqa: E402
 
 CONFIG = ROOT / "config" / "identification.yaml"
+EMITS_JSON = True  # --json PATH: the figures for bench/write_benchmarks.py
+BEFORE = ("q̈'s spread along its slope (gains / parameters): UR5 0.016 / 0.035 σ, Panda 0.015 σ "
+          "(0.029 σ in eqs. (38)-(39)'s)")
+FIGS = Figures(before=BEFORE)
+TABLE = FIGS.table("regressor_at: rows against samples, the answers apart in the samples path's σ",
+                   ["records", "gains, reported σ", "parameters, reported σ",
+                    "gains, eqs. (38)-(39)'s σ", "parameters, eqs. (38)-(39)'s σ"])
 
 
 def identify(argv: list[str], where: str, work: Path) -> dict:
@@ -59,9 +68,12 @@ def in_sigma(exact: list[dict], approx: list[dict], key: str,
     return sorted(out, reverse=True)
 
 
-def worst(exact: dict, rows: dict, sigma: str) -> str:
+def worst(exact: dict, rows: dict, sigma: str, cells: list[str] | None = None) -> str:
+    """The worst gain and parameters apart, printed; their cells appended to ``cells``."""
     g = in_sigma(exact["drive_gains"], rows["drive_gains"], "joint", sigma) or [(0.0, "-")]
     p = in_sigma(exact["parameters"], rows["parameters"], "name", sigma)
+    if cells is not None:
+        cells += [f"{g[0][0]:.4f} ({g[0][1]})", f"{p[0][0]:.4f} ({p[0][1]})"]
     return (f"gains {g[0][0]:.4f} ({g[0][1]}), parameters {p[0][0]:.4f} ({p[0][1]}; next "
             f"{', '.join(f'{n} {v:.4f}' for v, n in p[1:3])})")
 
@@ -70,8 +82,10 @@ def compare(argv: list[str], label: str) -> None:
     with tempfile.TemporaryDirectory() as d:
         exact = identify(argv, "samples", Path(d))
         rows = identify(argv, "rows", Path(d))
-    print(f"{label}\n  in the reported σ: {worst(exact, rows, 'rel_std')}\n"
-          f"  in eqs. (38)-(39)'s σ: {worst(exact, rows, 'rel_std_paper')}")
+    cells = [label]
+    print(f"{label}\n  in the reported σ: {worst(exact, rows, 'rel_std', cells)}\n"
+          f"  in eqs. (38)-(39)'s σ: {worst(exact, rows, 'rel_std_paper', cells)}")
+    TABLE.row(*cells)
 
 
 def ur5_bags(d: Path) -> list[str]:
@@ -103,14 +117,20 @@ def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawTextHelpFormatter)
     ap.add_argument("--ur5", type=Path, help="the MuJoCo UR5's 2 x 60 s bags here")
     ap.add_argument("--panda", action="store_true", help="the Panda record of Gaz et al. 2019")
+    add_json_option(ap)
     args, rest = ap.parse_known_args()
-    if args.ur5:
-        compare(ur5_bags(args.ur5), f"UR5 {args.ur5}")
+    with tempfile.TemporaryDirectory() as tmp:
+        label = f"UR5 {args.ur5}"
+        if not (args.ur5 or args.panda or rest):  # neither named: both
+            args.ur5, args.panda, label = Path(tmp) / "ur5", True, "UR5 (MuJoCo, 2 x 60 s)"
+        if args.ur5:
+            compare(ur5_bags(args.ur5), label)
     if args.panda:
         with tempfile.TemporaryDirectory() as d:
             compare(panda_args(Path(d)), "Panda (Gaz et al. 2019)")
     if rest:
         compare(rest, " ".join(rest))
+    FIGS.write(args.json)
     return 0
 
 

@@ -19,17 +19,18 @@ import time
 from pathlib import Path
 
 import numpy as np
+from _figures import Figures, add_json_option
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 
 import panda_arm as P  # noqa: E402
 
 from orthoglide_ident.errors import OrthoglideError  # noqa: E402
-from orthoglide_ident.identify.options import IdentifyOptions  # noqa: E402
-from orthoglide_ident.identify.pipeline import identify_records  # noqa: E402
+from orthoglide_ident.identify import IdentifyOptions, identify_records  # noqa: E402
 from orthoglide_ident.model.robots import load_robot  # noqa: E402
 
 NOISE_LEVELS = (0.005, 0.01, 0.02, 0.05)
+EMITS_JSON = True  # --json PATH: the figures for bench/write_benchmarks.py
 VARIANTS = (("TLS paper", "tls", dict(tls_noisy_columns="all", check_excitation=False,
                                        cross_check="none")),
             ("TLS per-joint", "tls", dict(tls_noisy_columns="per-joint", cross_check="none")),
@@ -57,7 +58,7 @@ def checked_answer(recs, model, noisy_columns: str) -> str:
     return ", ".join(out)
 
 
-def one_level(noise: float, seconds: float, seed: int, model) -> None:
+def one_level(figs: Figures, noise: float, seconds: float, seed: int, model) -> None:
     recs = P.records(seconds, noise, seed)
     cols = {}
     for name, method, kw in VARIANTS:
@@ -71,28 +72,37 @@ def one_level(noise: float, seconds: float, seed: int, model) -> None:
             print(f"  {name}: refused: {exc}")
     print(f"\ncurrent noise {100 * noise:g} % of each joint's rms current")
     print(f"  {'joint':<13}" + "".join(f"{name:>22}" for name, _, _ in VARIANTS))
+    table = figs.table(f"current noise {100 * noise:g} % of each joint's rms current: gain error "
+                       "% and error / σ", ["joint", *(name for name, _, _ in VARIANTS)])
     for j, joint in enumerate(P.JOINTS):
         cells = [f"{100 * c[0][j]:+9.3f} % {c[1][j]:+6.1f} σ" if c else f"{'-':>20}"
                  for c in (cols[name] for name, _, _ in VARIANTS)]
         print(f"  {joint:<13}" + "".join(f"{x:>22}" for x in cells))
+        table.row(joint, *(" ".join(x.split()) for x in cells))
     worst = [f"{name} max |z| {np.max(np.abs(c[1])):.1f} ({c[2]:.1f} s)"
              for name, c in cols.items() if c]
     print("  " + "; ".join(worst))
+    figs.note(f"{100 * noise:g} %: " + "; ".join(worst))
     for noisy, what in (("all", "paper's TLS"), ("per-joint", "default: per-joint TLS")):
-        print(f"  {what}, checked, cross-checked by IV: {checked_answer(recs, model, noisy)}")
+        line = f"{what}, checked, cross-checked by IV: {checked_answer(recs, model, noisy)}"
+        print(f"  {line}")
+        figs.note(f"{100 * noise:g} %, {line}")
 
 
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seconds", type=float, default=40.0)
     ap.add_argument("--seed", type=int, default=0)
+    add_json_option(ap)
     args = ap.parse_args()
     model = load_robot(str(P.URDF))
     print(f"Panda (example-robot-data, fingers fixed), {args.seconds:g} s + {args.seconds:g} s at "
           f"1 kHz, 1 kg payload of unknown CoM; gains {', '.join(f'{g:g}' for g in P.GAINS)} "
           "N·m/A; error % and error / σ")
+    figs = Figures()
     for noise in NOISE_LEVELS:
-        one_level(noise, args.seconds, args.seed, model)
+        one_level(figs, noise, args.seconds, args.seed, model)
+    figs.write(args.json)
     return 0
 
 

@@ -5,11 +5,19 @@
     python bench/write_benchmarks.py --from-json DIR              the sections of the saved outputs
 
 A bench that emits JSON (``EMITS_JSON = True`` in its source) is run with ``--json PATH`` and
-writes ``{"tables": [{"title", "columns", "rows"}], "notes": [...]}``; its section is those
-tables. Any other bench is run as it is and its section is what it printed. Either way the run is
-saved as ``NAME.json`` with ``bench``, ``command``, ``date`` (UTC), ``commit`` and ``load`` (the
-machine's 5-min load average at the end: the figures are times on a shared machine) added, so
-that ``--from-json`` writes the same section later without running anything.
+writes there, through bench/_figures.py (the one helper that writes it)::
+
+    {"tables": [{"title": "UR5, 5 seeds",                 a line above the table ("" for none)
+                 "columns": ["seed", "worst gain [%]"],   names, a unit in [brackets]
+                 "rows": [["0", "0.073"], ...]}],         cells as the bench prints them
+     "notes": ["every gain within 3 honest σ", ...],      one bullet each, under the tables
+     "before": "0.95 % (issue 24)"}                       optional: the figures before
+
+Its section is those tables, the notes and a "Before:" line. Any other bench is run as it is and
+its section is what it printed. Either way the run is saved as ``NAME.json`` with ``bench``,
+``command``, ``date`` (UTC), ``commit`` and ``load`` (the machine's 5-min load average at the
+end: the figures are times on a shared machine) added, so that ``--from-json`` writes the same
+section later without running anything.
 
 The page keeps everything it does not write, as it is: a written section stands between
 ``<!-- bench NAME ... -->`` and ``<!-- /bench NAME -->`` and is replaced when NAME is written
@@ -57,6 +65,7 @@ def commit() -> str:
 def run(name: str, args: list[str]) -> dict:
     """Run bench/NAME.py (with --json when it emits JSON); its output as a saved document."""
     cmd = [sys.executable, str(BENCH / f"{name}.py"), *args]
+    ran = commit()  # the code as the bench starts (the tree may change while it runs)
     with tempfile.TemporaryDirectory() as tmp:
         js = Path(tmp) / "out.json"
         if emits_json(name):
@@ -69,7 +78,12 @@ def run(name: str, args: list[str]) -> dict:
     shown = ["python", f"bench/{name}.py", *args]
     return {"bench": name, "command": " ".join(shown), **doc,
             "date": datetime.datetime.now(datetime.UTC).strftime("%Y-%m-%d %H:%M UTC"),
-            "commit": commit(), "load": f"{os.getloadavg()[1]:.1f}"}
+            "commit": ran, "load": f"{os.getloadavg()[1]:.1f}"}
+
+
+def _row(cells: list) -> str:
+    """One markdown table row; a ``|`` inside a cell (``|err|/σ``) escaped."""
+    return "| " + " | ".join(str(c).replace("|", "\\|") for c in cells) + " |"
 
 
 def render(doc: dict) -> str:
@@ -82,11 +96,13 @@ def render(doc: dict) -> str:
     for table in doc.get("tables", []):
         if table.get("title"):
             lines += [f"{table['title']}:", ""]
-        lines += ["| " + " | ".join(table["columns"]) + " |",
-                  "|" + "---|" * len(table["columns"])]
-        lines += ["| " + " | ".join(str(c) for c in row) + " |" for row in table["rows"]]
+        lines += [_row(table["columns"]), "|" + "---|" * len(table["columns"])]
+        lines += [_row(row) for row in table["rows"]]
         lines.append("")
-    lines += [f"- {note}" for note in doc.get("notes", [])]
+    notes = [f"- {note}" for note in doc.get("notes", [])]
+    lines += notes
+    if doc.get("before"):  # a paragraph of its own, not a continuation of the last note
+        lines += [""] * bool(notes) + [f"Before: {doc['before']}"]
     if "stdout" in doc:
         lines += ["```", doc["stdout"].rstrip("\n"), "```"]
     return "\n".join(lines).rstrip("\n") + f"\n<!-- /bench {name} -->\n"

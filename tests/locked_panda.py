@@ -18,7 +18,7 @@ import numpy as np
 import pinocchio as pin
 from example_robots import urdf
 
-from orthoglide_ident.identify.records.record import Record
+from orthoglide_ident.identify import Record
 from orthoglide_ident.model.robot import Payload
 
 ARM = tuple(f"panda_joint{i}" for i in range(1, 8))

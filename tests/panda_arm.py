@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from orthoglide_ident.identify.records.record import Record
+from orthoglide_ident.identify import Record
 
 URDF = Path(__file__).parent / "fixtures" / "panda_erd" / "panda_fingers_fixed.urdf"
 JOINTS = tuple(f"panda_joint{i}" for i in range(1, 8))

@@ -361,3 +361,48 @@ def test_the_simulators_common_room_imports_no_robot_room():
                  if mod.split(".")[:1] == ["orthoglide_sim"]
                  and mod.split(".")[1:2] and mod.split(".")[1] in SIM_ROBOT_ROOMS]
     assert not offenders, "\n".join(offenders)
+
+
+# tests and bench go through the public faces (issue 44): a private bags module only from its
+# own unit test (tests/bags/test_<module>.py), or where a test must reach inside, with the reason
+PRIVATE_ON_PURPOSE = {
+    "tests/bags/test_ros2_control_interop.py": "takes the embedded definitions away (an install "
+    "without them) and counts the one-by-one decoder's messages",
+}
+
+
+def _face(package: Path) -> set[str]:
+    """The names a package's ``__init__`` hands on (its ``__all__``), read, not imported."""
+    for node in ast.parse((package / "__init__.py").read_text()).body:
+        if isinstance(node, ast.Assign) and any(getattr(t, "id", "") == "__all__"
+                                                for t in node.targets):
+            return set(ast.literal_eval(node.value))
+    return set()
+
+
+def _private_bags_uses(path: Path) -> list[tuple[str, int]]:
+    """(private bags module, line) of each import of one and each ``bags._x`` attribute."""
+    out = []
+    for mod, name, line in _imports(path):
+        dotted = mod.split(".") + ([name] if name else [])
+        if dotted[:2] == ["orthoglide_ident", "bags"] and dotted[2:3] and \
+                dotted[2].startswith("_") and not dotted[2].startswith("__"):
+            out.append((dotted[2], line))
+    out += [(n.attr, n.lineno) for n in ast.walk(ast.parse(path.read_text()))
+            if isinstance(n, ast.Attribute) and isinstance(n.value, ast.Name)
+            and n.value.id == "bags" and n.attr.startswith("_") and not n.attr.startswith("__")]
+    return out
+
+
+def test_tests_and_bench_use_the_public_faces():
+    identify_face = _face(PRODUCT / "identify")
+    offenders = []
+    for p in _modules(ROOT / "tests", ROOT / "bench"):
+        rel = _rel(p)
+        offenders += [f"{rel}:{line} uses bags.{mod}: use the bags face or its submodules"
+                      for mod, line in _private_bags_uses(p)
+                      if rel != f"tests/bags/test{mod}.py" and rel not in PRIVATE_ON_PURPOSE]
+        offenders += [f"{rel}:{line} imports {name} from identify.pipeline: the identify face has "
+                      "it" for mod, name, line in _imports(p)
+                      if mod == "orthoglide_ident.identify.pipeline" and name in identify_face]
+    assert not offenders, "\n".join(offenders)

@@ -13,7 +13,7 @@ import pytest
 from rclpy.serialization import deserialize_message, serialize_message
 
 from control_msgs.msg import DynamicJointState, InterfaceValue, JointTrajectoryControllerState
-from orthoglide_ident.bags import _types
+from orthoglide_ident.bags import topics
 from orthoglide_msgs.msg import CurrentReference, IdentifiedParameters
 from orthoglide_msgs.srv import Identify, StartRecording, StopRecording
 
@@ -314,7 +314,7 @@ def test_control_msgs_hash_is_a_real_installs(type_name: str) -> None:
     """rosidl's hash of the built type and rosbags' hash of the definition the bag code embeds
     (two implementations of REP 2011) both equal the one a real Jazzy install reports."""
     assert _rosidl_hash(type_name) == REAL_INSTALL_HASHES[type_name]
-    assert _types.typestore().hash_rihs01(type_name) == REAL_INSTALL_HASHES[type_name]
+    assert topics.typestore().hash_rihs01(type_name) == REAL_INSTALL_HASHES[type_name]
 
 
 def test_jtc_state_hash() -> None:
@@ -323,7 +323,7 @@ def test_jtc_state_hash() -> None:
     from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
     name = _type_name(JointTrajectoryControllerState)
-    assert _rosidl_hash(name) == JTC_STATE_HASH == _types.typestore().hash_rihs01(name)
+    assert _rosidl_hash(name) == JTC_STATE_HASH == topics.typestore().hash_rihs01(name)
     text = (ROOT / "msg_defs/control_msgs/msg/JointTrajectoryControllerState.msg").read_text()
     before_5_3 = "\n".join(ln for ln in text.splitlines() if "speed_scaling_factor" not in ln)
     store = get_typestore(Stores.ROS2_JAZZY)
@@ -341,7 +341,7 @@ def test_embedded_definitions_are_the_msg_files(msg_type: type) -> None:
     for dep in ("InterfaceValue", "DynamicJointState", "JointTrajectoryControllerState"):
         path = ROOT / "msg_defs/control_msgs/msg" / f"{dep}.msg"
         store.register(get_types_from_msg(path.read_text(), f"control_msgs/msg/{dep}"))
-    msgdef, type_hash = _types.msgdef_and_hash(name)
+    msgdef, type_hash = topics.msgdef_and_hash(name)
     assert type_hash == store.hash_rihs01(name)
     assert msgdef == store.generate_msgdef(name, ros_version=2)[0]
 
@@ -381,7 +381,7 @@ def test_control_msgs_cdr_round_trip() -> None:
     for msg in (_dynamic_joint_state(), jtc):
         assert deserialize_message(serialize_message(msg), type(msg)) == msg
     # rclpy's bytes decode in rosbags with the embedded definition (the bag reader's slow path)
-    back = _types.typestore().deserialize_cdr(serialize_message(_dynamic_joint_state()),
+    back = topics.typestore().deserialize_cdr(serialize_message(_dynamic_joint_state()),
                                               "control_msgs/msg/DynamicJointState")
     assert list(back.interface_values[0].values) == [0.5, -0.25, 1.75]
 

@@ -66,8 +66,7 @@ def test_a_93hz_arm_through_the_recorder_and_the_identification(tmp_path):
     from sensor_msgs.msg import JointState
 
     from orthoglide_ident._install_ament import ROOT
-    from orthoglide_ident.identify.options import IdentifyOptions
-    from orthoglide_ident.identify.pipeline import identify
+    from orthoglide_ident.identify import IdentifyOptions, identify
     from orthoglide_ident.model.robots import load_robot
     from orthoglide_msgs.msg import LiveIdentification
     from orthoglide_msgs.srv import Identify

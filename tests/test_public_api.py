@@ -46,6 +46,7 @@ API = {
         "CURRENT_REFERENCE_TYPE",
         "DYNAMIC_JOINT_STATES_TOPIC",
         "DYNAMIC_JOINT_STATE_TYPE",
+        "INTERFACE_VALUE_TYPE",  # a DynamicJointState's elements
         "JOINT_STATES_TOPIC",
         "JOINT_STATE_TYPE",
         "JTC_STATE_TYPE",
@@ -53,6 +54,7 @@ API = {
         "default_qos",
         "msgdef_and_hash",
         "qos_profile",
+        "typestore",  # rosbags' typestore with these types: tests and users write bags with it
     ],
     "orthoglide_ident.bags.tags": [
         "BagTags",

@@ -59,4 +59,35 @@ def test_from_json_writes_the_saved_runs_without_running(tmp_path):
 
 
 def test_which_benches_emit_json():
-    assert wb.emits_json("read_speed") and not wb.emits_json("arm_simulator")
+    assert wb.emits_json("read_speed") and not wb.emits_json("identify_data")  # a helper
+
+
+def test_a_bench_figures_go_through_the_one_helper_with_units_and_before(tmp_path):
+    """bench/_figures.py writes what render shows: units in the header, a | in a cell escaped,
+    the notes and the figures before; every bench that emits JSON writes it through it."""
+    fspec = importlib.util.spec_from_file_location("_figures", ROOT / "bench" / "_figures.py")
+    figures = importlib.util.module_from_spec(fspec)
+    fspec.loader.exec_module(figures)
+    figs = figures.Figures(before="0.95 % (issue 24)")
+    table = figs.table("UR5, 2 seeds", ["seed", ("worst gain error", "%"), "|err|/σ"])
+    table.row(0, "0.073", "2.45")
+    figs.note("every gain within 3 honest σ")
+    figs.write(tmp_path / "out.json")
+    text = wb.render({"bench": "x", **json.loads((tmp_path / "out.json").read_text())})
+    assert "UR5, 2 seeds:\n\n| seed | worst gain error [%] | \\|err\\|/σ |\n|---|---|---|\n" \
+           "| 0 | 0.073 | 2.45 |\n" in text
+    assert "- every gain within 3 honest σ\n\nBefore: 0.95 % (issue 24)\n<!-- /bench x -->" in text
+    benches = sorted(p.stem for p in (ROOT / "bench").glob("*.py") if not p.stem.startswith("_"))
+    emitting = [b for b in benches if wb.emits_json(b)]
+    assert "read_speed" in emitting and "arm_accuracy" in emitting
+    alone = [b for b in emitting if "from _figures import" not in (ROOT / "bench" / f"{b}.py")
+             .read_text()]
+    assert not alone, f"{alone} write their JSON without bench/_figures.py"
+
+
+def test_the_page_opens_with_how_to_regenerate_and_names_every_json_bench():
+    head = wb.PAGE.read_text().split(wb.ANCHOR)[0]
+    assert "bench/write_benchmarks.py" in head and "Regenerate" in head
+    emitting = [p.stem for p in sorted((ROOT / "bench").glob("*.py"))
+                if not p.stem.startswith("_") and wb.emits_json(p.stem)]
+    assert [b for b in emitting if f"`{b}`" not in head] == []

@@ -10,7 +10,7 @@ NAMES = ("q11", "q12", "q13")
 
 
 def _rosbags_joint_state(sec: int, nanosec: int, position, velocity) -> bytes:
-    store = bags._types.typestore()
+    store = bags.topics.typestore()
     T, H = store.types["builtin_interfaces/msg/Time"], store.types["std_msgs/msg/Header"]
     msg = store.types[bags.topics.JOINT_STATE_TYPE](
         header=H(stamp=T(sec=sec, nanosec=nanosec), frame_id=""), name=list(NAMES),
@@ -42,6 +42,6 @@ def test_the_simulated_driver_patches_with_the_same_template_class():
     raw = packed.pack(12, 345, q, qd)
     # rclpy leaves the CDR padding uninitialised: equal to rosbags' bytes as a message
     assert len(raw) == len(_rosbags_joint_state(12, 345, q, qd))
-    msg = bags._types.typestore().deserialize_cdr(raw, bags.topics.JOINT_STATE_TYPE)
+    msg = bags.topics.typestore().deserialize_cdr(raw, bags.topics.JOINT_STATE_TYPE)
     assert (msg.header.stamp.sec, msg.header.stamp.nanosec) == (12, 345) and msg.name == list(NAMES)
     assert msg.position.tolist() == q and msg.velocity.tolist() == qd and len(msg.effort) == 0

@@ -55,7 +55,7 @@ def test_reads_rosbags_mcap_bag(tmp_path: Path) -> None:
 
     stamps, q, v = _record()
     js, cr = _encoded(stamps, q, v)
-    store = bags._types.typestore()
+    store = bags.topics.typestore()
     path = tmp_path / "rb"
     with Writer(path, version=9, storage_plugin=StoragePlugin.MCAP) as w:
         w.set_custom_data("orthoglide.condition", "loaded")

@@ -52,11 +52,20 @@ def _killed_bag(path: Path, n: int, split_duration_s: float | None = None) -> in
 
 
 def _messages(f: Path) -> int:
-    """Messages our scanner finds in the complete chunks of one file."""
-    from orthoglide_ident.bags import _mcap
+    """Messages in the complete chunks of one file, as the MCAP library's stream reader finds
+    them before the cut (independent of our scanner)."""
+    from mcap.exceptions import EndOfFile
+    from mcap.records import Message
+    from mcap.stream_reader import StreamReader
 
-    res = _mcap.scan(f)
-    return sum(len(o) for _, per, _ in _mcap.iter_messages(res, []) for o in per.values())
+    n = 0
+    with f.open("rb") as fh:
+        try:
+            for record in StreamReader(fh).records:
+                n += isinstance(record, Message)
+        except EndOfFile:  # the chunk being written when the recorder was killed
+            pass
+    return n
 
 
 def _rosbags_count(path: Path) -> int:

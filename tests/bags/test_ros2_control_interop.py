@@ -99,6 +99,7 @@ class NoCompiledTypes:
         return None
 
 sys.meta_path.insert(0, NoCompiledTypes())
+# private on purpose: the embedded definitions taken away (an install without them), no public way
 from orthoglide_ident.bags import _types
 for name in [k for k in _types.EMBEDDED_MSGS if k.startswith("control_msgs/")]:
     del _types.EMBEDDED_MSGS[name]
@@ -130,7 +131,7 @@ def test_reads_a_real_writers_bag_without_compiled_types(rosbags_bag: Path) -> N
 def test_bulk_and_one_by_one_paths_agree(rosbags_bag: Path, monkeypatch) -> None:
     """Here too (types known): every message once, in stamp order, whichever path decoded it;
     most in bulk (several layouts), the shapes beyond the cache one by one."""
-    from orthoglide_ident.bags import _decode
+    from orthoglide_ident.bags import _decode  # private on purpose: counts its one-by-one path
 
     one_by_one: list[int] = []
     slow = _decode.decode_rows

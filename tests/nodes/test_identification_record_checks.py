@@ -84,7 +84,7 @@ def _call(node):
 
 def test_degrees_refused_then_a_good_feed_answered(node, records):
     from orthoglide_ident.errors import DataError
-    from orthoglide_ident.identify.records.record import Record
+    from orthoglide_ident.identify import Record
     from orthoglide_ident.identify.records.robot_checks import check_positions
 
     for name, rec in records.items():

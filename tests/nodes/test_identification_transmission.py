@@ -16,14 +16,12 @@ import time
 
 import numpy as np
 import pytest
-import yaml
+from coupled_topics import MOTORS, coupled_topics
 
 pytestmark = pytest.mark.slow
 
 SECONDS = 15.0  # per run: every per-motor gain within 0.1 % of the plant's (offline, 15 s + 15 s)
 PAYLOAD = "2.0"  # kg, arm_truth's payload at the flange
-MOTORS = [f"m{k + 1}" for k in range(6)]
-START_NS = 1_796_000_000 * 10**9
 PACE = 20  # ticks published between two sleeps of PACE ms: about real time
 
 
@@ -34,29 +32,11 @@ def _rel(a, b) -> float:
 
 @pytest.fixture(scope="module")
 def plant(tmp_path_factory):
-    """The robot YAML (motors m1 .. m6, positions joint-side) and the two runs' messages."""
-    from orthoglide_ident import bags
-    from orthoglide_sim.coupled.record import simulate_coupled, write_robot_files
-    from orthoglide_sim.coupled.truth import default_coupled_truth
-
-    out = tmp_path_factory.mktemp("coupled_topics")
-    truth = default_coupled_truth()
-    joint_yaml, _ = write_robot_files(out, truth)
-    robot = yaml.safe_load(joint_yaml.read_text())
-    robot["transmission"]["actuators"] = MOTORS
-    path = out / "ur5_coupled_m.yaml"
-    path.write_text(yaml.safe_dump(robot, sort_keys=False))
-    runs = {}
-    for i, (name, payload, trajectory) in enumerate((("unloaded", None, "exciting1"),
-                                                     ("loaded", PAYLOAD, "exciting2"))):
-        rec = simulate_coupled(SECONDS, payload=payload, trajectory=trajectory, seed=i, truth=truth)
-        stamps = rec.stamps_ns + START_NS + i * 100 * 10**9
-        js = bags.encoding.encode_joint_states(truth.arm.joint_names, stamps, rec.q_joint)
-        djs = bags.encoding.encode_dynamic_joint_states(
-            MOTORS, [["position", "current"]] * 6, stamps,
-            {"position": rec.q_motor, "current": rec.v_tau})
-        runs[name] = (rec.payload_mass, [(a.tobytes(), b.tobytes()) for a, b in zip(js, djs)])
-    return path, truth, runs
+    """The robot YAML (motors m1 .. m6, positions joint-side) and the two runs' messages
+    (tests/coupled_topics.py, which bench/live_vs_offline_hog.py runs too)."""
+    path, truth, runs = coupled_topics(tmp_path_factory.mktemp("coupled_topics"), SECONDS, PAYLOAD)
+    return path, truth, {n: (r.payload_mass, list(zip(r.joint_states, r.dynamic_joint_states)))
+                         for n, r in runs.items()}
 
 
 def _publish(pubs, messages) -> None:

@@ -14,9 +14,7 @@ import threading
 import numpy as np
 import pytest
 
-from orthoglide_ident.identify.live.session import LiveIdentification
-from orthoglide_ident.identify.options import IdentifyOptions
-from orthoglide_ident.identify.pipeline import identify
+from orthoglide_ident.identify import IdentifyOptions, LiveIdentification, identify
 from orthoglide_ident.model.robots import load_robot
 
 rclpy = pytest.importorskip("rclpy")

@@ -13,9 +13,7 @@ import pytest
 from live_helpers import rel_diff, rel_sigma_diff
 from synthetic import SyntheticModel, synthetic_record
 
-from orthoglide_ident.identify.live.session import LiveIdentification
-from orthoglide_ident.identify.options import IdentifyOptions
-from orthoglide_ident.identify.pipeline import identify_records
+from orthoglide_ident.identify import IdentifyOptions, LiveIdentification, identify_records
 from orthoglide_ident.ticks import StepStats, step_stats
 
 MODEL = SyntheticModel()

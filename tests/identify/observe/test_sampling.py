@@ -9,8 +9,7 @@ import dataclasses
 import numpy as np
 import pytest
 
-from orthoglide_ident.bags import read_bag
-from orthoglide_ident.bags._tags import BagTags
+from orthoglide_ident.bags import BagTags, read_bag
 from orthoglide_ident.bags.csv_import import ColumnMap, import_csv
 from orthoglide_ident.errors import BagError, ConfigError
 from orthoglide_ident.identify import IdentifyOptions
@@ -125,9 +124,8 @@ def test_a_point_sampled_250_hz_log_is_unbiased_only_as_sampled():
     the log's Nyquist frequency (bench/logger_sampling.py's '~250 Hz pt, smooth'): held puts
     the states 2 ms late and wrist_2 comes out biased beyond 3 σ; sampled (the loop's rate
     known) puts every gain within 3 σ of the plant's."""
+    from orthoglide_ident.identify import Record, identify_records
     from orthoglide_ident.identify.observe.filtering import zero_phase_butterworth
-    from orthoglide_ident.identify.pipeline import identify_records
-    from orthoglide_ident.identify.records.record import Record
     from orthoglide_ident.model.robots import load_robot
     from orthoglide_sim.arms.log import KEEP_3_4_5, clock_uniform, point_sampled, simulate_arm_log
 
@@ -181,7 +179,7 @@ def test_auto_reads_a_log_held_at_its_own_rate_as_held():
     import sys
     from pathlib import Path
 
-    from orthoglide_ident.identify.pipeline import identify_records
+    from orthoglide_ident.identify import identify_records
     from orthoglide_ident.model.robots import load_robot
     from orthoglide_sim.arms.log import clock_10_12, simulate_arm_log
     sys.path.insert(0, str(Path(__file__).parents[3] / "bench"))
@@ -240,9 +238,8 @@ def test_auto_reads_a_1khz_log_of_a_4khz_loop_as_sampled_by_its_negative_lag():
     """A 4 kHz loop (its current band-limited at 350 Hz) logged every 4th tick: read held, the
     lag is negative on every joint (the log's half tick less the loop's, 0.375 ms, the wrong
     way); auto reads it again as sampled, says why, and the lag comes out positive."""
+    from orthoglide_ident.identify import Record, identify_records
     from orthoglide_ident.identify.observe.filtering import zero_phase_butterworth
-    from orthoglide_ident.identify.pipeline import identify_records
-    from orthoglide_ident.identify.records.record import Record
     from orthoglide_ident.model.robot import Payload
     from orthoglide_ident.model.robots import load_robot
     from orthoglide_sim.arms.log import clock_uniform, point_sampled, simulate_arm_log
@@ -306,9 +303,9 @@ def test_the_robot_file_says_the_sampling_with_the_lag_modelled(tmp_path):
     """With lag_model auto (the default) the observation still reads the robot file's
     current_sampling: the robot is passed itself beside its column layout (issue 44), where a
     drive-terms wrapper used to hide its description (the record was read held)."""
+    from orthoglide_ident.identify import Record
     from orthoglide_ident.identify.columns.layout import column_layout
     from orthoglide_ident.identify.observe.rows import observe
-    from orthoglide_ident.identify.records.record import Record
     from orthoglide_ident.model.robots import ROBOTS_DIR, load_robot
 
     text = (ROBOTS_DIR / "ur5.yaml").read_text()

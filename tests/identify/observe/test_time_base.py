@@ -299,7 +299,7 @@ def test_5_khz_and_the_same_decimated_to_1_khz_agree_within_their_sigma():
 def _bag_with_velocity(path, with_velocity: bool):
     from orthoglide_ident import bags
 
-    store = bags._types.typestore()
+    store = bags.topics.typestore()
     T, H = store.types["builtin_interfaces/msg/Time"], store.types["std_msgs/msg/Header"]
     JS = store.types[bags.topics.JOINT_STATE_TYPE]
     CR = store.types[bags.topics.CURRENT_REFERENCE_TYPE]

@@ -15,7 +15,7 @@ from live_helpers import as_record
 
 from orthoglide_ident.cli import main
 from orthoglide_ident.errors import DataError, ExcitationError, IdentificationError
-from orthoglide_ident.identify.pipeline import identify_records
+from orthoglide_ident.identify import identify_records
 from orthoglide_ident.model.robots import load_robot
 from orthoglide_sim.arms.record import simulate_arm
 

@@ -6,7 +6,7 @@ import math
 import numpy as np
 import pytest
 
-from orthoglide_ident.identify.options import IdentifyOptions
+from orthoglide_ident.identify import IdentifyOptions
 from orthoglide_ident.identify.solve.filter_bound import second_cutoff, widen
 from orthoglide_ident.results import Estimate, IdentificationResult
 
@@ -49,9 +49,8 @@ def test_a_point_sampled_83_hz_log_marks_no_biased_gain_determined():
     plant's (before the bound: wrist_3 about -0.4 % at > 3 σ, the derivative filter's bias)."""
     import dataclasses
 
+    from orthoglide_ident.identify import Record, identify_records
     from orthoglide_ident.identify.observe.filtering import zero_phase_butterworth
-    from orthoglide_ident.identify.pipeline import identify_records
-    from orthoglide_ident.identify.records.record import Record
     from orthoglide_ident.model.robot import Payload
     from orthoglide_ident.model.robots import load_robot
     from orthoglide_sim.arms.log import (

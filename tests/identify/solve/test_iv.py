@@ -11,8 +11,7 @@ from synthetic import TRUE_GAINS, SyntheticModel, synthetic_record
 
 from orthoglide_ident.cli import build_parser
 from orthoglide_ident.errors import ConfigError, IdentificationError
-from orthoglide_ident.identify.options import IdentifyOptions
-from orthoglide_ident.identify.pipeline import identify_records
+from orthoglide_ident.identify import IdentifyOptions, identify_records
 from orthoglide_ident.identify.solve import methods
 from orthoglide_ident.identify.solve.factors import RecordFactors
 from orthoglide_ident.identify.solve.iv import observations_of

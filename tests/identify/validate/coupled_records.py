@@ -9,7 +9,7 @@ import numpy as np
 import pinocchio as pin
 import yaml
 
-from orthoglide_ident.identify.pipeline import Record
+from orthoglide_ident.identify import Record
 from orthoglide_ident.model.robot import Payload
 from orthoglide_ident.model.robots import ROBOTS_DIR
 from orthoglide_sim.arms.description import load_arm

@@ -6,7 +6,6 @@ import numpy as np
 import pytest
 
 from orthoglide_ident import bags
-from orthoglide_ident.bags._types import typestore
 from orthoglide_ident.errors import ConfigError
 from orthoglide_sim.arm_or_chain.session import ArmTick
 from orthoglide_sim.common.broadcaster import BroadcasterLayout, TickDropper
@@ -38,7 +37,7 @@ def test_one_update_two_messages_one_stamp():
     lay = BroadcasterLayout.of(ARM, [GRIPPER], "shuffled", seed=1)
     tick, stamp = _tick(), 1_796_000_000_123_000_000
     js, djs = lay.encode(stamp, tick)
-    store = typestore()
+    store = bags.topics.typestore()
     m = store.deserialize_cdr(js, bags.topics.JOINT_STATE_TYPE)
     d = store.deserialize_cdr(djs, bags.topics.DYNAMIC_JOINT_STATE_TYPE)
     for msg in (m, d):
