@@ -94,7 +94,7 @@ def run(robot, records, validation, chi_true: np.ndarray, g_true: np.ndarray,
                          (("unconstrained", c.chi_hat), ("projection", c.projection.chi_b),
                           ("identified", c.identified.chi_b))},
             "ddm": c.direct_dynamics[0], "ddm_truth": truth_floor,
-            "xval": res.validation[0]}
+            "xval": res.validation[0].to_json()}
 
 
 def _rms(x) -> float:

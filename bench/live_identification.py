@@ -206,8 +206,8 @@ def run(args, paths: list[Path], source: str) -> int:
           f"live lag instrument from the previous periods only): max difference "
           f"{in_sigma(res.drive_gains, off.drive_gains):.2f} σ on the gains, "
           f"{in_sigma(res.parameters, off.parameters):.2f} σ on the base parameters; current-loop "
-          "lag live " + ", ".join(f"{a['tau_ms']:.3f}" for a in res.current_lag) + " ms, offline "
-          + ", ".join(f"{b['tau_ms']:.3f}" for b in off.current_lag) + " ms")
+          "lag live " + ", ".join(f"{a.tau_ms:.3f}" for a in res.current_lag) + " ms, offline "
+          + ", ".join(f"{b.tau_ms:.3f}" for b in off.current_lag) + " ms")
     paper = IdentifyOptions(lag_model="off")
     live = LiveIdentification(paper, model=ORTHOGLIDE)
     play(live, recs, 100)

@@ -13,10 +13,12 @@ from __future__ import annotations
 
 import json
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from orthoglide_ident.model.locked_joints import LockedJoint
 from orthoglide_ident.ticks import UNEVEN_SHARE
 
 
@@ -47,11 +49,85 @@ def json_text(doc: Any) -> str:
     return json.dumps(finite_only(doc), indent=2, allow_nan=False) + "\n"
 
 
-def lag_text(current_lag: list[dict[str, Any]]) -> str:
+@dataclass(frozen=True)
+class LagEstimate:
+    """An identified current-loop lag (identify/columns/drive_terms.py): the drive applies
+    g_τ (v_τ - τ v̇_τ)."""
+
+    joint: str
+    tau_s: float
+    tau_std_s: float
+
+    @property
+    def tau_ms(self) -> float:
+        return 1e3 * self.tau_s
+
+    @property
+    def tau_std_ms(self) -> float:
+        return 1e3 * self.tau_std_s
+
+    def to_json(self) -> dict:
+        return {"joint": self.joint, "tau_ms": self.tau_ms, "tau_std_ms": self.tau_std_ms}
+
+
+@dataclass(frozen=True)
+class RippleEstimate:
+    """An identified ripple (identify/columns/drive_terms.py): a cos(2π q / λ + phase),
+    amplitude a in N."""
+
+    joint: str
+    wavelength_m: float
+    friction: bool
+    amplitude_n: float
+    amplitude_std_n: float
+    phase_rad: float
+
+    @property
+    def kind(self) -> str:
+        return "friction (sign of velocity)" if self.friction else "force"
+
+    def to_json(self) -> dict:
+        return {"joint": self.joint, "wavelength_m": self.wavelength_m, "kind": self.kind,
+                "amplitude_n": self.amplitude_n, "amplitude_std_n": self.amplitude_std_n,
+                "phase_rad": self.phase_rad}
+
+
+@dataclass(frozen=True)
+class ValidationJoint:
+    """One joint's cross-validation figures (identify/validate/cross_validation.py): residual
+    and measured rms (N or N·m), their ratio, the residual over the current noise; None where
+    the joint has no figure, ``note`` saying why."""
+
+    joint: str
+    residual_rms: float | None
+    measured_rms: float | None
+    relative_error: float | None
+    noise_ratio: float | None
+    note: str = ""
+
+    def to_json(self) -> dict:
+        return {"joint": self.joint, "residual_rms": self.residual_rms,
+                "measured_rms": self.measured_rms, "relative_error": self.relative_error,
+                "noise_ratio": self.noise_ratio, **({"note": self.note} if self.note else {})}
+
+
+@dataclass(frozen=True)
+class ValidationRow:
+    """The cross-validation of the answer on one record not used to identify it (Fig. 5)."""
+
+    bag: str
+    joints: tuple[ValidationJoint, ...]
+    warnings: tuple[str, ...] = ()
+
+    def to_json(self) -> dict:
+        return {"bag": self.bag, "joints": [j.to_json() for j in self.joints],
+                "warnings": list(self.warnings)}
+
+
+def lag_text(current_lag: Sequence[LagEstimate]) -> str:
     """The identified current-loop lags (``IdentificationResult.current_lag``) as one line:
     "q11 0.102 ms (σ 0.032), ..." (the text table, the log and the identify service's reply)."""
-    return ", ".join(f"{x['joint']} {x['tau_ms']:.3f} ms (σ {x['tau_std_ms']:.2g})"
-                     for x in current_lag)
+    return ", ".join(f"{x.joint} {x.tau_ms:.3f} ms (σ {x.tau_std_ms:.2g})" for x in current_lag)
 
 
 def _unit(units: list[str], default: str) -> str | list[str]:
@@ -163,7 +239,7 @@ class PayloadParameters:
 class IdentificationResult:
     """What ``identify`` found; ``to_json()`` is the document of docs/design/interfaces.md."""
 
-    method: str  # "tls" | "wls" | "iv"
+    method: str  # a name of identify/solve/methods.METHODS (its row names the result)
     joint_names: list[str]
     drive_gains: list[Estimate]  # name = joint name
     # the method's gains_given (identify/solve/methods.METHODS): True for WLS (gains were an
@@ -175,22 +251,24 @@ class IdentificationResult:
     condition_number: float
     residual_rms: list[float]  # per joint (per motor behind a transmission), N or N·m
     bags: list[str]
-    robot: str = "orthoglide"  # RobotModel.name
+    robot: str  # RobotModel.name: every result is of the robot it was identified on
+    # the first line of the text report: the method's title in methods.METHODS (set with method)
+    title: str = ""
     gain_units: list[str] = field(default_factory=list)  # per joint: N/A or N·m/A (empty: N/A)
     effort_units: list[str] = field(default_factory=list)  # per joint: N or N·m (empty: N)
     nominal_gains: list[float] = field(default_factory=list)  # the manufacturer's, per joint
-    # joints of the description fixed before anything else (model/locked_joints.py), as JSON
-    locked_joints: list[dict[str, Any]] = field(default_factory=list)
+    # joints of the description fixed before anything else (model/locked_joints.py)
+    locked_joints: list[LockedJoint] = field(default_factory=list)
     diagnostics: dict[str, Any] = field(default_factory=dict)
     essential: IdentificationResult | None = None
     removed: list[str] = field(default_factory=list)  # cancelled base parameters (essential)
     # position-periodic forces found in the residual and modelled (identify/drive_terms.py)
-    ripple: list[dict[str, Any]] = field(default_factory=list)
+    ripple: list[RippleEstimate] = field(default_factory=list)
     # the current loops' lags, identified from periodic records (identify/current_lag.py)
-    current_lag: list[dict[str, Any]] = field(default_factory=list)
+    current_lag: list[LagEstimate] = field(default_factory=list)
     # essential: every cancellation tried, with its cost (identify/essential.EssentialStep)
     essential_steps: list[Any] = field(default_factory=list, repr=False, compare=False)
-    validation: list[dict[str, Any]] = field(default_factory=list)
+    validation: list[ValidationRow] = field(default_factory=list)
     warnings: list[str] = field(default_factory=list)
     # In-memory extras for plots (report.py); not serialised.
     validation_details: list[Any] = field(default_factory=list, repr=False, compare=False)
@@ -229,7 +307,8 @@ class IdentificationResult:
             "method": self.method,
             "robot": self.robot,
             "joint_names": list(self.joint_names),
-            **({"locked_joints": list(self.locked_joints)} if self.locked_joints else {}),
+            **({"locked_joints": [lj.to_json() for lj in self.locked_joints]}
+               if self.locked_joints else {}),
             "drive_gains": [{"joint": g.name, "value": _num(g.value), "rel_std": _num(g.rel_std),
                              "rel_std_paper": None if g.rel_std_paper is None
                              else _num(g.rel_std_paper), **self._nominal(i),
@@ -261,16 +340,16 @@ class IdentificationResult:
             "warnings": list(self.warnings),
         }
         if self.ripple:
-            out["ripple"] = list(self.ripple)
+            out["ripple"] = [r.to_json() for r in self.ripple]
         if self.current_lag:
-            out["current_lag"] = list(self.current_lag)
+            out["current_lag"] = [x.to_json() for x in self.current_lag]
 
         if self.removed:
             out["removed"] = list(self.removed)
         if self.essential is not None:
             out["essential"] = self.essential.to_json()
         if self.validation:
-            out["validation"] = self.validation
+            out["validation"] = [v.to_json() for v in self.validation]
         if self.consistency is not None:
             out["standard_parameters"] = self.consistency.standard_parameters()
             out["consistency"] = self.consistency.to_json()
@@ -341,7 +420,7 @@ class IdentificationResult:
             lines.append("current-loop lag modelled: " + lag_text(self.current_lag))
         if self.locked_joints:  # model/locked_joints.py
             lines.append("locked joints: " + ", ".join(
-                f"{lj['joint']} = {lj['value']:.6g} {lj['unit']} ({lj['reason']})"
+                f"{lj.name} = {lj.value:.6g} {lj.unit} ({lj.reason()})"
                 for lj in self.locked_joints))
         if self.diagnostics.get("options", {}).get("effort_unit") == "torque":
             lines.append("the recorded effort is a torque/force, turned into a current with the "
@@ -354,9 +433,9 @@ class IdentificationResult:
             lines.append(f"recorded: {src}")
         for r in self.ripple:
             lines.append(
-                f"ripple modelled: {r['joint']} ±{r['amplitude_n']:.3g} N (σ "
-                f"{r['amplitude_std_n']:.2g} N) at a {1e3 * r['wavelength_m']:.1f} mm period of "
-                f"its position, {r['kind']}"
+                f"ripple modelled: {r.joint} ±{r.amplitude_n:.3g} N (σ "
+                f"{r.amplitude_std_n:.2g} N) at a {1e3 * r.wavelength_m:.1f} mm period of "
+                f"its position, {r.kind}"
             )
         lines.extend(self._residual_lines())
         if ess is not None:
@@ -364,11 +443,11 @@ class IdentificationResult:
         if self.consistency is not None:
             lines.extend(self.consistency.text_lines(self._units(self.effort_units, "N")))
         for v in self.validation:
-            lines.append(f"cross-validation on {v['bag']}: " + ", ".join(
-                f"{j['joint']} {j['residual_rms']:.3g} {u} rms ({100 * j['relative_error']:.1f} %)"
-                if j.get("residual_rms") is not None and j.get("relative_error") is not None
-                else f"{j['joint']} - ({j.get('note', 'no figure')})"
-                for j, u in zip(v["joints"], self.effort_units or ["N"] * len(v["joints"]))))
+            lines.append(f"cross-validation on {v.bag}: " + ", ".join(
+                f"{j.joint} {j.residual_rms:.3g} {u} rms ({100 * j.relative_error:.1f} %)"
+                if j.residual_rms is not None and j.relative_error is not None
+                else f"{j.joint} - ({j.note or 'no figure'})"
+                for j, u in zip(v.joints, self.effort_units or ["N"] * len(v.joints))))
         d = self.diagnostics
         if d.get("samples_used") is not None:
             lines.append(f"samples: {d['samples_used']} used, "
@@ -396,11 +475,7 @@ class IdentificationResult:
         return u if isinstance(u, str) else "/".join(dict.fromkeys(u))
 
     def _header_lines(self) -> list[str]:
-        head = {"tls": "IDIM-TLS (drive gains and base parameters, scale from the payload mass)",
-                "wls": "IDIM-WLS with given drive gains (payload mass estimated)",
-                "iv": "IDIM-IV (instruments: the identified model's currents; scale from the "
-                      "payload mass)"}
-        lines = [head.get(self.method, self.method)]
+        lines = [self.title or self.method]
         variant = self.diagnostics.get("solver", {}).get("tls_noisy_columns")
         if variant:  # only a TLS solve says which columns it takes as noisy
             lines.append({"currents": "mixed LS-TLS: W exact, errors in the current references",

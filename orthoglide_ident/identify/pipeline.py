@@ -314,7 +314,7 @@ def _identify_once(
         timings["validation"] = time.perf_counter() - t_v
     for v in vals:
         warnings.extend(v.warnings)
-    result.validation = [v.to_json(model.joint_names) for v in vals]
+    result.validation = [v.row(model.joint_names) for v in vals]
     result.validation_details = vals
     timings["total"] = time.perf_counter() - t_all
     finish_result(result, solved, reports, warnings, opts, timings)

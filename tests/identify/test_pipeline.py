@@ -160,4 +160,5 @@ def test_the_result_says_the_robots_locked_joints_with_drive_terms_modelled():
 
     res = identify_records(_pair(False), model=Locked(),
                            options=IdentifyOptions(screw_lead_m=0.010))
-    assert res.locked_joints == [Locked.locked_joints[0].to_json()]
+    assert res.locked_joints == [Locked.locked_joints[0]]
+    assert res.to_json()["locked_joints"] == [Locked.locked_joints[0].to_json()]

@@ -32,6 +32,7 @@ from typing import Any
 import numpy as np
 
 from orthoglide_ident.errors import OrthoglideError
+from orthoglide_ident.results import LagEstimate
 
 CURRENT_SAMPLING = ("held", "sampled", "auto")  # the option's values (a tag: held | sampled)
 AUTO_HELD = "current_sampling: auto, nothing said"  # the start of auto's first reading's why
@@ -96,16 +97,16 @@ def sampled_shift_s(opts) -> float:
     return 0.5 / opts.current_loop_hz
 
 
-def lag_says_sampled(current_lag: Sequence[dict]) -> str | None:
+def lag_says_sampled(current_lag: Sequence[LagEstimate]) -> str | None:
     """Why the identified lags (``IdentificationResult.current_lag``, τ in ms) say the current
     is a point sample at the stamp, or None: a current loop cannot act before its reference,
     so τ below -NEGATIVE_LAG_SIGMAS σ on more than half the joints is a current read as held
     that was sampled (the states half a step late)."""
     neg = [x for x in current_lag
-           if x["tau_ms"] < -NEGATIVE_LAG_SIGMAS * max(x["tau_std_ms"], 1e-9)]
+           if x.tau_ms < -NEGATIVE_LAG_SIGMAS * max(x.tau_std_ms, 1e-9)]
     if not current_lag or 2 * len(neg) <= len(current_lag):
         return None
-    taus = ", ".join(f"{x['tau_ms']:+.3f}" for x in current_lag)
+    taus = ", ".join(f"{x.tau_ms:+.3f}" for x in current_lag)
     return (f"the identified current-loop lag is negative on {len(neg)} of {len(current_lag)} "
             f"joints ({taus} ms), impossible for a current held over its step: read as sampled "
             "at the stamps (current_sampling: auto)")

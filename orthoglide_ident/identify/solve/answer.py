@@ -39,6 +39,7 @@ from orthoglide_ident.identify.solve.wls import WLSSolution, idim_wls
 from orthoglide_ident.results import Estimate, IdentificationResult, PayloadMass, lag_text
 
 log = logging.getLogger("orthoglide_ident.identify")
+UNNAMED = ""  # a result's method until the methods table names it (methods.solve)
 
 
 @dataclass
@@ -186,7 +187,7 @@ def tls_result(model, cols, sol: TLSSolution, factors: list[RecordFactors],
     payloads = [PayloadMass(m, opts.payload_mass_std_kg / m, True, m, _sources(factors, m))
                 for m in sorted({f.payload_mass for f in factors if f.loaded})]
     return IdentificationResult(
-        method="tls", joint_names=list(model.joint_names),
+        method=UNNAMED, joint_names=list(model.joint_names),
         drive_gains=_gains_estimates(model.joint_names, sol.g_tau, sol.rel_std[n:n + n_j],
                                      None if sol.rel_std_paper is None
                                      else sol.rel_std_paper[n:n + n_j]),
@@ -204,7 +205,7 @@ def _robot_fields(model) -> dict[str, Any]:
             "gain_units": [j.gain_unit for j in model.joints],
             "effort_units": [j.effort_unit for j in model.joints],
             "nominal_gains": [float(j.nominal_gain) for j in model.joints],
-            "locked_joints": [lj.to_json() for lj in model.locked_joints]}
+            "locked_joints": list(model.locked_joints)}
 
 
 def wls_result(model, cols, sol: WLSSolution, g_tau: np.ndarray, factors: list[RecordFactors],
@@ -216,7 +217,7 @@ def wls_result(model, cols, sol: WLSSolution, g_tau: np.ndarray, factors: list[R
                             None if sol.rel_std_paper is None else float(sol.rel_std_paper[n + k]))
                 for k, m_tag in enumerate(sol.payload_groups)]
     return IdentificationResult(
-        method="wls", joint_names=list(model.joint_names),
+        method=UNNAMED, joint_names=list(model.joint_names),
         drive_gains=_gains_estimates(model.joint_names, g_tau, None),
         drive_gains_given=True, parameters=_param_estimates(cols, sol),
         payload_mass=payloads[0] if payloads else None, payloads=payloads,
@@ -291,10 +292,10 @@ def _set_up(factors: list[RecordFactors], model, cols, opts: IdentifyOptions, ba
 def _drive_notes(result: IdentificationResult, ripples: list, lags: list,
                  terms: drive_terms.Terms, joint_names: Sequence[str]) -> None:
     """The identified drive terms into ``result`` (and the log); the warnings they answer."""
-    result.current_lag = [x.to_json() for x in lags]
+    result.current_lag = list(lags)
     if lags:
         log.info("current-loop lag (lag_model: auto): %s", lag_text(result.current_lag))
-    result.ripple = [r.to_json() for r in ripples]
+    result.ripple = list(ripples)
     if any(t.index is None for t in terms.ripples):  # modelled at the given lead: a figure
         lead_mm = 1e3 * terms.ripples[0].wavelength_m
         log.info("screw friction ripple at the %.1f mm lead (screw_lead_m): %s", lead_mm,
@@ -386,8 +387,8 @@ def solve_tls(factors: list[RecordFactors], model, cols, opts: IdentifyOptions,
         ess = _essential(m, opts, [f"g_tau {j}" for j in model.joint_names])
         ess_view, ess_ripples, ess_lags = m.view(ess.solution)
         result.essential = tls_result(model, cols, ess_view, factors, opts, bags)
-        result.essential.ripple = [r.to_json() for r in ess_ripples]
-        result.essential.current_lag = [x.to_json() for x in ess_lags]
+        result.essential.ripple = list(ess_ripples)
+        result.essential.current_lag = list(ess_lags)
         _note_essential(m.names, result, ess)
         out.timings["essential"] = time.perf_counter() - t0
     return out
@@ -623,8 +624,8 @@ def solve_wls(factors: list[RecordFactors], model, cols, opts: IdentifyOptions,
         ess = _essential(m, opts, [f"m_7 ({mass:g} kg)" for mass in base.payload_groups])
         ess_view, ess_ripples, ess_lags = m.view(ess.solution)
         result.essential = wls_result(model, cols, ess_view, g, factors, bags)
-        result.essential.ripple = [r.to_json() for r in ess_ripples]
-        result.essential.current_lag = [x.to_json() for x in ess_lags]
+        result.essential.ripple = list(ess_ripples)
+        result.essential.current_lag = list(ess_lags)
         _note_essential(m.names, result, ess)
         out.timings["essential"] = time.perf_counter() - t0
     return out

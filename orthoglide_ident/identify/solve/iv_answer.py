@@ -79,10 +79,9 @@ def solve_iv(factors: list[RecordFactors], model, cols, opts: IdentifyOptions, g
     if opts.check_excitation:
         band_warnings = check_gains(view, limits(model, opts), model.joint_names)
     result = tls_result(model, cols, view, factors, opts, bags)
-    result.method = "iv"
     if opts.check_excitation:
         result.warnings.extend(band_warnings)
-    result.current_lag = [x.to_json() for x in lags]
+    result.current_lag = list(lags)
     if essential:
         result.warnings.append("--essential is not run with IDIM-IV: use --method tls for the "
                                "essential parameters")

@@ -260,14 +260,14 @@ def test_realistic_drive_ripple_found_and_modelled_alike_live_and_offline(realis
     live as offline."""
     recs = realistic_records
     off = identify_records(recs, options=PAPER_DRIVE, model=ORTHOGLIDE)
-    assert "q12" in {r["joint"] for r in off.ripple}
+    assert "q12" in {r.joint for r in off.ripple}
     for r in off.ripple:
-        assert abs(r["wavelength_m"] - 0.01) < 0.0005 and r["kind"].startswith("friction")
+        assert abs(r.wavelength_m - 0.01) < 0.0005 and r.kind.startswith("friction")
     live, res = _live_result(recs, PAPER_DRIVE)
     assert max(rel_diff(off, res)) < 1e-6 and max(rel_sigma_diff(off, res)) < 1e-6
-    assert [r["joint"] for r in res.ripple] == [r["joint"] for r in off.ripple]
-    assert np.allclose([r["amplitude_n"] for r in res.ripple],
-                       [r["amplitude_n"] for r in off.ripple], rtol=1e-6)
+    assert [r.joint for r in res.ripple] == [r.joint for r in off.ripple]
+    assert np.allclose([r.amplitude_n for r in res.ripple],
+                       [r.amplitude_n for r in off.ripple], rtol=1e-6)
     g = np.array([x.value for x in res.drive_gains])
     s = np.array([x.rel_std for x in res.drive_gains]) * g
     assert np.all(np.abs(g - [2170.0, 2100.0, 2070.0]) < 3 * s)
@@ -285,10 +285,10 @@ def test_screw_ripple_at_the_given_lead_alike_live_and_offline(realistic_records
     off = identify_records(realistic_records, options=opts, model=ORTHOGLIDE)
     _, res = _live_result(realistic_records, opts)
     assert max(rel_diff(off, res)) < 1e-6 and max(rel_sigma_diff(off, res)) < 1e-6
-    assert [r["joint"] for r in res.ripple] == ["q11", "q12", "q13"]
-    a_off, a_live = ([r["amplitude_n"] for r in x.ripple] for x in (off, res))
+    assert [r.joint for r in res.ripple] == ["q11", "q12", "q13"]
+    a_off, a_live = ([r.amplitude_n for r in x.ripple] for x in (off, res))
     np.testing.assert_allclose(a_live, a_off, rtol=1e-6)
-    sigma = np.array([r["amplitude_std_n"] for r in off.ripple])
+    sigma = np.array([r.amplitude_std_n for r in off.ripple])
     assert np.all(np.abs(a_off - 0.015 * np.array([35.2, 41.7, 24.1])) < 3 * sigma)
 
 
@@ -329,10 +329,10 @@ def test_live_lag_within_a_fraction_of_sigma_of_offline_whatever_the_batches(rea
     assert rel_diff(results[1], res)[0] < 1e-9 and max(_sigma_diff(results[1], res)) < 1e-6
     in_sigma, sigma_ratio = _sigma_diff(off, res)
     assert in_sigma < 0.25 and sigma_ratio < 0.05, (in_sigma, sigma_ratio)
-    tau = np.array([x["tau_ms"] for x in res.current_lag])
-    sig = np.array([x["tau_std_ms"] for x in res.current_lag])
+    tau = np.array([x.tau_ms for x in res.current_lag])
+    sig = np.array([x.tau_std_ms for x in res.current_lag])
     assert np.all(np.abs(tau - 0.12) < 3 * sig), (tau, sig)  # config/plant.yaml: 0.12 ms
-    assert np.all(np.abs(tau - [x["tau_ms"] for x in off.current_lag]) < 0.5 * sig)
+    assert np.all(np.abs(tau - [x.tau_ms for x in off.current_lag]) < 0.5 * sig)
 
 
 def test_live_lag_left_out_when_a_segment_does_not_repeat(realistic_records):

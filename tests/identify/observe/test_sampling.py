@@ -22,6 +22,7 @@ from orthoglide_ident.identify.observe.sampling import (
 from orthoglide_ident.identify.observe.time_base import states_on_stamps
 from orthoglide_ident.identify.pipeline import sampling_rerun
 from orthoglide_ident.model.robot_file import read_description
+from orthoglide_ident.results import LagEstimate
 
 
 def test_the_tag_round_trips_and_a_wrong_value_is_refused():
@@ -82,7 +83,7 @@ def test_who_says_the_sampling():
 
 
 def _lags(taus_ms, std_ms=0.02):
-    return [{"joint": f"j{i}", "tau_ms": t, "tau_std_ms": std_ms} for i, t in enumerate(taus_ms)]
+    return [LagEstimate(f"j{i}", 1e-3 * t, 1e-3 * std_ms) for i, t in enumerate(taus_ms)]
 
 
 def test_auto_reads_a_negative_lag_as_sampled():
@@ -262,11 +263,11 @@ def test_auto_reads_a_1khz_log_of_a_4khz_loop_as_sampled_by_its_negative_lag():
                                        r.joint_names, pl))
     model = load_robot("ur5")
     held = identify_records(recs, model=model, options=IdentifyOptions(current_sampling="held"))
-    assert all(x["tau_ms"] < -0.2 for x in held.current_lag)  # measured -0.27 ... -0.44
+    assert all(x.tau_ms < -0.2 for x in held.current_lag)  # measured -0.27 ... -0.44
     auto = identify_records(recs, model=model)
     assert {b["current_sampling"] for b in auto.diagnostics["bags"]} == {"sampled"}
     assert auto.warnings[0].startswith("the identified current-loop lag is negative")
-    assert all(x["tau_ms"] > -3 * x["tau_std_ms"] for x in auto.current_lag)
+    assert all(x.tau_ms > -3 * x.tau_std_ms for x in auto.current_lag)
 
 
 def test_the_reading_kept_is_the_one_whose_residual_is_least():

@@ -14,7 +14,7 @@ from orthoglide_ident.results import Estimate, IdentificationResult
 def _result(values, rel_std) -> IdentificationResult:
     gains = [Estimate(f"j{i}", v, s) for i, (v, s) in enumerate(zip(values, rel_std))]
     return IdentificationResult("tls", [g.name for g in gains], gains, False, [], None, [], 1.0,
-                                [], [])
+                                [], [], "synthetic")
 
 
 def test_widen_adds_the_move_in_quadrature_and_refuses_beyond_the_bound():

@@ -1,0 +1,89 @@
+"""The result's parts are typed (issue 44): read by attribute, written to exactly the JSON keys of
+docs/design/interfaces.md; no robot default; a method's title comes from the methods table."""
+from __future__ import annotations
+
+import dataclasses
+import io
+import tokenize
+from pathlib import Path
+
+import numpy as np
+import pytest
+from synthetic import TRUE_GAINS, SyntheticModel, synthetic_record
+
+from orthoglide_ident.identify import identify_records
+from orthoglide_ident.identify.solve import methods
+from orthoglide_ident.identify.validate.cross_validation import ValidationResult
+from orthoglide_ident.results import (
+    Estimate,
+    IdentificationResult,
+    LagEstimate,
+    RippleEstimate,
+    lag_text,
+)
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def test_a_result_names_its_robot_there_is_no_default():
+    gains = [Estimate("j0", 2.0, 0.01)]
+    with pytest.raises(TypeError, match="robot"):
+        IdentificationResult("tls", ["j0"], gains, False, [], None, [], 1.0, [1.0], ["b"])
+    res = IdentificationResult("tls", ["j0"], gains, False, [], None, [], 1.0, [1.0], ["b"],
+                               "five_bar")
+    assert res.to_json()["robot"] == "five_bar"
+
+
+def test_the_text_report_opens_with_the_title_of_the_methods_row(monkeypatch):
+    """A row registered under a title of its own: the result is named and titled by the row
+    (results.py sits below the table and reads the title as data)."""
+    recs = [synthetic_record(20.0, m, seed=s, noise=True, amplitude=0.1, f_max=4.0)
+            for m, s in ((0.0, 1), (1.983, 2))]
+    row = dataclasses.replace(methods.METHODS["wls"], name="wls_again", title="WLS, once more")
+    monkeypatch.setitem(methods.METHODS, "wls_again", row)
+    res = identify_records(recs, method="wls_again", gains=list(TRUE_GAINS),
+                           model=SyntheticModel(), essential=True)
+    assert res.method == res.essential.method == "wls_again"
+    assert res.to_text().splitlines()[0] == "WLS, once more"
+    assert res.to_json()["method"] == "wls_again"
+
+
+@pytest.mark.parametrize("path", ["orthoglide_ident/results.py",
+                                  "orthoglide_ident/identify/solve/answer.py",
+                                  "orthoglide_ident/identify/pipeline.py"])
+def test_no_method_is_named_outside_the_table(path):
+    src = (ROOT / path).read_text()
+    named = [f"{path}:{t.start[0]} {t.string}"
+             for t in tokenize.generate_tokens(io.StringIO(src).readline)
+             if t.type == tokenize.STRING and t.string.strip("'\"") in methods.METHODS]
+    assert not named, named
+
+
+def test_drive_terms_are_read_by_attribute_and_written_as_the_json_says():
+    lag = LagEstimate("q11", 1.02e-4, 3.2e-5)
+    assert lag.tau_ms == pytest.approx(0.102) and lag.tau_std_ms == pytest.approx(0.032)
+    assert lag.to_json() == {"joint": "q11", "tau_ms": 1e3 * 1.02e-4, "tau_std_ms": 1e3 * 3.2e-5}
+    assert lag_text([lag]) == "q11 0.102 ms (σ 0.032)"
+    rip = RippleEstimate("q12", 0.01, True, 0.4, 0.02, -1.0)
+    assert rip.kind == "friction (sign of velocity)"
+    assert list(rip.to_json()) == ["joint", "wavelength_m", "kind", "amplitude_n",
+                                   "amplitude_std_n", "phase_rad"]
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        rip.amplitude_n = 0.0  # type: ignore[misc]
+
+
+def test_a_validation_row_is_typed_and_its_json_keeps_the_note_only_where_said():
+    nan = float("nan")
+    v = ValidationResult("val.mcap", np.array([0.1, nan]), np.array([2.0, 1.0]),
+                         np.array([0.05, nan]), None, np.zeros(1), np.zeros((2, 1)),
+                         np.zeros((2, 1)), ["w"], ["", "hardly moves"])
+    row = v.row(("q11", "q12"))
+    assert row.bag == "val.mcap" and row.joints[0].residual_rms == 0.1
+    assert row.joints[1].residual_rms is None and row.joints[1].note == "hardly moves"
+    assert row.to_json() == {
+        "bag": "val.mcap",
+        "joints": [{"joint": "q11", "residual_rms": 0.1, "measured_rms": 2.0,
+                    "relative_error": 0.05, "noise_ratio": None},
+                   {"joint": "q12", "residual_rms": None, "measured_rms": 1.0,
+                    "relative_error": None, "noise_ratio": None, "note": "hardly moves"}],
+        "warnings": ["w"]}
