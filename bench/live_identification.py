@@ -221,7 +221,7 @@ def run(args, paths: list[Path], source: str) -> int:
     t0 = time.perf_counter()
     offline = identify(paths, model=ORTHOGLIDE)
     t_id = time.perf_counter() - t0
-    steps = offline.diagnostics["timings_s"]
+    steps = offline.diagnostics.timings_s
     print(f"\noffline, same run: identify {t_id:.2f} s in-process (regressor+decimation "
           f"{steps['regressor+decimation']:.2f} s) vs rosbags deserialising the {n_msgs} "
           f"messages {t_ros:.2f} s: ratio {t_id / t_ros:.2f}")

@@ -83,9 +83,9 @@ def uneven_case(duration: float, model) -> None:
               + " ".join(f"{100 * x:.2f}" for x in before) + " %")
     res = identify_records([to_record(r, f"uneven_{i}") for i, r in enumerate(recs)], model=model)
     print("\n".join(gains_table(res, recs[0].truth.drive_array("g_tau"), model.joint_names)))
-    d = res.diagnostics["bags"][0]
-    print(f"  options at this rate: filter {d['filter_cutoff_hz']:.4g} Hz, decimation by "
-          f"{d['decimation']} (cut-off {d['decimation_cutoff_hz']:.4g} Hz)")
+    d = res.record_reports[0]
+    print(f"  options at this rate: filter {d.filter_cutoff_hz:.4g} Hz, decimation by "
+          f"{d.decimation} (cut-off {d.decimation_cutoff_hz:.4g} Hz)")
 
 
 def decimate_to_1khz(rec):

@@ -11,15 +11,16 @@ regroup (kg, kg·m, kg·m², N·s/m, N; N·m·s/rad, N·m for revolute joints).
 """
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, Protocol
 
 from orthoglide_ident.model.locked_joints import LockedJoint
-from orthoglide_ident.ticks import UNEVEN_SHARE
+from orthoglide_ident.ticks import UNEVEN_SHARE, StepStats
 
 
 def _num(x: float) -> float | None:
@@ -122,6 +123,145 @@ class ValidationRow:
     def to_json(self) -> dict:
         return {"bag": self.bag, "joints": [j.to_json() for j in self.joints],
                 "warnings": list(self.warnings)}
+
+
+class ToJson(Protocol):
+    """A part of the result that writes its own JSON and is read by no one else here (e.g. the
+    IV cross-check's rows, identify/solve/iv_answer.py)."""
+
+    def to_json(self) -> dict: ...
+
+
+@dataclass(frozen=True)
+class SolverInfo:
+    """What the solve reports of itself (the JSON's ``diagnostics.solver``): each method fills
+    its own fields (identify/solve/answer.py, iv_answer.py); None is absent from the JSON."""
+
+    tls_noisy_columns: str | None = None  # TLS: which columns of W_tot it takes as noisy
+    singular_ratio: float | None = None  # TLS: s_c / s_c-1 (eq. 37)
+    smallest_singular_values: tuple[float, ...] | None = None
+    iv_iterations: int | None = None  # IV: its iterations, from its start
+    iv_start: str | None = None
+    joint_sigma: tuple[float, ...] | None = None  # per joint, the residual's σ (N or N·m)
+    joints_solved: tuple[str, ...] | None = None  # a partial answer: the joints it solved
+    lambda_scale: float | None = None  # TLS: the scale λ of the payload column ("lambda")
+
+    def to_json(self) -> dict:
+        out = {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}
+        out["lambda"] = out.pop("lambda_scale")
+        return {k: list(v) if isinstance(v, tuple) else v for k, v in out.items()
+                if v is not None}
+
+
+@dataclass(frozen=True)
+class RecordReport:
+    """One record's entry of ``diagnostics.bags`` (identify/diagnostics.bag_report): what
+    pairing and segmenting kept and dropped (identify/records/segments.SegmentReport's figures,
+    field for field, as they were when the record was observed), which topics and fields
+    carried q and the current, and the equations it gave each joint."""
+
+    period_s: float
+    steps: StepStats | None
+    velocity: str
+    current_sampling: str
+    current_sampling_why: str
+    current_shift_ms: float
+    filter_cutoff_hz: float
+    decimation: int
+    decimation_cutoff_hz: float
+    n_joint_states: int
+    n_current_reference: int
+    n_paired: int
+    n_unpaired_joint_states: int
+    n_unpaired_current_reference: int
+    n_duplicate_stamps: int
+    n_nonfinite_dropped: int
+    n_missing_ticks: int
+    n_gaps: int
+    n_segments: int
+    n_short_segments_dropped: int
+    n_samples_in_short_segments: int
+    n_used: int
+    n_reversal_bridged: int
+    n_reversal_unbridged: int
+    n_not_repeating: int
+    reordered: tuple[str, ...]
+    bag: str
+    condition: str | None
+    payload_mass: float
+    equations_per_joint: tuple[int, ...]
+    sources: str = ""  # the topics and fields q and the current came from ("" not said)
+
+    def to_json(self) -> dict:
+        out = {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}
+        out["steps"] = None if self.steps is None else dataclasses.asdict(self.steps)
+        out["reordered"], out["equations_per_joint"] = list(self.reordered), \
+            list(self.equations_per_joint)
+        if not self.sources:
+            del out["sources"]
+        return out
+
+
+@dataclass(frozen=True)
+class Diagnostics:
+    """What an identification reports beside its numbers (the JSON's ``diagnostics``,
+    identify/diagnostics.finish_result): samples and equations, the solver's figures, each
+    record's report, the time each step took and the options it ran with."""
+
+    samples_used: int
+    samples_dropped: int
+    segments: int
+    rows: int
+    solver: SolverInfo
+    decimation: int
+    bags: tuple[RecordReport, ...]
+    timings_s: dict[str, float]  # by step name; the offline path adds its reading's
+    options: dict[str, Any]  # the options document (identify/options.py's keys)
+
+    def to_json(self) -> dict:
+        return {"samples_used": self.samples_used, "samples_dropped": self.samples_dropped,
+                "segments": self.segments, "rows": self.rows, "solver": self.solver.to_json(),
+                "decimation": self.decimation, "bags": [b.to_json() for b in self.bags],
+                "timings_s": self.timings_s, "options": self.options}
+
+
+@dataclass
+class EssentialStep:
+    """One cancellation of the essential reduction (identify/solve/essential.py) tried: the base
+    parameter, its %σ then, and what cancelling it cost."""
+
+    index: int  # base-parameter index
+    name: str
+    rel_std: float  # its relative std (fraction) in the model it was cancelled from
+    accepted: bool
+    residual_change: float  # weighted residual norm vs the base model's, fraction (cumulative)
+    residual_rms: list[float]  # per joint, N, with the cancellation
+    shift: list[float]  # protected quantities (gains or payload masses) vs base, fraction
+    reason: str = ""
+
+    def to_json(self) -> dict:
+        return {"parameter": self.name, "rel_std": float(self.rel_std) if math.isfinite(
+                self.rel_std) else None, "cancelled": self.accepted,
+                "residual_change": float(self.residual_change),
+                "residual_rms": [float(x) for x in self.residual_rms],
+                "shift": [float(x) for x in self.shift], "reason": self.reason}
+
+
+@dataclass(frozen=True)
+class EssentialReduction:
+    """How the essential parameters were reached (Sect. 5.2): the essential result's
+    ``diagnostics`` in the JSON."""
+
+    method: str  # options.essential_method
+    stopped_because: str
+    ratios: tuple[float, ...]  # max/min %σ at each step
+    tolerance: tuple[float, ...]  # of the protected quantities, fraction
+    steps: tuple[EssentialStep, ...]
+
+    def to_json(self) -> dict:
+        return {"method": self.method, "stopped_because": self.stopped_because,
+                "ratios": list(self.ratios), "tolerance": list(self.tolerance),
+                "steps": [st.to_json() for st in self.steps]}
 
 
 def lag_text(current_lag: Sequence[LagEstimate]) -> str:
@@ -259,15 +399,20 @@ class IdentificationResult:
     nominal_gains: list[float] = field(default_factory=list)  # the manufacturer's, per joint
     # joints of the description fixed before anything else (model/locked_joints.py)
     locked_joints: list[LockedJoint] = field(default_factory=list)
-    diagnostics: dict[str, Any] = field(default_factory=dict)
+    # what the identification reports beside its numbers (identify/diagnostics.finish_result)
+    diagnostics: Diagnostics | None = None
+    # the honest σ's figures (identify/solve/uncertainty.diagnose): "uncertainty" in diagnostics
+    uncertainty: dict[str, Any] | None = None
+    # the IV cross-check of a TLS answer, per joint (identify/solve/iv_answer.py): "cross_check_iv"
+    cross_check: list[ToJson] | None = None
+    # an essential result: how the reduction got there (its JSON's "diagnostics")
+    reduction: EssentialReduction | None = None
     essential: IdentificationResult | None = None
     removed: list[str] = field(default_factory=list)  # cancelled base parameters (essential)
     # position-periodic forces found in the residual and modelled (identify/drive_terms.py)
     ripple: list[RippleEstimate] = field(default_factory=list)
     # the current loops' lags, identified from periodic records (identify/current_lag.py)
     current_lag: list[LagEstimate] = field(default_factory=list)
-    # essential: every cancellation tried, with its cost (identify/essential.EssentialStep)
-    essential_steps: list[Any] = field(default_factory=list, repr=False, compare=False)
     validation: list[ValidationRow] = field(default_factory=list)
     warnings: list[str] = field(default_factory=list)
     # In-memory extras for plots (report.py); not serialised.
@@ -291,6 +436,11 @@ class IdentificationResult:
         """Over the joints with a residual (not those whose gain is not determined)."""
         rs = [r for r in self.residual_rms if math.isfinite(r)]
         return math.sqrt(sum(r * r for r in rs) / max(len(rs), 1))
+
+    @property
+    def record_reports(self) -> tuple[RecordReport, ...]:
+        """Each record's report (``diagnostics.bags``); none before the result is finished."""
+        return () if self.diagnostics is None else self.diagnostics.bags
 
     @property
     def complete(self) -> bool:
@@ -353,8 +503,19 @@ class IdentificationResult:
         if self.consistency is not None:
             out["standard_parameters"] = self.consistency.standard_parameters()
             out["consistency"] = self.consistency.to_json()
-        if self.diagnostics:
-            out["diagnostics"] = self.diagnostics
+        diagnostics = self._diagnostics_json()
+        if diagnostics:
+            out["diagnostics"] = diagnostics
+        return out
+
+    def _diagnostics_json(self) -> dict[str, Any]:
+        if self.reduction is not None:
+            return self.reduction.to_json()
+        out = {} if self.diagnostics is None else self.diagnostics.to_json()
+        if self.uncertainty is not None:
+            out["uncertainty"] = self.uncertainty
+        if self.cross_check is not None:
+            out["cross_check_iv"] = [c.to_json() for c in self.cross_check]
         return out
 
     def _nominal(self, i: int) -> dict[str, Any]:
@@ -422,13 +583,13 @@ class IdentificationResult:
             lines.append("locked joints: " + ", ".join(
                 f"{lj.name} = {lj.value:.6g} {lj.unit} ({lj.reason()})"
                 for lj in self.locked_joints))
-        if self.diagnostics.get("options", {}).get("effort_unit") == "torque":
+        d = self.diagnostics
+        if d is not None and d.options.get("effort_unit") == "torque":
             lines.append("the recorded effort is a torque/force, turned into a current with the "
                          "nominal gains: the gains' ratio to them (the effort's calibration) is "
                          + ", ".join(f"{g.name} {g.value / g0:.5f}" for g, g0
                                      in zip(self.drive_gains, self.nominal_gains)))
-        sources = sorted({b["sources"] for b in self.diagnostics.get("bags", [])
-                          if b.get("sources")})
+        sources = sorted({b.sources for b in self.record_reports if b.sources})
         for src in sources:
             lines.append(f"recorded: {src}")
         for r in self.ripple:
@@ -448,21 +609,19 @@ class IdentificationResult:
                 if j.residual_rms is not None and j.relative_error is not None
                 else f"{j.joint} - ({j.note or 'no figure'})"
                 for j, u in zip(v.joints, self.effort_units or ["N"] * len(v.joints))))
-        d = self.diagnostics
-        if d.get("samples_used") is not None:
-            lines.append(f"samples: {d['samples_used']} used, "
-                         f"{d.get('samples_dropped', 0)} dropped,"
-                         f" {d.get('segments', 0)} segments, {d.get('rows', 0)} equations after "
-                         f"decimation by {d.get('decimation', '')}")
-        for b in d.get("bags", []):  # what was done with an uneven clock or a recorded velocity
-            steps = b.get("steps") or {}
-            if steps.get("off_grid", 0.0) > UNEVEN_SHARE or b.get("velocity", "").startswith("rec"):
+        if d is not None:
+            lines.append(f"samples: {d.samples_used} used, {d.samples_dropped} dropped,"
+                         f" {d.segments} segments, {d.rows} equations after "
+                         f"decimation by {d.decimation}")
+        for b in self.record_reports:  # what was done with an uneven clock, a recorded velocity
+            mean_s, off_grid = (b.steps.mean_s, b.steps.off_grid) if b.steps else (0.0, 0.0)
+            if off_grid > UNEVEN_SHARE or b.velocity.startswith("rec"):
                 lines.append(
-                    f"time base {b['bag']}: {steps.get('mean_s', 0) and 1 / steps['mean_s']:.1f} "
-                    f"Hz mean, {100 * steps.get('off_grid', 0.0):.1f} % of the steps off "
+                    f"time base {b.bag}: {mean_s and 1 / mean_s:.1f} "
+                    f"Hz mean, {100 * off_grid:.1f} % of the steps off "
                     "the median grid: derivatives, filters and the zero-order hold on "
-                    f"each sample's stamp; filter {b['filter_cutoff_hz']:.4g} Hz, "
-                    f"decimation by {b['decimation']}; velocity {b['velocity']}"
+                    f"each sample's stamp; filter {b.filter_cutoff_hz:.4g} Hz, "
+                    f"decimation by {b.decimation}; velocity {b.velocity}"
                 )
         for wmsg in self.warnings:
             lines.append(f"warning: {wmsg}")
@@ -476,7 +635,7 @@ class IdentificationResult:
 
     def _header_lines(self) -> list[str]:
         lines = [self.title or self.method]
-        variant = self.diagnostics.get("solver", {}).get("tls_noisy_columns")
+        variant = None if self.diagnostics is None else self.diagnostics.solver.tls_noisy_columns
         if variant:  # only a TLS solve says which columns it takes as noisy
             lines.append({"currents": "mixed LS-TLS: W exact, errors in the current references",
                           "all": "TLS of eqs. (35)-(36): errors in every column of W_tot",
@@ -522,7 +681,7 @@ class IdentificationResult:
         return lines
 
     def _residual_lines(self) -> list[str]:
-        u = self.diagnostics.get("uncertainty")
+        u = self.uncertainty
         if not u:
             return []
         ac = u.get("autocorrelation", {})
@@ -548,30 +707,30 @@ class IdentificationResult:
         return out
 
     def _essential_lines(self, ess: IdentificationResult) -> list[str]:
-        d = ess.diagnostics
-        out = [f"essential parameters ({d.get('method', 'paper')}): {len(ess.parameters)} kept of "
-               f"{len(self.parameters)} ({d.get('stopped_because', '')}); residual rms "
+        d = ess.reduction or EssentialReduction("paper", "", (), (), ())
+        out = [f"essential parameters ({d.method}): {len(ess.parameters)} kept of "
+               f"{len(self.parameters)} ({d.stopped_because}); residual rms "
                f"({self._units(self.effort_units, 'N')}): "
                + ", ".join(f"{j} {r:.4g}" for j, r in zip(ess.joint_names, ess.residual_rms))]
-        steps = d.get("steps", [])
+        steps = d.steps
         if not steps:
             return out
         prot = "m_7" if self.drive_gains_given else "g_tau"
-        n_prot = len(steps[0].get("shift", [])) or 3
+        n_prot = len(steps[0].shift) or 3
         labels = ([f"{p.tagged:g}kg" for p in self.payloads] if self.drive_gains_given
                   else list(self.joint_names))[:n_prot]
-        tol = d.get("tolerance", [])
+        tol = d.tolerance
         out.append(f"what each cancellation cost (cumulative from the base model; tolerance on "
                    f"{prot}: " + ", ".join(f"{100 * t:.2f} %" for t in tol) + "):")
-        w = max(len(s["parameter"]) for s in steps)
+        w = max(len(s.name) for s in steps)
         out.append(f"  {'':<4} {'parameter':<{w}} {'%σ':>7} {'residual':>9} "
                    + " ".join(f"{'Δ' + prot + ' ' + lab:>14}" for lab in labels) + "  ")
         for st in steps:
-            mark = "x" if st["cancelled"] else "kept"
-            res = st["residual_change"]
+            mark = "x" if st.accepted else "kept"
+            res = st.residual_change
             rtxt = f"{100 * res:+8.2f}%" if res is not None and math.isfinite(res) else f"{'-':>9}"
-            shifts = " ".join(f"{100 * x:+13.3f}%" for x in st["shift"]) if st["shift"] else ""
-            why = "" if st["cancelled"] else f"  {st['reason']}"
-            out.append(f"  {mark:<4} {st['parameter']:<{w}} {_pct(st['rel_std'])} {rtxt} "
+            shifts = " ".join(f"{100 * x:+13.3f}%" for x in st.shift) if st.shift else ""
+            why = "" if st.accepted else f"  {st.reason}"
+            out.append(f"  {mark:<4} {st.name:<{w}} {_pct(st.rel_std)} {rtxt} "
                        f"{shifts}{why}")
         return out

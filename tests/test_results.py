@@ -87,3 +87,61 @@ def test_a_validation_row_is_typed_and_its_json_keeps_the_note_only_where_said()
                    {"joint": "q12", "residual_rms": None, "measured_rms": 1.0,
                     "relative_error": None, "noise_ratio": None, "note": "hardly moves"}],
         "warnings": ["w"]}
+
+
+def test_a_records_report_is_a_snapshot_of_its_segment_figures_with_the_json_keys():
+    """bag_report's RecordReport: every SegmentReport figure (as it was then: a live recording
+    goes on counting), read by attribute; its JSON the figures in their order, then the record's
+    name, condition, payload, equations and (only when known) its sources."""
+    from orthoglide_ident.identify.diagnostics import bag_report
+    from orthoglide_ident.identify.records.segments import SegmentReport
+    from orthoglide_ident.ticks import StepStats
+
+    seg = SegmentReport(period_s=0.001, steps=StepStats(10, 1e-3, 1e-3, 1e-3, 1e-3, 0.0),
+                        n_paired=10, n_used=8, reordered=["q12"])
+    rep = bag_report(seg, "a.mcap", "loaded", 1.983, [3, 4, 5], "q from /joint_states")
+    seg.n_used, seg.reordered[0] = 9, "q13"
+    assert rep.n_used == 8 and rep.reordered == ("q12",) and rep.equations_per_joint == (3, 4, 5)
+    doc = rep.to_json()
+    names = [f.name for f in dataclasses.fields(SegmentReport)]
+    assert list(doc) == names + ["bag", "condition", "payload_mass", "equations_per_joint",
+                                 "sources"]
+    assert doc["steps"] == {"n_steps": 10, "median_s": 1e-3, "mean_s": 1e-3, "p05_s": 1e-3,
+                            "p95_s": 1e-3, "off_grid": 0.0}
+    assert doc["reordered"] == ["q12"] and doc["equations_per_joint"] == [3, 4, 5]
+    assert "sources" not in bag_report(seg, "b.mcap", "unloaded", 0.0, [1, 1, 1]).to_json()
+
+
+def test_the_solvers_figures_are_typed_and_written_with_the_json_keys():
+    from orthoglide_ident.results import SolverInfo
+
+    tls = SolverInfo("per-joint", 0.2, (1.0, 2.0, 3.0), joint_sigma=(0.1,), lambda_scale=2.5)
+    assert list(tls.to_json()) == ["tls_noisy_columns", "singular_ratio",
+                                   "smallest_singular_values", "joint_sigma", "lambda"]
+    assert tls.to_json()["smallest_singular_values"] == [1.0, 2.0, 3.0]
+    assert SolverInfo(iv_iterations=4, iv_start="tls per-joint", joint_sigma=(0.1,)).to_json() \
+        == {"iv_iterations": 4, "iv_start": "tls per-joint", "joint_sigma": [0.1]}
+
+
+def test_an_identifications_diagnostics_are_read_by_attribute():
+    """After a solve the result's diagnostics, its records' reports and the solver's figures are
+    typed; the JSON holds them under today's keys, in today's order."""
+    from orthoglide_ident.results import Diagnostics, RecordReport, SolverInfo
+
+    recs = [synthetic_record(20.0, m, seed=s, noise=True, amplitude=0.1, f_max=4.0)
+            for m, s in ((0.0, 1), (1.983, 2))]
+    res = identify_records(recs, model=SyntheticModel(), essential=True)
+    d = res.diagnostics
+    assert isinstance(d, Diagnostics) and isinstance(d.solver, SolverInfo)
+    assert all(isinstance(b, RecordReport) for b in res.record_reports)
+    assert d.samples_used == sum(b.n_used for b in d.bags) and d.solver.singular_ratio < 1
+    assert [b.bag for b in d.bags] == [r.source for r in recs]
+    assert list(res.to_json()["diagnostics"]) == [
+        "samples_used", "samples_dropped", "segments", "rows", "solver", "decimation", "bags",
+        "timings_s", "options", "uncertainty", "cross_check_iv"]
+    assert res.cross_check and all(c.joint == g.name
+                                   for c, g in zip(res.cross_check, res.drive_gains))
+    ess = res.essential.reduction
+    assert ess.steps and ess.method == "keep_gains"
+    assert list(res.to_json()["essential"]["diagnostics"]) == [
+        "method", "stopped_because", "ratios", "tolerance", "steps"]

@@ -487,7 +487,7 @@ def attach(solved, model, opts, progress: Callable[..., None] | None = None) -> 
     ``consistency`` (projection and identification under the constraints)."""
     res = solved.result
     res.consistency = analyse(res, solved.factors, solved.chi_rows,
-                              np.asarray(solved.solver["joint_sigma"], float), model,
+                              np.asarray(solved.solver.joint_sigma, float), model,
                               opts.consistency_prior_weight,
                               prior=read_prior(opts.consistency_prior), progress=progress)
     res.warnings.extend(mass_warnings(res.consistency, model, res))

@@ -138,9 +138,9 @@ def best_reading(solve_rows: Callable, blocks: list, reports: list, alts: list
     least, below SHIFT_MARGIN x the stamp's). All refused: the first one's error. Returns
     (what solve_rows returned, the reports, one line why)."""
     which = [i for i, a in enumerate(alts) if a]
-    names = ", ".join(reports[i]["bag"] for i in which)
-    step = max(reports[i]["period_s"] for i in which)
-    held = reports[which[0]]["current_sampling"] == "held"
+    names = ", ".join(reports[i].bag for i in which)
+    step = max(reports[i].period_s for i in which)
+    held = reports[which[0]].current_sampling == "held"
     tries = [(None, blocks, reports)] + [
         (alts[which[0]][j][0], [b if not a else a[j][1] for a, b in zip(alts, blocks)],
          [r if not a else a[j][2] for a, r in zip(alts, reports)])

@@ -36,7 +36,14 @@ from orthoglide_ident.identify.solve.tls import (
 )
 from orthoglide_ident.identify.solve.uncertainty import diagnose, ripple_warning_start
 from orthoglide_ident.identify.solve.wls import WLSSolution, idim_wls
-from orthoglide_ident.results import Estimate, IdentificationResult, PayloadMass, lag_text
+from orthoglide_ident.results import (
+    EssentialReduction,
+    Estimate,
+    IdentificationResult,
+    PayloadMass,
+    SolverInfo,
+    lag_text,
+)
 
 log = logging.getLogger("orthoglide_ident.identify")
 UNNAMED = ""  # a result's method until the methods table names it (methods.solve)
@@ -50,7 +57,7 @@ class Solved:
     chi: np.ndarray  # (n_b,) base parameters, zero where cancelled; + the drive terms' whose
     # columns the equations hold (columns/layout.py): what cross-validation multiplies
     g_tau: np.ndarray  # (n_j,) N/A or N·m/A, identified (TLS) or given (WLS)
-    solver: dict[str, Any] = field(default_factory=dict)
+    solver: SolverInfo = field(default_factory=SolverInfo)
     tls: TLSSolution | None = None
     timings: dict[str, float] = field(default_factory=dict)  # s: "essential" when asked
     # the factors of the reported solve and its χ over all their columns (consistency.py)
@@ -127,7 +134,7 @@ def _uncertainty(result: IdentificationResult, sol: TLSSolution | WLSSolution, m
     d, warnings = diagnose(sol.uncertainty, opts.decimation, n, model.joint_names,
                            gain_index=slice(n, n + n_j) if gains else None,
                            screws=drive_terms.screw_mask(model))
-    result.diagnostics["uncertainty"] = d
+    result.uncertainty = d
     result.warnings.extend(warnings)
 
 
@@ -376,9 +383,10 @@ def solve_tls(factors: list[RecordFactors], model, cols, opts: IdentifyOptions,
         result.warnings.extend(band_warnings)
     _uncertainty(result, base, model, opts, gains=True)
     _drive_notes(result, ripples, lags, m.terms, model.joint_names)
-    solver = {"tls_noisy_columns": opts.tls_noisy_columns, "singular_ratio": sol.singular_ratio,
-              "smallest_singular_values": [float(x) for x in sol.singular_values[-3:]],
-              "joint_sigma": [float(x) for x in sol.joint_sigma], "lambda": sol.lambda_scale}
+    solver = SolverInfo(opts.tls_noisy_columns, sol.singular_ratio,
+                        tuple(float(x) for x in sol.singular_values[-3:]),
+                        joint_sigma=tuple(float(x) for x in sol.joint_sigma),
+                        lambda_scale=sol.lambda_scale)
     out = Solved(result, _chi(m, sol), view.g_tau, solver, view, factors=m.factors,
                  chi_rows=sol.chi_full())
     if essential:
@@ -562,9 +570,9 @@ def _solve_partial(factors: list[RecordFactors], model, cols, opts: IdentifyOpti
     chi[sub.col_idx] = _chi(m, sol)[:sub.col_idx.shape[0]]
     g = np.full(model.n_joints, np.nan)
     g[sub.joint_idx] = view.g_tau
-    solver = {"tls_noisy_columns": opts.tls_noisy_columns, "singular_ratio": sol.singular_ratio,
-              "smallest_singular_values": [float(x) for x in sol.singular_values[-3:]],
-              "joints_solved": list(sub.joint_names), "lambda": sol.lambda_scale}
+    solver = SolverInfo(opts.tls_noisy_columns, sol.singular_ratio,
+                        tuple(float(x) for x in sol.singular_values[-3:]),
+                        joints_solved=tuple(sub.joint_names), lambda_scale=sol.lambda_scale)
     return Solved(result, chi, g, solver, None, factors=[])
 
 
@@ -617,8 +625,8 @@ def solve_wls(factors: list[RecordFactors], model, cols, opts: IdentifyOptions,
     _uncertainty(result, base, model, opts, gains=False)
     _drive_notes(result, ripples, lags, m.terms, model.joint_names)
     out = Solved(result, _chi(m, m.full), g,
-                 {"joint_sigma": [float(x) for x in view.joint_sigma]}, factors=m.factors,
-                 chi_rows=m.full.chi_full())
+                 SolverInfo(joint_sigma=tuple(float(x) for x in view.joint_sigma)),
+                 factors=m.factors, chi_rows=m.full.chi_full())
     if essential:
         t0 = time.perf_counter()
         ess = _essential(m, opts, [f"m_7 ({mass:g} kg)" for mass in base.payload_groups])
@@ -634,9 +642,7 @@ def solve_wls(factors: list[RecordFactors], model, cols, opts: IdentifyOptions,
 def _note_essential(names: list[str], result: IdentificationResult, ess: EssentialResult) -> None:
     assert result.essential is not None
     result.essential.removed = [str(names[k]) for k in ess.removed]
-    result.essential.diagnostics = {"method": ess.method, "stopped_because": ess.stopped_because,
-                                    "ratios": [float(x) for x in ess.ratios],
-                                    "tolerance": ess.tolerance,
-                                    "steps": [st.to_json() for st in ess.steps]}
-    result.essential.essential_steps = list(ess.steps)
+    result.essential.reduction = EssentialReduction(
+        ess.method, ess.stopped_because, tuple(float(x) for x in ess.ratios),
+        tuple(ess.tolerance), tuple(ess.steps))
     result.removed = list(result.essential.removed)

@@ -120,7 +120,7 @@ def test_records_that_do_not_repeat_keep_the_papers_model(realistic_pair):
             recs, options=IdentifyOptions(lag_model="off", check_excitation=False), model=ORTHOGLIDE
         )
         assert on.current_lag == []
-        assert on.diagnostics["bags"][0]["n_not_repeating"] == 1
+        assert on.record_reports[0].n_not_repeating == 1
         assert [p.name for p in on.parameters] == [p.name for p in off.parameters]
         np.testing.assert_allclose([g.value for g in on.drive_gains],
                                    [g.value for g in off.drive_gains], rtol=1e-12)

@@ -95,10 +95,10 @@ def test_auto_reads_a_negative_lag_as_sampled():
 
     res = SimpleNamespace(current_lag=neg)
     why = "current_sampling: auto, nothing said: held until the lag says otherwise"
-    res.diagnostics = {"bags": [{"current_sampling_why": why}]}
+    res.record_reports = [SimpleNamespace(current_sampling_why=why)]
     assert sampling_rerun(res, IdentifyOptions()) is not None
     assert sampling_rerun(res, IdentifyOptions(current_sampling="held")) is None  # as told
-    res.diagnostics = {"bags": [{"current_sampling_why": "the bag's tag"}]}
+    res.record_reports = [SimpleNamespace(current_sampling_why="the bag's tag")]
     assert sampling_rerun(res, IdentifyOptions()) is None  # a tagged record is as tagged
 
 
@@ -167,10 +167,10 @@ def test_a_point_sampled_250_hz_log_is_unbiased_only_as_sampled():
     # the loop's rate unknown: its half tick fitted by the residual (0.5 ms found)
     fitted, res = sigmas(IdentifyOptions(current_sampling="sampled"))
     assert fitted.size == 6 and fitted.max() < 3.0
-    assert {b["current_shift_ms"] for b in res.diagnostics["bags"]} == {0.5}
+    assert {b.current_shift_ms for b in res.record_reports} == {0.5}
     # auto, nothing said, a 4 ms step: the reading whose residual is smaller, said in one line
     _, auto = sigmas(IdentifyOptions(current_loop_hz=1000.0))
-    assert {b["current_sampling"] for b in auto.diagnostics["bags"]} == {"sampled"}
+    assert {b.current_sampling for b in auto.record_reports} == {"sampled"}
     assert any(w.startswith("current_sampling: auto on") and "read sampled" in w
                for w in auto.warnings)
 
@@ -194,7 +194,7 @@ def test_auto_reads_a_log_held_at_its_own_rate_as_held():
             for p, tr, s in ((None, "exciting1", 0), ("2.0", "exciting2", 1))]
     auto = identify_records(recs, model=model)
     held = identify_records(recs, model=model, options=IdentifyOptions(current_sampling="held"))
-    assert {b["current_sampling"] for b in auto.diagnostics["bags"]} == {"held"}
+    assert {b.current_sampling for b in auto.record_reports} == {"held"}
     assert [g.value for g in auto.drive_gains] == [g.value for g in held.drive_gains]
     assert any("read held" in w for w in auto.warnings)
 
@@ -265,7 +265,7 @@ def test_auto_reads_a_1khz_log_of_a_4khz_loop_as_sampled_by_its_negative_lag():
     held = identify_records(recs, model=model, options=IdentifyOptions(current_sampling="held"))
     assert all(x.tau_ms < -0.2 for x in held.current_lag)  # measured -0.27 ... -0.44
     auto = identify_records(recs, model=model)
-    assert {b["current_sampling"] for b in auto.diagnostics["bags"]} == {"sampled"}
+    assert {b.current_sampling for b in auto.record_reports} == {"sampled"}
     assert auto.warnings[0].startswith("the identified current-loop lag is negative")
     assert all(x.tau_ms > -3 * x.tau_std_ms for x in auto.current_lag)
 
