@@ -145,3 +145,23 @@ def test_an_identifications_diagnostics_are_read_by_attribute():
     assert ess.steps and ess.method == "keep_gains"
     assert list(res.to_json()["essential"]["diagnostics"]) == [
         "method", "stopped_because", "ratios", "tolerance", "steps"]
+
+
+def test_the_consistency_report_is_apart_from_the_fit_and_its_direct_dynamics_typed():
+    """identify/consistency/report.py formats what fit.py computes; a direct-dynamic
+    validation is a typed row whose JSON is today's (no horizon when no window ran)."""
+    from orthoglide_ident.identify.consistency import fit, report
+
+    for name in ("to_json", "text_lines", "message_fields", "standard_parameters", "summary"):
+        assert name not in vars(fit.ConsistencyResult) and name in vars(report.ConsistencyReport)
+    dd = report.DirectDynamics("val", "Pinocchio ABA on the URDF", 3, (
+        report.DirectDynamicsJoint("q1", "rad", 1e-4, 0.02, 0.005),), 0.2)
+    assert dd.to_json() == {"bag": "val", "engine": "Pinocchio ABA on the URDF", "windows": 3,
+                            "horizon_s": 0.2, "joints": [{"joint": "q1", "unit": "rad",
+                                                          "rms_error": 1e-4, "drift_rms": 0.02,
+                                                          "relative": 0.005}]}
+    assert dd.text() == ("  direct dynamics on val (Pinocchio ABA on the URDF, 3 windows of 0.2 s "
+                         "from the measured state under the recorded currents): position error "
+                         "rms q1 0.0001 rad (0.5 % of the drift)")
+    assert report.DirectDynamics("val", "no model", 0).to_json() == {
+        "bag": "val", "engine": "no model", "windows": 0, "joints": []}
