@@ -203,6 +203,58 @@ class RecordReport:
 
 
 @dataclass(frozen=True)
+class SpectrumPeak:
+    """The strongest position-periodic component of a joint's residual
+    (identify/solve/uncertainty.spectrum_peaks): amplitude and the spectrum's median, N."""
+
+    joint: str
+    wavelength_m: float
+    amplitude_n: float
+    median_n: float
+    sign_modulated: bool  # a friction ripple (turns with the velocity) rather than a force ripple
+
+    @property
+    def kind(self) -> str:
+        return "friction (sign of velocity)" if self.sign_modulated else "force"
+
+    def to_json(self) -> dict:
+        return {"joint": self.joint, "wavelength_m": self.wavelength_m,
+                "amplitude_n": self.amplitude_n, "median_n": self.median_n, "kind": self.kind}
+
+
+@dataclass(frozen=True)
+class ResidualDiagnostics:
+    """What the honest σ saw in the residual (identify/solve/uncertainty.diagnose; the JSON's
+    ``diagnostics.uncertainty``): its autocorrelation per joint against white noise after the
+    decimation filter, the gains' σ over eqs. (38)-(39)'s, the residual at current reversals
+    over elsewhere, the position-periodic peaks. Per joint by name."""
+
+    method: str
+    blocks: int
+    block_s: float
+    lags: int
+    autocorrelation: dict[str, list[float]]  # lags 1..lags
+    autocorrelation_white: tuple[float, ...]
+    notes: tuple[str, ...]
+    slow_ratio: dict[str, float]
+    gain_sigma_inflation: dict[str, float] | None = None  # gains identified (not WLS)
+    reversal_residual_ratio: dict[str, float | None] | None = None
+    position_spectrum_peaks: tuple[SpectrumPeak, ...] = ()
+
+    def to_json(self) -> dict:
+        out = {"method": self.method, "blocks": self.blocks, "block_s": self.block_s,
+               "lags": self.lags, "autocorrelation": self.autocorrelation,
+               "autocorrelation_white": list(self.autocorrelation_white),
+               "notes": list(self.notes), "slow_ratio": self.slow_ratio}
+        if self.gain_sigma_inflation is not None:
+            out["gain_sigma_inflation"] = self.gain_sigma_inflation
+        if self.reversal_residual_ratio is not None:
+            out["reversal_residual_ratio"] = self.reversal_residual_ratio
+        out["position_spectrum_peaks"] = [p.to_json() for p in self.position_spectrum_peaks]
+        return out
+
+
+@dataclass(frozen=True)
 class Diagnostics:
     """What an identification reports beside its numbers (the JSON's ``diagnostics``,
     identify/diagnostics.finish_result): samples and equations, the solver's figures, each
@@ -402,7 +454,7 @@ class IdentificationResult:
     # what the identification reports beside its numbers (identify/diagnostics.finish_result)
     diagnostics: Diagnostics | None = None
     # the honest σ's figures (identify/solve/uncertainty.diagnose): "uncertainty" in diagnostics
-    uncertainty: dict[str, Any] | None = None
+    uncertainty: ResidualDiagnostics | None = None
     # the IV cross-check of a TLS answer, per joint (identify/solve/iv_answer.py): "cross_check_iv"
     cross_check: list[ToJson] | None = None
     # an essential result: how the reduction got there (its JSON's "diagnostics")
@@ -513,7 +565,7 @@ class IdentificationResult:
             return self.reduction.to_json()
         out = {} if self.diagnostics is None else self.diagnostics.to_json()
         if self.uncertainty is not None:
-            out["uncertainty"] = self.uncertainty
+            out["uncertainty"] = self.uncertainty.to_json()
         if self.cross_check is not None:
             out["cross_check_iv"] = [c.to_json() for c in self.cross_check]
         return out
@@ -682,27 +734,26 @@ class IdentificationResult:
 
     def _residual_lines(self) -> list[str]:
         u = self.uncertainty
-        if not u:
+        if u is None:
             return []
-        ac = u.get("autocorrelation", {})
-        white = u.get("autocorrelation_white", [])
+        ac, white = u.autocorrelation, u.autocorrelation_white
         out = []
         if ac and white:
             out.append("residual autocorrelation at lags 1-3 (rows): " + "; ".join(
                 f"{j} " + " ".join(f"{x:.2f}" for x in v[:3]) for j, v in ac.items())
                 + "  (white noise after the decimation filter: "
                 + " ".join(f"{x:.2f}" for x in white[:3]) + ")")
-        inf = u.get("gain_sigma_inflation")
+        inf = u.gain_sigma_inflation
         if inf:
             out.append("σ of the gains / eqs. (38)-(39): " + ", ".join(
                 f"{j} {x:.2f}" for j, x in inf.items())
-                + f"  ({u.get('blocks', 0)} blocks of {u.get('block_s', 0):g} s)")
+                + f"  ({u.blocks} blocks of {u.block_s:g} s)")
         where = " (of the model without the ripple columns)" if self.ripple else ""
-        for pk in u.get("position_spectrum_peaks", []):
+        for pk in u.position_spectrum_peaks:
             out.append(
-                f"residual vs position{where}: {pk['joint']} ±{pk['amplitude_n']:.2g} N at a "
-                f"{1e3 * pk['wavelength_m']:.1f} mm period ({pk['kind']}; spectrum median "
-                f"{pk['median_n']:.2g} N)"
+                f"residual vs position{where}: {pk.joint} ±{pk.amplitude_n:.2g} N at a "
+                f"{1e3 * pk.wavelength_m:.1f} mm period ({pk.kind}; spectrum median "
+                f"{pk.median_n:.2g} N)"
             )
         return out
 

@@ -141,6 +141,13 @@ def test_an_identifications_diagnostics_are_read_by_attribute():
         "timings_s", "options", "uncertainty", "cross_check_iv"]
     assert res.cross_check and all(c.joint == g.name
                                    for c, g in zip(res.cross_check, res.drive_gains))
+    u = res.uncertainty
+    assert u.blocks > 0
+    assert set(u.autocorrelation) == set(u.gain_sigma_inflation) == set(res.joint_names)
+    keys = list(res.to_json()["diagnostics"]["uncertainty"])
+    assert keys[:9] == ["method", "blocks", "block_s", "lags", "autocorrelation",
+                        "autocorrelation_white", "notes", "slow_ratio", "gain_sigma_inflation"]
+    assert keys[-1] == "position_spectrum_peaks"
     ess = res.essential.reduction
     assert ess.steps and ess.method == "keep_gains"
     assert list(res.to_json()["essential"]["diagnostics"]) == [

@@ -66,7 +66,7 @@ def test_live_result_equals_offline_whatever_the_batches(bag_records, offline, b
                for f in live._factors.values() for R in f.R)
     # the honest σ (residual moments folded with the factors) and the paper's are the same too
     assert max(rel_sigma_diff(offline, res)) < 1e-6
-    assert res.uncertainty["blocks"] == offline.uncertainty["blocks"]
+    assert res.uncertainty.blocks == offline.uncertainty.blocks
 
 
 def test_wls_and_essential_equal_offline(bag_records, offline):

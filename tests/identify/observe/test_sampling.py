@@ -288,11 +288,11 @@ def test_the_reading_kept_is_the_one_whose_residual_is_least():
                 raise ExcitationError(f"{blocks[0]} refused")
             res = SimpleNamespace(residual_rms=[residuals[blocks[0]]] * 2)
             return (None, None, None, SimpleNamespace(result=res))
-        rep = {"bag": "b", "period_s": 4e-3, "current_sampling": "held"}
-        alts = [[(d, k, dict(rep, current_sampling="sampled", k=k))
+        rep = SimpleNamespace(bag="b", period_s=4e-3, current_sampling="held", k="held")
+        alts = [[(d, k, SimpleNamespace(**dict(vars(rep), current_sampling="sampled", k=k)))
                  for d, k in ((0.0, "s0"), (5e-4, "s5"))]]
         out, reports, line = best_reading(solve_rows, ["held"], [rep], alts)
-        return reports[0].get("k", "held"), line
+        return reports[0].k, line
 
     assert case({"held": 1.0, "s0": 0.99, "s5": 0.985})[0] == "held"  # a tie stays held
     pick, line = case({"held": 1.0, "s0": 0.9, "s5": 0.5})
