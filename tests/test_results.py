@@ -172,3 +172,25 @@ def test_the_consistency_report_is_apart_from_the_fit_and_its_direct_dynamics_ty
                          "rms q1 0.0001 rad (0.5 % of the drift)")
     assert report.DirectDynamics("val", "no model", 0).to_json() == {
         "bag": "val", "engine": "no model", "windows": 0, "joints": []}
+
+
+def test_the_consistent_answers_bodies_and_bounds_are_typed():
+    """The sample bags with --consistent: every body of the answer read by attribute, each a
+    physical body (mass > 0, the least eigenvalue of its pseudo-inertia ≥ 0); the JSON the same
+    rows."""
+    from orthoglide_ident.identify import IdentifyOptions, identify
+    from orthoglide_ident.identify.consistency.report import BodyConsistency, BodyInertial
+    from orthoglide_ident.model.robots import load_robot
+
+    res = identify([ROOT / "bags/unloaded", ROOT / "bags/loaded"], model=load_robot("orthoglide"),
+                   options=IdentifyOptions(consistent=True))
+    c = res.consistency
+    bodies, inertials = c.bodies(), c.inertials()
+    assert all(isinstance(b, BodyConsistency) and b.min_eigenvalue >= 0 for b in bodies)
+    assert all(isinstance(b, BodyInertial) and b.mass > 0 and len(b.inertia) == 6
+               for b in inertials)
+    doc = res.to_json()
+    assert doc["consistency"]["bodies"] == [b.to_json() for b in bodies]
+    assert doc["standard_parameters"] == [b.to_json() for b in inertials]
+    assert doc["consistency"]["violated_bounds"] == [b.name for b in c.bounds()
+                                                     if not b.consistent_unconstrained]

@@ -338,8 +338,8 @@ def attach(solved, model, opts, progress: Callable[..., None] | None = None) -> 
                               opts.consistency_prior_weight,
                               prior=read_prior(opts.consistency_prior), progress=progress)
     res.warnings.extend(mass_warnings(res.consistency, model, res))
-    held = [b["body"] for b in res.consistency.bodies_json() if b["at_prior"]
-            and any(n.startswith("m_") for n in b["at_prior"])]
+    held = [b.body for b in res.consistency.bodies() if b.at_prior
+            and any(n.startswith("m_") for n in b.at_prior)]
     if held:
         res.warnings.append(
             f"--consistent: the data do not determine the mass of {', '.join(held)}: it is "

@@ -60,6 +60,55 @@ class DirectDynamics:
                 f"currents): position error rms {joints}")
 
 
+@dataclass(frozen=True)
+class BodyInertial:
+    """A body of the consistent answer: mass kg, centre of mass (3,) m and inertia about it
+    (Ixx Ixy Ixz Iyy Iyz Izz) kg·m², in the body's frame (the JSON's ``standard_parameters``)."""
+
+    body: str
+    frame: str
+    mass: float
+    com: tuple[float, ...]
+    inertia: tuple[float, ...]
+
+    def to_json(self) -> dict:
+        return {"body": self.body, "frame": self.frame, "mass": self.mass,
+                "com": list(self.com), "inertia": list(self.inertia)}
+
+
+@dataclass(frozen=True)
+class BodyConsistency:
+    """A body: whether the unconstrained answer was consistent (its pseudo-inertia's least
+    relaxation t_k, scaled), the consistent answer's least eigenvalue, the parameters the data
+    left at the prior."""
+
+    body: str
+    consistent_unconstrained: bool
+    relaxation: float
+    min_eigenvalue: float
+    at_prior: tuple[str, ...]
+
+    def to_json(self) -> dict:
+        return {"body": self.body, "consistent_unconstrained": self.consistent_unconstrained,
+                "relaxation": self.relaxation, "min_eigenvalue": self.min_eigenvalue,
+                "at_prior": list(self.at_prior)}
+
+
+@dataclass(frozen=True)
+class BoundConsistency:
+    """An inequality (ia, fv, fs ≥ 0, a bounding sphere): its value at the answer (scaled,
+    ≥ 0) and whether the unconstrained answer needed it relaxed."""
+
+    name: str
+    value: float
+    relaxation: float
+    consistent_unconstrained: bool
+
+    def to_json(self) -> dict:
+        return {"name": self.name, "value": self.value, "relaxation": self.relaxation,
+                "consistent_unconstrained": self.consistent_unconstrained}
+
+
 class FitFigures(Protocol):
     """What the report reads of one consistent answer (fit.Fit)."""
 
@@ -72,43 +121,44 @@ class ConsistencyReport:
     """The formatting of a consistency step's answer: the base of fit.ConsistencyResult, whose
     fields it reads (the fit's numerics there, their report here)."""
 
-    def standard_parameters(self) -> list[dict[str, Any]]:
-        """Per body: mass kg, centre of mass (3,) m and inertia about it (6,) kg·m², body frame."""
+    def inertials(self) -> list[BodyInertial]:
+        """Per body of the answer: its mass, centre of mass and inertia about it."""
         out = []
         for body in self.lay.bodies:
             m, c, I_c = at_com(self.answer.chi_st[list(body.inertial)])
-            out.append({"body": body.name, "frame": body.frame, "mass": m,
-                        "com": [float(x) for x in c], "inertia": [float(x) for x in I_c]})
+            out.append(BodyInertial(body.name, body.frame, m, tuple(float(x) for x in c),
+                                    tuple(float(x) for x in I_c)))
         return out
 
-    def bodies_json(self) -> list[dict[str, Any]]:
+    def standard_parameters(self) -> list[dict]:
+        """The JSON's ``standard_parameters``: :meth:`inertials`."""
+        return [b.to_json() for b in self.inertials()]
+
+    def bodies(self) -> list[BodyConsistency]:
         chi = self.answer.chi_st
         eig = min_eigenvalues(self.lay, chi)
         r = self.lay.B_s @ (chi / self.lay.scale) - self.lay.b_s
         out = []
         for k, body in enumerate(self.lay.bodies):
             idx = list(body.inertial)
-            stayed = [self.lay.names[i] for i in idx
-                      if not self.identifiable[i] and abs(r[i]) < AT_PRIOR_TOL]
-            out.append({"body": body.name, "consistent_unconstrained":
-                        bool(self.findings.relaxation[k] <= RELAXATION_TOL),
-                        "relaxation": float(self.findings.relaxation[k]),
-                        "min_eigenvalue": float(eig[k]), "at_prior": stayed})
+            stayed = tuple(self.lay.names[i] for i in idx
+                           if not self.identifiable[i] and abs(r[i]) < AT_PRIOR_TOL)
+            out.append(BodyConsistency(body.name,
+                                       bool(self.findings.relaxation[k] <= RELAXATION_TOL),
+                                       float(self.findings.relaxation[k]), float(eig[k]), stayed))
         return out
 
-    def bounds_json(self) -> list[dict[str, Any]]:
-        """The inequalities (ia, fv, fs ≥ 0, bounding spheres): value at the answer (scaled, ≥ 0)
-        and whether the unconstrained answer needed them relaxed."""
+    def bounds(self) -> list[BoundConsistency]:
+        """The inequalities at the answer."""
         C, what = self.lay.inequalities()
         value = C @ (self.answer.chi_st / self.lay.scale)
-        return [{"name": w, "value": float(v), "relaxation": float(u),
-                 "consistent_unconstrained": bool(u <= RELAXATION_TOL)}
+        return [BoundConsistency(w, float(v), float(u), bool(u <= RELAXATION_TOL))
                 for w, v, u in zip(what, value, self.findings.bound_relaxation)]
 
     def summary(self) -> str:
         """One line: consistent or not (which bodies, which bounds), what enforcing it cost."""
-        bad = [b["body"] for b in self.bodies_json() if not b["consistent_unconstrained"]]
-        bad += [b["name"] for b in self.bounds_json() if not b["consistent_unconstrained"]]
+        bad = [b.body for b in self.bodies() if not b.consistent_unconstrained]
+        bad += [b.name for b in self.bounds() if not b.consistent_unconstrained]
         head = ("the unconstrained answer is physically consistent" if not bad else
                 "the unconstrained answer is not physically consistent (" + ", ".join(bad) + ")")
         rms = self.residual_rms
@@ -147,11 +197,11 @@ class ConsistencyReport:
             lines.append(f"  {n:<{w}} {u:13.6g} {s:10.3g} {v:13.6g} {(v - u) / s:+7.2f}")
         lines.append(f"  {'body':<20} {'mass kg':>9} {'com (mm, body frame)':>26} "
                      f"{'min eig':>8}  unconstrained  at prior")
-        for sp, b in zip(self.standard_parameters(), self.bodies_json()):
-            com = " ".join(f"{1e3 * x:8.2f}" for x in sp["com"])
-            ok = "consistent" if b["consistent_unconstrained"] else f"relaxed {b['relaxation']:.2g}"
-            lines.append(f"  {sp['body']:<20} {sp['mass']:9.4g} {com:>26} "
-                         f"{b['min_eigenvalue']:8.2g}  {ok:<13}  {', '.join(b['at_prior']) or '-'}")
+        for sp, b in zip(self.inertials(), self.bodies()):
+            com = " ".join(f"{1e3 * x:8.2f}" for x in sp.com)
+            ok = "consistent" if b.consistent_unconstrained else f"relaxed {b.relaxation:.2g}"
+            lines.append(f"  {sp.body:<20} {sp.mass:9.4g} {com:>26} "
+                         f"{b.min_eigenvalue:8.2g}  {ok:<13}  {', '.join(b.at_prior) or '-'}")
         for d in self.direct_dynamics:
             lines.append(d.text())
         return lines
@@ -186,6 +236,7 @@ class ConsistencyReport:
                                                      shift)]}
 
     def to_json(self) -> dict[str, Any]:
+        bodies, bounds = self.bodies(), self.bounds()
         out: dict[str, Any] = {
             "constraints": "pseudo-inertia of every body ⪰ 0 (Wensing, Kim & Slotine 2018), "
                            f"ia, fv, fs ≥ 0; scaled pseudo-inertias ⪰ {MARGIN:g} 1",
@@ -194,11 +245,9 @@ class ConsistencyReport:
                                               "the body's mass, no rotor inertia or friction"),
             "prior_weight": self.prior_weight,
             "unconstrained_consistent": self.findings.consistent,
-            "inconsistent_bodies": [b["body"] for b in self.bodies_json()
-                                    if not b["consistent_unconstrained"]],
-            "violated_bounds": [b["name"] for b in self.bounds_json()
-                                if not b["consistent_unconstrained"]],
-            "bodies": self.bodies_json(), "bounds": self.bounds_json(),
+            "inconsistent_bodies": [b.body for b in bodies if not b.consistent_unconstrained],
+            "violated_bounds": [b.name for b in bounds if not b.consistent_unconstrained],
+            "bodies": [b.to_json() for b in bodies], "bounds": [b.to_json() for b in bounds],
             "residual_rms_unconstrained": self.residual_rms["unconstrained"],
             "projection": self._fit_json(self.projection, self.projection_d2,
                                          self.residual_rms["projection"]),
