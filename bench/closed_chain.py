@@ -177,7 +177,7 @@ def identification(figs: Figures, truth, robot, seconds: float, seeds: int) -> N
         err = g / g_true - 1
         wls = identify_records([recs[0], recs[2]], method="wls", gains=list(g), model=robot)
         nominal = identify_records([recs[0], recs[2]], method="wls", model=robot)
-        ratio = tls.diagnostics["solver"]["singular_ratio"]
+        ratio = tls.diagnostics.solver.singular_ratio
         print(
             f"  {seed:<5}"
             + "".join(f"{100 * e:10.4f}" for e in err)

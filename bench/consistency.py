@@ -95,8 +95,8 @@ def run(robot, records, validation, chi_true: np.ndarray, g_true: np.ndarray,
             "d2_truth": {k: float(np.sum((W @ (x - chi_b_true)) ** 2)) for k, x in
                          (("unconstrained", c.chi_hat), ("projection", c.projection.chi_b),
                           ("identified", c.identified.chi_b))},
-            "ddm": c.direct_dynamics[0], "ddm_truth": truth_floor,
-            "xval": res.validation[0]}
+            "ddm": c.direct_dynamics[0].to_json(), "ddm_truth": truth_floor.to_json(),
+            "xval": res.validation[0].to_json()}
 
 
 def _rms(x) -> float:

@@ -125,9 +125,9 @@ def run_case(profile: str, seconds: float, seed: int, cache: Path | None, valida
         "m_man": 100 * (w_man.payload_mass.value / SECOND_PAYLOAD - 1),
         "ess_kept": len(res.essential.parameters), "ess_shift": 100 * (ge / g - 1),
         "ess_shift_tol": np.abs(ge / g - 1) / tol, "ess_err": 100 * (ge / g_true - 1),
-        "xval": max(j["noise_ratio"] for j in res.validation[0]["joints"]) if rv else np.nan,
-        "tau_ms": np.array([x["tau_ms"] for x in res.current_lag]) if res.current_lag else None,
-        "tau_std_ms": np.array([x["tau_std_ms"] for x in res.current_lag]) if res.current_lag
+        "xval": max(j.noise_ratio for j in res.validation[0].joints) if rv else np.nan,
+        "tau_ms": np.array([x.tau_ms for x in res.current_lag]) if res.current_lag else None,
+        "tau_std_ms": np.array([x.tau_std_ms for x in res.current_lag]) if res.current_lag
         else None,
         "t_sim": t_sim, "t_id": time.perf_counter() - t0 - t_sim,
     }

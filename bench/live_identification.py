@@ -216,8 +216,8 @@ def run(args, paths: list[Path], source: str) -> int:
             f"live lag instrument from the previous periods only): max difference "
             f"{in_sigma(res.drive_gains, off.drive_gains):.2f} σ on the gains, "
             f"{in_sigma(res.parameters, off.parameters):.2f} σ on the base parameters; "
-            "current-loop lag live " + ", ".join(f"{a['tau_ms']:.3f}" for a in res.current_lag)
-            + " ms, offline " + ", ".join(f"{b['tau_ms']:.3f}" for b in off.current_lag) + " ms")
+            "current-loop lag live " + ", ".join(f"{a.tau_ms:.3f}" for a in res.current_lag)
+            + " ms, offline " + ", ".join(f"{b.tau_ms:.3f}" for b in off.current_lag) + " ms")
     print(f"\n{line}")
     FIGS.note(line)
     paper = IdentifyOptions(lag_model="off")
@@ -235,7 +235,7 @@ def run(args, paths: list[Path], source: str) -> int:
     t0 = time.perf_counter()
     offline = identify(paths, model=ORTHOGLIDE)
     t_id = time.perf_counter() - t0
-    steps = offline.diagnostics["timings_s"]
+    steps = offline.diagnostics.timings_s
     line = (f"offline, same run: identify {t_id:.2f} s in-process (regressor+decimation "
             f"{steps['regressor+decimation']:.2f} s) vs rosbags deserialising the {n_msgs} "
             f"messages {t_ros:.2f} s: ratio {t_id / t_ros:.2f}")

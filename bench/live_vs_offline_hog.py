@@ -144,12 +144,12 @@ def one(node, robot, runs, rate, layout, opts, tmp: Path) -> str:
     off = identify(paths, model=load_robot(robot), options=opts)
     res, wait = live_answer(node, robot, recs, dynamic, opts)
     dg, dp = rel(res, off)
-    dl, do = res.diagnostics["bags"], off.diagnostics["bags"]
+    dl, do = res.record_reports, off.record_reports
     n_bag = sum(len(msgs) for _, _, msgs in recs.values())
-    return (f"{n_bag:>7} {sum(d['n_joint_states'] for d in dl):>7} "
-            f"{sum(d['n_paired'] for d in dl):>6}/{sum(d['n_paired'] for d in do):<6} "
-            f"{sum(d['n_used'] for d in dl):>6}/{sum(d['n_used'] for d in do):<6} "
-            f"{dg:>9.1e} {dp:>9.1e} {wait:>6.2f}  {dl[0]['current_sampling']}")
+    return (f"{n_bag:>7} {sum(d.n_joint_states for d in dl):>7} "
+            f"{sum(d.n_paired for d in dl):>6}/{sum(d.n_paired for d in do):<6} "
+            f"{sum(d.n_used for d in dl):>6}/{sum(d.n_used for d in do):<6} "
+            f"{dg:>9.1e} {dp:>9.1e} {wait:>6.2f}  {dl[0].current_sampling}")
 
 
 def main() -> None:

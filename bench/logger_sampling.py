@@ -114,8 +114,8 @@ def row(name: str, mode: str, recs: list, model, loop_hz: float = 0.0) -> list[s
             continue
         e = g.value / t - 1.0
         cells.append(f"{100 * e:+7.3f}%{abs(e) / g.rel_std:5.1f}σ")
-    lag = ",".join(f"{x['tau_ms']:+.2f}" for x in res.current_lag) or "-"
-    chosen = "/".join(sorted({b["current_sampling"] for b in res.diagnostics["bags"]}))
+    lag = ",".join(f"{x.tau_ms:+.2f}" for x in res.current_lag) or "-"
+    chosen = "/".join(sorted({b.current_sampling for b in res.record_reports}))
     mode = mode + (f" {loop_hz / 1e3:g}k" if loop_hz else "")
     out = [f"{name:<27} {mode:<7}→{chosen:<7} " + " ".join(cells)
            + f"  lag {lag} ms  ({time.perf_counter() - t0:.0f} s)"]

@@ -119,13 +119,13 @@ def main() -> None:
                         for n, r in recs.items()]
                 off = identify(bags, model=load_robot("ur5_mount"), options=opts)
             res, est = live_answer(node, recs, opts)
-            dl, do = res.diagnostics["bags"], off.diagnostics["bags"]
+            dl, do = res.record_reports, off.record_reports
             seconds_off = sum(o.n_samples * o.row_period_s for o in off.observations
                               if o.condition == "unloaded")
             dg, dp = rel(res, off)
             print(f"{rate:<12} {missing(recs['unloaded']):>9} ({len(LOST)})    "
-                  f"{len(recs['unloaded'].messages):>8} {dl[0]['n_paired']:>8} "
-                  f"{dl[0]['n_used']:>10} {do[0]['n_used']:>9} "
+                  f"{len(recs['unloaded'].messages):>8} {dl[0].n_paired:>8} "
+                  f"{dl[0].n_used:>10} {do[0].n_used:>9} "
                   f"{est.seconds_unloaded:>5.1f}/{seconds_off:<5.1f} {dg:>9.1e} {dp:>9.1e}")
     finally:
         node.destroy_node()

@@ -99,9 +99,9 @@ def uneven_case(figs: Figures, duration: float, model) -> None:
         e = g.value / t - 1.0
         table.row(n, f"{g.value:.4f}", f"{t:.4f}", f"{100 * e:+.3f}", f"{abs(e) / g.rel_std:.2f}",
                   f"{100 * g.rel_std:.3f}")
-    d = res.diagnostics["bags"][0]
-    line = (f"options at this rate: filter {d['filter_cutoff_hz']:.4g} Hz, decimation by "
-            f"{d['decimation']} (cut-off {d['decimation_cutoff_hz']:.4g} Hz)")
+    d = res.record_reports[0]
+    line = (f"options at this rate: filter {d.filter_cutoff_hz:.4g} Hz, decimation by "
+            f"{d.decimation} (cut-off {d.decimation_cutoff_hz:.4g} Hz)")
     print(f"  {line}")
     figs.note(f"{duration:g} s at 10/12 ms, {line}")
 

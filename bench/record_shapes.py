@@ -124,7 +124,7 @@ def lag(recs, model, sampling: str) -> str:
     res = solve(recs, model, "tls", current_sampling=sampling, cross_check="none")
     if isinstance(res, str) or not res.current_lag:
         return "-"
-    taus = [x["tau_ms"] for x in res.current_lag]
+    taus = [x.tau_ms for x in res.current_lag]
     return f"{min(taus):+.2f}..{max(taus):+.2f}"
 
 

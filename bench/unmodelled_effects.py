@@ -51,7 +51,7 @@ def main(names: list[str]) -> None:
         res, g_true, model = identify_on(fx)
         g = np.array([x.value for x in res.drive_gains])
         sigma = np.array([x.rel_std * x.value for x in res.drive_gains])
-        ratio = res.diagnostics["uncertainty"].get("reversal_residual_ratio", {})
+        ratio = (res.uncertainty.reversal_residual_ratio if res.uncertainty else None) or {}
         after = res.warnings
         before = [w for w in after if REVERSAL_SAID not in w]
         print(f"\n{name} ({fx.describe()}), {time.perf_counter() - t0:.0f} s")

@@ -39,6 +39,7 @@ def fake_result(params: CTCParameters) -> IdentificationResult:
         condition_number=100.0,
         residual_rms=[1.0, 1.0, 1.0],
         bags=["a", "b"],
+        robot="orthoglide",
     )
 
 

@@ -17,8 +17,8 @@ import dataclasses
 import logging
 import time
 from collections.abc import Callable, Iterable, Iterator, Sequence
+from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
@@ -55,7 +55,7 @@ from orthoglide_ident.identify.validate.records import (
     undetermine_at_limit,
 )
 from orthoglide_ident.model.robot import Payload
-from orthoglide_ident.results import IdentificationResult
+from orthoglide_ident.results import IdentificationResult, RecordReport
 
 log = logging.getLogger("orthoglide_ident.identify")
 
@@ -118,17 +118,19 @@ def _observe_all(records: Iterable[Record], model: IdentificationModel, layout: 
                  add_timings: Callable[[dict[str, float]], None],
                  partial: list[tuple[str, Payload]] | None = None, alts: list | None = None,
                  progress: Progress | None = None
-                 ) -> tuple[list[Observations], list[dict[str, Any]], list[str], list[str]]:
+                 ) -> tuple[list[Observations], list[RecordReport], list[RecordChecks], list[str],
+                            list[str]]:
     """Each record to its observation rows (one record's raw samples in memory at a time):
-    the rows, the per-bag reports, the warnings and the bag names; the loaded records'
-    payloads appended to ``partial`` (one payload whose parameters are partly unknown); to
-    ``alts``, per record, its other readings of a slow step whose reading is open
-    (:func:`_other_readings`), else None."""
+    the rows, the per-bag reports, what the solve checks of each record, the warnings and the
+    bag names; the loaded records' payloads appended to ``partial`` (one payload whose
+    parameters are partly unknown); to ``alts``, per record, its other readings of a slow step
+    whose reading is open (:func:`_other_readings`), else None."""
     if isinstance(records, Sequence):  # in memory: check every tag before the long steps
         for r in records:
             resolve_payload(r, payload_mass, opts.payload_tolerance_kg)
     blocks: list[Observations] = []
-    reports: list[dict[str, Any]] = []
+    reports: list[RecordReport] = []
+    checks: list[RecordChecks] = []
     warnings: list[str] = []
     bag_names: list[str] = []
     seen: dict[str, tuple[str, int]] = {}  # fingerprint -> source, first stamp
@@ -152,16 +154,25 @@ def _observe_all(records: Iterable[Record], model: IdentificationModel, layout: 
         blocks.append(obs)
         reports.append(bag_report(rep, rec.source, rec.condition, m, obs.rows_per_joint(),
                                   rec.sources))
-        noise, at_limit = noise_by_joint(rec, model), current_at_limit(rec, chatter_only=True)
-        reports[-1].update(_current_noise=noise, _at_limit=at_limit)  # popped after the solve
+        # the record's, however it is read (its other readings too)
+        checks.append(RecordChecks(noise_by_joint(rec, model),
+                                   current_at_limit(rec, chatter_only=True)))
         if alts is not None:
             alts.append(other_readings(rec, model, opts, m, rep, layout=layout))
-            for _, _, other in alts[-1] or ():  # the same record read otherwise: the same noise
-                other.update(_current_noise=noise, _at_limit=at_limit)
         del rec  # a lazily read bag's raw samples can go now
     if not blocks:
         raise IdentificationError("no bag given")
-    return blocks, reports, warnings, bag_names
+    return blocks, reports, checks, warnings, bag_names
+
+
+@dataclass(frozen=True)
+class RecordChecks:
+    """What the solve checks of a record beside its rows: the current's noise per joint
+    (validate/records.noise_by_joint) and the joints whose current chatters at its limit
+    (records/robot_checks.current_at_limit)."""
+
+    current_noise: tuple[np.ndarray, float]  # σ per joint (A), the log's rate
+    at_limit: dict[str, str]  # joint -> why
 
 
 def check_moves(obs: Observations, model: IdentificationModel, opts: IdentifyOptions,
@@ -224,7 +235,7 @@ def _bound_filter_bias(result: IdentificationResult, records: Iterable[Record],
     read them, solved again at a higher cut-off."""
 
     def solve_again(f_q: float, f_d: float) -> IdentificationResult | None:
-        o = second_options(result.diagnostics.get("bags", []), opts, f_q, f_d)
+        o = second_options(result.record_reports, opts, f_q, f_d)
         try:
             return _identify_once(records, options=o, **dict(kw, essential=False))
         except OrthoglideError:
@@ -239,9 +250,8 @@ def sampling_rerun(result: IdentificationResult, opts: IdentifyOptions) -> str |
     record was read held by auto's default (none tagged or set held by the robot file)."""
     if opts.current_sampling != "auto":
         return None
-    bags = result.diagnostics.get("bags", [])
-    if not bags or any(not str(b.get("current_sampling_why", "")).startswith(AUTO_HELD)
-                       for b in bags):
+    bags = result.record_reports
+    if not bags or any(not b.current_sampling_why.startswith(AUTO_HELD) for b in bags):
         return None
     return lag_says_sampled(result.current_lag)
 
@@ -271,9 +281,8 @@ def _identify_once(
 
     payloads: list[tuple[str, Payload]] = []
     alts: list = []  # per record, its other readings when open (observe/sampling.py)
-    blocks, reports, warnings, bag_names = _observe_all(records, model, layout, opts,
-                                                        payload_mass, add, payloads, alts,
-                                                        progress)
+    blocks, reports, checks, warnings, bag_names = _observe_all(
+        records, model, layout, opts, payload_mass, add, payloads, alts, progress)
     t_solve = time.perf_counter()
 
     chains: list[str] = []  # the records' drive chains compared on the rows solved
@@ -281,12 +290,12 @@ def _identify_once(
     def solve_rows(blocks, reports):
         cols, b = _payload_or_not(model, layout, blocks, payloads)
         # the first record's rate fixes what the solve needs in samples (the σ's decimation gain)
-        o = dataclasses.replace(opts, filter_cutoff_hz=reports[0]["filter_cutoff_hz"],
-                                decimation=reports[0]["decimation"],
-                                decimation_cutoff_hz=reports[0]["decimation_cutoff_hz"])
+        o = dataclasses.replace(opts, filter_cutoff_hz=reports[0].filter_cutoff_hz,
+                                decimation=reports[0].decimation,
+                                decimation_cutoff_hz=reports[0].decimation_cutoff_hz)
         cols, b = _lag_or_paper(cols, b, reports)
         factors = [dataclasses.replace(RecordFactors.from_observations(x), at_limit=by_joint(
-            model, r.get("_at_limit", {}))) for x, r in zip(b, reports)]
+            model, c.at_limit)) for x, c in zip(b, checks)]
         chains.append(disagreement(factors, model.nominal_gains, list(model.joint_names)))
         try:
             return cols, b, o, solve(factors, model, o, method, gains, essential, bag_names,
@@ -304,8 +313,8 @@ def _identify_once(
     result = solved.result
     if chain:
         result.warnings.append(chain)
-    _joint_side_residual(result, blocks, solved, model, reports, opts)
-    undetermine_at_limit(result, [r.pop("_at_limit", {}) for r in reports])
+    _joint_side_residual(result, blocks, solved, model, checks, opts)
+    undetermine_at_limit(result, [c.at_limit for c in checks])
 
     t_v = time.perf_counter()
     vals = _validate(validation, solved, model, solved_layout, _as_read(opts, reports),
@@ -314,7 +323,7 @@ def _identify_once(
         timings["validation"] = time.perf_counter() - t_v
     for v in vals:
         warnings.extend(v.warnings)
-    result.validation = [v.to_json(model.joint_names) for v in vals]
+    result.validation = [v.row(model.joint_names) for v in vals]
     result.validation_details = vals
     timings["total"] = time.perf_counter() - t_all
     finish_result(result, solved, reports, warnings, opts, timings)
@@ -324,8 +333,8 @@ def _identify_once(
 
 
 def _solve_reading(solve_rows: Callable, blocks: list[Observations],
-                   reports: list[dict[str, Any]], alts: list, warnings: list[str]
-                   ) -> tuple[tuple, list[dict[str, Any]]]:
+                   reports: list[RecordReport], alts: list, warnings: list[str]
+                   ) -> tuple[tuple, list[RecordReport]]:
     """``solve_rows`` on the records' reading, or the best of their open readings
     (observe/sampling.best_reading, its line into ``warnings``); a refusal of a slow log read
     as sampled also names what a point-sampled log cannot undo (sampling.ALIASED)."""
@@ -336,19 +345,19 @@ def _solve_reading(solve_rows: Callable, blocks: list[Observations],
             return out, reports
         return solve_rows(blocks, reports), reports
     except ExcitationError as exc:
-        if any(a is not None for a in alts) or any(r["current_sampling"] == "sampled"
-                                                   and r["period_s"] > SLOW_STEP_S
+        if any(a is not None for a in alts) or any(r.current_sampling == "sampled"
+                                                   and r.period_s > SLOW_STEP_S
                                                    for r in reports):
             raise ExcitationError(f"{exc}; {ALIASED}") from None
         raise
 
 
-def _as_read(opts: IdentifyOptions, reports: list[dict[str, Any]]) -> IdentifyOptions:
+def _as_read(opts: IdentifyOptions, reports: list[RecordReport]) -> IdentifyOptions:
     """The options that read other records (validation) as these were read: sampled, at the
     half tick chosen, when all were read sampled."""
-    if {r["current_sampling"] for r in reports} != {"sampled"}:
+    if {r.current_sampling for r in reports} != {"sampled"}:
         return opts
-    shift_ms = max(r["current_shift_ms"] for r in reports)
+    shift_ms = max(r.current_shift_ms for r in reports)
     return opts.replace(current_sampling="sampled",
                         current_loop_hz=0.5e3 / shift_ms if shift_ms > 0 else opts.current_loop_hz)
 
@@ -374,15 +383,15 @@ def _payload_or_not(model: IdentificationModel, layout: ColumnLayout,
 
 
 def _lag_or_paper(layout: ColumnLayout, blocks: list[Observations],
-                  reports: list[dict[str, Any]]) -> tuple[ColumnLayout, list[Observations]]:
+                  reports: list[RecordReport]) -> tuple[ColumnLayout, list[Observations]]:
     """The layout and rows with the lag columns only when every segment used had its instrument:
     rows with a zero lag column would still hold the lag's force and bias τ and the gains
     (a third of the rows without it halved τ on the simulator). Otherwise the paper's model."""
     col = layout.lag_column
     if col is None:
         return layout, blocks
-    lacking = [f"{r['bag']} ({r['n_not_repeating']} of {r['n_segments']} segments)"
-               for r in reports if r.get("n_not_repeating")]
+    lacking = [f"{r.bag} ({r.n_not_repeating} of {r.n_segments} segments)"
+               for r in reports if r.n_not_repeating]
     if not lacking:
         return layout, blocks
     log.info("the current-loop lag is not modelled: %s do not repeat a periodic trajectory "
@@ -394,10 +403,10 @@ def _lag_or_paper(layout: ColumnLayout, blocks: list[Observations],
 
 def _joint_side_residual(result: IdentificationResult, blocks: list[Observations],
                          solved: Solved, model: IdentificationModel,
-                         reports: list[dict[str, Any]], opts: IdentifyOptions) -> None:
+                         checks: list[RecordChecks], opts: IdentifyOptions) -> None:
     """Behind a transmission, the residual per joint, joint-side (Nᵀ ε), into ``result``, and
     the motors fitted far worse than their current noise said (validate/records.py)."""
-    noises = [r.pop("_current_noise") for r in reports]
+    noises = [c.current_noise for c in checks]
     t = model.transmission
     if t is None or solved.chi.shape[0] != blocks[0].W.shape[2]:
         return
@@ -485,15 +494,15 @@ def identify(
     why = sampling_rerun(res, opts)
     if why is not None:  # read the bags again, as sampled at their stamps
         log.info("%s", why)
-        t_first = res.diagnostics["timings_s"].get("total", 0.0)
+        t_first = res.diagnostics.timings_s.get("total", 0.0)
         res = identify_records(records(), payload_mass, method, gains, essential,
                                opts.replace(current_sampling="sampled"), model=model,
                                validation=validation(), progress=progress)
         res.warnings.insert(0, why)
-        res.diagnostics["timings_s"]["first_reading_held"] = round(t_first, 4)
+        res.diagnostics.timings_s["first_reading_held"] = round(t_first, 4)
     again = lazily(bag_paths, "reading the records again (a slow log's filter bound)")
     _bound_filter_bias(res, again, opts, dict(payload_mass=payload_mass, method=method,
                                               gains=gains, model=model))
     # reading happens inside identify_records' loop: its total already includes it
-    res.diagnostics["timings_s"]["read"] = round(t_read[0], 4)
+    res.diagnostics.timings_s["read"] = round(t_read[0], 4)
     return res

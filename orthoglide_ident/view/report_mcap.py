@@ -45,7 +45,7 @@ def report_messages(
     res: IdentificationResult,
 ) -> tuple[dict[str, list[tuple[int, dict]]], dict[str, str]]:
     """Per channel (log time ns, message) in time order, and the metadata record's entries."""
-    opts = res.diagnostics.get("options", {})
+    opts = {} if res.diagnostics is None else res.diagnostics.options
     joints = list(res.joint_names)
     end = max((record_seconds(o) for o in res.observations), default=0.0)
     out: dict[str, list[tuple[int, dict]]] = {c: [] for c in CHANNELS}
@@ -70,7 +70,7 @@ def report_messages(
         meta["forces_record"] = (
             f"{val.source} ({'cross-validation' if crossed else 'identification record'})"
         )
-        ticks = int(res.diagnostics.get("decimation", 1))
+        ticks = int(1 if res.diagnostics is None else res.diagnostics.decimation)
         for k, t in enumerate(np.asarray(val.t, float)):
             ns = round(t * NS)
             out[schemas.REPORT_FORCES].append((ns, schemas.forces(

@@ -113,15 +113,15 @@ def _report_parameters(res, bm, chi_true: np.ndarray) -> None:
 def _report_validation(res) -> None:
     _say("\n3. Cross-validation on a record not used for identification (paper Fig. 5)")
     for v in res.validation:
-        _say(f"   {v.get('bag', '')}")
+        _say(f"   {v.bag}")
         _say(
             f"   {'joint':<6} {'measured rms':>13} {'residual rms':>13} {'relative':>9} "
             f"{'x noise floor':>14}"
         )
-        for j in v.get("joints", []):
+        for j in v.joints:
             _say(
-                f"   {j['joint']:<6} {j['measured_rms']:11.2f} N {j['residual_rms']:11.3f} N "
-                f"{100 * j['relative_error']:8.2f}% {j['noise_ratio']:14.2f}"
+                f"   {j.joint:<6} {j.measured_rms:11.2f} N {j.residual_rms:11.3f} N "
+                f"{100 * j.relative_error:8.2f}% {j.noise_ratio:14.2f}"
             )
 
 

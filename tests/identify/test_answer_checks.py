@@ -80,9 +80,9 @@ def test_a_joint_that_does_not_move_in_a_validation_record_is_a_note(tmp_path):
     path = bags.write_bag(tmp_path / "half", rec.stamps_q_ns, q, rec.v_tau, "unloaded", 0.0,
                           ORTHOGLIDE.joint_names)
     res = identify(SAMPLE, validation_bags=[str(path)], model=ORTHOGLIDE)
-    j = res.validation[0]["joints"]
-    assert j[2]["residual_rms"] is None and j[2]["note"].startswith("hardly moves")
-    assert j[0]["residual_rms"] > 0 and "note" not in j[0]
+    j = res.validation[0].joints
+    assert j[2].residual_rms is None and j[2].note.startswith("hardly moves")
+    assert j[0].residual_rms > 0 and j[0].note == ""
     assert "q13 - (hardly moves" in res.to_text()
     json.loads(json_text(res.to_json()))  # strict: no NaN token
 

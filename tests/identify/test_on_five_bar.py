@@ -67,7 +67,7 @@ def test_five_bar_gains_within_a_tenth_of_a_percent_and_three_honest_sigma(five_
     # The excitation's margin: the TLS refuses s_c/s_c-1 > 0.5 (its noise direction too close to
     # the weakest parameter direction, here the passive elbows' offsets). 0.36-0.37 measured
     # over seeds with the ±0.6 rad box; a ±0.5 rad box gave 0.50.
-    assert tls.diagnostics["solver"]["singular_ratio"] < 0.45
+    assert tls.diagnostics.solver.singular_ratio < 0.45
 
 
 def test_five_bar_second_payload_by_wls_with_the_identified_gains(five_bar, tls):

@@ -132,7 +132,7 @@ def test_realistic_drive_honest_sigma_covers_the_gain_errors_and_essential_keeps
         paper = np.array([x.rel_std_paper for x in res.drive_gains]) * g
         z_honest += list((g - g_true) / honest)
         z_paper += list((g - g_true) / paper)
-        assert "q12" in [r["joint"] for r in res.ripple]
+        assert "q12" in [r.joint for r in res.ripple]
         ge = np.array([x.value for x in res.essential.drive_gains])
         assert np.all(np.abs(ge / g - 1) <= np.maximum(honest / g, 0.003) + 1e-12)
     z_honest, z_paper = np.abs(z_honest), np.abs(z_paper)

@@ -98,8 +98,8 @@ def test_gaps_are_segmented_and_reported():
     gappy = Record(r.source, r.stamps_q_ns[keep], r.names_q, r.q[keep], r.stamps_v_ns,
                    r.names_v, r.v_tau, r.condition, r.payload_mass)
     res = identify_records([recs[0], gappy], model=MODEL)
-    d = res.diagnostics["bags"][1]
-    assert d["n_missing_ticks"] == 41 and d["n_gaps"] == 2 and d["n_segments"] == 3
+    d = res.record_reports[1]
+    assert d.n_missing_ticks == 41 and d.n_gaps == 2 and d.n_segments == 3
     assert np.abs(_gains(res) / TRUE_GAINS - 1).max() < 0.01
 
 
@@ -160,4 +160,5 @@ def test_the_result_says_the_robots_locked_joints_with_drive_terms_modelled():
 
     res = identify_records(_pair(False), model=Locked(),
                            options=IdentifyOptions(screw_lead_m=0.010))
-    assert res.locked_joints == [Locked.locked_joints[0].to_json()]
+    assert res.locked_joints == [Locked.locked_joints[0]]
+    assert res.to_json()["locked_joints"] == [Locked.locked_joints[0].to_json()]

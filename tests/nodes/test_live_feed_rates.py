@@ -123,10 +123,10 @@ def test_live_feed_equals_identify_on_the_bags(node, records, rate, tmp_path):
     assert dg < 1e-9 and dp < 1e-9, (dg, dp)
     if rate == "uneven_93Hz":  # faster, the lag's live instrument differs (within σ)
         assert sigma_diff(res, offline) < 1e-9
-    for d, rec in zip(res.diagnostics["bags"], recs.values()):
-        assert d["n_paired"] == d["n_joint_states"] == len(rec.messages)  # every sample
-    assert [d["n_used"] for d in res.diagnostics["bags"]] == \
-        [d["n_used"] for d in offline.diagnostics["bags"]]
+    for d, rec in zip(res.record_reports, recs.values()):
+        assert d.n_paired == d.n_joint_states == len(rec.messages)  # every sample
+    assert [d.n_used for d in res.record_reports] == \
+        [d.n_used for d in offline.record_reports]
 
 
 def test_dynamic_joint_states_at_93hz(node, records, tmp_path):
@@ -135,7 +135,7 @@ def test_dynamic_joint_states_at_93hz(node, records, tmp_path):
             for i, (n, r) in enumerate(records.items())}
     bags = [str(write_record_bag(tmp_path / n, r)) for n, r in recs.items()]
     offline = identify(bags, model=load_robot(ROBOT), options=OPTIONS)
-    assert {b["sources"] for b in offline.diagnostics["bags"]} == {
+    assert {b.sources for b in offline.record_reports} == {
         "q from /joint_states position (JointState); current from /dynamic_joint_states "
         "interface 'current' (DynamicJointState)"}
     res = _live(node, recs, dynamic=True).result()

@@ -109,7 +109,7 @@ def test_live_equals_offline_from_both_current_sources(node, records, tmp_path):
     # (A) JointState.effort and (B) DynamicJointState carry the same numbers: identical results
     np.testing.assert_array_equal(_gains(offline_a), _gains(offline_b))
     np.testing.assert_array_equal(_gains(live_a), _gains(live_b))
-    sources = [{b.get("sources") for b in r.diagnostics["bags"]} for r in (offline_a, offline_b)]
+    sources = [{b.sources or None for b in r.record_reports} for r in (offline_a, offline_b)]
     assert sources[0] == {
         "q from /joint_states position (JointState); current from /joint_states effort (JointState)"
     }, sources

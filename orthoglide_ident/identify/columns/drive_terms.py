@@ -45,6 +45,7 @@ import numpy as np
 
 from orthoglide_ident.identify.solve.factors import RecordFactors
 from orthoglide_ident.identify.solve.uncertainty import WAVELENGTHS_M, Uncertainty, spectrum_peaks
+from orthoglide_ident.results import LagEstimate, RippleEstimate
 
 
 @dataclass(frozen=True)
@@ -82,36 +83,6 @@ class Terms:
         lag = [f"lag_{j}" for j in joint_names] if self.lag else []
         return lag + [f"ripple_{c}_{joint_names[t.joint]}" for t in self.ripples
                       for c in ("c", "s")]
-
-
-@dataclass
-class LagEstimate:
-    """An identified current-loop lag: the drive applies g_τ (v_τ - τ v̇_τ)."""
-
-    joint: str
-    tau_s: float
-    tau_std_s: float
-
-    def to_json(self) -> dict:
-        return {"joint": self.joint, "tau_ms": 1e3 * self.tau_s, "tau_std_ms": 1e3 * self.tau_std_s}
-
-
-@dataclass
-class RippleEstimate:
-    """An identified ripple: a cos(2π q / λ + phase), amplitude a in N."""
-
-    joint: str
-    wavelength_m: float
-    friction: bool
-    amplitude_n: float
-    amplitude_std_n: float
-    phase_rad: float
-
-    def to_json(self) -> dict:
-        return {"joint": self.joint, "wavelength_m": self.wavelength_m,
-                "kind": "friction (sign of velocity)" if self.friction else "force",
-                "amplitude_n": self.amplitude_n, "amplitude_std_n": self.amplitude_std_n,
-                "phase_rad": self.phase_rad}
 
 
 def detect_ripples(unc: Uncertainty | None, joint_names: tuple[str, ...],

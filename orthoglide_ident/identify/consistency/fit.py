@@ -40,27 +40,23 @@ import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
 from orthoglide_ident.errors import ConfigError, IdentificationError
 from orthoglide_ident.identify.consistency import lmi
 from orthoglide_ident.identify.consistency.pseudo_inertia import (
-    MARGIN,
+    RELAXATION_TOL,
     Layout,
     clean,
     layout,
-    min_eigenvalues,
 )
-from orthoglide_ident.model.inertia import at_com
+from orthoglide_ident.identify.consistency.report import ConsistencyReport, DirectDynamics
 
 log = logging.getLogger("orthoglide_ident.identify")
 
 PRIOR_WEIGHT = 1e-4  # default consistency_prior_weight
 CHECK_WEIGHT = 1e-8  # tie-break of the exact-feasibility check in K's null space
-RELAXATION_TOL = 1e-4  # scaled units: a larger relaxation means "inconsistent" (solver noise ~1e-6)
-AT_PRIOR_TOL = 1e-3  # scaled units: a parameter this close to its prior "stayed at the prior"
 
 
 @dataclass
@@ -184,10 +180,10 @@ def residual_rms(factors: Sequence, y: np.ndarray, g: np.ndarray,
 
 # --------------------------------------------------------------------- the step after TLS/WLS
 @dataclass
-class ConsistencyResult:
-    """What the consistency step found; ``standard_parameters()`` and ``to_json()`` are the
-    JSON's ``standard_parameters`` and ``consistency``. Base parameters in ``base_names`` order,
-    gains N/A or N·m/A, residuals N or N·m, d² dimensionless."""
+class ConsistencyResult(ConsistencyReport):
+    """What the consistency step found (its report, JSON, text and message fields: report.py).
+    Base parameters in ``base_names`` order, gains N/A or N·m/A, residuals N or N·m, d²
+    dimensionless."""
 
     robot: str
     lay: Layout = field(repr=False)
@@ -208,7 +204,8 @@ class ConsistencyResult:
     prior_weight: float = PRIOR_WEIGHT
     inflation: float = 1.0  # κ of the covariance the distances are measured in (_base_answer)
     seconds: float = 0.0
-    direct_dynamics: list[dict[str, Any]] = field(default_factory=list)
+    # the consistent model forward-simulated on each validation record (validate/)
+    direct_dynamics: list[DirectDynamics] = field(default_factory=list)
 
     @property
     def answer(self) -> Fit:
@@ -216,159 +213,9 @@ class ConsistencyResult:
         projection."""
         return self.identified if self.identified is not None else self.projection
 
-    def standard_parameters(self) -> list[dict[str, Any]]:
-        """Per body: mass kg, centre of mass (3,) m and inertia about it (6,) kg·m², body frame."""
-        out = []
-        for body in self.lay.bodies:
-            m, c, I_c = at_com(self.answer.chi_st[list(body.inertial)])
-            out.append({"body": body.name, "frame": body.frame, "mass": m,
-                        "com": [float(x) for x in c], "inertia": [float(x) for x in I_c]})
-        return out
-
     def values(self) -> dict[str, float]:
         """Every standard parameter of the answer by name (SI)."""
         return {n: float(v) for n, v in zip(self.lay.names, self.answer.chi_st)}
-
-    def bodies_json(self) -> list[dict[str, Any]]:
-        chi = self.answer.chi_st
-        eig = min_eigenvalues(self.lay, chi)
-        r = self.lay.B_s @ (chi / self.lay.scale) - self.lay.b_s
-        out = []
-        for k, body in enumerate(self.lay.bodies):
-            idx = list(body.inertial)
-            stayed = [self.lay.names[i] for i in idx
-                      if not self.identifiable[i] and abs(r[i]) < AT_PRIOR_TOL]
-            out.append({"body": body.name, "consistent_unconstrained":
-                        bool(self.findings.relaxation[k] <= RELAXATION_TOL),
-                        "relaxation": float(self.findings.relaxation[k]),
-                        "min_eigenvalue": float(eig[k]), "at_prior": stayed})
-        return out
-
-    def bounds_json(self) -> list[dict[str, Any]]:
-        """The inequalities (ia, fv, fs ≥ 0, bounding spheres): value at the answer (scaled, ≥ 0)
-        and whether the unconstrained answer needed them relaxed."""
-        C, what = self.lay.inequalities()
-        value = C @ (self.answer.chi_st / self.lay.scale)
-        return [{"name": w, "value": float(v), "relaxation": float(u),
-                 "consistent_unconstrained": bool(u <= RELAXATION_TOL)}
-                for w, v, u in zip(what, value, self.findings.bound_relaxation)]
-
-    def summary(self) -> str:
-        """One line: consistent or not (which bodies, which bounds), what enforcing it cost."""
-        bad = [b["body"] for b in self.bodies_json() if not b["consistent_unconstrained"]]
-        bad += [b["name"] for b in self.bounds_json() if not b["consistent_unconstrained"]]
-        head = ("the unconstrained answer is physically consistent" if not bad else
-                "the unconstrained answer is not physically consistent (" + ", ".join(bad) + ")")
-        rms = self.residual_rms
-        out = (f"{head}; projection: d² {self.projection_d2:.3g} over {len(self.base_names)} "
-               f"base parameters, residual "
-               f"{100 * _increase(rms['projection'], rms['unconstrained']):+.2f} %")
-        if self.identified is not None:
-            out += (f"; identified under the constraints: residual "
-                    f"{100 * _increase(rms['identification'], rms['unconstrained']):+.2f} %, "
-                    f"d² {self.identified_d2:.3g}")
-        return out + f" ({self.seconds:.2f} s)"
-
-    def text_lines(self, effort_unit: str = "N") -> list[str]:
-        """The side-by-side table of the text output: base parameters unconstrained and
-        consistent, the gains, the residuals, and the bodies of the consistent answer."""
-        proj = self._fit_json(self.projection, self.projection_d2, self.residual_rms["projection"])
-        lines = ["", "physical consistency (pseudo-inertias ⪰ 0, ia, fv, fs ≥ 0): "
-                 + self.summary(),
-                 f"  prior: {self.lay.prior_source} (elsewhere 0.05 m spheres), "
-                 f"weight {self.prior_weight:g}; projection moved the gains " + ", ".join(
-                     f"{j} {v:+.2f}σ" for j, v in zip(self.joint_names, (
-                         (gp - g) / s if s > 0 else 0.0 for g, gp, s in
-                         zip(self.gains, self.gains_projected, self.gains_sigma)))),
-                 f"  residual rms ({effort_unit}): unconstrained " + self._rms("unconstrained")
-                 + "; projection " + self._rms("projection")
-                 + (("; identified under the constraints " + self._rms("identification"))
-                    if self.identified is not None else "")]
-        fit = self.answer
-        what = "identified under the constraints, gains held" if self.identified is not None \
-            else "projection"
-        w = max(len(n) for n in self.base_names + ["parameter"])
-        lines.append(f"  {'parameter':<{w}} {'unconstrained':>13} {'σ':>10} {'consistent':>13} "
-                     f"{'Δ/σ':>7}   ({what}; largest shift {proj['max_shift_sigma']:.2f}σ in the "
-                     "projection)")
-        for n, u, s, v in zip(self.base_names, self.chi_hat, self.sigma_b, fit.chi_b):
-            lines.append(f"  {n:<{w}} {u:13.6g} {s:10.3g} {v:13.6g} {(v - u) / s:+7.2f}")
-        lines.append(f"  {'body':<20} {'mass kg':>9} {'com (mm, body frame)':>26} "
-                     f"{'min eig':>8}  unconstrained  at prior")
-        for sp, b in zip(self.standard_parameters(), self.bodies_json()):
-            com = " ".join(f"{1e3 * x:8.2f}" for x in sp["com"])
-            ok = "consistent" if b["consistent_unconstrained"] else f"relaxed {b['relaxation']:.2g}"
-            lines.append(f"  {sp['body']:<20} {sp['mass']:9.4g} {com:>26} "
-                         f"{b['min_eigenvalue']:8.2g}  {ok:<13}  {', '.join(b['at_prior']) or '-'}")
-        for d in self.direct_dynamics:
-            lines.append(direct_dynamics_text(d))
-        return lines
-
-    def message_fields(self, fields: dict[str, Any]) -> dict[str, Any]:
-        """orthoglide_msgs/IdentifiedParameters fields of the consistent set, from the result's
-        own (``IdentificationResult.message_fields()``): values = K χ_st of the answer (every base
-        parameter), method "<method> consistent"; the gains are the held ones, rel_std the
-        unconstrained answer's."""
-        out = dict(fields)
-        rel = dict(zip(fields["names"], fields["rel_std"]))
-        out.update(method=f"{fields['method']} consistent", names=list(self.base_names),
-                   values=[float(x) for x in self.answer.chi_b],
-                   rel_std=[float(rel.get(n, -1.0)) for n in self.base_names])
-        return out
-
-    def _rms(self, key: str) -> str:
-        return "/".join(f"{x:.4g}" for x in self.residual_rms[key])
-
-    def _fit_json(self, fit: Fit, d2: float, residual: list[float]) -> dict[str, Any]:
-        shift = (fit.chi_b - self.chi_hat) / self.sigma_b
-        k = int(np.argmax(np.abs(shift)))
-        base = self.residual_rms["unconstrained"]
-        return {"mahalanobis_d2": d2, "n_base": len(self.base_names),
-                "max_shift_sigma": float(abs(shift[k])), "max_shift_parameter": self.base_names[k],
-                "residual_rms_per_joint": residual,
-                "residual_increase": _increase(residual, base),
-                "solve_s": fit.solve_s, "solver_status": fit.status,
-                "parameters": [{"name": n, "unconstrained": float(u), "consistent": float(v),
-                                "shift_sigma": float(s)}
-                               for n, u, v, s in zip(self.base_names, self.chi_hat, fit.chi_b,
-                                                     shift)]}
-
-    def to_json(self) -> dict[str, Any]:
-        out: dict[str, Any] = {
-            "constraints": "pseudo-inertia of every body ⪰ 0 (Wensing, Kim & Slotine 2018), "
-                           f"ia, fv, fs ≥ 0; scaled pseudo-inertias ⪰ {MARGIN:g} 1",
-            "prior": self.lay.prior_source + ("; elsewhere a weak default: a solid sphere of "
-                                              "radius 0.05 m at each body frame's origin with "
-                                              "the body's mass, no rotor inertia or friction"),
-            "prior_weight": self.prior_weight,
-            "unconstrained_consistent": self.findings.consistent,
-            "inconsistent_bodies": [b["body"] for b in self.bodies_json()
-                                    if not b["consistent_unconstrained"]],
-            "violated_bounds": [b["name"] for b in self.bounds_json()
-                                if not b["consistent_unconstrained"]],
-            "bodies": self.bodies_json(), "bounds": self.bounds_json(),
-            "residual_rms_unconstrained": self.residual_rms["unconstrained"],
-            "projection": self._fit_json(self.projection, self.projection_d2,
-                                         self.residual_rms["projection"]),
-            "answer": "identification" if self.identified is not None else "projection",
-            "standard": self.values(), "seconds": self.seconds,
-        }
-        out["projection"]["gains_moved_sigma"] = {
-            j: (float((gp - g) / s) if s > 0 else 0.0) for j, g, gp, s in
-            zip(self.joint_names, self.gains, self.gains_projected, self.gains_sigma)}
-        if self.identified is not None:
-            out["identification"] = self._fit_json(self.identified, float(self.identified_d2),
-                                                   self.residual_rms["identification"])
-            out["identification"]["gains_held"] = [float(g) for g in self.gains]
-        if self.direct_dynamics:
-            out["direct_dynamics"] = self.direct_dynamics
-        return out
-
-
-def _increase(residual: Sequence[float], base: Sequence[float]) -> float:
-    """Relative increase of the total rms (all joints)."""
-    a, b = math.sqrt(sum(x * x for x in residual)), math.sqrt(sum(x * x for x in base))
-    return a / b - 1.0 if b > 0 else 0.0
 
 
 def _base_answer(result, robot) -> tuple[np.ndarray, np.ndarray, float, np.ndarray]:
@@ -487,12 +334,12 @@ def attach(solved, model, opts, progress: Callable[..., None] | None = None) -> 
     ``consistency`` (projection and identification under the constraints)."""
     res = solved.result
     res.consistency = analyse(res, solved.factors, solved.chi_rows,
-                              np.asarray(solved.solver["joint_sigma"], float), model,
+                              np.asarray(solved.solver.joint_sigma, float), model,
                               opts.consistency_prior_weight,
                               prior=read_prior(opts.consistency_prior), progress=progress)
     res.warnings.extend(mass_warnings(res.consistency, model, res))
-    held = [b["body"] for b in res.consistency.bodies_json() if b["at_prior"]
-            and any(n.startswith("m_") for n in b["at_prior"])]
+    held = [b.body for b in res.consistency.bodies() if b.at_prior
+            and any(n.startswith("m_") for n in b.at_prior)]
     if held:
         res.warnings.append(
             f"--consistent: the data do not determine the mass of {', '.join(held)}: it is "
@@ -524,12 +371,3 @@ def mass_warnings(c: ConsistencyResult, model, res) -> list[str]:
     else:
         cause = "the description's masses are not the robot's, or the payload tag is wrong"
     return [f"--consistent: bodies far from the description's masses: {', '.join(off)}: {cause}"]
-
-
-def direct_dynamics_text(d: dict[str, Any]) -> str:
-    """One line of the direct-dynamic validation (direct_dynamics.py) for the text output."""
-    joints = ", ".join(f"{j['joint']} {j['rms_error']:.3g} {j['unit']} ({100 * j['relative']:.1f} %"
-                       f" of the drift)" for j in d["joints"])
-    return (f"  direct dynamics on {d['bag']} ({d['engine']}, {d['windows']} windows of "
-            f"{d['horizon_s']:g} s from the measured state under the recorded currents): "
-            f"position error rms {joints}")

@@ -45,6 +45,8 @@ DEFAULT_LENGTH_M = 0.1
 LENGTH_RANGE_M = (0.01, 1.0)  # radius of gyration taken from a prior, clipped
 DEFAULT_SPHERE_M = 0.05  # weak default: a solid sphere of this radius at the frame origin
 MARGIN = 1e-6  # scaled pseudo-inertias ⪰ MARGIN · 1
+RELAXATION_TOL = 1e-4  # scaled units: a larger relaxation means "inconsistent" (solver noise ~1e-6)
+AT_PRIOR_TOL = 1e-3  # scaled units: a parameter this close to its prior "stayed at the prior"
 # every body's mass within max(1 m, 4 L_ref) of its frame origin: no link of a robot this product
 # identifies is larger, and a body the data leave nearly massless keeps a sane centre of mass
 BOUNDING_RADIUS_M = 1.0

@@ -30,6 +30,7 @@ from orthoglide_ident.identify.records.pairing import Paired, TopicBuffer, pair_
 from orthoglide_ident.identify.records.record import Record
 from orthoglide_ident.identify.records.segments import SegmentReport
 from orthoglide_ident.model.transmission import Transmission
+from orthoglide_ident.results import RecordReport
 from orthoglide_ident.ticks import (
     BREAK_HIGH,
     BREAK_LOW,
@@ -430,8 +431,8 @@ class LiveRecording:
         st = self.steps()
         return line + (f"; {st.describe()}" if st is not None and st.n_steps else "")
 
-    def report(self) -> dict:
-        """This recording's entry of the result's ``diagnostics["bags"]`` (as offline's)."""
+    def report(self) -> RecordReport:
+        """This recording's entry of the result's ``diagnostics.bags`` (as offline's)."""
         self.rep.n_joint_states = self.q.counts.received
         self.rep.n_current_reference = self.v.counts.received
         self.rep.n_nonfinite_dropped = self.q.counts.nonfinite + self.v.counts.nonfinite

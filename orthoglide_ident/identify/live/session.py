@@ -80,7 +80,7 @@ from orthoglide_ident.identify.validate.records import (
     undetermine_at_limit,
 )
 from orthoglide_ident.model.robot import Payload
-from orthoglide_ident.results import IdentificationResult
+from orthoglide_ident.results import IdentificationResult, RecordReport
 
 MAX_LOGGED_WARNINGS = 200  # the first ones, kept for result().warnings
 MAX_PENDING_WARNINGS = 1000  # waiting for drain_warnings()
@@ -251,7 +251,7 @@ class LiveIdentification:
             out += self._check(rec, record)
             if rec in self._factors and rec.uneven:
                 out += self._rebuild(rec, record)
-            if rec in self._factors and rec.report()["period_s"] > SLOW_STEP_S:
+            if rec in self._factors and rec.report().period_s > SLOW_STEP_S:
                 self._slow[rec] = record  # small at this rate; result()'s second solve
         rec.release()
         return self._warn(out)
@@ -426,7 +426,7 @@ class LiveIdentification:
             self._with_payload(recs, payload_mass)
         chains: list[str] = []
 
-        def solve_rows(factors: list[RecordFactors], reports: list[dict],
+        def solve_rows(factors: list[RecordFactors], reports: list[RecordReport],
                        opts: IdentifyOptions = self.opts, essential: bool = essential) -> tuple:
             """As pipeline's: the records' drive chains compared on the rows solved."""
             if payload_mass is not None:
@@ -455,7 +455,7 @@ class LiveIdentification:
         if chains[-1]:
             result.warnings.append(chains[-1])
         if solved.chi.shape[0] == factors[0].n_b:  # behind a transmission: a reduction misfit
-            cutoff = reports[0].get("decimation_cutoff_hz") or recs[0].opts.decimation_cutoff_hz
+            cutoff = reports[0].decimation_cutoff_hz or recs[0].opts.decimation_cutoff_hz
             misfit_warnings(result, solved.g_tau, model,
                             [self._noises[r] for r in recs if r in self._noises],
                             dataclasses.replace(self.opts, decimation_cutoff_hz=cutoff))
@@ -471,7 +471,7 @@ class LiveIdentification:
         them (filter_bound.second_options); None (said) when a recording's are not kept (a
         fast one among slow ones) or refused there."""
         def again(f_q: float, f_d: float) -> IdentificationResult | None:
-            o = second_options(result.diagnostics.get("bags", []), self.opts, f_q, f_d)
+            o = second_options(result.record_reports, self.opts, f_q, f_d)
             if any(r not in self._slow for r in recs):
                 return None
             try:

@@ -32,6 +32,7 @@ from typing import Any
 import numpy as np
 
 from orthoglide_ident.errors import OrthoglideError
+from orthoglide_ident.results import LagEstimate
 
 CURRENT_SAMPLING = ("held", "sampled", "auto")  # the option's values (a tag: held | sampled)
 AUTO_HELD = "current_sampling: auto, nothing said"  # the start of auto's first reading's why
@@ -96,16 +97,16 @@ def sampled_shift_s(opts) -> float:
     return 0.5 / opts.current_loop_hz
 
 
-def lag_says_sampled(current_lag: Sequence[dict]) -> str | None:
+def lag_says_sampled(current_lag: Sequence[LagEstimate]) -> str | None:
     """Why the identified lags (``IdentificationResult.current_lag``, τ in ms) say the current
     is a point sample at the stamp, or None: a current loop cannot act before its reference,
     so τ below -NEGATIVE_LAG_SIGMAS σ on more than half the joints is a current read as held
     that was sampled (the states half a step late)."""
     neg = [x for x in current_lag
-           if x["tau_ms"] < -NEGATIVE_LAG_SIGMAS * max(x["tau_std_ms"], 1e-9)]
+           if x.tau_ms < -NEGATIVE_LAG_SIGMAS * max(x.tau_std_ms, 1e-9)]
     if not current_lag or 2 * len(neg) <= len(current_lag):
         return None
-    taus = ", ".join(f"{x['tau_ms']:+.3f}" for x in current_lag)
+    taus = ", ".join(f"{x.tau_ms:+.3f}" for x in current_lag)
     return (f"the identified current-loop lag is negative on {len(neg)} of {len(current_lag)} "
             f"joints ({taus} ms), impossible for a current held over its step: read as sampled "
             "at the stamps (current_sampling: auto)")
@@ -137,9 +138,9 @@ def best_reading(solve_rows: Callable, blocks: list, reports: list, alts: list
     least, below SHIFT_MARGIN x the stamp's). All refused: the first one's error. Returns
     (what solve_rows returned, the reports, one line why)."""
     which = [i for i, a in enumerate(alts) if a]
-    names = ", ".join(reports[i]["bag"] for i in which)
-    step = max(reports[i]["period_s"] for i in which)
-    held = reports[which[0]]["current_sampling"] == "held"
+    names = ", ".join(reports[i].bag for i in which)
+    step = max(reports[i].period_s for i in which)
+    held = reports[which[0]].current_sampling == "held"
     tries = [(None, blocks, reports)] + [
         (alts[which[0]][j][0], [b if not a else a[j][1] for a, b in zip(alts, blocks)],
          [r if not a else a[j][2] for a, r in zip(alts, reports)])

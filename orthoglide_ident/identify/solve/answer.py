@@ -36,9 +36,17 @@ from orthoglide_ident.identify.solve.tls import (
 )
 from orthoglide_ident.identify.solve.uncertainty import diagnose, ripple_warning_start
 from orthoglide_ident.identify.solve.wls import WLSSolution, idim_wls
-from orthoglide_ident.results import Estimate, IdentificationResult, PayloadMass, lag_text
+from orthoglide_ident.results import (
+    EssentialReduction,
+    Estimate,
+    IdentificationResult,
+    PayloadMass,
+    SolverInfo,
+    lag_text,
+)
 
 log = logging.getLogger("orthoglide_ident.identify")
+UNNAMED = ""  # a result's method until the methods table names it (methods.solve)
 
 
 @dataclass
@@ -49,7 +57,7 @@ class Solved:
     chi: np.ndarray  # (n_b,) base parameters, zero where cancelled; + the drive terms' whose
     # columns the equations hold (columns/layout.py): what cross-validation multiplies
     g_tau: np.ndarray  # (n_j,) N/A or N·m/A, identified (TLS) or given (WLS)
-    solver: dict[str, Any] = field(default_factory=dict)
+    solver: SolverInfo = field(default_factory=SolverInfo)
     tls: TLSSolution | None = None
     timings: dict[str, float] = field(default_factory=dict)  # s: "essential" when asked
     # the factors of the reported solve and its χ over all their columns (consistency.py)
@@ -126,7 +134,7 @@ def _uncertainty(result: IdentificationResult, sol: TLSSolution | WLSSolution, m
     d, warnings = diagnose(sol.uncertainty, opts.decimation, n, model.joint_names,
                            gain_index=slice(n, n + n_j) if gains else None,
                            screws=drive_terms.screw_mask(model))
-    result.diagnostics["uncertainty"] = d
+    result.uncertainty = d
     result.warnings.extend(warnings)
 
 
@@ -186,7 +194,7 @@ def tls_result(model, cols, sol: TLSSolution, factors: list[RecordFactors],
     payloads = [PayloadMass(m, opts.payload_mass_std_kg / m, True, m, _sources(factors, m))
                 for m in sorted({f.payload_mass for f in factors if f.loaded})]
     return IdentificationResult(
-        method="tls", joint_names=list(model.joint_names),
+        method=UNNAMED, joint_names=list(model.joint_names),
         drive_gains=_gains_estimates(model.joint_names, sol.g_tau, sol.rel_std[n:n + n_j],
                                      None if sol.rel_std_paper is None
                                      else sol.rel_std_paper[n:n + n_j]),
@@ -204,7 +212,7 @@ def _robot_fields(model) -> dict[str, Any]:
             "gain_units": [j.gain_unit for j in model.joints],
             "effort_units": [j.effort_unit for j in model.joints],
             "nominal_gains": [float(j.nominal_gain) for j in model.joints],
-            "locked_joints": [lj.to_json() for lj in model.locked_joints]}
+            "locked_joints": list(model.locked_joints)}
 
 
 def wls_result(model, cols, sol: WLSSolution, g_tau: np.ndarray, factors: list[RecordFactors],
@@ -216,7 +224,7 @@ def wls_result(model, cols, sol: WLSSolution, g_tau: np.ndarray, factors: list[R
                             None if sol.rel_std_paper is None else float(sol.rel_std_paper[n + k]))
                 for k, m_tag in enumerate(sol.payload_groups)]
     return IdentificationResult(
-        method="wls", joint_names=list(model.joint_names),
+        method=UNNAMED, joint_names=list(model.joint_names),
         drive_gains=_gains_estimates(model.joint_names, g_tau, None),
         drive_gains_given=True, parameters=_param_estimates(cols, sol),
         payload_mass=payloads[0] if payloads else None, payloads=payloads,
@@ -291,10 +299,10 @@ def _set_up(factors: list[RecordFactors], model, cols, opts: IdentifyOptions, ba
 def _drive_notes(result: IdentificationResult, ripples: list, lags: list,
                  terms: drive_terms.Terms, joint_names: Sequence[str]) -> None:
     """The identified drive terms into ``result`` (and the log); the warnings they answer."""
-    result.current_lag = [x.to_json() for x in lags]
+    result.current_lag = list(lags)
     if lags:
         log.info("current-loop lag (lag_model: auto): %s", lag_text(result.current_lag))
-    result.ripple = [r.to_json() for r in ripples]
+    result.ripple = list(ripples)
     if any(t.index is None for t in terms.ripples):  # modelled at the given lead: a figure
         lead_mm = 1e3 * terms.ripples[0].wavelength_m
         log.info("screw friction ripple at the %.1f mm lead (screw_lead_m): %s", lead_mm,
@@ -375,9 +383,10 @@ def solve_tls(factors: list[RecordFactors], model, cols, opts: IdentifyOptions,
         result.warnings.extend(band_warnings)
     _uncertainty(result, base, model, opts, gains=True)
     _drive_notes(result, ripples, lags, m.terms, model.joint_names)
-    solver = {"tls_noisy_columns": opts.tls_noisy_columns, "singular_ratio": sol.singular_ratio,
-              "smallest_singular_values": [float(x) for x in sol.singular_values[-3:]],
-              "joint_sigma": [float(x) for x in sol.joint_sigma], "lambda": sol.lambda_scale}
+    solver = SolverInfo(opts.tls_noisy_columns, sol.singular_ratio,
+                        tuple(float(x) for x in sol.singular_values[-3:]),
+                        joint_sigma=tuple(float(x) for x in sol.joint_sigma),
+                        lambda_scale=sol.lambda_scale)
     out = Solved(result, _chi(m, sol), view.g_tau, solver, view, factors=m.factors,
                  chi_rows=sol.chi_full())
     if essential:
@@ -386,8 +395,8 @@ def solve_tls(factors: list[RecordFactors], model, cols, opts: IdentifyOptions,
         ess = _essential(m, opts, [f"g_tau {j}" for j in model.joint_names])
         ess_view, ess_ripples, ess_lags = m.view(ess.solution)
         result.essential = tls_result(model, cols, ess_view, factors, opts, bags)
-        result.essential.ripple = [r.to_json() for r in ess_ripples]
-        result.essential.current_lag = [x.to_json() for x in ess_lags]
+        result.essential.ripple = list(ess_ripples)
+        result.essential.current_lag = list(ess_lags)
         _note_essential(m.names, result, ess)
         out.timings["essential"] = time.perf_counter() - t0
     return out
@@ -561,9 +570,9 @@ def _solve_partial(factors: list[RecordFactors], model, cols, opts: IdentifyOpti
     chi[sub.col_idx] = _chi(m, sol)[:sub.col_idx.shape[0]]
     g = np.full(model.n_joints, np.nan)
     g[sub.joint_idx] = view.g_tau
-    solver = {"tls_noisy_columns": opts.tls_noisy_columns, "singular_ratio": sol.singular_ratio,
-              "smallest_singular_values": [float(x) for x in sol.singular_values[-3:]],
-              "joints_solved": list(sub.joint_names), "lambda": sol.lambda_scale}
+    solver = SolverInfo(opts.tls_noisy_columns, sol.singular_ratio,
+                        tuple(float(x) for x in sol.singular_values[-3:]),
+                        joints_solved=tuple(sub.joint_names), lambda_scale=sol.lambda_scale)
     return Solved(result, chi, g, solver, None, factors=[])
 
 
@@ -616,15 +625,15 @@ def solve_wls(factors: list[RecordFactors], model, cols, opts: IdentifyOptions,
     _uncertainty(result, base, model, opts, gains=False)
     _drive_notes(result, ripples, lags, m.terms, model.joint_names)
     out = Solved(result, _chi(m, m.full), g,
-                 {"joint_sigma": [float(x) for x in view.joint_sigma]}, factors=m.factors,
-                 chi_rows=m.full.chi_full())
+                 SolverInfo(joint_sigma=tuple(float(x) for x in view.joint_sigma)),
+                 factors=m.factors, chi_rows=m.full.chi_full())
     if essential:
         t0 = time.perf_counter()
         ess = _essential(m, opts, [f"m_7 ({mass:g} kg)" for mass in base.payload_groups])
         ess_view, ess_ripples, ess_lags = m.view(ess.solution)
         result.essential = wls_result(model, cols, ess_view, g, factors, bags)
-        result.essential.ripple = [r.to_json() for r in ess_ripples]
-        result.essential.current_lag = [x.to_json() for x in ess_lags]
+        result.essential.ripple = list(ess_ripples)
+        result.essential.current_lag = list(ess_lags)
         _note_essential(m.names, result, ess)
         out.timings["essential"] = time.perf_counter() - t0
     return out
@@ -633,9 +642,7 @@ def solve_wls(factors: list[RecordFactors], model, cols, opts: IdentifyOptions,
 def _note_essential(names: list[str], result: IdentificationResult, ess: EssentialResult) -> None:
     assert result.essential is not None
     result.essential.removed = [str(names[k]) for k in ess.removed]
-    result.essential.diagnostics = {"method": ess.method, "stopped_because": ess.stopped_because,
-                                    "ratios": [float(x) for x in ess.ratios],
-                                    "tolerance": ess.tolerance,
-                                    "steps": [st.to_json() for st in ess.steps]}
-    result.essential.essential_steps = list(ess.steps)
+    result.essential.reduction = EssentialReduction(
+        ess.method, ess.stopped_because, tuple(float(x) for x in ess.ratios),
+        tuple(ess.tolerance), tuple(ess.steps))
     result.removed = list(result.essential.removed)

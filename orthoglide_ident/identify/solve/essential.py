@@ -29,30 +29,10 @@ import numpy as np
 from orthoglide_ident.errors import OrthoglideError
 from orthoglide_ident.identify.solve.tls import TLSSolution
 from orthoglide_ident.identify.solve.wls import WLSSolution
+from orthoglide_ident.results import EssentialStep
 
 Solution = TLSSolution | WLSSolution
 METHODS = ("keep_gains", "paper")
-
-
-@dataclass
-class EssentialStep:
-    """One cancellation tried: the base parameter, its %σ then, and what cancelling it cost."""
-
-    index: int  # base-parameter index
-    name: str
-    rel_std: float  # its relative std (fraction) in the model it was cancelled from
-    accepted: bool
-    residual_change: float  # weighted residual norm vs the base model's, fraction (cumulative)
-    residual_rms: list[float]  # per joint, N, with the cancellation
-    shift: list[float]  # protected quantities (gains or payload masses) vs base, fraction
-    reason: str = ""
-
-    def to_json(self) -> dict:
-        return {"parameter": self.name, "rel_std": float(self.rel_std) if np.isfinite(self.rel_std)
-                else None, "cancelled": self.accepted,
-                "residual_change": float(self.residual_change),
-                "residual_rms": [float(x) for x in self.residual_rms],
-                "shift": [float(x) for x in self.shift], "reason": self.reason}
 
 
 @dataclass

@@ -20,31 +20,33 @@ whose σ then exceeds ``max_gain_rel_std`` is not determined, with that reason.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
+
+from orthoglide_ident.results import RecordReport
 
 FILTER_BOUND_RATIO = 1.5  # the second solve's derivative-filter cut-off, x the first's
 NYQUIST_SHARE = 0.4  # of the slowest record's rate: the highest cut-off the second solve takes
 
 
-def second_cutoff(bags: list[dict]) -> tuple[float, float] | None:
+def second_cutoff(bags: Sequence[RecordReport]) -> tuple[float, float] | None:
     """(derivative filter Hz, decimation cut-off Hz) of the second solve for the records'
-    ``diagnostics["bags"]``, or None when the filter cannot move up below the Nyquist
+    ``diagnostics.bags``, or None when the filter cannot move up below the Nyquist
     frequency."""
-    f_q = min(float(b["filter_cutoff_hz"]) for b in bags)
-    rate = min(1.0 / float(b["period_s"]) for b in bags)
+    f_q = min(float(b.filter_cutoff_hz) for b in bags)
+    rate = min(1.0 / float(b.period_s) for b in bags)
     f2 = min(FILTER_BOUND_RATIO * f_q, NYQUIST_SHARE * rate)
     if f2 < 1.2 * f_q:
         return None
-    return f2, min(float(b["decimation_cutoff_hz"]) for b in bags)
+    return f2, min(float(b.decimation_cutoff_hz) for b in bags)
 
 
-def second_options(bags: list[dict], opts, f_q: float, f_d: float):
-    """The options of the second solve of the records whose ``diagnostics["bags"]`` are
+def second_options(bags: Sequence[RecordReport], opts, f_q: float, f_d: float):
+    """The options of the second solve of the records whose ``diagnostics.bags`` are
     ``bags``: the cut-offs (f_q, f_d), the records read as the first solve read them (its
     reading and half tick when one for all, else ``opts``'), no IV cross-check. Offline and
     live (live/session.py, which observes each slow recording at stop with these) call it."""
-    readings = {b.get("current_sampling") for b in bags}
-    shifts = {float(b.get("current_shift_ms", 0.0)) for b in bags}
+    readings = {b.current_sampling for b in bags}
+    shifts = {float(b.current_shift_ms) for b in bags}
     reading = readings.pop() if len(readings) == 1 else opts.current_sampling
     shift = shifts.pop() if len(shifts) == 1 else 0.0
     return opts.replace(filter_cutoff_hz=f_q, decimation_cutoff_hz=f_d, cross_check="none",
@@ -84,18 +86,18 @@ def widen(result, other, f_q: float, f2: float, max_rel_std: float) -> str | Non
 
 def bound_filter_bias(result, solve_again: Callable, slow_s: float, max_rel_std: float
                       ) -> None:
-    """``result`` (an identification of records whose ``diagnostics["bags"]`` say their rates)
+    """``result`` (an identification of records whose ``diagnostics.bags`` say their rates)
     with the filter's bias bound in its gains' σ when a record's step is above ``slow_s``:
     ``solve_again(filter_cutoff_hz, decimation_cutoff_hz)`` is the same identification at
     those cut-offs (None when it is refused: then nothing is widened, said)."""
-    bags = result.diagnostics.get("bags", [])
+    bags = result.record_reports
     if (result.drive_gains_given or not bags
-            or max(float(b["period_s"]) for b in bags) <= slow_s):
+            or max(float(b.period_s) for b in bags) <= slow_s):
         return
     cut = second_cutoff(bags)
     if cut is None:
         return
-    f_q = min(float(b["filter_cutoff_hz"]) for b in bags)
+    f_q = min(float(b.filter_cutoff_hz) for b in bags)
     other = solve_again(*cut)
     if other is None:
         result.warnings.append(f"slow log: the gains could not be solved again at a derivative "

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import dataclasses
 import logging
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -32,8 +33,26 @@ from orthoglide_ident.identify.solve.tls import (
     check_gains,
     require_loaded_and_unloaded,
 )
+from orthoglide_ident.results import SolverInfo
 
 log = logging.getLogger("orthoglide_ident.identify")
+IV_START = "tls per-joint"  # where IV starts from: the per-joint TLS answer (solve_iv)
+
+
+@dataclass(frozen=True)
+class CrossCheck:
+    """One joint's gain by TLS and by IV, and how far apart in combined σ (the JSON's
+    ``diagnostics.cross_check_iv``, keyed by the two methods)."""
+
+    joint: str
+    tls: float
+    iv: float
+    iv_rel_std: float
+    sigmas: float
+
+    def to_json(self) -> dict:
+        return {"joint": self.joint, "tls": self.tls, "iv": self.iv,
+                "iv_rel_std": self.iv_rel_std, "sigmas": self.sigmas}
 
 
 def _as_tls(iv: IVSolution, start: TLSSolution) -> TLSSolution:
@@ -79,15 +98,14 @@ def solve_iv(factors: list[RecordFactors], model, cols, opts: IdentifyOptions, g
     if opts.check_excitation:
         band_warnings = check_gains(view, limits(model, opts), model.joint_names)
     result = tls_result(model, cols, view, factors, opts, bags)
-    result.method = "iv"
     if opts.check_excitation:
         result.warnings.extend(band_warnings)
-    result.current_lag = [x.to_json() for x in lags]
+    result.current_lag = list(lags)
     if essential:
         result.warnings.append("--essential is not run with IDIM-IV: use --method tls for the "
                                "essential parameters")
-    solver = {"iv_iterations": iv.iterations, "iv_start": "tls per-joint",
-              "joint_sigma": [float(x) for x in iv.joint_sigma]}
+    solver = SolverInfo(iv_iterations=iv.iterations, iv_start=IV_START,
+                        joint_sigma=tuple(float(x) for x in iv.joint_sigma))
     return Solved(result, sol.chi.copy(), view.g_tau, solver, None, factors=factors,
                   chi_rows=sol.chi.copy())
 
@@ -107,9 +125,8 @@ def cross_check(out: Solved, factors: list[RecordFactors], model, mark: bool = T
     rel_tls = np.array([g.rel_std for g in result.drive_gains])
     z = disagreement(g_tls, rel_tls, iv)
     iv_rel = iv.rel_std[-g_tls.shape[0]:]
-    result.diagnostics["cross_check_iv"] = [
-        {"joint": g.name, "tls": float(g.value), "iv": float(v), "iv_rel_std": float(r),
-         "sigmas": float(k)} for g, v, r, k in zip(result.drive_gains, iv.g_tau, iv_rel, z)]
+    result.cross_check = [CrossCheck(g.name, float(g.value), float(v), float(r), float(k))
+                          for g, v, r, k in zip(result.drive_gains, iv.g_tau, iv_rel, z)]
     bad = [j for j in range(g_tls.shape[0]) if z[j] > CROSS_CHECK_SIGMAS]
     texts = []
     for j in bad:

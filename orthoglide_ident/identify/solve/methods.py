@@ -41,6 +41,7 @@ class Method:
 
     name: str
     help: str  # one line for --help and the node's parameter
+    title: str  # the first line of the result's text report
     gains_given: bool  # True: the drive gains are an input (--gains), the payload mass estimated
     result_fields: tuple[str, ...]  # what IdentificationResult fields it fills beyond the common
     topic: str  # where the identification node latches its answer (orthoglide_msgs)
@@ -73,15 +74,19 @@ def _iv(factors, model, layout, opts, gains, essential, bags) -> Solved:
 
 METHODS: dict[str, Method] = {m.name: m for m in (
     Method("tls", "IDIM-TLS (eqs. 33-39): drive gains and base parameters at once, scaled by the "
-                  "known payload mass", False,
+                  "known payload mass",
+           "IDIM-TLS (drive gains and base parameters, scale from the payload mass)", False,
            ("drive_gains", "payload_mass"), "orthoglide/identified_parameters", _tls,
            cross_checked=True, gains_converge=True, reports_progress=True),
     Method("wls", "IDIM-WLS (eqs. 24-28): drive gains given (default the robot's nominal ones), "
-                  "payload mass of the loaded records estimated", True,
+                  "payload mass of the loaded records estimated",
+           "IDIM-WLS with given drive gains (payload mass estimated)", True,
            ("payloads",), "orthoglide/identified_parameters/wls", solve_wls),
     Method("iv", "IDIM-IV (Janot et al. 2014): drive gains and base parameters by instrumental "
                  "variables (the identified model's currents), scaled by the known payload mass; "
-                 "unbiased when the joints' current noise differs", False,
+                 "unbiased when the joints' current noise differs",
+           "IDIM-IV (instruments: the identified model's currents; scale from the payload mass)",
+           False,
            ("drive_gains", "payload_mass"), "orthoglide/identified_parameters/iv", _iv,
            cross_checks=True),
 )}
@@ -105,6 +110,14 @@ def get(name: str) -> Method:
     except KeyError:
         raise IdentificationError(f"unknown method {name!r}: use "
                                   f"{' or '.join(METHODS)}") from None
+
+
+def _named(result, m: Method) -> None:
+    """The result (and its essential answer) named by the table's row: the method's name and the
+    title its text report opens with (results.py sits below this table: it reads them as data)."""
+    for r in (result, result.essential):
+        if r is not None:
+            r.method, r.title = m.name, m.title
 
 
 def solve(factors: list[RecordFactors], model, opts: IdentifyOptions,
@@ -137,6 +150,7 @@ def solve(factors: list[RecordFactors], model, opts: IdentifyOptions,
     out = m.solve(factors, model, layout, opts, gains, essential, list(bags),
                   **({"progress": progress} if progress is not None and m.reports_progress
                      else {}))
+    _named(out.result, m)
     if m.cross_checked and opts.cross_check in CROSS_CHECKS and out.result.complete:
         # after TLS, IDIM-IV's gains beside (issue 43); marked only when the checks are on
         tell(f"cross-checking by IDIM-{opts.cross_check.upper()}", 0, 0, "")

@@ -42,6 +42,8 @@ from functools import lru_cache
 
 import numpy as np
 
+from orthoglide_ident.results import ResidualDiagnostics, SpectrumPeak
+
 BLOCK_S = 1.0  # s, shortest block of the block sandwich
 MAX_BLOCKS = 64  # per record: beyond, neighbouring blocks merge (block length doubles)
 MIN_BLOCKS = 8  # fewer blocks in all: the block sandwich is too noisy to use
@@ -552,20 +554,6 @@ REVERSAL_WARN = 2.0
 REVERSAL_MIN_ROWS = 30  # rows at reversals (and elsewhere) for that ratio to mean something
 
 
-@dataclass
-class SpectrumPeak:
-    joint: str
-    wavelength_m: float
-    amplitude_n: float
-    median_n: float
-    sign_modulated: bool  # a friction ripple (turns with the velocity) rather than a force ripple
-
-    def to_json(self) -> dict:
-        return {"joint": self.joint, "wavelength_m": self.wavelength_m,
-                "amplitude_n": self.amplitude_n, "median_n": self.median_n,
-                "kind": "friction (sign of velocity)" if self.sign_modulated else "force"}
-
-
 def spectrum_peaks(unc: Uncertainty, joint_names: tuple[str, ...],
                    screws: Sequence[bool] | None = None) -> list[SpectrumPeak]:
     """The strongest position-periodic component of each joint's residual, when it stands out.
@@ -621,7 +609,7 @@ def _slow_warning(joint: str, ratio: float, ac: np.ndarray, white: np.ndarray,
 
 def diagnose(unc: Uncertainty, decimation: int, n_params: int, joint_names: tuple[str, ...],
              values: np.ndarray | None = None, gain_index: slice | None = None,
-             screws: Sequence[bool] | None = None) -> tuple[dict, list[str]]:
+             screws: Sequence[bool] | None = None) -> tuple[ResidualDiagnostics, list[str]]:
     """``diagnostics["uncertainty"]`` of a result, and the warnings the residual calls for.
 
     ``values``: the solution's unknowns (for the relative inflation of the gains at
@@ -634,23 +622,15 @@ def diagnose(unc: Uncertainty, decimation: int, n_params: int, joint_names: tupl
     inflation = np.sqrt(
         np.maximum(np.diag(unc.cov), 0.0) / np.where(var_paper > 0, var_paper, np.inf)
     )
-    d: dict = {
-        "method": "largest of eqs. (38)-(39), a stationary-correlation sandwich (lags 1.."
-                  f"{LAGS} rows) and a block sandwich (blocks of {unc.block_s:g} s)",
-        "blocks": unc.n_blocks, "block_s": unc.block_s, "lags": LAGS,
-        "autocorrelation": {n: [float(x) for x in ac[j]] for j, n in enumerate(joint_names)},
-        "autocorrelation_white": [float(x) for x in white],
-        "notes": list(unc.notes),
-    }
     slow = slow_ratio(ac, white)
-    d["slow_ratio"] = {n: float(x) for n, x in zip(joint_names, slow)}
     warnings = [_slow_warning(n, slow[j], ac[j], white, None if unc.reversal_ratio is None
                               else unc.reversal_ratio[j])
                 for j, n in enumerate(joint_names)
                 if unc.rows[j] > 0 and unc.n_blocks and slow[j] > SLOW_WARN]
+    g_inflation = None
     if gain_index is not None:
         g_inf = inflation[gain_index]
-        d["gain_sigma_inflation"] = {n: float(x) for n, x in zip(joint_names, g_inf)}
+        g_inflation = {n: float(x) for n, x in zip(joint_names, g_inf)}
         worst = int(np.argmax(g_inf))
         if unc.n_blocks and g_inf[worst] > INFLATION_WARN:
             warnings.append(
@@ -658,9 +638,8 @@ def diagnose(unc: Uncertainty, decimation: int, n_params: int, joint_names: tupl
                 f"({joint_names[worst]}): the residual is correlated with the regressors over "
                 f"{unc.block_s:g} s blocks — forces the IDIM lacks (friction near velocity "
                 "reversals, current-loop lag, ripple); the reported σ includes them")
-    warnings += _reversal_warnings(unc, joint_names, d)
+    warnings += _reversal_warnings(unc, joint_names)
     peaks = spectrum_peaks(unc, joint_names, screws)
-    d["position_spectrum_peaks"] = [p.to_json() for p in peaks]
     for p in peaks:
         what = (
             "a friction ripple (it turns with the velocity), e.g. of the ball screw at its lead"
@@ -673,17 +652,25 @@ def diagnose(unc: Uncertainty, decimation: int, n_params: int, joint_names: tupl
             f"{p.amplitude_n / max(p.median_n, 1e-12):.0f}x the spectrum's median): {what} "
             "that the IDIM does not model"
         )
-    return d, warnings
+    return ResidualDiagnostics(
+        method="largest of eqs. (38)-(39), a stationary-correlation sandwich (lags 1.."
+               f"{LAGS} rows) and a block sandwich (blocks of {unc.block_s:g} s)",
+        blocks=unc.n_blocks, block_s=unc.block_s, lags=LAGS,
+        autocorrelation={n: [float(x) for x in ac[j]] for j, n in enumerate(joint_names)},
+        autocorrelation_white=tuple(float(x) for x in white), notes=tuple(unc.notes),
+        slow_ratio={n: float(x) for n, x in zip(joint_names, slow)},
+        gain_sigma_inflation=g_inflation,
+        reversal_residual_ratio=None if unc.reversal_ratio is None else {
+            n: None if np.isnan(x) else float(x) for n, x in zip(joint_names, unc.reversal_ratio)},
+        position_spectrum_peaks=tuple(peaks)), warnings
 
 
-def _reversal_warnings(unc: Uncertainty, joint_names: tuple[str, ...], d: dict) -> list[str]:
-    """A residual concentrated where a joint's current reverses (``d["reversal_residual_ratio"]``:
+def _reversal_warnings(unc: Uncertainty, joint_names: tuple[str, ...]) -> list[str]:
+    """A residual concentrated where a joint's current reverses (``reversal_residual_ratio``:
     rms there / elsewhere): what crosses a backlash then, or a friction that changes there, is
     not in the IDIM, and the block sandwich does not see an error that recurs with the motion."""
     if unc.reversal_ratio is None:
         return []
-    d["reversal_residual_ratio"] = {n: None if np.isnan(x) else float(x)
-                                    for n, x in zip(joint_names, unc.reversal_ratio)}
     return [f"the residual of {n} is {r:.1f}x larger where its current reverses than elsewhere: "
             "a backlash (lost motion) or a friction at torque reversals that the IDIM does not "
             "model; the σ of the drive gains may not cover the error it causes"

@@ -11,6 +11,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from orthoglide_ident.identify.observe.equations import Observations
+from orthoglide_ident.results import ValidationJoint, ValidationRow
 
 MIN_ROWS = 20  # decimated samples of a joint above the velocity dead band worth a figure
 
@@ -35,20 +36,14 @@ class ValidationResult:
     warnings: list[str] = field(default_factory=list)
     notes: list[str] = field(default_factory=list)  # per joint: why it has no figure ("" if it has)
 
-    def to_json(self, joint_names: tuple[str, ...]) -> dict:
-        out = {
-            "bag": self.source,
-            "joints": [
-                {"joint": j, "residual_rms": _num(self.residual_rms[i]),
-                 "measured_rms": _num(self.measured_rms[i]),
-                 "relative_error": _num(self.relative_error[i]),
-                 "noise_ratio": None if self.noise_ratio is None else _num(self.noise_ratio[i]),
-                 **({"note": self.notes[i]} if self.notes and self.notes[i] else {})}
-                for i, j in enumerate(joint_names)
-            ],
-            "warnings": list(self.warnings),
-        }
-        return out
+    def row(self, joint_names: tuple[str, ...]) -> ValidationRow:
+        """The result's row of this record (results.ValidationRow, the JSON's ``validation``)."""
+        return ValidationRow(self.source, tuple(
+            ValidationJoint(j, _num(self.residual_rms[i]), _num(self.measured_rms[i]),
+                            _num(self.relative_error[i]),
+                            None if self.noise_ratio is None else _num(self.noise_ratio[i]),
+                            self.notes[i] if self.notes else "")
+            for i, j in enumerate(joint_names)), tuple(self.warnings))
 
 
 def cross_validate(

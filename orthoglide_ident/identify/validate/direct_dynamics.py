@@ -23,10 +23,10 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from typing import Any
 
 import numpy as np
 
+from orthoglide_ident.identify.consistency.report import DirectDynamics, DirectDynamicsJoint
 from orthoglide_ident.identify.observe.filtering import derivative_filter
 from orthoglide_ident.model.forward import simulate
 from orthoglide_ident.model.robot import Payload, RobotModel
@@ -65,19 +65,19 @@ def _windows(fwd, q: np.ndarray, v_tau: np.ndarray, gains: np.ndarray, period_s:
 
 
 def figures(record_name: str, engine: str, errors: list, drifts: list, n_windows: int,
-            robot: RobotModel, horizon_s: float) -> dict[str, Any]:
-    """The JSON entry of one record: per joint rms error, drift and their ratio."""
+            robot: RobotModel, horizon_s: float) -> DirectDynamics:
+    """The figures of one record: per joint rms error, drift and their ratio."""
     e2, d2 = np.concatenate(errors), np.concatenate(drifts)
     rms, drift = np.sqrt(e2.mean(axis=0)), np.sqrt(d2.mean(axis=0))
-    return {"bag": record_name, "engine": engine, "windows": n_windows, "horizon_s": horizon_s,
-            "joints": [{"joint": j.name, "unit": j.unit, "rms_error": float(r),
-                        "drift_rms": float(d), "relative": float(r / d) if d > 0 else math.inf}
-                       for j, r, d in zip(robot.joints, rms, drift)]}
+    return DirectDynamics(record_name, engine, n_windows, tuple(
+        DirectDynamicsJoint(j.name, j.unit, float(r), float(d),
+                            float(r / d) if d > 0 else math.inf)
+        for j, r, d in zip(robot.joints, rms, drift)), horizon_s)
 
 
 def validate(record, robot: RobotModel, chi_st: np.ndarray, gains: Sequence[float],
              payload_mass: float, opts, horizon_s: float = HORIZON_S,
-             max_windows: int = 100) -> dict[str, Any]:
+             max_windows: int = 100) -> DirectDynamics:
     """The direct-dynamic validation of ``record`` (records.Record, tagged payload mass in kg)
     for the consistent standard parameters ``chi_st``: see the module docstring."""
     from orthoglide_ident.identify.records.segments import split_record
@@ -88,7 +88,7 @@ def validate(record, robot: RobotModel, chi_st: np.ndarray, gains: Sequence[floa
         payload = Payload(payload_mass, payload.frame, payload.com, payload.inertia)
     fwd, engine = robot.forward_model(chi_st, gains, payload)
     if fwd is None:
-        return {"bag": record.source, "engine": engine, "windows": 0, "joints": []}
+        return DirectDynamics(record.source, engine, 0)
     rate = _rate(record.stamps_q_ns)
     segments, rep = split_record(
         record.stamps_q_ns, record.names_q, record.q, record.stamps_v_ns, record.names_v,
@@ -102,6 +102,5 @@ def validate(record, robot: RobotModel, chi_st: np.ndarray, gains: Sequence[floa
         errors.append(e), drifts.append(d)
         n += k
     if not n:
-        return {"bag": record.source, "engine": engine + ": record too short for a window",
-                "windows": 0, "joints": []}
+        return DirectDynamics(record.source, engine + ": record too short for a window", 0)
     return figures(record.source, engine, errors, drifts, n, robot, horizon_s)

@@ -76,12 +76,12 @@ def test_lag_of_the_realistic_drive_identified_despite_the_current_noise(realist
     their σ (the lag costs three unknowns)."""
     opts = IdentifyOptions(screw_lead_m=0.01)  # lag_model: auto, the default
     res = identify_records(realistic_pair, options=opts, essential=True, model=ORTHOGLIDE)
-    tau = np.array([x["tau_ms"] for x in res.current_lag]) * 1e-3
-    sig = np.array([x["tau_std_ms"] for x in res.current_lag]) * 1e-3
-    assert [x["joint"] for x in res.current_lag] == ["q11", "q12", "q13"]
+    tau = np.array([x.tau_ms for x in res.current_lag]) * 1e-3
+    sig = np.array([x.tau_std_ms for x in res.current_lag]) * 1e-3
+    assert [x.joint for x in res.current_lag] == ["q11", "q12", "q13"]
     assert np.all(np.abs(tau - LAG_S) < 3 * sig) and np.all(sig < 0.5 * LAG_S), (tau, sig)
     assert abs(tau.mean() - LAG_S) < 3 * np.sqrt(np.sum(sig ** 2)) / 3
-    assert [x["joint"] for x in res.essential.current_lag] == ["q11", "q12", "q13"]
+    assert [x.joint for x in res.essential.current_lag] == ["q11", "q12", "q13"]
     assert "current-loop lag modelled: q11" in res.to_text()
     # the report's force plot multiplies the rows' lag columns too
     from orthoglide_ident.report import write_report
@@ -101,7 +101,7 @@ def test_lag_of_the_realistic_drive_identified_despite_the_current_noise(realist
     # cross-validation multiplies the lag columns too (the records predict themselves)
     val = identify_records(realistic_pair[:1], options=opts, method="wls", gains=list(g),
                            validation=realistic_pair[1:], model=ORTHOGLIDE)
-    assert val.current_lag and max(j["noise_ratio"] for j in val.validation[0]["joints"]) < 1.5
+    assert val.current_lag and max(j.noise_ratio for j in val.validation[0].joints) < 1.5
 
 
 def test_records_that_do_not_repeat_keep_the_papers_model(realistic_pair):
@@ -120,7 +120,7 @@ def test_records_that_do_not_repeat_keep_the_papers_model(realistic_pair):
             recs, options=IdentifyOptions(lag_model="off", check_excitation=False), model=ORTHOGLIDE
         )
         assert on.current_lag == []
-        assert on.diagnostics["bags"][0]["n_not_repeating"] == 1
+        assert on.record_reports[0].n_not_repeating == 1
         assert [p.name for p in on.parameters] == [p.name for p in off.parameters]
         np.testing.assert_allclose([g.value for g in on.drive_gains],
                                    [g.value for g in off.drive_gains], rtol=1e-12)

@@ -62,11 +62,11 @@ def test_a_ripple_at_the_given_lead_is_identified_with_the_gains():
     assert err.max() < 2e-4, err  # 3.6e-5 measured (the filters' round-off of a sign step)
     assert [p.name for p in res.parameters] == SyntheticModel().names
     amp = np.hypot(RIPPLE[0::2], RIPPLE[1::2])
-    assert [r["joint"] for r in res.ripple] == ["q11", "q12", "q13"]
+    assert [r.joint for r in res.ripple] == ["q11", "q12", "q13"]
     for r, a, c, s in zip(res.ripple, amp, RIPPLE[0::2], RIPPLE[1::2]):
-        assert r["wavelength_m"] == LEAD and r["kind"].startswith("friction")
-        assert abs(r["amplitude_n"] / a - 1) < 0.005  # 0.03 % measured
-        assert abs(np.angle(np.exp(1j * (r["phase_rad"] - np.arctan2(-s, c))))) < 0.005
+        assert r.wavelength_m == LEAD and r.kind.startswith("friction")
+        assert abs(r.amplitude_n / a - 1) < 0.005  # 0.03 % measured
+        assert abs(np.angle(np.exp(1j * (r.phase_rad - np.arctan2(-s, c))))) < 0.005
     assert not any("ripple" in w for w in res.warnings)  # asked for: said in the log, not warned
     wrong = identify_records(recs, model=SyntheticModel(), options=IdentifyOptions(
         screw_lead_m=0.012))
@@ -94,7 +94,7 @@ def test_the_ripple_columns_cost_no_accuracy_on_a_drive_without_ripple():
     np.testing.assert_allclose(g1, g0, rtol=0.1 * min(s0))
     np.testing.assert_allclose(s1, s0, rtol=0.02)
     for r in lead.ripple:
-        assert r["amplitude_n"] < 3.5 * r["amplitude_std_n"], r
+        assert r.amplitude_n < 3.5 * r.amplitude_std_n, r
 
 
 @pytest.mark.parametrize("lead", [10.0, -0.01, 1e-5])
@@ -115,5 +115,5 @@ def test_cross_validation_predicts_with_the_ripple():
     for opts in (IdentifyOptions(screw_lead_m=LEAD), IdentifyOptions(ripple_model="off")):
         res = identify_records(_ripple_records(noise=False), model=SyntheticModel(),
                                options=opts, validation=[val])
-        rms[opts.screw_lead_m] = [j["residual_rms"] for j in res.validation[0]["joints"]]
+        rms[opts.screw_lead_m] = [j.residual_rms for j in res.validation[0].joints]
     assert max(rms[LEAD]) < 0.05 and min(rms[0.0]) > 0.2, rms

@@ -228,6 +228,6 @@ def test_cross_validation_uses_the_identified_payload(ur5):
         validation=[loaded],
         options=IdentifyOptions(payload_known="point", check_excitation=False),
     )
-    err = np.array([j["relative_error"] for j in res.validation[0]["joints"]])
-    err_point = np.array([j["relative_error"] for j in point.validation[0]["joints"]])
+    err = np.array([j.relative_error for j in res.validation[0].joints])
+    err_point = np.array([j.relative_error for j in point.validation[0].joints])
     assert err.max() < 0.01 and err_point[-1] > 5 * err[-1]

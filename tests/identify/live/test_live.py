@@ -57,16 +57,16 @@ def test_live_result_equals_offline_whatever_the_batches(bag_records, offline, b
     dg, dp = rel_diff(offline, res)
     assert dg < 1e-6 and dp < 1e-6
     assert res.bags == offline.bags and res.payload_mass.value == 1.983
-    for d_off, d_live in zip(offline.diagnostics["bags"], res.diagnostics["bags"]):
+    for d_off, d_live in zip(offline.record_reports, res.record_reports):
         for key in ("n_paired", "n_missing_ticks", "n_segments", "n_used", "period_s",
                     "n_reversal_bridged", "n_reversal_unbridged", "equations_per_joint"):
-            assert d_live[key] == d_off[key], key
+            assert getattr(d_live, key) == getattr(d_off, key), key
     # memory is bounded: one (n_b + 2)-square R factor per joint and condition
     assert all(R.shape == (live.n_b + 2, live.n_b + 2)
                for f in live._factors.values() for R in f.R)
     # the honest σ (residual moments folded with the factors) and the paper's are the same too
     assert max(rel_sigma_diff(offline, res)) < 1e-6
-    assert res.diagnostics["uncertainty"]["blocks"] == offline.diagnostics["uncertainty"]["blocks"]
+    assert res.uncertainty.blocks == offline.uncertainty.blocks
 
 
 def test_wls_and_essential_equal_offline(bag_records, offline):
@@ -86,10 +86,9 @@ def test_wls_and_essential_equal_offline(bag_records, offline):
     assert [p.name for p in ess_live.parameters] == [p.name for p in ess_off.parameters]
     assert max(rel_diff(ess_off, ess_live)) < 1e-6
     assert max(rel_sigma_diff(ess_off, ess_live)) < 1e-6
-    s_off, s_live = ess_off.diagnostics["steps"], ess_live.diagnostics["steps"]
-    assert [(s["parameter"], s["cancelled"]) for s in s_live] == \
-        [(s["parameter"], s["cancelled"]) for s in s_off]
-    assert np.allclose([s["shift"] for s in s_live], [s["shift"] for s in s_off], atol=1e-8)
+    s_off, s_live = ess_off.reduction.steps, ess_live.reduction.steps
+    assert [(s.name, s.accepted) for s in s_live] == [(s.name, s.accepted) for s in s_off]
+    assert np.allclose([s.shift for s in s_live], [s.shift for s in s_off], atol=1e-8)
 
 
 def _with_gap_and_nan(rec: Record, a: int, b: int, k_nan: int) -> Record:
@@ -112,9 +111,9 @@ def test_gaps_and_nan_split_the_record_like_offline_drop(bag_records):
     assert max(rel_diff(off, res)) < 1e-6
     assert any("25 tick(s) lost" in w and "joint_states" in w for w in warnings)
     assert sum("NaN" in w for w in warnings) == 2
-    d = res.diagnostics["bags"][0]
-    assert d["n_missing_ticks"] == off.diagnostics["bags"][0]["n_missing_ticks"] == 26
-    assert d["n_segments"] == off.diagnostics["bags"][0]["n_segments"] == 3
+    d = res.record_reports[0]
+    assert d.n_missing_ticks == off.record_reports[0].n_missing_ticks == 26
+    assert d.n_segments == off.record_reports[0].n_segments == 3
 
 
 def test_status_says_what_is_missing_and_result_raises_with_the_reason(bag_records):
@@ -182,7 +181,7 @@ def test_bad_samples_warn_and_the_rest_is_used(bag_records, offline):
     assert live.drain_warnings() == []
     res = live.result()  # the first 12 ticks of the loaded record are missing: nearly offline
     assert rel_diff(offline, res)[0] < 1e-3
-    assert res.diagnostics["bags"][1]["n_unpaired_current_reference"] == 12
+    assert res.record_reports[1].n_unpaired_current_reference == 12
 
 
 
@@ -211,7 +210,7 @@ def test_simulated_records_with_a_real_gap(sim_records):
     assert sum("200 tick(s) lost" in w for w in warnings) == 2  # one per topic
     res = live.result()
     assert max(rel_diff(off, res)) < 1e-6
-    assert res.diagnostics["bags"][1]["n_segments"] == off.diagnostics["bags"][1]["n_segments"] == 2
+    assert res.record_reports[1].n_segments == off.record_reports[1].n_segments == 2
     est = live.estimate()
     assert est.ok and np.allclose(est.gains, [2170.0, 2100.0, 2070.0], rtol=0.01)
 
@@ -260,14 +259,14 @@ def test_realistic_drive_ripple_found_and_modelled_alike_live_and_offline(realis
     live as offline."""
     recs = realistic_records
     off = identify_records(recs, options=PAPER_DRIVE, model=ORTHOGLIDE)
-    assert "q12" in {r["joint"] for r in off.ripple}
+    assert "q12" in {r.joint for r in off.ripple}
     for r in off.ripple:
-        assert abs(r["wavelength_m"] - 0.01) < 0.0005 and r["kind"].startswith("friction")
+        assert abs(r.wavelength_m - 0.01) < 0.0005 and r.kind.startswith("friction")
     live, res = _live_result(recs, PAPER_DRIVE)
     assert max(rel_diff(off, res)) < 1e-6 and max(rel_sigma_diff(off, res)) < 1e-6
-    assert [r["joint"] for r in res.ripple] == [r["joint"] for r in off.ripple]
-    assert np.allclose([r["amplitude_n"] for r in res.ripple],
-                       [r["amplitude_n"] for r in off.ripple], rtol=1e-6)
+    assert [r.joint for r in res.ripple] == [r.joint for r in off.ripple]
+    assert np.allclose([r.amplitude_n for r in res.ripple],
+                       [r.amplitude_n for r in off.ripple], rtol=1e-6)
     g = np.array([x.value for x in res.drive_gains])
     s = np.array([x.rel_std for x in res.drive_gains]) * g
     assert np.all(np.abs(g - [2170.0, 2100.0, 2070.0]) < 3 * s)
@@ -285,10 +284,10 @@ def test_screw_ripple_at_the_given_lead_alike_live_and_offline(realistic_records
     off = identify_records(realistic_records, options=opts, model=ORTHOGLIDE)
     _, res = _live_result(realistic_records, opts)
     assert max(rel_diff(off, res)) < 1e-6 and max(rel_sigma_diff(off, res)) < 1e-6
-    assert [r["joint"] for r in res.ripple] == ["q11", "q12", "q13"]
-    a_off, a_live = ([r["amplitude_n"] for r in x.ripple] for x in (off, res))
+    assert [r.joint for r in res.ripple] == ["q11", "q12", "q13"]
+    a_off, a_live = ([r.amplitude_n for r in x.ripple] for x in (off, res))
     np.testing.assert_allclose(a_live, a_off, rtol=1e-6)
-    sigma = np.array([r["amplitude_std_n"] for r in off.ripple])
+    sigma = np.array([r.amplitude_std_n for r in off.ripple])
     assert np.all(np.abs(a_off - 0.015 * np.array([35.2, 41.7, 24.1])) < 3 * sigma)
 
 
@@ -329,10 +328,10 @@ def test_live_lag_within_a_fraction_of_sigma_of_offline_whatever_the_batches(rea
     assert rel_diff(results[1], res)[0] < 1e-9 and max(_sigma_diff(results[1], res)) < 1e-6
     in_sigma, sigma_ratio = _sigma_diff(off, res)
     assert in_sigma < 0.25 and sigma_ratio < 0.05, (in_sigma, sigma_ratio)
-    tau = np.array([x["tau_ms"] for x in res.current_lag])
-    sig = np.array([x["tau_std_ms"] for x in res.current_lag])
+    tau = np.array([x.tau_ms for x in res.current_lag])
+    sig = np.array([x.tau_std_ms for x in res.current_lag])
     assert np.all(np.abs(tau - 0.12) < 3 * sig), (tau, sig)  # config/plant.yaml: 0.12 ms
-    assert np.all(np.abs(tau - [x["tau_ms"] for x in off.current_lag]) < 0.5 * sig)
+    assert np.all(np.abs(tau - [x.tau_ms for x in off.current_lag]) < 0.5 * sig)
 
 
 def test_live_lag_left_out_when_a_segment_does_not_repeat(realistic_records):
@@ -362,7 +361,7 @@ def test_live_lag_left_out_when_a_segment_does_not_repeat(realistic_records):
         for i, r in enumerate(recs):
             feed(paper, r, (250,), 2, seed=i)
         bad = 0 if recs is cut else 1
-        assert res.current_lag == [] and res.diagnostics["bags"][bad]["n_not_repeating"] == 1
+        assert res.current_lag == [] and res.record_reports[bad].n_not_repeating == 1
         # round-off, through the per-joint noise scaling's fixed point on 5 s records (~1e-9)
         assert max(rel_diff(paper.result(), res)) < 1e-8
         off = identify_records(recs, options=IdentifyOptions(check_excitation=False,

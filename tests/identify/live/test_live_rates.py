@@ -14,7 +14,7 @@ from live_helpers import rel_diff, rel_sigma_diff
 from synthetic import SyntheticModel, synthetic_record
 
 from orthoglide_ident.identify import IdentifyOptions, LiveIdentification, identify_records
-from orthoglide_ident.ticks import StepStats, step_stats
+from orthoglide_ident.ticks import step_stats
 
 MODEL = SyntheticModel()
 CONFIG = IdentifyOptions.from_yaml("config/identification.yaml")  # what the node starts with
@@ -68,11 +68,11 @@ def test_live_equals_offline_at_any_rate(rate):
     assert dg < 1e-9 and dp < 1e-9, (dg, dp)
     if rate == "uneven_93Hz":  # faster, the lag's live instrument differs (within σ: module doc)
         _same_sigma(off, res)
-    for d_off, d_live, rec in zip(off.diagnostics["bags"], res.diagnostics["bags"], records):
-        assert d_live["n_paired"] == d_off["n_paired"] == len(rec.stamps_q_ns)  # every sample
+    for d_off, d_live, rec in zip(off.record_reports, res.record_reports, records):
+        assert d_live.n_paired == d_off.n_paired == len(rec.stamps_q_ns)  # every sample
         for key in ("n_used", "n_missing_ticks", "n_segments", "period_s",
                     "equations_per_joint"):
-            assert d_live[key] == d_off[key], key
+            assert getattr(d_live, key) == getattr(d_off, key), key
     # the seconds the live view shows are the offline equations' seconds, not ticks x median
     seconds = {"unloaded": 0.0, "loaded": 0.0}
     for obs in off.observations:
@@ -81,10 +81,10 @@ def test_live_equals_offline_at_any_rate(rate):
     assert est.seconds_unloaded == pytest.approx(seconds["unloaded"], rel=1e-12)
     assert est.seconds_loaded == pytest.approx(seconds["loaded"], rel=1e-12)
     # the live view and watch say what `info` says of the bag: samples taken, the steps
-    last = off.diagnostics["bags"][-1]
+    last = off.record_reports[-1]
     status = est.message_fields()["status"]
     assert f"loaded {len(records[-1].stamps_q_ns)} samples in" in status, status
-    assert f"{last['n_used']} used" in status and StepStats(**last["steps"]).describe() in status
+    assert f"{last.n_used} used" in status and last.steps.describe() in status
 
 
 def _same_sigma(off, res):
@@ -197,8 +197,8 @@ def test_live_reads_a_slow_untagged_log_as_offline_auto_does():
     _same_sigma(off, res)
     line = next(w for w in off.warnings if w.startswith("current_sampling: auto on"))
     assert line in res.warnings  # the same reading, said the same way
-    assert [b["current_sampling"] for b in res.diagnostics["bags"]] == \
-        [b["current_sampling"] for b in off.diagnostics["bags"]] == ["sampled"] * 2
+    assert [b.current_sampling for b in res.record_reports] == \
+        [b.current_sampling for b in off.record_reports] == ["sampled"] * 2
 
 
 def test_live_counts_a_copy_once_as_offline_does():
@@ -217,4 +217,4 @@ def test_live_counts_a_copy_once_as_offline_does():
     assert dg < 1e-9 and dp < 1e-9, (dg, dp)
     said = [w for w in res.warnings if w.startswith("copy is the same record as 500Hz-0")]
     assert said and said[0] in off.warnings
-    assert [d["bag"] for d in res.diagnostics["bags"]] == ["500Hz-0", "500Hz-1"]
+    assert [d.bag for d in res.record_reports] == ["500Hz-0", "500Hz-1"]

@@ -21,6 +21,7 @@ from orthoglide_ident.identify.observe.sampling import (
 from orthoglide_ident.identify.observe.time_base import states_on_stamps
 from orthoglide_ident.identify.pipeline import sampling_rerun
 from orthoglide_ident.model.robot_file import read_description
+from orthoglide_ident.results import LagEstimate
 
 
 def test_the_tag_round_trips_and_a_wrong_value_is_refused():
@@ -81,7 +82,7 @@ def test_who_says_the_sampling():
 
 
 def _lags(taus_ms, std_ms=0.02):
-    return [{"joint": f"j{i}", "tau_ms": t, "tau_std_ms": std_ms} for i, t in enumerate(taus_ms)]
+    return [LagEstimate(f"j{i}", 1e-3 * t, 1e-3 * std_ms) for i, t in enumerate(taus_ms)]
 
 
 def test_auto_reads_a_negative_lag_as_sampled():
@@ -93,10 +94,10 @@ def test_auto_reads_a_negative_lag_as_sampled():
 
     res = SimpleNamespace(current_lag=neg)
     why = "current_sampling: auto, nothing said: held until the lag says otherwise"
-    res.diagnostics = {"bags": [{"current_sampling_why": why}]}
+    res.record_reports = [SimpleNamespace(current_sampling_why=why)]
     assert sampling_rerun(res, IdentifyOptions()) is not None
     assert sampling_rerun(res, IdentifyOptions(current_sampling="held")) is None  # as told
-    res.diagnostics = {"bags": [{"current_sampling_why": "the bag's tag"}]}
+    res.record_reports = [SimpleNamespace(current_sampling_why="the bag's tag")]
     assert sampling_rerun(res, IdentifyOptions()) is None  # a tagged record is as tagged
 
 
@@ -164,10 +165,10 @@ def test_a_point_sampled_250_hz_log_is_unbiased_only_as_sampled():
     # the loop's rate unknown: its half tick fitted by the residual (0.5 ms found)
     fitted, res = sigmas(IdentifyOptions(current_sampling="sampled"))
     assert fitted.size == 6 and fitted.max() < 3.0
-    assert {b["current_shift_ms"] for b in res.diagnostics["bags"]} == {0.5}
+    assert {b.current_shift_ms for b in res.record_reports} == {0.5}
     # auto, nothing said, a 4 ms step: the reading whose residual is smaller, said in one line
     _, auto = sigmas(IdentifyOptions(current_loop_hz=1000.0))
-    assert {b["current_sampling"] for b in auto.diagnostics["bags"]} == {"sampled"}
+    assert {b.current_sampling for b in auto.record_reports} == {"sampled"}
     assert any(w.startswith("current_sampling: auto on") and "read sampled" in w
                for w in auto.warnings)
 
@@ -191,7 +192,7 @@ def test_auto_reads_a_log_held_at_its_own_rate_as_held():
             for p, tr, s in ((None, "exciting1", 0), ("2.0", "exciting2", 1))]
     auto = identify_records(recs, model=model)
     held = identify_records(recs, model=model, options=IdentifyOptions(current_sampling="held"))
-    assert {b["current_sampling"] for b in auto.diagnostics["bags"]} == {"held"}
+    assert {b.current_sampling for b in auto.record_reports} == {"held"}
     assert [g.value for g in auto.drive_gains] == [g.value for g in held.drive_gains]
     assert any("read held" in w for w in auto.warnings)
 
@@ -259,11 +260,11 @@ def test_auto_reads_a_1khz_log_of_a_4khz_loop_as_sampled_by_its_negative_lag():
                                        r.joint_names, pl))
     model = load_robot("ur5")
     held = identify_records(recs, model=model, options=IdentifyOptions(current_sampling="held"))
-    assert all(x["tau_ms"] < -0.2 for x in held.current_lag)  # measured -0.27 ... -0.44
+    assert all(x.tau_ms < -0.2 for x in held.current_lag)  # measured -0.27 ... -0.44
     auto = identify_records(recs, model=model)
-    assert {b["current_sampling"] for b in auto.diagnostics["bags"]} == {"sampled"}
+    assert {b.current_sampling for b in auto.record_reports} == {"sampled"}
     assert auto.warnings[0].startswith("the identified current-loop lag is negative")
-    assert all(x["tau_ms"] > -3 * x["tau_std_ms"] for x in auto.current_lag)
+    assert all(x.tau_ms > -3 * x.tau_std_ms for x in auto.current_lag)
 
 
 def test_the_reading_kept_is_the_one_whose_residual_is_least():
@@ -284,11 +285,11 @@ def test_the_reading_kept_is_the_one_whose_residual_is_least():
                 raise ExcitationError(f"{blocks[0]} refused")
             res = SimpleNamespace(residual_rms=[residuals[blocks[0]]] * 2)
             return (None, None, None, SimpleNamespace(result=res))
-        rep = {"bag": "b", "period_s": 4e-3, "current_sampling": "held"}
-        alts = [[(d, k, dict(rep, current_sampling="sampled", k=k))
+        rep = SimpleNamespace(bag="b", period_s=4e-3, current_sampling="held", k="held")
+        alts = [[(d, k, SimpleNamespace(**dict(vars(rep), current_sampling="sampled", k=k)))
                  for d, k in ((0.0, "s0"), (5e-4, "s5"))]]
         out, reports, line = best_reading(solve_rows, ["held"], [rep], alts)
-        return reports[0].get("k", "held"), line
+        return reports[0].k, line
 
     assert case({"held": 1.0, "s0": 0.99, "s5": 0.985})[0] == "held"  # a tie stays held
     pick, line = case({"held": 1.0, "s0": 0.9, "s5": 0.5})

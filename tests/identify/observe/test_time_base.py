@@ -223,9 +223,9 @@ def test_an_uneven_91_hz_record_gives_the_true_gains_with_default_options():
                            steps_ns=_clock(60.0))
     res = identify_records(recs, model=model, options=IdentifyOptions(check_excitation=False))
     assert np.abs(_gain_errors(res)).max() < 2e-3
-    b = res.diagnostics["bags"][0]
-    assert b["decimation"] == 5 and b["filter_cutoff_hz"] == pytest.approx(1 / 0.0545, rel=0.02)
-    assert b["steps"]["off_grid"] > 0.4 and b["n_segments"] == 1
+    b = res.record_reports[0]
+    assert b.decimation == 5 and b.filter_cutoff_hz == pytest.approx(1 / 0.0545, rel=0.02)
+    assert b.steps.off_grid > 0.4 and b.n_segments == 1
     assert "time base" in res.to_text()
     # the same samples stamped on the median step (what the pipeline did): gains off by ~%
     import dataclasses
@@ -251,8 +251,8 @@ def test_a_gap_in_an_uneven_record_splits_it():
     recs = _synthetic_pair(duration_s=40.0, noise=False, amplitude=0.1, f_max=3.0, steps_ns=steps)
     res = identify_records(recs, model=SyntheticModel(),
                            options=IdentifyOptions(check_excitation=False))
-    b = res.diagnostics["bags"][0]
-    assert b["n_gaps"] == 1 and b["n_missing_ticks"] == 3 and b["n_segments"] == 2
+    b = res.record_reports[0]
+    assert b.n_gaps == 1 and b.n_missing_ticks == 3 and b.n_segments == 2
 
 
 def test_a_steady_50_hz_record_identifies_without_an_options_file():
@@ -263,7 +263,7 @@ def test_a_steady_50_hz_record_identifies_without_an_options_file():
     recs = _synthetic_pair(duration_s=60.0, noise=False, amplitude=0.1, f_max=2.0, rate_hz=50.0)
     res = identify_records(recs, model=SyntheticModel(),
                            options=IdentifyOptions(check_excitation=False))
-    assert res.diagnostics["bags"][0]["filter_cutoff_hz"] == 10.0
+    assert res.record_reports[0].filter_cutoff_hz == 10.0
     assert np.abs(_gain_errors(res)).max() < 5e-3
 
 
@@ -287,8 +287,8 @@ def test_5_khz_and_the_same_decimated_to_1_khz_agree_within_their_sigma():
     a = identify_records(fast, model=model)
     b = identify_records([to_1khz(r) for r in fast], model=model)
     assert (
-        a.diagnostics["bags"][0]["decimation"] == 50
-        and b.diagnostics["bags"][0]["decimation"] == 10
+        a.record_reports[0].decimation == 50
+        and b.record_reports[0].decimation == 10
     )
     for x, y in zip(a.drive_gains, b.drive_gains):
         assert abs(x.value - y.value) < x.value * max(x.rel_std, y.rel_std)
@@ -351,12 +351,12 @@ def test_identification_with_the_recorded_velocity():
     for source in ("recorded", "auto"):
         res = identify_records(with_qd, model=SyntheticModel(), options=IdentifyOptions(
             check_excitation=False, velocity_source=source))
-        assert res.diagnostics["bags"][0]["velocity"].startswith("recorded")
+        assert res.record_reports[0].velocity.startswith("recorded")
         assert np.abs(_gain_errors(res)).max() < 2e-3
     bad = [dataclasses.replace(r, qd=1.1 * r.qd) for r in with_qd]  # a velocity 10 % off
     res = identify_records(bad, model=SyntheticModel(), options=IdentifyOptions(
         check_excitation=False, velocity_source="auto"))
-    assert res.diagnostics["bags"][0]["velocity"].startswith(
+    assert res.record_reports[0].velocity.startswith(
         "derived from q (velocity_source: auto"
     )
 

@@ -14,7 +14,7 @@ from orthoglide_ident.results import Estimate, IdentificationResult
 def _result(values, rel_std) -> IdentificationResult:
     gains = [Estimate(f"j{i}", v, s) for i, (v, s) in enumerate(zip(values, rel_std))]
     return IdentificationResult("tls", [g.name for g in gains], gains, False, [], None, [], 1.0,
-                                [], [])
+                                [], [], "synthetic")
 
 
 def test_widen_adds_the_move_in_quadrature_and_refuses_beyond_the_bound():
@@ -34,10 +34,12 @@ def test_widen_adds_the_move_in_quadrature_and_refuses_beyond_the_bound():
 
 
 def test_the_second_cut_off_stays_below_the_nyquist_frequency():
-    bags = [{"filter_cutoff_hz": 16.67, "period_s": 0.012, "decimation_cutoff_hz": 6.67}]
+    from types import SimpleNamespace
+
+    bags = [SimpleNamespace(filter_cutoff_hz=16.67, period_s=0.012, decimation_cutoff_hz=6.67)]
     f2, fd = second_cutoff(bags)
     assert f2 == pytest.approx(25.0, rel=1e-3) and fd == 6.67
-    bags = [{"filter_cutoff_hz": 30.0, "period_s": 0.012, "decimation_cutoff_hz": 6.67}]
+    bags = [SimpleNamespace(filter_cutoff_hz=30.0, period_s=0.012, decimation_cutoff_hz=6.67)]
     assert second_cutoff(bags) is None  # 0.4 x 83 Hz = 33 Hz: too close to move
 
 

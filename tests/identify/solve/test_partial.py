@@ -42,7 +42,7 @@ def test_a_wrist_the_payload_does_not_load_is_not_determined(axial):
     assert fields["drive_gains_reason"][5] == w3.reason and fields["drive_gains_reason"][0] == ""
     assert "wrist_3_joint not determined: the payload adds" in res.to_text()
     # the current-loop lag stays a drive term of the five (not a base parameter)
-    assert [x["joint"] for x in res.current_lag] == list(model.joint_names[:5])
+    assert [x.joint for x in res.current_lag] == list(model.joint_names[:5])
     assert not [p for p in res.parameters if p.name.startswith("lag_")]
 
 

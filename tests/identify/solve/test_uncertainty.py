@@ -98,7 +98,7 @@ def test_correlated_errors_paper_sigma_too_small_honest_covers():
     z = np.abs(np.array(est) - G) / np.array(honest)
     assert np.mean(z <= 2) >= 0.9 and z.max() <= 4.0
     d, warnings = diagnose(sol.uncertainty, 10, 4, ("q11", "q12", "q13"), gain_index=slice(4, 7))
-    assert d["autocorrelation"]["q11"][0] > 0.8  # AR(1) 0.9
+    assert d.autocorrelation["q11"][0] > 0.8  # AR(1) 0.9
     assert sum("far from white" in w for w in warnings) == 3
     assert any("σ of the drive gains is up to" in w for w in warnings)
 
@@ -205,16 +205,16 @@ def test_screw_ripple_shows_in_the_position_spectrum():
     sol = TLSProblem(blocks).solve()
     d, warnings = diagnose(sol.uncertainty, 10, sol.chi.shape[0], ("q11", "q12", "q13"),
                            gain_index=slice(4, 7))
-    peaks = d["position_spectrum_peaks"]
+    peaks = d.position_spectrum_peaks
     assert len(peaks) == 3
     for p in peaks:
-        assert abs(p["wavelength_m"] - 0.01) < 0.0005 and p["kind"].startswith("friction")
-        assert 0.3 < p["amplitude_n"] < 0.7
+        assert abs(p.wavelength_m - 0.01) < 0.0005 and p.kind.startswith("friction")
+        assert 0.3 < p.amplitude_n < 0.7
     assert sum(" mm period" in w and "friction ripple" in w for w in warnings) == 3
     clean = TLSProblem(_blocks(1, r=3000, noise=1e-4)).solve()
     d, warnings = diagnose(clean.uncertainty, 10, clean.chi.shape[0], ("q11", "q12", "q13"),
                            gain_index=slice(4, 7))
-    assert d["position_spectrum_peaks"] == [] and not any("period" in w for w in warnings)
+    assert d.position_spectrum_peaks == () and not any("period" in w for w in warnings)
 
 
 def test_fir_white_autocorrelation():
@@ -254,12 +254,12 @@ def test_essential_keeps_the_gains_and_says_what_each_cancellation_cost(bag_resu
     ess = res.essential
     ge = np.array([x.value for x in ess.drive_gains])
     assert np.all(np.abs(ge / g - 1) <= tol + 1e-12)
-    steps = ess.diagnostics["steps"]
-    cancelled = [s["parameter"] for s in steps if s["cancelled"]]
+    steps = ess.reduction.steps
+    cancelled = [s.name for s in steps if s.accepted]
     assert cancelled == res.removed and len(cancelled) > 10
-    assert all(len(s["shift"]) == 3 and np.isfinite(s["residual_change"]) for s in steps)
-    kept = [s for s in steps if not s["cancelled"]]
-    assert kept and all(s["reason"].startswith("kept:") for s in kept)
+    assert all(len(s.shift) == 3 and np.isfinite(s.residual_change) for s in steps)
+    kept = [s for s in steps if not s.accepted]
+    assert kept and all(s.reason.startswith("kept:") for s in kept)
     assert "what each cancellation cost" in res.to_text()
     # the paper's rule, still available, moves the gains further on the same data
     from orthoglide_ident.identify import IdentifyOptions
@@ -268,7 +268,7 @@ def test_essential_keeps_the_gains_and_says_what_each_cancellation_cost(bag_resu
         recs, essential=True, options=IdentifyOptions(essential_method="paper"), model=ORTHOGLIDE
     ).essential
     gp = np.array([x.value for x in paper.drive_gains])
-    assert paper.diagnostics["method"] == "paper"
+    assert paper.reduction.method == "paper"
     assert np.abs(gp / g - 1).max() > np.abs(ge / g - 1).max()
 
 
@@ -346,7 +346,7 @@ def test_a_residual_at_current_reversals_is_said_and_folded_as_at_once():
     for sol, said in ((clean, 0), (hit, 3)):
         d, warnings = diagnose(sol.uncertainty, 10, 4, names, gain_index=slice(4, 7))
         assert sum("where its current reverses" in w and "backlash" in w for w in warnings) == said
-        assert set(d["reversal_residual_ratio"]) == set(names)
+        assert set(d.reversal_residual_ratio) == set(names)
     # the rows folded are the rows of each sign change on (here, three), in pieces as at once
     obs = blocks[0]
     X = np.concatenate([obs.W.transpose(2, 0, 1), obs.w_m[None], obs.v_tau[None]])  # (n_c, 3, r)
@@ -401,6 +401,6 @@ def test_a_clean_residual_is_not_said_far_from_white_a_slow_one_is_with_its_like
     said = {n: [w for w in warnings if w.startswith(f"the residual of {n} is far from white")]
             for n in names}
     assert not said["white"] and not said["blue"], warnings
-    assert d["slow_ratio"]["slow"] > uncertainty.SLOW_WARN > d["slow_ratio"]["white"]
+    assert d.slow_ratio["slow"] > uncertainty.SLOW_WARN > d.slow_ratio["white"]
     assert len(said["slow"]) == 1 and "Stribeck" in said["slow"][0]
     assert len(said["slow_at_reversals"]) == 1 and "backlash" in said["slow_at_reversals"][0]

@@ -49,13 +49,13 @@ def test_true_model_tracks_a_simulated_record(truth, sim_record):
     opts = IdentifyOptions()
     good = dd.validate(sim_record, ROBOT, truth, G_TRUE, 1.983, opts)
     bad = dd.validate(sim_record, ROBOT, truth, [637 * np.pi] * 3, 1.983, opts)
-    assert good["windows"] >= 10 and good["horizon_s"] == dd.HORIZON_S
-    rel = np.array([j["relative"] for j in good["joints"]])
-    rel_bad = np.array([j["relative"] for j in bad["joints"]])
+    assert good.windows >= 10 and good.horizon_s == dd.HORIZON_S
+    rel = np.array([j.relative for j in good.joints])
+    rel_bad = np.array([j.relative for j in bad.joints])
     # the plant's smooth Coulomb friction, 1 mA current noise and 1 µm encoder: ≲ 0.5 % of the
     # drift over 0.2 s; 8 % too low gains leave several % of it unexplained
     assert rel.max() < 0.005 and np.all(rel_bad > 5 * rel)
-    assert all(j["unit"] == "m" and j["rms_error"] < 5e-4 for j in good["joints"])
+    assert all(j.unit == "m" and j.rms_error < 5e-4 for j in good.joints)
 
 
 @pytest.mark.slow
@@ -75,5 +75,5 @@ def test_serial_urdf_robot_identified_consistent_and_simulated(tmp_path):
     assert c.findings.consistent  # a URDF's bodies, identified from clean data: consistent
     assert np.abs((c.identified.chi_b - c.chi_hat) / c.sigma_b).max() < 0.5
     (ddm,) = c.direct_dynamics
-    assert ddm["engine"] == "Pinocchio ABA on the URDF"
-    assert max(j["relative"] for j in ddm["joints"]) < 0.01
+    assert ddm.engine == "Pinocchio ABA on the URDF"
+    assert max(j.relative for j in ddm.joints) < 0.01
