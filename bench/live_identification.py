@@ -208,7 +208,7 @@ def run(args, paths: list[Path], source: str) -> int:
           f"{in_sigma(res.parameters, off.parameters):.2f} σ on the base parameters; current-loop "
           "lag live " + ", ".join(f"{a['tau_ms']:.3f}" for a in res.current_lag) + " ms, offline "
           + ", ".join(f"{b['tau_ms']:.3f}" for b in off.current_lag) + " ms")
-    paper = IdentifyOptions(lag_model="off")
+    paper = IdentifyOptions.of(lag_model="off")
     live = LiveIdentification(paper, model=ORTHOGLIDE)
     play(live, recs, 100)
     res, off = live.result(), identify_records(recs, options=paper, model=ORTHOGLIDE)

@@ -149,9 +149,9 @@ def _away_from_reversals(traj: FourierTrajectory, t: np.ndarray) -> np.ndarray:
     identification's dead band over ± its margin, checked at the samples' spacing)."""
     opts = IdentifyOptions()
     keep = np.ones((3, t.shape[0]), bool)
-    m = opts.reversal_margin_s
+    m = opts.observe.reversal_margin_s
     for s in np.arange(-m, m + 1e-12, t[1] - t[0]):
-        keep &= np.abs(traj.evaluate(t + s)[1].T) >= opts.velocity_deadband_mps
+        keep &= np.abs(traj.evaluate(t + s)[1].T) >= opts.observe.velocity_deadband_mps
     return keep
 
 
