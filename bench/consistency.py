@@ -77,7 +77,7 @@ def run(robot, records, validation, chi_true: np.ndarray, g_true: np.ndarray,
     import json
     import tempfile
 
-    opts = opts or IdentifyOptions(consistent=True)
+    opts = opts or IdentifyOptions.of(consistent=True)
     if prior is not None:
         f = Path(tempfile.mkdtemp()) / "prior.json"
         f.write_text(json.dumps(prior))
@@ -218,7 +218,7 @@ def model_case(robot, seconds: float, seed: int) -> dict:
     recs = [synthetic_record(seconds, 0.0, seed=seed + 1, **kw),
             synthetic_record(seconds, 2.0, seed=seed + 2, **kw)]
     val = synthetic_record(min(seconds, 10.0), 2.0, seed=seed + 3, **kw)
-    return run(robot, recs, val, chi, g, None, IdentifyOptions(consistent=True, lag_model="off"))
+    return run(robot, recs, val, chi, g, None, IdentifyOptions.of(consistent=True, lag_model="off"))
 
 
 if __name__ == "__main__":

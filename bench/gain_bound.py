@@ -26,10 +26,10 @@ def gain_rel_std_bound(records: list[Record], model, chi: np.ndarray, g: np.ndar
     blocks = []
     for rec in records:
         T = float(np.median(np.diff(rec.stamps_q_ns))) * 1e-9
-        trim = int(round(opts.edge_trim_s / T))
-        qh, qdh, qddh, _ = states_at_half_tick(rec.q, rec.v_tau, T, opts.filter_cutoff_hz,
-                                               opts.filter_order, trim, opts.zoh_shift,
-                                               opts.filter_currents)
+        trim = int(round(opts.observe.edge_trim_s / T))
+        qh, qdh, qddh, _ = states_at_half_tick(rec.q, rec.v_tau, T, opts.observe.filter_cutoff_hz,
+                                               opts.observe.filter_order, trim,
+                                               opts.observe.zoh_shift, opts.observe.filter_currents)
         W = model.regressor(qh, qdh, qddh)  # (3 m, n_b), joint by joint
         w_m = np.asarray(model.payload_mass_column(qh, qdh, qddh)).reshape(-1)
         tau = W @ chi + rec.payload_mass * w_m

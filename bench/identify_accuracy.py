@@ -111,7 +111,7 @@ def run_case(profile: str, seconds: float, seed: int, cache: Path | None, valida
         ph.append(p.rel_std * abs(p.value))
         pp.append(p.rel_std_paper * abs(p.value))
     ge = np.array([x.value for x in res.essential.drive_gains])
-    tol = np.maximum(s_h / g, opts.essential_min_tolerance)
+    tol = np.maximum(s_h / g, opts.solve.essential_min_tolerance)
     w_id = identify_records([ru, r2], method="wls", gains=g, options=opts, model=ORTHOGLIDE)
     w_man = identify_records([ru, r2], method="wls", options=opts, model=ORTHOGLIDE)
     pm = w_id.payload_mass
@@ -242,9 +242,9 @@ def main() -> int:
     args = ap.parse_args()
     import yaml
 
-    default = IdentifyOptions()
+    default = IdentifyOptions().flat()
     opts = IdentifyOptions.from_mapping(  # strings stay strings ("off" is not YAML's false)
-        {k: v if isinstance(getattr(default, k, None), str) else yaml.safe_load(v)
+        {k: v if isinstance(default.get(k), str) else yaml.safe_load(v)
          for k, v in (a.split("=", 1) for a in args.set)}, "--set")
     names, chi_true = true_base_parameters()
     report: list[str] = []

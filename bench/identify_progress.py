@@ -40,7 +40,7 @@ def simulated_bags(folder: Path, seconds: float) -> list[str]:
 
 def timed(bags: list[str], stages) -> float:
     t0 = time.perf_counter()
-    identify(bags, options=IdentifyOptions(consistent=True), model=load_robot("ur5"),
+    identify(bags, options=IdentifyOptions.of(consistent=True), model=load_robot("ur5"),
              progress=stages)
     return time.perf_counter() - t0
 

@@ -220,7 +220,7 @@ def run(args, paths: list[Path], source: str) -> int:
             + " ms, offline " + ", ".join(f"{b.tau_ms:.3f}" for b in off.current_lag) + " ms")
     print(f"\n{line}")
     FIGS.note(line)
-    paper = IdentifyOptions(lag_model="off")
+    paper = IdentifyOptions.of(lag_model="off")
     live = LiveIdentification(paper, model=ORTHOGLIDE)
     play(live, recs, 100)
     res, off = live.result(), identify_records(recs, options=paper, model=ORTHOGLIDE)

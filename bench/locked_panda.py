@@ -33,7 +33,7 @@ def row(robot, seconds: float, noise: float, seed: int) -> None:
     """One identification: per joint the gain's error / its σ, in %, then in σ."""
     try:
         res = identify_records(L.records(seconds, noise, noise_seed=seed), model=robot,
-                               options=IdentifyOptions(lag_model="off"))
+                               options=IdentifyOptions.of(lag_model="off"))
     except OrthoglideError as exc:
         print(f"{noise:>8g}  noise draw {seed}: refused: {exc}")
         return

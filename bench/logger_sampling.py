@@ -99,8 +99,8 @@ def row(name: str, mode: str, recs: list, model, loop_hz: float = 0.0) -> list[s
     t0 = time.perf_counter()
     try:
         res = identify_records([to_record(r, f"{name} {i}") for i, r in enumerate(recs)],
-                               model=model, options=IdentifyOptions(current_sampling=mode,
-                                                                    current_loop_hz=loop_hz))
+                               model=model, options=IdentifyOptions.of(current_sampling=mode,
+                                                                       current_loop_hz=loop_hz))
     except OrthoglideError as exc:
         text = str(exc)
         text = text if len(text) < 240 else f"{text[:110]} … {text[-120:]}"

@@ -102,7 +102,7 @@ def main() -> int:
         t1 = time.perf_counter()
         old = before(recs, model)
         unchecked = identify_records(recs, model=model,
-                                     options=IdentifyOptions(check_excitation=False))
+                                     options=IdentifyOptions.of(check_excitation=False))
         t2 = time.perf_counter()
         try:
             res = identify_records(recs, model=model)

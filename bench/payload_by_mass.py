@@ -59,13 +59,13 @@ def one_seed(robot: str, seconds: float, seed: int, model, truth) -> dict:
            "com_z": com_err / np.array(res.payload.com_std), "t": t_id}
     try:  # checked: refused, or a partial answer naming the gains it cannot scale
         checked = identify_records(recs, model=model,
-                                   options=IdentifyOptions(payload_known="point"))
+                                   options=IdentifyOptions.of(payload_known="point"))
         out["point_refused"] = "partial: " + ", ".join(
             g.name for g in checked.drive_gains if not g.determined) + " not determined" \
             if not checked.complete else "no"
     except OrthoglideError as exc:
         out["point_refused"] = "refused: " + str(exc).split(":")[0][:40]
-    point = identify_records(recs, model=model, options=IdentifyOptions(
+    point = identify_records(recs, model=model, options=IdentifyOptions.of(
         payload_known="point", check_excitation=False))
     out["point_err"] = np.array([x.value for x in point.drive_gains]) / g_true - 1
     return out

@@ -58,9 +58,10 @@ def velocity_errors(rec) -> tuple[np.ndarray, np.ndarray]:
     """rms(q̂̇ - q̇) / rms(q̇) per joint at the stamps: on the stamps, and with the median step
     as the period (the pipeline before)."""
     opts = IdentifyOptions().at_rate(1e9 / np.mean(np.diff(rec.stamps_ns)))
-    _, qd, _ = states_on_stamps(rec.q, rec.stamps_ns, opts.filter_cutoff_hz, zoh_shift=False)
+    _, qd, _ = states_on_stamps(rec.q, rec.stamps_ns, opts.observe.filter_cutoff_hz,
+                                zoh_shift=False)
     T_med = float(np.median(np.diff(rec.stamps_ns))) * 1e-9
-    _, qd_med, _ = derivative_filter(rec.q, T_med, opts.filter_cutoff_hz)
+    _, qd_med, _ = derivative_filter(rec.q, T_med, opts.observe.filter_cutoff_hz)
     sl = slice(100, -100)
     rms = np.sqrt(np.mean(rec.qd_true[sl] ** 2, axis=0))
     err = lambda x: np.sqrt(np.mean((x[sl] - rec.qd_true[sl]) ** 2, axis=0)) / rms  # noqa: E731

@@ -96,7 +96,7 @@ def other_shapes(panda_s: float, ur10_s: float):
 
 def solve(recs, model, method: str, **kw):
     try:
-        return identify_records(recs, model=model, method=method, options=IdentifyOptions(**kw))
+        return identify_records(recs, model=model, method=method, options=IdentifyOptions.of(**kw))
     except OrthoglideError as exc:
         return str(exc)
 

@@ -187,7 +187,7 @@ def sources_figures(out: Path, r: dict) -> None:
 
     paths, results = r["paths"], r["results"]
     copies = [effort_only_copy(p, out / "effort_only" / Path(p).name) for p in paths]
-    opts, model = IdentifyOptions(lag_model="off"), load_robot("ur5_mount")
+    opts, model = IdentifyOptions.of(lag_model="off"), load_robot("ur5_mount")
     a, b = identify(copies, model=model, options=opts), identify(paths, model=model, options=opts)
     ga, gb = [x.value for x in a.drive_gains], [x.value for x in b.drive_gains]
     same_p = [p.value for p in a.parameters] == [p.value for p in b.parameters]

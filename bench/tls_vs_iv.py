@@ -49,7 +49,7 @@ def checked_answer(recs, model, noisy_columns: str) -> str:
     per gain its error (% and σ), "-" where not determined."""
     try:
         res = identify_records(recs, model=model,
-                               options=IdentifyOptions(tls_noisy_columns=noisy_columns))
+                               options=IdentifyOptions.of(tls_noisy_columns=noisy_columns))
     except OrthoglideError as exc:
         return f"refused: {str(exc)[:90]}"
     e, z = errors(res)
@@ -65,7 +65,7 @@ def one_level(figs: Figures, noise: float, seconds: float, seed: int, model) -> 
         t0 = time.perf_counter()
         try:
             res = identify_records(recs, model=model, method=method,
-                                   options=IdentifyOptions(**kw))
+                                   options=IdentifyOptions.of(**kw))
             cols[name] = (*errors(res), time.perf_counter() - t0)
         except OrthoglideError as exc:
             cols[name] = None

@@ -183,7 +183,7 @@ def test_the_consistent_answers_bodies_and_bounds_are_typed():
     from orthoglide_ident.model.robots import load_robot
 
     res = identify([ROOT / "bags/unloaded", ROOT / "bags/loaded"], model=load_robot("orthoglide"),
-                   options=IdentifyOptions(consistent=True))
+                   options=IdentifyOptions.of(consistent=True))
     c = res.consistency
     bodies, inertials = c.bodies(), c.inertials()
     assert all(isinstance(b, BodyConsistency) and b.min_eigenvalue >= 0 for b in bodies)

@@ -139,7 +139,7 @@ class DesignOptions:
     time_limit_s: float | None = None  # the search returns its best so far after this
     search: str = "gradient"  # SEARCHES (docs/benchmarks.md: better σ and κ on every arm)
     # a gain the payload adds less than this share of its torque to is not excited (the
-    # identification's rule: IdentifyOptions.min_payload_share)
+    # identification's rule: SolveOptions.min_payload_share)
     min_payload_share: float = MIN_PAYLOAD_SHARE
 
 

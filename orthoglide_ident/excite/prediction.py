@@ -46,7 +46,7 @@ DEFAULT_CURRENT_NOISE = 0.02  # A, per joint, when no record says otherwise
 MAX_CONDITION = 1e6  # κ (√ of the eigenvalue ratio) beyond which a direction is not excited
 STRUCTURAL = 1e-14  # λ/λmax of the scaled F below which a direction is null up to rounding
 LOADS = 0.3  # an unknown's |component| (of the largest) in a direction that names it
-DEFAULT_DECIMATION = 10  # n_d of a result that does not say (IdentifyOptions.decimation)
+DEFAULT_DECIMATION = 10  # n_d of a result that does not say (ObserveOptions.decimation)
 
 
 @dataclass(frozen=True)

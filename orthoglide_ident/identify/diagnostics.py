@@ -28,7 +28,7 @@ def bag_report(rep: SegmentReport, source: str, condition: str | None, payload_m
 def finish_result(result: IdentificationResult, solved: Solved, reports: Sequence[RecordReport],
                   warnings: list[str], opts: IdentifyOptions, timings: dict[str, float]) -> None:
     """Warnings and diagnostics of a solved identification (the JSON's ``diagnostics``)."""
-    if result.condition_number > opts.warn_condition:
+    if result.condition_number > opts.solve.warn_condition:
         warnings.append(f"condition number of the scaled observation matrix is "
                         f"{result.condition_number:.3g}: some base parameters are poorly excited "
                         "(see their %σ; --essential keeps the well-identified ones)")
@@ -40,8 +40,8 @@ def finish_result(result: IdentificationResult, solved: Solved, reports: Sequenc
         segments=int(sum(r.n_segments for r in reports)),
         rows=int(sum(sum(r.equations_per_joint) for r in reports)),
         solver=solved.solver,
-        decimation=opts.decimation,
+        decimation=opts.observe.decimation,
         bags=tuple(reports),
         timings_s={k: round(v, 4) for k, v in timings.items()},
-        options=dict(vars(opts)),
+        options=dict(opts.flat()),
     )

@@ -127,7 +127,7 @@ def _observe_all(records: Iterable[Record], model: IdentificationModel, layout: 
     whose reading is open (:func:`_other_readings`), else None."""
     if isinstance(records, Sequence):  # in memory: check every tag before the long steps
         for r in records:
-            resolve_payload(r, payload_mass, opts.payload_tolerance_kg)
+            resolve_payload(r, payload_mass, opts.input.payload_tolerance_kg)
     blocks: list[Observations] = []
     reports: list[RecordReport] = []
     checks: list[RecordChecks] = []
@@ -141,8 +141,8 @@ def _observe_all(records: Iterable[Record], model: IdentificationModel, layout: 
             warnings.extend(lines)
             log.info("%s", lines[-1])
             continue
-        m = resolve_payload(rec, payload_mass, opts.payload_tolerance_kg)
-        p = record_payload(rec, m, opts.payload_known)
+        m = resolve_payload(rec, payload_mass, opts.input.payload_tolerance_kg)
+        p = record_payload(rec, m, opts.input.payload_known)
         if p is not None:
             partial.append((rec.source, p))
             check_one_payload(partial)
@@ -186,8 +186,8 @@ def check_moves(obs: Observations, model: IdentificationModel, opts: IdentifyOpt
         raise ExcitationError(
             f"{what} {obs.source}: the robot hardly moves in this record (at most {max(rows)} of "
             f"{obs.n_samples} decimated samples of any joint above the velocity dead band, "
-            f"velocity_deadband_mps {opts.velocity_deadband_mps:g}): it holds no equation of the "
-            "dynamics; "
+            f"velocity_deadband_mps {opts.observe.velocity_deadband_mps:g}): it holds no equation "
+            "of the dynamics; "
             "leave it out or record exciting motion")
 
 
@@ -241,14 +241,14 @@ def _bound_filter_bias(result: IdentificationResult, records: Iterable[Record],
         except OrthoglideError:
             return None
 
-    bound_filter_bias(result, solve_again, SLOW_STEP_S, opts.max_gain_rel_std)
+    bound_filter_bias(result, solve_again, SLOW_STEP_S, opts.solve.max_gain_rel_std)
 
 
 def sampling_rerun(result: IdentificationResult, opts: IdentifyOptions) -> str | None:
     """Why a result read with ``current_sampling: auto`` must be read again as sampled (its
     identified lag is negative: observe/sampling.lag_says_sampled), or None. Only when every
     record was read held by auto's default (none tagged or set held by the robot file)."""
-    if opts.current_sampling != "auto":
+    if opts.input.current_sampling != "auto":
         return None
     bags = result.record_reports
     if not bags or any(not b.current_sampling_why.startswith(AUTO_HELD) for b in bags):
@@ -273,7 +273,7 @@ def _identify_once(
     timings: dict[str, float] = {}
     t_all = time.perf_counter()
     # the columns beside W, once: the robot itself is never wrapped (columns/layout.py)
-    layout = column_layout(model, opts.screw_lead_m, opts.lag_model == "auto")
+    layout = column_layout(model, opts.solve.screw_lead_m, opts.solve.lag_model == "auto")
 
     def add(ts: dict[str, float]) -> None:
         for k, v in ts.items():
@@ -290,9 +290,9 @@ def _identify_once(
     def solve_rows(blocks, reports):
         cols, b = _payload_or_not(model, layout, blocks, payloads)
         # the first record's rate fixes what the solve needs in samples (the σ's decimation gain)
-        o = dataclasses.replace(opts, filter_cutoff_hz=reports[0].filter_cutoff_hz,
-                                decimation=reports[0].decimation,
-                                decimation_cutoff_hz=reports[0].decimation_cutoff_hz)
+        o = opts.replace(filter_cutoff_hz=reports[0].filter_cutoff_hz,
+                         decimation=reports[0].decimation,
+                         decimation_cutoff_hz=reports[0].decimation_cutoff_hz)
         cols, b = _lag_or_paper(cols, b, reports)
         factors = [dataclasses.replace(RecordFactors.from_observations(x), at_limit=by_joint(
             model, c.at_limit)) for x, c in zip(b, checks)]
@@ -358,8 +358,8 @@ def _as_read(opts: IdentifyOptions, reports: list[RecordReport]) -> IdentifyOpti
     if {r.current_sampling for r in reports} != {"sampled"}:
         return opts
     shift_ms = max(r.current_shift_ms for r in reports)
-    return opts.replace(current_sampling="sampled",
-                        current_loop_hz=0.5e3 / shift_ms if shift_ms > 0 else opts.current_loop_hz)
+    loop_hz = 0.5e3 / shift_ms if shift_ms > 0 else opts.input.current_loop_hz
+    return opts.replace(current_sampling="sampled", current_loop_hz=loop_hz)
 
 
 def _payload_or_not(model: IdentificationModel, layout: ColumnLayout,
@@ -425,7 +425,7 @@ def _validate(records: Iterable[Record], solved: Solved, model: IdentificationMo
     with the columns solved (``layout``)."""
     result, out = solved.result, []
     for rec in records:
-        m = resolve_payload(rec, payload_mass, opts.payload_tolerance_kg)
+        m = resolve_payload(rec, payload_mass, opts.input.payload_tolerance_kg)
         if rec.condition == "loaded" and get(result.method).gains_given and result.payloads:
             m = next((p.value for p in result.payloads if p.tagged == m), m)
         obs, _, _ = observe(rec, model, opts, m, layout=layout)

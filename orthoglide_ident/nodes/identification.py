@@ -7,7 +7,6 @@ from __future__ import annotations
 import json
 import sys
 import threading
-from dataclasses import fields
 from pathlib import Path
 from typing import Any
 
@@ -131,16 +130,16 @@ NODE_PARAMETERS = (
         'used when neither of the above carries a current ("": not read)',
     ),
 )
-# Every IdentifyOptions field is a parameter of the same name, so --params-file
-# config/identification.yaml sets them (the CLI's --config reads the same file).
+# Every option (a flat key of one of IdentifyOptions' groups) is a parameter of the same name, so
+# --params-file config/identification.yaml sets them (the CLI's --config reads the same file).
 OPTION_PARAMETERS = tuple(
     Param(
-        f.name,
-        getattr(IdentifyOptions(), f.name),
+        name,
+        default,
         "identification option (see config/identification.yaml)",
         dynamic=True,
     )
-    for f in fields(IdentifyOptions)
+    for name, default, _group in IdentifyOptions.flat_fields()
 )
 OPTION_NAMES = frozenset(p.name for p in OPTION_PARAMETERS)
 PARAMETERS = NODE_PARAMETERS + OPTION_PARAMETERS
@@ -206,10 +205,10 @@ class IdentificationNode(Node):
                 self.param("joint_states_topic"),
                 self.param("current_reference_topic"),
                 self.param("dynamic_joint_states_topic"),
-                self.options().current_interface,
+                self.options().input.current_interface,
             )
             self.feed = LiveFeed(self, self.live, self.live_lock, topics, robot=self.robot,
-                                 effort_unit=self.options().effort_unit)
+                                 effort_unit=self.options().input.effort_unit)
         if not self.param("robot"):  # the URDF robot_state_publisher publishes, when there is one
             self.create_subscription(String, "robot_description", self._on_description, latched)
         self.create_service(

@@ -72,7 +72,7 @@ def gain_convergence(observations: list[Observations], step_s: float = 0.5, weig
                      joint_names: Sequence[str] = ()) -> list[GainPoint]:
     """The gains with the first τ s of every record, every ``step_s`` (see the module doc);
     ``weighting``, ``noisy_columns`` and ``limits`` as the identification's options
-    (``weighting``, ``tls_noisy_columns``, the excitation limits: ``IdentifyOptions.limits``
+    (``weighting``, ``tls_noisy_columns``, the excitation limits: ``SolveOptions.limits``
     of the robot's nominal gains)."""
     limits = limits or ExcitationLimits()
     names = tuple(joint_names) or tuple(f"joint {k + 1}" for k in

@@ -16,13 +16,12 @@ instant in its record for the forces, the longest record's end for the result. T
 """
 from __future__ import annotations
 
-import dataclasses
 from pathlib import Path
 
 import numpy as np
 
 from orthoglide_ident.errors import ConfigError
-from orthoglide_ident.identify.options import IdentifyOptions
+from orthoglide_ident.identify.options import KEY_GROUP, IdentifyOptions
 from orthoglide_ident.identify.solve.methods import METHODS
 from orthoglide_ident.identify.solve.tls import ExcitationLimits
 from orthoglide_ident.report import validation_for_plot
@@ -36,9 +35,8 @@ CHANNELS = (schemas.REPORT_CONVERGENCE, schemas.REPORT_FORCES, schemas.IDENTIFIE
 
 def _limits(options: dict, nominal_gains: list[float]) -> ExcitationLimits:
     """The identification's excitation limits (its options as recorded in the result)."""
-    known = {f.name for f in dataclasses.fields(IdentifyOptions)}
-    opts = IdentifyOptions(**{k: v for k, v in options.items() if k in known})
-    return opts.limits(nominal_gains)
+    opts = IdentifyOptions.of(**{k: v for k, v in options.items() if k in KEY_GROUP})
+    return opts.solve.limits(nominal_gains)
 
 
 def report_messages(

@@ -72,8 +72,8 @@ class ForceResidual:
             zip(("q", "v"), channel_maps(tuple(model.joint_names), self.transmission))
         )
         self.opts = opts  # cut-offs resolved at the record's rate (IdentifyOptions.at_rate)
-        self.cutoff_hz, self.order = opts.filter_cutoff_hz, opts.filter_order
-        self.zoh_shift, self.filter_currents = opts.zoh_shift, opts.filter_currents
+        self.cutoff_hz, self.order = opts.observe.filter_cutoff_hz, opts.observe.filter_order
+        self.zoh_shift, self.filter_currents = opts.observe.zoh_shift, opts.observe.filter_currents
         self.g_tau: np.ndarray | None = None  # (n,) in the model's joint order
         self.chi: np.ndarray | None = None  # (n_b,)
         self.payload_mass = 0.0
@@ -183,7 +183,7 @@ class ForceResidual:
     def _set_period(self, diffs: np.ndarray) -> None:
         if diffs.size >= 10 and np.median(diffs) > 0:
             self.period_ns = int(np.median(diffs))
-            self.cutoff_hz = self.opts.at_rate(1e9 / self.period_ns).filter_cutoff_hz
+            self.cutoff_hz = self.opts.at_rate(1e9 / self.period_ns).observe.filter_cutoff_hz
             self.horizon = filter_horizon(self.period_ns * 1e-9, self.cutoff_hz, self.order)
             self.block = max(1, round(self.block_s * 1e9 / self.period_ns))
             t, q, v = self.t, self.q, self.v

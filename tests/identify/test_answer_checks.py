@@ -39,18 +39,18 @@ def test_a_bare_urdf_gives_no_nominal_gains_and_no_band():
     yaml = load_robot("ur5")
     assert not urdf.nominal_gains_given and yaml.nominal_gains_given
     opts = IdentifyOptions()
-    assert opts.limits(urdf.nominal_gains, False).gain_range is None
-    lo, hi = opts.limits(yaml.nominal_gains, True).gain_range
+    assert opts.solve.limits(urdf.nominal_gains, False).gain_range is None
+    lo, hi = opts.solve.limits(yaml.nominal_gains, True).gain_range
     assert np.allclose(lo * 100, hi)
 
 
 def test_a_gain_outside_the_nominal_band_is_a_warning_the_users_bounds_an_error():
     names = ("a", "b")
-    band = IdentifyOptions().limits([1.0, 1.0], True)
+    band = IdentifyOptions().solve.limits([1.0, 1.0], True)
     w = gain_band_warnings(np.array([24.9, 1.1]), band, names)
     assert len(w) == 1 and w[0].startswith("identified drive gain of a 24.9 is outside")
     assert gain_band_warnings(np.array([24.9, 1.1]), ExcitationLimits(gain_range=None), names) == []
-    own = IdentifyOptions(gain_max=10.0).limits([1.0, 1.0], False)
+    own = IdentifyOptions.of(gain_max=10.0).solve.limits([1.0, 1.0], False)
     with pytest.raises(ExcitationError, match="gain_min, gain_max"):
         gain_band_warnings(np.array([24.9, 1.1]), own, names)
 

@@ -18,7 +18,7 @@ from orthoglide_ident.identify import IdentifyOptions, LiveIdentification, Recor
 
 ARM = SyntheticModel(n_joints=6, kind="revolute")
 STRONG = dict(amplitude=0.1, f_max=4.0)
-PAPER_DRIVE = IdentifyOptions(lag_model="off")
+PAPER_DRIVE = IdentifyOptions.of(lag_model="off")
 
 
 @pytest.fixture(scope="module")

@@ -107,7 +107,7 @@ def test_the_live_identification_of_the_plant_equals_its_bags_offline(simulated)
 
     truth, recs, paths, (joint_yaml, _) = simulated
     model = load_robot(str(joint_yaml))
-    opts = IdentifyOptions(lag_model="off")
+    opts = IdentifyOptions.of(lag_model="off")
     bags = [read_record(p, model, opts) for p in paths["joint"]]
     off = identify_records(bags, options=opts, model=model)
     live = LiveIdentification(opts, model=model)

@@ -60,7 +60,7 @@ def test_the_payload_shape_matters(arm):
     point = recs["2kg"]
     point = Record(**{**vars(point), "payload": Payload(2.0, "tool0")})
     wrong = identify_records([recs["unloaded"], point], model=model,
-                             options=IdentifyOptions(check_excitation=False))
+                             options=IdentifyOptions.of(check_excitation=False))
     g_true = np.array([truth.drives[j].g_tau for j in model.joint_names])
     e_exact = np.abs(np.array([x.value for x in exact.drive_gains]) / g_true - 1).max()
     e_point = np.abs(np.array([x.value for x in wrong.drive_gains]) / g_true - 1).max()
@@ -75,7 +75,7 @@ def test_live_with_the_payload_shape_equals_offline(arm):
     from live_helpers import rel_diff
 
     model, recs, _ = arm
-    opts = IdentifyOptions(lag_model="off")
+    opts = IdentifyOptions.of(lag_model="off")
     records = [recs["unloaded"], recs["2kg"]]
     offline = identify_records(records, model=model, options=opts)
     assert max(rel_diff(offline, live_result(model, records, opts))) < 1e-6
@@ -109,7 +109,7 @@ def test_consistent_masses_far_from_the_description_are_said_with_the_cause(arm)
     from orthoglide_ident.model.robots import ROBOTS_DIR
 
     _, recs, _ = arm
-    opts = IdentifyOptions(consistent=True)
+    opts = IdentifyOptions.of(consistent=True)
     res = identify_records([recs["unloaded"]], method="wls", model=load_robot("ur5"),
                            options=opts)
     assert not [w for w in res.warnings if "far from the description's masses" in w]

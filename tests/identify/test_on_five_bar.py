@@ -89,7 +89,7 @@ def test_the_payload_shape_matters(five_bar, tls):
     model, recs, truth = five_bar
     point = Record(**{**vars(recs["1kg"]), "payload": Payload(1.0, "tip")})
     wrong = identify_records([recs["unloaded"], point], model=model,
-                             options=IdentifyOptions(check_excitation=False))
+                             options=IdentifyOptions.of(check_excitation=False))
     e_exact = np.abs(gain_errors(tls, truth)[0]).max()
     e_point = np.abs(gain_errors(wrong, truth)[0]).max()
     print(f"gain error: exact payload {100 * e_exact:.4f} %, point mass {100 * e_point:.3f} %")
@@ -103,7 +103,7 @@ def test_live_equals_offline_on_the_closed_chain(five_bar):
     from live_helpers import rel_diff
 
     model, recs, _ = five_bar
-    opts = IdentifyOptions(lag_model="off")
+    opts = IdentifyOptions.of(lag_model="off")
     records = [recs["unloaded"], recs["1kg"]]
     offline = identify_records(records, model=model, options=opts)
     result = live_result(model, records, opts)

@@ -39,7 +39,7 @@ def test_model_data_noise_free_gives_true_gains_and_base_parameters():
     g = np.array(tp.g_tau)
     recs = [synthetic_record(20, m, seed=s, noise=False, model=bm, chi=smooth, g_tau=g,
                              amplitude=0.13, f_max=3.5) for m, s in ((0.0, 1), (1.983, 2))]
-    res = identify_records(recs, model=bm, options=IdentifyOptions(velocity_deadband_mps=0.0))
+    res = identify_records(recs, model=bm, options=IdentifyOptions.of(velocity_deadband_mps=0.0))
     assert np.abs(_gains(res) / g - 1).max() < 1e-4
     est = np.array([p.value for p in res.parameters])
     big = np.abs(smooth) > 0.5  # the well-excited ones; others are weakly identifiable

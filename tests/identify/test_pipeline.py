@@ -33,8 +33,8 @@ def test_noise_free_records_give_the_true_gains_and_the_zoh_shift_matters():
     assert err < 2e-5
     chi = np.array([p.value for p in res.parameters])
     assert np.abs(chi - CHI_SMOOTH).max() < 2e-3
-    no_shift = identify_records(recs, model=MODEL, options=IdentifyOptions(zoh_shift=False,
-                                                                           check_excitation=False))
+    no_shift = identify_records(recs, model=MODEL, options=IdentifyOptions.of(zoh_shift=False,
+                                                                              check_excitation=False))
     assert np.abs(_gains(no_shift) / TRUE_GAINS - 1).max() > 5 * err
 
 
@@ -140,7 +140,7 @@ def test_options_from_yaml(tmp_path):
     p.write_text("/**:\n  ros__parameters:\n    r_sigma: 20.0\n    decimation: 5\n"
                  "    method: tls\n")
     o = IdentifyOptions.from_yaml(p)
-    assert o.r_sigma == 20.0 and o.decimation == 5
+    assert o.solve.r_sigma == 20.0 and o.observe.decimation == 5
     p.write_text("r_sigmaa: 3\n")
     with pytest.raises(ConfigError, match="unknown option"):
         IdentifyOptions.from_yaml(p)
@@ -159,6 +159,6 @@ def test_the_result_says_the_robots_locked_joints_with_drive_terms_modelled():
         locked_joints = (LockedJoint("finger", 0.03, "prismatic", LISTED),)
 
     res = identify_records(_pair(False), model=Locked(),
-                           options=IdentifyOptions(screw_lead_m=0.010))
+                           options=IdentifyOptions.of(screw_lead_m=0.010))
     assert res.locked_joints == [Locked.locked_joints[0]]
     assert res.to_json()["locked_joints"] == [Locked.locked_joints[0].to_json()]

@@ -78,7 +78,7 @@ def _simulate(truth, trajectory: str, payload, seed: int, noise: bool = True,
     traj = designed_trajectory(truth.arm, trajectory)
     q_rec = traj.evaluate(t)[0]
     # a current is held over its tick (zero-order hold): it balances the torque at mid-tick,
-    # where the product takes the states (IdentifyOptions.zoh_shift)
+    # where the product takes the states (ObserveOptions.zoh_shift)
     q, qd, qdd = traj.evaluate(t + 0.5 / RATE_HZ)
     N_inv = np.linalg.inv(N)
     qd_m, qdd_m = qd @ N.T, qdd @ N.T
@@ -345,7 +345,7 @@ def test_live_identification_through_the_transmission_equals_offline(coupled):
         p = payload if cond == "loaded" else None
         recs.append(Record(cond, r["stamps"], joints, r["q_j"], r["stamps"], joints,
                            r["v"] @ N, cond, p.mass if p else 0.0, payload=p))
-    opts = IdentifyOptions(lag_model="off")
+    opts = IdentifyOptions.of(lag_model="off")
     off = identify_records([motor_side(r, model) for r in recs], options=opts, model=model)
     live = LiveIdentification(opts, model=model)
     warnings = [w for r in recs for w in _feed_live(live, r, 997, 5)]

@@ -109,7 +109,7 @@ def test_identified_live_and_from_bags_named_by_motor(plant, tmp_path):
     said = " | ".join(w for m in estimates for w in m.warnings)
 
     offline = identify_offline(
-        paths, model=load_robot(str(robot)), options=IdentifyOptions(lag_model="off")
+        paths, model=load_robot(str(robot)), options=IdentifyOptions.of(lag_model="off")
     )
     # every tick published is in the bags (the live data are those ticks: live = offline below)
     for path, (_, msgs) in zip(paths, runs.values()):

@@ -87,7 +87,7 @@ def _rel(a, b) -> float:
 def test_live_equals_offline_from_both_current_sources(node, records, tmp_path):
     from orthoglide_ident.nodes.live_sources import LiveTopics
 
-    opts = IdentifyOptions(lag_model="off")  # the same equations live and offline (test_live.py)
+    opts = IdentifyOptions.of(lag_model="off")  # the same equations live and offline (test_live.py)
     # (A): the same ticks as (B) pairs, the current from the JointState effort alone
     only_js = {
         n: dataclasses.replace(

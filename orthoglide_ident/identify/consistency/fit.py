@@ -335,8 +335,9 @@ def attach(solved, model, opts, progress: Callable[..., None] | None = None) -> 
     res = solved.result
     res.consistency = analyse(res, solved.factors, solved.chi_rows,
                               np.asarray(solved.solver.joint_sigma, float), model,
-                              opts.consistency_prior_weight,
-                              prior=read_prior(opts.consistency_prior), progress=progress)
+                              opts.consistency.consistency_prior_weight,
+                              prior=read_prior(opts.consistency.consistency_prior),
+                              progress=progress)
     res.warnings.extend(mass_warnings(res.consistency, model, res))
     held = [b.body for b in res.consistency.bodies() if b.at_prior
             and any(n.startswith("m_") for n in b.at_prior)]

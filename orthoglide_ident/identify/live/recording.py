@@ -10,7 +10,7 @@ checks run on them (validate/records.py, as offline) and an uneven clock's recor
 from them by the offline observation itself (rows.observe), so that the answer is the offline one
 on the same samples. A step outside (0.5, 1.5) periods ends the segment under way
 (ticks.find_breaks); a segment becomes a :class:`~stream.SegmentStream` once it is long enough
-to be kept (``IdentifyOptions.min_segment_samples``),
+to be kept (``ObserveOptions.min_segment_samples``),
 and its decimated rows go to ``fold`` as they come.
 With the current-loop lag in the model, a segment's ticks first pass its
 :class:`~current_lag.LiveLagInstrument`, which holds them until the trajectory has repeated.
@@ -73,7 +73,7 @@ class LiveRecording:
         self.payload = payload  # as start_recording was given it (the tag's), for the rebuild
         self.opts, self.model, self.layout, self._fold = opts, model, layout, fold
         self.bound = bound
-        limit = opts.current_warn_fraction * opts.current_limit_a
+        limit = opts.live.current_warn_fraction * opts.live.current_limit_a
         self.joint_names = names = tuple(model.joint_names)
         n_j = len(names)
         (q_names, q_map), (v_names, v_map) = channel_maps(names, transmission)
@@ -128,7 +128,7 @@ class LiveRecording:
         ref = self._processed_ns
         if ref is None:
             ref = min(x for x in (self.q.t0_ns, self.v.t0_ns, newest) if x is not None)
-        return (newest - ref) * 1e-9 >= self.opts.live_block_s
+        return (newest - ref) * 1e-9 >= self.opts.live.live_block_s
 
     @property
     def lag_s(self) -> float:
@@ -153,7 +153,7 @@ class LiveRecording:
         elif self.q.max_ns is None or self.v.max_ns is None:
             return []
         else:
-            horizon = min(self.q.max_ns, self.v.max_ns) - self.opts.live_pairing_slack_s * 1e9
+            horizon = min(self.q.max_ns, self.v.max_ns) - self.opts.live.live_pairing_slack_s * 1e9
         self._processed_ns = max(x for x in (self.q.max_ns, self.v.max_ns, 0) if x is not None)
         tol = 0 if self.q.period_ns is None else max(int((self.q.period_ns - 1) // 2), 0)
         p = pair_upto(self.q, self.v, horizon, tol)  # as segments.pairing_tolerance_ns
@@ -179,7 +179,7 @@ class LiveRecording:
             self._end_segment(out)
             out += self._period_check()
             if self.rep.n_segments == 0:
-                n = self.opts.min_segment_samples(self.period_ns * 1e-9)
+                n = self.opts.observe.min_segment_samples(self.period_ns * 1e-9)
                 out.append(f"{self.source}: no continuous run of {n} ticks "
                            f"({n * self.period_ns * 1e-9:.2f} s) without a gap: nothing used "
                            "from this recording")
@@ -292,7 +292,7 @@ class LiveRecording:
                 self._rows(self._stream.push(s, q, v), out)
                 return
             self._seg.append((s, q, v))
-            if self._seg_len < self.opts.min_segment_samples(self.period_ns * 1e-9):
+            if self._seg_len < self.opts.observe.min_segment_samples(self.period_ns * 1e-9):
                 return
             self._stream = SegmentStream(self.model, self.layout, self.opts,
                                          self.period_ns * 1e-9, self._t0_ns, self.bound)
@@ -304,7 +304,7 @@ class LiveRecording:
     def _not_repeating(self, out: list[str]) -> None:
         """The segment under way has no period: the lag is left out of the identification
         (LiveIdentification), as offline; its later segments are not held."""
-        if self._seg_len < self.opts.min_segment_samples(self.period_ns * 1e-9):
+        if self._seg_len < self.opts.observe.min_segment_samples(self.period_ns * 1e-9):
             return  # too short to be used: dropped, as offline
         self.lag = False
         self.rep.n_not_repeating += 1
@@ -353,16 +353,16 @@ class LiveRecording:
         self.equations += rows.r if keep is None else keep.sum(axis=1)
         self.n_decimated += rows.r
         self._done_s = float(rows.t[-1])
-        seconds = rows.r * self.opts.decimation * self.period_ns * 1e-9
+        seconds = rows.r * self.opts.observe.decimation * self.period_ns * 1e-9
         self.seconds += seconds
         self._fold(self, rows, seconds)
 
     def _watch_still(self, qd: np.ndarray, out: list[str]) -> None:
         """Warn once per run when a joint stays below the velocity dead band ``live_still_s``."""
-        db = self.opts.velocity_deadband_mps
+        db = self.opts.observe.velocity_deadband_mps
         if db <= 0 or qd.shape[0] == 0:
             return
-        need = int(round(self.opts.live_still_s / (self.period_ns * 1e-9)))
+        need = int(round(self.opts.live.live_still_s / (self.period_ns * 1e-9)))
         below = np.abs(qd) < db
         for j, name in enumerate(self.joint_names):
             moving = np.flatnonzero(~below[:, j])

@@ -170,13 +170,14 @@ class LiveIdentification:
     def __init__(self, options: IdentifyOptions | None = None, *, model: IdentificationModel):
         self.opts = options or IdentifyOptions()
         self.opts.validate()
-        if self.opts.decimation_filter != "fir":
+        if self.opts.observe.decimation_filter != "fir":
             raise ConfigError("live identification needs decimation_filter: fir (cheby1's IIR "
                               "decimation depends on the whole segment)")
         # a transmission's joint-side channels are mapped to its motors on arrival (issue 33)
         self.transmission = model.transmission
         self.model = model  # the robot itself; the columns beside its W: the layout, built once
-        self.layout = column_layout(model, self.opts.screw_lead_m, self.opts.lag_model == "auto")
+        self.layout = column_layout(model, self.opts.solve.screw_lead_m,
+                                    self.opts.solve.lag_model == "auto")
         self._payloads: list[tuple[str, Payload]] = []  # the loaded recordings' (Sect. 4.3)
         self.n_b = self.layout.n_columns
         self._factors: dict[LiveRecording, RecordFactors] = {}  # one per record, as offline
@@ -229,7 +230,7 @@ class LiveIdentification:
         lag = self.layout.lag_column is not None and not self._lag_left_out()
         model, bound = self.model, None
         if condition == "loaded":
-            p = payload_knowledge(source, payload, mass, self.opts.payload_known)
+            p = payload_knowledge(source, payload, mass, self.opts.input.payload_known)
             check_one_payload(self._payloads + [(source, p)])
             self._payloads.append((source, p))
             model, bound = bound_to(model, self.layout, p), p
@@ -358,8 +359,8 @@ class LiveIdentification:
                                                    n_joints=self.model.n_joints)
         f.add_source(rec.source)
         f.fold(rows.X, rows.keep, rows.t, rec.source,
-               rec.opts.decimation * rec.period_ns * 1e-9, rows.q, rows.qd, rec.opts.decimation,
-               screw_mask(self.model))
+               rec.opts.observe.decimation * rec.period_ns * 1e-9, rows.q, rows.qd,
+               rec.opts.observe.decimation, screw_mask(self.model))
         self._seconds[rec.condition] += seconds
         self._version.n += 1
 
@@ -455,14 +456,14 @@ class LiveIdentification:
         if chains[-1]:
             result.warnings.append(chains[-1])
         if solved.chi.shape[0] == factors[0].n_b:  # behind a transmission: a reduction misfit
-            cutoff = reports[0].decimation_cutoff_hz or recs[0].opts.decimation_cutoff_hz
+            cutoff = reports[0].decimation_cutoff_hz or recs[0].opts.observe.decimation_cutoff_hz
             misfit_warnings(result, solved.g_tau, model,
                             [self._noises[r] for r in recs if r in self._noises],
-                            dataclasses.replace(self.opts, decimation_cutoff_hz=cutoff))
+                            self.opts.replace(decimation_cutoff_hz=cutoff))
         undetermine_at_limit(result, [self._at_limit.get(r, {}) for r in recs])
         finish_result(result, solved, reports, warnings, self.opts, dict(solved.timings))
         bound_filter_bias(result, self._solve_again(solve_rows, recs, result), SLOW_STEP_S,
-                          self.opts.max_gain_rel_std)
+                          self.opts.solve.max_gain_rel_std)
         return result
 
     def _solve_again(self, solve_rows, recs: list[LiveRecording], result: IdentificationResult):
@@ -515,7 +516,7 @@ class LiveIdentification:
             raise IdentificationError(f"payload mass must be a positive mass in kg, not {mass}")
         for r in recs:
             if r.condition == "loaded" and \
-                    abs(r.payload_mass - mass) > self.opts.payload_tolerance_kg:
+                    abs(r.payload_mass - mass) > self.opts.input.payload_tolerance_kg:
                 raise IdentificationError(
                     f"{r.source} was recorded with a payload of {r.payload_mass:g} kg but "
                     f"{mass:g} kg is asked; check which payload was mounted")
@@ -562,7 +563,7 @@ class LiveIdentification:
             if n < need:
                 return LiveEstimate(
                     f"excitation too weak on {joint.name}: {n} equations above the velocity "
-                    f"dead band ({self.opts.velocity_deadband_mps} {joint.unit}/s), {need} "
+                    f"dead band ({self.opts.observe.velocity_deadband_mps} {joint.unit}/s), {need} "
                     "needed", **base)
         return self._solve_status(factors, base)
 
@@ -594,24 +595,24 @@ class LiveIdentification:
                            condition_number=sol.condition_number,
                            residual_rms=tuple(float(x) for x in sol.residual_rms), **base)
         try:
-            if opts.check_excitation:
+            if opts.solve.check_excitation:
                 check_excitation(sol, limits(self.model, opts), m.names, names)
         except ExcitationError as exc:
             j = int(np.argmax(grel))
-            if grel[j] > opts.max_gain_rel_std and str(exc).startswith("drive gain of"):
+            if grel[j] > opts.solve.max_gain_rel_std and str(exc).startswith("drive gain of"):
                 est.status = (f"excitation too weak on {names[j]}: its gain is known to "
-                              f"{100 * grel[j]:.1f} % (> {100 * opts.max_gain_rel_std:g} %); "
+                              f"{100 * grel[j]:.1f} % (> {100 * opts.solve.max_gain_rel_std:g} %); "
                               "record longer or more exciting trajectories")
             else:
                 est.status = f"excitation too weak: {exc}"
             return est
         worst = float(np.max(grel))
         est.ok = True
-        if worst <= opts.live_enough_gain_rel_std:
+        if worst <= opts.live.live_enough_gain_rel_std:
             est.enough_data = True
             est.status = f"gains known to {100 * worst:.2f} %: enough data"
         else:
             est.status = (f"gains known to {100 * worst:.2f} %: keep recording (enough below "
-                          f"{100 * opts.live_enough_gain_rel_std:g} %)")
+                          f"{100 * opts.live.live_enough_gain_rel_std:g} %)")
         return est
 

@@ -66,7 +66,7 @@ def observe(rec: Record, model: IdentificationModel, opts: IdentifyOptions,
     of mass and inertia per kg; eq. 33's W_kl generalised), its unknown parameters' columns W_ul
     beside W (payload_unknowns.py, Sect. 4.3): the robot bound by layout.bound_to."""
     times: dict[str, float] = {}
-    payload = record_payload(rec, payload_mass, opts.payload_known)
+    payload = record_payload(rec, payload_mass, opts.input.payload_known)
     if payload is not None:
         model = bound_to(model, layout, payload)
     t0 = time.perf_counter()
@@ -74,22 +74,22 @@ def observe(rec: Record, model: IdentificationModel, opts: IdentifyOptions,
     opts = opts.at_rate(1.0 / step)
     segments, rep = split_record(  # the shortest segment in samples at this record's step
         rec.stamps_q_ns, rec.names_q, rec.q, rec.stamps_v_ns, rec.names_v, rec.v_tau,
-        min_samples=opts.min_segment_samples(step), nonfinite=opts.nonfinite,
+        min_samples=opts.observe.min_segment_samples(step), nonfinite=opts.input.nonfinite,
         source=rec.source, joint_names=model.joint_names, qd=rec.qd)
     opts = opts.at_rate(1.0 / rep.period_s)
     rep.current_sampling, rep.current_sampling_why = record_sampling(
-        rec.current_sampling, opts.current_sampling, robot_file_sampling(model))
+        rec.current_sampling, opts.input.current_sampling, robot_file_sampling(model))
     opts = at_sampling(opts, rep.current_sampling)  # sampled: the states at the stamps
     rep.current_shift_ms = 1e3 * sampled_shift_s(opts)  # (+ its loop's half tick, if known)
-    rep.filter_cutoff_hz, rep.decimation = opts.filter_cutoff_hz, opts.decimation
-    rep.decimation_cutoff_hz = opts.decimation_cutoff_hz
+    rep.filter_cutoff_hz, rep.decimation = opts.observe.filter_cutoff_hz, opts.observe.decimation
+    rep.decimation_cutoff_hz = opts.observe.decimation_cutoff_hz
     times["segments"] = time.perf_counter() - t0
     log.info("%s: %s", rec.source, rep.summary())
-    log.info("%s: %s; %s", rec.source, rep.time_base(), opts.describe_rates())
+    log.info("%s: %s; %s", rec.source, rep.time_base(), opts.observe.describe_rates())
     segments, rep.velocity = choose_velocity(segments, opts, rep.period_s, rec.source)
     log.info("%s: joint velocity %s", rec.source, rep.velocity)
     log.info("%s: current %s (%s)", rec.source, rep.current_sampling, rep.current_sampling_why)
-    decimate = _segments_fir if opts.decimation_filter == "fir" else _segments_iir
+    decimate = _segments_fir if opts.observe.decimation_filter == "fir" else _segments_iir
     what = f"observing {Path(rec.source).name}"
     tell = None if progress is None else (lambda done, total: progress(what, done, total,
                                                                        "samples"))
@@ -100,13 +100,13 @@ def observe(rec: Record, model: IdentificationModel, opts: IdentifyOptions,
     obs = Observations(rec.source, str(rec.condition), payload_mass,
                        rows.X[:n_b].transpose(1, 2, 0), rows.X[n_b + 1], rows.X[n_b],
                        t=rows.t, keep=rows.keep, q=rows.q, qd=rows.qd,
-                       row_period_s=opts.decimation * rep.period_s, decimation=opts.decimation,
-                       screws=screw_mask(model))
+                       row_period_s=opts.observe.decimation * rep.period_s,
+                       decimation=opts.observe.decimation, screws=screw_mask(model))
     rep.n_reversal_bridged = n_bridged
     rep.n_reversal_unbridged = n_unbridged
     log.info("%s: W built and decimated by %d: %s equations per joint (%.2f s); velocity "
              "reversals: %d joint samples bridged, %d in runs too long to bridge", rec.source,
-             opts.decimation, "/".join(str(x) for x in obs.rows_per_joint()),
+             opts.observe.decimation, "/".join(str(x) for x in obs.rows_per_joint()),
              times["regressor+decimation"], n_bridged, n_unbridged)
     return obs, rep, times
 
@@ -146,10 +146,11 @@ def _segments_fir(segments: list[Segment], cols: _Columns, opts: IdentifyOptions
     """
     n_b, n_j = cols.layout.n_columns, cols.robot.n_joints
     T = rep.period_s
-    trim = int(round(opts.edge_trim_s / T))
-    zoh = 1 if opts.zoh_shift else 0
-    counts = [decimated_count(len(seg) - zoh - 2 * trim, opts.decimation) for seg in segments]
-    with_keep = opts.velocity_deadband_mps > 0
+    trim = int(round(opts.observe.edge_trim_s / T))
+    zoh = 1 if opts.observe.zoh_shift else 0
+    counts = [decimated_count(len(seg) - zoh - 2 * trim, opts.observe.decimation)
+              for seg in segments]
+    with_keep = opts.observe.velocity_deadband_mps > 0
     r = sum(counts)
     out = DecimatedRows(np.empty((n_b + 2, n_j, r)), np.empty((n_j, r), bool) if with_keep
                         else None, np.empty(r), np.empty((r, n_j)), np.empty((r, n_j)))
@@ -160,13 +161,13 @@ def _segments_fir(segments: list[Segment], cols: _Columns, opts: IdentifyOptions
         stream = SegmentStream(cols.robot, cols.layout, opts, T, t_start, cols.payload)
         t0 = time.perf_counter()
         states = states_at_half_tick(seg.q, _currents(seg, cols.layout, rep, t_start), T,
-                                     opts.filter_cutoff_hz, opts.filter_order, trim,
-                                     opts.zoh_shift, opts.filter_currents, seg.stamps_ns, seg.qd,
-                                     sampled_shift_s(opts))
+                                     opts.observe.filter_cutoff_hz, opts.observe.filter_order, trim,
+                                     opts.observe.zoh_shift, opts.observe.filter_currents,
+                                     seg.stamps_ns, seg.qd, sampled_shift_s(opts))
         stamps = seg.stamps_ns[trim:trim + states[0].shape[0]]
         times["filtering"] = times.get("filtering", 0.0) + time.perf_counter() - t0
-        for a in range(0, stamps.shape[0], opts.chunk_samples):
-            b = a + opts.chunk_samples
+        for a in range(0, stamps.shape[0], opts.observe.chunk_samples):
+            b = a + opts.observe.chunk_samples
             r0 = out.write(r0, stream.push_states(stamps[a:b], *(x[a:b] for x in states)))
             if tell is not None:
                 tell(done + min(b, stamps.shape[0]), total)
@@ -212,8 +213,8 @@ def _segments_iir(segments: list[Segment], cols: _Columns, opts: IdentifyOptions
     producer of decimation.decimate_chunked; bridges are applied chunk by chunk.
     """
     T = rep.period_s
-    trim = int(round(opts.edge_trim_s / T))
-    n_d = opts.decimation
+    trim = int(round(opts.observe.edge_trim_s / T))
+    n_d = opts.observe.decimation
     parts: dict[str, list[np.ndarray]] = {"X": [], "t": [], "keep": [], "q": [], "qd": []}
     times["filtering"] = times["regressor+decimation"] = 0.0
     n_bridged = n_unbridged = 0
@@ -222,19 +223,21 @@ def _segments_iir(segments: list[Segment], cols: _Columns, opts: IdentifyOptions
     for k, seg in enumerate(segments):
         t1 = time.perf_counter()
         qh, qdh, qddh, v = states_at_half_tick(seg.q, _currents(seg, cols.layout, rep, t_start), T,
-                                               opts.filter_cutoff_hz,
-                                               opts.filter_order, trim, opts.zoh_shift,
-                                               opts.filter_currents, seg.stamps_ns, seg.qd,
+                                               opts.observe.filter_cutoff_hz,
+                                               opts.observe.filter_order, trim,
+                                               opts.observe.zoh_shift,
+                                               opts.observe.filter_currents, seg.stamps_ns, seg.qd,
                                                sampled_shift_s(opts))
         ts = (seg.stamps_ns[trim:trim + qh.shape[0]] - t_start) * 1e-9
-        ts = ts + (0.5 * T if opts.zoh_shift else sampled_shift_s(opts))
+        ts = ts + (0.5 * T if opts.observe.zoh_shift else sampled_shift_s(opts))
         t2 = time.perf_counter()
         times["filtering"] += t2 - t1
         zones = None
-        if opts.velocity_deadband_mps > 0:
-            zones = find_reversals(qdh, velocity_deadband(cols.robot, opts.velocity_deadband_mps),
-                                   max(1, int(round(opts.reversal_max_bridge_s / T))),
-                                   int(round(opts.reversal_margin_s / T)))
+        if opts.observe.velocity_deadband_mps > 0:
+            zones = find_reversals(qdh, velocity_deadband(cols.robot,
+                                                          opts.observe.velocity_deadband_mps),
+                                   max(1, int(round(opts.observe.reversal_max_bridge_s / T))),
+                                   int(round(opts.observe.reversal_margin_s / T)))
             zones.anchor = anchor_samples(T)
             n_bridged += zones.n_bridged
             n_unbridged += zones.n_dropped
@@ -253,7 +256,7 @@ def _segments_iir(segments: list[Segment], cols: _Columns, opts: IdentifyOptions
                 bridge(zones, a2, out)
             return {k: x[a - a2:b - a2] for k, x in out.items()}
 
-        dec = decimate_chunked(qh.shape[0], n_d, producer, opts.chunk_samples, "cheby1")
+        dec = decimate_chunked(qh.shape[0], n_d, producer, opts.observe.chunk_samples, "cheby1")
         parts["X"].append(dec["X"].transpose(2, 1, 0))
         r = dec["X"].shape[0]
         parts["t"].append(ts[0::n_d][:r])

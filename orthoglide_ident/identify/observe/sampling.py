@@ -25,7 +25,6 @@ rule that turns it to sampled.
 """
 from __future__ import annotations
 
-import dataclasses
 from collections.abc import Callable, Sequence
 from typing import Any
 
@@ -84,17 +83,17 @@ def at_sampling(opts, sampling: str):
     states at the stamps for a sampled current (no half-step shift), as they are for a held
     one."""
     if sampling == "sampled":
-        return dataclasses.replace(opts, zoh_shift=False, current_sampling=sampling)
-    return dataclasses.replace(opts, current_sampling=sampling)
+        return opts.replace(zoh_shift=False, current_sampling=sampling)
+    return opts.replace(current_sampling=sampling)
 
 
 def sampled_shift_s(opts) -> float:
     """Where a sampled current acts after its stamp, s: the loop that made it holds it over
     its own tick, so at the middle of that tick, 1 / (2 current_loop_hz); 0 when that rate is
     not known (the states at the stamp) or the current is held (zoh_shift)."""
-    if opts.zoh_shift or not opts.current_loop_hz > 0:
+    if opts.observe.zoh_shift or not opts.input.current_loop_hz > 0:
         return 0.0
-    return 0.5 / opts.current_loop_hz
+    return 0.5 / opts.input.current_loop_hz
 
 
 def lag_says_sampled(current_lag: Sequence[LagEstimate]) -> str | None:

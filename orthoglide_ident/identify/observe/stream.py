@@ -101,7 +101,7 @@ def lag_rows(layout, block: np.ndarray, currents: np.ndarray) -> np.ndarray:
 def _rough_columns(layout, opts: IdentifyOptions) -> np.ndarray | None:
     """The columns the stream builds at the sample rate when the others are built at the
     decimated rows (``regressor_at: rows``, a robot that names them, n_d > 1); else None."""
-    if opts.regressor_at != "rows" or opts.decimation <= 1:
+    if opts.observe.regressor_at != "rows" or opts.observe.decimation <= 1:
         return None
     rough = layout.rough_columns
     return None if rough is None else np.asarray(rough, int)
@@ -146,31 +146,31 @@ class SegmentStream:
 
     def __init__(self, robot, layout, opts: IdentifyOptions, period_s: float, t0_ns: int,
                  payload=None):
-        if opts.decimation_filter != "fir":
+        if opts.observe.decimation_filter != "fir":
             raise DataError("block-by-block processing needs decimation_filter: fir (cheby1's "
                             "IIR depends on the whole segment)")
         opts = opts.at_rate(1.0 / period_s)  # Hz and s to samples (idempotent)
         # live, the option (or the robot file) says how the current relates to its stamps;
         # offline, observe() has resolved the record's already (idempotent)
-        opts = at_sampling(opts, record_sampling(None, opts.current_sampling,
+        opts = at_sampling(opts, record_sampling(None, opts.input.current_sampling,
                                                  robot_file_sampling(robot))[0])
         self.shift = sampled_shift_s(opts)  # s, a sampled current's loop half tick
         self.robot, self.layout, self.payload = robot, layout, payload
         self.opts, self.T, self.t0_ns, self.n_b = opts, period_s, t0_ns, layout.n_columns
         n_b = self.n_b
         self.n_j = n_j = robot.n_joints
-        self.zoh = 1 if opts.zoh_shift else 0
-        self.trim = int(round(opts.edge_trim_s / period_s))
-        self.M = filter_horizon(period_s, opts.filter_cutoff_hz, opts.filter_order)
-        self.n_d = opts.decimation
+        self.zoh = 1 if opts.observe.zoh_shift else 0
+        self.trim = int(round(opts.observe.edge_trim_s / period_s))
+        self.M = filter_horizon(period_s, opts.observe.filter_cutoff_hz, opts.observe.filter_order)
+        self.n_d = opts.observe.decimation
         self.L = 1 if self.n_d == 1 else fir_taps(self.n_d).shape[0]
         self.tracker = None
         self.anchor = anchor_samples(period_s)  # samples averaged each side of a bridge
-        if opts.velocity_deadband_mps > 0:
+        if opts.observe.velocity_deadband_mps > 0:
             self.tracker = ReversalTracker(
-                velocity_deadband(robot, opts.velocity_deadband_mps),
-                max(1, int(round(opts.reversal_max_bridge_s / period_s))),
-                int(round(opts.reversal_margin_s / period_s)), n_j)
+                velocity_deadband(robot, opts.observe.velocity_deadband_mps),
+                max(1, int(round(opts.observe.reversal_max_bridge_s / period_s))),
+                int(round(opts.observe.reversal_margin_s / period_s)), n_j)
         self.rough = _rough_columns(layout, opts)  # None: every column at every sample
         self._lag_at = _lag_rows_at(layout, self.rough)
         self._corr = None if self.rough is None else BridgeCorrections(
@@ -260,13 +260,14 @@ class SegmentStream:
         w1 = min(self.n_raw, trim + s_new + self.zoh + self.M)
         # on the window's own stamps: an uneven clock's time base (exactly uniform: unchanged)
         qh, qdh, qddh = states_on_stamps(self._q[w0 - r0:w1 - r0], self._st[w0 - r0:w1 - r0],
-                                         self.opts.filter_cutoff_hz, self.opts.filter_order,
-                                         self.opts.zoh_shift, shift_s=self.shift)
+                                         self.opts.observe.filter_cutoff_hz,
+                                         self.opts.observe.filter_order,
+                                         self.opts.observe.zoh_shift, shift_s=self.shift)
         a, b = trim + S - w0, trim + s_new - w0
         v = self._v[w0 - r0:w1 - r0]
-        if self.opts.filter_currents:  # the same window and filter as q: rows as offline's
+        if self.opts.observe.filter_currents:  # the same window and filter as q: rows as offline's
             v = zero_phase_butterworth(
-                v, self.T, self.opts.filter_cutoff_hz, self.opts.filter_order
+                v, self.T, self.opts.observe.filter_cutoff_hz, self.opts.observe.filter_order
             )
         self.times["filtering"] += time.perf_counter() - t0
         self._add_states(self._st[trim + S - r0:trim + s_new - r0], qh[a:b], qdh[a:b], qddh[a:b],

@@ -144,7 +144,7 @@ def choose_velocity(segments: list, opts, period_s: float, source: str) -> tuple
 
     from orthoglide_ident.errors import DataError
 
-    mode = opts.velocity_source
+    mode = opts.input.velocity_source
     have = bool(segments) and all(s.qd is not None for s in segments)
     derived = [dataclasses.replace(s, qd=None) for s in segments]
     if mode == "derived":
@@ -160,17 +160,17 @@ def choose_velocity(segments: list, opts, period_s: float, source: str) -> tuple
         return derived, ("derived from q (velocity_source: auto: the record has "
                          f"{'non-finite' if have else 'no'} JointState.velocity)")
     seg = max(segments, key=len)
-    trim = int(round(opts.edge_trim_s / period_s))
-    _, qd_d, _ = states_on_stamps(seg.q, seg.stamps_ns, opts.filter_cutoff_hz, opts.filter_order)
-    _, qd_r, _ = states_on_stamps(seg.q, seg.stamps_ns, opts.filter_cutoff_hz, opts.filter_order,
-                                  qd_recorded=seg.qd)
+    trim = int(round(opts.observe.edge_trim_s / period_s))
+    f_q, order = opts.observe.filter_cutoff_hz, opts.observe.filter_order
+    _, qd_d, _ = states_on_stamps(seg.q, seg.stamps_ns, f_q, order)
+    _, qd_r, _ = states_on_stamps(seg.q, seg.stamps_ns, f_q, order, qd_recorded=seg.qd)
     sl = slice(trim, max(trim + 1, qd_d.shape[0] - trim))
     rms = np.sqrt(np.mean(qd_d[sl] ** 2, axis=0))
     gap = np.sqrt(np.mean((qd_r[sl] - qd_d[sl]) ** 2, axis=0)) / np.maximum(rms, 1e-12)
     worst = float(np.max(gap))
     rule = (f"velocity_source: auto, recorded when it agrees with the derivative of q within "
-            f"{100 * opts.velocity_agreement:g} % rms; worst joint {100 * worst:.2f} %")
-    if worst <= opts.velocity_agreement:
+            f"{100 * opts.input.velocity_agreement:g} % rms; worst joint {100 * worst:.2f} %")
+    if worst <= opts.input.velocity_agreement:
         return segments, f"recorded (JointState.velocity; {rule})"
     return derived, f"derived from q ({rule})"
 

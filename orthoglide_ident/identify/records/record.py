@@ -87,11 +87,11 @@ def read_record(path: str | Path, model: RobotModel,
         sides[:] = tagged_sides(model, tags, str(path))
         return _channels(model, "position", sides[0]), _channels(model, "effort", sides[1])
 
-    data = bags.read_bag(path, channels=channels, interface=opts.current_interface or None,
+    data = bags.read_bag(path, channels=channels, interface=opts.input.current_interface or None,
                          progress=progress)
     tags, current = data.tags, data.current
     v_tau, sources = current.current, data.sources.describe()
-    qd = data.velocity if opts.velocity_source != "derived" else None
+    qd = data.velocity if opts.input.velocity_source != "derived" else None
     rec = motor_side(Record(
         source=str(path),
         stamps_q_ns=data.positions.stamps_ns, names_q=tuple(data.positions.names),
@@ -104,7 +104,7 @@ def read_record(path: str | Path, model: RobotModel,
         current_sampling=None if tags is None else tags.current_sampling,
     ), model)
     tagged_unit = None if tags is None else tags.effort_unit
-    if (tagged_unit or opts.effort_unit) == "torque":
+    if (tagged_unit or opts.input.effort_unit) == "torque":
         rec.v_tau = model.effort_as_current(rec.names_v, rec.v_tau)
         if tagged_unit == "torque":
             rec.sources += " (a torque, as tagged: divided by the nominal gains)"

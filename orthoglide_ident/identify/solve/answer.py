@@ -68,7 +68,7 @@ class Solved:
 def limits(model, opts: IdentifyOptions) -> ExcitationLimits:
     """The excitation checks' thresholds for ``model``: a gain band only when its robot file
     gives nominal gains (a bare URDF's 1 per unit is no manufacturer's figure)."""
-    return opts.limits(model.nominal_gains, model.nominal_gains_given)
+    return opts.solve.limits(model.nominal_gains, model.nominal_gains_given)
 
 
 def min_rows(n_b: int) -> int:
@@ -84,7 +84,7 @@ def check_length(factors: list[RecordFactors], opts: IdentifyOptions) -> None:
     if total < need:
         raise ExcitationError(
             f"the records are too short: {total} equations per joint (decimated samples, 1 in "
-            f"{opts.decimation}) where {need} are needed (max(50, 2 n_b), n_b = "
+            f"{opts.observe.decimation}) where {need} are needed (max(50, 2 n_b), n_b = "
             f"{factors[0].n_b}); record longer trajectories")
 
 
@@ -100,7 +100,7 @@ def check_rows(factors: list[RecordFactors], model, opts: IdentifyOptions) -> No
         if rows < need:
             raise ExcitationError(
                 f"{joint.name} moves slower than the velocity dead band "
-                f"({opts.velocity_deadband_mps} {joint.unit}/s)"
+                f"({opts.observe.velocity_deadband_mps} {joint.unit}/s)"
                 f" almost all the time: {rows} of {total} equations left, {need} needed; the "
                 "trajectories are not exciting (or lower velocity_deadband_mps)")
 
@@ -131,7 +131,7 @@ def _uncertainty(result: IdentificationResult, sol: TLSSolution | WLSSolution, m
     if sol.uncertainty is None:
         return
     n, n_j = sol.chi.shape[0], model.n_joints
-    d, warnings = diagnose(sol.uncertainty, opts.decimation, n, model.joint_names,
+    d, warnings = diagnose(sol.uncertainty, opts.observe.decimation, n, model.joint_names,
                            gain_index=slice(n, n + n_j) if gains else None,
                            screws=drive_terms.screw_mask(model))
     result.uncertainty = d
@@ -191,7 +191,7 @@ def tls_result(model, cols, sol: TLSSolution, factors: list[RecordFactors],
     """The result of an IDIM-TLS solve (payload masses known): ``model`` the robot, ``cols`` its
     columns (columns/layout.ColumnLayout, or a partial answer's Subsystem, both)."""
     n, n_j = sol.chi.shape[0], model.n_joints
-    payloads = [PayloadMass(m, opts.payload_mass_std_kg / m, True, m, _sources(factors, m))
+    payloads = [PayloadMass(m, opts.input.payload_mass_std_kg / m, True, m, _sources(factors, m))
                 for m in sorted({f.payload_mass for f in factors if f.loaded})]
     return IdentificationResult(
         method=UNNAMED, joint_names=list(model.joint_names),
@@ -278,7 +278,7 @@ def _set_up(factors: list[RecordFactors], model, cols, opts: IdentifyOptions, ba
     n_b = n_cols - in_rows.n_extra
     plain = _Model(lambda act: base_solve(act, False), base, n_b, in_rows, list(cols.names),
                    n_cols, names, gains, factors)
-    if in_rows.ripples or opts.ripple_model != "auto":
+    if in_rows.ripples or opts.solve.ripple_model != "auto":
         return plain
     found = drive_terms.Terms(drive_terms.detect_ripples(base.uncertainty, names,
                                                          drive_terms.screw_mask(model)))
@@ -337,7 +337,7 @@ def tls_model(factors: list[RecordFactors], model, cols, opts: IdentifyOptions
     describe). ``model``: the robot; ``cols``: its columns (columns/layout.ColumnLayout, or a
     partial answer's Subsystem). Shared by :func:`solve_tls` and the live estimate."""
     def problem_of(fs):  # a motor's equations in joint-side units (joint_units.py)
-        return TLSProblem(fs, opts.weighting, noisy_columns=opts.tls_noisy_columns,
+        return TLSProblem(fs, opts.solve.weighting, noisy_columns=opts.solve.tls_noisy_columns,
                           row_scale=joint_units.equation_scale(model),
                           column_scale=joint_units.column_scale(model, fs[0].n_b, cols.names))
 
@@ -359,14 +359,14 @@ def solve_tls(factors: list[RecordFactors], model, cols, opts: IdentifyOptions,
     require_loaded_and_unloaded(factors, "IDIM-TLS")
     log.info("IDIM-TLS on %d equations × %d unknowns", sum(f.n_rows for f in factors),
              factors[0].n_b + model.n_joints + 1)
-    partial_ok = opts.partial_answers and opts.check_excitation and model.n_joints > 1
+    partial_ok = opts.solve.partial_answers and opts.solve.check_excitation and model.n_joints > 1
     left_out = {**partial.hardly_moved(factors, model, opts, min_rows(factors[0].n_b)),
                 **partial.at_limit(factors, model)} if partial_ok else {}
     if left_out:
         return _solve_partial(factors, model, cols, opts, bags, left_out, essential, progress)
     m, base = tls_model(factors, model, cols, opts)
     sol = m.full
-    if opts.check_excitation:
+    if opts.solve.check_excitation:
         try:
             left_out = _undetermined(factors, model, cols, opts, m, sol) if partial_ok else {}
         except ExcitationError as exc:
@@ -379,11 +379,11 @@ def solve_tls(factors: list[RecordFactors], model, cols, opts: IdentifyOptions,
         band_warnings = check_excitation(sol, limits(model, opts), m.names, model.joint_names)
     view, ripples, lags = m.view(sol)
     result = tls_result(model, cols, view, factors, opts, bags)
-    if opts.check_excitation:
+    if opts.solve.check_excitation:
         result.warnings.extend(band_warnings)
     _uncertainty(result, base, model, opts, gains=True)
     _drive_notes(result, ripples, lags, m.terms, model.joint_names)
-    solver = SolverInfo(opts.tls_noisy_columns, sol.singular_ratio,
+    solver = SolverInfo(opts.solve.tls_noisy_columns, sol.singular_ratio,
                         tuple(float(x) for x in sol.singular_values[-3:]),
                         joint_sigma=tuple(float(x) for x in sol.joint_sigma),
                         lambda_scale=sol.lambda_scale)
@@ -391,7 +391,8 @@ def solve_tls(factors: list[RecordFactors], model, cols, opts: IdentifyOptions,
                  chi_rows=sol.chi_full())
     if essential:
         t0 = time.perf_counter()
-        log.info("essential parameters (%s, r_sigma = %g)", opts.essential_method, opts.r_sigma)
+        log.info("essential parameters (%s, r_sigma = %g)", opts.solve.essential_method,
+                 opts.solve.r_sigma)
         ess = _essential(m, opts, [f"g_tau {j}" for j in model.joint_names])
         ess_view, ess_ripples, ess_lags = m.view(ess.solution)
         result.essential = tls_result(model, cols, ess_view, factors, opts, bags)
@@ -407,8 +408,8 @@ def _undetermined(factors: list[RecordFactors], model, cols, opts: IdentifyOptio
     """Gains of a solve the data do not fix (partial.py), by joint index, with the reason: the
     payload adds almost no torque on the axis; else, eq. (37) holding, a σ above the limit."""
     names = model.joint_names
-    left_out = partial.little_payload(factors, m.view(sol)[0].g_tau, names, opts.min_payload_share,
-                                      _payload_unknowns(cols, sol))
+    left_out = partial.little_payload(factors, m.view(sol)[0].g_tau, names,
+                                      opts.solve.min_payload_share, _payload_unknowns(cols, sol))
     if left_out:
         return left_out
     lim = limits(model, opts)
@@ -442,7 +443,7 @@ def _failure(factors: list[RecordFactors], model: partial.Subsystem, opts: Ident
         return partial.Trial(kept, sol.singular_ratio, "the scaled regressor's condition number "
                              f"is {sol.condition_number:.3g} (> {lim.max_condition:.3g})")
     g = m.view(sol)[0].g_tau
-    little = partial.little_payload(factors, g, names, opts.min_payload_share,
+    little = partial.little_payload(factors, g, names, opts.solve.min_payload_share,
                                     _payload_unknowns(model, sol))
     n = sol.chi.shape[0]
     rel = sol.rel_std[n:n + model.n_joints]
@@ -460,7 +461,7 @@ def _failure(factors: list[RecordFactors], model: partial.Subsystem, opts: Ident
     idx = sorted(kept)
     t = partial.Trial(kept, sol.singular_ratio, why, dict(zip(idx, g.tolist())),
                       dict(zip(idx, (rel * np.abs(g)).tolist())))
-    return t if why or not opts.weighting else _weights_shift(t, factors, model, opts)
+    return t if why or not opts.solve.weighting else _weights_shift(t, factors, model, opts)
 
 
 def _weights_shift(t: partial.Trial, factors: list[RecordFactors], model,
@@ -470,7 +471,7 @@ def _weights_shift(t: partial.Trial, factors: list[RecordFactors], model,
     model fits the records; a shift beyond noise is a model error (e.g. the regressor of
     coarsely printed positions at a low rate) that biases the answer beyond its σ."""
     try:
-        m, _ = tls_model(factors, model, model, dataclasses.replace(opts, weighting=False))
+        m, _ = tls_model(factors, model, model, opts.replace(weighting=False))
     except ExcitationError:
         return t
     sol = m.full
@@ -570,7 +571,7 @@ def _solve_partial(factors: list[RecordFactors], model, cols, opts: IdentifyOpti
     chi[sub.col_idx] = _chi(m, sol)[:sub.col_idx.shape[0]]
     g = np.full(model.n_joints, np.nan)
     g[sub.joint_idx] = view.g_tau
-    solver = SolverInfo(opts.tls_noisy_columns, sol.singular_ratio,
+    solver = SolverInfo(opts.solve.tls_noisy_columns, sol.singular_ratio,
                         tuple(float(x) for x in sol.singular_values[-3:]),
                         joints_solved=tuple(sub.joint_names), lambda_scale=sol.lambda_scale)
     return Solved(result, chi, g, solver, None, factors=[])
@@ -583,10 +584,10 @@ def _chi(m: _Model, sol) -> np.ndarray:
 
 
 def _essential(m: _Model, opts: IdentifyOptions, protected_names: list[str]) -> EssentialResult:
-    return essential_parameters(m.solve_active, len(m.names), opts.r_sigma, start=m.full,
-                                method=opts.essential_method, names=m.names,
-                                min_tolerance=opts.essential_min_tolerance,
-                                max_residual_increase=opts.essential_max_residual_increase,
+    return essential_parameters(m.solve_active, len(m.names), opts.solve.r_sigma, start=m.full,
+                                method=opts.solve.essential_method, names=m.names,
+                                min_tolerance=opts.solve.essential_min_tolerance,
+                                max_residual_increase=opts.solve.essential_max_residual_increase,
                                 protected_names=protected_names, fixed=m.fixed)
 
 
@@ -611,11 +612,11 @@ def solve_wls(factors: list[RecordFactors], model, cols, opts: IdentifyOptions,
     g = manufacturer_or_given(gains, model)
     log.info("IDIM-WLS on %d equations", sum(f.n_rows for f in factors))
     rows = joint_units.equation_scale(model)
-    base = idim_wls(factors, g, weighting=opts.weighting, row_scale=rows)
+    base = idim_wls(factors, g, weighting=opts.solve.weighting, row_scale=rows)
 
     def make_solver(fs):
         def solve_active(act, reweight):
-            return idim_wls(fs, g, active=act, weighting=opts.weighting, row_scale=rows)
+            return idim_wls(fs, g, active=act, weighting=opts.solve.weighting, row_scale=rows)
         return solve_active
 
     m = _set_up(factors, model, cols, opts, base, make_solver, g)

@@ -47,11 +47,11 @@ def second_options(bags: Sequence[RecordReport], opts, f_q: float, f_d: float):
     live (live/session.py, which observes each slow recording at stop with these) call it."""
     readings = {b.current_sampling for b in bags}
     shifts = {float(b.current_shift_ms) for b in bags}
-    reading = readings.pop() if len(readings) == 1 else opts.current_sampling
+    reading = readings.pop() if len(readings) == 1 else opts.input.current_sampling
     shift = shifts.pop() if len(shifts) == 1 else 0.0
     return opts.replace(filter_cutoff_hz=f_q, decimation_cutoff_hz=f_d, cross_check="none",
                         current_sampling=reading,
-                        current_loop_hz=0.5e3 / shift if shift > 0 else opts.current_loop_hz)
+                        current_loop_hz=0.5e3 / shift if shift > 0 else opts.input.current_loop_hz)
 
 
 def widen(result, other, f_q: float, f2: float, max_rel_std: float) -> str | None:

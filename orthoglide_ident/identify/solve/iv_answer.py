@@ -10,7 +10,6 @@ an honest error bar.
 """
 from __future__ import annotations
 
-import dataclasses
 import logging
 from dataclasses import dataclass
 
@@ -85,7 +84,7 @@ def solve_iv(factors: list[RecordFactors], model, cols, opts: IdentifyOptions, g
     """IDIM-IV (iv.py) from the per-joint TLS answer; the gains' σ and signs checked as TLS's."""
     require_loaded_and_unloaded(factors, "IDIM-IV")
     observations_of(factors)  # refused before the TLS start when the rows are not kept
-    start_opts = dataclasses.replace(opts, tls_noisy_columns="per-joint")
+    start_opts = opts.replace(tls_noisy_columns="per-joint")
     _, base = tls_model(factors, model, cols, start_opts)
     log.info("IDIM-IV from the per-joint TLS answer on %d equations",
              sum(f.n_rows for f in factors))
@@ -95,10 +94,10 @@ def solve_iv(factors: list[RecordFactors], model, cols, opts: IdentifyOptions, g
     n_b = sol.chi.shape[0] - terms.n_extra
     view, _, lags = drive_terms.split(sol, n_b, terms, model.joint_names) if terms else \
         (sol, [], [])
-    if opts.check_excitation:
+    if opts.solve.check_excitation:
         band_warnings = check_gains(view, limits(model, opts), model.joint_names)
     result = tls_result(model, cols, view, factors, opts, bags)
-    if opts.check_excitation:
+    if opts.solve.check_excitation:
         result.warnings.extend(band_warnings)
     result.current_lag = list(lags)
     if essential:

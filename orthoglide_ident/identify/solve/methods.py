@@ -136,11 +136,11 @@ def solve(factors: list[RecordFactors], model, opts: IdentifyOptions,
     m = get(method)
     if not factors:
         raise IdentificationError("no bag given")
-    if m.gains_given or not (opts.partial_answers and opts.check_excitation):
+    if m.gains_given or not (opts.solve.partial_answers and opts.solve.check_excitation):
         check_rows(factors, model, opts)
     else:  # TLS: a joint that hardly moved is a partial answer, a short record is refused
         check_length(factors, opts)
-    if opts.consistent and layout.has_payload_unknowns:
+    if opts.consistency.consistent and layout.has_payload_unknowns:
         raise IdentificationError(
             "--consistent needs the payload's CoM and inertia: with only its mass known they are "
             "identified (Sect. 4.3); tag them or give --payload-known point")
@@ -151,16 +151,16 @@ def solve(factors: list[RecordFactors], model, opts: IdentifyOptions,
                   **({"progress": progress} if progress is not None and m.reports_progress
                      else {}))
     _named(out.result, m)
-    if m.cross_checked and opts.cross_check in CROSS_CHECKS and out.result.complete:
+    if m.cross_checked and opts.solve.cross_check in CROSS_CHECKS and out.result.complete:
         # after TLS, IDIM-IV's gains beside (issue 43); marked only when the checks are on
-        tell(f"cross-checking by IDIM-{opts.cross_check.upper()}", 0, 0, "")
-        cross_check(out, factors, model, opts.check_excitation)
+        tell(f"cross-checking by IDIM-{opts.solve.cross_check.upper()}", 0, 0, "")
+        cross_check(out, factors, model, opts.solve.check_excitation)
     split_payload(out.result, layout)
     out.result.warnings.extend(friction_sign_warnings(out.result))
-    if opts.consistent and not out.result.complete:
+    if opts.consistency.consistent and not out.result.complete:
         out.result.warnings.append("--consistent is not run on a partial answer: the standard "
                                    "parameters need every gain")
-    elif opts.consistent:  # physically consistent standard parameters behind the answer
+    elif opts.consistency.consistent:  # physically consistent standard parameters behind the answer
         from orthoglide_ident.identify.consistency.fit import attach
 
         attach(out, model, opts, progress)

@@ -54,7 +54,8 @@ def hardly_moved(factors: list[RecordFactors], model, opts, min_rows: int) -> di
         rows = sum(int(f.rows[j]) for f in factors)
         if rows < min_rows:
             out[j] = (f"{joint.name} hardly moved ({rows} of {total} equations above the "
-                      f"velocity dead band, {opts.velocity_deadband_mps:g} {joint.unit}/s): "
+                      "velocity dead band, "
+                      f"{opts.observe.velocity_deadband_mps:g} {joint.unit}/s): "
                       "record more motion of that joint")
     return out
 

@@ -45,8 +45,9 @@ def _windows(fwd, q: np.ndarray, v_tau: np.ndarray, gains: np.ndarray, period_s:
              opts, horizon_s: float, max_windows: int) -> tuple[np.ndarray, np.ndarray, int]:
     """Squared position errors and drifts (n_samples, n_j) of the windows of one segment."""
     opts = opts.at_rate(1.0 / period_s)
-    qf, qdf, _ = derivative_filter(q, period_s, opts.filter_cutoff_hz, opts.filter_order)
-    trim = int(round(opts.edge_trim_s / period_s))
+    qf, qdf, _ = derivative_filter(q, period_s, opts.observe.filter_cutoff_hz,
+                                   opts.observe.filter_order)
+    trim = int(round(opts.observe.edge_trim_s / period_s))
     n_w = max(1, int(round(horizon_s / period_s)))
     starts = np.arange(trim, q.shape[0] - trim - n_w, n_w)
     if starts.size > max_windows:  # spread evenly over the segment
@@ -92,7 +93,7 @@ def validate(record, robot: RobotModel, chi_st: np.ndarray, gains: Sequence[floa
     rate = _rate(record.stamps_q_ns)
     segments, rep = split_record(
         record.stamps_q_ns, record.names_q, record.q, record.stamps_v_ns, record.names_v,
-        record.v_tau, min_samples=opts.at_rate(rate).min_segment_samples(1.0 / rate),
+        record.v_tau, min_samples=opts.at_rate(rate).observe.min_segment_samples(1.0 / rate),
         nonfinite="drop", source=record.source, joint_names=robot.joint_names)
     errors, drifts, n = [], [], 0
     g = np.asarray(gains, float)

@@ -118,7 +118,7 @@ def misfit_warnings(result: IdentificationResult, g_tau: np.ndarray, model: Iden
         return False
     noise = np.sqrt(np.nanmean([n ** 2 for n, _ in noises], axis=0))
     ratio = misfit(result.residual_rms, g_tau, noise, float(np.median(
-        [r for _, r in noises])), opts.decimation_cutoff_hz)
+        [r for _, r in noises])), opts.observe.decimation_cutoff_hz)
     lines, advice = misfit_lines(ratio, list(model.joint_names))
     result.warnings.extend(lines)
     if advice:  # an undetermined gain's cause is then the drive chain, not the motion
@@ -136,10 +136,11 @@ def other_readings(rec: Record, model: IdentificationModel, opts: IdentifyOption
     if rep.period_s <= SLOW_STEP_S:
         return None
     auto_held = rep.current_sampling_why.startswith(AUTO_HELD)
-    if not auto_held and not (rep.current_sampling == "sampled" and opts.current_loop_hz <= 0):
+    if not auto_held and not (rep.current_sampling == "sampled"
+                              and opts.input.current_loop_hz <= 0):
         return None
-    shifts = loop_half_ticks(rep.period_s, opts.current_loop_hz)
-    shifts = ((0.0,) if auto_held and opts.current_loop_hz <= 0 else ()) + shifts
+    shifts = loop_half_ticks(rep.period_s, opts.input.current_loop_hz)
+    shifts = ((0.0,) if auto_held and opts.input.current_loop_hz <= 0 else ()) + shifts
     out = []
     for d in shifts:
         o, r, _ = observe(rec, model, opts.replace(current_sampling="sampled",

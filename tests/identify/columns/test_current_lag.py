@@ -74,7 +74,7 @@ def test_lag_of_the_realistic_drive_identified_despite_the_current_noise(realist
     """τ of every joint near the plant's 0.12 ms, its σ an honest bar; the raw derivative of
     v_τ as the column finds 0.22-0.31 ms here (the noise bias, drive_terms.py). The gains keep
     their σ (the lag costs three unknowns)."""
-    opts = IdentifyOptions(screw_lead_m=0.01)  # lag_model: auto, the default
+    opts = IdentifyOptions.of(screw_lead_m=0.01)  # lag_model: auto, the default
     res = identify_records(realistic_pair, options=opts, essential=True, model=ORTHOGLIDE)
     tau = np.array([x.tau_ms for x in res.current_lag]) * 1e-3
     sig = np.array([x.tau_std_ms for x in res.current_lag]) * 1e-3
@@ -91,7 +91,7 @@ def test_lag_of_the_realistic_drive_identified_despite_the_current_noise(realist
     s = np.array([x.rel_std for x in res.drive_gains])
     off = identify_records(
         realistic_pair,
-        options=IdentifyOptions(screw_lead_m=0.01, lag_model="off"),
+        options=IdentifyOptions.of(screw_lead_m=0.01, lag_model="off"),
         model=ORTHOGLIDE,
     )
     assert off.current_lag == []
@@ -114,10 +114,11 @@ def test_records_that_do_not_repeat_keep_the_papers_model(realistic_pair):
                                   r.condition, r.payload_mass, joint_names=ORTHOGLIDE.joint_names)
 
     for recs in ([cut(r) for r in realistic_pair], [cut(realistic_pair[0]), realistic_pair[1]]):
-        on = identify_records(recs, options=IdentifyOptions(check_excitation=False),
+        on = identify_records(recs, options=IdentifyOptions.of(check_excitation=False),
                               model=ORTHOGLIDE)
         off = identify_records(
-            recs, options=IdentifyOptions(lag_model="off", check_excitation=False), model=ORTHOGLIDE
+            recs, options=IdentifyOptions.of(lag_model="off", check_excitation=False),
+            model=ORTHOGLIDE
         )
         assert on.current_lag == []
         assert on.record_reports[0].n_not_repeating == 1
@@ -127,7 +128,7 @@ def test_records_that_do_not_repeat_keep_the_papers_model(realistic_pair):
 
 
 def test_lag_model_is_a_word():
-    assert IdentifyOptions.from_mapping({"lag_model": False}).lag_model == "off"  # YAML's off
+    assert IdentifyOptions.from_mapping({"lag_model": False}).solve.lag_model == "off"  # YAML's off
     with pytest.raises(ConfigError, match="lag_model must be 'auto' or 'off'"):
         IdentifyOptions.from_mapping({"lag_model": "periodic"})
 

@@ -55,7 +55,7 @@ def test_a_ripple_at_the_given_lead_is_identified_with_the_gains():
     phase come out with the gains (the parameters stay the model's, for the controller); without
     any ripple model the gains move by several times as much."""
     recs = _ripple_records(noise=False)
-    res = identify_records(recs, model=SyntheticModel(), options=IdentifyOptions(
+    res = identify_records(recs, model=SyntheticModel(), options=IdentifyOptions.of(
         screw_lead_m=LEAD))
     g = np.array([x.value for x in res.drive_gains])
     err = np.abs(g / TRUE_GAINS - 1)
@@ -68,12 +68,12 @@ def test_a_ripple_at_the_given_lead_is_identified_with_the_gains():
         assert abs(r.amplitude_n / a - 1) < 0.005  # 0.03 % measured
         assert abs(np.angle(np.exp(1j * (r.phase_rad - np.arctan2(-s, c))))) < 0.005
     assert not any("ripple" in w for w in res.warnings)  # asked for: said in the log, not warned
-    wrong = identify_records(recs, model=SyntheticModel(), options=IdentifyOptions(
+    wrong = identify_records(recs, model=SyntheticModel(), options=IdentifyOptions.of(
         screw_lead_m=0.012))
     said = [w for w in wrong.warnings if "varies with its position with a 9." in w
             or "varies with its position with a 10." in w]  # the 10 mm ripple, still there
     assert len(said) == 3 and all("screw_lead_m is 12.0 mm: check" in w for w in said), said
-    off = identify_records(recs, model=SyntheticModel(), options=IdentifyOptions(
+    off = identify_records(recs, model=SyntheticModel(), options=IdentifyOptions.of(
         ripple_model="off"))
     err_off = np.abs(np.array([x.value for x in off.drive_gains]) / TRUE_GAINS - 1)
     assert err_off.max() > 5e-3, err_off  # 1.9 % measured
@@ -85,9 +85,9 @@ def test_the_ripple_columns_cost_no_accuracy_on_a_drive_without_ripple():
     found are noise (a 2-D amplitude over its σ: beyond 3.5 with probability 0.2 %)."""
     recs = [synthetic_record(20.0, m, seed=s, amplitude=0.1, f_max=4.0)
             for m, s in ((0.0, 3), (1.983, 4))]
-    plain = identify_records(recs, model=SyntheticModel(), options=IdentifyOptions(
+    plain = identify_records(recs, model=SyntheticModel(), options=IdentifyOptions.of(
         ripple_model="off"))
-    lead = identify_records(recs, model=SyntheticModel(), options=IdentifyOptions(
+    lead = identify_records(recs, model=SyntheticModel(), options=IdentifyOptions.of(
         screw_lead_m=LEAD))
     g0, g1 = ([x.value for x in r.drive_gains] for r in (plain, lead))
     s0, s1 = ([x.rel_std for x in r.drive_gains] for r in (plain, lead))
@@ -102,7 +102,7 @@ def test_a_lead_that_is_not_in_metres_is_refused(lead):
     from orthoglide_ident.errors import ConfigError
 
     with pytest.raises(ConfigError, match="screw_lead_m is the screws' lead in metres"):
-        IdentifyOptions(screw_lead_m=lead).validate()
+        IdentifyOptions.of(screw_lead_m=lead).validate()
 
 
 def test_cross_validation_predicts_with_the_ripple():
@@ -112,8 +112,8 @@ def test_cross_validation_predicts_with_the_ripple():
     val = synthetic_record(10.0, 1.983, seed=9, noise=False, model=model,
                            chi=np.concatenate([TRUE_CHI, RIPPLE]))
     rms = {}
-    for opts in (IdentifyOptions(screw_lead_m=LEAD), IdentifyOptions(ripple_model="off")):
+    for opts in (IdentifyOptions.of(screw_lead_m=LEAD), IdentifyOptions.of(ripple_model="off")):
         res = identify_records(_ripple_records(noise=False), model=SyntheticModel(),
                                options=opts, validation=[val])
-        rms[opts.screw_lead_m] = [j.residual_rms for j in res.validation[0].joints]
+        rms[opts.solve.screw_lead_m] = [j.residual_rms for j in res.validation[0].joints]
     assert max(rms[LEAD]) < 0.05 and min(rms[0.0]) > 0.2, rms

@@ -96,12 +96,12 @@ def test_the_orthoglide_sample_bags_give_the_same_answer_whatever_is_known():
     orthoglide = load_robot("orthoglide")
     base = identify(bags, model=orthoglide).to_json()
     other = identify(bags, model=orthoglide,
-                     options=IdentifyOptions(payload_known="point")).to_json()
+                     options=IdentifyOptions.of(payload_known="point")).to_json()
     for key in ("drive_gains", "parameters", "payload_mass", "residual_rms"):
         assert other[key] == base[key], key
     assert "payload" not in base
     with pytest.raises(IdentificationError, match="bags/loaded: payload_known all needs"):
-        identify(bags, model=orthoglide, options=IdentifyOptions(payload_known="all"))
+        identify(bags, model=orthoglide, options=IdentifyOptions.of(payload_known="all"))
 
 
 def test_mass_only_recovers_the_gains_and_the_centre_of_mass(ur5):
@@ -132,11 +132,12 @@ def test_a_point_mass_at_the_flange_is_the_wrong_known_column(ur5):
     recs = [un, _record(lo, "loaded", None)]
     good = identify_records(recs, model=model)
     assert good.complete
-    point = identify_records(recs, model=model, options=IdentifyOptions(payload_known="point"))
+    point = identify_records(recs, model=model, options=IdentifyOptions.of(payload_known="point"))
     assert not point.complete
     assert [g.name for g in point.drive_gains if not g.determined] == ["wrist_3_joint"]
     wrong = identify_records(recs, model=model,
-                             options=IdentifyOptions(payload_known="point", check_excitation=False))
+                             options=IdentifyOptions.of(payload_known="point",
+                                                        check_excitation=False))
     assert wrong.payload is None
     e_good = np.abs(_gain_errors(good, g_true)[0]).max()
     assert np.abs(_gain_errors(wrong, g_true)[0]).max() > 5 * e_good
@@ -145,7 +146,7 @@ def test_a_point_mass_at_the_flange_is_the_wrong_known_column(ur5):
 def test_point_is_the_former_point_mass(ur5):
     """payload_known point gives exactly what a fully known point mass at the frame gives."""
     model, un, lo, _, _ = ur5
-    opts = IdentifyOptions(check_excitation=False)
+    opts = IdentifyOptions.of(check_excitation=False)
     a = identify_records([un, _record(lo, "loaded", Payload(2.0, known="point"))], model=model,
                          options=opts)
     b = identify_records([un, _record(lo, "loaded", Payload(2.0, "tool0"))], model=model,
@@ -180,9 +181,9 @@ def test_what_cannot_be_done_is_a_one_line_reason(ur5):
     with pytest.raises(IdentificationError, match="b and a carry payloads .* identify one such"):
         identify_records([un, a, b], model=model)
     with pytest.raises(IdentificationError, match="payload_known all needs the payload's centre"):
-        identify_records([un, a], model=model, options=IdentifyOptions(payload_known="all"))
+        identify_records([un, a], model=model, options=IdentifyOptions.of(payload_known="all"))
     with pytest.raises(IdentificationError, match="--consistent needs the payload's CoM"):
-        identify_records([un, a], model=model, options=IdentifyOptions(consistent=True))
+        identify_records([un, a], model=model, options=IdentifyOptions.of(consistent=True))
     assert not hasattr(model, "basis")  # the robot model itself is never changed
 
 
@@ -207,7 +208,7 @@ def test_live_follows_the_offline_answer(ur5):
     from live_helpers import live_result, rel_diff
 
     model, un, lo, _, _ = ur5
-    opts = IdentifyOptions(lag_model="off")
+    opts = IdentifyOptions.of(lag_model="off")
     records = [un, _record(lo, "loaded", Payload(2.0, known="mass"))]
     offline = identify_records(records, model=model, options=opts)
     live = live_result(model, records, opts)
@@ -226,7 +227,7 @@ def test_cross_validation_uses_the_identified_payload(ur5):
         [un, loaded],
         model=model,
         validation=[loaded],
-        options=IdentifyOptions(payload_known="point", check_excitation=False),
+        options=IdentifyOptions.of(payload_known="point", check_excitation=False),
     )
     err = np.array([j.relative_error for j in res.validation[0].joints])
     err_point = np.array([j.relative_error for j in point.validation[0].joints])

@@ -37,7 +37,7 @@ def truth() -> np.ndarray:
 
 @pytest.fixture(scope="module")
 def bag_result():
-    return identify(BAGS, options=IdentifyOptions(consistent=True), model=ORTHOGLIDE)
+    return identify(BAGS, options=IdentifyOptions.of(consistent=True), model=ORTHOGLIDE)
 
 
 def _sigma(chi_b: np.ndarray) -> np.ndarray:
@@ -197,7 +197,7 @@ def test_realistic_records_consistent_answer_within_sigma_and_nearer_the_truth(t
     from simulated import simulated_pair
 
     recs = simulated_pair(15.0, (5, 6), "real", profile="realistic")
-    res = identify_records(recs, options=IdentifyOptions(consistent=True), model=ORTHOGLIDE)
+    res = identify_records(recs, options=IdentifyOptions.of(consistent=True), model=ORTHOGLIDE)
     c = res.consistency
     W = np.diag(1.0 / c.sigma_b)
     chi_b_true = K @ truth

@@ -24,7 +24,7 @@ BAGS = Path(__file__).resolve().parents[3] / "bags"
 # live = offline to 1e-6 holds for the same equations: the paper's drive model here; with the
 # current-loop lag (lag_model: auto, the default) the live rows' instrument is the mean over the
 # previous periods, the offline one over all the others (test_live_lag_* below)
-PAPER_DRIVE = IdentifyOptions(lag_model="off")
+PAPER_DRIVE = IdentifyOptions.of(lag_model="off")
 
 
 @pytest.fixture(scope="module")
@@ -103,7 +103,7 @@ def _with_gap_and_nan(rec: Record, a: int, b: int, k_nan: int) -> Record:
 def test_gaps_and_nan_split_the_record_like_offline_drop(bag_records):
     recs = [_with_gap_and_nan(bag_records[0], 4000, 4025, 7000),
             _with_gap_and_nan(bag_records[1], 5000, 5001, 2500)]
-    opts = IdentifyOptions(nonfinite="drop", lag_model="off")
+    opts = IdentifyOptions.of(nonfinite="drop", lag_model="off")
     off = identify_records(recs, options=opts, model=ORTHOGLIDE)
     live = LiveIdentification(opts, model=ORTHOGLIDE)
     warnings = [w for i, rec in enumerate(recs) for w in feed(live, rec, (1, 50, 333), 7, i)]
@@ -162,7 +162,7 @@ def test_a_joint_that_does_not_move_is_said(bag_records):
 
 
 def test_bad_samples_warn_and_the_rest_is_used(bag_records, offline):
-    live = LiveIdentification(IdentifyOptions(current_limit_a=0.5, lag_model="off"),
+    live = LiveIdentification(IdentifyOptions.of(current_limit_a=0.5, lag_model="off"),
                               model=ORTHOGLIDE)
     unloaded, loaded = bag_records
     feed(live, unloaded)
@@ -280,7 +280,7 @@ def test_screw_ripple_at_the_given_lead_alike_live_and_offline(realistic_records
     plant's (1.5 % of fs_1i = 35.2, 41.7, 24.1 N in config/plant.yaml) within 3 of their σ
     (measured 0.8-1.7 σ here; noise-free, within 2 %: the plant turns the ripple with
     tanh(q̇/v_s), the model with sign(q̂̇))."""
-    opts = IdentifyOptions(screw_lead_m=0.01, lag_model="off")
+    opts = IdentifyOptions.of(screw_lead_m=0.01, lag_model="off")
     off = identify_records(realistic_records, options=opts, model=ORTHOGLIDE)
     _, res = _live_result(realistic_records, opts)
     assert max(rel_diff(off, res)) < 1e-6 and max(rel_sigma_diff(off, res)) < 1e-6
@@ -351,12 +351,12 @@ def test_live_lag_left_out_when_a_segment_does_not_repeat(realistic_records):
         for r in realistic_records
     ]
     for recs in (cut, [realistic_records[0], cut[1]]):
-        opts = IdentifyOptions(check_excitation=False)
+        opts = IdentifyOptions.of(check_excitation=False)
         live = LiveIdentification(opts, model=ORTHOGLIDE)
         warnings = [w for i, r in enumerate(recs) for w in feed(live, r, (250,), 2, seed=i)]
         assert sum("does not repeat a periodic trajectory" in w for w in warnings) == 1
         res = live.result()
-        paper = LiveIdentification(IdentifyOptions(check_excitation=False, lag_model="off"),
+        paper = LiveIdentification(IdentifyOptions.of(check_excitation=False, lag_model="off"),
                                    model=ORTHOGLIDE)
         for i, r in enumerate(recs):
             feed(paper, r, (250,), 2, seed=i)
@@ -364,6 +364,6 @@ def test_live_lag_left_out_when_a_segment_does_not_repeat(realistic_records):
         assert res.current_lag == [] and res.record_reports[bad].n_not_repeating == 1
         # round-off, through the per-joint noise scaling's fixed point on 5 s records (~1e-9)
         assert max(rel_diff(paper.result(), res)) < 1e-8
-        off = identify_records(recs, options=IdentifyOptions(check_excitation=False,
-                                                             lag_model="off"), model=ORTHOGLIDE)
+        off = identify_records(recs, options=IdentifyOptions.of(check_excitation=False,
+                                                                lag_model="off"), model=ORTHOGLIDE)
         assert max(rel_diff(off, res)) < 1e-6

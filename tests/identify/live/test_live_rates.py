@@ -110,7 +110,8 @@ def test_the_steps_are_shown_while_recording(rate):
     status = live.estimate().message_fields()["status"]
     n = len(rec.stamps_q_ns)
     # the newest live_pairing_slack_s wait for their partner
-    paired = int(np.sum(rec.stamps_q_ns <= rec.stamps_q_ns[-1] - CONFIG.live_pairing_slack_s * 1e9))
+    slack_ns = CONFIG.live.live_pairing_slack_s * 1e9
+    paired = int(np.sum(rec.stamps_q_ns <= rec.stamps_q_ns[-1] - slack_ns))
     ref = step_stats(rec.stamps_q_ns[:paired])
     assert f"{n} samples in, {paired} paired" in status, status
     assert f"median {ref.median_s * 1e3:.3f} ms" in status, status
@@ -180,7 +181,7 @@ def test_live_reads_a_slow_untagged_log_as_offline_auto_does():
     equals identify_records' to 1e-9 and says which reading it used. Before, live read it held
     only while offline chose sampled (1e-3 apart)."""
     opts = CONFIG.replace(check_excitation=False, partial_answers=False)
-    assert opts.current_sampling == "auto"
+    assert opts.input.current_sampling == "auto"
     records = [_logged(r, i) for i, r in enumerate(_records("1kHz"))]
     off = identify_records(records, options=opts, model=MODEL)
     live = LiveIdentification(opts, model=MODEL)

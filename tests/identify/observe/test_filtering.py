@@ -56,7 +56,7 @@ def test_filter_currents_puts_v_tau_through_the_filter_of_q():
     assert np.abs(v - _sines(t)[0][200:-200]).max() < 5e-6  # the 150 Hz part: 1e-4 -> ~3e-6
     raw = states_at_half_tick(q, q, T, 100.0, 4, trim=200, zoh_shift=False)[3]
     assert np.array_equal(raw, q[200:-200])
-    assert IdentifyOptions().filter_currents
+    assert IdentifyOptions().observe.filter_currents
 
 
 def test_fir_is_zero_phase_unit_gain_and_chunks_exactly():

@@ -40,8 +40,8 @@ def test_chunk_size_does_not_change_the_result():
     model = SyntheticModel()
     recs = [synthetic_record(12, 0.0, seed=1, amplitude=0.1, f_max=4.0),
             synthetic_record(12, 1.983, seed=2, amplitude=0.1, f_max=4.0)]
-    a = identify_records(recs, model=model, options=IdentifyOptions(chunk_samples=700))
-    b = identify_records(recs, model=model, options=IdentifyOptions(chunk_samples=100_000))
+    a = identify_records(recs, model=model, options=IdentifyOptions.of(chunk_samples=700))
+    b = identify_records(recs, model=model, options=IdentifyOptions.of(chunk_samples=100_000))
     ga = np.array([g.value for g in a.drive_gains])
     gb = np.array([g.value for g in b.drive_gains])
     assert np.abs(ga / gb - 1).max() < 1e-10

@@ -50,9 +50,9 @@ def test_import_flag_tags_the_bag(tmp_path):
 
 
 def test_option_and_robot_file_key(tmp_path):
-    assert IdentifyOptions.from_mapping({"current_sampling": "sampled"}).current_sampling == \
+    assert IdentifyOptions.from_mapping({"current_sampling": "sampled"}).input.current_sampling == \
         "sampled"
-    assert IdentifyOptions().current_sampling == "auto"
+    assert IdentifyOptions().input.current_sampling == "auto"
     with pytest.raises(ConfigError, match="current_sampling"):
         IdentifyOptions.from_mapping({"current_sampling": "point"})
     (tmp_path / "r.urdf").write_text("<robot name='r'/>")
@@ -96,7 +96,7 @@ def test_auto_reads_a_negative_lag_as_sampled():
     why = "current_sampling: auto, nothing said: held until the lag says otherwise"
     res.record_reports = [SimpleNamespace(current_sampling_why=why)]
     assert sampling_rerun(res, IdentifyOptions()) is not None
-    assert sampling_rerun(res, IdentifyOptions(current_sampling="held")) is None  # as told
+    assert sampling_rerun(res, IdentifyOptions.of(current_sampling="held")) is None  # as told
     res.record_reports = [SimpleNamespace(current_sampling_why="the bag's tag")]
     assert sampling_rerun(res, IdentifyOptions()) is None  # a tagged record is as tagged
 
@@ -108,7 +108,7 @@ def test_sampled_states_sit_at_the_stamp_plus_the_loops_half_tick():
     t = st * 1e-9
     f = 0.5
     q = np.sin(2 * np.pi * f * t)[:, None]
-    opts = IdentifyOptions(current_sampling="sampled", zoh_shift=False, current_loop_hz=1000.0)
+    opts = IdentifyOptions.of(current_sampling="sampled", zoh_shift=False, current_loop_hz=1000.0)
     shift = sampled_shift_s(opts)
     assert shift == pytest.approx(5e-4)
     assert sampled_shift_s(IdentifyOptions()) == 0.0  # held: the half step of the log instead
@@ -158,16 +158,16 @@ def test_a_point_sampled_250_hz_log_is_unbiased_only_as_sampled():
         return np.array([abs(g.value / t - 1) / g.rel_std for g, t in zip(res.drive_gains, truth)
                          if getattr(g, "determined", True)]), res
 
-    held, _ = sigmas(IdentifyOptions(current_sampling="held"))
-    sampled, _ = sigmas(IdentifyOptions(current_sampling="sampled", current_loop_hz=1000.0))
+    held, _ = sigmas(IdentifyOptions.of(current_sampling="held"))
+    sampled, _ = sigmas(IdentifyOptions.of(current_sampling="sampled", current_loop_hz=1000.0))
     assert held.max() > 3.0
     assert sampled.size == 6 and sampled.max() < 3.0
     # the loop's rate unknown: its half tick fitted by the residual (0.5 ms found)
-    fitted, res = sigmas(IdentifyOptions(current_sampling="sampled"))
+    fitted, res = sigmas(IdentifyOptions.of(current_sampling="sampled"))
     assert fitted.size == 6 and fitted.max() < 3.0
     assert {b.current_shift_ms for b in res.record_reports} == {0.5}
     # auto, nothing said, a 4 ms step: the reading whose residual is smaller, said in one line
-    _, auto = sigmas(IdentifyOptions(current_loop_hz=1000.0))
+    _, auto = sigmas(IdentifyOptions.of(current_loop_hz=1000.0))
     assert {b.current_sampling for b in auto.record_reports} == {"sampled"}
     assert any(w.startswith("current_sampling: auto on") and "read sampled" in w
                for w in auto.warnings)
@@ -191,7 +191,7 @@ def test_auto_reads_a_log_held_at_its_own_rate_as_held():
                                        seed=s), f"r{s}")
             for p, tr, s in ((None, "exciting1", 0), ("2.0", "exciting2", 1))]
     auto = identify_records(recs, model=model)
-    held = identify_records(recs, model=model, options=IdentifyOptions(current_sampling="held"))
+    held = identify_records(recs, model=model, options=IdentifyOptions.of(current_sampling="held"))
     assert {b.current_sampling for b in auto.record_reports} == {"held"}
     assert [g.value for g in auto.drive_gains] == [g.value for g in held.drive_gains]
     assert any("read held" in w for w in auto.warnings)
@@ -206,19 +206,20 @@ def test_live_blocks_of_a_sampled_current_give_the_offline_rows():
     from orthoglide_ident.identify.observe.stream import SegmentStream
     from orthoglide_ident.identify.observe.time_base import states_at_half_tick
 
-    opts = IdentifyOptions(current_sampling="sampled", current_loop_hz=4000.0).at_rate(1e3)
+    opts = IdentifyOptions.of(current_sampling="sampled", current_loop_hz=4000.0).at_rate(1e3)
     rec = synthetic_record(4.0, 0.0, seed=3, amplitude=0.1, f_max=4.0)
     model, T = SyntheticModel(), 1e-3
-    trim = int(round(opts.edge_trim_s / T))
-    states = states_at_half_tick(rec.q, rec.v_tau, T, opts.filter_cutoff_hz, opts.filter_order,
-                                 trim, False, opts.filter_currents, rec.stamps_q_ns,
+    ob = opts.observe
+    trim = int(round(ob.edge_trim_s / T))
+    states = states_at_half_tick(rec.q, rec.v_tau, T, ob.filter_cutoff_hz, ob.filter_order,
+                                 trim, False, ob.filter_currents, rec.stamps_q_ns,
                                  shift_s=1.25e-4)
     stamps = rec.stamps_q_ns[trim:trim + states[0].shape[0]]
     t0 = int(rec.stamps_q_ns[0])
     whole = SegmentStream(model, plain_layout(model), opts, T, t0)
     ref = [whole.push_states(stamps, *states), whole.finish()]
-    held = states_at_half_tick(rec.q, rec.v_tau, T, opts.filter_cutoff_hz, opts.filter_order,
-                               trim, True, opts.filter_currents)
+    held = states_at_half_tick(rec.q, rec.v_tau, T, ob.filter_cutoff_hz, ob.filter_order,
+                               trim, True, ob.filter_currents)
     assert held[0].shape[0] == states[0].shape[0] - 1  # the held reading's rows differ
     blocks = SegmentStream(model, plain_layout(model), opts, T, t0)
     got = [blocks.push(rec.stamps_q_ns[a:a + 700], rec.q[a:a + 700], rec.v_tau[a:a + 700])
@@ -259,7 +260,7 @@ def test_auto_reads_a_1khz_log_of_a_4khz_loop_as_sampled_by_its_negative_lag():
                                        "loaded" if pl else "unloaded", r.payload_mass,
                                        r.joint_names, pl))
     model = load_robot("ur5")
-    held = identify_records(recs, model=model, options=IdentifyOptions(current_sampling="held"))
+    held = identify_records(recs, model=model, options=IdentifyOptions.of(current_sampling="held"))
     assert all(x.tau_ms < -0.2 for x in held.current_lag)  # measured -0.27 ... -0.44
     auto = identify_records(recs, model=model)
     assert {b.current_sampling for b in auto.record_reports} == {"sampled"}

@@ -43,7 +43,7 @@ def _worst_sigma(a, b) -> float:
 @pytest.fixture(scope="module")
 def answers(ur5):
     model, recs = ur5
-    return {m: identify_records(recs, options=IdentifyOptions(regressor_at=m), model=model)
+    return {m: identify_records(recs, options=IdentifyOptions.of(regressor_at=m), model=model)
             for m in ("samples", "rows")}
 
 
@@ -84,12 +84,12 @@ def test_the_bridges_on_the_smooth_columns_are_those_of_the_sample_rate_path(ur5
     model, recs = ur5
     rec = recs[1]
     layout = column_layout(model, 0.0, True)
-    old, rep, _ = observe(rec, model, IdentifyOptions(regressor_at="samples"), 2.0,
+    old, rep, _ = observe(rec, model, IdentifyOptions.of(regressor_at="samples"), 2.0,
                           layout=layout)
     assert rep.n_reversal_bridged > 100  # the record has bridges to check
     monkeypatch.setattr(SegmentStream, "_smooth_at_rows", _full_rate_smooth)
     monkeypatch.setattr(BridgeCorrections, "exact_anchors", True)
-    new, _, _ = observe(rec, model, IdentifyOptions(regressor_at="rows"), 2.0, layout=layout)
+    new, _, _ = observe(rec, model, IdentifyOptions.of(regressor_at="rows"), 2.0, layout=layout)
     scale = np.abs(old.W).max(axis=(0, 1)) + 1e-300
     assert np.max(np.abs(old.W - new.W) / scale) < 1e-12
     np.testing.assert_allclose(new.v_tau, old.v_tau, rtol=0, atol=1e-12)
@@ -99,14 +99,15 @@ def test_blocks_give_the_rows_of_the_whole_segment(ur5):
     """Live (raw ticks in blocks) = offline (the segment's states at once), rows mode."""
     model, recs = ur5
     rec = recs[0]
-    opts = IdentifyOptions(regressor_at="rows").at_rate(1000.0)
+    opts = IdentifyOptions.of(regressor_at="rows").at_rate(1000.0)
     T = 1e-3
     t0 = int(rec.stamps_q_ns[0])
     whole = SegmentStream(model, plain_layout(model), opts, T, t0)
     assert whole.rough is not None  # the rows path is the one checked
-    trim = int(round(opts.edge_trim_s / T))
-    states = states_at_half_tick(rec.q, rec.v_tau, T, opts.filter_cutoff_hz, opts.filter_order,
-                                 trim, opts.zoh_shift, opts.filter_currents)
+    trim = int(round(opts.observe.edge_trim_s / T))
+    states = states_at_half_tick(rec.q, rec.v_tau, T, opts.observe.filter_cutoff_hz,
+                                 opts.observe.filter_order, trim,
+                                 opts.observe.zoh_shift, opts.observe.filter_currents)
     stamps = rec.stamps_q_ns[trim:trim + states[0].shape[0]]
     parts = [whole.push_states(stamps, *states), whole.finish()]
     live = SegmentStream(model, plain_layout(model), opts, T, t0)
@@ -300,6 +301,6 @@ def test_two_anchor_points_keep_the_answer_of_exact_anchors(ur5, answers, monkey
     model, recs = ur5
     two = answers["rows"]
     monkeypatch.setattr(BridgeCorrections, "exact_anchors", True)
-    exact = identify_records(recs, options=IdentifyOptions(regressor_at="rows"), model=model)
+    exact = identify_records(recs, options=IdentifyOptions.of(regressor_at="rows"), model=model)
     assert _worst_sigma(exact.drive_gains, two.drive_gains) < 0.002
     assert _worst_sigma(exact.parameters, two.parameters) < 0.002

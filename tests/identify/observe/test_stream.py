@@ -65,20 +65,21 @@ def test_fir_decimate_last_is_the_direct_convolution_at_the_kept_samples():
         assert np.abs(y - direct).max() < 1e-14
 
 
-@pytest.mark.parametrize("opts", [IdentifyOptions(), IdentifyOptions(edge_trim_s=0.02),
-                                  IdentifyOptions(zoh_shift=False, decimation=5),
-                                  IdentifyOptions(decimation=1, velocity_deadband_mps=0.0),
-                                  IdentifyOptions(filter_currents=False)])
+@pytest.mark.parametrize("opts", [IdentifyOptions(), IdentifyOptions.of(edge_trim_s=0.02),
+                                  IdentifyOptions.of(zoh_shift=False, decimation=5),
+                                  IdentifyOptions.of(decimation=1, velocity_deadband_mps=0.0),
+                                  IdentifyOptions.of(filter_currents=False)])
 def test_raw_blocks_give_the_rows_of_the_whole_segment(opts):
     """Ticks pushed in random blocks (live) = the whole segment filtered at once (offline)."""
     opts = opts.at_rate(1e3)
     rec = synthetic_record(6.0, 0.0, seed=3, amplitude=0.1, f_max=4.0)
     model = SyntheticModel()
     T = 1e-3
-    trim = int(round(opts.edge_trim_s / T))
+    trim = int(round(opts.observe.edge_trim_s / T))
     whole = SegmentStream(model, plain_layout(model), opts, T, 0)
-    states = states_at_half_tick(rec.q, rec.v_tau, T, opts.filter_cutoff_hz, opts.filter_order,
-                                 trim, opts.zoh_shift, opts.filter_currents)
+    states = states_at_half_tick(rec.q, rec.v_tau, T, opts.observe.filter_cutoff_hz,
+                                 opts.observe.filter_order, trim,
+                                 opts.observe.zoh_shift, opts.observe.filter_currents)
     stamps = rec.stamps_q_ns[trim:trim + states[0].shape[0]]
     ref = [whole.push_states(stamps, *states), whole.finish()]
     blocks = SegmentStream(model, plain_layout(model), opts, T, 0)
@@ -94,7 +95,7 @@ def test_raw_blocks_give_the_rows_of_the_whole_segment(opts):
     assert X0.shape == X1.shape and X0.shape[2] > 0
     scale = np.abs(X0).max(axis=2, keepdims=True) + 1e-300
     assert np.abs((X1 - X0) / scale).max() < 1e-9
-    if opts.velocity_deadband_mps > 0:
+    if opts.observe.velocity_deadband_mps > 0:
         assert np.array_equal(np.concatenate([r.keep for r in ref], 1),
                               np.concatenate([r.keep for r in got], 1))
         assert (blocks.n_bridged, blocks.n_unbridged) == (whole.n_bridged, whole.n_unbridged)

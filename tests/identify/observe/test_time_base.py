@@ -54,13 +54,14 @@ def test_states_on_the_stamps_at_each_held_interval_middle(clock):
     t = st * 1e-9
     q, _, _ = multisine(t)
     opts = IdentifyOptions().at_rate(1.0 / np.mean(np.diff(t)))
-    qh, qdh, qddh = states_on_stamps(q, st, opts.filter_cutoff_hz)
+    qh, qdh, qddh = states_on_stamps(q, st, opts.observe.filter_cutoff_hz)
     Q, QD, QDD = multisine(0.5 * (t[:-1] + t[1:]))
     assert rel_rms(qh, Q) < bound / 10
     assert rel_rms(qdh, QD) < bound
     assert rel_rms(qddh, QDD) < 20 * bound
     if clock == "10/12 ms, median 10":  # the median as the period: velocities 10 % high
-        _, qd_med, _ = filtered_states(q, float(np.median(np.diff(t))), opts.filter_cutoff_hz)
+        _, qd_med, _ = filtered_states(q, float(np.median(np.diff(t))),
+                                        opts.observe.filter_cutoff_hz)
         assert rel_rms(qd_med, QD) > 0.05
 
 
@@ -110,23 +111,26 @@ def test_split_record_on_an_uneven_clock_uses_the_mean_step():
                                             (1e3 / 11, 1e3 / 55, 5), (50.0, 10.0, 5)])
 def test_options_in_hz_follow_the_rate(rate, f_q, n_d):
     o = IdentifyOptions().at_rate(rate)
-    assert o.filter_cutoff_hz == pytest.approx(f_q) and o.decimation == n_d
-    assert o.filter_cutoff_hz < rate / 2  # the default is never refused at the Nyquist frequency
-    assert o.chunk_samples == int(round(16.384 * rate)) or o.chunk_samples == 64
+    assert o.observe.filter_cutoff_hz == pytest.approx(f_q) and o.observe.decimation == n_d
+    # the default is never refused at the Nyquist frequency
+    assert o.observe.filter_cutoff_hz < rate / 2
+    assert o.observe.chunk_samples == int(round(16.384 * rate)) or o.observe.chunk_samples == 64
     assert o.at_rate(rate) == o  # idempotent
 
 
 def test_physical_options_and_old_names_with_their_note(caplog):
     o = IdentifyOptions.from_mapping({"decimation_cutoff_hz": 20.0, "chunk_s": 2.0})
     r = o.at_rate(1000.0)
-    assert r.decimation == 20 and r.chunk_samples == 2000 and r.decimation_cutoff_hz == 20.0
+    assert r.observe.decimation == 20 and r.observe.chunk_samples == 2000
+    assert r.observe.decimation_cutoff_hz == 20.0
     with caplog.at_level(logging.WARNING, "orthoglide_ident.identify"):
         old = IdentifyOptions.from_mapping({"decimation": 5, "chunk_samples": 4096}, "f.yaml")
     notes = [m for m in caplog.messages if "deprecated" in m]
     assert len(notes) == 2 and all(m.count("\n") == 0 for m in notes)
     assert "decimation_cutoff_hz" in notes[0] and "chunk_s" in notes[1]
-    assert old.at_rate(1000.0).decimation == 5 and old.at_rate(5000.0).decimation == 5
-    assert old.at_rate(1000.0).chunk_samples == 4096
+    assert old.at_rate(1000.0).observe.decimation == 5
+    assert old.at_rate(5000.0).observe.decimation == 5
+    assert old.at_rate(1000.0).observe.chunk_samples == 4096
 
 
 def _segment(st, q, qd):
@@ -137,7 +141,7 @@ def test_velocity_source_rule():
     st = stamps_of(np.tile([10, 12], 2000) * 1_000_000)
     q, qd, _ = multisine(st * 1e-9)
     q = np.round(q / 1e-4) * 1e-4
-    opts = IdentifyOptions(velocity_source="auto").at_rate(1 / 0.011)
+    opts = IdentifyOptions.of(velocity_source="auto").at_rate(1 / 0.011)
     segs, why = choose_velocity([_segment(st, q, qd)], opts, 0.011, "r")
     assert segs[0].qd is not None and why.startswith("recorded") and "within 2 %" in why
     segs, why = choose_velocity([_segment(st, q, 1.1 * qd)], opts, 0.011, "r")  # 10 % off
@@ -147,7 +151,7 @@ def test_velocity_source_rule():
     derived = IdentifyOptions().at_rate(1 / 0.011)
     segs, why = choose_velocity([_segment(st, q, qd)], derived, 0.011, "r")
     assert segs[0].qd is None and "derived" in why
-    rec = IdentifyOptions(velocity_source="recorded").at_rate(1 / 0.011)
+    rec = IdentifyOptions.of(velocity_source="recorded").at_rate(1 / 0.011)
     with pytest.raises(DataError, match="no JointState.velocity"):
         choose_velocity([_segment(st, q, None)], rec, 0.011, "r")
     bad = qd.copy()
@@ -221,7 +225,7 @@ def test_an_uneven_91_hz_record_gives_the_true_gains_with_default_options():
     model = SyntheticModel()
     recs = _synthetic_pair(duration_s=60.0, noise=False, amplitude=0.1, f_max=3.0,
                            steps_ns=_clock(60.0))
-    res = identify_records(recs, model=model, options=IdentifyOptions(check_excitation=False))
+    res = identify_records(recs, model=model, options=IdentifyOptions.of(check_excitation=False))
     assert np.abs(_gain_errors(res)).max() < 2e-3
     b = res.record_reports[0]
     assert b.decimation == 5 and b.filter_cutoff_hz == pytest.approx(1 / 0.0545, rel=0.02)
@@ -233,7 +237,7 @@ def test_an_uneven_91_hz_record_gives_the_true_gains_with_default_options():
     flat = [dataclasses.replace(r, stamps_q_ns=r.stamps_q_ns[0] + np.arange(len(r.q)) * 10_000_000,
                                 stamps_v_ns=r.stamps_q_ns[0] + np.arange(len(r.q)) * 10_000_000)
             for r in recs]
-    old = identify_records(flat, model=model, options=IdentifyOptions(check_excitation=False))
+    old = identify_records(flat, model=model, options=IdentifyOptions.of(check_excitation=False))
     # off by ~% where still given; the slow log's filter bound (solve/filter_bound.py) may
     # mark such gains not determined (NaN): either way never as good as the true stamps
     err_old = np.abs(_gain_errors(old))
@@ -250,7 +254,7 @@ def test_a_gap_in_an_uneven_record_splits_it():
     steps[1800] = 45_000_000  # ~3 ticks missing
     recs = _synthetic_pair(duration_s=40.0, noise=False, amplitude=0.1, f_max=3.0, steps_ns=steps)
     res = identify_records(recs, model=SyntheticModel(),
-                           options=IdentifyOptions(check_excitation=False))
+                           options=IdentifyOptions.of(check_excitation=False))
     b = res.record_reports[0]
     assert b.n_gaps == 1 and b.n_missing_ticks == 3 and b.n_segments == 2
 
@@ -262,7 +266,7 @@ def test_a_steady_50_hz_record_identifies_without_an_options_file():
 
     recs = _synthetic_pair(duration_s=60.0, noise=False, amplitude=0.1, f_max=2.0, rate_hz=50.0)
     res = identify_records(recs, model=SyntheticModel(),
-                           options=IdentifyOptions(check_excitation=False))
+                           options=IdentifyOptions.of(check_excitation=False))
     assert res.record_reports[0].filter_cutoff_hz == 10.0
     assert np.abs(_gain_errors(res)).max() < 5e-3
 
@@ -331,7 +335,7 @@ def test_the_recorded_velocity_is_read_when_asked(tmp_path):
     np.testing.assert_array_equal(bags.read_bag(tmp_path / "v").velocity, qd)
     assert bags.read_bag(tmp_path / "n").velocity is None
     assert read_record(tmp_path / "v", orthoglide).qd is None  # velocity_source: derived (default)
-    auto = read_record(tmp_path / "v", orthoglide, IdentifyOptions(velocity_source="auto"))
+    auto = read_record(tmp_path / "v", orthoglide, IdentifyOptions.of(velocity_source="auto"))
     np.testing.assert_array_equal(auto.qd, qd)
 
 
@@ -349,12 +353,12 @@ def test_identification_with_the_recorded_velocity():
         _, qd, _ = trajectory((r.stamps_q_ns - r.stamps_q_ns[0]) * 1e-9, seed, 0.1, 3.0)
         with_qd.append(dataclasses.replace(r, qd=qd))
     for source in ("recorded", "auto"):
-        res = identify_records(with_qd, model=SyntheticModel(), options=IdentifyOptions(
+        res = identify_records(with_qd, model=SyntheticModel(), options=IdentifyOptions.of(
             check_excitation=False, velocity_source=source))
         assert res.record_reports[0].velocity.startswith("recorded")
         assert np.abs(_gain_errors(res)).max() < 2e-3
     bad = [dataclasses.replace(r, qd=1.1 * r.qd) for r in with_qd]  # a velocity 10 % off
-    res = identify_records(bad, model=SyntheticModel(), options=IdentifyOptions(
+    res = identify_records(bad, model=SyntheticModel(), options=IdentifyOptions.of(
         check_excitation=False, velocity_source="auto"))
     assert res.record_reports[0].velocity.startswith(
         "derived from q (velocity_source: auto"
@@ -373,11 +377,12 @@ def test_live_blocks_on_an_uneven_clock_give_the_offline_rows():
     rec = synthetic_record(30.0, 0.0, seed=3, amplitude=0.1, f_max=3.0, steps_ns=_clock(30.0))
     model = SyntheticModel()
     T = float(np.mean(np.diff(rec.stamps_q_ns))) * 1e-9
-    opts = IdentifyOptions(velocity_deadband_mps=0.0).at_rate(1 / T)
-    trim = int(round(opts.edge_trim_s / T))
+    opts = IdentifyOptions.of(velocity_deadband_mps=0.0).at_rate(1 / T)
+    ob = opts.observe
+    trim = int(round(ob.edge_trim_s / T))
     whole = SegmentStream(model, plain_layout(model), opts, T, 0)
-    states = states_at_half_tick(rec.q, rec.v_tau, T, opts.filter_cutoff_hz, opts.filter_order,
-                                 trim, opts.zoh_shift, opts.filter_currents, rec.stamps_q_ns)
+    states = states_at_half_tick(rec.q, rec.v_tau, T, ob.filter_cutoff_hz, ob.filter_order,
+                                 trim, ob.zoh_shift, ob.filter_currents, rec.stamps_q_ns)
     a = whole.push_states(rec.stamps_q_ns[trim:trim + states[0].shape[0]], *states).X
     a = np.concatenate([a, whole.finish().X], axis=2)
     live = SegmentStream(model, plain_layout(model), opts, T, 0)

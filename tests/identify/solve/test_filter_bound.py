@@ -76,8 +76,8 @@ def test_a_point_sampled_83_hz_log_marks_no_biased_gain_determined():
                                            "loaded" if pl else "unloaded", r.payload_mass,
                                            r.joint_names, pl)))
     res = identify_records([x for _, x in recs], model=load_robot("ur5"),
-                           options=IdentifyOptions(current_sampling="sampled",
-                                                   current_loop_hz=1000.0))
+                           options=IdentifyOptions.of(current_sampling="sampled",
+                                                      current_loop_hz=1000.0))
     truth = recs[0][0].truth.drive_array("g_tau")
     z = np.array([abs(g.value / t - 1) / g.rel_std for g, t in zip(res.drive_gains, truth)
                   if g.determined])

@@ -38,12 +38,12 @@ def test_the_methods_table_lists_iv():
     args = build_parser().parse_args(["identify", "b1", "b2", "--cross-check", "none"])
     assert args.cross_check == "none"
     with pytest.raises(ConfigError, match="cross_check must be 'iv' or 'none'"):
-        IdentifyOptions(cross_check="hausman").validate()
+        IdentifyOptions.of(cross_check="hausman").validate()
 
 
 def test_iv_recovers_the_gains_where_the_papers_tls_is_biased(panda):
     model, recs = panda
-    tls = identify_records(recs, model=model, options=IdentifyOptions(
+    tls = identify_records(recs, model=model, options=IdentifyOptions.of(
         tls_noisy_columns="all", cross_check="none"))  # the paper's TLS
     assert np.max(np.abs(_z(tls, P.GAINS))) > 4  # the bias: joint 7 at about -5.7 σ
     iv = identify_records(recs, model=model, method="iv")
@@ -56,7 +56,7 @@ def test_iv_recovers_the_gains_where_the_papers_tls_is_biased(panda):
 
 def test_per_joint_tls_removes_the_bias(panda):
     model, recs = panda
-    res = identify_records(recs, model=model, options=IdentifyOptions(cross_check="none"))
+    res = identify_records(recs, model=model, options=IdentifyOptions.of(cross_check="none"))
     assert res.diagnostics.solver.tls_noisy_columns == "per-joint"  # the default
     assert np.all(np.abs(_z(res, P.GAINS)) < 3)
 
@@ -64,7 +64,7 @@ def test_per_joint_tls_removes_the_bias(panda):
 def test_the_cross_check_marks_the_biased_tls_gains(panda):
     model, recs = panda
     # the paper's TLS, cross-checked by IV (the default cross-check)
-    res = identify_records(recs, model=model, options=IdentifyOptions(tls_noisy_columns="all"))
+    res = identify_records(recs, model=model, options=IdentifyOptions.of(tls_noisy_columns="all"))
     marked = [g for g in res.drive_gains if not g.determined]
     assert marked and all("IDIM-IV" in g.reason for g in marked)
     assert any(w.startswith("TLS cross-checked by IV") for w in res.warnings)

@@ -49,8 +49,8 @@ def test_a_wrist_the_payload_does_not_load_is_not_determined(axial):
 def test_all_or_nothing_when_partial_answers_are_off(axial):
     unloaded, loaded, g_true = axial
     res = identify([unloaded, loaded], model=load_robot("ur5"),
-                   options=IdentifyOptions(partial_answers=False, cross_check="none",
-                                           tls_noisy_columns="all"))
+                   options=IdentifyOptions.of(partial_answers=False, cross_check="none",
+                                              tls_noisy_columns="all"))
     # the old answer of the paper's TLS: a number for wrist_3 that is not its gain, with a small
     # σ (IV's cross-check, off here, marks it not determined: test_iv.py)
     w3 = res.drive_gains[5]

@@ -84,7 +84,7 @@ def big_arm():
 
 # The paper's TLS (all of W_tot's columns noisy, eqs. 33-36) leaves this case unseparated: the
 # subset search is tested on it. The per-joint TLS (the default) answers it whole (last test).
-PAPER_TLS = IdentifyOptions(tls_noisy_columns="all", cross_check="none")
+PAPER_TLS = IdentifyOptions.of(tls_noisy_columns="all", cross_check="none")
 
 
 @pytest.fixture(scope="module")

@@ -265,7 +265,7 @@ def test_essential_keeps_the_gains_and_says_what_each_cancellation_cost(bag_resu
     from orthoglide_ident.identify import IdentifyOptions
 
     paper = identify_records(
-        recs, essential=True, options=IdentifyOptions(essential_method="paper"), model=ORTHOGLIDE
+        recs, essential=True, options=IdentifyOptions.of(essential_method="paper"), model=ORTHOGLIDE
     ).essential
     gp = np.array([x.value for x in paper.drive_gains])
     assert paper.reduction.method == "paper"

@@ -69,7 +69,7 @@ def test_serial_urdf_robot_identified_consistent_and_simulated(tmp_path):
               current_noise_a=1e-3, quantum_m=1e-5)
     recs = [synthetic_record(20.0, 0.0, seed=1, **kw), synthetic_record(20.0, 2.0, seed=2, **kw)]
     res = identify_records(recs, model=arm, validation=[synthetic_record(8.0, 0.0, seed=3, **kw)],
-                           options=IdentifyOptions(consistent=True, lag_model="off"))
+                           options=IdentifyOptions.of(consistent=True, lag_model="off"))
     c = res.consistency
     assert c.lay.prior_source == "the robot's description"
     assert c.findings.consistent  # a URDF's bodies, identified from clean data: consistent

@@ -43,7 +43,7 @@ def test_a_reduction_row_typed_wrong_is_said(records, tmp_path):
     wrong[5, 4] = 0.0  # motor 6 turns with q6 only, not q5 + q6
     # the paper's TLS answers m5 and leaves its misfit to be said; the per-joint default leaves
     # m5 and m6 out (not determined, with their reasons): no wrong gain either way
-    paper = IdentifyOptions(tls_noisy_columns="all", cross_check="none")
+    paper = IdentifyOptions.of(tls_noisy_columns="all", cross_check="none")
     res = _identify(records, tmp_path, wrong, "wrong", paper)
     said = [w for w in res.warnings if w.startswith("the residual of m5 is") and "times" in w]
     assert said and "transmission" in said[0]
