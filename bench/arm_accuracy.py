@@ -30,7 +30,7 @@ from _figures import Figures, add_json_option  # noqa: E402
 from identify.test_on_arm import as_record  # noqa: E402
 
 from orthoglide_ident.identify import identify_records  # noqa: E402
-from orthoglide_ident.model.robots import load_robot  # noqa: E402
+from orthoglide_ident.model.registry import load_robot  # noqa: E402
 from orthoglide_sim.arms.record import simulate_arm  # noqa: E402
 
 EMITS_JSON = True  # --json PATH: the figures for bench/write_benchmarks.py

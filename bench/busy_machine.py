@@ -79,7 +79,7 @@ def _bags(keep: Path) -> dict[str, list[Path]]:
     from identify_speed import arm_bags  # noqa: E402 (bench/ on the path)
 
     from orthoglide_ident import bags
-    from orthoglide_ident.model.robots import load_robot
+    from orthoglide_ident.model.registry import load_robot
 
     joints = load_robot("orthoglide").joint_names  # the robot these records are of
     out = {"ur5": arm_bags(keep / "ur5", "ur5", 60.0)[0]}

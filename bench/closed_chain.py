@@ -25,7 +25,7 @@ import numpy as np
 from _figures import Figures, add_json_option
 
 from orthoglide_ident.identify import identify_records
-from orthoglide_ident.model.robots import load_robot
+from orthoglide_ident.model.registry import load_robot
 from orthoglide_sim.arms import excitation as ax
 from orthoglide_sim.arms import simulator as asim
 from orthoglide_sim.arms.limits import motion_limits

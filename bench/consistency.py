@@ -41,7 +41,7 @@ from orthoglide_ident.identify import (
 )
 from orthoglide_ident.identify.consistency.pseudo_inertia import INERTIAL_KINDS  # noqa: E402
 from orthoglide_ident.identify.validate.direct_dynamics import validate as direct_validate  # noqa: E402
-from orthoglide_ident.model.robots import load_robot  # noqa: E402
+from orthoglide_ident.model.registry import load_robot  # noqa: E402
 
 EMITS_JSON = True  # --json PATH: the figures for bench/write_benchmarks.py
 BEFORE = "new (issue 28)"

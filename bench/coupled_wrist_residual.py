@@ -32,8 +32,8 @@ import yaml
 from orthoglide_ident import bags
 from orthoglide_ident.errors import OrthoglideError
 from orthoglide_ident.identify import identify
-from orthoglide_ident.model import robots
-from orthoglide_ident.model.robots import load_robot
+from orthoglide_ident.model import registry
+from orthoglide_ident.model.registry import load_robot
 from orthoglide_sim.arms.pinocchio_truth import TruthDynamics
 from orthoglide_sim.coupled.record import simulate_coupled, write_coupled_bag, write_robot_files
 from orthoglide_sim.coupled.truth import default_coupled_truth
@@ -91,8 +91,8 @@ def rms_joints(parts, N: np.ndarray) -> np.ndarray:
 
 def naive_robot(folder: Path, truth) -> Path:
     """The plain ur5 robot file (no transmission), joint gains |N_jj| × the motor's nominal."""
-    src = robots.resolve("ur5")
-    data = robots.read_yaml(src)
+    src = registry.resolve("ur5")
+    data = registry.read_yaml(src)
     gains = np.abs(np.diag(truth.reduction)) * truth.motor_array("nominal_gain")
     urdf = (src.parent / str(data["description"])).resolve()
     d = dict(data, name="ur5_naive_wrist", description=str(urdf),

@@ -33,7 +33,7 @@ from _figures import Figures, add_json_option
 from orthoglide_ident.control import CTCParameters, feedforward_currents
 from orthoglide_ident.identify import identify
 from orthoglide_ident.model.orthoglide.geometry import G_TAU_MANUFACTURER
-from orthoglide_ident.model.robots import load_robot
+from orthoglide_ident.model.registry import load_robot
 from orthoglide_sim.common.trajectories import get_trajectory
 from orthoglide_sim.orthoglide.record import simulate
 

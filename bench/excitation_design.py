@@ -48,8 +48,8 @@ from orthoglide_ident.excite.prediction import (  # noqa: E402
 )
 from orthoglide_ident.excite.summary import with_extras  # noqa: E402
 from orthoglide_ident.identify import identify_records  # noqa: E402
+from orthoglide_ident.model.registry import load_robot  # noqa: E402
 from orthoglide_ident.model.robot import Payload  # noqa: E402
-from orthoglide_ident.model.robots import load_robot  # noqa: E402
 from orthoglide_sim.arm_or_chain.session import robot_truth  # noqa: E402
 from orthoglide_sim.arms.record import simulate_arm  # noqa: E402
 from orthoglide_sim.chains.record import simulate_chain  # noqa: E402

@@ -58,8 +58,8 @@ from orthoglide_ident.excite.prediction import (  # noqa: E402
 from orthoglide_ident.excite.summary import with_extras  # noqa: E402
 from orthoglide_ident.excite.trajectory import save_trajectory  # noqa: E402
 from orthoglide_ident.identify import identify_records  # noqa: E402
+from orthoglide_ident.model.registry import load_robot  # noqa: E402
 from orthoglide_ident.model.robot import Payload  # noqa: E402
-from orthoglide_ident.model.robots import load_robot  # noqa: E402
 from orthoglide_sim.arm_or_chain.session import resolve_payload, robot_truth  # noqa: E402
 from orthoglide_sim.arms.plant import MujocoPlant  # noqa: E402
 from orthoglide_sim.arms.record import simulate_arm  # noqa: E402

@@ -43,7 +43,7 @@ from orthoglide_ident.identify import (  # noqa: E402
     Record,
     identify_records,
 )
-from orthoglide_ident.model.robots import load_robot  # noqa: E402
+from orthoglide_ident.model.registry import load_robot  # noqa: E402
 
 ORTHOGLIDE = load_robot("orthoglide")  # the robot these records are of
 EMITS_JSON = True  # --json PATH: the figures for bench/write_benchmarks.py

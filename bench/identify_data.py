@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from orthoglide_ident.identify import Record
-from orthoglide_ident.model.robots import load_robot
+from orthoglide_ident.model.registry import load_robot
 from orthoglide_sim.orthoglide.record import simulate
 
 ORTHOGLIDE = load_robot("orthoglide")  # the robot these records are of

@@ -18,7 +18,7 @@ from pathlib import Path
 
 from orthoglide_ident import progress
 from orthoglide_ident.identify import IdentifyOptions, identify
-from orthoglide_ident.model.robots import load_robot
+from orthoglide_ident.model.registry import load_robot
 
 
 class FakeTerminal(io.StringIO):

@@ -41,7 +41,7 @@ from _figures import Figures, add_json_option  # noqa: E402
 from identify_data import record  # noqa: E402
 
 from orthoglide_ident import bags  # noqa: E402
-from orthoglide_ident.model.robots import load_robot  # noqa: E402
+from orthoglide_ident.model.registry import load_robot  # noqa: E402
 
 ORTHOGLIDE = load_robot("orthoglide")  # the robot these records are of
 EMITS_JSON = True  # --json PATH: the figures for bench/write_benchmarks.py
@@ -75,9 +75,9 @@ def identify_in_process(argv: list[str]) -> float:
     import io
 
     from orthoglide_ident.cli import main as cli_main
-    from orthoglide_ident.model import robots
+    from orthoglide_ident.model import registry
 
-    robots._load.cache_clear()
+    registry._load.cache_clear()
     t0 = time.perf_counter()
     with contextlib.redirect_stdout(io.StringIO()):
         rc = cli_main(argv)

@@ -39,7 +39,7 @@ from nodes_at_any_rate import rel  # noqa: E402  (bench/: live vs offline, relat
 
 from orthoglide_ident import bags  # noqa: E402
 from orthoglide_ident.identify import IdentifyOptions, LiveIdentification, identify  # noqa: E402
-from orthoglide_ident.model.robots import load_robot  # noqa: E402
+from orthoglide_ident.model.registry import load_robot  # noqa: E402
 
 RATES = ("1kHz", "500Hz", "uneven_93Hz")
 LAYOUTS = ("effort", "dynamic", "transmission")

@@ -23,7 +23,7 @@ import locked_panda as L  # noqa: E402
 
 from orthoglide_ident.errors import OrthoglideError  # noqa: E402
 from orthoglide_ident.identify import IdentifyOptions, identify_records  # noqa: E402
-from orthoglide_ident.model.robots import load_robot  # noqa: E402
+from orthoglide_ident.model.registry import load_robot  # noqa: E402
 
 NOISES_A = (0.002, 0.01, 0.02, 0.05)
 NOISE_SEEDS = (0, 1, 2)  # draws of the current noise per level

@@ -35,7 +35,7 @@ import numpy as np  # noqa: E402
 from orthoglide_ident.errors import OrthoglideError  # noqa: E402
 from orthoglide_ident.identify import IdentifyOptions, identify_records  # noqa: E402
 from orthoglide_ident.identify.observe.filtering import zero_phase_butterworth  # noqa: E402
-from orthoglide_ident.model.robots import load_robot  # noqa: E402
+from orthoglide_ident.model.registry import load_robot  # noqa: E402
 from orthoglide_sim.arms.log import (  # noqa: E402
     KEEP_3_4_5,
     KEEP_10_12_14,

@@ -29,7 +29,7 @@ import mujoco
 import numpy as np
 
 from orthoglide_ident.cli import main as cli_main  # noqa: E402
-from orthoglide_ident.model.robots import load_robot  # noqa: E402
+from orthoglide_ident.model.registry import load_robot  # noqa: E402
 
 TICK = 1e-3
 SUB = 4  # MuJoCo steps per 1 ms tick, as the simulated robots'

@@ -22,7 +22,7 @@ import numpy as np
 from _figures import Figures, add_json_option
 
 from orthoglide_ident.model.orthoglide.base import base_model, random_states
-from orthoglide_ident.model.robots import load_robot
+from orthoglide_ident.model.registry import load_robot
 
 GENERAL = ("ur5", "five_bar", "orthoglide_general")
 RATE_HZ = 1000.0

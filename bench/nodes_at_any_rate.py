@@ -32,7 +32,7 @@ import numpy as np  # noqa: E402
 
 from orthoglide_ident.bags.info import TickCounter  # noqa: E402
 from orthoglide_ident.identify import IdentifyOptions, LiveIdentification, identify  # noqa: E402
-from orthoglide_ident.model.robots import load_robot  # noqa: E402
+from orthoglide_ident.model.registry import load_robot  # noqa: E402
 
 LOST = (200, 201, 650, 1400, 1401, 1402)  # samples of each logged record lost: 6 per record
 RATES = ("1kHz", "500Hz", "uneven_93Hz")

@@ -25,7 +25,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 import panda_gaz2019 as P  # noqa: E402
 
 from orthoglide_ident.cli import main  # noqa: E402
-from orthoglide_ident.model.robots import load_robot  # noqa: E402
+from orthoglide_ident.model.registry import load_robot  # noqa: E402
 
 EMITS_JSON = True  # --json PATH: the figures for bench/write_benchmarks.py
 BEFORE = "held-out torque rms 0.519 N·m (the median step as the period, sample-counted options)"

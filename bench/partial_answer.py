@@ -21,7 +21,7 @@ from _figures import Figures, add_json_option  # noqa: E402
 from axial_payload import write_axial_bags  # noqa: E402
 
 from orthoglide_ident.identify import identify  # noqa: E402
-from orthoglide_ident.model.robots import load_robot  # noqa: E402
+from orthoglide_ident.model.registry import load_robot  # noqa: E402
 
 EMITS_JSON = True  # --json PATH: the figures for bench/write_benchmarks.py
 BEFORE = "exit 0 with wrist_3 22 % off at 0.6 %σ (issue 32)"

@@ -29,7 +29,7 @@ import numpy as np
 from orthoglide_ident.errors import OrthoglideError
 from orthoglide_ident.identify import IdentifyOptions, identify_records
 from orthoglide_ident.identify.solve import answer
-from orthoglide_ident.model.robots import load_robot
+from orthoglide_ident.model.registry import load_robot
 from orthoglide_sim.arms.big_arm import UR10_FILE, big_arm_truth, pair_records, simulate_pair
 
 

@@ -24,7 +24,7 @@ from _figures import Figures, add_json_option
 
 from orthoglide_ident.errors import OrthoglideError
 from orthoglide_ident.identify import IdentifyOptions, Record, identify_records
-from orthoglide_ident.model.robots import load_robot
+from orthoglide_ident.model.registry import load_robot
 from orthoglide_sim.arms.description import load_arm
 from orthoglide_sim.arms.record import simulate_arm
 from orthoglide_sim.arms.truth import OFFSET_COM, OFFSET_PAYLOAD, load_truth, with_offset_payload

@@ -29,7 +29,7 @@ from pathlib import Path
 import numpy as np
 from _figures import Figures, add_json_option
 
-from orthoglide_ident.model.robots import load_robot
+from orthoglide_ident.model.registry import load_robot
 
 ORTHOGLIDE = load_robot("orthoglide")  # the robot these records are of
 

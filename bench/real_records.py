@@ -30,7 +30,7 @@ from orthoglide_ident.identify import (
 )
 from orthoglide_ident.identify.observe.filtering import derivative_filter  # noqa: E402
 from orthoglide_ident.identify.observe.time_base import states_on_stamps  # noqa: E402
-from orthoglide_ident.model.robots import load_robot  # noqa: E402
+from orthoglide_ident.model.registry import load_robot  # noqa: E402
 from orthoglide_sim.arms.log import clock_10_12, clock_uniform, simulate_arm_log  # noqa: E402
 
 EMITS_JSON = True  # --json PATH: the figures for bench/write_benchmarks.py

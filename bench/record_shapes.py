@@ -46,7 +46,7 @@ from tls_vs_iv import NOISE_LEVELS  # noqa: E402
 
 from orthoglide_ident.errors import OrthoglideError  # noqa: E402
 from orthoglide_ident.identify import IdentifyOptions, identify_records  # noqa: E402
-from orthoglide_ident.model.robots import load_robot  # noqa: E402
+from orthoglide_ident.model.registry import load_robot  # noqa: E402
 from orthoglide_sim.arms.big_arm import (  # noqa: E402
     UR10_FILE,
     big_arm_truth,

@@ -30,8 +30,8 @@ from live_helpers import as_record  # noqa: E402
 
 from orthoglide_ident.cli import main as cli  # noqa: E402
 from orthoglide_ident.identify import identify_records  # noqa: E402
-from orthoglide_ident.model import robots  # noqa: E402
-from orthoglide_ident.model.robots import load_robot  # noqa: E402
+from orthoglide_ident.model import registry  # noqa: E402
+from orthoglide_ident.model.registry import load_robot  # noqa: E402
 from orthoglide_sim.arms.record import simulate_arm  # noqa: E402
 
 DESIGN = ("--payload-mass", "2", "--periods", "2", "--restarts", "5", "--steps", "50")
@@ -55,7 +55,7 @@ def cases(seconds: float, folder: Path) -> dict:
     panda_file = L.robot_file(folder)
     panda = L.records(seconds, 0.01)
     return {
-        "load ur5": lambda: (robots._load.cache_clear(), load_robot("ur5")),
+        "load ur5": lambda: (registry._load.cache_clear(), load_robot("ur5")),
         "identify ur5": lambda: identify_records(recs, model=load_robot("ur5")),
         "identify panda": lambda: identify_records(panda, model=load_robot(panda_file)),
         "excite design ur5": lambda: cli(["excite", "design", "--robot", "ur5", "--out",

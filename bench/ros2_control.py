@@ -181,7 +181,7 @@ def run(out: Path, duration: float, drop_rate: float) -> dict:
 def sources_figures(out: Path, r: dict) -> None:
     """(A) vs (B): offline on the same ticks, live as each node got them."""
     from orthoglide_ident.identify import IdentifyOptions, identify
-    from orthoglide_ident.model.robots import load_robot
+    from orthoglide_ident.model.registry import load_robot
     from orthoglide_sim.arms.description import load_arm
     from orthoglide_sim.arms.truth import load_truth
 

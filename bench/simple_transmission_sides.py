@@ -25,7 +25,7 @@ import numpy as np
 import yaml
 
 from orthoglide_ident.identify import identify
-from orthoglide_ident.model.robots import load_robot, read_yaml, resolve
+from orthoglide_ident.model.registry import load_robot, read_yaml, resolve
 
 KIND_POWERS = {"ia": 2, "fv": 2, "fs": 1, "tauoff": 1}
 

@@ -27,7 +27,7 @@ import panda_arm as P  # noqa: E402
 
 from orthoglide_ident.errors import OrthoglideError  # noqa: E402
 from orthoglide_ident.identify import IdentifyOptions, identify_records  # noqa: E402
-from orthoglide_ident.model.robots import load_robot  # noqa: E402
+from orthoglide_ident.model.registry import load_robot  # noqa: E402
 
 NOISE_LEVELS = (0.005, 0.01, 0.02, 0.05)
 EMITS_JSON = True  # --json PATH: the figures for bench/write_benchmarks.py

@@ -19,7 +19,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 from live_helpers import as_record  # noqa: E402
 
 from orthoglide_ident.identify import identify_records  # noqa: E402
-from orthoglide_ident.model.robots import load_robot  # noqa: E402
+from orthoglide_ident.model.registry import load_robot  # noqa: E402
 from orthoglide_sim.arms.record import simulate_arm  # noqa: E402
 from orthoglide_sim.arms.unmodelled import Unmodelled  # noqa: E402
 

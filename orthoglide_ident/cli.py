@@ -13,7 +13,7 @@
     orthoglide-ident import CSV... --out BAG [--map YAML] [column flags]   (import_command.py)
     orthoglide-ident excite design|check --robot FILE ...   (exciting trajectories: excite/cli.py)
 
-``--robot``: a URDF, a robot YAML or a bundled robot's name (model/robots.py); without it, the
+``--robot``: a URDF, a robot YAML or a bundled robot's name (model/registry.py); without it, the
 Orthoglide exactly as before.
     orthoglide-ident identify --service [BAG...] [--method tls|wls] [--essential] [--json FILE]
                      [--payload-mass KG]                                         (ROS 2)
@@ -41,7 +41,7 @@ from orthoglide_ident import import_command, ros_client
 from orthoglide_ident.errors import ConfigError, IdentificationError, OrthoglideError
 from orthoglide_ident.flags import prepare_outputs
 from orthoglide_ident.identify.solve.methods import CROSS_CHECKS, DEFAULT_METHOD, METHODS
-from orthoglide_ident.model.robots import (
+from orthoglide_ident.model.registry import (
     add_description_options,
     bundled_robots,
     load_robot_from_args,
@@ -215,7 +215,7 @@ def build_parser() -> argparse.ArgumentParser:
     import_command.add_parser(sub)
     ros_client.add_parsers(sub)
     from orthoglide_ident.excite.cli import add_excite_commands
-    from orthoglide_ident.excite.run_cli import add_run_command
+    from orthoglide_ident.excite.run_command import add_run_command
 
     add_run_command(add_excite_commands(sub))  # design, check (ACTIONS), and run on the robot
     return parser

@@ -247,7 +247,7 @@ def identify_service(args: argparse.Namespace) -> Any:
     refuse_service_flags(args)
     robot = None
     if getattr(args, "mjcf_out", None) or getattr(args, "urdf_out", None):
-        from orthoglide_ident.model.robots import load_robot_from_args
+        from orthoglide_ident.model.registry import load_robot_from_args
 
         robot = load_robot_from_args(args)  # a bad robot: refused before the node works
     want_json = bool(args.json) or robot is not None

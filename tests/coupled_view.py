@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from orthoglide_ident.model.robots import ROBOTS_DIR, load_robot
+from orthoglide_ident.model.registry import ROBOTS_DIR, load_robot
 
 MOTORS = ("m1", "m2", "m3", "m4", "m5", "m6")
 N_WRIST = np.array([[32, 0, 0, 0, 0, 0], [0, 32, 0, 0, 0, 0], [0, 0, 45, 0, 0, 0],

@@ -23,7 +23,7 @@ from live_helpers import as_record
 from orthoglide_ident.cli import main as cli
 from orthoglide_ident.excite.trajectory import load_trajectory
 from orthoglide_ident.identify import identify_records
-from orthoglide_ident.model.robots import load_robot
+from orthoglide_ident.model.registry import load_robot
 from orthoglide_sim.arms.description import load_arm
 from orthoglide_sim.arms.record import simulate_arm
 from orthoglide_sim.arms.truth import load_truth

@@ -172,7 +172,7 @@ class SerialArm(SerialRobot):
 def ur5(n_states: int = 400) -> SerialRobot:
     """The bundled UR5 (orthoglide_ident/robots/ur5.urdf) as a SerialRobot, 2 kg payload at
     tool0, plausible friction and rotor inertias (the URDF has none)."""
-    from orthoglide_ident.model.robots import ROBOTS_DIR
+    from orthoglide_ident.model.registry import ROBOTS_DIR
 
     fr = {str(k): (1.5 - 0.1 * k, 2.0 - 0.2 * k, 0.1 * (-1) ** k) for k in range(1, 7)}
     arm = {str(k): (0.3 if k <= 3 else 0.05) for k in range(1, 7)}

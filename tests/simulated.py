@@ -9,7 +9,7 @@ from __future__ import annotations
 import importlib
 
 from orthoglide_ident.identify import Record
-from orthoglide_ident.model.robots import load_robot
+from orthoglide_ident.model.registry import load_robot
 
 ORTHOGLIDE = load_robot("orthoglide")  # the robot these records are of
 

@@ -2,7 +2,7 @@
 calls.
 
 - the Orthoglide is one robot package: no product module outside ``model/orthoglide/`` imports it,
-  but the robot registry (``model/robots.py``);
+  but the robot registry (``model/registry.py``);
 - no ``isinstance`` on a robot class in identify/, view/ or nodes/: what differs between robots is
   a ``RobotModel`` method (``forward_model``, ``identified_urdf``, ``joint_labels``, ``gravity``);
 - the robot is passed, never defaulted: ``load_robot`` is called at the edges only (the CLI, the
@@ -26,9 +26,9 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 PRODUCT = ROOT / "orthoglide_ident"
 ORTHOGLIDE_PACKAGE = "orthoglide_ident.model.orthoglide"
-REGISTRY = "orthoglide_ident/model/robots.py"
+REGISTRY = "orthoglide_ident/model/registry.py"
 # the excite run command's handler
-EDGES = ("orthoglide_ident/cli.py", "orthoglide_ident/excite/run_cli.py",
+EDGES = ("orthoglide_ident/cli.py", "orthoglide_ident/excite/run_command.py",
          "orthoglide_ident/nodes/")  # where "which robot" is resolved
 
 
@@ -201,14 +201,9 @@ LAYERS = [
     ["orthoglide_ident.view"],
     ["orthoglide_ident.nodes", "orthoglide_ident.cli", "orthoglide_ident._install_ament"],
 ]
-# Imports that still reach up a layer, each with why and what removes it.
-KNOWN_UPWARD = {
-    # the ripple's wavelengths are found in the residual spectrum of a first solve: the drive
-    # terms' detection belongs above solve/, their columns below it (issue 44's column layout)
-    ("orthoglide_ident.identify.columns.drive_terms", "orthoglide_ident.identify.solve.factors"),
-    ("orthoglide_ident.identify.columns.drive_terms",
-     "orthoglide_ident.identify.solve.uncertainty"),
-}
+# Imports that still reach up a layer, each with why and what removes it: none left (the drive
+# terms' fit moved to solve/drive_fit.py, issue 44).
+KNOWN_UPWARD: set[tuple[str, str]] = set()
 
 
 def _module_name(path: Path) -> str:

@@ -10,7 +10,7 @@ from synthetic import synthetic_record
 from orthoglide_ident import bags
 from orthoglide_ident.cli import main, parse_gains
 from orthoglide_ident.errors import ConfigError
-from orthoglide_ident.model.robots import load_robot
+from orthoglide_ident.model.registry import load_robot
 
 ORTHOGLIDE = load_robot("orthoglide")  # the robot these records are of
 

@@ -8,7 +8,7 @@ from orthoglide_ident import control as ctl
 from orthoglide_ident.control import CTCParameters, feedforward, feedforward_currents
 from orthoglide_ident.errors import ConfigError
 from orthoglide_ident.model.orthoglide.base import base_model
-from orthoglide_ident.model.robots import load_robot
+from orthoglide_ident.model.registry import load_robot
 from orthoglide_ident.results import Estimate, IdentificationResult, PayloadMass
 
 ORTHOGLIDE = load_robot("orthoglide")  # the robot these records are of
@@ -168,7 +168,7 @@ def _coupled_ur5(tmp_path):
     """The UR5 behind the issue's coupled wrist (the last motor turns with q5 + q6)."""
     import yaml
 
-    from orthoglide_ident.model.robots import ROBOTS_DIR
+    from orthoglide_ident.model.registry import ROBOTS_DIR
 
     data = yaml.safe_load((ROBOTS_DIR / "ur5.yaml").read_text())
     data.pop("excitation")
@@ -188,7 +188,7 @@ def test_feedforward_currents_through_a_coupled_transmission_are_per_motor(tmp_p
     RNEA of the URDF (not the regressor), the motor states q̇_m = N q̇_j at mid-hold."""
     import pinocchio as pin
 
-    from orthoglide_ident.model.robots import ROBOTS_DIR
+    from orthoglide_ident.model.registry import ROBOTS_DIR
 
     robot = _coupled_ur5(tmp_path)
     assert robot.joint_names == tuple(f"m{k}" for k in range(1, 7))

@@ -67,7 +67,7 @@ def test_a_93hz_arm_through_the_recorder_and_the_identification(tmp_path):
 
     from orthoglide_ident._install_ament import ROOT
     from orthoglide_ident.identify import IdentifyOptions, identify
-    from orthoglide_ident.model.robots import load_robot
+    from orthoglide_ident.model.registry import load_robot
     from orthoglide_msgs.msg import LiveIdentification
     from orthoglide_msgs.srv import Identify
     from orthoglide_sim.demos.graph import Graph

@@ -96,7 +96,7 @@ TABLES = {
         "POSITION",
         "DEFAULT_INTERFACE",
     ],
-    "orthoglide_ident.model.robots": ["load_robot", "bundled_robots"],
+    "orthoglide_ident.model.registry": ["load_robot", "bundled_robots"],
 }
 # the node plumbing the nodes and the simulator share (rclpy: imported only where used)
 ROS = {

@@ -180,7 +180,7 @@ def test_the_consistent_answers_bodies_and_bounds_are_typed():
     rows."""
     from orthoglide_ident.identify import IdentifyOptions, identify
     from orthoglide_ident.identify.consistency.report import BodyConsistency, BodyInertial
-    from orthoglide_ident.model.robots import load_robot
+    from orthoglide_ident.model.registry import load_robot
 
     res = identify([ROOT / "bags/unloaded", ROOT / "bags/loaded"], model=load_robot("orthoglide"),
                    options=IdentifyOptions.of(consistent=True))

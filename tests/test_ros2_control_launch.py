@@ -71,7 +71,7 @@ def test_every_node_of_the_launch_accepts_its_parameter_files():
     """Each node's own YAML, then config/ros2_control.yaml, as ros2 launch passes them, make a
     node that starts: config/ctc.yaml's 3 current limits (the Orthoglide's) once made the ctc
     exit 2 for the 6-joint UR5, respawned forever."""
-    from orthoglide_ident.model.robots import load_robot
+    from orthoglide_ident.model.registry import load_robot
     from orthoglide_ident.nodes.ctc import check_current_limit
 
     merged: dict = {}

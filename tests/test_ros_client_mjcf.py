@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from orthoglide_ident.model.mjcf_check import RMS_BAR, inverse_dynamics_rms
-from orthoglide_ident.model.robots import load_robot
+from orthoglide_ident.model.registry import load_robot
 from orthoglide_ident.ros import processes as children  # children end with this process
 
 

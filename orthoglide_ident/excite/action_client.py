@@ -1,5 +1,5 @@
 """The ROS side of ``excite run``: a FollowJointTrajectory goal to a joint_trajectory_controller,
-followed to its end, cancelled on Ctrl-C (rclpy; the plan is ``excite.run``).
+followed to its end, cancelled on Ctrl-C (rclpy; the plan is ``excite.plan``).
 
 ``send_goal`` returns a :class:`GoalOutcome` (succeeded, aborted with the controller's error code
 and string, rejected, canceled, or interrupted by Ctrl-C after the cancel went out); progress
@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from orthoglide_ident.excite.run import Points
+from orthoglide_ident.excite.plan import Points
 
 ACCEPT_TIMEOUT_S = 10.0  # the controller answers a goal within this
 END_MARGIN_S = 30.0  # after the last point's time, waiting for the result gives up after this

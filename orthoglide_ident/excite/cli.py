@@ -22,8 +22,8 @@ import numpy as np
 from orthoglide_ident.errors import ConfigError
 from orthoglide_ident.excite.limits import COLLISION_MODES  # not collision.py: Pinocchio
 from orthoglide_ident.flags import parse_vector
+from orthoglide_ident.model.registry import add_description_options
 from orthoglide_ident.model.robot import RobotModel
-from orthoglide_ident.model.robots import add_description_options
 
 _log = logging.getLogger("orthoglide_ident")
 
@@ -238,7 +238,7 @@ ACTIONS: dict[str, Action] = {
 
 def add_excite_commands(subparsers) -> argparse._SubParsersAction:
     """The ``excite`` subcommand and its actions (ACTIONS); returns its actions' subparsers,
-    where the CLI adds ``run`` (excite/run_cli.py: the ROS 2 side, kept out of this module)."""
+    where the CLI adds ``run`` (excite/run_command.py: the ROS 2 side, kept out of this module)."""
     p = subparsers.add_parser(
         "excite", help="design, check and run exciting trajectories for the robot",
         description="Exciting trajectories (paper Sect. 3.2) for the robot of --robot: design "

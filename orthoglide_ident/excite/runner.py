@@ -1,5 +1,5 @@
 """One excitation run on the robot, over ROS 2: the steps ``excite run`` and the excitation node
-share (the plan and its checks are ``excite.run``; the goals ``excite.action_client``).
+share (the plan and its checks are ``excite.plan``; the goals ``excite.action_client``).
 
     runner = ExcitationRunner(node, spin, say, RunOptions(controller="joint_trajectory_controller"))
     traj = load_trajectory("traj.yaml"); robot = load_robot(args.robot or traj.robot)  # at the edge
@@ -23,7 +23,7 @@ from typing import Any
 import numpy as np
 
 from orthoglide_ident.errors import ConfigError, OrthoglideError
-from orthoglide_ident.excite import run as plan
+from orthoglide_ident.excite import plan
 from orthoglide_ident.excite.action_client import goal_message, send_goal, wait_for
 from orthoglide_ident.excite.trajectory import ExcitationTrajectory
 from orthoglide_ident.model.robot import RobotModel

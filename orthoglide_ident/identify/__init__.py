@@ -1,7 +1,7 @@
 """Numerical identification (paper Sects. 3-4). Never imports rclpy.
 
     from orthoglide_ident.identify import identify, IdentifyOptions
-    from orthoglide_ident.model.robots import load_robot
+    from orthoglide_ident.model.registry import load_robot
     robot = load_robot("ur5")                                   # a bundled name, a URDF, a YAML
     res = identify(["bags/unloaded", "bags/loaded"], model=robot)  # IDIM-TLS, payload from tags
     res.to_json(); res.to_text(); res.message_fields()          # docs/design/interfaces.md

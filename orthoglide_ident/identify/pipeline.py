@@ -456,7 +456,7 @@ def identify(
 ) -> IdentificationResult:
     """Identify drive gains and base parameters from tagged bags (docs/design/architecture.md).
 
-    ``model``: the robot (model/robots.load_robot at the CLI or node edge; never defaulted).
+    ``model``: the robot (model/registry.load_robot at the CLI or node edge; never defaulted).
     ``payload_mass`` (kg) overrides/checks the loaded bags' tags; ``method`` a name of
     methods.METHODS: "tls" (gains identified, payload known) or "wls" (``gains`` given in N/A or
     N·m/A, default the robot's nominal ones; payload mass of loaded bags estimated);

@@ -10,7 +10,7 @@
   (``base_parameters``), the identified URDF (``urdf``);
 - ``orthoglide/``: the Orthoglide's closed form (paper Sects. 2, 3.1, 5.1), a robot package.
 """
+from orthoglide_ident.model.registry import bundled_robots, load_robot
 from orthoglide_ident.model.robot import ActuatedJoint, Body, Payload, RobotModel
-from orthoglide_ident.model.robots import bundled_robots, load_robot
 
 __all__ = ["ActuatedJoint", "Body", "Payload", "RobotModel", "bundled_robots", "load_robot"]

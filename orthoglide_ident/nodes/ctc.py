@@ -19,8 +19,8 @@ from trajectory_msgs.msg import JointTrajectory
 from orthoglide_ident.control import CTCParameters, feedforward_currents
 from orthoglide_ident.errors import OrthoglideError
 from orthoglide_ident.feedforward_schedule import FeedforwardSchedule, LeadStats
+from orthoglide_ident.model.registry import load_robot
 from orthoglide_ident.model.robot import RobotModel
-from orthoglide_ident.model.robots import load_robot
 from orthoglide_ident.nodes._jtc import TrajectoryOutlet
 from orthoglide_ident.ros.batch import BatchTaker, BatchTopic, real_time_thread
 from orthoglide_ident.ros.params import Param, declare, usage

@@ -13,10 +13,10 @@ from rclpy.node import Node
 from std_srvs.srv import Trigger
 
 from orthoglide_ident.errors import OrthoglideError
-from orthoglide_ident.excite import run as plan
+from orthoglide_ident.excite import plan
 from orthoglide_ident.excite.runner import ExcitationRunner, RunOptions
 from orthoglide_ident.excite.trajectory import load_trajectory
-from orthoglide_ident.model.robots import load_robot
+from orthoglide_ident.model.registry import load_robot
 from orthoglide_ident.ros.params import Param, declare, usage
 from orthoglide_ident.ros.spin import spin
 from orthoglide_msgs.srv import RunExcitation

@@ -22,7 +22,7 @@ from orthoglide_ident.identify.options import IdentifyOptions
 from orthoglide_ident.identify.pipeline import identify
 from orthoglide_ident.identify.solve.methods import DEFAULT_METHOD, METHODS, REFINEMENTS, get
 from orthoglide_ident.model.mjcf_out import write_mjcf
-from orthoglide_ident.model.robots import load_robot, load_robot_description
+from orthoglide_ident.model.registry import load_robot, load_robot_description
 from orthoglide_ident.nodes.live_feed import LiveFeed
 from orthoglide_ident.nodes.live_sources import LiveTopics
 from orthoglide_ident.results import IdentificationResult, finite_only, lag_text

@@ -180,8 +180,8 @@ def check_frame(robot: str, frame: str) -> None:
     own rule) has the frame ``frame`` (the model is loaded once, at the first loaded start)."""
     if not robot:
         return
+    from orthoglide_ident.model.registry import load_robot
     from orthoglide_ident.model.robot import Payload
-    from orthoglide_ident.model.robots import load_robot
 
     load_robot(robot).with_payload(Payload(1.0, frame))
 
@@ -189,7 +189,7 @@ def check_frame(robot: str, frame: str) -> None:
 def robot_sides(robot: str) -> dict[str, str]:
     """The tag's orthoglide.position_side / effort_side: the ``robot`` file's transmission's
     (what its hardware publishes); none without a transmission (docs/design/bags.md)."""
-    from orthoglide_ident.model.robots import load_robot
+    from orthoglide_ident.model.registry import load_robot
 
     t = load_robot(robot).transmission if robot else None
     return {} if t is None else {"position_side": t.position_side, "effort_side": t.effort_side}

@@ -23,7 +23,7 @@ from orthoglide_ident.bags.topics import (
 )
 from orthoglide_ident.errors import ConfigError, OrthoglideError
 from orthoglide_ident.identify.records.record import torque_as_current
-from orthoglide_ident.model.robots import load_robot
+from orthoglide_ident.model.registry import load_robot
 from orthoglide_ident.ros.batch import BatchTaker, BatchTopic
 from orthoglide_ident.ros.params import Param, declare, usage
 from orthoglide_ident.ros.spin import spin

@@ -53,7 +53,7 @@ def main(argv: list[str] | None = None) -> int:
                          DEFAULT_CURRENT_NOISE)
     args = ap.parse_args(argv)
     try:
-        from orthoglide_ident.model.robots import load_robot
+        from orthoglide_ident.model.registry import load_robot
 
         arm = description(args.robot)
         box = motion_limits(arm)

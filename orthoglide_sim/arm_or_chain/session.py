@@ -240,7 +240,7 @@ class ArmSession:
 def robot_truth(robot: str, params_file: str | None = None) -> ArmTruth:
     """The plant's truth of a robot file: a serial arm's, or a closed chain's when the file has
     loop closures (chain_truth; its plant is ChainPlant, MuJoCo with equality constraints)."""
-    from orthoglide_ident.model.robots import read_yaml, resolve
+    from orthoglide_ident.model.registry import read_yaml, resolve
 
     path = resolve(robot)
     closed = path is not None and path.suffix in (".yaml", ".yml") and read_yaml(path).get("loops")

@@ -9,7 +9,7 @@ that follow them are held at those values (``ArmDescription.locked``): the plant
 
 The URDF is read here with the standard library's XML parser, apart from both dynamics engines
 that load it too (MuJoCo for the plant, Pinocchio for the check and the regressor). Only the
-robot YAML's location rules come from the product (``orthoglide_ident.model.robots``).
+robot YAML's location rules come from the product (``orthoglide_ident.model.registry``).
 
 Units: m, rad, kg, kg·m²; gains N·m/A (revolute) or N/A (prismatic).
 """
@@ -23,7 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from orthoglide_ident.errors import ConfigError
-from orthoglide_ident.model import robots
+from orthoglide_ident.model import registry
 
 MOVABLE = ("revolute", "continuous", "prismatic")
 
@@ -204,13 +204,14 @@ def load_arm(spec: str | Path = "ur5") -> ArmDescription:
     """The arm ``spec`` names: a bundled robot (``ur5``), a robot YAML or a URDF (then every movable
     joint is actuated with gain 1 and the payload frame is the last link). ConfigError on a file
     that does not parse or a robot that is not a serial arm."""
-    path = robots.resolve(spec)
+    path = registry.resolve(spec)
     if path is None:
         raise ConfigError(
             "the Orthoglide has its own simulator (orthoglide_sim.orthoglide.record); "
             "give the arm simulator a serial arm (e.g. ur5, a URDF or a robot YAML)"
         )
-    data = {"description": path.name} if path.suffix.lower() == ".urdf" else robots.read_yaml(path)
+    data = ({"description": path.name} if path.suffix.lower() == ".urdf"
+            else registry.read_yaml(path))
     urdf_path = (path.parent / str(data.get("description", ""))).resolve()
     if urdf_path.suffix.lower() != ".urdf" or not urdf_path.is_file():
         raise ConfigError(

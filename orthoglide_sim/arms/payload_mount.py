@@ -20,7 +20,7 @@ from pathlib import Path
 import yaml
 
 from orthoglide_ident.errors import ConfigError
-from orthoglide_ident.model import robots
+from orthoglide_ident.model import registry
 
 MOUNT_LINK = "payload_mount"
 DEFAULT_OFFSET = (0.06, -0.04, 0.05)  # m in the payload frame: 7 cm off its z axis, 5 cm along it
@@ -29,12 +29,12 @@ DEFAULT_OFFSET = (0.06, -0.04, 0.05)  # m in the payload frame: 7 cm off its z a
 def write_mounted_robot(folder: str | Path, robot: str = "ur5",
                         offset: tuple[float, float, float] = DEFAULT_OFFSET) -> Path:
     """``robot`` (a bundled name or robot YAML) with the payload mount; the new YAML's path."""
-    path = robots.resolve(robot)
+    path = registry.resolve(robot)
     if path is None or path.suffix.lower() not in (".yaml", ".yml"):
         raise ConfigError(
             f"robot {robot!r}: give a robot YAML (or a bundled name) with a URDF description"
         )
-    data = robots.read_yaml(path)
+    data = registry.read_yaml(path)
     urdf_path = (path.parent / str(data.get("description", ""))).resolve()
     text = urdf_path.read_text()
     frame = data.get("payload_frame")

@@ -22,7 +22,7 @@ import numpy as np
 import yaml
 
 from orthoglide_ident.errors import ConfigError
-from orthoglide_ident.model import robots
+from orthoglide_ident.model import registry
 from orthoglide_sim.arms.description import ArmDescription
 
 SIMPLE = "transmission_interface/SimpleTransmission"
@@ -89,8 +89,8 @@ def write_simple_transmission_robot(folder: str | Path, truth: DriveChainTruth,
                                     stem: str = "ur5_simple_transmission") -> tuple[Path, Path]:
     """``<stem>.urdf`` (the UR5's URDF with the ``<ros2_control>`` block) and ``<stem>.yaml``
     (ur5.yaml naming it; ``nominal_gains`` per motor, N·m/A at the shaft) in ``folder``."""
-    src = robots.resolve("ur5")
-    data = robots.read_yaml(src)
+    src = registry.resolve("ur5")
+    data = registry.read_yaml(src)
     text = (src.parent / str(data["description"])).resolve().read_text()
     end = text.rfind("</robot>")
     folder = Path(folder)

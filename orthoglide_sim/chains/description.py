@@ -9,7 +9,7 @@ joints, nominal drive gains, payload frame and gravity.
 A :class:`ChainDescription` is an ArmDescription (``joints`` are the actuated joints, so the
 arm's limits, trajectories, controller and truth take it as they are) with the passive joints
 and the loops beside. The URDF is read by arm_description's XML parser, apart from both dynamics
-engines; only the robot YAML's location rules come from the product (``model.robots``).
+engines; only the robot YAML's location rules come from the product (``model.registry``).
 
 Units: m, rad, kg, kg·m², m/s²; gains N·m/A (revolute) or N/A (prismatic).
 """
@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from orthoglide_ident.errors import ConfigError
-from orthoglide_ident.model import robots
+from orthoglide_ident.model import registry
 from orthoglide_sim.arms.description import MOVABLE, ArmDescription, ArmJoint, arm_joint, parse_urdf
 
 LOOP_KINDS = ("point", "frame")  # point: the frames' origins held together; frame: welded
@@ -82,21 +82,21 @@ def _loops(data: dict, links: set[str], where: str) -> tuple[ChainLoop, ...]:
 
 def is_closed_chain(spec: str | Path) -> bool:
     """Whether ``spec`` (bundled name, robot YAML or URDF) is a robot YAML with loops."""
-    path = robots.resolve(spec)
+    path = registry.resolve(spec)
     if path is None or path.suffix.lower() not in (".yaml", ".yml"):
         return False
-    return bool(robots.read_yaml(path).get("loops"))
+    return bool(registry.read_yaml(path).get("loops"))
 
 
 def load_chain(spec: str | Path = "five_bar") -> ChainDescription:
     """The closed chain ``spec`` names (a bundled robot or a robot YAML with ``loops``).
     ConfigError with a one-line reason on a file that is not one."""
-    path = robots.resolve(spec)
+    path = registry.resolve(spec)
     if path is None or path.suffix.lower() not in (".yaml", ".yml"):
         raise ConfigError(
             f"robot {spec!r}: the closed-chain simulator takes a robot YAML with loops"
         )
-    data = robots.read_yaml(path)
+    data = registry.read_yaml(path)
     urdf_path = (path.parent / str(data.get("description", ""))).resolve()
     if urdf_path.suffix.lower() != ".urdf" or not urdf_path.is_file():
         raise ConfigError(f"robot file {path}: description {data.get('description')!r} is not a "

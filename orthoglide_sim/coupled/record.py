@@ -30,7 +30,7 @@ import yaml
 from orthoglide_ident import bags
 from orthoglide_ident.errors import ConfigError
 from orthoglide_ident.excite import FourierSeries
-from orthoglide_ident.model import robots
+from orthoglide_ident.model import registry
 from orthoglide_sim.arms import simulator as asim
 from orthoglide_sim.arms.limits import MotionLimits, motion_limits
 from orthoglide_sim.arms.record import NOISE_STRIDE, TrackedRun, reference_of, trajectory_name
@@ -181,8 +181,8 @@ def write_robot_files(folder: str | Path, truth: CoupledTruth) -> tuple[Path, Pa
     ``transmission`` key), with a copy of the UR5's URDF beside them: ``ur5_coupled_wrist.yaml``
     (position_side joint) and ``ur5_coupled_wrist_actuator.yaml`` (position_side actuator).
     ``nominal_gains`` are the motors' (N·m/A at the motor shaft, in the actuators' order)."""
-    src = robots.resolve("ur5")
-    data = robots.read_yaml(src)
+    src = registry.resolve("ur5")
+    data = registry.read_yaml(src)
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     urdf = (src.parent / str(data["description"])).resolve()

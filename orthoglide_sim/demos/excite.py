@@ -181,7 +181,7 @@ def feedforward_effort(doc: dict, points) -> np.ndarray:
     """The identified model's effort along ``points`` as the JTC's nominal-unit feed-forward:
     v_ff = tau / g_identified (eq. 17), times the nominal gains the hardware divides by."""
     from orthoglide_ident.control import CTCParameters, feedforward
-    from orthoglide_ident.model.robots import load_robot
+    from orthoglide_ident.model.registry import load_robot
 
     model = load_robot(ROBOT)
     params = CTCParameters.from_values(
@@ -217,7 +217,7 @@ def tracking_rms(g: Graph, points, effort: np.ndarray | None) -> float:
 
 
 def run(out: Path, periods: int) -> int:
-    from orthoglide_ident.excite import run as plan
+    from orthoglide_ident.excite import plan
     from orthoglide_ident.excite.trajectory import load_trajectory
 
     t_start = time.monotonic()

@@ -26,7 +26,7 @@ import numpy as np
 
 from orthoglide_ident.errors import OrthoglideError
 from orthoglide_ident.model.orthoglide.geometry import G_TAU_MANUFACTURER
-from orthoglide_ident.model.robots import load_robot
+from orthoglide_ident.model.registry import load_robot
 from orthoglide_ident.ros.processes import Interrupted, interrupt_on_signals
 from orthoglide_ident.ros_client import live_line
 from orthoglide_sim.demos.graph import Graph, GraphError, own_ros_domain

@@ -25,7 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from orthoglide_ident.errors import OrthoglideError
-from orthoglide_ident.model.robots import load_robot
+from orthoglide_ident.model.registry import load_robot
 from orthoglide_sim.demos.verdict import gain_causes, verdict_line
 
 ORTHOGLIDE = load_robot("orthoglide")  # the robot these records are of

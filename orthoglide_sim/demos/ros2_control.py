@@ -127,7 +127,7 @@ def check_mjcf(path: Path, result: dict, bag: str) -> tuple[str, list[str]]:
     import mujoco
 
     from orthoglide_ident.model.mjcf_out import answer_of_json
-    from orthoglide_ident.model.robots import load_robot
+    from orthoglide_ident.model.registry import load_robot
 
     if not path.is_file():
         return f"{path} not written", [f"{path.name} not written by the node (mjcf_out)"]

@@ -48,8 +48,8 @@ def predicted_gain_std(unloaded: FourierSeries, loaded: FourierSeries, n: int = 
     (DESIGN_PAYLOAD_KG), white current noise DESIGN_NOISE_A on every 1 kHz sample; ``n``
     samples of one period each; ``gains`` a priori (default the manufacturer's)."""
     from orthoglide_ident.excite.prediction import RunSamples, predict
+    from orthoglide_ident.model.registry import load_robot
     from orthoglide_ident.model.robot import Payload
-    from orthoglide_ident.model.robots import load_robot
     from orthoglide_sim.orthoglide.truth import load_parameters
 
     robot = load_robot("orthoglide")
@@ -95,7 +95,7 @@ def main(argv: list[str] | None = None) -> int:
     args = ap.parse_args(argv)
     print("workspace:", workspace_report())
     try:
-        from orthoglide_ident.model.robots import load_robot
+        from orthoglide_ident.model.registry import load_robot
 
         robot = load_robot(GENERAL)
         limits = box_limits(robot, Q_CENTER - POSITION_HALF, Q_CENTER + POSITION_HALF, V_MAX,

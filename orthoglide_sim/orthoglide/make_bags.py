@@ -17,7 +17,7 @@ from pathlib import Path
 
 from orthoglide_ident import bags
 from orthoglide_ident.errors import OrthoglideError
-from orthoglide_ident.model.robots import load_robot
+from orthoglide_ident.model.registry import load_robot
 from orthoglide_sim.orthoglide.record import simulate
 from orthoglide_sim.orthoglide.truth import load_parameters
 

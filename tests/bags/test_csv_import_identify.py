@@ -9,7 +9,7 @@ import pytest
 from orthoglide_ident import bags
 from orthoglide_ident.bags.csv_import import ColumnMap, import_csv
 from orthoglide_ident.identify import identify
-from orthoglide_ident.model.robots import load_robot
+from orthoglide_ident.model.registry import load_robot
 from orthoglide_sim.arm_or_chain.bags import write_record
 from orthoglide_sim.arms.record import simulate_arm
 

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from orthoglide_ident import bags
-from orthoglide_ident.model.robots import load_robot
+from orthoglide_ident.model.registry import load_robot
 from orthoglide_ident.ros import processes as children  # children end with this process
 
 ORTHOGLIDE = load_robot("orthoglide")  # the robot these records are of

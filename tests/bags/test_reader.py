@@ -19,7 +19,7 @@ from orthoglide_ident.bags.topics import (
     msgdef_and_hash,
 )
 from orthoglide_ident.errors import BagError, DataError
-from orthoglide_ident.model.robots import load_robot
+from orthoglide_ident.model.registry import load_robot
 
 ORTHOGLIDE = load_robot("orthoglide")  # the robot these records are of
 

@@ -21,7 +21,7 @@ from orthoglide_ident.bags.topics import (
     ROS2_CONTROL_JOINT_STATES_TOPIC,
 )
 from orthoglide_ident.errors import BagError
-from orthoglide_ident.model.robots import load_robot
+from orthoglide_ident.model.registry import load_robot
 
 ORTHOGLIDE = load_robot("orthoglide")  # the robot these records are of
 

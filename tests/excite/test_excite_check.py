@@ -13,8 +13,8 @@ from orthoglide_ident.excite.collision import CollisionModel
 from orthoglide_ident.excite.constraints import Margins
 from orthoglide_ident.excite.design import DesignOptions, design
 from orthoglide_ident.excite.limits import read_limits
+from orthoglide_ident.model.registry import load_robot
 from orthoglide_ident.model.robot import Payload
-from orthoglide_ident.model.robots import load_robot
 
 HOME = [0.0, -2.0, 1.2, -1.5708, -1.5708, 0.0]
 

@@ -7,7 +7,7 @@ from excite_robots import cube_stl, two_link_urdf
 
 from orthoglide_ident.errors import ConfigError
 from orthoglide_ident.excite.collision import CollisionModel
-from orthoglide_ident.model.robots import load_robot
+from orthoglide_ident.model.registry import load_robot
 
 
 def test_ur5_pairs_leave_out_adjacent_and_disabled_links():

@@ -8,8 +8,8 @@ import pytest
 from orthoglide_ident.excite.collision import CollisionModel
 from orthoglide_ident.excite.design import DesignOptions, design
 from orthoglide_ident.excite.limits import read_limits
+from orthoglide_ident.model.registry import load_robot
 from orthoglide_ident.model.robot import Payload
-from orthoglide_ident.model.robots import load_robot
 
 
 @pytest.mark.slow

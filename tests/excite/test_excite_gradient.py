@@ -27,8 +27,8 @@ from orthoglide_ident.excite.prediction import (
     information,
     run_rows,
 )
+from orthoglide_ident.model.registry import load_robot
 from orthoglide_ident.model.robot import Payload
-from orthoglide_ident.model.robots import load_robot
 
 FD_STEP = 1e-6  # on the reduced coefficients (rad/s) and the amplitudes
 REL_TOL = 1e-5

@@ -9,7 +9,7 @@ from excite_robots import two_link_urdf
 
 from orthoglide_ident.errors import ConfigError
 from orthoglide_ident.excite.limits import home_pose, read_limits
-from orthoglide_ident.model.robots import load_robot
+from orthoglide_ident.model.registry import load_robot
 
 
 def test_ur5_limits_from_its_urdf_and_robot_file():

@@ -10,8 +10,8 @@ from orthoglide_ident.excite.check import CHECK_STEP_S, check_trajectory
 from orthoglide_ident.excite.constraints import Margins
 from orthoglide_ident.excite.design import DesignOptions, design
 from orthoglide_ident.excite.limits import read_limits
+from orthoglide_ident.model.registry import load_robot
 from orthoglide_ident.model.robot import Payload
-from orthoglide_ident.model.robots import load_robot
 
 
 @pytest.fixture(scope="module")

@@ -16,8 +16,8 @@ from orthoglide_ident.excite.trajectory import load_trajectory
 from orthoglide_ident.identify.options import MIN_PAYLOAD_SHARE
 from orthoglide_ident.identify.solve.factors import RecordFactors
 from orthoglide_ident.identify.solve.partial import little_payload
+from orthoglide_ident.model.registry import load_robot
 from orthoglide_ident.model.robot import Payload
-from orthoglide_ident.model.robots import load_robot
 
 QUICK = ["--collision", "skip", "--restarts", "3", "--search", "walk", "--steps", "5",
          "--periods", "4"]

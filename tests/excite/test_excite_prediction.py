@@ -15,8 +15,8 @@ from orthoglide_ident.excite.prediction import (
 )
 from orthoglide_ident.identify.observe.equations import Observations
 from orthoglide_ident.identify.solve.tls import idim_tls
+from orthoglide_ident.model.registry import load_robot
 from orthoglide_ident.model.robot import Payload
-from orthoglide_ident.model.robots import load_robot
 
 TRIALS = 150
 

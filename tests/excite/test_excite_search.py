@@ -14,8 +14,8 @@ from orthoglide_ident.excite import prediction
 from orthoglide_ident.excite.collision import CollisionModel
 from orthoglide_ident.excite.design import DesignOptions, design
 from orthoglide_ident.excite.limits import read_limits
+from orthoglide_ident.model.registry import load_robot
 from orthoglide_ident.model.robot import Payload
-from orthoglide_ident.model.robots import load_robot
 
 QUIET = {"progress": lambda _: None}
 # the arm's tip sphere (r 2 cm) 1 cm above the floor at this pose: h = 0.1 + 0.3 cos q1

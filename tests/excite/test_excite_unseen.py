@@ -14,8 +14,8 @@ from orthoglide_ident.excite.collision import CollisionModel
 from orthoglide_ident.excite.design import DesignOptions, design
 from orthoglide_ident.excite.limits import read_limits
 from orthoglide_ident.excite.prediction import DEFAULT_CURRENT_NOISE
+from orthoglide_ident.model.registry import load_robot
 from orthoglide_ident.model.robot import Payload
-from orthoglide_ident.model.robots import load_robot
 
 TICK = 1e-3  # s, the controller's grid the design is checked on
 

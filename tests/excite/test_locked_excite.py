@@ -12,7 +12,7 @@ import yaml
 
 from orthoglide_ident.cli import main
 from orthoglide_ident.excite.collision import CollisionModel
-from orthoglide_ident.model.robots import load_robot
+from orthoglide_ident.model.registry import load_robot
 
 L = pytest.importorskip("locked_panda")
 if not L.installed():

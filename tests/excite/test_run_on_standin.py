@@ -20,7 +20,7 @@ from trajectories import write_small  # noqa: E402
 from orthoglide_ident import bags  # noqa: E402
 from orthoglide_ident._install_ament import ROOT  # noqa: E402
 from orthoglide_ident.bags.tags import CONDITION_KEY, FRAME_KEY, INCOMPLETE_KEY, MASS_KEY
-from orthoglide_ident.excite import run as plan  # noqa: E402
+from orthoglide_ident.excite import plan as plan  # noqa: E402
 from orthoglide_sim.demos.graph import Graph  # noqa: E402
 
 STANDIN = "ros2_control_standin"

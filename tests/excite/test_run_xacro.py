@@ -1,6 +1,6 @@
 """``excite run`` takes a .xacro robot as identify and excite design do (issue 45): ``--robot``
 with ``--xacro-arg NAME:=VALUE`` (repeatable) and ``--package-dir``, through the one grammar
-(flags.py, model/robots.py). The reference is the robot loaded directly by load_robot."""
+(flags.py, model/registry.py). The reference is the robot loaded directly by load_robot."""
 from __future__ import annotations
 
 import sys
@@ -14,9 +14,9 @@ from trajectories import small_trajectory  # noqa: E402
 
 from orthoglide_ident.cli import build_parser  # noqa: E402
 from orthoglide_ident.errors import ConfigError  # noqa: E402
-from orthoglide_ident.excite import run as plan  # noqa: E402
-from orthoglide_ident.excite.run_cli import run_robot  # noqa: E402
-from orthoglide_ident.model.robots import load_robot  # noqa: E402
+from orthoglide_ident.excite import plan as plan  # noqa: E402
+from orthoglide_ident.excite.run_command import run_robot  # noqa: E402
+from orthoglide_ident.model.registry import load_robot  # noqa: E402
 
 FIXTURE = Path(__file__).resolve().parents[1] / "fixtures" / "xacro_vendor"
 ARM = FIXTURE / "acme_arm_description" / "urdf" / "acme_arm.urdf.xacro"

@@ -15,7 +15,7 @@ from orthoglide_ident.cli import main
 from orthoglide_ident.errors import ConfigError, ExcitationError
 from orthoglide_ident.identify import IdentifyOptions, identify, identify_records, read_record
 from orthoglide_ident.identify.solve.tls import ExcitationLimits, gain_band_warnings
-from orthoglide_ident.model.robots import ROBOTS_DIR, load_robot
+from orthoglide_ident.model.registry import ROBOTS_DIR, load_robot
 from orthoglide_ident.results import json_text
 
 REPO = Path(__file__).resolve().parents[2]

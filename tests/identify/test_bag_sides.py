@@ -15,7 +15,7 @@ import yaml
 from orthoglide_ident.bags import write_bag
 from orthoglide_ident.errors import BagError
 from orthoglide_ident.identify import read_record
-from orthoglide_ident.model.robots import ROBOTS_DIR, load_robot
+from orthoglide_ident.model.registry import ROBOTS_DIR, load_robot
 
 JOINTS = ("shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint", "wrist_1_joint",
           "wrist_2_joint", "wrist_3_joint")

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from orthoglide_ident.identify import identify
-from orthoglide_ident.model.robots import load_robot
+from orthoglide_ident.model.registry import load_robot
 
 pytestmark = pytest.mark.slow
 

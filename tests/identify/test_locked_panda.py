@@ -17,7 +17,7 @@ import pytest
 
 from orthoglide_ident import bags
 from orthoglide_ident.cli import main
-from orthoglide_ident.model.robots import load_robot
+from orthoglide_ident.model.registry import load_robot
 
 L = pytest.importorskip("locked_panda")
 if not L.installed():

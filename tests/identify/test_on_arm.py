@@ -14,8 +14,8 @@ import pytest
 from live_helpers import as_record, live_result
 
 from orthoglide_ident.identify import IdentifyOptions, Record, identify_records
+from orthoglide_ident.model.registry import load_robot
 from orthoglide_ident.model.robot import Payload
-from orthoglide_ident.model.robots import load_robot
 from orthoglide_sim.arms.record import simulate_arm
 
 
@@ -85,7 +85,7 @@ def test_ur5_given_as_a_plain_urdf_is_judged_without_a_gain_band(arm):
     """The bare URDF gives no nominal gains (1 per unit stands in): gains 9-13 N·m/A are not
     refused as implausible; the answer is judged by eq. (37) and the σ, and is the same one. WLS
     without --gains then misses the 1 kg payload by ~90 %: said, with the cause."""
-    from orthoglide_ident.model.robots import ROBOTS_DIR
+    from orthoglide_ident.model.registry import ROBOTS_DIR
 
     _, recs, truth = arm
     bare = load_robot(ROBOTS_DIR / "ur5.urdf")
@@ -106,7 +106,7 @@ def test_consistent_masses_far_from_the_description_are_said_with_the_cause(arm)
     near the description's masses and the one the data do not determine (the base link's,
     about the vertical axis) is named; with a bare URDF's gains 1 every mass is scaled by 1/g:
     said, with the cause."""
-    from orthoglide_ident.model.robots import ROBOTS_DIR
+    from orthoglide_ident.model.registry import ROBOTS_DIR
 
     _, recs, _ = arm
     opts = IdentifyOptions.of(consistent=True)

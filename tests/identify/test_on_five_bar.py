@@ -19,8 +19,8 @@ from live_helpers import as_record, live_result
 
 from orthoglide_ident.cli import main as cli_main
 from orthoglide_ident.identify import IdentifyOptions, Record, identify_records
+from orthoglide_ident.model.registry import load_robot
 from orthoglide_ident.model.robot import Payload
-from orthoglide_ident.model.robots import load_robot
 from orthoglide_sim.arm_or_chain.bags import main as bags_main
 from orthoglide_sim.chains.description import load_chain
 from orthoglide_sim.chains.record import simulate_chain
@@ -156,7 +156,7 @@ def test_a_transmission_on_the_closed_chain_gives_the_motors_gains(five_bar, tls
 
     from orthoglide_ident.control import CTCParameters, feedforward_currents
     from orthoglide_ident.identify.records.record import motor_side
-    from orthoglide_ident.model.robots import ROBOTS_DIR
+    from orthoglide_ident.model.registry import ROBOTS_DIR
 
     model, recs, truth = five_bar
     n = np.array([10.0, -12.0])

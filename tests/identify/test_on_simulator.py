@@ -15,7 +15,7 @@ import pytest
 from synthetic import synthetic_record
 
 from orthoglide_ident.identify import IdentifyOptions, Record, identify_records
-from orthoglide_ident.model.robots import load_robot
+from orthoglide_ident.model.registry import load_robot
 
 ORTHOGLIDE = load_robot("orthoglide")  # the robot these records are of
 

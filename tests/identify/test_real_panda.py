@@ -21,7 +21,7 @@ import panda_gaz2019 as P
 import pytest
 
 from orthoglide_ident.cli import main
-from orthoglide_ident.model.robots import load_robot
+from orthoglide_ident.model.registry import load_robot
 
 GRAVITY_JOINTS = slice(1, 6)  # panda_joint2..6: gravity torques of 0.8-17 N·m rms held out
 

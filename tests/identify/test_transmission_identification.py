@@ -32,8 +32,8 @@ import yaml
 
 from orthoglide_ident.identify import Record, identify_records
 from orthoglide_ident.identify.records.record import motor_side
+from orthoglide_ident.model.registry import ROBOTS_DIR, load_robot
 from orthoglide_ident.model.robot import Payload
-from orthoglide_ident.model.robots import ROBOTS_DIR, load_robot
 from orthoglide_sim.arms.description import load_arm
 from orthoglide_sim.arms.excitation import designed_trajectory
 from orthoglide_sim.arms.pinocchio_truth import truth_model

@@ -13,8 +13,8 @@ import pytest
 
 from orthoglide_ident.errors import SingularityError
 from orthoglide_ident.model.closure import TreeStates
+from orthoglide_ident.model.registry import ROBOTS_DIR, load_robot
 from orthoglide_ident.model.robot import INERTIAL_KINDS, Payload
-from orthoglide_ident.model.robots import ROBOTS_DIR, load_robot
 
 URDF = str(ROBOTS_DIR / "five_bar.urdf")
 JOINTS = {"joint_1": "1", "joint_3": "2", "joint_2": "3", "joint_4": "4"}  # joint: body label

@@ -11,7 +11,7 @@ import pinocchio as pin
 import pytest
 
 from orthoglide_ident.errors import ConfigError
-from orthoglide_ident.model.robots import load_robot
+from orthoglide_ident.model.registry import load_robot
 from orthoglide_ident.model.urdf import urdf_with_inertials
 
 YAW = 0.3  # rad, the left finger's joint frame about z

@@ -8,7 +8,7 @@ import pinocchio as pin
 import pytest
 
 from orthoglide_ident.errors import ConfigError
-from orthoglide_ident.model.robots import load_robot
+from orthoglide_ident.model.registry import load_robot
 
 R, OFFSET = -0.5, 0.1
 URDF = f"""<?xml version="1.0"?>

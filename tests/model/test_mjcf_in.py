@@ -12,15 +12,15 @@ import mujoco
 import numpy as np
 import pytest
 
-from orthoglide_ident.model import robots
-from orthoglide_ident.model.robots import load_robot
+from orthoglide_ident.model import registry
+from orthoglide_ident.model.registry import load_robot
 
 MJCF = Path(__file__).resolve().parents[1] / "fixtures" / "mjcf" / "three_link.xml"
 JOINTS = ("j1", "j2", "j3", "s4")
 
 
 def test_the_mjcf_model_is_mujocos(caplog):
-    robots._load.cache_clear()  # loaded here, so that what it says is seen
+    registry._load.cache_clear()  # loaded here, so that what it says is seen
     with caplog.at_level(logging.INFO, logger="orthoglide_ident"):
         robot = load_robot(MJCF)
     assert robot.joint_names == JOINTS

@@ -16,7 +16,7 @@ from orthoglide_ident.model.mjcf_check import model_torques as _model_torques
 from orthoglide_ident.model.mjcf_check import mujoco_torques as _mujoco_torques
 from orthoglide_ident.model.mjcf_check import rms_error as _rms_error
 from orthoglide_ident.model.mjcf_out import identified_mjcf
-from orthoglide_ident.model.robots import ROBOTS_DIR, load_robot
+from orthoglide_ident.model.registry import ROBOTS_DIR, load_robot
 
 RTOL = 1e-4  # MuJoCo writes 6 significant digits; the bar is 1 % rms per joint
 JOINTS = ["shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint", "wrist_1_joint",

@@ -13,8 +13,8 @@ import pinocchio as pin
 import pytest
 
 from orthoglide_ident.errors import ConfigError, ModelError
+from orthoglide_ident.model.registry import ROBOTS_DIR, load_robot
 from orthoglide_ident.model.robot import Payload
-from orthoglide_ident.model.robots import ROBOTS_DIR, load_robot
 
 URDF = str(ROBOTS_DIR / "ur5.urdf")
 G0 = 9.80665

@@ -5,7 +5,7 @@ from __future__ import annotations
 import logging
 
 from orthoglide_ident.cli import main
-from orthoglide_ident.model.robots import ROBOTS_DIR, resolve
+from orthoglide_ident.model.registry import ROBOTS_DIR, resolve
 
 
 def test_a_folder_named_ur5_does_not_shadow_the_bundled_ur5(tmp_path, monkeypatch, caplog):

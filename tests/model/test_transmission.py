@@ -14,7 +14,7 @@ import pytest
 import yaml
 
 from orthoglide_ident.errors import ConfigError
-from orthoglide_ident.model.robots import ROBOTS_DIR, load_robot
+from orthoglide_ident.model.registry import ROBOTS_DIR, load_robot
 from orthoglide_ident.model.transmission import Transmission, urdf_transmission
 
 RNG = np.random.default_rng(7)

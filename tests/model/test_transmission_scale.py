@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 import yaml
 
-from orthoglide_ident.model.robots import ROBOTS_DIR, load_robot
+from orthoglide_ident.model.registry import ROBOTS_DIR, load_robot
 
 # the UR5 with gears and a coupled wrist (motor 5 also drives joint 6), invertible
 REDUCTION = np.diag([100.0, 100.0, 100.0, 50.0, 50.0, 50.0])

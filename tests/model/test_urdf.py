@@ -19,7 +19,7 @@ from serial_arm import SerialArm
 
 from orthoglide_ident.errors import ConfigError
 from orthoglide_ident.model.forward import pin_inertia
-from orthoglide_ident.model.robots import load_robot
+from orthoglide_ident.model.registry import load_robot
 from orthoglide_ident.model.urdf import rpy
 
 ROBOT = load_robot(None)

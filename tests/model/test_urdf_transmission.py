@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 import yaml
 
-from orthoglide_ident.model.robots import ROBOTS_DIR, load_robot
+from orthoglide_ident.model.registry import ROBOTS_DIR, load_robot
 from orthoglide_ident.model.transmission import urdf_transmission
 from orthoglide_ident.model.urdf_transmission import blocks, ros2_control_form
 

@@ -16,7 +16,7 @@ import pytest
 import yaml
 
 from orthoglide_ident.errors import ConfigError
-from orthoglide_ident.model.robots import load_robot
+from orthoglide_ident.model.registry import load_robot
 from orthoglide_ident.model.xacro_files import expand, parse_xacro_args
 
 FIXTURE = Path(__file__).resolve().parents[1] / "fixtures" / "xacro_vendor"

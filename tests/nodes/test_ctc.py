@@ -371,7 +371,7 @@ def test_ctc_node_through_a_coupled_transmission_feeds_each_motor(ros_env, tmp_p
 
     import orthoglide_msgs.msg  # noqa: F401
     from orthoglide_ident.control import CTCParameters, feedforward_currents
-    from orthoglide_ident.model.robots import ROBOTS_DIR
+    from orthoglide_ident.model.registry import ROBOTS_DIR
     from orthoglide_msgs.msg import IdentifiedParameters, JointSetpoint
 
     robot = _coupled_ur5(tmp_path)

@@ -25,7 +25,7 @@ def test_trajectory_points_carry_the_feed_forward(ros_env):
     from trajectory_msgs.msg import JointTrajectory
 
     from orthoglide_ident.control import CTCParameters, feedforward_currents
-    from orthoglide_ident.model.robots import load_robot
+    from orthoglide_ident.model.registry import load_robot
     from orthoglide_msgs.msg import CurrentReference, IdentifiedParameters, JointSetpoint
     from orthoglide_sim.arms.description import load_arm
     from orthoglide_sim.arms.excitation import designed_trajectory

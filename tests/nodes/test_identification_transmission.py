@@ -71,7 +71,7 @@ def test_identified_live_and_from_bags_named_by_motor(plant, tmp_path):
     from orthoglide_ident import bags as bagio
     from orthoglide_ident.identify import IdentifyOptions
     from orthoglide_ident.identify import identify as identify_offline
-    from orthoglide_ident.model.robots import load_robot
+    from orthoglide_ident.model.registry import load_robot
     from orthoglide_sim.demos.graph import Graph
     from orthoglide_sim.demos.node_set import identify
 

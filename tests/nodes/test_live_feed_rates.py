@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from orthoglide_ident.identify import IdentifyOptions, LiveIdentification, identify
-from orthoglide_ident.model.robots import load_robot
+from orthoglide_ident.model.registry import load_robot
 
 rclpy = pytest.importorskip("rclpy")
 pytest.importorskip("control_msgs.msg")

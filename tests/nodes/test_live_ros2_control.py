@@ -18,7 +18,7 @@ import rclpy
 from ros2_control_records import ROBOT, standin_records, write_record_bag  # noqa: E402
 
 from orthoglide_ident.identify import IdentifyOptions, LiveIdentification, identify
-from orthoglide_ident.model.robots import load_robot
+from orthoglide_ident.model.registry import load_robot
 
 FEED_TICKS = 250  # messages handed to the feed between two feed() calls (a BatchTaker wake-up)
 

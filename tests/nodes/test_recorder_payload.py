@@ -176,7 +176,7 @@ def test_the_robot_file_s_signal_sides_go_into_the_tag(tmp_path):
     position_side and effort_side (orthoglide.position_side, orthoglide.effort_side); without
     one (or the Orthoglide's ""), no side keys."""
     from orthoglide_ident import bags
-    from orthoglide_ident.model.robots import ROBOTS_DIR
+    from orthoglide_ident.model.registry import ROBOTS_DIR
     from orthoglide_ident.nodes.recorder import robot_sides
 
     urdf = (ROBOTS_DIR / "ur5.urdf").read_text()

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from orthoglide_ident.errors import ConfigError
-from orthoglide_ident.model.robots import ROBOTS_DIR, load_robot_description
+from orthoglide_ident.model.registry import ROBOTS_DIR, load_robot_description
 
 ROOT = Path(__file__).resolve().parents[2]
 URDF = (ROBOTS_DIR / "ur5.urdf").read_text()

@@ -237,7 +237,7 @@ def test_a_client_subscribes_and_receives_decimated_frames_of_any_joints(viewer)
 
 def test_the_forces_channel_compares_the_measured_and_the_model_force(viewer):
     """Ticks of a model-consistent record and its parameters: measured and model force agree."""
-    from orthoglide_ident.model.robots import load_robot
+    from orthoglide_ident.model.registry import load_robot
     from orthoglide_msgs.msg import IdentifiedParameters
     from orthoglide_sim.orthoglide import truth as true_parameters
 
@@ -360,7 +360,7 @@ def test_a_ros2_control_robot_is_viewed_from_its_broadcaster_topics(ros_env):
     from sensor_msgs.msg import JointState
 
     from control_msgs.msg import DynamicJointState, InterfaceValue
-    from orthoglide_ident.model.robots import load_robot
+    from orthoglide_ident.model.registry import load_robot
 
     run = ViewerRun(ros_env, ["-p", "robot:=ur5_mount", "-p", "joint_states_topic:=/joint_states",
                               "-p", "dynamic_joint_states_topic:=/dynamic_joint_states"])

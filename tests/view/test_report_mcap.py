@@ -12,7 +12,7 @@ from mcap.reader import make_reader
 
 from orthoglide_ident.cli import main
 from orthoglide_ident.identify import identify
-from orthoglide_ident.model.robots import load_robot
+from orthoglide_ident.model.registry import load_robot
 from orthoglide_ident.report import validation_for_plot
 from orthoglide_ident.view.convergence import gain_convergence, record_seconds
 from orthoglide_ident.view.report_mcap import write_report_mcap

@@ -10,7 +10,7 @@ from synthetic import synthetic_record, trajectory
 
 from orthoglide_ident.errors import ConfigError, OrthoglideError
 from orthoglide_ident.identify.observe.filtering import filter_horizon
-from orthoglide_ident.model.robots import load_robot
+from orthoglide_ident.model.registry import load_robot
 from orthoglide_ident.view.residual import ForceResidual
 
 SECONDS = 4.0

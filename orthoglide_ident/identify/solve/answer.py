@@ -22,7 +22,7 @@ from orthoglide_ident.errors import ExcitationError, IdentificationError
 from orthoglide_ident.identify.columns import drive_terms
 from orthoglide_ident.identify.observe import joint_units
 from orthoglide_ident.identify.options import IdentifyOptions
-from orthoglide_ident.identify.solve import partial
+from orthoglide_ident.identify.solve import drive_fit, partial
 from orthoglide_ident.identify.solve.essential import EssentialResult, essential_parameters
 from orthoglide_ident.identify.solve.factors import RecordFactors
 from orthoglide_ident.identify.solve.tls import (
@@ -259,7 +259,7 @@ class _Model:
         """Base-model view of a solution, its identified ripples and current-loop lags."""
         if not self.terms:
             return sol, [], []
-        return drive_terms.split(sol, self.n_b, self.terms, self.joint_names, self.gains)
+        return drive_fit.split(sol, self.n_b, self.terms, self.joint_names, self.gains)
 
 
 def _set_up(factors: list[RecordFactors], model, cols, opts: IdentifyOptions, base, make_solver,
@@ -280,17 +280,17 @@ def _set_up(factors: list[RecordFactors], model, cols, opts: IdentifyOptions, ba
                    n_cols, names, gains, factors)
     if in_rows.ripples or opts.solve.ripple_model != "auto":
         return plain
-    found = drive_terms.Terms(drive_terms.detect_ripples(base.uncertainty, names,
+    found = drive_terms.Terms(drive_fit.detect_ripples(base.uncertainty, names,
                                                          drive_terms.screw_mask(model)))
-    if not found or not drive_terms.can_model(factors, found):
+    if not found or not drive_fit.can_model(factors, found):
         return plain
     k = found.n_extra
     log.info("ripple in the residual of %s: two columns each added to the model", ", ".join(
         f"{names[t.joint]} ({1e3 * t.wavelength_m:.1f} mm)" for t in found.ripples))
-    aug_factors = drive_terms.augmented_factors(factors, found)
+    aug_factors = drive_fit.augmented_factors(factors, found)
     aug_solve = make_solver(aug_factors)
-    full = drive_terms.transfer_inflation(aug_solve(None, None), base, n_cols, k)
-    return _Model(lambda act: drive_terms.transfer_inflation(aug_solve(act, False), base, n_cols,
+    full = drive_fit.transfer_inflation(aug_solve(None, None), base, n_cols, k)
+    return _Model(lambda act: drive_fit.transfer_inflation(aug_solve(act, False), base, n_cols,
                                                              k),
                   full, n_b, drive_terms.Terms(found.ripples, in_rows.lag),
                   list(cols.names) + found.names(names), n_cols, names, gains, aug_factors)

@@ -16,8 +16,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from orthoglide_ident.errors import ExcitationError, IdentificationError
-from orthoglide_ident.identify.columns import drive_terms
 from orthoglide_ident.identify.options import IdentifyOptions
+from orthoglide_ident.identify.solve import drive_fit
 from orthoglide_ident.identify.solve.answer import Solved, limits, tls_model, tls_result
 from orthoglide_ident.identify.solve.factors import RecordFactors
 from orthoglide_ident.identify.solve.iv import (
@@ -92,7 +92,7 @@ def solve_iv(factors: list[RecordFactors], model, cols, opts: IdentifyOptions, g
     sol = _as_tls(iv, base)
     terms = cols.terms
     n_b = sol.chi.shape[0] - terms.n_extra
-    view, _, lags = drive_terms.split(sol, n_b, terms, model.joint_names) if terms else \
+    view, _, lags = drive_fit.split(sol, n_b, terms, model.joint_names) if terms else \
         (sol, [], [])
     if opts.solve.check_excitation:
         band_warnings = check_gains(view, limits(model, opts), model.joint_names)

@@ -1,6 +1,6 @@
 """The Orthoglide: the paper's closed form (Sects. 2, 3.1, 5.1), one robot model among others.
 
-Only the robot registry (``model/robots.py``) imports this package in the product; everything
+Only the robot registry (``model/registry.py``) imports this package in the product; everything
 else takes the robot as a :class:`~orthoglide_ident.model.robot.RobotModel`.
 
 Vectorised over N samples; q, qd, qdd are (N, 3) arrays in m, m/s, m/s²:

@@ -13,7 +13,7 @@ from orthoglide_ident.identify.columns.current_lag import (
     find_period,
     lag_instrument,
 )
-from orthoglide_ident.model.robots import load_robot
+from orthoglide_ident.model.registry import load_robot
 
 ORTHOGLIDE = load_robot("orthoglide")  # the robot these records are of
 

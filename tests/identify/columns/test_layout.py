@@ -7,8 +7,8 @@ from synthetic import SyntheticModel, trajectory
 
 from orthoglide_ident.identify.columns.layout import column_layout, plain_layout
 from orthoglide_ident.identify.columns.payload_unknowns import payload_basis
+from orthoglide_ident.model.registry import load_robot
 from orthoglide_ident.model.robot import INERTIAL_KINDS, Payload
-from orthoglide_ident.model.robots import load_robot
 
 LEAD = 0.010  # m
 

@@ -19,8 +19,8 @@ from orthoglide_ident.errors import IdentificationError, ModelError
 from orthoglide_ident.identify import IdentifyOptions, Record, identify, identify_records
 from orthoglide_ident.identify.columns.layout import column_layout
 from orthoglide_ident.identify.columns.payload_unknowns import payload_basis
+from orthoglide_ident.model.registry import load_robot
 from orthoglide_ident.model.robot import INERTIAL_KINDS, PAYLOAD_UNKNOWN, Payload, RobotModel
-from orthoglide_ident.model.robots import load_robot
 from orthoglide_sim.arms.description import load_arm
 from orthoglide_sim.arms.record import simulate_arm
 from orthoglide_sim.arms.truth import OFFSET_COM, OFFSET_PAYLOAD, load_truth, with_offset_payload

@@ -20,7 +20,7 @@ from orthoglide_ident.identify.consistency import fit as C
 from orthoglide_ident.identify.consistency import lmi
 from orthoglide_ident.identify.consistency.pseudo_inertia import MARGIN, layout, min_eigenvalues
 from orthoglide_ident.model.inertia import at_com, from_com, pseudo_inertia
-from orthoglide_ident.model.robots import load_robot
+from orthoglide_ident.model.registry import load_robot
 
 ORTHOGLIDE = load_robot("orthoglide")  # the robot these records are of
 

@@ -16,7 +16,7 @@ from orthoglide_ident.identify import (
     identify_records,
     read_record,
 )
-from orthoglide_ident.model.robots import load_robot
+from orthoglide_ident.model.registry import load_robot
 
 ORTHOGLIDE = load_robot("orthoglide")  # the robot these records are of
 

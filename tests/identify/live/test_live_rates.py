@@ -124,8 +124,8 @@ def test_live_through_a_transmission_at_93hz(tmp_path):
     from identify.test_transmission_identification import MOTORS, OFFSET, N, _robot_file, _runs
 
     from orthoglide_ident.identify.records.record import Record, motor_side
+    from orthoglide_ident.model.registry import load_robot
     from orthoglide_ident.model.robot import Payload
-    from orthoglide_ident.model.robots import load_robot
     from orthoglide_sim.arms.description import load_arm
     from orthoglide_sim.arms.truth import load_truth
 

@@ -9,7 +9,7 @@ import yaml
 from orthoglide_ident.identify.columns.layout import column_layout, plain_layout
 from orthoglide_ident.identify.observe import joint_units
 from orthoglide_ident.identify.solve.partial import Subsystem
-from orthoglide_ident.model.robots import ROBOTS_DIR, load_robot
+from orthoglide_ident.model.registry import ROBOTS_DIR, load_robot
 
 N = [[32, 0, 0, 0, 0, 0], [0, -32, 0, 0, 0, 0], [0, 0, 45, 0, 0, 0], [0, 0, 0, -48, 0, 0],
      [0, 0, 0, 0, 45, 0], [0, 0, 0, 0, 32, -40]]

@@ -65,7 +65,7 @@ def test_option_and_robot_file_key(tmp_path):
 def test_a_robot_file_key_reaches_the_model(tmp_path):
     """A robot YAML with current_sampling: its model says it (also through a transmission)."""
     from orthoglide_ident.identify.observe.sampling import robot_file_sampling
-    from orthoglide_ident.model.robots import ROBOTS_DIR, load_robot
+    from orthoglide_ident.model.registry import ROBOTS_DIR, load_robot
 
     text = (ROBOTS_DIR / "ur5.yaml").read_text()
     (tmp_path / "ur5.urdf").write_text((ROBOTS_DIR / "ur5.urdf").read_text())
@@ -127,7 +127,7 @@ def test_a_point_sampled_250_hz_log_is_unbiased_only_as_sampled():
     known) puts every gain within 3 σ of the plant's."""
     from orthoglide_ident.identify import Record, identify_records
     from orthoglide_ident.identify.observe.filtering import zero_phase_butterworth
-    from orthoglide_ident.model.robots import load_robot
+    from orthoglide_ident.model.registry import load_robot
     from orthoglide_sim.arms.log import KEEP_3_4_5, clock_uniform, point_sampled, simulate_arm_log
 
     model = load_robot("ur5")
@@ -181,7 +181,7 @@ def test_auto_reads_a_log_held_at_its_own_rate_as_held():
     from pathlib import Path
 
     from orthoglide_ident.identify import identify_records
-    from orthoglide_ident.model.robots import load_robot
+    from orthoglide_ident.model.registry import load_robot
     from orthoglide_sim.arms.log import clock_10_12, simulate_arm_log
     sys.path.insert(0, str(Path(__file__).parents[3] / "bench"))
     from real_records import to_record
@@ -242,8 +242,8 @@ def test_auto_reads_a_1khz_log_of_a_4khz_loop_as_sampled_by_its_negative_lag():
     way); auto reads it again as sampled, says why, and the lag comes out positive."""
     from orthoglide_ident.identify import Record, identify_records
     from orthoglide_ident.identify.observe.filtering import zero_phase_butterworth
+    from orthoglide_ident.model.registry import load_robot
     from orthoglide_ident.model.robot import Payload
-    from orthoglide_ident.model.robots import load_robot
     from orthoglide_sim.arms.log import clock_uniform, point_sampled, simulate_arm_log
 
     recs = []
@@ -308,7 +308,7 @@ def test_the_robot_file_says_the_sampling_with_the_lag_modelled(tmp_path):
     from orthoglide_ident.identify import Record
     from orthoglide_ident.identify.columns.layout import column_layout
     from orthoglide_ident.identify.observe.rows import observe
-    from orthoglide_ident.model.robots import ROBOTS_DIR, load_robot
+    from orthoglide_ident.model.registry import ROBOTS_DIR, load_robot
 
     text = (ROBOTS_DIR / "ur5.yaml").read_text()
     (tmp_path / "ur5.urdf").write_text((ROBOTS_DIR / "ur5.urdf").read_text())

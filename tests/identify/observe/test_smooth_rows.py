@@ -22,7 +22,7 @@ from orthoglide_ident.identify.observe.rows import observe
 from orthoglide_ident.identify.observe.smooth_rows import BridgeCorrections, anchor_points
 from orthoglide_ident.identify.observe.stream import SegmentStream
 from orthoglide_ident.identify.observe.time_base import states_at_half_tick
-from orthoglide_ident.model.robots import load_robot
+from orthoglide_ident.model.registry import load_robot
 from orthoglide_sim.arms.record import simulate_arm
 
 SECONDS = 8.0  # per record: the answer's σ is then ~4x the 2 x 60 s bags'

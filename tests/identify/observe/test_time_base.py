@@ -327,7 +327,7 @@ def _bag_with_velocity(path, with_velocity: bool):
 def test_the_recorded_velocity_is_read_when_asked(tmp_path):
     from orthoglide_ident import bags
     from orthoglide_ident.identify import read_record
-    from orthoglide_ident.model.robots import load_robot
+    from orthoglide_ident.model.registry import load_robot
 
     orthoglide = load_robot("orthoglide")
     qd = _bag_with_velocity(tmp_path / "v", True)

@@ -16,7 +16,7 @@ from live_helpers import as_record
 from orthoglide_ident.cli import main
 from orthoglide_ident.errors import DataError, ExcitationError, IdentificationError
 from orthoglide_ident.identify import identify_records
-from orthoglide_ident.model.robots import load_robot
+from orthoglide_ident.model.registry import load_robot
 from orthoglide_sim.arms.record import simulate_arm
 
 UR5 = load_robot("ur5")

@@ -53,8 +53,8 @@ def test_a_point_sampled_83_hz_log_marks_no_biased_gain_determined():
 
     from orthoglide_ident.identify import Record, identify_records
     from orthoglide_ident.identify.observe.filtering import zero_phase_butterworth
+    from orthoglide_ident.model.registry import load_robot
     from orthoglide_ident.model.robot import Payload
-    from orthoglide_ident.model.robots import load_robot
     from orthoglide_sim.arms.log import (
         KEEP_10_12_14,
         clock_uniform,

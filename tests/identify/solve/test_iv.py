@@ -15,7 +15,7 @@ from orthoglide_ident.identify import IdentifyOptions, identify_records
 from orthoglide_ident.identify.solve import methods
 from orthoglide_ident.identify.solve.factors import RecordFactors
 from orthoglide_ident.identify.solve.iv import observations_of
-from orthoglide_ident.model.robots import load_robot
+from orthoglide_ident.model.registry import load_robot
 
 SECONDS, NOISE = 20.0, 0.01
 

@@ -12,7 +12,7 @@ from axial_payload import write_axial_bags
 from orthoglide_ident.cli import main
 from orthoglide_ident.errors import ExcitationError
 from orthoglide_ident.identify import IdentifyOptions, identify
-from orthoglide_ident.model.robots import load_robot
+from orthoglide_ident.model.registry import load_robot
 
 
 @pytest.fixture(scope="module")

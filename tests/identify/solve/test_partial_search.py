@@ -15,7 +15,7 @@ import pytest
 from orthoglide_ident.errors import ExcitationError
 from orthoglide_ident.identify import IdentifyOptions, identify_records
 from orthoglide_ident.identify.solve import partial
-from orthoglide_ident.model.robots import load_robot
+from orthoglide_ident.model.registry import load_robot
 from orthoglide_sim.arms.big_arm import UR10_FILE, big_arm_truth, pair_records, simulate_pair
 
 SECONDS = 20.0

@@ -20,7 +20,7 @@ from orthoglide_ident.identify.solve.uncertainty import (
     fir_white_autocorrelation,
 )
 from orthoglide_ident.identify.solve.wls import idim_wls
-from orthoglide_ident.model.robots import load_robot
+from orthoglide_ident.model.registry import load_robot
 
 ORTHOGLIDE = load_robot("orthoglide")  # the robot these records are of
 
@@ -293,9 +293,10 @@ def test_essential_procedures_on_a_synthetic_model():
 
 
 def test_ripple_columns_from_the_moments_are_the_rows_own():
-    """The augmented normal equations (drive_terms.py) equal those of rows with the two columns
+    """The augmented normal equations (solve/drive_fit.py) equal those of rows with the two columns
     w cos(2π q/λ), w sin(2π q/λ), w = sign(q̇) H, written out; and the ripple is recovered."""
     from orthoglide_ident.identify.columns import drive_terms
+    from orthoglide_ident.identify.solve import drive_fit
     from orthoglide_ident.identify.solve.uncertainty import WAVELENGTHS_M, fir_gain
 
     obs = _blocks(4, r=3000, noise=1e-4, ripple=0.5)
@@ -304,7 +305,7 @@ def test_ripple_columns_from_the_moments_are_the_rows_own():
     f = [RecordFactors.from_observations(o) for o in obs]
     i = int(np.argmin(np.abs(WAVELENGTHS_M - 0.01)))
     terms = drive_terms.Terms((drive_terms.RippleTerm(1, float(WAVELENGTHS_M[i]), True, i),))
-    aug = drive_terms.augmented_factors(f, terms)
+    aug = drive_fit.augmented_factors(f, terms)
     lam = WAVELENGTHS_M[i]
     for o, a in zip(obs, aug):
         j = 1
@@ -313,7 +314,7 @@ def test_ripple_columns_from_the_moments_are_the_rows_own():
         X = np.column_stack([o.W[j], w * np.cos(ph), w * np.sin(ph), o.w_m[j], o.v_tau[j]])
         assert np.allclose(a.R[j].T @ a.R[j], X.T @ X, rtol=1e-9, atol=1e-9 * np.abs(X.T @ X).max())
     sol = TLSProblem(aug).solve()
-    view, rip, _ = drive_terms.split(sol, 4, terms, ("q11", "q12", "q13"))
+    view, rip, _ = drive_fit.split(sol, 4, terms, ("q11", "q12", "q13"))
     assert view.chi.shape == (4,) and view.cov.shape == (7, 7)
     # the synthetic ripple is 0.5 N sin(2π q/λ) sign(q̇) in the force (its rows' H is ~1: slow)
     assert abs(rip[0].amplitude_n - 0.5) < 0.1 and abs(rip[0].phase_rad + np.pi / 2) < 0.2

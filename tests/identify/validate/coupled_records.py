@@ -10,8 +10,8 @@ import pinocchio as pin
 import yaml
 
 from orthoglide_ident.identify import Record
+from orthoglide_ident.model.registry import ROBOTS_DIR
 from orthoglide_ident.model.robot import Payload
-from orthoglide_ident.model.robots import ROBOTS_DIR
 from orthoglide_sim.arms.description import load_arm
 from orthoglide_sim.arms.excitation import designed_trajectory
 from orthoglide_sim.arms.pinocchio_truth import truth_model

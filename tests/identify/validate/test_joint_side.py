@@ -10,7 +10,7 @@ from coupled_records import MOTORS, N, coupled_records, robot_file
 
 from orthoglide_ident.identify import IdentifyOptions, identify_records
 from orthoglide_ident.identify.records.record import motor_side
-from orthoglide_ident.model.robots import load_robot
+from orthoglide_ident.model.registry import load_robot
 
 UR5_JOINTS = ["shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint", "wrist_1_joint",
               "wrist_2_joint", "wrist_3_joint"]

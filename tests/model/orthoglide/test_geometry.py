@@ -19,7 +19,7 @@ from orthoglide_ident.model.orthoglide.base import base_model
 from orthoglide_ident.model.orthoglide.geometry import Geometry
 from orthoglide_ident.model.orthoglide.idim import standard_regressor
 from orthoglide_ident.model.orthoglide.kinematics import fgm, igm, loop_closure_residual, tree_state
-from orthoglide_ident.model.robots import load_robot
+from orthoglide_ident.model.registry import load_robot
 
 SMALL = Geometry(a=0.24, d4=0.22, d6=0.02, g0=9.81)
 

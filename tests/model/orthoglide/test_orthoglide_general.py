@@ -18,7 +18,7 @@ import pytest
 from orthoglide_ident.errors import WorkspaceError
 from orthoglide_ident.model.orthoglide.base import base_model
 from orthoglide_ident.model.pinocchio_model import PinocchioRobot
-from orthoglide_ident.model.robots import ROBOTS_DIR, load_robot, read_yaml
+from orthoglide_ident.model.registry import ROBOTS_DIR, load_robot, read_yaml
 
 ORTHOGLIDE = load_robot("orthoglide")  # the robot these records are of
 

@@ -114,7 +114,7 @@ def test_the_box_as_a_ros2_control_joint_limits_file(tmp_path):
     import yaml
 
     from orthoglide_ident.excite.limits import read_limits
-    from orthoglide_ident.model.robots import load_robot
+    from orthoglide_ident.model.registry import load_robot
     from orthoglide_sim.arms.limits import ros2_joint_limits
 
     arm = load_arm("ur5")

@@ -22,8 +22,8 @@ from orthoglide_ident.excite.limits import read_limits
 from orthoglide_ident.excite.prediction import DEFAULT_CURRENT_NOISE
 from orthoglide_ident.excite.summary import with_extras
 from orthoglide_ident.identify import identify_records
+from orthoglide_ident.model.registry import load_robot
 from orthoglide_ident.model.robot import Payload
-from orthoglide_ident.model.robots import load_robot
 from orthoglide_sim.arm_or_chain.session import robot_truth
 from orthoglide_sim.arms import simulator as asim
 from orthoglide_sim.arms.plant import MujocoPlant

@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from orthoglide_ident.errors import ConfigError, WorkspaceError
+from orthoglide_ident.model.registry import load_robot
 from orthoglide_ident.model.robot import Payload
-from orthoglide_ident.model.robots import load_robot
 from orthoglide_sim.arms import simulator as asim
 from orthoglide_sim.arms.excitation import designed_trajectory
 from orthoglide_sim.arms.plant import PAYLOAD_BODY, TIMESTEP

@@ -13,7 +13,7 @@ import yaml
 from orthoglide_ident.bags import read_bag
 from orthoglide_ident.errors import WorkspaceError
 from orthoglide_ident.model.closure import TreeStates
-from orthoglide_ident.model.robots import load_robot
+from orthoglide_ident.model.registry import load_robot
 from orthoglide_sim.arm_or_chain.bags import main as bags_main
 from orthoglide_sim.arms import excitation as ax
 from orthoglide_sim.arms import simulator as asim

@@ -12,7 +12,7 @@ sys.path.insert(0, str(Path(__file__).parents[2] / "excite"))
 from trajectories import small_trajectory  # noqa: E402
 
 from orthoglide_ident.errors import ConfigError  # noqa: E402
-from orthoglide_ident.excite import run as plan  # noqa: E402
+from orthoglide_ident.excite import plan as plan  # noqa: E402
 from orthoglide_sim.arm_or_chain.session import ArmSession  # noqa: E402
 from orthoglide_sim.common.joint_trajectory import (  # noqa: E402
     PATH_TOLERANCE_VIOLATED,

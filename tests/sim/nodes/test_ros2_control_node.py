@@ -62,7 +62,7 @@ def test_publishes_the_broadcasters_topics_with_its_qos(tmp_path):
     from std_msgs.msg import String
 
     from control_msgs.msg import DynamicJointState
-    from orthoglide_ident.model.robots import ROBOTS_DIR
+    from orthoglide_ident.model.registry import ROBOTS_DIR
     from orthoglide_sim.demos.graph import Graph
 
     got: dict[str, list] = {"js": [], "djs": [], "desc": []}

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from orthoglide_ident.control import CTCParameters, feedforward_currents
-from orthoglide_ident.model.robots import load_robot
+from orthoglide_ident.model.registry import load_robot
 from orthoglide_sim.common.trajectories import get_trajectory
 from orthoglide_sim.orthoglide.record import simulate
 

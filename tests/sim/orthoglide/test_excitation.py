@@ -7,7 +7,7 @@ import json
 import numpy as np
 
 from orthoglide_ident.excite import FourierSeries
-from orthoglide_ident.model.robots import load_robot
+from orthoglide_ident.model.registry import load_robot
 from orthoglide_sim.common.trajectories import A_MAX, Q_CENTER, Q_HALF, V_MAX, get_trajectory
 from orthoglide_sim.orthoglide.excitation import (
     DESIGN_NOISE_A,

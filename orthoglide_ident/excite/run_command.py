@@ -18,8 +18,8 @@ import sys
 from typing import Any
 
 from orthoglide_ident import ros_client
-from orthoglide_ident.excite import run as plan
-from orthoglide_ident.model.robots import add_description_options, load_robot_from_args
+from orthoglide_ident.excite import plan
+from orthoglide_ident.model.registry import add_description_options, load_robot_from_args
 
 EXIT_INCOMPLETE = 1
 
@@ -76,7 +76,7 @@ def _say(text: str) -> None:
 
 def run_robot(args: argparse.Namespace, traj):
     """The run's robot, resolved at the command's edge: ``--robot`` (else the trajectory file's)
-    with ``--xacro-arg`` and ``--package-dir`` (flags.py's grammar, model/robots.py)."""
+    with ``--xacro-arg`` and ``--package-dir`` (flags.py's grammar, model/registry.py)."""
     return load_robot_from_args(args, args.robot or traj.robot)
 
 

@@ -13,8 +13,8 @@ sys.path.insert(0, str(Path(__file__).parent))
 from trajectories import UR5_CENTRE, small_trajectory  # noqa: E402
 
 from orthoglide_ident.errors import ConfigError  # noqa: E402
-from orthoglide_ident.excite import run as plan  # noqa: E402
-from orthoglide_ident.model.robots import load_robot  # noqa: E402
+from orthoglide_ident.excite import plan as plan  # noqa: E402
+from orthoglide_ident.model.registry import load_robot  # noqa: E402
 
 
 @pytest.fixture(scope="module")

@@ -1,5 +1,5 @@
 """Running an exciting trajectory on the robot: what is sent, checked before anything moves (no
-ROS here; the action client is ``excite.action_client``, the command ``excite.run_cli``).
+ROS here; the action client is ``excite.action_client``, the command ``excite.run_command``).
 
 A run is two FollowJointTrajectory goals to a joint_trajectory_controller:
 

@@ -1,4 +1,4 @@
-"""``--robot`` to a RobotModel (model/robots.py), and bad robot files: every mistake a one-line
+"""``--robot`` to a RobotModel (model/registry.py), and bad robot files: every mistake a one-line
 ConfigError that says what is wrong, never a traceback from the parsers."""
 from __future__ import annotations
 
@@ -11,7 +11,7 @@ import yaml
 from orthoglide_ident.errors import ConfigError
 from orthoglide_ident.model.orthoglide.base import BaseModel
 from orthoglide_ident.model.pinocchio_model import PinocchioRobot
-from orthoglide_ident.model.robots import ROBOTS_DIR, bundled_robots, load_robot, read_yaml
+from orthoglide_ident.model.registry import ROBOTS_DIR, bundled_robots, load_robot, read_yaml
 
 FIVE_BAR = read_yaml(ROBOTS_DIR / "five_bar.yaml")
 
