@@ -136,10 +136,11 @@ OPTION_PARAMETERS = tuple(
     Param(
         name,
         default,
-        "identification option (see config/identification.yaml)",
+        f"identification option of the {group} group (config/identification.yaml says what it "
+        "does, under that group's header)",
         dynamic=True,
     )
-    for name, default, _group in IdentifyOptions.flat_fields()
+    for name, default, group in IdentifyOptions.flat_fields()
 )
 OPTION_NAMES = frozenset(p.name for p in OPTION_PARAMETERS)
 PARAMETERS = NODE_PARAMETERS + OPTION_PARAMETERS
