@@ -611,6 +611,25 @@ class IdentificationResult:
             "a stationary-correlation and a block sandwich); %σ eq39: the paper's eqs. "
             "(38)-(39), independent errors"
         )
+        lines.extend(self._payload_lines())
+        lines.append(f"condition number (scaled W): {self.condition_number:.4g}")
+        lines.append(f"residual rms ({self._units(self.effort_units, 'N')}): " + ", ".join(
+            f"{j} {r:.4g}" if math.isfinite(r) else f"{j} -"
+            for j, r in zip(self.joint_names, self.residual_rms)))
+        lines.extend(self._drive_and_input_lines())
+        lines.extend(self._residual_lines())
+        if ess is not None:
+            lines.extend(self._essential_lines(ess))
+        if self.consistency is not None:
+            lines.extend(self.consistency.text_lines(self._units(self.effort_units, "N")))
+        lines.extend(self._record_lines())
+        for wmsg in self.warnings:
+            lines.append(f"warning: {wmsg}")
+        return "\n".join(lines)
+
+    def _payload_lines(self) -> list[str]:
+        """The payload masses (known or estimated) and a payload's identified unknowns."""
+        lines: list[str] = []
         for pm in self.payloads:
             what = "known (weighed)" if pm.known else "estimated"
             tag = "" if pm.tagged is None or pm.known else f", tagged {pm.tagged:.4g} kg"
@@ -625,10 +644,13 @@ class IdentificationResult:
             )
         if self.payload is not None:
             lines.extend(self.payload.text_lines())
-        lines.append(f"condition number (scaled W): {self.condition_number:.4g}")
-        lines.append(f"residual rms ({self._units(self.effort_units, 'N')}): " + ", ".join(
-            f"{j} {r:.4g}" if math.isfinite(r) else f"{j} -"
-            for j, r in zip(self.joint_names, self.residual_rms)))
+        return lines
+
+    def _drive_and_input_lines(self) -> list[str]:
+        """The drive terms modelled (lag, ripple), the locked joints, and how the inputs were
+        read (a torque effort, the recorded sources)."""
+        lines: list[str] = []
+        d = self.diagnostics
         if self.current_lag:
             lines.append("current-loop lag modelled: " + lag_text(self.current_lag))
         if self.locked_joints:  # model/locked_joints.py
@@ -650,11 +672,13 @@ class IdentificationResult:
                 f"{r.amplitude_std_n:.2g} N) at a {1e3 * r.wavelength_m:.1f} mm period of "
                 f"its position, {r.kind}"
             )
-        lines.extend(self._residual_lines())
-        if ess is not None:
-            lines.extend(self._essential_lines(ess))
-        if self.consistency is not None:
-            lines.extend(self.consistency.text_lines(self._units(self.effort_units, "N")))
+        return lines
+
+    def _record_lines(self) -> list[str]:
+        """Cross-validation, the samples used and each record's uneven time base or recorded
+        velocity."""
+        lines: list[str] = []
+        d = self.diagnostics
         for v in self.validation:
             lines.append(f"cross-validation on {v.bag}: " + ", ".join(
                 f"{j.joint} {j.residual_rms:.3g} {u} rms ({100 * j.relative_error:.1f} %)"
@@ -675,9 +699,7 @@ class IdentificationResult:
                     f"each sample's stamp; filter {b.filter_cutoff_hz:.4g} Hz, "
                     f"decimation by {b.decimation}; velocity {b.velocity}"
                 )
-        for wmsg in self.warnings:
-            lines.append(f"warning: {wmsg}")
-        return "\n".join(lines)
+        return lines
 
     @staticmethod
     def _units(units: list[str], default: str) -> str:

@@ -289,10 +289,7 @@ def _identify_once(
 
     def solve_rows(blocks, reports):
         cols, b = _payload_or_not(model, layout, blocks, payloads)
-        # the first record's rate fixes what the solve needs in samples (the σ's decimation gain)
-        o = opts.replace(filter_cutoff_hz=reports[0].filter_cutoff_hz,
-                         decimation=reports[0].decimation,
-                         decimation_cutoff_hz=reports[0].decimation_cutoff_hz)
+        o = _at_first_rate(opts, reports[0])
         cols, b = _lag_or_paper(cols, b, reports)
         factors = [dataclasses.replace(RecordFactors.from_observations(x), at_limit=by_joint(
             model, c.at_limit)) for x, c in zip(b, checks)]
@@ -316,20 +313,35 @@ def _identify_once(
     _joint_side_residual(result, blocks, solved, model, checks, opts)
     undetermine_at_limit(result, [c.at_limit for c in checks])
 
+    _attach_validation(result, validation, solved, model, solved_layout, _as_read(opts, reports),
+                       payload_mass, warnings, timings)
+    timings["total"] = time.perf_counter() - t_all
+    finish_result(result, solved, reports, warnings, opts, timings)
+    result.observations = blocks
+    result.observations_chi = solved.chi
+    return result
+
+
+def _at_first_rate(opts: IdentifyOptions, first: RecordReport) -> IdentifyOptions:
+    """The options at the first record's rate: it fixes what the solve needs in samples (the
+    σ's decimation gain)."""
+    return opts.replace(filter_cutoff_hz=first.filter_cutoff_hz, decimation=first.decimation,
+                        decimation_cutoff_hz=first.decimation_cutoff_hz)
+
+
+def _attach_validation(result: IdentificationResult, validation: Iterable[Record],
+                       solved: Solved, model: IdentificationModel, layout: ColumnLayout,
+                       opts: IdentifyOptions, payload_mass: float | None, warnings: list[str],
+                       timings: dict[str, float]) -> None:
+    """The validation records' rows (Fig. 5) and their warnings, into ``result``."""
     t_v = time.perf_counter()
-    vals = _validate(validation, solved, model, solved_layout, _as_read(opts, reports),
-                     payload_mass)
+    vals = _validate(validation, solved, model, layout, opts, payload_mass)
     if vals:
         timings["validation"] = time.perf_counter() - t_v
     for v in vals:
         warnings.extend(v.warnings)
     result.validation = [v.row(model.joint_names) for v in vals]
     result.validation_details = vals
-    timings["total"] = time.perf_counter() - t_all
-    finish_result(result, solved, reports, warnings, opts, timings)
-    result.observations = blocks
-    result.observations_chi = solved.chi
-    return result
 
 
 def _solve_reading(solve_rows: Callable, blocks: list[Observations],
