@@ -144,11 +144,7 @@ def write_summary(res: IdentificationResult, path: Path, figures: list[str]) -> 
         f"{j} {r:.4g}" if math.isfinite(r) else f"{j} —"
         for j, r in zip(res.joint_names, res.residual_rms)))
     for v in res.validation:
-        lines.append(f"- cross-validation on `{v.bag}`: " + ", ".join(
-            f"{j.joint} {j.residual_rms:.3g} {u} rms ({100 * j.relative_error:.1f} %)"
-            if j.residual_rms is not None and j.relative_error is not None
-            else f"{j.joint} — ({j.note or 'no figure'})"
-            for j, u in zip(v.joints, res.effort_units or ["N"] * len(v.joints))))
+        lines.append(f"- cross-validation on `{v.bag}`: " + v.figures(res.effort_units, "—"))
     for w in res.warnings:
         lines.append(f"- warning: {w}")
     lines.append("")

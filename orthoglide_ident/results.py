@@ -124,6 +124,16 @@ class ValidationRow:
         return {"bag": self.bag, "joints": [j.to_json() for j in self.joints],
                 "warnings": list(self.warnings)}
 
+    def figures(self, units: Sequence[str], none: str = "-") -> str:
+        """Each joint's residual rms (in ``units``) and relative error, ``none`` where a joint
+        has no figure: the text report's and the Markdown summary's line."""
+        units = list(units) or ["N"] * len(self.joints)
+        return ", ".join(
+            f"{j.joint} {j.residual_rms:.3g} {u} rms ({100 * j.relative_error:.1f} %)"
+            if j.residual_rms is not None and j.relative_error is not None
+            else f"{j.joint} {none} ({j.note or 'no figure'})"
+            for j, u in zip(self.joints, units))
+
 
 class ToJson(Protocol):
     """A part of the result that writes its own JSON and is read by no one else here (e.g. the
@@ -680,11 +690,7 @@ class IdentificationResult:
         lines: list[str] = []
         d = self.diagnostics
         for v in self.validation:
-            lines.append(f"cross-validation on {v.bag}: " + ", ".join(
-                f"{j.joint} {j.residual_rms:.3g} {u} rms ({100 * j.relative_error:.1f} %)"
-                if j.residual_rms is not None and j.relative_error is not None
-                else f"{j.joint} - ({j.note or 'no figure'})"
-                for j, u in zip(v.joints, self.effort_units or ["N"] * len(v.joints))))
+            lines.append(f"cross-validation on {v.bag}: " + v.figures(self.effort_units))
         if d is not None:
             lines.append(f"samples: {d.samples_used} used, {d.samples_dropped} dropped,"
                          f" {d.segments} segments, {d.rows} equations after "
